@@ -1,0 +1,32 @@
+# Two entry points on a fresh Debian 12 machine: `make demo` and `make test`.
+PRESET ?= release
+BUILD := build/$(PRESET)
+JOBS ?= $(shell nproc)
+
+.PHONY: deps build demo test bench asan tsan clean
+
+deps:
+	@bash scripts/install-deps.sh
+
+build: deps
+	@cmake --preset $(PRESET) >/dev/null
+	@cmake --build --preset $(PRESET) -j $(JOBS)
+
+demo: build
+	@rm -rf out/demo && mkdir -p out/demo
+	$(BUILD)/bin/saccade run graphs/demo.xml --stats
+	@echo "demo: wrote $$(ls out/demo | wc -l) PNGs under out/demo/"
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)
+
+bench: build
+	$(BUILD)/bin/saccade_bench --benchmark_min_time=0.2
+
+asan:
+	@$(MAKE) test PRESET=asan
+tsan:
+	@$(MAKE) test PRESET=tsan
+
+clean:
+	rm -rf build out

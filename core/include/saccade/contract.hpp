@@ -1,0 +1,137 @@
+#pragma once
+// One static contract per node type: typed ports and parameters with defaults,
+// ranges and docs. Validation, `saccade plugins` and the docs all read it.
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "saccade/message.hpp"
+
+namespace saccade {
+
+enum class ParamType { kInt, kDouble, kBool, kString, kSize, kPoint, kEnum, kFlags };
+std::string_view to_string(ParamType type);
+
+struct ParamSpec {
+  std::string name;
+  ParamType type = ParamType::kString;
+  std::string default_value;  // as written in XML; empty with required = true
+  std::optional<double> min;
+  std::optional<double> max;
+  std::vector<std::string> choices;  // kEnum: one of them; kFlags: a comma list of them
+  std::string doc;
+  bool required = false;
+};
+
+enum class InputKind {
+  kTrigger,   // required; the node runs when every trigger input holds a message
+  kOptional,  // triggers like kTrigger when connected, may stay unconnected
+  kSide,      // never triggers: the node sees the newest message that arrived, if any
+};
+
+struct PortSpec {
+  std::string name;
+  std::string type;  // message type name, or "any"
+  std::string doc;
+  InputKind kind = InputKind::kTrigger;
+};
+
+using ParamValue =
+    std::variant<int64_t, double, bool, std::string, cv::Size, cv::Point2d, std::vector<std::string>>;
+
+// Parses `text` as `spec` requires (whole string, range, choices). Returns the
+// reason when it does not fit.
+std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out);
+
+// A node's parameters after validation: every declared one is present.
+class Params {
+ public:
+  void set(const std::string& name, ParamValue value) { values_[name] = std::move(value); }
+  bool has(const std::string& name) const { return values_.count(name) != 0; }
+
+  int64_t get_int(const std::string& name) const { return get<int64_t>(name); }
+  double get_double(const std::string& name) const { return get<double>(name); }
+  bool get_bool(const std::string& name) const { return get<bool>(name); }
+  const std::string& get_string(const std::string& name) const { return get<std::string>(name); }
+  cv::Size get_size(const std::string& name) const { return get<cv::Size>(name); }
+  cv::Point2d get_point(const std::string& name) const { return get<cv::Point2d>(name); }
+  const std::vector<std::string>& get_flags(const std::string& name) const {
+    return get<std::vector<std::string>>(name);
+  }
+  bool has_flag(const std::string& name, std::string_view flag) const;
+  const std::map<std::string, ParamValue>& all() const { return values_; }
+
+ private:
+  template <class T>
+  const T& get(const std::string& name) const;
+  std::map<std::string, ParamValue> values_;
+};
+
+class Contract {
+ public:
+  Contract() = default;
+  explicit Contract(std::string doc) : doc_(std::move(doc)) {}
+
+  template <class T>
+  Contract& input(std::string name, std::string doc) {
+    return add_input(std::move(name), message_type_name<T>(), std::move(doc), InputKind::kTrigger);
+  }
+  template <class T>
+  Contract& optional_input(std::string name, std::string doc) {
+    return add_input(std::move(name), message_type_name<T>(), std::move(doc), InputKind::kOptional);
+  }
+  template <class T>
+  Contract& side_input(std::string name, std::string doc) {
+    return add_input(std::move(name), message_type_name<T>(), std::move(doc), InputKind::kSide);
+  }
+  template <class T>
+  Contract& output(std::string name, std::string doc) {
+    outputs_.push_back({std::move(name), std::string(message_type_name<T>()), std::move(doc)});
+    return *this;
+  }
+
+  Contract& param_int(std::string name, int64_t def, int64_t min, int64_t max, std::string doc);
+  Contract& param_double(std::string name, double def, double min, double max, std::string doc);
+  Contract& param_bool(std::string name, bool def, std::string doc);
+  Contract& param_string(std::string name, std::string def, std::string doc);
+  Contract& required_string(std::string name, std::string doc);
+  Contract& param_size(std::string name, cv::Size def, std::string doc);
+  Contract& param_point(std::string name, std::optional<cv::Point2d> def, std::string doc);
+  Contract& param_enum(std::string name, std::string def, std::vector<std::string> choices,
+                       std::string doc);
+  Contract& param_flags(std::string name, std::string def, std::vector<std::string> choices,
+                        std::string doc);
+
+  const std::string& doc() const { return doc_; }
+  const std::vector<PortSpec>& inputs() const { return inputs_; }
+  const std::vector<PortSpec>& outputs() const { return outputs_; }
+  const std::vector<ParamSpec>& params() const { return params_; }
+  bool is_source() const { return inputs_.empty(); }
+
+  const PortSpec* find_input(std::string_view name) const;
+  const PortSpec* find_output(std::string_view name) const;
+  const ParamSpec* find_param(std::string_view name) const;
+  int input_index(std::string_view name) const;   // -1 when absent
+  int output_index(std::string_view name) const;  // -1 when absent
+
+ private:
+  Contract& add_input(std::string name, std::string_view type, std::string doc, InputKind kind);
+  Contract& add_param(ParamSpec spec);
+  std::string doc_;
+  std::vector<PortSpec> inputs_;
+  std::vector<PortSpec> outputs_;
+  std::vector<ParamSpec> params_;
+};
+
+// True when a message of type `produced` may travel into an input of type `accepted`.
+inline bool port_types_match(std::string_view produced, std::string_view accepted) {
+  return accepted == kAnyType || produced == accepted;
+}
+
+}  // namespace saccade

@@ -1,0 +1,58 @@
+#pragma once
+// Runs a validated graph: sources on their own threads at their own pace, the
+// other nodes on a worker pool (or inline on their producer's thread), or
+// everything on one thread in a deterministic order.
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "saccade/graph.hpp"
+#include "saccade/registry.hpp"
+#include "saccade/stats.hpp"
+#include "saccade/status.hpp"
+
+namespace saccade {
+
+struct ExecutorOptions {
+  int threads = 0;             // workers; 0 = one per core
+  bool deterministic = false;  // one thread, fixed order: same input, same output
+  int64_t max_frames = -1;     // each source stops after this many frames
+  double duration_s = -1.0;    // stop after this long
+  double stats_interval_s = 0.0;
+  std::function<void(const std::string& table)> on_stats;  // every stats interval
+  const std::atomic<bool>* external_stop = nullptr;        // e.g. set by SIGINT
+  std::string process;  // run only nodes of this process (empty: all)
+};
+
+class Executor {
+ public:
+  Executor(const ResolvedGraph& graph, const Registry& registry, ExecutorOptions options = {});
+  ~Executor();
+  Executor(const Executor&) = delete;
+  Executor& operator=(const Executor&) = delete;
+
+  // Creates and opens every node; an error names the node.
+  Status open();
+  // Runs until every node reached end of stream, a stop, or a fatal node error
+  // (returned, naming the node). Closes every node before it returns.
+  Status run();
+  // Thread-safe; the graph drains what is in flight and ends.
+  void request_stop();
+
+  std::vector<const NodeStats*> stats() const;
+  const NodeStats* stats(const std::string& node) const;
+  std::string stats_table() const;
+  std::string stats_json() const;
+  double elapsed_s() const;
+
+  // The node instance, for tests and embedding.
+  Node* node(const std::string& name) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace saccade

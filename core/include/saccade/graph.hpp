@@ -1,0 +1,117 @@
+#pragma once
+// The graph model, its XML loader and its validator.
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "saccade/contract.hpp"
+#include "saccade/diagnostics.hpp"
+
+namespace saccade {
+
+class Registry;
+
+enum class QueuePolicy { kLatest, kFifo, kBlock };
+
+struct QueueSpec {
+  QueuePolicy policy = QueuePolicy::kLatest;
+  int capacity = 1;
+  std::string text() const;  // "latest", "fifo:4", "block:2"
+};
+// Parses "latest", "fifo:N" or "block:N" (N from 1 to 65536).
+std::optional<QueueSpec> parse_queue_spec(const std::string& text);
+
+enum class OnError { kStop, kSkip };
+
+struct ParamDecl {
+  std::string name;
+  std::string value;
+  int line = 0;
+};
+
+struct SyncDecl {
+  std::vector<std::string> inputs;
+  double tolerance_ms = 0.0;  // 0: exact timestamps
+  int line = 0;
+};
+
+struct NodeDecl {
+  std::string name;
+  std::string plugin;
+  std::string process;  // which process runs it; empty = every process
+  std::vector<ParamDecl> params;
+  std::vector<SyncDecl> syncs;
+  OnError on_error = OnError::kStop;
+  bool run_inline = false;  // run on the producer's thread instead of a worker
+  int line = 0;
+};
+
+struct EdgeDecl {
+  std::string from_node, from_port, to_node, to_port;
+  std::string queue;  // empty: the default (latest)
+  int delay = 0;      // 1: feedback edge, the consumer sees an earlier frame's value
+  int line = 0;
+};
+
+struct GraphDecl {
+  std::string file;  // for diagnostics
+  std::string name;
+  std::vector<NodeDecl> nodes;
+  std::vector<EdgeDecl> edges;
+  int line = 0;
+
+  const NodeDecl* find_node(const std::string& name) const;
+};
+
+// Reads a graph file. Fills `diag` with every problem of form (malformed XML,
+// unknown elements or attributes, bad endpoints) and returns what it could read.
+GraphDecl load_graph_file(const std::string& path, Diagnostics& diag);
+GraphDecl load_graph_string(const std::string& xml, const std::string& file_name, Diagnostics& diag);
+
+// Applies "node.param=value" overrides (from --set); unknown nodes are errors.
+void apply_overrides(GraphDecl& graph, const std::vector<std::string>& overrides, Diagnostics& diag);
+
+// Expands ${VAR} in parameter values from the environment; SACCADE_SAMPLE_DATA
+// defaults to the folder the build was configured with, GRAPH_DIR is the graph
+// file's folder.
+std::string expand_variables(const std::string& text, const std::string& graph_file, std::string* error);
+
+struct ResolvedEdge {
+  int from_node = -1, from_port = -1, to_node = -1, to_port = -1;
+  QueueSpec queue;
+  int delay = 0;
+  int line = 0;
+};
+
+struct ResolvedNode {
+  NodeDecl decl;
+  Contract contract;
+  Params params;
+};
+
+// A graph whose every node, port, parameter and edge checked out.
+struct ResolvedGraph {
+  std::string file;
+  std::string name;
+  std::vector<ResolvedNode> nodes;
+  std::vector<ResolvedEdge> edges;
+};
+
+// Resolves one node: its plugin, parameters and sync groups (not its edges).
+bool resolve_node(const NodeDecl& node, const Registry& registry, const std::string& file, Diagnostics& diag,
+                  ResolvedNode& out);
+
+// Validates the whole graph against the registry's contracts and reports every
+// error at once; returns nothing when there is any.
+std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registry& registry,
+                                           Diagnostics& diag);
+
+// Graphviz text of a graph.
+std::string to_dot(const ResolvedGraph& graph);
+
+// Edit distance, for "did you mean".
+std::size_t edit_distance(const std::string& a, const std::string& b);
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates);
+
+}  // namespace saccade

@@ -1,0 +1,137 @@
+#pragma once
+// Messages travel between nodes as std::shared_ptr<const T>: immutable once emitted,
+// shared across fan-out by reference count, never copied.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace saccade {
+
+struct Message {
+  // Capture (or media) time of the frame this message derives from; sync groups
+  // pair inputs on it. Nanoseconds.
+  int64_t timestamp_ns = 0;
+  // Steady-clock time at which the source produced the frame; end-to-end latency
+  // is measured from it.
+  int64_t origin_ns = 0;
+  int64_t frame_id = 0;
+
+  Message() = default;
+  Message(const Message&) = default;
+  Message& operator=(const Message&) = default;
+  virtual ~Message();
+  virtual std::string_view type_name() const = 0;
+  // Called by a pool before it hands a recycled message out again: drop any buffer
+  // somebody else still references, so writing into it cannot change their data.
+  virtual void release_shared_buffers() {}
+
+  void stamp_from(const Message& other) {
+    timestamp_ns = other.timestamp_ns;
+    origin_ns = other.origin_ns;
+    frame_id = other.frame_id;
+  }
+};
+using MessagePtr = std::shared_ptr<const Message>;
+
+// Releases `mat` if its buffer is shared with another header, so that the next
+// create() allocates a private one; keeps it (no allocation) otherwise.
+void make_exclusive(cv::Mat& mat);
+
+// Port type name that accepts every message type.
+inline constexpr std::string_view kAnyType = "any";
+
+template <class T>
+constexpr std::string_view message_type_name() {
+  if constexpr (std::is_same_v<T, Message>) {
+    return kAnyType;
+  } else {
+    return T::kTypeName;
+  }
+}
+
+// A frame from a camera or a file.
+struct Image final : Message {
+  static constexpr std::string_view kTypeName = "Image";
+  std::string_view type_name() const override { return kTypeName; }
+  void release_shared_buffers() override { make_exclusive(mat); }
+  ~Image() override;
+
+  cv::Mat mat;
+  int camera_id = 0;
+};
+
+// Where one retina level came from: its region of the source frame, in source
+// pixels, and the sampling step (source pixels per level pixel) along x and y.
+struct LevelGeometry {
+  cv::Rect region;
+  double step_x = 1.0;
+  double step_y = 1.0;
+
+  // Source-frame coordinates of the centre of level pixel (x, y).
+  cv::Point2d to_source(double x, double y) const {
+    return {region.x + (x + 0.5) * step_x, region.y + (y + 0.5) * step_y};
+  }
+  // Level coordinates of source point p (inverse of to_source).
+  cv::Point2d from_source(cv::Point2d p) const {
+    return {(p.x - region.x) / step_x - 0.5, (p.y - region.y) / step_y - 0.5};
+  }
+};
+
+// The multi-resolution retina: levels[0] is the outermost (whole frame, coarsest),
+// levels.back() the fovea (a direct crop, step 1). All levels have the same size.
+struct Retina final : Message {
+  static constexpr std::string_view kTypeName = "Retina";
+  std::string_view type_name() const override { return kTypeName; }
+  void release_shared_buffers() override {
+    for (auto& level : levels) make_exclusive(level);
+    source.reset();
+  }
+  ~Retina() override;
+
+  std::vector<cv::Mat> levels;
+  std::vector<LevelGeometry> geometry;
+  cv::Size source_size;
+  cv::Point fovea;  // centre of the fovea in source pixels, after clamping
+  int camera_id = 0;
+  // The frame the levels were sampled from (shared, not copied), for overlays.
+  std::shared_ptr<const Image> source;
+};
+
+// Named per-level maps sharing a Retina's geometry: maps[i][level] is feature
+// names[i] on that level.
+struct FeatureMaps final : Message {
+  static constexpr std::string_view kTypeName = "FeatureMaps";
+  std::string_view type_name() const override { return kTypeName; }
+  void release_shared_buffers() override {
+    for (auto& feature : maps)
+      for (auto& level : feature) make_exclusive(level);
+    retina.reset();
+  }
+  ~FeatureMaps() override;
+
+  // Levels of feature `name`, or nullptr when this message does not carry it.
+  const std::vector<cv::Mat>* find(std::string_view name) const;
+
+  std::shared_ptr<const Retina> retina;
+  std::vector<std::string> names;
+  std::vector<std::vector<cv::Mat>> maps;
+};
+
+// A point or region in a source frame: a fovea position, a target, a ground truth.
+struct Region final : Message {
+  static constexpr std::string_view kTypeName = "Region";
+  std::string_view type_name() const override { return kTypeName; }
+  ~Region() override;
+
+  cv::Point2d center;
+  cv::Size2d size;  // zero for a bare point
+  double score = 1.0;
+  int camera_id = 0;
+  std::string label;
+};
+
+}  // namespace saccade

@@ -1,0 +1,130 @@
+#pragma once
+// What a plugin author implements: a Node with open / process / close.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "saccade/contract.hpp"
+#include "saccade/message.hpp"
+#include "saccade/pool.hpp"
+#include "saccade/status.hpp"
+
+namespace saccade {
+
+template <class T>
+struct InputHandle {
+  int index = -1;
+};
+template <class T>
+struct OutputHandle {
+  int index = -1;
+};
+
+// Receives what a node emits; the executor and the test harness implement it.
+class EmitSink {
+ public:
+  virtual ~EmitSink();
+  virtual void emit(int output, MessagePtr message) = 0;
+  virtual bool stop_requested() const = 0;
+  // Sleeps until the steady clock reaches `steady_ns`; false when woken by a stop.
+  virtual bool sleep_until(int64_t steady_ns) = 0;
+};
+
+// Everything one node instance needs while it runs; owned by whoever runs it.
+struct NodeSlot {
+  std::string name;
+  const Contract* contract = nullptr;
+  const Params* params = nullptr;
+  std::vector<MessagePtr> current;  // per input: what this call of process() sees
+  std::vector<MessagePool> pools;   // per output
+  std::vector<bool> input_connected;
+  std::vector<bool> output_connected;
+  const Message* trigger = nullptr;  // first trigger input that holds a message
+  EmitSink* sink = nullptr;
+};
+
+int64_t steady_now_ns();
+
+class OpenContext {
+ public:
+  explicit OpenContext(NodeSlot& slot) : slot_(&slot) {}
+  const Params& params() const { return *slot_->params; }
+  const std::string& node_name() const { return slot_->name; }
+
+  template <class T>
+  InputHandle<T> input(std::string_view name) const {
+    return {checked_input(name, message_type_name<T>())};
+  }
+  template <class T>
+  OutputHandle<T> output(std::string_view name) const {
+    return {checked_output(name, message_type_name<T>())};
+  }
+  template <class T>
+  bool connected(InputHandle<T> h) const {
+    return slot_->input_connected[static_cast<std::size_t>(h.index)];
+  }
+  template <class T>
+  bool connected(OutputHandle<T> h) const {
+    return slot_->output_connected[static_cast<std::size_t>(h.index)];
+  }
+
+ private:
+  int checked_input(std::string_view name, std::string_view type) const;
+  int checked_output(std::string_view name, std::string_view type) const;
+  NodeSlot* slot_;
+};
+
+class ProcessContext {
+ public:
+  explicit ProcessContext(NodeSlot& slot) : slot_(&slot) {}
+
+  // The message on input `h` for this call, or nullptr (side input never fed,
+  // optional input unconnected).
+  template <class T>
+  std::shared_ptr<const T> get(InputHandle<T> h) const {
+    const MessagePtr& m = slot_->current[static_cast<std::size_t>(h.index)];
+    if constexpr (std::is_same_v<T, Message>) {
+      return m;
+    } else {
+      return std::static_pointer_cast<const T>(m);
+    }
+  }
+
+  // A pooled message for output `h`, stamped with the trigger input's capture
+  // time, origin and frame id.
+  template <class T>
+  std::shared_ptr<T> make(OutputHandle<T> h) {
+    auto m = slot_->pools[static_cast<std::size_t>(h.index)].template acquire<T>();
+    if (slot_->trigger != nullptr) m->stamp_from(*slot_->trigger);
+    return m;
+  }
+
+  template <class T, class U>
+  void emit(OutputHandle<T> h, std::shared_ptr<U> message) {
+    static_assert(std::is_base_of_v<Message, U>);
+    slot_->sink->emit(h.index, MessagePtr(std::move(message)));
+  }
+
+  const Message* trigger() const { return slot_->trigger; }
+  const std::string& node_name() const { return slot_->name; }
+  bool stop_requested() const { return slot_->sink->stop_requested(); }
+  bool sleep_until(int64_t steady_ns) { return slot_->sink->sleep_until(steady_ns); }
+
+ private:
+  NodeSlot* slot_;
+};
+
+class Node {
+ public:
+  virtual ~Node();
+  // Reads parameters and allocates; a non-ok Status stops the graph before it runs.
+  virtual Status open(OpenContext&) { return {}; }
+  // Steady state: allocate nothing, throw nothing. A source returns
+  // Status::end_of_stream() when it has nothing more.
+  virtual Status process(ProcessContext& ctx) = 0;
+  virtual void close() {}
+};
+
+}  // namespace saccade

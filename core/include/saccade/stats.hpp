@@ -1,0 +1,59 @@
+#pragma once
+// Per-node counters and timing histograms, written by the thread that runs the
+// node and read at any time by the stats printer (relaxed atomics, no locks).
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace saccade {
+
+// Log-scale histogram of nanosecond durations: 8 buckets per octave (9% wide)
+// from 1 ns to ~2^40 ns; percentiles are reported at the bucket's upper edge.
+class Histogram {
+ public:
+  static constexpr int kSubBuckets = 8;
+  static constexpr int kBuckets = 41 * kSubBuckets;
+
+  void record(int64_t ns);
+  uint64_t count() const { return count_.load(std::memory_order_relaxed); }
+  int64_t max() const { return max_.load(std::memory_order_relaxed); }
+  int64_t percentile(double q) const;  // q in [0, 1]; 0 when empty
+  static int bucket_of(int64_t ns);
+  static int64_t upper_edge(int bucket);
+
+ private:
+  std::array<std::atomic<uint64_t>, kBuckets> buckets_{};
+  std::atomic<uint64_t> count_{0};
+  std::atomic<int64_t> max_{0};
+};
+
+struct InputStats {
+  std::string name;
+  std::atomic<uint64_t> received{0};
+  std::atomic<uint64_t> dropped{0};       // pushed out by the queue policy
+  std::atomic<uint64_t> sync_dropped{0};  // found no partner in its sync group
+};
+
+struct NodeStats {
+  std::string name;
+  std::string plugin;
+  std::atomic<uint64_t> processed{0};
+  std::atomic<uint64_t> errors{0};
+  std::atomic<uint64_t> emitted{0};
+  std::atomic<int64_t> first_ns{0};
+  std::atomic<int64_t> last_ns{0};
+  Histogram process_time;
+  Histogram latency;  // now - origin of the message that triggered the call
+  std::vector<std::unique_ptr<InputStats>> inputs;
+
+  double rate_hz() const;
+};
+
+// A readable table and a JSON document of a set of node stats.
+std::string format_stats_table(const std::vector<const NodeStats*>& nodes, double elapsed_s);
+std::string format_stats_json(const std::vector<const NodeStats*>& nodes, double elapsed_s);
+
+}  // namespace saccade

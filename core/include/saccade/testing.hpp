@@ -1,0 +1,72 @@
+#pragma once
+// Test one node in a few lines:
+//   auto h = saccade::testing::NodeHarness::create(R"(<node plugin="filters.bank"/>)");
+//   h->set("retina", retina);
+//   ASSERT_TRUE(h->process().ok());
+//   auto maps = h->last<saccade::FeatureMaps>("maps");
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "saccade/graph.hpp"
+#include "saccade/node.hpp"
+#include "saccade/registry.hpp"
+
+namespace saccade::testing {
+
+// Registry over the default plugin folders, loaded once per process.
+const Registry& default_registry();
+
+class NodeHarness final : public EmitSink {
+ public:
+  // Builds and opens the node described by one <node> element (name optional).
+  // Returns nullptr and fills `error` (file:line messages) when it fails.
+  static std::unique_ptr<NodeHarness> create(const std::string& node_xml, std::string* error = nullptr,
+                                             const Registry* registry = nullptr);
+  ~NodeHarness() override;
+
+  // The message input `name` carries in the next process() call (nullptr clears it).
+  void set(const std::string& input, MessagePtr message);
+  // One call of the node's process(); inputs stay set until changed.
+  Status process();
+  // Everything emitted on `output` so far.
+  const std::vector<MessagePtr>& outputs(const std::string& output) const;
+  template <class T>
+  std::shared_ptr<const T> last(const std::string& output) const {
+    const auto& all = outputs(output);
+    return all.empty() ? nullptr : std::dynamic_pointer_cast<const T>(all.back());
+  }
+  void clear_outputs();
+  Node& node() { return *node_; }
+  const ResolvedNode& resolved() const { return resolved_; }
+
+  void emit(int output, MessagePtr message) override;
+  bool stop_requested() const override { return false; }
+  bool sleep_until(int64_t) override { return true; }
+
+ private:
+  NodeHarness() = default;
+  ResolvedNode resolved_;
+  NodeSlot slot_;
+  std::shared_ptr<Node> node_;
+  std::vector<std::vector<MessagePtr>> emitted_;
+  bool opened_ = false;
+};
+
+// A process-wide store the util.record sink writes into, so a test can read what
+// reached the end of a whole graph.
+class Recorder {
+ public:
+  static Recorder& instance();
+  void record(const std::string& key, MessagePtr message);
+  std::vector<MessagePtr> get(const std::string& key) const;
+  void clear();
+
+ private:
+  mutable std::mutex mu_;
+  std::map<std::string, std::vector<MessagePtr>> messages_;
+};
+
+}  // namespace saccade::testing

@@ -1,0 +1,547 @@
+#include "saccade/graph.hpp"
+
+#include <tinyxml2.h>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <set>
+
+#include "saccade/registry.hpp"
+
+#ifndef SACCADE_DEFAULT_SAMPLE_DATA
+#define SACCADE_DEFAULT_SAMPLE_DATA "/usr/share/doc/opencv-doc/examples/data"
+#endif
+
+namespace saccade {
+
+std::string QueueSpec::text() const {
+  switch (policy) {
+    case QueuePolicy::kLatest: return "latest";
+    case QueuePolicy::kFifo: return "fifo:" + std::to_string(capacity);
+    case QueuePolicy::kBlock: return "block:" + std::to_string(capacity);
+  }
+  return "?";
+}
+
+std::optional<QueueSpec> parse_queue_spec(const std::string& text) {
+  if (text.empty() || text == "latest") return QueueSpec{QueuePolicy::kLatest, 1};
+  auto colon = text.find(':');
+  if (colon == std::string::npos) return std::nullopt;
+  std::string kind = text.substr(0, colon);
+  int n = 0;
+  const char* begin = text.data() + colon + 1;
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(begin, end, n);
+  if (ec != std::errc() || ptr != end || begin == end || n < 1 || n > 65536) return std::nullopt;
+  if (kind == "fifo") return QueueSpec{QueuePolicy::kFifo, n};
+  if (kind == "block") return QueueSpec{QueuePolicy::kBlock, n};
+  return std::nullopt;
+}
+
+const NodeDecl* GraphDecl::find_node(const std::string& node_name) const {
+  for (const auto& n : nodes)
+    if (n.name == node_name) return &n;
+  return nullptr;
+}
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      std::size_t sub = prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1);
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, sub});
+    }
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = std::string::npos;
+  for (const auto& c : candidates) {
+    std::size_t d = edit_distance(word, c);
+    // A suffix match ("bank" for "filters.bank") counts as close too.
+    if (c.size() > word.size() && c.compare(c.size() - word.size(), word.size(), word) == 0) d = std::min<std::size_t>(d, 1);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  if (best.empty() || best_d > std::max<std::size_t>(2, word.size() / 3)) return {};
+  return " (did you mean '" + best + "'?)";
+}
+
+namespace {
+
+using tinyxml2::XMLAttribute;
+using tinyxml2::XMLDocument;
+using tinyxml2::XMLElement;
+
+void check_attributes(const XMLElement* e, const std::set<std::string>& allowed, const std::string& file,
+                      const std::string& node, Diagnostics& diag) {
+  for (const XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
+    if (!allowed.count(a->Name())) {
+      std::vector<std::string> list(allowed.begin(), allowed.end());
+      diag.error(file, a->GetLineNum(), node, "",
+                 std::string("unknown attribute '") + a->Name() + "' on <" + e->Name() + ">" +
+                     did_you_mean(a->Name(), list));
+    }
+  }
+}
+
+bool split_endpoint(const char* text, std::string& node, std::string& port) {
+  if (text == nullptr) return false;
+  std::string s(text);
+  auto dot = s.find('.');
+  if (dot == std::string::npos || dot == 0 || dot + 1 == s.size()) return false;
+  node = s.substr(0, dot);
+  port = s.substr(dot + 1);
+  return true;
+}
+
+GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics& diag) {
+  GraphDecl graph;
+  graph.file = file;
+  if (doc.Error()) {
+    diag.error(file, doc.ErrorLineNum(), "", "", std::string("malformed XML: ") + doc.ErrorStr());
+    return graph;
+  }
+  const XMLElement* root = doc.RootElement();
+  if (root == nullptr || std::string(root->Name()) != "graph") {
+    diag.error(file, root ? root->GetLineNum() : 1, "", "", "expected a <graph> root element");
+    return graph;
+  }
+  graph.line = root->GetLineNum();
+  check_attributes(root, {"name"}, file, "", diag);
+  if (const char* n = root->Attribute("name")) graph.name = n;
+
+  for (const XMLElement* e = root->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    std::string tag = e->Name();
+    int line = e->GetLineNum();
+    if (tag == "node") {
+      NodeDecl node;
+      node.line = line;
+      const char* name = e->Attribute("name");
+      const char* plugin = e->Attribute("plugin");
+      if (!name || !*name) diag.error(file, line, "", "", "<node> needs a name attribute");
+      if (!plugin || !*plugin) diag.error(file, line, name ? name : "", "", "<node> needs a plugin attribute");
+      node.name = name ? name : "";
+      node.plugin = plugin ? plugin : "";
+      check_attributes(e, {"name", "plugin", "process", "on_error", "inline"}, file, node.name, diag);
+      if (const char* p = e->Attribute("process")) node.process = p;
+      if (const char* oe = e->Attribute("on_error")) {
+        std::string v = oe;
+        if (v == "stop") node.on_error = OnError::kStop;
+        else if (v == "skip") node.on_error = OnError::kSkip;
+        else diag.error(file, line, node.name, "", "on_error must be 'stop' or 'skip', got '" + v + "'");
+      }
+      if (const char* in = e->Attribute("inline")) {
+        std::string v = in;
+        if (v == "true") node.run_inline = true;
+        else if (v != "false") diag.error(file, line, node.name, "", "inline must be 'true' or 'false', got '" + v + "'");
+      }
+      for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+        std::string ctag = c->Name();
+        if (ctag == "param") {
+          check_attributes(c, {"name", "value"}, file, node.name, diag);
+          const char* pn = c->Attribute("name");
+          const char* pv = c->Attribute("value");
+          if (!pv) pv = c->GetText();
+          if (!pn || !*pn) {
+            diag.error(file, c->GetLineNum(), node.name, "", "<param> needs a name attribute");
+            continue;
+          }
+          if (!pv) {
+            diag.error(file, c->GetLineNum(), node.name, "", std::string("parameter '") + pn + "' has no value");
+            continue;
+          }
+          node.params.push_back({pn, pv, c->GetLineNum()});
+        } else if (ctag == "sync") {
+          check_attributes(c, {"inputs", "tolerance_ms"}, file, node.name, diag);
+          SyncDecl sync;
+          sync.line = c->GetLineNum();
+          std::string inputs = c->Attribute("inputs") ? c->Attribute("inputs") : "";
+          std::string item;
+          for (char ch : inputs + ",") {
+            if (ch == ',' || ch == ' ') {
+              if (!item.empty()) sync.inputs.push_back(item);
+              item.clear();
+            } else {
+              item += ch;
+            }
+          }
+          if (sync.inputs.size() < 2)
+            diag.error(file, sync.line, node.name, "", "<sync> needs inputs=\"a,b\" naming two or more inputs");
+          if (const char* tol = c->Attribute("tolerance_ms")) {
+            std::string t = tol;
+            auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), sync.tolerance_ms);
+            if (ec != std::errc() || ptr != t.data() + t.size() || sync.tolerance_ms < 0)
+              diag.error(file, sync.line, node.name, "", "tolerance_ms must be a number >= 0, got '" + t + "'");
+          }
+          node.syncs.push_back(std::move(sync));
+        } else {
+          diag.error(file, c->GetLineNum(), node.name, "",
+                     "unknown element <" + ctag + "> in <node>; expected <param> or <sync>");
+        }
+      }
+      graph.nodes.push_back(std::move(node));
+    } else if (tag == "edge") {
+      check_attributes(e, {"from", "to", "queue", "delay"}, file, "", diag);
+      EdgeDecl edge;
+      edge.line = line;
+      bool ok = true;
+      if (!split_endpoint(e->Attribute("from"), edge.from_node, edge.from_port)) {
+        diag.error(file, line, "", "", "edge 'from' must be node.port, got '" +
+                                          std::string(e->Attribute("from") ? e->Attribute("from") : "") + "'");
+        ok = false;
+      }
+      if (!split_endpoint(e->Attribute("to"), edge.to_node, edge.to_port)) {
+        diag.error(file, line, "", "", "edge 'to' must be node.port, got '" +
+                                          std::string(e->Attribute("to") ? e->Attribute("to") : "") + "'");
+        ok = false;
+      }
+      if (const char* q = e->Attribute("queue")) edge.queue = q;
+      if (const char* d = e->Attribute("delay")) {
+        std::string v = d;
+        if (v == "0") edge.delay = 0;
+        else if (v == "1") edge.delay = 1;
+        else diag.error(file, line, edge.to_node, edge.to_port, "delay must be 0 or 1, got '" + v + "'");
+      }
+      if (ok) graph.edges.push_back(std::move(edge));
+    } else if (tag == "process") {
+      check_attributes(e, {"name", "host"}, file, "", diag);
+    } else {
+      diag.error(file, line, "", "", "unknown element <" + tag + ">; expected <node>, <edge> or <process>");
+    }
+  }
+  return graph;
+}
+
+}  // namespace
+
+GraphDecl load_graph_file(const std::string& path, Diagnostics& diag) {
+  XMLDocument doc;
+  if (!std::filesystem::exists(path)) {
+    diag.error(path, 0, "", "", "no such graph file");
+    GraphDecl g;
+    g.file = path;
+    return g;
+  }
+  doc.LoadFile(path.c_str());
+  return parse_document(doc, path, diag);
+}
+
+GraphDecl load_graph_string(const std::string& xml, const std::string& file_name, Diagnostics& diag) {
+  XMLDocument doc;
+  doc.Parse(xml.c_str(), xml.size());
+  return parse_document(doc, file_name, diag);
+}
+
+void apply_overrides(GraphDecl& graph, const std::vector<std::string>& overrides, Diagnostics& diag) {
+  for (const auto& o : overrides) {
+    auto eq = o.find('=');
+    auto dot = o.find('.');
+    if (eq == std::string::npos || dot == std::string::npos || dot > eq || dot == 0 || dot + 1 == eq) {
+      diag.error("--set", 0, "", "", "expected node.param=value, got '" + o + "'");
+      continue;
+    }
+    std::string node = o.substr(0, dot), param = o.substr(dot + 1, eq - dot - 1), value = o.substr(eq + 1);
+    auto it = std::find_if(graph.nodes.begin(), graph.nodes.end(), [&](const NodeDecl& n) { return n.name == node; });
+    if (it == graph.nodes.end()) {
+      std::vector<std::string> names;
+      for (const auto& n : graph.nodes) names.push_back(n.name);
+      diag.error("--set", 0, node, "", "no such node" + did_you_mean(node, names));
+      continue;
+    }
+    auto p = std::find_if(it->params.begin(), it->params.end(), [&](const ParamDecl& d) { return d.name == param; });
+    if (p != it->params.end()) {
+      p->value = value;
+      p->line = 0;
+    } else {
+      it->params.push_back({param, value, 0});
+    }
+  }
+}
+
+std::string expand_variables(const std::string& text, const std::string& graph_file, std::string* error) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '$' && i + 1 < text.size() && text[i + 1] == '{') {
+      auto close = text.find('}', i + 2);
+      if (close == std::string::npos) {
+        if (error) *error = "unterminated ${ in '" + text + "'";
+        return text;
+      }
+      std::string var = text.substr(i + 2, close - i - 2);
+      const char* env = std::getenv(var.c_str());
+      if (env != nullptr) {
+        out += env;
+      } else if (var == "SACCADE_SAMPLE_DATA") {
+        out += SACCADE_DEFAULT_SAMPLE_DATA;
+      } else if (var == "GRAPH_DIR") {
+        auto dir = std::filesystem::path(graph_file).parent_path().string();
+        out += dir.empty() ? "." : dir;
+      } else {
+        if (error) *error = "unknown variable ${" + var + "} (not in the environment)";
+        return text;
+      }
+      i = close;
+    } else {
+      out += text[i];
+    }
+  }
+  return out;
+}
+
+bool resolve_node(const NodeDecl& n, const Registry& registry, const std::string& file, Diagnostics& diag,
+                  ResolvedNode& rn) {
+  std::size_t errors_before = diag.error_count();
+  rn.decl = n;
+    const NodeTypeInfo* info = registry.find(n.plugin);
+    if (info == nullptr) {
+      std::string msg = "unknown plugin '" + n.plugin + "'" + did_you_mean(n.plugin, registry.types());
+      std::string lib = n.plugin.substr(0, n.plugin.find('.'));
+      for (const auto& e : registry.load_errors())
+        if (e.find("saccade_" + lib + ".so") != std::string::npos) msg += "; its library failed to load: " + e;
+      diag.error(file, n.line, n.name, "", msg);
+    } else {
+      rn.contract = info->contract;
+      // Parameters: every given one known and well-formed, every required one given.
+      std::set<std::string> given;
+      std::vector<std::string> known;
+      for (const auto& spec : rn.contract.params()) known.push_back(spec.name);
+      for (const auto& p : n.params) {
+        int line = p.line > 0 ? p.line : n.line;
+        const ParamSpec* spec = rn.contract.find_param(p.name);
+        if (spec == nullptr) {
+          diag.error(file, line, n.name, "", "unknown parameter '" + p.name + "' for plugin '" + n.plugin + "'" +
+                                                did_you_mean(p.name, known));
+          continue;
+        }
+        if (!given.insert(p.name).second) {
+          diag.error(file, line, n.name, "", "parameter '" + p.name + "' given twice");
+          continue;
+        }
+        std::string expand_error;
+        std::string value = expand_variables(p.value, file, &expand_error);
+        if (!expand_error.empty()) {
+          diag.error(file, line, n.name, "", "parameter '" + p.name + "': " + expand_error);
+          continue;
+        }
+        ParamValue v;
+        if (auto err = parse_param(*spec, value, v)) {
+          diag.error(file, line, n.name, "",
+                     "parameter '" + p.name + "' (" + std::string(to_string(spec->type)) + "): " + *err +
+                         (p.line == 0 ? " [from --set]" : ""));
+          continue;
+        }
+        rn.params.set(p.name, std::move(v));
+      }
+      for (const auto& spec : rn.contract.params()) {
+        if (given.count(spec.name)) continue;
+        if (spec.required) {
+          diag.error(file, n.line, n.name, "", "missing required parameter '" + spec.name + "' (" + spec.doc + ")");
+          continue;
+        }
+        if (spec.default_value.empty() && spec.type != ParamType::kString && spec.type != ParamType::kFlags)
+          continue;  // optional, no default: absent
+        ParamValue v;
+        std::string expand_error;
+        std::string value = expand_variables(spec.default_value, file, &expand_error);
+        if (auto err = parse_param(spec, value, v))
+          diag.error(file, n.line, n.name, "", "default of parameter '" + spec.name + "' is invalid: " + *err);
+        else
+          rn.params.set(spec.name, std::move(v));
+      }
+      // Sync groups name existing trigger inputs, each in one group at most.
+      std::set<std::string> in_group;
+      for (const auto& s : n.syncs) {
+        for (const auto& in : s.inputs) {
+          const PortSpec* port = rn.contract.find_input(in);
+          if (port == nullptr) {
+            std::vector<std::string> inputs;
+            for (const auto& ip : rn.contract.inputs()) inputs.push_back(ip.name);
+            diag.error(file, s.line, n.name, in, "<sync> names an unknown input" + did_you_mean(in, inputs));
+          } else if (port->kind == InputKind::kSide) {
+            diag.error(file, s.line, n.name, in, "<sync> cannot pair a side input");
+          } else if (!in_group.insert(in).second) {
+            diag.error(file, s.line, n.name, in, "input is in two sync groups");
+          }
+        }
+      }
+    }
+  return diag.error_count() == errors_before;
+}
+
+std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registry& registry, Diagnostics& diag) {
+  const std::string& file = graph.file;
+  ResolvedGraph out;
+  out.file = graph.file;
+  out.name = graph.name;
+  std::size_t errors_before = diag.error_count();
+  std::map<std::string, int> index;
+  std::vector<std::string> node_names;
+
+  for (const auto& n : graph.nodes) {
+    if (n.name.find('.') != std::string::npos)
+      diag.error(file, n.line, n.name, "", "node names may not contain '.'");
+    if (index.count(n.name)) {
+      const NodeDecl* first = graph.find_node(n.name);
+      diag.error(file, n.line, n.name, "",
+                 "duplicate node name (first defined at line " + std::to_string(first->line) + ")");
+      continue;
+    }
+    ResolvedNode rn;
+    resolve_node(n, registry, file, diag, rn);
+    index[n.name] = static_cast<int>(out.nodes.size());
+    node_names.push_back(n.name);
+    out.nodes.push_back(std::move(rn));
+  }
+
+  // Edges.
+  std::map<std::pair<int, int>, int> producer_line;
+  for (const auto& e : graph.edges) {
+    ResolvedEdge re;
+    re.line = e.line;
+    re.delay = e.delay;
+    bool ok = true;
+    auto from = index.find(e.from_node);
+    auto to = index.find(e.to_node);
+    if (from == index.end()) {
+      diag.error(file, e.line, e.from_node, "", "edge from an unknown node" + did_you_mean(e.from_node, node_names));
+      ok = false;
+    }
+    if (to == index.end()) {
+      diag.error(file, e.line, e.to_node, "", "edge to an unknown node" + did_you_mean(e.to_node, node_names));
+      ok = false;
+    }
+    auto queue = parse_queue_spec(e.queue);
+    if (!queue) {
+      diag.error(file, e.line, e.to_node, e.to_port,
+                 "queue must be latest, fifo:N or block:N (N from 1 to 65536), got '" + e.queue + "'");
+      ok = false;
+    } else {
+      re.queue = *queue;
+      if (e.delay == 1 && queue->policy == QueuePolicy::kBlock) {
+        diag.error(file, e.line, e.to_node, e.to_port, "a delayed (feedback) edge cannot block its producer");
+        ok = false;
+      }
+    }
+    if (!ok) continue;
+    re.from_node = from->second;
+    re.to_node = to->second;
+    const ResolvedNode& fn = out.nodes[static_cast<std::size_t>(re.from_node)];
+    const ResolvedNode& tn = out.nodes[static_cast<std::size_t>(re.to_node)];
+    if (fn.contract.outputs().empty() && fn.contract.inputs().empty() && fn.contract.params().empty())
+      continue;  // unknown plugin, already reported
+    re.from_port = fn.contract.output_index(e.from_port);
+    re.to_port = tn.contract.input_index(e.to_port);
+    if (re.from_port < 0) {
+      std::vector<std::string> outs;
+      for (const auto& p : fn.contract.outputs()) outs.push_back(p.name);
+      std::string hint = fn.contract.find_input(e.from_port) ? " ('" + e.from_port + "' is an input)" : did_you_mean(e.from_port, outs);
+      diag.error(file, e.line, e.from_node, e.from_port, "unknown output port of plugin '" + fn.decl.plugin + "'" + hint);
+      ok = false;
+    }
+    if (re.to_port < 0 && !(tn.contract.outputs().empty() && tn.contract.inputs().empty() && tn.contract.params().empty())) {
+      std::vector<std::string> ins;
+      for (const auto& p : tn.contract.inputs()) ins.push_back(p.name);
+      std::string hint = tn.contract.find_output(e.to_port) ? " ('" + e.to_port + "' is an output)" : did_you_mean(e.to_port, ins);
+      diag.error(file, e.line, e.to_node, e.to_port, "unknown input port of plugin '" + tn.decl.plugin + "'" + hint);
+      ok = false;
+    }
+    if (!ok || re.to_port < 0) continue;
+    const PortSpec& op = fn.contract.outputs()[static_cast<std::size_t>(re.from_port)];
+    const PortSpec& ip = tn.contract.inputs()[static_cast<std::size_t>(re.to_port)];
+    if (!port_types_match(op.type, ip.type)) {
+      diag.error(file, e.line, e.to_node, e.to_port,
+                 "type mismatch: " + e.from_node + "." + e.from_port + " produces " + op.type + ", input expects " + ip.type);
+      continue;
+    }
+    auto key = std::make_pair(re.to_node, re.to_port);
+    if (auto it = producer_line.find(key); it != producer_line.end()) {
+      diag.error(file, e.line, e.to_node, e.to_port,
+                 "input already has a producer (edge at line " + std::to_string(it->second) + "); one producer per input");
+      continue;
+    }
+    producer_line[key] = e.line;
+    out.edges.push_back(re);
+  }
+
+  // Required inputs connected.
+  for (std::size_t i = 0; i < out.nodes.size(); ++i) {
+    const auto& n = out.nodes[i];
+    for (std::size_t k = 0; k < n.contract.inputs().size(); ++k) {
+      const auto& port = n.contract.inputs()[k];
+      if (port.kind == InputKind::kTrigger && !producer_line.count({static_cast<int>(i), static_cast<int>(k)}))
+        diag.error(file, n.decl.line, n.decl.name, port.name, "required input is not connected (" + port.type + ": " + port.doc + ")");
+    }
+  }
+
+  // Cycles must pass through a delayed edge.
+  std::vector<std::vector<const ResolvedEdge*>> adj(out.nodes.size());
+  for (const auto& e : out.edges)
+    if (e.delay == 0) adj[static_cast<std::size_t>(e.from_node)].push_back(&e);
+  std::vector<int> state(out.nodes.size(), 0);  // 0 new, 1 on stack, 2 done
+  std::vector<const ResolvedEdge*> stack;
+  bool cycle_reported = false;
+  std::function<void(int)> dfs = [&](int u) {
+    state[static_cast<std::size_t>(u)] = 1;
+    for (const ResolvedEdge* e : adj[static_cast<std::size_t>(u)]) {
+      if (cycle_reported) return;
+      int v = e->to_node;
+      if (state[static_cast<std::size_t>(v)] == 1) {
+        std::string path = out.nodes[static_cast<std::size_t>(v)].decl.name;
+        bool on = false;
+        for (const ResolvedEdge* s : stack) {
+          if (s->from_node == v) on = true;
+          if (on) path += " -> " + out.nodes[static_cast<std::size_t>(s->to_node)].decl.name;
+        }
+        path += " -> " + out.nodes[static_cast<std::size_t>(v)].decl.name;
+        diag.error(file, e->line, out.nodes[static_cast<std::size_t>(v)].decl.name, "",
+                   "cycle without a delayed edge: " + path + " (mark the feedback edge delay=\"1\")");
+        cycle_reported = true;
+        return;
+      }
+      if (state[static_cast<std::size_t>(v)] == 0) {
+        stack.push_back(e);
+        dfs(v);
+        stack.pop_back();
+      }
+    }
+    state[static_cast<std::size_t>(u)] = 2;
+  };
+  for (std::size_t i = 0; i < out.nodes.size() && !cycle_reported; ++i)
+    if (state[i] == 0) dfs(static_cast<int>(i));
+
+  if (diag.error_count() > errors_before) return std::nullopt;
+  return out;
+}
+
+std::string to_dot(const ResolvedGraph& graph) {
+  std::string out = "digraph \"" + (graph.name.empty() ? std::string("saccade") : graph.name) + "\" {\n";
+  out += "  rankdir=LR;\n  node [shape=record, fontname=\"Helvetica\"];\n";
+  for (const auto& n : graph.nodes) {
+    std::string ins, outs;
+    for (const auto& p : n.contract.inputs()) ins += (ins.empty() ? "" : "|") + ("<i_" + p.name + "> " + p.name);
+    for (const auto& p : n.contract.outputs()) outs += (outs.empty() ? "" : "|") + ("<o_" + p.name + "> " + p.name);
+    out += "  \"" + n.decl.name + "\" [label=\"{{" + ins + "}|" + n.decl.name + "\\n(" + n.decl.plugin + ")|{" + outs + "}}\"];\n";
+  }
+  for (const auto& e : graph.edges) {
+    const auto& f = graph.nodes[static_cast<std::size_t>(e.from_node)];
+    const auto& t = graph.nodes[static_cast<std::size_t>(e.to_node)];
+    out += "  \"" + f.decl.name + "\":\"o_" + f.contract.outputs()[static_cast<std::size_t>(e.from_port)].name + "\" -> \"" +
+           t.decl.name + "\":\"i_" + t.contract.inputs()[static_cast<std::size_t>(e.to_port)].name + "\" [label=\"" +
+           e.queue.text() + "\"" + (e.delay ? ", style=dashed, constraint=false" : "") + "];\n";
+  }
+  return out + "}\n";
+}
+
+}  // namespace saccade

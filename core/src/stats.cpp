@@ -1,0 +1,141 @@
+#include "saccade/stats.hpp"
+
+#include <bit>
+#include <cmath>
+#include <cstdio>
+
+namespace saccade {
+
+int Histogram::bucket_of(int64_t ns) {
+  if (ns < 1) return 0;
+  auto v = static_cast<uint64_t>(ns);
+  int octave = 63 - std::countl_zero(v);
+  // The kSubBuckets bits below the leading one pick the sub-bucket.
+  int sub = octave >= 3 ? static_cast<int>((v >> (octave - 3)) & (kSubBuckets - 1))
+                        : static_cast<int>((v << (3 - octave)) & (kSubBuckets - 1));
+  int b = octave * kSubBuckets + sub;
+  return b < kBuckets ? b : kBuckets - 1;
+}
+
+int64_t Histogram::upper_edge(int bucket) {
+  int octave = bucket / kSubBuckets;
+  int sub = bucket % kSubBuckets;
+  double edge = std::ldexp(1.0 + (sub + 1) / static_cast<double>(kSubBuckets), octave);
+  return static_cast<int64_t>(std::ceil(edge)) - 1;
+}
+
+void Histogram::record(int64_t ns) {
+  buckets_[static_cast<std::size_t>(bucket_of(ns))].fetch_add(1, std::memory_order_relaxed);
+  count_.fetch_add(1, std::memory_order_relaxed);
+  int64_t prev = max_.load(std::memory_order_relaxed);
+  while (ns > prev && !max_.compare_exchange_weak(prev, ns, std::memory_order_relaxed)) {
+  }
+}
+
+int64_t Histogram::percentile(double q) const {
+  uint64_t total = count();
+  if (total == 0) return 0;
+  auto rank = static_cast<uint64_t>(std::ceil(q * static_cast<double>(total)));
+  if (rank < 1) rank = 1;
+  uint64_t seen = 0;
+  for (int b = 0; b < kBuckets; ++b) {
+    seen += buckets_[static_cast<std::size_t>(b)].load(std::memory_order_relaxed);
+    if (seen >= rank) {
+      int64_t edge = upper_edge(b);
+      return edge < max() ? edge : max();
+    }
+  }
+  return max();
+}
+
+double NodeStats::rate_hz() const {
+  uint64_t n = processed.load(std::memory_order_relaxed);
+  int64_t span = last_ns.load(std::memory_order_relaxed) - first_ns.load(std::memory_order_relaxed);
+  if (n < 2 || span <= 0) return 0.0;
+  return static_cast<double>(n - 1) * 1e9 / static_cast<double>(span);
+}
+
+namespace {
+
+std::string us(int64_t ns) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", static_cast<double>(ns) / 1000.0);
+  return buf;
+}
+
+std::string json_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string format_stats_table(const std::vector<const NodeStats*>& nodes, double elapsed_s) {
+  std::string out;
+  char line[512];
+  std::snprintf(line, sizeof line, "stats after %.2f s\n%-18s %-22s %9s %7s %9s %9s %9s %9s %9s  %s\n",
+                elapsed_s, "node", "plugin", "processed", "errors", "rate/s", "p50 us", "p99 us", "max us",
+                "lat p50", "drops per input");
+  out += line;
+  for (const NodeStats* n : nodes) {
+    std::string drops;
+    for (const auto& in : n->inputs) {
+      uint64_t d = in->dropped.load(std::memory_order_relaxed);
+      uint64_t s = in->sync_dropped.load(std::memory_order_relaxed);
+      drops += in->name + "=" + std::to_string(d);
+      if (s) drops += "+" + std::to_string(s) + "sync";
+      drops += " ";
+    }
+    std::snprintf(line, sizeof line, "%-18s %-22s %9llu %7llu %9.1f %9s %9s %9s %9s  %s\n", n->name.c_str(),
+                  n->plugin.c_str(), static_cast<unsigned long long>(n->processed.load()),
+                  static_cast<unsigned long long>(n->errors.load()), n->rate_hz(),
+                  us(n->process_time.percentile(0.5)).c_str(), us(n->process_time.percentile(0.99)).c_str(),
+                  us(n->process_time.max()).c_str(), us(n->latency.percentile(0.5)).c_str(), drops.c_str());
+    out += line;
+  }
+  return out;
+}
+
+std::string format_stats_json(const std::vector<const NodeStats*>& nodes, double elapsed_s) {
+  std::string out = "{\n  \"elapsed_s\": " + std::to_string(elapsed_s) + ",\n  \"nodes\": [";
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    const NodeStats* n = nodes[i];
+    out += i ? ",\n    {" : "\n    {";
+    out += "\"name\": \"" + json_escape(n->name) + "\", \"plugin\": \"" + json_escape(n->plugin) + "\"";
+    out += ", \"processed\": " + std::to_string(n->processed.load());
+    out += ", \"errors\": " + std::to_string(n->errors.load());
+    out += ", \"emitted\": " + std::to_string(n->emitted.load());
+    out += ", \"rate_hz\": " + std::to_string(n->rate_hz());
+    out += ", \"process_ns\": {\"p50\": " + std::to_string(n->process_time.percentile(0.5)) +
+           ", \"p99\": " + std::to_string(n->process_time.percentile(0.99)) +
+           ", \"max\": " + std::to_string(n->process_time.max()) + "}";
+    out += ", \"latency_ns\": {\"p50\": " + std::to_string(n->latency.percentile(0.5)) +
+           ", \"p99\": " + std::to_string(n->latency.percentile(0.99)) +
+           ", \"max\": " + std::to_string(n->latency.max()) + "}";
+    out += ", \"inputs\": [";
+    for (std::size_t k = 0; k < n->inputs.size(); ++k) {
+      const auto& in = n->inputs[k];
+      out += (k ? ", " : "") + std::string("{\"name\": \"") + json_escape(in->name) +
+             "\", \"received\": " + std::to_string(in->received.load()) +
+             ", \"dropped\": " + std::to_string(in->dropped.load()) +
+             ", \"sync_dropped\": " + std::to_string(in->sync_dropped.load()) + "}";
+    }
+    out += "]}";
+  }
+  out += "\n  ]\n}\n";
+  return out;
+}
+
+}  // namespace saccade
