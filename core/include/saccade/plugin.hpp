@@ -53,11 +53,11 @@ namespace detail {
 // Wraps a node so that no exception leaves the plugin library: this template is
 // instantiated inside the plugin, so its try/catch is the plugin's.
 template <class T>
-class Guarded final : public T {
+class Guarded final : public Node {
  public:
   Status open(OpenContext& ctx) override {
     try {
-      return T::open(ctx);
+      return inner_.open(ctx);
     } catch (const std::exception& e) {
       return Status::error(std::string("open threw: ") + e.what());
     } catch (...) {
@@ -66,7 +66,7 @@ class Guarded final : public T {
   }
   Status process(ProcessContext& ctx) override {
     try {
-      return T::process(ctx);
+      return inner_.process(ctx);
     } catch (const std::exception& e) {
       return Status::error(std::string("process threw: ") + e.what());
     } catch (...) {
@@ -75,10 +75,13 @@ class Guarded final : public T {
   }
   void close() override {
     try {
-      T::close();
+      inner_.close();
     } catch (...) {
     }
   }
+
+ private:
+  T inner_;
 };
 
 template <class T>

@@ -1,0 +1,224 @@
+// saccade: run, check, list and draw plugin graphs.
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+
+#include "saccade/executor.hpp"
+#include "saccade/graph.hpp"
+#include "saccade/log.hpp"
+#include "saccade/registry.hpp"
+
+namespace {
+
+using namespace saccade;
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void on_signal(int) {
+  g_stop.store(true);
+  // A second Ctrl-C ends the process the hard way.
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+}
+
+struct Common {
+  std::string plugin_path;
+  std::string log_level = "info";
+};
+
+void load_registry(Registry& registry, const Common& common, bool show_errors) {
+  registry.load_folders(Registry::default_search_path(common.plugin_path));
+  if (show_errors)
+    for (const auto& e : registry.load_errors()) std::cerr << "warning: " << e << "\n";
+}
+
+// Loads, overrides and validates; prints every diagnostic. Empty on error.
+std::optional<ResolvedGraph> prepare(const std::string& file, const std::vector<std::string>& sets,
+                                     const Registry& registry) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_file(file, diag);
+  if (!diag.has_errors()) apply_overrides(decl, sets, diag);
+  std::optional<ResolvedGraph> graph;
+  if (!diag.has_errors()) graph = resolve_graph(decl, registry, diag);
+  std::cerr << diag.format();
+  if (diag.has_errors()) {
+    std::cerr << diag.error_count() << " error" << (diag.error_count() == 1 ? "" : "s") << " in " << file
+              << "; nothing was started\n";
+    return std::nullopt;
+  }
+  return graph;
+}
+
+std::string param_default(const ParamSpec& p) {
+  if (p.required) return "(required)";
+  if (p.default_value.empty()) return "(none)";
+  return p.default_value;
+}
+
+std::string param_range(const ParamSpec& p) {
+  std::string out;
+  if (p.min || p.max) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "[%g, %g]", p.min.value_or(-1e300), p.max.value_or(1e300));
+    out = buf;
+  }
+  if (!p.choices.empty()) {
+    for (std::size_t i = 0; i < p.choices.size(); ++i) out += (i ? "|" : "") + p.choices[i];
+  }
+  return out;
+}
+
+std::string kind_name(InputKind k) {
+  switch (k) {
+    case InputKind::kTrigger: return "required";
+    case InputKind::kOptional: return "optional";
+    case InputKind::kSide: return "side";
+  }
+  return "";
+}
+
+void print_plugin_text(const NodeTypeInfo& info) {
+  const Contract& c = info.contract;
+  std::printf("%s\n  %s\n  library: %s\n", info.type.c_str(), c.doc().c_str(), info.library.c_str());
+  if (!c.inputs().empty()) std::printf("  inputs:\n");
+  for (const auto& p : c.inputs())
+    std::printf("    %-16s %-12s %-9s %s\n", p.name.c_str(), p.type.c_str(), kind_name(p.kind).c_str(), p.doc.c_str());
+  if (!c.outputs().empty()) std::printf("  outputs:\n");
+  for (const auto& p : c.outputs()) std::printf("    %-16s %-12s %s\n", p.name.c_str(), p.type.c_str(), p.doc.c_str());
+  if (!c.params().empty()) std::printf("  parameters:\n");
+  for (const auto& p : c.params())
+    std::printf("    %-20s %-7s default %-12s %s  %s\n", p.name.c_str(), std::string(to_string(p.type)).c_str(),
+                param_default(p).c_str(), param_range(p).c_str(), p.doc.c_str());
+  std::printf("\n");
+}
+
+void print_plugin_markdown(const NodeTypeInfo& info) {
+  const Contract& c = info.contract;
+  std::printf("## `%s`\n\n%s\n\n", info.type.c_str(), c.doc().c_str());
+  if (!c.inputs().empty()) {
+    std::printf("| input | type | kind | doc |\n|---|---|---|---|\n");
+    for (const auto& p : c.inputs())
+      std::printf("| `%s` | %s | %s | %s |\n", p.name.c_str(), p.type.c_str(), kind_name(p.kind).c_str(), p.doc.c_str());
+    std::printf("\n");
+  }
+  if (!c.outputs().empty()) {
+    std::printf("| output | type | doc |\n|---|---|---|\n");
+    for (const auto& p : c.outputs()) std::printf("| `%s` | %s | %s |\n", p.name.c_str(), p.type.c_str(), p.doc.c_str());
+    std::printf("\n");
+  }
+  if (!c.params().empty()) {
+    std::printf("| parameter | type | default | range / choices | doc |\n|---|---|---|---|---|\n");
+    for (const auto& p : c.params())
+      std::printf("| `%s` | %s | `%s` | %s | %s |\n", p.name.c_str(), std::string(to_string(p.type)).c_str(),
+                  param_default(p).c_str(), param_range(p).c_str(), p.doc.c_str());
+    std::printf("\n");
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"saccade: dataflow graphs for real-time active vision"};
+  app.require_subcommand(1);
+  Common common;
+  app.add_option("--plugin-path", common.plugin_path, "extra plugin folders, ':'-separated (searched first)");
+  app.add_option("--log-level", common.log_level, "trace, debug, info, warn, error")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
+
+  std::string graph_file;
+  std::vector<std::string> sets;
+  ExecutorOptions options;
+  double stats_interval = 0;
+  bool stats = false;
+  std::string stats_json;
+
+  auto* run = app.add_subcommand("run", "run a graph");
+  run->add_option("graph", graph_file, "graph file (XML)")->required();
+  run->add_option("--frames", options.max_frames, "stop each source after N frames");
+  run->add_option("--duration", options.duration_s, "stop after S seconds");
+  run->add_option("--threads", options.threads, "worker threads (default: one per core)")->check(CLI::Range(0, 256));
+  run->add_flag("--deterministic", options.deterministic, "one thread, fixed order: same input, bit-identical output");
+  auto* stats_opt = run->add_option("--stats", stats_interval, "print per-node stats at exit, and every INTERVAL seconds if given")
+                        ->expected(0, 1)
+                        ->default_val(0);
+  run->add_option("--stats-json", stats_json, "write the final stats as JSON to FILE");
+  run->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
+  run->add_option("--process", options.process, "run only the nodes of this process");
+
+  auto* check = app.add_subcommand("check", "validate a graph without running it");
+  check->add_option("graph", graph_file, "graph file (XML)")->required();
+  check->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
+
+  std::string plugin_name;
+  bool markdown = false;
+  auto* plugins = app.add_subcommand("plugins", "list plugins with their ports and parameters");
+  plugins->add_option("name", plugin_name, "one plugin type, or a library prefix such as 'capture'");
+  plugins->add_flag("--markdown", markdown, "print the reference as Markdown");
+
+  auto* dot = app.add_subcommand("dot", "print a graph as Graphviz");
+  dot->add_option("graph", graph_file, "graph file (XML)")->required();
+  dot->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
+
+  CLI11_PARSE(app, argc, argv);
+  log().set_level(spdlog::level::from_str(common.log_level));
+  stats = stats_opt->count() > 0;
+
+  Registry registry;
+  if (plugins->parsed()) {
+    load_registry(registry, common, true);
+    int shown = 0;
+    for (const auto& type : registry.types()) {
+      if (!plugin_name.empty() && type != plugin_name && type.rfind(plugin_name + ".", 0) != 0) continue;
+      const NodeTypeInfo* info = registry.find(type);
+      if (markdown) print_plugin_markdown(*info);
+      else print_plugin_text(*info);
+      ++shown;
+    }
+    if (shown == 0) {
+      std::cerr << "no plugin '" << plugin_name << "'" << did_you_mean(plugin_name, registry.types()) << "\n";
+      return 2;
+    }
+    return 0;
+  }
+
+  load_registry(registry, common, false);
+  auto graph = prepare(graph_file, sets, registry);
+  if (!graph) return 2;
+  if (check->parsed()) {
+    std::printf("%s: ok (%zu nodes, %zu edges)\n", graph_file.c_str(), graph->nodes.size(), graph->edges.size());
+    return 0;
+  }
+  if (dot->parsed()) {
+    std::printf("%s", to_dot(*graph).c_str());
+    return 0;
+  }
+
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  options.external_stop = &g_stop;
+  options.stats_interval_s = stats ? stats_interval : 0;
+  options.on_stats = [](const std::string& table) { std::fprintf(stderr, "%s\n", table.c_str()); };
+  Executor executor(*graph, registry, options);
+  Status status = executor.open();
+  if (!status.ok()) {
+    std::cerr << graph_file << ": error: " << status.message() << "\n";
+    return 1;
+  }
+  status = executor.run();
+  if (stats) std::printf("%s", executor.stats_table().c_str());
+  if (!stats_json.empty()) {
+    std::ofstream out(stats_json);
+    out << executor.stats_json();
+    if (!out) std::cerr << "error: cannot write " << stats_json << "\n";
+  }
+  if (!status.ok()) {
+    std::cerr << graph_file << ": error: " << status.message() << "\n";
+    return 1;
+  }
+  if (g_stop.load()) std::cerr << "stopped by signal\n";
+  return 0;
+}

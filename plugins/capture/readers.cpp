@@ -1,0 +1,272 @@
+#include "readers.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace saccade::capture {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+int64_t now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+int64_t frame_time_ns(int64_t index, double fps) {
+  return fps > 0 ? static_cast<int64_t>(std::llround(static_cast<double>(index) * 1e9 / fps)) : index * 33'333'333;
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (auto& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+class VideoReader final : public FrameReader {
+ public:
+  bool open(const std::string& path, std::string* error) {
+    if (!fs::exists(path)) {
+      if (error) *error = path + ": no such video file";
+      return false;
+    }
+    if (!cap_.open(path, cv::CAP_ANY) || !cap_.isOpened()) {
+      if (error) *error = path + ": OpenCV cannot open it as a video";
+      return false;
+    }
+    fps_ = cap_.get(cv::CAP_PROP_FPS);
+    return true;
+  }
+  bool read(cv::Mat& out, int64_t& media_ns, std::string*) override {
+    if (!cap_.read(out) || out.empty()) return false;
+    media_ns = frame_time_ns(index_++, fps_);
+    return true;
+  }
+  bool rewind() override {
+    index_ = 0;
+    return cap_.set(cv::CAP_PROP_POS_FRAMES, 0);
+  }
+  double fps() const override { return fps_; }
+
+ private:
+  cv::VideoCapture cap_;
+  double fps_ = 0;
+  int64_t index_ = 0;
+};
+
+class SequenceReader final : public FrameReader {
+ public:
+  bool open(const std::string& pattern, int first, double fps, std::string* error) {
+    pattern_ = pattern;
+    first_ = next_ = first;
+    fps_ = fps;
+    if (!fs::exists(name(first))) {
+      if (error) *error = pattern + ": the first image of the sequence, " + name(first) + ", does not exist";
+      return false;
+    }
+    return true;
+  }
+  bool read(cv::Mat& out, int64_t& media_ns, std::string* error) override {
+    std::string file = name(next_);
+    if (!fs::exists(file)) return false;
+    out = cv::imread(file, cv::IMREAD_UNCHANGED);
+    if (out.empty()) {
+      if (error) *error = file + ": cannot decode image";
+      return false;
+    }
+    media_ns = frame_time_ns(next_ - first_, fps_);
+    ++next_;
+    return true;
+  }
+  bool rewind() override {
+    next_ = first_;
+    return true;
+  }
+  double fps() const override { return fps_; }
+
+ private:
+  std::string name(int i) const {
+    char buf[4096];
+    std::snprintf(buf, sizeof buf, pattern_.c_str(), i);
+    return buf;
+  }
+  std::string pattern_;
+  int first_ = 0, next_ = 0;
+  double fps_ = 0;
+};
+
+// Decodes once; every read hands out the same pixels without copying them.
+class ImageReader final : public FrameReader {
+ public:
+  bool open(const std::string& path, int64_t count, double fps, std::string* error) {
+    image_ = cv::imread(path, cv::IMREAD_UNCHANGED);
+    if (image_.empty()) {
+      if (error) *error = path + (fs::exists(path) ? ": cannot decode image" : ": no such image file");
+      return false;
+    }
+    count_ = count;
+    fps_ = fps;
+    return true;
+  }
+  bool read(cv::Mat& out, int64_t& media_ns, std::string*) override {
+    if (count_ > 0 && index_ >= count_) return false;
+    out = image_;
+    media_ns = frame_time_ns(index_++, fps_);
+    return true;
+  }
+  bool rewind() override {
+    index_ = 0;
+    return true;
+  }
+  double fps() const override { return fps_; }
+
+ private:
+  cv::Mat image_;
+  int64_t count_ = 0, index_ = 0;
+  double fps_ = 0;
+};
+
+class CameraReader final : public FrameReader {
+ public:
+  bool open(const std::string& device, cv::Size size, double fps, std::string* error) {
+    bool numeric = !device.empty() && device.find_first_not_of("0123456789") == std::string::npos;
+    bool ok = numeric ? cap_.open(std::stoi(device), cv::CAP_V4L2) : cap_.open(device, cv::CAP_V4L2);
+    if (!ok || !cap_.isOpened()) {
+      if (error)
+        *error = "camera '" + device + "' cannot be opened through V4L2 (is it connected, and is " +
+                 (numeric ? "/dev/video" + device : device) + " readable?)";
+      return false;
+    }
+    if (size.area() > 0) {
+      cap_.set(cv::CAP_PROP_FRAME_WIDTH, size.width);
+      cap_.set(cv::CAP_PROP_FRAME_HEIGHT, size.height);
+    }
+    if (fps > 0) cap_.set(cv::CAP_PROP_FPS, fps);
+    return true;
+  }
+  bool read(cv::Mat& out, int64_t& media_ns, std::string* error) override {
+    if (!cap_.read(out) || out.empty()) {
+      if (error) *error = "camera stopped delivering frames";
+      return false;
+    }
+    media_ns = now_ns();
+    return true;
+  }
+  double fps() const override { return cap_.get(cv::CAP_PROP_FPS); }
+  bool live() const override { return true; }
+
+ private:
+  mutable cv::VideoCapture cap_;
+};
+
+}  // namespace
+
+SourceKind classify_source(const std::string& path) {
+  if (path.find('%') != std::string::npos) return SourceKind::kSequence;
+  if (!path.empty() && path.find_first_not_of("0123456789") == std::string::npos) return SourceKind::kCamera;
+  if (path.rfind("/dev/video", 0) == 0) return SourceKind::kCamera;
+  std::string ext = lower_extension(path);
+  for (const char* e : {".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff", ".webp"})
+    if (ext == e) return SourceKind::kImage;
+  return SourceKind::kVideo;
+}
+
+std::unique_ptr<FrameReader> open_video(const std::string& path, std::string* error) {
+  auto r = std::make_unique<VideoReader>();
+  return r->open(path, error) ? std::move(r) : nullptr;
+}
+
+std::unique_ptr<FrameReader> open_sequence(const std::string& pattern, int first, double fps, std::string* error) {
+  auto r = std::make_unique<SequenceReader>();
+  return r->open(pattern, first, fps, error) ? std::move(r) : nullptr;
+}
+
+std::unique_ptr<FrameReader> open_image(const std::string& path, int64_t count, double fps, std::string* error) {
+  auto r = std::make_unique<ImageReader>();
+  return r->open(path, count, fps, error) ? std::move(r) : nullptr;
+}
+
+std::unique_ptr<FrameReader> open_camera(const std::string& device, cv::Size size, double fps, std::string* error) {
+  auto r = std::make_unique<CameraReader>();
+  return r->open(device, size, fps, error) ? std::move(r) : nullptr;
+}
+
+std::unique_ptr<FrameReader> open_any(const std::string& path, double fps, std::string* error) {
+  switch (classify_source(path)) {
+    case SourceKind::kSequence: return open_sequence(path, 1, fps, error);
+    case SourceKind::kImage: return open_image(path, 0, fps, error);
+    case SourceKind::kCamera: return open_camera(path, {}, fps, error);
+    case SourceKind::kVideo: return open_video(path, error);
+  }
+  return nullptr;
+}
+
+SyntheticRenderer::SyntheticRenderer(SyntheticScene scene) : scene_(std::move(scene)) {
+  cv::RNG rng(scene_.seed);
+  int s = scene_.target_size;
+  texture_.create(s, s, CV_8UC3);
+  // A checkerboard of random colours plus fine noise: texture at every scale, so
+  // both the tracker and the stereo matcher have something to lock onto.
+  int cell = std::max(2, s / 6);
+  for (int y = 0; y < s; ++y)
+    for (int x = 0; x < s; ++x) {
+      bool dark = ((x / cell) + (y / cell)) % 2 == 0;
+      auto& px = texture_.at<cv::Vec3b>(y, x);
+      for (int c = 0; c < 3; ++c) {
+        int base = dark ? 40 : 215;
+        px[c] = cv::saturate_cast<uchar>(base + rng.uniform(-35, 36));
+      }
+    }
+  if (scene_.background_disparity != 0) {
+    cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -scene_.background_disparity, 0, 1, 0);
+    cv::warpAffine(scene_.background, right_background_, shift, scene_.background.size(), cv::INTER_NEAREST,
+                   cv::BORDER_REPLICATE);
+  } else {
+    right_background_ = scene_.background;
+  }
+}
+
+cv::Point SyntheticRenderer::target_corner(int64_t k) const {
+  const cv::Size size = scene_.background.size();
+  double cx = size.width / 2.0, cy = size.height / 2.0;
+  double phase = 2.0 * M_PI * static_cast<double>(k) / scene_.period_frames;
+  if (scene_.path == "circle") {
+    cx += scene_.radius * std::cos(phase);
+    cy += scene_.radius * std::sin(phase);
+  } else if (scene_.path == "line") {
+    cx += scene_.radius * std::sin(phase);
+  }
+  int s = scene_.target_size;
+  int x = static_cast<int>(std::lround(cx - s / 2.0));
+  int y = static_cast<int>(std::lround(cy - s / 2.0));
+  x = std::clamp(x, 0, size.width - s);
+  y = std::clamp(y, 0, size.height - s);
+  return {x, y};
+}
+
+cv::Point2d SyntheticRenderer::target_center(int64_t k) const {
+  cv::Point c = target_corner(k);
+  // Centre of the covered pixels [x, x+s): pixel centres at x+0.5 ... x+s-0.5.
+  return {c.x + scene_.target_size / 2.0, c.y + scene_.target_size / 2.0};
+}
+
+void SyntheticRenderer::render(int64_t k, cv::Mat& left, cv::Mat& right) const {
+  cv::Point c = target_corner(k);
+  int s = scene_.target_size;
+  scene_.background.copyTo(left);
+  texture_.copyTo(left(cv::Rect(c.x, c.y, s, s)));
+  if (right.data != nullptr || scene_.disparity != 0 || scene_.background_disparity != 0) {
+    right_background_.copyTo(right);
+    int rx = c.x - scene_.disparity;
+    cv::Rect dst(rx, c.y, s, s);
+    cv::Rect visible = dst & cv::Rect(0, 0, right.cols, right.rows);
+    if (visible.area() > 0) texture_(cv::Rect(visible.x - rx, 0, visible.width, s)).copyTo(right(visible));
+  }
+}
+
+}  // namespace saccade::capture

@@ -1,0 +1,69 @@
+#pragma once
+// Frame readers behind the capture nodes: a video file, an image sequence, one
+// image repeated, a camera device, and a synthetic scene with exact ground truth.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+
+namespace saccade::capture {
+
+class FrameReader {
+ public:
+  virtual ~FrameReader() = default;
+  // Reads the next frame into `out` (reusing its buffer); false at end of stream.
+  // `media_ns` gets the frame's media time (file position) or capture time.
+  virtual bool read(cv::Mat& out, int64_t& media_ns, std::string* error) = 0;
+  // Back to the first frame, for looping; false when the source cannot.
+  virtual bool rewind() { return false; }
+  // Frames per second the source declares (0 when unknown).
+  virtual double fps() const { return 0.0; }
+  // True for live sources whose media time is wall-clock time.
+  virtual bool live() const { return false; }
+};
+
+// What a path names: a printf pattern ("left%02d.jpg") is a sequence, a still
+// image extension one image, a bare number or /dev/video* a camera, else a video.
+enum class SourceKind { kVideo, kSequence, kImage, kCamera };
+SourceKind classify_source(const std::string& path);
+
+// Each returns nullptr and fills `error` (naming the path) when it cannot open.
+std::unique_ptr<FrameReader> open_video(const std::string& path, std::string* error);
+std::unique_ptr<FrameReader> open_sequence(const std::string& pattern, int first, double fps, std::string* error);
+std::unique_ptr<FrameReader> open_image(const std::string& path, int64_t count, double fps, std::string* error);
+std::unique_ptr<FrameReader> open_camera(const std::string& device, cv::Size size, double fps, std::string* error);
+std::unique_ptr<FrameReader> open_any(const std::string& path, double fps, std::string* error);
+
+// A textured square moving over a real background on a known path; the right
+// view sees the target shifted left by `disparity` and the background by
+// `background_disparity` (pixels).
+struct SyntheticScene {
+  cv::Mat background;  // BGR
+  int target_size = 48;
+  std::string path = "circle";  // circle | line | still
+  double radius = 120.0;        // circle radius or half the line's length, pixels
+  double period_frames = 120.0;
+  int disparity = 0;
+  int background_disparity = 0;
+  uint64_t seed = 1;
+};
+
+class SyntheticRenderer {
+ public:
+  explicit SyntheticRenderer(SyntheticScene scene);
+  // Centre of the rendered target in the left view at frame k (exact: the
+  // rendered square's centre, after rounding its corner to whole pixels).
+  cv::Point2d target_center(int64_t k) const;
+  void render(int64_t k, cv::Mat& left, cv::Mat& right) const;
+  const SyntheticScene& scene() const { return scene_; }
+
+ private:
+  cv::Point target_corner(int64_t k) const;
+  SyntheticScene scene_;
+  cv::Mat texture_;
+  cv::Mat right_background_;
+};
+
+}  // namespace saccade::capture

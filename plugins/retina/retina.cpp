@@ -1,0 +1,181 @@
+#include "retina.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace saccade::retina {
+
+namespace {
+
+int sub_step(double step) { return std::max(1, static_cast<int>(std::ceil(step / 3.0 - 1e-9))); }
+
+// Rounded mean of five 8-bit samples: (sum + 2) / 5, exact for sums up to 1275.
+inline uint8_t mean5(unsigned sum) { return static_cast<uint8_t>(((sum + 2) * 52429u) >> 18); }
+
+// Cell centre along one axis, in frame pixels.
+inline int cell_center(int origin, double step, int i) {
+  return origin + static_cast<int>(std::floor((i + 0.5) * step));
+}
+
+}  // namespace
+
+cv::Point clamp_fovea_corner(const RetinaConfig& config, cv::Size frame, cv::Point2d fovea) {
+  int x = static_cast<int>(std::lround(fovea.x - config.size.width / 2.0));
+  int y = static_cast<int>(std::lround(fovea.y - config.size.height / 2.0));
+  return {std::clamp(x, 0, frame.width - config.size.width), std::clamp(y, 0, frame.height - config.size.height)};
+}
+
+std::vector<LevelGeometry> retina_geometry(const RetinaConfig& config, cv::Size frame, cv::Point2d fovea) {
+  cv::Point corner = clamp_fovea_corner(config, frame, fovea);
+  std::vector<LevelGeometry> out(static_cast<std::size_t>(config.levels));
+  int m = config.levels - 1;
+  for (int k = 0; k <= m; ++k) {
+    double t = m == 0 ? 1.0 : static_cast<double>(k) / m;
+    int w = static_cast<int>(std::lround(frame.width + (config.size.width - frame.width) * t));
+    int h = static_cast<int>(std::lround(frame.height + (config.size.height - frame.height) * t));
+    int x = std::min(static_cast<int>(std::lround(corner.x * t)), frame.width - w);
+    int y = std::min(static_cast<int>(std::lround(corner.y * t)), frame.height - h);
+    auto& g = out[static_cast<std::size_t>(k)];
+    g.region = cv::Rect(x, y, w, h);
+    g.step_x = static_cast<double>(w) / config.size.width;
+    g.step_y = static_cast<double>(h) / config.size.height;
+  }
+  return out;
+}
+
+void sample_reference(const RetinaConfig& config, const cv::Mat& frame, const std::vector<LevelGeometry>& geometry,
+                      std::vector<cv::Mat>& levels) {
+  const int cn = frame.channels();
+  levels.resize(geometry.size());
+  for (std::size_t k = 0; k < geometry.size(); ++k) {
+    const LevelGeometry& g = geometry[k];
+    cv::Mat& level = levels[k];
+    level.create(config.size, frame.type());
+    bool fovea = k + 1 == geometry.size();
+    int sx = sub_step(g.step_x), sy = sub_step(g.step_y);
+    for (int j = 0; j < config.size.height; ++j) {
+      for (int i = 0; i < config.size.width; ++i) {
+        for (int c = 0; c < cn; ++c) {
+          auto px = [&](int x, int y) {
+            x = std::clamp(x, 0, frame.cols - 1);
+            y = std::clamp(y, 0, frame.rows - 1);
+            return static_cast<unsigned>(frame.ptr<uint8_t>(y)[x * cn + c]);
+          };
+          uint8_t value = 0;
+          if (fovea) {
+            value = static_cast<uint8_t>(px(g.region.x + i, g.region.y + j));
+          } else if (config.mode == SamplingMode::kFivePoint) {
+            int cx = std::clamp(cell_center(g.region.x, g.step_x, i), sx, frame.cols - 1 - sx);
+            int cy = std::clamp(cell_center(g.region.y, g.step_y, j), sy, frame.rows - 1 - sy);
+            unsigned sum = px(cx, cy) + px(cx - sx, cy) + px(cx + sx, cy) + px(cx, cy - sy) + px(cx, cy + sy);
+            value = mean5(sum);
+          } else {
+            int x0 = g.region.x + static_cast<int>(std::floor(i * g.step_x));
+            int x1 = std::max(x0 + 1, g.region.x + static_cast<int>(std::floor((i + 1) * g.step_x)));
+            int y0 = g.region.y + static_cast<int>(std::floor(j * g.step_y));
+            int y1 = std::max(y0 + 1, g.region.y + static_cast<int>(std::floor((j + 1) * g.step_y)));
+            double sum = 0;
+            for (int y = y0; y < y1; ++y)
+              for (int x = x0; x < x1; ++x) sum += px(x, y);
+            value = cv::saturate_cast<uint8_t>(sum / ((x1 - x0) * (y1 - y0)));
+          }
+          level.ptr<uint8_t>(j)[i * cn + c] = value;
+        }
+      }
+    }
+  }
+}
+
+RetinaSampler::RetinaSampler(RetinaConfig config) : config_(config) {
+  tables_.resize(static_cast<std::size_t>(config_.levels));
+  for (auto& t : tables_) {
+    t.col.resize(static_cast<std::size_t>(config_.size.width));
+    t.row.resize(static_cast<std::size_t>(config_.size.height));
+    t.row_up.resize(static_cast<std::size_t>(config_.size.height));
+    t.row_down.resize(static_cast<std::size_t>(config_.size.height));
+  }
+}
+
+std::string RetinaSampler::check(const cv::Mat& frame) const {
+  if (frame.empty()) return "empty frame";
+  if (frame.depth() != CV_8U || (frame.channels() != 1 && frame.channels() != 3))
+    return "expected an 8-bit gray or BGR frame, got type " + cv::typeToString(frame.type());
+  if (frame.cols < config_.size.width || frame.rows < config_.size.height)
+    return "frame " + std::to_string(frame.cols) + "x" + std::to_string(frame.rows) + " is smaller than a level (" +
+           std::to_string(config_.size.width) + "x" + std::to_string(config_.size.height) + ")";
+  return {};
+}
+
+void RetinaSampler::prepare(const cv::Mat& frame, cv::Point corner) {
+  if (frame.size() == prepared_size_ && frame.type() == prepared_type_ && corner == prepared_corner_) return;
+  cv::Point2d centre(corner.x + config_.size.width / 2.0, corner.y + config_.size.height / 2.0);
+  std::vector<LevelGeometry> geometry = retina_geometry(config_, frame.size(), centre);
+  geometry_.assign(geometry.begin(), geometry.end());
+  const int cn = frame.channels();
+  for (std::size_t k = 0; k < geometry_.size(); ++k) {
+    const LevelGeometry& g = geometry_[k];
+    LevelTable& t = tables_[k];
+    int sx = sub_step(g.step_x), sy = sub_step(g.step_y);
+    for (int i = 0; i < config_.size.width; ++i) {
+      int cx = std::clamp(cell_center(g.region.x, g.step_x, i), sx, frame.cols - 1 - sx);
+      t.col[static_cast<std::size_t>(i)] = cx * cn;
+    }
+    for (int j = 0; j < config_.size.height; ++j) {
+      int cy = std::clamp(cell_center(g.region.y, g.step_y, j), sy, frame.rows - 1 - sy);
+      t.row[static_cast<std::size_t>(j)] = cy;
+      t.row_up[static_cast<std::size_t>(j)] = cy - sy;
+      t.row_down[static_cast<std::size_t>(j)] = cy + sy;
+    }
+    t.sub_x_bytes = sx * cn;
+  }
+  prepared_size_ = frame.size();
+  prepared_type_ = frame.type();
+  prepared_corner_ = corner;
+}
+
+void RetinaSampler::sample_five_point(const cv::Mat& frame, std::vector<cv::Mat>& levels) const {
+  const int cn = frame.channels();
+  const int w = config_.size.width, h = config_.size.height;
+  for (std::size_t k = 0; k + 1 < tables_.size(); ++k) {
+    const LevelTable& t = tables_[k];
+    cv::Mat& level = levels[k];
+    const int s = t.sub_x_bytes;
+    const int* col = t.col.data();
+    for (int j = 0; j < h; ++j) {
+      const uint8_t* r0 = frame.ptr<uint8_t>(t.row[static_cast<std::size_t>(j)]);
+      const uint8_t* ru = frame.ptr<uint8_t>(t.row_up[static_cast<std::size_t>(j)]);
+      const uint8_t* rd = frame.ptr<uint8_t>(t.row_down[static_cast<std::size_t>(j)]);
+      uint8_t* out = level.ptr<uint8_t>(j);
+      if (cn == 1) {
+        for (int i = 0; i < w; ++i) {
+          const int x = col[i];
+          out[i] = mean5(static_cast<unsigned>(r0[x]) + r0[x - s] + r0[x + s] + ru[x] + rd[x]);
+        }
+      } else {
+        for (int i = 0; i < w; ++i) {
+          const int x = col[i];
+          for (int c = 0; c < 3; ++c)
+            out[i * 3 + c] = mean5(static_cast<unsigned>(r0[x + c]) + r0[x + c - s] + r0[x + c + s] + ru[x + c] + rd[x + c]);
+        }
+      }
+    }
+  }
+}
+
+void RetinaSampler::sample(const cv::Mat& frame, cv::Point2d fovea, std::vector<cv::Mat>& levels,
+                           std::vector<LevelGeometry>& geometry) {
+  cv::Point corner = clamp_fovea_corner(config_, frame.size(), fovea);
+  prepare(frame, corner);
+  levels.resize(static_cast<std::size_t>(config_.levels));
+  for (auto& level : levels) level.create(config_.size, frame.type());
+  geometry.assign(geometry_.begin(), geometry_.end());
+  if (config_.mode == SamplingMode::kFivePoint) {
+    sample_five_point(frame, levels);
+    // The fovea is a direct crop.
+    frame(geometry_.back().region).copyTo(levels.back());
+  } else {
+    sample_reference(config_, frame, geometry_, levels);
+  }
+}
+
+}  // namespace saccade::retina

@@ -1,0 +1,75 @@
+#pragma once
+// The multi-resolution retina (the paper's Algorithm 1).
+//
+// L levels of W x H pixels. Level L-1 (the fovea) is a direct crop of W x H
+// around the fovea; level 0 covers the whole frame. Level k's region grows
+// linearly between them: with t = k / (L-1), its size is lerp(frame, W x H, t)
+// and its top-left corner lerp((0,0), fovea corner, t), so every level lies
+// inside the frame and inside the levels outside it.
+//
+// Five-point mode: level pixel (i, j) sits at the centre of its cell,
+// c = region.tl + floor((i + 0.5) * step); its value is the rounded mean of
+// (cx, cy), (cx +- s_x, cy), (cx, cy +- s_y) with s = ceil(step / 3) (the paper's
+// h/3 with h taken up to the next multiple of 3). A centre closer than s to the
+// frame's edge is moved in by the difference, so every sample lies in the frame
+// (only the outermost level's edge cells can be affected).
+// Area-mean mode: the exact mean of the cell's pixels.
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "saccade/message.hpp"
+
+namespace saccade::retina {
+
+enum class SamplingMode { kFivePoint, kAreaMean };
+
+struct RetinaConfig {
+  int levels = 5;
+  cv::Size size{32, 24};
+  SamplingMode mode = SamplingMode::kFivePoint;
+};
+
+// Clamps the fovea centre so the fovea crop lies inside the frame; returns the
+// crop's top-left corner.
+cv::Point clamp_fovea_corner(const RetinaConfig& config, cv::Size frame, cv::Point2d fovea);
+
+// Geometry of every level (index 0 outermost) for a fovea centre.
+std::vector<LevelGeometry> retina_geometry(const RetinaConfig& config, cv::Size frame, cv::Point2d fovea);
+
+// Plain per-pixel implementation of the sampling rule above: the reference the
+// fast sampler is tested against.
+void sample_reference(const RetinaConfig& config, const cv::Mat& frame, const std::vector<LevelGeometry>& geometry,
+                      std::vector<cv::Mat>& levels);
+
+// Fast sampler: per-level offset tables are rebuilt only when the frame size,
+// type or fovea change; otherwise sampling allocates nothing.
+class RetinaSampler {
+ public:
+  explicit RetinaSampler(RetinaConfig config);
+  // Checks the frame against the configuration ("" when it fits).
+  std::string check(const cv::Mat& frame) const;
+  // Samples `frame` (8-bit, 1 or 3 channels) into `levels` and fills `geometry`.
+  void sample(const cv::Mat& frame, cv::Point2d fovea, std::vector<cv::Mat>& levels,
+              std::vector<LevelGeometry>& geometry);
+  const RetinaConfig& config() const { return config_; }
+
+ private:
+  void prepare(const cv::Mat& frame, cv::Point corner);
+  void sample_five_point(const cv::Mat& frame, std::vector<cv::Mat>& levels) const;
+
+  struct LevelTable {
+    std::vector<int> col;  // byte offset of each cell centre in a row
+    std::vector<int> row;  // frame row of each cell centre
+    std::vector<int> row_up, row_down;
+    int sub_x_bytes = 0;
+  };
+  RetinaConfig config_;
+  std::vector<LevelTable> tables_;
+  std::vector<LevelGeometry> geometry_;
+  cv::Size prepared_size_;
+  int prepared_type_ = -1;
+  cv::Point prepared_corner_{-1, -1};
+};
+
+}  // namespace saccade::retina

@@ -1,0 +1,103 @@
+#include "mosaic.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+namespace saccade::snapshot {
+
+namespace {
+
+const cv::Scalar kText(255, 255, 255);
+
+cv::Scalar level_color(std::size_t k, std::size_t n) {
+  double t = n > 1 ? static_cast<double>(k) / static_cast<double>(n - 1) : 1.0;
+  return cv::Scalar(255 * (1 - t), 80 + 100 * (1 - std::abs(2 * t - 1)), 255 * t);
+}
+
+cv::Mat source_bgr(const Retina& retina) {
+  if (retina.source && !retina.source->mat.empty()) return to_display(retina.source->mat);
+  return cv::Mat(retina.source_size, CV_8UC3, cv::Scalar(0, 0, 0));
+}
+
+}  // namespace
+
+cv::Mat to_display(const cv::Mat& image) {
+  cv::Mat m8;
+  if (image.depth() == CV_8U) {
+    m8 = image;
+  } else {
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(image.reshape(1), &lo, &hi);
+    if (lo < 0) {
+      double a = std::max(std::abs(lo), std::abs(hi));
+      image.convertTo(m8, CV_8U, a > 0 ? 127.5 / a : 1.0, 127.5);
+    } else {
+      image.convertTo(m8, CV_8U, hi > 0 ? 255.0 / hi : 1.0);
+    }
+  }
+  cv::Mat bgr;
+  if (m8.channels() == 1) cv::cvtColor(m8, bgr, cv::COLOR_GRAY2BGR);
+  else bgr = m8.clone();
+  return bgr;
+}
+
+cv::Mat retina_overlay(const Retina& retina) {
+  cv::Mat out = source_bgr(retina);
+  int thickness = std::max(1, out.cols / 400);
+  for (std::size_t k = 0; k < retina.geometry.size(); ++k)
+    cv::rectangle(out, retina.geometry[k].region, level_color(k, retina.geometry.size()), thickness);
+  cv::drawMarker(out, retina.fovea, cv::Scalar(0, 0, 255), cv::MARKER_CROSS, 12, thickness);
+  cv::putText(out, "frame " + std::to_string(retina.frame_id), {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.6, kText, 1,
+              cv::LINE_AA);
+  return out;
+}
+
+cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::string& title) {
+  if (levels.empty()) return {};
+  const int gap = 4, header = 18;
+  cv::Size cell(levels[0].cols * scale, levels[0].rows * scale);
+  cv::Mat out(cell.height + header, static_cast<int>(levels.size()) * (cell.width + gap) - gap, CV_8UC3,
+              cv::Scalar(40, 40, 40));
+  for (std::size_t k = 0; k < levels.size(); ++k) {
+    cv::Mat big;
+    cv::resize(to_display(levels[k]), big, cell, 0, 0, cv::INTER_NEAREST);
+    big.copyTo(out(cv::Rect(static_cast<int>(k) * (cell.width + gap), header, cell.width, cell.height)));
+    cv::putText(out, "L" + std::to_string(k), {static_cast<int>(k) * (cell.width + gap) + 2, 13},
+                cv::FONT_HERSHEY_SIMPLEX, 0.4, kText, 1, cv::LINE_AA);
+  }
+  if (!title.empty())
+    cv::putText(out, title, {out.cols - 8 * static_cast<int>(title.size()) - 4, 13}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
+  return out;
+}
+
+cv::Mat foveated_view(const Retina& retina) {
+  cv::Mat out(retina.source_size, CV_8UC3, cv::Scalar(0, 0, 0));
+  for (std::size_t k = 0; k < retina.levels.size(); ++k) {
+    const cv::Rect& r = retina.geometry[k].region;
+    cv::Mat big;
+    cv::resize(to_display(retina.levels[k]), big, r.size(), 0, 0, cv::INTER_NEAREST);
+    big.copyTo(out(r));
+  }
+  return out;
+}
+
+cv::Mat feature_grid(const FeatureMaps& maps, int scale) {
+  std::vector<cv::Mat> strips;
+  int width = 0;
+  for (std::size_t i = 0; i < maps.names.size(); ++i) {
+    strips.push_back(level_strip(maps.maps[i], scale, maps.names[i]));
+    width = std::max(width, strips.back().cols);
+  }
+  if (strips.empty()) return {};
+  int height = 0;
+  for (const auto& s : strips) height += s.rows + 4;
+  cv::Mat out(height, width, CV_8UC3, cv::Scalar(20, 20, 20));
+  int y = 0;
+  for (const auto& s : strips) {
+    s.copyTo(out(cv::Rect(0, y, s.cols, s.rows)));
+    y += s.rows + 4;
+  }
+  return out;
+}
+
+}  // namespace saccade::snapshot

@@ -1,0 +1,30 @@
+#pragma once
+// Pictures of retinas and feature maps, like the paper's figures.
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "saccade/message.hpp"
+
+namespace saccade::snapshot {
+
+// Any 1- or 3-channel image as 8-bit BGR; float maps are stretched to 0..255
+// (signed maps around mid-gray).
+cv::Mat to_display(const cv::Mat& image);
+
+// The source frame with each level's region drawn (outermost blue to fovea red)
+// and the fovea's centre marked.
+cv::Mat retina_overlay(const Retina& retina);
+
+// Levels side by side, each enlarged `scale` times (nearest neighbour), labelled.
+cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::string& title);
+
+// The frame as the retina sees it: each level painted back over its region,
+// outermost first, so resolution rises towards the fovea.
+cv::Mat foveated_view(const Retina& retina);
+
+// One strip per feature, stacked.
+cv::Mat feature_grid(const FeatureMaps& maps, int scale);
+
+}  // namespace saccade::snapshot

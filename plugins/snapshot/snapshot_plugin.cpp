@@ -1,0 +1,82 @@
+#include <cstdio>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "mosaic.hpp"
+#include "saccade/plugin.hpp"
+
+namespace {
+
+using namespace saccade;
+using namespace saccade::snapshot;
+
+class Snapshot final : public Node {
+ public:
+  static constexpr const char* kName = "";
+  static Contract contract() {
+    return Contract("Writes PNG mosaics every N frames: an Image as it is; a Retina as the frame with its level "
+                    "rectangles, the level strip and the foveated view; FeatureMaps as all of those plus one strip per feature.")
+        .input<Message>("in", "Image, Retina or FeatureMaps")
+        .param_string("dir", "out", "folder for the PNGs (created)")
+        .param_string("prefix", "", "file name prefix (default: the node's name)")
+        .param_int("every", 1, 1, 1'000'000, "write one frame in N")
+        .param_int("first", 0, 0, 1'000'000'000, "skip frames before this frame id")
+        .param_int("scale", 6, 1, 32, "enlargement of level images");
+  }
+  Status open(OpenContext& ctx) override {
+    const Params& p = ctx.params();
+    in_ = ctx.input<Message>("in");
+    dir_ = p.get_string("dir");
+    prefix_ = p.get_string("prefix");
+    if (prefix_.empty()) prefix_ = ctx.node_name();
+    every_ = p.get_int("every");
+    first_ = p.get_int("first");
+    scale_ = static_cast<int>(p.get_int("scale"));
+    std::error_code ec;
+    std::filesystem::create_directories(dir_, ec);
+    if (ec) return Status::error("cannot create folder '" + dir_ + "': " + ec.message());
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    auto msg = ctx.get(in_);
+    if (msg->frame_id < first_ || (msg->frame_id - first_) % every_ != 0) return {};
+    if (auto image = std::dynamic_pointer_cast<const Image>(msg)) return write("frame", msg->frame_id, to_display(image->mat));
+    const Retina* retina = nullptr;
+    auto maps = std::dynamic_pointer_cast<const FeatureMaps>(msg);
+    if (maps) retina = maps->retina.get();
+    auto as_retina = std::dynamic_pointer_cast<const Retina>(msg);
+    if (as_retina) retina = as_retina.get();
+    if (retina == nullptr && !maps) return Status::error("cannot draw a " + std::string(msg->type_name()));
+    if (retina != nullptr) {
+      if (Status s = write("source", msg->frame_id, retina_overlay(*retina)); !s.ok()) return s;
+      if (Status s = write("levels", msg->frame_id, level_strip(retina->levels, scale_, "retina")); !s.ok()) return s;
+      if (Status s = write("foveated", msg->frame_id, foveated_view(*retina)); !s.ok()) return s;
+    }
+    if (maps) {
+      if (Status s = write("features", msg->frame_id, feature_grid(*maps, scale_)); !s.ok()) return s;
+      for (std::size_t i = 0; i < maps->names.size(); ++i)
+        if (Status s = write(maps->names[i], msg->frame_id, level_strip(maps->maps[i], scale_, maps->names[i])); !s.ok())
+          return s;
+    }
+    return {};
+  }
+
+ private:
+  Status write(const std::string& what, int64_t frame, const cv::Mat& image) {
+    char name[64];
+    std::snprintf(name, sizeof name, "_%06lld_", static_cast<long long>(frame));
+    std::string path = dir_ + "/" + prefix_ + name + what + ".png";
+    if (image.empty() || !cv::imwrite(path, image)) return Status::error("cannot write " + path);
+    ++written_;
+    return {};
+  }
+  InputHandle<Message> in_;
+  std::string dir_, prefix_;
+  int64_t every_ = 1, first_ = 0, written_ = 0;
+  int scale_ = 6;
+};
+
+}  // namespace
+
+SACCADE_PLUGIN("snapshot", Snapshot)
