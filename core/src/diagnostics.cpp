@@ -1,5 +1,7 @@
 #include "saccade/diagnostics.hpp"
 
+#include <algorithm>
+
 namespace saccade {
 
 std::string Diagnostic::format() const {
@@ -36,8 +38,14 @@ std::size_t Diagnostics::error_count() const {
 }
 
 std::string Diagnostics::format() const {
+  // In file order, as an editor would walk them.
+  std::vector<const Diagnostic*> sorted;
+  for (const auto& d : items_) sorted.push_back(&d);
+  std::stable_sort(sorted.begin(), sorted.end(), [](const Diagnostic* a, const Diagnostic* b) {
+    return a->file == b->file ? a->line < b->line : a->file < b->file;
+  });
   std::string out;
-  for (const auto& d : items_) out += d.format() + "\n";
+  for (const Diagnostic* d : sorted) out += d->format() + "\n";
   return out;
 }
 

@@ -351,6 +351,11 @@ struct Executor::Impl {
     if (n.finished) return;
     n.finished = true;
     ++finished_count;
+    // What is left in a trigger queue can never be used: it had no partner.
+    for (auto& in : n.inputs) {
+      if (!in.queue.empty()) in.stats->sync_dropped.fetch_add(in.queue.size(), std::memory_order_relaxed);
+      while (!in.queue.empty()) in.queue.pop();
+    }
     for (const auto& targets : n.outputs)
       for (const Target& t : targets) {
         nodes[static_cast<std::size_t>(t.node)].inputs[static_cast<std::size_t>(t.input)].eos = true;

@@ -1,5 +1,6 @@
 #include "saccade/testing.hpp"
 
+#include <regex>
 #include <stdexcept>
 
 namespace saccade::testing {
@@ -19,7 +20,8 @@ std::unique_ptr<NodeHarness> NodeHarness::create(const std::string& node_xml, st
   Diagnostics diag;
   std::string xml = node_xml;
   // A nameless node gets one, so it can stand in a graph.
-  if (xml.find("name=") == std::string::npos) {
+  static const std::regex named(R"(<node[^>]*\sname\s*=)");
+  if (!std::regex_search(xml, named)) {
     auto at = xml.find("<node");
     if (at != std::string::npos) xml.insert(at + 5, " name=\"under_test\"");
   }

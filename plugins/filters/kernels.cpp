@@ -132,7 +132,9 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
   const int w = level.cols, h = level.rows;
   const bool need_ggrad = want[kGGradX] || want[kGGradY] || want[kGGradMag] || want[kGGradMask];
   const int pad = need_ggrad ? std::max(1, radius_) : 1;
-  const int border = to_cv_border(config_.border);
+  // BORDER_ISOLATED: a level that is a view into a larger image must not borrow
+  // its neighbours' pixels for the border.
+  const int border = to_cv_border(config_.border) | cv::BORDER_ISOLATED;
   padded_.create(h + 2 * pad, w + 2 * pad, CV_8U);
   cv::copyMakeBorder(level, padded_, pad, pad, pad, pad, border);
 

@@ -157,6 +157,34 @@ class Pair final : public Node {
   OutputHandle<Region> out_;
 };
 
+class Latch final : public Node {
+ public:
+  static constexpr const char* kName = "latch";
+  static Contract contract() {
+    return Contract("Runs on 'in' and reports which message it saw on the side input: a probe for feedback edges.")
+        .input<Message>("in", "triggers a call")
+        .side_input<Message>("side", "newest value seen, never triggers")
+        .output<Region>("out", "center = (in.frame_id, side.frame_id or -1 when none yet)");
+  }
+  Status open(OpenContext& ctx) override {
+    in_ = ctx.input<Message>("in");
+    side_ = ctx.input<Message>("side");
+    out_ = ctx.output<Region>("out");
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    auto side = ctx.get(side_);
+    auto r = ctx.make(out_);
+    r->center = {static_cast<double>(ctx.get(in_)->frame_id), side ? static_cast<double>(side->frame_id) : -1.0};
+    ctx.emit(out_, std::move(r));
+    return {};
+  }
+
+ private:
+  InputHandle<Message> in_, side_;
+  OutputHandle<Region> out_;
+};
+
 class Fail final : public Node {
  public:
   static constexpr const char* kName = "fail";
@@ -196,4 +224,4 @@ class Fail final : public Node {
 
 }  // namespace
 
-SACCADE_PLUGIN("util", Passthrough, Record, Null, Counter, Pair, Fail)
+SACCADE_PLUGIN("util", Passthrough, Record, Null, Counter, Pair, Latch, Fail)

@@ -34,7 +34,7 @@ struct InputStats {
   std::string name;
   std::atomic<uint64_t> received{0};
   std::atomic<uint64_t> dropped{0};       // pushed out by the queue policy
-  std::atomic<uint64_t> sync_dropped{0};  // found no partner in its sync group
+  std::atomic<uint64_t> sync_dropped{0};  // found no partner (in its sync group, or before end of stream)
 };
 
 struct NodeStats {

@@ -1,0 +1,199 @@
+// One test per validation error kind; each checks the message names the line.
+#include <gtest/gtest.h>
+
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+using test::diagnose_xml;
+
+// True when some error is on `line` and contains every fragment.
+::testing::AssertionResult HasError(const Diagnostics& diag, int line, std::vector<std::string> fragments) {
+  for (const auto& d : diag.all()) {
+    if (d.warning || d.line != line) continue;
+    std::string text = d.format();
+    bool all = true;
+    for (const auto& f : fragments) all = all && text.find(f) != std::string::npos;
+    if (all) return ::testing::AssertionSuccess();
+  }
+  return ::testing::AssertionFailure() << "no error on line " << line << " with the expected words; got:\n" << diag.format();
+}
+
+const char* kSource = R"(<node name="src" plugin="util.counter"/>)";
+
+TEST(GraphValidation, MalformedXmlNamesTheLine) {
+  auto diag = diagnose_xml("<graph>\n  <node name=\"a\" plugin=\"util.null\">\n</graph>\n");
+  ASSERT_TRUE(diag.has_errors());
+  // tinyxml2 names the line of the element left open.
+  EXPECT_TRUE(HasError(diag, 2, {"test.xml:2", "malformed XML", "MISMATCHED_ELEMENT"}));
+}
+
+TEST(GraphValidation, UnknownPluginSuggestsTheClosestName) {
+  auto diag = diagnose_xml("<graph>\n  <node name=\"r\" plugin=\"retna\"/>\n</graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"node 'r'", "unknown plugin 'retna'", "did you mean 'retina'"}));
+}
+
+TEST(GraphValidation, UnknownParameterSuggestsTheClosestName) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "\n<node name=\"r\" plugin=\"retina\">\n  <param name=\"levles\" value=\"5\"/>\n</node>"
+                           "<edge from=\"src.image\" to=\"r.image\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 3, {"node 'r'", "unknown parameter 'levles'", "did you mean 'levels'"}));
+}
+
+TEST(GraphValidation, MissingRequiredParameter) {
+  auto diag = diagnose_xml("<graph>\n<node name=\"v\" plugin=\"capture.video\"/>\n</graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"node 'v'", "missing required parameter 'path'"}));
+}
+
+TEST(GraphValidation, IllTypedParameterIsCheckedOnTheWholeString) {
+  // tinyxml2 would read "12abc" as 12; saccade refuses it.
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "\n<node name=\"r\" plugin=\"retina\">\n\n  <param name=\"levels\" value=\"12abc\"/>\n</node>"
+                           "<edge from=\"src.image\" to=\"r.image\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 4, {"parameter 'levels' (int)", "expected an integer, got '12abc'"}));
+}
+
+TEST(GraphValidation, OverflowingIntegerIsRefusedNotWrapped) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "\n<node name=\"r\" plugin=\"retina\">\n  <param name=\"levels\" value=\"99999999999999999999\"/>\n</node>"
+                           "<edge from=\"src.image\" to=\"r.image\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 3, {"parameter 'levels'", "expected an integer"}));
+}
+
+TEST(GraphValidation, OutOfRangeParameter) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "\n<node name=\"r\" plugin=\"retina\">\n  <param name=\"levels\" value=\"40\"/>\n</node>"
+                           "<edge from=\"src.image\" to=\"r.image\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 3, {"parameter 'levels'", "out of range [1, 16]"}));
+}
+
+TEST(GraphValidation, BadEnumAndSizeValues) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "\n<node name=\"r\" plugin=\"retina\">\n  <param name=\"mode\" value=\"bilinear\"/>\n"
+                           "  <param name=\"size\" value=\"32by24\"/>\n</node>"
+                           "<edge from=\"src.image\" to=\"r.image\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 3, {"parameter 'mode'", "expected one of five_point, area_mean"}));
+  EXPECT_TRUE(HasError(diag, 4, {"parameter 'size'", "expected a size WxH"}));
+}
+
+TEST(GraphValidation, UnknownPortSuggestsTheClosestName) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "<node name=\"r\" plugin=\"retina\"/>\n<edge from=\"src.image\" to=\"r.imag\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"node 'r' port 'imag'", "unknown input port", "did you mean 'image'"}));
+}
+
+TEST(GraphValidation, OutputUsedAsInputIsExplained) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "<node name=\"r\" plugin=\"retina\"/>\n<edge from=\"r.image\" to=\"r.image\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"port 'image'", "unknown output port", "is an input"}));
+}
+
+TEST(GraphValidation, TypeMismatchOnAnEdge) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "<node name=\"f\" plugin=\"filters.bank\"/>\n<edge from=\"src.image\" to=\"f.retina\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"node 'f' port 'retina'", "type mismatch", "produces Image, input expects Retina"}));
+}
+
+TEST(GraphValidation, TwoProducersIntoOneInput) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "<node name=\"src2\" plugin=\"util.counter\"/><node name=\"n\" plugin=\"util.null\"/>\n"
+                           "<edge from=\"src.image\" to=\"n.in\"/>\n<edge from=\"src2.image\" to=\"n.in\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 3, {"node 'n' port 'in'", "already has a producer (edge at line 2)"}));
+}
+
+TEST(GraphValidation, UnconnectedRequiredInput) {
+  auto diag = diagnose_xml("<graph>\n<node name=\"n\" plugin=\"util.null\"/>\n</graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"node 'n' port 'in'", "required input is not connected"}));
+}
+
+TEST(GraphValidation, CycleWithoutDelayedEdge) {
+  const std::string body = std::string("<graph>") + kSource +
+                           "<node name=\"l\" plugin=\"util.latch\"/><node name=\"p\" plugin=\"util.passthrough\"/>"
+                           "<edge from=\"src.image\" to=\"l.in\"/>\n<edge from=\"l.out\" to=\"p.in\"/>\n";
+  auto diag = diagnose_xml(body + "<edge from=\"p.out\" to=\"l.side\"/></graph>");
+  ASSERT_TRUE(diag.has_errors());
+  EXPECT_NE(diag.format().find("cycle without a delayed edge"), std::string::npos) << diag.format();
+  EXPECT_NE(diag.format().find("delay=\"1\""), std::string::npos);
+  // The same cycle with the feedback edge delayed validates.
+  EXPECT_FALSE(diagnose_xml(body + "<edge from=\"p.out\" to=\"l.side\" delay=\"1\"/></graph>").has_errors());
+}
+
+TEST(GraphValidation, DuplicateNodeNames) {
+  auto diag = diagnose_xml("<graph>\n<node name=\"a\" plugin=\"util.counter\"/>\n<node name=\"a\" plugin=\"util.counter\"/>\n</graph>");
+  EXPECT_TRUE(HasError(diag, 3, {"node 'a'", "duplicate node name (first defined at line 2)"}));
+}
+
+TEST(GraphValidation, BadQueuePolicyAndDelay) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" queue=\"fifo:0\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"queue must be latest, fifo:N or block:N", "got 'fifo:0'"}));
+  diag = diagnose_xml(std::string("<graph>") + kSource +
+                      "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" delay=\"2\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"delay must be 0 or 1"}));
+  diag = diagnose_xml(std::string("<graph>") + kSource +
+                      "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" queue=\"block:2\" delay=\"1\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"a delayed (feedback) edge cannot block its producer"}));
+}
+
+TEST(GraphValidation, UnknownElementsAndAttributes) {
+  auto diag = diagnose_xml("<graph>\n<nod name=\"a\"/>\n<node name=\"b\" plugin=\"util.counter\" inlin=\"true\"/>\n</graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"unknown element <nod>"}));
+  EXPECT_TRUE(HasError(diag, 3, {"unknown attribute 'inlin'", "did you mean 'inline'"}));
+}
+
+TEST(GraphValidation, SyncGroupNamesRealInputs) {
+  auto diag = diagnose_xml(std::string("<graph>") + kSource +
+                           "<node name=\"p\" plugin=\"util.pair\">\n<sync inputs=\"a,c\"/></node>"
+                           "<edge from=\"src.image\" to=\"p.a\"/></graph>");
+  EXPECT_TRUE(HasError(diag, 2, {"port 'c'", "<sync> names an unknown input"}));
+}
+
+TEST(GraphValidation, EveryErrorOfAFileIsReportedAtOnce) {
+  auto diag = diagnose_xml(
+      "<graph>\n"
+      "<node name=\"a\" plugin=\"util.countr\"/>\n"                        // 2: unknown plugin
+      "<node name=\"r\" plugin=\"retina\"><param name=\"levels\" value=\"0\"/></node>\n"  // 3: range, 3: input
+      "<node name=\"r\" plugin=\"retina\"/>\n"                             // 4: duplicate
+      "<edge from=\"a.image\" to=\"x.in\"/>\n"                             // 5: unknown node
+      "</graph>");
+  EXPECT_GE(diag.error_count(), 4u) << diag.format();
+  EXPECT_TRUE(HasError(diag, 2, {"unknown plugin"}));
+  EXPECT_TRUE(HasError(diag, 3, {"out of range"}));
+  EXPECT_TRUE(HasError(diag, 4, {"duplicate node name"}));
+  EXPECT_TRUE(HasError(diag, 5, {"edge to an unknown node"}));
+}
+
+TEST(GraphValidation, OverridesFromTheCommandLine) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_string(std::string("<graph>") + kSource + "</graph>", "t.xml", diag);
+  apply_overrides(decl, {"src.count=7", "nosuch.count=1", "garbage"}, diag);
+  EXPECT_EQ(diag.error_count(), 2u) << diag.format();
+  EXPECT_NE(diag.format().find("node 'nosuch': no such node"), std::string::npos);
+  EXPECT_NE(diag.format().find("expected node.param=value, got 'garbage'"), std::string::npos);
+  ASSERT_EQ(decl.nodes[0].params.size(), 1u);
+  EXPECT_EQ(decl.nodes[0].params[0].value, "7");
+}
+
+TEST(GraphValidation, VariablesExpandFromTheEnvironment) {
+  setenv("SACCADE_TEST_VAR", "/tmp/x", 1);
+  std::string error;
+  EXPECT_EQ(expand_variables("${SACCADE_TEST_VAR}/a.avi", "g.xml", &error), "/tmp/x/a.avi");
+  EXPECT_EQ(expand_variables("${GRAPH_DIR}/a", "/data/graphs/g.xml", &error), "/data/graphs/a");
+  EXPECT_TRUE(error.empty());
+  expand_variables("${NO_SUCH_VARIABLE_HERE}", "g.xml", &error);
+  EXPECT_NE(error.find("unknown variable ${NO_SUCH_VARIABLE_HERE}"), std::string::npos);
+}
+
+TEST(GraphValidation, DotShowsNodesEdgesAndFeedback) {
+  auto graph = test::resolve_xml(std::string("<graph name=\"g\">") + kSource +
+                                 "<node name=\"l\" plugin=\"util.latch\"/><node name=\"p\" plugin=\"util.passthrough\"/>"
+                                 "<edge from=\"src.image\" to=\"l.in\"/><edge from=\"l.out\" to=\"p.in\"/>"
+                                 "<edge from=\"p.out\" to=\"l.side\" delay=\"1\"/></graph>");
+  std::string dot = to_dot(graph);
+  EXPECT_NE(dot.find("digraph \"g\""), std::string::npos);
+  EXPECT_NE(dot.find("\"p\":\"o_out\" -> \"l\":\"i_side\" [label=\"latest\", style=dashed"), std::string::npos) << dot;
+}
+
+}  // namespace
+}  // namespace saccade

@@ -1,0 +1,139 @@
+// Plugin loading and its failures, on real .so files.
+#include <gtest/gtest.h>
+
+#include <dlfcn.h>
+
+#include <fstream>
+
+#include "saccade/plugin.hpp"
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+std::string test_plugin(const std::string& name) { return std::string(SACCADE_TEST_PLUGIN_DIR) + "/" + name; }
+
+bool mapped(const std::string& path) {
+  std::ifstream maps("/proc/self/maps");
+  std::string line;
+  while (std::getline(maps, line))
+    if (line.find(path) != std::string::npos) return true;
+  return false;
+}
+
+TEST(Registry, LoadsEveryBuiltPluginWithContracts) {
+  Registry r;
+  r.load_folders(Registry::default_search_path());
+  EXPECT_TRUE(r.load_errors().empty());
+  for (const char* type : {"capture.video", "capture.synthetic", "retina", "filters.bank", "snapshot", "util.passthrough"})
+    EXPECT_NE(r.find(type), nullptr) << type;
+  const NodeTypeInfo* retina = r.find("retina");
+  ASSERT_NE(retina, nullptr);
+  EXPECT_EQ(retina->contract.inputs().at(0).name, "image");
+  EXPECT_EQ(retina->contract.find_param("levels")->default_value, "5");
+}
+
+TEST(Registry, MissingLibraryNamesTheFile) {
+  Registry r;
+  std::string error;
+  EXPECT_FALSE(r.load_library(test_plugin("saccade_nothere.so"), &error));
+  EXPECT_NE(error.find("saccade_nothere.so: no such plugin library"), std::string::npos) << error;
+}
+
+TEST(Registry, NotAnElfFileNamesTheFile) {
+  Registry r;
+  std::string error;
+  EXPECT_FALSE(r.load_library(test_plugin("saccade_garbage.so"), &error));
+  EXPECT_NE(error.find("saccade_garbage.so: cannot load"), std::string::npos) << error;
+  EXPECT_EQ(error.find("Bad file descriptor"), std::string::npos) << error;
+}
+
+TEST(Registry, MissingEntryNamesTheSymbol) {
+  Registry r;
+  std::string error;
+  EXPECT_FALSE(r.load_library(test_plugin("saccade_noentry.so"), &error));
+  EXPECT_NE(error.find("saccade_noentry.so: no symbol 'saccade_plugin_entry'"), std::string::npos) << error;
+}
+
+TEST(Registry, AbiMismatchIsRefusedBeforeAnythingIsCreated) {
+  Registry r;
+  std::string error;
+  EXPECT_FALSE(r.load_library(test_plugin("saccade_badabi.so"), &error));
+  EXPECT_NE(error.find("saccade_badabi.so: symbol 'saccade_plugin_entry': ABI mismatch"), std::string::npos) << error;
+  EXPECT_NE(error.find("abi 999"), std::string::npos) << error;
+  EXPECT_TRUE(r.types().empty());
+}
+
+TEST(Registry, MissingSymbolFailsAtLoadNotAtFirstCall) {
+  Registry r;
+  std::string error;
+  EXPECT_FALSE(r.load_library(test_plugin("saccade_missingsym.so"), &error));
+  EXPECT_NE(error.find("saccade_missingsym.so: cannot load"), std::string::npos) << error;
+  EXPECT_NE(error.find("saccade_symbol_that_does_not_exist"), std::string::npos) << error;
+}
+
+TEST(Registry, FolderScanCollectsFailuresAndKeepsTheGoodOnes) {
+  Registry r;
+  r.load_folders({SACCADE_TEST_PLUGIN_DIR});
+  EXPECT_NE(r.find("good.echo"), nullptr);
+  EXPECT_EQ(r.load_errors().size(), 4u);  // garbage, noentry, badabi, missingsym
+}
+
+TEST(Registry, UnknownPluginInAGraphMentionsItsBrokenLibrary) {
+  Registry r;
+  r.load_folders({SACCADE_TEST_PLUGIN_DIR});
+  Diagnostics diag;
+  GraphDecl decl = load_graph_string("<graph><node name=\"b\" plugin=\"badabi.x\"/></graph>", "g.xml", diag);
+  resolve_graph(decl, r, diag);
+  EXPECT_NE(diag.format().find("its library failed to load"), std::string::npos) << diag.format();
+}
+
+TEST(Registry, NodeKeepsItsLibraryLoadedAfterTheRegistryIsGone) {
+  const std::string path = test_plugin("saccade_good.so");
+  std::shared_ptr<Node> node;
+  {
+    Registry r;
+    ASSERT_TRUE(r.load_library(path));
+    std::string error;
+    node = r.create("good.echo", &error);
+    ASSERT_NE(node, nullptr) << error;
+  }
+  // The registry and its handle are gone; the node's deleter still holds the
+  // library (built with -fno-gnu-unique, so nothing else pins it).
+  ASSERT_TRUE(mapped(path));
+  void* self = dlopen(path.c_str(), RTLD_NOW | RTLD_NOLOAD);
+  ASSERT_NE(self, nullptr);
+  auto live = reinterpret_cast<int (*)()>(dlsym(self, "saccade_good_live_nodes"));
+  ASSERT_NE(live, nullptr);
+  EXPECT_EQ(live(), 1);
+  dlclose(self);
+  // The node still works.
+  Contract c = Contract().input<Message>("in", "").output<Message>("out", "");
+  Params params;
+  NodeSlot slot;
+  slot.name = "n";
+  slot.contract = &c;
+  slot.params = &params;
+  slot.current.resize(1);
+  slot.pools.resize(1);
+  slot.input_connected = {true};
+  slot.output_connected = {true};
+  struct Sink : EmitSink {
+    int emitted = 0;
+    void emit(int, MessagePtr) override { ++emitted; }
+    bool stop_requested() const override { return false; }
+    bool sleep_until(int64_t) override { return true; }
+  } sink;
+  slot.sink = &sink;
+  OpenContext oc(slot);
+  ASSERT_TRUE(node->open(oc).ok());
+  slot.current[0] = std::make_shared<Region>();
+  ProcessContext pc(slot);
+  EXPECT_TRUE(node->process(pc).ok());
+  EXPECT_EQ(sink.emitted, 1);
+  node.reset();
+  EXPECT_FALSE(mapped(path)) << "the library should unload with its last node";
+}
+
+}  // namespace
+}  // namespace saccade

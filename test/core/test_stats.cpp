@@ -1,0 +1,46 @@
+#include <gtest/gtest.h>
+
+#include "saccade/stats.hpp"
+
+namespace saccade {
+namespace {
+
+TEST(Histogram, PercentilesWithinABucket) {
+  Histogram h;
+  for (int i = 1; i <= 1000; ++i) h.record(i * 1000);  // 1 us .. 1 ms
+  EXPECT_EQ(h.count(), 1000u);
+  EXPECT_EQ(h.max(), 1'000'000);
+  EXPECT_NEAR(static_cast<double>(h.percentile(0.5)), 500'000.0, 500'000.0 * 0.13);
+  EXPECT_NEAR(static_cast<double>(h.percentile(0.99)), 990'000.0, 990'000.0 * 0.13);
+  EXPECT_LE(h.percentile(1.0), h.max());
+}
+
+TEST(Histogram, BucketsAreMonotonic) {
+  int last = -1;
+  for (int64_t v = 1; v < (int64_t{1} << 40); v = v * 5 / 4 + 1) {
+    int b = Histogram::bucket_of(v);
+    EXPECT_GE(b, last);
+    EXPECT_GE(Histogram::upper_edge(b), v);
+    last = b;
+  }
+}
+
+TEST(Stats, TableAndJsonNameEveryNode) {
+  NodeStats a;
+  a.name = "cam";
+  a.plugin = "capture.video";
+  a.processed = 3;
+  auto in = std::make_unique<InputStats>();
+  in->name = "image";
+  in->dropped = 2;
+  a.inputs.push_back(std::move(in));
+  std::string table = format_stats_table({&a}, 1.0);
+  EXPECT_NE(table.find("cam"), std::string::npos);
+  EXPECT_NE(table.find("image=2"), std::string::npos);
+  std::string json = format_stats_json({&a}, 1.0);
+  EXPECT_NE(json.find("\"name\": \"cam\""), std::string::npos);
+  EXPECT_NE(json.find("\"dropped\": 2"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace saccade

@@ -1,0 +1,69 @@
+// Whole graphs from graphs/ on real data.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::optional<ResolvedGraph> load(const std::string& file, const std::vector<std::string>& overrides) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_file(file, diag);
+  apply_overrides(decl, overrides, diag);
+  auto g = resolve_graph(decl, testing::default_registry(), diag);
+  EXPECT_FALSE(diag.has_errors()) << diag.format();
+  return g;
+}
+
+TEST(DemoGraph, RunsEndToEndOnVtestAndWritesTheMosaics) {
+  test::sample_path("vtest.avi");
+  fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "demo";
+  fs::remove_all(out);
+  auto graph = load(std::string(SACCADE_SOURCE_DIR) + "/graphs/demo.xml", {"snapshot.dir=" + out.string()});
+  ASSERT_TRUE(graph);
+  Executor executor(*graph, testing::default_registry());
+  ASSERT_TRUE(executor.open().ok());
+  ASSERT_TRUE(executor.run().ok());
+  // block queues: every one of the 795 frames reaches every node.
+  for (const char* node : {"camera", "retina", "filters", "snapshot"}) {
+    uint64_t expected = std::string(node) == "camera" ? 796u : 795u;  // the source's last call reports the end
+    EXPECT_EQ(executor.stats(node)->processed.load(), expected) << node;
+  }
+  for (const char* f : {"snapshot_000000_source.png", "snapshot_000000_levels.png", "snapshot_000700_features.png",
+                        "snapshot_000700_grad_mag.png", "snapshot_000700_foveated.png"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  cv::Mat source = cv::imread((out / "snapshot_000100_source.png").string());
+  EXPECT_EQ(source.size(), cv::Size(768, 576));
+}
+
+TEST(DemoGraph, DeterministicRunsGiveIdenticalPictures) {
+  fs::path a = fs::path(SACCADE_BINARY_DIR) / "test_out" / "det_a", b = fs::path(SACCADE_BINARY_DIR) / "test_out" / "det_b";
+  for (const auto& dir : {a, b}) {
+    fs::remove_all(dir);
+    auto graph = load(std::string(SACCADE_SOURCE_DIR) + "/graphs/demo.xml", {"snapshot.dir=" + dir.string(), "snapshot.every=50"});
+    ASSERT_TRUE(graph);
+    ExecutorOptions o;
+    o.deterministic = true;
+    o.max_frames = 120;
+    Executor executor(*graph, testing::default_registry(), o);
+    ASSERT_TRUE(executor.open().ok());
+    ASSERT_TRUE(executor.run().ok());
+  }
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(a)) {
+    cv::Mat x = cv::imread(entry.path().string()), y = cv::imread((b / entry.path().filename()).string());
+    ASSERT_FALSE(y.empty()) << entry.path().filename();
+    EXPECT_EQ(cv::norm(x, y, cv::NORM_INF), 0) << entry.path().filename();
+    ++compared;
+  }
+  EXPECT_GT(compared, 10);
+}
+
+}  // namespace
+}  // namespace saccade

@@ -1,0 +1,159 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "readers.hpp"
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+using test::sample_path;
+
+std::unique_ptr<testing::NodeHarness> harness(const std::string& xml) {
+  std::string error;
+  auto h = testing::NodeHarness::create(xml, &error);
+  if (!h) throw std::runtime_error(error);
+  return h;
+}
+
+TEST(CaptureVideo, ReadsEveryFrameOfVtestWithMediaTimestamps) {
+  auto h = harness("<node plugin=\"capture.video\"><param name=\"path\" value=\"" + sample_path("vtest.avi") +
+                   "\"/><param name=\"rate\" value=\"fast\"/></node>");
+  int frames = 0;
+  Status s;
+  while ((s = h->process()).ok()) ++frames;
+  EXPECT_TRUE(s.is_end_of_stream()) << s.message();
+  EXPECT_EQ(frames, 795);
+  const auto& out = h->outputs("image");
+  ASSERT_EQ(out.size(), 795u);
+  auto first = std::dynamic_pointer_cast<const Image>(out[0]);
+  auto last = std::dynamic_pointer_cast<const Image>(out.back());
+  EXPECT_EQ(first->mat.size(), cv::Size(768, 576));
+  EXPECT_EQ(first->mat.type(), CV_8UC1);
+  EXPECT_EQ(last->frame_id, 794);
+  EXPECT_EQ(last->timestamp_ns, 79'400'000'000) << "10 fps: frame k at k * 100 ms";
+  EXPECT_GT(first->origin_ns, 0);
+}
+
+TEST(CaptureVideo, LoopsWithIncreasingTimestampsAndResizes) {
+  auto h = harness("<node plugin=\"capture.video\"><param name=\"path\" value=\"" + sample_path("tree.avi") +
+                   "\"/><param name=\"rate\" value=\"fast\"/><param name=\"loop\" value=\"true\"/>"
+                   "<param name=\"resize\" value=\"160x120\"/><param name=\"color\" value=\"color\"/></node>");
+  for (int i = 0; i < 500; ++i) ASSERT_TRUE(h->process().ok()) << i;
+  const auto& out = h->outputs("image");
+  for (std::size_t i = 1; i < out.size(); ++i) ASSERT_GT(out[i]->timestamp_ns, out[i - 1]->timestamp_ns);
+  auto img = std::dynamic_pointer_cast<const Image>(out.back());
+  EXPECT_EQ(img->mat.size(), cv::Size(160, 120));
+  EXPECT_EQ(img->mat.type(), CV_8UC3);
+}
+
+TEST(CaptureVideo, MissingFileIsAClearError) {
+  std::string error;
+  auto h = testing::NodeHarness::create(R"(<node plugin="capture.video"><param name="path" value="/no/such.avi"/></node>)", &error);
+  EXPECT_EQ(h, nullptr);
+  EXPECT_NE(error.find("/no/such.avi: no such video file"), std::string::npos) << error;
+}
+
+TEST(CaptureImages, ReadsTheSequenceUpToTheFirstGap) {
+  // left01..left09 exist, left10 does not.
+  auto h = harness("<node plugin=\"capture.images\"><param name=\"pattern\" value=\"" + sample_path("left01.jpg").substr(0, sample_path("left01.jpg").size() - 6) +
+                   "%02d.jpg\"/><param name=\"rate\" value=\"fast\"/></node>");
+  int n = 0;
+  while (h->process().ok()) ++n;
+  EXPECT_EQ(n, 9);
+  auto img = h->last<Image>("image");
+  EXPECT_EQ(img->mat.size(), cv::Size(640, 480));
+}
+
+TEST(CaptureImage, RepeatsOneImageWithoutCopying) {
+  auto h = harness("<node plugin=\"capture.image\"><param name=\"path\" value=\"" + sample_path("aloeL.jpg") +
+                   "\"/><param name=\"count\" value=\"3\"/><param name=\"rate\" value=\"fast\"/>"
+                   "<param name=\"color\" value=\"unchanged\"/></node>");
+  while (h->process().ok()) {
+  }
+  const auto& out = h->outputs("image");
+  ASSERT_EQ(out.size(), 3u);
+  auto a = std::dynamic_pointer_cast<const Image>(out[0]);
+  auto c = std::dynamic_pointer_cast<const Image>(out[2]);
+  EXPECT_EQ(a->mat.data, c->mat.data);
+  EXPECT_EQ(a->mat.size(), cv::Size(1282, 1110));
+}
+
+TEST(CaptureStereo, TheAloePairComesOutTimeMatched) {
+  auto h = harness("<node plugin=\"capture.stereo\"><param name=\"left_path\" value=\"" + sample_path("aloeL.jpg") +
+                   "\"/><param name=\"right_path\" value=\"" + sample_path("aloeR.jpg") +
+                   "\"/><param name=\"count\" value=\"4\"/><param name=\"rate\" value=\"fast\"/></node>");
+  int n = 0;
+  while (h->process().ok()) ++n;
+  EXPECT_EQ(n, 4);
+  const auto& l = h->outputs("left");
+  const auto& r = h->outputs("right");
+  ASSERT_EQ(l.size(), 4u);
+  ASSERT_EQ(r.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(l[i]->timestamp_ns, r[i]->timestamp_ns);
+    EXPECT_EQ(l[i]->frame_id, r[i]->frame_id);
+  }
+  auto li = std::dynamic_pointer_cast<const Image>(l[0]);
+  auto ri = std::dynamic_pointer_cast<const Image>(r[0]);
+  EXPECT_EQ(li->mat.size(), cv::Size(1282, 1110));
+  EXPECT_EQ(li->camera_id, 0);
+  EXPECT_EQ(ri->camera_id, 1);
+  EXPECT_GT(cv::norm(li->mat, ri->mat, cv::NORM_L1), 0) << "left and right differ";
+}
+
+TEST(CaptureCamera, AbsentDeviceIsAClearError) {
+  std::string error;
+  auto h = testing::NodeHarness::create(R"(<node plugin="capture.camera"><param name="device" value="/dev/video97"/></node>)", &error);
+  EXPECT_EQ(h, nullptr);
+  EXPECT_NE(error.find("camera '/dev/video97' cannot be opened"), std::string::npos) << error;
+}
+
+TEST(CaptureSynthetic, TruthIsWhereTheTargetIsDrawnAndTheRightViewIsShifted) {
+  // Synthetic data: a textured square over vtest.avi's first frame.
+  auto h = harness("<node plugin=\"capture.synthetic\"><param name=\"background\" value=\"" + sample_path("vtest.avi") +
+                   "\"/><param name=\"disparity\" value=\"9\"/><param name=\"count\" value=\"20\"/></node>");
+  while (h->process().ok()) {
+  }
+  ASSERT_EQ(h->outputs("image").size(), 20u);
+  ASSERT_EQ(h->outputs("truth").size(), 20u);
+  ASSERT_EQ(h->outputs("right").size(), 20u);
+  capture::SyntheticScene scene;
+  for (std::size_t k = 0; k < 20; ++k) {
+    auto left = std::dynamic_pointer_cast<const Image>(h->outputs("image")[k]);
+    auto right = std::dynamic_pointer_cast<const Image>(h->outputs("right")[k]);
+    auto truth = std::dynamic_pointer_cast<const Region>(h->outputs("truth")[k]);
+    EXPECT_EQ(truth->frame_id, left->frame_id);
+    EXPECT_EQ(truth->size, cv::Size2d(48, 48));
+    cv::Rect target(static_cast<int>(truth->center.x - 24), static_cast<int>(truth->center.y - 24), 48, 48);
+    // The target in the right view is the left one moved 9 px to the left.
+    EXPECT_EQ(cv::norm(left->mat(target), right->mat(target - cv::Point(9, 0)), cv::NORM_INF), 0);
+    if (k > 0) {
+      auto prev = std::dynamic_pointer_cast<const Region>(h->outputs("truth")[k - 1]);
+      EXPECT_NE(prev->center, truth->center) << "the target moves";
+    }
+  }
+  // Ground truth against an independent look: the truth region differs from the
+  // background, the background elsewhere does not.
+  auto left = std::dynamic_pointer_cast<const Image>(h->outputs("image")[5]);
+  auto other = std::dynamic_pointer_cast<const Image>(h->outputs("image")[35 % 20]);
+  auto truth = std::dynamic_pointer_cast<const Region>(h->outputs("truth")[5]);
+  cv::Mat diff;
+  cv::absdiff(left->mat, other->mat, diff);
+  cv::Rect target(static_cast<int>(truth->center.x - 24), static_cast<int>(truth->center.y - 24), 48, 48);
+  EXPECT_GT(cv::countNonZero(diff(target)), 48 * 48 / 3);
+}
+
+TEST(SourceKinds, ClassifiesPaths) {
+  using capture::classify_source;
+  using capture::SourceKind;
+  EXPECT_EQ(classify_source("left%02d.jpg"), SourceKind::kSequence);
+  EXPECT_EQ(classify_source("a/b.PNG"), SourceKind::kImage);
+  EXPECT_EQ(classify_source("0"), SourceKind::kCamera);
+  EXPECT_EQ(classify_source("/dev/video2"), SourceKind::kCamera);
+  EXPECT_EQ(classify_source("clip.avi"), SourceKind::kVideo);
+}
+
+}  // namespace
+}  // namespace saccade

@@ -1,0 +1,214 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "retina.hpp"
+#include "support.hpp"
+
+namespace saccade::retina {
+namespace {
+
+cv::Mat ramp(int w, int h) {
+  cv::Mat m(h, w, CV_8UC1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) m.at<uint8_t>(y, x) = static_cast<uint8_t>(x + 10 * y);
+  return m;
+}
+
+cv::Mat noise(int w, int h, int type, int seed) {
+  cv::Mat m(h, w, type);
+  cv::RNG rng(static_cast<uint64_t>(seed));
+  rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+  return m;
+}
+
+TEST(RetinaGeometry, LevelsAreNestedInsideTheFrameAndGrowLinearly) {
+  RetinaConfig c;
+  for (cv::Size frame : {cv::Size(1024, 768), cv::Size(640, 480), cv::Size(1282, 1110), cv::Size(33, 25)}) {
+    for (cv::Point2d f : {cv::Point2d(frame.width / 2.0, frame.height / 2.0), cv::Point2d(0, 0),
+                          cv::Point2d(frame.width, frame.height), cv::Point2d(-500, 1e6), cv::Point2d(100, 50)}) {
+      auto g = retina_geometry(c, frame, f);
+      ASSERT_EQ(g.size(), 5u);
+      cv::Rect whole(0, 0, frame.width, frame.height);
+      EXPECT_EQ(g[0].region, whole);
+      EXPECT_EQ(g[4].region.size(), c.size);
+      EXPECT_DOUBLE_EQ(g[4].step_x, 1.0);
+      for (std::size_t k = 0; k < g.size(); ++k) {
+        EXPECT_EQ(g[k].region & whole, g[k].region) << "level " << k << " leaves the frame";
+        if (k > 0) {
+          EXPECT_EQ(g[k].region & g[k - 1].region, g[k].region) << "level " << k << " not inside level " << k - 1;
+          EXPECT_LE(g[k].region.width, g[k - 1].region.width);
+        }
+        EXPECT_DOUBLE_EQ(g[k].step_x, static_cast<double>(g[k].region.width) / c.size.width);
+      }
+      // Linear growth: the width steps differ by at most a rounding pixel.
+      int d0 = g[0].region.width - g[1].region.width;
+      for (std::size_t k = 1; k + 1 < g.size(); ++k)
+        EXPECT_NEAR(g[k].region.width - g[k + 1].region.width, d0, 1);
+    }
+  }
+}
+
+TEST(RetinaGeometry, FoveaIsClampedSoTheCropStaysInside) {
+  RetinaConfig c;
+  EXPECT_EQ(clamp_fovea_corner(c, {640, 480}, {-100, -100}), cv::Point(0, 0));
+  EXPECT_EQ(clamp_fovea_corner(c, {640, 480}, {1000, 1000}), cv::Point(640 - 32, 480 - 24));
+  EXPECT_EQ(clamp_fovea_corner(c, {640, 480}, {320, 240}), cv::Point(304, 228));
+}
+
+// Algorithm 1 by hand on a 12x9 ramp (value x + 10y), 2 levels of 4x3.
+// Level 0 covers the frame with step 3: centres x = 1, 4, 7, 10; y = 1, 4, 7;
+// s = ceil(3/3) = 1, so pixel (i, j) = mean of the ramp at the centre and its
+// 4 neighbours = the centre's value (a ramp is linear).
+// The fovea centre (6, 4.5) gives the crop corner (4, 3).
+TEST(RetinaSampling, MatchesAlgorithm1ByHandOnARamp) {
+  RetinaConfig c;
+  c.levels = 2;
+  c.size = {4, 3};
+  RetinaSampler s(c);
+  std::vector<cv::Mat> levels;
+  std::vector<LevelGeometry> g;
+  s.sample(ramp(12, 9), {6, 4.5}, levels, g);
+  cv::Mat expected0 = (cv::Mat_<uint8_t>(3, 4) << 11, 14, 17, 20, 41, 44, 47, 50, 71, 74, 77, 80);
+  cv::Mat expected1 = (cv::Mat_<uint8_t>(3, 4) << 34, 35, 36, 37, 44, 45, 46, 47, 54, 55, 56, 57);
+  EXPECT_EQ(cv::norm(levels[0], expected0, cv::NORM_INF), 0) << levels[0];
+  EXPECT_EQ(cv::norm(levels[1], expected1, cv::NORM_INF), 0) << levels[1];
+  EXPECT_EQ(g[1].region, cv::Rect(4, 3, 4, 3));
+}
+
+// A non-linear pattern, where the five-point mean differs from the centre: a
+// single bright pixel at (4, 4) reaches level-0 pixel (1, 1) (centre (4, 4)) as
+// 255/5 = 51 and pixel (1,1)'s neighbours not at all.
+TEST(RetinaSampling, FivePointMeanOfAnImpulse) {
+  RetinaConfig c;
+  c.levels = 2;
+  c.size = {4, 3};
+  cv::Mat frame = cv::Mat::zeros(9, 12, CV_8UC1);
+  frame.at<uint8_t>(4, 5) = 255;  // right neighbour of centre (4, 4)
+  RetinaSampler s(c);
+  std::vector<cv::Mat> levels;
+  std::vector<LevelGeometry> g;
+  s.sample(frame, {6, 4.5}, levels, g);
+  EXPECT_EQ(levels[0].at<uint8_t>(1, 1), 51);
+  EXPECT_EQ(cv::countNonZero(levels[0]), 1);
+}
+
+TEST(RetinaSampling, AreaMeanByHand) {
+  RetinaConfig c;
+  c.levels = 2;
+  c.size = {4, 3};
+  c.mode = SamplingMode::kAreaMean;
+  RetinaSampler s(c);
+  std::vector<cv::Mat> levels;
+  std::vector<LevelGeometry> g;
+  s.sample(ramp(12, 9), {6, 4.5}, levels, g);
+  // Cell (i, j) covers x in [3i, 3i+3), y in [3j, 3j+3): its mean is the ramp at (3i+1, 3j+1).
+  cv::Mat expected0 = (cv::Mat_<uint8_t>(3, 4) << 11, 14, 17, 20, 41, 44, 47, 50, 71, 74, 77, 80);
+  EXPECT_EQ(cv::norm(levels[0], expected0, cv::NORM_INF), 0) << levels[0];
+}
+
+TEST(RetinaSampling, FastSamplerEqualsTheReferenceEverywhere) {
+  for (int type : {CV_8UC1, CV_8UC3}) {
+    for (cv::Size frame : {cv::Size(1024, 768), cv::Size(640, 480), cv::Size(1282, 1110), cv::Size(97, 61), cv::Size(32, 24)}) {
+      for (int levels : {1, 3, 5, 7}) {
+        RetinaConfig c;
+        c.levels = levels;
+        cv::Mat image = noise(frame.width, frame.height, type, frame.width + levels);
+        RetinaSampler s(c);
+        for (cv::Point2d f : {cv::Point2d(frame.width * 0.3, frame.height * 0.7), cv::Point2d(0, 0), cv::Point2d(1e5, 1e5)}) {
+          std::vector<cv::Mat> fast, ref;
+          std::vector<LevelGeometry> g;
+          s.sample(image, f, fast, g);
+          sample_reference(c, image, g, ref);
+          for (int k = 0; k < levels; ++k)
+            ASSERT_EQ(cv::norm(fast[static_cast<std::size_t>(k)], ref[static_cast<std::size_t>(k)], cv::NORM_INF), 0)
+                << frame << " levels " << levels << " level " << k << " type " << type;
+        }
+      }
+    }
+  }
+}
+
+TEST(RetinaSampling, WorksOnRoiViews) {
+  cv::Mat big = noise(800, 600, CV_8UC1, 3);
+  cv::Mat view = big(cv::Rect(50, 40, 640, 480));
+  RetinaConfig c;
+  RetinaSampler s(c);
+  std::vector<cv::Mat> a, b;
+  std::vector<LevelGeometry> g;
+  s.sample(view, {200, 100}, a, g);
+  RetinaSampler s2(c);
+  s2.sample(view.clone(), {200, 100}, b, g);
+  for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(cv::norm(a[k], b[k], cv::NORM_INF), 0);
+}
+
+TEST(RetinaSampling, FivePointIsCloseToTheAreaMeanOnARealFrame) {
+  cv::Mat frame = cv::imread(test::sample_path("aloeL.jpg"), cv::IMREAD_GRAYSCALE);
+  RetinaConfig five, area;
+  area.mode = SamplingMode::kAreaMean;
+  RetinaSampler a(five), b(area);
+  std::vector<cv::Mat> la, lb;
+  std::vector<LevelGeometry> g;
+  a.sample(frame, {640, 555}, la, g);
+  b.sample(frame, {640, 555}, lb, g);
+  for (std::size_t k = 0; k < la.size(); ++k) {
+    double mean_diff = cv::norm(la[k], lb[k], cv::NORM_L1) / static_cast<double>(la[k].total());
+    EXPECT_LT(mean_diff, 20.0) << "level " << k;
+  }
+  EXPECT_EQ(cv::norm(la.back(), lb.back(), cv::NORM_INF), 0) << "the fovea is the same crop";
+}
+
+TEST(RetinaNode, EmitsLevelsGeometryAndFollowsTheFoveaInput) {
+  std::string error;
+  auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="levels" value="4"/></node>)", &error);
+  ASSERT_NE(h, nullptr) << error;
+  auto image = std::make_shared<Image>();
+  image->mat = noise(640, 480, CV_8UC1, 9);
+  image->frame_id = 12;
+  image->timestamp_ns = 1234;
+  h->set("image", image);
+  ASSERT_TRUE(h->process().ok());
+  auto r = h->last<Retina>("retina");
+  ASSERT_NE(r, nullptr);
+  EXPECT_EQ(r->levels.size(), 4u);
+  EXPECT_EQ(r->frame_id, 12);
+  EXPECT_EQ(r->timestamp_ns, 1234);
+  EXPECT_EQ(r->fovea, cv::Point(320, 240));
+  EXPECT_EQ(r->source.get(), image.get()) << "the retina refers to its frame without copying it";
+  auto fovea = std::make_shared<Region>();
+  fovea->center = {10, 10};
+  h->set("fovea", fovea);
+  ASSERT_TRUE(h->process().ok());
+  r = h->last<Retina>("retina");
+  EXPECT_EQ(r->geometry.back().region, cv::Rect(0, 0, 32, 24));
+  EXPECT_EQ(cv::norm(r->levels.back(), image->mat(cv::Rect(0, 0, 32, 24)), cv::NORM_INF), 0);
+}
+
+TEST(RetinaNode, ReusesItsBuffersInSteadyState) {
+  auto h = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  ASSERT_NE(h, nullptr);
+  auto image = std::make_shared<Image>();
+  image->mat = noise(640, 480, CV_8UC1, 1);
+  h->set("image", image);
+  ASSERT_TRUE(h->process().ok());
+  const Retina* first = h->last<Retina>("retina").get();
+  const uchar* pixels = first->levels[0].data;
+  h->clear_outputs();
+  ASSERT_TRUE(h->process().ok());
+  EXPECT_EQ(h->last<Retina>("retina").get(), first);
+  EXPECT_EQ(h->last<Retina>("retina")->levels[0].data, pixels);
+}
+
+TEST(RetinaNode, RefusesFramesSmallerThanALevel) {
+  auto h = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto image = std::make_shared<Image>();
+  image->mat = cv::Mat::zeros(20, 20, CV_8UC1);
+  h->set("image", image);
+  Status s = h->process();
+  ASSERT_TRUE(s.is_error());
+  EXPECT_NE(s.message().find("smaller than a level"), std::string::npos) << s.message();
+}
+
+}  // namespace
+}  // namespace saccade::retina

@@ -1,0 +1,56 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(Snapshot, WritesMosaicsForImagesRetinasAndFeatureMaps) {
+  fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "snapshot";
+  fs::remove_all(dir);
+  auto h = testing::NodeHarness::create("<node plugin=\"snapshot\" name=\"s\"><param name=\"dir\" value=\"" + dir.string() +
+                                        "\"/><param name=\"every\" value=\"2\"/></node>");
+  ASSERT_NE(h, nullptr);
+  auto image = std::make_shared<Image>();
+  image->mat = cv::Mat(120, 160, CV_8UC1, cv::Scalar(100));
+  auto retina = std::make_shared<Retina>();
+  retina->source = image;
+  retina->source_size = image->mat.size();
+  for (int k = 0; k < 3; ++k) {
+    retina->levels.push_back(cv::Mat(24, 32, CV_8UC1, cv::Scalar(50 * k)));
+    int w = 160 - k * 64, hgt = 120 - k * 48;
+    retina->geometry.push_back({cv::Rect((160 - w) / 2, (120 - hgt) / 2, w, hgt), w / 32.0, hgt / 24.0});
+  }
+  auto maps = std::make_shared<FeatureMaps>();
+  maps->retina = retina;
+  maps->names = {"sobel_x"};
+  maps->maps = {{cv::Mat(24, 32, CV_32F, cv::Scalar(-3)), cv::Mat(24, 32, CV_32F, cv::Scalar(4)), cv::Mat(24, 32, CV_32F, cv::Scalar(0))}};
+  int64_t frame = 0;
+  for (MessagePtr m : std::vector<MessagePtr>{image, retina, maps}) {
+    auto copy = m;
+    const_cast<Message*>(copy.get())->frame_id = frame;
+    frame += 2;
+    h->set("in", copy);
+    ASSERT_TRUE(h->process().ok());
+  }
+  for (const char* f : {"s_000000_frame.png", "s_000002_source.png", "s_000002_levels.png", "s_000002_foveated.png",
+                        "s_000004_features.png", "s_000004_sobel_x.png", "s_000004_source.png"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+  cv::Mat fov = cv::imread((dir / "s_000002_foveated.png").string());
+  EXPECT_EQ(fov.size(), cv::Size(160, 120));
+  // Frame 3 is skipped by every=2.
+  auto odd = std::make_shared<Image>(*image);
+  odd->frame_id = 3;
+  h->set("in", odd);
+  ASSERT_TRUE(h->process().ok());
+  EXPECT_FALSE(fs::exists(dir / "s_000003_frame.png"));
+}
+
+}  // namespace
+}  // namespace saccade
