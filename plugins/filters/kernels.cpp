@@ -44,16 +44,16 @@ std::pair<cv::Mat, cv::Mat> gaussian_derivative_kernels(float sigma) {
 }
 
 float fast_atan2(float y, float x) {
+  // Branch-free, so the loops calling it vectorise.
   float ax = std::fabs(x), ay = std::fabs(y);
   float mx = std::max(ax, ay), mn = std::min(ax, ay);
-  if (mx == 0.0f) return 0.0f;
-  float a = mn / mx;
+  float a = mn / std::max(mx, 1e-30f);
   float s = a * a;
   // Odd minimax polynomial for atan on [0, 1], error below 1e-5 rad.
   float r = ((((-0.01172120f * s + 0.05265332f) * s - 0.11643287f) * s + 0.19354346f) * s - 0.33262347f) * s * a +
             0.99997726f * a;
-  if (ay > ax) r = 1.57079637f - r;
-  if (x < 0) r = 3.14159274f - r;
+  r = ay > ax ? 1.57079637f - r : r;
+  r = x < 0 ? 3.14159274f - r : r;
   return y < 0 ? -r : r;
 }
 
@@ -207,21 +207,23 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
     // g (y); ggrad_y = g (x) then dg (y).
     const int r = radius_, n = 2 * r + 1;
     const int rows = h + 2 * pad;
+    padded_.convertTo(padded_f_, CV_32F);
     row_g_.create(rows, w, CV_32F);
     row_dg_.create(rows, w, CV_32F);
+    // Tap-outer loops: the inner loop runs along x and vectorises.
     for (int y = 0; y < rows; ++y) {
-      const uint8_t* p = padded_.ptr<uint8_t>(y) + pad - r;
+      const float* p = padded_f_.ptr<float>(y) + pad - r;
       float* og = row_g_.ptr<float>(y);
       float* od = row_dg_.ptr<float>(y);
-      for (int x = 0; x < w; ++x) {
-        float sg = 0, sd = 0;
-        for (int k = 0; k < n; ++k) {
-          float v = p[x + k];
-          sg += g_[static_cast<std::size_t>(k)] * v;
-          sd += dg_[static_cast<std::size_t>(k)] * v;
+      std::fill(og, og + w, 0.0f);
+      std::fill(od, od + w, 0.0f);
+      for (int k = 0; k < n; ++k) {
+        const float wg = g_[static_cast<std::size_t>(k)], wd = dg_[static_cast<std::size_t>(k)];
+        const float* pk = p + k;
+        for (int x = 0; x < w; ++x) {
+          og[x] += wg * pk[x];
+          od[x] += wd * pk[x];
         }
-        og[x] = sg;
-        od[x] = sd;
       }
     }
     cv::Mat& gx = target(kGGradX, CV_32F);
@@ -229,10 +231,8 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
     for (int y = 0; y < h; ++y) {
       float* ox = gx.ptr<float>(y);
       float* oy = gy.ptr<float>(y);
-      for (int x = 0; x < w; ++x) {
-        ox[x] = 0;
-        oy[x] = 0;
-      }
+      std::fill(ox, ox + w, 0.0f);
+      std::fill(oy, oy + w, 0.0f);
       for (int k = 0; k < n; ++k) {
         const float* rd = row_dg_.ptr<float>(y + pad - r + k);
         const float* rg = row_g_.ptr<float>(y + pad - r + k);

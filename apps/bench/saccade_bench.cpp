@@ -1,0 +1,304 @@
+// saccade's performance figures, side by side with their peers in one run:
+//   retina vs OpenCV resize(INTER_AREA); the fused filter bank vs the same
+//   OpenCV calls on the levels and on the full frame; framework overhead per
+//   edge (inline, across threads) vs GStreamer's identity element; the
+//   capture(memory) -> retina -> filters pipeline.
+// Single thread unless a benchmark says otherwise. Figures go to docs/performance.md.
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "kernels.hpp"
+#include "retina.hpp"
+#include "saccade/executor.hpp"
+#include "saccade/graph.hpp"
+#include "saccade/registry.hpp"
+
+namespace {
+
+using namespace saccade;
+
+cv::Mat frame_of(cv::Size size) {
+  static cv::Mat aloe = [] {
+    cv::Mat m = cv::imread(std::string(SACCADE_SAMPLE_DATA) + "/aloeL.jpg", cv::IMREAD_GRAYSCALE);
+    if (m.empty()) {
+      std::fprintf(stderr, "saccade_bench: %s/aloeL.jpg is missing: install opencv-doc\n", SACCADE_SAMPLE_DATA);
+      std::exit(2);
+    }
+    return m;
+  }();
+  cv::Mat out;
+  cv::resize(aloe, out, size, 0, 0, cv::INTER_AREA);
+  return out;
+}
+
+cv::Size size_arg(const benchmark::State& state) {
+  return {static_cast<int>(state.range(0)), static_cast<int>(state.range(1))};
+}
+
+// ---- retina ----
+
+void BM_Retina_FivePoint(benchmark::State& state) {
+  cv::Mat frame = frame_of(size_arg(state));
+  retina::RetinaSampler sampler({});
+  std::vector<cv::Mat> levels;
+  std::vector<LevelGeometry> geometry;
+  cv::Point2d fovea(frame.cols * 0.45, frame.rows * 0.55);
+  sampler.sample(frame, fovea, levels, geometry);
+  for (auto _ : state) {
+    sampler.sample(frame, fovea, levels, geometry);
+    benchmark::DoNotOptimize(levels[0].data);
+  }
+}
+BENCHMARK(BM_Retina_FivePoint)->Args({1024, 768})->Args({640, 480});
+
+// The fovea moves every frame, so the offset tables are rebuilt each time.
+void BM_Retina_FivePointMovingFovea(benchmark::State& state) {
+  cv::Mat frame = frame_of(size_arg(state));
+  retina::RetinaSampler sampler({});
+  std::vector<cv::Mat> levels;
+  std::vector<LevelGeometry> geometry;
+  int k = 0;
+  for (auto _ : state) {
+    cv::Point2d fovea(200 + (k % 50), 200 + (k % 37));
+    ++k;
+    sampler.sample(frame, fovea, levels, geometry);
+    benchmark::DoNotOptimize(levels[0].data);
+  }
+}
+BENCHMARK(BM_Retina_FivePointMovingFovea)->Args({1024, 768})->Args({640, 480});
+
+void BM_Retina_OpenCvResizeArea(benchmark::State& state) {
+  cv::Mat frame = frame_of(size_arg(state));
+  retina::RetinaConfig config;
+  auto geometry = retina::retina_geometry(config, frame.size(), {frame.cols * 0.45, frame.rows * 0.55});
+  std::vector<cv::Mat> levels(geometry.size());
+  for (auto _ : state) {
+    for (std::size_t k = 0; k < geometry.size(); ++k)
+      cv::resize(frame(geometry[k].region), levels[k], config.size, 0, 0, cv::INTER_AREA);
+    benchmark::DoNotOptimize(levels[0].data);
+  }
+}
+BENCHMARK(BM_Retina_OpenCvResizeArea)->Args({1024, 768})->Args({640, 480});
+
+// ---- filter bank ----
+
+std::vector<cv::Mat> retina_levels() {
+  cv::Mat frame = frame_of({1024, 768});
+  retina::RetinaSampler sampler({});
+  std::vector<cv::Mat> levels;
+  std::vector<LevelGeometry> geometry;
+  sampler.sample(frame, {460, 420}, levels, geometry);
+  return levels;
+}
+
+filters::BankConfig bank_config(bool all) {
+  filters::BankConfig c;
+  if (all) {
+    c.wanted.fill(true);
+  } else {
+    for (int f : {filters::kGauss, filters::kSobelX, filters::kSobelY, filters::kGradMag, filters::kLaplacian})
+      c.wanted[static_cast<std::size_t>(f)] = true;
+  }
+  return c;
+}
+
+// Gaussian 3x3, Sobel x/y, gradient magnitude, Laplacian: the set OpenCV is run on.
+void BM_Filters_FusedCoreSet_5x32x24(benchmark::State& state) {
+  auto levels = retina_levels();
+  filters::FilterBank bank(bank_config(false));
+  std::array<cv::Mat, filters::kFeatureCount> out;
+  for (auto _ : state) {
+    for (const auto& level : levels) bank.run(level, out);
+    benchmark::DoNotOptimize(out[0].data);
+  }
+}
+BENCHMARK(BM_Filters_FusedCoreSet_5x32x24);
+
+// All twelve maps, LoG and the Gaussian gradient included.
+void BM_Filters_FusedAll_5x32x24(benchmark::State& state) {
+  auto levels = retina_levels();
+  filters::FilterBank bank(bank_config(true));
+  std::array<cv::Mat, filters::kFeatureCount> out;
+  for (auto _ : state) {
+    for (const auto& level : levels) bank.run(level, out);
+    benchmark::DoNotOptimize(out[0].data);
+  }
+}
+BENCHMARK(BM_Filters_FusedAll_5x32x24);
+
+void opencv_core_set(const cv::Mat& in, cv::Mat& g, cv::Mat& sx, cv::Mat& sy, cv::Mat& mag, cv::Mat& lap) {
+  cv::GaussianBlur(in, g, {3, 3}, 0, 0, cv::BORDER_REFLECT_101);
+  cv::Sobel(in, sx, CV_32F, 1, 0, 3);
+  cv::Sobel(in, sy, CV_32F, 0, 1, 3);
+  cv::magnitude(sx, sy, mag);
+  cv::Laplacian(in, lap, CV_32F, 1);
+}
+
+void BM_Filters_OpenCvCoreSet_5x32x24(benchmark::State& state) {
+  auto levels = retina_levels();
+  cv::Mat g, sx, sy, mag, lap;
+  for (auto _ : state) {
+    for (const auto& level : levels) opencv_core_set(level, g, sx, sy, mag, lap);
+    benchmark::DoNotOptimize(lap.data);
+  }
+}
+BENCHMARK(BM_Filters_OpenCvCoreSet_5x32x24);
+
+void BM_Filters_OpenCvCoreSet_FullFrame(benchmark::State& state) {
+  cv::Mat frame = frame_of(size_arg(state));
+  cv::Mat g, sx, sy, mag, lap;
+  for (auto _ : state) {
+    opencv_core_set(frame, g, sx, sy, mag, lap);
+    benchmark::DoNotOptimize(lap.data);
+  }
+}
+BENCHMARK(BM_Filters_OpenCvCoreSet_FullFrame)->Args({1024, 768})->Unit(benchmark::kMicrosecond);
+
+// ---- framework overhead and pipeline (whole graphs) ----
+
+const Registry& registry() {
+  static Registry* r = [] {
+    auto* reg = new Registry();
+    reg->load_folders(Registry::default_search_path());
+    return reg;
+  }();
+  return *r;
+}
+
+std::string bench_frame_file() {
+  static std::string path = [] {
+    std::string p = (std::filesystem::temp_directory_path() / "saccade_bench_1024x768.png").string();
+    cv::imwrite(p, frame_of({1024, 768}));
+    return p;
+  }();
+  return path;
+}
+
+// Runs a graph once; returns seconds and the executor (for stats).
+double run_graph(const std::string& xml, ExecutorOptions options, std::unique_ptr<Executor>* keep = nullptr,
+                 std::unique_ptr<ResolvedGraph>* keep_graph = nullptr) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_string(xml, "<bench>", diag);
+  auto graph = std::make_unique<ResolvedGraph>(*resolve_graph(decl, registry(), diag));
+  auto executor = std::make_unique<Executor>(*graph, registry(), options);
+  if (!executor->open().ok() || !executor->run().ok()) {
+    std::fprintf(stderr, "bench graph failed\n");
+    std::exit(2);
+  }
+  double s = executor->elapsed_s();
+  if (keep) *keep = std::move(executor);
+  if (keep_graph) *keep_graph = std::move(graph);
+  return s;
+}
+
+std::string chain_xml(int count, int frames, bool inline_nodes) {
+  std::string xml = "<graph><node name=\"src\" plugin=\"capture.image\"><param name=\"path\" value=\"" + bench_frame_file() +
+                    "\"/><param name=\"count\" value=\"" + std::to_string(frames) +
+                    "\"/><param name=\"rate\" value=\"fast\"/><param name=\"color\" value=\"unchanged\"/></node>";
+  std::string attr = inline_nodes ? " inline=\"true\"" : "";
+  std::string prev = "src.image";
+  for (int i = 0; i < count; ++i) {
+    std::string n = "p" + std::to_string(i);
+    xml += "<node name=\"" + n + "\" plugin=\"util.passthrough\"" + attr + "/>";
+    xml += "<edge from=\"" + prev + "\" to=\"" + n + ".in\" queue=\"block:4\"/>";
+    prev = n + ".out";
+  }
+  xml += "<node name=\"sink\" plugin=\"util.null\"" + attr + "/><edge from=\"" + prev + "\" to=\"sink.in\" queue=\"block:4\"/></graph>";
+  return xml;
+}
+
+// Per edge: (time with 10 pass-through nodes - time with none) / frames / 10.
+void framework_overhead(benchmark::State& state, bool inline_nodes) {
+  const int frames = 20000;
+  ExecutorOptions o;
+  o.threads = inline_nodes ? 1 : 2;
+  double per_edge = 0;
+  for (auto _ : state) {
+    double t0 = run_graph(chain_xml(0, frames, inline_nodes), o);
+    double t10 = run_graph(chain_xml(10, frames, inline_nodes), o);
+    per_edge = (t10 - t0) / frames / 10;
+    state.SetIterationTime(per_edge);
+  }
+  state.counters["us_per_edge"] = per_edge * 1e6;
+}
+void BM_Framework_PerEdge_Inline(benchmark::State& state) { framework_overhead(state, true); }
+void BM_Framework_PerEdge_AcrossThreads(benchmark::State& state) { framework_overhead(state, false); }
+BENCHMARK(BM_Framework_PerEdge_Inline)->UseManualTime()->Iterations(3)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Framework_PerEdge_AcrossThreads)->UseManualTime()->Iterations(3)->Unit(benchmark::kMicrosecond);
+
+double time_command(const std::string& cmd) {
+  auto t0 = std::chrono::steady_clock::now();
+  if (std::system(cmd.c_str()) != 0) return -1;
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The peer: GStreamer's fakesrc ! identity x10 ! fakesink, per element.
+void BM_GStreamer_PerElement_Identity(benchmark::State& state) {
+  const int buffers = 200000;
+  std::string base = "gst-launch-1.0 -q fakesrc num-buffers=" + std::to_string(buffers) + " ";
+  std::string chain;
+  for (int i = 0; i < 10; ++i) chain += "! identity ";
+  double per = 0;
+  for (auto _ : state) {
+    double t0 = time_command(base + "! fakesink sync=false > /dev/null 2>&1");
+    double t10 = time_command(base + chain + "! fakesink sync=false > /dev/null 2>&1");
+    if (t0 < 0 || t10 < 0) {
+      state.SkipWithError("gst-launch-1.0 failed (install gstreamer1.0-tools)");
+      return;
+    }
+    per = (t10 - t0) / buffers / 10;
+    state.SetIterationTime(per);
+  }
+  state.counters["us_per_element"] = per * 1e6;
+}
+BENCHMARK(BM_GStreamer_PerElement_Identity)->UseManualTime()->Iterations(3)->Unit(benchmark::kMicrosecond);
+
+// capture(memory) -> retina -> filters, as fast as it goes.
+void BM_Pipeline_MemoryRetinaFilters(benchmark::State& state) {
+  const int frames = 5000;
+  const bool inline_nodes = state.range(0) != 0;
+  std::string attr = inline_nodes ? " inline=\"true\"" : "";
+  std::string xml = "<graph><node name=\"src\" plugin=\"capture.image\"><param name=\"path\" value=\"" + bench_frame_file() +
+                    "\"/><param name=\"count\" value=\"" + std::to_string(frames) +
+                    "\"/><param name=\"rate\" value=\"fast\"/><param name=\"color\" value=\"unchanged\"/></node>"
+                    "<node name=\"retina\" plugin=\"retina\"" + attr + "/>"
+                    "<node name=\"filters\" plugin=\"filters.bank\"" + attr + "/>"
+                    "<node name=\"sink\" plugin=\"util.null\"" + attr + "/>"
+                    "<edge from=\"src.image\" to=\"retina.image\" queue=\"block:2\"/>"
+                    "<edge from=\"retina.retina\" to=\"filters.retina\" queue=\"block:2\"/>"
+                    "<edge from=\"filters.maps\" to=\"sink.in\" queue=\"block:2\"/></graph>";
+  ExecutorOptions o;
+  o.threads = inline_nodes ? 1 : 2;
+  for (auto _ : state) {
+    std::unique_ptr<Executor> e;
+    std::unique_ptr<ResolvedGraph> g;
+    double s = run_graph(xml, o, &e, &g);
+    state.SetIterationTime(s / frames);
+    const NodeStats* f = e->stats("filters");
+    state.counters["frames_per_s"] = frames / s;
+    state.counters["latency_p50_us"] = static_cast<double>(f->latency.percentile(0.5)) / 1e3;
+    state.counters["latency_p99_us"] = static_cast<double>(f->latency.percentile(0.99)) / 1e3;
+    state.counters["retina_p50_us"] = static_cast<double>(e->stats("retina")->process_time.percentile(0.5)) / 1e3;
+    state.counters["filters_p50_us"] = static_cast<double>(f->process_time.percentile(0.5)) / 1e3;
+  }
+}
+BENCHMARK(BM_Pipeline_MemoryRetinaFilters)->Arg(1)->Arg(0)->UseManualTime()->Iterations(1)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);  // the comparisons are single-thread, OpenCV's too
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
