@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench asan tsan clean
+.PHONY: deps build demo test bench docs asan tsan clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -18,10 +18,13 @@ demo: build
 	@echo "demo: wrote $$(ls out/demo | wc -l) PNGs under out/demo/"
 
 test: build
-	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)
+	ctest --preset $(PRESET) -j $(JOBS) $(CTEST_ARGS)
 
 bench: build
 	$(BUILD)/bin/saccade_bench --benchmark_min_time=0.2
+
+docs: build
+	$(BUILD)/bin/saccade plugins --markdown > docs/plugins.md
 
 asan:
 	@$(MAKE) test PRESET=asan

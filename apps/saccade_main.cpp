@@ -96,6 +96,11 @@ void print_plugin_text(const NodeTypeInfo& info) {
   std::printf("\n");
 }
 
+std::string md_cell(std::string text) {
+  for (std::size_t i = 0; (i = text.find('|', i)) != std::string::npos; i += 2) text.insert(i, "\\");
+  return text;
+}
+
 void print_plugin_markdown(const NodeTypeInfo& info) {
   const Contract& c = info.contract;
   std::printf("## `%s`\n\n%s\n\n", info.type.c_str(), c.doc().c_str());
@@ -114,7 +119,7 @@ void print_plugin_markdown(const NodeTypeInfo& info) {
     std::printf("| parameter | type | default | range / choices | doc |\n|---|---|---|---|---|\n");
     for (const auto& p : c.params())
       std::printf("| `%s` | %s | `%s` | %s | %s |\n", p.name.c_str(), std::string(to_string(p.type)).c_str(),
-                  param_default(p).c_str(), param_range(p).c_str(), p.doc.c_str());
+                  param_default(p).c_str(), md_cell(param_range(p)).c_str(), md_cell(p.doc).c_str());
     std::printf("\n");
   }
 }
@@ -170,6 +175,9 @@ int main(int argc, char** argv) {
   Registry registry;
   if (plugins->parsed()) {
     load_registry(registry, common, true);
+    if (markdown && plugin_name.empty())
+      std::printf("# Plugin reference\n\nGenerated from the plugins' own contracts by `saccade plugins --markdown`; a test "
+                  "fails when\nthis file and the built plugins disagree (regenerate with `make docs`).\n\n");
     int shown = 0;
     for (const auto& type : registry.types()) {
       if (!plugin_name.empty() && type != plugin_name && type.rfind(plugin_name + ".", 0) != 0) continue;

@@ -2,7 +2,6 @@
 // Recycles messages once nobody but the pool holds them, so a node in steady state
 // allocates neither message objects, shared_ptr control blocks nor (for buffers of
 // an unchanged size) pixel memory.
-#include <atomic>
 #include <cstddef>
 #include <memory>
 #include <vector>
@@ -22,14 +21,16 @@ class MessagePool {
     for (std::size_t i = 0; i < slots_.size(); ++i) {
       std::size_t k = (next_ + i) % slots_.size();
       auto& slot = slots_[k];
-      if (slot.use_count() == 1) {
-        std::atomic_thread_fence(std::memory_order_acquire);
-        auto* typed = dynamic_cast<T*>(slot.get());
-        if (typed == nullptr) continue;
-        next_ = (k + 1) % slots_.size();
-        typed->release_shared_buffers();
-        return std::shared_ptr<T>(slot, typed);
-      }
+      if (slot.use_count() != 1) continue;
+      // Copying the pointer is an acq_rel increment of the count that the last
+      // holder released: everything it did with the message happens before us.
+      std::shared_ptr<Message> held = slot;
+      if (held.use_count() != 2) continue;
+      auto* typed = dynamic_cast<T*>(held.get());
+      if (typed == nullptr) continue;
+      next_ = (k + 1) % slots_.size();
+      typed->release_shared_buffers();
+      return std::shared_ptr<T>(std::move(held), typed);
     }
     auto fresh = std::make_shared<T>();
     slots_.push_back(fresh);
