@@ -199,10 +199,13 @@ double run_graph(const std::string& xml, ExecutorOptions options, std::unique_pt
   return s;
 }
 
-std::string chain_xml(int count, int frames, bool inline_nodes) {
+std::string chain_xml(int count, int frames, bool inline_nodes, double paced_fps = 0) {
+  std::string pace = paced_fps > 0 ? "<param name=\"rate\" value=\"realtime\"/><param name=\"fps\" value=\"" +
+                                         std::to_string(paced_fps) + "\"/>"
+                                   : "<param name=\"rate\" value=\"fast\"/>";
   std::string xml = "<graph><node name=\"src\" plugin=\"capture.image\"><param name=\"path\" value=\"" + bench_frame_file() +
-                    "\"/><param name=\"count\" value=\"" + std::to_string(frames) +
-                    "\"/><param name=\"rate\" value=\"fast\"/><param name=\"color\" value=\"unchanged\"/></node>";
+                    "\"/><param name=\"count\" value=\"" + std::to_string(frames) + "\"/>" + pace +
+                    "<param name=\"color\" value=\"unchanged\"/></node>";
   std::string attr = inline_nodes ? " inline=\"true\"" : "";
   std::string prev = "src.image";
   for (int i = 0; i < count; ++i) {
@@ -215,24 +218,48 @@ std::string chain_xml(int count, int frames, bool inline_nodes) {
   return xml;
 }
 
-// Per edge: (time with 10 pass-through nodes - time with none) / frames / 10.
-void framework_overhead(benchmark::State& state, bool inline_nodes) {
+// Throughput per edge: (time with 10 pass-through nodes - time with none) / frames
+// / 10, all inline on one thread as GStreamer's pipeline below runs.
+void BM_Framework_PerEdge_Inline(benchmark::State& state) {
   const int frames = 20000;
   ExecutorOptions o;
-  o.threads = inline_nodes ? 1 : 2;
+  o.threads = 1;
   double per_edge = 0;
   for (auto _ : state) {
-    double t0 = run_graph(chain_xml(0, frames, inline_nodes), o);
-    double t10 = run_graph(chain_xml(10, frames, inline_nodes), o);
+    double t0 = run_graph(chain_xml(0, frames, true), o);
+    double t10 = run_graph(chain_xml(10, frames, true), o);
     per_edge = (t10 - t0) / frames / 10;
     state.SetIterationTime(per_edge);
   }
   state.counters["us_per_edge"] = per_edge * 1e6;
 }
-void BM_Framework_PerEdge_Inline(benchmark::State& state) { framework_overhead(state, true); }
-void BM_Framework_PerEdge_AcrossThreads(benchmark::State& state) { framework_overhead(state, false); }
 BENCHMARK(BM_Framework_PerEdge_Inline)->UseManualTime()->Iterations(3)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_Framework_PerEdge_AcrossThreads)->UseManualTime()->Iterations(3)->Unit(benchmark::kMicrosecond);
+
+// Latency per edge: frames paced at 2 kHz (queues stay empty) through 10
+// pass-through nodes; (capture->sink latency p50 with 10 - with none) / 10.
+void framework_latency(benchmark::State& state, bool inline_nodes) {
+  const int frames = 2000;
+  ExecutorOptions o;
+  o.threads = inline_nodes ? 1 : 2;
+  double per_edge = 0, p99 = 0;
+  for (auto _ : state) {
+    std::unique_ptr<Executor> e0, e10;
+    std::unique_ptr<ResolvedGraph> g0, g10;
+    run_graph(chain_xml(0, frames, inline_nodes, 2000), o, &e0, &g0);
+    run_graph(chain_xml(10, frames, inline_nodes, 2000), o, &e10, &g10);
+    const auto& l0 = e0->stats("sink")->latency;
+    const auto& l10 = e10->stats("sink")->latency;
+    per_edge = static_cast<double>(l10.percentile(0.5) - l0.percentile(0.5)) / 10 / 1e9;
+    p99 = static_cast<double>(l10.percentile(0.99)) / 1e3;
+    state.SetIterationTime(std::max(per_edge, 1e-12));
+  }
+  state.counters["us_per_edge_p50"] = per_edge * 1e6;
+  state.counters["chain_latency_p99_us"] = p99;
+}
+void BM_Framework_LatencyPerEdge_Inline(benchmark::State& state) { framework_latency(state, true); }
+void BM_Framework_LatencyPerEdge_AcrossThreads(benchmark::State& state) { framework_latency(state, false); }
+BENCHMARK(BM_Framework_LatencyPerEdge_Inline)->UseManualTime()->Iterations(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Framework_LatencyPerEdge_AcrossThreads)->UseManualTime()->Iterations(1)->Unit(benchmark::kMicrosecond);
 
 double time_command(const std::string& cmd) {
   auto t0 = std::chrono::steady_clock::now();

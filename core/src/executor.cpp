@@ -77,6 +77,23 @@ struct Target {
   int input;
 };
 
+// Time spent in inline consumers during the current process() call on this
+// thread: it is the consumers' time, not the producer's.
+thread_local int64_t t_inline_ns = 0;
+
+// Runs `call` and returns its own duration, less what inline consumers took.
+template <class F>
+Status timed_call(F&& call, int64_t& t0, int64_t& own_ns) {
+  int64_t outer = t_inline_ns;
+  t_inline_ns = 0;
+  t0 = steady_now_ns();
+  Status s = call();
+  int64_t t1 = steady_now_ns();
+  own_ns = (t1 - t0) - t_inline_ns;
+  t_inline_ns = outer;
+  return s;
+}
+
 struct SyncGroup {
   std::vector<int> inputs;
   int64_t tolerance_ns = std::numeric_limits<int64_t>::max();  // implicit join: any
@@ -397,7 +414,11 @@ struct Executor::Impl {
         }
       }
     }
-    for (int i = 0; i < inline_count; ++i) run_taken(inline_run[i]);
+    for (int i = 0; i < inline_count; ++i) {
+      int64_t start = steady_now_ns();
+      run_taken(inline_run[i]);
+      t_inline_ns += steady_now_ns() - start;
+    }
   }
 
   // --- running ---
@@ -405,11 +426,7 @@ struct Executor::Impl {
   // Runs a node whose inputs were taken under the lock (running == true).
   void run_taken(int index) {
     NodeRt& n = nodes[static_cast<std::size_t>(index)];
-    ProcessContext ctx(n.slot);
-    int64_t t0 = steady_now_ns();
-    Status s = n.node->process(ctx);
-    int64_t t1 = steady_now_ns();
-    record(n, t0, t1);
+    Status s = invoke(n);
     for (auto& m : n.slot.current) m.reset();
     std::lock_guard lock(mu);
     n.running = false;
@@ -419,12 +436,18 @@ struct Executor::Impl {
     else schedule(index);
   }
 
-  void record(NodeRt& n, int64_t t0, int64_t t1) {
+  // Calls process() and records its stats.
+  Status invoke(NodeRt& n) {
+    ProcessContext ctx(n.slot);
+    int64_t t0 = 0, own = 0;
+    Status s = timed_call([&] { return n.node->process(ctx); }, t0, own);
     NodeStats& st = *n.stats;
     if (st.processed.fetch_add(1, std::memory_order_relaxed) == 0) st.first_ns.store(t0, std::memory_order_relaxed);
     st.last_ns.store(t0, std::memory_order_relaxed);
-    st.process_time.record(t1 - t0);
-    if (n.slot.trigger != nullptr && n.slot.trigger->origin_ns > 0) st.latency.record(t1 - n.slot.trigger->origin_ns);
+    st.process_time.record(own);
+    if (n.slot.trigger != nullptr && n.slot.trigger->origin_ns > 0)
+      st.latency.record(t0 + own - n.slot.trigger->origin_ns);
+    return s;
   }
 
   // Under mu.
@@ -487,10 +510,7 @@ struct Executor::Impl {
         }
         n.running = true;
       }
-      ProcessContext ctx(n.slot);
-      int64_t t0 = steady_now_ns();
-      Status s = n.node->process(ctx);
-      record(n, t0, steady_now_ns());
+      Status s = invoke(n);
       std::lock_guard lock(mu);
       n.running = false;
       ++n.frames;
@@ -519,10 +539,7 @@ struct Executor::Impl {
         }
         if (!has_room_downstream(n)) continue;
         lock.unlock();
-        ProcessContext ctx(n.slot);
-        int64_t t0 = steady_now_ns();
-        Status s = n.node->process(ctx);
-        record(n, t0, steady_now_ns());
+        Status s = invoke(n);
         lock.lock();
         ++n.frames;
         progressed = true;
@@ -556,10 +573,7 @@ struct Executor::Impl {
         n.running = true;
         take_inputs(n);
         lock.unlock();
-        ProcessContext ctx(n.slot);
-        int64_t t0 = steady_now_ns();
-        Status s = n.node->process(ctx);
-        record(n, t0, steady_now_ns());
+        Status s = invoke(n);
         for (auto& m : n.slot.current) m.reset();
         lock.lock();
         n.running = false;

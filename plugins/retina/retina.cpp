@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace saccade::retina {
 
@@ -94,6 +95,7 @@ RetinaSampler::RetinaSampler(RetinaConfig config) : config_(config) {
     t.row_up.resize(static_cast<std::size_t>(config_.size.height));
     t.row_down.resize(static_cast<std::size_t>(config_.size.height));
   }
+  sums_.resize(static_cast<std::size_t>(config_.size.width));
 }
 
 std::string RetinaSampler::check(const cv::Mat& frame) const {
@@ -133,29 +135,34 @@ void RetinaSampler::prepare(const cv::Mat& frame, cv::Point corner) {
   prepared_corner_ = corner;
 }
 
-void RetinaSampler::sample_five_point(const cv::Mat& frame, std::vector<cv::Mat>& levels) const {
+void RetinaSampler::sample_five_point(const cv::Mat& frame, std::vector<cv::Mat>& levels) {
   const int cn = frame.channels();
   const int w = config_.size.width, h = config_.size.height;
+  uint16_t* sums = sums_.data();
   for (std::size_t k = 0; k + 1 < tables_.size(); ++k) {
     const LevelTable& t = tables_[k];
     cv::Mat& level = levels[k];
-    const int s = t.sub_x_bytes;
-    const int* col = t.col.data();
+    const std::ptrdiff_t s = t.sub_x_bytes;
+    const std::ptrdiff_t* col = t.col.data();
     for (int j = 0; j < h; ++j) {
       const uint8_t* r0 = frame.ptr<uint8_t>(t.row[static_cast<std::size_t>(j)]);
-      const uint8_t* ru = frame.ptr<uint8_t>(t.row_up[static_cast<std::size_t>(j)]);
-      const uint8_t* rd = frame.ptr<uint8_t>(t.row_down[static_cast<std::size_t>(j)]);
+      // Up and down rows as offsets from the centre row: every sample is one
+      // base+index load from the cell centre's address.
+      const std::ptrdiff_t du = frame.ptr<uint8_t>(t.row_up[static_cast<std::size_t>(j)]) - r0;
+      const std::ptrdiff_t dd = frame.ptr<uint8_t>(t.row_down[static_cast<std::size_t>(j)]) - r0;
       uint8_t* out = level.ptr<uint8_t>(j);
       if (cn == 1) {
+        // Sums first, the rounded division in a second loop the compiler vectorises.
         for (int i = 0; i < w; ++i) {
-          const int x = col[i];
-          out[i] = mean5(static_cast<unsigned>(r0[x]) + r0[x - s] + r0[x + s] + ru[x] + rd[x]);
+          const uint8_t* c = r0 + col[i];
+          sums[i] = static_cast<uint16_t>(c[0] + c[-s] + c[s] + c[du] + c[dd]);
         }
+        for (int i = 0; i < w; ++i) out[i] = mean5(sums[i]);
       } else {
         for (int i = 0; i < w; ++i) {
-          const int x = col[i];
-          for (int c = 0; c < 3; ++c)
-            out[i * 3 + c] = mean5(static_cast<unsigned>(r0[x + c]) + r0[x + c - s] + r0[x + c + s] + ru[x + c] + rd[x + c]);
+          const uint8_t* c = r0 + col[i];
+          for (int ch = 0; ch < 3; ++ch)
+            out[i * 3 + ch] = mean5(static_cast<unsigned>(c[ch]) + c[ch - s] + c[ch + s] + c[ch + du] + c[ch + dd]);
         }
       }
     }

@@ -56,10 +56,10 @@ class RetinaSampler {
 
  private:
   void prepare(const cv::Mat& frame, cv::Point corner);
-  void sample_five_point(const cv::Mat& frame, std::vector<cv::Mat>& levels) const;
+  void sample_five_point(const cv::Mat& frame, std::vector<cv::Mat>& levels);
 
   struct LevelTable {
-    std::vector<int> col;  // byte offset of each cell centre in a row
+    std::vector<std::ptrdiff_t> col;  // byte offset of each cell centre in a row
     std::vector<int> row;  // frame row of each cell centre
     std::vector<int> row_up, row_down;
     int sub_x_bytes = 0;
@@ -67,6 +67,7 @@ class RetinaSampler {
   RetinaConfig config_;
   std::vector<LevelTable> tables_;
   std::vector<LevelGeometry> geometry_;
+  std::vector<uint16_t> sums_;
   cv::Size prepared_size_;
   int prepared_type_ = -1;
   cv::Point prepared_corner_{-1, -1};

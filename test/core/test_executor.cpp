@@ -334,6 +334,18 @@ TEST_F(Executor, InlineNodesRunOnTheProducersThread) {
   EXPECT_EQ(g->stats("p9").inputs[0]->dropped.load(), 0u);
 }
 
+TEST_F(Executor, InlineConsumersTimeIsNotChargedToTheProducer) {
+  auto g = open_graph("<graph>" + counter("src", 20) +
+                      "<node name=\"p\" plugin=\"util.passthrough\" inline=\"true\"><param name=\"busy_us\" value=\"3000\"/></node>"
+                      "<node name=\"sink\" plugin=\"util.null\" inline=\"true\"/>"
+                      "<edge from=\"src.image\" to=\"p.in\" queue=\"block:1\"/><edge from=\"p.out\" to=\"sink.in\"/></graph>",
+                      threads(1));
+  ASSERT_TRUE(g->run().ok());
+  EXPECT_EQ(g->stats("sink").processed.load(), 20u);
+  EXPECT_GE(g->stats("p").process_time.percentile(0.5), 3'000'000);
+  EXPECT_LT(g->stats("src").process_time.percentile(0.5), 1'500'000) << "the 3 ms of the inline consumer is its own";
+}
+
 TEST_F(Executor, StatsCountProcessingAndLatency) {
   auto g = open_graph("<graph>" + counter("src", 50) + slow_sink("sink", 200) +
                       "<edge from=\"src.image\" to=\"sink.in\" queue=\"block:1\"/></graph>");
