@@ -249,11 +249,11 @@ void framework_latency(benchmark::State& state, bool inline_nodes) {
     run_graph(chain_xml(10, frames, inline_nodes, 2000), o, &e10, &g10);
     const auto& l0 = e0->stats("sink")->latency;
     const auto& l10 = e10->stats("sink")->latency;
-    per_edge = static_cast<double>(l10.percentile(0.5) - l0.percentile(0.5)) / 10 / 1e9;
+    per_edge = (l10.mean() - l0.mean()) / 10 / 1e9;
     p99 = static_cast<double>(l10.percentile(0.99)) / 1e3;
     state.SetIterationTime(std::max(per_edge, 1e-12));
   }
-  state.counters["us_per_edge_p50"] = per_edge * 1e6;
+  state.counters["us_per_edge_mean"] = per_edge * 1e6;
   state.counters["chain_latency_p99_us"] = p99;
 }
 void BM_Framework_LatencyPerEdge_Inline(benchmark::State& state) { framework_latency(state, true); }

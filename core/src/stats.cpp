@@ -27,6 +27,7 @@ int64_t Histogram::upper_edge(int bucket) {
 void Histogram::record(int64_t ns) {
   buckets_[static_cast<std::size_t>(bucket_of(ns))].fetch_add(1, std::memory_order_relaxed);
   count_.fetch_add(1, std::memory_order_relaxed);
+  sum_.fetch_add(ns, std::memory_order_relaxed);
   int64_t prev = max_.load(std::memory_order_relaxed);
   while (ns > prev && !max_.compare_exchange_weak(prev, ns, std::memory_order_relaxed)) {
   }
@@ -46,6 +47,11 @@ int64_t Histogram::percentile(double q) const {
     }
   }
   return max();
+}
+
+double Histogram::mean() const {
+  uint64_t n = count();
+  return n == 0 ? 0.0 : static_cast<double>(sum_.load(std::memory_order_relaxed)) / static_cast<double>(n);
 }
 
 double NodeStats::rate_hz() const {
@@ -118,10 +124,12 @@ std::string format_stats_json(const std::vector<const NodeStats*>& nodes, double
     out += ", \"errors\": " + std::to_string(n->errors.load());
     out += ", \"emitted\": " + std::to_string(n->emitted.load());
     out += ", \"rate_hz\": " + std::to_string(n->rate_hz());
-    out += ", \"process_ns\": {\"p50\": " + std::to_string(n->process_time.percentile(0.5)) +
+    out += ", \"process_ns\": {\"mean\": " + std::to_string(static_cast<int64_t>(n->process_time.mean())) +
+           ", \"p50\": " + std::to_string(n->process_time.percentile(0.5)) +
            ", \"p99\": " + std::to_string(n->process_time.percentile(0.99)) +
            ", \"max\": " + std::to_string(n->process_time.max()) + "}";
-    out += ", \"latency_ns\": {\"p50\": " + std::to_string(n->latency.percentile(0.5)) +
+    out += ", \"latency_ns\": {\"mean\": " + std::to_string(static_cast<int64_t>(n->latency.mean())) +
+           ", \"p50\": " + std::to_string(n->latency.percentile(0.5)) +
            ", \"p99\": " + std::to_string(n->latency.percentile(0.99)) +
            ", \"max\": " + std::to_string(n->latency.max()) + "}";
     out += ", \"inputs\": [";

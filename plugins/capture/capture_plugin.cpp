@@ -114,6 +114,7 @@ class SingleCapture : public Node {
       return error_.empty() ? Status::end_of_stream() : Status::error(error_);
     image->frame_id = frame_++;
     if (!delivery_.pace(ctx, *reader_, image->timestamp_ns)) return Status::end_of_stream();
+    image->origin_ns = steady_now_ns();  // released now: latency starts here, not before the pacing sleep
     ctx.emit(out_, std::move(image));
     return {};
   }
@@ -225,8 +226,8 @@ class Stereo final : public Node {
     r->camera_id = 1;
     l->frame_id = r->frame_id = frame_++;
     r->timestamp_ns = l->timestamp_ns;  // one pair, one instant
-    r->origin_ns = l->origin_ns;
     if (!left_.pace(ctx, *left_reader_, l->timestamp_ns)) return Status::end_of_stream();
+    l->origin_ns = r->origin_ns = steady_now_ns();
     ctx.emit(left_out_, std::move(l));
     ctx.emit(right_out_, std::move(r));
     return {};

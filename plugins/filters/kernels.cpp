@@ -43,8 +43,9 @@ std::pair<cv::Mat, cv::Mat> gaussian_derivative_kernels(float sigma) {
   return {g, dg};
 }
 
-float fast_atan2(float y, float x) {
-  // Branch-free, so the loops calling it vectorise.
+namespace {
+// Branch-free, so the loops calling it vectorise.
+inline float fast_atan2_inline(float y, float x) {
   float ax = std::fabs(x), ay = std::fabs(y);
   float mx = std::max(ax, ay), mn = std::min(ax, ay);
   float a = mn / std::max(mx, 1e-30f);
@@ -52,10 +53,15 @@ float fast_atan2(float y, float x) {
   // Odd minimax polynomial for atan on [0, 1], error below 1e-5 rad.
   float r = ((((-0.01172120f * s + 0.05265332f) * s - 0.11643287f) * s + 0.19354346f) * s - 0.33262347f) * s * a +
             0.99997726f * a;
-  r = ay > ax ? 1.57079637f - r : r;
-  r = x < 0 ? 3.14159274f - r : r;
-  return y < 0 ? -r : r;
+  // Octant fix-ups as arithmetic on 0/1 factors: no branch, no select.
+  const float swap = static_cast<float>(ay > ax), left = static_cast<float>(x < 0);
+  r += swap * (1.57079637f - 2.0f * r);
+  r += left * (3.14159274f - 2.0f * r);
+  return std::copysign(r, y);
 }
+}  // namespace
+
+float fast_atan2(float y, float x) { return fast_atan2_inline(y, x); }
 
 namespace {
 
@@ -126,17 +132,93 @@ FilterBank::FilterBank(BankConfig config) : config_(config) {
   radius_ = gaussian_radius(config_.ggrad_sigma);
 }
 
+namespace {
+
+// Copies an 8-bit level into a float buffer with `pad` border pixels on every
+// side, resolving the border by the same index rule as the reference. The level
+// alone is read, even when it is a view into a larger image.
+void pad_level(const cv::Mat& level, int pad, Border border, std::vector<int>& map_x, cv::Mat& out) {
+  const int w = level.cols, h = level.rows;
+  out.create(h + 2 * pad, w + 2 * pad, CV_32F);
+  map_x.resize(static_cast<std::size_t>(w + 2 * pad));
+  for (int x = 0; x < w + 2 * pad; ++x) map_x[static_cast<std::size_t>(x)] = border_index(x - pad, w, border);
+  for (int y = 0; y < h + 2 * pad; ++y) {
+    const uint8_t* src = level.ptr<uint8_t>(border_index(y - pad, h, border));
+    float* dst = out.ptr<float>(y);
+    for (int x = 0; x < pad; ++x) dst[x] = src[map_x[static_cast<std::size_t>(x)]];
+    for (int x = 0; x < w; ++x) dst[x + pad] = src[x];
+    for (int x = w + pad; x < w + 2 * pad; ++x) dst[x] = src[map_x[static_cast<std::size_t>(x)]];
+  }
+}
+
+// The same for a float map with a 1-pixel border (the LoG's input).
+void pad_float(const cv::Mat& map, Border border, std::vector<int>& map_x, cv::Mat& out) {
+  const int w = map.cols, h = map.rows;
+  out.create(h + 2, w + 2, CV_32F);
+  map_x.resize(static_cast<std::size_t>(w + 2));
+  for (int x = 0; x < w + 2; ++x) map_x[static_cast<std::size_t>(x)] = border_index(x - 1, w, border);
+  for (int y = 0; y < h + 2; ++y) {
+    const float* src = map.ptr<float>(border_index(y - 1, h, border));
+    float* dst = out.ptr<float>(y);
+    dst[0] = src[map_x[0]];
+    for (int x = 0; x < w; ++x) dst[x + 1] = src[x];
+    dst[w + 1] = src[map_x[static_cast<std::size_t>(w + 1)]];
+  }
+}
+
+// One output row of the 3x3 masks. Rows start one pixel left of the output's
+// first pixel. Restrict parameters (GCC honours restrict on parameters) and
+// float arithmetic on small integers (exact) let this vectorise.
+void row_3x3(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
+             float* __restrict og, float* __restrict ox, float* __restrict oy, float* __restrict ol, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float a = r0[x], b = r0[x + 1], c = r0[x + 2];
+    const float d = r1[x], e = r1[x + 1], f = r1[x + 2];
+    const float g = r2[x], hh = r2[x + 1], i = r2[x + 2];
+    const float cross = (b + d) + (f + hh);
+    og[x] = ((a + c) + (g + i) + 2.0f * cross + 4.0f * e) * (1.0f / 16.0f);
+    ox[x] = (c + 2.0f * f + i) - (a + 2.0f * d + g);
+    oy[x] = (g + 2.0f * hh + i) - (a + 2.0f * b + c);
+    ol[x] = cross - 4.0f * e;
+  }
+}
+
+// One output row of the 4-neighbour Laplacian, rows as in row_3x3.
+void row_cross(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2, float* __restrict o,
+               int w) {
+  for (int x = 0; x < w; ++x) o[x] = (r0[x + 1] + r2[x + 1] + r1[x] + r1[x + 2]) - 4.0f * r1[x + 1];
+}
+
+void row_magnitude(const float* __restrict gx, const float* __restrict gy, float* __restrict mag, int w) {
+  for (int x = 0; x < w; ++x) mag[x] = std::sqrt(gx[x] * gx[x] + gy[x] * gy[x]);
+}
+
+void row_threshold(const float* __restrict v, float thr, uint8_t* __restrict mask, int w) {
+  for (int x = 0; x < w; ++x) mask[x] = v[x] > thr ? 255 : 0;
+}
+
+void row_direction(const float* __restrict gx, const float* __restrict gy, float* __restrict dir, int w) {
+  for (int x = 0; x < w; ++x) dir[x] = fast_atan2_inline(gy[x], gx[x]);
+}
+
+// acc_a += wa * src_a, acc_b += wb * src_b, over one row.
+void row_axpy2(float wa, const float* __restrict src_a, float* __restrict acc_a, float wb, const float* __restrict src_b,
+               float* __restrict acc_b, int w) {
+  for (int x = 0; x < w; ++x) {
+    acc_a[x] += wa * src_a[x];
+    acc_b[x] += wb * src_b[x];
+  }
+}
+
+}  // namespace
+
 void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& outs) {
   CV_Assert(level.type() == CV_8UC1);
   const auto& want = config_.wanted;
   const int w = level.cols, h = level.rows;
   const bool need_ggrad = want[kGGradX] || want[kGGradY] || want[kGGradMag] || want[kGGradMask];
   const int pad = need_ggrad ? std::max(1, radius_) : 1;
-  // BORDER_ISOLATED: a level that is a view into a larger image must not borrow
-  // its neighbours' pixels for the border.
-  const int border = to_cv_border(config_.border) | cv::BORDER_ISOLATED;
-  padded_.create(h + 2 * pad, w + 2 * pad, CV_8U);
-  cv::copyMakeBorder(level, padded_, pad, pad, pad, pad, border);
+  pad_level(level, pad, config_.border, map_x_, padded_f_);
 
   auto target = [&](int f, int type) -> cv::Mat& {
     cv::Mat& m = want[static_cast<std::size_t>(f)] ? outs[static_cast<std::size_t>(f)] : scratch_[static_cast<std::size_t>(f)];
@@ -150,24 +232,11 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
     cv::Mat& sx = target(kSobelX, CV_32F);
     cv::Mat& sy = target(kSobelY, CV_32F);
     cv::Mat& lap = target(kLaplacian, CV_32F);
+    // Float arithmetic on small integers: exact, and it vectorises.
     for (int y = 0; y < h; ++y) {
-      const uint8_t* p0 = padded_.ptr<uint8_t>(y + pad - 1) + pad;
-      const uint8_t* p1 = padded_.ptr<uint8_t>(y + pad) + pad;
-      const uint8_t* p2 = padded_.ptr<uint8_t>(y + pad + 1) + pad;
-      float* og = gauss.ptr<float>(y);
-      float* ox = sx.ptr<float>(y);
-      float* oy = sy.ptr<float>(y);
-      float* ol = lap.ptr<float>(y);
-      for (int x = 0; x < w; ++x) {
-        int a = p0[x - 1], b = p0[x], c = p0[x + 1];
-        int d = p1[x - 1], e = p1[x], f = p1[x + 1];
-        int g = p2[x - 1], hh = p2[x], i = p2[x + 1];
-        int cross = b + d + f + hh;
-        og[x] = static_cast<float>(a + c + g + i + 2 * cross + 4 * e) * (1.0f / 16.0f);
-        ox[x] = static_cast<float>((c + 2 * f + i) - (a + 2 * d + g));
-        oy[x] = static_cast<float>((g + 2 * hh + i) - (a + 2 * b + c));
-        ol[x] = static_cast<float>(cross - 4 * e);
-      }
+      row_3x3(padded_f_.ptr<float>(y + pad - 1) + pad - 1, padded_f_.ptr<float>(y + pad) + pad - 1,
+              padded_f_.ptr<float>(y + pad + 1) + pad - 1, gauss.ptr<float>(y), sx.ptr<float>(y), sy.ptr<float>(y),
+              lap.ptr<float>(y), w);
     }
     if (want[kGradMag] || want[kGradMask] || want[kGradDir]) {
       cv::Mat& mag = target(kGradMag, CV_32F);
@@ -175,56 +244,35 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
       cv::Mat* dir = want[kGradDir] ? &target(kGradDir, CV_32F) : nullptr;
       const float thr = config_.grad_threshold;
       for (int y = 0; y < h; ++y) {
-        const float* gx = sx.ptr<float>(y);
-        const float* gy = sy.ptr<float>(y);
-        float* om = mag.ptr<float>(y);
-        for (int x = 0; x < w; ++x) om[x] = std::sqrt(gx[x] * gx[x] + gy[x] * gy[x]);
-        if (mask != nullptr) {
-          uint8_t* ok = mask->ptr<uint8_t>(y);
-          for (int x = 0; x < w; ++x) ok[x] = om[x] > thr ? 255 : 0;
-        }
-        if (dir != nullptr) {
-          float* od = dir->ptr<float>(y);
-          for (int x = 0; x < w; ++x) od[x] = fast_atan2(gy[x], gx[x]);
-        }
+        row_magnitude(sx.ptr<float>(y), sy.ptr<float>(y), mag.ptr<float>(y), w);
+        if (mask != nullptr) row_threshold(mag.ptr<float>(y), thr, mask->ptr<uint8_t>(y), w);
+        if (dir != nullptr) row_direction(sx.ptr<float>(y), sy.ptr<float>(y), dir->ptr<float>(y), w);
       }
     }
     if (want[kLoG]) {
-      gauss_padded_.create(h + 2, w + 2, CV_32F);
-      cv::copyMakeBorder(gauss, gauss_padded_, 1, 1, 1, 1, border);
+      pad_float(gauss, config_.border, map_x_, gauss_padded_);
       cv::Mat& log = target(kLoG, CV_32F);
       for (int y = 0; y < h; ++y) {
-        const float* q0 = gauss_padded_.ptr<float>(y) + 1;
-        const float* q1 = gauss_padded_.ptr<float>(y + 1) + 1;
-        const float* q2 = gauss_padded_.ptr<float>(y + 2) + 1;
-        float* o = log.ptr<float>(y);
-        for (int x = 0; x < w; ++x) o[x] = (q0[x] + q2[x] + q1[x - 1] + q1[x + 1]) - 4.0f * q1[x];
+        row_cross(gauss_padded_.ptr<float>(y), gauss_padded_.ptr<float>(y + 1), gauss_padded_.ptr<float>(y + 2),
+                  log.ptr<float>(y), w);
       }
     }
   }
   if (need_ggrad) {
     // Row pass over every padded row, then a column pass: ggrad_x = dg (x) then
-    // g (y); ggrad_y = g (x) then dg (y).
+    // g (y); ggrad_y = g (x) then dg (y). Taps outer, pixels inner: vectorises.
     const int r = radius_, n = 2 * r + 1;
     const int rows = h + 2 * pad;
-    padded_.convertTo(padded_f_, CV_32F);
     row_g_.create(rows, w, CV_32F);
     row_dg_.create(rows, w, CV_32F);
-    // Tap-outer loops: the inner loop runs along x and vectorises.
     for (int y = 0; y < rows; ++y) {
       const float* p = padded_f_.ptr<float>(y) + pad - r;
       float* og = row_g_.ptr<float>(y);
       float* od = row_dg_.ptr<float>(y);
       std::fill(og, og + w, 0.0f);
       std::fill(od, od + w, 0.0f);
-      for (int k = 0; k < n; ++k) {
-        const float wg = g_[static_cast<std::size_t>(k)], wd = dg_[static_cast<std::size_t>(k)];
-        const float* pk = p + k;
-        for (int x = 0; x < w; ++x) {
-          og[x] += wg * pk[x];
-          od[x] += wd * pk[x];
-        }
-      }
+      for (int k = 0; k < n; ++k)
+        row_axpy2(g_[static_cast<std::size_t>(k)], p + k, og, dg_[static_cast<std::size_t>(k)], p + k, od, w);
     }
     cv::Mat& gx = target(kGGradX, CV_32F);
     cv::Mat& gy = target(kGGradY, CV_32F);
@@ -233,29 +281,17 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
       float* oy = gy.ptr<float>(y);
       std::fill(ox, ox + w, 0.0f);
       std::fill(oy, oy + w, 0.0f);
-      for (int k = 0; k < n; ++k) {
-        const float* rd = row_dg_.ptr<float>(y + pad - r + k);
-        const float* rg = row_g_.ptr<float>(y + pad - r + k);
-        const float wg = g_[static_cast<std::size_t>(k)], wd = dg_[static_cast<std::size_t>(k)];
-        for (int x = 0; x < w; ++x) {
-          ox[x] += wg * rd[x];
-          oy[x] += wd * rg[x];
-        }
-      }
+      for (int k = 0; k < n; ++k)
+        row_axpy2(g_[static_cast<std::size_t>(k)], row_dg_.ptr<float>(y + pad - r + k), ox,
+                  dg_[static_cast<std::size_t>(k)], row_g_.ptr<float>(y + pad - r + k), oy, w);
     }
     if (want[kGGradMag] || want[kGGradMask]) {
       cv::Mat& mag = target(kGGradMag, CV_32F);
       cv::Mat* mask = want[kGGradMask] ? &target(kGGradMask, CV_8U) : nullptr;
       const float thr = config_.ggrad_threshold;
       for (int y = 0; y < h; ++y) {
-        const float* a = gx.ptr<float>(y);
-        const float* b = gy.ptr<float>(y);
-        float* om = mag.ptr<float>(y);
-        for (int x = 0; x < w; ++x) om[x] = std::sqrt(a[x] * a[x] + b[x] * b[x]);
-        if (mask != nullptr) {
-          uint8_t* ok = mask->ptr<uint8_t>(y);
-          for (int x = 0; x < w; ++x) ok[x] = om[x] > thr ? 255 : 0;
-        }
+        row_magnitude(gx.ptr<float>(y), gy.ptr<float>(y), mag.ptr<float>(y), w);
+        if (mask != nullptr) row_threshold(mag.ptr<float>(y), thr, mask->ptr<uint8_t>(y), w);
       }
     }
   }

@@ -71,7 +71,8 @@ class FilterBank {
   BankConfig config_;
   int radius_ = 1;
   std::vector<float> g_, dg_;
-  cv::Mat padded_, padded_f_, gauss_padded_, row_g_, row_dg_;
+  cv::Mat padded_f_, gauss_padded_, row_g_, row_dg_;
+  std::vector<int> map_x_;
   std::array<cv::Mat, kFeatureCount> scratch_;
 };
 

@@ -13,6 +13,7 @@ TEST(Histogram, PercentilesWithinABucket) {
   EXPECT_NEAR(static_cast<double>(h.percentile(0.5)), 500'000.0, 500'000.0 * 0.13);
   EXPECT_NEAR(static_cast<double>(h.percentile(0.99)), 990'000.0, 990'000.0 * 0.13);
   EXPECT_LE(h.percentile(1.0), h.max());
+  EXPECT_DOUBLE_EQ(h.mean(), 500'500.0);
 }
 
 TEST(Histogram, BucketsAreMonotonic) {

@@ -21,6 +21,7 @@ class Histogram {
   uint64_t count() const { return count_.load(std::memory_order_relaxed); }
   int64_t max() const { return max_.load(std::memory_order_relaxed); }
   int64_t percentile(double q) const;  // q in [0, 1]; 0 when empty
+  double mean() const;                 // exact; 0 when empty
   static int bucket_of(int64_t ns);
   static int64_t upper_edge(int bucket);
 
@@ -28,6 +29,7 @@ class Histogram {
   std::array<std::atomic<uint64_t>, kBuckets> buckets_{};
   std::atomic<uint64_t> count_{0};
   std::atomic<int64_t> max_{0};
+  std::atomic<int64_t> sum_{0};
 };
 
 struct InputStats {
