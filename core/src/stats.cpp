@@ -25,12 +25,11 @@ int64_t Histogram::upper_edge(int bucket) {
 }
 
 void Histogram::record(int64_t ns) {
-  buckets_[static_cast<std::size_t>(bucket_of(ns))].fetch_add(1, std::memory_order_relaxed);
-  count_.fetch_add(1, std::memory_order_relaxed);
-  sum_.fetch_add(ns, std::memory_order_relaxed);
-  int64_t prev = max_.load(std::memory_order_relaxed);
-  while (ns > prev && !max_.compare_exchange_weak(prev, ns, std::memory_order_relaxed)) {
-  }
+  // One writer at a time (see stats.hpp): no locked instructions needed.
+  bump(buckets_[static_cast<std::size_t>(bucket_of(ns))]);
+  bump(count_);
+  sum_.store(sum_.load(std::memory_order_relaxed) + ns, std::memory_order_relaxed);
+  if (ns > max_.load(std::memory_order_relaxed)) max_.store(ns, std::memory_order_relaxed);
 }
 
 int64_t Histogram::percentile(double q) const {

@@ -1,6 +1,8 @@
 #pragma once
-// Per-node counters and timing histograms, written by the thread that runs the
-// node and read at any time by the stats printer (relaxed atomics, no locks).
+// Per-node counters and timing histograms. Each counter has one writer at a time
+// (the thread running the node, or the executor under its lock), so updates are
+// plain relaxed load+store, not locked read-modify-writes; the stats printer
+// reads them at any time.
 #include <array>
 #include <atomic>
 #include <cstdint>
@@ -9,6 +11,11 @@
 #include <vector>
 
 namespace saccade {
+
+// Adds to a counter that only one thread writes at a time.
+inline void bump(std::atomic<uint64_t>& counter, uint64_t by = 1) {
+  counter.store(counter.load(std::memory_order_relaxed) + by, std::memory_order_relaxed);
+}
 
 // Log-scale histogram of nanosecond durations: 8 buckets per octave (9% wide)
 // from 1 ns to ~2^40 ns; percentiles are reported at the bucket's upper edge.
