@@ -162,6 +162,52 @@ void BM_Filters_OpenCvCoreSet_FullFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_Filters_OpenCvCoreSet_FullFrame)->Args({1024, 768})->Unit(benchmark::kMicrosecond);
 
+// All twelve maps with OpenCV calls (the same definitions as the fused bank).
+struct OpenCvAll {
+  cv::Mat g, sx, sy, mag, mask, dir, lap, log, gx, gy, gmag, gmask, kg, kdg;
+  OpenCvAll() {
+    auto [a, b] = filters::gaussian_derivative_kernels(1.0f);
+    kg = a;
+    kdg = b;
+  }
+  void run(const cv::Mat& in) {
+    cv::GaussianBlur(in, g, {3, 3}, 0, 0, cv::BORDER_REFLECT_101);
+    cv::Sobel(in, sx, CV_32F, 1, 0, 3);
+    cv::Sobel(in, sy, CV_32F, 0, 1, 3);
+    cv::magnitude(sx, sy, mag);
+    cv::threshold(mag, mask, 100, 255, cv::THRESH_BINARY);
+    cv::phase(sx, sy, dir);
+    cv::Laplacian(in, lap, CV_32F, 1);
+    cv::Mat gf;
+    g.convertTo(gf, CV_32F);
+    cv::Laplacian(gf, log, CV_32F, 1);
+    cv::sepFilter2D(in, gx, CV_32F, kdg, kg.t());
+    cv::sepFilter2D(in, gy, CV_32F, kg, kdg.t());
+    cv::magnitude(gx, gy, gmag);
+    cv::threshold(gmag, gmask, 10, 255, cv::THRESH_BINARY);
+  }
+};
+
+void BM_Filters_OpenCvAll_5x32x24(benchmark::State& state) {
+  auto levels = retina_levels();
+  OpenCvAll cv_all;
+  for (auto _ : state) {
+    for (const auto& level : levels) cv_all.run(level);
+    benchmark::DoNotOptimize(cv_all.gmask.data);
+  }
+}
+BENCHMARK(BM_Filters_OpenCvAll_5x32x24);
+
+void BM_Filters_OpenCvAll_FullFrame(benchmark::State& state) {
+  cv::Mat frame = frame_of(size_arg(state));
+  OpenCvAll cv_all;
+  for (auto _ : state) {
+    cv_all.run(frame);
+    benchmark::DoNotOptimize(cv_all.gmask.data);
+  }
+}
+BENCHMARK(BM_Filters_OpenCvAll_FullFrame)->Args({1024, 768})->Unit(benchmark::kMicrosecond);
+
 // ---- framework overhead and pipeline (whole graphs) ----
 
 const Registry& registry() {
