@@ -14,6 +14,28 @@ namespace saccade {
 
 namespace {
 
+// Nodes waiting for a worker. Each node is queued at most once (its `queued`
+// flag), so a ring of the graph's size never fills and never allocates.
+class ReadyRing {
+ public:
+  void reset(std::size_t capacity) { slots_.assign(capacity, -1); }
+  void push(int node) {
+    slots_[(head_ + size_) % slots_.size()] = node;
+    ++size_;
+  }
+  int pop() {
+    int node = slots_[head_];
+    head_ = (head_ + 1) % slots_.size();
+    --size_;
+    return node;
+  }
+  bool empty() const { return size_ == 0; }
+
+ private:
+  std::vector<int> slots_;
+  std::size_t head_ = 0, size_ = 0;
+};
+
 // A bounded ring of messages with the queue policy applied at push.
 class InputQueue {
  public:
@@ -142,7 +164,7 @@ struct Executor::Impl {
   std::condition_variable work_cv;   // workers wait for ready nodes
   std::condition_variable room_cv;   // sources wait for room downstream, or a stop
   std::condition_variable done_cv;   // run() waits for the end
-  std::deque<int> ready;
+  ReadyRing ready;
   int sleeping_workers = 0;
   int finished_count = 0;
   bool aborted = false;
@@ -166,6 +188,7 @@ struct Executor::Impl {
 
   Status build() {
     nodes.resize(graph.nodes.size());
+    ready.reset(std::max<std::size_t>(1, graph.nodes.size()));
     for (std::size_t i = 0; i < graph.nodes.size(); ++i) {
       const ResolvedNode& rn = graph.nodes[i];
       NodeRt& n = nodes[i];
@@ -359,7 +382,7 @@ struct Executor::Impl {
       case Readiness::kFinish: finish(index); return;
       case Readiness::kRun:
         n.queued = true;
-        ready.push_back(index);
+        ready.push(index);
         if (sleeping_workers > 0) work_cv.notify_one();
         return;
     }
@@ -475,8 +498,7 @@ struct Executor::Impl {
         --sleeping_workers;
         continue;
       }
-      int index = ready.front();
-      ready.pop_front();
+      int index = ready.pop();
       NodeRt& n = nodes[static_cast<std::size_t>(index)];
       n.queued = false;
       Readiness r = readiness(n);
