@@ -21,7 +21,7 @@ test: build
 	ctest --preset $(PRESET) -j $(JOBS) $(CTEST_ARGS)
 
 bench: build
-	$(BUILD)/bin/saccade_bench --benchmark_min_time=0.2
+	$(BUILD)/bin/saccade_bench --benchmark_min_time=0.5 --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
 docs: build
 	$(BUILD)/bin/saccade plugins --markdown > docs/plugins.md

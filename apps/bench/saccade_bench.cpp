@@ -6,6 +6,7 @@
 // Single thread unless a benchmark says otherwise. Figures go to docs/performance.md.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -39,6 +40,28 @@ cv::Mat frame_of(cv::Size size) {
   return out;
 }
 
+// Per-call timing, for the p50/p99 counters each micro-benchmark reports next to
+// Google Benchmark's mean.
+class PerCall {
+ public:
+  PerCall() { ns_.reserve(1 << 20); }
+  void start() { t0_ = std::chrono::steady_clock::now(); }
+  void stop() {
+    if (ns_.size() < ns_.capacity())
+      ns_.push_back(std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0_).count());
+  }
+  void report(benchmark::State& state) {
+    if (ns_.empty()) return;
+    std::sort(ns_.begin(), ns_.end());
+    state.counters["p50_us"] = ns_[ns_.size() / 2] / 1e3;
+    state.counters["p99_us"] = ns_[std::min(ns_.size() - 1, ns_.size() * 99 / 100)] / 1e3;
+  }
+
+ private:
+  std::vector<double> ns_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
 cv::Size size_arg(const benchmark::State& state) {
   return {static_cast<int>(state.range(0)), static_cast<int>(state.range(1))};
 }
@@ -52,10 +75,14 @@ void BM_Retina_FivePoint(benchmark::State& state) {
   std::vector<LevelGeometry> geometry;
   cv::Point2d fovea(frame.cols * 0.45, frame.rows * 0.55);
   sampler.sample(frame, fovea, levels, geometry);
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     sampler.sample(frame, fovea, levels, geometry);
     benchmark::DoNotOptimize(levels[0].data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Retina_FivePoint)->Args({1024, 768})->Args({640, 480});
 
@@ -66,12 +93,16 @@ void BM_Retina_FivePointMovingFovea(benchmark::State& state) {
   std::vector<cv::Mat> levels;
   std::vector<LevelGeometry> geometry;
   int k = 0;
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     cv::Point2d fovea(200 + (k % 50), 200 + (k % 37));
     ++k;
     sampler.sample(frame, fovea, levels, geometry);
     benchmark::DoNotOptimize(levels[0].data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Retina_FivePointMovingFovea)->Args({1024, 768})->Args({640, 480});
 
@@ -80,11 +111,15 @@ void BM_Retina_OpenCvResizeArea(benchmark::State& state) {
   retina::RetinaConfig config;
   auto geometry = retina::retina_geometry(config, frame.size(), {frame.cols * 0.45, frame.rows * 0.55});
   std::vector<cv::Mat> levels(geometry.size());
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     for (std::size_t k = 0; k < geometry.size(); ++k)
       cv::resize(frame(geometry[k].region), levels[k], config.size, 0, 0, cv::INTER_AREA);
     benchmark::DoNotOptimize(levels[0].data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Retina_OpenCvResizeArea)->Args({1024, 768})->Args({640, 480});
 
@@ -115,10 +150,14 @@ void BM_Filters_FusedCoreSet_5x32x24(benchmark::State& state) {
   auto levels = retina_levels();
   filters::FilterBank bank(bank_config(false));
   std::array<cv::Mat, filters::kFeatureCount> out;
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     for (const auto& level : levels) bank.run(level, out);
     benchmark::DoNotOptimize(out[0].data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Filters_FusedCoreSet_5x32x24);
 
@@ -127,10 +166,14 @@ void BM_Filters_FusedAll_5x32x24(benchmark::State& state) {
   auto levels = retina_levels();
   filters::FilterBank bank(bank_config(true));
   std::array<cv::Mat, filters::kFeatureCount> out;
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     for (const auto& level : levels) bank.run(level, out);
     benchmark::DoNotOptimize(out[0].data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Filters_FusedAll_5x32x24);
 
@@ -145,20 +188,28 @@ void opencv_core_set(const cv::Mat& in, cv::Mat& g, cv::Mat& sx, cv::Mat& sy, cv
 void BM_Filters_OpenCvCoreSet_5x32x24(benchmark::State& state) {
   auto levels = retina_levels();
   cv::Mat g, sx, sy, mag, lap;
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     for (const auto& level : levels) opencv_core_set(level, g, sx, sy, mag, lap);
     benchmark::DoNotOptimize(lap.data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Filters_OpenCvCoreSet_5x32x24);
 
 void BM_Filters_OpenCvCoreSet_FullFrame(benchmark::State& state) {
   cv::Mat frame = frame_of(size_arg(state));
   cv::Mat g, sx, sy, mag, lap;
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     opencv_core_set(frame, g, sx, sy, mag, lap);
     benchmark::DoNotOptimize(lap.data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Filters_OpenCvCoreSet_FullFrame)->Args({1024, 768})->Unit(benchmark::kMicrosecond);
 
@@ -191,20 +242,28 @@ struct OpenCvAll {
 void BM_Filters_OpenCvAll_5x32x24(benchmark::State& state) {
   auto levels = retina_levels();
   OpenCvAll cv_all;
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     for (const auto& level : levels) cv_all.run(level);
     benchmark::DoNotOptimize(cv_all.gmask.data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Filters_OpenCvAll_5x32x24);
 
 void BM_Filters_OpenCvAll_FullFrame(benchmark::State& state) {
   cv::Mat frame = frame_of(size_arg(state));
   OpenCvAll cv_all;
+  PerCall timing;
   for (auto _ : state) {
+    timing.start();
     cv_all.run(frame);
     benchmark::DoNotOptimize(cv_all.gmask.data);
+    timing.stop();
   }
+  timing.report(state);
 }
 BENCHMARK(BM_Filters_OpenCvAll_FullFrame)->Args({1024, 768})->Unit(benchmark::kMicrosecond);
 

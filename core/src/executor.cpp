@@ -175,7 +175,14 @@ struct Executor::Impl {
 
   Impl(const ResolvedGraph& g, const Registry& r, ExecutorOptions o) : graph(g), registry(r), options(std::move(o)) {}
 
+  // A source pacing itself sleeps inside process(): that time is not work, so it
+  // is kept out of the node's processing time like an inline consumer's.
   bool sleep_until(int64_t steady_ns) {
+    int64_t start = steady_now_ns();
+    struct Account {
+      int64_t start;
+      ~Account() { t_nested_ns += steady_now_ns() - start; }
+    } account{start};
     std::unique_lock lock(mu);
     auto deadline = std::chrono::steady_clock::time_point(std::chrono::nanoseconds(steady_ns));
     room_cv.wait_until(lock, deadline, [&] { return stop_.load(); });
@@ -424,6 +431,11 @@ struct Executor::Impl {
         NodeRt& to = nodes[static_cast<std::size_t>(t.node)];
         InputRt& in = to.inputs[static_cast<std::size_t>(t.input)];
         bump(in.stats->received);
+        if (to.finished) {
+          // Its other trigger input has ended: this message can never pair.
+          if (in.triggers()) bump(in.stats->sync_dropped);
+          continue;
+        }
         if (!in.triggers()) {
           in.side_latest = message;
           continue;

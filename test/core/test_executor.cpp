@@ -346,6 +346,14 @@ TEST_F(Executor, InlineConsumersTimeIsNotChargedToTheProducer) {
   EXPECT_LT(g->stats("src").process_time.percentile(0.5), 1'500'000) << "the 3 ms of the inline consumer is its own";
 }
 
+TEST_F(Executor, PacingSleepIsNotProcessingTime) {
+  auto g = open_graph("<graph>" + counter("src", 10, "<param name=\"rate_hz\" value=\"100\"/>") +
+                      "<node name=\"n\" plugin=\"util.null\"/><edge from=\"src.image\" to=\"n.in\"/></graph>");
+  ASSERT_TRUE(g->run().ok());
+  EXPECT_LT(g->stats("src").process_time.percentile(0.5), 2'000'000) << "frames 10 ms apart; the wait is not work";
+  EXPECT_GT(g->executor->elapsed_s(), 0.08);
+}
+
 TEST_F(Executor, StatsCountProcessingAndLatency) {
   auto g = open_graph("<graph>" + counter("src", 50) + slow_sink("sink", 200) +
                       "<edge from=\"src.image\" to=\"sink.in\" queue=\"block:1\"/></graph>");
