@@ -145,10 +145,11 @@ filters::BankConfig bank_config(bool all) {
   return c;
 }
 
-// Gaussian 3x3, Sobel x/y, gradient magnitude, Laplacian: the set OpenCV is run on.
-void BM_Filters_FusedCoreSet_5x32x24(benchmark::State& state) {
+// all = false: Gaussian 3x3, Sobel x/y, gradient magnitude, Laplacian (the set
+// OpenCV is run on); all = true: the twelve maps, LoG and Gaussian gradient included.
+void BM_Filters_Fused_5x32x24(benchmark::State& state, bool all) {
   auto levels = retina_levels();
-  filters::FilterBank bank(bank_config(false));
+  filters::FilterBank bank(bank_config(all));
   std::array<cv::Mat, filters::kFeatureCount> out;
   PerCall timing;
   for (auto _ : state) {
@@ -159,23 +160,8 @@ void BM_Filters_FusedCoreSet_5x32x24(benchmark::State& state) {
   }
   timing.report(state);
 }
-BENCHMARK(BM_Filters_FusedCoreSet_5x32x24);
-
-// All twelve maps, LoG and the Gaussian gradient included.
-void BM_Filters_FusedAll_5x32x24(benchmark::State& state) {
-  auto levels = retina_levels();
-  filters::FilterBank bank(bank_config(true));
-  std::array<cv::Mat, filters::kFeatureCount> out;
-  PerCall timing;
-  for (auto _ : state) {
-    timing.start();
-    for (const auto& level : levels) bank.run(level, out);
-    benchmark::DoNotOptimize(out[0].data);
-    timing.stop();
-  }
-  timing.report(state);
-}
-BENCHMARK(BM_Filters_FusedAll_5x32x24);
+BENCHMARK_CAPTURE(BM_Filters_Fused_5x32x24, CoreSet, false);
+BENCHMARK_CAPTURE(BM_Filters_Fused_5x32x24, All, true);
 
 void opencv_core_set(const cv::Mat& in, cv::Mat& g, cv::Mat& sx, cv::Mat& sy, cv::Mat& mag, cv::Mat& lap) {
   cv::GaussianBlur(in, g, {3, 3}, 0, 0, cv::BORDER_REFLECT_101);

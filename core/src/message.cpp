@@ -32,24 +32,28 @@ int64_t steady_now_ns() {
       .count();
 }
 
+namespace {
+
+int checked_port(const NodeSlot& slot, const std::vector<PortSpec>& ports, const char* kind, std::string_view name,
+                 std::string_view type) {
+  for (std::size_t i = 0; i < ports.size(); ++i) {
+    if (ports[i].name != name) continue;
+    if (ports[i].type != type)
+      throw std::logic_error(std::string(kind) + " '" + std::string(name) + "' carries " + ports[i].type + ", not " +
+                             std::string(type));
+    return static_cast<int>(i);
+  }
+  throw std::logic_error("node '" + slot.name + "' has no " + kind + " '" + std::string(name) + "'");
+}
+
+}  // namespace
+
 int OpenContext::checked_input(std::string_view name, std::string_view type) const {
-  int index = slot_->contract->input_index(name);
-  if (index < 0) throw std::logic_error("node '" + slot_->name + "' has no input '" + std::string(name) + "'");
-  const auto& port = slot_->contract->inputs()[static_cast<std::size_t>(index)];
-  if (port.type != type)
-    throw std::logic_error("input '" + std::string(name) + "' carries " + port.type + ", not " +
-                           std::string(type));
-  return index;
+  return checked_port(*slot_, slot_->contract->inputs(), "input", name, type);
 }
 
 int OpenContext::checked_output(std::string_view name, std::string_view type) const {
-  int index = slot_->contract->output_index(name);
-  if (index < 0) throw std::logic_error("node '" + slot_->name + "' has no output '" + std::string(name) + "'");
-  const auto& port = slot_->contract->outputs()[static_cast<std::size_t>(index)];
-  if (port.type != type)
-    throw std::logic_error("output '" + std::string(name) + "' carries " + port.type + ", not " +
-                           std::string(type));
-  return index;
+  return checked_port(*slot_, slot_->contract->outputs(), "output", name, type);
 }
 
 }  // namespace saccade
