@@ -13,6 +13,7 @@ Image::~Image() = default;
 Retina::~Retina() = default;
 FeatureMaps::~FeatureMaps() = default;
 Region::~Region() = default;
+Motion::~Motion() = default;
 EmitSink::~EmitSink() = default;
 Node::~Node() = default;
 

@@ -125,45 +125,31 @@ void bank_reference(const cv::Mat& level, const BankConfig& config, std::array<c
     if (config.wanted[static_cast<std::size_t>(f)]) outs[static_cast<std::size_t>(f)] = all[static_cast<std::size_t>(f)];
 }
 
-FilterBank::FilterBank(BankConfig config) : config_(config) {
-  auto [g, dg] = gaussian_derivative_kernels(config_.ggrad_sigma);
-  g_.assign(g.ptr<float>(), g.ptr<float>() + g.cols);
-  dg_.assign(dg.ptr<float>(), dg.ptr<float>() + dg.cols);
-  radius_ = gaussian_radius(config_.ggrad_sigma);
-}
 
 namespace {
 
 // Copies an 8-bit level into a float buffer with `pad` border pixels on every
 // side, resolving the border by the same index rule as the reference. The level
 // alone is read, even when it is a view into a larger image.
+template <class T>
+void pad_rows(const cv::Mat& level, int pad, Border border, const std::vector<int>& map_x, cv::Mat& out) {
+  const int w = level.cols, h = level.rows;
+  for (int y = 0; y < h + 2 * pad; ++y) {
+    const T* src = level.ptr<T>(border_index(y - pad, h, border));
+    float* dst = out.ptr<float>(y);
+    for (int x = 0; x < pad; ++x) dst[x] = static_cast<float>(src[map_x[static_cast<std::size_t>(x)]]);
+    for (int x = 0; x < w; ++x) dst[x + pad] = static_cast<float>(src[x]);
+    for (int x = w + pad; x < w + 2 * pad; ++x) dst[x] = static_cast<float>(src[map_x[static_cast<std::size_t>(x)]]);
+  }
+}
+
 void pad_level(const cv::Mat& level, int pad, Border border, std::vector<int>& map_x, cv::Mat& out) {
   const int w = level.cols, h = level.rows;
   out.create(h + 2 * pad, w + 2 * pad, CV_32F);
   map_x.resize(static_cast<std::size_t>(w + 2 * pad));
   for (int x = 0; x < w + 2 * pad; ++x) map_x[static_cast<std::size_t>(x)] = border_index(x - pad, w, border);
-  for (int y = 0; y < h + 2 * pad; ++y) {
-    const uint8_t* src = level.ptr<uint8_t>(border_index(y - pad, h, border));
-    float* dst = out.ptr<float>(y);
-    for (int x = 0; x < pad; ++x) dst[x] = src[map_x[static_cast<std::size_t>(x)]];
-    for (int x = 0; x < w; ++x) dst[x + pad] = src[x];
-    for (int x = w + pad; x < w + 2 * pad; ++x) dst[x] = src[map_x[static_cast<std::size_t>(x)]];
-  }
-}
-
-// The same for a float map with a 1-pixel border (the LoG's input).
-void pad_float(const cv::Mat& map, Border border, std::vector<int>& map_x, cv::Mat& out) {
-  const int w = map.cols, h = map.rows;
-  out.create(h + 2, w + 2, CV_32F);
-  map_x.resize(static_cast<std::size_t>(w + 2));
-  for (int x = 0; x < w + 2; ++x) map_x[static_cast<std::size_t>(x)] = border_index(x - 1, w, border);
-  for (int y = 0; y < h + 2; ++y) {
-    const float* src = map.ptr<float>(border_index(y - 1, h, border));
-    float* dst = out.ptr<float>(y);
-    dst[0] = src[map_x[0]];
-    for (int x = 0; x < w; ++x) dst[x + 1] = src[x];
-    dst[w + 1] = src[map_x[static_cast<std::size_t>(w + 1)]];
-  }
+  if (level.depth() == CV_8U) pad_rows<uint8_t>(level, pad, border, map_x, out);
+  else pad_rows<float>(level, pad, border, map_x, out);
 }
 
 // One output row of the 3x3 masks. Rows start one pixel left of the output's
@@ -209,23 +195,86 @@ SACCADE_AVX2_CLONE void row_direction(const float* __restrict gx, const float* _
   for (int x = 0; x < w; ++x) dir[x] = fast_atan2_inline(gy[x], gx[x]);
 }
 
-// acc_a += wa * src_a, acc_b += wb * src_b, over one row.
-void row_axpy2(float wa, const float* __restrict src_a, float* __restrict acc_a, float wb, const float* __restrict src_b,
-               float* __restrict acc_b, int w) {
+// Horizontal pass over one padded row, all taps in one call: out_g = g * src,
+// out_dg = dg * src (src starts at the first tap).
+void row_taps(const float* __restrict src, const float* __restrict g, const float* __restrict dg, int n,
+              float* __restrict out_g, float* __restrict out_dg, int w) {
   for (int x = 0; x < w; ++x) {
-    acc_a[x] += wa * src_a[x];
-    acc_b[x] += wb * src_b[x];
+    out_g[x] = g[0] * src[x];
+    out_dg[x] = dg[0] * src[x];
+  }
+  for (int k = 1; k < n; ++k) {
+    const float wg = g[k], wd = dg[k];
+    for (int x = 0; x < w; ++x) {
+      out_g[x] += wg * src[x + k];
+      out_dg[x] += wd * src[x + k];
+    }
+  }
+}
+
+// Vertical pass for one output row: out_x = sum g[k] rows_dg[k], out_y = sum dg[k] rows_g[k].
+void column_taps(const float* const* rows_dg, const float* const* rows_g, const float* __restrict g,
+                 const float* __restrict dg, int n, float* __restrict out_x, float* __restrict out_y, int w) {
+  for (int x = 0; x < w; ++x) {
+    out_x[x] = 0.0f;
+    out_y[x] = 0.0f;
+  }
+  for (int k = 0; k < n; ++k) {
+    const float* __restrict a = rows_dg[k];
+    const float* __restrict b = rows_g[k];
+    const float wg = g[k], wd = dg[k];
+    for (int x = 0; x < w; ++x) {
+      out_x[x] += wg * a[x];
+      out_y[x] += wd * b[x];
+    }
   }
 }
 
 }  // namespace
+
+GaussianGradient::GaussianGradient(float sigma, Border border) : border_(border) {
+  auto [g, dg] = gaussian_derivative_kernels(sigma);
+  g_.assign(g.ptr<float>(), g.ptr<float>() + g.cols);
+  dg_.assign(dg.ptr<float>(), dg.ptr<float>() + dg.cols);
+  radius_ = gaussian_radius(sigma);
+  rows_g_.resize(g_.size());
+  rows_dg_.resize(g_.size());
+}
+
+void GaussianGradient::run(const cv::Mat& src, cv::Mat& gx, cv::Mat& gy) {
+  CV_Assert(src.channels() == 1 && (src.depth() == CV_32F || src.depth() == CV_8U));
+  pad_level(src, radius_, border_, map_x_, padded_);
+  run_padded(padded_, radius_, src.cols, src.rows, gx, gy);
+}
+
+// Row pass over every padded row, then a column pass: gx = dg (x) then g (y);
+// gy = g (x) then dg (y). Taps outer, pixels inner, so both vectorise.
+void GaussianGradient::run_padded(const cv::Mat& padded, int pad, int w, int h, cv::Mat& gx, cv::Mat& gy) {
+  const int r = radius_, n = 2 * r + 1;
+  const int rows = h + 2 * pad;
+  row_g_.create(rows, w, CV_32F);
+  row_dg_.create(rows, w, CV_32F);
+  gx.create(h, w, CV_32F);
+  gy.create(h, w, CV_32F);
+  for (int y = 0; y < rows; ++y)
+    row_taps(padded.ptr<float>(y) + pad - r, g_.data(), dg_.data(), n, row_g_.ptr<float>(y), row_dg_.ptr<float>(y), w);
+  for (int y = 0; y < h; ++y) {
+    for (int k = 0; k < n; ++k) {
+      rows_dg_[static_cast<std::size_t>(k)] = row_dg_.ptr<float>(y + pad - r + k);
+      rows_g_[static_cast<std::size_t>(k)] = row_g_.ptr<float>(y + pad - r + k);
+    }
+    column_taps(rows_dg_.data(), rows_g_.data(), g_.data(), dg_.data(), n, gx.ptr<float>(y), gy.ptr<float>(y), w);
+  }
+}
+
+FilterBank::FilterBank(BankConfig config) : config_(config), ggrad_(config.ggrad_sigma, config.border) {}
 
 void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& outs) {
   CV_Assert(level.type() == CV_8UC1);
   const auto& want = config_.wanted;
   const int w = level.cols, h = level.rows;
   const bool need_ggrad = want[kGGradX] || want[kGGradY] || want[kGGradMag] || want[kGGradMask];
-  const int pad = need_ggrad ? std::max(1, radius_) : 1;
+  const int pad = need_ggrad ? std::max(1, ggrad_.radius()) : 1;
   pad_level(level, pad, config_.border, map_x_, padded_f_);
 
   auto target = [&](int f, int type) -> cv::Mat& {
@@ -258,7 +307,7 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
       }
     }
     if (want[kLoG]) {
-      pad_float(gauss, config_.border, map_x_, gauss_padded_);
+      pad_level(gauss, 1, config_.border, map_x_, gauss_padded_);
       cv::Mat& log = target(kLoG, CV_32F);
       for (int y = 0; y < h; ++y) {
         row_cross(gauss_padded_.ptr<float>(y), gauss_padded_.ptr<float>(y + 1), gauss_padded_.ptr<float>(y + 2),
@@ -267,32 +316,9 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
     }
   }
   if (need_ggrad) {
-    // Row pass over every padded row, then a column pass: ggrad_x = dg (x) then
-    // g (y); ggrad_y = g (x) then dg (y). Taps outer, pixels inner: vectorises.
-    const int r = radius_, n = 2 * r + 1;
-    const int rows = h + 2 * pad;
-    row_g_.create(rows, w, CV_32F);
-    row_dg_.create(rows, w, CV_32F);
-    for (int y = 0; y < rows; ++y) {
-      const float* p = padded_f_.ptr<float>(y) + pad - r;
-      float* og = row_g_.ptr<float>(y);
-      float* od = row_dg_.ptr<float>(y);
-      std::fill(og, og + w, 0.0f);
-      std::fill(od, od + w, 0.0f);
-      for (int k = 0; k < n; ++k)
-        row_axpy2(g_[static_cast<std::size_t>(k)], p + k, og, dg_[static_cast<std::size_t>(k)], p + k, od, w);
-    }
     cv::Mat& gx = target(kGGradX, CV_32F);
     cv::Mat& gy = target(kGGradY, CV_32F);
-    for (int y = 0; y < h; ++y) {
-      float* ox = gx.ptr<float>(y);
-      float* oy = gy.ptr<float>(y);
-      std::fill(ox, ox + w, 0.0f);
-      std::fill(oy, oy + w, 0.0f);
-      for (int k = 0; k < n; ++k)
-        row_axpy2(g_[static_cast<std::size_t>(k)], row_dg_.ptr<float>(y + pad - r + k), ox,
-                  dg_[static_cast<std::size_t>(k)], row_g_.ptr<float>(y + pad - r + k), oy, w);
-    }
+    ggrad_.run_padded(padded_f_, pad, w, h, gx, gy);
     if (want[kGGradMag] || want[kGGradMask]) {
       cv::Mat& mag = target(kGGradMag, CV_32F);
       cv::Mat* mask = want[kGGradMask] ? &target(kGGradMask, CV_8U) : nullptr;

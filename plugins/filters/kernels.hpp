@@ -57,6 +57,26 @@ cv::Mat correlate_reference(const cv::Mat& src, const cv::Mat& kernel, Border bo
 // Every wanted feature by the reference path; outs[f] is left empty when not wanted.
 void bank_reference(const cv::Mat& level, const BankConfig& config, std::array<cv::Mat, kFeatureCount>& outs);
 
+// The Gaussian gradient (the bank's ggrad_x/y kernels) of a single-channel
+// float image, as a separable pair of passes; buffers persist between calls.
+class GaussianGradient {
+ public:
+  GaussianGradient(float sigma, Border border);
+  int radius() const { return radius_; }
+  // `src` CV_32FC1 (or CV_8UC1); gx, gy CV_32F of the same size.
+  void run(const cv::Mat& src, cv::Mat& gx, cv::Mat& gy);
+  // On an image already padded by `pad` >= radius() on every side (w x h inside).
+  void run_padded(const cv::Mat& padded, int pad, int w, int h, cv::Mat& gx, cv::Mat& gy);
+
+ private:
+  Border border_;
+  int radius_ = 1;
+  std::vector<float> g_, dg_;
+  std::vector<int> map_x_;
+  std::vector<const float*> rows_g_, rows_dg_;
+  cv::Mat padded_, row_g_, row_dg_;
+};
+
 // The fused fast path: one pass for the 3x3 masks and what derives from them, one
 // for the LoG, one separable pair for the Gaussian gradient. Scratch buffers are
 // kept between calls, so steady state allocates nothing.
@@ -69,9 +89,8 @@ class FilterBank {
 
  private:
   BankConfig config_;
-  int radius_ = 1;
-  std::vector<float> g_, dg_;
-  cv::Mat padded_f_, gauss_padded_, row_g_, row_dg_;
+  GaussianGradient ggrad_;
+  cv::Mat padded_f_, gauss_padded_;
   std::vector<int> map_x_;
   std::array<cv::Mat, kFeatureCount> scratch_;
 };

@@ -55,6 +55,8 @@ class RetinaNode final : public Node {
     const auto& inner = retina->geometry.back();
     retina->fovea = cv::Point(inner.region.x + inner.region.width / 2, inner.region.y + inner.region.height / 2);
     retina->camera_id = image->camera_id;
+    retina->sampling = sampler_->config().mode == SamplingMode::kAreaMean ? Retina::Sampling::kAreaMean
+                                                                          : Retina::Sampling::kFivePoint;
     retina->source = image;
     ctx.emit(out_, std::move(retina));
     return {};

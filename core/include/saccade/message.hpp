@@ -97,6 +97,9 @@ struct Retina final : Message {
   cv::Size source_size;
   cv::Point fovea;  // centre of the fovea in source pixels, after clamping
   int camera_id = 0;
+  // How the outer levels were sampled, so a consumer can sample another frame
+  // the same way (motion resamples the previous frame on this geometry).
+  enum class Sampling : uint8_t { kFivePoint, kAreaMean } sampling = Sampling::kFivePoint;
   // The frame the levels were sampled from (shared, not copied), for overlays.
   std::shared_ptr<const Image> source;
 };
@@ -119,6 +122,19 @@ struct FeatureMaps final : Message {
   std::shared_ptr<const Retina> retina;
   std::vector<std::string> names;
   std::vector<std::vector<cv::Mat>> maps;
+};
+
+// Motion between two consecutive retinas, per level (index as in the Retina).
+struct Motion final : Message {
+  static constexpr std::string_view kTypeName = "Motion";
+  std::string_view type_name() const override { return kTypeName; }
+  ~Motion() override;
+
+  std::vector<double> energy;          // mean of dI^2 over the level
+  std::vector<double> moving;          // fraction of the level's pixels above the threshold
+  std::vector<cv::Point2d> centroid;   // of the moving pixels, in source pixels ((-1,-1) when none)
+  int camera_id = 0;
+  bool first = false;  // the first frame: nothing to compare with, no motion reported
 };
 
 // A point or region in a source frame: a fovea position, a target, a ground truth.
