@@ -65,5 +65,34 @@ TEST(DemoGraph, DeterministicRunsGiveIdenticalPictures) {
   EXPECT_GT(compared, 10);
 }
 
+TEST(MotionGraph, RunsEndToEndOnVtestAndSeesThePeopleWalk) {
+  fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "motion";
+  fs::remove_all(out);
+  auto graph = load(std::string(SACCADE_SOURCE_DIR) + "/graphs/motion.xml",
+                    {"snapshot.dir=" + out.string(), "snapshot.every=200"});
+  ASSERT_TRUE(graph);
+  // Record the motion summaries instead of discarding them.
+  for (auto& n : graph->nodes)
+    if (n.decl.name == "summary") {
+      Diagnostics diag;
+      NodeDecl decl = n.decl;
+      decl.plugin = "util.record";
+      ASSERT_TRUE(resolve_node(decl, testing::default_registry(), "<test>", diag, n)) << diag.format();
+    }
+  testing::Recorder::instance().clear();
+  Executor executor(*graph, testing::default_registry());
+  ASSERT_TRUE(executor.open().ok());
+  ASSERT_TRUE(executor.run().ok());
+  auto motion = test::recorded<Motion>("summary");
+  ASSERT_EQ(motion.size(), 795u);
+  EXPECT_TRUE(motion.front()->first);
+  int frames_with_motion = 0;
+  for (const auto& m : motion)
+    if (!m->first && m->moving.front() > 0) ++frames_with_motion;
+  EXPECT_GT(frames_with_motion, 700) << "people walk through the hall in nearly every frame";
+  EXPECT_TRUE(fs::exists(out / "snapshot_000200_dI.png"));
+  EXPECT_TRUE(fs::exists(out / "snapshot_000200_mask.png"));
+}
+
 }  // namespace
 }  // namespace saccade
