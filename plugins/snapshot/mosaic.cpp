@@ -54,6 +54,8 @@ cv::Mat retina_overlay(const Retina& retina) {
 cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::string& title) {
   if (levels.empty()) return {};
   const int gap = 4, header = 18;
+  // Retina levels are enlarged; full-frame maps (the baseline's) are not.
+  scale = std::max(1, std::min(scale, 256 / std::max(1, levels[0].cols)));
   cv::Size cell(levels[0].cols * scale, levels[0].rows * scale);
   cv::Mat out(cell.height + header, static_cast<int>(levels.size()) * (cell.width + gap) - gap, CV_8UC3,
               cv::Scalar(40, 40, 40));

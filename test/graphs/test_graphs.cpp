@@ -94,5 +94,24 @@ TEST(MotionGraph, RunsEndToEndOnVtestAndSeesThePeopleWalk) {
   EXPECT_TRUE(fs::exists(out / "snapshot_000200_mask.png"));
 }
 
+TEST(BaselineGraph, RunsEndToEndOnVtestAndAloe) {
+  fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "baseline";
+  fs::remove_all(out);
+  auto graph = load(std::string(SACCADE_SOURCE_DIR) + "/graphs/fullres_baseline.xml",
+                    {"filter_pictures.dir=" + out.string(), "motion_pictures.dir=" + out.string(),
+                     "stereo_pictures.dir=" + out.string()});
+  ASSERT_TRUE(graph);
+  ExecutorOptions o;
+  o.max_frames = 60;
+  Executor executor(*graph, testing::default_registry(), o);
+  ASSERT_TRUE(executor.open().ok());
+  ASSERT_TRUE(executor.run().ok());
+  EXPECT_EQ(executor.stats("filters")->processed.load(), 60u);
+  EXPECT_EQ(executor.stats("motion")->processed.load(), 60u);
+  EXPECT_EQ(executor.stats("stereo")->processed.load(), 1u);
+  EXPECT_TRUE(fs::exists(out / "stereo_pictures_000000_disparity_lr.png"));
+  EXPECT_TRUE(fs::exists(out / "filter_pictures_000000_laplacian.png"));
+}
+
 }  // namespace
 }  // namespace saccade
