@@ -1,11 +1,17 @@
 // Whole graphs from graphs/ on real data.
 #include <gtest/gtest.h>
 
+#include <opencv2/core/utility.hpp>
+
 #include <filesystem>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "support.hpp"
+
+// OpenCV's own parallel loops run on TBB, whose synchronisation ThreadSanitizer
+// cannot see; these tests do not need them, so OpenCV stays on the calling thread.
+static const bool kOpenCvSingleThread = (cv::setNumThreads(1), true);
 
 namespace saccade {
 namespace {

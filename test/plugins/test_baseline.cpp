@@ -2,12 +2,18 @@
 // stereo, against the Aloe ground truth.
 #include <gtest/gtest.h>
 
+#include <opencv2/core/utility.hpp>
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "baseline.hpp"
 #include "support.hpp"
+
+// OpenCV's own parallel loops run on TBB, whose synchronisation ThreadSanitizer
+// cannot see; these tests do not need them, so OpenCV stays on the calling thread.
+static const bool kOpenCvSingleThread = (cv::setNumThreads(1), true);
 
 namespace saccade::baseline {
 namespace {
