@@ -1,0 +1,40 @@
+#pragma once
+// Stereo matching by normalized cross correlation (the paper's correlation
+// coefficient) on small images: the building blocks of the stereo plugin.
+//
+// Convention: a left-image pixel x matches the right image at x - d (d >= 0 for
+// points in front of the cameras); a right-image pixel x matches the left image
+// at x + d. Disparities are in the images' own pixels.
+#include <opencv2/core.hpp>
+
+namespace saccade::stereo {
+
+struct NccConfig {
+  int window = 5;               // odd: 3 or 5 in the paper
+  bool subpixel = true;         // parabola through the scores around the best
+  float min_score = 0.5f;       // below this the match is invalid
+  float min_texture = 2.0f;     // window standard deviation (gray levels) below which nothing can be matched
+};
+
+enum class Direction { kLeftToRight, kRightToLeft };
+
+// Per-pixel search: for pixel (x, y) of the reference image, disparities in
+// [lo(y, x), hi(y, x)] (CV_32S) are tried. Writes disparity (CV_32F; -1 where
+// invalid) and score (CV_32F; the NCC at the chosen disparity, -1 where invalid).
+// Windows reaching beyond either image are not used.
+void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
+               const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
+
+// The same over a fixed range [d_min, d_max] for every pixel.
+void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, int d_min, int d_max,
+               const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
+
+// Keeps a left->right disparity only where the right->left one, read at the
+// matched pixel, agrees within `tolerance`; others become -1. Returns the share kept.
+double left_right_check(cv::Mat& left_to_right, const cv::Mat& right_to_left, float tolerance);
+
+// Correlation coefficient of two w x w windows centred at (x0, y0) and (x1, y1)
+// (the plain definition, for tests).
+double ncc_reference(const cv::Mat& a, int x0, int y0, const cv::Mat& b, int x1, int y1, int window);
+
+}  // namespace saccade::stereo
