@@ -11,13 +11,6 @@
 namespace saccade::motion {
 namespace {
 
-cv::Mat noise(cv::Size size, int seed) {
-  cv::Mat m(size, CV_8UC1);
-  cv::RNG rng(static_cast<uint64_t>(seed));
-  rng.fill(m, cv::RNG::UNIFORM, 0, 256);
-  return m;
-}
-
 TEST(LevelMotion, DifferenceMaskEnergyAndCentroidAreExact) {
   cv::Mat prev = cv::Mat(24, 32, CV_8UC1, cv::Scalar(100));
   cv::Mat cur = prev.clone();
@@ -37,7 +30,7 @@ TEST(LevelMotion, DifferenceMaskEnergyAndCentroidAreExact) {
 }
 
 TEST(LevelMotion, DerivativesAreTheGaussianGradientOfTheDifference) {
-  cv::Mat prev = noise({32, 24}, 1), cur = noise({32, 24}, 2);
+  cv::Mat prev = test::random_image({32, 24}, 1), cur = test::random_image({32, 24}, 2);
   LevelMotionEstimator est({});
   LevelMotion out;
   est.run(cur, prev, {}, out);
@@ -134,7 +127,7 @@ TEST(MotionNode, APureFoveaShiftIsNotMotion) {
 TEST(MotionNode, AShiftedBlockIsFoundWhereItMoved) {
   // Synthetic: a textured 60x60 block moves 12 px right over a real frame.
   cv::Mat bg = vtest_frame(0);
-  cv::Mat block = noise({60, 60}, 7);
+  cv::Mat block = test::random_image({60, 60}, 7);
   cv::Mat a = bg.clone(), b = bg.clone();
   block.copyTo(a(cv::Rect(500, 200, 60, 60)));
   block.copyTo(b(cv::Rect(512, 200, 60, 60)));

@@ -16,13 +16,6 @@ cv::Mat ramp(int w, int h) {
   return m;
 }
 
-cv::Mat noise(int w, int h, int type, int seed) {
-  cv::Mat m(h, w, type);
-  cv::RNG rng(static_cast<uint64_t>(seed));
-  rng.fill(m, cv::RNG::UNIFORM, 0, 256);
-  return m;
-}
-
 TEST(RetinaGeometry, LevelsAreNestedInsideTheFrameAndGrowLinearly) {
   RetinaConfig c;
   for (cv::Size frame : {cv::Size(1024, 768), cv::Size(640, 480), cv::Size(1282, 1110), cv::Size(33, 25)}) {
@@ -114,7 +107,7 @@ TEST(RetinaSampling, FastSamplerEqualsTheReferenceEverywhere) {
       for (int levels : {1, 3, 5, 7}) {
         RetinaConfig c;
         c.levels = levels;
-        cv::Mat image = noise(frame.width, frame.height, type, frame.width + levels);
+        cv::Mat image = test::random_image({frame.width, frame.height}, frame.width + levels, type);
         RetinaSampler s(c);
         for (cv::Point2d f : {cv::Point2d(frame.width * 0.3, frame.height * 0.7), cv::Point2d(0, 0), cv::Point2d(1e5, 1e5)}) {
           std::vector<cv::Mat> fast, ref;
@@ -131,7 +124,7 @@ TEST(RetinaSampling, FastSamplerEqualsTheReferenceEverywhere) {
 }
 
 TEST(RetinaSampling, WorksOnRoiViews) {
-  cv::Mat big = noise(800, 600, CV_8UC1, 3);
+  cv::Mat big = test::random_image({800, 600}, 3, CV_8UC1);
   cv::Mat view = big(cv::Rect(50, 40, 640, 480));
   RetinaConfig c;
   RetinaSampler s(c);
@@ -164,7 +157,7 @@ TEST(RetinaNode, EmitsLevelsGeometryAndFollowsTheFoveaInput) {
   auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="levels" value="4"/></node>)", &error);
   ASSERT_NE(h, nullptr) << error;
   auto image = std::make_shared<Image>();
-  image->mat = noise(640, 480, CV_8UC1, 9);
+  image->mat = test::random_image({640, 480}, 9, CV_8UC1);
   image->frame_id = 12;
   image->timestamp_ns = 1234;
   h->set("image", image);
@@ -189,7 +182,7 @@ TEST(RetinaNode, ReusesItsBuffersInSteadyState) {
   auto h = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
   ASSERT_NE(h, nullptr);
   auto image = std::make_shared<Image>();
-  image->mat = noise(640, 480, CV_8UC1, 1);
+  image->mat = test::random_image({640, 480}, 1, CV_8UC1);
   h->set("image", image);
   ASSERT_TRUE(h->process().ok());
   const Retina* first = h->last<Retina>("retina").get();

@@ -8,13 +8,6 @@
 namespace saccade::stereo {
 namespace {
 
-cv::Mat texture(cv::Size size, int seed) {
-  cv::Mat m(size, CV_8UC1);
-  cv::RNG rng(static_cast<uint64_t>(seed));
-  rng.fill(m, cv::RNG::UNIFORM, 0, 256);
-  return m;
-}
-
 // right(x) = left(x + d): a left pixel x is seen in the right image at x - d.
 cv::Mat shifted_right(const cv::Mat& left, int d) {
   cv::Mat right(left.size(), left.type(), cv::Scalar(0));
@@ -33,7 +26,7 @@ double share_near(const cv::Mat& disparity, float expected, float tolerance, cv:
 }
 
 TEST(NccReference, IsTheCorrelationCoefficient) {
-  cv::Mat a = texture({16, 16}, 1);
+  cv::Mat a = test::random_image({16, 16}, 1);
   cv::Mat b;
   a.convertTo(b, CV_8U, 0.5, 40);  // gain and offset: still perfectly correlated
   EXPECT_NEAR(ncc_reference(a, 8, 8, a, 8, 8, 5), 1.0, 1e-12);
@@ -44,7 +37,7 @@ TEST(NccReference, IsTheCorrelationCoefficient) {
 
 TEST(NccMatch, FindsAKnownDisparityBothWays) {
   const int d = 5;
-  cv::Mat left = texture({48, 36}, 2);
+  cv::Mat left = test::random_image({48, 36}, 2);
   cv::Mat right = shifted_right(left, d);
   NccConfig config;
   cv::Mat lr, lr_score, rl, rl_score;
@@ -59,7 +52,7 @@ TEST(NccMatch, FindsAKnownDisparityBothWays) {
 }
 
 TEST(NccMatch, IsInsensitiveToGainAndOffset) {
-  cv::Mat left = texture({48, 36}, 3);
+  cv::Mat left = test::random_image({48, 36}, 3);
   cv::Mat right;
   shifted_right(left, 7).convertTo(right, CV_8U, 0.7, 30);
   cv::Mat lr, score;
@@ -68,7 +61,7 @@ TEST(NccMatch, IsInsensitiveToGainAndOffset) {
 }
 
 TEST(NccMatch, PerPixelRangesRestrictTheSearch) {
-  cv::Mat left = texture({48, 36}, 4);
+  cv::Mat left = test::random_image({48, 36}, 4);
   cv::Mat right = shifted_right(left, 6);
   cv::Mat lo(left.size(), CV_32S, cv::Scalar(6)), hi(left.size(), CV_32S, cv::Scalar(6));
   cv::Mat lr, score;
@@ -89,7 +82,7 @@ TEST(NccMatch, FlatWindowsAreNotMatched) {
 
 TEST(LeftRightCheck, KeepsConsistentPixelsAndDropsOthers) {
   const int d = 4;
-  cv::Mat left = texture({48, 36}, 5), right = shifted_right(left, d);
+  cv::Mat left = test::random_image({48, 36}, 5), right = shifted_right(left, d);
   cv::Mat lr, rl, s1, s2;
   ncc_match(left, right, Direction::kLeftToRight, 0, 10, {}, lr, s1);
   ncc_match(left, right, Direction::kRightToLeft, 0, 10, {}, rl, s2);
