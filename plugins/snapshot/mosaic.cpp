@@ -40,6 +40,25 @@ cv::Mat to_display(const cv::Mat& image) {
   return bgr;
 }
 
+cv::Mat disparity_colour(const cv::Mat& disparity, double max_disparity) {
+  CV_Assert(disparity.type() == CV_32F);
+  cv::Mat valid = disparity >= 0;
+  if (max_disparity <= 0) cv::minMaxLoc(disparity, nullptr, &max_disparity, nullptr, nullptr, valid);
+  cv::Mat scaled, colour;
+  disparity.convertTo(scaled, CV_8U, max_disparity > 0 ? 255.0 / max_disparity : 1.0);
+  cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
+  colour.setTo(cv::Scalar(0, 0, 0), ~valid);
+  return colour;
+}
+
+cv::Mat disparity_png16(const cv::Mat& disparity) {
+  CV_Assert(disparity.type() == CV_32F);
+  cv::Mat out;
+  disparity.convertTo(out, CV_16U, 256.0);
+  out.setTo(0, disparity < 0);
+  return out;
+}
+
 cv::Mat retina_overlay(const Retina& retina) {
   cv::Mat out = source_bgr(retina);
   int thickness = std::max(1, out.cols / 400);
@@ -59,9 +78,18 @@ cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::st
   cv::Size cell(levels[0].cols * scale, levels[0].rows * scale);
   cv::Mat out(cell.height + header, static_cast<int>(levels.size()) * (cell.width + gap) - gap, CV_8UC3,
               cv::Scalar(40, 40, 40));
+  const bool disparity = title.rfind("disparity", 0) == 0;
+  double max_disparity = 0;
+  if (disparity)
+    for (const auto& level : levels) {
+      double m = 0;
+      cv::minMaxLoc(level, nullptr, &m);
+      max_disparity = std::max(max_disparity, m);
+    }
   for (std::size_t k = 0; k < levels.size(); ++k) {
     cv::Mat big;
-    cv::resize(to_display(levels[k]), big, cell, 0, 0, cv::INTER_NEAREST);
+    cv::Mat shown = disparity && levels[k].type() == CV_32F ? disparity_colour(levels[k], max_disparity) : to_display(levels[k]);
+    cv::resize(shown, big, cell, 0, 0, cv::INTER_NEAREST);
     big.copyTo(out(cv::Rect(static_cast<int>(k) * (cell.width + gap), header, cell.width, cell.height)));
     cv::putText(out, "L" + std::to_string(k), {static_cast<int>(k) * (cell.width + gap) + 2, 13},
                 cv::FONT_HERSHEY_SIMPLEX, 0.4, kText, 1, cv::LINE_AA);

@@ -13,11 +13,20 @@ namespace saccade::snapshot {
 // (signed maps around mid-gray).
 cv::Mat to_display(const cv::Mat& image);
 
+// A disparity map (CV_32F, negative = invalid) colour-mapped: near red, far
+// blue, invalid black. `max_disparity` <= 0 takes the map's own maximum.
+cv::Mat disparity_colour(const cv::Mat& disparity, double max_disparity = 0);
+
+// A disparity map as 16-bit integers for outside evaluation: value = disparity
+// x 256, 0 = invalid (the KITTI convention).
+cv::Mat disparity_png16(const cv::Mat& disparity);
+
 // The source frame with each level's region drawn (outermost blue to fovea red)
 // and the fovea's centre marked.
 cv::Mat retina_overlay(const Retina& retina);
 
 // Levels side by side, each enlarged `scale` times (nearest neighbour), labelled.
+// Maps named disparity* are colour-mapped.
 cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::string& title);
 
 // The frame as the retina sees it: each level painted back over its region,

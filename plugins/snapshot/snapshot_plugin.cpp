@@ -22,7 +22,9 @@ class Snapshot final : public Node {
         .param_string("prefix", "", "file name prefix (default: the node's name)")
         .param_int("every", 1, 1, 1'000'000, "write one frame in N")
         .param_int("first", 0, 0, 1'000'000'000, "skip frames before this frame id")
-        .param_int("scale", 6, 1, 32, "enlargement of level images");
+        .param_int("scale", 6, 1, 32, "enlargement of level images")
+        .param_bool("disparity_png16", false,
+                    "also write every disparity* map as a 16-bit PNG per level (disparity x 256, 0 = invalid)");
   }
   Status open(OpenContext& ctx) override {
     const Params& p = ctx.params();
@@ -33,6 +35,7 @@ class Snapshot final : public Node {
     every_ = p.get_int("every");
     first_ = p.get_int("first");
     scale_ = static_cast<int>(p.get_int("scale"));
+    png16_ = p.get_bool("disparity_png16");
     std::error_code ec;
     std::filesystem::create_directories(dir_, ec);
     if (ec) return Status::error("cannot create folder '" + dir_ + "': " + ec.message());
@@ -55,9 +58,16 @@ class Snapshot final : public Node {
     }
     if (maps) {
       if (Status s = write("features", msg->frame_id, feature_grid(*maps, scale_)); !s.ok()) return s;
-      for (std::size_t i = 0; i < maps->names.size(); ++i)
+      for (std::size_t i = 0; i < maps->names.size(); ++i) {
         if (Status s = write(maps->names[i], msg->frame_id, level_strip(maps->maps[i], scale_, maps->names[i])); !s.ok())
           return s;
+        if (!png16_ || maps->names[i].rfind("disparity", 0) != 0) continue;
+        for (std::size_t k = 0; k < maps->maps[i].size(); ++k) {
+          if (maps->maps[i][k].type() != CV_32F) continue;
+          std::string what = maps->names[i] + "_L" + std::to_string(k) + "_16";
+          if (Status s = write(what, msg->frame_id, disparity_png16(maps->maps[i][k])); !s.ok()) return s;
+        }
+      }
     }
     return {};
   }
@@ -75,6 +85,7 @@ class Snapshot final : public Node {
   std::string dir_, prefix_;
   int64_t every_ = 1, first_ = 0, written_ = 0;
   int scale_ = 6;
+  bool png16_ = false;
 };
 
 }  // namespace

@@ -52,5 +52,30 @@ TEST(Snapshot, WritesMosaicsForImagesRetinasAndFeatureMaps) {
   EXPECT_FALSE(fs::exists(dir / "s_000003_frame.png"));
 }
 
+TEST(Snapshot, DisparityIsColourMappedAndSavedAs16Bit) {
+  fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "snapshot_disparity";
+  fs::remove_all(dir);
+  auto h = testing::NodeHarness::create("<node plugin=\"snapshot\" name=\"d\"><param name=\"dir\" value=\"" + dir.string() +
+                                        "\"/><param name=\"disparity_png16\" value=\"true\"/></node>");
+  ASSERT_NE(h, nullptr);
+  auto maps = std::make_shared<FeatureMaps>();
+  cv::Mat d(24, 32, CV_32F, cv::Scalar(12.5f));
+  d(cv::Rect(0, 0, 4, 4)).setTo(-1);  // invalid
+  maps->names = {"disparity_lr"};
+  maps->maps = {{d}};
+  h->set("in", maps);
+  ASSERT_TRUE(h->process().ok());
+  cv::Mat png16 = cv::imread((dir / "d_000000_disparity_lr_L0_16.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(png16.type(), CV_16UC1);
+  EXPECT_EQ(png16.at<uint16_t>(10, 10), 12.5 * 256);
+  EXPECT_EQ(png16.at<uint16_t>(1, 1), 0);
+  cv::Mat colour = cv::imread((dir / "d_000000_disparity_lr.png").string());
+  ASSERT_FALSE(colour.empty());
+  // Invalid pixels are black; valid ones are coloured (not gray).
+  cv::Vec3b invalid = colour.at<cv::Vec3b>(20, 2), valid = colour.at<cv::Vec3b>(100, 150);
+  EXPECT_EQ(invalid, cv::Vec3b(0, 0, 0));
+  EXPECT_FALSE(valid[0] == valid[1] && valid[1] == valid[2]);
+}
+
 }  // namespace
 }  // namespace saccade
