@@ -207,23 +207,30 @@ inline v4sf load4(const float* p) {
 }
 inline void store4(float* p, v4sf v) { std::memcpy(p, &v, sizeof v); }
 
-// Horizontal pass over one padded row, all taps in one call: out_g = g * src,
-// out_dg = dg * src (src starts at the first tap).
-void row_taps(const float* src, const float* g, const float* dg, int n, float* out_g, float* out_dg, int w) {
+// Horizontal pass over one padded row: out_g = g * src, out_dg = dg * src (src
+// starts at the first tap). N taps known at compile time: the tap loop unrolls
+// and the weights stay in registers.
+template <int N>
+void row_taps(const float* src, const float* g, const float* dg, float* out_g, float* out_dg, int w) {
+  v4sf wg[N], wd[N];
+  for (int k = 0; k < N; ++k) {
+    wg[k] = v4sf{g[k], g[k], g[k], g[k]};
+    wd[k] = v4sf{dg[k], dg[k], dg[k], dg[k]};
+  }
   int x = 0;
   for (; x + 4 <= w; x += 4) {
-    v4sf ag = v4sf{} , ad = v4sf{};
-    for (int k = 0; k < n; ++k) {
-      v4sf v = load4(src + x + k);
-      ag += g[k] * v;
-      ad += dg[k] * v;
+    v4sf ag = v4sf{}, ad = v4sf{};
+    for (int k = 0; k < N; ++k) {
+      const v4sf v = load4(src + x + k);
+      ag += wg[k] * v;
+      ad += wd[k] * v;
     }
     store4(out_g + x, ag);
     store4(out_dg + x, ad);
   }
   for (; x < w; ++x) {
     float ag = 0, ad = 0;
-    for (int k = 0; k < n; ++k) {
+    for (int k = 0; k < N; ++k) {
       ag += g[k] * src[x + k];
       ad += dg[k] * src[x + k];
     }
@@ -233,26 +240,48 @@ void row_taps(const float* src, const float* g, const float* dg, int n, float* o
 }
 
 // Vertical pass for one output row: out_x = sum g[k] rows_dg[k], out_y = sum dg[k] rows_g[k].
-void column_taps(const float* const* rows_dg, const float* const* rows_g, const float* g, const float* dg, int n,
+template <int N>
+void column_taps(const float* const* rows_dg, const float* const* rows_g, const float* g, const float* dg,
                  float* out_x, float* out_y, int w) {
+  v4sf wg[N], wd[N];
+  for (int k = 0; k < N; ++k) {
+    wg[k] = v4sf{g[k], g[k], g[k], g[k]};
+    wd[k] = v4sf{dg[k], dg[k], dg[k], dg[k]};
+  }
   int x = 0;
   for (; x + 4 <= w; x += 4) {
     v4sf ax = v4sf{}, ay = v4sf{};
-    for (int k = 0; k < n; ++k) {
-      ax += g[k] * load4(rows_dg[k] + x);
-      ay += dg[k] * load4(rows_g[k] + x);
+    for (int k = 0; k < N; ++k) {
+      ax += wg[k] * load4(rows_dg[k] + x);
+      ay += wd[k] * load4(rows_g[k] + x);
     }
     store4(out_x + x, ax);
     store4(out_y + x, ay);
   }
   for (; x < w; ++x) {
     float ax = 0, ay = 0;
-    for (int k = 0; k < n; ++k) {
+    for (int k = 0; k < N; ++k) {
       ax += g[k] * rows_dg[k][x];
       ay += dg[k] * rows_g[k][x];
     }
     out_x[x] = ax;
     out_y[x] = ay;
+  }
+}
+
+// Both passes for a kernel of N taps.
+template <int N>
+void separable_gradient(const cv::Mat& padded, int pad, int w, int h, const float* g, const float* dg, cv::Mat& row_g,
+                        cv::Mat& row_dg, const float** rows_g, const float** rows_dg, cv::Mat& gx, cv::Mat& gy) {
+  constexpr int r = N / 2;
+  for (int y = 0; y < h + 2 * pad; ++y)
+    row_taps<N>(padded.ptr<float>(y) + pad - r, g, dg, row_g.ptr<float>(y), row_dg.ptr<float>(y), w);
+  for (int y = 0; y < h; ++y) {
+    for (int k = 0; k < N; ++k) {
+      rows_dg[k] = row_dg.ptr<float>(y + pad - r + k);
+      rows_g[k] = row_g.ptr<float>(y + pad - r + k);
+    }
+    column_taps<N>(rows_dg, rows_g, g, dg, gx.ptr<float>(y), gy.ptr<float>(y), w);
   }
 }
 
@@ -276,20 +305,21 @@ void GaussianGradient::run(const cv::Mat& src, cv::Mat& gx, cv::Mat& gy) {
 // Row pass over every padded row, then a column pass: gx = dg (x) then g (y);
 // gy = g (x) then dg (y). Taps outer, pixels inner, so both vectorise.
 void GaussianGradient::run_padded(const cv::Mat& padded, int pad, int w, int h, cv::Mat& gx, cv::Mat& gy) {
-  const int r = radius_, n = 2 * r + 1;
-  const int rows = h + 2 * pad;
-  row_g_.create(rows, w, CV_32F);
-  row_dg_.create(rows, w, CV_32F);
+  const int n = 2 * radius_ + 1;
+  row_g_.create(h + 2 * pad, w, CV_32F);
+  row_dg_.create(h + 2 * pad, w, CV_32F);
   gx.create(h, w, CV_32F);
   gy.create(h, w, CV_32F);
-  for (int y = 0; y < rows; ++y)
-    row_taps(padded.ptr<float>(y) + pad - r, g_.data(), dg_.data(), n, row_g_.ptr<float>(y), row_dg_.ptr<float>(y), w);
-  for (int y = 0; y < h; ++y) {
-    for (int k = 0; k < n; ++k) {
-      rows_dg_[static_cast<std::size_t>(k)] = row_dg_.ptr<float>(y + pad - r + k);
-      rows_g_[static_cast<std::size_t>(k)] = row_g_.ptr<float>(y + pad - r + k);
-    }
-    column_taps(rows_dg_.data(), rows_g_.data(), g_.data(), dg_.data(), n, gx.ptr<float>(y), gy.ptr<float>(y), w);
+  const float** rg = rows_g_.data();
+  const float** rd = rows_dg_.data();
+  // sigma in [0.3, 3] gives radius 1..9.
+  switch (n) {
+#define SACCADE_TAPS(N) \
+  case N: separable_gradient<N>(padded, pad, w, h, g_.data(), dg_.data(), row_g_, row_dg_, rg, rd, gx, gy); break;
+    SACCADE_TAPS(3) SACCADE_TAPS(5) SACCADE_TAPS(7) SACCADE_TAPS(9) SACCADE_TAPS(11) SACCADE_TAPS(13)
+    SACCADE_TAPS(15) SACCADE_TAPS(17) SACCADE_TAPS(19)
+#undef SACCADE_TAPS
+    default: CV_Error(cv::Error::StsOutOfRange, "Gaussian gradient radius above 9 (sigma above 3)");
   }
 }
 
