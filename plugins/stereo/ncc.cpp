@@ -79,7 +79,7 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
     for (int x = r; x < ref.cols - r; ++x) {
       const float sa = ref_std.at<float>(y, x);
       if (sa < config.min_texture) continue;
-      const int d_lo = std::max(0, lo.at<int>(y, x)), d_hi = hi.at<int>(y, x);
+      const int d_lo = lo.at<int>(y, x), d_hi = hi.at<int>(y, x);
       if (d_hi < d_lo) continue;
       scores.assign(static_cast<std::size_t>(d_hi - d_lo + 1), -2.0f);
       const float ma = ref_mean.at<float>(y, x);
@@ -120,6 +120,22 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
   cv::Mat lo(left.size(), CV_32S, cv::Scalar(d_min)), hi(left.size(), CV_32S, cv::Scalar(d_max));
   ncc_match(left, right, direction, lo, hi, config, disparity, score);
+}
+
+void lr_consistent(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score, float tolerance,
+                   cv::Mat& valid) {
+  for (int y = 0; y < lr.rows; ++y)
+    for (int x = 0; x < lr.cols; ++x) {
+      if (lr_score.at<float>(y, x) <= -1.0f) {
+        valid.at<uint8_t>(y, x) = 0;
+        continue;
+      }
+      const float d = lr.at<float>(y, x);
+      const int xr = static_cast<int>(std::lround(x - d));
+      const bool agrees = xr >= 0 && xr < rl.cols && rl_score.at<float>(y, xr) > -1.0f &&
+                          std::fabs(rl.at<float>(y, xr) - d) <= tolerance;
+      if (!agrees) valid.at<uint8_t>(y, x) = 0;
+    }
 }
 
 double left_right_check(cv::Mat& left_to_right, const cv::Mat& right_to_left, float tolerance) {

@@ -19,8 +19,10 @@ struct NccConfig {
 enum class Direction { kLeftToRight, kRightToLeft };
 
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in
-// [lo(y, x), hi(y, x)] (CV_32S) are tried. Writes disparity (CV_32F; -1 where
-// invalid) and score (CV_32F; the NCC at the chosen disparity, -1 where invalid).
+// [lo(y, x), hi(y, x)] (CV_32S, may be negative) are tried. Writes disparity
+// (CV_32F) and score (CV_32F; the NCC at the chosen disparity). Invalid pixels
+// have score -1 (and disparity -1, which with negative ranges is ambiguous: use
+// the score).
 // Windows reaching beyond either image are not used.
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
@@ -32,6 +34,11 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
 // Keeps a left->right disparity only where the right->left one, read at the
 // matched pixel, agrees within `tolerance`; others become -1. Returns the share kept.
 double left_right_check(cv::Mat& left_to_right, const cv::Mat& right_to_left, float tolerance);
+
+// Like left_right_check, for signed disparities: `valid` (CV_8U) is cleared where
+// the left->right match (score > -1) has no agreeing right->left match.
+void lr_consistent(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score, float tolerance,
+                   cv::Mat& valid);
 
 // Correlation coefficient of two w x w windows centred at (x0, y0) and (x1, y1)
 // (the plain definition, for tests).

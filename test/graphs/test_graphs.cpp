@@ -119,5 +119,47 @@ TEST(BaselineGraph, RunsEndToEndOnVtestAndAloe) {
   EXPECT_TRUE(fs::exists(out / "filter_pictures_000000_laplacian.png"));
 }
 
+TEST(StereoGraph, RunsOnAloeAndTheOuterLevelsAgreeWithTheGroundTruth) {
+  fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "stereo";
+  fs::remove_all(out);
+  auto graph = load(std::string(SACCADE_SOURCE_DIR) + "/graphs/stereo.xml", {"snapshot.dir=" + out.string()});
+  ASSERT_TRUE(graph);
+  for (auto& n : graph->nodes)
+    if (n.decl.name == "snapshot") {
+      Diagnostics diag;
+      NodeDecl decl = n.decl;
+      decl.plugin = "util.record";
+      decl.params.clear();
+      ASSERT_TRUE(resolve_node(decl, testing::default_registry(), "<test>", diag, n)) << diag.format();
+    }
+  testing::Recorder::instance().clear();
+  Executor executor(*graph, testing::default_registry());
+  ASSERT_TRUE(executor.open().ok());
+  ASSERT_TRUE(executor.run().ok());
+  auto maps = test::recorded<FeatureMaps>("snapshot");
+  ASSERT_EQ(maps.size(), 1u);
+  cv::Mat gt = cv::imread(test::sample_path("aloeGT.png"), cv::IMREAD_GRAYSCALE);  // scale 1
+  // Levels 0..2: bad-2 in source pixels scaled by the level's step, over valid pixels.
+  for (std::size_t k = 0; k < 3; ++k) {
+    const auto& g = maps[0]->retina->geometry[k];
+    const cv::Mat& d = (*maps[0]->find("disparity"))[k];
+    int valid = 0, bad = 0, known = 0;
+    for (int y = 0; y < d.rows; ++y)
+      for (int x = 0; x < d.cols; ++x) {
+        cv::Point2d p = g.to_source(x, y);
+        int truth = gt.at<uint8_t>(static_cast<int>(p.y), static_cast<int>(p.x));
+        if (truth == 0) continue;
+        ++known;
+        if (d.at<float>(y, x) < 0) continue;
+        ++valid;
+        bad += std::abs(d.at<float>(y, x) - truth) > 2 * g.step_x;
+      }
+    double density = static_cast<double>(valid) / known, bad2 = valid ? static_cast<double>(bad) / valid : 1.0;
+    std::printf("Aloe level %zu (step %.1f): density %.3f, bad-2 (x step) %.3f\n", k, g.step_x, density, bad2);
+    EXPECT_GT(density, 0.4) << "level " << k;  // measured 0.48-0.54
+    EXPECT_LT(bad2, 0.15) << "level " << k;  // measured 0.008-0.074
+  }
+}
+
 }  // namespace
 }  // namespace saccade
