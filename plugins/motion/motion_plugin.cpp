@@ -2,6 +2,7 @@
 
 #include "motion.hpp"
 #include "retina.hpp"
+#include "saccade/fill.hpp"
 #include "saccade/plugin.hpp"
 
 namespace {
@@ -81,7 +82,7 @@ class MotionNode final : public Node {
       for (std::size_t f = 0; f < 4; ++f)
         for (std::size_t k = 0; k < n; ++k) {
           maps->maps[f][k].create(cur->levels[k].size(), f == 3 ? CV_8U : CV_32F);
-          maps->maps[f][k].setTo(0);
+          fill(maps->maps[f][k], 0);
         }
     }
     prev_ = cur;

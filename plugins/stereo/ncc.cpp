@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "saccade/fill.hpp"
+
 namespace saccade::stereo {
 
 namespace {
@@ -17,8 +19,8 @@ float pixel(const cv::Mat& m, int y, int x) {
 void window_stats(const cv::Mat& image, int r, cv::Mat& mean, cv::Mat& stddev) {
   mean.create(image.size(), CV_32F);
   stddev.create(image.size(), CV_32F);
-  mean.setTo(0);
-  stddev.setTo(0);
+  fill(mean, 0);
+  fill(stddev, 0);
   const int n = (2 * r + 1) * (2 * r + 1);
   for (int y = r; y < image.rows - r; ++y)
     for (int x = r; x < image.cols - r; ++x) {
@@ -61,20 +63,29 @@ double ncc_reference(const cv::Mat& a, int x0, int y0, const cv::Mat& b, int x1,
 
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
+  NccScratch scratch;
+  ncc_match(left, right, direction, lo, hi, config, disparity, score, scratch);
+}
+
+void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
+               const NccConfig& config, cv::Mat& disparity, cv::Mat& score, NccScratch& scratch) {
   CV_Assert(left.size() == right.size() && left.channels() == 1 && right.channels() == 1 && config.window % 2 == 1);
   CV_Assert(lo.size() == left.size() && hi.size() == left.size() && lo.type() == CV_32S && hi.type() == CV_32S);
   const cv::Mat& ref = direction == Direction::kLeftToRight ? left : right;
   const cv::Mat& other = direction == Direction::kLeftToRight ? right : left;
   const int sign = direction == Direction::kLeftToRight ? -1 : 1;  // other x = x + sign * d
   const int r = config.window / 2, n = config.window * config.window;
-  cv::Mat ref_mean, ref_std, other_mean, other_std;
+  cv::Mat& ref_mean = scratch.ref_mean;
+  cv::Mat& ref_std = scratch.ref_std;
+  cv::Mat& other_mean = scratch.other_mean;
+  cv::Mat& other_std = scratch.other_std;
   window_stats(ref, r, ref_mean, ref_std);
   window_stats(other, r, other_mean, other_std);
   disparity.create(ref.size(), CV_32F);
   score.create(ref.size(), CV_32F);
-  disparity.setTo(-1);
-  score.setTo(-1);
-  std::vector<float> scores;
+  fill(disparity, -1);
+  fill(score, -1);
+  std::vector<float>& scores = scratch.scores;
   for (int y = r; y < ref.rows - r; ++y)
     for (int x = r; x < ref.cols - r; ++x) {
       const float sa = ref_std.at<float>(y, x);

@@ -5,6 +5,8 @@
 // Convention: a left-image pixel x matches the right image at x - d (d >= 0 for
 // points in front of the cameras); a right-image pixel x matches the left image
 // at x + d. Disparities are in the images' own pixels.
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 namespace saccade::stereo {
@@ -18,12 +20,21 @@ struct NccConfig {
 
 enum class Direction { kLeftToRight, kRightToLeft };
 
+// Buffers ncc_match reuses between calls, so a caller that keeps one allocates
+// nothing in steady state.
+struct NccScratch {
+  cv::Mat ref_mean, ref_std, other_mean, other_std;
+  std::vector<float> scores;
+};
+
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in
 // [lo(y, x), hi(y, x)] (CV_32S, may be negative) are tried. Writes disparity
 // (CV_32F) and score (CV_32F; the NCC at the chosen disparity). Invalid pixels
 // have score -1 (and disparity -1, which with negative ranges is ambiguous: use
 // the score).
 // Windows reaching beyond either image are not used.
+void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
+               const NccConfig& config, cv::Mat& disparity, cv::Mat& score, NccScratch& scratch);
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <string>
 
+#include "saccade/fill.hpp"
+
 namespace saccade::stereo {
 
 // Search ranges for level k of the reference image: around the disparity the
@@ -14,8 +16,8 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
   const cv::Size size = ref.levels[k].size();
   lo_.create(size, CV_32S);
   hi_.create(size, CV_32S);
-  lo_.setTo(full_lo);
-  hi_.setTo(full_hi);
+  fill(lo_, full_lo);
+  fill(hi_, full_hi);
   if (!config_.coarse_to_fine || k == 0) return;
   const LevelGeometry& outer = ref.geometry[k - 1];
   const cv::Mat& prev = reverse ? out[k - 1].reverse : out[k - 1].disparity;
@@ -55,12 +57,12 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     const int full_hi = std::clamp(static_cast<int>(std::floor(config_.max_disparity / gl.step_x)) + offset, -(cols - 1), cols - 1);
     LevelDisparity& level = out[k];
     predict(out, left, k, false, gl, full_lo, full_hi, offset);
-    ncc_match(left.levels[k], right.levels[k], Direction::kLeftToRight, lo_, hi_, config_.ncc, level_lr_, level.score);
+    ncc_match(left.levels[k], right.levels[k], Direction::kLeftToRight, lo_, hi_, config_.ncc, level_lr_, level.score, scratch_);
     predict(out, right, k, true, gr, full_lo, full_hi, offset);
-    ncc_match(left.levels[k], right.levels[k], Direction::kRightToLeft, lo_, hi_, config_.ncc, level_rl_, score_rl_);
+    ncc_match(left.levels[k], right.levels[k], Direction::kRightToLeft, lo_, hi_, config_.ncc, level_rl_, score_rl_, scratch_);
     // Validity comes from the scores: with vergence a level disparity may be negative.
     valid_lr_.create(level_lr_.size(), CV_8U);
-    valid_lr_.setTo(255);
+    fill(valid_lr_, 255);
     if (config_.left_right_check) lr_consistent(level_lr_, level.score, level_rl_, score_rl_, config_.lr_tolerance, valid_lr_);
     // Back to source pixels.
     level.disparity.create(level_lr_.size(), CV_32F);

@@ -41,6 +41,7 @@ class RetinaStereo {
                const LevelGeometry& g, int full_lo, int full_hi, int offset);
   RetinaStereoConfig config_;
   cv::Mat lo_, hi_, level_lr_, level_rl_, score_rl_, valid_lr_;
+  NccScratch scratch_;
 };
 
 }  // namespace saccade::stereo

@@ -77,5 +77,36 @@ TEST(SteadyState, HarnessedRetinaAndFiltersReuseEverything) {
   EXPECT_EQ(g_allocations.load() - before, 0u);
 }
 
+TEST(SteadyState, HarnessedMotionAndStereoReuseEverything) {
+  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto motion = testing::NodeHarness::create(R"(<node plugin="motion"/>)");
+  auto stereo = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)");
+  ASSERT_TRUE(retina && motion && stereo);
+  auto left = std::make_shared<Image>(), right = std::make_shared<Image>();
+  left->mat = test::random_image({640, 480}, 3);
+  right->mat = test::random_image({640, 480}, 4);
+  auto step = [&] {
+    retina->clear_outputs();
+    motion->clear_outputs();
+    stereo->clear_outputs();
+    retina->set("image", left);
+    ASSERT_TRUE(retina->process().ok());
+    retina->set("image", right);
+    ASSERT_TRUE(retina->process().ok());
+    motion->set("retina", retina->outputs("retina")[0]);
+    ASSERT_TRUE(motion->process().ok());
+    stereo->set("left", retina->outputs("retina")[0]);
+    stereo->set("right", retina->outputs("retina")[1]);
+    ASSERT_TRUE(stereo->process().ok());
+    motion->set("retina", nullptr);
+    stereo->set("left", nullptr);
+    stereo->set("right", nullptr);
+  };
+  for (int i = 0; i < 3; ++i) step();
+  uint64_t before = g_allocations.load();
+  for (int i = 0; i < 20; ++i) step();
+  EXPECT_EQ(g_allocations.load() - before, 0u);
+}
+
 }  // namespace
 }  // namespace saccade
