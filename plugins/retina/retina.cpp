@@ -87,6 +87,29 @@ void sample_reference(const RetinaConfig& config, const cv::Mat& frame, const st
   }
 }
 
+void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, double step_y, cv::Size size,
+                  cv::Mat& out) {
+  CV_Assert(frame.type() == CV_8UC1);
+  out.create(size, CV_8UC1);
+  const bool crop = step_x == 1.0 && step_y == 1.0;
+  const int sx = sub_step(step_x), sy = sub_step(step_y);
+  for (int j = 0; j < size.height; ++j) {
+    const int cy = crop ? std::clamp(static_cast<int>(std::floor(y0)) + j, 0, frame.rows - 1)
+                        : std::clamp(static_cast<int>(std::floor(y0 + (j + 0.5) * step_y)), sy, frame.rows - 1 - sy);
+    const uint8_t* r0 = frame.ptr<uint8_t>(cy);
+    uint8_t* o = out.ptr<uint8_t>(j);
+    for (int i = 0; i < size.width; ++i) {
+      if (crop) {
+        o[i] = r0[std::clamp(static_cast<int>(std::floor(x0)) + i, 0, frame.cols - 1)];
+        continue;
+      }
+      const int cx = std::clamp(static_cast<int>(std::floor(x0 + (i + 0.5) * step_x)), sx, frame.cols - 1 - sx);
+      o[i] = mean5(static_cast<unsigned>(r0[cx]) + r0[cx - sx] + r0[cx + sx] + frame.ptr<uint8_t>(cy - sy)[cx] +
+                   frame.ptr<uint8_t>(cy + sy)[cx]);
+    }
+  }
+}
+
 RetinaSampler::RetinaSampler(RetinaConfig config) : config_(config) {
   tables_.resize(static_cast<std::size_t>(config_.levels));
   for (auto& t : tables_) {

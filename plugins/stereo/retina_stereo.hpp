@@ -15,9 +15,13 @@ struct RetinaStereoConfig {
   NccConfig ncc;
   double max_disparity = 256;  // source pixels
   bool coarse_to_fine = true;
-  int search_radius = 2;       // level pixels around the prediction
+  int search_radius = 2;       // pixels of the outer level around its prediction
   bool left_right_check = true;
   float lr_tolerance = 1.0f;   // level pixels
+  // Software vergence: each inner level looks at the right frame where the outer
+  // level predicts the left level's scene to be (needs the right retina's frame).
+  // Experimental: right on synthetic pairs, wrong on Aloe's fovea level so far.
+  bool vergence = false;
 };
 
 struct LevelDisparity {
@@ -25,6 +29,8 @@ struct LevelDisparity {
   cv::Mat reverse;    // CV_32F, source pixels, -1 invalid (right -> left)
   cv::Mat score;      // CV_32F, NCC at the chosen disparity, -1 invalid
   double density = 0; // share of valid pixels
+  double vergence = 0; // source pixels the right level was moved by (0: not moved)
+  double right_x0 = 0;  // left edge of the right level's region as matched, source pixels
 };
 
 // Both retinas must have the same level size and steps; the right retina's
@@ -37,9 +43,14 @@ class RetinaStereo {
   std::string run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out);
 
  private:
-  void predict(const std::vector<LevelDisparity>& out, const Retina& ref, std::size_t k, bool reverse,
-               const LevelGeometry& g, int full_lo, int full_hi, int offset);
+  // Search ranges for level k of one side, whose region starts at source x `x0`.
+  void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, bool reverse, double x0,
+               int full_lo, int full_hi, int offset);
+  // Median disparity (source pixels) the outer level found inside level k's region; < 0 if none.
+  double predicted_disparity(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k);
   RetinaStereoConfig config_;
+  std::vector<float> samples_;
+  cv::Mat right_level_, right_gray_;
   cv::Mat lo_, hi_, level_lr_, level_rl_, score_rl_, valid_lr_;
   NccScratch scratch_;
 };

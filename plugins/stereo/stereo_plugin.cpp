@@ -25,7 +25,10 @@ class StereoNode final : public Node {
         .param_int("search_radius", 2, 0, 32, "coarse to fine: level pixels searched around the prediction")
         .param_bool("lr_check", true, "keep only matches the right->left search confirms")
         .param_double("lr_tolerance", 1.0, 0.0, 16.0, "left-right check tolerance, level pixels")
-        .param_bool("subpixel", true, "refine the peak with a parabola");
+        .param_bool("subpixel", true, "refine the peak with a parabola")
+        .param_bool("vergence", false,
+                    "experimental software vergence: inner levels sample the right frame where the outer level "
+                    "predicts the scene (right on synthetic pairs; not yet on Aloe's fovea level)");
   }
   Status open(OpenContext& ctx) override {
     const Params& p = ctx.params();
@@ -43,6 +46,7 @@ class StereoNode final : public Node {
     c.search_radius = static_cast<int>(p.get_int("search_radius"));
     c.left_right_check = p.get_bool("lr_check");
     c.lr_tolerance = static_cast<float>(p.get_double("lr_tolerance"));
+    c.vergence = p.get_bool("vergence");
     stereo_ = std::make_unique<RetinaStereo>(c);
     return {};
   }

@@ -140,7 +140,7 @@ TEST(StereoGraph, RunsOnAloeAndTheOuterLevelsAgreeWithTheGroundTruth) {
   ASSERT_EQ(maps.size(), 1u);
   cv::Mat gt = cv::imread(test::sample_path("aloeGT.png"), cv::IMREAD_GRAYSCALE);  // scale 1
   // Levels 0..2: bad-2 in source pixels scaled by the level's step, over valid pixels.
-  for (std::size_t k = 0; k < 3; ++k) {
+  for (std::size_t k = 0; k < 5; ++k) {
     const auto& g = maps[0]->retina->geometry[k];
     const cv::Mat& d = (*maps[0]->find("disparity"))[k];
     int valid = 0, bad = 0, known = 0;
@@ -156,8 +156,9 @@ TEST(StereoGraph, RunsOnAloeAndTheOuterLevelsAgreeWithTheGroundTruth) {
       }
     double density = static_cast<double>(valid) / known, bad2 = valid ? static_cast<double>(bad) / valid : 1.0;
     std::printf("Aloe level %zu (step %.1f): density %.3f, bad-2 (x step) %.3f\n", k, g.step_x, density, bad2);
-    EXPECT_GT(density, 0.4) << "level " << k;  // measured 0.48-0.54
-    EXPECT_LT(bad2, 0.15) << "level " << k;  // measured 0.008-0.074
+    if (k == 4) continue;  // the fovea needs vergence, still experimental
+    EXPECT_GT(density, k == 3 ? 0.25 : 0.4) << "level " << k;  // measured 0.48-0.54, level 3 0.31
+    EXPECT_LT(bad2, 0.15) << "level " << k;                     // measured 0.008-0.083
   }
 }
 
