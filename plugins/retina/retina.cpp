@@ -51,61 +51,48 @@ void sample_reference(const RetinaConfig& config, const cv::Mat& frame, const st
   for (std::size_t k = 0; k < geometry.size(); ++k) {
     const LevelGeometry& g = geometry[k];
     cv::Mat& level = levels[k];
-    level.create(config.size, frame.type());
-    bool fovea = k + 1 == geometry.size();
-    int sx = sub_step(g.step_x), sy = sub_step(g.step_y);
-    for (int j = 0; j < config.size.height; ++j) {
-      for (int i = 0; i < config.size.width; ++i) {
-        for (int c = 0; c < cn; ++c) {
-          auto px = [&](int x, int y) {
-            x = std::clamp(x, 0, frame.cols - 1);
-            y = std::clamp(y, 0, frame.rows - 1);
-            return static_cast<unsigned>(frame.ptr<uint8_t>(y)[x * cn + c]);
-          };
-          uint8_t value = 0;
-          if (fovea) {
-            value = static_cast<uint8_t>(px(g.region.x + i, g.region.y + j));
-          } else if (config.mode == SamplingMode::kFivePoint) {
-            int cx = std::clamp(cell_center(g.region.x, g.step_x, i), sx, frame.cols - 1 - sx);
-            int cy = std::clamp(cell_center(g.region.y, g.step_y, j), sy, frame.rows - 1 - sy);
-            unsigned sum = px(cx, cy) + px(cx - sx, cy) + px(cx + sx, cy) + px(cx, cy - sy) + px(cx, cy + sy);
-            value = mean5(sum);
-          } else {
-            int x0 = g.region.x + static_cast<int>(std::floor(i * g.step_x));
-            int x1 = std::max(x0 + 1, g.region.x + static_cast<int>(std::floor((i + 1) * g.step_x)));
-            int y0 = g.region.y + static_cast<int>(std::floor(j * g.step_y));
-            int y1 = std::max(y0 + 1, g.region.y + static_cast<int>(std::floor((j + 1) * g.step_y)));
-            double sum = 0;
-            for (int y = y0; y < y1; ++y)
-              for (int x = x0; x < x1; ++x) sum += px(x, y);
-            value = cv::saturate_cast<uint8_t>(sum / ((x1 - x0) * (y1 - y0)));
-          }
-          level.ptr<uint8_t>(j)[i * cn + c] = value;
-        }
-      }
+    const bool fovea = k + 1 == geometry.size();
+    if (fovea || config.mode == SamplingMode::kFivePoint) {
+      sample_level(frame, g.region.x, g.region.y, g.step_x, g.step_y, config.size, fovea, level);
+      continue;
     }
+    level.create(config.size, frame.type());
+    for (int j = 0; j < config.size.height; ++j)
+      for (int i = 0; i < config.size.width; ++i)
+        for (int c = 0; c < cn; ++c) {
+          int x0 = g.region.x + static_cast<int>(std::floor(i * g.step_x));
+          int x1 = std::max(x0 + 1, g.region.x + static_cast<int>(std::floor((i + 1) * g.step_x)));
+          int y0 = g.region.y + static_cast<int>(std::floor(j * g.step_y));
+          int y1 = std::max(y0 + 1, g.region.y + static_cast<int>(std::floor((j + 1) * g.step_y)));
+          double sum = 0;
+          for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x) sum += frame.ptr<uint8_t>(std::clamp(y, 0, frame.rows - 1))[std::clamp(x, 0, frame.cols - 1) * cn + c];
+          level.ptr<uint8_t>(j)[i * cn + c] = cv::saturate_cast<uint8_t>(sum / ((x1 - x0) * (y1 - y0)));
+        }
   }
 }
 
-void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, double step_y, cv::Size size,
+void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, double step_y, cv::Size size, bool crop,
                   cv::Mat& out) {
-  CV_Assert(frame.type() == CV_8UC1);
-  out.create(size, CV_8UC1);
-  const bool crop = step_x == 1.0 && step_y == 1.0;
+  CV_Assert(frame.depth() == CV_8U);
+  const int cn = frame.channels();
+  out.create(size, frame.type());
   const int sx = sub_step(step_x), sy = sub_step(step_y);
+  auto px = [&](int x, int y, int c) { return static_cast<unsigned>(frame.ptr<uint8_t>(y)[x * cn + c]); };
   for (int j = 0; j < size.height; ++j) {
-    const int cy = crop ? std::clamp(static_cast<int>(std::floor(y0)) + j, 0, frame.rows - 1)
-                        : std::clamp(static_cast<int>(std::floor(y0 + (j + 0.5) * step_y)), sy, frame.rows - 1 - sy);
-    const uint8_t* r0 = frame.ptr<uint8_t>(cy);
     uint8_t* o = out.ptr<uint8_t>(j);
     for (int i = 0; i < size.width; ++i) {
-      if (crop) {
-        o[i] = r0[std::clamp(static_cast<int>(std::floor(x0)) + i, 0, frame.cols - 1)];
-        continue;
+      for (int c = 0; c < cn; ++c) {
+        if (crop) {
+          const int x = std::clamp(static_cast<int>(std::floor(x0)) + i, 0, frame.cols - 1);
+          const int y = std::clamp(static_cast<int>(std::floor(y0)) + j, 0, frame.rows - 1);
+          o[i * cn + c] = static_cast<uint8_t>(px(x, y, c));
+          continue;
+        }
+        const int cx = std::clamp(static_cast<int>(std::floor(x0 + (i + 0.5) * step_x)), sx, frame.cols - 1 - sx);
+        const int cy = std::clamp(static_cast<int>(std::floor(y0 + (j + 0.5) * step_y)), sy, frame.rows - 1 - sy);
+        o[i * cn + c] = mean5(px(cx, cy, c) + px(cx - sx, cy, c) + px(cx + sx, cy, c) + px(cx, cy - sy, c) + px(cx, cy + sy, c));
       }
-      const int cx = std::clamp(static_cast<int>(std::floor(x0 + (i + 0.5) * step_x)), sx, frame.cols - 1 - sx);
-      o[i] = mean5(static_cast<unsigned>(r0[cx]) + r0[cx - sx] + r0[cx + sx] + frame.ptr<uint8_t>(cy - sy)[cx] +
-                   frame.ptr<uint8_t>(cy + sy)[cx]);
     }
   }
 }

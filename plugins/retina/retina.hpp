@@ -42,12 +42,13 @@ std::vector<LevelGeometry> retina_geometry(const RetinaConfig& config, cv::Size 
 void sample_reference(const RetinaConfig& config, const cv::Mat& frame, const std::vector<LevelGeometry>& geometry,
                       std::vector<cv::Mat>& levels);
 
-// One gray level sampled by the five-point rule with a real-valued origin:
-// pixel (i, j) is centred at floor(x0 + (i + 0.5) * step_x), floor(y0 + (j + 0.5)
-// * step_y) (moved in from the frame's edge as above); with step 1 it is a crop.
-// With an integer origin this is exactly the retina's own level. Stereo uses it to
-// look at the right frame where the left level's scene is predicted to be.
-void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, double step_y, cv::Size size,
+// One level, plainly: the five-point rule with a real-valued origin, pixel (i, j)
+// centred at floor(x0 + (i + 0.5) * step_x), floor(y0 + (j + 0.5) * step_y) (moved in
+// from the frame's edge as above), or with `crop` the frame's pixels from
+// (floor(x0), floor(y0)). With an integer origin this is exactly the retina's own
+// level: sample_reference is built on it, and stereo uses it to look at the right
+// frame where the left level's scene is predicted to be.
+void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, double step_y, cv::Size size, bool crop,
                   cv::Mat& out);
 
 // Fast sampler: per-level offset tables are rebuilt only when the frame size,

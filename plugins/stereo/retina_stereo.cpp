@@ -93,7 +93,7 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
           frame = &right_gray_;
         }
         retina::sample_level(*frame, gl.region.x - offset * gl.step_x, gl.region.y, gl.step_x, gl.step_y,
-                             left.levels[k].size(), right_level_);
+                             left.levels[k].size(), k + 1 == n, right_level_);
         right_level = &right_level_;
         level.vergence = offset * gl.step_x;
       }
