@@ -133,36 +133,24 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
   ncc_match(left, right, direction, lo, hi, config, disparity, score);
 }
 
-void lr_consistent(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score, float tolerance,
-                   cv::Mat& valid) {
+double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,
+                        float tolerance, cv::Mat& valid) {
+  int matched = 0, kept = 0;
   for (int y = 0; y < lr.rows; ++y)
     for (int x = 0; x < lr.cols; ++x) {
       if (lr_score.at<float>(y, x) <= -1.0f) {
         valid.at<uint8_t>(y, x) = 0;
         continue;
       }
+      ++matched;
       const float d = lr.at<float>(y, x);
       const int xr = static_cast<int>(std::lround(x - d));
       const bool agrees = xr >= 0 && xr < rl.cols && rl_score.at<float>(y, xr) > -1.0f &&
                           std::fabs(rl.at<float>(y, xr) - d) <= tolerance;
-      if (!agrees) valid.at<uint8_t>(y, x) = 0;
-    }
-}
-
-double left_right_check(cv::Mat& left_to_right, const cv::Mat& right_to_left, float tolerance) {
-  int valid = 0, kept = 0;
-  for (int y = 0; y < left_to_right.rows; ++y)
-    for (int x = 0; x < left_to_right.cols; ++x) {
-      float& d = left_to_right.at<float>(y, x);
-      if (d < 0) continue;
-      ++valid;
-      const int xr = static_cast<int>(std::lround(x - d));
-      const bool agrees = xr >= 0 && xr < right_to_left.cols && right_to_left.at<float>(y, xr) >= 0 &&
-                          std::fabs(right_to_left.at<float>(y, xr) - d) <= tolerance;
       if (agrees) ++kept;
-      else d = -1;
+      else valid.at<uint8_t>(y, x) = 0;
     }
-  return valid > 0 ? static_cast<double>(kept) / valid : 0.0;
+  return matched > 0 ? static_cast<double>(kept) / matched : 0.0;
 }
 
 }  // namespace saccade::stereo

@@ -42,14 +42,11 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, int d_min, int d_max,
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
 
-// Keeps a left->right disparity only where the right->left one, read at the
-// matched pixel, agrees within `tolerance`; others become -1. Returns the share kept.
-double left_right_check(cv::Mat& left_to_right, const cv::Mat& right_to_left, float tolerance);
-
-// Like left_right_check, for signed disparities: `valid` (CV_8U) is cleared where
-// the left->right match (score > -1) has no agreeing right->left match.
-void lr_consistent(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score, float tolerance,
-                   cv::Mat& valid);
+// Clears `valid` (CV_8U) where the left->right match (score > -1) has no
+// right->left match, read at the matched pixel, within `tolerance` (signed
+// disparities allowed). Returns the share of matched pixels kept.
+double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,
+                        float tolerance, cv::Mat& valid);
 
 // Correlation coefficient of two w x w windows centred at (x0, y0) and (x1, y1)
 // (the plain definition, for tests).

@@ -113,7 +113,7 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     // Validity comes from the scores: with vergence a level disparity may be negative.
     valid_lr_.create(level_lr_.size(), CV_8U);
     fill(valid_lr_, 255);
-    if (config_.left_right_check) lr_consistent(level_lr_, level.score, level_rl_, score_rl_, config_.lr_tolerance, valid_lr_);
+    if (config_.left_right_check) left_right_check(level_lr_, level.score, level_rl_, score_rl_, config_.lr_tolerance, valid_lr_);
     // Back to source pixels.
     level.disparity.create(level_lr_.size(), CV_32F);
     level.reverse.create(level_rl_.size(), CV_32F);

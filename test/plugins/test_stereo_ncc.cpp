@@ -88,9 +88,11 @@ TEST(LeftRightCheck, KeepsConsistentPixelsAndDropsOthers) {
   ncc_match(left, right, Direction::kRightToLeft, 0, 10, {}, rl, s2);
   cv::Mat corrupted = lr.clone();
   corrupted.at<float>(18, 20) = 9;  // a wrong match
-  double kept = left_right_check(corrupted, rl, 1.0f);
+  cv::Mat valid(lr.size(), CV_8U, cv::Scalar(255));
+  double kept = left_right_check(corrupted, s1, rl, s2, 1.0f, valid);
   EXPECT_GT(kept, 0.95);
-  EXPECT_EQ(corrupted.at<float>(18, 20), -1.0f);
+  EXPECT_EQ(valid.at<uint8_t>(18, 20), 0);
+  EXPECT_EQ(valid.at<uint8_t>(18, 22), 255);
   EXPECT_NEAR(corrupted.at<float>(18, 22), d, 0.25);
 }
 
