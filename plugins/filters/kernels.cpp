@@ -209,7 +209,9 @@ inline void store4(float* p, v4sf v) { std::memcpy(p, &v, sizeof v); }
 
 // Horizontal pass over one padded row: out_g = g * src, out_dg = dg * src (src
 // starts at the first tap). N taps known at compile time: the tap loop unrolls
-// and the weights stay in registers.
+// and the weights stay in registers. column_taps below is the same sum over a
+// table of rows; serving this pass with it (rows src, src + 1, ...) costs 6% more
+// instructions per map (callgrind), so the row pass keeps its direct offsets.
 template <int N>
 void row_taps(const float* src, const float* g, const float* dg, float* out_g, float* out_dg, int w) {
   v4sf wg[N], wd[N];
