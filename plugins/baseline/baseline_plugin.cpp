@@ -17,15 +17,6 @@ Status require_gray(const Image& image) {
   return {};
 }
 
-// Fills `maps` with one full-frame map per name (pooled buffers kept).
-void prepare(FeatureMaps& maps, const std::vector<std::string>& names) {
-  maps.retina.reset();
-  maps.names.resize(names.size());
-  for (std::size_t i = 0; i < names.size(); ++i) maps.names[i] = names[i];
-  maps.maps.resize(names.size());
-  for (auto& m : maps.maps) m.resize(1);
-}
-
 class Filters final : public Node {
  public:
   static constexpr const char* kName = "filters";
@@ -47,7 +38,7 @@ class Filters final : public Node {
     auto image = ctx.get(in_);
     if (Status s = require_gray(*image); !s.ok()) return s;
     auto maps = ctx.make(out_);
-    prepare(*maps, names_);
+    maps->set_layout(names_, 1);
     for (std::size_t i = 0; i < names_.size(); ++i) compute_feature(names_[i], image->mat, maps->maps[i][0], scratch_);
     ctx.emit(out_, std::move(maps));
     return {};
@@ -79,7 +70,7 @@ class FrameDifference final : public Node {
     auto image = ctx.get(in_);
     if (Status s = require_gray(*image); !s.ok()) return s;
     auto maps = ctx.make(out_);
-    prepare(*maps, {"absdiff", "mask"});
+    maps->set_layout({"absdiff", "mask"}, 1);
     if (prev_ && prev_->mat.size() == image->mat.size()) cv::absdiff(image->mat, prev_->mat, maps->maps[0][0]);
     else maps->maps[0][0] = cv::Mat::zeros(image->mat.size(), CV_8U);
     cv::threshold(maps->maps[0][0], maps->maps[1][0], threshold_, 255, cv::THRESH_BINARY);
@@ -134,7 +125,7 @@ class Stereo final : public Node {
     if (Status s = require_gray(*r); !s.ok()) return s;
     if (l->mat.size() != r->mat.size()) return Status::error("left and right frames differ in size");
     auto maps = ctx.make(out_);
-    prepare(*maps, names_);
+    maps->set_layout(names_, 1);
     for (std::size_t i = 0; i < names_.size(); ++i) {
       if (names_[i] == "disparity_lr") stereo_->left_to_right(l->mat, r->mat, maps->maps[i][0]);
       else stereo_->right_to_left(l->mat, r->mat, maps->maps[i][0]);

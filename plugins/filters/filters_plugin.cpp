@@ -55,10 +55,7 @@ class Bank final : public Node {
                            " are too small for ggrad_sigma (radius " + std::to_string(r) + ")");
     auto maps = ctx.make(out_);
     maps->retina = retina;
-    maps->names.resize(names_.size());
-    for (std::size_t i = 0; i < names_.size(); ++i) maps->names[i] = names_[i];
-    maps->maps.resize(selected_.size());
-    for (auto& feature : maps->maps) feature.resize(retina->levels.size());
+    maps->set_layout(names_, retina->levels.size());
     for (std::size_t level = 0; level < retina->levels.size(); ++level) {
       for (std::size_t i = 0; i < selected_.size(); ++i)
         std::swap(outs_[static_cast<std::size_t>(selected_[i])], maps->maps[i][level]);

@@ -48,13 +48,7 @@ class MotionNode final : public Node {
     summary->first = !prev_ || !compatible(*prev_, *cur);
     auto maps = ctx.make(maps_out_);
     maps->retina = cur;
-    maps->names.resize(4);
-    maps->names[0] = "dI";
-    maps->names[1] = "mx";
-    maps->names[2] = "my";
-    maps->names[3] = "mask";
-    maps->maps.resize(4);
-    for (auto& m : maps->maps) m.resize(n);
+    maps->set_layout({"dI", "mx", "my", "mask"}, n);
     if (!summary->first) {
       const bool same_geometry = equal_geometry(*prev_, *cur);
       const bool from_source = !same_geometry && prev_->source && !prev_->source->mat.empty();

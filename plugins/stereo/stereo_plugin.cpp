@@ -56,12 +56,7 @@ class StereoNode final : public Node {
     if (std::string e = stereo_->run(*l, *r, levels_); !e.empty()) return Status::error(e);
     auto maps = ctx.make(out_);
     maps->retina = l;
-    maps->names.resize(3);
-    maps->names[0] = "disparity";
-    maps->names[1] = "disparity_rl";
-    maps->names[2] = "confidence";
-    maps->maps.resize(3);
-    for (auto& m : maps->maps) m.resize(levels_.size());
+    maps->set_layout({"disparity", "disparity_rl", "confidence"}, levels_.size());
     for (std::size_t k = 0; k < levels_.size(); ++k) {
       levels_[k].disparity.copyTo(maps->maps[0][k]);
       levels_[k].reverse.copyTo(maps->maps[1][k]);

@@ -2,6 +2,8 @@
 // Messages travel between nodes as std::shared_ptr<const T>: immutable once emitted,
 // shared across fan-out by reference count, never copied.
 #include <cstdint>
+#include <initializer_list>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -118,6 +120,20 @@ struct FeatureMaps final : Message {
 
   // Levels of feature `name`, or nullptr when this message does not carry it.
   const std::vector<cv::Mat>* find(std::string_view name) const;
+
+  // Names the features and gives each `levels` maps, keeping the buffers a
+  // recycled message already has (no allocation when the layout is unchanged).
+  template <class Names>
+  void set_layout(const Names& feature_names, std::size_t levels) {
+    names.resize(std::size(feature_names));
+    std::size_t i = 0;
+    for (const auto& name : feature_names) names[i++] = name;
+    maps.resize(names.size());
+    for (auto& feature : maps) feature.resize(levels);
+  }
+  void set_layout(std::initializer_list<const char*> feature_names, std::size_t levels) {
+    set_layout<std::initializer_list<const char*>>(feature_names, levels);
+  }
 
   std::shared_ptr<const Retina> retina;
   std::vector<std::string> names;
