@@ -13,6 +13,14 @@ int sub_step(double step) { return std::max(1, static_cast<int>(std::ceil(step /
 // Rounded mean of five 8-bit samples: (sum + 2) / 5, exact for sums up to 1275.
 inline uint8_t mean5(unsigned sum) { return static_cast<uint8_t>(((sum + 2) * 52429u) >> 18); }
 
+// The same mean as the high half of a 16x16-bit product, so a row of sums
+// divides in one vector multiply per eight pixels (pmulhuw). Exact: with
+// sum + 2 = 5q + r, the product is q + r/5 + (5q + r) * 4 / (5 * 65536) < q + 1
+// for every sum up to 1275 (q <= 255).
+inline uint8_t mean5_u16(uint16_t sum) {
+  return static_cast<uint8_t>((static_cast<uint32_t>(static_cast<uint16_t>(sum + 2)) * 13108u) >> 16);
+}
+
 // Cell centre along one axis, in frame pixels.
 inline int cell_center(int origin, double step, int i) {
   return origin + static_cast<int>(std::floor((i + 0.5) * step));
@@ -102,8 +110,6 @@ RetinaSampler::RetinaSampler(RetinaConfig config) : config_(config) {
   for (auto& t : tables_) {
     t.col.resize(static_cast<std::size_t>(config_.size.width));
     t.row.resize(static_cast<std::size_t>(config_.size.height));
-    t.row_up.resize(static_cast<std::size_t>(config_.size.height));
-    t.row_down.resize(static_cast<std::size_t>(config_.size.height));
   }
   sums_.resize(static_cast<std::size_t>(config_.size.width));
 }
@@ -119,7 +125,10 @@ std::string RetinaSampler::check(const cv::Mat& frame) const {
 }
 
 void RetinaSampler::prepare(const cv::Mat& frame, cv::Point corner) {
-  if (frame.size() == prepared_size_ && frame.type() == prepared_type_ && corner == prepared_corner_) return;
+  const std::size_t pitch = frame.step[0];
+  if (frame.size() == prepared_size_ && frame.type() == prepared_type_ && pitch == prepared_pitch_ &&
+      corner == prepared_corner_)
+    return;
   cv::Point2d centre(corner.x + config_.size.width / 2.0, corner.y + config_.size.height / 2.0);
   std::vector<LevelGeometry> geometry = retina_geometry(config_, frame.size(), centre);
   geometry_.assign(geometry.begin(), geometry.end());
@@ -134,14 +143,15 @@ void RetinaSampler::prepare(const cv::Mat& frame, cv::Point corner) {
     }
     for (int j = 0; j < config_.size.height; ++j) {
       int cy = std::clamp(cell_center(g.region.y, g.step_y, j), sy, frame.rows - 1 - sy);
-      t.row[static_cast<std::size_t>(j)] = cy;
-      t.row_up[static_cast<std::size_t>(j)] = cy - sy;
-      t.row_down[static_cast<std::size_t>(j)] = cy + sy;
+      t.row[static_cast<std::size_t>(j)] = static_cast<std::ptrdiff_t>(cy) * static_cast<std::ptrdiff_t>(pitch);
     }
+    t.up_bytes = -static_cast<std::ptrdiff_t>(sy) * static_cast<std::ptrdiff_t>(pitch);
+    t.down_bytes = static_cast<std::ptrdiff_t>(sy) * static_cast<std::ptrdiff_t>(pitch);
     t.sub_x_bytes = sx * cn;
   }
   prepared_size_ = frame.size();
   prepared_type_ = frame.type();
+  prepared_pitch_ = pitch;
   prepared_corner_ = corner;
 }
 
@@ -154,12 +164,11 @@ void RetinaSampler::sample_five_point(const cv::Mat& frame, std::vector<cv::Mat>
     cv::Mat& level = levels[k];
     const std::ptrdiff_t s = t.sub_x_bytes;
     const std::ptrdiff_t* col = t.col.data();
+    // Every sample is one base+index load from the cell centre's address.
+    const std::ptrdiff_t du = t.up_bytes, dd = t.down_bytes;
+    const uint8_t* data = frame.data;
     for (int j = 0; j < h; ++j) {
-      const uint8_t* r0 = frame.ptr<uint8_t>(t.row[static_cast<std::size_t>(j)]);
-      // Up and down rows as offsets from the centre row: every sample is one
-      // base+index load from the cell centre's address.
-      const std::ptrdiff_t du = frame.ptr<uint8_t>(t.row_up[static_cast<std::size_t>(j)]) - r0;
-      const std::ptrdiff_t dd = frame.ptr<uint8_t>(t.row_down[static_cast<std::size_t>(j)]) - r0;
+      const uint8_t* r0 = data + t.row[static_cast<std::size_t>(j)];
       uint8_t* out = level.ptr<uint8_t>(j);
       if (cn == 1) {
         // Sums first, the rounded division in a second loop the compiler vectorises.
@@ -180,7 +189,7 @@ void RetinaSampler::sample_five_point(const cv::Mat& frame, std::vector<cv::Mat>
           const uint8_t* c = r0 + col[i];
           sums[i] = static_cast<uint16_t>(c[0] + c[-s] + c[s] + c[du] + c[dd]);
         }
-        for (int k2 = 0; k2 < w; ++k2) out[k2] = mean5(sums[k2]);
+        for (int k2 = 0; k2 < w; ++k2) out[k2] = mean5_u16(sums[k2]);
       } else {
         for (int i = 0; i < w; ++i) {
           const uint8_t* c = r0 + col[i];

@@ -69,9 +69,11 @@ class RetinaSampler {
 
   struct LevelTable {
     std::vector<std::ptrdiff_t> col;  // byte offset of each cell centre in a row
-    std::vector<int> row;  // frame row of each cell centre
-    std::vector<int> row_up, row_down;
-    int sub_x_bytes = 0;
+    std::vector<std::ptrdiff_t> row;  // byte offset of each cell centre's row in the frame
+    // The up and down samples as offsets from the centre: constant per level,
+    // because cell centres are moved in from the frame's edge by the sub-step.
+    std::ptrdiff_t up_bytes = 0, down_bytes = 0;
+    std::ptrdiff_t sub_x_bytes = 0;
   };
   RetinaConfig config_;
   std::vector<LevelTable> tables_;
@@ -79,6 +81,7 @@ class RetinaSampler {
   std::vector<uint16_t> sums_;
   cv::Size prepared_size_;
   int prepared_type_ = -1;
+  std::size_t prepared_pitch_ = 0;
   cv::Point prepared_corner_{-1, -1};
 };
 
