@@ -14,6 +14,17 @@ Retina::~Retina() = default;
 FeatureMaps::~FeatureMaps() = default;
 Region::~Region() = default;
 Motion::~Motion() = default;
+GazeRequest::~GazeRequest() = default;
+FoveaState::~FoveaState() = default;
+
+const char* to_string(FoveaState::State state) {
+  switch (state) {
+    case FoveaState::State::kSearching: return "searching";
+    case FoveaState::State::kTracking: return "tracking";
+    case FoveaState::State::kLost: return "lost";
+  }
+  return "unknown";
+}
 EmitSink::~EmitSink() = default;
 Node::~Node() = default;
 

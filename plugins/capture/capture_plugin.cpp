@@ -249,13 +249,18 @@ class Synthetic final : public Node {
                "(synthetic data); optionally a right view with known disparities.");
     c.output<Image>("image", "left view")
         .output<Image>("right", "right view: target shifted left by 'disparity', background by 'background_disparity'")
-        .output<Region>("truth", "the target's exact centre and size in the left view; score = its disparity")
+        .output<Region>("truth", "the target's exact centre and size in the left view (the centre may be outside the "
+                                 "frame); score = its disparity; label: visible, partial or outside")
         .param_string("background", "${SACCADE_SAMPLE_DATA}/vtest.avi", "image or video whose first frame is the background")
         .param_size("size", {640, 480}, "frame size (the background is resized to it)")
         .param_int("target_size", 48, 4, 1024, "side of the square target, pixels")
-        .param_enum("path", "circle", {"circle", "line", "still"}, "how the target moves")
+        .param_enum("path", "circle", {"circle", "line", "still", "bounce"}, "how the target moves")
         .param_double("radius", 120.0, 0.0, 10000.0, "circle radius or half the line's length, pixels")
         .param_double("period", 120.0, 1.0, 1e9, "frames per revolution or back-and-forth")
+        .param_double("speed", 4.0, 0.0, 10000.0, "bounce: pixels per frame")
+        .param_double("angle", 30.0, -360.0, 360.0, "bounce: direction of the first run, degrees (y down)")
+        .param_double("overshoot", 0.0, 0.0, 10000.0, "bounce: how far beyond the frame's edges the target goes, pixels")
+        .param_int("jump_every", 0, 0, 1'000'000'000, "bounce: jump to a new place every N frames (0: never)")
         .param_int("disparity", 0, -1024, 1024, "target disparity in the right view, pixels")
         .param_int("background_disparity", 0, -1024, 1024, "background disparity in the right view, pixels")
         .param_int("count", 300, 0, 1'000'000'000, "frames before end of stream (0: endless)")
@@ -287,6 +292,10 @@ class Synthetic final : public Node {
     scene.path = p.get_string("path");
     scene.radius = p.get_double("radius");
     scene.period_frames = p.get_double("period");
+    scene.speed = p.get_double("speed");
+    scene.angle_deg = p.get_double("angle");
+    scene.overshoot = p.get_double("overshoot");
+    scene.jump_every = static_cast<int>(p.get_int("jump_every"));
     scene.disparity = static_cast<int>(p.get_int("disparity"));
     scene.background_disparity = static_cast<int>(p.get_int("background_disparity"));
     scene.seed = static_cast<uint64_t>(p.get_int("seed"));
@@ -322,7 +331,8 @@ class Synthetic final : public Node {
     truth->center = renderer_->target_center(k);
     truth->size = cv::Size2d(renderer_->scene().target_size, renderer_->scene().target_size);
     truth->score = renderer_->scene().disparity;
-    truth->label = "target";
+    const double visible = renderer_->target_visible(k);
+    truth->label = visible >= 1.0 ? "visible" : visible > 0.0 ? "partial" : "outside";
     stamp(*truth);
     ctx.emit(image_out_, std::move(left));
     if (right_wanted_) {

@@ -231,9 +231,51 @@ SyntheticRenderer::SyntheticRenderer(SyntheticScene scene) : scene_(std::move(sc
   }
 }
 
+namespace {
+
+// Position on a segment [lo, hi] of a point moving at `v` per frame from `x0`,
+// reflected at both ends (a triangle wave).
+double reflect(double x0, double v, double k, double lo, double hi) {
+  const double span = hi - lo;
+  if (span <= 0) return lo;
+  double u = std::fmod(x0 - lo + v * k, 2.0 * span);
+  if (u < 0) u += 2.0 * span;
+  return lo + (u <= span ? u : 2.0 * span - u);
+}
+
+// A deterministic hash of (seed, n) to [0, 1): where the n-th jump lands.
+double unit_hash(uint64_t seed, uint64_t n) {
+  uint64_t z = seed * 0x9E3779B97F4A7C15ull + n * 0xBF58476D1CE4E5B9ull + 0x94D049BB133111EBull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  z ^= z >> 31;
+  return static_cast<double>(z >> 11) * 0x1.0p-53;
+}
+
+}  // namespace
+
 cv::Point SyntheticRenderer::target_corner(int64_t k) const {
   const cv::Size size = scene_.background.size();
+  const int s = scene_.target_size;
   double cx = size.width / 2.0, cy = size.height / 2.0;
+  if (scene_.path == "bounce") {
+    const double a = scene_.angle_deg * M_PI / 180.0;
+    const double o = scene_.overshoot;
+    double x0 = cx, y0 = cy;
+    double t = static_cast<double>(k);
+    if (scene_.jump_every > 0) {
+      // Each jump restarts the run from a new place, inside the frame.
+      const int64_t n = k / scene_.jump_every;
+      t = static_cast<double>(k % scene_.jump_every);
+      if (n > 0) {
+        x0 = s / 2.0 + unit_hash(scene_.seed, static_cast<uint64_t>(2 * n)) * (size.width - s);
+        y0 = s / 2.0 + unit_hash(scene_.seed, static_cast<uint64_t>(2 * n + 1)) * (size.height - s);
+      }
+    }
+    cx = reflect(x0, scene_.speed * std::cos(a), t, s / 2.0 - o, size.width - s / 2.0 + o);
+    cy = reflect(y0, scene_.speed * std::sin(a), t, s / 2.0 - o, size.height - s / 2.0 + o);
+    return {static_cast<int>(std::lround(cx - s / 2.0)), static_cast<int>(std::lround(cy - s / 2.0))};
+  }
   double phase = 2.0 * M_PI * static_cast<double>(k) / scene_.period_frames;
   if (scene_.path == "circle") {
     cx += scene_.radius * std::cos(phase);
@@ -241,12 +283,18 @@ cv::Point SyntheticRenderer::target_corner(int64_t k) const {
   } else if (scene_.path == "line") {
     cx += scene_.radius * std::sin(phase);
   }
-  int s = scene_.target_size;
   int x = static_cast<int>(std::lround(cx - s / 2.0));
   int y = static_cast<int>(std::lround(cy - s / 2.0));
   x = std::clamp(x, 0, size.width - s);
   y = std::clamp(y, 0, size.height - s);
   return {x, y};
+}
+
+double SyntheticRenderer::target_visible(int64_t k) const {
+  cv::Point c = target_corner(k);
+  const int s = scene_.target_size;
+  cv::Rect inside = cv::Rect(c.x, c.y, s, s) & cv::Rect(cv::Point(), scene_.background.size());
+  return static_cast<double>(inside.area()) / (static_cast<double>(s) * s);
 }
 
 cv::Point2d SyntheticRenderer::target_center(int64_t k) const {
@@ -259,13 +307,15 @@ void SyntheticRenderer::render(int64_t k, cv::Mat& left, cv::Mat& right) const {
   cv::Point c = target_corner(k);
   int s = scene_.target_size;
   scene_.background.copyTo(left);
-  texture_.copyTo(left(cv::Rect(c.x, c.y, s, s)));
+  cv::Rect target(c.x, c.y, s, s);
+  cv::Rect shown = target & cv::Rect(0, 0, left.cols, left.rows);
+  if (shown.area() > 0) texture_(shown - target.tl()).copyTo(left(shown));
   if (right.data != nullptr || scene_.disparity != 0 || scene_.background_disparity != 0) {
     right_background_.copyTo(right);
     int rx = c.x - scene_.disparity;
     cv::Rect dst(rx, c.y, s, s);
     cv::Rect visible = dst & cv::Rect(0, 0, right.cols, right.rows);
-    if (visible.area() > 0) texture_(cv::Rect(visible.x - rx, 0, visible.width, s)).copyTo(right(visible));
+    if (visible.area() > 0) texture_(visible - dst.tl()).copyTo(right(visible));
   }
 }
 

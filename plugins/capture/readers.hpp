@@ -42,9 +42,18 @@ std::unique_ptr<FrameReader> open_any(const std::string& path, double fps, std::
 struct SyntheticScene {
   cv::Mat background;  // BGR
   int target_size = 48;
-  std::string path = "circle";  // circle | line | still
+  std::string path = "circle";  // circle | line | still | bounce
   double radius = 120.0;        // circle radius or half the line's length, pixels
   double period_frames = 120.0;
+  // bounce: a straight run at `speed` pixels per frame (direction `angle_deg`),
+  // reflected at the frame's edges moved out by `overshoot` pixels, so the
+  // target leaves the image when overshoot > 0.
+  double speed = 4.0;
+  double angle_deg = 30.0;
+  double overshoot = 0.0;
+  // Every `jump_every` frames (0: never) the target jumps to a new place chosen
+  // from `seed`: a move no tracker can follow, to test re-acquisition.
+  int jump_every = 0;
   int disparity = 0;
   int background_disparity = 0;
   uint64_t seed = 1;
@@ -54,8 +63,11 @@ class SyntheticRenderer {
  public:
   explicit SyntheticRenderer(SyntheticScene scene);
   // Centre of the rendered target in the left view at frame k (exact: the
-  // rendered square's centre, after rounding its corner to whole pixels).
+  // rendered square's centre, after rounding its corner to whole pixels). It
+  // may lie outside the frame (bounce with overshoot).
   cv::Point2d target_center(int64_t k) const;
+  // Fraction of the target's area inside the frame at frame k (0..1).
+  double target_visible(int64_t k) const;
   void render(int64_t k, cv::Mat& left, cv::Mat& right) const;
   const SyntheticScene& scene() const { return scene_; }
 

@@ -70,6 +70,33 @@ cv::Mat retina_overlay(const Retina& retina) {
   return out;
 }
 
+cv::Mat track_overlay(const FoveaState& state, const std::vector<TrackPoint>& track) {
+  if (!state.retina) return {};
+  cv::Mat out = retina_overlay(*state.retina);
+  const int thickness = std::max(1, out.cols / 400);
+  auto colour = [](FoveaState::State s) {
+    switch (s) {
+      case FoveaState::State::kTracking: return cv::Scalar(0, 220, 0);
+      case FoveaState::State::kLost: return cv::Scalar(0, 0, 255);
+      case FoveaState::State::kSearching: break;
+    }
+    return cv::Scalar(0, 220, 255);
+  };
+  for (std::size_t i = 1; i < track.size(); ++i) {
+    cv::line(out, track[i - 1].fovea, track[i].fovea, colour(track[i].state), thickness, cv::LINE_AA);
+    if (track[i - 1].target_valid && track[i].target_valid)
+      cv::line(out, track[i - 1].target, track[i].target, cv::Scalar(255, 160, 0), thickness, cv::LINE_AA);
+  }
+  for (const TrackPoint& t : track)
+    if (t.gaze_request) cv::circle(out, t.fovea, 10 * thickness, cv::Scalar(255, 0, 255), thickness, cv::LINE_AA);
+  if (state.target_valid) cv::drawMarker(out, state.target, cv::Scalar(255, 160, 0), cv::MARKER_SQUARE, 10, thickness);
+  char text[160];
+  std::snprintf(text, sizeof text, "%s  score %.2f  shifts %lld  gaze requests %lld", to_string(state.state), state.score,
+                static_cast<long long>(state.attention_shifts), static_cast<long long>(state.gaze_requests));
+  cv::putText(out, text, {8, 42}, cv::FONT_HERSHEY_SIMPLEX, 0.6, colour(state.state), 1, cv::LINE_AA);
+  return out;
+}
+
 cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::string& title) {
   if (levels.empty()) return {};
   const int gap = 4, header = 18;

@@ -25,6 +25,20 @@ cv::Mat disparity_png16(const cv::Mat& disparity);
 // and the fovea's centre marked.
 cv::Mat retina_overlay(const Retina& retina);
 
+// One step of a fovea track, as the snapshot remembers it.
+struct TrackPoint {
+  cv::Point2d fovea;
+  cv::Point2d target;
+  bool target_valid = false;
+  FoveaState::State state = FoveaState::State::kSearching;
+  bool gaze_request = false;
+};
+
+// The retina overlay plus the fovea's track: the path of the fovea (colour by
+// state: green tracking, yellow searching, red lost), the target's path, gaze
+// requests as circles, and the current state as text.
+cv::Mat track_overlay(const FoveaState& state, const std::vector<TrackPoint>& track);
+
 // Levels side by side, each enlarged `scale` times (nearest neighbour), labelled.
 // Maps named disparity* are colour-mapped.
 cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::string& title);

@@ -17,7 +17,7 @@ class Snapshot final : public Node {
   static Contract contract() {
     return Contract("Writes PNG mosaics every N frames: an Image as it is; a Retina as the frame with its level "
                     "rectangles, the level strip and the foveated view; FeatureMaps as all of those plus one strip per feature.")
-        .input<Message>("in", "Image, Retina or FeatureMaps")
+        .input<Message>("in", "Image, Retina, FeatureMaps or FoveaState (the fovea's track over the frame)")
         .param_string("dir", "out", "folder for the PNGs (created)")
         .param_string("prefix", "", "file name prefix (default: the node's name)")
         .param_int("every", 1, 1, 1'000'000, "write one frame in N")
@@ -37,13 +37,21 @@ class Snapshot final : public Node {
     scale_ = static_cast<int>(p.get_int("scale"));
     png16_ = p.get_bool("disparity_png16");
     std::error_code ec;
+    track_.reserve(kTrackLength);
     std::filesystem::create_directories(dir_, ec);
     if (ec) return Status::error("cannot create folder '" + dir_ + "': " + ec.message());
     return {};
   }
   Status process(ProcessContext& ctx) override {
     auto msg = ctx.get(in_);
+    auto fovea = std::dynamic_pointer_cast<const FoveaState>(msg);
+    if (fovea) {
+      // The track is remembered on every frame, drawn on the frames written.
+      if (track_.size() == kTrackLength) track_.erase(track_.begin());
+      track_.push_back(TrackPoint{fovea->fovea, fovea->target, fovea->target_valid, fovea->state, fovea->gaze_request});
+    }
     if (msg->frame_id < first_ || (msg->frame_id - first_) % every_ != 0) return {};
+    if (fovea) return write("track", msg->frame_id, track_overlay(*fovea, track_));
     if (auto image = std::dynamic_pointer_cast<const Image>(msg)) return write("frame", msg->frame_id, to_display(image->mat));
     const Retina* retina = nullptr;
     auto maps = std::dynamic_pointer_cast<const FeatureMaps>(msg);
@@ -81,7 +89,9 @@ class Snapshot final : public Node {
     ++written_;
     return {};
   }
+  static constexpr std::size_t kTrackLength = 300;
   InputHandle<Message> in_;
+  std::vector<TrackPoint> track_;
   std::string dir_, prefix_;
   int64_t every_ = 1, first_ = 0, written_ = 0;
   int scale_ = 6;

@@ -166,4 +166,40 @@ struct Region final : Message {
   std::string label;
 };
 
+// A request to turn the head so that `pixel` comes to the image centre.
+struct GazeRequest final : Message {
+  static constexpr std::string_view kTypeName = "GazeRequest";
+  std::string_view type_name() const override { return kTypeName; }
+  ~GazeRequest() override;
+  cv::Point2d pixel;     // source pixels of the image it was decided on
+  cv::Vec3d direction;   // unit vector to it in the camera frame (x right, y down, z forward)
+  cv::Size image_size;   // of that image, so a receiver can tell where the centre was
+  int camera_id = 0;
+  std::string reason;    // why: "border" (the fovea reached the margin), "target", ...
+};
+
+// What the fovea controller saw and decided on one frame.
+struct FoveaState final : Message {
+  static constexpr std::string_view kTypeName = "FoveaState";
+  std::string_view type_name() const override { return kTypeName; }
+  void release_shared_buffers() override { retina.reset(); }
+  ~FoveaState() override;
+  enum class State : uint8_t { kSearching, kTracking, kLost };
+  State state = State::kSearching;
+  cv::Point2d fovea;       // fovea centre the retina used for this frame, source pixels
+  cv::Point2d next;        // fovea centre asked for the next frame
+  cv::Point2d target;      // the target's centre in this frame (when target_valid)
+  bool target_valid = false;
+  double score = 0.0;      // tracking: the template's match (NCC); searching: the attended saliency
+  bool attention_shift = false;  // the fovea was sent somewhere new this frame
+  bool gaze_request = false;     // a GazeRequest went out this frame
+  int64_t attention_shifts = 0;  // since the start
+  int64_t gaze_requests = 0;
+  int64_t frames_lost = 0;       // consecutive frames in the lost state
+  int camera_id = 0;
+  std::shared_ptr<const Retina> retina;  // the retina it was decided on, for overlays
+};
+
+const char* to_string(FoveaState::State state);
+
 }  // namespace saccade

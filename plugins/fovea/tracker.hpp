@@ -1,0 +1,58 @@
+#pragma once
+// Keeps a target in view: normalised cross-correlation of a small template
+// with the fovea (or a window of the frame around it), peak refined to
+// sub-pixel.
+#include <opencv2/core.hpp>
+
+#include "saccade/message.hpp"
+
+namespace saccade::fovea {
+
+struct TrackerConfig {
+  cv::Size template_size{12, 12};
+  // Window of the source frame, centred on the fovea, that is searched: a wider
+  // crop than the fovea, so that a target that moved faster than predicted is
+  // still found. 0x0, or a retina without its source frame: the fovea level.
+  cv::Size search_size{48, 40};
+  double min_score = 0.6;         // a match below this is no match
+  double update_rate = 0.0;       // template <- (1 - a) template + a patch
+  double update_min_score = 0.85; // only confident matches update the template
+  double min_contrast = 4.0;      // a template whose standard deviation is below this is refused
+};
+
+class TemplateTracker {
+ public:
+  explicit TemplateTracker(TrackerConfig config);
+
+  // Cuts the template centred on `point` (source pixels) from the retina's
+  // fovea level. Near the level's edge the template is kept inside and the
+  // point's offset from its centre remembered. False when the level is smaller
+  // than the template or the patch is flat.
+  bool acquire(const Retina& retina, cv::Point2d point);
+  // A template given from outside (top-down): 8-bit gray or BGR.
+  bool set_template(const cv::Mat& image);
+  void reset();
+  // Moves the tracked point relative to the template (where on the object the
+  // target's centre is), e.g. once the object is fully in view.
+  void move_point(cv::Point2d delta) { offset_ += delta; }
+  bool has_template() const { return !template_.empty(); }
+  const cv::Mat& template_image() const { return template_; }
+
+  struct Match {
+    bool found = false;
+    cv::Point2d point{-1, -1};  // the target's centre, source pixels
+    double score = -1.0;
+  };
+  Match match(const Retina& retina);
+  const TrackerConfig& config() const { return config_; }
+
+ private:
+  // The gray CV_32F image searched and the source position of its pixel (0, 0).
+  cv::Point search_window(const Retina& retina);
+  TrackerConfig config_;
+  cv::Mat template_;  // CV_32F
+  cv::Point2d offset_;
+  cv::Mat window_gray_, window_f_, result_, patch_;
+};
+
+}  // namespace saccade::fovea

@@ -1,0 +1,188 @@
+// graphs/tracking.xml and graphs/attention.xml on real backgrounds: the moving
+// fovea against exact ground truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstdio>
+#include <filesystem>
+
+#include <opencv2/core/utility.hpp>
+
+#include "support.hpp"
+
+static const bool kOpenCvSingleThread = (cv::setNumThreads(1), true);
+
+namespace saccade {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Runs a graph file deterministically with the named nodes turned into
+// util.record nodes (keyed by node name).
+void run_recording(const std::string& file, const std::vector<std::string>& overrides,
+                   const std::vector<std::string>& record) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_file(file, diag);
+  apply_overrides(decl, overrides, diag);
+  for (auto& n : decl.nodes)
+    for (const auto& r : record)
+      if (n.name == r) {
+        n.plugin = "util.record";
+        n.params.clear();
+      }
+  auto graph = resolve_graph(decl, testing::default_registry(), diag);
+  ASSERT_FALSE(diag.has_errors()) << diag.format();
+  testing::Recorder::instance().clear();
+  ExecutorOptions options;
+  options.deterministic = true;
+  Executor executor(*graph, testing::default_registry(), options);
+  ASSERT_TRUE(executor.open().ok());
+  ASSERT_TRUE(executor.run().ok());
+}
+
+struct TrackFigures {
+  int frames = 0;
+  int scored = 0;          // frames with the target in view, away from the edge, jumps and bounces
+  int all = 0;             // frames with the target in view, but just after a jump
+  double all_error = 0;    // mean error over those
+  double mean_error = 0;   // fovea centre to target centre, pixels, over scored frames
+  double max_error = 0;
+  int lost = 0;            // scored frames not in the tracking state
+  int jumps = 0;
+  double mean_reacquire = 0;  // frames from a jump to tracking within 4 px again
+  int max_reacquire = 0;
+};
+
+TrackFigures evaluate(const std::vector<std::shared_ptr<const FoveaState>>& states,
+                      const std::vector<std::shared_ptr<const Region>>& truth, int jump_every, int settle) {
+  TrackFigures f;
+  f.frames = static_cast<int>(states.size());
+  int since_jump = -1, reacquire_sum = 0, since_reversal = -1;
+  const cv::Size frame = states.empty() ? cv::Size() : states[0]->retina->source_size;
+  bool waiting = false;
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    const FoveaState& s = *states[i];
+    const Region& t = *truth[i];
+    EXPECT_EQ(s.frame_id, t.frame_id);
+    const double error = std::hypot(s.fovea.x - t.center.x, s.fovea.y - t.center.y);
+    if (std::getenv("SACCADE_TRACK_DUMP"))
+      std::printf("%4lld %-9s fovea %6.1f %6.1f target %6.1f %6.1f truth %6.1f %6.1f %s score %.2f err %.1f\n",
+                  static_cast<long long>(s.frame_id), to_string(s.state), s.fovea.x, s.fovea.y, s.target.x, s.target.y,
+                  t.center.x, t.center.y, t.label.c_str(), s.score, error);
+    const int k = static_cast<int>(s.frame_id);
+    if (jump_every > 0 && k > 0 && k % jump_every == 0) {
+      ++f.jumps;
+      since_jump = 0;
+      waiting = true;
+    } else if (since_jump >= 0) {
+      ++since_jump;
+    }
+    if (waiting && s.state == FoveaState::State::kTracking && error <= 4.0) {
+      waiting = false;
+      reacquire_sum += since_jump;
+      f.max_reacquire = std::max(f.max_reacquire, since_jump);
+    }
+    const bool settling = k < settle || (since_jump >= 0 && (waiting || since_jump < settle));
+    // An instantaneous reversal (the bounce off the frame's edge) cannot be
+    // predicted: the fovea overshoots by up to twice the speed for a frame or two.
+    if (i >= 2) {
+      const cv::Point2d v1 = truth[i - 1]->center - truth[i - 2]->center, v2 = t.center - truth[i - 1]->center;
+      if (v1.x * v2.x < 0 || v1.y * v2.y < 0) since_reversal = 0;
+    }
+    const bool reversing = since_reversal >= 0 && since_reversal++ < 3;
+    // The retina keeps the fovea inside the frame: within half a fovea of the
+    // edge it cannot be centred on the target.
+    const bool at_edge = t.center.x < 16 || t.center.x > frame.width - 16 || t.center.y < 12 ||
+                         t.center.y > frame.height - 12;
+    if (!settling && t.label == "visible") {
+      f.all_error += error;
+      ++f.all;
+    }
+    if (settling || reversing || at_edge || t.label != "visible") continue;
+    ++f.scored;
+    if (s.state != FoveaState::State::kTracking) ++f.lost;
+    f.mean_error += error;
+    f.max_error = std::max(f.max_error, error);
+  }
+  if (f.scored > 0) f.mean_error /= f.scored;
+  if (f.all > 0) f.all_error /= f.all;
+  if (f.jumps > 0) f.mean_reacquire = static_cast<double>(reacquire_sum) / f.jumps;
+  if (waiting) f.max_reacquire = 1 << 20;  // never found again
+  return f;
+}
+
+void print(const char* what, const TrackFigures& f) {
+  std::printf("%s: %d frames, %d scored, mean error %.2f px, max %.2f px (all %d frames in view: mean %.2f px), lost %d, "
+              "jumps %d, re-acquired after %.1f frames on average (max %d)\n",
+              what, f.frames, f.scored, f.mean_error, f.max_error, f.all, f.all_error, f.lost, f.jumps, f.mean_reacquire,
+              f.max_reacquire);
+}
+
+const std::string kTracking = std::string(SACCADE_SOURCE_DIR) + "/graphs/tracking.xml";
+
+// The floor: no loss at speeds up to a quarter of the fovea's width (32 px)
+// per frame, and a mean error of at most 2 fovea pixels.
+TEST(TrackingGraph, FollowsATargetAtAQuarterFoveaWidthPerFrameWithoutLoss) {
+  for (double angle : {35.0, 80.0, -20.0}) {
+    run_recording(kTracking,
+                  {"scene.speed=8", "scene.jump_every=0", "scene.count=400", "scene.angle=" + std::to_string(angle),
+                   "snapshot.every=1000"},
+                  {"snapshot", "truth", "gaze"});
+    auto states = test::recorded<FoveaState>("snapshot");
+    auto truth = test::recorded<Region>("truth");
+    ASSERT_EQ(states.size(), 400u);
+    ASSERT_EQ(truth.size(), 400u);
+    TrackFigures f = evaluate(states, truth, 0, 10);
+    print(("8 px/frame, angle " + std::to_string(angle)).c_str(), f);
+    EXPECT_GT(f.scored, 300);
+    EXPECT_EQ(f.lost, 0);
+    EXPECT_LE(f.mean_error, 2.0);
+  }
+}
+
+TEST(TrackingGraph, FindsTheTargetAgainAfterJumpsAndAsksTheHeadToTurnAtTheBorder) {
+  fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "tracking";
+  fs::remove_all(out);
+  run_recording(kTracking, {"snapshot.dir=" + out.string()}, {"truth", "gaze"});
+  EXPECT_TRUE(fs::exists(out / "snapshot_000150_track.png"));
+  run_recording(kTracking, {}, {"snapshot", "truth", "gaze"});
+  auto states = test::recorded<FoveaState>("snapshot");
+  auto truth = test::recorded<Region>("truth");
+  auto gaze = test::recorded<GazeRequest>("gaze");
+  ASSERT_EQ(states.size(), 600u);
+  TrackFigures f = evaluate(states, truth, 150, 10);
+  print("tracking.xml (6 px/frame, a jump every 150 frames)", f);
+  EXPECT_EQ(f.jumps, 3);
+  EXPECT_LE(f.max_reacquire, 20) << "every jump is followed by re-acquisition";
+  EXPECT_LE(f.mean_error, 2.0);
+  EXPECT_EQ(f.lost, 0);
+  // Gaze requests: exactly on the frames where the tracked fovea entered the
+  // border margin (16 px between the fovea's edge and the frame's), once per approach.
+  ASSERT_FALSE(gaze.empty());
+  int expected = 0;
+  bool inside_before = true;
+  for (const auto& s : states) {
+    const double hw = 16, hh = 12, m = 16;
+    const bool near = s->next.x - hw < m || s->next.x + hw > 640 - m || s->next.y - hh < m || s->next.y + hh > 480 - m;
+    if (near && inside_before && s->state == FoveaState::State::kTracking) {
+      ++expected;
+      EXPECT_TRUE(s->gaze_request) << "frame " << s->frame_id << " entered the margin without a request";
+    }
+    if (s->gaze_request) {
+      EXPECT_TRUE(near) << "frame " << s->frame_id << ": a request away from the border";
+    }
+    if (!near) inside_before = true;
+    else if (s->state == FoveaState::State::kTracking) inside_before = false;
+  }
+  std::printf("gaze requests: %zu (%d approaches to the border)\n", gaze.size(), expected);
+  EXPECT_GE(static_cast<int>(gaze.size()), expected);
+  for (const auto& g : gaze) {
+    EXPECT_NEAR(cv::norm(g->direction), 1.0, 1e-9);
+    // The direction points to the side of the image the pixel is on.
+    EXPECT_EQ(g->direction[0] > 0, g->pixel.x > 320) << g->pixel;
+  }
+}
+
+}  // namespace
+}  // namespace saccade
