@@ -191,7 +191,7 @@ void FoveaController::search(const Retina& retina, const std::vector<cv::Mat>* m
     return;
   }
   saliency_.compute(retina, motion_dI);
-  const Candidate c = saliency_.peak(ior_);
+  const Candidate c = saliency_.peak(ior_, {}, 0.0, moving_only(motion_dI));
   if (!c.valid() || c.value < config_.min_saliency) return;
   d.score = c.value;
   acquire_at_ = c.point;
@@ -229,12 +229,13 @@ void FoveaController::lost(const Retina& retina, const std::vector<cv::Mat>* mot
   // and match the template there on the next frame. A place that fails
   // `verify_attempts` times in a row is inhibited, so the search moves on.
   saliency_.compute(retina, motion_dI);
-  Candidate c = saliency_.peak(ior_);
+  const bool moving = moving_only(motion_dI);
+  Candidate c = saliency_.peak(ior_, {}, 0.0, moving);
   if (c.valid() && distance(c.point, candidate_) < config_.ior_radius) {
     if (++attempts_ >= config_.verify_attempts) {
       ior_.add(c.point);
       attempts_ = 0;
-      c = saliency_.peak(ior_);
+      c = saliency_.peak(ior_, {}, 0.0, moving);
     }
   } else {
     attempts_ = 1;

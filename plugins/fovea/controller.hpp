@@ -29,7 +29,10 @@ struct ControllerConfig {
   int coast_frames = 2;       // lost: frames the fovea follows the predicted path before searching
   int lost_frames = 30;       // lost: frames before the target is given up (never, with a given template)
   int verify_attempts = 3;    // failed looks near one place before that place is inhibited
-  double min_saliency = 0.15; // a place less salient than this is not worth a look
+  double min_saliency = 0.05; // a place less salient than this is not worth a look
+  // track: lock on (and search for a lost target) only where something moves,
+  // when motion is given; a still scene then gives no target.
+  bool lock_on_motion = true;
   bool predict = true;        // place the next fovea where the target will be, not where it was
   double velocity_gain = 0.7; // weight of the newest velocity measurement
   double border_margin = 16.0;  // pixels between the fovea's edge and the frame's edge that trigger a gaze request
@@ -75,6 +78,9 @@ class FoveaController {
   void search(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
   void lost(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
   void check_border(const Retina& retina, Decision& d);
+  bool moving_only(const std::vector<cv::Mat>* motion_dI) const {
+    return config_.mode == FoveaMode::kTrack && config_.lock_on_motion && motion_dI != nullptr;
+  }
 
   ControllerConfig config_;
   Saliency saliency_;

@@ -48,7 +48,11 @@ class FoveaNode final : public Node {
         .param_string("template", "", "image file of the target to look for (top-down); empty: lock on saliency")
         .param_double("ior_radius", 40.0, 1.0, 100000.0, "inhibition of return: radius, source pixels")
         .param_int("ior_frames", 90, 1, 1000000, "inhibition of return: frames until a place is free again")
-        .param_double("min_saliency", 0.15, 0.0, 10.0, "places less salient than this are not worth a look")
+        .param_double("min_saliency", 0.05, 0.0, 10.0, "places less salient than this are not worth a look")
+        .param_enum("lock_on", "moving", {"moving", "salient"},
+                    "track with the motion input: lock on (and look for a lost target) only where something moves")
+        .param_double("level_boost", 0.0, 0.0, 1.0,
+                      "saliency normalisation: 0 over all levels together, 1 each level alone (outer levels count more)")
         .param_double("contrast_weight", 1.0, 0.0, 100.0, "saliency: centre-surround contrast across levels")
         .param_double("edge_weight", 1.0, 0.0, 100.0, "saliency: gradient magnitude")
         .param_double("motion_weight", 2.0, 0.0, 100.0, "saliency: |dI| (with the motion input)")
@@ -84,6 +88,8 @@ class FoveaNode final : public Node {
     c.ior_radius = p.get_double("ior_radius");
     c.ior_frames = static_cast<int>(p.get_int("ior_frames"));
     c.min_saliency = p.get_double("min_saliency");
+    c.lock_on_motion = p.get_string("lock_on") == "moving";
+    c.saliency.level_boost = p.get_double("level_boost");
     c.saliency.contrast_weight = p.get_double("contrast_weight");
     c.saliency.edge_weight = p.get_double("edge_weight");
     c.saliency.motion_weight = p.get_double("motion_weight");

@@ -95,6 +95,7 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
   const std::size_t n = retina.levels.size();
   const bool colour = n > 0 && retina.levels[0].channels() == 3;
   const bool use_motion = motion_dI != nullptr && motion_dI->size() == n && config_.motion_weight > 0;
+  has_motion_ = use_motion;
   const bool use_colour = colour && config_.color && config_.color_weight > 0;
   for (std::size_t k = 0; k < n; ++k) {
     const cv::Mat& level = retina.levels[k];
@@ -146,18 +147,26 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
       }
     }
   }
-  const float contrast_scale = 1.0f / std::max(max_of(contrast_), static_cast<float>(config_.contrast_floor));
-  const float edge_scale = 1.0f / std::max(max_of(edge_), static_cast<float>(config_.edge_floor));
-  const float motion_scale =
-      use_motion ? 1.0f / std::max(max_of(motion_), static_cast<float>(config_.motion_floor)) : 0.0f;
+  // Each conspicuity map is scaled by its largest value over all levels (or
+  // its floor), or with `level_boost` b > 0 by at most 1 - b of that on a level
+  // whose own largest value is smaller: an object seen only on an outer level,
+  // where it is small and blurred, is then not drowned by the fovea's detail.
+  const double contrast_max = std::max<double>(max_of(contrast_), config_.contrast_floor);
+  const double edge_max = std::max<double>(max_of(edge_), config_.edge_floor);
+  const double motion_max = use_motion ? std::max<double>(max_of(motion_), config_.motion_floor) : 1.0;
   double total = config_.contrast_weight + config_.edge_weight;
   if (use_motion) total += config_.motion_weight;
   if (use_colour) total += config_.color_weight;
-  const float wc = static_cast<float>(config_.contrast_weight / total) * contrast_scale;
-  const float we = static_cast<float>(config_.edge_weight / total) * edge_scale;
-  const float wm = static_cast<float>(use_motion ? config_.motion_weight / total : 0.0) * motion_scale;
-  const float wk = static_cast<float>(use_colour ? config_.color_weight / total : 0.0);
+  auto scale = [&](const cv::Mat& m, double global) {
+    double hi = 0;
+    cv::minMaxLoc(m, nullptr, &hi);
+    return static_cast<float>(1.0 / std::max(hi, global * (1.0 - config_.level_boost)));
+  };
   for (std::size_t k = 0; k < n; ++k) {
+    const float wc = static_cast<float>(config_.contrast_weight / total) * scale(contrast_[k], contrast_max);
+    const float we = static_cast<float>(config_.edge_weight / total) * scale(edge_[k], edge_max);
+    const float wm = use_motion ? static_cast<float>(config_.motion_weight / total) * scale(motion_[k], motion_max) : 0.0f;
+    const float wk = static_cast<float>(use_colour ? config_.color_weight / total : 0.0);
     for (int y = 0; y < maps_[k].rows; ++y) {
       const float* c = contrast_[k].ptr<float>(y);
       const float* e = edge_[k].ptr<float>(y);
@@ -176,8 +185,9 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
   }
 }
 
-Candidate Saliency::peak(const InhibitionOfReturn& ior, cv::Point2d near, double within) const {
+Candidate Saliency::peak(const InhibitionOfReturn& ior, cv::Point2d near, double within, bool moving) const {
   Candidate best;
+  if (moving && !has_motion_) return best;
   const int b = config_.border;
   const double within2 = within * within;
   // Inner levels first: on a tie the finer, better-localised place wins.
@@ -188,6 +198,7 @@ Candidate Saliency::peak(const InhibitionOfReturn& ior, cv::Point2d near, double
       const float* row = m.ptr<float>(y);
       for (int x = b; x < m.cols - b; ++x) {
         if (row[x] <= best.value) continue;
+        if (moving && motion_[static_cast<std::size_t>(k)].at<float>(y, x) < config_.motion_floor) continue;
         const cv::Point2d p = g.to_source(x, y);
         if (within > 0) {
           const cv::Point2d d = p - near;

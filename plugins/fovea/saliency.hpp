@@ -28,6 +28,9 @@ struct SaliencyConfig {
   std::optional<cv::Vec3d> color;  // wanted colour (B, G, R); needs a BGR retina
   double color_tolerance = 40.0;   // distance at which the colour term falls to exp(-1/2)
   int border = 1;                  // level pixels ignored at each level's edge
+  // 0: every map normalised over all levels together; 1: each level alone
+  // (see Saliency::compute).
+  double level_boost = 0.0;
 };
 
 // A place worth looking at: a point in source pixels, its saliency and the
@@ -75,8 +78,9 @@ class Saliency {
   // Saliency per level (CV_32F, same size as the levels).
   const std::vector<cv::Mat>& maps() const { return maps_; }
   // The most salient place after inhibition, over every level; with `within`
-  // > 0 only places within that distance (source pixels) of `near` count.
-  Candidate peak(const InhibitionOfReturn& ior, cv::Point2d near = {}, double within = 0.0) const;
+  // > 0 only places within that distance (source pixels) of `near` count; with
+  // `moving` only places whose |dI| reaches the motion floor.
+  Candidate peak(const InhibitionOfReturn& ior, cv::Point2d near = {}, double within = 0.0, bool moving = false) const;
   // The most salient place on one level, at least `margin` level pixels from
   // its edges.
   Candidate peak_on_level(int level, int margin_x, int margin_y) const;
@@ -97,6 +101,7 @@ class Saliency {
   std::array<cv::Mat, filters::kFeatureCount> bank_out_;
   std::vector<cv::Mat> gray_, blurred_, contrast_, edge_, motion_, color_, maps_, appearance_;
   std::vector<LevelGeometry> geometry_;
+  bool has_motion_ = false;
   cv::Mat surround_;
   cv::Mat visited_;
   std::vector<cv::Point> stack_;

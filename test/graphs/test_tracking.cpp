@@ -8,6 +8,8 @@
 #include <filesystem>
 
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "support.hpp"
 
@@ -124,17 +126,21 @@ const std::string kTracking = std::string(SACCADE_SOURCE_DIR) + "/graphs/trackin
 // The floor: no loss at speeds up to a quarter of the fovea's width (32 px)
 // per frame, and a mean error of at most 2 fovea pixels.
 TEST(TrackingGraph, FollowsATargetAtAQuarterFoveaWidthPerFrameWithoutLoss) {
-  for (double angle : {35.0, 80.0, -20.0}) {
-    run_recording(kTracking,
-                  {"scene.speed=8", "scene.jump_every=0", "scene.count=400", "scene.angle=" + std::to_string(angle),
-                   "snapshot.every=1000"},
-                  {"snapshot", "truth", "gaze"});
+  // The last run starts with the fovea far from the target, on the
+  // background's people: the fovea must find what moves.
+  const std::vector<std::pair<double, std::string>> runs = {
+      {35.0, ""}, {80.0, ""}, {-20.0, ""}, {150.0, "retina.fovea=120,330"}};
+  for (const auto& [angle, start] : runs) {
+    std::vector<std::string> overrides = {"scene.speed=8", "scene.jump_every=0", "scene.count=400",
+                                          "scene.angle=" + std::to_string(angle), "snapshot.every=1000"};
+    if (!start.empty()) overrides.push_back(start);
+    run_recording(kTracking, overrides, {"snapshot", "truth", "gaze"});
     auto states = test::recorded<FoveaState>("snapshot");
     auto truth = test::recorded<Region>("truth");
     ASSERT_EQ(states.size(), 400u);
     ASSERT_EQ(truth.size(), 400u);
     TrackFigures f = evaluate(states, truth, 0, 10);
-    print(("8 px/frame, angle " + std::to_string(angle)).c_str(), f);
+    print(("8 px/frame, angle " + std::to_string(angle) + " " + start).c_str(), f);
     EXPECT_GT(f.scored, 300);
     EXPECT_EQ(f.lost, 0);
     EXPECT_LE(f.mean_error, 2.0);
@@ -182,6 +188,56 @@ TEST(TrackingGraph, FindsTheTargetAgainAfterJumpsAndAsksTheHeadToTurnAtTheBorder
     // The direction points to the side of the image the pixel is on.
     EXPECT_EQ(g->direction[0] > 0, g->pixel.x > 320) << g->pixel;
   }
+}
+
+}  // namespace
+}  // namespace saccade
+
+namespace saccade {
+namespace {
+
+// attention.xml: where the fovea goes when attention shifts, against a
+// full-resolution frame difference of vtest.avi (the moving people).
+TEST(AttentionGraph, VisitsTheMovingPeopleInTurn) {
+  fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "attention";
+  fs::remove_all(out);
+  run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {"snapshot.dir=" + out.string()}, {"gaze"});
+  EXPECT_TRUE(fs::exists(out / "snapshot_000300_track.png"));
+  run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {}, {"snapshot"});
+  auto states = test::recorded<FoveaState>("snapshot");
+  ASSERT_EQ(states.size(), 795u);
+  cv::VideoCapture video(test::sample_path("vtest.avi"));
+  ASSERT_TRUE(video.isOpened());
+  cv::Mat frame, gray, previous, moving;
+  int shifts = 0, on_motion = 0, tracked = 0;
+  std::vector<cv::Point2d> places;
+  for (const auto& s : states) {
+    ASSERT_TRUE(video.read(frame));
+    cv::cvtColor(frame, gray, cv::COLOR_BGR2GRAY);
+    if (!previous.empty() && s->attention_shift) {
+      // Motion near the place chosen: full-resolution |I(t) - I(t-1)| > 15
+      // within 24 px of it.
+      cv::absdiff(gray, previous, moving);
+      const cv::Rect around = cv::Rect(cv::Point(s->next) - cv::Point(24, 24), cv::Size(49, 49)) &
+                              cv::Rect(cv::Point(), gray.size());
+      double hi = 0;
+      cv::minMaxLoc(moving(around), nullptr, &hi);
+      ++shifts;
+      on_motion += hi > 15;
+      bool seen = false;
+      for (const auto& p : places) seen = seen || cv::norm(p - s->next) < 60;
+      if (!seen) places.push_back(s->next);
+    }
+    tracked += s->state == FoveaState::State::kTracking;
+    gray.copyTo(previous);
+  }
+  std::printf("attention.xml: %d attention shifts in %zu frames, %d (%.0f%%) onto moving things, %zu distinct places, "
+              "tracking in %d frames\n",
+              shifts, states.size(), on_motion, 100.0 * on_motion / std::max(1, shifts), places.size(), tracked);
+  EXPECT_GE(shifts, 20);
+  EXPECT_GE(on_motion, shifts * 8 / 10) << "attention goes where people move";
+  EXPECT_GE(places.size(), 8u) << "and moves on to others";
+  EXPECT_GE(tracked, 400) << "following each for a while";
 }
 
 }  // namespace

@@ -1,0 +1,366 @@
+// The fovea controller's parts (saliency, inhibition of return, template
+// tracking, the state machine, gaze requests) and its plugin.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include <opencv2/imgproc.hpp>
+
+#include "controller.hpp"
+#include "retina.hpp"
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+using namespace saccade::fovea;
+
+// A smooth, dim background: nothing salient on it.
+cv::Mat plain_background(cv::Size size = {640, 480}) {
+  cv::Mat bg(size, CV_8UC1);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) bg.at<uint8_t>(y, x) = static_cast<uint8_t>(90 + 20.0 * x / size.width);
+  return bg;
+}
+
+// A 16x16 checkerboard target (2 px cells, dark and light) centred on `c`.
+void draw_target(cv::Mat& frame, cv::Point2d c, int seed = 1, int size = 16) {
+  cv::Mat texture = test::random_image({size, size}, seed);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const bool dark = ((x / 2) + (y / 2)) % 2 == 0;
+      texture.at<uint8_t>(y, x) = static_cast<uint8_t>((dark ? 30 : 220) + texture.at<uint8_t>(y, x) / 16);
+    }
+  const cv::Point corner(static_cast<int>(std::lround(c.x - size / 2.0)), static_cast<int>(std::lround(c.y - size / 2.0)));
+  texture.copyTo(frame(cv::Rect(corner, cv::Size(size, size))));
+}
+
+std::shared_ptr<Retina> make_retina(const cv::Mat& frame, cv::Point2d fovea, int64_t id = 0) {
+  static retina::RetinaSampler sampler({});
+  auto r = std::make_shared<Retina>();
+  sampler.sample(frame, fovea, r->levels, r->geometry);
+  r->source_size = frame.size();
+  const auto& inner = r->geometry.back();
+  r->fovea = cv::Point(inner.region.x + inner.region.width / 2, inner.region.y + inner.region.height / 2);
+  auto image = std::make_shared<Image>();
+  image->mat = frame;
+  r->source = image;
+  r->frame_id = id;
+  return r;
+}
+
+TEST(Saliency, PeaksOnATargetAnywhereInTheFrame) {
+  for (cv::Point2d where : {cv::Point2d(100, 90), cv::Point2d(500, 380), cv::Point2d(330, 250)}) {
+    cv::Mat frame = plain_background();
+    draw_target(frame, where);
+    auto retina = make_retina(frame, {320, 240});
+    Saliency s({});
+    s.compute(*retina, nullptr);
+    InhibitionOfReturn none(40, 10);
+    const Candidate c = s.peak(none);
+    ASSERT_TRUE(c.valid());
+    const double step = retina->geometry[static_cast<std::size_t>(c.level)].step_x;
+    // Within the target (8 px from its centre) plus one cell of the level it was found on.
+    EXPECT_LE(cv::norm(c.point - where), 8 + step) << where << " found at " << c.point << " on level " << c.level;
+  }
+}
+
+TEST(Saliency, BlobCentreIsTheObjectsCentreNotItsMostSalientCorner) {
+  cv::Mat frame = plain_background();
+  const cv::Point2d where(323, 245);
+  draw_target(frame, where);
+  auto retina = make_retina(frame, {320, 240});
+  Saliency s({});
+  s.compute(*retina, nullptr);
+  const int inner = static_cast<int>(retina->levels.size()) - 1;
+  const Candidate c = s.peak_on_level(inner, 0, 0);
+  bool cut = true;
+  const cv::Point2d centre = s.blob_centre(inner, c.point, 0.5, &cut);
+  EXPECT_FALSE(cut);
+  EXPECT_LE(cv::norm(centre - where), 2.0) << centre;
+  // Half outside the fovea: the blob is cut, and says so.
+  auto off = make_retina(frame, {323 + 16, 245});
+  s.compute(*off, nullptr);
+  s.blob_centre(inner, where, 0.5, &cut);
+  EXPECT_TRUE(cut);
+}
+
+TEST(Saliency, MotionMakesTheMovingOneOfTwoTwinsWin) {
+  cv::Mat frame = plain_background();
+  draw_target(frame, {150, 240}, 7);
+  draw_target(frame, {490, 240}, 7);
+  auto retina = make_retina(frame, {320, 240});
+  // dI: the right twin moved (difference on its area only).
+  std::vector<cv::Mat> dI;
+  for (std::size_t k = 0; k < retina->levels.size(); ++k) {
+    cv::Mat d(retina->levels[k].size(), CV_32F, cv::Scalar(0));
+    const auto& g = retina->geometry[k];
+    for (int y = 0; y < d.rows; ++y)
+      for (int x = 0; x < d.cols; ++x)
+        if (cv::norm(g.to_source(x, y) - cv::Point2d(490, 240)) < 12) d.at<float>(y, x) = 60;
+    dI.push_back(d);
+  }
+  Saliency s({});
+  s.compute(*retina, &dI);
+  const Candidate c = s.peak(InhibitionOfReturn(40, 10));
+  EXPECT_LT(cv::norm(c.point - cv::Point2d(490, 240)), 30) << c.point;
+}
+
+TEST(Saliency, ColourTermPrefersTheWantedColour) {
+  cv::Mat frame(480, 640, CV_8UC3, cv::Scalar(100, 100, 100));
+  cv::circle(frame, {150, 240}, 10, cv::Scalar(0, 0, 255), cv::FILLED);   // red
+  cv::circle(frame, {490, 240}, 10, cv::Scalar(255, 0, 0), cv::FILLED);   // blue
+  auto retina = make_retina(frame, {320, 240});
+  SaliencyConfig config;
+  config.color = cv::Vec3d(255, 0, 0);
+  config.color_weight = 4.0;
+  Saliency s(config);
+  s.compute(*retina, nullptr);
+  EXPECT_LT(cv::norm(s.peak(InhibitionOfReturn(40, 10)).point - cv::Point2d(490, 240)), 30);
+}
+
+TEST(InhibitionOfReturn, InhibitsADiscThatFadesAndMovesWithTheScene) {
+  InhibitionOfReturn ior(20, 4);
+  ior.add({100, 100});
+  EXPECT_DOUBLE_EQ(ior.at({110, 100}), 1.0);
+  EXPECT_DOUBLE_EQ(ior.at({125, 100}), 0.0);
+  ior.tick();
+  ior.tick();
+  EXPECT_DOUBLE_EQ(ior.at({100, 100}), 0.5);
+  ior.shift({50, 0});
+  EXPECT_DOUBLE_EQ(ior.at({100, 100}), 0.0);
+  EXPECT_DOUBLE_EQ(ior.at({150, 100}), 0.5);
+  ior.tick();
+  ior.tick();
+  EXPECT_DOUBLE_EQ(ior.at({150, 100}), 0.0);
+}
+
+TEST(InhibitionOfReturn, MovesAttentionToTheNextPlace) {
+  cv::Mat frame = plain_background();
+  const std::vector<cv::Point2d> places = {{120, 100}, {520, 120}, {300, 380}};
+  for (std::size_t i = 0; i < places.size(); ++i) draw_target(frame, places[i], static_cast<int>(i) + 1);
+  auto retina = make_retina(frame, {320, 240});
+  Saliency s({});
+  s.compute(*retina, nullptr);
+  InhibitionOfReturn ior(60, 100);
+  std::vector<bool> seen(places.size(), false);
+  for (std::size_t n = 0; n < places.size(); ++n) {
+    const Candidate c = s.peak(ior);
+    ASSERT_TRUE(c.valid());
+    for (std::size_t i = 0; i < places.size(); ++i)
+      if (cv::norm(c.point - places[i]) < 40) {
+        EXPECT_FALSE(seen[i]) << "place " << i << " visited twice";
+        seen[i] = true;
+      }
+    ior.add(c.point);
+  }
+  for (std::size_t i = 0; i < places.size(); ++i) EXPECT_TRUE(seen[i]) << "place " << i << " never visited";
+}
+
+TEST(TemplateTracker, FindsATextureShiftedByWholeAndHalfPixels) {
+  cv::Mat base = test::random_image({640, 480}, 3);
+  cv::GaussianBlur(base, base, cv::Size(5, 5), 1.2);
+  TemplateTracker tracker({});
+  const cv::Point2d start(320, 240);
+  ASSERT_TRUE(tracker.acquire(*make_retina(base, start), start));
+  for (cv::Point2d shift : {cv::Point2d(7, -5), cv::Point2d(-15, 11), cv::Point2d(0.5, 0), cv::Point2d(3.5, -2.5)}) {
+    cv::Mat moved;
+    const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, shift.x, 0, 1, shift.y);
+    cv::warpAffine(base, moved, m, base.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    const auto match = tracker.match(*make_retina(moved, start));
+    ASSERT_TRUE(match.found) << shift;
+    EXPECT_GT(match.score, 0.9);
+    // Whole pixels: the parabola through a symmetric peak barely moves it;
+    // half pixels: the parabola's known bias on a sharp texture.
+    const double tolerance = shift.x == std::floor(shift.x) && shift.y == std::floor(shift.y) ? 0.05 : 0.3;
+    EXPECT_NEAR(match.point.x, start.x + shift.x, tolerance) << shift;
+    EXPECT_NEAR(match.point.y, start.y + shift.y, tolerance) << shift;
+  }
+}
+
+TEST(TemplateTracker, RefusesFlatPatchesAndReportsNoMatchWhenTheTargetIsGone) {
+  cv::Mat flat(480, 640, CV_8UC1, cv::Scalar(128));
+  TemplateTracker tracker({});
+  EXPECT_FALSE(tracker.acquire(*make_retina(flat, {320, 240}), {320, 240}));
+  cv::Mat frame = plain_background();
+  draw_target(frame, {320, 240});
+  ASSERT_TRUE(tracker.acquire(*make_retina(frame, {320, 240}), {320, 240}));
+  EXPECT_FALSE(tracker.match(*make_retina(plain_background(), {320, 240})).found);
+}
+
+// A target moving on a straight line at `speed` px/frame, seen through the
+// controller's own fovea (fed back as the retina's fovea on the next frame).
+struct Loop {
+  FoveaController controller;
+  cv::Point2d fovea{320, 240};
+  explicit Loop(ControllerConfig c = {}) : controller(c) {}
+  Decision step(const cv::Mat& frame, int64_t id) {
+    auto retina = make_retina(frame, fovea, id);
+    Decision d = controller.step(*retina, nullptr, nullptr);
+    fovea = d.next;
+    return d;
+  }
+};
+
+TEST(FoveaController, LocksOnTheSalientTargetAndFollowsItWithPrediction) {
+  Loop loop;
+  cv::Point2d p(300, 250);
+  const cv::Point2d v(6, -3);
+  int tracking = 0;
+  double error_sum = 0;
+  for (int k = 0; k < 40; ++k, p += v) {
+    cv::Mat frame = plain_background();
+    draw_target(frame, p);
+    const cv::Point2d fovea_used = loop.fovea;
+    Decision d = loop.step(frame, k);
+    if (k >= 5) {
+      EXPECT_EQ(d.state, FoveaState::State::kTracking) << "frame " << k;
+      tracking += d.state == FoveaState::State::kTracking;
+      EXPECT_LE(cv::norm(d.target - p), 1.0) << "frame " << k;
+      error_sum += cv::norm(fovea_used - p);
+    }
+  }
+  EXPECT_EQ(tracking, 35);
+  EXPECT_LE(error_sum / 35, 1.5) << "the fovea is put where the target will be";
+}
+
+TEST(FoveaController, ReportsLostThenSearchesAndFindsTheTargetAgain) {
+  ControllerConfig config;
+  config.coast_frames = 2;
+  Loop loop(config);
+  cv::Mat frame = plain_background();
+  draw_target(frame, {320, 240});
+  for (int k = 0; k < 5; ++k) loop.step(frame, k);
+  ASSERT_EQ(loop.step(frame, 5).state, FoveaState::State::kTracking);
+  // It vanishes: lost, coasting, then searching the frame.
+  cv::Mat empty = plain_background();
+  for (int k = 6; k < 10; ++k) EXPECT_EQ(loop.step(empty, k).state, FoveaState::State::kLost);
+  EXPECT_GT(loop.controller.frames_lost(), 3);
+  // It reappears elsewhere: found again.
+  cv::Mat back = plain_background();
+  draw_target(back, {150, 380});
+  bool reacquired = false;
+  for (int k = 10; k < 20 && !reacquired; ++k) reacquired = loop.step(back, k).reacquired;
+  EXPECT_TRUE(reacquired);
+  EXPECT_LT(cv::norm(loop.fovea - cv::Point2d(150, 380)), 3.0);
+}
+
+TEST(FoveaController, AsksTheHeadToTurnWhenTheFoveaReachesTheMarginAndRecentresAfterwards) {
+  ControllerConfig config;
+  config.border_margin = 20;
+  config.hfov_deg = 90;  // focal = half the width: direction x = (u - cx) / 320
+  Loop loop(config);
+  cv::Point2d p(400, 240);
+  std::optional<GazeRequest> request;
+  int64_t request_frame = -1;
+  for (int k = 0; k < 60 && !request; ++k, p.x += 5) {
+    cv::Mat frame = plain_background();
+    draw_target(frame, p);
+    Decision d = loop.step(frame, k);
+    const bool near = d.next.x + 16 > 640 - 20;
+    if (!near) {
+      EXPECT_FALSE(d.gaze) << "frame " << k;
+    }
+    if (d.gaze) {
+      request = d.gaze;
+      request_frame = k;
+      EXPECT_TRUE(near);
+    }
+  }
+  ASSERT_TRUE(request) << "no gaze request";
+  EXPECT_EQ(request->reason, "border");
+  EXPECT_EQ(request->image_size, cv::Size(640, 480));
+  const cv::Vec3d expected = cv::normalize(cv::Vec3d((request->pixel.x - 320) / 320, (request->pixel.y - 240) / 320, 1));
+  EXPECT_LT(cv::norm(request->direction - expected), 1e-9);
+  // The head turns so that the requested pixel comes to the centre: the scene
+  // shifts, and the fovea follows the target there.
+  const cv::Point2d shift = cv::Point2d(320, 240) - request->pixel;
+  loop.controller.head_moved(request->pixel, {640, 480});
+  p += shift;
+  for (int k = 0; k < 4; ++k, p.x += 5) {
+    cv::Mat frame = plain_background();
+    draw_target(frame, p);
+    Decision d = loop.step(frame, request_frame + 1 + k);
+    EXPECT_EQ(d.state, FoveaState::State::kTracking) << k;
+    EXPECT_FALSE(d.gaze);
+  }
+  EXPECT_LT(cv::norm(loop.fovea - p), 8.0) << "recentred near the image centre";
+  EXPECT_EQ(loop.controller.gaze_requests(), 1);
+}
+
+TEST(FoveaController, AttendModeVisitsEverySalientPlaceInTurn) {
+  ControllerConfig config;
+  config.mode = FoveaMode::kAttend;
+  config.saliency.level_boost = 0.5;  // the places off the fovea are seen on outer levels only
+  config.dwell_frames = 4;
+  config.ior_radius = 60;
+  config.ior_frames = 200;
+  Loop loop(config);
+  cv::Mat frame = plain_background();
+  const std::vector<cv::Point2d> places = {{120, 100}, {520, 120}, {300, 380}, {560, 420}};
+  for (std::size_t i = 0; i < places.size(); ++i) draw_target(frame, places[i], static_cast<int>(i) + 1);
+  std::vector<int> visits(places.size(), 0);
+  for (int k = 0; k < 40; ++k) {
+    Decision d = loop.step(frame, k);
+    if (std::getenv("SACCADE_TEST_VERBOSE"))
+      std::printf("%d %s next %.1f %.1f target %.1f %.1f shift %d\n", k, to_string(d.state), d.next.x, d.next.y,
+                  d.target.x, d.target.y, d.attention_shift);
+    if (d.state != FoveaState::State::kTracking) continue;
+    for (std::size_t i = 0; i < places.size(); ++i)
+      if (cv::norm(d.target - places[i]) < 10) ++visits[i];
+  }
+  for (std::size_t i = 0; i < places.size(); ++i) EXPECT_GE(visits[i], 3) << "place " << i;
+  EXPECT_GE(loop.controller.attention_shifts(), 4);
+}
+
+TEST(FoveaController, FindsAGivenTemplateTopDownAmongDistractors) {
+  cv::Mat frame = plain_background();
+  draw_target(frame, {150, 120}, 1);
+  draw_target(frame, {480, 360}, 2);
+  draw_target(frame, {500, 110}, 3);
+  // The template: the middle 12x12 of target 2.
+  cv::Mat wanted = frame(cv::Rect(480 - 6, 360 - 6, 12, 12)).clone();
+  Loop loop;
+  ASSERT_TRUE(loop.controller.set_template(wanted));
+  bool found = false;
+  for (int k = 0; k < 30 && !found; ++k) found = loop.step(frame, k).state == FoveaState::State::kTracking;
+  ASSERT_TRUE(found);
+  EXPECT_LT(cv::norm(loop.fovea - cv::Point2d(480, 360)), 1.5);
+}
+
+TEST(FoveaPlugin, EmitsTheNextFoveaStateAndRejectsBadParameters) {
+  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"/>)");
+  ASSERT_TRUE(h);
+  cv::Mat frame = plain_background();
+  draw_target(frame, {300, 250});
+  h->set("retina", make_retina(frame, {320, 240}, 0));
+  ASSERT_TRUE(h->process().ok());
+  auto fovea = h->last<Region>("fovea");
+  auto state = h->last<FoveaState>("state");
+  ASSERT_TRUE(fovea && state);
+  EXPECT_EQ(fovea->label, "searching");
+  EXPECT_LT(cv::norm(fovea->center - cv::Point2d(300, 250)), 20);
+  EXPECT_TRUE(state->attention_shift);
+  EXPECT_TRUE(state->retina);
+  EXPECT_EQ(h->outputs("gaze").size(), 0u);
+  // It looks, centres on the target, and locks on it within a few frames.
+  for (int64_t k = 1; k < 5 && h->last<Region>("fovea")->label != "tracking"; ++k) {
+    h->set("retina", make_retina(frame, h->last<Region>("fovea")->center, k));
+    ASSERT_TRUE(h->process().ok());
+  }
+  EXPECT_EQ(h->last<Region>("fovea")->label, "tracking");
+  EXPECT_LT(cv::norm(h->last<Region>("fovea")->center - cv::Point2d(300, 250)), 1.5);
+
+  std::string error;
+  EXPECT_FALSE(testing::NodeHarness::create(
+      R"(<node plugin="fovea"><param name="color" value="255,0"/></node>)", &error));
+  EXPECT_NE(error.find("B,G,R"), std::string::npos) << error;
+  EXPECT_FALSE(testing::NodeHarness::create(
+      R"(<node plugin="fovea"><param name="template" value="/nonexistent.png"/></node>)", &error));
+  EXPECT_NE(error.find("/nonexistent.png"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace saccade
