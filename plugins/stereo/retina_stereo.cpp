@@ -43,30 +43,115 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
     }
 }
 
-double RetinaStereo::predicted_disparity(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k) {
-  const LevelGeometry& outer = left.geometry[k - 1];
-  const cv::Rect inner = left.geometry[k].region;
-  const cv::Mat& d = out[k - 1].disparity;
-  samples_.clear();
-  for (int y = 0; y < d.rows; ++y)
-    for (int x = 0; x < d.cols; ++x) {
-      const float v = d.at<float>(y, x);
-      if (v < 0) continue;
-      cv::Point2d p = outer.to_source(x, y);
-      if (p.x >= inner.x && p.x < inner.x + inner.width && p.y >= inner.y && p.y < inner.y + inner.height)
-        samples_.push_back(v);
+void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out) {
+  const std::size_t n = left.levels.size();
+  if (level_scratch_.size() < n) level_scratch_.resize(n);
+  out.per_level.assign(n, -1.0);
+  out.disparity = -1;
+  out.score = -1;
+  const cv::Rect fovea = left.geometry.back().region;
+  const cv::Point2d centre(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
+  double previous = -1, previous_step = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    LevelScratch& ls = level_scratch_[k];
+    const LevelGeometry& g = left.geometry[k];
+    const cv::Mat& level = left.levels[k];
+    const int ww = std::min(config_.fixation_window.width, level.cols), wh = std::min(config_.fixation_window.height, level.rows);
+    const cv::Point2d c = g.from_source(centre);
+    const int wx = std::clamp(static_cast<int>(std::lround(c.x - ww / 2.0 + 0.5)), 0, level.cols - ww);
+    const int wy = std::clamp(static_cast<int>(std::lround(c.y - wh / 2.0 + 0.5)), 0, level.rows - wh);
+    // Shifts in level pixels: the whole range on the outermost level, then
+    // around the outer level's estimate (its uncertainty, a few of its pixels).
+    int s_lo = 0, s_hi = static_cast<int>(std::ceil(config_.max_disparity / g.step_x));
+    if (previous >= 0 && k + 1 < n) {
+      const int centre_shift = static_cast<int>(std::lround(previous / g.step_x));
+      const int radius = static_cast<int>(std::ceil(2.0 * previous_step / g.step_x));
+      s_lo = std::max(0, centre_shift - radius);
+      s_hi = std::min(s_hi, centre_shift + radius);
     }
-  if (samples_.empty()) return -1;
-  auto mid = samples_.begin() + static_cast<std::ptrdiff_t>(samples_.size() / 2);
-  std::nth_element(samples_.begin(), mid, samples_.end());
-  return *mid;
+    // One strip of the right frame covering every shift: strip column j is the
+    // right frame at left window column j - s_hi.
+    const double x0 = g.region.x + (wx - s_hi) * g.step_x;
+    retina::sample_level(right_frame, x0, g.region.y + wy * g.step_y, g.step_x, g.step_y,
+                         cv::Size(ww + s_hi - s_lo, wh), k + 1 == n, ls.strip);
+    level(cv::Rect(wx, wy, ww, wh)).convertTo(ls.window_f, CV_32F);
+    ls.strip.convertTo(ls.strip_f, CV_32F);
+    cv::Scalar wm, ws;
+    cv::meanStdDev(ls.window_f, wm, ws);
+    if (ws[0] < config_.ncc.min_texture) continue;
+    const int count = s_hi - s_lo + 1;
+    samples_.assign(static_cast<std::size_t>(count), -2.0f);
+    int best = -1;
+    // Column sums of the strip over the window's rows, so that each shift's
+    // mean and deviation come from ww column sums.
+    column_sum_.assign(static_cast<std::size_t>(ls.strip_f.cols), 0.0);
+    column_sq_.assign(static_cast<std::size_t>(ls.strip_f.cols), 0.0);
+    for (int y = 0; y < wh; ++y) {
+      const float* b = ls.strip_f.ptr<float>(y);
+      for (int x = 0; x < ls.strip_f.cols; ++x) {
+        column_sum_[static_cast<std::size_t>(x)] += b[x];
+        column_sq_[static_cast<std::size_t>(x)] += static_cast<double>(b[x]) * b[x];
+      }
+    }
+    const double area = static_cast<double>(ww) * wh;
+    for (int s = s_lo; s <= s_hi; ++s) {
+      const int x0s = s_hi - s;
+      double sum = 0, sq = 0;
+      for (int x = 0; x < ww; ++x) {
+        sum += column_sum_[static_cast<std::size_t>(x0s + x)];
+        sq += column_sq_[static_cast<std::size_t>(x0s + x)];
+      }
+      const double om = sum / area, os = std::sqrt(std::max(0.0, sq / area - om * om));
+      if (os < config_.ncc.min_texture) continue;
+      double cross = 0;
+      for (int y = 0; y < wh; ++y) {
+        const float* a = ls.window_f.ptr<float>(y);
+        const float* b = ls.strip_f.ptr<float>(y) + x0s;
+        for (int x = 0; x < ww; ++x) cross += (a[x] - wm[0]) * b[x];
+      }
+      const float ncc = static_cast<float>(cross / (area * ws[0] * os));
+      samples_[static_cast<std::size_t>(s - s_lo)] = ncc;
+      if (best < 0 || ncc > samples_[static_cast<std::size_t>(best)]) best = s - s_lo;
+    }
+    if (best < 0 || samples_[static_cast<std::size_t>(best)] < 0.3f) continue;
+    double shift = best + s_lo;
+    if (best > 0 && best + 1 < count) {
+      const double a = samples_[static_cast<std::size_t>(best - 1)], b = samples_[static_cast<std::size_t>(best)],
+                   cc = samples_[static_cast<std::size_t>(best + 1)];
+      const double den = a - 2 * b + cc;
+      if (den < 0 && a > -2 && cc > -2) shift += std::clamp(0.5 * (a - cc) / den, -0.5, 0.5);
+    }
+    out.per_level[k] = shift * g.step_x;
+    out.disparity = out.per_level[k];
+    out.score = samples_[static_cast<std::size_t>(best)];
+    previous = out.per_level[k];
+    previous_step = g.step_x;
+  }
+}
+
+int RetinaStereo::around_fixation_range(bool around, int full, bool low) const {
+  if (!around) return full;
+  return low ? std::max(full, -config_.fovea_radius) : std::min(full, config_.fovea_radius);
 }
 
 std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out) {
   if (left.levels.size() != right.levels.size() || left.levels.empty()) return "left and right retinas differ in levels";
   const std::size_t n = left.levels.size();
   out.resize(n);
+  auto gray_source = [](const Retina& r, cv::Mat& buffer) -> const cv::Mat* {
+    if (!r.source || r.source->mat.empty()) return nullptr;
+    if (r.source->mat.channels() == 1) return &r.source->mat;
+    cv::cvtColor(r.source->mat, buffer, cv::COLOR_BGR2GRAY);
+    return &buffer;
+  };
+  const cv::Mat* right_frame = gray_source(right, right_gray_);
+  const cv::Mat* left_frame = config_.pad > 0 ? gray_source(left, left_gray_) : nullptr;
+  level_scratch_.resize(n);
+  fixation_.per_level.assign(n, -1.0);
+  fixation_.disparity = fixation_.score = -1;
+  if (config_.vergence && right_frame != nullptr && !left.geometry.empty()) find_fixation(left, *right_frame, fixation_);
   for (std::size_t k = 0; k < n; ++k) {
+    LevelScratch& ls = level_scratch_[k];
     const LevelGeometry& gl = left.geometry[k];
     const LevelGeometry& gr = right.geometry[k];
     if (left.levels[k].size() != right.levels[k].size() || left.levels[k].type() != CV_8UC1 ||
@@ -81,22 +166,16 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     const cv::Mat* right_level = &right.levels[k];
     LevelDisparity& level = out[k];
     level.vergence = 0;
-    if (config_.vergence && k > 0 && right.source && !right.source->mat.empty()) {
-      const double predicted = predicted_disparity(out, left, k);
-      if (predicted > 0) {
-        // Sample the right frame where the left level's scene should be: the
-        // left region moved left by the prediction, in whole level pixels.
-        offset = static_cast<int>(std::lround(predicted / gl.step_x));
-        const cv::Mat* frame = &right.source->mat;
-        if (frame->channels() == 3) {
-          cv::cvtColor(*frame, right_gray_, cv::COLOR_BGR2GRAY);
-          frame = &right_gray_;
-        }
-        retina::sample_level(*frame, gl.region.x - offset * gl.step_x, gl.region.y, gl.step_x, gl.step_y,
-                             left.levels[k].size(), k + 1 == n, right_level_);
-        right_level = &right_level_;
-        level.vergence = offset * gl.step_x;
-      }
+    bool verged = false;
+    if (config_.vergence && k > 0 && right_frame != nullptr && fixation_.per_level[k] > 0) {
+      // Sample the right frame where the left level's scene is at the fixation
+      // disparity: the left region moved left by it, in whole level pixels.
+      offset = static_cast<int>(std::lround(fixation_.per_level[k] / gl.step_x));
+      retina::sample_level(*right_frame, gl.region.x - offset * gl.step_x, gl.region.y, gl.step_x, gl.step_y,
+                           left.levels[k].size(), k + 1 == n, right_level_);
+      right_level = &right_level_;
+      level.vergence = offset * gl.step_x;
+      verged = true;
     }
     // A left level pixel x matches right x - d with d = D / step - offset, D the
     // disparity in source pixels (0 .. max_disparity).
@@ -104,16 +183,96 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     const int full_lo = std::clamp(-offset, -(cols - 1), cols - 1);
     const int full_hi = std::clamp(static_cast<int>(std::floor(config_.max_disparity / gl.step_x)) - offset, -(cols - 1), cols - 1);
     level.right_x0 = gl.region.x - offset * gl.step_x;
-    lo_.create(left.levels[k].size(), CV_32S);
-    hi_.create(left.levels[k].size(), CV_32S);
-    predict(out, left, k, false, gl.region.x, full_lo, full_hi, offset);
-    ncc_match(left.levels[k], *right_level, Direction::kLeftToRight, lo_, hi_, config_.ncc, level_lr_, level.score, scratch_);
-    predict(out, left, k, true, level.right_x0, full_lo, full_hi, offset);
-    ncc_match(left.levels[k], *right_level, Direction::kRightToLeft, lo_, hi_, config_.ncc, level_rl_, score_rl_, scratch_);
-    // Validity comes from the scores: with vergence a level disparity may be negative.
-    valid_lr_.create(level_lr_.size(), CV_8U);
-    fill(valid_lr_, 255);
-    if (config_.left_right_check) left_right_check(level_lr_, level.score, level_rl_, score_rl_, config_.lr_tolerance, valid_lr_);
+    level.offset = offset;
+    level.range_lo = around_fixation_range(verged && k + 1 == n, full_lo, true);
+    level.range_hi = around_fixation_range(verged && k + 1 == n, full_hi, false);
+    // The fovea, verged, is searched around the fixation disparity: the outer
+    // level's per-pixel estimates are coarser than its whole-window fixation.
+    const bool around_fixation = verged && k + 1 == n;
+    const int radius_lo = std::max(full_lo, -config_.fovea_radius), radius_hi = std::min(full_hi, config_.fovea_radius);
+    auto ranges = [&](bool reverse) {
+      lo_.create(left.levels[k].size(), CV_32S);
+      hi_.create(left.levels[k].size(), CV_32S);
+      if (around_fixation) {
+        fill(lo_, radius_lo);
+        fill(hi_, radius_hi);
+      } else {
+        predict(out, left, k, reverse, reverse ? level.right_x0 : gl.region.x, full_lo, full_hi, offset);
+      }
+    };
+    if (left_frame != nullptr && right_frame != nullptr && config_.pad > 0) {
+      // Sample both frames with a margin around the level, so that windows and
+      // matches near the level's edges see real pixels instead of none.
+      // Only as far as both frames reach: beyond them there is nothing to see.
+      const int m = config_.ncc.window / 2 + config_.pad;
+      const int w = left.levels[k].cols, h = left.levels[k].rows;
+      const cv::Size frame = left_frame->size();
+      const double right_x = gl.region.x - offset * gl.step_x;
+      auto room = [](double pixels, double step) { return std::max(0, static_cast<int>(std::floor(pixels / step + 1e-9))); };
+      const int mx0 = std::min({m, room(gl.region.x, gl.step_x), room(right_x, gl.step_x)});
+      const int mx1 = std::min({m, room(frame.width - gl.region.x - w * gl.step_x, gl.step_x),
+                                room(frame.width - right_x - w * gl.step_x, gl.step_x)});
+      const int my0 = std::min(m, room(gl.region.y, gl.step_y));
+      const int my1 = std::min(m, room(frame.height - gl.region.y - h * gl.step_y, gl.step_y));
+      const cv::Size padded(w + mx0 + mx1, h + my0 + my1);
+      const bool crop = k + 1 == n;
+      retina::sample_level(*left_frame, gl.region.x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x,
+                           gl.step_y, padded, crop, ls.left_padded);
+      retina::sample_level(*right_frame, right_x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x, gl.step_y,
+                           padded, crop, ls.right_padded);
+      const cv::Rect inside(mx0, my0, w, h);
+      auto padded_ranges = [&](bool reverse) {
+        ranges(reverse);
+        double lo_min = 0, hi_max = 0;
+        cv::minMaxLoc(lo_, &lo_min, nullptr);
+        cv::minMaxLoc(hi_, nullptr, &hi_max);
+        ls.lo_padded.create(padded, CV_32S);
+        ls.hi_padded.create(padded, CV_32S);
+        // Outside the level: nothing to find left->right; right->left, the
+        // widest range the level uses, so the check can read every match.
+        fill(ls.lo_padded, reverse ? static_cast<int>(lo_min) : 1);
+        fill(ls.hi_padded, reverse ? static_cast<int>(hi_max) : 0);
+        lo_.copyTo(ls.lo_padded(inside));
+        hi_.copyTo(ls.hi_padded(inside));
+      };
+      padded_ranges(false);
+      ncc_match(ls.left_padded, ls.right_padded, Direction::kLeftToRight, ls.lo_padded, ls.hi_padded, config_.ncc, ls.lr_padded,
+                ls.lr_score_padded, ls.ncc);
+      padded_ranges(true);
+      ncc_match(ls.left_padded, ls.right_padded, Direction::kRightToLeft, ls.lo_padded, ls.hi_padded, config_.ncc, ls.rl_padded,
+                ls.rl_score_padded, ls.ncc);
+      ls.valid_padded.create(padded, CV_8U);
+      fill(ls.valid_padded, 255);
+      if (config_.left_right_check)
+        left_right_check(ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, config_.lr_tolerance, ls.valid_padded);
+      if (config_.keep_images) {
+        ls.left_padded.copyTo(level.left_image);
+        ls.right_padded.copyTo(level.right_image);
+        level.margin = inside.tl();
+      }
+      ls.lr_padded(inside).copyTo(level_lr_);
+      ls.lr_score_padded(inside).copyTo(level.score);
+      ls.rl_padded(inside).copyTo(level_rl_);
+      ls.rl_score_padded(inside).copyTo(score_rl_);
+      ls.valid_padded(inside).copyTo(valid_lr_);
+    } else {
+      if (config_.keep_images) {
+        left.levels[k].copyTo(level.left_image);
+        right_level->copyTo(level.right_image);
+        level.margin = {};
+      }
+      ranges(false);
+      ncc_match(left.levels[k], *right_level, Direction::kLeftToRight, lo_, hi_, config_.ncc, level_lr_, level.score,
+                ls.ncc);
+      ranges(true);
+      ncc_match(left.levels[k], *right_level, Direction::kRightToLeft, lo_, hi_, config_.ncc, level_rl_, score_rl_,
+                ls.ncc);
+      // Validity comes from the scores: with vergence a level disparity may be negative.
+      valid_lr_.create(level_lr_.size(), CV_8U);
+      fill(valid_lr_, 255);
+      if (config_.left_right_check)
+        left_right_check(level_lr_, level.score, level_rl_, score_rl_, config_.lr_tolerance, valid_lr_);
+    }
     // Back to source pixels.
     level.disparity.create(level_lr_.size(), CV_32F);
     level.reverse.create(level_rl_.size(), CV_32F);
@@ -129,8 +288,76 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
         valid += dv;
       }
     level.density = static_cast<double>(valid) / static_cast<double>(level_lr_.total());
+    level.filled_density = level.density;
+    if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[k]);
   }
   return {};
+}
+
+double fill_holes(cv::Mat& disparity, cv::Mat& score, double fallback) {
+  int known = 0;
+  for (int y = 0; y < disparity.rows; ++y) {
+    float* d = disparity.ptr<float>(y);
+    float* c = score.ptr<float>(y);
+    // Nearest matched pixel to the left and to the right along the row; the
+    // farther of the two (the smaller disparity) is taken, as a hole next to a
+    // depth edge is most often background the nearer surface hides. (A median
+    // of the matched pixels around the hole was tried: worse on Aloe.)
+    int last = -1;
+    for (int x = 0; x < disparity.cols; ++x) {
+      if (c[x] > 0) {
+        last = x;
+        continue;
+      }
+      int next = x + 1;
+      while (next < disparity.cols && !(c[next] > 0)) ++next;
+      float value = -1.0f;
+      if (last >= 0 && next < disparity.cols) value = std::min(d[last], d[next]);
+      else if (last >= 0) value = d[last];
+      else if (next < disparity.cols) value = d[next];
+      else if (fallback >= 0) value = static_cast<float>(fallback);
+      for (int i = x; i < next; ++i) {
+        d[i] = value;
+        c[i] = value >= 0 ? 0.0f : -1.0f;
+      }
+      x = next - 1;
+    }
+    for (int x = 0; x < disparity.cols; ++x) known += d[x] >= 0;
+  }
+  return static_cast<double>(known) / static_cast<double>(disparity.total());
+}
+
+std::string read_calibration(const std::string& path, StereoCalibration& out) {
+  cv::FileStorage fs;
+  try {
+    if (!fs.open(path, cv::FileStorage::READ)) return "cannot open calibration file '" + path + "'";
+  } catch (const cv::Exception& e) {
+    return "calibration file '" + path + "': " + e.what();
+  }
+  auto matrix = [&](const char* name) {
+    cv::Mat m;
+    if (!fs[name].empty()) fs[name] >> m;
+    if (!m.empty()) m.convertTo(m, CV_64F);
+    return m;
+  };
+  if (cv::Mat q = matrix("Q"); q.rows == 4 && q.cols == 4 && q.at<double>(3, 2) != 0) {
+    // Q maps (x, y, d, 1) to (X, Y, Z, W): Z/W = Q(2,3) / (Q(3,2) d + Q(3,3)).
+    out.focal_px = q.at<double>(2, 3);
+    out.baseline_m = std::abs(1.0 / q.at<double>(3, 2));
+    return out.valid() ? std::string() : "calibration file '" + path + "': Q gives no positive focal length";
+  }
+  if (cv::Mat p2 = matrix("P2"); p2.rows == 3 && p2.cols == 4 && p2.at<double>(0, 0) > 0) {
+    out.focal_px = p2.at<double>(0, 0);
+    out.baseline_m = std::abs(p2.at<double>(0, 3) / p2.at<double>(0, 0));
+    return out.valid() ? std::string() : "calibration file '" + path + "': P2 gives no baseline";
+  }
+  cv::Mat m1 = matrix("M1"), t = matrix("T");
+  if (m1.rows == 3 && m1.cols == 3 && t.total() == 3) {
+    out.focal_px = m1.at<double>(0, 0);
+    out.baseline_m = cv::norm(t);
+    return out.valid() ? std::string() : "calibration file '" + path + "': M1 and T give no focal length or baseline";
+  }
+  return "calibration file '" + path + "': expected Q (4x4), P2 (3x4), or M1 (3x3) with T (3x1)";
 }
 
 }  // namespace saccade::stereo

@@ -18,20 +18,69 @@ struct RetinaStereoConfig {
   int search_radius = 2;       // pixels of the outer level around its prediction
   bool left_right_check = true;
   float lr_tolerance = 1.0f;   // level pixels
-  // Software vergence: each inner level looks at the right frame where the outer
-  // level predicts the left level's scene to be (needs the right retina's frame).
-  // Experimental: right on synthetic pairs, wrong on Aloe's fovea level so far.
+  // Software vergence: the fixation disparity (at the fovea's centre) is found
+  // coarse to fine with one large window per level, and each level then looks
+  // at the right frame where the left level's scene is at that disparity
+  // (needs the right retina's frame). Per-pixel searches run around it.
   bool vergence = false;
+  cv::Size fixation_window{16, 12};  // level pixels of the window that finds the fixation disparity
+  int fovea_radius = 10;             // fovea level with vergence: pixels searched around the fixation disparity
+  // Level pixels sampled around each level from the frames (when the retinas
+  // carry them), so that windows and matches at a level's edge see real
+  // pixels; 0 matches on the level images alone.
+  int pad = 12;
+  // Give unmatched pixels (no texture, failed check) the disparity of the
+  // nearest matched pixel on their row (the farther of the two neighbours), or
+  // the fixation disparity; their confidence is 0 (matched: the NCC, > 0).
+  bool fill = false;
+  // Keep, per level, the images actually compared (for comparisons with other
+  // matchers on exactly the same pixels).
+  bool keep_images = false;
+};
+
+// The disparity at the point both retinas fixate, as found on each level.
+struct Fixation {
+  std::vector<double> per_level;  // source pixels; < 0 where not found
+  double disparity = -1;          // the innermost level's estimate (source pixels), < 0 if none
+  double score = -1;              // its NCC
 };
 
 struct LevelDisparity {
   cv::Mat disparity;  // CV_32F, source pixels, -1 invalid (left -> right)
   cv::Mat reverse;    // CV_32F, source pixels, -1 invalid (right -> left)
   cv::Mat score;      // CV_32F, NCC at the chosen disparity, -1 invalid
-  double density = 0; // share of valid pixels
+  double density = 0; // share of matched pixels
+  double filled_density = 0;  // share with a disparity, matched or filled
   double vergence = 0; // source pixels the right level was moved by (0: not moved)
   double right_x0 = 0;  // left edge of the right level's region as matched, source pixels
+  // With keep_images: the left and right images compared (the level with a
+  // margin around it as far as the frames reach; the right one shifted by
+  // `offset` level pixels),
+  // and the level disparity range searched without a prediction.
+  cv::Mat left_image, right_image;
+  cv::Point margin;  // where the level's pixel (0, 0) is in them
+  int offset = 0, range_lo = 0, range_hi = 0;
 };
+
+// Depth from disparity for rectified cameras: Z = focal * baseline / d.
+struct StereoCalibration {
+  double focal_px = 0;   // focal length of the rectified images, pixels
+  double baseline_m = 0; // distance between the optical centres, metres
+  bool valid() const { return focal_px > 0 && baseline_m > 0; }
+  double depth(double disparity) const { return disparity > 0 ? focal_px * baseline_m / disparity : -1.0; }
+};
+
+// Reads focal length and baseline from an OpenCV calibration file (YAML or
+// XML, as written by cv::stereoCalibrate / stereoRectify and OpenCV's
+// stereo_calib sample): Q (the reprojection matrix), or P2 (the right
+// rectified projection, P2(0,3) = -f B), or M1 with T. Returns "" or what is
+// missing.
+std::string read_calibration(const std::string& path, StereoCalibration& out);
+
+// Fills unmatched pixels (score <= 0) row by row from the nearest matched ones
+// (the smaller of the two disparities), or with `fallback` (>= 0) on rows
+// without any; filled pixels get score 0. Returns the share with a disparity.
+double fill_holes(cv::Mat& disparity, cv::Mat& score, double fallback);
 
 // Both retinas must have the same level size and steps; the right retina's
 // regions may be shifted horizontally from the left's by whole level pixels
@@ -41,18 +90,32 @@ class RetinaStereo {
   explicit RetinaStereo(RetinaStereoConfig config) : config_(config) {}
   // Fills one LevelDisparity per level; returns "" or what is wrong with the pair.
   std::string run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out);
+  // The fixation disparity of the last run (with vergence).
+  const Fixation& fixation() const { return fixation_; }
+  // Finds the fixation disparity, coarse to fine, by correlating the central
+  // window of each left level with the right frame sampled the same way.
+  void find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out);
 
  private:
   // Search ranges for level k of one side, whose region starts at source x `x0`.
   void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, bool reverse, double x0,
                int full_lo, int full_hi, int offset);
-  // Median disparity (source pixels) the outer level found inside level k's region; < 0 if none.
-  double predicted_disparity(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k);
+  int around_fixation_range(bool around, int full, bool low) const;
   RetinaStereoConfig config_;
+  Fixation fixation_;
+  // Buffers per level: the levels' padded sizes differ, and sharing one set
+  // would reallocate on every level of every frame.
+  struct LevelScratch {
+    cv::Mat strip, window_f, strip_f;
+    cv::Mat left_padded, right_padded, lo_padded, hi_padded, lr_padded, lr_score_padded, rl_padded, rl_score_padded,
+        valid_padded;
+    NccScratch ncc;
+  };
+  std::vector<LevelScratch> level_scratch_;
+  std::vector<double> column_sum_, column_sq_;
   std::vector<float> samples_;
-  cv::Mat right_level_, right_gray_;
+  cv::Mat right_level_, right_gray_, left_gray_;
   cv::Mat lo_, hi_, level_lr_, level_rl_, score_rl_, valid_lr_;
-  NccScratch scratch_;
 };
 
 }  // namespace saccade::stereo

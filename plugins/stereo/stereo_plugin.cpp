@@ -15,6 +15,8 @@ class StereoNode final : public Node {
                     "with <sync inputs=\"left,right\"/>.")
         .input<Retina>("left", "left retina (8-bit gray)")
         .input<Retina>("right", "right retina, same level size; regions equal or shifted by whole level pixels")
+        .output<Region>("fixation", "the fixation disparity (score, source pixels; -1 when not found) at the left "
+                                    "fovea (center), and its depth when calibrated: for the head's vergence")
         .output<FeatureMaps>("maps", "per level on the left geometry: disparity (source pixels, -1 invalid), "
                                      "disparity_rl (right->left, on the right geometry), confidence (NCC)")
         .param_int("window", 5, 3, 9, "NCC window side (odd: 3 or 5 in the paper)")
@@ -26,9 +28,16 @@ class StereoNode final : public Node {
         .param_bool("lr_check", true, "keep only matches the right->left search confirms")
         .param_double("lr_tolerance", 1.0, 0.0, 16.0, "left-right check tolerance, level pixels")
         .param_bool("subpixel", true, "refine the peak with a parabola")
-        .param_bool("vergence", false,
-                    "experimental software vergence: inner levels sample the right frame where the outer level "
-                    "predicts the scene (right on synthetic pairs; not yet on Aloe's fovea level)");
+        .param_bool("vergence", true,
+                    "software vergence: find the fixation disparity coarse to fine and sample the right frame there "
+                    "(needs the retinas' frames)")
+        .param_int("fovea_radius", 10, 1, 256, "with vergence: fovea pixels searched around the fixation disparity")
+        .param_int("pad", 12, 0, 64, "level pixels sampled around each level from the frames (0: the levels alone)")
+        .param_bool("fill", false, "give unmatched pixels the nearest matched disparity on their row (confidence 0)")
+        .param_double("focal", 0.0, 0.0, 1e6, "focal length of the rectified images, pixels (with baseline: depth)")
+        .param_double("baseline", 0.0, 0.0, 100.0, "distance between the cameras, metres")
+        .param_string("calibration", "",
+                      "OpenCV calibration file (Q, or P2, or M1 and T) giving focal length and baseline for depth");
   }
   Status open(OpenContext& ctx) override {
     const Params& p = ctx.params();
@@ -47,6 +56,17 @@ class StereoNode final : public Node {
     c.left_right_check = p.get_bool("lr_check");
     c.lr_tolerance = static_cast<float>(p.get_double("lr_tolerance"));
     c.vergence = p.get_bool("vergence");
+    c.fovea_radius = static_cast<int>(p.get_int("fovea_radius"));
+    c.pad = static_cast<int>(p.get_int("pad"));
+    c.fill = p.get_bool("fill");
+    calibration_.focal_px = p.get_double("focal");
+    calibration_.baseline_m = p.get_double("baseline");
+    if (const std::string file = p.get_string("calibration"); !file.empty()) {
+      if (std::string e = read_calibration(file, calibration_); !e.empty()) return Status::error(e);
+    } else if ((calibration_.focal_px > 0) != (calibration_.baseline_m > 0)) {
+      return Status::error("depth needs both focal and baseline (or a calibration file)");
+    }
+    fixation_out_ = ctx.output<Region>("fixation");
     stereo_ = std::make_unique<RetinaStereo>(c);
     return {};
   }
@@ -56,19 +76,39 @@ class StereoNode final : public Node {
     if (std::string e = stereo_->run(*l, *r, levels_); !e.empty()) return Status::error(e);
     auto maps = ctx.make(out_);
     maps->retina = l;
-    maps->set_layout({"disparity", "disparity_rl", "confidence"}, levels_.size());
+    if (calibration_.valid())
+      maps->set_layout({"disparity", "disparity_rl", "confidence", "depth"}, levels_.size());
+    else
+      maps->set_layout({"disparity", "disparity_rl", "confidence"}, levels_.size());
     for (std::size_t k = 0; k < levels_.size(); ++k) {
       levels_[k].disparity.copyTo(maps->maps[0][k]);
       levels_[k].reverse.copyTo(maps->maps[1][k]);
       levels_[k].score.copyTo(maps->maps[2][k]);
+      if (!calibration_.valid()) continue;
+      cv::Mat& depth = maps->maps[3][k];
+      depth.create(levels_[k].disparity.size(), CV_32F);
+      for (int y = 0; y < depth.rows; ++y)
+        for (int x = 0; x < depth.cols; ++x)
+          depth.at<float>(y, x) = static_cast<float>(calibration_.depth(levels_[k].disparity.at<float>(y, x)));
     }
     ctx.emit(out_, std::move(maps));
+    auto fixation = ctx.make(fixation_out_);
+    const cv::Rect fovea = l->geometry.back().region;
+    fixation->center = cv::Point2d(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
+    fixation->size = cv::Size2d(fovea.size());
+    fixation->score = stereo_->fixation().disparity;
+    fixation->depth = calibration_.valid() ? calibration_.depth(stereo_->fixation().disparity) : -1.0;
+    fixation->camera_id = l->camera_id;
+    fixation->label = "fixation";
+    ctx.emit(fixation_out_, std::move(fixation));
     return {};
   }
 
  private:
   InputHandle<Retina> left_, right_;
   OutputHandle<FeatureMaps> out_;
+  OutputHandle<Region> fixation_out_;
+  StereoCalibration calibration_;
   std::unique_ptr<RetinaStereo> stereo_;
   std::vector<LevelDisparity> levels_;
 };

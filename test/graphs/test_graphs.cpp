@@ -156,9 +156,10 @@ TEST(StereoGraph, RunsOnAloeAndTheOuterLevelsAgreeWithTheGroundTruth) {
       }
     double density = static_cast<double>(valid) / known, bad2 = valid ? static_cast<double>(bad) / valid : 1.0;
     std::printf("Aloe level %zu (step %.1f): density %.3f, bad-2 (x step) %.3f\n", k, g.step_x, density, bad2);
-    if (k == 4) continue;  // the fovea needs vergence, still experimental
-    EXPECT_GT(density, k == 3 ? 0.25 : 0.4) << "level " << k;  // measured 0.48-0.54, level 3 0.31
-    EXPECT_LT(bad2, 0.15) << "level " << k;                     // measured 0.008-0.083
+    // Fixating (550, 450) on the background cloth, verged: measured density
+    // 0.50-0.79, fovea 0.71; bad-2 0.008-0.074, fovea 0.007.
+    EXPECT_GT(density, 0.4) << "level " << k;
+    EXPECT_LT(bad2, 0.12) << "level " << k;
   }
 }
 

@@ -2,6 +2,8 @@
 // (synthetic data: a random texture and its copy shifted by D pixels).
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include <opencv2/imgproc.hpp>
 
 #include "retina_stereo.hpp"
@@ -151,6 +153,100 @@ TEST(StereoNode, EmitsDisparityConfidenceAndBothWays) {
   const cv::Mat& confidence = maps->find("confidence")->back();
   EXPECT_NEAR(fovea.at<float>(12, 20), 12.0, 0.25);
   EXPECT_GT(confidence.at<float>(12, 20), 0.9f);
+}
+
+TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
+  Pair p = make_pair(40, {320, 240});
+  std::string error;
+  auto h = testing::NodeHarness::create(R"(<node plugin="stereo">
+      <param name="max_disparity" value="64"/>
+      <param name="focal" value="500"/><param name="baseline" value="0.1"/></node>)",
+                                        &error);
+  ASSERT_NE(h, nullptr) << error;
+  h->set("left", p.left);
+  h->set("right", p.right);
+  ASSERT_TRUE(h->process().ok());
+  auto fixation = h->last<Region>("fixation");
+  ASSERT_NE(fixation, nullptr);
+  EXPECT_NEAR(fixation->score, 40.0, 0.25);
+  EXPECT_NEAR(fixation->depth, 500 * 0.1 / 40.0, 0.01);
+  EXPECT_EQ(fixation->center, cv::Point2d(320, 240));
+  auto maps = h->last<FeatureMaps>("maps");
+  ASSERT_NE(maps->find("depth"), nullptr);
+  const cv::Mat& disparity = maps->find("disparity")->back();
+  const cv::Mat& depth = maps->find("depth")->back();
+  int checked = 0;
+  for (int y = 0; y < depth.rows; ++y)
+    for (int x = 0; x < depth.cols; ++x) {
+      const float d = disparity.at<float>(y, x);
+      if (d <= 0) {
+        EXPECT_LT(depth.at<float>(y, x), 0.0f);
+        continue;
+      }
+      ++checked;
+      EXPECT_NEAR(depth.at<float>(y, x), 50.0 / d, 1e-4);
+    }
+  EXPECT_GT(checked, 600) << "verged, the fovea matches nearly everywhere";
+
+  EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="stereo"><param name="focal" value="500"/></node>)", &error),
+            nullptr);
+  EXPECT_NE(error.find("baseline"), std::string::npos) << error;
+}
+
+TEST(FillHoles, TakesTheFartherNeighbourOnTheRowAndTheFallbackOnEmptyRows) {
+  cv::Mat d = (cv::Mat_<float>(3, 6) << 10, -1, -1, 20, -1, -1,  //
+               -1, -1, -1, -1, -1, -1,                             //
+               -1, 30, -1, -1, -1, 40);
+  cv::Mat c = (cv::Mat_<float>(3, 6) << 0.9f, -1, -1, 0.8f, -1, -1,  //
+               -1, -1, -1, -1, -1, -1,                                  //
+               -1, 0.7f, -1, -1, -1, 0.6f);
+  EXPECT_DOUBLE_EQ(fill_holes(d, c, 15.0), 1.0);
+  const cv::Mat expected = (cv::Mat_<float>(3, 6) << 10, 10, 10, 20, 20, 20,  //
+                            15, 15, 15, 15, 15, 15,                           //
+                            30, 30, 30, 30, 30, 40);
+  EXPECT_EQ(cv::norm(d, expected, cv::NORM_INF), 0.0);
+  EXPECT_FLOAT_EQ(c.at<float>(0, 1), 0.0f) << "filled: confidence 0";
+  EXPECT_FLOAT_EQ(c.at<float>(0, 0), 0.9f) << "matched pixels keep theirs";
+  cv::Mat empty(2, 3, CV_32F, cv::Scalar(-1)), none(2, 3, CV_32F, cv::Scalar(-1));
+  EXPECT_DOUBLE_EQ(fill_holes(empty, none, -1.0), 0.0);
+}
+
+TEST(StereoCalibration, ReadsFocalAndBaselineFromQOrP2OrM1AndT) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "calibration";
+  fs::create_directories(dir);
+  auto write = [&](const std::string& name, auto&& body) {
+    cv::FileStorage fs((dir / name).string(), cv::FileStorage::WRITE);
+    body(fs);
+    return (dir / name).string();
+  };
+  StereoCalibration c;
+  // As cv::stereoRectify writes it: Q(2,3) = f, Q(3,2) = -1/Tx with Tx = -B.
+  const std::string q = write("q.yml", [](cv::FileStorage& fs) {
+    fs << "Q" << (cv::Mat_<double>(4, 4) << 1, 0, 0, -320, 0, 1, 0, -240, 0, 0, 0, 534.8, 0, 0, 1 / 0.06, 0);
+  });
+  ASSERT_EQ(read_calibration(q, c), "");
+  EXPECT_NEAR(c.focal_px, 534.8, 1e-9);
+  EXPECT_NEAR(c.baseline_m, 0.06, 1e-12);
+  const std::string p2 = write("p2.xml", [](cv::FileStorage& fs) {
+    fs << "P2" << (cv::Mat_<double>(3, 4) << 500, 0, 320, -500 * 0.12, 0, 500, 240, 0, 0, 0, 1, 0);
+  });
+  c = {};
+  ASSERT_EQ(read_calibration(p2, c), "");
+  EXPECT_NEAR(c.focal_px, 500, 1e-9);
+  EXPECT_NEAR(c.baseline_m, 0.12, 1e-12);
+  const std::string mt = write("mt.yml", [](cv::FileStorage& fs) {
+    fs << "M1" << (cv::Mat_<double>(3, 3) << 600, 0, 320, 0, 600, 240, 0, 0, 1);
+    fs << "T" << (cv::Mat_<double>(3, 1) << -0.09, 0, 0);
+  });
+  c = {};
+  ASSERT_EQ(read_calibration(mt, c), "");
+  EXPECT_NEAR(c.baseline_m, 0.09, 1e-12);
+  // OpenCV's own intrinsics.yml (M1, D1, M2, D2, no extrinsics): a clear error.
+  c = {};
+  const std::string only_intrinsics = test::sample_path("intrinsics.yml");
+  EXPECT_NE(read_calibration(only_intrinsics, c).find("expected Q"), std::string::npos);
+  EXPECT_NE(read_calibration("/nonexistent.yml", c).find("/nonexistent.yml"), std::string::npos);
 }
 
 }  // namespace

@@ -162,6 +162,7 @@ struct Region final : Message {
   cv::Point2d center;
   cv::Size2d size;  // zero for a bare point
   double score = 1.0;
+  double depth = -1.0;  // metres along the optical axis, when known (< 0: unknown)
   int camera_id = 0;
   std::string label;
 };
