@@ -67,8 +67,9 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
   ncc_match(left, right, direction, lo, hi, config, disparity, score, scratch);
 }
 
-void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
-               const NccConfig& config, cv::Mat& disparity, cv::Mat& score, NccScratch& scratch) {
+void ncc_match_reference(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo,
+                         const cv::Mat& hi, const NccConfig& config, cv::Mat& disparity, cv::Mat& score,
+                         NccScratch& scratch) {
   CV_Assert(left.size() == right.size() && left.channels() == 1 && right.channels() == 1 && config.window % 2 == 1);
   CV_Assert(lo.size() == left.size() && hi.size() == left.size() && lo.type() == CV_32S && hi.type() == CV_32S);
   const cv::Mat& ref = direction == Direction::kLeftToRight ? left : right;
@@ -94,7 +95,7 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
       if (d_hi < d_lo) continue;
       scores.assign(static_cast<std::size_t>(d_hi - d_lo + 1), -2.0f);
       const float ma = ref_mean.at<float>(y, x);
-      int best = -1;
+      int best = d_lo;
       float best_score = -2.0f;
       for (int d = d_lo; d <= d_hi; ++d) {
         const int xo = x + sign * d;
@@ -113,7 +114,9 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
           best = d;
         }
       }
-      if (best < 0 || best_score < config.min_score) continue;
+      // Disparities may be negative (relative to a vergence): a score, not the
+      // disparity, says whether anything matched.
+      if (!(best_score > -2.0f) || best_score < config.min_score) continue;
       float d = static_cast<float>(best);
       if (config.subpixel && best > d_lo && best < d_hi) {
         const float c0 = scores[static_cast<std::size_t>(best - 1 - d_lo)];
@@ -125,6 +128,193 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
       disparity.at<float>(y, x) = d;
       score.at<float>(y, x) = best_score;
     }
+}
+
+namespace {
+
+// Sums over (2r+1)-wide windows along each row of `in` (rows y0..y1, all
+// columns), written at the window's centre; columns within r of the edge are
+// left untouched.
+inline void row_box(const float* in, float* out, int width, int r) {
+  float s = 0;
+  const int w = 2 * r + 1;
+  for (int x = 0; x < w && x < width; ++x) s += in[x];
+  for (int x = r; x + r < width; ++x) {
+    out[x] = s;
+    if (x + r + 1 < width) s += in[x + r + 1] - in[x - r];
+  }
+}
+
+// Window mean and standard deviation of `src` (CV_32F) at every pixel whose
+// window fits; 0 elsewhere.
+void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::vector<float>& col, std::vector<float>& col2,
+               std::vector<float>& row, std::vector<float>& row2) {
+  const int w = src.cols, h = src.rows, n = (2 * r + 1) * (2 * r + 1);
+  mean.create(src.size(), CV_32F);
+  stddev.create(src.size(), CV_32F);
+  fill(mean, 0);
+  fill(stddev, 0);
+  col.assign(static_cast<std::size_t>(w), 0.0f);
+  col2.assign(static_cast<std::size_t>(w), 0.0f);
+  row.assign(static_cast<std::size_t>(w), 0.0f);
+  row2.assign(static_cast<std::size_t>(w), 0.0f);
+  for (int y = 0; y < h; ++y) {
+    const float* add = src.ptr<float>(y);
+    for (int x = 0; x < w; ++x) {
+      col[static_cast<std::size_t>(x)] += add[x];
+      col2[static_cast<std::size_t>(x)] += add[x] * add[x];
+    }
+    if (y >= 2 * r + 1) {
+      const float* sub = src.ptr<float>(y - 2 * r - 1);
+      for (int x = 0; x < w; ++x) {
+        col[static_cast<std::size_t>(x)] -= sub[x];
+        col2[static_cast<std::size_t>(x)] -= sub[x] * sub[x];
+      }
+    }
+    if (y < 2 * r) continue;
+    const int yc = y - r;
+    row_box(col.data(), row.data(), w, r);
+    row_box(col2.data(), row2.data(), w, r);
+    float* m = mean.ptr<float>(yc);
+    float* sd = stddev.ptr<float>(yc);
+    for (int x = r; x + r < w; ++x) {
+      const float mu = row[static_cast<std::size_t>(x)] / static_cast<float>(n);
+      m[x] = mu;
+      sd[x] = std::sqrt(std::max(0.0f, row2[static_cast<std::size_t>(x)] / static_cast<float>(n) - mu * mu));
+    }
+  }
+}
+
+}  // namespace
+
+void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
+               const NccConfig& config, cv::Mat& disparity, cv::Mat& score, NccScratch& scratch) {
+  CV_Assert(left.size() == right.size() && left.channels() == 1 && right.channels() == 1 && config.window % 2 == 1);
+  CV_Assert(lo.size() == left.size() && hi.size() == left.size() && lo.type() == CV_32S && hi.type() == CV_32S);
+  const cv::Mat& ref = direction == Direction::kLeftToRight ? left : right;
+  const cv::Mat& other = direction == Direction::kLeftToRight ? right : left;
+  const int sign = direction == Direction::kLeftToRight ? -1 : 1;  // other x = x + sign * d
+  const int r = config.window / 2, n = config.window * config.window;
+  const int w = ref.cols, h = ref.rows;
+  disparity.create(ref.size(), CV_32F);
+  score.create(ref.size(), CV_32F);
+  fill(disparity, -1);
+  fill(score, -1);
+  if (w < 2 * r + 1 || h < 2 * r + 1) return;
+  // Centred values keep the float sums of products exact enough.
+  ref.convertTo(scratch.ref_f, CV_32F, 1.0, -128.0);
+  other.convertTo(scratch.other_f, CV_32F, 1.0, -128.0);
+  box_stats(scratch.ref_f, r, scratch.ref_mean, scratch.ref_std, scratch.col, scratch.col2, scratch.row, scratch.row2);
+  box_stats(scratch.other_f, r, scratch.other_mean, scratch.other_std, scratch.col, scratch.col2, scratch.row,
+            scratch.row2);
+  // The pixels to match and the disparities any of them wants.
+  int y0 = h, y1 = -1, x0 = w, x1 = -1, d_min = 1 << 30, d_max = -(1 << 30);
+  for (int y = r; y < h - r; ++y) {
+    const int* l = lo.ptr<int>(y);
+    const int* u = hi.ptr<int>(y);
+    const float* sa = scratch.ref_std.ptr<float>(y);
+    for (int x = r; x < w - r; ++x) {
+      if (u[x] < l[x] || sa[x] < config.min_texture) continue;
+      y0 = std::min(y0, y);
+      y1 = std::max(y1, y);
+      x0 = std::min(x0, x);
+      x1 = std::max(x1, x);
+      d_min = std::min(d_min, l[x]);
+      d_max = std::max(d_max, u[x]);
+    }
+  }
+  if (y1 < 0) return;
+  // Per pixel: best score and disparity, the scores next to it, the last score.
+  cv::Mat& best = scratch.best;
+  cv::Mat& best_d = scratch.best_d;
+  cv::Mat& before = scratch.before;
+  cv::Mat& after = scratch.after;
+  cv::Mat& last = scratch.last;
+  for (cv::Mat* m : {&best, &before, &after, &last}) {
+    m->create(ref.size(), CV_32F);
+    fill(*m, -2.0f);
+  }
+  best_d.create(ref.size(), CV_32S);
+  fill(best_d, 0);
+  const float inv_n = 1.0f / static_cast<float>(n);
+  std::vector<float>& col = scratch.col;
+  std::vector<float>& row = scratch.row;
+  std::vector<float>& product = scratch.row2;
+  col.assign(static_cast<std::size_t>(w), 0.0f);
+  row.assign(static_cast<std::size_t>(w), 0.0f);
+  product.assign(static_cast<std::size_t>(w), 0.0f);
+  for (int d = d_min; d <= d_max; ++d) {
+    // Columns of `ref` whose partner lies inside `other`.
+    const int shift = sign * d;
+    // Only the columns the matched pixels' windows use.
+    const int xa = std::max({0, -shift, x0 - r}), xb = std::min({w, w - shift, x1 + r + 1});
+    std::fill(col.begin(), col.end(), 0.0f);
+    // Window sums of ref(x) * other(x + shift), rows y0 - r .. y1 + r.
+    for (int yy = y0 - r; yy <= y1 + r; ++yy) {
+      const float* a = scratch.ref_f.ptr<float>(yy);
+      const float* b = scratch.other_f.ptr<float>(yy) + shift;
+      for (int x = xa; x < xb; ++x) col[static_cast<std::size_t>(x)] += a[x] * b[x];
+      if (yy - 2 * r - 1 >= y0 - r) {
+        const float* a0 = scratch.ref_f.ptr<float>(yy - 2 * r - 1);
+        const float* b0 = scratch.other_f.ptr<float>(yy - 2 * r - 1) + shift;
+        for (int x = xa; x < xb; ++x) col[static_cast<std::size_t>(x)] -= a0[x] * b0[x];
+      }
+      if (yy < y0 + r) continue;
+      const int y = yy - r;
+      if (xb - xa < 2 * r + 1) continue;
+      row_box(col.data() + xa, row.data() + xa, xb - xa, r);
+      const int* l = lo.ptr<int>(y);
+      const int* u = hi.ptr<int>(y);
+      const float* ma = scratch.ref_mean.ptr<float>(y);
+      const float* sa = scratch.ref_std.ptr<float>(y);
+      const float* mb = scratch.other_mean.ptr<float>(y);
+      const float* sb = scratch.other_std.ptr<float>(y);
+      float* bs = best.ptr<float>(y);
+      int* bd = best_d.ptr<int>(y);
+      float* bf = before.ptr<float>(y);
+      float* af = after.ptr<float>(y);
+      float* ls = last.ptr<float>(y);
+      for (int x = std::max(r, x0); x <= std::min(w - r - 1, x1); ++x) {
+        if (d < l[x] || d > u[x] || sa[x] < config.min_texture) {
+          ls[x] = -2.0f;
+          continue;
+        }
+        const int xo = x + shift;
+        float c = -2.0f;
+        if (xo >= r && xo < w - r && sb[xo] >= config.min_texture)
+          c = (row[static_cast<std::size_t>(x)] * inv_n - ma[x] * mb[xo]) / (sa[x] * sb[xo]);
+        if (d == bd[x] + 1 && bs[x] > -2.0f) af[x] = c;
+        if (c > bs[x]) {
+          bf[x] = ls[x];
+          bs[x] = c;
+          bd[x] = d;
+          af[x] = -2.0f;
+        }
+        ls[x] = c;
+      }
+    }
+  }
+  for (int y = y0; y <= y1; ++y) {
+    const int* l = lo.ptr<int>(y);
+    const int* u = hi.ptr<int>(y);
+    const float* bs = best.ptr<float>(y);
+    const int* bd = best_d.ptr<int>(y);
+    const float* bf = before.ptr<float>(y);
+    const float* af = after.ptr<float>(y);
+    float* out_d = disparity.ptr<float>(y);
+    float* out_s = score.ptr<float>(y);
+    for (int x = r; x < w - r; ++x) {
+      if (!(bs[x] > -2.0f) || bs[x] < config.min_score) continue;
+      float dd = static_cast<float>(bd[x]);
+      if (config.subpixel && bd[x] > l[x] && bd[x] < u[x]) {
+        const float c0 = bf[x], c1 = bs[x], c2 = af[x];
+        const float denom = c0 - 2 * c1 + c2;
+        if (c0 > -2 && c2 > -2 && denom < 0) dd += std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f);
+      }
+      out_d[x] = dd;
+      out_s[x] = bs[x];
+    }
+  }
 }
 
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, int d_min, int d_max,

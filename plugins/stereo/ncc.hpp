@@ -24,7 +24,8 @@ enum class Direction { kLeftToRight, kRightToLeft };
 // nothing in steady state.
 struct NccScratch {
   cv::Mat ref_mean, ref_std, other_mean, other_std;
-  std::vector<float> scores;
+  cv::Mat ref_f, other_f, best, best_d, before, after, last;
+  std::vector<float> scores, col, col2, row, row2;
 };
 
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in
@@ -37,6 +38,14 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score, NccScratch& scratch);
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
+
+// The same, plainly: every window summed pixel by pixel in double precision.
+// The reference ncc_match is tested against. ncc_match itself sweeps the
+// disparities, summing the products of each in sliding windows (box sums), so
+// a candidate costs a few operations instead of a window's worth.
+void ncc_match_reference(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo,
+                         const cv::Mat& hi, const NccConfig& config, cv::Mat& disparity, cv::Mat& score,
+                         NccScratch& scratch);
 
 // The same over a fixed range [d_min, d_max] for every pixel.
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, int d_min, int d_max,

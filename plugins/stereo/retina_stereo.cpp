@@ -228,10 +228,21 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
         cv::minMaxLoc(hi_, nullptr, &hi_max);
         ls.lo_padded.create(padded, CV_32S);
         ls.hi_padded.create(padded, CV_32S);
-        // Outside the level: nothing to find left->right; right->left, the
-        // widest range the level uses, so the check can read every match.
-        fill(ls.lo_padded, reverse ? static_cast<int>(lo_min) : 1);
-        fill(ls.hi_padded, reverse ? static_cast<int>(hi_max) : 0);
+        // Outside the level: nothing to find left->right; right->left, on the
+        // level's rows, the columns its matches can land on, with the widest
+        // range it uses, so the check can read every match.
+        fill(ls.lo_padded, 1);
+        fill(ls.hi_padded, 0);
+        if (reverse) {
+          const int band0 = std::max(0, inside.x - static_cast<int>(hi_max));
+          const int band1 = std::min(padded.width, inside.x + inside.width - static_cast<int>(lo_min));
+          if (band1 > band0) {
+            const cv::Rect band(band0, inside.y, band1 - band0, inside.height);
+            cv::Mat lo_band = ls.lo_padded(band), hi_band = ls.hi_padded(band);
+            fill(lo_band, lo_min);
+            fill(hi_band, hi_max);
+          }
+        }
         lo_.copyTo(ls.lo_padded(inside));
         hi_.copyTo(ls.hi_padded(inside));
       };

@@ -2,6 +2,8 @@
 // disparity (synthetic data: random texture shifted by a known amount).
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include "ncc.hpp"
 #include "support.hpp"
 
@@ -94,6 +96,48 @@ TEST(LeftRightCheck, KeepsConsistentPixelsAndDropsOthers) {
   EXPECT_EQ(valid.at<uint8_t>(18, 20), 0);
   EXPECT_EQ(valid.at<uint8_t>(18, 22), 255);
   EXPECT_NEAR(corrupted.at<float>(18, 22), d, 0.25);
+}
+
+TEST(NccMatch, TheSweepAgreesWithThePlainReferenceEverywhere) {
+  cv::RNG rng(5);
+  int compared = 0, same = 0;
+  for (int trial = 0; trial < 6; ++trial) {
+    cv::Mat left = test::random_image({44, 30}, 100 + trial), right;
+    cv::GaussianBlur(left, left, {3, 3}, 0.8);
+    const int shift = rng.uniform(-6, 7);
+    const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, -shift, 0, 1, 0);
+    cv::warpAffine(left, right, m, left.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    cv::Mat noise(left.size(), CV_8U);
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 6);
+    right += noise;
+    cv::Mat lo(left.size(), CV_32S), hi(left.size(), CV_32S);
+    for (int y = 0; y < lo.rows; ++y)
+      for (int x = 0; x < lo.cols; ++x) {
+        const int a = rng.uniform(-9, 10), b = rng.uniform(-9, 10);
+        lo.at<int>(y, x) = std::min(a, b);
+        hi.at<int>(y, x) = std::max(a, b);
+      }
+    for (Direction direction : {Direction::kLeftToRight, Direction::kRightToLeft})
+      for (int window : {3, 5}) {
+        NccConfig config;
+        config.window = window;
+        NccScratch a, b;
+        cv::Mat d_fast, s_fast, d_ref, s_ref;
+        ncc_match(left, right, direction, lo, hi, config, d_fast, s_fast, a);
+        ncc_match_reference(left, right, direction, lo, hi, config, d_ref, s_ref, b);
+        for (int y = 0; y < d_ref.rows; ++y)
+          for (int x = 0; x < d_ref.cols; ++x) {
+            ++compared;
+            const bool valid_ref = s_ref.at<float>(y, x) > -1, valid_fast = s_fast.at<float>(y, x) > -1;
+            if (valid_ref != valid_fast) continue;
+            if (!valid_ref || (std::abs(d_ref.at<float>(y, x) - d_fast.at<float>(y, x)) < 1e-3f &&
+                               std::abs(s_ref.at<float>(y, x) - s_fast.at<float>(y, x)) < 1e-4f))
+              ++same;
+          }
+      }
+  }
+  // Float sums against double: a near-tie may go the other way, rarely.
+  EXPECT_GE(static_cast<double>(same) / compared, 0.999) << same << " of " << compared;
 }
 
 }  // namespace
