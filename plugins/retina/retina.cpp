@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 namespace saccade::retina {
 
@@ -86,20 +87,33 @@ void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, dou
   const int cn = frame.channels();
   out.create(size, frame.type());
   const int sx = sub_step(step_x), sy = sub_step(step_y);
-  auto px = [&](int x, int y, int c) { return static_cast<unsigned>(frame.ptr<uint8_t>(y)[x * cn + c]); };
+  // Column offsets and rows first (the same for every row and column), so the
+  // loop over pixels is integer indexing only.
+  thread_local std::vector<int> cols, rows;
+  cols.resize(static_cast<std::size_t>(size.width));
+  rows.resize(static_cast<std::size_t>(size.height));
+  for (int i = 0; i < size.width; ++i)
+    cols[static_cast<std::size_t>(i)] =
+        crop ? std::clamp(static_cast<int>(std::floor(x0)) + i, 0, frame.cols - 1)
+             : std::clamp(static_cast<int>(std::floor(x0 + (i + 0.5) * step_x)), sx, frame.cols - 1 - sx);
+  for (int j = 0; j < size.height; ++j)
+    rows[static_cast<std::size_t>(j)] =
+        crop ? std::clamp(static_cast<int>(std::floor(y0)) + j, 0, frame.rows - 1)
+             : std::clamp(static_cast<int>(std::floor(y0 + (j + 0.5) * step_y)), sy, frame.rows - 1 - sy);
+  const std::ptrdiff_t pitch = static_cast<std::ptrdiff_t>(frame.step[0]);
   for (int j = 0; j < size.height; ++j) {
     uint8_t* o = out.ptr<uint8_t>(j);
+    const uint8_t* r = frame.ptr<uint8_t>(rows[static_cast<std::size_t>(j)]);
     for (int i = 0; i < size.width; ++i) {
+      const uint8_t* p = r + static_cast<std::ptrdiff_t>(cols[static_cast<std::size_t>(i)]) * cn;
       for (int c = 0; c < cn; ++c) {
         if (crop) {
-          const int x = std::clamp(static_cast<int>(std::floor(x0)) + i, 0, frame.cols - 1);
-          const int y = std::clamp(static_cast<int>(std::floor(y0)) + j, 0, frame.rows - 1);
-          o[i * cn + c] = static_cast<uint8_t>(px(x, y, c));
+          o[i * cn + c] = p[c];
           continue;
         }
-        const int cx = std::clamp(static_cast<int>(std::floor(x0 + (i + 0.5) * step_x)), sx, frame.cols - 1 - sx);
-        const int cy = std::clamp(static_cast<int>(std::floor(y0 + (j + 0.5) * step_y)), sy, frame.rows - 1 - sy);
-        o[i * cn + c] = mean5(px(cx, cy, c) + px(cx - sx, cy, c) + px(cx + sx, cy, c) + px(cx, cy - sy, c) + px(cx, cy + sy, c));
+        const unsigned sum = static_cast<unsigned>(p[c]) + p[c - sx * cn] + p[c + sx * cn] + p[c - sy * pitch] +
+                             p[c + sy * pitch];
+        o[i * cn + c] = mean5(sum);
       }
     }
   }

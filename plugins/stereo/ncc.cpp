@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "saccade/fill.hpp"
@@ -187,123 +188,159 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
 
 }  // namespace
 
-void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
-               const NccConfig& config, cv::Mat& disparity, cv::Mat& score, NccScratch& scratch) {
-  CV_Assert(left.size() == right.size() && left.channels() == 1 && right.channels() == 1 && config.window % 2 == 1);
-  CV_Assert(lo.size() == left.size() && hi.size() == left.size() && lo.type() == CV_32S && hi.type() == CV_32S);
-  const cv::Mat& ref = direction == Direction::kLeftToRight ? left : right;
-  const cv::Mat& other = direction == Direction::kLeftToRight ? right : left;
-  const int sign = direction == Direction::kLeftToRight ? -1 : 1;  // other x = x + sign * d
-  const int r = config.window / 2, n = config.window * config.window;
-  const int w = ref.cols, h = ref.rows;
-  disparity.create(ref.size(), CV_32F);
-  score.create(ref.size(), CV_32F);
-  fill(disparity, -1);
-  fill(score, -1);
-  if (w < 2 * r + 1 || h < 2 * r + 1) return;
-  // Centred values keep the float sums of products exact enough.
-  ref.convertTo(scratch.ref_f, CV_32F, 1.0, -128.0);
-  other.convertTo(scratch.other_f, CV_32F, 1.0, -128.0);
-  box_stats(scratch.ref_f, r, scratch.ref_mean, scratch.ref_std, scratch.col, scratch.col2, scratch.row, scratch.row2);
-  box_stats(scratch.other_f, r, scratch.other_mean, scratch.other_std, scratch.col, scratch.col2, scratch.row,
-            scratch.row2);
-  // The pixels to match and the disparities any of them wants.
-  int y0 = h, y1 = -1, x0 = w, x1 = -1, d_min = 1 << 30, d_max = -(1 << 30);
+namespace {
+
+// One direction's search state: per pixel the best score and its disparity,
+// the scores next to it (for the sub-pixel parabola), the last score seen and
+// at which disparity.
+struct Search {
+  const cv::Mat* lo;
+  const cv::Mat* hi;
+  const cv::Mat* stddev;  // of the image this direction's pixels belong to
+  cv::Mat *best, *best_d, *before, *after, *last, *last_d;
+  int y0 = 0, y1 = -1, x0 = 0, x1 = -1, d_min = 0, d_max = -1;
+  bool active() const { return y1 >= y0; }
+};
+
+void prepare(Search& s, NccScratch::Side& side, const cv::Mat& lo, const cv::Mat& hi, const cv::Mat& stddev, int r,
+             float min_texture) {
+  s.lo = &lo;
+  s.hi = &hi;
+  s.stddev = &stddev;
+  const int w = lo.cols, h = lo.rows;
+  s.y0 = h;
+  s.y1 = -1;
+  s.x0 = w;
+  s.x1 = -1;
+  s.d_min = 1 << 30;
+  s.d_max = -(1 << 30);
   for (int y = r; y < h - r; ++y) {
     const int* l = lo.ptr<int>(y);
     const int* u = hi.ptr<int>(y);
-    const float* sa = scratch.ref_std.ptr<float>(y);
+    const float* sd = stddev.ptr<float>(y);
     for (int x = r; x < w - r; ++x) {
-      if (u[x] < l[x] || sa[x] < config.min_texture) continue;
-      y0 = std::min(y0, y);
-      y1 = std::max(y1, y);
-      x0 = std::min(x0, x);
-      x1 = std::max(x1, x);
-      d_min = std::min(d_min, l[x]);
-      d_max = std::max(d_max, u[x]);
+      if (u[x] < l[x] || sd[x] < min_texture) continue;
+      s.y0 = std::min(s.y0, y);
+      s.y1 = std::max(s.y1, y);
+      s.x0 = std::min(s.x0, x);
+      s.x1 = std::max(s.x1, x);
+      s.d_min = std::min(s.d_min, l[x]);
+      s.d_max = std::max(s.d_max, u[x]);
     }
   }
-  if (y1 < 0) return;
-  // Per pixel: best score and disparity, the scores next to it, the last score.
-  cv::Mat& best = scratch.best;
-  cv::Mat& best_d = scratch.best_d;
-  cv::Mat& before = scratch.before;
-  cv::Mat& after = scratch.after;
-  cv::Mat& last = scratch.last;
-  for (cv::Mat* m : {&best, &before, &after, &last}) {
-    m->create(ref.size(), CV_32F);
+  for (cv::Mat* m : {&side.best, &side.before, &side.after, &side.last}) {
+    m->create(lo.size(), CV_32F);
     fill(*m, -2.0f);
   }
-  best_d.create(ref.size(), CV_32S);
-  fill(best_d, 0);
-  const float inv_n = 1.0f / static_cast<float>(n);
-  std::vector<float>& col = scratch.col;
-  std::vector<float>& row = scratch.row;
-  std::vector<float>& product = scratch.row2;
-  col.assign(static_cast<std::size_t>(w), 0.0f);
-  row.assign(static_cast<std::size_t>(w), 0.0f);
-  product.assign(static_cast<std::size_t>(w), 0.0f);
-  for (int d = d_min; d <= d_max; ++d) {
-    // Columns of `ref` whose partner lies inside `other`.
-    const int shift = sign * d;
-    // Only the columns the matched pixels' windows use.
-    const int xa = std::max({0, -shift, x0 - r}), xb = std::min({w, w - shift, x1 + r + 1});
-    std::fill(col.begin(), col.end(), 0.0f);
-    // Window sums of ref(x) * other(x + shift), rows y0 - r .. y1 + r.
-    for (int yy = y0 - r; yy <= y1 + r; ++yy) {
-      const float* a = scratch.ref_f.ptr<float>(yy);
-      const float* b = scratch.other_f.ptr<float>(yy) + shift;
-      for (int x = xa; x < xb; ++x) col[static_cast<std::size_t>(x)] += a[x] * b[x];
-      if (yy - 2 * r - 1 >= y0 - r) {
-        const float* a0 = scratch.ref_f.ptr<float>(yy - 2 * r - 1);
-        const float* b0 = scratch.other_f.ptr<float>(yy - 2 * r - 1) + shift;
-        for (int x = xa; x < xb; ++x) col[static_cast<std::size_t>(x)] -= a0[x] * b0[x];
-      }
-      if (yy < y0 + r) continue;
-      const int y = yy - r;
-      if (xb - xa < 2 * r + 1) continue;
-      row_box(col.data() + xa, row.data() + xa, xb - xa, r);
-      const int* l = lo.ptr<int>(y);
-      const int* u = hi.ptr<int>(y);
-      const float* ma = scratch.ref_mean.ptr<float>(y);
-      const float* sa = scratch.ref_std.ptr<float>(y);
-      const float* mb = scratch.other_mean.ptr<float>(y);
-      const float* sb = scratch.other_std.ptr<float>(y);
-      float* bs = best.ptr<float>(y);
-      int* bd = best_d.ptr<int>(y);
-      float* bf = before.ptr<float>(y);
-      float* af = after.ptr<float>(y);
-      float* ls = last.ptr<float>(y);
-      for (int x = std::max(r, x0); x <= std::min(w - r - 1, x1); ++x) {
-        if (d < l[x] || d > u[x] || sa[x] < config.min_texture) {
-          ls[x] = -2.0f;
-          continue;
-        }
-        const int xo = x + shift;
-        float c = -2.0f;
-        if (xo >= r && xo < w - r && sb[xo] >= config.min_texture)
-          c = (row[static_cast<std::size_t>(x)] * inv_n - ma[x] * mb[xo]) / (sa[x] * sb[xo]);
-        if (d == bd[x] + 1 && bs[x] > -2.0f) af[x] = c;
-        if (c > bs[x]) {
-          bf[x] = ls[x];
-          bs[x] = c;
-          bd[x] = d;
-          af[x] = -2.0f;
-        }
-        ls[x] = c;
-      }
-    }
+  side.best_d.create(lo.size(), CV_32S);
+  side.last_d.create(lo.size(), CV_32S);
+  fill(side.best_d, 0);
+  fill(side.last_d, -(1 << 30));
+  s.best = &side.best;
+  s.best_d = &side.best_d;
+  s.before = &side.before;
+  s.after = &side.after;
+  s.last = &side.last;
+  s.last_d = &side.last_d;
+}
+
+// One row of a direction's state, so the inner loop indexes plain arrays.
+struct Row {
+  const int *lo, *hi;
+  const float* stddev;
+  float *best, *before, *after, *last;
+  int *best_d, *last_d;
+  Row(const Search& s, int y)
+      : lo(s.lo->ptr<int>(y)), hi(s.hi->ptr<int>(y)), stddev(s.stddev->ptr<float>(y)), best(s.best->ptr<float>(y)),
+        before(s.before->ptr<float>(y)), after(s.after->ptr<float>(y)), last(s.last->ptr<float>(y)),
+        best_d(s.best_d->ptr<int>(y)), last_d(s.last_d->ptr<int>(y)) {}
+};
+
+// Candidates c[i] at disparity d for the pixels first .. first + count - 1 of
+// one direction's row. Written with selects and no early exits over
+// restrict-qualified arrays, so the compiler vectorises it: this loop is where
+// the search spends its time.
+void offer_span(const Row& s, int first, int count, int d, const float* __restrict c, float min_texture) {
+  const int* __restrict lo = s.lo + first;
+  const int* __restrict hi = s.hi + first;
+  const float* __restrict sd = s.stddev + first;
+  float* __restrict best = s.best + first;
+  float* __restrict before = s.before + first;
+  float* __restrict after = s.after + first;
+  float* __restrict last = s.last + first;
+  int* __restrict best_d = s.best_d + first;
+  int* __restrict last_d = s.last_d + first;
+  // Four pixels at a time with GCC's vector extension (SSE2 on x86-64, NEON
+  // on ARM): the compiler's own vectoriser gives up on this loop's selects.
+  typedef float v4f __attribute__((vector_size(16)));
+  typedef int v4i __attribute__((vector_size(16)));
+  auto load_f = [](const float* p) {
+    v4f v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  };
+  auto load_i = [](const int* p) {
+    v4i v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  };
+  const v4i dv = {d, d, d, d}, d1 = dv - 1;
+  const v4f minus2 = {-2.0f, -2.0f, -2.0f, -2.0f};
+  const v4f texture = {min_texture, min_texture, min_texture, min_texture};
+  int i = 0;
+  for (; i + 4 <= count; i += 4) {
+    const v4f ci = load_f(c + i), bi = load_f(best + i), li = load_f(last + i), ai = load_f(after + i),
+              fi = load_f(before + i), sdi = load_f(sd + i);
+    const v4i bdi = load_i(best_d + i), ldi = load_i(last_d + i), loi = load_i(lo + i), hii = load_i(hi + i);
+    const v4i in = (dv >= loi) & (dv <= hii) & (sdi >= texture);
+    const v4f previous = ldi == d1 ? li : minus2;
+    const v4i next_to_best = (dv == bdi + 1) & (bi > minus2);
+    const v4i take = in & (ci > bi);
+    const v4f a = (in & next_to_best) ? ci : ai;
+    const v4f after_new = take ? minus2 : a;
+    const v4f before_new = take ? previous : fi;
+    const v4i best_d_new = take ? dv : bdi;
+    const v4f best_new = take ? ci : bi;
+    const v4f last_new = in ? ci : li;
+    const v4i last_d_new = in ? dv : ldi;
+    std::memcpy(after + i, &after_new, sizeof after_new);
+    std::memcpy(before + i, &before_new, sizeof before_new);
+    std::memcpy(best_d + i, &best_d_new, sizeof best_d_new);
+    std::memcpy(best + i, &best_new, sizeof best_new);
+    std::memcpy(last + i, &last_new, sizeof last_new);
+    std::memcpy(last_d + i, &last_d_new, sizeof last_d_new);
   }
-  for (int y = y0; y <= y1; ++y) {
-    const int* l = lo.ptr<int>(y);
-    const int* u = hi.ptr<int>(y);
-    const float* bs = best.ptr<float>(y);
-    const int* bd = best_d.ptr<int>(y);
-    const float* bf = before.ptr<float>(y);
-    const float* af = after.ptr<float>(y);
+  for (; i < count; ++i) {
+    const bool in = d >= lo[i] && d <= hi[i] && sd[i] >= min_texture;
+    if (!in) continue;
+    const float previous = last_d[i] == d - 1 ? last[i] : -2.0f;
+    if (d == best_d[i] + 1 && best[i] > -2.0f) after[i] = c[i];
+    if (c[i] > best[i]) {
+      before[i] = previous;
+      best[i] = c[i];
+      best_d[i] = d;
+      after[i] = -2.0f;
+    }
+    last[i] = c[i];
+    last_d[i] = d;
+  }
+}
+
+void finish(const Search& s, int r, const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
+  disparity.create(s.lo->size(), CV_32F);
+  score.create(s.lo->size(), CV_32F);
+  fill(disparity, -1);
+  fill(score, -1);
+  for (int y = s.y0; y <= s.y1; ++y) {
+    const int* l = s.lo->ptr<int>(y);
+    const int* u = s.hi->ptr<int>(y);
+    const float* bs = s.best->ptr<float>(y);
+    const int* bd = s.best_d->ptr<int>(y);
+    const float* bf = s.before->ptr<float>(y);
+    const float* af = s.after->ptr<float>(y);
     float* out_d = disparity.ptr<float>(y);
     float* out_s = score.ptr<float>(y);
-    for (int x = r; x < w - r; ++x) {
+    for (int x = r; x < s.lo->cols - r; ++x) {
       if (!(bs[x] > -2.0f) || bs[x] < config.min_score) continue;
       float dd = static_cast<float>(bd[x]);
       if (config.subpixel && bd[x] > l[x] && bd[x] < u[x]) {
@@ -315,6 +352,109 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
       out_s[x] = bs[x];
     }
   }
+}
+
+}  // namespace
+
+void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, const cv::Mat& hi_lr,
+                    const cv::Mat& lo_rl, const cv::Mat& hi_rl, const NccConfig& config, cv::Mat& disparity_lr,
+                    cv::Mat& score_lr, cv::Mat& disparity_rl, cv::Mat& score_rl, NccScratch& scratch) {
+  CV_Assert(left.size() == right.size() && left.channels() == 1 && right.channels() == 1 && config.window % 2 == 1);
+  for (const cv::Mat* m : {&lo_lr, &hi_lr, &lo_rl, &hi_rl}) CV_Assert(m->size() == left.size() && m->type() == CV_32S);
+  const int r = config.window / 2, n = config.window * config.window;
+  const int w = left.cols, h = left.rows;
+  const float min_texture = config.min_texture;
+  if (w < 2 * r + 1 || h < 2 * r + 1) {
+    for (cv::Mat* m : {&disparity_lr, &score_lr, &disparity_rl, &score_rl}) {
+      m->create(left.size(), CV_32F);
+      fill(*m, -1);
+    }
+    return;
+  }
+  // Centred values keep the float sums of products exact enough.
+  left.convertTo(scratch.ref_f, CV_32F, 1.0, -128.0);
+  right.convertTo(scratch.other_f, CV_32F, 1.0, -128.0);
+  box_stats(scratch.ref_f, r, scratch.ref_mean, scratch.ref_std, scratch.col, scratch.col2, scratch.row, scratch.row2);
+  box_stats(scratch.other_f, r, scratch.other_mean, scratch.other_std, scratch.col, scratch.col2, scratch.row,
+            scratch.row2);
+  Search lr, rl;
+  prepare(lr, scratch.lr, lo_lr, hi_lr, scratch.ref_std, r, min_texture);
+  prepare(rl, scratch.rl, lo_rl, hi_rl, scratch.other_std, r, min_texture);
+  if (lr.active() || rl.active()) {
+    const int y0 = std::min(lr.active() ? lr.y0 : h, rl.active() ? rl.y0 : h);
+    const int y1 = std::max(lr.y1, rl.y1);
+    const int d_min = std::min(lr.active() ? lr.d_min : (1 << 30), rl.active() ? rl.d_min : (1 << 30));
+    const int d_max = std::max(lr.active() ? lr.d_max : -(1 << 30), rl.active() ? rl.d_max : -(1 << 30));
+    const float inv_n = 1.0f / static_cast<float>(n);
+    std::vector<float>& col = scratch.col;
+    std::vector<float>& row = scratch.row;
+    col.assign(static_cast<std::size_t>(w), 0.0f);
+    row.assign(static_cast<std::size_t>(w), 0.0f);
+    scratch.scores.assign(static_cast<std::size_t>(w), -2.0f);
+    for (int d = d_min; d <= d_max; ++d) {
+      // Left pixels x paired with right pixels x - d: those either direction
+      // wants at this disparity, with both windows inside the images.
+      int xs = w, xe = -1;
+      if (lr.active() && d >= lr.d_min && d <= lr.d_max) {
+        xs = std::min(xs, lr.x0);
+        xe = std::max(xe, lr.x1);
+      }
+      if (rl.active() && d >= rl.d_min && d <= rl.d_max) {
+        xs = std::min(xs, rl.x0 + d);
+        xe = std::max(xe, rl.x1 + d);
+      }
+      xs = std::max({xs, r, r + d});
+      xe = std::min({xe, w - r - 1, w - r - 1 + d});
+      if (xe < xs) continue;
+      // Window sums of left(x) * right(x - d) over columns xs - r .. xe + r.
+      const int xa = xs - r, xb = xe + r + 1;
+      std::fill(col.begin() + xa, col.begin() + xb, 0.0f);
+      for (int yy = y0 - r; yy <= y1 + r; ++yy) {
+        const float* a = scratch.ref_f.ptr<float>(yy);
+        const float* b = scratch.other_f.ptr<float>(yy) - d;
+        for (int x = xa; x < xb; ++x) col[static_cast<std::size_t>(x)] += a[x] * b[x];
+        if (yy - 2 * r - 1 >= y0 - r) {
+          const float* a0 = scratch.ref_f.ptr<float>(yy - 2 * r - 1);
+          const float* b0 = scratch.other_f.ptr<float>(yy - 2 * r - 1) - d;
+          for (int x = xa; x < xb; ++x) col[static_cast<std::size_t>(x)] -= a0[x] * b0[x];
+        }
+        if (yy < y0 + r) continue;
+        const int y = yy - r;
+        row_box(col.data() + xa, row.data() + xa, xb - xa, r);
+        const float* ma = scratch.ref_mean.ptr<float>(y);
+        const float* sa = scratch.ref_std.ptr<float>(y);
+        const float* mb = scratch.other_mean.ptr<float>(y);
+        const float* sb = scratch.other_std.ptr<float>(y);
+        float* __restrict c = scratch.scores.data();
+        const float* __restrict sum = row.data();
+        for (int x = xs; x <= xe; ++x) {
+          const int xo = x - d;
+          const bool textured = (sa[x] >= min_texture) & (sb[xo] >= min_texture);
+          const float value = (sum[x] * inv_n - ma[x] * mb[xo]) / std::max(sa[x] * sb[xo], 1e-6f);
+          c[x - xs] = textured ? value : -2.0f;
+        }
+        if (lr.active()) offer_span(Row(lr, y), xs, xe - xs + 1, d, c, min_texture);
+        if (rl.active()) offer_span(Row(rl, y), xs - d, xe - xs + 1, d, c, min_texture);
+      }
+    }
+  }
+  finish(lr, r, config, disparity_lr, score_lr);
+  finish(rl, r, config, disparity_rl, score_rl);
+}
+
+void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
+               const NccConfig& config, cv::Mat& disparity, cv::Mat& score, NccScratch& scratch) {
+  // The other direction searches nothing.
+  scratch.none_lo.create(left.size(), CV_32S);
+  scratch.none_hi.create(left.size(), CV_32S);
+  fill(scratch.none_lo, 1);
+  fill(scratch.none_hi, 0);
+  if (direction == Direction::kLeftToRight)
+    ncc_match_both(left, right, lo, hi, scratch.none_lo, scratch.none_hi, config, disparity, score, scratch.unused_d,
+                   scratch.unused_s, scratch);
+  else
+    ncc_match_both(left, right, scratch.none_lo, scratch.none_hi, lo, hi, config, scratch.unused_d, scratch.unused_s,
+                   disparity, score, scratch);
 }
 
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, int d_min, int d_max,

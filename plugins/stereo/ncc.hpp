@@ -24,7 +24,11 @@ enum class Direction { kLeftToRight, kRightToLeft };
 // nothing in steady state.
 struct NccScratch {
   cv::Mat ref_mean, ref_std, other_mean, other_std;
-  cv::Mat ref_f, other_f, best, best_d, before, after, last;
+  cv::Mat ref_f, other_f;
+  struct Side {
+    cv::Mat best, best_d, before, after, last, last_d;
+  } lr, rl;
+  cv::Mat none_lo, none_hi, unused_d, unused_s;
   std::vector<float> scores, col, col2, row, row2;
 };
 
@@ -38,6 +42,15 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, c
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score, NccScratch& scratch);
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
+
+// Both directions in one sweep: the correlation of left pixel x with right
+// pixel x - d is one number whether the left pixel searches (disparity d) or
+// the right one does (disparity d), so one sweep over the disparities serves
+// both searches, each with its own ranges. ncc_match is this with the other
+// direction's ranges empty.
+void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, const cv::Mat& hi_lr,
+                    const cv::Mat& lo_rl, const cv::Mat& hi_rl, const NccConfig& config, cv::Mat& disparity_lr,
+                    cv::Mat& score_lr, cv::Mat& disparity_rl, cv::Mat& score_rl, NccScratch& scratch);
 
 // The same, plainly: every window summed pixel by pixel in double precision.
 // The reference ncc_match is tested against. ncc_match itself sweeps the

@@ -221,37 +221,35 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       retina::sample_level(*right_frame, right_x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x, gl.step_y,
                            padded, crop, ls.right_padded);
       const cv::Rect inside(mx0, my0, w, h);
-      auto padded_ranges = [&](bool reverse) {
+      auto padded_ranges = [&](bool reverse, cv::Mat& lo_padded, cv::Mat& hi_padded) {
         ranges(reverse);
         double lo_min = 0, hi_max = 0;
         cv::minMaxLoc(lo_, &lo_min, nullptr);
         cv::minMaxLoc(hi_, nullptr, &hi_max);
-        ls.lo_padded.create(padded, CV_32S);
-        ls.hi_padded.create(padded, CV_32S);
+        lo_padded.create(padded, CV_32S);
+        hi_padded.create(padded, CV_32S);
         // Outside the level: nothing to find left->right; right->left, on the
         // level's rows, the columns its matches can land on, with the widest
         // range it uses, so the check can read every match.
-        fill(ls.lo_padded, 1);
-        fill(ls.hi_padded, 0);
+        fill(lo_padded, 1);
+        fill(hi_padded, 0);
         if (reverse) {
           const int band0 = std::max(0, inside.x - static_cast<int>(hi_max));
           const int band1 = std::min(padded.width, inside.x + inside.width - static_cast<int>(lo_min));
           if (band1 > band0) {
             const cv::Rect band(band0, inside.y, band1 - band0, inside.height);
-            cv::Mat lo_band = ls.lo_padded(band), hi_band = ls.hi_padded(band);
+            cv::Mat lo_band = lo_padded(band), hi_band = hi_padded(band);
             fill(lo_band, lo_min);
             fill(hi_band, hi_max);
           }
         }
-        lo_.copyTo(ls.lo_padded(inside));
-        hi_.copyTo(ls.hi_padded(inside));
+        lo_.copyTo(lo_padded(inside));
+        hi_.copyTo(hi_padded(inside));
       };
-      padded_ranges(false);
-      ncc_match(ls.left_padded, ls.right_padded, Direction::kLeftToRight, ls.lo_padded, ls.hi_padded, config_.ncc, ls.lr_padded,
-                ls.lr_score_padded, ls.ncc);
-      padded_ranges(true);
-      ncc_match(ls.left_padded, ls.right_padded, Direction::kRightToLeft, ls.lo_padded, ls.hi_padded, config_.ncc, ls.rl_padded,
-                ls.rl_score_padded, ls.ncc);
+      padded_ranges(false, ls.lo_padded, ls.hi_padded);
+      padded_ranges(true, ls.lo_rl_padded, ls.hi_rl_padded);
+      ncc_match_both(ls.left_padded, ls.right_padded, ls.lo_padded, ls.hi_padded, ls.lo_rl_padded, ls.hi_rl_padded,
+                     config_.ncc, ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, ls.ncc);
       ls.valid_padded.create(padded, CV_8U);
       fill(ls.valid_padded, 255);
       if (config_.left_right_check)
@@ -273,11 +271,11 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
         level.margin = {};
       }
       ranges(false);
-      ncc_match(left.levels[k], *right_level, Direction::kLeftToRight, lo_, hi_, config_.ncc, level_lr_, level.score,
-                ls.ncc);
+      lo_.copyTo(ls.lo_padded);
+      hi_.copyTo(ls.hi_padded);
       ranges(true);
-      ncc_match(left.levels[k], *right_level, Direction::kRightToLeft, lo_, hi_, config_.ncc, level_rl_, score_rl_,
-                ls.ncc);
+      ncc_match_both(left.levels[k], *right_level, ls.lo_padded, ls.hi_padded, lo_, hi_, config_.ncc, level_lr_,
+                     level.score, level_rl_, score_rl_, ls.ncc);
       // Validity comes from the scores: with vergence a level disparity may be negative.
       valid_lr_.create(level_lr_.size(), CV_8U);
       fill(valid_lr_, 255);
