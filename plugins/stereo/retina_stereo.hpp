@@ -24,11 +24,11 @@ struct RetinaStereoConfig {
   // (needs the right retina's frame). Per-pixel searches run around it.
   bool vergence = false;
   cv::Size fixation_window{16, 12};  // level pixels of the window that finds the fixation disparity
-  int fovea_radius = 10;             // fovea level with vergence: pixels searched around the fixation disparity
+  int fovea_radius = 6;              // fovea level with vergence: pixels searched around the fixation disparity
   // Level pixels sampled around each level from the frames (when the retinas
   // carry them), so that windows and matches at a level's edge see real
   // pixels; 0 matches on the level images alone.
-  int pad = 12;
+  int pad = 8;
   // Give unmatched pixels (no texture, failed check) the disparity of the
   // nearest matched pixel on their row (the farther of the two neighbours), or
   // the fixation disparity; their confidence is 0 (matched: the NCC, > 0).

@@ -31,8 +31,8 @@ class StereoNode final : public Node {
         .param_bool("vergence", true,
                     "software vergence: find the fixation disparity coarse to fine and sample the right frame there "
                     "(needs the retinas' frames)")
-        .param_int("fovea_radius", 10, 1, 256, "with vergence: fovea pixels searched around the fixation disparity")
-        .param_int("pad", 12, 0, 64, "level pixels sampled around each level from the frames (0: the levels alone)")
+        .param_int("fovea_radius", 6, 1, 256, "with vergence: fovea pixels searched around the fixation disparity")
+        .param_int("pad", 8, 0, 64, "level pixels sampled around each level from the frames (0: the levels alone)")
         .param_bool("fill", false, "give unmatched pixels the nearest matched disparity on their row (confidence 0)")
         .param_double("focal", 0.0, 0.0, 1e6, "focal length of the rectified images, pixels (with baseline: depth)")
         .param_double("baseline", 0.0, 0.0, 100.0, "distance between the cameras, metres")
