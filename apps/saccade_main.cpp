@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "recognition.hpp"
 #include "saccade/executor.hpp"
 #include "saccade/graph.hpp"
 #include "saccade/log.hpp"
@@ -168,8 +169,53 @@ int main(int argc, char** argv) {
   dot->add_option("graph", graph_file, "graph file (XML)")->required();
   dot->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
 
+  classifier::FolderTraining training;
+  std::string train_levels = "0", train_features = "gray,grad_hist", train_hidden = "128", train_method = "backprop";
+  std::string train_size = "8x6";
+  auto* train = app.add_subcommand("train", "train a classifier model from a folder with one sub-folder per class");
+  train->add_option("data", training.data, "folder with one sub-folder of images or videos per class")->required();
+  train->add_option("--out", training.out, "model file to write (OpenCV FileStorage: .yml, .yml.gz, .xml)")->required();
+  train->add_option("--levels", train_levels, "retina levels of the vector, 0 = the fovea (e.g. 0,1)");
+  train->add_option("--features", train_features, "gray, grad_hist and/or filter-bank maps (e.g. gray,grad_hist)");
+  train->add_option("--size", train_size, "each map reduced to WxH (grad_hist: its cell grid)");
+  train->add_option("--hidden", train_hidden, "hidden layer sizes, e.g. 64 or 128,32");
+  train->add_option("--epochs", training.train.epochs, "training epochs")->check(CLI::Range(1, 1000000));
+  train->add_option("--method", train_method, "backprop (online; the default) or rprop (batch; each epoch restarts its steps)")->check(CLI::IsMember({"rprop", "backprop"}));
+  train->add_option("--learning-rate", training.train.learning_rate, "backprop: learning rate");
+  train->add_option("--validation", training.validation, "share of each class kept for validation (the last files)")
+      ->check(CLI::Range(0.0, 0.9));
+  train->add_option("--seed", training.train.seed, "seed of the network's initial weights");
+  train->add_option("--video-step", training.video_step, "videos: use every Nth frame")->check(CLI::Range(1, 100000));
+  train->add_option("--report-every", training.report_every, "epochs between progress lines")->check(CLI::Range(1, 100000));
+
   CLI11_PARSE(app, argc, argv);
   log().set_level(spdlog::level::from_str(common.log_level));
+  if (train->parsed()) {
+    std::string error;
+    auto levels = classifier::parse_levels(train_levels, &error);
+    auto features = levels ? classifier::parse_features(train_features, &error) : std::nullopt;
+    auto hidden = features ? classifier::parse_levels(train_hidden, &error) : std::nullopt;
+    int w = 0, h = 0;
+    char tail = 0;
+    if (hidden && (std::sscanf(train_size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1))
+      error = "--size: expected WxH, got '" + train_size + "'";
+    if (!error.empty()) {
+      std::cerr << "saccade train: " << error << "\n";
+      return 2;
+    }
+    training.recipe.levels = *levels;
+    training.recipe.features = *features;
+    training.recipe.size = cv::Size(w, h);
+    training.train.hidden = *hidden;
+    training.train.method = train_method == "backprop" ? classifier::TrainConfig::Method::kBackprop
+                                                       : classifier::TrainConfig::Method::kRprop;
+    const auto result = classifier::train_folder(training, std::cout);
+    if (!result.error.empty()) {
+      std::cerr << "saccade train: " << result.error << "\n";
+      return 2;
+    }
+    return 0;
+  }
   stats = stats_opt->count() > 0;
 
   Registry registry;

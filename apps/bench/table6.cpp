@@ -15,6 +15,7 @@
 #include "controller.hpp"
 #include "kernels.hpp"
 #include "motion.hpp"
+#include "recognition.hpp"
 #include "retina.hpp"
 #include "retina_stereo.hpp"
 
@@ -241,6 +242,30 @@ void BM_Table6_FullFrame(benchmark::State& state, const char* row) {
       f.stereo(f.bm);
     });
 }
+
+// The classifier on the fovea: the default recipe's vector (gray and gradient
+// orientation histograms, 432 values) and an MLP of the digits' shape (432-128-10).
+void BM_Classifier_Inference(benchmark::State& state) {
+  RetinaPipeline p(cv::Size(640, 480));
+  classifier::FeatureRecipe recipe;
+  classifier::FeatureExtractor extractor(recipe);
+  cv::Mat x(40, recipe.length(), CV_32F);
+  cv::randu(x, -1.0, 1.0);
+  std::vector<int> y(40);
+  std::vector<std::string> names;
+  for (int i = 0; i < 40; ++i) y[static_cast<std::size_t>(i)] = i % 10;
+  for (int c = 0; c < 10; ++c) names.push_back(std::to_string(c));
+  classifier::TrainConfig config;
+  config.epochs = 1;
+  const classifier::Model model = classifier::train(x, y, names, recipe, config, {}, {}, {});
+  cv::Mat row;
+  std::vector<float> scores;
+  timed(state, [&] {
+    extractor.extract(*p.left, row);
+    model.scores(row, scores);
+  });
+}
+BENCHMARK(BM_Classifier_Inference)->Unit(benchmark::kMicrosecond);
 
 #define TABLE6_RETINA(row) \
   BENCHMARK_CAPTURE(BM_Table6_Retina, row, #row)->Args({1024, 768})->Args({640, 480})->Unit(benchmark::kMicrosecond)

@@ -16,6 +16,16 @@ Region::~Region() = default;
 Motion::~Motion() = default;
 GazeRequest::~GazeRequest() = default;
 FoveaState::~FoveaState() = default;
+Classification::~Classification() = default;
+
+const char* to_string(Classification::Outcome outcome) {
+  switch (outcome) {
+    case Classification::Outcome::kClassified: return "classified";
+    case Classification::Outcome::kProbable: return "probable";
+    case Classification::Outcome::kNotClassified: return "not classified";
+  }
+  return "unknown";
+}
 
 const char* to_string(FoveaState::State state) {
   switch (state) {

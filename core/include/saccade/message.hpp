@@ -203,4 +203,26 @@ struct FoveaState final : Message {
 
 const char* to_string(FoveaState::State state);
 
+// What a classifier made of the region it looked at.
+struct Classification final : Message {
+  static constexpr std::string_view kTypeName = "Classification";
+  std::string_view type_name() const override { return kTypeName; }
+  ~Classification() override;
+  // The paper's three outcomes, from the classifier's thresholds.
+  enum class Outcome : uint8_t { kClassified, kProbable, kNotClassified };
+  Outcome outcome = Outcome::kNotClassified;
+  int best = -1;                 // index of the best class
+  double score = 0.0;            // its score, 0..1
+  std::vector<float> scores;     // per class, 0..1
+  std::shared_ptr<const std::vector<std::string>> classes;  // class names (shared by every message)
+  cv::Rect region;               // source pixels the classifier looked at
+  int camera_id = 0;
+  std::string_view label() const {
+    return classes && best >= 0 && best < static_cast<int>(classes->size()) ? std::string_view((*classes)[static_cast<std::size_t>(best)])
+                                                                            : std::string_view();
+  }
+};
+
+const char* to_string(Classification::Outcome outcome);
+
 }  // namespace saccade

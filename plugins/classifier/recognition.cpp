@@ -1,0 +1,539 @@
+#include "recognition.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+namespace saccade::classifier {
+
+namespace {
+
+bool known_feature(const std::string& f) { return f == "gray" || f == "grad_hist" || filters::feature_index(f) >= 0; }
+
+filters::BankConfig bank_for(const FeatureRecipe& recipe) {
+  filters::BankConfig c;
+  for (const auto& f : recipe.features) {
+    const int i = filters::feature_index(f);
+    if (i >= 0) c.wanted[static_cast<std::size_t>(i)] = true;
+    if (f == "grad_hist") c.wanted[filters::kGradMag] = c.wanted[filters::kGradDir] = true;
+  }
+  return c;
+}
+
+// Orientation histograms of `dir` (radians) weighted by `mag`, per cell of a
+// `cells` grid, each bin shared linearly with its neighbour, L2-normalised.
+void orientation_histograms(const cv::Mat& mag, const cv::Mat& dir, cv::Size cells, std::vector<float>& out) {
+  constexpr int kBins = FeatureRecipe::kOrientationBins;
+  out.assign(static_cast<std::size_t>(cells.area() * kBins), 0.0f);
+  for (int y = 0; y < mag.rows; ++y) {
+    const float* m = mag.ptr<float>(y);
+    const float* d = dir.ptr<float>(y);
+    const int cy = std::min(cells.height - 1, y * cells.height / mag.rows);
+    for (int x = 0; x < mag.cols; ++x) {
+      const int cx = std::min(cells.width - 1, x * cells.width / mag.cols);
+      float a = d[x] < 0 ? d[x] + static_cast<float>(CV_PI) : d[x];  // unsigned: 0 .. pi
+      const float position = a / static_cast<float>(CV_PI) * kBins - 0.5f;
+      const int b0 = static_cast<int>(std::floor(position));
+      const float f = position - static_cast<float>(b0);
+      float* h = out.data() + (cy * cells.width + cx) * kBins;
+      h[(b0 + kBins) % kBins] += m[x] * (1.0f - f);
+      h[(b0 + 1 + kBins) % kBins] += m[x] * f;
+    }
+  }
+  for (int c = 0; c < cells.area(); ++c) {
+    float* h = out.data() + c * kBins;
+    float norm = 0;
+    for (int b = 0; b < kBins; ++b) norm += h[b] * h[b];
+    norm = std::sqrt(norm) + 1e-3f;
+    for (int b = 0; b < kBins; ++b) h[b] /= norm;
+  }
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string out;
+  for (const auto& s : v) out += (out.empty() ? "" : ",") + s;
+  return out;
+}
+
+}  // namespace
+
+int FeatureRecipe::length() const {
+  int n = 0;
+  for (const auto& f : features) n += f == "grad_hist" ? size.area() * kOrientationBins : size.area();
+  return n * static_cast<int>(levels.size());
+}
+
+std::string FeatureRecipe::describe() const {
+  std::ostringstream o;
+  o << "levels ";
+  for (std::size_t i = 0; i < levels.size(); ++i) o << (i ? "," : "") << levels[i];
+  o << "; features " << join(features) << "; each " << size.width << "x" << size.height << "; retina of "
+    << retina_levels << " levels of " << level_size.width << "x" << level_size.height;
+  return o.str();
+}
+
+std::string FeatureRecipe::check() const {
+  if (levels.empty()) return "the recipe names no level";
+  if (features.empty()) return "the recipe names no feature";
+  if (size.width < 1 || size.height < 1) return "the recipe's size must be at least 1x1";
+  for (int l : levels)
+    if (l < 0 || l >= retina_levels)
+      return "level " + std::to_string(l) + " is not one of the retina's " + std::to_string(retina_levels) +
+             " (0 = the fovea)";
+  for (const auto& f : features)
+    if (!known_feature(f)) return "unknown feature '" + f + "' (gray, grad_hist or a filter-bank map)";
+  return {};
+}
+
+std::string FeatureRecipe::check(const Retina& retina) const {
+  const int n = static_cast<int>(retina.levels.size());
+  const cv::Size s = n > 0 ? retina.levels[0].size() : cv::Size();
+  if (n != retina_levels || s != level_size)
+    return "the model was trained on a retina of " + std::to_string(retina_levels) + " levels of " +
+           std::to_string(level_size.width) + "x" + std::to_string(level_size.height) + "; this retina has " +
+           std::to_string(n) + " levels of " + std::to_string(s.width) + "x" + std::to_string(s.height);
+  return {};
+}
+
+void FeatureRecipe::write(cv::FileStorage& fs) const {
+  fs << "levels" << levels << "features" << features << "size" << size << "retina_levels" << retina_levels
+     << "level_size" << level_size;
+}
+
+std::optional<FeatureRecipe> FeatureRecipe::read(const cv::FileNode& node, std::string* error) {
+  if (node.empty() || !node.isMap()) {
+    *error = "no feature recipe (saccade_recipe) in the model file";
+    return std::nullopt;
+  }
+  FeatureRecipe r;
+  node["levels"] >> r.levels;
+  node["features"] >> r.features;
+  node["size"] >> r.size;
+  node["retina_levels"] >> r.retina_levels;
+  node["level_size"] >> r.level_size;
+  if (std::string e = r.check(); !e.empty()) {
+    *error = "feature recipe in the model file: " + e;
+    return std::nullopt;
+  }
+  return r;
+}
+
+bool FeatureRecipe::operator==(const FeatureRecipe& o) const {
+  return levels == o.levels && features == o.features && size == o.size && retina_levels == o.retina_levels &&
+         level_size == o.level_size;
+}
+
+std::optional<std::vector<int>> parse_levels(const std::string& text, std::string* error) {
+  std::vector<int> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    std::size_t used = 0;
+    int v = -1;
+    try {
+      v = std::stoi(item, &used);
+    } catch (...) {
+      used = 0;
+    }
+    if (used != item.size() || v < 0) {
+      *error = "levels: expected numbers like 0,1 (0 = the fovea), got '" + text + "'";
+      return std::nullopt;
+    }
+    out.push_back(v);
+  }
+  if (out.empty()) {
+    *error = "levels: empty";
+    return std::nullopt;
+  }
+  return out;
+}
+
+std::optional<std::vector<std::string>> parse_features(const std::string& text, std::string* error) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    if (!known_feature(item)) {
+      *error = "features: unknown '" + item + "' (gray, grad_hist or a filter-bank map)";
+      return std::nullopt;
+    }
+    out.push_back(item);
+  }
+  if (out.empty()) {
+    *error = "features: empty";
+    return std::nullopt;
+  }
+  return out;
+}
+
+FeatureExtractor::FeatureExtractor(FeatureRecipe recipe) : recipe_(std::move(recipe)), bank_(bank_for(recipe_)) {}
+
+cv::Rect FeatureExtractor::region(const Retina& retina) const {
+  const int outer = *std::max_element(recipe_.levels.begin(), recipe_.levels.end());
+  const int k = static_cast<int>(retina.geometry.size()) - 1 - outer;
+  return k >= 0 ? retina.geometry[static_cast<std::size_t>(k)].region : cv::Rect();
+}
+
+std::string FeatureExtractor::extract(const Retina& retina, cv::Mat& row) {
+  if (std::string e = recipe_.check(retina); !e.empty()) return e;
+  row.create(1, recipe_.length(), CV_32F);
+  float* out = row.ptr<float>(0);
+  const int n = static_cast<int>(retina.levels.size());
+  const int area = recipe_.size.area();
+  for (int level : recipe_.levels) {
+    const cv::Mat& raw = retina.levels[static_cast<std::size_t>(n - 1 - level)];
+    const cv::Mat* gray = &raw;
+    if (raw.channels() == 3) {
+      cv::cvtColor(raw, gray_, cv::COLOR_BGR2GRAY);
+      gray = &gray_;
+    }
+    bank_.run(*gray, maps_);
+    for (const auto& f : recipe_.features) {
+      if (f == "grad_hist") {
+        orientation_histograms(maps_[filters::kGradMag], maps_[filters::kGradDir], recipe_.size, histogram_);
+        out = std::copy(histogram_.begin(), histogram_.end(), out);
+        continue;
+      }
+      const cv::Mat& map = f == "gray" ? *gray : maps_[static_cast<std::size_t>(filters::feature_index(f))];
+      cv::resize(map, reduced_, recipe_.size, 0, 0, cv::INTER_AREA);
+      reduced_.convertTo(reduced_, CV_32F);
+      for (int y = 0; y < reduced_.rows; ++y) std::copy_n(reduced_.ptr<float>(y), reduced_.cols, out + y * reduced_.cols);
+      out += area;
+    }
+  }
+  // Zero mean, unit deviation: the same object under other lighting gives the same vector.
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(row, mean, stddev);
+  row -= mean[0];
+  if (stddev[0] > 1e-6) row /= stddev[0];
+  return {};
+}
+
+void retina_of_view(const cv::Mat& image, retina::RetinaSampler& sampler, Retina& out, cv::Mat& frame) {
+  const cv::Size fovea = sampler.config().size;
+  cv::Mat gray = image;
+  if (image.channels() == 3) cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  const double scale = std::min(static_cast<double>(fovea.width) / gray.cols, static_cast<double>(fovea.height) / gray.rows);
+  cv::Mat scaled;
+  const cv::Size fitted(std::max(1, static_cast<int>(std::lround(gray.cols * scale))),
+                        std::max(1, static_cast<int>(std::lround(gray.rows * scale))));
+  cv::resize(gray, scaled, fitted, 0, 0, scale < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+  // Centred in a frame four fovea widths wide, the border replicated.
+  const cv::Size size(fovea.width * 4, fovea.height * 4);
+  const int left = (size.width - fitted.width) / 2, top = (size.height - fitted.height) / 2;
+  cv::copyMakeBorder(scaled, frame, top, size.height - fitted.height - top, left, size.width - fitted.width - left,
+                     cv::BORDER_REPLICATE);
+  const cv::Point2d centre(left + fitted.width / 2.0, top + fitted.height / 2.0);
+  sampler.sample(frame, centre, out.levels, out.geometry);
+  out.source_size = frame.size();
+  const auto& inner = out.geometry.back();
+  out.fovea = cv::Point(inner.region.x + inner.region.width / 2, inner.region.y + inner.region.height / 2);
+}
+
+void Model::scores(const cv::Mat& row, std::vector<float>& out) const {
+  cv::Mat response;
+  net->predict(row, response);
+  out.resize(static_cast<std::size_t>(response.cols));
+  for (int i = 0; i < response.cols; ++i)
+    out[static_cast<std::size_t>(i)] = std::clamp((response.at<float>(0, i) + 1.0f) / 2.0f, 0.0f, 1.0f);
+}
+
+int Model::predict(const cv::Mat& row) const {
+  cv::Mat response;
+  net->predict(row, response);
+  cv::Point best;
+  cv::minMaxLoc(response, nullptr, nullptr, nullptr, &best);
+  return best.x;
+}
+
+std::string Model::save(const std::string& path) const {
+  try {
+    cv::FileStorage fs(path, cv::FileStorage::WRITE);
+    if (!fs.isOpened()) return "cannot write model file '" + path + "'";
+    fs << net->getDefaultName() << "{";
+    net->write(fs);
+    fs << "}";
+    fs << "saccade_recipe" << "{";
+    recipe.write(fs);
+    fs << "}";
+    fs << "saccade_classes" << *classes;
+  } catch (const cv::Exception& e) {
+    return "cannot write model file '" + path + "': " + e.what();
+  }
+  return {};
+}
+
+std::unique_ptr<Model> Model::load(const std::string& path, std::string* error) {
+  try {
+    cv::FileStorage fs(path, cv::FileStorage::READ);
+    if (!fs.isOpened()) {
+      *error = "cannot open model file '" + path + "'";
+      return nullptr;
+    }
+    auto model = std::make_unique<Model>();
+    model->net = cv::ml::ANN_MLP::create();
+    const cv::FileNode net = fs[model->net->getDefaultName()];
+    if (net.empty()) {
+      *error = "model file '" + path + "' holds no " + model->net->getDefaultName();
+      return nullptr;
+    }
+    model->net->read(net);
+    auto recipe = FeatureRecipe::read(fs["saccade_recipe"], error);
+    if (!recipe) {
+      *error = "model file '" + path + "': " + *error;
+      return nullptr;
+    }
+    model->recipe = *recipe;
+    std::vector<std::string> classes;
+    fs["saccade_classes"] >> classes;
+    const cv::Mat layers = model->net->getLayerSizes();
+    if (layers.total() < 2 || classes.size() != static_cast<std::size_t>(layers.at<int>(static_cast<int>(layers.total()) - 1)) ||
+        layers.at<int>(0) != model->recipe.length()) {
+      *error = "model file '" + path + "': the network's layers do not fit its recipe (" + model->recipe.describe() +
+               ") and " + std::to_string(classes.size()) + " classes";
+      return nullptr;
+    }
+    model->classes = std::make_shared<const std::vector<std::string>>(std::move(classes));
+    return model;
+  } catch (const cv::Exception& e) {
+    *error = "cannot read model file '" + path + "': " + e.what();
+    return nullptr;
+  }
+}
+
+Model train(const cv::Mat& x, const std::vector<int>& y, std::vector<std::string> classes, const FeatureRecipe& recipe,
+            const TrainConfig& config, const cv::Mat& val_x, const std::vector<int>& val_y,
+            const std::function<void(const EpochReport&)>& progress) {
+  CV_Assert(x.type() == CV_32F && x.rows == static_cast<int>(y.size()) && !classes.empty());
+  const int n_classes = static_cast<int>(classes.size());
+  cv::Mat targets(x.rows, n_classes, CV_32F, cv::Scalar(-1.0f));
+  for (int i = 0; i < x.rows; ++i) targets.at<float>(i, y[static_cast<std::size_t>(i)]) = 1.0f;
+  std::vector<int> layers{x.cols};
+  layers.insert(layers.end(), config.hidden.begin(), config.hidden.end());
+  layers.push_back(n_classes);
+  Model model;
+  model.recipe = recipe;
+  model.classes = std::make_shared<const std::vector<std::string>>(std::move(classes));
+  model.net = cv::ml::ANN_MLP::create();
+  model.net->setLayerSizes(layers);
+  model.net->setActivationFunction(cv::ml::ANN_MLP::SIGMOID_SYM);
+  if (config.method == TrainConfig::Method::kBackprop)
+    model.net->setTrainMethod(cv::ml::ANN_MLP::BACKPROP, config.learning_rate, config.momentum);
+  else
+    model.net->setTrainMethod(cv::ml::ANN_MLP::RPROP);
+  // One epoch per call, so that progress can be reported; the weights carry over.
+  model.net->setTermCriteria(cv::TermCriteria(cv::TermCriteria::MAX_ITER, 1, 0));
+  cv::theRNG().state = config.seed;
+  auto data = cv::ml::TrainData::create(x, cv::ml::ROW_SAMPLE, targets);
+  for (int epoch = 1; epoch <= config.epochs; ++epoch) {
+    model.net->train(data, epoch == 1 ? 0 : cv::ml::ANN_MLP::UPDATE_WEIGHTS);
+    if (progress) {
+      EpochReport r;
+      r.epoch = epoch;
+      r.train_accuracy = accuracy(model, x, y);
+      r.validation_accuracy = val_x.empty() ? 0.0 : accuracy(model, val_x, val_y);
+      progress(r);
+    }
+  }
+  return model;
+}
+
+double accuracy(const Model& model, const cv::Mat& x, const std::vector<int>& y) {
+  if (x.rows == 0) return 0.0;
+  cv::Mat response;
+  model.net->predict(x, response);
+  int right = 0;
+  for (int i = 0; i < x.rows; ++i) {
+    cv::Point best;
+    cv::minMaxLoc(response.row(i), nullptr, nullptr, nullptr, &best);
+    right += best.x == y[static_cast<std::size_t>(i)];
+  }
+  return static_cast<double>(right) / x.rows;
+}
+
+cv::Mat confusion(const Model& model, const cv::Mat& x, const std::vector<int>& y) {
+  const int n = static_cast<int>(model.classes->size());
+  cv::Mat m(n, n, CV_32S, cv::Scalar(0));
+  if (x.rows == 0) return m;
+  cv::Mat response;
+  model.net->predict(x, response);
+  for (int i = 0; i < x.rows; ++i) {
+    cv::Point best;
+    cv::minMaxLoc(response.row(i), nullptr, nullptr, nullptr, &best);
+    ++m.at<int>(y[static_cast<std::size_t>(i)], best.x);
+  }
+  return m;
+}
+
+Classification::Outcome decide(const std::vector<float>& scores, const Thresholds& t, int* best_index) {
+  int best = -1;
+  float first = -1.0f, second = -1.0f;
+  for (std::size_t i = 0; i < scores.size(); ++i) {
+    if (scores[i] > first) {
+      second = first;
+      first = scores[i];
+      best = static_cast<int>(i);
+    } else if (scores[i] > second) {
+      second = scores[i];
+    }
+  }
+  if (best_index != nullptr) *best_index = best;
+  if (best < 0) return Classification::Outcome::kNotClassified;
+  const double gap = first - std::max(0.0f, second);
+  if (first >= t.classified && gap >= t.margin) return Classification::Outcome::kClassified;
+  if (first >= t.probable) return Classification::Outcome::kProbable;
+  return Classification::Outcome::kNotClassified;
+}
+
+std::string load_folder(const std::string& root, int video_step, Dataset& out) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) return "'" + root + "' is not a folder (expected one sub-folder per class)";
+  std::vector<fs::path> folders;
+  for (const auto& entry : fs::directory_iterator(root, ec))
+    if (entry.is_directory()) folders.push_back(entry.path());
+  std::sort(folders.begin(), folders.end());
+  if (folders.size() < 2) return "'" + root + "' needs at least two sub-folders, one per class";
+  auto lower = [](std::string s) {
+    for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+  };
+  const std::vector<std::string> images = {".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff"};
+  const std::vector<std::string> videos = {".avi", ".mp4", ".mkv", ".mov", ".webm", ".mpg"};
+  for (const auto& folder : folders) {
+    const int label = static_cast<int>(out.classes.size());
+    out.classes.push_back(folder.filename().string());
+    std::vector<fs::path> files;
+    for (const auto& entry : fs::directory_iterator(folder, ec))
+      if (entry.is_regular_file()) files.push_back(entry.path());
+    std::sort(files.begin(), files.end());
+    int count = 0;
+    for (const auto& file : files) {
+      const std::string ext = lower(file.extension().string());
+      if (std::find(images.begin(), images.end(), ext) != images.end()) {
+        cv::Mat m = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
+        if (m.empty()) return "cannot read image '" + file.string() + "'";
+        out.images.push_back(m);
+        out.labels.push_back(label);
+        ++count;
+      } else if (std::find(videos.begin(), videos.end(), ext) != videos.end()) {
+        cv::VideoCapture video(file.string());
+        if (!video.isOpened()) return "cannot open video '" + file.string() + "'";
+        cv::Mat frame, gray;
+        for (int i = 0; video.read(frame); ++i) {
+          if (i % std::max(1, video_step) != 0) continue;
+          cv::cvtColor(frame, gray, cv::COLOR_BGR2GRAY);
+          out.images.push_back(gray.clone());
+          out.labels.push_back(label);
+          ++count;
+        }
+      }
+    }
+    if (count == 0) return "class folder '" + folder.string() + "' holds no image or video";
+  }
+  return {};
+}
+
+std::string features_of_views(const std::vector<cv::Mat>& images, const FeatureRecipe& recipe, cv::Mat& rows) {
+  retina::RetinaConfig config;
+  config.levels = recipe.retina_levels;
+  config.size = recipe.level_size;
+  retina::RetinaSampler sampler(config);
+  FeatureExtractor extractor(recipe);
+  Retina retina;
+  cv::Mat frame, row;
+  rows.create(static_cast<int>(images.size()), recipe.length(), CV_32F);
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    retina_of_view(images[i], sampler, retina, frame);
+    if (std::string e = extractor.extract(retina, row); !e.empty()) return e;
+    row.copyTo(rows.row(static_cast<int>(i)));
+  }
+  return {};
+}
+
+std::string format_confusion(const cv::Mat& confusion, const std::vector<std::string>& classes) {
+  std::ostringstream o;
+  std::size_t width = 5;
+  for (const auto& c : classes) width = std::max(width, c.size() + 1);
+  o << std::string(width, ' ');
+  for (const auto& c : classes) o << std::string(width - std::min(width, c.size()), ' ') << c;
+  o << "   <- predicted\n";
+  for (int i = 0; i < confusion.rows; ++i) {
+    const std::string& name = classes[static_cast<std::size_t>(i)];
+    o << name << std::string(width - std::min(width, name.size()), ' ');
+    for (int j = 0; j < confusion.cols; ++j) {
+      const std::string v = std::to_string(confusion.at<int>(i, j));
+      o << std::string(width - std::min(width, v.size()), ' ') << v;
+    }
+    o << "\n";
+  }
+  return o.str();
+}
+
+TrainingResult train_folder(const FolderTraining& job, std::ostream& log) {
+  TrainingResult result;
+  if (std::string e = job.recipe.check(); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  Dataset data;
+  if (std::string e = load_folder(job.data, job.video_step, data); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  // Per class: the first files train, the last `validation` share validates.
+  std::vector<cv::Mat> train_images, val_images;
+  std::vector<int> train_y, val_y;
+  for (int c = 0; c < static_cast<int>(data.classes.size()); ++c) {
+    std::vector<std::size_t> members;
+    for (std::size_t i = 0; i < data.labels.size(); ++i)
+      if (data.labels[i] == c) members.push_back(i);
+    const std::size_t n_val = static_cast<std::size_t>(std::lround(job.validation * static_cast<double>(members.size())));
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      const bool validates = k >= members.size() - n_val;
+      (validates ? val_images : train_images).push_back(data.images[members[k]]);
+      (validates ? val_y : train_y).push_back(c);
+    }
+  }
+  log << "classes: " << data.classes.size() << " (";
+  for (std::size_t c = 0; c < data.classes.size(); ++c) log << (c ? ", " : "") << data.classes[c];
+  log << "); " << train_images.size() << " training and " << val_images.size() << " validation samples\n";
+  log << "features: " << job.recipe.describe() << " (" << job.recipe.length() << " values)\n";
+  cv::Mat train_x, val_x;
+  if (std::string e = features_of_views(train_images, job.recipe, train_x); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  if (!val_images.empty()) {
+    if (std::string e = features_of_views(val_images, job.recipe, val_x); !e.empty()) {
+      result.error = e;
+      return result;
+    }
+  }
+  Model model = train(train_x, train_y, data.classes, job.recipe, job.train, val_x, val_y, [&](const EpochReport& r) {
+    if (r.epoch % std::max(1, job.report_every) == 0 || r.epoch == job.train.epochs)
+      log << "epoch " << r.epoch << "/" << job.train.epochs << ": training accuracy " << r.train_accuracy
+          << ", validation accuracy " << r.validation_accuracy << "\n";
+  });
+  result.classes = *model.classes;
+  if (!val_images.empty()) {
+    result.validation_accuracy = accuracy(model, val_x, val_y);
+    result.confusion = confusion(model, val_x, val_y);
+    log << "validation confusion matrix (rows: truth):\n" << format_confusion(result.confusion, result.classes);
+  }
+  if (!job.out.empty()) {
+    if (std::string e = model.save(job.out); !e.empty()) {
+      result.error = e;
+      return result;
+    }
+    log << "model written to " << job.out << "\n";
+  }
+  return result;
+}
+
+}  // namespace saccade::classifier

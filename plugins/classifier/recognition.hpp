@@ -1,0 +1,157 @@
+#pragma once
+// Recognition of what the fovea sees: a feature vector from chosen retina
+// levels and filter-bank maps (the recipe), a multilayer perceptron trained by
+// backpropagation (OpenCV's ANN_MLP, BACKPROP or RPROP), the model file that
+// keeps the recipe and the class names with the network, and the decision
+// with the paper's three outcomes.
+#include <functional>
+#include <ostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/ml.hpp>
+
+#include "kernels.hpp"
+#include "retina.hpp"
+#include "saccade/message.hpp"
+
+namespace saccade::classifier {
+
+// Which parts of the retina form the vector. Levels count from the fovea
+// (0 = the fovea, 1 = the level around it, ...); each feature is "gray" (the
+// level itself), a filter-bank map ("grad_mag", "laplacian", ...), reduced to
+// `size` by area means, or "grad_hist": per cell of a `size` grid, a histogram
+// of gradient orientations (8 bins over 180 degrees, weighted by the Sobel
+// magnitude, L2-normalised per cell, as HOG does). The vector is normalised
+// to zero mean and unit deviation.
+struct FeatureRecipe {
+  std::vector<int> levels{0};
+  std::vector<std::string> features{"gray", "grad_hist"};
+  cv::Size size{8, 6};
+  // The retina it was made for: a model is refused on a different one.
+  int retina_levels = 5;
+  cv::Size level_size{32, 24};
+
+  static constexpr int kOrientationBins = 8;
+  int length() const;
+  std::string describe() const;
+  // "" or what is wrong with the recipe itself.
+  std::string check() const;
+  // "" or why `retina` cannot give this recipe's vector.
+  std::string check(const Retina& retina) const;
+  void write(cv::FileStorage& fs) const;
+  static std::optional<FeatureRecipe> read(const cv::FileNode& node, std::string* error);
+  bool operator==(const FeatureRecipe& o) const;
+};
+
+// "0,1" -> {0, 1}; "gray,grad_mag" -> names. Empty optional and `error` on bad text.
+std::optional<std::vector<int>> parse_levels(const std::string& text, std::string* error);
+std::optional<std::vector<std::string>> parse_features(const std::string& text, std::string* error);
+
+class FeatureExtractor {
+ public:
+  explicit FeatureExtractor(FeatureRecipe recipe);
+  // A 1 x length CV_32F row; "" or what is wrong.
+  std::string extract(const Retina& retina, cv::Mat& row);
+  // The source region the vector looked at: the outermost level used.
+  cv::Rect region(const Retina& retina) const;
+  const FeatureRecipe& recipe() const { return recipe_; }
+
+ private:
+  FeatureRecipe recipe_;
+  filters::FilterBank bank_;
+  std::array<cv::Mat, filters::kFeatureCount> maps_;
+  cv::Mat reduced_, gray_;
+  std::vector<float> histogram_;
+};
+
+// A picture of an object as the fovea would see it: scaled to fill the fovea
+// (aspect kept), centred in a frame four levels wide with its border
+// replicated, and sampled by the retina looking at it. How training images
+// become retinas, the same path a graph's frames take.
+void retina_of_view(const cv::Mat& image, retina::RetinaSampler& sampler, Retina& out, cv::Mat& frame);
+
+struct TrainConfig {
+  std::vector<int> hidden{128};
+  int epochs = 20;
+  enum class Method { kBackprop, kRprop } method = Method::kBackprop;
+  double learning_rate = 0.01;  // backprop
+  double momentum = 0.1;        // backprop
+  uint64_t seed = 1;
+};
+
+struct EpochReport {
+  int epoch = 0;
+  double train_accuracy = 0, validation_accuracy = 0;
+};
+
+struct Model {
+  cv::Ptr<cv::ml::ANN_MLP> net;
+  FeatureRecipe recipe;
+  std::shared_ptr<const std::vector<std::string>> classes;
+
+  // Scores per class in 0..1.
+  void scores(const cv::Mat& row, std::vector<float>& out) const;
+  int predict(const cv::Mat& row) const;
+  // Network, recipe and class names in one OpenCV FileStorage file.
+  std::string save(const std::string& path) const;
+  static std::unique_ptr<Model> load(const std::string& path, std::string* error);
+};
+
+// Trains on rows of `x` (CV_32F) with labels 0..classes-1, one epoch at a time,
+// calling `progress` after each.
+Model train(const cv::Mat& x, const std::vector<int>& y, std::vector<std::string> classes, const FeatureRecipe& recipe,
+            const TrainConfig& config, const cv::Mat& val_x, const std::vector<int>& val_y,
+            const std::function<void(const EpochReport&)>& progress);
+
+double accuracy(const Model& model, const cv::Mat& x, const std::vector<int>& y);
+// Rows: truth, columns: prediction (CV_32S).
+cv::Mat confusion(const Model& model, const cv::Mat& x, const std::vector<int>& y);
+
+struct Thresholds {
+  double classified = 0.7;  // best score at least this, and
+  double margin = 0.2;      // ahead of the second by at least this: classified
+  double probable = 0.4;    // best score at least this: probable; else not classified
+};
+Classification::Outcome decide(const std::vector<float>& scores, const Thresholds& t, int* best = nullptr);
+
+// Labelled samples from a folder with one sub-folder per class of images or
+// videos (every `video_step`-th frame); classes sorted by name.
+struct Dataset {
+  std::vector<std::string> classes;
+  std::vector<cv::Mat> images;  // 8-bit gray
+  std::vector<int> labels;
+};
+std::string load_folder(const std::string& root, int video_step, Dataset& out);
+
+// Feature rows (CV_32F) of pictures of objects, each seen through a retina
+// (retina_of_view) and the recipe; "" or what is wrong.
+std::string features_of_views(const std::vector<cv::Mat>& images, const FeatureRecipe& recipe, cv::Mat& rows);
+
+// What `saccade train` does: a folder per class -> a split (per class, the
+// first 1 - validation of its files, sorted by name, train; the rest
+// validates) -> training with per-epoch progress on `log` -> the validation
+// confusion matrix -> the model file.
+struct FolderTraining {
+  std::string data, out;
+  FeatureRecipe recipe;
+  TrainConfig train;
+  double validation = 0.2;
+  int video_step = 5;
+  int report_every = 1;  // epochs between progress lines
+};
+struct TrainingResult {
+  std::string error;
+  double validation_accuracy = 0;
+  cv::Mat confusion;
+  std::vector<std::string> classes;
+};
+TrainingResult train_folder(const FolderTraining& job, std::ostream& log);
+
+// The confusion matrix as text, rows = truth.
+std::string format_confusion(const cv::Mat& confusion, const std::vector<std::string>& classes);
+
+}  // namespace saccade::classifier

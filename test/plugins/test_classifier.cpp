@@ -1,0 +1,282 @@
+// Recognition: feature recipes, training by backpropagation (OpenCV ANN_MLP),
+// model files, the three outcomes, the plugin, and the digits floor.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include <unistd.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/ml.hpp>
+
+#include "recognition.hpp"
+#include "support.hpp"
+
+namespace saccade::classifier {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Stripes of a given orientation with random phase and contrast: two classes a
+// small network separates.
+cv::Mat stripes(bool vertical, int seed) {
+  cv::RNG rng(static_cast<uint64_t>(seed));
+  cv::Mat m(40, 40, CV_8U);
+  const int period = 6 + rng.uniform(0, 4), phase = rng.uniform(0, period);
+  const int lo = rng.uniform(20, 90), hi = rng.uniform(150, 240);
+  for (int y = 0; y < m.rows; ++y)
+    for (int x = 0; x < m.cols; ++x) m.at<uint8_t>(y, x) = (((vertical ? x : y) + phase) / (period / 2)) % 2 ? hi : lo;
+  return m;
+}
+
+struct Tiny {
+  cv::Mat x, val_x;
+  std::vector<int> y, val_y;
+  FeatureRecipe recipe;
+  Tiny() {
+    std::vector<cv::Mat> images, val_images;
+    for (int i = 0; i < 40; ++i) {
+      (i < 30 ? images : val_images).push_back(stripes(i % 2 == 0, i));
+      (i < 30 ? y : val_y).push_back(i % 2);
+    }
+    EXPECT_EQ(features_of_views(images, recipe, x), "");
+    EXPECT_EQ(features_of_views(val_images, recipe, val_x), "");
+  }
+};
+
+TEST(Training, ConvergesOnATinySeparableSetAndReportsEveryEpoch) {
+  Tiny t;
+  TrainConfig config;
+  config.hidden = {16};
+  config.epochs = 15;
+  std::vector<EpochReport> reports;
+  Model model = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, t.val_x, t.val_y,
+                      [&](const EpochReport& r) { reports.push_back(r); });
+  ASSERT_EQ(reports.size(), 15u);
+  EXPECT_EQ(reports.back().epoch, 15);
+  EXPECT_DOUBLE_EQ(accuracy(model, t.x, t.y), 1.0);
+  EXPECT_DOUBLE_EQ(accuracy(model, t.val_x, t.val_y), 1.0);
+  const cv::Mat c = confusion(model, t.val_x, t.val_y);
+  EXPECT_EQ(c.at<int>(0, 0) + c.at<int>(1, 1), 10);
+  // RPROP trains too.
+  config.method = TrainConfig::Method::kRprop;
+  config.epochs = 40;
+  Model rprop = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+  EXPECT_GE(accuracy(rprop, t.val_x, t.val_y), 0.9);
+}
+
+TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
+  Tiny t;
+  TrainConfig config;
+  config.hidden = {16};
+  config.epochs = 5;
+  Model model = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+  const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier";
+  fs::create_directories(dir);
+  const std::string path = (dir / ("stripes_" + std::to_string(::getpid()) + ".yml.gz")).string();
+  ASSERT_EQ(model.save(path), "");
+  std::string error;
+  auto loaded = Model::load(path, &error);
+  ASSERT_TRUE(loaded) << error;
+  EXPECT_TRUE(loaded->recipe == t.recipe);
+  EXPECT_EQ(*loaded->classes, (std::vector<std::string>{"vertical", "horizontal"}));
+  std::vector<float> a, b;
+  for (int i = 0; i < t.val_x.rows; ++i) {
+    model.scores(t.val_x.row(i), a);
+    loaded->scores(t.val_x.row(i), b);
+    ASSERT_EQ(a, b) << "row " << i;
+  }
+  EXPECT_FALSE(Model::load((dir / "missing.yml").string(), &error));
+  EXPECT_NE(error.find("missing.yml"), std::string::npos) << error;
+  // A file without the recipe is refused, saying what is missing.
+  {
+    cv::FileStorage fs((dir / "no_recipe.yml").string(), cv::FileStorage::WRITE);
+    fs << model.net->getDefaultName() << "{";
+    model.net->write(fs);
+    fs << "}";
+  }
+  EXPECT_FALSE(Model::load((dir / "no_recipe.yml").string(), &error));
+  EXPECT_NE(error.find("recipe"), std::string::npos) << error;
+}
+
+TEST(Decision, ThresholdsGiveThePapersThreeOutcomes) {
+  Thresholds t;  // classified >= 0.7 and 0.2 ahead; probable >= 0.4
+  int best = -1;
+  EXPECT_EQ(decide({0.9f, 0.1f, 0.2f}, t, &best), Classification::Outcome::kClassified);
+  EXPECT_EQ(best, 0);
+  EXPECT_EQ(decide({0.75f, 0.7f}, t, &best), Classification::Outcome::kProbable) << "too close to the second";
+  EXPECT_EQ(best, 0);
+  EXPECT_EQ(decide({0.1f, 0.5f}, t, &best), Classification::Outcome::kProbable);
+  EXPECT_EQ(best, 1);
+  EXPECT_EQ(decide({0.1f, 0.3f}, t, &best), Classification::Outcome::kNotClassified);
+  EXPECT_EQ(decide({}, t, &best), Classification::Outcome::kNotClassified);
+}
+
+TEST(FeatureRecipe, ChecksItselfAndTheRetina) {
+  FeatureRecipe r;
+  EXPECT_EQ(r.check(), "");
+  EXPECT_EQ(r.length(), 8 * 6 + 8 * 6 * FeatureRecipe::kOrientationBins);
+  r.features = {"gray", "colour"};
+  EXPECT_NE(r.check().find("colour"), std::string::npos);
+  r = {};
+  r.levels = {7};
+  EXPECT_NE(r.check().find("level 7"), std::string::npos);
+  std::string error;
+  EXPECT_FALSE(parse_levels("0,x", &error));
+  EXPECT_NE(error.find("0,x"), std::string::npos);
+  EXPECT_EQ(*parse_levels("0,1", &error), (std::vector<int>{0, 1}));
+  retina::RetinaConfig small;
+  small.levels = 3;
+  retina::RetinaSampler sampler(small);
+  Retina retina;
+  cv::Mat frame;
+  retina_of_view(stripes(true, 1), sampler, retina, frame);
+  FeatureExtractor extractor(FeatureRecipe{});
+  cv::Mat row;
+  const std::string e = extractor.extract(retina, row);
+  EXPECT_NE(e.find("5 levels of 32x24"), std::string::npos) << e;
+  EXPECT_NE(e.find("3 levels"), std::string::npos) << e;
+}
+
+// A model file for the plugin tests.
+std::string stripes_model() {
+  static const std::string path = [] {
+    Tiny t;
+    TrainConfig config;
+    config.hidden = {16};
+    config.epochs = 15;
+    Model model = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+    const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier";
+    fs::create_directories(dir);
+    // CTest runs each test in its own process, in parallel: one file each.
+    const std::string p = (dir / ("plugin_" + std::to_string(::getpid()) + ".yml.gz")).string();
+    EXPECT_EQ(model.save(p), "");
+    return p;
+  }();
+  return path;
+}
+
+TEST(ClassifierPlugin, ClassifiesTheFoveaAndOffersItAsATarget) {
+  std::string error;
+  auto h = testing::NodeHarness::create(
+      "<node plugin=\"classifier\"><param name=\"model\" value=\"" + stripes_model() + "\"/></node>", &error);
+  ASSERT_TRUE(h) << error;
+  retina::RetinaSampler sampler({});
+  auto retina = std::make_shared<Retina>();
+  cv::Mat frame;
+  retina_of_view(stripes(false, 99), sampler, *retina, frame);
+  h->set("retina", retina);
+  ASSERT_TRUE(h->process().ok());
+  auto result = h->last<Classification>("result");
+  ASSERT_TRUE(result);
+  EXPECT_EQ(result->outcome, Classification::Outcome::kClassified);
+  EXPECT_EQ(result->label(), "horizontal");
+  EXPECT_EQ(result->scores.size(), 2u);
+  EXPECT_EQ(result->region, retina->geometry.back().region);
+  auto target = h->last<Region>("target");
+  ASSERT_TRUE(target);
+  EXPECT_EQ(target->label, "horizontal");
+  EXPECT_EQ(target->center, cv::Point2d(retina->fovea));
+}
+
+TEST(ClassifierPlugin, RefusesAModelWhoseRecipeDiffersFromTheGraphs) {
+  std::string error;
+  EXPECT_FALSE(testing::NodeHarness::create("<node plugin=\"classifier\"><param name=\"model\" value=\"" + stripes_model() +
+                                                "\"/><param name=\"features\" value=\"gray,laplacian\"/></node>",
+                                            &error));
+  EXPECT_NE(error.find("trained on levels 0; features gray,grad_hist"), std::string::npos) << error;
+  EXPECT_NE(error.find("gray,laplacian"), std::string::npos) << error;
+  EXPECT_FALSE(testing::NodeHarness::create(
+      R"(<node plugin="classifier"><param name="model" value="/nonexistent/model.yml"/></node>)", &error));
+  EXPECT_NE(error.find("/nonexistent/model.yml"), std::string::npos) << error;
+}
+
+TEST(TrainFolder, WritesAModelAndPrintsProgressAndTheConfusionMatrix) {
+  const fs::path root = fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier" / ("folder_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  for (int c = 0; c < 2; ++c) {
+    fs::create_directories(root / (c ? "horizontal" : "vertical"));
+    for (int i = 0; i < 10; ++i)
+      cv::imwrite((root / (c ? "horizontal" : "vertical") / ("s" + std::to_string(i) + ".png")).string(),
+                  stripes(c == 0, 100 + i));
+  }
+  FolderTraining job;
+  job.data = root.string();
+  job.out = (root / "model.yml.gz").string();
+  job.train.hidden = {16};
+  job.train.epochs = 10;
+  std::ostringstream log;
+  TrainingResult r = train_folder(job, log);
+  ASSERT_EQ(r.error, "");
+  EXPECT_TRUE(fs::exists(job.out));
+  EXPECT_NE(log.str().find("epoch 10/10"), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find("<- predicted"), std::string::npos) << log.str();
+  EXPECT_EQ(r.classes, (std::vector<std::string>{"horizontal", "vertical"}));
+  EXPECT_DOUBLE_EQ(r.validation_accuracy, 1.0);
+  job.data = (root / "horizontal").string();
+  EXPECT_NE(train_folder(job, log).error.find("at least two sub-folders"), std::string::npos);
+}
+
+// digits.png: 5000 digits of 20x20, 500 per class in row blocks. Per class the
+// first 400 train and the last 100 test. Features through the retina path.
+TEST(DigitsAccuracy, TheRetinaFeaturesAndBackpropReachTheFloor) {
+  cv::Mat sheet = cv::imread(test::sample_path("digits.png"), cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(sheet.size(), cv::Size(2000, 1000));
+  std::vector<cv::Mat> train_images, test_images;
+  std::vector<int> train_y, test_y;
+  cv::Mat raw_train, raw_test;
+  for (int c = 0; c < 10; ++c)
+    for (int k = 0; k < 500; ++k) {
+      const int row = c * 5 + k / 100, col = k % 100;
+      cv::Mat digit = sheet(cv::Rect(col * 20, row * 20, 20, 20)).clone();
+      cv::Mat raw;
+      digit.reshape(1, 1).convertTo(raw, CV_32F, 1.0 / 255);
+      if (k < 400) {
+        train_images.push_back(digit);
+        train_y.push_back(c);
+        raw_train.push_back(raw);
+      } else {
+        test_images.push_back(digit);
+        test_y.push_back(c);
+        raw_test.push_back(raw);
+      }
+    }
+  FeatureRecipe recipe;  // the defaults: the fovea's gray and gradient-orientation histograms
+  cv::Mat x, test_x;
+  ASSERT_EQ(features_of_views(train_images, recipe, x), "");
+  ASSERT_EQ(features_of_views(test_images, recipe, test_x), "");
+  std::vector<std::string> names;
+  for (int c = 0; c < 10; ++c) names.push_back(std::to_string(c));
+  TrainConfig config;  // the defaults: backprop, 128 hidden, 20 epochs, seed 1
+  Model model = train(x, train_y, names, recipe, config, {}, {}, {});
+  const double ours = accuracy(model, test_x, test_y);
+  // Reference points in the same run, on raw pixels: kNN (k = 5) and an RBF SVM.
+  cv::Mat labels(train_y, true);
+  auto knn = cv::ml::KNearest::create();
+  knn->train(raw_train, cv::ml::ROW_SAMPLE, labels);
+  cv::Mat knn_out;
+  knn->findNearest(raw_test, 5, knn_out);
+  auto svm = cv::ml::SVM::create();
+  svm->setKernel(cv::ml::SVM::RBF);
+  svm->setC(10);
+  svm->setGamma(0.02);
+  svm->train(raw_train, cv::ml::ROW_SAMPLE, labels);
+  cv::Mat svm_out;
+  svm->predict(raw_test, svm_out);
+  int knn_right = 0, svm_right = 0;
+  for (int i = 0; i < raw_test.rows; ++i) {
+    knn_right += static_cast<int>(knn_out.at<float>(i)) == test_y[static_cast<std::size_t>(i)];
+    svm_right += static_cast<int>(svm_out.at<float>(i)) == test_y[static_cast<std::size_t>(i)];
+  }
+  std::printf("digits, test set of 1000: retina features + MLP (backprop) %.3f; raw pixels: kNN (k=5) %.3f, SVM (RBF) "
+              "%.3f\n%s",
+              ours, knn_right / 1000.0, svm_right / 1000.0,
+              format_confusion(confusion(model, test_x, test_y), names).c_str());
+  EXPECT_GE(ours, 0.95);
+}
+
+}  // namespace
+}  // namespace saccade::classifier
