@@ -1,3 +1,6 @@
+#include <algorithm>
+#include <sstream>
+
 #include "recognition.hpp"
 #include "saccade/plugin.hpp"
 
@@ -15,11 +18,15 @@ class ClassifierNode final : public Node {
                     "'saccade train'), and the paper's three outcomes from thresholds.")
         .input<Retina>("retina", "the retina whose fovea is classified")
         .output<Classification>("result", "class scores, the best class, the outcome and the region looked at")
-        .output<Region>("target", "when classified or probable: the region and the class, for the fovea's top-down target")
+        .output<Region>("target", "when classified (or probable, with target_when=probable): the fovea's region and the "
+                                  "class, for the fovea's top-down target")
         .required_string("model", "model file written by 'saccade train' (network, feature recipe, class names)")
         .param_double("classified", 0.7, 0.0, 1.0, "best score at least this (and ahead by 'margin'): classified")
         .param_double("margin", 0.2, 0.0, 1.0, "how far the best score must lead the second for 'classified'")
         .param_double("probable", 0.4, 0.0, 1.0, "best score at least this: probable; below: not classified")
+        .param_enum("target_when", "classified", {"classified", "probable"},
+                    "the weakest outcome that still produces a 'target'")
+        .param_string("target_classes", "", "classes that produce a 'target' (comma-separated; empty: every class)")
         .param_string("levels", "", "if given, must match the model's levels (0 = the fovea), else the model's are used")
         .param_string("features", "", "if given, must match the model's features, else the model's are used");
   }
@@ -47,6 +54,17 @@ class ClassifierNode final : public Node {
         return Status::error("model '" + path + "' was trained on " + model_->recipe.describe() +
                              "; the graph asks for features " + features);
     }
+    if (const std::string wanted = p.get_string("target_classes"); !wanted.empty()) {
+      std::stringstream in(wanted);
+      std::string name;
+      while (std::getline(in, name, ',')) {
+        auto it = std::find(model_->classes->begin(), model_->classes->end(), name);
+        if (it == model_->classes->end())
+          return Status::error("target_classes: the model has no class '" + name + "'");
+        target_classes_.push_back(static_cast<int>(it - model_->classes->begin()));
+      }
+    }
+    target_when_probable_ = p.get_string("target_when") == "probable";
     thresholds_.classified = p.get_double("classified");
     thresholds_.margin = p.get_double("margin");
     thresholds_.probable = p.get_double("probable");
@@ -66,7 +84,11 @@ class ClassifierNode final : public Node {
     result->classes = model_->classes;
     result->region = extractor_->region(*retina);
     result->camera_id = retina->camera_id;
-    if (result->outcome != Classification::Outcome::kNotClassified) {
+    const bool wanted = target_classes_.empty() ||
+                        std::find(target_classes_.begin(), target_classes_.end(), best) != target_classes_.end();
+    const bool strong = result->outcome == Classification::Outcome::kClassified ||
+                        (target_when_probable_ && result->outcome == Classification::Outcome::kProbable);
+    if (strong && wanted) {
       auto target = ctx.make(target_out_);
       const cv::Rect r = retina->geometry.back().region;
       target->center = cv::Point2d(r.x + r.width / 2.0, r.y + r.height / 2.0);
@@ -87,6 +109,8 @@ class ClassifierNode final : public Node {
   std::unique_ptr<Model> model_;
   std::unique_ptr<FeatureExtractor> extractor_;
   Thresholds thresholds_;
+  std::vector<int> target_classes_;
+  bool target_when_probable_ = false;
   cv::Mat row_;
 };
 

@@ -101,7 +101,10 @@ Decision FoveaController::step(const Retina& retina, const std::vector<cv::Mat>*
         d.next = *centre_next_ + (config_.predict ? velocity_ : cv::Point2d());
         centre_next_.reset();
       }
-      if (config_.mode == FoveaMode::kAttend && dwell_ >= config_.dwell_frames) {
+      if (config_.mode == FoveaMode::kAttend && !config_.track_label.empty() && top_down != nullptr &&
+          top_down->label == config_.track_label && distance(top_down->center, target_) < config_.ior_radius)
+        recognised_ = true;
+      if (config_.mode == FoveaMode::kAttend && dwell_ >= config_.dwell_frames && !recognised_) {
         // Seen long enough: inhibit it and let attention move on.
         ior_.add(target_);
         tracker_.reset();
@@ -212,6 +215,7 @@ void FoveaController::lost(const Retina& retina, const std::vector<cv::Mat>* mot
     return;
   }
   if (!fixed_template_ && frames_lost_ > config_.lost_frames) {
+    recognised_ = false;
     tracker_.reset();
     ior_.add(target_);
     phase_ = Phase::kSearch;

@@ -5,6 +5,7 @@
 // is used for the next frame). When the fovea reaches the frame's border it
 // asks the head to turn.
 #include <optional>
+#include <string>
 
 #include <opencv2/core.hpp>
 
@@ -37,6 +38,9 @@ struct ControllerConfig {
   double velocity_gain = 0.7; // weight of the newest velocity measurement
   double border_margin = 16.0;  // pixels between the fovea's edge and the frame's edge that trigger a gaze request
   int gaze_repeat = 30;       // frames after which an unanswered gaze request is repeated
+  // attend: a top-down target (a classifier's) with this label, naming the
+  // place being tracked, ends the visiting: the fovea keeps tracking it.
+  std::string track_label;
   double focal_px = 0.0;      // 0: from hfov_deg
   double hfov_deg = 60.0;
 };
@@ -102,6 +106,7 @@ class FoveaController {
   int gaze_wait_ = 0;
   std::optional<cv::Point2d> recentre_shift_;
   int64_t last_top_down_ = -1;
+  bool recognised_ = false;  // attend: the tracked place is what track_label names
 };
 
 }  // namespace saccade::fovea

@@ -59,6 +59,9 @@ class FoveaNode final : public Node {
         .param_double("color_weight", 1.0, 0.0, 100.0, "saliency: similarity to 'color' (BGR retina)")
         .param_string("color", "", "wanted colour B,G,R (BGR retina); empty: none")
         .param_double("color_tolerance", 40.0, 1.0, 500.0, "colour distance where similarity falls to exp(-1/2)")
+        .param_string("track_label", "",
+                      "attend: when a 'target' with this label (a classifier's) names the tracked place, stop visiting "
+                      "and keep tracking it")
         .param_bool("predict", true, "place the fovea where the target will be (constant velocity)")
         .param_double("margin", 16.0, 0.0, 10000.0, "gaze request when the fovea's edge is this close to the frame's, pixels")
         .param_int("gaze_repeat", 30, 1, 1000000, "frames before an unanswered gaze request is repeated")
@@ -99,6 +102,7 @@ class FoveaNode final : public Node {
     if (!error.empty()) return Status::error(error);
     c.saliency.color_tolerance = p.get_double("color_tolerance");
     c.predict = p.get_bool("predict");
+    c.track_label = p.get_string("track_label");
     c.border_margin = p.get_double("margin");
     c.gaze_repeat = static_cast<int>(p.get_int("gaze_repeat"));
     c.focal_px = p.get_double("focal");
