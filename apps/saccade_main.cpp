@@ -173,7 +173,9 @@ int main(int argc, char** argv) {
   std::string train_levels = "0", train_features = "gray,grad_hist", train_hidden = "128", train_method = "backprop";
   std::string train_size = "8x6";
   auto* train = app.add_subcommand("train", "train a classifier model from a folder with one sub-folder per class");
-  train->add_option("data", training.data, "folder with one sub-folder of images or videos per class")->required();
+  std::string train_samples;
+  train->add_option("data", training.data, "folder with one sub-folder of images or videos per class");
+  train->add_option("--samples", train_samples, "instead of a folder: samples a graph collected (classifier.collect)");
   train->add_option("--out", training.out, "model file to write (OpenCV FileStorage: .yml, .yml.gz, .xml)")->required();
   train->add_option("--levels", train_levels, "retina levels of the vector, 0 = the fovea (e.g. 0,1)");
   train->add_option("--features", train_features, "gray, grad_hist and/or filter-bank maps (e.g. gray,grad_hist)");
@@ -209,7 +211,22 @@ int main(int argc, char** argv) {
     training.train.hidden = *hidden;
     training.train.method = train_method == "backprop" ? classifier::TrainConfig::Method::kBackprop
                                                        : classifier::TrainConfig::Method::kRprop;
-    const auto result = classifier::train_folder(training, std::cout);
+    if (training.data.empty() == train_samples.empty()) {
+      std::cerr << "saccade train: give either a data folder or --samples FILE\n";
+      return 2;
+    }
+    classifier::TrainingResult result;
+    if (!train_samples.empty()) {
+      // The recipe is the one the graph collected with.
+      classifier::SampleSet samples;
+      if (std::string e = samples.load(train_samples); !e.empty()) {
+        std::cerr << "saccade train: " << e << "\n";
+        return 2;
+      }
+      result = classifier::train_rows(samples, training, std::cout);
+    } else {
+      result = classifier::train_folder(training, std::cout);
+    }
     if (!result.error.empty()) {
       std::cerr << "saccade train: " << result.error << "\n";
       return 2;

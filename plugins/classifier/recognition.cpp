@@ -475,53 +475,87 @@ std::string format_confusion(const cv::Mat& confusion, const std::vector<std::st
   return o.str();
 }
 
-TrainingResult train_folder(const FolderTraining& job, std::ostream& log) {
+std::string SampleSet::save(const std::string& path) const {
+  try {
+    cv::FileStorage fs(path, cv::FileStorage::WRITE);
+    if (!fs.isOpened()) return "cannot write samples file '" + path + "'";
+    fs << "saccade_recipe" << "{";
+    recipe.write(fs);
+    fs << "}";
+    fs << "saccade_classes" << classes << "x" << x << "y" << y;
+  } catch (const cv::Exception& e) {
+    return "cannot write samples file '" + path + "': " + e.what();
+  }
+  return {};
+}
+
+std::string SampleSet::load(const std::string& path) {
+  try {
+    cv::FileStorage fs(path, cv::FileStorage::READ);
+    if (!fs.isOpened()) return "cannot open samples file '" + path + "'";
+    std::string error;
+    auto r = FeatureRecipe::read(fs["saccade_recipe"], &error);
+    if (!r) return "samples file '" + path + "': " + error;
+    recipe = *r;
+    fs["saccade_classes"] >> classes;
+    fs["x"] >> x;
+    fs["y"] >> y;
+    if (x.rows != static_cast<int>(y.size()) || (x.rows > 0 && x.cols != recipe.length()) || classes.size() < 2)
+      return "samples file '" + path + "': its rows, labels, recipe and classes do not fit together";
+    for (int label : y)
+      if (label < 0 || label >= static_cast<int>(classes.size()))
+        return "samples file '" + path + "': a label outside its classes";
+  } catch (const cv::Exception& e) {
+    return "cannot read samples file '" + path + "': " + e.what();
+  }
+  return {};
+}
+
+namespace {
+
+// Per class, in order: the first samples train, the last `validation` share validates.
+void split(const std::vector<int>& y, int classes, double validation, std::vector<int>& train_rows,
+           std::vector<int>& val_rows) {
+  for (int c = 0; c < classes; ++c) {
+    std::vector<int> members;
+    for (std::size_t i = 0; i < y.size(); ++i)
+      if (y[i] == c) members.push_back(static_cast<int>(i));
+    const std::size_t n_val = static_cast<std::size_t>(std::lround(validation * static_cast<double>(members.size())));
+    for (std::size_t k = 0; k < members.size(); ++k) (k >= members.size() - n_val ? val_rows : train_rows).push_back(members[k]);
+  }
+}
+
+}  // namespace
+
+TrainingResult train_rows(const SampleSet& samples, const FolderTraining& job, std::ostream& log) {
   TrainingResult result;
-  if (std::string e = job.recipe.check(); !e.empty()) {
-    result.error = e;
-    return result;
-  }
-  Dataset data;
-  if (std::string e = load_folder(job.data, job.video_step, data); !e.empty()) {
-    result.error = e;
-    return result;
-  }
-  // Per class: the first files train, the last `validation` share validates.
-  std::vector<cv::Mat> train_images, val_images;
-  std::vector<int> train_y, val_y;
-  for (int c = 0; c < static_cast<int>(data.classes.size()); ++c) {
-    std::vector<std::size_t> members;
-    for (std::size_t i = 0; i < data.labels.size(); ++i)
-      if (data.labels[i] == c) members.push_back(i);
-    const std::size_t n_val = static_cast<std::size_t>(std::lround(job.validation * static_cast<double>(members.size())));
-    for (std::size_t k = 0; k < members.size(); ++k) {
-      const bool validates = k >= members.size() - n_val;
-      (validates ? val_images : train_images).push_back(data.images[members[k]]);
-      (validates ? val_y : train_y).push_back(c);
-    }
-  }
-  log << "classes: " << data.classes.size() << " (";
-  for (std::size_t c = 0; c < data.classes.size(); ++c) log << (c ? ", " : "") << data.classes[c];
-  log << "); " << train_images.size() << " training and " << val_images.size() << " validation samples\n";
-  log << "features: " << job.recipe.describe() << " (" << job.recipe.length() << " values)\n";
+  std::vector<int> train_rows, val_rows;
+  split(samples.y, static_cast<int>(samples.classes.size()), job.validation, train_rows, val_rows);
   cv::Mat train_x, val_x;
-  if (std::string e = features_of_views(train_images, job.recipe, train_x); !e.empty()) {
-    result.error = e;
+  std::vector<int> train_y, val_y;
+  for (int i : train_rows) {
+    train_x.push_back(samples.x.row(i));
+    train_y.push_back(samples.y[static_cast<std::size_t>(i)]);
+  }
+  for (int i : val_rows) {
+    val_x.push_back(samples.x.row(i));
+    val_y.push_back(samples.y[static_cast<std::size_t>(i)]);
+  }
+  log << "classes: " << samples.classes.size() << " (";
+  for (std::size_t c = 0; c < samples.classes.size(); ++c) log << (c ? ", " : "") << samples.classes[c];
+  log << "); " << train_y.size() << " training and " << val_y.size() << " validation samples\n";
+  log << "features: " << samples.recipe.describe() << " (" << samples.recipe.length() << " values)\n";
+  if (train_y.empty()) {
+    result.error = "no training samples";
     return result;
   }
-  if (!val_images.empty()) {
-    if (std::string e = features_of_views(val_images, job.recipe, val_x); !e.empty()) {
-      result.error = e;
-      return result;
-    }
-  }
-  Model model = train(train_x, train_y, data.classes, job.recipe, job.train, val_x, val_y, [&](const EpochReport& r) {
+  Model model = train(train_x, train_y, samples.classes, samples.recipe, job.train, val_x, val_y, [&](const EpochReport& r) {
     if (r.epoch % std::max(1, job.report_every) == 0 || r.epoch == job.train.epochs)
       log << "epoch " << r.epoch << "/" << job.train.epochs << ": training accuracy " << r.train_accuracy
           << ", validation accuracy " << r.validation_accuracy << "\n";
   });
   result.classes = *model.classes;
-  if (!val_images.empty()) {
+  if (!val_y.empty()) {
     result.validation_accuracy = accuracy(model, val_x, val_y);
     result.confusion = confusion(model, val_x, val_y);
     log << "validation confusion matrix (rows: truth):\n" << format_confusion(result.confusion, result.classes);
@@ -534,6 +568,28 @@ TrainingResult train_folder(const FolderTraining& job, std::ostream& log) {
     log << "model written to " << job.out << "\n";
   }
   return result;
+}
+
+TrainingResult train_folder(const FolderTraining& job, std::ostream& log) {
+  TrainingResult result;
+  if (std::string e = job.recipe.check(); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  Dataset data;
+  if (std::string e = load_folder(job.data, job.video_step, data); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  SampleSet samples;
+  samples.recipe = job.recipe;
+  samples.classes = data.classes;
+  samples.y = data.labels;
+  if (std::string e = features_of_views(data.images, job.recipe, samples.x); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  return train_rows(samples, job, log);
 }
 
 }  // namespace saccade::classifier

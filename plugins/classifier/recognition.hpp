@@ -151,6 +151,19 @@ struct TrainingResult {
 };
 TrainingResult train_folder(const FolderTraining& job, std::ostream& log);
 
+// Labelled feature rows as a graph collects them (the classifier.collect node):
+// the recipe they were made with, the class names, the rows and their labels.
+struct SampleSet {
+  FeatureRecipe recipe;
+  std::vector<std::string> classes;
+  cv::Mat x;
+  std::vector<int> y;
+  std::string save(const std::string& path) const;
+  std::string load(const std::string& path);
+};
+// The same split, training, report and model file from rows (job.data unused).
+TrainingResult train_rows(const SampleSet& samples, const FolderTraining& job, std::ostream& log);
+
 // The confusion matrix as text, rows = truth.
 std::string format_confusion(const cv::Mat& confusion, const std::vector<std::string>& classes);
 

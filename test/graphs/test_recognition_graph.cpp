@@ -4,7 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <algorithm>
 #include <filesystem>
+#include <sstream>
+
+#include <unistd.h>
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
@@ -124,6 +128,61 @@ TEST(RecognitionGraph, TheClassifierStopsAttentionOnTheObjectItRecognises) {
   EXPECT_GE(with_classifier, 0.95);
   EXPECT_LT(without, 0.6) << "without the classifier's target, attention keeps moving on";
   EXPECT_GT(recognised, 0);
+}
+
+}  // namespace
+}  // namespace saccade
+
+namespace saccade {
+namespace {
+
+// A graph run as the training data: a label source (classifier.truth_label,
+// from the synthetic scene's truth) says what the fixed fovea sees while the
+// square circles through it; classifier.collect writes the samples, which
+// train a model that tells the two apart.
+TEST(CollectGraph, ALabelSourceInAGraphMakesTrainingSamples) {
+  const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "recognition";
+  fs::create_directories(dir);
+  const std::string samples_path = (dir / ("samples_" + std::to_string(::getpid()) + ".yml.gz")).string();
+  const std::string xml = R"(<graph name="collect">
+  <node name="scene" plugin="capture.synthetic">
+    <param name="size" value="640x480"/><param name="target_size" value="24"/>
+    <param name="path" value="circle"/><param name="radius" value="120"/><param name="period" value="240"/>
+    <param name="count" value="720"/>
+  </node>
+  <node name="retina" plugin="retina"><param name="fovea" value="440,240"/></node>
+  <node name="labeller" plugin="classifier.truth_label"><sync inputs="retina,truth"/></node>
+  <node name="collect" plugin="classifier.collect">
+    <param name="out" value=")" + samples_path + R"("/>
+    <sync inputs="retina,label"/>
+  </node>
+  <edge from="scene.image" to="retina.image" queue="block:2"/>
+  <edge from="scene.truth" to="labeller.truth" queue="block:2"/>
+  <edge from="retina.retina" to="labeller.retina" queue="block:2"/>
+  <edge from="retina.retina" to="collect.retina" queue="block:2"/>
+  <edge from="labeller.label" to="collect.label" queue="block:2"/>
+</graph>)";
+  ExecutorOptions options;
+  options.deterministic = true;
+  auto run = test::open_graph(xml, options);
+  ASSERT_TRUE(run->run().ok());
+  run.reset();  // closes the nodes: the samples are written
+  classifier::SampleSet samples;
+  ASSERT_EQ(samples.load(samples_path), "");
+  // Classes in the order the labels first came: the square starts in the fovea.
+  EXPECT_EQ(samples.classes, (std::vector<std::string>{"target", "background"}));
+  EXPECT_EQ(samples.x.rows, 720);
+  const int targets = static_cast<int>(std::count(samples.y.begin(), samples.y.end(), 0));
+  EXPECT_GE(targets, 12) << "the square passes the fovea three times";
+  classifier::FolderTraining job;
+  job.train.epochs = 20;
+  std::ostringstream log;
+  auto result = classifier::train_rows(samples, job, log);
+  ASSERT_EQ(result.error, "");
+  std::printf("%s", log.str().c_str());
+  EXPECT_GE(result.validation_accuracy, 0.95);
+  ASSERT_EQ(result.confusion.rows, 2);
+  EXPECT_GE(result.confusion.at<int>(0, 0), 1) << "a square in the validation share is recognised";
 }
 
 }  // namespace
