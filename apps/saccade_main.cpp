@@ -186,7 +186,8 @@ int main(int argc, char** argv) {
   train->add_option("--learning-rate", training.train.learning_rate, "backprop: learning rate");
   train->add_option("--validation", training.validation, "share of each class kept for validation (the last files)")
       ->check(CLI::Range(0.0, 0.9));
-  train->add_option("--seed", training.train.seed, "seed of the network's initial weights");
+  train->add_option("--seed", training.train.seed,
+                    "seed of the order samples are presented in (OpenCV fixes the initial weights itself)");
   train->add_option("--video-step", training.video_step, "videos: use every Nth frame")->check(CLI::Range(1, 100000));
   train->add_option("--report-every", training.report_every, "epochs between progress lines")->check(CLI::Range(1, 100000));
 

@@ -328,8 +328,19 @@ Model train(const cv::Mat& x, const std::vector<int>& y, std::vector<std::string
     model.net->setTrainMethod(cv::ml::ANN_MLP::RPROP);
   // One epoch per call, so that progress can be reported; the weights carry over.
   model.net->setTermCriteria(cv::TermCriteria(cv::TermCriteria::MAX_ITER, 1, 0));
-  cv::theRNG().state = config.seed;
-  auto data = cv::ml::TrainData::create(x, cv::ml::ROW_SAMPLE, targets);
+  // ANN_MLP draws its initial weights from its own fixed generator, so the seed
+  // sets what it can: the order the samples are presented in (which online
+  // backprop follows; batch RPROP does not depend on it).
+  std::vector<int> order(static_cast<std::size_t>(x.rows));
+  for (int i = 0; i < x.rows; ++i) order[static_cast<std::size_t>(i)] = i;
+  cv::RNG rng(config.seed);
+  for (int i = x.rows - 1; i > 0; --i) std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(rng.uniform(0, i + 1))]);
+  cv::Mat shuffled_x(x.size(), x.type()), shuffled_t(targets.size(), targets.type());
+  for (int i = 0; i < x.rows; ++i) {
+    x.row(order[static_cast<std::size_t>(i)]).copyTo(shuffled_x.row(i));
+    targets.row(order[static_cast<std::size_t>(i)]).copyTo(shuffled_t.row(i));
+  }
+  auto data = cv::ml::TrainData::create(shuffled_x, cv::ml::ROW_SAMPLE, shuffled_t);
   for (int epoch = 1; epoch <= config.epochs; ++epoch) {
     model.net->train(data, epoch == 1 ? 0 : cv::ml::ANN_MLP::UPDATE_WEIGHTS);
     if (progress) {

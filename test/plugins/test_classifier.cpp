@@ -62,6 +62,16 @@ TEST(Training, ConvergesOnATinySeparableSetAndReportsEveryEpoch) {
   EXPECT_DOUBLE_EQ(accuracy(model, t.val_x, t.val_y), 1.0);
   const cv::Mat c = confusion(model, t.val_x, t.val_y);
   EXPECT_EQ(c.at<int>(0, 0) + c.at<int>(1, 1), 10);
+  // The seed sets the order of the samples: the same seed, the same network;
+  // another seed, another (online backprop follows the order).
+  config.epochs = 3;
+  Model again = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+  Model same = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+  config.seed = 2;
+  Model other = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+  EXPECT_EQ(cv::norm(again.net->getWeights(1), same.net->getWeights(1), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(again.net->getWeights(1), other.net->getWeights(1), cv::NORM_INF), 0.0);
+  config.seed = 1;
   // RPROP trains too.
   config.method = TrainConfig::Method::kRprop;
   config.epochs = 40;
