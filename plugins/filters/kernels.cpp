@@ -1,4 +1,5 @@
 #include "kernels.hpp"
+#include "saccade/simd.hpp"
 
 #include <cmath>
 #include <cstring>
@@ -185,13 +186,7 @@ void row_threshold(const float* __restrict v, float thr, uint8_t* __restrict mas
 }
 
 // AVX2 where the CPU has it: the polynomial is a large share of the bank's
-// arithmetic. Not under ThreadSanitizer, whose runtime is not up yet when the
-// ifunc resolver of a clone runs at load time.
-#if defined(__SANITIZE_THREAD__)
-#define SACCADE_AVX2_CLONE
-#else
-#define SACCADE_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
-#endif
+// arithmetic.
 SACCADE_AVX2_CLONE void row_direction(const float* __restrict gx, const float* __restrict gy, float* __restrict dir, int w) {
   for (int x = 0; x < w; ++x) dir[x] = fast_atan2_inline(gy[x], gx[x]);
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "saccade/fill.hpp"
+#include "saccade/simd.hpp"
 
 namespace saccade::stereo {
 
@@ -260,7 +261,8 @@ struct Row {
 // one direction's row. Written with selects and no early exits over
 // restrict-qualified arrays, so the compiler vectorises it: this loop is where
 // the search spends its time.
-void offer_span(const Row& s, int first, int count, int d, const float* __restrict c, float min_texture) {
+SACCADE_AVX2_CLONE void offer_span(const Row& s, int first, int count, int d, const float* __restrict c,
+                                   float min_texture) {
   const int* __restrict lo = s.lo + first;
   const int* __restrict hi = s.hi + first;
   const float* __restrict sd = s.stddev + first;
@@ -270,28 +272,29 @@ void offer_span(const Row& s, int first, int count, int d, const float* __restri
   float* __restrict last = s.last + first;
   int* __restrict best_d = s.best_d + first;
   int* __restrict last_d = s.last_d + first;
-  // Four pixels at a time with GCC's vector extension (SSE2 on x86-64, NEON
-  // on ARM): the compiler's own vectoriser gives up on this loop's selects.
-  typedef float v4f __attribute__((vector_size(16)));
-  typedef int v4i __attribute__((vector_size(16)));
-  auto load_f = [](const float* p) {
-    v4f v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-  };
-  auto load_i = [](const int* p) {
-    v4i v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-  };
-  const v4i dv = {d, d, d, d}, d1 = dv - 1;
-  const v4f minus2 = {-2.0f, -2.0f, -2.0f, -2.0f};
-  const v4f texture = {min_texture, min_texture, min_texture, min_texture};
+  // Eight pixels at a time with GCC's vector extension (two SSE2 registers,
+  // or one AVX2 register in the AVX2 clone): the compiler's own vectoriser
+  // gives up on this loop's selects.
+  typedef float v4f __attribute__((vector_size(32)));
+  typedef int v4i __attribute__((vector_size(32)));
+  const v4i dv = v4i{} + d, d1 = dv - 1;
+  const v4f minus2 = v4f{} - 2.0f;
+  const v4f texture = v4f{} + min_texture;
+  constexpr int kLanes = static_cast<int>(sizeof(v4f) / sizeof(float));
   int i = 0;
-  for (; i + 4 <= count; i += 4) {
-    const v4f ci = load_f(c + i), bi = load_f(best + i), li = load_f(last + i), ai = load_f(after + i),
-              fi = load_f(before + i), sdi = load_f(sd + i);
-    const v4i bdi = load_i(best_d + i), ldi = load_i(last_d + i), loi = load_i(lo + i), hii = load_i(hi + i);
+  for (; i + kLanes <= count; i += kLanes) {
+    v4f ci, bi, li, ai, fi, sdi;
+    v4i bdi, ldi, loi, hii;
+    std::memcpy(&ci, c + i, sizeof ci);
+    std::memcpy(&bi, best + i, sizeof bi);
+    std::memcpy(&li, last + i, sizeof li);
+    std::memcpy(&ai, after + i, sizeof ai);
+    std::memcpy(&fi, before + i, sizeof fi);
+    std::memcpy(&sdi, sd + i, sizeof sdi);
+    std::memcpy(&bdi, best_d + i, sizeof bdi);
+    std::memcpy(&ldi, last_d + i, sizeof ldi);
+    std::memcpy(&loi, lo + i, sizeof loi);
+    std::memcpy(&hii, hi + i, sizeof hii);
     const v4i in = (dv >= loi) & (dv <= hii) & (sdi >= texture);
     const v4f previous = ldi == d1 ? li : minus2;
     const v4i next_to_best = (dv == bdi + 1) & (bi > minus2);
@@ -354,6 +357,29 @@ void finish(const Search& s, int r, const NccConfig& config, cv::Mat& disparity,
   }
 }
 
+// The sweep's column sums: add the products of the row entering the window,
+// subtract those of the row leaving it (a0, b0 null: none leaves).
+SACCADE_AVX2_CLONE void slide_products(float* __restrict col, const float* __restrict a, const float* __restrict b,
+                                       const float* __restrict a0, const float* __restrict b0, int n) {
+  if (a0 != nullptr) {
+    for (int x = 0; x < n; ++x) col[x] += a[x] * b[x] - a0[x] * b0[x];
+  } else {
+    for (int x = 0; x < n; ++x) col[x] += a[x] * b[x];
+  }
+}
+
+// The correlation coefficients of one row of window sums; -2 where either
+// window is too flat to match.
+SACCADE_AVX2_CLONE void correlations(float* __restrict c, const float* __restrict sum, const float* __restrict ma,
+                                     const float* __restrict sa, const float* __restrict mb,
+                                     const float* __restrict sb, int n, float inv_n, float min_texture) {
+  for (int x = 0; x < n; ++x) {
+    const bool textured = (sa[x] >= min_texture) & (sb[x] >= min_texture);
+    const float value = (sum[x] * inv_n - ma[x] * mb[x]) / std::max(sa[x] * sb[x], 1e-6f);
+    c[x] = textured ? value : -2.0f;
+  }
+}
+
 }  // namespace
 
 void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, const cv::Mat& hi_lr,
@@ -412,12 +438,10 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
       for (int yy = y0 - r; yy <= y1 + r; ++yy) {
         const float* a = scratch.ref_f.ptr<float>(yy);
         const float* b = scratch.other_f.ptr<float>(yy) - d;
-        for (int x = xa; x < xb; ++x) col[static_cast<std::size_t>(x)] += a[x] * b[x];
-        if (yy - 2 * r - 1 >= y0 - r) {
-          const float* a0 = scratch.ref_f.ptr<float>(yy - 2 * r - 1);
-          const float* b0 = scratch.other_f.ptr<float>(yy - 2 * r - 1) - d;
-          for (int x = xa; x < xb; ++x) col[static_cast<std::size_t>(x)] -= a0[x] * b0[x];
-        }
+        const bool leaving = yy - 2 * r - 1 >= y0 - r;
+        const float* a0 = leaving ? scratch.ref_f.ptr<float>(yy - 2 * r - 1) : nullptr;
+        const float* b0 = leaving ? scratch.other_f.ptr<float>(yy - 2 * r - 1) - d : nullptr;
+        slide_products(col.data() + xa, a + xa, b + xa, a0 ? a0 + xa : nullptr, b0 ? b0 + xa : nullptr, xb - xa);
         if (yy < y0 + r) continue;
         const int y = yy - r;
         row_box(col.data() + xa, row.data() + xa, xb - xa, r);
@@ -427,12 +451,7 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
         const float* sb = scratch.other_std.ptr<float>(y);
         float* __restrict c = scratch.scores.data();
         const float* __restrict sum = row.data();
-        for (int x = xs; x <= xe; ++x) {
-          const int xo = x - d;
-          const bool textured = (sa[x] >= min_texture) & (sb[xo] >= min_texture);
-          const float value = (sum[x] * inv_n - ma[x] * mb[xo]) / std::max(sa[x] * sb[xo], 1e-6f);
-          c[x - xs] = textured ? value : -2.0f;
-        }
+        correlations(c, sum + xs, ma + xs, sa + xs, mb + xs - d, sb + xs - d, xe - xs + 1, inv_n, min_texture);
         if (lr.active()) offer_span(Row(lr, y), xs, xe - xs + 1, d, c, min_texture);
         if (rl.active()) offer_span(Row(rl, y), xs - d, xe - xs + 1, d, c, min_texture);
       }
