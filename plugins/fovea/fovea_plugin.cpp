@@ -42,7 +42,7 @@ class FoveaNode final : public Node {
         .param_int("lost_frames", 30, 1, 1000000, "lost: frames before the target is given up (not with a template)")
         .param_int("verify_attempts", 3, 1, 1000, "failed looks near one place before it is inhibited")
         .param_size("template_size", {12, 12}, "tracking template, pixels")
-        .param_size("search_size", {48, 40}, "window around the fovea searched by the tracker (0x0: the fovea level)")
+        .param_size("search_size", {40, 32}, "window around the fovea searched by the tracker (0x0: the fovea level)")
         .param_double("min_score", 0.6, -1.0, 1.0, "tracking: a template match (NCC) below this is lost")
         .param_double("update_rate", 0.0, 0.0, 1.0, "tracking: template <- (1-a) template + a match")
         .param_string("template", "", "image file of the target to look for (top-down); empty: lock on saliency")

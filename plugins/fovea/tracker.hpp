@@ -13,7 +13,7 @@ struct TrackerConfig {
   // Window of the source frame, centred on the fovea, that is searched: a wider
   // crop than the fovea, so that a target that moved faster than predicted is
   // still found. 0x0, or a retina without its source frame: the fovea level.
-  cv::Size search_size{48, 40};
+  cv::Size search_size{40, 32};
   double min_score = 0.6;         // a match below this is no match
   double update_rate = 0.0;       // template <- (1 - a) template + a patch
   double update_min_score = 0.85; // only confident matches update the template

@@ -165,7 +165,8 @@ TEST(TemplateTracker, FindsATextureShiftedByWholeAndHalfPixels) {
   TemplateTracker tracker({});
   const cv::Point2d start(320, 240);
   ASSERT_TRUE(tracker.acquire(*make_retina(base, start), start));
-  for (cv::Point2d shift : {cv::Point2d(7, -5), cv::Point2d(-15, 11), cv::Point2d(0.5, 0), cv::Point2d(3.5, -2.5)}) {
+  // The default window (40x32) with a 12x12 template reaches 14 px across and 10 down.
+  for (cv::Point2d shift : {cv::Point2d(7, -5), cv::Point2d(-13, 9), cv::Point2d(0.5, 0), cv::Point2d(3.5, -2.5)}) {
     cv::Mat moved;
     const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, shift.x, 0, 1, shift.y);
     cv::warpAffine(base, moved, m, base.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
