@@ -1,0 +1,133 @@
+#include "kinematics.hpp"
+
+#include <cmath>
+
+namespace saccade::kinematics {
+
+namespace {
+
+Eigen::Isometry3d rot_z(double t) {
+  Eigen::Isometry3d m = Eigen::Isometry3d::Identity();
+  m.linear() = Eigen::AngleAxisd(t, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return m;
+}
+Eigen::Isometry3d rot_x(double t) {
+  Eigen::Isometry3d m = Eigen::Isometry3d::Identity();
+  m.linear() = Eigen::AngleAxisd(t, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  return m;
+}
+Eigen::Isometry3d trans(double x, double y, double z) {
+  Eigen::Isometry3d m = Eigen::Isometry3d::Identity();
+  m.translation() = Eigen::Vector3d(x, y, z);
+  return m;
+}
+
+}  // namespace
+
+std::string DhChain::check(std::size_t joint_count) const {
+  for (std::size_t i = 0; i < rows_.size(); ++i)
+    for (const auto* joints : {&rows_[i].theta_joints, &rows_[i].alpha_joints})
+      for (int j : *joints)
+        if (j < 0 || static_cast<std::size_t>(j) >= joint_count)
+          return "row " + std::to_string(i) + " names joint " + std::to_string(j) + " of " + std::to_string(joint_count);
+  return {};
+}
+
+Eigen::Isometry3d DhChain::forward(const std::vector<double>& q) const {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  for (const DhRow& r : rows_) {
+    double theta = r.theta, alpha = r.alpha;
+    for (int j : r.theta_joints) theta += q.at(static_cast<std::size_t>(j));
+    for (int j : r.alpha_joints) alpha += q.at(static_cast<std::size_t>(j));
+    if (convention_ == Convention::kStandard)
+      t = t * rot_z(theta) * trans(0, 0, r.d) * trans(r.a, 0, 0) * rot_x(alpha);
+    else
+      t = t * rot_x(alpha) * trans(r.a, 0, 0) * rot_z(theta) * trans(0, 0, r.d);
+  }
+  return t;
+}
+
+DhChain paper_camera_chain(Convention convention, double l1, double l2, double l3, int side) {
+  const double s = side < 0 ? -1.0 : 1.0;
+  std::vector<DhRow> rows = {
+      {0, 0, 0, 0, {0, 1}, {}},
+      {s * l1, 0, 0, 0, {}, {}},
+      {0, 0, l2, 0, {}, {2}},
+      {s * l3, 0, 0, 0, {}, {}},
+  };
+  return DhChain(std::move(rows), convention);
+}
+
+DhChain offset_camera_chain(Convention convention, double l1, double l2, double l3, int side) {
+  const double s = side < 0 ? -1.0 : 1.0;
+  std::vector<DhRow> rows;
+  if (convention == Convention::kModified)
+    rows = {{0, 0, 0, 0, {0}, {}}, {s * l1, 0, 0, 0, {1}, {}}, {0, 0, l2, 0, {}, {2}}, {s * l3, 0, 0, 0, {}, {}}};
+  else
+    rows = {{s * l1, 0, 0, 0, {0}, {}}, {0, 0, l2, 0, {1}, {2}}, {s * l3, 0, 0, 0, {}, {}}};
+  return DhChain(std::move(rows), convention);
+}
+
+Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits) {
+  // T = Rz(pan) Tx(R) Tz(L2) Rx(tilt) Tx(R3): the centre is Rz(pan) (R, 0, L2)
+  // with R = s (L1 + L3), the axis Rz(pan) (0, cos tilt, sin tilt). In the
+  // frame turned by -pan the target must lie at x' = R, in front (y' > 0).
+  Pointing p;
+  const double r = (side < 0 ? -1.0 : 1.0) * (l1 + l3);
+  const double rho = std::hypot(target.x(), target.y());
+  if (rho < std::abs(r) + 1e-12) {
+    p.why = "the target is within the cameras' circle around the neck (" + std::to_string(rho) + " m from the axis)";
+    return p;
+  }
+  const double phi = std::atan2(target.y(), target.x());
+  const double delta = std::acos(r / rho);
+  for (double pan : {phi - delta, phi + delta}) {
+    pan = std::remainder(pan, 2 * M_PI);
+    const double y = -target.x() * std::sin(pan) + target.y() * std::cos(pan);
+    if (y <= 0) continue;  // behind the camera: the other root
+    p.pan = pan;
+    p.tilt = std::atan2(target.z() - l2, y);
+    p.reachable = true;
+    break;
+  }
+  if (!p.reachable) {
+    p.why = "no pan puts the target in front of the camera";
+    return p;
+  }
+  if (p.pan < limits.pan_min || p.pan > limits.pan_max) {
+    p.reachable = false;
+    p.why = "pan " + std::to_string(p.pan) + " rad is beyond its limits";
+  } else if (p.tilt < limits.tilt_min || p.tilt > limits.tilt_max) {
+    p.reachable = false;
+    p.why = "tilt " + std::to_string(p.tilt) + " rad is beyond its limits";
+  }
+  return p;
+}
+
+Fixation fixation_point(const Eigen::Vector3d& c1, const Eigen::Vector3d& d1, const Eigen::Vector3d& c2,
+                        const Eigen::Vector3d& d2) {
+  Fixation f;
+  const Eigen::Vector3d u = d1.normalized(), v = d2.normalized(), w = c1 - c2;
+  const double b = u.dot(v), d = u.dot(w), e = v.dot(w);
+  const double denom = 1.0 - b * b;
+  if (denom < 1e-12) {
+    f.why = "the optical axes are parallel: they fixate no point";
+    return f;
+  }
+  const double s = (b * e - d) / denom, t = (e - b * d) / denom;
+  const Eigen::Vector3d p1 = c1 + s * u, p2 = c2 + t * v;
+  f.point = 0.5 * (p1 + p2);
+  f.residual = (p1 - p2).norm();
+  f.valid = true;
+  if (s < 0 || t < 0) {
+    f.valid = false;
+    f.why = "the axes come closest behind a camera";
+  }
+  return f;
+}
+
+Eigen::Vector3d back_project(double u, double v, double depth, double fx, double fy, double cx, double cy) {
+  return Eigen::Vector3d((u - cx) / fx * depth, (v - cy) / fy * depth, depth);
+}
+
+}  // namespace saccade::kinematics

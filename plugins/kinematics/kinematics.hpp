@@ -1,0 +1,94 @@
+#pragma once
+// Kinematics of the stereo head: Denavit-Hartenberg chains in Eigen (standard
+// and modified conventions, a joint variable in theta or in alpha), the
+// paper's chain for one camera, forward kinematics, closed-form pointing of a
+// camera's optical axis at a point, and the fixation point of two optical
+// axes. Plain code: the head plugin (issue 4) builds on it.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace saccade::kinematics {
+
+enum class Convention {
+  kStandard,  // T_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)
+  kModified,  // Craig: T_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i), the row holding a_{i-1}, alpha_{i-1}
+};
+
+// One row: constants, and the joints (indices into the joint vector) added to
+// theta and to alpha; a sum of joints (neck + vergence on one axis) is
+// written as two indices.
+struct DhRow {
+  double a = 0, alpha = 0, d = 0, theta = 0;  // metres, radians
+  std::vector<int> theta_joints, alpha_joints;
+};
+
+class DhChain {
+ public:
+  DhChain(std::vector<DhRow> rows, Convention convention) : rows_(std::move(rows)), convention_(convention) {}
+  // Pose of the last frame in the base frame for joint values q.
+  Eigen::Isometry3d forward(const std::vector<double>& q) const;
+  // "" or what is wrong (a joint index beyond the joint vector).
+  std::string check(std::size_t joint_count) const;
+  const std::vector<DhRow>& rows() const { return rows_; }
+  Convention convention() const { return convention_; }
+
+ private:
+  std::vector<DhRow> rows_;
+  Convention convention_;
+};
+
+// The paper's table for one camera, rows (a, alpha, d, theta):
+// (0, 0, 0, q0 + q1), (L1, 0, 0, 0), (0, q2, L2, 0), (L3, 0, 0, 0); joints
+// q = (neck pan, vergence, tilt). `side` = -1 mirrors it (the other camera: L1
+// and L3 on the other side of the neck).
+DhChain paper_camera_chain(Convention convention, double l1 = 0.12, double l2 = 0.12, double l3 = 0.06, int side = 1);
+// The physically offset variant: the vergence axis L1 from the neck axis. In
+// the modified convention the rows are (0, 0, 0, q0), (L1, 0, 0, q1),
+// (0, q2, L2, 0), (L3, 0, 0, 0); in the standard one (L1, 0, 0, q0),
+// (0, q2, L2, q1), (L3, 0, 0, 0), so that both give the neck, the offset, then
+// the vergence: Rz(q0) Tx(L1) Rz(q1) ... (each convention then places L2 as
+// its reading of the paper's table does).
+DhChain offset_camera_chain(Convention convention, double l1 = 0.12, double l2 = 0.12, double l3 = 0.06, int side = 1);
+
+// The camera's optical axis in its last frame: +y (at zero joints it looks
+// along the base's +y, the pan rotates it about z, the tilt raises it).
+inline Eigen::Vector3d optical_axis(const Eigen::Isometry3d& camera) { return camera.linear().col(1); }
+
+struct JointLimits {
+  double pan_min = -1.6, pan_max = 1.6;    // the summed pan (neck + vergence) of the paper's chain
+  double tilt_min = -0.8, tilt_max = 0.8;
+};
+
+struct Pointing {
+  bool reachable = false;
+  double pan = 0, tilt = 0;  // the paper's chain: q0 + q1 (neck + vergence), q2
+  std::string why;           // when not reachable
+};
+
+// Closed form for the paper's chain in the standard convention: the pan and
+// tilt that put `target` (base frame) on the camera's optical axis, in front
+// of it; the root in front is chosen; limits are respected (a target beyond
+// them is reported unreachable, with the reason).
+Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits);
+
+// The fixation point of two rays (camera centres c1, c2 and directions d1,
+// d2): the midpoint of their common perpendicular, and its length (the
+// residual: 0 when the rays meet). No point for (nearly) parallel rays.
+struct Fixation {
+  bool valid = false;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  double residual = 0;
+  std::string why;
+};
+Fixation fixation_point(const Eigen::Vector3d& c1, const Eigen::Vector3d& d1, const Eigen::Vector3d& c2,
+                        const Eigen::Vector3d& d2);
+
+// A pixel with its depth (metres along the optical axis) to a point in the
+// camera frame of a pinhole camera (fx, fy, cx, cy); camera frame: x right,
+// y down, z along the optical axis.
+Eigen::Vector3d back_project(double u, double v, double depth, double fx, double fy, double cx, double cy);
+
+}  // namespace saccade::kinematics
