@@ -104,6 +104,53 @@ Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3
   return p;
 }
 
+Eigen::Isometry3d left_camera(const HeadGeometry& g, const HeadJoints& q) {
+  return paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, -1).forward({q.neck, q.vergence_left, q.tilt_left});
+}
+
+Eigen::Isometry3d right_camera(const HeadGeometry& g, const HeadJoints& q) {
+  return paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, 1).forward({q.neck, q.vergence_right, q.tilt_right});
+}
+
+Gaze gaze_each(const Eigen::Vector3d& left_target, const Eigen::Vector3d& right_target, const HeadGeometry& g,
+               const HeadLimits& limits) {
+  Gaze gaze;
+  // Each camera's own pan and tilt, with limits wide enough not to cut the
+  // sum (neck + vergence); the head's own limits are checked after the split.
+  const JointLimits open{-M_PI, M_PI, limits.tilt_min, limits.tilt_max};
+  const Pointing l = point_at(left_target, g.l1, g.l2, g.l3, -1, open);
+  if (!l.reachable) {
+    gaze.why = "left camera: " + l.why;
+    return gaze;
+  }
+  const Pointing r = point_at(right_target, g.l1, g.l2, g.l3, 1, open);
+  if (!r.reachable) {
+    gaze.why = "right camera: " + r.why;
+    return gaze;
+  }
+  HeadJoints& q = gaze.joints;
+  q.neck = 0.5 * (l.pan + r.pan);
+  q.vergence_left = l.pan - q.neck;
+  q.vergence_right = r.pan - q.neck;
+  q.tilt_left = l.tilt;
+  q.tilt_right = r.tilt;
+  if (q.neck < limits.neck_min || q.neck > limits.neck_max) {
+    gaze.why = "neck " + std::to_string(q.neck) + " rad is beyond its limits";
+    return gaze;
+  }
+  for (double v : {q.vergence_left, q.vergence_right})
+    if (v < limits.vergence_min || v > limits.vergence_max) {
+      gaze.why = "vergence " + std::to_string(v) + " rad is beyond its limits (the target is too near)";
+      return gaze;
+    }
+  gaze.reachable = true;
+  return gaze;
+}
+
+Gaze gaze_at(const Eigen::Vector3d& target, const HeadGeometry& g, const HeadLimits& limits) {
+  return gaze_each(target, target, g, limits);
+}
+
 Fixation fixation_point(const Eigen::Vector3d& c1, const Eigen::Vector3d& d1, const Eigen::Vector3d& c2,
                         const Eigen::Vector3d& d2) {
   Fixation f;

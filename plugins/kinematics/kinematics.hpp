@@ -74,6 +74,36 @@ struct Pointing {
 // them is reported unreachable, with the reason).
 Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits);
 
+// The whole head with the paper's chain for each camera: the left camera on
+// the -x side (side -1), the right on +x, each turning about the neck axis by
+// neck + its vergence, and tilting on its own.
+struct HeadGeometry {
+  double l1 = 0.12, l2 = 0.12, l3 = 0.06;
+};
+struct HeadJoints {
+  double neck = 0, vergence_left = 0, tilt_left = 0, vergence_right = 0, tilt_right = 0;
+};
+struct HeadLimits {
+  double neck_min = -1.6, neck_max = 1.6;
+  double vergence_min = -0.6, vergence_max = 0.6;
+  double tilt_min = -0.8, tilt_max = 0.8;
+};
+// Camera poses (base frame) of the head at `q`.
+Eigen::Isometry3d left_camera(const HeadGeometry& g, const HeadJoints& q);
+Eigen::Isometry3d right_camera(const HeadGeometry& g, const HeadJoints& q);
+
+struct Gaze {
+  bool reachable = false;
+  HeadJoints joints;
+  std::string why;
+};
+// Dependent mode: both cameras fixate `target`; the neck takes the mean of the
+// two pans so that the vergence is symmetric (left = -right).
+Gaze gaze_at(const Eigen::Vector3d& target, const HeadGeometry& g, const HeadLimits& limits);
+// Independent mode: each camera its own target; the neck again the mean pan.
+Gaze gaze_each(const Eigen::Vector3d& left_target, const Eigen::Vector3d& right_target, const HeadGeometry& g,
+               const HeadLimits& limits);
+
 // The fixation point of two rays (camera centres c1, c2 and directions d1,
 // d2): the midpoint of their common perpendicular, and its length (the
 // residual: 0 when the rays meet). No point for (nearly) parallel rays.

@@ -139,6 +139,40 @@ TEST(Fixation, MidpointOfTheCommonPerpendicularWithItsResidual) {
   EXPECT_NE(f.why.find("behind"), std::string::npos);
 }
 
+TEST(Gaze, BothCamerasFixateTheTargetWithSymmetricVergence) {
+  const HeadGeometry g;
+  const HeadLimits limits;
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> x(-1.0, 1.0), y(0.8, 4.0), z(-0.5, 0.8);
+  for (int i = 0; i < 100; ++i) {
+    const Eigen::Vector3d target(x(rng), y(rng), z(rng));
+    const Gaze gaze = gaze_at(target, g, limits);
+    ASSERT_TRUE(gaze.reachable) << gaze.why << " " << target.transpose();
+    EXPECT_NEAR(gaze.joints.vergence_left, -gaze.joints.vergence_right, 1e-12) << "symmetric";
+    const Eigen::Isometry3d l = left_camera(g, gaze.joints), r = right_camera(g, gaze.joints);
+    const Fixation f = fixation_point(l.translation(), optical_axis(l), r.translation(), optical_axis(r));
+    ASSERT_TRUE(f.valid) << f.why;
+    EXPECT_LT((f.point - target).norm(), 1e-9);
+    EXPECT_LT(f.residual, 1e-9);
+  }
+  // Too near: the vergence would pass its limit.
+  const Gaze near = gaze_at({0.0, 0.25, 0.12}, g, limits);
+  EXPECT_FALSE(near.reachable);
+  EXPECT_NE(near.why.find("vergence"), std::string::npos) << near.why;
+}
+
+TEST(Gaze, IndependentModeGivesEachCameraItsOwnTarget) {
+  const HeadGeometry g;
+  const Eigen::Vector3d a(-0.6, 2.0, 0.3), b(0.9, 2.5, -0.1);
+  const Gaze gaze = gaze_each(a, b, g, HeadLimits{});
+  ASSERT_TRUE(gaze.reachable) << gaze.why;
+  for (const auto& [camera, target] : {std::pair{left_camera(g, gaze.joints), a}, std::pair{right_camera(g, gaze.joints), b}}) {
+    const Eigen::Vector3d to = target - camera.translation(), axis = optical_axis(camera);
+    EXPECT_GT(to.dot(axis), 0);
+    EXPECT_LT((to - to.dot(axis) * axis).norm(), 1e-9);
+  }
+}
+
 TEST(BackProject, PixelAndDepthToACameraPoint) {
   const Eigen::Vector3d p = back_project(420, 140, 2.0, 500, 500, 320, 240);
   EXPECT_LT((p - Eigen::Vector3d(0.4, -0.4, 2.0)).norm(), 1e-12);
