@@ -68,7 +68,8 @@ DhChain offset_camera_chain(Convention convention, double l1, double l2, double 
   return DhChain(std::move(rows), convention);
 }
 
-Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits) {
+Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits,
+                  Convention convention) {
   // T = Rz(pan) Tx(R) Tz(L2) Rx(tilt) Tx(R3): the centre is Rz(pan) (R, 0, L2)
   // with R = s (L1 + L3), the axis Rz(pan) (0, cos tilt, sin tilt). In the
   // frame turned by -pan the target must lie at x' = R, in front (y' > 0).
@@ -86,7 +87,28 @@ Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3
     const double y = -target.x() * std::sin(pan) + target.y() * std::cos(pan);
     if (y <= 0) continue;  // behind the camera: the other root
     p.pan = pan;
-    p.tilt = std::atan2(target.z() - l2, y);
+    if (convention == Convention::kStandard) {
+      p.tilt = std::atan2(target.z() - l2, y);
+    } else {
+      // Modified: the centre is Rz(pan) (R, -L2 sin t, L2 cos t), so the
+      // target is on the axis when y' sin t - z' cos t + L2 = 0, i.e.
+      // sin(t - psi) = -L2 / r with (y', z') = r (cos psi, sin psi); of the two
+      // roots, the one with the target in front.
+      const double rr = std::hypot(y, target.z());
+      if (rr < l2) continue;
+      const double psi = std::atan2(target.z(), y), a = std::asin(-l2 / rr);
+      bool found = false;
+      for (double tilt : {psi + a, psi + M_PI - a}) {
+        tilt = std::remainder(tilt, 2 * M_PI);
+        const double ahead = (y + l2 * std::sin(tilt)) * std::cos(tilt) + (target.z() - l2 * std::cos(tilt)) * std::sin(tilt);
+        if (ahead > 0) {
+          p.tilt = tilt;
+          found = true;
+          break;
+        }
+      }
+      if (!found) continue;
+    }
     p.reachable = true;
     break;
   }

@@ -68,11 +68,13 @@ struct Pointing {
   std::string why;           // when not reachable
 };
 
-// Closed form for the paper's chain in the standard convention: the pan and
-// tilt that put `target` (base frame) on the camera's optical axis, in front
-// of it; the root in front is chosen; limits are respected (a target beyond
-// them is reported unreachable, with the reason).
-Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits);
+// Closed form for the paper's chain: the pan and tilt that put `target`
+// (base frame) on the camera's optical axis, in front of it; the root in
+// front is chosen; limits are respected (a target beyond them is reported
+// unreachable, with the reason). The modified reading, whose tilt also turns
+// the L2 offset, has its own tilt formula.
+Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits,
+                  Convention convention = Convention::kStandard);
 
 // The whole head with the paper's chain for each camera: the left camera on
 // the -x side (side -1), the right on +x, each turning about the neck axis by

@@ -101,6 +101,24 @@ TEST(PointAt, PutsTheTargetOnTheOpticalAxisInFront) {
     }
 }
 
+TEST(PointAt, TheModifiedReadingHasItsOwnTilt) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> coord(-2.0, 2.0), ahead(0.5, 3.0);
+  const JointLimits limits{-M_PI, M_PI, -1.4, 1.4};
+  for (int side : {1, -1})
+    for (int i = 0; i < 100; ++i) {
+      const Eigen::Vector3d target(coord(rng), ahead(rng), coord(rng) * 0.5 + 0.12);
+      const Pointing p = point_at(target, kL1, kL2, kL3, side, limits, Convention::kModified);
+      ASSERT_TRUE(p.reachable) << p.why << " " << target.transpose();
+      const Eigen::Isometry3d cam =
+          paper_camera_chain(Convention::kModified, kL1, kL2, kL3, side).forward({p.pan, 0.0, p.tilt});
+      const Eigen::Vector3d to = target - cam.translation();
+      const Eigen::Vector3d axis = optical_axis(cam);
+      EXPECT_GT(to.dot(axis), 0) << "in front";
+      EXPECT_LT((to - to.dot(axis) * axis).norm(), 1e-9) << "on the axis";
+    }
+}
+
 TEST(PointAt, ReportsWhatItCannotReach) {
   const JointLimits limits;
   // Inside the circle the cameras sweep around the neck.
