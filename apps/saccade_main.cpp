@@ -197,7 +197,7 @@ int main(int argc, char** argv) {
     std::string error;
     auto levels = classifier::parse_levels(train_levels, &error);
     auto features = levels ? classifier::parse_features(train_features, &error) : std::nullopt;
-    auto hidden = features ? classifier::parse_levels(train_hidden, &error) : std::nullopt;
+    auto hidden = features ? classifier::parse_int_list(train_hidden, "--hidden", &error) : std::nullopt;
     int w = 0, h = 0;
     char tail = 0;
     if (hidden && (std::sscanf(train_size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1))

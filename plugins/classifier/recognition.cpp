@@ -129,6 +129,10 @@ bool FeatureRecipe::operator==(const FeatureRecipe& o) const {
 }
 
 std::optional<std::vector<int>> parse_levels(const std::string& text, std::string* error) {
+  return parse_int_list(text, "levels (0 = the fovea)", error);
+}
+
+std::optional<std::vector<int>> parse_int_list(const std::string& text, const std::string& what, std::string* error) {
   std::vector<int> out;
   std::stringstream in(text);
   std::string item;
@@ -141,13 +145,13 @@ std::optional<std::vector<int>> parse_levels(const std::string& text, std::strin
       used = 0;
     }
     if (used != item.size() || v < 0) {
-      *error = "levels: expected numbers like 0,1 (0 = the fovea), got '" + text + "'";
+      *error = what + ": expected numbers like 0,1, got '" + text + "'";
       return std::nullopt;
     }
     out.push_back(v);
   }
   if (out.empty()) {
-    *error = "levels: empty";
+    *error = what + ": empty";
     return std::nullopt;
   }
   return out;

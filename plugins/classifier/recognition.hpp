@@ -47,6 +47,8 @@ struct FeatureRecipe {
   bool operator==(const FeatureRecipe& o) const;
 };
 
+// "64,32" -> {64, 32} (non-negative); `what` names the list in the error.
+std::optional<std::vector<int>> parse_int_list(const std::string& text, const std::string& what, std::string* error);
 // "0,1" -> {0, 1}; "gray,grad_mag" -> names. Empty optional and `error` on bad text.
 std::optional<std::vector<int>> parse_levels(const std::string& text, std::string* error);
 std::optional<std::vector<std::string>> parse_features(const std::string& text, std::string* error);

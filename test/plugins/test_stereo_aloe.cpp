@@ -158,10 +158,6 @@ TEST(StereoAloe, PerLevelAccuracyAgainstTheGroundTruth) {
     config.left_right_check = variants[v].lr_check;
     config.vergence = variants[v].vergence;
     config.max_disparity = 240;
-    if (const char* e = std::getenv("ALOE_MIN_SCORE")) config.ncc.min_score = std::strtof(e, nullptr);
-    if (const char* e = std::getenv("ALOE_MIN_TEXTURE")) config.ncc.min_texture = std::strtof(e, nullptr);
-    if (const char* e = std::getenv("ALOE_FOVEA_RADIUS")) config.fovea_radius = std::atoi(e);
-    if (const char* e = std::getenv("ALOE_LR_TOL")) config.lr_tolerance = std::strtof(e, nullptr);
     config.keep_images = v == 0;
     RetinaStereo stereo(config);
     for (const auto& f : kFixations) {
@@ -191,18 +187,6 @@ TEST(StereoAloe, PerLevelAccuracyAgainstTheGroundTruth) {
                       aloe.truth.at<uint8_t>(static_cast<int>(f.y), static_cast<int>(f.x)), out[k].vergence, s.density(), s.bad2_rate());
           for (double d : stereo.fixation().per_level) std::printf(" %.1f", d);
           std::printf(" (score %.2f)\n", stereo.fixation().score);
-          if (std::getenv("ALOE_DUMP") && v == 0) {
-            const auto& g = l->geometry[k];
-            for (int y = 0; y < out[k].disparity.rows; ++y) {
-              for (int x = 0; x < out[k].disparity.cols; ++x) {
-                const cv::Point2d p = g.to_source(x, y);
-                const int t = aloe.truth.at<uint8_t>(static_cast<int>(p.y), static_cast<int>(p.x));
-                const float dd = out[k].disparity.at<float>(y, x);
-                std::printf("%4d/%-4d", dd < 0 ? -1 : static_cast<int>(std::lround(dd)), t);
-              }
-              std::printf("\n");
-            }
-          }
         }
         table[v][k].add(s);
       }
