@@ -59,10 +59,7 @@ std::shared_ptr<Retina> make_retina(retina::RetinaSampler& sampler, const cv::Ma
   auto image = std::make_shared<Image>();
   image->mat = frame;
   r->source = image;
-  r->source_size = frame.size();
-  sampler.sample(frame, fovea, r->levels, r->geometry);
-  const auto& inner = r->geometry.back();
-  r->fovea = cv::Point(inner.region.x + inner.region.width / 2, inner.region.y + inner.region.height / 2);
+  sampler.sample(frame, fovea, *r);
   return r;
 }
 

@@ -233,10 +233,7 @@ void retina_of_view(const cv::Mat& image, retina::RetinaSampler& sampler, Retina
   cv::copyMakeBorder(scaled, frame, top, size.height - fitted.height - top, left, size.width - fitted.width - left,
                      cv::BORDER_REPLICATE);
   const cv::Point2d centre(left + fitted.width / 2.0, top + fitted.height / 2.0);
-  sampler.sample(frame, centre, out.levels, out.geometry);
-  out.source_size = frame.size();
-  const auto& inner = out.geometry.back();
-  out.fovea = cv::Point(inner.region.x + inner.region.width / 2, inner.region.y + inner.region.height / 2);
+  sampler.sample(frame, centre, out);
 }
 
 void Model::scores(const cv::Mat& row, std::vector<float>& out) const {
@@ -245,14 +242,6 @@ void Model::scores(const cv::Mat& row, std::vector<float>& out) const {
   out.resize(static_cast<std::size_t>(response.cols));
   for (int i = 0; i < response.cols; ++i)
     out[static_cast<std::size_t>(i)] = std::clamp((response.at<float>(0, i) + 1.0f) / 2.0f, 0.0f, 1.0f);
-}
-
-int Model::predict(const cv::Mat& row) const {
-  cv::Mat response;
-  net->predict(row, response);
-  cv::Point best;
-  cv::minMaxLoc(response, nullptr, nullptr, nullptr, &best);
-  return best.x;
 }
 
 std::string Model::save(const std::string& path) const {
@@ -358,30 +347,37 @@ Model train(const cv::Mat& x, const std::vector<int>& y, std::vector<std::string
   return model;
 }
 
-double accuracy(const Model& model, const cv::Mat& x, const std::vector<int>& y) {
-  if (x.rows == 0) return 0.0;
+namespace {
+
+// The best class of every row of x.
+std::vector<int> best_classes(const Model& model, const cv::Mat& x) {
+  std::vector<int> out(static_cast<std::size_t>(x.rows));
+  if (x.rows == 0) return out;
   cv::Mat response;
   model.net->predict(x, response);
-  int right = 0;
   for (int i = 0; i < x.rows; ++i) {
     cv::Point best;
     cv::minMaxLoc(response.row(i), nullptr, nullptr, nullptr, &best);
-    right += best.x == y[static_cast<std::size_t>(i)];
+    out[static_cast<std::size_t>(i)] = best.x;
   }
+  return out;
+}
+
+}  // namespace
+
+double accuracy(const Model& model, const cv::Mat& x, const std::vector<int>& y) {
+  if (x.rows == 0) return 0.0;
+  const std::vector<int> predicted = best_classes(model, x);
+  int right = 0;
+  for (std::size_t i = 0; i < predicted.size(); ++i) right += predicted[i] == y[i];
   return static_cast<double>(right) / x.rows;
 }
 
 cv::Mat confusion(const Model& model, const cv::Mat& x, const std::vector<int>& y) {
   const int n = static_cast<int>(model.classes->size());
   cv::Mat m(n, n, CV_32S, cv::Scalar(0));
-  if (x.rows == 0) return m;
-  cv::Mat response;
-  model.net->predict(x, response);
-  for (int i = 0; i < x.rows; ++i) {
-    cv::Point best;
-    cv::minMaxLoc(response.row(i), nullptr, nullptr, nullptr, &best);
-    ++m.at<int>(y[static_cast<std::size_t>(i)], best.x);
-  }
+  const std::vector<int> predicted = best_classes(model, x);
+  for (std::size_t i = 0; i < predicted.size(); ++i) ++m.at<int>(y[i], predicted[i]);
   return m;
 }
 

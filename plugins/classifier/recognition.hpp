@@ -97,7 +97,6 @@ struct Model {
 
   // Scores per class in 0..1.
   void scores(const cv::Mat& row, std::vector<float>& out) const;
-  int predict(const cv::Mat& row) const;
   // Network, recipe and class names in one OpenCV FileStorage file.
   std::string save(const std::string& path) const;
   static std::unique_ptr<Model> load(const std::string& path, std::string* error);

@@ -194,7 +194,7 @@ void FoveaController::search(const Retina& retina, const std::vector<cv::Mat>* m
     return;
   }
   saliency_.compute(retina, motion_dI);
-  const Candidate c = saliency_.peak(ior_, {}, 0.0, moving_only(motion_dI));
+  const Candidate c = saliency_.peak(ior_, moving_only(motion_dI));
   if (!c.valid() || c.value < config_.min_saliency) return;
   d.score = c.value;
   acquire_at_ = c.point;
@@ -234,12 +234,12 @@ void FoveaController::lost(const Retina& retina, const std::vector<cv::Mat>* mot
   // `verify_attempts` times in a row is inhibited, so the search moves on.
   saliency_.compute(retina, motion_dI);
   const bool moving = moving_only(motion_dI);
-  Candidate c = saliency_.peak(ior_, {}, 0.0, moving);
+  Candidate c = saliency_.peak(ior_, moving);
   if (c.valid() && distance(c.point, candidate_) < config_.ior_radius) {
     if (++attempts_ >= config_.verify_attempts) {
       ior_.add(c.point);
       attempts_ = 0;
-      c = saliency_.peak(ior_, {}, 0.0, moving);
+      c = saliency_.peak(ior_, moving);
     }
   } else {
     attempts_ = 1;

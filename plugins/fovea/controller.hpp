@@ -72,8 +72,6 @@ class FoveaController {
   int64_t attention_shifts() const { return shifts_; }
   int64_t gaze_requests() const { return gaze_requests_; }
   int64_t frames_lost() const { return phase_ == Phase::kLost ? frames_lost_ : 0; }
-  const Saliency& saliency() const { return saliency_; }
-  const InhibitionOfReturn& inhibition() const { return ior_; }
   const ControllerConfig& config() const { return config_; }
 
  private:

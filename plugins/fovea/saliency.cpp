@@ -185,11 +185,10 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
   }
 }
 
-Candidate Saliency::peak(const InhibitionOfReturn& ior, cv::Point2d near, double within, bool moving) const {
+Candidate Saliency::peak(const InhibitionOfReturn& ior, bool moving) const {
   Candidate best;
   if (moving && !has_motion_) return best;
   const int b = config_.border;
-  const double within2 = within * within;
   // Inner levels first: on a tie the finer, better-localised place wins.
   for (int k = static_cast<int>(maps_.size()) - 1; k >= 0; --k) {
     const cv::Mat& m = maps_[static_cast<std::size_t>(k)];
@@ -200,10 +199,6 @@ Candidate Saliency::peak(const InhibitionOfReturn& ior, cv::Point2d near, double
         if (row[x] <= best.value) continue;
         if (moving && motion_[static_cast<std::size_t>(k)].at<float>(y, x) < config_.motion_floor) continue;
         const cv::Point2d p = g.to_source(x, y);
-        if (within > 0) {
-          const cv::Point2d d = p - near;
-          if (d.dot(d) > within2) continue;
-        }
         const double v = row[x] * (1.0 - ior.at(p));
         if (v > best.value) best = Candidate{p, v, k};
       }

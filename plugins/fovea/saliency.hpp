@@ -77,10 +77,9 @@ class Saliency {
   void compute(const Retina& retina, const std::vector<cv::Mat>* motion_dI);
   // Saliency per level (CV_32F, same size as the levels).
   const std::vector<cv::Mat>& maps() const { return maps_; }
-  // The most salient place after inhibition, over every level; with `within`
-  // > 0 only places within that distance (source pixels) of `near` count; with
-  // `moving` only places whose |dI| reaches the motion floor.
-  Candidate peak(const InhibitionOfReturn& ior, cv::Point2d near = {}, double within = 0.0, bool moving = false) const;
+  // The most salient place after inhibition, over every level; with `moving`
+  // only places whose |dI| reaches the motion floor.
+  Candidate peak(const InhibitionOfReturn& ior, bool moving = false) const;
   // The most salient place on one level, at least `margin` level pixels from
   // its edges.
   Candidate peak_on_level(int level, int margin_x, int margin_y) const;

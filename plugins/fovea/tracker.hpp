@@ -36,7 +36,6 @@ class TemplateTracker {
   // target's centre is), e.g. once the object is fully in view.
   void move_point(cv::Point2d delta) { offset_ += delta; }
   bool has_template() const { return !template_.empty(); }
-  const cv::Mat& template_image() const { return template_; }
 
   struct Match {
     bool found = false;

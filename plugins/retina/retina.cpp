@@ -231,4 +231,12 @@ void RetinaSampler::sample(const cv::Mat& frame, cv::Point2d fovea, std::vector<
   }
 }
 
+void RetinaSampler::sample(const cv::Mat& frame, cv::Point2d fovea, Retina& out) {
+  sample(frame, fovea, out.levels, out.geometry);
+  out.source_size = frame.size();
+  const cv::Rect inner = out.geometry.back().region;
+  out.fovea = cv::Point(inner.x + inner.width / 2, inner.y + inner.height / 2);
+  out.sampling = config_.mode == SamplingMode::kAreaMean ? Retina::Sampling::kAreaMean : Retina::Sampling::kFivePoint;
+}
+
 }  // namespace saccade::retina

@@ -61,6 +61,10 @@ class RetinaSampler {
   // Samples `frame` (8-bit, 1 or 3 channels) into `levels` and fills `geometry`.
   void sample(const cv::Mat& frame, cv::Point2d fovea, std::vector<cv::Mat>& levels,
               std::vector<LevelGeometry>& geometry);
+  // The same into a Retina message: levels, geometry, the source's size, the
+  // fovea's centre as sampled (after clamping) and the sampling mode. The
+  // caller attaches the source frame and the camera id.
+  void sample(const cv::Mat& frame, cv::Point2d fovea, Retina& out);
   const RetinaConfig& config() const { return config_; }
 
  private:

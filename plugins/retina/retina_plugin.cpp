@@ -50,13 +50,8 @@ class RetinaNode final : public Node {
     if (initial_fovea_) fovea = *initial_fovea_;
     if (auto f = ctx.get(fovea_in_)) fovea = f->center;
     auto retina = ctx.make(out_);
-    sampler_->sample(*frame, fovea, retina->levels, retina->geometry);
-    retina->source_size = frame->size();
-    const auto& inner = retina->geometry.back();
-    retina->fovea = cv::Point(inner.region.x + inner.region.width / 2, inner.region.y + inner.region.height / 2);
+    sampler_->sample(*frame, fovea, *retina);
     retina->camera_id = image->camera_id;
-    retina->sampling = sampler_->config().mode == SamplingMode::kAreaMean ? Retina::Sampling::kAreaMean
-                                                                          : Retina::Sampling::kFivePoint;
     retina->source = image;
     ctx.emit(out_, std::move(retina));
     return {};

@@ -40,10 +40,7 @@ void draw_target(cv::Mat& frame, cv::Point2d c, int seed = 1, int size = 16) {
 std::shared_ptr<Retina> make_retina(const cv::Mat& frame, cv::Point2d fovea, int64_t id = 0) {
   static retina::RetinaSampler sampler({});
   auto r = std::make_shared<Retina>();
-  sampler.sample(frame, fovea, r->levels, r->geometry);
-  r->source_size = frame.size();
-  const auto& inner = r->geometry.back();
-  r->fovea = cv::Point(inner.region.x + inner.region.width / 2, inner.region.y + inner.region.height / 2);
+  sampler.sample(frame, fovea, *r);
   auto image = std::make_shared<Image>();
   image->mat = frame;
   r->source = image;

@@ -29,10 +29,7 @@ struct Aloe {
 std::shared_ptr<Retina> retina_of(const cv::Mat& frame, cv::Point2d fovea) {
   retina::RetinaSampler sampler({});
   auto r = std::make_shared<Retina>();
-  sampler.sample(frame, fovea, r->levels, r->geometry);
-  r->source_size = frame.size();
-  const auto& inner = r->geometry.back();
-  r->fovea = cv::Point(inner.region.x + inner.region.width / 2, inner.region.y + inner.region.height / 2);
+  sampler.sample(frame, fovea, *r);
   auto image = std::make_shared<Image>();
   image->mat = frame;
   r->source = image;
