@@ -15,6 +15,36 @@ FeatureMaps::~FeatureMaps() = default;
 Region::~Region() = default;
 Motion::~Motion() = default;
 GazeRequest::~GazeRequest() = default;
+JointState::~JointState() = default;
+JointTargets::~JointTargets() = default;
+
+bool JointState::all_ready() const {
+  if (health.empty()) return false;
+  for (Health h : health)
+    if (h != Health::kReady) return false;
+  return true;
+}
+
+const char* to_string(GazeRequest::Kind kind) {
+  switch (kind) {
+    case GazeRequest::Kind::kDirection: return "direction";
+    case GazeRequest::Kind::kPixelDepth: return "pixel+depth";
+    case GazeRequest::Kind::kPixelDisparity: return "pixel+disparity";
+    case GazeRequest::Kind::kPoint: return "point";
+    case GazeRequest::Kind::kRelative: return "relative";
+  }
+  return "?";
+}
+
+const char* to_string(JointState::Health health) {
+  switch (health) {
+    case JointState::Health::kStarting: return "starting";
+    case JointState::Health::kReady: return "ready";
+    case JointState::Health::kFault: return "fault";
+    case JointState::Health::kSilent: return "silent";
+  }
+  return "?";
+}
 FoveaState::~FoveaState() = default;
 Classification::~Classification() = default;
 

@@ -1,7 +1,6 @@
 #include "canopen.hpp"
 
-#include <algorithm>
-#include <cmath>
+#include <cstdio>
 
 namespace saccade::can {
 
@@ -87,100 +86,179 @@ DriveState next_state(DriveState s, uint16_t cw) {
   }
 }
 
-namespace {
+uint32_t get_u32(const uint8_t* p) {
+  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 | static_cast<uint32_t>(p[2]) << 16 |
+         static_cast<uint32_t>(p[3]) << 24;
+}
 
-Frame pdo(uint32_t id, uint16_t word, int32_t position) {
+void put_u32(uint8_t* p, uint32_t v) {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+
+namespace {
+Frame frame(uint32_t id, uint8_t length) {
   Frame f;
   f.id = id;
-  f.length = 6;
-  f.data[0] = static_cast<uint8_t>(word & 0xFF);
-  f.data[1] = static_cast<uint8_t>(word >> 8);
-  const auto p = static_cast<uint32_t>(position);
-  for (int i = 0; i < 4; ++i) f.data[static_cast<std::size_t>(2 + i)] = static_cast<uint8_t>(p >> (8 * i));
+  f.length = length;
   return f;
 }
-
+uint16_t get_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | p[1] << 8); }
+void put_u16(uint8_t* p, uint16_t v) {
+  p[0] = static_cast<uint8_t>(v & 0xFF);
+  p[1] = static_cast<uint8_t>(v >> 8);
+}
 }  // namespace
 
-Frame rpdo1(int node, uint16_t controlword, int32_t target) { return pdo(cob::rpdo1(node), controlword, target); }
-Frame tpdo1(int node, uint16_t statusword, int32_t actual) { return pdo(cob::tpdo1(node), statusword, actual); }
-
-bool parse_pdo(const Frame& f, uint16_t& word, int32_t& position) {
-  if (f.length != 6) return false;
-  word = static_cast<uint16_t>(f.data[0] | (f.data[1] << 8));
-  uint32_t p = 0;
-  for (int i = 0; i < 4; ++i) p |= static_cast<uint32_t>(f.data[static_cast<std::size_t>(2 + i)]) << (8 * i);
-  position = static_cast<int32_t>(p);
-  return true;
+const char* to_string(NmtState s) {
+  switch (s) {
+    case NmtState::kBootUp: return "boot-up";
+    case NmtState::kStopped: return "stopped";
+    case NmtState::kOperational: return "operational";
+    case NmtState::kPreOperational: return "pre-operational";
+  }
+  return "unknown";
 }
 
-Frame nmt_start(int node) {
-  Frame f;
-  f.id = cob::kNmt;
-  f.length = 2;
-  f.data[0] = 0x01;
+Frame nmt(NmtCommand command, int node) {
+  Frame f = frame(cob::kNmt, 2);
+  f.data[0] = static_cast<uint8_t>(command);
   f.data[1] = static_cast<uint8_t>(node);
   return f;
 }
 
-Frame sync_frame() {
-  Frame f;
-  f.id = cob::kSync;
+Frame heartbeat(int node, NmtState state) {
+  Frame f = frame(cob::heartbeat(node), 1);
+  f.data[0] = static_cast<uint8_t>(state);
   return f;
 }
 
-int VirtualBus::attach() {
-  std::lock_guard lock(mu_);
-  queues_.emplace_back();
-  return static_cast<int>(queues_.size()) - 1;
-}
+Frame sync_frame() { return frame(cob::kSync, 0); }
 
-void VirtualBus::send(int from, const Frame& f) {
-  std::lock_guard lock(mu_);
-  for (std::size_t i = 0; i < queues_.size(); ++i)
-    if (static_cast<int>(i) != from) queues_[i].push_back(f);
-}
-
-std::optional<Frame> VirtualBus::receive(int endpoint) {
-  std::lock_guard lock(mu_);
-  auto& q = queues_.at(static_cast<std::size_t>(endpoint));
-  if (q.empty()) return std::nullopt;
-  Frame f = q.front();
-  q.pop_front();
+Frame emergency(int node, uint16_t error_code, uint8_t error_register) {
+  Frame f = frame(cob::emergency(node), 8);
+  put_u16(f.data.data(), error_code);
+  f.data[2] = error_register;
   return f;
 }
 
-std::size_t VirtualBus::pending(int endpoint) {
-  std::lock_guard lock(mu_);
-  return queues_.at(static_cast<std::size_t>(endpoint)).size();
+Frame sdo_frame(uint32_t cob_id, const Sdo& sdo) {
+  Frame f = frame(cob_id, 8);
+  const uint8_t unused = static_cast<uint8_t>(4 - sdo.size);
+  switch (sdo.kind) {
+    case Sdo::Kind::kDownloadRequest: f.data[0] = static_cast<uint8_t>(0x23 | unused << 2); break;
+    case Sdo::Kind::kDownloadResponse: f.data[0] = 0x60; break;
+    case Sdo::Kind::kUploadRequest: f.data[0] = 0x40; break;
+    case Sdo::Kind::kUploadResponse: f.data[0] = static_cast<uint8_t>(0x43 | unused << 2); break;
+    case Sdo::Kind::kAbort: f.data[0] = 0x80; break;
+    case Sdo::Kind::kUnsupported: f.data[0] = 0x00; break;
+  }
+  put_u16(&f.data[1], sdo.index);
+  f.data[3] = sdo.subindex;
+  if (sdo.kind == Sdo::Kind::kDownloadRequest || sdo.kind == Sdo::Kind::kUploadResponse ||
+      sdo.kind == Sdo::Kind::kAbort) {
+    const uint32_t v = sdo.kind == Sdo::Kind::kAbort || sdo.size == 4 ? sdo.value
+                                                                       : sdo.value & ((1u << (8 * sdo.size)) - 1);
+    put_u32(&f.data[4], v);
+  }
+  return f;
 }
 
-SimulatedDrive::SimulatedDrive(VirtualBus& bus, int node, double counts_per_second)
-    : bus_(bus), endpoint_(bus.attach()), node_(node), speed_(counts_per_second) {}
+bool parse_sdo(const Frame& f, Sdo& out) {
+  if (f.length != 8 || f.rtr) return false;
+  const uint8_t cmd = f.data[0];
+  out = Sdo{};
+  out.index = get_u16(&f.data[1]);
+  out.subindex = f.data[3];
+  out.value = get_u32(&f.data[4]);
+  const bool expedited = (cmd & 0x02) != 0, size_given = (cmd & 0x01) != 0;
+  out.size = size_given ? static_cast<uint8_t>(4 - ((cmd >> 2) & 0x03)) : 4;
+  switch (cmd >> 5) {
+    case 1:  // ccs 1: initiate download (client) ...
+      out.kind = expedited ? Sdo::Kind::kDownloadRequest : Sdo::Kind::kUnsupported;
+      break;
+    case 2:  // ccs 2: initiate upload request (client) or scs 2: upload response (server)
+      out.kind = cmd == 0x40 ? Sdo::Kind::kUploadRequest
+                             : (expedited ? Sdo::Kind::kUploadResponse : Sdo::Kind::kUnsupported);
+      break;
+    case 3: out.kind = Sdo::Kind::kDownloadResponse; break;  // scs 3
+    case 4: out.kind = Sdo::Kind::kAbort; break;
+    default: out.kind = Sdo::Kind::kUnsupported; break;
+  }
+  if (out.size < 4 && out.kind != Sdo::Kind::kAbort) out.value &= (1u << (8 * out.size)) - 1;
+  return true;
+}
 
-void SimulatedDrive::step(double dt) {
-  while (auto f = bus_.receive(endpoint_)) {
-    if (f->id == cob::kNmt && f->length == 2 && f->data[0] == 0x01 && (f->data[1] == 0 || f->data[1] == node_)) {
-      operational_ = true;
-    } else if (f->id == cob::rpdo1(node_) && operational_) {
-      uint16_t cw = 0;
-      int32_t target = 0;
-      if (!parse_pdo(*f, cw, target)) continue;
-      state_ = next_state(state_, cw);
-      target_ = target;
-    } else if (f->id == cob::kSync && operational_) {
-      bus_.send(endpoint_, tpdo1(node_, encode_statusword(state_), position()));
-    }
+std::string sdo_abort_text(uint32_t code) {
+  switch (code) {
+    case sdo_abort::kToggle: return "toggle bit not alternated";
+    case sdo_abort::kTimeout: return "SDO protocol timed out";
+    case sdo_abort::kUnknownCommand: return "command specifier not valid or unknown";
+    case sdo_abort::kReadOnly: return "attempt to write a read only object";
+    case sdo_abort::kNoObject: return "object does not exist in the object dictionary";
+    case sdo_abort::kLengthMismatch: return "data type does not match, length of service parameter does not match";
+    case sdo_abort::kNoSubindex: return "sub-index does not exist";
+    case sdo_abort::kValueTooHigh: return "value of parameter written too high";
+    case sdo_abort::kValueTooLow: return "value of parameter written too low";
+    case sdo_abort::kGeneral: return "general error";
+    default: break;
   }
-  if (fault_ && state_ != DriveState::kFault) {
-    state_ = DriveState::kFault;
-    fault_ = false;
-  }
-  if (state_ == DriveState::kOperationEnabled) {
-    const double error = target_ - position_;
-    const double move = std::clamp(error, -speed_ * dt, speed_ * dt);
-    position_ += move;
-  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "abort code 0x%08X", code);
+  return buf;
+}
+
+Frame rpdo1(int node, uint16_t controlword, int8_t mode) {
+  Frame f = frame(cob::rpdo1(node), 3);
+  put_u16(f.data.data(), controlword);
+  f.data[2] = static_cast<uint8_t>(mode);
+  return f;
+}
+
+Frame rpdo2(int node, int32_t target) {
+  Frame f = frame(cob::rpdo2(node), 4);
+  put_u32(f.data.data(), static_cast<uint32_t>(target));
+  return f;
+}
+
+Frame tpdo1(int node, uint16_t statusword, int8_t mode_display) {
+  Frame f = frame(cob::tpdo1(node), 3);
+  put_u16(f.data.data(), statusword);
+  f.data[2] = static_cast<uint8_t>(mode_display);
+  return f;
+}
+
+Frame tpdo2(int node, int32_t position, int32_t velocity) {
+  Frame f = frame(cob::tpdo2(node), 8);
+  put_u32(f.data.data(), static_cast<uint32_t>(position));
+  put_u32(&f.data[4], static_cast<uint32_t>(velocity));
+  return f;
+}
+
+bool parse_rpdo1(const Frame& f, uint16_t& controlword, int8_t& mode) {
+  if (f.length != 3 || f.rtr) return false;
+  controlword = get_u16(f.data.data());
+  mode = static_cast<int8_t>(f.data[2]);
+  return true;
+}
+
+bool parse_rpdo2(const Frame& f, int32_t& target) {
+  if (f.length != 4 || f.rtr) return false;
+  target = static_cast<int32_t>(get_u32(f.data.data()));
+  return true;
+}
+
+bool parse_tpdo1(const Frame& f, uint16_t& statusword, int8_t& mode_display) {
+  if (f.length != 3 || f.rtr) return false;
+  statusword = get_u16(f.data.data());
+  mode_display = static_cast<int8_t>(f.data[2]);
+  return true;
+}
+
+bool parse_tpdo2(const Frame& f, int32_t& position, int32_t& velocity) {
+  if (f.length != 8 || f.rtr) return false;
+  position = static_cast<int32_t>(get_u32(f.data.data()));
+  velocity = static_cast<int32_t>(get_u32(&f.data[4]));
+  return true;
 }
 
 }  // namespace saccade::can

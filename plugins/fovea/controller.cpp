@@ -278,6 +278,7 @@ void FoveaController::check_border(const Retina& retina, Decision& d) {
   g.pixel = d.target_valid ? d.target : d.next;
   const cv::Vec3d ray((g.pixel.x - frame.width / 2.0) / f, (g.pixel.y - frame.height / 2.0) / f, 1.0);
   g.direction = ray / cv::norm(ray);
+  g.focal_px = f;
   g.image_size = frame;
   g.camera_id = retina.camera_id;
   g.reason = "border";

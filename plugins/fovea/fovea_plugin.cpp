@@ -144,6 +144,7 @@ class FoveaNode final : public Node {
       gaze->direction = d.gaze->direction;
       gaze->image_size = d.gaze->image_size;
       gaze->camera_id = d.gaze->camera_id;
+      gaze->focal_px = d.gaze->focal_px;
       gaze->reason = d.gaze->reason;
       ctx.emit(gaze_out_, std::move(gaze));
     }

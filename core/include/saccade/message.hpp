@@ -167,16 +167,69 @@ struct Region final : Message {
   std::string label;
 };
 
-// A request to turn the head so that `pixel` comes to the image centre.
+// A request to turn the head. The fovea controller sends a direction (the
+// pixel it wants at the image centre); other senders may name a 3D point, a
+// pixel with its depth or its disparity, or a turn relative to the current gaze.
 struct GazeRequest final : Message {
   static constexpr std::string_view kTypeName = "GazeRequest";
   std::string_view type_name() const override { return kTypeName; }
   ~GazeRequest() override;
+  enum class Kind : uint8_t {
+    kDirection,       // look along `direction` (camera frame); depth unknown
+    kPixelDepth,      // `pixel` at `depth` metres along the optical axis
+    kPixelDisparity,  // `pixel` in the left image and its `disparity` in the right
+    kPoint,           // `point` in the head's base frame, metres
+    kRelative,        // turn the gaze by `azimuth` (right +) and `elevation` (up +), radians
+  };
+  Kind kind = Kind::kDirection;
   cv::Point2d pixel;     // source pixels of the image it was decided on
   cv::Vec3d direction;   // unit vector to it in the camera frame (x right, y down, z forward)
   cv::Size image_size;   // of that image, so a receiver can tell where the centre was
-  int camera_id = 0;
+  double focal_px = 0;   // the sender's focal length in pixels (0: the receiver's own)
+  double depth = -1;     // kPixelDepth (and kDirection when known, > 0)
+  double disparity = 0;  // kPixelDisparity: left x minus right x, pixels
+  cv::Vec3d point;       // kPoint
+  double azimuth = 0, elevation = 0;  // kRelative
+  int camera_id = 0;     // 0 left, 1 right
   std::string reason;    // why: "border" (the fovea reached the margin), "target", ...
+};
+
+const char* to_string(GazeRequest::Kind kind);
+
+// Where the joints are, as the drives report it; one entry per joint in the
+// head's order (neck, vergence left, tilt left, vergence right, tilt right).
+struct JointState final : Message {
+  static constexpr std::string_view kTypeName = "JointState";
+  std::string_view type_name() const override { return kTypeName; }
+  ~JointState() override;
+  enum class Health : uint8_t {
+    kStarting,  // being configured or enabled: no motion yet
+    kReady,     // operation enabled, following its targets
+    kFault,     // the drive reports a fault (statusword or emergency)
+    kSilent,    // no heartbeat or process data within the timeout
+  };
+  std::vector<double> position;       // rad
+  std::vector<double> velocity;       // rad/s
+  std::vector<Health> health;
+  std::vector<int64_t> updated_ns;    // when each joint's position last arrived (the driver's clock)
+  std::vector<uint16_t> error_code;   // the drive's last emergency code (0: none)
+  int64_t cycle = 0;                  // control cycles since the start
+  std::string detail;                 // the first problem in words, empty when every joint is ready
+  bool all_ready() const;
+};
+
+const char* to_string(JointState::Health health);
+
+// What the head controller asks of the joints this control cycle.
+struct JointTargets final : Message {
+  static constexpr std::string_view kTypeName = "JointTargets";
+  std::string_view type_name() const override { return kTypeName; }
+  ~JointTargets() override;
+  std::vector<double> position;  // rad
+  std::vector<double> velocity;  // rad/s (feed-forward, for drives that take it)
+  bool hold = false;             // the head holds after a fault and refuses motion until reset
+  int64_t reset = 0;             // incremented by each reset: the driver clears its drives' faults
+  std::string fault;             // why it holds
 };
 
 // What the fovea controller saw and decided on one frame.

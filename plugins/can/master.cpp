@@ -1,0 +1,255 @@
+#include "master.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace saccade::can {
+
+const char* to_string(DriveHealth h) {
+  switch (h) {
+    case DriveHealth::kStarting: return "starting";
+    case DriveHealth::kReady: return "ready";
+    case DriveHealth::kFault: return "fault";
+    case DriveHealth::kSilent: return "silent";
+  }
+  return "?";
+}
+
+namespace {
+uint32_t counts(double value, double counts_per_rad) {
+  return static_cast<uint32_t>(std::lround(std::abs(value * counts_per_rad)));
+}
+std::string hex(uint32_t v, int digits) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%0*X", digits, v);
+  return buf;
+}
+}  // namespace
+
+Master::Master(Bus& bus, MasterConfig config) : bus_(bus), config_(std::move(config)) {
+  FilterSet filters;
+  filters.filters.clear();
+  for (const JointDrive& j : config_.joints) {
+    Drive d;
+    d.joint = j;
+    const double cpr = j.counts_per_rad;
+    d.writes = {
+        {object::kModesOfOperation, static_cast<uint8_t>(kProfilePositionMode), 1},
+        {object::kProfileVelocity, counts(config_.profile_velocity, cpr), 4},
+        {object::kProfileAcceleration, counts(config_.profile_acceleration, cpr), 4},
+        {object::kProfileDeceleration, counts(config_.profile_acceleration, cpr), 4},
+        {object::kFollowingErrorWindow, counts(config_.following_error_window, cpr), 4},
+        {object::kFollowingErrorTimeout, config_.following_error_timeout_ms, 2},
+        {object::kProducerHeartbeatTime, config_.heartbeat_ms, 2},
+    };
+    drives_.push_back(std::move(d));
+    for (uint32_t id : {cob::tpdo1(j.node), cob::tpdo2(j.node), cob::sdo_response(j.node), cob::heartbeat(j.node),
+                        cob::emergency(j.node)})
+      filters.filters.push_back(Filter::exact(id));
+  }
+  bus_.set_filters(std::move(filters));
+}
+
+std::string Master::who(const Drive& d) const {
+  return (d.joint.name.empty() ? "joint" : d.joint.name) + " (node " + std::to_string(d.joint.node) + ")";
+}
+
+bool Master::all_ready() const {
+  for (const Drive& d : drives_)
+    if (d.phase != Phase::kRun || d.state != DriveState::kOperationEnabled) return false;
+  return !drives_.empty();
+}
+
+void Master::send(const Frame& f) {
+  if (bus_.send(f)) stats_.bits_last_cycle += frame_bits(f);
+}
+
+void Master::receive(const Frame& f, int64_t now_ns) {
+  stats_.bits_last_cycle += frame_bits(f);
+  const int node = cob::node_of(f.id);
+  Drive* d = nullptr;
+  for (Drive& x : drives_)
+    if (x.joint.node == node) d = &x;
+  if (d == nullptr) return;
+  const uint32_t function = cob::function_of(f.id);
+  if (function == 0x700 && f.length >= 1) {
+    d->heartbeat_ns = now_ns;
+    if (static_cast<NmtState>(f.data[0]) == NmtState::kBootUp && d->phase != Phase::kConfigure) {
+      // It rebooted (power, watchdog): its configuration is gone.
+      d->phase = Phase::kConfigure;
+      d->step = 0;
+      d->sdo_sent_ns = -1;
+      d->problem = who(*d) + ": rebooted, configuring again";
+    }
+  } else if (f.id == cob::tpdo1(node)) {
+    int8_t mode = 0;
+    if (parse_tpdo1(f, d->statusword, mode)) d->state = decode_statusword(d->statusword);
+  } else if (f.id == cob::tpdo2(node)) {
+    if (parse_tpdo2(f, d->position, d->velocity)) d->updated_ns = now_ns;
+  } else if (f.id == cob::emergency(node) && f.length == 8) {
+    d->error_code = static_cast<uint16_t>(f.data[0] | f.data[1] << 8);
+    if (d->error_code != emcy::kNoError) ++stats_.emergencies;
+  } else if (f.id == cob::sdo_response(node) && d->phase == Phase::kConfigure && d->sdo_sent_ns >= 0) {
+    Sdo answer;
+    if (!parse_sdo(f, answer) || d->step >= d->writes.size()) return;
+    const Write& w = d->writes[d->step];
+    if (answer.index != w.index || answer.subindex != 0) return;  // a late answer to an earlier request
+    if (answer.kind == Sdo::Kind::kDownloadResponse) {
+      ++d->step;
+      d->sdo_sent_ns = -1;
+      d->attempts = 0;
+    } else if (answer.kind == Sdo::Kind::kAbort) {
+      d->phase = Phase::kSilent;
+      d->problem = who(*d) + ": SDO write of " + hex(w.index, 4) + " refused: " + sdo_abort_text(answer.value);
+    }
+  }
+}
+
+void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool reset) {
+  if (reset && (d.phase == Phase::kSilent || d.state == DriveState::kFault)) {
+    d.problem.clear();
+    d.error_code = 0;
+    if (d.phase == Phase::kSilent) {
+      d.phase = Phase::kConfigure;
+      d.step = 0;
+      d.sdo_sent_ns = -1;
+      d.attempts = 0;
+      d.heartbeat_ns = d.updated_ns = -1;
+    } else {
+      send(rpdo1(d.joint.node, control::kFaultReset));  // acts on the bit's rising edge
+      d.reset_sent = true;
+      d.phase = Phase::kEnable;
+      return;
+    }
+  }
+  switch (d.phase) {
+    case Phase::kConfigure: {
+      if (d.step == d.writes.size()) {
+        send(nmt(NmtCommand::kStart, d.joint.node));
+        d.phase = Phase::kEnable;
+        d.configured_ns = now_ns;
+        d.state = DriveState::kUnknown;
+        return;
+      }
+      if (d.sdo_sent_ns >= 0 && now_ns - d.sdo_sent_ns < config_.sdo_timeout_ns) return;
+      if (d.sdo_sent_ns >= 0) ++stats_.sdo_timeouts;
+      if (d.attempts >= config_.sdo_attempts) {
+        d.phase = Phase::kSilent;
+        d.problem = who(d) + ": no answer to the SDO write of " + hex(d.writes[d.step].index, 4) + " (" +
+                    std::to_string(config_.sdo_attempts) + " attempts)";
+        return;
+      }
+      const Write& w = d.writes[d.step];
+      Sdo request;
+      request.kind = Sdo::Kind::kDownloadRequest;
+      request.index = w.index;
+      request.value = w.value;
+      request.size = w.size;
+      send(sdo_frame(cob::sdo_request(d.joint.node), request));
+      d.sdo_sent_ns = now_ns;
+      ++d.attempts;
+      return;
+    }
+    case Phase::kEnable:
+      if (d.reset_sent) {
+        send(rpdo1(d.joint.node, control::kDisableVoltage));  // fault reset back to 0 for the next edge
+        d.reset_sent = false;
+        return;
+      }
+      switch (d.state) {
+        case DriveState::kSwitchOnDisabled: send(rpdo1(d.joint.node, control::kShutdown)); break;
+        case DriveState::kReadyToSwitchOn: send(rpdo1(d.joint.node, control::kSwitchOn)); break;
+        case DriveState::kSwitchedOn:
+        case DriveState::kQuickStopActive: send(rpdo1(d.joint.node, control::kEnableOperation)); break;
+        case DriveState::kOperationEnabled:
+          d.phase = Phase::kRun;
+          d.set_point_high = false;
+          break;
+        default: break;  // fault (until reset), or no statusword yet
+      }
+      return;
+    case Phase::kRun: {
+      if (d.state != DriveState::kOperationEnabled) {
+        if (d.state != DriveState::kFault) d.phase = Phase::kEnable;  // switched off behind our back
+        return;
+      }
+      if (target == nullptr) return;
+      const uint16_t run = control::kEnableOperation | pp::kChangeSetImmediately;
+      if (!d.set_point_high) {
+        const double c = std::round(*target * d.joint.counts_per_rad) + d.joint.zero_counts;
+        send(rpdo2(d.joint.node, static_cast<int32_t>(std::clamp(c, -2147483648.0, 2147483647.0))));
+        send(rpdo1(d.joint.node, run | pp::kNewSetPoint));
+        d.set_point_high = true;
+        d.set_point_cycle = stats_.cycles;
+        ++stats_.set_points;
+      } else if ((d.statusword & pp::kSetPointAcknowledge) != 0 || stats_.cycles - d.set_point_cycle > 5) {
+        // Acknowledged (or the acknowledgement is lost): bit 4 low, so the next set-point is a new edge.
+        if ((d.statusword & pp::kSetPointAcknowledge) != 0) ++stats_.acknowledged;
+        send(rpdo1(d.joint.node, run));
+        d.set_point_high = false;
+      }
+      return;
+    }
+    case Phase::kSilent: return;
+  }
+}
+
+void Master::cycle(int64_t now_ns, const double* targets, int64_t reset, std::vector<JointFeedback>& feedback,
+                   int64_t wait_ns) {
+  stats_.bits_last_cycle = 0;
+  Frame f;
+  bool first = true;
+  while (bus_.receive(f, first ? wait_ns : 0)) {
+    first = false;
+    if (!f.error) receive(f, now_ns);
+  }
+  if (first_cycle_) {
+    // Whatever state the drives were left in: pre-operational, so SDO works and PDOs wait.
+    send(nmt(NmtCommand::kPreOperational, 0));
+    first_cycle_ = false;
+  }
+  const bool do_reset = reset != reset_seen_;
+  reset_seen_ = reset;
+  feedback.resize(drives_.size());
+  problem_.clear();
+  for (std::size_t i = 0; i < drives_.size(); ++i) {
+    Drive& d = drives_[i];
+    // Supervision: heartbeats once configured, process data once running.
+    if (d.phase == Phase::kEnable || d.phase == Phase::kRun) {
+      const int64_t since = d.heartbeat_ns >= 0 ? d.heartbeat_ns : d.configured_ns;
+      if (config_.heartbeat_ms > 0 && now_ns - since > config_.heartbeat_timeout_ns) {
+        d.phase = Phase::kSilent;
+        d.problem = who(d) + ": no heartbeat for " + std::to_string((now_ns - since) / 1'000'000) + " ms";
+      } else if (d.phase == Phase::kRun && d.updated_ns >= 0 && now_ns - d.updated_ns > config_.feedback_timeout_ns) {
+        d.phase = Phase::kSilent;
+        d.problem = who(d) + ": no position for " + std::to_string((now_ns - d.updated_ns) / 1'000'000) + " ms";
+      }
+    }
+    run_drive(d, now_ns, targets != nullptr ? &targets[i] : nullptr, do_reset);
+    JointFeedback& out = feedback[i];
+    out.position = (d.position - d.joint.zero_counts) / d.joint.counts_per_rad;
+    out.velocity = d.velocity / d.joint.counts_per_rad;
+    out.state = d.state;
+    out.updated_ns = d.updated_ns;
+    out.error_code = d.error_code;
+    if (d.phase == Phase::kSilent) {
+      out.health = DriveHealth::kSilent;
+    } else if (d.state == DriveState::kFault || d.state == DriveState::kFaultReactionActive) {
+      out.health = DriveHealth::kFault;
+      if (d.problem.empty())
+        d.problem = who(d) + ": drive fault" + (d.error_code ? ", emergency " + hex(d.error_code, 4) : std::string());
+    } else if (d.phase == Phase::kRun && d.state == DriveState::kOperationEnabled && d.updated_ns >= 0) {
+      out.health = DriveHealth::kReady;
+    } else {
+      out.health = DriveHealth::kStarting;
+    }
+    if (problem_.empty() && out.health != DriveHealth::kReady && out.health != DriveHealth::kStarting)
+      problem_ = d.problem;
+  }
+  send(sync_frame());
+  bus_.flush();
+  ++stats_.cycles;
+}
+
+}  // namespace saccade::can

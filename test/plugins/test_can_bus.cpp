@@ -1,0 +1,349 @@
+// CAN frames and filters with the kernel's semantics, the virtual bus with
+// its fault injection, the cannelloni codec against the golden vector from
+// cannelloni's own encoder, the UDP tunnel on 127.0.0.1, and SocketCAN where
+// the kernel has it.
+#include <gtest/gtest.h>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "bus.hpp"
+#include "cannelloni.hpp"
+#include "socketcan.hpp"
+#include "virtual_bus.hpp"
+
+namespace saccade::can {
+namespace {
+
+Frame data_frame(uint32_t id, std::initializer_list<uint8_t> bytes, bool extended = false) {
+  Frame f;
+  f.id = id;
+  f.extended = extended;
+  f.length = static_cast<uint8_t>(bytes.size());
+  std::copy(bytes.begin(), bytes.end(), f.data.begin());
+  return f;
+}
+
+TEST(CanFrame, RawIdCarriesTheKernelsFlags) {
+  Frame f = data_frame(0x12345, {}, true);
+  f.rtr = true;
+  EXPECT_EQ(f.raw_id(), 0xC0012345u);
+  const Frame back = Frame::from_raw_id(0xC0012345u);
+  EXPECT_TRUE(back.extended && back.rtr && !back.error);
+  EXPECT_EQ(back.id, 0x12345u);
+  EXPECT_EQ(Frame::from_raw_id(0x601).id, 0x601u);
+  EXPECT_EQ(to_string(data_frame(0x601, {0x40, 0x64})), "601 [2] 40 64");
+  EXPECT_EQ(frame_bits(data_frame(0x80, {})), 47);
+  EXPECT_EQ(frame_bits(data_frame(0x181, {1, 2, 3, 4, 5, 6, 7, 8})), 111);
+}
+
+TEST(CanFilter, TruthTableOfTheKernelsSemantics) {
+  const Frame sff = data_frame(0x181, {1});
+  const Frame sff_other = data_frame(0x182, {1});
+  const Frame eff_same_low_bits = data_frame(0x181, {1}, true);
+  Frame rtr = data_frame(0x181, {});
+  rtr.rtr = true;
+  struct Row {
+    Filter filter;
+    bool sff, other, eff, rtr;
+  };
+  const Row rows[] = {
+      {{0, 0}, true, true, true, true},                                  // the default: everything
+      {{0x181, kSffMask}, true, false, true, true},                      // id only: extended 0x181 matches too
+      {Filter::exact(0x181), true, false, false, true},                  // standard format only
+      {{0x181, kSffMask | kEffFlag | kRtrFlag}, true, false, false, false},  // data frames only
+      {{0x180, 0x7F0}, true, true, true, true},                          // a range: 0x180..0x18F
+      {{0x181 | kInvFilter, kSffMask}, false, true, false, false},       // inverted
+      {{0x181 | kEffFlag, kEffMask | kEffFlag}, false, false, true, false},  // extended 0x181 only
+  };
+  for (const Row& r : rows) {
+    SCOPED_TRACE(::testing::Message() << std::hex << "filter id " << r.filter.id << " mask " << r.filter.mask);
+    EXPECT_EQ(r.filter.matches(sff), r.sff);
+    EXPECT_EQ(r.filter.matches(sff_other), r.other);
+    EXPECT_EQ(r.filter.matches(eff_same_low_bits), r.eff);
+    EXPECT_EQ(r.filter.matches(rtr), r.rtr);
+  }
+}
+
+TEST(CanFilter, SetsJoinAndErrorMask) {
+  FilterSet any;
+  any.filters = {Filter::exact(0x181), Filter::exact(0x281)};
+  EXPECT_TRUE(any.passes(data_frame(0x281, {})));
+  EXPECT_FALSE(any.passes(data_frame(0x381, {})));
+  FilterSet join = any;
+  join.join = true;
+  EXPECT_FALSE(join.passes(data_frame(0x181, {}))) << "joined: every filter must match";
+  join.filters = {{0x180, 0x780}, {0x001, 0x07F}};
+  EXPECT_TRUE(join.passes(data_frame(0x181, {})));
+  EXPECT_FALSE(join.passes(data_frame(0x182, {})));
+  FilterSet none;
+  none.filters.clear();
+  EXPECT_FALSE(none.passes(data_frame(0x181, {}))) << "no filters: no data frames";
+  Frame busoff;
+  busoff.error = true;
+  busoff.id = error_class::kBusOff;
+  EXPECT_FALSE(any.passes(busoff)) << "error frames need the error mask";
+  any.error_mask = error_class::kBusOff;
+  EXPECT_TRUE(any.passes(busoff));
+}
+
+TEST(VirtualBus, DeliversToEveryOtherPortThroughItsFilters) {
+  auto bus = VirtualBus::create();
+  auto a = bus->attach(), b = bus->attach(), c = bus->attach();
+  FilterSet only_181;
+  only_181.filters = {Filter::exact(0x181)};
+  c->set_filters(only_181);
+  ASSERT_TRUE(a->send(data_frame(0x181, {7})));
+  ASSERT_TRUE(a->send(data_frame(0x281, {8})));
+  Frame f;
+  EXPECT_FALSE(a->receive(f, 0)) << "a port does not hear itself";
+  ASSERT_TRUE(b->receive(f, 0));
+  EXPECT_EQ(f, data_frame(0x181, {7}));
+  ASSERT_TRUE(b->receive(f, 0));
+  EXPECT_EQ(f.id, 0x281u);
+  ASSERT_TRUE(c->receive(f, 0));
+  EXPECT_EQ(f.id, 0x181u);
+  EXPECT_FALSE(c->receive(f, 0));
+  EXPECT_EQ(c->counters().filtered, 1u);
+  EXPECT_EQ(a->counters().sent, 2u);
+}
+
+TEST(VirtualBus, DelaysOnTheSimulatedClockAndDropsWithASeed) {
+  auto bus = VirtualBus::create();
+  bus->set_time(1'000'000);
+  bus->set_faults({0.0, 500'000, 1});
+  auto a = bus->attach(), b = bus->attach();
+  a->send(data_frame(0x100, {}));
+  Frame f;
+  EXPECT_FALSE(b->receive(f, 0)) << "not before its delay";
+  bus->set_time(1'499'999);
+  EXPECT_FALSE(b->receive(f, 0));
+  bus->set_time(1'500'000);
+  ASSERT_TRUE(b->receive(f, 0));
+  EXPECT_EQ(f.timestamp_ns, 1'500'000);
+
+  bus->set_faults({0.3, 0, 42});
+  int arrived = 0;
+  for (int i = 0; i < 2000; ++i) {
+    a->send(data_frame(0x100, {}));
+    arrived += b->receive(f, 0) ? 1 : 0;
+  }
+  EXPECT_NEAR(arrived / 2000.0, 0.7, 0.04);
+  EXPECT_EQ(a->counters().dropped, 2000u - static_cast<unsigned>(arrived));
+}
+
+TEST(VirtualBus, BusOffAndErrorPassiveReportErrorFrames) {
+  auto bus = VirtualBus::create();
+  auto a = bus->attach(), b = bus->attach();
+  FilterSet with_errors;
+  with_errors.error_mask = error_class::kAll;
+  a->set_filters(with_errors);
+  a->inject_state(BusState::kErrorPassive);
+  Frame f;
+  ASSERT_TRUE(a->receive(f, 0));
+  EXPECT_TRUE(f.error);
+  EXPECT_EQ(f.id, error_class::kController);
+  EXPECT_EQ(f.data[1], controller_status::kRxPassive | controller_status::kTxPassive);
+  EXPECT_TRUE(a->send(data_frame(0x100, {}))) << "error passive still sends";
+  EXPECT_TRUE(b->receive(f, 0));
+  a->inject_state(BusState::kBusOff);
+  ASSERT_TRUE(a->receive(f, 0));
+  EXPECT_EQ(f.id, error_class::kBusOff);
+  EXPECT_EQ(a->state(), BusState::kBusOff);
+  EXPECT_FALSE(a->send(data_frame(0x100, {})));
+  EXPECT_EQ(a->counters().send_failed, 1u);
+  b->send(data_frame(0x200, {}));
+  EXPECT_FALSE(a->receive(f, 0)) << "a bus-off controller hears nothing";
+  a->inject_state(BusState::kErrorActive);
+  ASSERT_TRUE(a->receive(f, 0));
+  EXPECT_TRUE(f.id & error_class::kRestarted);
+  EXPECT_TRUE(a->send(data_frame(0x100, {})));
+  EXPECT_EQ(b->counters().error_frames, 0u) << "b asked for no error frames";
+}
+
+// Captured from cannelloni's encoder: sequence 7, an SDO upload request, an
+// extended remote frame and an FD frame with bit-rate switch.
+const std::vector<uint8_t> kGolden = {0x02, 0x00, 0x07, 0x00, 0x03,                                      //
+                                      0x00, 0x00, 0x06, 0x01, 0x08, 0x40, 0x64, 0x60, 0, 0, 0, 0, 0,  //
+                                      0xC0, 0x01, 0x23, 0x45, 0x04,                                    //
+                                      0x00, 0x00, 0x01, 0x81, 0x82, 0x01, 0xAA, 0xBB};
+
+std::vector<Frame> golden_frames() {
+  Frame sdo = data_frame(0x601, {0x40, 0x64, 0x60, 0, 0, 0, 0, 0});
+  Frame remote;
+  remote.id = 0x12345;
+  remote.extended = remote.rtr = true;
+  remote.length = 4;
+  Frame fd = data_frame(0x181, {0xAA, 0xBB});
+  fd.fd = true;
+  fd.fd_flags = 0x01;
+  return {sdo, remote, fd};
+}
+
+TEST(Cannelloni, EncodesTheGoldenVector) {
+  const auto frames = golden_frames();
+  std::vector<uint8_t> packet;
+  EXPECT_EQ(cannelloni::encode(7, frames.data(), frames.size(), packet), kGolden.size());
+  EXPECT_EQ(packet, kGolden);
+}
+
+TEST(Cannelloni, DecodesTheGoldenVector) {
+  std::vector<Frame> frames;
+  uint8_t seq = 0;
+  std::string error;
+  ASSERT_TRUE(cannelloni::decode(kGolden.data(), kGolden.size(), seq, frames, error)) << error;
+  EXPECT_EQ(seq, 7);
+  ASSERT_EQ(frames.size(), 3u);
+  const auto want = golden_frames();
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_EQ(frames[i], want[i]) << to_string(frames[i]);
+}
+
+TEST(Cannelloni, RejectsMalformedPacketsWithTheReason) {
+  struct Case {
+    const char* what;
+    std::vector<uint8_t> bytes;
+    const char* reason;
+  };
+  std::vector<uint8_t> truncated(kGolden.begin(), kGolden.end() - 1);
+  std::vector<uint8_t> trailing = kGolden;
+  trailing.push_back(0);
+  const std::vector<Case> cases = {
+      {"short", {0x02, 0x00}, "shorter than the 5-byte header"},
+      {"version 1", {0x01, 0x00, 0x00, 0x00, 0x00}, "version 1, expected 2"},
+      {"op code", {0x02, 0x01, 0x00, 0x00, 0x00}, "op code 1"},
+      {"truncated data", truncated, "frame 3 of 3: truncated data"},
+      {"trailing bytes", trailing, "1 bytes after the last frame"},
+      {"count beyond the data", {0x02, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x01, 0x00, 0x00}, "frame 2 of 2: truncated header"},
+      {"classic len 9", {0x02, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x01, 0x00, 0x09, 1, 2, 3, 4, 5, 6, 7, 8, 9}, "classic length 9 > 8"},
+      {"FD len 65", {0x02, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x01, 0x00, 0x80 | 65, 0x00}, "FD length 65 > 64"},
+  };
+  for (const Case& c : cases) {
+    std::vector<Frame> frames = {Frame{}};
+    uint8_t seq = 0;
+    std::string error;
+    EXPECT_FALSE(cannelloni::decode(c.bytes.data(), c.bytes.size(), seq, frames, error)) << c.what;
+    EXPECT_NE(error.find(c.reason), std::string::npos) << c.what << ": " << error;
+    EXPECT_EQ(frames.size(), 1u) << c.what << ": nothing appended";
+  }
+  // 64 bytes is a valid FD frame.
+  std::vector<uint8_t> fd64 = {0x02, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x01, 0x00, 0x80 | 64, 0x00};
+  fd64.resize(fd64.size() + 64, 0x55);
+  std::vector<Frame> frames;
+  uint8_t seq = 0;
+  std::string error;
+  EXPECT_TRUE(cannelloni::decode(fd64.data(), fd64.size(), seq, frames, error)) << error;
+}
+
+// Two distinct free ports on 127.0.0.1, picked by the kernel (both held
+// while picking, so they differ).
+std::pair<int, int> free_udp_ports() {
+  int fds[2];
+  int ports[2];
+  for (int i = 0; i < 2; ++i) {
+    fds[i] = ::socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ::bind(fds[i], reinterpret_cast<sockaddr*>(&a), sizeof a);
+    socklen_t len = sizeof a;
+    ::getsockname(fds[i], reinterpret_cast<sockaddr*>(&a), &len);
+    ports[i] = ntohs(a.sin_port);
+  }
+  for (int fd : fds) ::close(fd);
+  return {ports[0], ports[1]};
+}
+
+TEST(UdpTunnel, CarriesFramesBothWaysPacksACycleAndCountsLoss) {
+  const auto [pa, pb] = free_udp_ports();
+  std::string error;
+  auto a = UdpTunnel::open(std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error);
+  ASSERT_TRUE(a) << error;
+  auto b = UdpTunnel::open(std::to_string(pb) + ":localhost:" + std::to_string(pa), error);
+  ASSERT_TRUE(b) << error;
+  for (const Frame& f : golden_frames()) a->send(f);
+  a->flush();
+  EXPECT_EQ(a->packets_sent(), 1u) << "one packet per flush";
+  Frame f;
+  for (const Frame& want : golden_frames()) {
+    ASSERT_TRUE(b->receive(f, 200'000'000));
+    EXPECT_EQ(f, want);
+  }
+  b->send(data_frame(0x181, {1, 2}));
+  b->flush();
+  ASSERT_TRUE(a->receive(f, 200'000'000));
+  EXPECT_EQ(f, data_frame(0x181, {1, 2}));
+
+  // Loss: every packet the sender throws away shows as a sequence gap.
+  a->set_loss(0.25, 3);
+  int got = 0;
+  for (int i = 0; i < 400; ++i) {
+    a->send(data_frame(0x100, {static_cast<uint8_t>(i)}));
+    a->flush();
+    if (i % 20 == 19)  // read as we go: a socket buffer holds only so many packets
+      while (b->receive(f, 5'000'000)) ++got;
+  }
+  a->set_loss(0, 3);
+  a->send(data_frame(0x7FF, {}));
+  a->flush();
+  for (;;) {
+    ASSERT_TRUE(b->receive(f, 200'000'000));
+    if (f.id == 0x7FF) break;
+    ++got;
+  }
+  EXPECT_EQ(static_cast<uint64_t>(got), a->counters().sent - 4);
+  EXPECT_EQ(b->counters().lost, a->counters().dropped) << "each lost packet held one frame";
+  EXPECT_NEAR(got / 400.0, 0.75, 0.07);
+
+  // A malformed packet is counted, not delivered.
+  const int raw = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<uint16_t>(pb));
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  const uint8_t bad[] = {0x03, 0x00, 0x00, 0x00, 0x00};
+  ::sendto(raw, bad, sizeof bad, 0, reinterpret_cast<sockaddr*>(&to), sizeof to);
+  ::close(raw);
+  EXPECT_FALSE(b->receive(f, 100'000'000));
+  EXPECT_EQ(b->counters().malformed, 1u);
+}
+
+TEST(UdpTunnel, BadSpecsSayWhatWasExpected) {
+  std::string error;
+  EXPECT_FALSE(UdpTunnel::open("20000", error));
+  EXPECT_NE(error.find("expected LOCAL_PORT:HOST:PORT"), std::string::npos) << error;
+  EXPECT_FALSE(open_bus("serial:/dev/ttyS0", error));
+  EXPECT_NE(error.find("expected virtual:NAME, udp:LOCAL_PORT:HOST:PORT or socketcan:IFNAME"), std::string::npos);
+  EXPECT_FALSE(UdpTunnel::open("0:no.such.host.invalid:20001", error));
+  EXPECT_NE(error.find("cannot resolve"), std::string::npos) << error;
+}
+
+TEST(SocketCan, TalksOnVcan0WhereTheKernelHasCan) {
+  std::string error;
+  auto a = SocketCan::open("vcan0", error);
+  if (!a) GTEST_SKIP() << error << " (create one with: ip link add dev vcan0 type vcan && ip link set up vcan0)";
+  auto b = SocketCan::open("vcan0", error);
+  ASSERT_TRUE(b) << error;
+  FilterSet only;
+  only.filters = {Filter::exact(0x181)};
+  b->set_filters(only);
+  ASSERT_TRUE(a->send(data_frame(0x281, {9})));
+  ASSERT_TRUE(a->send(data_frame(0x181, {1, 2, 3})));
+  Frame f;
+  ASSERT_TRUE(b->receive(f, 100'000'000));
+  EXPECT_EQ(f, data_frame(0x181, {1, 2, 3})) << "the kernel's filter kept 0x281 out";
+  EXPECT_GT(f.timestamp_ns, 0) << "kernel timestamp";
+  EXPECT_FALSE(a->receive(f, 0)) << "no echo of its own frames";
+}
+
+TEST(SocketCan, AMissingInterfaceOrKernelSupportIsAClearError) {
+  std::string error;
+  EXPECT_FALSE(SocketCan::open("nosuchcan9", error));
+  EXPECT_NE(error.find("socketcan 'nosuchcan9'"), std::string::npos) << error;
+  EXPECT_FALSE(SocketCan::open("", error));
+  EXPECT_NE(error.find("expected an interface name"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace saccade::can
