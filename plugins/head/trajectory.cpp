@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace saccade::head {
 
@@ -32,7 +33,8 @@ JointState Quintic::at(double t) const {
   return s;
 }
 
-Trajectory::Trajectory(std::vector<JointLimit> limits) : limits_(std::move(limits)), joints_(limits_.size()) {}
+Trajectory::Trajectory(std::vector<JointLimit> limits)
+    : limits_(std::move(limits)), joints_(limits_.size()), second_(limits_.size()) {}
 
 namespace {
 
@@ -56,8 +58,9 @@ Extremes extremes(const Quintic& q) {
 
 }  // namespace
 
-double Trajectory::plan(const std::vector<JointState>& now, const std::vector<double>& target) {
+double Trajectory::plan(const std::vector<JointState>& now, const std::vector<double>& target, double min_duration) {
   clamped_.clear();
+  split_ = -1;
   const std::size_t n = limits_.size();
   std::vector<double> goal(n);
   for (std::size_t j = 0; j < n; ++j) {
@@ -83,35 +86,72 @@ double Trajectory::plan(const std::vector<JointState>& now, const std::vector<do
     duration_ = 0;
     return 0;
   }
-  duration = std::max(duration, 1e-3);
-  // A joint already racing toward its limit may overshoot whatever the
-  // duration: after a bounded search the last plan stands, and at() keeps
-  // its positions inside the limits.
-  for (int attempt = 0; attempt < 40; ++attempt) {
-    bool within = true;
+  // The shortest duration (not below min_duration) that keeps every joint,
+  // from its actual state, within its limits: durations around the guess,
+  // ascending. From rest the guess itself fits; a joint already moving may
+  // need a shorter move (a long one overshoots the target, and near a limit
+  // the limit) or a longer one (to come to rest).
+  const double floor = std::max(min_duration, 1e-3);
+  const auto fits = [&](const std::vector<double>& to, double t) {
     for (std::size_t j = 0; j < n; ++j) {
-      joints_[j] = Quintic(now[j], goal[j], duration);
-      const Extremes e = extremes(joints_[j]);
-      within = within && e.velocity <= limits_[j].velocity * 1.0001 &&
-               e.acceleration <= limits_[j].acceleration * 1.0001 && e.low >= limits_[j].min - 1e-9 &&
-               e.high <= limits_[j].max + 1e-9;
+      const Extremes e = extremes(Quintic(now[j], to[j], t));
+      if (e.velocity > limits_[j].velocity * 1.0001 || e.acceleration > limits_[j].acceleration * 1.0001 ||
+          e.low < limits_[j].min - 1e-9 || e.high > limits_[j].max + 1e-9)
+        return false;
     }
-    if (within) break;
-    duration *= 1.15;
+    return true;
+  };
+  const double guess = std::max(duration, floor);
+  for (int k = -25; k <= 40; ++k) {
+    const double candidate = guess * std::pow(1.15, k);
+    if (candidate < floor || !fits(goal, candidate)) continue;
+    for (std::size_t j = 0; j < n; ++j) joints_[j] = Quintic(now[j], goal[j], candidate);
+    duration_ = candidate;
+    return candidate;
   }
+  // No single quintic fits (a fast joint asked to turn back): first come to
+  // rest where the motion naturally stops, then move from rest, which fits.
+  std::vector<double> stop(n);
+  double brake = 0;
+  for (int k = -10; k <= 40 && brake == 0; ++k) {
+    const double candidate = std::max(floor, 0.05) * std::pow(1.15, k);
+    for (std::size_t j = 0; j < n; ++j)
+      stop[j] = std::clamp(now[j].position + now[j].velocity * candidate / 2, limits_[j].min, limits_[j].max);
+    if (fits(stop, candidate)) brake = candidate;
+  }
+  if (brake == 0) brake = std::max(floor, 0.05) * std::pow(1.15, 40);  // at() keeps the positions inside
+  std::vector<JointState> rest(n);
+  double second = 0;
+  for (std::size_t j = 0; j < n; ++j) {
+    joints_[j] = Quintic(now[j], stop[j], brake);
+    rest[j] = {stop[j], 0.0, 0.0};
+    const double h = std::abs(goal[j] - stop[j]);
+    second = std::max({second, 1.875 * h / limits_[j].velocity, std::sqrt(5.7735 * h / limits_[j].acceleration)});
+  }
+  second = std::max(second, 1e-3);
+  for (std::size_t j = 0; j < n; ++j) second_[j] = Quintic(rest[j], goal[j], second);
+  split_ = brake;
+  duration = brake + second;
   duration_ = duration;
   return duration;
 }
 
 std::vector<JointState> Trajectory::at(double t) const {
-  std::vector<JointState> out(joints_.size());
+  std::vector<JointState> out;
+  at(t, out);
+  return out;
+}
+
+void Trajectory::at(double t, std::vector<JointState>& out) const {
+  out.resize(joints_.size());
   for (std::size_t j = 0; j < joints_.size(); ++j) {
-    out[j] = joints_[j].at(t);
+    out[j] = split_ >= 0 && t > split_ ? second_[j].at(t - split_) : joints_[j].at(t);
     // Positions never leave the limits, even where a re-plan from a fast
     // state could not be timed to stay inside.
-    out[j].position = std::clamp(out[j].position, limits_[j].min, limits_[j].max);
+    if (out[j].position < limits_[j].min || out[j].position > limits_[j].max) {
+      out[j] = {std::clamp(out[j].position, limits_[j].min, limits_[j].max), 0.0, 0.0};
+    }
   }
-  return out;
 }
 
 }  // namespace saccade::head

@@ -38,10 +38,13 @@ class Trajectory {
  public:
   explicit Trajectory(std::vector<JointLimit> limits);
   // Plans from `now` (the joints' states) to `target` (clamped into the
-  // limits); returns the move's duration (0 when already there).
-  double plan(const std::vector<JointState>& now, const std::vector<double>& target);
+  // limits), taking at least `min_duration` seconds (smooth pursuit asks for
+  // a floor; a saccade for none); returns the move's duration (0 when
+  // already there).
+  double plan(const std::vector<JointState>& now, const std::vector<double>& target, double min_duration = 0);
   // State of every joint `t` seconds after the plan began.
   std::vector<JointState> at(double t) const;
+  void at(double t, std::vector<JointState>& out) const;  // into `out`: no allocation once sized
   double duration() const { return duration_; }
   // "" or why `target` had to be clamped (a joint beyond its limit).
   const std::string& clamped() const { return clamped_; }
@@ -49,6 +52,8 @@ class Trajectory {
  private:
   std::vector<JointLimit> limits_;
   std::vector<Quintic> joints_;
+  std::vector<Quintic> second_;  // after split_ (>= 0): from rest to the goal, when the first part only brakes
+  double split_ = -1;
   double duration_ = 0;
   std::string clamped_;
 };

@@ -56,6 +56,16 @@ DhChain offset_camera_chain(Convention convention, double l1 = 0.12, double l2 =
 // The camera's optical axis in its last frame: +y (at zero joints it looks
 // along the base's +y, the pan rotates it about z, the tilt raises it).
 inline Eigen::Vector3d optical_axis(const Eigen::Isometry3d& camera) { return camera.linear().col(1); }
+// The camera's optical frame as images use it (x right, y down, z along the
+// optical axis), in the base frame, from the chain's last frame (+x right,
+// +y the optical axis, +z up).
+inline Eigen::Isometry3d optical_frame(const Eigen::Isometry3d& camera) {
+  Eigen::Matrix3d m;
+  m << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  Eigen::Isometry3d out = camera;
+  out.linear() = camera.linear() * m;
+  return out;
+}
 
 struct JointLimits {
   double pan_min = -1.6, pan_max = 1.6;    // the summed pan (neck + vergence) of the paper's chain
