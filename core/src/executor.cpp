@@ -542,8 +542,10 @@ struct Executor::Impl {
           return;
         }
         n.running = true;
+        take_inputs(n);  // a source's inputs are side inputs: their newest values
       }
       Status s = invoke(n);
+      for (auto& m : n.slot.current) m.reset();
       std::lock_guard lock(mu);
       n.running = false;
       ++n.frames;
@@ -571,8 +573,10 @@ struct Executor::Impl {
           continue;
         }
         if (!has_room_downstream(n)) continue;
+        take_inputs(n);
         lock.unlock();
         Status s = invoke(n);
+        for (auto& m : n.slot.current) m.reset();
         lock.lock();
         ++n.frames;
         progressed = true;

@@ -1,8 +1,10 @@
 // Capture nodes: video file, image sequence, one image repeated, camera, a
 // time-matched stereo pair, and a synthetic scene with exact ground truth.
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "readers.hpp"
+#include "sim_head.hpp"
 #include "saccade/plugin.hpp"
 
 namespace {
@@ -360,6 +362,103 @@ class Synthetic final : public Node {
   bool realtime_ = false, gray_ = true, right_wanted_ = false;
 };
 
+class SimHeadNode final : public Node {
+ public:
+  static constexpr const char* kName = "sim_head";
+  static Contract contract() {
+    return Contract("The simulated stereo head's cameras: a wide scene on a wall in front of the head and a textured "
+                    "target moving between head and wall, rendered into both cameras for the joint angles the drives "
+                    "report, so the active vision loop runs on one machine.")
+        .input<JointState>("state", "the joints (the drives' encoder feedback); a frame is rendered every 1/fps of its time")
+        .output<Image>("left", "left camera (camera_id 0), BGR")
+        .output<Image>("right", "right camera (camera_id 1), BGR")
+        .output<Region>("truth", "the target in the left image: centre, size, depth; label visible or outside")
+        .output<Region>("truth_right", "the target in the right image")
+        .param_string("scene", "${SACCADE_SAMPLE_DATA}/aloeL.jpg", "image on the wall")
+        .param_size("size", {320, 240}, "camera image size")
+        .param_double("hfov", 60.0, 1.0, 170.0, "horizontal field of view, degrees")
+        .param_double("fps", 25.0, 0.1, 1000.0, "frames per second of the joint state's time")
+        .param_double("wall_distance", 2.0, 0.2, 1000.0, "m from the neck axis to the wall")
+        .param_double("wall_width", 4.0, 0.01, 1000.0, "m the scene image spans")
+        .param_double("l1", 0.12, 0.0, 10.0, "m: the head's L1 (as the head node's)")
+        .param_double("l2", 0.12, 0.0, 10.0, "m: the head's L2")
+        .param_double("l3", 0.06, 0.0, 10.0, "m: the head's L3")
+        .param_bool("target", true, "draw the moving target")
+        .param_double("target_radius", 0.08, 0.001, 10.0, "m")
+        .param_double("target_distance", 1.6, 0.2, 1000.0, "m: the target moves in the plane this far ahead")
+        .param_double("target_speed", 0.3, 0.0, 100.0, "m/s sideways, back and forth")
+        .param_double("target_range", 1.5, 0.0, 1000.0, "m: it turns at +-range")
+        .param_double("target_start", 0.0, -1000.0, 1000.0, "m: sideways position at time 0")
+        .param_double("target_height", 0.0, -1000.0, 1000.0, "m above the cameras");
+  }
+  Status open(OpenContext& ctx) override {
+    const Params& p = ctx.params();
+    state_ = ctx.input<JointState>("state");
+    left_ = ctx.output<Image>("left");
+    right_ = ctx.output<Image>("right");
+    truth_ = ctx.output<Region>("truth");
+    truth_right_ = ctx.output<Region>("truth_right");
+    cv::Mat scene = cv::imread(p.get_string("scene"), cv::IMREAD_COLOR);
+    if (scene.empty()) return Status::error("scene: cannot read image '" + p.get_string("scene") + "'");
+    capture::SimHeadConfig c;
+    c.size = p.get_size("size");
+    if (c.size.width < 8 || c.size.height < 8) return Status::error("size must be at least 8x8");
+    c.focal_px = (c.size.width / 2.0) / std::tan(p.get_double("hfov") * M_PI / 360.0);
+    c.wall_distance = p.get_double("wall_distance");
+    c.wall_width = p.get_double("wall_width");
+    c.geometry = {p.get_double("l1"), p.get_double("l2"), p.get_double("l3")};
+    c.target = p.get_bool("target");
+    c.target_radius = p.get_double("target_radius");
+    c.target_distance = p.get_double("target_distance");
+    c.target_speed = p.get_double("target_speed");
+    c.target_range = p.get_double("target_range");
+    c.target_start = p.get_double("target_start");
+    c.target_height = p.get_double("target_height");
+    if (c.target_distance >= c.wall_distance) return Status::error("target_distance must be less than wall_distance");
+    head_ = std::make_unique<capture::SimHead>(std::move(scene), c);
+    period_ns_ = static_cast<int64_t>(1e9 / p.get_double("fps"));
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    auto state = ctx.get(state_);
+    if (state->position.size() != 5) return Status::error("joint state for " + std::to_string(state->position.size()) + " joints, expected 5");
+    if (state->timestamp_ns < next_ns_) return {};
+    next_ns_ += period_ns_;
+    if (next_ns_ <= state->timestamp_ns) next_ns_ = state->timestamp_ns + period_ns_;  // joint states came late
+    const kinematics::HeadJoints q{state->position[0], state->position[1], state->position[2], state->position[3],
+                                   state->position[4]};
+    const double t = static_cast<double>(state->timestamp_ns) * 1e-9;
+    OutputHandle<Image> outs[2] = {left_, right_};
+    OutputHandle<Region> truths[2] = {truth_, truth_right_};
+    for (int camera = 0; camera < 2; ++camera) {
+      auto image = ctx.make(outs[camera]);
+      const capture::TargetView view = head_->render(camera, q, t, image->mat);
+      image->camera_id = camera;
+      image->timestamp_ns = state->timestamp_ns;
+      image->origin_ns = steady_now_ns();
+      image->frame_id = frame_;
+      auto truth = ctx.make(truths[camera]);
+      truth->stamp_from(*image);
+      truth->center = view.center;
+      truth->size = cv::Size2d(2 * view.radius, 2 * view.radius);
+      truth->depth = view.depth;
+      truth->camera_id = camera;
+      truth->label = view.visible ? "visible" : "outside";
+      ctx.emit(outs[camera], std::move(image));
+      ctx.emit(truths[camera], std::move(truth));
+    }
+    ++frame_;
+    return {};
+  }
+
+ private:
+  InputHandle<JointState> state_;
+  OutputHandle<Image> left_, right_;
+  OutputHandle<Region> truth_, truth_right_;
+  std::unique_ptr<capture::SimHead> head_;
+  int64_t period_ns_ = 40'000'000, next_ns_ = 0, frame_ = 0;
+};
+
 }  // namespace
 
-SACCADE_PLUGIN("capture", Video, Images, OneImage, Camera, Stereo, Synthetic)
+SACCADE_PLUGIN("capture", Video, Images, OneImage, Camera, Stereo, Synthetic, SimHeadNode)

@@ -20,29 +20,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Runs a graph file deterministically with the named nodes turned into
-// util.record nodes (keyed by node name).
-void run_recording(const std::string& file, const std::vector<std::string>& overrides,
-                   const std::vector<std::string>& record) {
-  Diagnostics diag;
-  GraphDecl decl = load_graph_file(file, diag);
-  apply_overrides(decl, overrides, diag);
-  for (auto& n : decl.nodes)
-    for (const auto& r : record)
-      if (n.name == r) {
-        n.plugin = "util.record";
-        n.params.clear();
-      }
-  auto graph = resolve_graph(decl, testing::default_registry(), diag);
-  ASSERT_FALSE(diag.has_errors()) << diag.format();
-  testing::Recorder::instance().clear();
-  ExecutorOptions options;
-  options.deterministic = true;
-  Executor executor(*graph, testing::default_registry(), options);
-  ASSERT_TRUE(executor.open().ok());
-  ASSERT_TRUE(executor.run().ok());
-}
-
 struct TrackFigures {
   int frames = 0;
   int scored = 0;          // frames with the target in view, away from the edge, jumps and bounces
@@ -134,7 +111,7 @@ TEST(TrackingGraph, FollowsATargetAtAQuarterFoveaWidthPerFrameWithoutLoss) {
     std::vector<std::string> overrides = {"scene.speed=8", "scene.jump_every=0", "scene.count=400",
                                           "scene.angle=" + std::to_string(angle), "snapshot.every=1000"};
     if (!start.empty()) overrides.push_back(start);
-    run_recording(kTracking, overrides, {"snapshot", "truth", "gaze"});
+    test::run_recording(kTracking, overrides, {"snapshot", "truth", "gaze"});
     auto states = test::recorded<FoveaState>("snapshot");
     auto truth = test::recorded<Region>("truth");
     ASSERT_EQ(states.size(), 400u);
@@ -150,9 +127,9 @@ TEST(TrackingGraph, FollowsATargetAtAQuarterFoveaWidthPerFrameWithoutLoss) {
 TEST(TrackingGraph, FindsTheTargetAgainAfterJumpsAndAsksTheHeadToTurnAtTheBorder) {
   fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "tracking";
   fs::remove_all(out);
-  run_recording(kTracking, {"snapshot.dir=" + out.string()}, {"truth", "gaze"});
+  test::run_recording(kTracking, {"snapshot.dir=" + out.string()}, {"truth", "gaze"});
   EXPECT_TRUE(fs::exists(out / "snapshot_000150_track.png"));
-  run_recording(kTracking, {}, {"snapshot", "truth", "gaze"});
+  test::run_recording(kTracking, {}, {"snapshot", "truth", "gaze"});
   auto states = test::recorded<FoveaState>("snapshot");
   auto truth = test::recorded<Region>("truth");
   auto gaze = test::recorded<GazeRequest>("gaze");
@@ -201,9 +178,9 @@ namespace {
 TEST(AttentionGraph, VisitsTheMovingPeopleInTurn) {
   fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "attention";
   fs::remove_all(out);
-  run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {"snapshot.dir=" + out.string()}, {"gaze"});
+  test::run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {"snapshot.dir=" + out.string()}, {"gaze"});
   EXPECT_TRUE(fs::exists(out / "snapshot_000300_track.png"));
-  run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {}, {"snapshot"});
+  test::run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {}, {"snapshot"});
   auto states = test::recorded<FoveaState>("snapshot");
   ASSERT_EQ(states.size(), 795u);
   cv::VideoCapture video(test::sample_path("vtest.avi"));

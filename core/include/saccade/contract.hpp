@@ -112,7 +112,13 @@ class Contract {
   const std::vector<PortSpec>& inputs() const { return inputs_; }
   const std::vector<PortSpec>& outputs() const { return outputs_; }
   const std::vector<ParamSpec>& params() const { return params_; }
-  bool is_source() const { return inputs_.empty(); }
+  // Runs on its own, at its own pace: no input triggers it (side inputs,
+  // such as a driver's targets, only give it their newest value).
+  bool is_source() const {
+    for (const PortSpec& in : inputs_)
+      if (in.kind != InputKind::kSide) return false;
+    return true;
+  }
 
   const PortSpec* find_input(std::string_view name) const;
   const PortSpec* find_output(std::string_view name) const;

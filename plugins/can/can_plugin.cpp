@@ -1,0 +1,297 @@
+// The head's CAN side as nodes: `can.driver` (the CANopen master: joint
+// targets in, joint state out, one control cycle per call, SYNC producer and
+// so the control loop's clock) and `can.drives` (simulated CiA 402 drives on
+// a bus: run in the same graph, or alone in a graph of their own on the
+// robot-PC end of a UDP tunnel).
+#include <sstream>
+
+#include "cannelloni.hpp"
+#include "drive_sim.hpp"
+#include "master.hpp"
+#include "saccade/log.hpp"
+#include "saccade/plugin.hpp"
+#include "virtual_bus.hpp"
+
+namespace {
+
+using namespace saccade;
+
+// "1,2,3" -> numbers; `count` values, or one value repeated.
+bool parse_list(const std::string& text, std::size_t count, std::vector<double>& out, std::string& error,
+                const std::string& name) {
+  out.clear();
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      out.push_back(std::stod(item, &used));
+      if (item.find_first_not_of(" \t", used) != std::string::npos) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      error = name + ": '" + item + "' is not a number (expected a comma list such as 1,2,3,4,5)";
+      return false;
+    }
+  }
+  if (out.size() == 1 && count > 1) out.assign(count, out[0]);
+  if (count > 0 && out.size() != count) {
+    error = name + ": " + std::to_string(out.size()) + " values, expected " + std::to_string(count) + " (or one for all)";
+    return false;
+  }
+  return true;
+}
+
+// Parameters both nodes share: the bus, the joints' nodes and units, the clock.
+Contract& common(Contract& c) {
+  return c.param_string("bus", "virtual:head", "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME")
+      .param_string("nodes", "1,2,3,4,5", "CANopen node ids of the joints: neck, vergence left, tilt left, vergence right, tilt right")
+      .param_string("counts_per_rad", "20000", "encoder counts per radian at the joint (one value, or one per joint)")
+      .param_string("zero_counts", "0", "encoder reading at joint angle 0 (one value, or one per joint)")
+      .param_double("rate", 250.0, 1.0, 10000.0, "control cycles per second")
+      .param_bool("realtime", true, "pace the cycles on the wall clock (false: as fast as the graph runs, simulated time)")
+      .param_double("duration", 0.0, 0.0, 1e9, "stop after this many seconds of control time (0: never)")
+      .param_double("wait_ms", 0.0, 0.0, 1000.0, "wait this long for the first frame of a cycle (a tunnel's packets in flight)")
+      .param_double("loss", 0.0, 0.0, 1.0, "fault injection: the probability that a frame (virtual) or packet (udp) is lost")
+      .param_double("latency_ms", 0.0, 0.0, 1000.0, "fault injection on a virtual bus: every frame arrives this much later");
+}
+
+struct Clock {
+  double period_s = 0.004;
+  bool realtime = true;
+  int64_t ticks = -1, start_ns = 0, stop_after = 0;
+  // The next tick's time (ns since the start), sleeping until it in realtime; -1 when done.
+  int64_t next(ProcessContext& ctx) {
+    ++ticks;
+    if (stop_after > 0 && ticks >= stop_after) return -1;
+    const auto t = static_cast<int64_t>(static_cast<double>(ticks) * period_s * 1e9);
+    if (realtime) {
+      if (ticks == 0) start_ns = steady_now_ns();
+      if (!ctx.sleep_until(start_ns + t)) return -1;
+    }
+    return t;
+  }
+};
+
+struct Setup {
+  std::unique_ptr<can::Bus> bus;
+  can::VirtualBus* virtual_bus = nullptr;
+  std::vector<double> nodes, counts, zero;
+  Clock clock;
+  int64_t wait_ns = 0;
+};
+
+Status setup(const Params& p, Setup& s) {
+  std::string error;
+  if (!parse_list(p.get_string("nodes"), 0, s.nodes, error, "nodes") ||
+      !parse_list(p.get_string("counts_per_rad"), s.nodes.size(), s.counts, error, "counts_per_rad") ||
+      !parse_list(p.get_string("zero_counts"), s.nodes.size(), s.zero, error, "zero_counts"))
+    return Status::error(error);
+  for (double n : s.nodes)
+    if (n < 1 || n > 127 || n != static_cast<int>(n)) return Status::error("nodes: " + std::to_string(n) + " is not a CANopen node id (1..127)");
+  for (double c : s.counts)
+    if (c == 0) return Status::error("counts_per_rad: 0 counts per radian");
+  s.bus = can::open_bus(p.get_string("bus"), error);
+  if (!s.bus) return Status::error(error);
+  const double loss = p.get_double("loss");
+  if (auto* port = dynamic_cast<can::VirtualPort*>(s.bus.get())) {
+    s.virtual_bus = &port->bus();
+    if (loss > 0 || p.get_double("latency_ms") > 0)
+      s.virtual_bus->set_faults({loss, static_cast<int64_t>(p.get_double("latency_ms") * 1e6), 1});
+  } else if (auto* tunnel = dynamic_cast<can::UdpTunnel*>(s.bus.get())) {
+    tunnel->set_loss(loss, 1);
+  }
+  s.clock.period_s = 1.0 / p.get_double("rate");
+  s.clock.realtime = p.get_bool("realtime");
+  s.clock.stop_after = static_cast<int64_t>(p.get_double("duration") * p.get_double("rate") + 0.5);
+  s.wait_ns = static_cast<int64_t>(p.get_double("wait_ms") * 1e6);
+  return {};
+}
+
+JointState::Health health(can::DriveHealth h) {
+  switch (h) {
+    case can::DriveHealth::kReady: return JointState::Health::kReady;
+    case can::DriveHealth::kFault: return JointState::Health::kFault;
+    case can::DriveHealth::kSilent: return JointState::Health::kSilent;
+    case can::DriveHealth::kStarting: break;
+  }
+  return JointState::Health::kStarting;
+}
+
+class Driver final : public Node {
+ public:
+  static constexpr const char* kName = "driver";
+  static Contract contract() {
+    Contract c("The CANopen master of the head's CiA 402 drives: configures them by SDO, enables them, streams the "
+               "targets as profile-position set-points, sends SYNC, supervises heartbeats and process data, and "
+               "reports the joints. One control cycle per call: the control loop's clock.");
+    c.side_input<JointTargets>("targets", "the head's targets (newest); none yet: the drives hold")
+        .output<JointState>("state", "positions, velocities and health of every joint, each cycle");
+    common(c)
+        .param_double("profile_velocity", 8.0, 0.01, 1000.0, "rad/s written to the drives (0x6081)")
+        .param_double("profile_acceleration", 400.0, 0.1, 1e5, "rad/s^2 written to the drives (0x6083, 0x6084)")
+        .param_double("following_error", 0.1, 0.001, 10.0, "rad: the drives' own following-error window (0x6065)")
+        .param_int("heartbeat_ms", 20, 0, 65535, "heartbeat time written to the drives (0x1017); 0: none")
+        .param_double("heartbeat_timeout_ms", 100.0, 1.0, 1e6, "a drive without heartbeat this long is silent")
+        .param_double("feedback_timeout_ms", 50.0, 1.0, 1e6, "a drive without position this long is silent");
+    return c;
+  }
+  Status open(OpenContext& ctx) override {
+    targets_ = ctx.input<JointTargets>("targets");
+    state_ = ctx.output<JointState>("state");
+    const Params& p = ctx.params();
+    if (Status s = setup(p, setup_); !s.ok()) return s;
+    can::MasterConfig config;
+    static const char* const names[] = {"neck", "vergence_left", "tilt_left", "vergence_right", "tilt_right"};
+    for (std::size_t j = 0; j < setup_.nodes.size(); ++j)
+      config.joints.push_back({j < 5 ? names[j] : "joint" + std::to_string(j), static_cast<int>(setup_.nodes[j]),
+                               setup_.counts[j], static_cast<int32_t>(setup_.zero[j])});
+    config.profile_velocity = p.get_double("profile_velocity");
+    config.profile_acceleration = p.get_double("profile_acceleration");
+    config.following_error_window = p.get_double("following_error");
+    config.heartbeat_ms = static_cast<uint16_t>(p.get_int("heartbeat_ms"));
+    config.heartbeat_timeout_ns = static_cast<int64_t>(p.get_double("heartbeat_timeout_ms") * 1e6);
+    config.feedback_timeout_ns = static_cast<int64_t>(p.get_double("feedback_timeout_ms") * 1e6);
+    master_ = std::make_unique<can::Master>(*setup_.bus, config);
+    feedback_.reserve(setup_.nodes.size());
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    const int64_t t = setup_.clock.next(ctx);
+    if (t < 0) return Status::end_of_stream();
+    if (setup_.virtual_bus != nullptr) setup_.virtual_bus->set_time(t);
+    auto targets = ctx.get(targets_);
+    const bool usable = targets && targets->position.size() == setup_.nodes.size();
+    if (targets && !usable && !warned_) {
+      log().warn("{}: targets for {} joints, expected {}: ignored", ctx.node_name(), targets->position.size(),
+                       setup_.nodes.size());
+      warned_ = true;
+    }
+    master_->cycle(t, usable ? targets->position.data() : nullptr, usable ? targets->reset : 0, feedback_,
+                   setup_.wait_ns);
+    auto state = ctx.make(state_);
+    const std::size_t n = feedback_.size();
+    state->position.resize(n);
+    state->velocity.resize(n);
+    state->health.resize(n);
+    state->updated_ns.resize(n);
+    state->error_code.resize(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      state->position[j] = feedback_[j].position;
+      state->velocity[j] = feedback_[j].velocity;
+      state->health[j] = health(feedback_[j].health);
+      state->updated_ns[j] = feedback_[j].updated_ns;
+      state->error_code[j] = feedback_[j].error_code;
+    }
+    state->cycle = setup_.clock.ticks;
+    state->detail = master_->problem();
+    state->timestamp_ns = t;
+    state->origin_ns = steady_now_ns();
+    state->frame_id = setup_.clock.ticks;
+    ctx.emit(state_, std::move(state));
+    return {};
+  }
+
+ private:
+  InputHandle<JointTargets> targets_;
+  OutputHandle<JointState> state_;
+  Setup setup_;
+  std::unique_ptr<can::Master> master_;
+  std::vector<can::JointFeedback> feedback_;
+  bool warned_ = false;
+};
+
+class Drives final : public Node {
+ public:
+  static constexpr const char* kName = "drives";
+  static Contract contract() {
+    Contract c("Simulated CiA 402 drives, one per joint, on a bus: NMT, heartbeat, SDO, PDOs, the 402 state machine "
+               "and profile position mode over a PID position loop on a plant with inertia and friction. Alone in a "
+               "graph on a UDP tunnel they stand in for the robot PC's motors.");
+    c.output<JointState>("truth", "the shafts' true positions and velocities, each step (for tests and overlays)");
+    common(c)
+        .param_string("initial", "0", "joint angles at power-on, rad (one value, or one per joint)")
+        .param_double("inertia", 0.002, 1e-6, 10.0, "kg m^2 at each joint")
+        .param_double("friction", 0.02, 0.0, 10.0, "Coulomb friction, N m")
+        .param_double("torque_limit", 1.5, 0.001, 1000.0, "N m")
+        .param_double("fault_at", -1.0, -1.0, 1e9, "fault injection: this joint's drive faults at this time, s (-1: never)")
+        .param_double("silent_at", -1.0, -1.0, 1e9, "fault injection: this joint's drive falls silent at this time, s (-1: never)")
+        .param_int("fault_joint", 0, 0, 126, "the joint (index) that faults or falls silent");
+    return c;
+  }
+  Status open(OpenContext& ctx) override {
+    truth_ = ctx.output<JointState>("truth");
+    const Params& p = ctx.params();
+    if (Status s = setup(p, setup_); !s.ok()) return s;
+    std::vector<double> initial;
+    std::string error;
+    if (!parse_list(p.get_string("initial"), setup_.nodes.size(), initial, error, "initial")) return Status::error(error);
+    std::vector<can::DriveConfig> drives;
+    for (std::size_t j = 0; j < setup_.nodes.size(); ++j) {
+      can::DriveConfig d;
+      d.node = static_cast<int>(setup_.nodes[j]);
+      d.counts_per_rad = setup_.counts[j];
+      d.initial_position = initial[j] + setup_.zero[j] / setup_.counts[j];
+      d.motor.inertia = p.get_double("inertia");
+      d.motor.coulomb = p.get_double("friction");
+      d.motor.torque_limit = p.get_double("torque_limit");
+      // Gains for the same closed-loop bandwidth whatever the inertia.
+      const double scale = d.motor.inertia / can::MotorModel{}.inertia;
+      d.motor.kp *= scale;
+      d.motor.ki *= scale;
+      d.motor.kd *= scale;
+      drives.push_back(d);
+    }
+    fault_at_ = p.get_double("fault_at");
+    silent_at_ = p.get_double("silent_at");
+    fault_joint_ = static_cast<std::size_t>(p.get_int("fault_joint"));
+    if ((fault_at_ >= 0 || silent_at_ >= 0) && fault_joint_ >= drives.size())
+      return Status::error("fault_joint " + std::to_string(fault_joint_) + " is beyond the " +
+                           std::to_string(drives.size()) + " joints");
+    rack_ = std::make_unique<can::DriveRack>(std::move(setup_.bus), std::move(drives));
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    const int64_t t = setup_.clock.next(ctx);
+    if (t < 0) return Status::end_of_stream();
+    const double seconds = static_cast<double>(t) * 1e-9;
+    if (fault_at_ >= 0 && seconds >= fault_at_) {
+      rack_->drive(fault_joint_).inject_fault(can::emcy::kGeneric);
+      fault_at_ = -1;
+    }
+    if (silent_at_ >= 0 && seconds >= silent_at_) {
+      rack_->drive(fault_joint_).set_silent(true);
+      silent_at_ = -1;
+    }
+    rack_->step(t, setup_.clock.period_s, setup_.wait_ns);
+    auto truth = ctx.make(truth_);
+    const std::size_t n = rack_->size();
+    truth->position.resize(n);
+    truth->velocity.resize(n);
+    truth->health.assign(n, JointState::Health::kReady);
+    truth->updated_ns.assign(n, t);
+    truth->error_code.resize(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      const can::SimulatedDrive& d = rack_->drive(j);
+      truth->position[j] = d.position() - setup_.zero[j] / setup_.counts[j];
+      truth->velocity[j] = d.velocity();
+      truth->error_code[j] = d.last_error();
+      if (d.state() == can::DriveState::kFault) truth->health[j] = JointState::Health::kFault;
+    }
+    truth->cycle = setup_.clock.ticks;
+    truth->timestamp_ns = t;
+    truth->origin_ns = steady_now_ns();
+    truth->frame_id = setup_.clock.ticks;
+    ctx.emit(truth_, std::move(truth));
+    return {};
+  }
+
+ private:
+  OutputHandle<JointState> truth_;
+  Setup setup_;
+  std::unique_ptr<can::DriveRack> rack_;
+  double fault_at_ = -1, silent_at_ = -1;
+  std::size_t fault_joint_ = 0;
+};
+
+}  // namespace
+
+SACCADE_PLUGIN("can", Driver, Drives)

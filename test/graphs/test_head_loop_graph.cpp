@@ -1,0 +1,66 @@
+// graphs/head_loop.xml, the whole active vision loop on one machine, in
+// simulated time: the target swings beyond the cameras' field of view, the
+// fovea asks for gaze shifts, the head turns through the CAN driver and the
+// simulated drives, and the target stays in view.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+const std::vector<std::string> kSimulated = {"driver.realtime=false", "drives.realtime=false", "driver.duration=16",
+                                             "drives.duration=16"};
+
+struct LoopFigures {
+  int frames = 0, visible = 0;
+  double neck_min = 0, neck_max = 0;
+  int64_t gaze_requests = 0;
+  double max_target_azimuth_deg = 0;
+};
+
+LoopFigures run(const std::vector<std::string>& extra) {
+  std::vector<std::string> overrides = kSimulated;
+  overrides.insert(overrides.end(), extra.begin(), extra.end());
+  test::run_recording(SACCADE_SOURCE_DIR "/graphs/head_loop.xml", overrides, {"truth", "drive_truth", "snapshot"});
+  LoopFigures f;
+  const auto truth = test::recorded<Region>("truth");
+  const auto joints = test::recorded<JointState>("drive_truth");
+  const auto states = test::recorded<FoveaState>("snapshot");
+  // From the second second on: the loop has started and the drives are enabled.
+  for (const auto& t : truth) {
+    if (t->timestamp_ns < 1'000'000'000) continue;
+    ++f.frames;
+    f.visible += t->label == "visible";
+  }
+  for (const auto& j : joints) {
+    f.neck_min = std::min(f.neck_min, j->position[0] * 180 / M_PI);
+    f.neck_max = std::max(f.neck_max, j->position[0] * 180 / M_PI);
+  }
+  if (!states.empty()) f.gaze_requests = states.back()->gaze_requests;
+  return f;
+}
+
+TEST(HeadLoopGraph, TheHeadTurnsAndTheTargetStaysInView) {
+  const LoopFigures f = run({});
+  std::printf("[ figure ] head loop: target in view %d of %d frames (%.1f%%), neck %.1f..%.1f deg, %lld gaze requests\n",
+              f.visible, f.frames, 100.0 * f.visible / std::max(1, f.frames), f.neck_min, f.neck_max,
+              static_cast<long long>(f.gaze_requests));
+  ASSERT_GT(f.frames, 300);
+  EXPECT_GE(f.visible, f.frames * 95 / 100);
+  EXPECT_LT(f.neck_min, -25.0) << "the head turned left";
+  EXPECT_GT(f.neck_max, 25.0) << "and right";
+  EXPECT_GE(f.gaze_requests, 4);
+}
+
+TEST(HeadLoopGraph, WithoutTheHeadTheTargetLeavesTheView) {
+  // The same scene with the head's joints held (no gaze requests reach it).
+  const LoopFigures f = run({"head.velocity=1", "head.acceleration=1", "head.saccade_threshold=180"});
+  EXPECT_LT(f.visible, f.frames * 70 / 100) << f.visible << " of " << f.frames;
+}
+
+}  // namespace
+}  // namespace saccade
