@@ -38,6 +38,11 @@ void VirtualBus::set_faults(Faults faults) {
 void VirtualBus::set_time(int64_t ns) {
   {
     std::lock_guard lock(mu_);
+    if (sim_time_ns_ < 0) {
+      // From the steady clock to simulated time: what was sent before is due now.
+      for (PortState& p : ports_)
+        for (Queued& q : p.queue) q.due_ns = q.frame.timestamp_ns = ns;
+    }
     sim_time_ns_ = ns;
   }
   arrived_.notify_all();

@@ -99,7 +99,9 @@ class HeadNode final : public Node {
     }
     const bool was_holding = controller_->holding();
     const head::HeadCommand& command = controller_->cycle(state->timestamp_ns, readings_);
-    if (command.hold && !was_holding) log().warn("{}: holding: {}", ctx.node_name(), command.fault);
+    if (command.hold && !was_holding)
+      log().warn("{}: holding: {}{}{}", ctx.node_name(), command.fault, state->detail.empty() ? "" : "; the driver: ",
+                 state->detail);
     if (auto gaze = ctx.get(gaze_); gaze && gaze != last_gaze_) {
       last_gaze_ = gaze;
       const std::string why = request(*gaze);

@@ -134,6 +134,18 @@ TEST(VirtualBus, DelaysOnTheSimulatedClockAndDropsWithASeed) {
   EXPECT_EQ(a->counters().dropped, 2000u - static_cast<unsigned>(arrived));
 }
 
+TEST(VirtualBus, FramesSentBeforeSimulatedTimeStartsAreDueAtOnce) {
+  // Nodes of a real-time graph start on the steady clock; the driver then sets
+  // simulated time, which must not strand what was already sent.
+  auto bus = VirtualBus::create();
+  auto a = bus->attach(), b = bus->attach();
+  a->send(data_frame(0x701, {0x00}));
+  bus->set_time(0);
+  Frame f;
+  ASSERT_TRUE(b->receive(f, 0));
+  EXPECT_EQ(f.id, 0x701u);
+}
+
 TEST(VirtualBus, BusOffAndErrorPassiveReportErrorFrames) {
   auto bus = VirtualBus::create();
   auto a = bus->attach(), b = bus->attach();
