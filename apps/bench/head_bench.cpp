@@ -74,13 +74,16 @@ void BM_Head_ControlCycle(benchmark::State& state) {
   if (!master.all_ready()) state.SkipWithError("drives not ready");
   std::vector<double> ns;
   ns.reserve(1 << 20);
+  double bits = 0;
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     step();
     ns.push_back(static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count()));
+    bits += master.stats().bits_last_cycle;
   }
+  // Set-point cycles (RPDO2 + RPDO1) and acknowledge cycles (RPDO1) alternate: the mean.
+  state.counters["bits_per_cycle"] = ns.empty() ? 0 : bits / static_cast<double>(ns.size());
   report(state, ns);
-  state.counters["bits_per_cycle"] = master.stats().bits_last_cycle;
 }
 BENCHMARK(BM_Head_ControlCycle)->Arg(0)->Arg(1)->ArgNames({"controller"});
 

@@ -168,10 +168,10 @@ bool UdpTunnel::send(const Frame& f) {
     ++counters_.send_failed;
     return false;
   }
-  std::size_t size = cannelloni::kHeaderSize;
-  for (const Frame& q : outgoing_) size += cannelloni::encoded_size(q);
-  if (size + cannelloni::encoded_size(f) > cannelloni::kMaxPacket) flush();
+  const std::size_t size = cannelloni::encoded_size(f);
+  if (outgoing_bytes_ + size > cannelloni::kMaxPacket) flush();
   outgoing_.push_back(f);
+  outgoing_bytes_ += size;
   return true;
 }
 
@@ -180,6 +180,7 @@ void UdpTunnel::flush() {
   const std::size_t n = outgoing_.size();
   cannelloni::encode(seq_out_++, outgoing_.data(), n, packet_);
   outgoing_.clear();
+  outgoing_bytes_ = cannelloni::kHeaderSize;
   ++packets_sent_;
   if (options_.loss > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < options_.loss) {
     counters_.dropped += n;

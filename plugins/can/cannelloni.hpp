@@ -67,6 +67,7 @@ class UdpTunnel final : public Bus {
   unsigned char peer_[32] = {};
   std::size_t peer_size_;
   std::vector<Frame> outgoing_, incoming_;
+  std::size_t outgoing_bytes_ = cannelloni::kHeaderSize;  // the packet outgoing_ would make
   std::size_t incoming_next_ = 0;
   std::vector<uint8_t> packet_;
   uint8_t seq_out_ = 0;

@@ -21,8 +21,8 @@ std::vector<JointLimit> HeadConfig::joint_limits() const {
 }
 
 GazeController::GazeController(HeadConfig config)
-    : config_(std::move(config)), trajectory_(config_.joint_limits()), readings_(kJoints), commanded_(kJoints),
-      goal_(kJoints) {
+    : config_(std::move(config)), limits_(config_.joint_limits()), trajectory_(limits_), readings_(kJoints),
+      commanded_(kJoints), goal_(kJoints) {
   command_.position.assign(kJoints, 0.0);
   command_.velocity.assign(kJoints, 0.0);
 }
@@ -55,10 +55,8 @@ std::string GazeController::accept(const kinematics::Gaze& gaze) {
   if (!gaze.reachable) return reject(gaze.why);
   const HeadJoints& q = gaze.joints;
   goal_ = {q.neck, q.vergence_left, q.tilt_left, q.vergence_right, q.tilt_right};
-  const auto limits = config_.joint_limits();
-  for (int j = 0; j < kJoints; ++j)
-    if (goal_[static_cast<std::size_t>(j)] < limits[static_cast<std::size_t>(j)].min ||
-        goal_[static_cast<std::size_t>(j)] > limits[static_cast<std::size_t>(j)].max) {
+  for (std::size_t j = 0; j < goal_.size(); ++j)
+    if (goal_[j] < limits_[j].min || goal_[j] > limits_[j].max) {
       ++stats_.clamped;  // the trajectory stops at the limit: as far as the head can turn
       break;
     }
@@ -68,6 +66,10 @@ std::string GazeController::accept(const kinematics::Gaze& gaze) {
 
 std::string GazeController::look_at(const Eigen::Vector3d& point) {
   ++stats_.requests;
+  return aim(point);
+}
+
+std::string GazeController::aim(const Eigen::Vector3d& point) {
   if (!have_readings_) return reject("no joint state yet");
   if (command_.hold) return reject("holding (" + command_.fault + "): reset first");
   // Only the geometry may refuse; joint limits clamp the move instead.
@@ -78,49 +80,37 @@ std::string GazeController::look_at(const Eigen::Vector3d& point) {
 }
 
 std::string GazeController::look_along(int camera, const Eigen::Vector3d& direction, double depth) {
-  if (!have_readings_) {
-    ++stats_.requests;
-    return reject("no joint state yet");
-  }
+  ++stats_.requests;
+  if (!have_readings_) return reject("no joint state yet");
   const HeadJoints q = measured();
   const Eigen::Isometry3d pose = kinematics::optical_frame(
       camera == 0 ? kinematics::left_camera(config_.geometry, q) : kinematics::right_camera(config_.geometry, q));
   const Eigen::Vector3d d = direction.normalized();
-  if (!(d.z() > 1e-6)) {
-    ++stats_.requests;
-    return reject("the direction does not point in front of the camera");
-  }
+  if (!(d.z() > 1e-6)) return reject("the direction does not point in front of the camera");
   if (depth <= 0) {
     const kinematics::Fixation f = fixation();
     const double along = f.valid ? (f.point - pose.translation()).dot(pose.linear().col(2)) : -1;
     depth = along > 0 ? along : config_.default_depth;
   }
-  return look_at(pose.translation() + pose.linear() * (d * (depth / d.z())));
+  return aim(pose.translation() + pose.linear() * (d * (depth / d.z())));
 }
 
 std::string GazeController::look_at_stereo(double u, double v, double disparity, double focal, double cx, double cy) {
-  if (!have_readings_) {
-    ++stats_.requests;
-    return reject("no joint state yet");
-  }
+  ++stats_.requests;
+  if (!have_readings_) return reject("no joint state yet");
   const HeadJoints q = measured();
   const Eigen::Isometry3d l = kinematics::optical_frame(kinematics::left_camera(config_.geometry, q));
   const Eigen::Isometry3d r = kinematics::optical_frame(kinematics::right_camera(config_.geometry, q));
   const Eigen::Vector3d ray_l = l.linear() * Eigen::Vector3d((u - cx) / focal, (v - cy) / focal, 1.0);
   const Eigen::Vector3d ray_r = r.linear() * Eigen::Vector3d((u - disparity - cx) / focal, (v - cy) / focal, 1.0);
   const kinematics::Fixation f = kinematics::fixation_point(l.translation(), ray_l, r.translation(), ray_r);
-  if (!f.valid) {
-    ++stats_.requests;
-    return reject("stereo pixel pair: " + f.why);
-  }
-  return look_at(f.point);
+  if (!f.valid) return reject("stereo pixel pair: " + f.why);
+  return aim(f.point);
 }
 
 std::string GazeController::turn(double azimuth, double elevation) {
-  if (!have_readings_) {
-    ++stats_.requests;
-    return reject("no joint state yet");
-  }
+  ++stats_.requests;
+  if (!have_readings_) return reject("no joint state yet");
   const HeadJoints q = measured();
   const Eigen::Isometry3d l = kinematics::left_camera(config_.geometry, q);
   const Eigen::Isometry3d r = kinematics::right_camera(config_.geometry, q);
@@ -133,15 +123,13 @@ std::string GazeController::turn(double azimuth, double elevation) {
   const double range = v.norm();
   const double az = std::atan2(v.x(), v.y()) + azimuth;
   const double el = std::atan2(v.z(), std::hypot(v.x(), v.y())) + elevation;
-  return look_at(centre + range * Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)));
+  return aim(centre + range * Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)));
 }
 
 void GazeController::hold(std::string why) {
-  const auto limits = config_.joint_limits();
-  for (int j = 0; j < kJoints; ++j) {
-    const auto i = static_cast<std::size_t>(j);
-    command_.position[i] = std::clamp(readings_[i].position, limits[i].min, limits[i].max);
-    command_.velocity[i] = 0;
+  for (std::size_t j = 0; j < readings_.size(); ++j) {
+    command_.position[j] = std::clamp(readings_[j].position, limits_[j].min, limits_[j].max);
+    command_.velocity[j] = 0;
   }
   command_.hold = true;
   command_.fault = std::move(why);
@@ -158,7 +146,6 @@ void GazeController::reset() {
 }
 
 const HeadCommand& GazeController::cycle(int64_t now_ns, const std::vector<JointReading>& joints) {
-  now_ns_ = now_ns;
   for (std::size_t j = 0; j < readings_.size() && j < joints.size(); ++j) readings_[j] = joints[j];
   have_readings_ = joints.size() >= static_cast<std::size_t>(kJoints);
   if (!have_readings_ || command_.hold) return command_;
@@ -184,11 +171,10 @@ const HeadCommand& GazeController::cycle(int64_t now_ns, const std::vector<Joint
       return command_;
     }
   }
-  const auto limits = config_.joint_limits();
   if (waiting > 0) {
     // Drives not ready: ask for where they are, so that enabling moves nothing.
     for (std::size_t j = 0; j < readings_.size(); ++j) {
-      command_.position[j] = std::clamp(readings_[j].position, limits[j].min, limits[j].max);
+      command_.position[j] = std::clamp(readings_[j].position, limits_[j].min, limits_[j].max);
       command_.velocity[j] = 0;
     }
     started_ = false;
@@ -199,7 +185,7 @@ const HeadCommand& GazeController::cycle(int64_t now_ns, const std::vector<Joint
     // Motion starts from where the joints are.
     std::vector<double> here(kJoints);
     for (std::size_t j = 0; j < here.size(); ++j) {
-      here[j] = std::clamp(readings_[j].position, limits[j].min, limits[j].max);
+      here[j] = std::clamp(readings_[j].position, limits_[j].min, limits_[j].max);
       commanded_[j] = {here[j], 0.0, 0.0};
     }
     trajectory_.plan(commanded_, here);

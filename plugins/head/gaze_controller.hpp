@@ -84,17 +84,20 @@ class GazeController {
   const std::string& last_rejection() const { return last_rejection_; }
 
  private:
+  // The checks and inverse kinematics every request ends in; counted by its caller.
+  std::string aim(const Eigen::Vector3d& point);
   std::string accept(const kinematics::Gaze& gaze);
   std::string reject(std::string why);
   void hold(std::string why);
 
   HeadConfig config_;
+  std::vector<JointLimit> limits_;  // config_.joint_limits(), once
   Trajectory trajectory_;
   std::vector<JointReading> readings_;
   std::vector<JointState> commanded_;
   std::vector<double> goal_;
   bool have_goal_ = false, started_ = false, resetting_ = false, have_readings_ = false;
-  int64_t plan_start_ns_ = 0, now_ns_ = 0;
+  int64_t plan_start_ns_ = 0;
   HeadCommand command_;
   Stats stats_;
   std::string last_rejection_;

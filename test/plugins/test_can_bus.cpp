@@ -12,6 +12,7 @@
 #include "bus.hpp"
 #include "cannelloni.hpp"
 #include "socketcan.hpp"
+#include "support.hpp"
 #include "virtual_bus.hpp"
 
 namespace saccade::can {
@@ -248,27 +249,8 @@ TEST(Cannelloni, RejectsMalformedPacketsWithTheReason) {
   EXPECT_TRUE(cannelloni::decode(fd64.data(), fd64.size(), seq, frames, error)) << error;
 }
 
-// Two distinct free ports on 127.0.0.1, picked by the kernel (both held
-// while picking, so they differ).
-std::pair<int, int> free_udp_ports() {
-  int fds[2];
-  int ports[2];
-  for (int i = 0; i < 2; ++i) {
-    fds[i] = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ::bind(fds[i], reinterpret_cast<sockaddr*>(&a), sizeof a);
-    socklen_t len = sizeof a;
-    ::getsockname(fds[i], reinterpret_cast<sockaddr*>(&a), &len);
-    ports[i] = ntohs(a.sin_port);
-  }
-  for (int fd : fds) ::close(fd);
-  return {ports[0], ports[1]};
-}
-
 TEST(UdpTunnel, CarriesFramesBothWaysPacksACycleAndCountsLoss) {
-  const auto [pa, pb] = free_udp_ports();
+  const auto [pa, pb] = test::free_udp_ports();
   std::string error;
   auto a = UdpTunnel::open(std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error);
   ASSERT_TRUE(a) << error;

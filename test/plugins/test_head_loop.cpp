@@ -6,17 +6,13 @@
 // silent drive must each hold the head.
 #include <gtest/gtest.h>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
-
 #include <cmath>
 
 #include "cannelloni.hpp"
 #include "drive_sim.hpp"
 #include "gaze_controller.hpp"
 #include "master.hpp"
+#include "support.hpp"
 #include "virtual_bus.hpp"
 
 namespace saccade {
@@ -32,17 +28,16 @@ can::MasterConfig master_config() {
   return c;
 }
 
+// The encoders' zero sits 1000 * j counts away from the joint's zero.
 std::vector<can::DriveConfig> drive_configs() {
   std::vector<can::DriveConfig> d;
   for (int j = 0; j < head::kJoints; ++j) {
     can::DriveConfig c;
     c.node = j + 1;
     c.counts_per_rad = 20000.0;
-    c.initial_position = 0;
+    c.initial_position = 1000.0 * j / 20000.0;
     d.push_back(c);
   }
-  // The encoders' zero sits 1000 * j counts away from the joint's zero.
-  for (int j = 0; j < head::kJoints; ++j) d[static_cast<std::size_t>(j)].initial_position = 1000.0 * j / 20000.0;
   return d;
 }
 
@@ -137,22 +132,11 @@ TEST(HeadLoop, A20DegreeSaccadeSettlesWithinOneSecondOverTheVirtualBus) {
 }
 
 TEST(HeadLoop, A20DegreeSaccadeSettlesOverTheUdpTunnelWithLoss) {
-  int fds[2], ports[2];
-  for (int i = 0; i < 2; ++i) {  // two free ports, held while picking so they differ
-    fds[i] = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ::bind(fds[i], reinterpret_cast<sockaddr*>(&a), sizeof a);
-    socklen_t len = sizeof a;
-    ::getsockname(fds[i], reinterpret_cast<sockaddr*>(&a), &len);
-    ports[i] = ntohs(a.sin_port);
-  }
-  for (int fd : fds) ::close(fd);
+  const auto [local, peer] = test::free_udp_ports();
   std::string error;
-  auto master_end = can::UdpTunnel::open({ports[0], "127.0.0.1", ports[1], 0.05, 11}, error);
+  auto master_end = can::UdpTunnel::open({local, "127.0.0.1", peer, 0.05, 11}, error);
   ASSERT_TRUE(master_end) << error;
-  auto drive_end = can::UdpTunnel::open({ports[1], "127.0.0.1", ports[0], 0.05, 12}, error);
+  auto drive_end = can::UdpTunnel::open({peer, "127.0.0.1", local, 0.05, 12}, error);
   ASSERT_TRUE(drive_end) << error;
   can::UdpTunnel* m = master_end.get();
   can::UdpTunnel* d = drive_end.get();
