@@ -11,6 +11,7 @@
 #include "saccade/executor.hpp"
 #include "saccade/graph.hpp"
 #include "saccade/log.hpp"
+#include "saccade/partition.hpp"
 #include "saccade/registry.hpp"
 
 namespace {
@@ -38,11 +39,19 @@ void load_registry(Registry& registry, const Common& common, bool show_errors) {
 }
 
 // Loads, overrides and validates; prints every diagnostic. Empty on error.
+// Graph attributes the command line may override.
+struct GraphOverrides {
+  int domain = -1;
+  std::string topic_prefix;
+};
+
 std::optional<ResolvedGraph> prepare(const std::string& file, const std::vector<std::string>& sets,
-                                     const Registry& registry) {
+                                     const Registry& registry, const GraphOverrides& overrides) {
   Diagnostics diag;
   GraphDecl decl = load_graph_file(file, diag);
   if (!diag.has_errors()) apply_overrides(decl, sets, diag);
+  if (overrides.domain >= 0) decl.domain = overrides.domain;
+  if (!overrides.topic_prefix.empty()) decl.topic_prefix = overrides.topic_prefix;
   std::optional<ResolvedGraph> graph;
   if (!diag.has_errors()) graph = resolve_graph(decl, registry, diag);
   std::cerr << diag.format();
@@ -153,7 +162,21 @@ int main(int argc, char** argv) {
                         ->default_val(0);
   run->add_option("--stats-json", stats_json, "write the final stats as JSON to FILE");
   run->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
-  run->add_option("--process", options.process, "run only the nodes of this process");
+  std::string process;
+  GraphOverrides graph_overrides;
+  run->add_option("--process", process,
+                  "run only this process's part of the graph; its edges to other processes become DDS topics");
+  run->add_option("--domain", graph_overrides.domain, "DDS domain of the edges between processes (default: the graph's)")
+      ->check(CLI::Range(0, 232));
+  run->add_option("--topic-prefix", graph_overrides.topic_prefix,
+                  "prefix of their DDS topics (default: the graph's topic_prefix, else its name)");
+
+  auto* plan = app.add_subcommand("plan", "print which node runs in which process and how each edge travels");
+  plan->add_option("graph", graph_file, "graph file (XML)")->required();
+  plan->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
+  plan->add_option("--process", process, "show this process's part, with its DDS bridge nodes");
+  plan->add_option("--domain", graph_overrides.domain, "DDS domain")->check(CLI::Range(0, 232));
+  plan->add_option("--topic-prefix", graph_overrides.topic_prefix, "prefix of the DDS topics");
 
   auto* check = app.add_subcommand("check", "validate a graph without running it");
   check->add_option("graph", graph_file, "graph file (XML)")->required();
@@ -258,8 +281,23 @@ int main(int argc, char** argv) {
   }
 
   load_registry(registry, common, false);
-  auto graph = prepare(graph_file, sets, registry);
+  auto graph = prepare(graph_file, sets, registry, graph_overrides);
   if (!graph) return 2;
+  std::optional<GraphPlan> graph_plan;
+  {
+    Diagnostics diag;
+    graph_plan = plan_graph(*graph, diag);
+    if (!process.empty() && graph_plan) {
+      graph = partition_graph(*graph, *graph_plan, process, registry, diag);
+      graph_plan = graph ? plan_graph(*graph, diag) : std::nullopt;
+    }
+    std::cerr << diag.format();
+    if (diag.has_errors()) return 2;
+  }
+  if (plan->parsed()) {
+    std::printf("%s", format_plan(*graph, *graph_plan).c_str());
+    return 0;
+  }
   if (check->parsed()) {
     std::printf("%s: ok (%zu nodes, %zu edges)\n", graph_file.c_str(), graph->nodes.size(), graph->edges.size());
     return 0;

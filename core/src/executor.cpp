@@ -165,6 +165,7 @@ struct Executor::Impl {
   std::condition_variable room_cv;   // sources wait for room downstream, or a stop
   std::condition_variable done_cv;   // run() waits for the end
   ReadyRing ready;
+  std::vector<int> ended;  // finished nodes not yet told (inputs_ended); reserved, never reallocates
   int sleeping_workers = 0;
   int finished_count = 0;
   bool aborted = false;
@@ -189,12 +190,9 @@ struct Executor::Impl {
     return !stop_.load();
   }
 
-  bool included(const ResolvedNode& n) const {
-    return options.process.empty() || n.decl.process.empty() || n.decl.process == options.process;
-  }
-
   Status build() {
     nodes.resize(graph.nodes.size());
+    ended.reserve(graph.nodes.size());
     ready.reset(std::max<std::size_t>(1, graph.nodes.size()));
     for (std::size_t i = 0; i < graph.nodes.size(); ++i) {
       const ResolvedNode& rn = graph.nodes[i];
@@ -227,7 +225,6 @@ struct Executor::Impl {
     for (const auto& e : graph.edges) {
       NodeRt& from = nodes[static_cast<std::size_t>(e.from_node)];
       NodeRt& to = nodes[static_cast<std::size_t>(e.to_node)];
-      if (!included(*from.resolved) || !included(*to.resolved)) continue;
       from.outputs[static_cast<std::size_t>(e.from_port)].push_back({e.to_node, e.to_port});
       from.slot.output_connected[static_cast<std::size_t>(e.from_port)] = true;
       InputRt& in = to.inputs[static_cast<std::size_t>(e.to_port)];
@@ -282,7 +279,6 @@ struct Executor::Impl {
   Status open_nodes() {
     for (int i : topo) {
       NodeRt& n = nodes[static_cast<std::size_t>(i)];
-      if (!included(*n.resolved)) continue;
       std::string error;
       n.node = registry.create(n.resolved->decl.plugin, &error);
       if (!n.node) return Status::error("node '" + n.slot.name + "': " + error);
@@ -400,6 +396,10 @@ struct Executor::Impl {
     if (n.finished) return;
     n.finished = true;
     ++finished_count;
+    if (n.opened && !n.source) {
+      ended.push_back(index);  // told by the watching thread, outside the lock
+      done_cv.notify_all();
+    }
     // What is left in a trigger queue can never be used: it had no partner.
     for (auto& in : n.inputs) {
       if (!in.queue.empty()) bump(in.stats->sync_dropped, in.queue.size());
@@ -631,7 +631,7 @@ struct Executor::Impl {
     std::vector<std::thread> threads;
     {
       std::lock_guard lock(mu);
-      // Nodes that can never trigger, and nodes of other processes, end at once.
+      // Nodes that can never trigger end at once.
       for (std::size_t i = 0; i < nodes.size(); ++i)
         if (!nodes[i].opened) finish(static_cast<int>(i));
     }
@@ -658,6 +658,7 @@ struct Executor::Impl {
     {
       std::unique_lock lock(mu);
       for (;;) {
+        tell_ended(lock);
         bool all_done = finished_count == static_cast<int>(nodes.size());
         if (all_done || aborted || (options.deterministic && end_ns.load() != 0)) break;
         done_cv.wait_for(lock, std::chrono::milliseconds(20));
@@ -678,6 +679,10 @@ struct Executor::Impl {
       room_cv.notify_all();
     }
     for (auto& t : threads) t.join();
+    {
+      std::unique_lock lock(mu);
+      tell_ended(lock);
+    }
     if (end_ns.load() == 0) end_ns = steady_now_ns();
     close_nodes();
     std::lock_guard lock(mu);
@@ -687,6 +692,17 @@ struct Executor::Impl {
         in.side_latest.reset();
       }
     return failure;
+  }
+
+  // Calls inputs_ended() of the nodes that finished since the last call; `lock` holds mu.
+  void tell_ended(std::unique_lock<std::mutex>& lock) {
+    while (!ended.empty()) {
+      int index = ended.back();
+      ended.pop_back();
+      lock.unlock();
+      nodes[static_cast<std::size_t>(index)].node->inputs_ended();
+      lock.lock();
+    }
   }
 
   std::vector<const NodeStats*> collect() const {

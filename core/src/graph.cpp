@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
@@ -78,6 +79,61 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
   return " (did you mean '" + best + "'?)";
 }
 
+std::string EdgeQos::text() const {
+  std::string out = reliable ? "reliable" : "best_effort";
+  out += depth == 0 ? ",keep_all" : ",depth=" + std::to_string(depth);
+  if (deadline_ms > 0) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, ",deadline_ms=%g", deadline_ms);
+    out += buf;
+  }
+  if (wait_ms > 0) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, ",wait_ms=%g", wait_ms);
+    out += buf;
+  }
+  return out;
+}
+
+EdgeQos default_qos(std::string_view message_type) {
+  EdgeQos q;
+  if (message_type == "JointTargets" || message_type == "JointState" || message_type == "GazeRequest") {
+    q.reliable = true;
+    q.depth = 8;
+  }
+  return q;
+}
+
+std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std::string* error) {
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t comma = text.find(',', start);
+    std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    start = comma == std::string::npos ? text.size() + 1 : comma + 1;
+    if (item.empty()) continue;
+    auto number_after = [&](std::size_t prefix, double lo, double hi, double& value) {
+      const char* b = item.c_str() + prefix;
+      char* end = nullptr;
+      value = std::strtod(b, &end);
+      return end != b && *end == '\0' && value >= lo && value <= hi;
+    };
+    double v = 0;
+    if (item == "best_effort") base.reliable = false;
+    else if (item == "reliable") base.reliable = true;
+    else if (item == "keep_all") base.depth = 0;
+    else if (item.rfind("depth=", 0) == 0 && number_after(6, 1, 100000, v) && v == static_cast<int>(v)) base.depth = static_cast<int>(v);
+    else if (item.rfind("deadline_ms=", 0) == 0 && number_after(12, 0, 3.6e6, v)) base.deadline_ms = v;
+    else if (item.rfind("wait_ms=", 0) == 0 && number_after(8, 0, 3.6e6, v)) base.wait_ms = v;
+    else {
+      if (error)
+        *error = "qos: unknown item '" + item +
+                 "'; expected best_effort or reliable, depth=N (1..100000) or keep_all, deadline_ms=X, wait_ms=X";
+      return std::nullopt;
+    }
+  }
+  return base;
+}
+
 namespace {
 
 using tinyxml2::XMLAttribute;
@@ -119,8 +175,18 @@ GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics&
     return graph;
   }
   graph.line = root->GetLineNum();
-  check_attributes(root, {"name"}, file, "", diag);
+  check_attributes(root, {"name", "domain", "topic_prefix"}, file, "", diag);
   if (const char* n = root->Attribute("name")) graph.name = n;
+  if (const char* d = root->Attribute("domain")) {
+    char* end = nullptr;
+    long v = std::strtol(d, &end, 10);
+    // Fast DDS maps a domain to UDP ports 7400 + 250 * domain: above 232 they overflow.
+    if (end == d || *end != '\0' || v < 0 || v > 232)
+      diag.error(file, graph.line, "", "", std::string("domain must be an integer from 0 to 232, got '") + d + "'");
+    else
+      graph.domain = static_cast<int>(v);
+  }
+  if (const char* t = root->Attribute("topic_prefix")) graph.topic_prefix = t;
 
   for (const XMLElement* e = root->FirstChildElement(); e; e = e->NextSiblingElement()) {
     std::string tag = e->Name();
@@ -193,7 +259,7 @@ GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics&
       }
       graph.nodes.push_back(std::move(node));
     } else if (tag == "edge") {
-      check_attributes(e, {"from", "to", "queue", "delay"}, file, "", diag);
+      check_attributes(e, {"from", "to", "queue", "delay", "qos"}, file, "", diag);
       EdgeDecl edge;
       edge.line = line;
       bool ok = true;
@@ -208,6 +274,7 @@ GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics&
         ok = false;
       }
       if (const char* q = e->Attribute("queue")) edge.queue = q;
+      if (const char* q = e->Attribute("qos")) edge.qos = q;
       if (const char* d = e->Attribute("delay")) {
         std::string v = d;
         if (v == "0") edge.delay = 0;
@@ -217,6 +284,12 @@ GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics&
       if (ok) graph.edges.push_back(std::move(edge));
     } else if (tag == "process") {
       check_attributes(e, {"name", "host"}, file, "", diag);
+      ProcessDecl process;
+      process.line = line;
+      if (const char* n = e->Attribute("name")) process.name = n;
+      if (const char* h = e->Attribute("host")) process.host = h;
+      if (process.name.empty()) diag.error(file, line, "", "", "<process> needs a name attribute");
+      else graph.processes.push_back(std::move(process));
     } else {
       diag.error(file, line, "", "", "unknown element <" + tag + ">; expected <node>, <edge> or <process>");
     }
@@ -385,6 +458,9 @@ std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registr
   ResolvedGraph out;
   out.file = graph.file;
   out.name = graph.name;
+  out.domain = graph.domain;
+  out.topic_prefix = graph.topic_prefix;
+  out.processes = graph.processes;
   std::size_t errors_before = diag.error_count();
   std::map<std::string, int> index;
   std::vector<std::string> node_names;
@@ -405,13 +481,31 @@ std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registr
     out.nodes.push_back(std::move(rn));
   }
 
+  // Processes: when the graph declares any, every node's process must be one of them.
+  std::vector<std::string> process_names;
+  for (const auto& p : graph.processes) {
+    if (std::find(process_names.begin(), process_names.end(), p.name) != process_names.end())
+      diag.error(file, p.line, "", "", "duplicate <process> '" + p.name + "'");
+    process_names.push_back(p.name);
+  }
+  if (!process_names.empty())
+    for (const auto& n : graph.nodes)
+      if (!n.process.empty() && std::find(process_names.begin(), process_names.end(), n.process) == process_names.end())
+        diag.error(file, n.line, n.name, "",
+                   "process '" + n.process + "' is not declared by a <process>" + did_you_mean(n.process, process_names));
+
   // Edges.
   std::map<std::pair<int, int>, int> producer_line;
   for (const auto& e : graph.edges) {
     ResolvedEdge re;
     re.line = e.line;
     re.delay = e.delay;
+    re.qos = e.qos;
     bool ok = true;
+    if (std::string qos_error; !e.qos.empty() && !parse_edge_qos(e.qos, EdgeQos{}, &qos_error)) {
+      diag.error(file, e.line, e.to_node, e.to_port, qos_error);
+      ok = false;
+    }
     auto from = index.find(e.from_node);
     auto to = index.find(e.to_node);
     if (from == index.end()) {

@@ -90,7 +90,8 @@ int checked_port(const NodeSlot& slot, const std::vector<PortSpec>& ports, const
                  std::string_view type) {
   for (std::size_t i = 0; i < ports.size(); ++i) {
     if (ports[i].name != name) continue;
-    if (ports[i].type != type)
+    // A node may take any output as a plain Message (the DDS bridges do).
+    if (ports[i].type != type && type != kAnyType)
       throw std::logic_error(std::string(kind) + " '" + std::string(name) + "' carries " + ports[i].type + ", not " +
                              std::string(type));
     return static_cast<int>(i);

@@ -23,7 +23,6 @@ struct ExecutorOptions {
   double stats_interval_s = 0.0;
   std::function<void(const std::string& table)> on_stats;  // every stats interval
   const std::atomic<bool>* external_stop = nullptr;        // e.g. set by SIGINT
-  std::string process;  // run only nodes of this process (empty: all)
 };
 
 class Executor {

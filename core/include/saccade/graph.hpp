@@ -22,6 +22,23 @@ struct QueueSpec {
 // Parses "latest", "fifo:N" or "block:N" (N from 1 to 65536).
 std::optional<QueueSpec> parse_queue_spec(const std::string& text);
 
+// How an edge between processes travels: DDS reliability, history and deadline.
+struct EdgeQos {
+  bool reliable = false;
+  int depth = 1;             // keep-last depth; 0 = keep all
+  double deadline_ms = 0.0;  // 0: none; else a silent writer is reported after this long
+  double wait_ms = 0.0;      // the writer waits up to this long for a first reader before it starts
+  std::string text() const;  // "best_effort,depth=1", "reliable,keep_all,deadline_ms=200"
+  bool operator==(const EdgeQos&) const = default;
+};
+// The QoS a message type gets by default: camera-rate data best effort keep-last 1
+// (a reliable image stream stalls for milliseconds on any loss); commands and
+// state reliable, keep-last 8.
+EdgeQos default_qos(std::string_view message_type);
+// Parses a comma-separated list over `base`: best_effort | reliable, depth=N |
+// keep_all, deadline_ms=X. Returns nothing and sets `error` when it cannot.
+std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std::string* error);
+
 enum class OnError { kStop, kSkip };
 
 struct ParamDecl {
@@ -50,13 +67,24 @@ struct NodeDecl {
 struct EdgeDecl {
   std::string from_node, from_port, to_node, to_port;
   std::string queue;  // empty: the default (latest)
+  std::string qos;    // for an edge between processes; empty: from the message type
   int delay = 0;      // 1: feedback edge, the consumer sees an earlier frame's value
+  int line = 0;
+};
+
+// A process of a graph split across processes (or PCs): <process name= host=>.
+struct ProcessDecl {
+  std::string name;
+  std::string host;  // processes with the same host share memory; empty: "localhost"
   int line = 0;
 };
 
 struct GraphDecl {
   std::string file;  // for diagnostics
   std::string name;
+  int domain = 0;            // DDS domain of the graph's edges between processes
+  std::string topic_prefix;  // of those edges' topics; empty: the graph's name
+  std::vector<ProcessDecl> processes;
   std::vector<NodeDecl> nodes;
   std::vector<EdgeDecl> edges;
   int line = 0;
@@ -80,6 +108,7 @@ std::string expand_variables(const std::string& text, const std::string& graph_f
 struct ResolvedEdge {
   int from_node = -1, from_port = -1, to_node = -1, to_port = -1;
   QueueSpec queue;
+  std::string qos;
   int delay = 0;
   int line = 0;
 };
@@ -94,6 +123,9 @@ struct ResolvedNode {
 struct ResolvedGraph {
   std::string file;
   std::string name;
+  int domain = 0;
+  std::string topic_prefix;
+  std::vector<ProcessDecl> processes;
   std::vector<ResolvedNode> nodes;
   std::vector<ResolvedEdge> edges;
 };

@@ -124,6 +124,11 @@ class Node {
   // Steady state: allocate nothing, throw nothing. A source returns
   // Status::end_of_stream() when it has nothing more.
   virtual Status process(ProcessContext& ctx) = 0;
+  // Every trigger input has ended and process() will not be called again; soon
+  // after, on another thread, before close(). A node that tells someone outside
+  // the graph (a DDS bridge tells its readers) does it here, so that a peer
+  // waiting for it can end while this graph is still running.
+  virtual void inputs_ended() {}
   virtual void close() {}
 };
 

@@ -15,7 +15,7 @@
 namespace saccade {
 
 // Bumped whenever Node, Contract, messages or the descriptor change layout.
-inline constexpr uint32_t kAbiVersion = 4;
+inline constexpr uint32_t kAbiVersion = 5;
 
 // Stamped into every plugin at its build and compared by the host at load.
 struct AbiStamp {
@@ -71,6 +71,12 @@ class Guarded final : public Node {
       return Status::error(std::string("process threw: ") + e.what());
     } catch (...) {
       return Status::error("process threw a non-standard exception");
+    }
+  }
+  void inputs_ended() override {
+    try {
+      inner_.inputs_ended();
+    } catch (...) {
     }
   }
   void close() override {
