@@ -13,6 +13,7 @@ packages=(
   libspdlog-dev libfmt-dev
   libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libfastrtps-dev libfastcdr-dev fastddsgen
   gstreamer1.0-tools gstreamer1.0-plugins-base
 )
 

@@ -1,0 +1,288 @@
+// The DDS bridges: an edge between two processes becomes a topic with a
+// dds.publish node on the producer's side and a dds.subscribe node on the
+// consumer's. The framework inserts them (saccade run --process, saccade plan);
+// a graph may also use them directly.
+#include <atomic>
+#include <chrono>
+#include <string>
+#include <thread>
+
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/DataWriterListener.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+
+#include "domain.hpp"
+#include "saccade/log.hpp"
+#include "saccade/plugin.hpp"
+#include "wire.hpp"
+
+namespace {
+
+using namespace saccade;
+namespace fdds = eprosima::fastdds::dds;
+namespace sd = saccade::dds;
+
+std::vector<std::string> type_choices() {
+  std::vector<std::string> out;
+  for (auto t : sd::codec_types()) out.emplace_back(t);
+  return out;
+}
+
+Contract with_bridge_params(Contract c) {
+  return c.required_string("topic", "DDS topic name")
+      .param_enum("type", "Image", type_choices(), "message type the topic carries")
+      .param_int("domain", 0, 0, 232, "DDS domain id")
+      .param_bool("reliable", false, "reliable (else best effort)")
+      .param_int("depth", 1, 0, 100000, "keep-last history depth; 0 keeps all (a slow reader blocks the writer)")
+      .param_double("deadline_ms", 0, 0, 3.6e6, "report a peer silent for this long (0: no deadline)");
+}
+
+const char* policy_name(fdds::QosPolicyId_t id) {
+  switch (id) {
+    case fdds::RELIABILITY_QOS_POLICY_ID: return "reliability";
+    case fdds::DURABILITY_QOS_POLICY_ID: return "durability";
+    case fdds::DEADLINE_QOS_POLICY_ID: return "deadline";
+    case fdds::LIVELINESS_QOS_POLICY_ID: return "liveliness";
+    case fdds::OWNERSHIP_QOS_POLICY_ID: return "ownership";
+    case fdds::DATAREPRESENTATION_QOS_POLICY_ID: return "data representation";
+    default: return "a policy";
+  }
+}
+
+template <class Qos>
+void apply_common_qos(Qos& qos, const Params& p) {
+  bool reliable = p.get_bool("reliable");
+  int depth = static_cast<int>(p.get_int("depth"));
+  qos.reliability().kind = reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
+  qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+  if (depth == 0) {
+    qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+    qos.resource_limits().max_samples = 64;
+    qos.resource_limits().max_instances = 1;
+    qos.resource_limits().max_samples_per_instance = 64;
+  } else {
+    qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+    qos.history().depth = depth;
+  }
+  double deadline_ms = p.get_double("deadline_ms");
+  if (deadline_ms > 0) qos.deadline().period = eprosima::fastrtps::Duration_t(deadline_ms / 1000.0);
+}
+
+// What a peer did, as the listeners see it (on Fast DDS' threads).
+struct PeerEvents {
+  std::atomic<int> matched{0};
+  std::atomic<uint64_t> deadlines_missed{0};
+  std::atomic<uint64_t> lost{0};
+  std::atomic<uint64_t> incompatible{0};
+};
+
+class Publish final : public Node {
+ public:
+  static constexpr const char* kName = "publish";
+  static Contract contract() {
+    return with_bridge_params(
+        Contract("Publishes every message of its input on a DDS topic (the producer's end of an edge between "
+                 "processes). At the end of the stream it tells the readers (an end-of-stream sample).")
+            .input<Message>("in", "messages of the topic's type"))
+        .param_double("wait_ms", 0, 0, 3.6e6, "at open, wait up to this long for a first reader (nothing is lost to a late start)");
+  }
+
+  Status open(OpenContext& ctx) override {
+    in_ = ctx.input<Message>("in");
+    const Params& p = ctx.params();
+    name_ = ctx.node_name();
+    topic_name_ = p.get_string("topic");
+    codec_ = sd::find_codec(p.get_string("type"));
+    if (codec_ == nullptr) return Status::error("no IDL type for '" + p.get_string("type") + "'");
+    std::string error;
+    domain_ = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
+    if (!domain_) return Status::error(error);
+    fdds::Topic* topic = domain_->topic(topic_name_, *codec_, &error);
+    if (topic == nullptr) return Status::error(error);
+    fdds::DataWriterQos qos = domain_->publisher()->get_default_datawriter_qos();
+    apply_common_qos(qos, p);
+    reliable_ = p.get_bool("reliable");
+    // A keep-all writer waits for a slow reader rather than drop; a keep-last one never waits long.
+    qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(p.get_int("depth") == 0 ? 10.0 : 0.1);
+    listener_.owner = this;
+    writer_ = domain_->publisher()->create_datawriter(topic, qos, &listener_, fdds::StatusMask::all());
+    if (writer_ == nullptr) return Status::error("cannot create a DDS writer on " + topic_name_);
+    sample_ = codec_->make_sample();
+    auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(p.get_double("wait_ms"));
+    while (listener_.events.matched.load() == 0 && std::chrono::steady_clock::now() < give_up)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return {};
+  }
+
+  Status process(ProcessContext& ctx) override {
+    auto message = ctx.get(in_);
+    if (message->type_name() != codec_->type)
+      return Status::error("topic " + topic_name_ + " carries " + std::string(codec_->type) + ", got a " +
+                           std::string(message->type_name()));
+    sample_->from_message(*message);
+    if (!writer_->write(sample_->data())) {
+      if (failed_++ == 0) log().warn("{}: write to {} failed (the reader's history is full?)", name_, topic_name_);
+    } else {
+      ++written_;
+    }
+    return {};
+  }
+
+  // The readers end their streams too, at once: a peer that waits for this
+  // one (a loop across processes) can finish while this graph still runs.
+  void inputs_ended() override { send_end_of_stream(); }
+
+  void close() override {
+    if (writer_ != nullptr) {
+      send_end_of_stream();
+      domain_->publisher()->delete_datawriter(writer_);
+      writer_ = nullptr;
+      log().debug("{}: {} written to {}, {} failed, {} deadlines missed", name_, written_, topic_name_, failed_,
+                  listener_.events.deadlines_missed.load());
+      if (failed_ > 0)
+        log().warn("{}: {} of {} writes to {} failed", name_, failed_, failed_ + written_, topic_name_);
+    }
+    domain_.reset();
+  }
+
+ private:
+  void send_end_of_stream() {
+    if (ended_ || writer_ == nullptr) return;
+    ended_ = true;
+    sample_->stamp().flags(sd::kEndOfStream);
+    // Best effort may lose one sample; the end of the stream is sent thrice.
+    for (int i = 0; i < (reliable_ ? 1 : 3); ++i) writer_->write(sample_->data());
+    if (reliable_ && listener_.events.matched.load() > 0)
+      writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(2.0));
+  }
+
+  struct Listener final : fdds::DataWriterListener {
+    Publish* owner = nullptr;
+    PeerEvents events;
+    void on_publication_matched(fdds::DataWriter*, const fdds::PublicationMatchedStatus& s) override {
+      events.matched.store(s.current_count);
+      if (s.current_count_change > 0)
+        log().info("{}: a reader of {} joined ({} now)", owner->name_, owner->topic_name_, s.current_count);
+      else if (s.current_count_change < 0)
+        log().warn("{}: a reader of {} left ({} now)", owner->name_, owner->topic_name_, s.current_count);
+    }
+    void on_offered_deadline_missed(fdds::DataWriter*, const fdds::OfferedDeadlineMissedStatus&) override {
+      events.deadlines_missed.fetch_add(1);
+    }
+    void on_offered_incompatible_qos(fdds::DataWriter*, const fdds::OfferedIncompatibleQosStatus& s) override {
+      events.incompatible.fetch_add(1);
+      log().error("{}: a reader of {} asks for an incompatible QoS ({}); it gets nothing", owner->name_,
+                  owner->topic_name_, policy_name(s.last_policy_id));
+    }
+  };
+
+  InputHandle<Message> in_;
+  std::string name_, topic_name_;
+  const sd::Codec* codec_ = nullptr;
+  std::shared_ptr<sd::Domain> domain_;
+  fdds::DataWriter* writer_ = nullptr;
+  std::unique_ptr<sd::WireSample> sample_;
+  Listener listener_;
+  bool reliable_ = false;
+  bool ended_ = false;
+  uint64_t written_ = 0, failed_ = 0;
+};
+
+class Subscribe final : public Node {
+ public:
+  static constexpr const char* kName = "subscribe";
+  static Contract contract() {
+    return with_bridge_params(
+        Contract("Emits every message that arrives on a DDS topic (the consumer's end of an edge between processes); "
+                 "a source. Ends when the writer sends its end of stream; a writer that vanishes without one (a "
+                 "crash) is waited for and rejoined when it comes back.")
+            .output<Message>("out", "messages of the topic's type"));
+  }
+
+  Status open(OpenContext& ctx) override {
+    out_ = ctx.output<Message>("out");
+    const Params& p = ctx.params();
+    name_ = ctx.node_name();
+    topic_name_ = p.get_string("topic");
+    codec_ = sd::find_codec(p.get_string("type"));
+    if (codec_ == nullptr) return Status::error("no IDL type for '" + p.get_string("type") + "'");
+    std::string error;
+    domain_ = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
+    if (!domain_) return Status::error(error);
+    fdds::Topic* topic = domain_->topic(topic_name_, *codec_, &error);
+    if (topic == nullptr) return Status::error(error);
+    fdds::DataReaderQos qos = domain_->subscriber()->get_default_datareader_qos();
+    apply_common_qos(qos, p);
+    listener_.owner = this;
+    reader_ = domain_->subscriber()->create_datareader(topic, qos, &listener_, fdds::StatusMask::all());
+    if (reader_ == nullptr) return Status::error("cannot create a DDS reader on " + topic_name_);
+    sample_ = codec_->make_sample();
+    return {};
+  }
+
+  Status process(ProcessContext& ctx) override {
+    fdds::SampleInfo info;
+    while (!ctx.stop_requested()) {
+      if (reader_->take_next_sample(sample_->data(), &info) == ReturnCode_t::RETCODE_OK) {
+        if (!info.valid_data) continue;
+        if (sample_->stamp().flags() & sd::kEndOfStream) return Status::end_of_stream();
+        ctx.emit(out_, sample_->to_message(ctx, out_.index));
+        return {};
+      }
+      reader_->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, 50'000'000));
+    }
+    return {};
+  }
+
+  void close() override {
+    if (reader_ != nullptr) {
+      domain_->subscriber()->delete_datareader(reader_);
+      reader_ = nullptr;
+      uint64_t lost = listener_.events.lost.load(), missed = listener_.events.deadlines_missed.load();
+      if (lost > 0 || missed > 0)
+        log().warn("{}: {} samples of {} lost, {} deadlines missed", name_, lost, topic_name_, missed);
+    }
+    domain_.reset();
+  }
+
+ private:
+  struct Listener final : fdds::DataReaderListener {
+    Subscribe* owner = nullptr;
+    PeerEvents events;
+    void on_subscription_matched(fdds::DataReader*, const fdds::SubscriptionMatchedStatus& s) override {
+      events.matched.store(s.current_count);
+      if (s.current_count_change > 0)
+        log().info("{}: the writer of {} joined", owner->name_, owner->topic_name_);
+      else if (s.current_count_change < 0)
+        log().warn("{}: the writer of {} left; waiting for it to come back", owner->name_, owner->topic_name_);
+    }
+    void on_requested_deadline_missed(fdds::DataReader*, const fdds::RequestedDeadlineMissedStatus& s) override {
+      if (events.deadlines_missed.fetch_add(1) == 0 || s.total_count_change > 0)
+        log().warn("{}: nothing on {} within its deadline ({} times)", owner->name_, owner->topic_name_, s.total_count);
+    }
+    void on_sample_lost(fdds::DataReader*, const fdds::SampleLostStatus& s) override {
+      events.lost.store(static_cast<uint64_t>(s.total_count));
+    }
+    void on_requested_incompatible_qos(fdds::DataReader*, const fdds::RequestedIncompatibleQosStatus& s) override {
+      events.incompatible.fetch_add(1);
+      log().error("{}: the writer of {} offers an incompatible QoS ({}); nothing will arrive", owner->name_,
+                  owner->topic_name_, policy_name(s.last_policy_id));
+    }
+  };
+
+  OutputHandle<Message> out_;
+  std::string name_, topic_name_;
+  const sd::Codec* codec_ = nullptr;
+  std::shared_ptr<sd::Domain> domain_;
+  fdds::DataReader* reader_ = nullptr;
+  std::unique_ptr<sd::WireSample> sample_;
+  Listener listener_;
+};
+
+}  // namespace
+
+SACCADE_PLUGIN("dds", Publish, Subscribe)

@@ -1,0 +1,82 @@
+#include "domain.hpp"
+
+#include <cstdlib>
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+
+namespace saccade::dds {
+
+namespace fdds = eprosima::fastdds::dds;
+
+std::shared_ptr<Domain> Domain::get(int domain_id, std::string* error) {
+  static std::mutex mu;
+  static std::map<int, std::weak_ptr<Domain>> domains;
+  std::lock_guard lock(mu);
+  if (auto existing = domains[domain_id].lock()) return existing;
+
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  fdds::DomainParticipantQos qos;
+  if (std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE") != nullptr) {
+    factory->load_profiles();
+    qos = factory->get_default_participant_qos();
+  } else {
+    TransportSettings settings;
+    qos.transport().use_builtin_transports = false;
+    auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+    shm->segment_size(settings.shm_segment_bytes);
+    shm->max_message_size(settings.shm_segment_bytes / 2);
+    qos.transport().user_transports.push_back(shm);
+    auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+    udp->sendBufferSize = settings.udp_buffer_bytes;
+    udp->receiveBufferSize = settings.udp_buffer_bytes;
+    qos.transport().user_transports.push_back(udp);
+    qos.transport().send_socket_buffer_size = settings.udp_buffer_bytes;
+    qos.transport().listen_socket_buffer_size = settings.udp_buffer_bytes;
+  }
+  qos.name("saccade");
+  std::shared_ptr<Domain> domain(new Domain());
+  domain->participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_id), qos);
+  if (domain->participant_ == nullptr) {
+    if (error) *error = "cannot create a DDS participant in domain " + std::to_string(domain_id);
+    return nullptr;
+  }
+  domain->publisher_ = domain->participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+  domain->subscriber_ = domain->participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+  if (domain->publisher_ == nullptr || domain->subscriber_ == nullptr) {
+    if (error) *error = "cannot create a DDS publisher or subscriber in domain " + std::to_string(domain_id);
+    return nullptr;
+  }
+  domains[domain_id] = domain;
+  return domain;
+}
+
+Domain::~Domain() {
+  if (participant_ == nullptr) return;
+  participant_->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+fdds::Topic* Domain::topic(const std::string& name, const Codec& codec, std::string* error) {
+  std::lock_guard lock(mu_);
+  fdds::TypeSupport type(codec.make_type().release());
+  if (auto it = topics_.find(name); it != topics_.end()) {
+    if (it->second->get_type_name() != type.get_type_name()) {
+      if (error) *error = "topic " + name + " already carries " + it->second->get_type_name();
+      return nullptr;
+    }
+    return it->second;
+  }
+  if (participant_->find_type(type.get_type_name()).empty()) type.register_type(participant_);
+  fdds::Topic* topic = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+  if (topic == nullptr) {
+    if (error) *error = "cannot create DDS topic " + name + " of type " + type.get_type_name();
+    return nullptr;
+  }
+  topics_[name] = topic;
+  return topic;
+}
+
+}  // namespace saccade::dds

@@ -1,0 +1,417 @@
+#include "wire.hpp"
+
+#include <cstring>
+
+#include "saccadePubSubTypes.h"
+
+namespace saccade::dds {
+
+namespace w = saccade_idl;
+namespace wc = saccade_idl::common;
+
+namespace {
+
+void stamp_to_wire(const Message& in, wc::Stamp& out) {
+  out.timestamp_ns(in.timestamp_ns);
+  out.origin_ns(in.origin_ns);
+  out.frame_id(in.frame_id);
+  out.flags(0);
+}
+
+void stamp_from_wire(const wc::Stamp& in, Message& out) {
+  out.timestamp_ns = in.timestamp_ns();
+  out.origin_ns = in.origin_ns();
+  out.frame_id = in.frame_id();
+}
+
+wc::Point2 point_to_wire(cv::Point2d p) {
+  wc::Point2 out;
+  out.x(p.x);
+  out.y(p.y);
+  return out;
+}
+cv::Point2d point_from_wire(const wc::Point2& p) { return {p.x(), p.y()}; }
+
+wc::Vec3 vec_to_wire(const cv::Vec3d& v) {
+  wc::Vec3 out;
+  out.x(v[0]);
+  out.y(v[1]);
+  out.z(v[2]);
+  return out;
+}
+cv::Vec3d vec_from_wire(const wc::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+wc::Rect rect_to_wire(const cv::Rect& r) {
+  wc::Rect out;
+  out.x(r.x);
+  out.y(r.y);
+  out.width(r.width);
+  out.height(r.height);
+  return out;
+}
+cv::Rect rect_from_wire(const wc::Rect& r) { return {r.x(), r.y(), r.width(), r.height()}; }
+
+// Element-wise copy between vectors of different element types (enums as octets).
+template <class Out, class In>
+void copy_cast(const std::vector<In>& in, std::vector<Out>& out) {
+  out.resize(in.size());
+  for (std::size_t i = 0; i < in.size(); ++i) out[i] = static_cast<Out>(in[i]);
+}
+
+template <class M, class W, class P>
+class Sample final : public WireSample {
+ public:
+  void* data() override { return &wire_; }
+  wc::Stamp& stamp() override { return wire_.stamp(); }
+  void from_message(const Message& message) override { to_wire(static_cast<const M&>(message), wire_); }
+  MessagePtr to_message(ProcessContext& ctx, int output) override {
+    auto m = ctx.make(OutputHandle<M>{output});
+    from_wire(wire_, *m);
+    return m;
+  }
+
+ private:
+  W wire_;
+};
+
+template <class M, class W, class P>
+Codec codec() {
+  return Codec{M::kTypeName,
+               +[]() -> std::unique_ptr<eprosima::fastdds::dds::TopicDataType> { return std::make_unique<P>(); },
+               +[]() -> std::unique_ptr<WireSample> { return std::make_unique<Sample<M, W, P>>(); }};
+}
+
+const std::vector<Codec>& codecs() {
+  static const std::vector<Codec> all = {
+      codec<Image, w::Image, w::ImagePubSubType>(),
+      codec<Retina, w::Retina, w::RetinaPubSubType>(),
+      codec<FeatureMaps, w::FeatureMaps, w::FeatureMapsPubSubType>(),
+      codec<Motion, w::Motion, w::MotionPubSubType>(),
+      codec<Region, w::Region, w::RegionPubSubType>(),
+      codec<GazeRequest, w::GazeRequest, w::GazeRequestPubSubType>(),
+      codec<JointState, w::JointState, w::JointStatePubSubType>(),
+      codec<JointTargets, w::JointTargets, w::JointTargetsPubSubType>(),
+      codec<FoveaState, w::FoveaState, w::FoveaStatePubSubType>(),
+      codec<Classification, w::Classification, w::ClassificationPubSubType>(),
+  };
+  return all;
+}
+
+}  // namespace
+
+WireSample::~WireSample() = default;
+
+const Codec* find_codec(std::string_view type) {
+  for (const auto& c : codecs())
+    if (c.type == type) return &c;
+  return nullptr;
+}
+
+std::vector<std::string_view> codec_types() {
+  std::vector<std::string_view> out;
+  for (const auto& c : codecs()) out.push_back(c.type);
+  return out;
+}
+
+// --- cv::Mat: rows packed without padding ---
+
+void to_wire(const cv::Mat& in, wc::Mat& out) {
+  out.rows(in.rows);
+  out.cols(in.cols);
+  out.cv_type(in.type());
+  const std::size_t row_bytes = static_cast<std::size_t>(in.cols) * in.elemSize();
+  auto& data = out.data();
+  data.resize(row_bytes * static_cast<std::size_t>(std::max(in.rows, 0)));
+  if (in.empty()) return;
+  if (in.isContinuous()) {
+    std::memcpy(data.data(), in.data, data.size());
+  } else {
+    for (int r = 0; r < in.rows; ++r) std::memcpy(data.data() + row_bytes * static_cast<std::size_t>(r), in.ptr(r), row_bytes);
+  }
+}
+
+void from_wire(const wc::Mat& in, cv::Mat& out) {
+  if (in.rows() <= 0 || in.cols() <= 0) {
+    out.release();
+    return;
+  }
+  make_exclusive(out);
+  out.create(in.rows(), in.cols(), in.cv_type());
+  const std::size_t bytes = out.total() * out.elemSize();
+  // A malformed sample (data shorter than its header says) leaves zeros, not garbage.
+  std::size_t n = std::min(bytes, in.data().size());
+  std::memcpy(out.data, in.data().data(), n);
+  if (n < bytes) std::memset(out.data + n, 0, bytes - n);
+}
+
+void to_wire(const Image& in, w::Image& out) {
+  stamp_to_wire(in, out.stamp());
+  out.camera_id(in.camera_id);
+  to_wire(in.mat, out.mat());
+}
+
+void from_wire(const w::Image& in, Image& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.camera_id = in.camera_id();
+  from_wire(in.mat(), out.mat);
+}
+
+void to_wire(const Retina& in, w::Retina& out) {
+  stamp_to_wire(in, out.stamp());
+  out.camera_id(in.camera_id);
+  out.levels().resize(in.levels.size());
+  for (std::size_t i = 0; i < in.levels.size(); ++i) to_wire(in.levels[i], out.levels()[i]);
+  out.geometry().resize(in.geometry.size());
+  for (std::size_t i = 0; i < in.geometry.size(); ++i) {
+    auto& g = out.geometry()[i];
+    g.area(rect_to_wire(in.geometry[i].region));
+    g.step_x(in.geometry[i].step_x);
+    g.step_y(in.geometry[i].step_y);
+  }
+  out.source_width(in.source_size.width);
+  out.source_height(in.source_size.height);
+  out.fovea_x(in.fovea.x);
+  out.fovea_y(in.fovea.y);
+  out.sampling(static_cast<uint8_t>(in.sampling));
+}
+
+void from_wire(const w::Retina& in, Retina& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.camera_id = in.camera_id();
+  out.levels.resize(in.levels().size());
+  for (std::size_t i = 0; i < in.levels().size(); ++i) from_wire(in.levels()[i], out.levels[i]);
+  out.geometry.resize(in.geometry().size());
+  for (std::size_t i = 0; i < in.geometry().size(); ++i) {
+    const auto& g = in.geometry()[i];
+    out.geometry[i].region = rect_from_wire(g.area());
+    out.geometry[i].step_x = g.step_x();
+    out.geometry[i].step_y = g.step_y();
+  }
+  out.source_size = {in.source_width(), in.source_height()};
+  out.fovea = {in.fovea_x(), in.fovea_y()};
+  out.sampling = in.sampling() == 1 ? Retina::Sampling::kAreaMean : Retina::Sampling::kFivePoint;
+  out.source.reset();  // the frame itself does not travel
+}
+
+void to_wire(const FeatureMaps& in, w::FeatureMaps& out) {
+  stamp_to_wire(in, out.stamp());
+  out.features().resize(in.names.size());
+  for (std::size_t f = 0; f < in.names.size(); ++f) {
+    auto& feature = out.features()[f];
+    feature.name(in.names[f]);
+    const auto& levels = in.maps[f];
+    feature.levels().resize(levels.size());
+    for (std::size_t l = 0; l < levels.size(); ++l) to_wire(levels[l], feature.levels()[l]);
+  }
+  out.source_retina().resize(in.retina ? 1 : 0);
+  if (in.retina) to_wire(*in.retina, out.source_retina()[0]);
+}
+
+void from_wire(const w::FeatureMaps& in, FeatureMaps& out) {
+  stamp_from_wire(in.stamp(), out);
+  const auto& features = in.features();
+  out.names.resize(features.size());
+  out.maps.resize(features.size());
+  for (std::size_t f = 0; f < features.size(); ++f) {
+    out.names[f] = features[f].name();
+    out.maps[f].resize(features[f].levels().size());
+    for (std::size_t l = 0; l < features[f].levels().size(); ++l) from_wire(features[f].levels()[l], out.maps[f][l]);
+  }
+  if (in.source_retina().empty()) {
+    out.retina.reset();
+  } else {
+    auto retina = std::make_shared<Retina>();
+    from_wire(in.source_retina()[0], *retina);
+    out.retina = std::move(retina);
+  }
+}
+
+void to_wire(const Motion& in, w::Motion& out) {
+  stamp_to_wire(in, out.stamp());
+  out.camera_id(in.camera_id);
+  out.first(in.first);
+  out.energy() = in.energy;
+  out.moving() = in.moving;
+  out.centroid().resize(in.centroid.size());
+  for (std::size_t i = 0; i < in.centroid.size(); ++i) out.centroid()[i] = point_to_wire(in.centroid[i]);
+}
+
+void from_wire(const w::Motion& in, Motion& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.camera_id = in.camera_id();
+  out.first = in.first();
+  out.energy = in.energy();
+  out.moving = in.moving();
+  out.centroid.resize(in.centroid().size());
+  for (std::size_t i = 0; i < in.centroid().size(); ++i) out.centroid[i] = point_from_wire(in.centroid()[i]);
+}
+
+void to_wire(const Region& in, w::Region& out) {
+  stamp_to_wire(in, out.stamp());
+  out.center(point_to_wire(in.center));
+  out.width(in.size.width);
+  out.height(in.size.height);
+  out.score(in.score);
+  out.depth(in.depth);
+  out.camera_id(in.camera_id);
+  out.label(in.label);
+}
+
+void from_wire(const w::Region& in, Region& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.center = point_from_wire(in.center());
+  out.size = {in.width(), in.height()};
+  out.score = in.score();
+  out.depth = in.depth();
+  out.camera_id = in.camera_id();
+  out.label = in.label();
+}
+
+void to_wire(const GazeRequest& in, w::GazeRequest& out) {
+  stamp_to_wire(in, out.stamp());
+  out.kind(static_cast<uint8_t>(in.kind));
+  out.pixel(point_to_wire(in.pixel));
+  out.direction(vec_to_wire(in.direction));
+  out.image_width(in.image_size.width);
+  out.image_height(in.image_size.height);
+  out.focal_px(in.focal_px);
+  out.depth(in.depth);
+  out.disparity(in.disparity);
+  out.point(vec_to_wire(in.point));
+  out.azimuth(in.azimuth);
+  out.elevation(in.elevation);
+  out.camera_id(in.camera_id);
+  out.reason(in.reason);
+}
+
+void from_wire(const w::GazeRequest& in, GazeRequest& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.kind = in.kind() <= static_cast<uint8_t>(GazeRequest::Kind::kRelative) ? static_cast<GazeRequest::Kind>(in.kind())
+                                                                               : GazeRequest::Kind::kDirection;
+  out.pixel = point_from_wire(in.pixel());
+  out.direction = vec_from_wire(in.direction());
+  out.image_size = {in.image_width(), in.image_height()};
+  out.focal_px = in.focal_px();
+  out.depth = in.depth();
+  out.disparity = in.disparity();
+  out.point = vec_from_wire(in.point());
+  out.azimuth = in.azimuth();
+  out.elevation = in.elevation();
+  out.camera_id = in.camera_id();
+  out.reason = in.reason();
+}
+
+void to_wire(const JointState& in, w::JointState& out) {
+  stamp_to_wire(in, out.stamp());
+  out.position() = in.position;
+  out.velocity() = in.velocity;
+  copy_cast(in.health, out.health());
+  out.updated_ns() = in.updated_ns;
+  out.error_code() = in.error_code;
+  out.cycle(in.cycle);
+  out.detail(in.detail);
+}
+
+void from_wire(const w::JointState& in, JointState& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.position = in.position();
+  out.velocity = in.velocity();
+  out.health.resize(in.health().size());
+  for (std::size_t i = 0; i < in.health().size(); ++i)
+    out.health[i] = in.health()[i] <= static_cast<uint8_t>(JointState::Health::kSilent)
+                        ? static_cast<JointState::Health>(in.health()[i])
+                        : JointState::Health::kFault;  // an unknown health is not a healthy one
+  out.updated_ns = in.updated_ns();
+  out.error_code = in.error_code();
+  out.cycle = in.cycle();
+  out.detail = in.detail();
+}
+
+void to_wire(const JointTargets& in, w::JointTargets& out) {
+  stamp_to_wire(in, out.stamp());
+  out.position() = in.position;
+  out.velocity() = in.velocity;
+  out.hold(in.hold);
+  out.reset(in.reset);
+  out.fault(in.fault);
+}
+
+void from_wire(const w::JointTargets& in, JointTargets& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.position = in.position();
+  out.velocity = in.velocity();
+  out.hold = in.hold();
+  out.reset = in.reset();
+  out.fault = in.fault();
+}
+
+void to_wire(const FoveaState& in, w::FoveaState& out) {
+  stamp_to_wire(in, out.stamp());
+  out.state(static_cast<uint8_t>(in.state));
+  out.fovea(point_to_wire(in.fovea));
+  out.next(point_to_wire(in.next));
+  out.target(point_to_wire(in.target));
+  out.target_valid(in.target_valid);
+  out.score(in.score);
+  out.attention_shift(in.attention_shift);
+  out.gaze_request(in.gaze_request);
+  out.attention_shifts(in.attention_shifts);
+  out.gaze_requests(in.gaze_requests);
+  out.frames_lost(in.frames_lost);
+  out.camera_id(in.camera_id);
+  out.source_retina().resize(in.retina ? 1 : 0);
+  if (in.retina) to_wire(*in.retina, out.source_retina()[0]);
+}
+
+void from_wire(const w::FoveaState& in, FoveaState& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.state = in.state() <= static_cast<uint8_t>(FoveaState::State::kLost) ? static_cast<FoveaState::State>(in.state())
+                                                                           : FoveaState::State::kLost;
+  out.fovea = point_from_wire(in.fovea());
+  out.next = point_from_wire(in.next());
+  out.target = point_from_wire(in.target());
+  out.target_valid = in.target_valid();
+  out.score = in.score();
+  out.attention_shift = in.attention_shift();
+  out.gaze_request = in.gaze_request();
+  out.attention_shifts = in.attention_shifts();
+  out.gaze_requests = in.gaze_requests();
+  out.frames_lost = in.frames_lost();
+  out.camera_id = in.camera_id();
+  if (in.source_retina().empty()) {
+    out.retina.reset();
+  } else {
+    auto retina = std::make_shared<Retina>();
+    from_wire(in.source_retina()[0], *retina);
+    out.retina = std::move(retina);
+  }
+}
+
+void to_wire(const Classification& in, w::Classification& out) {
+  stamp_to_wire(in, out.stamp());
+  out.outcome(static_cast<uint8_t>(in.outcome));
+  out.best(in.best);
+  out.score(in.score);
+  out.scores() = in.scores;
+  if (in.classes) out.classes() = *in.classes;
+  else out.classes().clear();
+  out.area(rect_to_wire(in.region));
+  out.camera_id(in.camera_id);
+}
+
+void from_wire(const w::Classification& in, Classification& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.outcome = in.outcome() <= static_cast<uint8_t>(Classification::Outcome::kNotClassified)
+                    ? static_cast<Classification::Outcome>(in.outcome())
+                    : Classification::Outcome::kNotClassified;
+  out.best = in.best();
+  out.score = in.score();
+  out.scores = in.scores();
+  // The class names rarely change: keep sharing the ones this message already holds.
+  if (!out.classes || *out.classes != in.classes())
+    out.classes = std::make_shared<const std::vector<std::string>>(in.classes());
+  out.region = rect_from_wire(in.area());
+  out.camera_id = in.camera_id();
+}
+
+}  // namespace saccade::dds

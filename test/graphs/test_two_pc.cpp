@@ -1,0 +1,259 @@
+// One graph, two processes: the plan of graphs/two_pc.xml, the part each
+// process runs, and a split run over DDS (a second process on loopback) that
+// gives bit for bit what the single-process run gives.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <thread>
+
+#include "saccade/partition.hpp"
+#include "support.hpp"
+
+extern char** environ;
+
+namespace saccade {
+namespace {
+
+std::optional<ResolvedGraph> load(const std::string& file, const std::string& topic_prefix = "") {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_file(file, diag);
+  if (!topic_prefix.empty()) decl.topic_prefix = topic_prefix;
+  auto graph = resolve_graph(decl, testing::default_registry(), diag);
+  EXPECT_FALSE(diag.has_errors()) << diag.format();
+  return graph;
+}
+
+const PlannedEdge* find_edge(const GraphPlan& plan, const ResolvedGraph& g, const std::string& from,
+                             const std::string& to) {
+  for (const auto& pe : plan.edges)
+    if (g.nodes[static_cast<std::size_t>(pe.edge->from_node)].decl.name == from &&
+        g.nodes[static_cast<std::size_t>(pe.edge->to_node)].decl.name == to)
+      return &pe;
+  return nullptr;
+}
+
+TEST(TwoPcPlan, EdgesBetweenProcessesBecomeTopicsWithTheirTypesQos) {
+  auto graph = load(SACCADE_SOURCE_DIR "/graphs/two_pc.xml");
+  ASSERT_TRUE(graph);
+  Diagnostics diag;
+  auto plan = plan_graph(*graph, diag);
+  ASSERT_TRUE(plan) << diag.format();
+  EXPECT_EQ(plan->processes, (std::vector<std::string>{"head_pc", "robot_pc"}));
+  int dds = 0;
+  for (const auto& pe : plan->edges) dds += pe.route != EdgeRoute::kInProcess;
+  EXPECT_EQ(dds, 3);
+  const PlannedEdge* state = find_edge(*plan, *graph, "driver", "cameras");
+  ASSERT_NE(state, nullptr);
+  EXPECT_EQ(state->route, EdgeRoute::kSameHost);
+  EXPECT_EQ(state->topic, "saccade/two_pc/driver/state");
+  EXPECT_EQ(state->type, "JointState");
+  EXPECT_TRUE(state->qos.reliable);
+  EXPECT_EQ(state->qos.depth, 8);
+  const PlannedEdge* gaze = find_edge(*plan, *graph, "fovea", "head");
+  ASSERT_NE(gaze, nullptr);
+  EXPECT_EQ(gaze->from_process, "head_pc");
+  EXPECT_EQ(gaze->to_process, "robot_pc");
+  // The same process: a pointer hand-off.
+  EXPECT_EQ(find_edge(*plan, *graph, "driver", "head")->route, EdgeRoute::kInProcess);
+  EXPECT_EQ(find_edge(*plan, *graph, "retina", "fovea")->route, EdgeRoute::kInProcess);
+  // The printed plan says all of it.
+  std::string text = format_plan(*graph, *plan);
+  EXPECT_NE(text.find("process robot_pc  [host localhost]: driver, drives, head, drive_truth"), std::string::npos) << text;
+  EXPECT_NE(text.find("fovea.gaze -> head.gaze  GazeRequest  dds-shm  head_pc -> robot_pc  topic saccade/two_pc/fovea/gaze  qos reliable,depth=8"),
+            std::string::npos)
+      << text;
+}
+
+TEST(TwoPcPlan, EachProcessRunsItsNodesAndOneBridgePerRemoteOutput) {
+  auto graph = load(SACCADE_SOURCE_DIR "/graphs/two_pc.xml");
+  ASSERT_TRUE(graph);
+  Diagnostics diag;
+  auto plan = plan_graph(*graph, diag);
+  ASSERT_TRUE(plan);
+  auto head = partition_graph(*graph, *plan, "head_pc", testing::default_registry(), diag);
+  ASSERT_TRUE(head) << diag.format();
+  std::map<std::string, const ResolvedNode*> nodes;
+  for (const auto& n : head->nodes) nodes[n.decl.name] = &n;
+  EXPECT_EQ(nodes.count("driver"), 0u);
+  EXPECT_EQ(nodes.count("head"), 0u);
+  EXPECT_EQ(nodes.count("cameras"), 1u);
+  ASSERT_EQ(nodes.count("dds_sub_driver_state"), 1u);
+  ASSERT_EQ(nodes.count("dds_sub_head_moved"), 1u);
+  ASSERT_EQ(nodes.count("dds_pub_fovea_gaze"), 1u);
+  const ResolvedNode& sub = *nodes["dds_sub_driver_state"];
+  EXPECT_EQ(sub.decl.plugin, "dds.subscribe");
+  EXPECT_EQ(sub.params.get_string("type"), "JointState");
+  EXPECT_EQ(sub.params.get_string("topic"), "saccade/two_pc/driver/state");
+  EXPECT_TRUE(sub.params.get_bool("reliable"));
+  EXPECT_EQ(sub.params.get_int("depth"), 8);
+  EXPECT_EQ(head->nodes.size(), 7u + 3u);
+  // The robot's side mirrors it.
+  auto robot = partition_graph(*graph, *plan, "robot_pc", testing::default_registry(), diag);
+  ASSERT_TRUE(robot) << diag.format();
+  int subs = 0, pubs = 0;
+  for (const auto& n : robot->nodes) {
+    subs += n.decl.plugin == "dds.subscribe";
+    pubs += n.decl.plugin == "dds.publish";
+  }
+  EXPECT_EQ(subs, 1);
+  EXPECT_EQ(pubs, 2);
+}
+
+TEST(TwoPcPlan, MistakesAreReportedWithFileLineAndWhatWasExpected) {
+  auto diagnose = [](const std::string& xml, const std::string& process = "") {
+    Diagnostics diag;
+    GraphDecl decl = load_graph_string(xml, "split.xml", diag);
+    auto graph = resolve_graph(decl, testing::default_registry(), diag);
+    if (graph) {
+      auto plan = plan_graph(*graph, diag);
+      if (plan && !process.empty()) partition_graph(*graph, *plan, process, testing::default_registry(), diag);
+    }
+    return diag.format();
+  };
+  const std::string head = R"(<graph name="g"><process name="a"/><process name="b"/>
+<node name="src" process="a" plugin="util.counter"/>
+)";
+  std::string unknown = diagnose(head + R"(<node name="sink" process="c" plugin="util.null"/>
+<edge from="src.image" to="sink.in"/></graph>)");
+  EXPECT_NE(unknown.find("split.xml:3"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("process 'c' is not declared"), std::string::npos) << unknown;
+
+  std::string bad_qos = diagnose(head + R"(<node name="sink" process="b" plugin="util.record"/>
+<edge from="src.image" to="sink.in" qos="reliable,depth=zero"/></graph>)");
+  EXPECT_NE(bad_qos.find("split.xml:4"), std::string::npos) << bad_qos;
+  EXPECT_NE(bad_qos.find("unknown item 'depth=zero'"), std::string::npos) << bad_qos;
+
+  std::string conflict = diagnose(head + R"(<node name="x" process="b" plugin="util.record"/>
+<node name="y" process="b" plugin="util.record"/>
+<edge from="src.image" to="x.in" qos="reliable"/>
+<edge from="src.image" to="y.in" qos="best_effort"/></graph>)");
+  EXPECT_NE(conflict.find("split.xml:6"), std::string::npos) << conflict;
+  EXPECT_NE(conflict.find("one topic, one QoS"), std::string::npos) << conflict;
+
+  std::string untyped = diagnose(head + R"(<node name="pass" process="a" plugin="util.passthrough"/>
+<node name="sink" process="b" plugin="util.record"/>
+<edge from="src.image" to="pass.in"/>
+<edge from="pass.out" to="sink.in"/></graph>)");
+  EXPECT_NE(untyped.find("output's type is 'any'"), std::string::npos) << untyped;
+
+  std::string no_such = diagnose(head + R"(<node name="sink" process="b" plugin="util.record"/>
+<edge from="src.image" to="sink.in"/></graph>)",
+                                 "robot");
+  EXPECT_NE(no_such.find("no process 'robot' in this graph (processes: a, b)"), std::string::npos) << no_such;
+}
+
+// Starts `saccade` with `args` as a child process.
+pid_t spawn_saccade(const std::vector<std::string>& args) {
+  std::vector<std::string> all = {SACCADE_BINARY_DIR "/bin/saccade"};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  return pid;
+}
+
+// The child's exit code, or -1 when it did not end within `timeout` (then it is killed).
+int wait_child(pid_t pid, std::chrono::seconds timeout) {
+  auto give_up = std::chrono::steady_clock::now() + timeout;
+  int status = 0;
+  while (std::chrono::steady_clock::now() < give_up) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return -1;
+}
+
+struct Records {
+  std::vector<std::shared_ptr<const Retina>> retinas;
+  std::vector<std::shared_ptr<const FeatureMaps>> maps;
+  std::vector<std::shared_ptr<const Motion>> motions;
+};
+
+Records take_records() {
+  return {test::recorded<Retina>("retinas"), test::recorded<FeatureMaps>("maps"), test::recorded<Motion>("motions")};
+}
+
+void expect_identical(const cv::Mat& a, const cv::Mat& b, const std::string& what) {
+  ASSERT_EQ(a.type(), b.type()) << what;
+  ASSERT_EQ(a.size(), b.size()) << what;
+  EXPECT_EQ(test::max_abs_diff(a.reshape(1), b.reshape(1)), 0) << what;
+}
+
+TEST(TwoPcRun, TwoProcessesOverDdsGiveExactlyWhatOneProcessGives) {
+  const std::string file = SACCADE_SOURCE_DIR "/test/graphs/two_pc_vision.xml";
+  const int frames = 40;
+  // Alone on the topics: ctest may run other DDS tests at the same time.
+  const std::string prefix = "test/two_pc_vision/" + std::to_string(getpid());
+
+  // One process.
+  auto whole = load(file, prefix);
+  ASSERT_TRUE(whole);
+  testing::Recorder::instance().clear();
+  {
+    ExecutorOptions o;
+    o.deterministic = true;
+    o.max_frames = frames;
+    Executor executor(*whole, testing::default_registry(), o);
+    ASSERT_TRUE(executor.open().ok());
+    ASSERT_TRUE(executor.run().ok());
+  }
+  Records single = take_records();
+  ASSERT_EQ(single.retinas.size(), static_cast<std::size_t>(frames));
+
+  // Two: the head PC's part in a child process, the robot PC's here.
+  Diagnostics diag;
+  auto plan = plan_graph(*whole, diag);
+  ASSERT_TRUE(plan) << diag.format();
+  auto robot = partition_graph(*whole, *plan, "robot_pc", testing::default_registry(), diag);
+  ASSERT_TRUE(robot) << diag.format();
+  testing::Recorder::instance().clear();
+  Executor executor(*robot, testing::default_registry());
+  ASSERT_TRUE(executor.open().ok());
+  pid_t child = spawn_saccade({"--log-level", "warn", "run", file, "--process", "head_pc", "--frames", std::to_string(frames),
+                               "--topic-prefix", prefix});
+  ASSERT_GT(child, 0);
+  Status status;
+  std::thread runner([&] { status = executor.run(); });
+  int code = wait_child(child, std::chrono::seconds(120));
+  if (code != 0) executor.request_stop();
+  runner.join();
+  ASSERT_EQ(code, 0) << "the head_pc process failed or hung";
+  ASSERT_TRUE(status.ok()) << status.message();
+  Records split = take_records();
+
+  ASSERT_EQ(split.retinas.size(), single.retinas.size());
+  ASSERT_EQ(split.maps.size(), single.maps.size());
+  ASSERT_EQ(split.motions.size(), single.motions.size());
+  for (std::size_t i = 0; i < single.retinas.size(); ++i) {
+    const Retina &a = *single.retinas[i], &b = *split.retinas[i];
+    EXPECT_EQ(a.frame_id, b.frame_id);
+    EXPECT_EQ(a.timestamp_ns, b.timestamp_ns);
+    EXPECT_EQ(a.fovea, b.fovea);
+    ASSERT_EQ(a.levels.size(), b.levels.size());
+    for (std::size_t l = 0; l < a.levels.size(); ++l) {
+      expect_identical(a.levels[l], b.levels[l], "retina level");
+      EXPECT_EQ(a.geometry[l].region, b.geometry[l].region);
+    }
+    const FeatureMaps &fa = *single.maps[i], &fb = *split.maps[i];
+    ASSERT_EQ(fa.names, fb.names);
+    for (std::size_t f = 0; f < fa.maps.size(); ++f)
+      for (std::size_t l = 0; l < fa.maps[f].size(); ++l) expect_identical(fa.maps[f][l], fb.maps[f][l], fa.names[f]);
+    const Motion &ma = *single.motions[i], &mb = *split.motions[i];
+    EXPECT_EQ(ma.energy, mb.energy);
+    EXPECT_EQ(ma.moving, mb.moving);
+    EXPECT_EQ(ma.centroid, mb.centroid);
+    EXPECT_EQ(ma.first, mb.first);
+  }
+}
+
+}  // namespace
+}  // namespace saccade

@@ -1,0 +1,316 @@
+// Every message type through its IDL type and CDR bytes and back: bit-exact.
+#include <gtest/gtest.h>
+
+#include <fastdds/rtps/common/SerializedPayload.h>
+
+#include "saccadePubSubTypes.h"
+#include "support.hpp"
+#include "wire.hpp"
+
+namespace {
+
+using namespace saccade;
+
+// to_wire -> CDR serialize -> deserialize -> from_wire, as the bridges do.
+template <class M, class W, class P>
+void round_trip(const M& in, M& out) {
+  W wire;
+  dds::to_wire(in, wire);
+  P type;
+  eprosima::fastrtps::rtps::SerializedPayload_t payload(type.getSerializedSizeProvider(&wire)());
+  ASSERT_TRUE(type.serialize(&wire, &payload));
+  W back;
+  ASSERT_TRUE(type.deserialize(&payload, &back));
+  dds::from_wire(back, out);
+}
+
+void expect_same_stamp(const Message& a, const Message& b) {
+  EXPECT_EQ(a.timestamp_ns, b.timestamp_ns);
+  EXPECT_EQ(a.origin_ns, b.origin_ns);
+  EXPECT_EQ(a.frame_id, b.frame_id);
+}
+
+void stamp(Message& m, int64_t k) {
+  m.timestamp_ns = 1'700'000'000'123'456'789 + k;
+  m.origin_ns = -42 - k;
+  m.frame_id = 9'000'000'000 + k;
+}
+
+void expect_same_mat(const cv::Mat& a, const cv::Mat& b) {
+  ASSERT_EQ(a.type(), b.type());
+  ASSERT_EQ(a.size(), b.size());
+  if (a.empty()) return;
+  cv::Mat diff = a != b;
+  if (diff.channels() > 1) diff = diff.reshape(1);
+  EXPECT_EQ(cv::countNonZero(diff), 0);
+}
+
+Retina make_retina() {
+  Retina r;
+  stamp(r, 1);
+  r.camera_id = 1;
+  for (int l = 0; l < 5; ++l) {
+    r.levels.push_back(test::random_image({32, 24}, l));
+    r.geometry.push_back({cv::Rect(-10 * l, 3 * l, 32 << l, 24 << l), 1.0 * (1 << l), 1.5 * (1 << l)});
+  }
+  r.source_size = {1024, 768};
+  r.fovea = {511, -3};
+  r.sampling = Retina::Sampling::kAreaMean;
+  return r;
+}
+
+void expect_same_retina(const Retina& a, const Retina& b) {
+  expect_same_stamp(a, b);
+  EXPECT_EQ(a.camera_id, b.camera_id);
+  ASSERT_EQ(a.levels.size(), b.levels.size());
+  for (std::size_t l = 0; l < a.levels.size(); ++l) {
+    expect_same_mat(a.levels[l], b.levels[l]);
+    EXPECT_EQ(a.geometry[l].region, b.geometry[l].region);
+    EXPECT_EQ(a.geometry[l].step_x, b.geometry[l].step_x);
+    EXPECT_EQ(a.geometry[l].step_y, b.geometry[l].step_y);
+  }
+  EXPECT_EQ(a.source_size, b.source_size);
+  EXPECT_EQ(a.fovea, b.fovea);
+  EXPECT_EQ(a.sampling, b.sampling);
+}
+
+TEST(DdsWire, ImagesOfAnyTypeAndLayoutRoundTripBitExactly) {
+  std::vector<cv::Mat> mats = {test::random_image({1024, 768}, 1), test::random_image({640, 480}, 2, CV_8UC3),
+                               cv::Mat(3, 5, CV_32FC1), cv::Mat(7, 2, CV_16SC2), cv::Mat()};
+  cv::randu(mats[2], -1e6, 1e6);
+  cv::randu(mats[3], -30000, 30000);
+  // A view with padded rows travels as packed rows.
+  mats.push_back(mats[1](cv::Rect(13, 17, 101, 55)));
+  for (const auto& mat : mats) {
+    Image in, out;
+    stamp(in, 7);
+    in.camera_id = 1;
+    in.mat = mat;
+    round_trip<Image, saccade_idl::Image, saccade_idl::ImagePubSubType>(in, out);
+    expect_same_stamp(in, out);
+    EXPECT_EQ(out.camera_id, 1);
+    expect_same_mat(in.mat, out.mat);
+  }
+}
+
+TEST(DdsWire, ARecycledImageKeepsItsBuffer) {
+  Image in, out;
+  in.mat = test::random_image({320, 240}, 3);
+  round_trip<Image, saccade_idl::Image, saccade_idl::ImagePubSubType>(in, out);
+  const uchar* buffer = out.mat.data;
+  in.mat = test::random_image({320, 240}, 4);
+  round_trip<Image, saccade_idl::Image, saccade_idl::ImagePubSubType>(in, out);
+  EXPECT_EQ(out.mat.data, buffer);
+  expect_same_mat(in.mat, out.mat);
+}
+
+TEST(DdsWire, RetinaKeepsLevelsAndGeometry) {
+  Retina in = make_retina(), out;
+  round_trip<Retina, saccade_idl::Retina, saccade_idl::RetinaPubSubType>(in, out);
+  expect_same_retina(in, out);
+  EXPECT_EQ(out.source, nullptr);
+}
+
+TEST(DdsWire, FeatureMapsKeepNamesLevelsAndTheirRetina) {
+  FeatureMaps in, out;
+  stamp(in, 2);
+  in.set_layout({"disparity", "confidence"}, 3);
+  for (int f = 0; f < 2; ++f)
+    for (int l = 0; l < 3; ++l) {
+      in.maps[f][l].create(24, 32, CV_32F);
+      cv::randu(in.maps[f][l], -5, 5);
+    }
+  in.retina = std::make_shared<Retina>(make_retina());
+  round_trip<FeatureMaps, saccade_idl::FeatureMaps, saccade_idl::FeatureMapsPubSubType>(in, out);
+  expect_same_stamp(in, out);
+  EXPECT_EQ(in.names, out.names);
+  ASSERT_EQ(out.maps.size(), 2u);
+  for (int f = 0; f < 2; ++f)
+    for (int l = 0; l < 3; ++l) expect_same_mat(in.maps[f][l], out.maps[f][l]);
+  ASSERT_NE(out.retina, nullptr);
+  expect_same_retina(*in.retina, *out.retina);
+  in.retina.reset();
+  round_trip<FeatureMaps, saccade_idl::FeatureMaps, saccade_idl::FeatureMapsPubSubType>(in, out);
+  EXPECT_EQ(out.retina, nullptr);
+}
+
+TEST(DdsWire, MotionRegionAndGazeRequestRoundTrip) {
+  Motion m, m2;
+  stamp(m, 3);
+  m.camera_id = 1;
+  m.first = true;
+  m.energy = {0.1, 2.5e-9, 3};
+  m.moving = {0.5, 0, 1};
+  m.centroid = {{1.25, -3}, {-1, -1}, {1e9, 7}};
+  round_trip<Motion, saccade_idl::Motion, saccade_idl::MotionPubSubType>(m, m2);
+  expect_same_stamp(m, m2);
+  EXPECT_EQ(m.energy, m2.energy);
+  EXPECT_EQ(m.moving, m2.moving);
+  EXPECT_EQ(m.centroid, m2.centroid);
+  EXPECT_EQ(m2.first, true);
+  EXPECT_EQ(m2.camera_id, 1);
+
+  Region r, r2;
+  stamp(r, 4);
+  r.center = {100.5, -0.25};
+  r.size = {31, 24.5};
+  r.score = 0.875;
+  r.depth = 1.5;
+  r.camera_id = 1;
+  r.label = "visible";
+  round_trip<Region, saccade_idl::Region, saccade_idl::RegionPubSubType>(r, r2);
+  expect_same_stamp(r, r2);
+  EXPECT_EQ(r.center, r2.center);
+  EXPECT_EQ(r.size, r2.size);
+  EXPECT_EQ(r.score, r2.score);
+  EXPECT_EQ(r.depth, r2.depth);
+  EXPECT_EQ(r.label, r2.label);
+
+  GazeRequest g, g2;
+  stamp(g, 5);
+  g.kind = GazeRequest::Kind::kPixelDisparity;
+  g.pixel = {600.25, 10};
+  g.direction = {0.1, -0.2, 0.97};
+  g.image_size = {1024, 768};
+  g.focal_px = 887.5;
+  g.depth = 2.25;
+  g.disparity = 31.5;
+  g.point = {1, 2, 3};
+  g.azimuth = -0.3;
+  g.elevation = 0.2;
+  g.camera_id = 1;
+  g.reason = "border";
+  round_trip<GazeRequest, saccade_idl::GazeRequest, saccade_idl::GazeRequestPubSubType>(g, g2);
+  expect_same_stamp(g, g2);
+  EXPECT_EQ(g2.kind, g.kind);
+  EXPECT_EQ(g2.pixel, g.pixel);
+  EXPECT_EQ(g2.direction, g.direction);
+  EXPECT_EQ(g2.image_size, g.image_size);
+  EXPECT_EQ(g2.focal_px, g.focal_px);
+  EXPECT_EQ(g2.depth, g.depth);
+  EXPECT_EQ(g2.disparity, g.disparity);
+  EXPECT_EQ(g2.point, g.point);
+  EXPECT_EQ(g2.azimuth, g.azimuth);
+  EXPECT_EQ(g2.elevation, g.elevation);
+  EXPECT_EQ(g2.camera_id, g.camera_id);
+  EXPECT_EQ(g2.reason, g.reason);
+}
+
+TEST(DdsWire, JointStateAndTargetsRoundTrip) {
+  JointState s, s2;
+  stamp(s, 6);
+  s.position = {0.1, -0.2, 0.3, -0.4, 1e-12};
+  s.velocity = {1, 2, 3, 4, 5};
+  s.health = {JointState::Health::kReady, JointState::Health::kFault, JointState::Health::kSilent,
+              JointState::Health::kStarting, JointState::Health::kReady};
+  s.updated_ns = {1, 2, 3, 4, INT64_MAX};
+  s.error_code = {0, 0x8611, 0, 0, 0xFFFF};
+  s.cycle = 123456789;
+  s.detail = "joint 2: following error";
+  round_trip<JointState, saccade_idl::JointState, saccade_idl::JointStatePubSubType>(s, s2);
+  expect_same_stamp(s, s2);
+  EXPECT_EQ(s.position, s2.position);
+  EXPECT_EQ(s.velocity, s2.velocity);
+  EXPECT_EQ(s.health, s2.health);
+  EXPECT_EQ(s.updated_ns, s2.updated_ns);
+  EXPECT_EQ(s.error_code, s2.error_code);
+  EXPECT_EQ(s.cycle, s2.cycle);
+  EXPECT_EQ(s.detail, s2.detail);
+
+  JointTargets t, t2;
+  stamp(t, 7);
+  t.position = {0.5, 0, -0.5, 0.25, 0};
+  t.velocity = {0, 0.1, 0, 0, -0.1};
+  t.hold = true;
+  t.reset = 3;
+  t.fault = "drive 4 silent";
+  round_trip<JointTargets, saccade_idl::JointTargets, saccade_idl::JointTargetsPubSubType>(t, t2);
+  expect_same_stamp(t, t2);
+  EXPECT_EQ(t.position, t2.position);
+  EXPECT_EQ(t.velocity, t2.velocity);
+  EXPECT_EQ(t.hold, t2.hold);
+  EXPECT_EQ(t.reset, t2.reset);
+  EXPECT_EQ(t.fault, t2.fault);
+}
+
+TEST(DdsWire, FoveaStateAndClassificationRoundTrip) {
+  FoveaState f, f2;
+  stamp(f, 8);
+  f.state = FoveaState::State::kTracking;
+  f.fovea = {1, 2};
+  f.next = {3, 4};
+  f.target = {5.5, 6.5};
+  f.target_valid = true;
+  f.score = 0.93;
+  f.attention_shift = true;
+  f.gaze_request = true;
+  f.attention_shifts = 11;
+  f.gaze_requests = 12;
+  f.frames_lost = 13;
+  f.camera_id = 1;
+  f.retina = std::make_shared<Retina>(make_retina());
+  round_trip<FoveaState, saccade_idl::FoveaState, saccade_idl::FoveaStatePubSubType>(f, f2);
+  expect_same_stamp(f, f2);
+  EXPECT_EQ(f2.state, f.state);
+  EXPECT_EQ(f2.fovea, f.fovea);
+  EXPECT_EQ(f2.next, f.next);
+  EXPECT_EQ(f2.target, f.target);
+  EXPECT_EQ(f2.target_valid, f.target_valid);
+  EXPECT_EQ(f2.score, f.score);
+  EXPECT_EQ(f2.attention_shift, f.attention_shift);
+  EXPECT_EQ(f2.gaze_request, f.gaze_request);
+  EXPECT_EQ(f2.attention_shifts, f.attention_shifts);
+  EXPECT_EQ(f2.gaze_requests, f.gaze_requests);
+  EXPECT_EQ(f2.frames_lost, f.frames_lost);
+  EXPECT_EQ(f2.camera_id, f.camera_id);
+  ASSERT_NE(f2.retina, nullptr);
+  expect_same_retina(*f.retina, *f2.retina);
+
+  Classification c, c2;
+  stamp(c, 9);
+  c.outcome = Classification::Outcome::kProbable;
+  c.best = 2;
+  c.score = 0.61;
+  c.scores = {0.1f, 0.2f, 0.61f};
+  c.classes = std::make_shared<const std::vector<std::string>>(std::vector<std::string>{"zero", "one", "two"});
+  c.region = {10, 20, 30, 40};
+  c.camera_id = 1;
+  round_trip<Classification, saccade_idl::Classification, saccade_idl::ClassificationPubSubType>(c, c2);
+  expect_same_stamp(c, c2);
+  EXPECT_EQ(c2.outcome, c.outcome);
+  EXPECT_EQ(c2.best, c.best);
+  EXPECT_EQ(c2.score, c.score);
+  EXPECT_EQ(c2.scores, c.scores);
+  ASSERT_NE(c2.classes, nullptr);
+  EXPECT_EQ(*c2.classes, *c.classes);
+  EXPECT_EQ(c2.label(), "two");
+  EXPECT_EQ(c2.region, c.region);
+  // The names are shared again while they do not change.
+  auto names = c2.classes;
+  round_trip<Classification, saccade_idl::Classification, saccade_idl::ClassificationPubSubType>(c, c2);
+  EXPECT_EQ(c2.classes, names);
+}
+
+TEST(DdsWire, EveryMessageTypeHasACodec) {
+  for (auto type : {"Image", "Retina", "FeatureMaps", "Motion", "Region", "GazeRequest", "JointState", "JointTargets",
+                    "FoveaState", "Classification"}) {
+    const dds::Codec* codec = dds::find_codec(type);
+    ASSERT_NE(codec, nullptr) << type;
+    EXPECT_EQ(codec->type, type);
+    auto sample = codec->make_sample();
+    EXPECT_NE(sample->data(), nullptr);
+  }
+  EXPECT_EQ(dds::find_codec("NoSuchType"), nullptr);
+}
+
+TEST(DdsWire, OutOfRangeEnumsDecodeToTheSafeValue) {
+  saccade_idl::JointState wire;
+  wire.health() = {0, 1, 200};
+  JointState s;
+  dds::from_wire(wire, s);
+  EXPECT_EQ(s.health[0], JointState::Health::kStarting);
+  EXPECT_EQ(s.health[1], JointState::Health::kReady);
+  EXPECT_EQ(s.health[2], JointState::Health::kFault);
+}
+
+}  // namespace
