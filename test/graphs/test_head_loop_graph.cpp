@@ -4,6 +4,8 @@
 // simulated drives, and the target stays in view.
 #include <gtest/gtest.h>
 
+#include <signal.h>
+
 #include <cmath>
 #include <cstdio>
 
@@ -60,6 +62,37 @@ TEST(HeadLoopGraph, WithoutTheHeadTheTargetLeavesTheView) {
   // The same scene with the head's joints held (no gaze requests reach it).
   const LoopFigures f = run({"head.velocity=1", "head.acceleration=1", "head.saccade_threshold=180"});
   EXPECT_LT(f.visible, f.frames * 70 / 100) << f.visible << " of " << f.frames;
+}
+
+TEST(DrivesProgram, TheSimulatedDrivesRunAsTheirOwnProcessBehindAUdpTunnel) {
+  // graphs/drives_sim.xml in a child process stands in for the robot's motors; a
+  // CAN driver here configures and enables them over the cannelloni tunnel.
+  const auto [master_port, drives_port] = test::free_udp_ports();
+  int child = test::spawn_saccade({"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/graphs/drives_sim.xml", "--set",
+                                   "drives.bus=udp:" + std::to_string(drives_port) + ":127.0.0.1:" + std::to_string(master_port),
+                                   "--duration", "10"});
+  ASSERT_GT(child, 0);
+  testing::Recorder::instance().clear();
+  auto run = test::open_graph(R"(<graph name="master">
+    <node name="driver" plugin="can.driver">
+      <param name="bus" value="udp:)" + std::to_string(master_port) + ":127.0.0.1:" + std::to_string(drives_port) + R"("/>
+      <param name="duration" value="5"/>
+      <param name="wait_ms" value="2"/>
+    </node>
+    <node name="state" plugin="util.record"/>
+    <edge from="driver.state" to="state.in"/>
+  </graph>)");
+  Status status = run->run();
+  ::kill(child, SIGTERM);  // a clean stop, as Ctrl-C
+  EXPECT_EQ(test::wait_child(child, 20), 0);
+  ASSERT_TRUE(status.ok()) << status.message();
+  const auto states = test::recorded<JointState>("state");
+  ASSERT_GT(states.size(), 500u);
+  int ready_cycles = 0;
+  for (const auto& s : states) ready_cycles += s->all_ready();
+  EXPECT_TRUE(states.back()->all_ready()) << states.back()->detail;
+  EXPECT_GE(ready_cycles, 250) << "at least a second of the run with every drive enabled";
+  for (double p : states.back()->position) EXPECT_NEAR(p, 0.0, 1e-3);
 }
 
 }  // namespace

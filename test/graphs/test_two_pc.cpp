@@ -3,9 +3,6 @@
 // gives bit for bit what the single-process run gives.
 #include <gtest/gtest.h>
 
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -13,8 +10,6 @@
 
 #include "saccade/partition.hpp"
 #include "support.hpp"
-
-extern char** environ;
 
 namespace saccade {
 namespace {
@@ -147,31 +142,6 @@ TEST(TwoPcPlan, MistakesAreReportedWithFileLineAndWhatWasExpected) {
   EXPECT_NE(no_such.find("no process 'robot' in this graph (processes: a, b)"), std::string::npos) << no_such;
 }
 
-// Starts `saccade` with `args` as a child process.
-pid_t spawn_saccade(const std::vector<std::string>& args) {
-  std::vector<std::string> all = {SACCADE_BINARY_DIR "/bin/saccade"};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
-  return pid;
-}
-
-// The child's exit code, or -1 when it did not end within `timeout` (then it is killed).
-int wait_child(pid_t pid, std::chrono::seconds timeout) {
-  auto give_up = std::chrono::steady_clock::now() + timeout;
-  int status = 0;
-  while (std::chrono::steady_clock::now() < give_up) {
-    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  kill(pid, SIGKILL);
-  waitpid(pid, &status, 0);
-  return -1;
-}
-
 struct Records {
   std::vector<std::shared_ptr<const Retina>> retinas;
   std::vector<std::shared_ptr<const FeatureMaps>> maps;
@@ -218,12 +188,12 @@ TEST(TwoPcRun, TwoProcessesOverDdsGiveExactlyWhatOneProcessGives) {
   testing::Recorder::instance().clear();
   Executor executor(*robot, testing::default_registry());
   ASSERT_TRUE(executor.open().ok());
-  pid_t child = spawn_saccade({"--log-level", "warn", "run", file, "--process", "head_pc", "--frames", std::to_string(frames),
+  pid_t child = test::spawn_saccade({"--log-level", "warn", "run", file, "--process", "head_pc", "--frames", std::to_string(frames),
                                "--topic-prefix", prefix});
   ASSERT_GT(child, 0);
   Status status;
   std::thread runner([&] { status = executor.run(); });
-  int code = wait_child(child, std::chrono::seconds(120));
+  int code = test::wait_child(child, 120);
   if (code != 0) executor.request_stop();
   runner.join();
   ASSERT_EQ(code, 0) << "the head_pc process failed or hung";
