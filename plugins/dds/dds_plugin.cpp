@@ -80,6 +80,31 @@ struct PeerEvents {
   std::atomic<uint64_t> incompatible{0};
 };
 
+// What both ends of a bridge hold: the topic, its codec, the process's
+// participant and the wire sample reused for every message.
+struct TopicEnd {
+  std::string node, topic_name;
+  const sd::Codec* codec = nullptr;
+  std::shared_ptr<sd::Domain> domain;
+  fdds::Topic* topic = nullptr;
+  std::unique_ptr<sd::WireSample> sample;
+
+  Status open(const OpenContext& ctx) {
+    const Params& p = ctx.params();
+    node = ctx.node_name();
+    topic_name = p.get_string("topic");
+    codec = sd::find_codec(p.get_string("type"));
+    if (codec == nullptr) return Status::error("no IDL type for '" + p.get_string("type") + "'");
+    std::string error;
+    domain = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
+    if (!domain) return Status::error(error);
+    topic = domain->topic(topic_name, *codec, &error);
+    if (topic == nullptr) return Status::error(error);
+    sample = codec->make_sample();
+    return {};
+  }
+};
+
 class Publish final : public Node {
  public:
   static constexpr const char* kName = "publish";
@@ -94,24 +119,16 @@ class Publish final : public Node {
   Status open(OpenContext& ctx) override {
     in_ = ctx.input<Message>("in");
     const Params& p = ctx.params();
-    name_ = ctx.node_name();
-    topic_name_ = p.get_string("topic");
-    codec_ = sd::find_codec(p.get_string("type"));
-    if (codec_ == nullptr) return Status::error("no IDL type for '" + p.get_string("type") + "'");
-    std::string error;
-    domain_ = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
-    if (!domain_) return Status::error(error);
-    fdds::Topic* topic = domain_->topic(topic_name_, *codec_, &error);
-    if (topic == nullptr) return Status::error(error);
-    fdds::DataWriterQos qos = domain_->publisher()->get_default_datawriter_qos();
+    if (Status s = end_.open(ctx); !s.ok()) return s;
+    fdds::Topic* topic = end_.topic;
+    fdds::DataWriterQos qos = end_.domain->publisher()->get_default_datawriter_qos();
     apply_common_qos(qos, p);
     reliable_ = p.get_bool("reliable");
     // A keep-all writer waits for a slow reader rather than drop; a keep-last one never waits long.
     qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(p.get_int("depth") == 0 ? 10.0 : 0.1);
     listener_.owner = this;
-    writer_ = domain_->publisher()->create_datawriter(topic, qos, &listener_, fdds::StatusMask::all());
-    if (writer_ == nullptr) return Status::error("cannot create a DDS writer on " + topic_name_);
-    sample_ = codec_->make_sample();
+    writer_ = end_.domain->publisher()->create_datawriter(topic, qos, &listener_, fdds::StatusMask::all());
+    if (writer_ == nullptr) return Status::error("cannot create a DDS writer on " + end_.topic_name);
     auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(p.get_double("wait_ms"));
     while (listener_.events.matched.load() == 0 && std::chrono::steady_clock::now() < give_up)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -120,12 +137,12 @@ class Publish final : public Node {
 
   Status process(ProcessContext& ctx) override {
     auto message = ctx.get(in_);
-    if (message->type_name() != codec_->type)
-      return Status::error("topic " + topic_name_ + " carries " + std::string(codec_->type) + ", got a " +
+    if (message->type_name() != end_.codec->type)
+      return Status::error("topic " + end_.topic_name + " carries " + std::string(end_.codec->type) + ", got a " +
                            std::string(message->type_name()));
-    sample_->from_message(*message);
-    if (!writer_->write(sample_->data())) {
-      if (failed_++ == 0) log().warn("{}: write to {} failed (the reader's history is full?)", name_, topic_name_);
+    end_.sample->from_message(*message);
+    if (!writer_->write(end_.sample->data())) {
+      if (failed_++ == 0) log().warn("{}: write to {} failed (the reader's history is full?)", end_.node, end_.topic_name);
     } else {
       ++written_;
     }
@@ -139,23 +156,23 @@ class Publish final : public Node {
   void close() override {
     if (writer_ != nullptr) {
       send_end_of_stream();
-      domain_->publisher()->delete_datawriter(writer_);
+      end_.domain->publisher()->delete_datawriter(writer_);
       writer_ = nullptr;
-      log().debug("{}: {} written to {}, {} failed, {} deadlines missed", name_, written_, topic_name_, failed_,
+      log().debug("{}: {} written to {}, {} failed, {} deadlines missed", end_.node, written_, end_.topic_name, failed_,
                   listener_.events.deadlines_missed.load());
       if (failed_ > 0)
-        log().warn("{}: {} of {} writes to {} failed", name_, failed_, failed_ + written_, topic_name_);
+        log().warn("{}: {} of {} writes to {} failed", end_.node, failed_, failed_ + written_, end_.topic_name);
     }
-    domain_.reset();
+    end_.domain.reset();
   }
 
  private:
   void send_end_of_stream() {
     if (ended_ || writer_ == nullptr) return;
     ended_ = true;
-    sample_->stamp().flags(sd::kEndOfStream);
+    end_.sample->stamp().flags(sd::kEndOfStream);
     // Best effort may lose one sample; the end of the stream is sent thrice.
-    for (int i = 0; i < (reliable_ ? 1 : 3); ++i) writer_->write(sample_->data());
+    for (int i = 0; i < (reliable_ ? 1 : 3); ++i) writer_->write(end_.sample->data());
     if (reliable_ && listener_.events.matched.load() > 0)
       writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(2.0));
   }
@@ -166,26 +183,23 @@ class Publish final : public Node {
     void on_publication_matched(fdds::DataWriter*, const fdds::PublicationMatchedStatus& s) override {
       events.matched.store(s.current_count);
       if (s.current_count_change > 0)
-        log().info("{}: a reader of {} joined ({} now)", owner->name_, owner->topic_name_, s.current_count);
+        log().info("{}: a reader of {} joined ({} now)", owner->end_.node, owner->end_.topic_name, s.current_count);
       else if (s.current_count_change < 0)
-        log().warn("{}: a reader of {} left ({} now)", owner->name_, owner->topic_name_, s.current_count);
+        log().warn("{}: a reader of {} left ({} now)", owner->end_.node, owner->end_.topic_name, s.current_count);
     }
     void on_offered_deadline_missed(fdds::DataWriter*, const fdds::OfferedDeadlineMissedStatus&) override {
       events.deadlines_missed.fetch_add(1);
     }
     void on_offered_incompatible_qos(fdds::DataWriter*, const fdds::OfferedIncompatibleQosStatus& s) override {
       events.incompatible.fetch_add(1);
-      log().error("{}: a reader of {} asks for an incompatible QoS ({}); it gets nothing", owner->name_,
-                  owner->topic_name_, policy_name(s.last_policy_id));
+      log().error("{}: a reader of {} asks for an incompatible QoS ({}); it gets nothing", owner->end_.node,
+                  owner->end_.topic_name, policy_name(s.last_policy_id));
     }
   };
 
   InputHandle<Message> in_;
-  std::string name_, topic_name_;
-  const sd::Codec* codec_ = nullptr;
-  std::shared_ptr<sd::Domain> domain_;
+  TopicEnd end_;
   fdds::DataWriter* writer_ = nullptr;
-  std::unique_ptr<sd::WireSample> sample_;
   Listener listener_;
   bool reliable_ = false;
   bool ended_ = false;
@@ -206,31 +220,23 @@ class Subscribe final : public Node {
   Status open(OpenContext& ctx) override {
     out_ = ctx.output<Message>("out");
     const Params& p = ctx.params();
-    name_ = ctx.node_name();
-    topic_name_ = p.get_string("topic");
-    codec_ = sd::find_codec(p.get_string("type"));
-    if (codec_ == nullptr) return Status::error("no IDL type for '" + p.get_string("type") + "'");
-    std::string error;
-    domain_ = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
-    if (!domain_) return Status::error(error);
-    fdds::Topic* topic = domain_->topic(topic_name_, *codec_, &error);
-    if (topic == nullptr) return Status::error(error);
-    fdds::DataReaderQos qos = domain_->subscriber()->get_default_datareader_qos();
+    if (Status s = end_.open(ctx); !s.ok()) return s;
+    fdds::Topic* topic = end_.topic;
+    fdds::DataReaderQos qos = end_.domain->subscriber()->get_default_datareader_qos();
     apply_common_qos(qos, p);
     listener_.owner = this;
-    reader_ = domain_->subscriber()->create_datareader(topic, qos, &listener_, fdds::StatusMask::all());
-    if (reader_ == nullptr) return Status::error("cannot create a DDS reader on " + topic_name_);
-    sample_ = codec_->make_sample();
+    reader_ = end_.domain->subscriber()->create_datareader(topic, qos, &listener_, fdds::StatusMask::all());
+    if (reader_ == nullptr) return Status::error("cannot create a DDS reader on " + end_.topic_name);
     return {};
   }
 
   Status process(ProcessContext& ctx) override {
     fdds::SampleInfo info;
     while (!ctx.stop_requested()) {
-      if (reader_->take_next_sample(sample_->data(), &info) == ReturnCode_t::RETCODE_OK) {
+      if (reader_->take_next_sample(end_.sample->data(), &info) == ReturnCode_t::RETCODE_OK) {
         if (!info.valid_data) continue;
-        if (sample_->stamp().flags() & sd::kEndOfStream) return Status::end_of_stream();
-        ctx.emit(out_, sample_->to_message(ctx, out_.index));
+        if (end_.sample->stamp().flags() & sd::kEndOfStream) return Status::end_of_stream();
+        ctx.emit(out_, end_.sample->to_message(ctx, out_.index));
         return {};
       }
       reader_->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, 50'000'000));
@@ -240,13 +246,13 @@ class Subscribe final : public Node {
 
   void close() override {
     if (reader_ != nullptr) {
-      domain_->subscriber()->delete_datareader(reader_);
+      end_.domain->subscriber()->delete_datareader(reader_);
       reader_ = nullptr;
       uint64_t lost = listener_.events.lost.load(), missed = listener_.events.deadlines_missed.load();
       if (lost > 0 || missed > 0)
-        log().warn("{}: {} samples of {} lost, {} deadlines missed", name_, lost, topic_name_, missed);
+        log().warn("{}: {} samples of {} lost, {} deadlines missed", end_.node, lost, end_.topic_name, missed);
     }
-    domain_.reset();
+    end_.domain.reset();
   }
 
  private:
@@ -256,30 +262,27 @@ class Subscribe final : public Node {
     void on_subscription_matched(fdds::DataReader*, const fdds::SubscriptionMatchedStatus& s) override {
       events.matched.store(s.current_count);
       if (s.current_count_change > 0)
-        log().info("{}: the writer of {} joined", owner->name_, owner->topic_name_);
+        log().info("{}: the writer of {} joined", owner->end_.node, owner->end_.topic_name);
       else if (s.current_count_change < 0)
-        log().warn("{}: the writer of {} left; waiting for it to come back", owner->name_, owner->topic_name_);
+        log().warn("{}: the writer of {} left; waiting for it to come back", owner->end_.node, owner->end_.topic_name);
     }
     void on_requested_deadline_missed(fdds::DataReader*, const fdds::RequestedDeadlineMissedStatus& s) override {
       if (events.deadlines_missed.fetch_add(1) == 0 || s.total_count_change > 0)
-        log().warn("{}: nothing on {} within its deadline ({} times)", owner->name_, owner->topic_name_, s.total_count);
+        log().warn("{}: nothing on {} within its deadline ({} times)", owner->end_.node, owner->end_.topic_name, s.total_count);
     }
     void on_sample_lost(fdds::DataReader*, const fdds::SampleLostStatus& s) override {
       events.lost.store(static_cast<uint64_t>(s.total_count));
     }
     void on_requested_incompatible_qos(fdds::DataReader*, const fdds::RequestedIncompatibleQosStatus& s) override {
       events.incompatible.fetch_add(1);
-      log().error("{}: the writer of {} offers an incompatible QoS ({}); nothing will arrive", owner->name_,
-                  owner->topic_name_, policy_name(s.last_policy_id));
+      log().error("{}: the writer of {} offers an incompatible QoS ({}); nothing will arrive", owner->end_.node,
+                  owner->end_.topic_name, policy_name(s.last_policy_id));
     }
   };
 
   OutputHandle<Message> out_;
-  std::string name_, topic_name_;
-  const sd::Codec* codec_ = nullptr;
-  std::shared_ptr<sd::Domain> domain_;
+  TopicEnd end_;
   fdds::DataReader* reader_ = nullptr;
-  std::unique_ptr<sd::WireSample> sample_;
   Listener listener_;
 };
 

@@ -58,6 +58,19 @@ void copy_cast(const std::vector<In>& in, std::vector<Out>& out) {
   for (std::size_t i = 0; i < in.size(); ++i) out[i] = static_cast<Out>(in[i]);
 }
 
+// The retina a message refers to travels with it, as a sequence of at most one.
+void retina_to_wire(const std::shared_ptr<const Retina>& in, std::vector<w::Retina>& out) {
+  out.resize(in ? 1 : 0);
+  if (in) to_wire(*in, out[0]);
+}
+
+std::shared_ptr<const Retina> retina_from_wire(const std::vector<w::Retina>& in) {
+  if (in.empty()) return nullptr;
+  auto retina = std::make_shared<Retina>();
+  from_wire(in[0], *retina);
+  return retina;
+}
+
 template <class M, class W, class P>
 class Sample final : public WireSample {
  public:
@@ -203,8 +216,7 @@ void to_wire(const FeatureMaps& in, w::FeatureMaps& out) {
     feature.levels().resize(levels.size());
     for (std::size_t l = 0; l < levels.size(); ++l) to_wire(levels[l], feature.levels()[l]);
   }
-  out.source_retina().resize(in.retina ? 1 : 0);
-  if (in.retina) to_wire(*in.retina, out.source_retina()[0]);
+  retina_to_wire(in.retina, out.source_retina());
 }
 
 void from_wire(const w::FeatureMaps& in, FeatureMaps& out) {
@@ -217,13 +229,7 @@ void from_wire(const w::FeatureMaps& in, FeatureMaps& out) {
     out.maps[f].resize(features[f].levels().size());
     for (std::size_t l = 0; l < features[f].levels().size(); ++l) from_wire(features[f].levels()[l], out.maps[f][l]);
   }
-  if (in.source_retina().empty()) {
-    out.retina.reset();
-  } else {
-    auto retina = std::make_shared<Retina>();
-    from_wire(in.source_retina()[0], *retina);
-    out.retina = std::move(retina);
-  }
+  out.retina = retina_from_wire(in.source_retina());
 }
 
 void to_wire(const Motion& in, w::Motion& out) {
@@ -359,8 +365,7 @@ void to_wire(const FoveaState& in, w::FoveaState& out) {
   out.gaze_requests(in.gaze_requests);
   out.frames_lost(in.frames_lost);
   out.camera_id(in.camera_id);
-  out.source_retina().resize(in.retina ? 1 : 0);
-  if (in.retina) to_wire(*in.retina, out.source_retina()[0]);
+  retina_to_wire(in.retina, out.source_retina());
 }
 
 void from_wire(const w::FoveaState& in, FoveaState& out) {
@@ -378,13 +383,7 @@ void from_wire(const w::FoveaState& in, FoveaState& out) {
   out.gaze_requests = in.gaze_requests();
   out.frames_lost = in.frames_lost();
   out.camera_id = in.camera_id();
-  if (in.source_retina().empty()) {
-    out.retina.reset();
-  } else {
-    auto retina = std::make_shared<Retina>();
-    from_wire(in.source_retina()[0], *retina);
-    out.retina = std::move(retina);
-  }
+  out.retina = retina_from_wire(in.source_retina());
 }
 
 void to_wire(const Classification& in, w::Classification& out) {
