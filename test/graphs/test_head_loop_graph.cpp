@@ -6,7 +6,9 @@
 
 #include <signal.h>
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 #include <cstdio>
 
 #include "support.hpp"
@@ -72,6 +74,9 @@ TEST(DrivesProgram, TheSimulatedDrivesRunAsTheirOwnProcessBehindAUdpTunnel) {
                                    "drives.bus=udp:" + std::to_string(drives_port) + ":127.0.0.1:" + std::to_string(master_port),
                                    "--duration", "10"});
   ASSERT_GT(child, 0);
+  // The master gives a drive three SDO attempts; start it once the drives listen.
+  for (int i = 0; i < 1000 && !test::udp_port_in_use(drives_port); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   testing::Recorder::instance().clear();
   auto run = test::open_graph(R"(<graph name="master">
     <node name="driver" plugin="can.driver">
