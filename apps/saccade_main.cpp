@@ -38,13 +38,13 @@ void load_registry(Registry& registry, const Common& common, bool show_errors) {
     for (const auto& e : registry.load_errors()) std::cerr << "warning: " << e << "\n";
 }
 
-// Loads, overrides and validates; prints every diagnostic. Empty on error.
 // Graph attributes the command line may override.
 struct GraphOverrides {
   int domain = -1;
   std::string topic_prefix;
 };
 
+// Loads, overrides and validates; prints every diagnostic. Empty on error.
 std::optional<ResolvedGraph> prepare(const std::string& file, const std::vector<std::string>& sets,
                                      const Registry& registry, const GraphOverrides& overrides) {
   Diagnostics diag;
@@ -289,7 +289,8 @@ int main(int argc, char** argv) {
     graph_plan = plan_graph(*graph, diag);
     if (!process.empty() && graph_plan) {
       graph = partition_graph(*graph, *graph_plan, process, registry, diag);
-      graph_plan = graph ? plan_graph(*graph, diag) : std::nullopt;
+      // The old plan points into the graph it replaced; only `plan` needs the new one.
+      graph_plan = graph && plan->parsed() ? plan_graph(*graph, diag) : std::nullopt;
     }
     std::cerr << diag.format();
     if (diag.has_errors()) return 2;

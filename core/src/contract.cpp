@@ -1,5 +1,7 @@
 #include "saccade/contract.hpp"
 
+#include "text.hpp"
+
 #include <charconv>
 #include <cmath>
 #include <sstream>
@@ -23,46 +25,11 @@ std::string_view to_string(ParamType type) {
 
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  return s;
-}
-
-// Whole-string number parsing: tinyxml2 would read "12abc" as 12.
-template <class T>
-bool parse_number(std::string_view text, T& out) {
-  text = trim(text);
-  if (text.empty()) return false;
-  if (text.front() == '+') text.remove_prefix(1);
-  auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
-  return ec == std::errc() && ptr == text.data() + text.size();
-}
-
-std::vector<std::string> split_list(std::string_view text, char sep) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    std::size_t end = text.find(sep, start);
-    if (end == std::string_view::npos) end = text.size();
-    auto item = trim(text.substr(start, end - start));
-    if (!item.empty()) out.emplace_back(item);
-    start = end + 1;
-  }
-  return out;
-}
-
-std::string join(const std::vector<std::string>& items, const char* sep) {
-  std::string out;
-  for (std::size_t i = 0; i < items.size(); ++i) out += (i ? sep : "") + items[i];
-  return out;
-}
-
-std::string format_number(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
+using text::format_number;
+using text::join;
+using text::parse_number;
+using text::split_list;
+using text::trim;
 
 std::optional<std::string> check_range(const ParamSpec& spec, double v) {
   if ((spec.min && v < *spec.min) || (spec.max && v > *spec.max)) {

@@ -5,13 +5,13 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <set>
 
 #include "saccade/registry.hpp"
+#include "text.hpp"
 
 #ifndef SACCADE_DEFAULT_SAMPLE_DATA
 #define SACCADE_DEFAULT_SAMPLE_DATA "/usr/share/doc/opencv-doc/examples/data"
@@ -82,16 +82,8 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
 std::string EdgeQos::text() const {
   std::string out = reliable ? "reliable" : "best_effort";
   out += depth == 0 ? ",keep_all" : ",depth=" + std::to_string(depth);
-  if (deadline_ms > 0) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, ",deadline_ms=%g", deadline_ms);
-    out += buf;
-  }
-  if (wait_ms > 0) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, ",wait_ms=%g", wait_ms);
-    out += buf;
-  }
+  if (deadline_ms > 0) out += ",deadline_ms=" + text::format_number(deadline_ms);
+  if (wait_ms > 0) out += ",wait_ms=" + text::format_number(wait_ms);
   return out;
 }
 
@@ -105,25 +97,18 @@ EdgeQos default_qos(std::string_view message_type) {
 }
 
 std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std::string* error) {
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    std::size_t comma = text.find(',', start);
-    std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    start = comma == std::string::npos ? text.size() + 1 : comma + 1;
-    if (item.empty()) continue;
-    auto number_after = [&](std::size_t prefix, double lo, double hi, double& value) {
-      const char* b = item.c_str() + prefix;
-      char* end = nullptr;
-      value = std::strtod(b, &end);
-      return end != b && *end == '\0' && value >= lo && value <= hi;
+  for (const std::string& item : text::split_list(text, ',')) {
+    auto value_after = [&](std::string_view prefix, double lo, double hi, double& value) {
+      return item.rfind(prefix, 0) == 0 && text::parse_number(std::string_view(item).substr(prefix.size()), value) &&
+             value >= lo && value <= hi;
     };
     double v = 0;
     if (item == "best_effort") base.reliable = false;
     else if (item == "reliable") base.reliable = true;
     else if (item == "keep_all") base.depth = 0;
-    else if (item.rfind("depth=", 0) == 0 && number_after(6, 1, 100000, v) && v == static_cast<int>(v)) base.depth = static_cast<int>(v);
-    else if (item.rfind("deadline_ms=", 0) == 0 && number_after(12, 0, 3.6e6, v)) base.deadline_ms = v;
-    else if (item.rfind("wait_ms=", 0) == 0 && number_after(8, 0, 3.6e6, v)) base.wait_ms = v;
+    else if (value_after("depth=", 1, 100000, v) && v == static_cast<int>(v)) base.depth = static_cast<int>(v);
+    else if (value_after("deadline_ms=", 0, 3.6e6, v)) base.deadline_ms = v;
+    else if (value_after("wait_ms=", 0, 3.6e6, v)) base.wait_ms = v;
     else {
       if (error)
         *error = "qos: unknown item '" + item +
@@ -178,13 +163,12 @@ GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics&
   check_attributes(root, {"name", "domain", "topic_prefix"}, file, "", diag);
   if (const char* n = root->Attribute("name")) graph.name = n;
   if (const char* d = root->Attribute("domain")) {
-    char* end = nullptr;
-    long v = std::strtol(d, &end, 10);
+    int v = -1;
     // Fast DDS maps a domain to UDP ports 7400 + 250 * domain: above 232 they overflow.
-    if (end == d || *end != '\0' || v < 0 || v > 232)
+    if (!text::parse_number(std::string_view(d), v) || v < 0 || v > 232)
       diag.error(file, graph.line, "", "", std::string("domain must be an integer from 0 to 232, got '") + d + "'");
     else
-      graph.domain = static_cast<int>(v);
+      graph.domain = v;
   }
   if (const char* t = root->Attribute("topic_prefix")) graph.topic_prefix = t;
 

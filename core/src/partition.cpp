@@ -1,10 +1,10 @@
 #include "saccade/partition.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <map>
 
 #include "saccade/registry.hpp"
+#include "text.hpp"
 
 namespace saccade {
 
@@ -95,18 +95,12 @@ std::string format_plan(const ResolvedGraph& graph, const GraphPlan& plan) {
   std::vector<std::string> groups = plan.processes;
   groups.push_back("");
   for (const auto& p : groups) {
-    std::string names;
+    std::vector<std::string> names;
     for (const auto& n : graph.nodes)
-      if (n.decl.process == p) names += (names.empty() ? "" : ", ") + n.decl.name;
+      if (n.decl.process == p) names.push_back(n.decl.name);
     if (names.empty()) continue;
-    std::string host = p.empty() ? "" : "  [host ";
-    if (!p.empty()) {
-      std::string h = "localhost";
-      for (const auto& d : graph.processes)
-        if (d.name == p && !d.host.empty()) h = d.host;
-      host += h + "]";
-    }
-    out += "process " + process_label(p) + host + ": " + names + "\n";
+    std::string host = p.empty() ? "" : "  [host " + host_of(graph, p) + "]";
+    out += "process " + process_label(p) + host + ": " + text::join(names, ", ") + "\n";
   }
   out += "edges:\n";
   for (const auto& pe : plan.edges) {
@@ -133,8 +127,7 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
                                              Diagnostics& diag) {
   std::size_t errors_before = diag.error_count();
   if (std::find(plan.processes.begin(), plan.processes.end(), process) == plan.processes.end()) {
-    std::string known;
-    for (const auto& p : plan.processes) known += (known.empty() ? "" : ", ") + p;
+    std::string known = text::join(plan.processes, ", ");
     diag.error(graph.file, 0, "", "",
                "no process '" + process + "' in this graph" +
                    (known.empty() ? std::string(" (no node names a process)") : " (processes: " + known + ")"));
@@ -166,16 +159,13 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
     decl.plugin = publish ? "dds.publish" : "dds.subscribe";
     decl.process = process;
     decl.line = e.line;
-    char deadline[32], wait[32];
-    std::snprintf(deadline, sizeof deadline, "%g", pe.qos.deadline_ms);
-    std::snprintf(wait, sizeof wait, "%g", pe.qos.wait_ms);
     decl.params = {{"topic", pe.topic, e.line},
                    {"type", pe.type, e.line},
                    {"domain", std::to_string(graph.domain), e.line},
                    {"reliable", pe.qos.reliable ? "true" : "false", e.line},
                    {"depth", std::to_string(pe.qos.depth), e.line},
-                   {"deadline_ms", deadline, e.line}};
-    if (publish) decl.params.push_back({"wait_ms", wait, e.line});
+                   {"deadline_ms", text::format_number(pe.qos.deadline_ms), e.line}};
+    if (publish) decl.params.push_back({"wait_ms", text::format_number(pe.qos.wait_ms), e.line});
     ResolvedNode rn;
     if (!resolve_node(decl, registry, graph.file, diag, rn)) return -1;
     int index = static_cast<int>(out.nodes.size());

@@ -77,7 +77,6 @@ struct PeerEvents {
   std::atomic<int> matched{0};
   std::atomic<uint64_t> deadlines_missed{0};
   std::atomic<uint64_t> lost{0};
-  std::atomic<uint64_t> incompatible{0};
 };
 
 // What both ends of a bridge hold: the topic, its codec, the process's
@@ -191,7 +190,6 @@ class Publish final : public Node {
       events.deadlines_missed.fetch_add(1);
     }
     void on_offered_incompatible_qos(fdds::DataWriter*, const fdds::OfferedIncompatibleQosStatus& s) override {
-      events.incompatible.fetch_add(1);
       log().error("{}: a reader of {} asks for an incompatible QoS ({}); it gets nothing", owner->end_.node,
                   owner->end_.topic_name, policy_name(s.last_policy_id));
     }
@@ -274,7 +272,6 @@ class Subscribe final : public Node {
       events.lost.store(static_cast<uint64_t>(s.total_count));
     }
     void on_requested_incompatible_qos(fdds::DataReader*, const fdds::RequestedIncompatibleQosStatus& s) override {
-      events.incompatible.fetch_add(1);
       log().error("{}: the writer of {} offers an incompatible QoS ({}); nothing will arrive", owner->end_.node,
                   owner->end_.topic_name, policy_name(s.last_policy_id));
     }
