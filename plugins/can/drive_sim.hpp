@@ -55,6 +55,8 @@ class SimulatedDrive {
   // Fault injection.
   void inject_fault(uint16_t error_code = emcy::kGeneric) { injected_fault_ = error_code; }
   void set_silent(bool silent) { silent_ = silent; }
+  // Off and on again: everything as at construction, so it boots and announces it.
+  void power_cycle() { *this = SimulatedDrive(config_); }
   void push(double torque) { disturbance_ = torque; }  // an external torque, N m (a hand on the head)
 
   int node() const { return config_.node; }

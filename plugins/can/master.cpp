@@ -61,6 +61,13 @@ bool Master::all_ready() const {
   return !drives_.empty();
 }
 
+void Master::restart_configuration(Drive& d) {
+  d.phase = Phase::kConfigure;
+  d.step = 0;
+  d.sdo_sent_ns = -1;
+  d.attempts = 0;
+}
+
 void Master::send(const Frame& f) {
   if (bus_.send(f)) stats_.bits_last_cycle += frame_bits(f);
 }
@@ -75,12 +82,11 @@ void Master::receive(const Frame& f, int64_t now_ns) {
   const uint32_t function = cob::function_of(f.id);
   if (function == 0x700 && f.length >= 1) {
     d->heartbeat_ns = now_ns;
-    if (static_cast<NmtState>(f.data[0]) == NmtState::kBootUp && d->phase != Phase::kConfigure) {
-      // It rebooted (power, watchdog): its configuration is gone.
-      d->phase = Phase::kConfigure;
-      d->step = 0;
-      d->sdo_sent_ns = -1;
-      d->problem = who(*d) + ": rebooted, configuring again";
+    if (static_cast<NmtState>(f.data[0]) == NmtState::kBootUp) {
+      // It (re)booted: power, watchdog, or powered up after we gave up on it.
+      // Whatever we had written is gone and its SDO server is listening now.
+      if (d->phase != Phase::kConfigure || d->step > 0) d->problem = who(*d) + ": booted, configuring again";
+      restart_configuration(*d);
     }
   } else if (f.id == cob::tpdo1(node)) {
     int8_t mode = 0;
@@ -111,10 +117,7 @@ void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool rese
     d.problem.clear();
     d.error_code = 0;
     if (d.phase == Phase::kSilent) {
-      d.phase = Phase::kConfigure;
-      d.step = 0;
-      d.sdo_sent_ns = -1;
-      d.attempts = 0;
+      restart_configuration(d);
       d.heartbeat_ns = d.updated_ns = -1;
     } else {
       send(rpdo1(d.joint.node, control::kFaultReset));  // acts on the bit's rising edge
@@ -164,6 +167,7 @@ void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool rese
         case DriveState::kQuickStopActive: send(rpdo1(d.joint.node, control::kEnableOperation)); break;
         case DriveState::kOperationEnabled:
           d.phase = Phase::kRun;
+          d.problem.clear();  // whatever it was (a reboot, a reset fault) is over
           d.set_point_high = false;
           break;
         default: break;  // fault (until reset), or no statusword yet

@@ -92,6 +92,7 @@ class Master {
     std::string problem;
   };
   void receive(const Frame& f, int64_t now_ns);
+  void restart_configuration(Drive& d);
   void send(const Frame& f);
   void run_drive(Drive& d, int64_t now_ns, const double* target, bool reset);
   std::string who(const Drive& d) const;

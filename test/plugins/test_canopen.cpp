@@ -373,5 +373,40 @@ TEST(Master, ADriveThatNeverAnswersSdoIsNamed) {
   EXPECT_EQ(h.feedback[1].health, DriveHealth::kReady) << "the others run";
 }
 
+TEST(Master, ADrivePoweredAfterTheMasterGaveUpIsConfiguredWhenItBoots) {
+  Head h;
+  h.rack.drive(0).set_silent(true);  // no power yet
+  for (int i = 0; i < 60; ++i) h.cycle(nullptr);
+  ASSERT_EQ(h.feedback[0].health, DriveHealth::kSilent);
+  h.rack.drive(0).power_cycle();  // its boot-up message restarts the configuration, no reset needed
+  int cycles = 0;
+  while (!h.ready() && cycles < 100) {
+    h.cycle(nullptr);
+    ++cycles;
+  }
+  EXPECT_TRUE(h.ready()) << h.master.problem();
+  EXPECT_LT(cycles, 20);
+  EXPECT_TRUE(h.master.problem().empty()) << h.master.problem();
+  EXPECT_EQ(h.rack.drive(0).nmt_state(), NmtState::kOperational);
+}
+
+TEST(Master, ADriveRebootedWhileRunningIsConfiguredAgain) {
+  Head h;
+  for (int i = 0; i < 40; ++i) h.cycle(nullptr);
+  ASSERT_TRUE(h.ready());
+  h.rack.drive(3).power_cycle();  // a watchdog reset: its mode and PDO settings are gone
+  const double targets[5] = {0, 0, 0, 0, 0};
+  h.cycle(targets);
+  h.cycle(targets);
+  EXPECT_EQ(h.feedback[3].health, DriveHealth::kStarting);
+  int cycles = 0;
+  while (!h.ready() && cycles < 100) {
+    h.cycle(targets);
+    ++cycles;
+  }
+  EXPECT_TRUE(h.ready()) << h.master.problem();
+  EXPECT_EQ(h.rack.drive(3).nmt_state(), NmtState::kOperational);
+}
+
 }  // namespace
 }  // namespace saccade::can
