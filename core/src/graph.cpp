@@ -84,6 +84,10 @@ std::string EdgeQos::text() const {
   out += depth == 0 ? ",keep_all" : ",depth=" + std::to_string(depth);
   if (deadline_ms > 0) out += ",deadline_ms=" + text::format_number(deadline_ms);
   if (wait_ms > 0) out += ",wait_ms=" + text::format_number(wait_ms);
+  if (capacity > 0)
+    out += ",capacity=" + (capacity % (1u << 20) == 0   ? std::to_string(capacity >> 20) + "M"
+                           : capacity % (1u << 10) == 0 ? std::to_string(capacity >> 10) + "K"
+                                                        : std::to_string(capacity));
   return out;
 }
 
@@ -95,6 +99,27 @@ EdgeQos default_qos(std::string_view message_type) {
   }
   return q;
 }
+
+namespace {
+
+// "capacity=4M": bytes, or KiB / MiB with a K / M suffix; 1 byte to 1 GiB.
+std::optional<std::size_t> parse_capacity(const std::string& item) {
+  constexpr std::string_view prefix = "capacity=";
+  if (item.rfind(prefix, 0) != 0) return std::nullopt;
+  std::string_view number = std::string_view(item).substr(prefix.size());
+  double unit = 1;
+  if (!number.empty() && (number.back() == 'K' || number.back() == 'M')) {
+    unit = number.back() == 'K' ? 1024.0 : 1024.0 * 1024.0;
+    number.remove_suffix(1);
+  }
+  double v = 0;
+  if (!text::parse_number(number, v) || v != static_cast<double>(static_cast<int64_t>(v))) return std::nullopt;
+  const double bytes = v * unit;
+  if (bytes < 1 || bytes > 1024.0 * 1024.0 * 1024.0) return std::nullopt;
+  return static_cast<std::size_t>(bytes);
+}
+
+}  // namespace
 
 std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std::string* error) {
   for (const std::string& item : text::split_list(text, ',')) {
@@ -109,10 +134,12 @@ std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std
     else if (value_after("depth=", 1, 100000, v) && v == static_cast<int>(v)) base.depth = static_cast<int>(v);
     else if (value_after("deadline_ms=", 0, 3.6e6, v)) base.deadline_ms = v;
     else if (value_after("wait_ms=", 0, 3.6e6, v)) base.wait_ms = v;
+    else if (auto bytes = parse_capacity(item)) base.capacity = *bytes;
     else {
       if (error)
         *error = "qos: unknown item '" + item +
-                 "'; expected best_effort or reliable, depth=N (1..100000) or keep_all, deadline_ms=X, wait_ms=X";
+                 "'; expected best_effort or reliable, depth=N (1..100000) or keep_all, deadline_ms=X, wait_ms=X, "
+                 "capacity=N, NK or NM (1 byte to 1024M)";
       return std::nullopt;
     }
   }

@@ -166,6 +166,16 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
                    {"depth", std::to_string(pe.qos.depth), e.line},
                    {"deadline_ms", text::format_number(pe.qos.deadline_ms), e.line}};
     if (publish) decl.params.push_back({"wait_ms", text::format_number(pe.qos.wait_ms), e.line});
+    // Zero copy needs every reader of the topic on the writer's host; one
+    // elsewhere gets the serialised type over UDP, so all of them do.
+    const bool one_host = std::all_of(plan.edges.begin(), plan.edges.end(), [&](const PlannedEdge& other) {
+      return other.edge->from_node != e.from_node || other.edge->from_port != e.from_port ||
+             other.route != EdgeRoute::kOtherHost;
+    });
+    if (one_host) {
+      decl.params.push_back({"zero_copy", "true", e.line});
+      decl.params.push_back({"capacity", std::to_string(pe.qos.capacity), e.line});
+    }
     ResolvedNode rn;
     if (!resolve_node(decl, registry, graph.file, diag, rn)) return -1;
     int index = static_cast<int>(out.nodes.size());

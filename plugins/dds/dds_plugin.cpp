@@ -38,7 +38,19 @@ Contract with_bridge_params(Contract c) {
       .param_int("domain", 0, 0, 232, "DDS domain id")
       .param_bool("reliable", false, "reliable (else best effort)")
       .param_int("depth", 1, 0, 100000, "keep-last history depth; 0 keeps all (a slow reader blocks the writer)")
-      .param_double("deadline_ms", 0, 0, 3.6e6, "report a peer silent for this long (0: no deadline)");
+      .param_double("deadline_ms", 0, 0, 3.6e6, "report a peer silent for this long (0: no deadline)")
+      .param_bool("zero_copy", false,
+                  "one host only: Image and Retina travel as plain fixed-capacity types through Fast DDS data sharing, "
+                  "the writer filling loaned shared memory (both ends must agree; other types ignore it)")
+      .param_int("capacity", 0, 0, 1 << 30, "zero_copy: bytes of pixel data a sample holds (0: the type's default, 4 MiB "
+                 "for Image, 1 MiB for Retina); the smallest plain type at least this large is used");
+}
+
+std::size_t largest_plain_capacity(std::string_view type) {
+  std::size_t largest = 0;
+  for (const auto& c : sd::plain_codecs())
+    if (c.type == type) largest = std::max(largest, c.capacity);
+  return largest;
 }
 
 const char* policy_name(fdds::QosPolicyId_t id) {
@@ -92,14 +104,26 @@ struct TopicEnd {
     const Params& p = ctx.params();
     node = ctx.node_name();
     topic_name = p.get_string("topic");
-    codec = sd::find_codec(p.get_string("type"));
-    if (codec == nullptr) return Status::error("no IDL type for '" + p.get_string("type") + "'");
+    const std::string type = p.get_string("type");
+    codec = sd::find_codec(type);
+    if (codec == nullptr) return Status::error("no IDL type for '" + type + "'");
+    if (p.get_bool("zero_copy")) {
+      const auto capacity = static_cast<std::size_t>(p.get_int("capacity"));
+      if (const sd::Codec* plain = sd::find_plain_codec(type, capacity); plain != nullptr) {
+        codec = plain;
+      } else if (std::size_t largest = largest_plain_capacity(type); largest > 0) {
+        return Status::error("no shared-memory form of " + type + " holds " + std::to_string(capacity) +
+                             " bytes (the largest holds " + std::to_string(largest) + ")");
+      }
+    }
     std::string error;
     domain = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
     if (!domain) return Status::error(error);
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) return Status::error(error);
     sample = codec->make_sample();
+    log().debug("{}: topic {} of type {}{}", node, topic_name, topic->get_type_name(),
+                codec->capacity > 0 ? " (zero copy: data sharing, loaned samples)" : "");
     return {};
   }
 };
@@ -125,6 +149,9 @@ class Publish final : public Node {
     reliable_ = p.get_bool("reliable");
     // A keep-all writer waits for a slow reader rather than drop; a keep-last one never waits long.
     qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(p.get_int("depth") == 0 ? 10.0 : 0.1);
+    // A plain type's samples live in a ring of the writer's shared memory; a
+    // few spare ones keep a sample a reader is still copying from being reused.
+    if (end_.codec->capacity > 0) qos.resource_limits().extra_samples = 3;
     listener_.owner = this;
     writer_ = end_.domain->publisher()->create_datawriter(topic, qos, &listener_, fdds::StatusMask::all());
     if (writer_ == nullptr) return Status::error("cannot create a DDS writer on " + end_.topic_name);
@@ -139,8 +166,10 @@ class Publish final : public Node {
     if (message->type_name() != end_.codec->type)
       return Status::error("topic " + end_.topic_name + " carries " + std::string(end_.codec->type) + ", got a " +
                            std::string(message->type_name()));
-    end_.sample->from_message(*message);
-    if (!writer_->write(end_.sample->data())) {
+    bool written = false;
+    if (Status s = end_.sample->write(*writer_, message.get(), written); !s.ok())
+      return Status::error("topic " + end_.topic_name + ": " + s.message());
+    if (!written) {
       if (failed_++ == 0) log().warn("{}: write to {} failed (the reader's history is full?)", end_.node, end_.topic_name);
     } else {
       ++written_;
@@ -169,9 +198,9 @@ class Publish final : public Node {
   void send_end_of_stream() {
     if (ended_ || writer_ == nullptr) return;
     ended_ = true;
-    end_.sample->stamp().flags(sd::kEndOfStream);
     // Best effort may lose one sample; the end of the stream is sent thrice.
-    for (int i = 0; i < (reliable_ ? 1 : 3); ++i) writer_->write(end_.sample->data());
+    bool written = false;
+    for (int i = 0; i < (reliable_ ? 1 : 3); ++i) (void)end_.sample->write(*writer_, nullptr, written);
     if (reliable_ && listener_.events.matched.load() > 0)
       writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(2.0));
   }
@@ -229,13 +258,15 @@ class Subscribe final : public Node {
   }
 
   Status process(ProcessContext& ctx) override {
-    fdds::SampleInfo info;
     while (!ctx.stop_requested()) {
-      if (reader_->take_next_sample(end_.sample->data(), &info) == ReturnCode_t::RETCODE_OK) {
-        if (!info.valid_data) continue;
-        if (end_.sample->stamp().flags() & sd::kEndOfStream) return Status::end_of_stream();
-        ctx.emit(out_, end_.sample->to_message(ctx, out_.index));
-        return {};
+      MessagePtr message;
+      switch (end_.sample->take(*reader_, &ctx, out_.index, message)) {
+        case sd::WireSample::Taken::kMessage: ctx.emit(out_, std::move(message)); return {};
+        case sd::WireSample::Taken::kEnd: return Status::end_of_stream();
+        case sd::WireSample::Taken::kUnreadable:
+          if (invalid_++ == 0) log().warn("{}: a sample on {} could not be read (malformed, or overwritten while read)", end_.node, end_.topic_name);
+          continue;
+        case sd::WireSample::Taken::kNothing: break;
       }
       reader_->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, 50'000'000));
     }
@@ -247,8 +278,9 @@ class Subscribe final : public Node {
       end_.domain->subscriber()->delete_datareader(reader_);
       reader_ = nullptr;
       uint64_t lost = listener_.events.lost.load(), missed = listener_.events.deadlines_missed.load();
-      if (lost > 0 || missed > 0)
-        log().warn("{}: {} samples of {} lost, {} deadlines missed", end_.node, lost, end_.topic_name, missed);
+      if (lost > 0 || missed > 0 || invalid_ > 0)
+        log().warn("{}: {} samples of {} lost, {} unreadable, {} deadlines missed", end_.node, lost, end_.topic_name,
+                   invalid_, missed);
     }
     end_.domain.reset();
   }
@@ -281,6 +313,7 @@ class Subscribe final : public Node {
   TopicEnd end_;
   fdds::DataReader* reader_ = nullptr;
   Listener listener_;
+  uint64_t invalid_ = 0;
 };
 
 }  // namespace

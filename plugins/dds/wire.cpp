@@ -2,6 +2,10 @@
 
 #include <cstring>
 
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+
 #include "saccadePubSubTypes.h"
 
 namespace saccade::dds {
@@ -71,16 +75,28 @@ std::shared_ptr<const Retina> retina_from_wire(const std::vector<w::Retina>& in)
   return retina;
 }
 
-template <class M, class W, class P>
+template <class M, class W>
 class Sample final : public WireSample {
  public:
-  void* data() override { return &wire_; }
-  wc::Stamp& stamp() override { return wire_.stamp(); }
-  void from_message(const Message& message) override { to_wire(static_cast<const M&>(message), wire_); }
-  MessagePtr to_message(ProcessContext& ctx, int output) override {
-    auto m = ctx.make(OutputHandle<M>{output});
+  Status write(eprosima::fastdds::dds::DataWriter& writer, const Message* message, bool& written) override {
+    if (message != nullptr) {
+      to_wire(static_cast<const M&>(*message), wire_);
+    } else {
+      wire_.stamp().frame_id(-1);
+      wire_.stamp().flags(kEndOfStream);
+    }
+    written = writer.write(&wire_);
+    return {};
+  }
+  Taken take(eprosima::fastdds::dds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) override {
+    eprosima::fastdds::dds::SampleInfo info;
+    if (reader.take_next_sample(&wire_, &info) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
+    if (!info.valid_data) return Taken::kUnreadable;
+    if (wire_.stamp().flags() & kEndOfStream) return Taken::kEnd;
+    std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
     from_wire(wire_, *m);
-    return m;
+    slot = std::move(m);
+    return Taken::kMessage;
   }
 
  private:
@@ -89,9 +105,9 @@ class Sample final : public WireSample {
 
 template <class M, class W, class P>
 Codec codec() {
-  return Codec{M::kTypeName,
+  return Codec{M::kTypeName, 0,
                +[]() -> std::unique_ptr<eprosima::fastdds::dds::TopicDataType> { return std::make_unique<P>(); },
-               +[]() -> std::unique_ptr<WireSample> { return std::make_unique<Sample<M, W, P>>(); }};
+               +[]() -> std::unique_ptr<WireSample> { return std::make_unique<Sample<M, W>>(); }};
 }
 
 const std::vector<Codec>& codecs() {
@@ -118,6 +134,19 @@ const Codec* find_codec(std::string_view type) {
   for (const auto& c : codecs())
     if (c.type == type) return &c;
   return nullptr;
+}
+
+std::size_t default_plain_capacity(std::string_view type) {
+  // Image: up to 1280x1024 colour (3.9 MB); larger frames name a larger capacity.
+  return type == Image::kTypeName ? 4u << 20 : 1u << 20;
+}
+
+const Codec* find_plain_codec(std::string_view type, std::size_t capacity) {
+  if (capacity == 0) capacity = default_plain_capacity(type);
+  const Codec* best = nullptr;
+  for (const auto& c : plain_codecs())
+    if (c.type == type && c.capacity >= capacity && (best == nullptr || c.capacity < best->capacity)) best = &c;
+  return best;
 }
 
 std::vector<std::string_view> codec_types() {

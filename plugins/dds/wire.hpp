@@ -12,6 +12,11 @@
 #include "saccade/message.hpp"
 #include "saccade/node.hpp"
 
+namespace eprosima::fastdds::dds {
+class DataWriter;
+class DataReader;
+}  // namespace eprosima::fastdds::dds
+
 namespace saccade::dds {
 
 // Stamp flags.
@@ -42,26 +47,63 @@ void from_wire(const saccade_idl::FoveaState& in, FoveaState& out);
 void to_wire(const Classification& in, saccade_idl::Classification& out);
 void from_wire(const saccade_idl::Classification& in, Classification& out);
 
-// One wire sample of some message type, kept by a bridge and reused for every
-// message (its buffers keep their capacity: no allocation in steady state).
+// The shared-memory (plain, fixed-capacity) forms of the camera-rate types:
+// an empty string on success, else why the message does not fit. from_plain
+// returns false for a malformed sample (what it could not read is left empty).
+template <class P>
+std::string to_plain(const Image& in, P& out);
+template <class P>
+bool from_plain(const P& in, Image& out);
+template <class P>
+std::string to_plain(const Retina& in, P& out);
+template <class P>
+bool from_plain(const P& in, Retina& out);
+
+// How a bridge moves messages of one type through DDS, kept by the bridge for
+// its lifetime: a serialised sample it reuses for every message (its buffers
+// keep their capacity), or, for a plain type, samples loaned from Fast DDS'
+// shared memory. No allocation in steady state either way.
 class WireSample {
  public:
   virtual ~WireSample();
-  virtual void* data() = 0;  // the IDL object, as DataWriter::write and DataReader::take want it
-  virtual saccade_idl::common::Stamp& stamp() = 0;
-  virtual void from_message(const Message& message) = 0;
-  // A pooled message of output `output` filled from the sample.
-  virtual MessagePtr to_message(ProcessContext& ctx, int output) = 0;
+  // Writes `message`, or an end of stream when it is null. `written` is false
+  // when DDS refused (history full, pool exhausted); an error status means the
+  // message does not fit the type (a plain type's capacity).
+  virtual Status write(eprosima::fastdds::dds::DataWriter& writer, const Message* message, bool& written) = 0;
+  enum class Taken { kNothing, kMessage, kEnd, kUnreadable };
+  // Takes the next sample. kMessage: `slot` holds it, a message from ctx's
+  // pool for output `output` (without a context: `slot` itself when nobody
+  // else holds it, else a new one). kEnd: the writer ended its stream.
+  // kUnreadable: a sample that could not be read.
+  virtual Taken take(eprosima::fastdds::dds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) = 0;
 };
 
+// A message of type M to fill: see WireSample::take.
+template <class M>
+std::shared_ptr<M> fresh(ProcessContext* ctx, int output, MessagePtr& slot) {
+  if (ctx != nullptr) return ctx->make(OutputHandle<M>{output});
+  if (slot && slot.use_count() == 1 && slot->type_name() == M::kTypeName)
+    return std::const_pointer_cast<M>(std::static_pointer_cast<const M>(std::move(slot)));
+  return std::make_shared<M>();
+}
+
 struct Codec {
-  std::string_view type;  // the message's type name, also the DDS type name's last part
+  std::string_view type;  // the message's type name
+  // 0: the serialised IDL type (any size, any host); else a plain type whose
+  // data holds this many bytes (one host: data sharing and loans).
+  std::size_t capacity = 0;
   std::unique_ptr<eprosima::fastdds::dds::TopicDataType> (*make_type)();
   std::unique_ptr<WireSample> (*make_sample)();
 };
 
-// nullptr for a type without an IDL form.
+// The serialised codec of `type`; nullptr for a type without an IDL form.
 const Codec* find_codec(std::string_view type);
+// The plain codec of `type` with the smallest capacity >= `capacity` (0: the
+// type's default); nullptr when the type has none that large.
+const Codec* find_plain_codec(std::string_view type, std::size_t capacity);
 std::vector<std::string_view> codec_types();
+const std::vector<Codec>& plain_codecs();
+// The capacity a type's plain form gets when the edge names none.
+std::size_t default_plain_capacity(std::string_view type);
 
 }  // namespace saccade::dds

@@ -86,6 +86,8 @@ TEST(TwoPcPlan, EachProcessRunsItsNodesAndOneBridgePerRemoteOutput) {
   EXPECT_EQ(sub.params.get_string("topic"), "saccade/two_pc/driver/state");
   EXPECT_TRUE(sub.params.get_bool("reliable"));
   EXPECT_EQ(sub.params.get_int("depth"), 8);
+  EXPECT_TRUE(sub.params.get_bool("zero_copy")) << "both processes on one host";
+  EXPECT_TRUE(nodes["dds_pub_fovea_gaze"]->params.get_bool("zero_copy"));
   EXPECT_EQ(head->nodes.size(), 7u + 3u);
   // The robot's side mirrors it.
   auto robot = partition_graph(*graph, *plan, "robot_pc", testing::default_registry(), diag);
@@ -97,6 +99,51 @@ TEST(TwoPcPlan, EachProcessRunsItsNodesAndOneBridgePerRemoteOutput) {
   }
   EXPECT_EQ(subs, 1);
   EXPECT_EQ(pubs, 2);
+}
+
+TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTravels) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_string(R"(<graph name="g">
+<process name="a" host="h1"/><process name="b" host="h1"/><process name="c" host="h2"/>
+<node name="cam" process="a" plugin="capture.synthetic"/>
+<node name="near" process="b" plugin="util.record"/>
+<node name="far" process="c" plugin="util.record"/>
+<node name="near_truth" process="b" plugin="util.record"/>
+<edge from="cam.image" to="near.in" qos="capacity=16M"/>
+<edge from="cam.right" to="far.in"/>
+<edge from="cam.truth" to="near_truth.in"/>
+</graph>)",
+                                     "hosts.xml", diag);
+  auto graph = resolve_graph(decl, testing::default_registry(), diag);
+  ASSERT_TRUE(graph) << diag.format();
+  auto plan = plan_graph(*graph, diag);
+  ASSERT_TRUE(plan) << diag.format();
+  EXPECT_EQ(plan->edges[0].qos.capacity, 16u << 20);
+  EXPECT_EQ(plan->edges[0].qos.text(), "best_effort,depth=1,capacity=16M");
+  auto a = partition_graph(*graph, *plan, "a", testing::default_registry(), diag);
+  ASSERT_TRUE(a) << diag.format();
+  std::map<std::string, const ResolvedNode*> nodes;
+  for (const auto& n : a->nodes) nodes[n.decl.name] = &n;
+  ASSERT_EQ(nodes.count("dds_pub_cam_image"), 1u);
+  EXPECT_TRUE(nodes["dds_pub_cam_image"]->params.get_bool("zero_copy"));
+  EXPECT_EQ(nodes["dds_pub_cam_image"]->params.get_int("capacity"), 16 << 20);
+  ASSERT_EQ(nodes.count("dds_pub_cam_right"), 1u);
+  EXPECT_FALSE(nodes["dds_pub_cam_right"]->params.get_bool("zero_copy")) << "its reader is on another host";
+  auto c = partition_graph(*graph, *plan, "c", testing::default_registry(), diag);
+  ASSERT_TRUE(c) << diag.format();
+  for (const auto& n : c->nodes) {
+    if (n.decl.plugin == "dds.subscribe") {
+      EXPECT_FALSE(n.params.get_bool("zero_copy")) << n.decl.name;
+    }
+  }
+
+  EXPECT_EQ(parse_edge_qos("capacity=512K", EdgeQos{}, nullptr)->capacity, 512u << 10);
+  EXPECT_EQ(parse_edge_qos("capacity=1000", EdgeQos{}, nullptr)->capacity, 1000u);
+  std::string error;
+  EXPECT_FALSE(parse_edge_qos("capacity=2G", EdgeQos{}, &error));
+  EXPECT_NE(error.find("capacity=N, NK or NM"), std::string::npos) << error;
+  EXPECT_FALSE(parse_edge_qos("capacity=1.5M", EdgeQos{}, &error));
+  EXPECT_FALSE(parse_edge_qos("capacity=2048M", EdgeQos{}, &error));
 }
 
 TEST(TwoPcPlan, MistakesAreReportedWithFileLineAndWhatWasExpected) {

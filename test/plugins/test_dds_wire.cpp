@@ -297,10 +297,100 @@ TEST(DdsWire, EveryMessageTypeHasACodec) {
     const dds::Codec* codec = dds::find_codec(type);
     ASSERT_NE(codec, nullptr) << type;
     EXPECT_EQ(codec->type, type);
-    auto sample = codec->make_sample();
-    EXPECT_NE(sample->data(), nullptr);
+    EXPECT_EQ(codec->capacity, 0u) << "the serialised form";
+    EXPECT_NE(codec->make_sample(), nullptr);
+    EXPECT_NE(codec->make_type(), nullptr);
   }
   EXPECT_EQ(dds::find_codec("NoSuchType"), nullptr);
+}
+
+// --- The plain (shared-memory) forms. Their samples are megabytes: on the heap.
+
+TEST(DdsPlain, ImagesRoundTripBitExactlyWhateverTheirLayout) {
+  auto sample = std::make_unique<saccade_idl::plain::Image4M>();
+  cv::Mat big = test::random_image({1280, 720}, 3, CV_8UC3);
+  std::vector<cv::Mat> mats = {test::random_image({1024, 768}, 1), test::random_image({1024, 768}, 2, CV_8UC3),
+                               cv::Mat(3, 5, CV_32FC1), big(cv::Rect(7, 5, 301, 199)), cv::Mat()};
+  cv::randu(mats[2], -1e6, 1e6);
+  Image back;
+  for (std::size_t i = 0; i < mats.size(); ++i) {
+    Image image;
+    stamp(image, static_cast<int64_t>(i));
+    image.camera_id = static_cast<int>(i);
+    image.mat = mats[i];
+    ASSERT_EQ(dds::to_plain(image, *sample), "") << i;
+    EXPECT_EQ(sample->size(), mats[i].total() * mats[i].elemSize()) << "only the used bytes count";
+    ASSERT_TRUE(dds::from_plain(*sample, back)) << i;
+    expect_same_stamp(image, back);
+    EXPECT_EQ(back.camera_id, image.camera_id);
+    expect_same_mat(image.mat, back.mat);
+    EXPECT_TRUE(back.mat.empty() || back.mat.isContinuous());
+  }
+}
+
+TEST(DdsPlain, TheReaderReusesItsBufferForFramesOfOneSize) {
+  auto sample = std::make_unique<saccade_idl::plain::Image1M>();
+  Image image, back;
+  image.mat = test::random_image({640, 480}, 1);
+  ASSERT_EQ(dds::to_plain(image, *sample), "");
+  ASSERT_TRUE(dds::from_plain(*sample, back));
+  const uint8_t* buffer = back.mat.data;
+  image.mat = test::random_image({640, 480}, 2);
+  ASSERT_EQ(dds::to_plain(image, *sample), "");
+  ASSERT_TRUE(dds::from_plain(*sample, back));
+  EXPECT_EQ(back.mat.data, buffer);
+  expect_same_mat(image.mat, back.mat);
+}
+
+TEST(DdsPlain, AnImageLargerThanTheCapacityIsRefusedWithTheFix) {
+  auto sample = std::make_unique<saccade_idl::plain::Image1M>();
+  Image image;
+  image.mat = test::random_image({1024, 768}, 1, CV_8UC3);
+  EXPECT_EQ(dds::to_plain(image, *sample),
+            "a 1024x768 image of 2359296 bytes does not fit the edge's shared-memory capacity (1 MiB); give the edge a "
+            "larger one (qos=\"capacity=16M\")");
+}
+
+TEST(DdsPlain, MalformedHeadersGiveEmptyMatsNotCrashes) {
+  auto sample = std::make_unique<saccade_idl::plain::Image1M>();
+  Image image, back;
+  image.mat = test::random_image({64, 48}, 1);
+  ASSERT_EQ(dds::to_plain(image, *sample), "");
+  sample->mat().rows(100000);  // points past the used bytes
+  EXPECT_FALSE(dds::from_plain(*sample, back));
+  EXPECT_TRUE(back.mat.empty());
+  sample->mat().rows(48);
+  sample->mat().cv_type(12345);  // no OpenCV type
+  EXPECT_FALSE(dds::from_plain(*sample, back));
+  EXPECT_TRUE(back.mat.empty());
+  sample->mat().cv_type(CV_8UC1);
+  sample->size(1 << 30);  // a size beyond the array is clamped to it
+  EXPECT_TRUE(dds::from_plain(*sample, back));
+  expect_same_mat(image.mat, back.mat);
+}
+
+TEST(DdsPlain, RetinasRoundTripBitExactly) {
+  auto sample = std::make_unique<saccade_idl::plain::Retina1M>();
+  Retina r = make_retina();
+  r.levels[2] = test::random_image({32, 24}, 7, CV_32FC1);
+  ASSERT_EQ(dds::to_plain(r, *sample), "");
+  Retina back;
+  ASSERT_TRUE(dds::from_plain(*sample, back));
+  expect_same_retina(r, back);
+  r.levels.resize(17);
+  r.geometry.resize(17);
+  EXPECT_NE(dds::to_plain(r, *sample).find("at most 16 levels"), std::string::npos);
+}
+
+TEST(DdsPlain, TheSmallestPlainFormAtLeastTheCapacityIsChosen) {
+  EXPECT_EQ(dds::find_plain_codec("Image", 0)->capacity, 4u << 20) << "the default";
+  EXPECT_EQ(dds::find_plain_codec("Image", 1000)->capacity, 1u << 20);
+  EXPECT_EQ(dds::find_plain_codec("Image", (1u << 20) + 1)->capacity, 4u << 20);
+  EXPECT_EQ(dds::find_plain_codec("Image", 6'220'800)->capacity, 16u << 20) << "1920x1080 colour";
+  EXPECT_EQ(dds::find_plain_codec("Image", (16u << 20) + 1), nullptr);
+  EXPECT_EQ(dds::find_plain_codec("Retina", 0)->capacity, 1u << 20);
+  EXPECT_EQ(dds::find_plain_codec("JointState", 0), nullptr) << "small types stay serialised";
+  for (const auto& c : dds::plain_codecs()) EXPECT_TRUE(c.make_type()->is_plain()) << c.type << " " << c.capacity;
 }
 
 TEST(DdsWire, OutOfRangeEnumsDecodeToTheSafeValue) {

@@ -28,6 +28,9 @@ struct EdgeQos {
   int depth = 1;             // keep-last depth; 0 = keep all
   double deadline_ms = 0.0;  // 0: none; else a silent writer is reported after this long
   double wait_ms = 0.0;      // the writer waits up to this long for a first reader before it starts
+  // Between processes of one host, Image and Retina travel in fixed-capacity
+  // shared-memory samples: bytes of pixel data one holds (0: the type's default).
+  std::size_t capacity = 0;
   std::string text() const;  // "best_effort,depth=1", "reliable,keep_all,deadline_ms=200"
   bool operator==(const EdgeQos&) const = default;
 };
@@ -36,7 +39,7 @@ struct EdgeQos {
 // state reliable, keep-last 8.
 EdgeQos default_qos(std::string_view message_type);
 // Parses a comma-separated list over `base`: best_effort | reliable, depth=N |
-// keep_all, deadline_ms=X. Returns nothing and sets `error` when it cannot.
+// keep_all, deadline_ms=X, wait_ms=X, capacity=N[K|M] (KiB, MiB). Returns nothing and sets `error` when it cannot.
 std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std::string* error);
 
 enum class OnError { kStop, kSkip };
