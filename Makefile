@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench docs asan tsan clean
+.PHONY: deps build demo test bench bench-dds docs asan tsan clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -22,6 +22,9 @@ test: build
 
 bench: build
 	$(BUILD)/bin/saccade_bench --benchmark_min_time=0.5 --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+
+bench-dds: build
+	$(BUILD)/bin/saccade_dds_bench --messages 2000 --throughput-s 1
 
 docs: build
 	$(BUILD)/bin/saccade plugins --markdown > docs/plugins.md

@@ -65,23 +65,13 @@ const char* policy_name(fdds::QosPolicyId_t id) {
   }
 }
 
-template <class Qos>
-void apply_common_qos(Qos& qos, const Params& p) {
-  bool reliable = p.get_bool("reliable");
-  int depth = static_cast<int>(p.get_int("depth"));
-  qos.reliability().kind = reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
-  qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
-  if (depth == 0) {
-    qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
-    qos.resource_limits().max_samples = 64;
-    qos.resource_limits().max_instances = 1;
-    qos.resource_limits().max_samples_per_instance = 64;
-  } else {
-    qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    qos.history().depth = depth;
-  }
-  double deadline_ms = p.get_double("deadline_ms");
-  if (deadline_ms > 0) qos.deadline().period = eprosima::fastrtps::Duration_t(deadline_ms / 1000.0);
+sd::EdgeSettings edge_settings(const Params& p, const sd::Codec& codec) {
+  sd::EdgeSettings s;
+  s.reliable = p.get_bool("reliable");
+  s.depth = static_cast<int>(p.get_int("depth"));
+  s.deadline_ms = p.get_double("deadline_ms");
+  s.zero_copy = codec.capacity > 0;
+  return s;
 }
 
 // What a peer did, as the listeners see it (on Fast DDS' threads).
@@ -144,14 +134,8 @@ class Publish final : public Node {
     const Params& p = ctx.params();
     if (Status s = end_.open(ctx); !s.ok()) return s;
     fdds::Topic* topic = end_.topic;
-    fdds::DataWriterQos qos = end_.domain->publisher()->get_default_datawriter_qos();
-    apply_common_qos(qos, p);
+    fdds::DataWriterQos qos = sd::writer_qos(*end_.domain->publisher(), edge_settings(p, *end_.codec));
     reliable_ = p.get_bool("reliable");
-    // A keep-all writer waits for a slow reader rather than drop; a keep-last one never waits long.
-    qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(p.get_int("depth") == 0 ? 10.0 : 0.1);
-    // A plain type's samples live in a ring of the writer's shared memory; a
-    // few spare ones keep a sample a reader is still copying from being reused.
-    if (end_.codec->capacity > 0) qos.resource_limits().extra_samples = 3;
     listener_.owner = this;
     writer_ = end_.domain->publisher()->create_datawriter(topic, qos, &listener_, fdds::StatusMask::all());
     if (writer_ == nullptr) return Status::error("cannot create a DDS writer on " + end_.topic_name);
@@ -249,8 +233,7 @@ class Subscribe final : public Node {
     const Params& p = ctx.params();
     if (Status s = end_.open(ctx); !s.ok()) return s;
     fdds::Topic* topic = end_.topic;
-    fdds::DataReaderQos qos = end_.domain->subscriber()->get_default_datareader_qos();
-    apply_common_qos(qos, p);
+    fdds::DataReaderQos qos = sd::reader_qos(*end_.domain->subscriber(), edge_settings(p, *end_.codec));
     listener_.owner = this;
     reader_ = end_.domain->subscriber()->create_datareader(topic, qos, &listener_, fdds::StatusMask::all());
     if (reader_ == nullptr) return Status::error("cannot create a DDS reader on " + end_.topic_name);

@@ -11,6 +11,43 @@ namespace saccade::dds {
 
 namespace fdds = eprosima::fastdds::dds;
 
+namespace {
+
+template <class Qos>
+void apply_edge_settings(Qos& qos, const EdgeSettings& s) {
+  qos.reliability().kind = s.reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
+  qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+  if (s.depth == 0) {
+    qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+    qos.resource_limits().max_samples = 64;
+    qos.resource_limits().max_instances = 1;
+    qos.resource_limits().max_samples_per_instance = 64;
+  } else {
+    qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+    qos.history().depth = s.depth;
+  }
+  if (s.deadline_ms > 0) qos.deadline().period = eprosima::fastrtps::Duration_t(s.deadline_ms / 1000.0);
+}
+
+}  // namespace
+
+fdds::DataWriterQos writer_qos(const fdds::Publisher& publisher, const EdgeSettings& s) {
+  fdds::DataWriterQos qos = publisher.get_default_datawriter_qos();
+  apply_edge_settings(qos, s);
+  // A keep-all writer waits for a slow reader rather than drop; a keep-last one never waits long.
+  qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(s.depth == 0 ? 10.0 : 0.1);
+  // A plain type's samples live in a ring of the writer's shared memory; a
+  // few spare ones keep a sample a reader is still copying from being reused.
+  if (s.zero_copy) qos.resource_limits().extra_samples = 3;
+  return qos;
+}
+
+fdds::DataReaderQos reader_qos(const fdds::Subscriber& subscriber, const EdgeSettings& s) {
+  fdds::DataReaderQos qos = subscriber.get_default_datareader_qos();
+  apply_edge_settings(qos, s);
+  return qos;
+}
+
 std::shared_ptr<Domain> Domain::get(int domain_id, std::string* error) {
   static std::mutex mu;
   static std::map<int, std::weak_ptr<Domain>> domains;

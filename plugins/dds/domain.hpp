@@ -8,6 +8,8 @@
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 
@@ -23,6 +25,16 @@ struct TransportSettings {
   // UDP socket buffers; the kernel caps them at net.core.rmem_max / wmem_max.
   uint32_t udp_buffer_bytes = 4u << 20;
 };
+
+// The QoS of one edge's topic, from the bridges' parameters (or a benchmark).
+struct EdgeSettings {
+  bool reliable = false;
+  int depth = 1;  // keep-last depth; 0 keeps all
+  double deadline_ms = 0;
+  bool zero_copy = false;  // a plain type: spare samples in the writer's shared-memory ring
+};
+eprosima::fastdds::dds::DataWriterQos writer_qos(const eprosima::fastdds::dds::Publisher& publisher, const EdgeSettings& s);
+eprosima::fastdds::dds::DataReaderQos reader_qos(const eprosima::fastdds::dds::Subscriber& subscriber, const EdgeSettings& s);
 
 class Domain {
  public:

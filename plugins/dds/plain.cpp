@@ -172,6 +172,15 @@ template bool from_plain(const wp::Retina1M&, Retina&);
 
 namespace {
 
+// Orders the reads of a sample the writer's process may be rewriting.
+inline void read_fence() {
+#if defined(__SANITIZE_THREAD__)
+  std::atomic_signal_fence(std::memory_order_acquire);  // TSan has no fences; it cannot see another process anyway
+#else
+  std::atomic_thread_fence(std::memory_order_acquire);
+#endif
+}
+
 // A plain sample is never held by the bridge: the writer loans one per
 // message from the data-sharing pool, the reader loans the writer's.
 template <class M, class P>
@@ -207,9 +216,9 @@ class PlainSample final : public WireSample {
       } else {
         std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
         const int64_t frame = sample.stamp().frame_id();
-        std::atomic_thread_fence(std::memory_order_acquire);
+        read_fence();
         bool ok = from_plain(sample, *m);
-        std::atomic_thread_fence(std::memory_order_acquire);
+        read_fence();
         // The writer's pool is a ring: a writer far ahead may reuse this sample
         // while it is copied. Seen as a changed frame id: drop, never emit a torn frame.
         if (ok && sample.stamp().frame_id() == frame) {
