@@ -467,11 +467,7 @@ bool resolve_node(const NodeDecl& n, const Registry& registry, const std::string
 std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registry& registry, Diagnostics& diag) {
   const std::string& file = graph.file;
   ResolvedGraph out;
-  out.file = graph.file;
-  out.name = graph.name;
-  out.domain = graph.domain;
-  out.topic_prefix = graph.topic_prefix;
-  out.processes = graph.processes;
+  static_cast<GraphAttributes&>(out) = graph;
   std::size_t errors_before = diag.error_count();
   std::map<std::string, int> index;
   std::vector<std::string> node_names;

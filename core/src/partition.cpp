@@ -134,11 +134,7 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
     return std::nullopt;
   }
   ResolvedGraph out;
-  out.file = graph.file;
-  out.name = graph.name;
-  out.domain = graph.domain;
-  out.topic_prefix = graph.topic_prefix;
-  out.processes = graph.processes;
+  static_cast<GraphAttributes&>(out) = graph;
   auto runs_here = [&](const ResolvedNode& n) { return n.decl.process.empty() || n.decl.process == process; };
   std::vector<int> remap(graph.nodes.size(), -1);
   for (std::size_t i = 0; i < graph.nodes.size(); ++i)

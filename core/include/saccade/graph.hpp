@@ -82,12 +82,17 @@ struct ProcessDecl {
   int line = 0;
 };
 
-struct GraphDecl {
+// What a graph says about itself, beside its nodes and edges: carried
+// unchanged from the file to the resolved graph and to each process's part.
+struct GraphAttributes {
   std::string file;  // for diagnostics
   std::string name;
   int domain = 0;            // DDS domain of the graph's edges between processes
   std::string topic_prefix;  // of those edges' topics; empty: the graph's name
   std::vector<ProcessDecl> processes;
+};
+
+struct GraphDecl : GraphAttributes {
   std::vector<NodeDecl> nodes;
   std::vector<EdgeDecl> edges;
   int line = 0;
@@ -123,12 +128,7 @@ struct ResolvedNode {
 };
 
 // A graph whose every node, port, parameter and edge checked out.
-struct ResolvedGraph {
-  std::string file;
-  std::string name;
-  int domain = 0;
-  std::string topic_prefix;
-  std::vector<ProcessDecl> processes;
+struct ResolvedGraph : GraphAttributes {
   std::vector<ResolvedNode> nodes;
   std::vector<ResolvedEdge> edges;
 };
