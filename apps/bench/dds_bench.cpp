@@ -30,6 +30,7 @@
 
 #include "dds_benchPubSubTypes.h"
 #include "domain.hpp"
+#include "saccade/graph.hpp"
 #include "saccade/message.hpp"
 #include "wire.hpp"
 
@@ -122,10 +123,11 @@ struct SaccadeEnd {
     std::string error;
     domain = sd::Domain::get(o.domain, &error);
     if (!domain) throw std::runtime_error(error);
-    codec = sd::find_plain_codec(p.saccade_type, 0);  // as the partitioner does on one host
-    if (codec == nullptr) codec = sd::find_codec(p.saccade_type);
-    settings.reliable = std::string(p.saccade_type) == "JointTargets";  // the types' default QoS
-    settings.depth = settings.reliable ? 8 : 1;
+    codec = sd::choose_codec(p.saccade_type, true, 0, &error);  // as the partitioner does on one host
+    if (codec == nullptr) throw std::runtime_error(error);
+    const EdgeQos qos = default_qos(p.saccade_type);
+    settings.reliable = qos.reliable;
+    settings.depth = qos.depth;
     settings.zero_copy = codec->capacity > 0;
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) throw std::runtime_error(error);
@@ -196,14 +198,15 @@ struct BestWriter final : Writer {
   PlainParticipant p;
   fdds::DataWriter* writer = nullptr;
   std::vector<uint8_t> frame;  // the application's frame, copied into the loan
-  BestWriter(const Options& o, const PayloadKind& k, const std::string& topic, bool reliable)
+  BestWriter(const Options& o, const PayloadKind& k, const std::string& topic, const EdgeQos& edge)
       : p(o.domain, fdds::TypeSupport(new TPubSub()), topic), frame(k.bytes) {
     cv::Mat noise(1, static_cast<int>(frame.size()), CV_8UC1, frame.data());
     cv::randu(noise, 0, 256);
     fdds::DataWriterQos qos = p.publisher->get_default_datawriter_qos();
-    qos.reliability().kind = reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
+    // The same reliability and depth as the saccade edge of the payload's type.
+    qos.reliability().kind = edge.reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
     qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    qos.history().depth = reliable ? 8 : 1;
+    qos.history().depth = edge.depth;
     qos.resource_limits().extra_samples = 3;
     qos.data_sharing().automatic();
     writer = p.publisher->create_datawriter(p.topic, qos);
@@ -233,12 +236,13 @@ struct BestReader final : Reader {
   // that keeps the frame must (the writer's ring reuses the sample).
   bool copy_out = false;
   std::vector<uint8_t> kept;
-  BestReader(const Options& o, const PayloadKind& k, const std::string& topic, bool reliable, bool copy)
+  BestReader(const Options& o, const PayloadKind& k, const std::string& topic, const EdgeQos& edge, bool copy)
       : p(o.domain, fdds::TypeSupport(new TPubSub()), topic), copy_out(copy), kept(k.bytes) {
     fdds::DataReaderQos qos = p.subscriber->get_default_datareader_qos();
-    qos.reliability().kind = reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
+    // The same reliability and depth as the saccade edge of the payload's type.
+    qos.reliability().kind = edge.reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
     qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    qos.history().depth = reliable ? 8 : 1;
+    qos.history().depth = edge.depth;
     qos.data_sharing().automatic();
     reader = p.subscriber->create_datareader(p.topic, qos);
   }
@@ -316,17 +320,16 @@ std::unique_ptr<Base> make_best(std::size_t bytes, Args&&... args) {
 }
 
 std::unique_ptr<Writer> make_writer(const Options& o, const PayloadKind& k, const std::string& variant, const std::string& topic) {
-  const bool reliable = std::string(k.saccade_type) == "JointTargets";
   if (variant == "saccade") return std::make_unique<SaccadeWriter>(o, k, topic);
-  if (variant == "best" || variant == "best_copy") return make_best<Writer, BestWriter>(k.bytes, o, k, topic, reliable);
+  if (variant == "best" || variant == "best_copy")
+    return make_best<Writer, BestWriter>(k.bytes, o, k, topic, default_qos(k.saccade_type));
   return std::make_unique<DefaultWriter>(o, k, topic);
 }
 
 std::unique_ptr<Reader> make_reader(const Options& o, const PayloadKind& k, const std::string& variant, const std::string& topic) {
-  const bool reliable = std::string(k.saccade_type) == "JointTargets";
   if (variant == "saccade") return std::make_unique<SaccadeReader>(o, k, topic);
   if (variant == "best" || variant == "best_copy")
-    return make_best<Reader, BestReader>(k.bytes, o, k, topic, reliable, variant == "best_copy");
+    return make_best<Reader, BestReader>(k.bytes, o, k, topic, default_qos(k.saccade_type), variant == "best_copy");
   return std::make_unique<DefaultReader>(o, k, topic, variant == "defaults_rel");
 }
 

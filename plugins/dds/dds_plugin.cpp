@@ -46,13 +46,6 @@ Contract with_bridge_params(Contract c) {
                  "for Image, 1 MiB for Retina); the smallest plain type at least this large is used");
 }
 
-std::size_t largest_plain_capacity(std::string_view type) {
-  std::size_t largest = 0;
-  for (const auto& c : sd::plain_codecs())
-    if (c.type == type) largest = std::max(largest, c.capacity);
-  return largest;
-}
-
 const char* policy_name(fdds::QosPolicyId_t id) {
   switch (id) {
     case fdds::RELIABILITY_QOS_POLICY_ID: return "reliability";
@@ -94,19 +87,10 @@ struct TopicEnd {
     const Params& p = ctx.params();
     node = ctx.node_name();
     topic_name = p.get_string("topic");
-    const std::string type = p.get_string("type");
-    codec = sd::find_codec(type);
-    if (codec == nullptr) return Status::error("no IDL type for '" + type + "'");
-    if (p.get_bool("zero_copy")) {
-      const auto capacity = static_cast<std::size_t>(p.get_int("capacity"));
-      if (const sd::Codec* plain = sd::find_plain_codec(type, capacity); plain != nullptr) {
-        codec = plain;
-      } else if (std::size_t largest = largest_plain_capacity(type); largest > 0) {
-        return Status::error("no shared-memory form of " + type + " holds " + std::to_string(capacity) +
-                             " bytes (the largest holds " + std::to_string(largest) + ")");
-      }
-    }
     std::string error;
+    codec = sd::choose_codec(p.get_string("type"), p.get_bool("zero_copy"),
+                             static_cast<std::size_t>(p.get_int("capacity")), &error);
+    if (codec == nullptr) return Status::error(error);
     domain = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
     if (!domain) return Status::error(error);
     topic = domain->topic(topic_name, *codec, &error);

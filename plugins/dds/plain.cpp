@@ -70,26 +70,11 @@ bool unpack(const wp::MatHeader& header, const std::array<uint8_t, N>& data, uin
   return true;
 }
 
-template <class P>
-void stamp_plain(const Message& in, P& out, uint32_t flags) {
-  out.stamp().timestamp_ns(in.timestamp_ns);
-  out.stamp().origin_ns(in.origin_ns);
-  out.stamp().frame_id(in.frame_id);
-  out.stamp().flags(flags);
-}
-
-template <class P>
-void unstamp_plain(const P& in, Message& out) {
-  out.timestamp_ns = in.stamp().timestamp_ns();
-  out.origin_ns = in.stamp().origin_ns();
-  out.frame_id = in.stamp().frame_id();
-}
-
 }  // namespace
 
 template <class P>
 std::string to_plain(const Image& in, P& out) {
-  stamp_plain(in, out, 0);
+  stamp_to_wire(in, out.stamp());
   out.camera_id(in.camera_id);
   uint32_t end = 0;
   if (!pack(in.mat, out.data(), 0, out.mat(), end)) {
@@ -103,14 +88,14 @@ std::string to_plain(const Image& in, P& out) {
 
 template <class P>
 bool from_plain(const P& in, Image& out) {
-  unstamp_plain(in, out);
+  stamp_from_wire(in.stamp(), out);
   out.camera_id = in.camera_id();
   return unpack(in.mat(), in.data(), in.size(), out.mat);
 }
 
 template <class P>
 std::string to_plain(const Retina& in, P& out) {
-  stamp_plain(in, out, 0);
+  stamp_to_wire(in, out.stamp());
   out.camera_id(in.camera_id);
   out.source_width(in.source_size.width);
   out.source_height(in.source_size.height);
@@ -127,13 +112,7 @@ std::string to_plain(const Retina& in, P& out) {
     if (!pack(in.levels[i], out.data(), end, out.levels()[i], end))
       return "a retina of " + std::to_string(in.levels.size()) + " levels does not fit the edge's shared-memory capacity (" +
              mib(out.data().size()) + ")";
-    auto& g = out.geometry()[i];
-    g.area().x(in.geometry[i].region.x);
-    g.area().y(in.geometry[i].region.y);
-    g.area().width(in.geometry[i].region.width);
-    g.area().height(in.geometry[i].region.height);
-    g.step_x(in.geometry[i].step_x);
-    g.step_y(in.geometry[i].step_y);
+    geometry_to_wire(in.geometry[i], out.geometry()[i]);
   }
   out.size(end);
   return {};
@@ -141,7 +120,7 @@ std::string to_plain(const Retina& in, P& out) {
 
 template <class P>
 bool from_plain(const P& in, Retina& out) {
-  unstamp_plain(in, out);
+  stamp_from_wire(in.stamp(), out);
   out.camera_id = in.camera_id();
   out.source_size = {in.source_width(), in.source_height()};
   out.fovea = {in.fovea_x(), in.fovea_y()};
@@ -152,10 +131,7 @@ bool from_plain(const P& in, Retina& out) {
   bool ok = n == in.level_count();
   for (std::size_t i = 0; i < n; ++i) {
     ok = unpack(in.levels()[i], in.data(), in.size(), out.levels[i]) && ok;
-    const auto& g = in.geometry()[i];
-    out.geometry[i].region = {g.area().x(), g.area().y(), g.area().width(), g.area().height()};
-    out.geometry[i].step_x = g.step_x();
-    out.geometry[i].step_y = g.step_y();
+    out.geometry[i] = geometry_from_wire(in.geometry()[i]);
   }
   out.source.reset();
   return ok;

@@ -1,5 +1,6 @@
 #include "wire.hpp"
 
+#include <algorithm>
 #include <cstring>
 
 #include <fastdds/dds/publisher/DataWriter.hpp>
@@ -14,19 +15,6 @@ namespace w = saccade_idl;
 namespace wc = saccade_idl::common;
 
 namespace {
-
-void stamp_to_wire(const Message& in, wc::Stamp& out) {
-  out.timestamp_ns(in.timestamp_ns);
-  out.origin_ns(in.origin_ns);
-  out.frame_id(in.frame_id);
-  out.flags(0);
-}
-
-void stamp_from_wire(const wc::Stamp& in, Message& out) {
-  out.timestamp_ns = in.timestamp_ns();
-  out.origin_ns = in.origin_ns();
-  out.frame_id = in.frame_id();
-}
 
 wc::Point2 point_to_wire(cv::Point2d p) {
   wc::Point2 out;
@@ -128,6 +116,33 @@ const std::vector<Codec>& codecs() {
 
 }  // namespace
 
+void stamp_to_wire(const Message& in, wc::Stamp& out) {
+  out.timestamp_ns(in.timestamp_ns);
+  out.origin_ns(in.origin_ns);
+  out.frame_id(in.frame_id);
+  out.flags(0);
+}
+
+void stamp_from_wire(const wc::Stamp& in, Message& out) {
+  out.timestamp_ns = in.timestamp_ns();
+  out.origin_ns = in.origin_ns();
+  out.frame_id = in.frame_id();
+}
+
+void geometry_to_wire(const LevelGeometry& in, wc::LevelGeometry& out) {
+  out.area(rect_to_wire(in.region));
+  out.step_x(in.step_x);
+  out.step_y(in.step_y);
+}
+
+LevelGeometry geometry_from_wire(const wc::LevelGeometry& in) {
+  LevelGeometry out;
+  out.region = rect_from_wire(in.area());
+  out.step_x = in.step_x();
+  out.step_y = in.step_y();
+  return out;
+}
+
 WireSample::~WireSample() = default;
 
 const Codec* find_codec(std::string_view type) {
@@ -136,17 +151,31 @@ const Codec* find_codec(std::string_view type) {
   return nullptr;
 }
 
-std::size_t default_plain_capacity(std::string_view type) {
-  // Image: up to 1280x1024 colour (3.9 MB); larger frames name a larger capacity.
-  return type == Image::kTypeName ? 4u << 20 : 1u << 20;
-}
-
 const Codec* find_plain_codec(std::string_view type, std::size_t capacity) {
-  if (capacity == 0) capacity = default_plain_capacity(type);
+  // Image: up to 1280x1024 colour (3.9 MB) by default; larger frames name a larger capacity.
+  if (capacity == 0) capacity = type == Image::kTypeName ? 4u << 20 : 1u << 20;
   const Codec* best = nullptr;
   for (const auto& c : plain_codecs())
     if (c.type == type && c.capacity >= capacity && (best == nullptr || c.capacity < best->capacity)) best = &c;
   return best;
+}
+
+const Codec* choose_codec(std::string_view type, bool zero_copy, std::size_t capacity, std::string* error) {
+  const Codec* serialised = find_codec(type);
+  if (serialised == nullptr) {
+    if (error) *error = "no IDL type for '" + std::string(type) + "'";
+    return nullptr;
+  }
+  if (!zero_copy) return serialised;
+  if (const Codec* plain = find_plain_codec(type, capacity)) return plain;
+  std::size_t largest = 0;
+  for (const auto& c : plain_codecs())
+    if (c.type == type) largest = std::max(largest, c.capacity);
+  if (largest == 0) return serialised;  // no plain form: small types travel serialised
+  if (error)
+    *error = "no shared-memory form of " + std::string(type) + " holds " + std::to_string(capacity) +
+             " bytes (the largest holds " + std::to_string(largest) + ")";
+  return nullptr;
 }
 
 std::vector<std::string_view> codec_types() {
@@ -204,12 +233,7 @@ void to_wire(const Retina& in, w::Retina& out) {
   out.levels().resize(in.levels.size());
   for (std::size_t i = 0; i < in.levels.size(); ++i) to_wire(in.levels[i], out.levels()[i]);
   out.geometry().resize(in.geometry.size());
-  for (std::size_t i = 0; i < in.geometry.size(); ++i) {
-    auto& g = out.geometry()[i];
-    g.area(rect_to_wire(in.geometry[i].region));
-    g.step_x(in.geometry[i].step_x);
-    g.step_y(in.geometry[i].step_y);
-  }
+  for (std::size_t i = 0; i < in.geometry.size(); ++i) geometry_to_wire(in.geometry[i], out.geometry()[i]);
   out.source_width(in.source_size.width);
   out.source_height(in.source_size.height);
   out.fovea_x(in.fovea.x);
@@ -223,12 +247,7 @@ void from_wire(const w::Retina& in, Retina& out) {
   out.levels.resize(in.levels().size());
   for (std::size_t i = 0; i < in.levels().size(); ++i) from_wire(in.levels()[i], out.levels[i]);
   out.geometry.resize(in.geometry().size());
-  for (std::size_t i = 0; i < in.geometry().size(); ++i) {
-    const auto& g = in.geometry()[i];
-    out.geometry[i].region = rect_from_wire(g.area());
-    out.geometry[i].step_x = g.step_x();
-    out.geometry[i].step_y = g.step_y();
-  }
+  for (std::size_t i = 0; i < in.geometry().size(); ++i) out.geometry[i] = geometry_from_wire(in.geometry()[i]);
   out.source_size = {in.source_width(), in.source_height()};
   out.fovea = {in.fovea_x(), in.fovea_y()};
   out.sampling = in.sampling() == 1 ? Retina::Sampling::kAreaMean : Retina::Sampling::kFivePoint;

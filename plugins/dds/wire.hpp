@@ -22,6 +22,12 @@ namespace saccade::dds {
 // Stamp flags.
 inline constexpr uint32_t kEndOfStream = 1u;
 
+// The pieces every form shares: a message's stamp (flags cleared), a level's geometry.
+void stamp_to_wire(const Message& in, saccade_idl::common::Stamp& out);
+void stamp_from_wire(const saccade_idl::common::Stamp& in, Message& out);
+void geometry_to_wire(const LevelGeometry& in, saccade_idl::common::LevelGeometry& out);
+LevelGeometry geometry_from_wire(const saccade_idl::common::LevelGeometry& in);
+
 void to_wire(const cv::Mat& in, saccade_idl::common::Mat& out);
 // Reuses `out`'s buffer when its size and type already match.
 void from_wire(const saccade_idl::common::Mat& in, cv::Mat& out);
@@ -99,11 +105,14 @@ struct Codec {
 // The serialised codec of `type`; nullptr for a type without an IDL form.
 const Codec* find_codec(std::string_view type);
 // The plain codec of `type` with the smallest capacity >= `capacity` (0: the
-// type's default); nullptr when the type has none that large.
+// type's default: 4 MiB for Image, 1 MiB for Retina); nullptr when the type has
+// none that large.
 const Codec* find_plain_codec(std::string_view type, std::size_t capacity);
+// The codec an edge uses: with `zero_copy`, the plain form holding `capacity`
+// when the type has plain forms (an error naming the largest when none is that
+// large), else the serialised form. nullptr with `error` set when there is none.
+const Codec* choose_codec(std::string_view type, bool zero_copy, std::size_t capacity, std::string* error);
 std::vector<std::string_view> codec_types();
 const std::vector<Codec>& plain_codecs();
-// The capacity a type's plain form gets when the edge names none.
-std::size_t default_plain_capacity(std::string_view type);
 
 }  // namespace saccade::dds
