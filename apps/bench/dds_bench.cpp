@@ -123,15 +123,15 @@ struct SaccadeEnd {
     std::string error;
     domain = sd::Domain::get(o.domain, &error);
     if (!domain) throw std::runtime_error(error);
-    codec = sd::choose_codec(p.saccade_type, true, 0, &error);  // as the partitioner does on one host
+    codec = sd::choose_codec(p.saccade_type, {.zero_copy = true}, &error);  // as the partitioner does on one host
     if (codec == nullptr) throw std::runtime_error(error);
     const EdgeQos qos = default_qos(p.saccade_type);
     settings.reliable = qos.reliable;
     settings.depth = qos.depth;
-    settings.zero_copy = codec->capacity > 0;
+    settings.zero_copy = codec->form == sd::Codec::Form::kPlain;
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) throw std::runtime_error(error);
-    sample = codec->make_sample();
+    sample = codec->make_sample({});
   }
 };
 

@@ -88,6 +88,7 @@ std::string EdgeQos::text() const {
     out += ",capacity=" + (capacity % (1u << 20) == 0   ? std::to_string(capacity >> 20) + "M"
                            : capacity % (1u << 10) == 0 ? std::to_string(capacity >> 10) + "K"
                                                         : std::to_string(capacity));
+  if (ros2) out += ",ros2";
   return out;
 }
 
@@ -135,11 +136,12 @@ std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std
     else if (value_after("deadline_ms=", 0, 3.6e6, v)) base.deadline_ms = v;
     else if (value_after("wait_ms=", 0, 3.6e6, v)) base.wait_ms = v;
     else if (auto bytes = parse_capacity(item)) base.capacity = *bytes;
+    else if (item == "ros2") base.ros2 = true;
     else {
       if (error)
         *error = "qos: unknown item '" + item +
                  "'; expected best_effort or reliable, depth=N (1..100000) or keep_all, deadline_ms=X, wait_ms=X, "
-                 "capacity=N, NK or NM (1 byte to 1024M)";
+                 "capacity=N, NK or NM (1 byte to 1024M), ros2";
       return std::nullopt;
     }
   }

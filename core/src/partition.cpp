@@ -168,7 +168,9 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
       return other.edge->from_node != e.from_node || other.edge->from_port != e.from_port ||
              other.route != EdgeRoute::kOtherHost;
     });
-    if (one_host) {
+    if (pe.qos.ros2) {
+      decl.params.push_back({"ros2", "true", e.line});
+    } else if (one_host) {
       decl.params.push_back({"zero_copy", "true", e.line});
       decl.params.push_back({"capacity", std::to_string(pe.qos.capacity), e.line});
     }

@@ -43,7 +43,29 @@ Contract with_bridge_params(Contract c) {
                   "one host only: Image and Retina travel as plain fixed-capacity types through Fast DDS data sharing, "
                   "the writer filling loaned shared memory (both ends must agree; other types ignore it)")
       .param_int("capacity", 0, 0, 1 << 30, "zero_copy: bytes of pixel data a sample holds (0: the type's default, 4 MiB "
-                 "for Image, 1 MiB for Retina); the smallest plain type at least this large is used");
+                 "for Image, 1 MiB for Retina); the smallest plain type at least this large is used")
+      .param_bool("ros2", false,
+                  "a ROS 2 topic: the DDS topic is rt/<topic> and the type ROS 2's (Image: sensor_msgs/msg/Image, "
+                  "JointState: sensor_msgs/msg/JointState), so ROS 2 tools read it, or this node reads theirs")
+      .param_string("frame_id", "", "ros2: the header's frame_id (empty: camera_<camera id> for images)")
+      .param_string("joint_names", "neck,vergence_left,tilt_left,vergence_right,tilt_right",
+                    "ros2, JointState: the joints' names in saccade's order, comma-separated (reading: joints are "
+                    "matched by name; empty: in the message's order)");
+}
+
+sd::WireOptions wire_options(const Params& p) {
+  sd::WireOptions o;
+  o.frame_id = p.get_string("frame_id");
+  std::string names = p.get_string("joint_names");
+  for (std::size_t begin = 0; begin < names.size();) {
+    std::size_t end = std::min(names.find(',', begin), names.size());
+    std::string name = names.substr(begin, end - begin);
+    name.erase(0, name.find_first_not_of(' '));
+    name.erase(name.find_last_not_of(' ') + 1);
+    if (!name.empty()) o.joint_names.push_back(name);
+    begin = end + 1;
+  }
+  return o;
 }
 
 const char* policy_name(fdds::QosPolicyId_t id) {
@@ -63,7 +85,7 @@ sd::EdgeSettings edge_settings(const Params& p, const sd::Codec& codec) {
   s.reliable = p.get_bool("reliable");
   s.depth = static_cast<int>(p.get_int("depth"));
   s.deadline_ms = p.get_double("deadline_ms");
-  s.zero_copy = codec.capacity > 0;
+  s.zero_copy = codec.form == sd::Codec::Form::kPlain;
   return s;
 }
 
@@ -86,18 +108,20 @@ struct TopicEnd {
   Status open(const OpenContext& ctx) {
     const Params& p = ctx.params();
     node = ctx.node_name();
-    topic_name = p.get_string("topic");
     std::string error;
-    codec = sd::choose_codec(p.get_string("type"), p.get_bool("zero_copy"),
-                             static_cast<std::size_t>(p.get_int("capacity")), &error);
+    sd::CodecRequest request{.zero_copy = p.get_bool("zero_copy"),
+                             .capacity = static_cast<std::size_t>(p.get_int("capacity")),
+                             .ros2 = p.get_bool("ros2")};
+    codec = sd::choose_codec(p.get_string("type"), request, &error);
     if (codec == nullptr) return Status::error(error);
+    topic_name = request.ros2 ? sd::ros2_topic(p.get_string("topic")) : p.get_string("topic");
     domain = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
     if (!domain) return Status::error(error);
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) return Status::error(error);
-    sample = codec->make_sample();
+    sample = codec->make_sample(wire_options(p));
     log().debug("{}: topic {} of type {}{}", node, topic_name, topic->get_type_name(),
-                codec->capacity > 0 ? " (zero copy: data sharing, loaned samples)" : "");
+                codec->form == sd::Codec::Form::kPlain ? " (zero copy: data sharing, loaned samples)" : "");
     return {};
   }
 };
@@ -231,7 +255,10 @@ class Subscribe final : public Node {
         case sd::WireSample::Taken::kMessage: ctx.emit(out_, std::move(message)); return {};
         case sd::WireSample::Taken::kEnd: return Status::end_of_stream();
         case sd::WireSample::Taken::kUnreadable:
-          if (invalid_++ == 0) log().warn("{}: a sample on {} could not be read (malformed, or overwritten while read)", end_.node, end_.topic_name);
+          if (invalid_++ == 0)
+            log().warn("{}: a sample on {} could not be read: {}", end_.node, end_.topic_name,
+                       end_.sample->why_unreadable().empty() ? "malformed, or overwritten while read"
+                                                             : end_.sample->why_unreadable());
           continue;
         case sd::WireSample::Taken::kNothing: break;
       }

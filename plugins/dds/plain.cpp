@@ -215,9 +215,9 @@ class PlainSample final : public WireSample {
 
 template <class M, class P, class T>
 Codec plain_codec(std::size_t capacity) {
-  return Codec{M::kTypeName, capacity,
+  return Codec{M::kTypeName, Codec::Form::kPlain, capacity,
                +[]() -> std::unique_ptr<fdds::TopicDataType> { return std::make_unique<T>(); },
-               +[]() -> std::unique_ptr<WireSample> { return std::make_unique<PlainSample<M, P>>(); }};
+               +[](const WireOptions&) -> std::unique_ptr<WireSample> { return std::make_unique<PlainSample<M, P>>(); }};
 }
 
 }  // namespace

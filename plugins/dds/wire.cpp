@@ -93,9 +93,9 @@ class Sample final : public WireSample {
 
 template <class M, class W, class P>
 Codec codec() {
-  return Codec{M::kTypeName, 0,
+  return Codec{M::kTypeName, Codec::Form::kSerialised, 0,
                +[]() -> std::unique_ptr<eprosima::fastdds::dds::TopicDataType> { return std::make_unique<P>(); },
-               +[]() -> std::unique_ptr<WireSample> { return std::make_unique<Sample<M, W>>(); }};
+               +[](const WireOptions&) -> std::unique_ptr<WireSample> { return std::make_unique<Sample<M, W>>(); }};
 }
 
 const std::vector<Codec>& codecs() {
@@ -160,20 +160,27 @@ const Codec* find_plain_codec(std::string_view type, std::size_t capacity) {
   return best;
 }
 
-const Codec* choose_codec(std::string_view type, bool zero_copy, std::size_t capacity, std::string* error) {
+const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error) {
   const Codec* serialised = find_codec(type);
   if (serialised == nullptr) {
     if (error) *error = "no IDL type for '" + std::string(type) + "'";
     return nullptr;
   }
-  if (!zero_copy) return serialised;
-  if (const Codec* plain = find_plain_codec(type, capacity)) return plain;
+  if (request.ros2) {
+    if (const Codec* ros2 = find_ros2_codec(type)) return ros2;
+    std::string have;
+    for (const auto& c : ros2_codecs()) have += (have.empty() ? "" : ", ") + std::string(c.type);
+    if (error) *error = "ROS 2 has no message for " + std::string(type) + " (it has for " + have + ")";
+    return nullptr;
+  }
+  if (!request.zero_copy) return serialised;
+  if (const Codec* plain = find_plain_codec(type, request.capacity)) return plain;
   std::size_t largest = 0;
   for (const auto& c : plain_codecs())
     if (c.type == type) largest = std::max(largest, c.capacity);
   if (largest == 0) return serialised;  // no plain form: small types travel serialised
   if (error)
-    *error = "no shared-memory form of " + std::string(type) + " holds " + std::to_string(capacity) +
+    *error = "no shared-memory form of " + std::string(type) + " holds " + std::to_string(request.capacity) +
              " bytes (the largest holds " + std::to_string(largest) + ")";
   return nullptr;
 }

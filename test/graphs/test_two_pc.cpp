@@ -146,6 +146,34 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
   EXPECT_FALSE(parse_edge_qos("capacity=2048M", EdgeQos{}, &error));
 }
 
+TEST(TwoPcPlan, ARos2EdgeAsksBothBridgesForTheRos2FormNotZeroCopy) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_string(R"(<graph name="g">
+<process name="a" host="h1"/><process name="b" host="h1"/>
+<node name="cam" process="a" plugin="capture.synthetic"/>
+<node name="rec" process="b" plugin="util.record"/>
+<edge from="cam.image" to="rec.in" qos="ros2"/>
+</graph>)",
+                                     "ros2.xml", diag);
+  auto graph = resolve_graph(decl, testing::default_registry(), diag);
+  ASSERT_TRUE(graph) << diag.format();
+  auto plan = plan_graph(*graph, diag);
+  ASSERT_TRUE(plan) << diag.format();
+  EXPECT_EQ(plan->edges[0].qos.text(), "best_effort,depth=1,ros2");
+  for (const char* process : {"a", "b"}) {
+    auto part = partition_graph(*graph, *plan, process, testing::default_registry(), diag);
+    ASSERT_TRUE(part) << diag.format();
+    int bridges = 0;
+    for (const auto& n : part->nodes)
+      if (n.decl.plugin.rfind("dds.", 0) == 0) {
+        ++bridges;
+        EXPECT_TRUE(n.params.get_bool("ros2")) << n.decl.name;
+        EXPECT_FALSE(n.params.get_bool("zero_copy")) << n.decl.name << ": ROS 2 cannot read plain types";
+      }
+    EXPECT_EQ(bridges, 1) << process;
+  }
+}
+
 TEST(TwoPcPlan, MistakesAreReportedWithFileLineAndWhatWasExpected) {
   auto diagnose = [](const std::string& xml, const std::string& process = "") {
     Diagnostics diag;
