@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -170,6 +171,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 232));
   run->add_option("--topic-prefix", graph_overrides.topic_prefix,
                   "prefix of their DDS topics (default: the graph's topic_prefix, else its name)");
+  std::string security;
+  run->add_option("--security", security,
+                  "DDS Security: this participant's folder made by scripts/make-security.sh (sets SACCADE_DDS_SECURITY)")
+      ->check(CLI::ExistingDirectory);
 
   auto* plan = app.add_subcommand("plan", "print which node runs in which process and how each edge travels");
   plan->add_option("graph", graph_file, "graph file (XML)")->required();
@@ -216,6 +221,8 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   log().set_level(spdlog::level::from_str(common.log_level));
+  // The DDS plugin reads it when it creates the process's participant.
+  if (!security.empty()) setenv("SACCADE_DDS_SECURITY", security.c_str(), 1);
   if (train->parsed()) {
     std::string error;
     auto levels = classifier::parse_levels(train_levels, &error);

@@ -15,6 +15,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libfastrtps-dev libfastcdr-dev fastddsgen
   gstreamer1.0-tools gstreamer1.0-plugins-base
+  openssl iproute2
 )
 
 missing=()

@@ -1,6 +1,7 @@
 #include "domain.hpp"
 
 #include <cstdlib>
+#include <filesystem>
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
@@ -27,6 +28,34 @@ void apply_edge_settings(Qos& qos, const EdgeSettings& s) {
     qos.history().depth = s.depth;
   }
   if (s.deadline_ms > 0) qos.deadline().period = eprosima::fastrtps::Duration_t(s.deadline_ms / 1000.0);
+}
+
+// DDS Security from a folder made by scripts/make-security.sh: the builtin
+// PKI-DH authentication, access control and AES-GCM-GMAC plugins.
+bool add_security(fdds::DomainParticipantQos& qos, const std::string& folder, std::string* error) {
+  namespace fs = std::filesystem;
+  const std::pair<const char*, const char*> files[] = {
+      {"dds.sec.auth.builtin.PKI-DH.identity_ca", "ca.pem"},
+      {"dds.sec.auth.builtin.PKI-DH.identity_certificate", "cert.pem"},
+      {"dds.sec.auth.builtin.PKI-DH.private_key", "key.pem"},
+      {"dds.sec.access.builtin.Access-Permissions.permissions_ca", "ca.pem"},
+      {"dds.sec.access.builtin.Access-Permissions.governance", "governance.p7s"},
+      {"dds.sec.access.builtin.Access-Permissions.permissions", "permissions.p7s"},
+  };
+  auto& props = qos.properties().properties();
+  props.emplace_back("dds.sec.auth.plugin", "builtin.PKI-DH");
+  props.emplace_back("dds.sec.access.plugin", "builtin.Access-Permissions");
+  props.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+  for (const auto& [property, file] : files) {
+    const fs::path path = fs::absolute(fs::path(folder) / file);
+    if (!fs::is_regular_file(path)) {
+      if (error)
+        *error = "DDS security: " + path.string() + " is missing (make the folder with scripts/make-security.sh DIR NAME)";
+      return false;
+    }
+    props.emplace_back(property, "file://" + path.string());
+  }
+  return true;
 }
 
 }  // namespace
@@ -74,10 +103,17 @@ std::shared_ptr<Domain> Domain::get(int domain_id, std::string* error) {
     qos.transport().listen_socket_buffer_size = settings.udp_buffer_bytes;
   }
   qos.name("saccade");
+  const char* security = std::getenv("SACCADE_DDS_SECURITY");
+  if (security != nullptr && *security != '\0' && !add_security(qos, security, error)) return nullptr;
   std::shared_ptr<Domain> domain(new Domain());
   domain->participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_id), qos);
   if (domain->participant_ == nullptr) {
-    if (error) *error = "cannot create a DDS participant in domain " + std::to_string(domain_id);
+    if (error)
+      *error = "cannot create a DDS participant in domain " + std::to_string(domain_id) +
+               (security != nullptr && *security != '\0'
+                    ? std::string(" with the DDS security of ") + security +
+                          " (a certificate, key or signed document that does not check out: Fast DDS' log says which)"
+                    : std::string());
     return nullptr;
   }
   domain->publisher_ = domain->participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);

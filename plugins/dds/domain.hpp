@@ -41,7 +41,9 @@ class Domain {
   // The process's participant for `domain_id`, created at first use. With
   // FASTRTPS_DEFAULT_PROFILES_FILE set, the participant comes from that XML
   // profile unchanged (initial peers, security, ...); otherwise from
-  // TransportSettings.
+  // TransportSettings. With SACCADE_DDS_SECURITY naming a folder made by
+  // scripts/make-security.sh (saccade run --security), the participant
+  // authenticates, is access-controlled and encrypts (DDS Security).
   static std::shared_ptr<Domain> get(int domain_id, std::string* error);
   ~Domain();
   Domain(const Domain&) = delete;
