@@ -1,0 +1,94 @@
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+
+#include "domain.hpp"
+
+namespace saccade::dds {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kShm = "/dev/shm";
+
+// Every file of /dev/shm some process has mapped now (the processes this user may inspect).
+std::set<std::string> mapped_shm_files() {
+  std::set<std::string> out;
+  const std::string prefix = std::string(kShm) + "/";
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator("/proc", ec)) {
+    const std::string pid = entry.path().filename().string();
+    if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream maps(entry.path() / "maps");
+    std::string line;
+    while (std::getline(maps, line)) {
+      auto at = line.find(prefix);
+      if (at == std::string::npos) continue;
+      std::string name = line.substr(at + prefix.size());
+      if (auto deleted = name.find(" (deleted)"); deleted != std::string::npos) name.resize(deleted);
+      out.insert(name);
+    }
+  }
+  return out;
+}
+
+// Fast DDS' participant segments are held by an flock on "<segment>_el" for
+// their owner's lifetime: a lock we can take has no owner left.
+bool owner_is_gone(const std::string& lock_file) {
+  int fd = ::open(lock_file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool free = ::flock(fd, LOCK_EX | LOCK_NB) == 0;
+  ::close(fd);  // releases the lock
+  return free;
+}
+
+}  // namespace
+
+StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
+  StaleSharedMemory result;
+  static const std::regex participant_segment("fastrtps_[0-9a-f]{16}");
+  static const std::regex data_sharing_pool("fast_datasharing_[0-9a-f_.]+");
+  std::error_code ec;
+  std::set<std::string> mapped;
+  bool mapped_known = false;
+  const std::time_t now = std::time(nullptr);
+  for (const auto& entry : fs::directory_iterator(kShm, ec)) {
+    const std::string name = entry.path().filename().string();
+    const bool segment = std::regex_match(name, participant_segment);
+    const bool pool = !segment && std::regex_match(name, data_sharing_pool);
+    if (!segment && !pool) continue;
+    struct stat st {};
+    // Only this user's files, and none so young that its owner may still be setting it up.
+    if (::stat(entry.path().c_str(), &st) != 0 || st.st_uid != ::geteuid() ||
+        static_cast<double>(now - st.st_ctime) < min_age_s)
+      continue;
+    bool stale = false;
+    if (segment) {
+      stale = owner_is_gone(entry.path().string() + "_el");
+    } else {
+      // A data-sharing pool is mapped by its writer for the writer's lifetime (and by its readers).
+      if (!mapped_known) {
+        mapped = mapped_shm_files();
+        mapped_known = true;
+      }
+      stale = mapped.count(name) == 0;
+    }
+    if (!stale) continue;
+    const auto bytes = static_cast<uint64_t>(st.st_size);
+    if (!fs::remove(entry.path(), ec)) continue;
+    if (segment) fs::remove(entry.path().string() + "_el", ec);
+    result.removed.push_back(name);
+    result.bytes += bytes;
+  }
+  return result;
+}
+
+}  // namespace saccade::dds

@@ -1,0 +1,175 @@
+// Peers that die: a publisher killed with SIGKILL and started again is
+// rejoined while the reading graph keeps running and reports the gap; a
+// process stopped by SIGTERM leaves no shared memory behind; what a SIGKILL
+// leaves is found stale and removed.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <thread>
+
+#include <spdlog/sinks/ringbuffer_sink.h>
+
+#include "domain.hpp"
+#include "saccade/log.hpp"
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+// Alone on its domain: ctest runs other DDS tests at the same time.
+int private_domain() { return 100 + static_cast<int>(getpid() % 100); }
+
+pid_t start_peer(const std::string& topic, const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> args = {"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/test/graphs/peer_counter.xml",
+                                   "--set", "publish.topic=" + topic, "--set",
+                                   "publish.domain=" + std::to_string(private_domain())};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return test::spawn_saccade(args);
+}
+
+template <class Pred>
+bool wait_for(Pred done, double timeout_s) {
+  auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > give_up) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+TEST(DdsPeers, AWriterKilledAndStartedAgainIsRejoinedWhileTheReaderKeepsRunning) {
+  const std::string topic = "test_peers/" + std::to_string(getpid()) + "/images";
+  auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256);
+  saccade::log().sinks().push_back(ring);
+  testing::Recorder::instance().clear();
+  auto run = test::open_graph(R"(<graph name="reader">
+  <node name="sub" plugin="dds.subscribe">
+    <param name="topic" value=")" + topic + R"("/><param name="type" value="Image"/>
+    <param name="domain" value=")" + std::to_string(private_domain()) + R"("/>
+  </node>
+  <node name="rx" plugin="util.record"/>
+  <edge from="sub.out" to="rx.in" queue="block:16"/>
+</graph>)");
+  Status status;
+  std::thread reader([&] { status = run->run(); });
+  auto received = [] { return testing::Recorder::instance().get("rx").size(); };
+
+  pid_t first = start_peer(topic, {"--set", "camera.camera_id=1"});
+  ASSERT_GT(first, 0);
+  EXPECT_TRUE(wait_for([&] { return received() >= 20; }, 60)) << "the first writer's frames";
+  kill(first, SIGKILL);
+  EXPECT_EQ(test::wait_child(first, 10), -1) << "killed";
+  const std::size_t before_restart = received();
+  // The reader notices within the participants' lease (3 s) and says so.
+  auto reported = [&](const std::string& what) {
+    int n = 0;
+    for (const std::string& line : ring->last_formatted())
+      if (line.find("the writer of " + topic + " " + what) != std::string::npos) ++n;
+    return n;
+  };
+  EXPECT_TRUE(wait_for([&] { return reported("left; waiting for it to come back") == 1; }, 20));
+
+  pid_t second = start_peer(topic, {"--set", "camera.camera_id=2"});
+  ASSERT_GT(second, 0);
+  EXPECT_TRUE(wait_for([&] { return received() >= before_restart + 20; }, 60)) << "the second writer's frames";
+  kill(second, SIGTERM);  // a clean stop: its end of stream ends the reader's graph too
+  EXPECT_EQ(test::wait_child(second, 30), 0);
+  reader.join();
+  saccade::log().sinks().pop_back();
+  ASSERT_TRUE(status.ok()) << status.message();
+
+  // Frames of the first writer, then of the second (the camera id tells
+  // them apart), each intact: every pixel holds its frame number.
+  auto images = test::recorded<Image>("rx");
+  ASSERT_GE(images.size(), 40u);
+  std::size_t switches = 0, from_second = 0;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const Image& im = *images[i];
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(im.mat, &lo, &hi);
+    EXPECT_EQ(lo, static_cast<double>(im.frame_id % 256));
+    EXPECT_EQ(hi, lo);
+    EXPECT_TRUE(im.camera_id == 1 || im.camera_id == 2);
+    if (i > 0 && im.camera_id != images[i - 1]->camera_id) ++switches;
+    if (im.camera_id == 2) ++from_second;
+  }
+  EXPECT_EQ(images.front()->camera_id, 1);
+  EXPECT_EQ(switches, 1u);
+  EXPECT_GE(from_second, 20u);
+  EXPECT_EQ(reported("joined"), 2);
+}
+
+// This process's view of /dev/shm files process `pid` maps, DDS' own only
+// (participant segments and data-sharing pools; port files are shared by design).
+std::set<std::string> dds_files_mapped_by(pid_t pid) {
+  static const std::regex own("fastrtps_[0-9a-f]{16}|fast_datasharing_.*");
+  std::set<std::string> out;
+  std::ifstream maps("/proc/" + std::to_string(pid) + "/maps");
+  std::string line;
+  while (std::getline(maps, line)) {
+    auto at = line.find("/dev/shm/");
+    if (at == std::string::npos) continue;
+    std::string name = line.substr(at + 9);
+    if (std::regex_match(name, own)) out.insert(name);
+  }
+  return out;
+}
+
+bool exists_in_shm(const std::string& name) { return access(("/dev/shm/" + name).c_str(), F_OK) == 0; }
+
+// A lone publisher with a zero-copy edge: its participant segment and its data-sharing pool.
+std::set<std::string> start_lone_peer(pid_t& pid) {
+  pid = start_peer("test_peers/" + std::to_string(getpid()) + "/lone",
+                   {"--set", "publish.zero_copy=true", "--set", "publish.capacity=65536"});
+  std::set<std::string> files;
+  wait_for(
+      [&] {
+        files = dds_files_mapped_by(pid);
+        return std::any_of(files.begin(), files.end(), [](auto& f) { return f.rfind("fastrtps_", 0) == 0; }) &&
+               std::any_of(files.begin(), files.end(), [](auto& f) { return f.rfind("fast_datasharing_", 0) == 0; });
+      },
+      30);
+  return files;
+}
+
+TEST(DdsSharedMemory, ACleanStopBySigtermLeavesNothingBehind) {
+  pid_t pid = -1;
+  std::set<std::string> files = start_lone_peer(pid);
+  ASSERT_GE(files.size(), 2u) << "a participant segment and a data-sharing pool";
+  kill(pid, SIGTERM);
+  ASSERT_EQ(test::wait_child(pid, 30), 0);
+  for (const auto& f : files) EXPECT_FALSE(exists_in_shm(f)) << f;
+}
+
+TEST(DdsSharedMemory, WhatAKilledProcessLeftIsRemovedAsStale) {
+  pid_t pid = -1;
+  std::set<std::string> files = start_lone_peer(pid);
+  ASSERT_GE(files.size(), 2u);
+  kill(pid, SIGKILL);
+  test::wait_child(pid, 10);
+  for (const auto& f : files) EXPECT_TRUE(exists_in_shm(f)) << f << ": a SIGKILL leaves it";
+
+  // A live participant's files are never stale, however old.
+  pid_t live = -1;
+  std::set<std::string> live_files = start_lone_peer(live);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  dds::StaleSharedMemory stale = dds::remove_stale_shared_memory(1.0);
+  for (const auto& f : files) {
+    EXPECT_FALSE(exists_in_shm(f)) << f;
+    EXPECT_NE(std::find(stale.removed.begin(), stale.removed.end(), f), stale.removed.end()) << f;
+  }
+  for (const auto& f : live_files) EXPECT_TRUE(exists_in_shm(f)) << f << " belongs to a live process";
+  EXPECT_GT(stale.bytes, 0u);
+  kill(live, SIGTERM);
+  EXPECT_EQ(test::wait_child(live, 30), 0);
+}
+
+}  // namespace
+}  // namespace saccade
