@@ -47,6 +47,7 @@ const char* to_string(JointState::Health health) {
 }
 FoveaState::~FoveaState() = default;
 Classification::~Classification() = default;
+CanFrames::~CanFrames() = default;
 
 const char* to_string(Classification::Outcome outcome) {
   switch (outcome) {

@@ -2,7 +2,9 @@
 // targets in, joint state out, one control cycle per call, SYNC producer and
 // so the control loop's clock) and `can.drives` (simulated CiA 402 drives on
 // a bus: run in the same graph, or alone in a graph of their own on the
-// robot-PC end of a UDP tunnel).
+// robot-PC end of a UDP tunnel), and `can.tap` / `can.send`: a bus's frames
+// as CanFrames messages, to watch or bridge a bus from another process or PC.
+#include <algorithm>
 #include <sstream>
 
 #include "cannelloni.hpp"
@@ -292,6 +294,128 @@ class Drives final : public Node {
   std::size_t fault_joint_ = 0;
 };
 
+// A bus frame as the CanFrames message carries it (the kernel's can_id and FD flags), and back.
+CanFrames::Frame to_message(const can::Frame& f) {
+  CanFrames::Frame m;
+  m.can_id = f.raw_id();
+  m.length = std::min<uint8_t>(f.length, f.fd ? 64 : 8);
+  m.flags = static_cast<uint8_t>((f.fd ? CanFrames::kFd : 0) | (f.fd_flags & 0x03));
+  std::copy_n(f.data.begin(), m.length, m.data.begin());
+  m.timestamp_ns = f.timestamp_ns;
+  return m;
+}
+
+can::Frame from_message(const CanFrames::Frame& m) {
+  can::Frame f = can::Frame::from_raw_id(m.can_id);
+  f.fd = (m.flags & CanFrames::kFd) != 0;
+  f.fd_flags = static_cast<uint8_t>(m.flags & 0x03);
+  f.length = std::min<uint8_t>(m.length, f.fd ? 64 : 8);
+  std::copy_n(m.data.begin(), f.length, f.data.begin());
+  f.timestamp_ns = m.timestamp_ns;
+  return f;
+}
+
+class Tap final : public Node {
+ public:
+  static constexpr const char* kName = "tap";
+  static Contract contract() {
+    return Contract("Every frame a bus delivers, as CanFrames messages of one batch per period (a source, like "
+                    "candump): to watch the head's bus from another process or PC, or to bridge it (with can.send).")
+        .output<CanFrames>("frames", "the frames of one period, in arrival order (periods without frames emit nothing)")
+        .param_string("bus", "virtual:head",
+                      "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME")
+        .param_double("period_ms", 10.0, 0.1, 60000.0, "batch period")
+        .param_int("max_frames", 1000, 1, 1000000, "a batch ends early when it holds this many frames")
+        .param_bool("errors", false, "also deliver error frames (all error classes)")
+        .param_double("duration", 0.0, 0.0, 1e7, "end the stream after this many seconds (0: never)");
+  }
+  Status open(OpenContext& ctx) override {
+    out_ = ctx.output<CanFrames>("frames");
+    const Params& p = ctx.params();
+    std::string error;
+    spec_ = p.get_string("bus");
+    bus_ = can::open_bus(spec_, error);
+    if (!bus_) return Status::error(error);
+    if (p.get_bool("errors")) {
+      can::FilterSet filters;
+      filters.error_mask = can::error_class::kAll;
+      bus_->set_filters(filters);
+    }
+    period_ns_ = static_cast<int64_t>(p.get_double("period_ms") * 1e6);
+    max_frames_ = static_cast<std::size_t>(p.get_int("max_frames"));
+    const double duration = p.get_double("duration");
+    end_ns_ = duration > 0 ? steady_now_ns() + static_cast<int64_t>(duration * 1e9) : 0;
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    for (;;) {
+      const int64_t start = steady_now_ns();
+      if ((end_ns_ > 0 && start >= end_ns_) || ctx.stop_requested()) return Status::end_of_stream();
+      const int64_t until = end_ns_ > 0 ? std::min(start + period_ns_, end_ns_) : start + period_ns_;
+      auto batch = ctx.make(out_);
+      batch->frames.clear();
+      batch->bus = spec_;
+      can::Frame f;
+      for (int64_t now = start; now < until && batch->frames.size() < max_frames_; now = steady_now_ns())
+        if (bus_->receive(f, until - now)) batch->frames.push_back(to_message(f));
+      if (batch->frames.empty()) continue;
+      batch->timestamp_ns = batch->frames.front().timestamp_ns;
+      batch->origin_ns = start;
+      batch->frame_id = batches_++;
+      ctx.emit(out_, std::move(batch));
+      return {};
+    }
+  }
+
+ private:
+  OutputHandle<CanFrames> out_;
+  std::unique_ptr<can::Bus> bus_;
+  std::string spec_;
+  int64_t period_ns_ = 0, end_ns_ = 0, batches_ = 0;
+  std::size_t max_frames_ = 0;
+};
+
+class Send final : public Node {
+ public:
+  static constexpr const char* kName = "send";
+  static Contract contract() {
+    return Contract("Sends every frame of its CanFrames input onto a bus, in order (a sink, like cansend): with "
+                    "can.tap at the other end, a bus bridged across processes or PCs. Error frames are not sent.")
+        .input<CanFrames>("frames", "the frames to send")
+        .param_string("bus", "virtual:head",
+                      "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME");
+  }
+  Status open(OpenContext& ctx) override {
+    in_ = ctx.input<CanFrames>("frames");
+    std::string error;
+    bus_ = can::open_bus(ctx.params().get_string("bus"), error);
+    if (!bus_) return Status::error(error);
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    for (const CanFrames::Frame& m : ctx.get(in_)->frames) {
+      const can::Frame f = from_message(m);
+      if (f.error) {
+        ++skipped_;
+        continue;
+      }
+      if (!bus_->send(f)) ++failed_;
+    }
+    bus_->flush();
+    return {};
+  }
+  void close() override {
+    if (failed_ > 0 || skipped_ > 0)
+      log().warn("{}: {} frames could not be sent, {} error frames not sent", bus_ ? bus_->describe() : "", failed_,
+                 skipped_);
+  }
+
+ private:
+  InputHandle<CanFrames> in_;
+  std::unique_ptr<can::Bus> bus_;
+  uint64_t failed_ = 0, skipped_ = 0;
+};
+
 }  // namespace
 
-SACCADE_PLUGIN("can", Driver, Drives)
+SACCADE_PLUGIN("can", Driver, Drives, Tap, Send)

@@ -110,6 +110,7 @@ const std::vector<Codec>& codecs() {
       codec<JointTargets, w::JointTargets, w::JointTargetsPubSubType>(),
       codec<FoveaState, w::FoveaState, w::FoveaStatePubSubType>(),
       codec<Classification, w::Classification, w::ClassificationPubSubType>(),
+      codec<CanFrames, w::CanFrames, w::CanFramesPubSubType>(),
   };
   return all;
 }
@@ -466,6 +467,38 @@ void from_wire(const w::Classification& in, Classification& out) {
     out.classes = std::make_shared<const std::vector<std::string>>(in.classes());
   out.region = rect_from_wire(in.area());
   out.camera_id = in.camera_id();
+}
+
+void to_wire(const CanFrames& in, w::CanFrames& out) {
+  stamp_to_wire(in, out.stamp());
+  out.frames().resize(in.frames.size());
+  for (std::size_t i = 0; i < in.frames.size(); ++i) {
+    const CanFrames::Frame& f = in.frames[i];
+    w::CanFrame& o = out.frames()[i];
+    o.can_id(f.can_id);
+    o.length(f.length);
+    o.flags(f.flags);
+    o.data().assign(f.data.begin(), f.data.begin() + std::min<std::size_t>(f.length, f.data.size()));
+    o.timestamp_ns(f.timestamp_ns);
+  }
+  out.bus(in.bus);
+}
+
+void from_wire(const w::CanFrames& in, CanFrames& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.frames.resize(in.frames().size());
+  for (std::size_t i = 0; i < in.frames().size(); ++i) {
+    const w::CanFrame& f = in.frames()[i];
+    CanFrames::Frame& o = out.frames[i];
+    o.can_id = f.can_id();
+    o.flags = f.flags();
+    const std::size_t n = std::min(f.data().size(), o.data.size());
+    o.length = static_cast<uint8_t>(n);  // what arrived, whatever the length field claims
+    o.data.fill(0);
+    std::copy_n(f.data().begin(), n, o.data.begin());
+    o.timestamp_ns = f.timestamp_ns();
+  }
+  out.bus = in.bus();
 }
 
 }  // namespace saccade::dds

@@ -54,6 +54,8 @@ void to_wire(const FoveaState& in, saccade_idl::FoveaState& out);
 void from_wire(const saccade_idl::FoveaState& in, FoveaState& out);
 void to_wire(const Classification& in, saccade_idl::Classification& out);
 void from_wire(const saccade_idl::Classification& in, Classification& out);
+void to_wire(const CanFrames& in, saccade_idl::CanFrames& out);
+void from_wire(const saccade_idl::CanFrames& in, CanFrames& out);
 
 // The shared-memory (plain, fixed-capacity) forms of the camera-rate types:
 // an empty string on success, else why the message does not fit. from_plain

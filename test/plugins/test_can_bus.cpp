@@ -339,5 +339,53 @@ TEST(SocketCan, AMissingInterfaceOrKernelSupportIsAClearError) {
   EXPECT_NE(error.find("expected an interface name"), std::string::npos) << error;
 }
 
+// can.send puts a CanFrames message's frames on a bus; can.tap, on another
+// port of that bus, hands them back as one batch: standard, extended, remote
+// and FD frames keep their ids, flags and bytes.
+TEST(CanNodes, FramesSentByCanSendComeBackFromCanTap) {
+  const std::string bus = "virtual:tap_test_" + std::to_string(getpid());
+  std::string error;
+  auto tap = testing::NodeHarness::create("<node plugin=\"can.tap\"><param name=\"bus\" value=\"" + bus +
+                                              "\"/><param name=\"period_ms\" value=\"50\"/></node>",
+                                          &error);
+  ASSERT_NE(tap, nullptr) << error;
+  auto send = testing::NodeHarness::create(
+      "<node plugin=\"can.send\"><param name=\"bus\" value=\"" + bus + "\"/></node>", &error);
+  ASSERT_NE(send, nullptr) << error;
+
+  auto out = std::make_shared<CanFrames>();
+  CanFrames::Frame sdo;
+  sdo.can_id = 0x601;
+  sdo.length = 8;
+  sdo.data = {0x40, 0x64, 0x60, 0x00};
+  CanFrames::Frame extended;
+  extended.can_id = 0x1234567 | CanFrames::kExtended;
+  extended.length = 3;
+  extended.data = {1, 2, 3};
+  CanFrames::Frame remote;
+  remote.can_id = 0x701 | CanFrames::kRemote;
+  CanFrames::Frame fd;
+  fd.can_id = 0x181;
+  fd.flags = CanFrames::kFd | CanFrames::kBitRateSwitch;
+  fd.length = 64;
+  for (int i = 0; i < 64; ++i) fd.data[static_cast<std::size_t>(i)] = static_cast<uint8_t>(i * 3);
+  CanFrames::Frame error_frame;
+  error_frame.can_id = 0x040 | CanFrames::kError;  // not sent: only controllers make error frames
+  out->frames = {sdo, extended, remote, fd, error_frame};
+  send->set("frames", out);
+  ASSERT_TRUE(send->process().ok());
+
+  ASSERT_TRUE(tap->process().ok());
+  auto batch = tap->last<CanFrames>("frames");
+  ASSERT_NE(batch, nullptr);
+  EXPECT_EQ(batch->bus, bus);
+  ASSERT_EQ(batch->frames.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    CanFrames::Frame got = batch->frames[i];
+    got.timestamp_ns = 0;
+    EXPECT_EQ(got, out->frames[i]) << "frame " << i;
+  }
+}
+
 }  // namespace
 }  // namespace saccade::can

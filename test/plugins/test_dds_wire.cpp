@@ -293,9 +293,30 @@ TEST(DdsWire, FoveaStateAndClassificationRoundTrip) {
   EXPECT_EQ(c2.classes, names);
 }
 
+TEST(DdsWire, CanFramesRoundTripWithIdsFlagsAndBytes) {
+  CanFrames in, out;
+  stamp(in, 3);
+  in.bus = "socketcan:can0";
+  CanFrames::Frame a;
+  a.can_id = 0x1ABCDEF | CanFrames::kExtended;
+  a.length = 5;
+  a.data = {9, 8, 7, 6, 5};
+  a.timestamp_ns = 123456789;
+  CanFrames::Frame fd;
+  fd.can_id = 0x181;
+  fd.flags = CanFrames::kFd | CanFrames::kErrorStateIndicator;
+  fd.length = 64;
+  for (int i = 0; i < 64; ++i) fd.data[static_cast<std::size_t>(i)] = static_cast<uint8_t>(255 - i);
+  in.frames = {a, fd, CanFrames::Frame{}};
+  round_trip<CanFrames, saccade_idl::CanFrames, saccade_idl::CanFramesPubSubType>(in, out);
+  expect_same_stamp(in, out);
+  EXPECT_EQ(out.bus, in.bus);
+  EXPECT_EQ(out.frames, in.frames);
+}
+
 TEST(DdsWire, EveryMessageTypeHasACodec) {
   for (auto type : {"Image", "Retina", "FeatureMaps", "Motion", "Region", "GazeRequest", "JointState", "JointTargets",
-                    "FoveaState", "Classification"}) {
+                    "FoveaState", "Classification", "CanFrames"}) {
     const dds::Codec* codec = dds::find_codec(type);
     ASSERT_NE(codec, nullptr) << type;
     EXPECT_EQ(codec->type, type);

@@ -1,6 +1,7 @@
 #pragma once
 // Messages travel between nodes as std::shared_ptr<const T>: immutable once emitted,
 // shared across fan-out by reference count, never copied.
+#include <array>
 #include <cstdint>
 #include <initializer_list>
 #include <iterator>
@@ -277,5 +278,26 @@ struct Classification final : Message {
 };
 
 const char* to_string(Classification::Outcome outcome);
+
+// CAN frames as they crossed a bus, in the kernel's encoding: for watching a
+// bus from another process or PC, or bridging one across them (can.tap,
+// can.send).
+struct CanFrames final : Message {
+  static constexpr std::string_view kTypeName = "CanFrames";
+  std::string_view type_name() const override { return kTypeName; }
+  ~CanFrames() override;
+  static constexpr uint32_t kExtended = 0x80000000U, kRemote = 0x40000000U, kError = 0x20000000U;  // in can_id
+  static constexpr uint8_t kFd = 0x80, kBitRateSwitch = 0x01, kErrorStateIndicator = 0x02;        // in flags
+  struct Frame {
+    uint32_t can_id = 0;  // 11- or 29-bit id with kExtended / kRemote / kError, as linux/can.h
+    uint8_t length = 0;   // data bytes: 0..8, 0..64 with kFd
+    uint8_t flags = 0;
+    std::array<uint8_t, 64> data{};
+    int64_t timestamp_ns = 0;  // when the bus delivered it (the bus's clock)
+    bool operator==(const Frame&) const = default;
+  };
+  std::vector<Frame> frames;
+  std::string bus;  // where they were seen, e.g. "socketcan:can0"
+};
 
 }  // namespace saccade
