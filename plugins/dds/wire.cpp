@@ -56,9 +56,15 @@ void retina_to_wire(const std::shared_ptr<const Retina>& in, std::vector<w::Reti
   if (in) to_wire(*in, out[0]);
 }
 
-std::shared_ptr<const Retina> retina_from_wire(const std::vector<w::Retina>& in) {
+// `spare`, when given, is the reader's retina of an earlier message: refilled
+// in place once no message holds it any more, so a reader allocates none in
+// steady state (its levels keep their buffers too).
+std::shared_ptr<const Retina> retina_from_wire(const std::vector<w::Retina>& in, std::shared_ptr<Retina>* spare) {
   if (in.empty()) return nullptr;
-  auto retina = std::make_shared<Retina>();
+  std::shared_ptr<Retina> retina;
+  if (spare != nullptr && *spare && spare->use_count() == 1) retina = *spare;
+  else retina = std::make_shared<Retina>();
+  if (spare != nullptr) *spare = retina;
   from_wire(in[0], *retina);
   return retina;
 }
@@ -82,13 +88,15 @@ class Sample final : public WireSample {
     if (!info.valid_data) return Taken::kUnreadable;
     if (wire_.stamp().flags() & kEndOfStream) return Taken::kEnd;
     std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
-    from_wire(wire_, *m);
+    if constexpr (requires { from_wire(wire_, *m, &spare_retina_); }) from_wire(wire_, *m, &spare_retina_);
+    else from_wire(wire_, *m);
     slot = std::move(m);
     return Taken::kMessage;
   }
 
  private:
   W wire_;
+  std::shared_ptr<Retina> spare_retina_;
 };
 
 template <class M, class W, class P>
@@ -275,7 +283,7 @@ void to_wire(const FeatureMaps& in, w::FeatureMaps& out) {
   retina_to_wire(in.retina, out.source_retina());
 }
 
-void from_wire(const w::FeatureMaps& in, FeatureMaps& out) {
+void from_wire(const w::FeatureMaps& in, FeatureMaps& out, std::shared_ptr<Retina>* spare) {
   stamp_from_wire(in.stamp(), out);
   const auto& features = in.features();
   out.names.resize(features.size());
@@ -285,7 +293,7 @@ void from_wire(const w::FeatureMaps& in, FeatureMaps& out) {
     out.maps[f].resize(features[f].levels().size());
     for (std::size_t l = 0; l < features[f].levels().size(); ++l) from_wire(features[f].levels()[l], out.maps[f][l]);
   }
-  out.retina = retina_from_wire(in.source_retina());
+  out.retina = retina_from_wire(in.source_retina(), spare);
 }
 
 void to_wire(const Motion& in, w::Motion& out) {
@@ -424,7 +432,7 @@ void to_wire(const FoveaState& in, w::FoveaState& out) {
   retina_to_wire(in.retina, out.source_retina());
 }
 
-void from_wire(const w::FoveaState& in, FoveaState& out) {
+void from_wire(const w::FoveaState& in, FoveaState& out, std::shared_ptr<Retina>* spare) {
   stamp_from_wire(in.stamp(), out);
   out.state = in.state() <= static_cast<uint8_t>(FoveaState::State::kLost) ? static_cast<FoveaState::State>(in.state())
                                                                            : FoveaState::State::kLost;
@@ -439,7 +447,7 @@ void from_wire(const w::FoveaState& in, FoveaState& out) {
   out.gaze_requests = in.gaze_requests();
   out.frames_lost = in.frames_lost();
   out.camera_id = in.camera_id();
-  out.retina = retina_from_wire(in.source_retina());
+  out.retina = retina_from_wire(in.source_retina(), spare);
 }
 
 void to_wire(const Classification& in, w::Classification& out) {

@@ -39,7 +39,8 @@ void from_wire(const saccade_idl::Image& in, Image& out);
 void to_wire(const Retina& in, saccade_idl::Retina& out);
 void from_wire(const saccade_idl::Retina& in, Retina& out);
 void to_wire(const FeatureMaps& in, saccade_idl::FeatureMaps& out);
-void from_wire(const saccade_idl::FeatureMaps& in, FeatureMaps& out);
+// `spare`: see retina reuse in wire.cpp; a reader passes the same one every time.
+void from_wire(const saccade_idl::FeatureMaps& in, FeatureMaps& out, std::shared_ptr<Retina>* spare = nullptr);
 void to_wire(const Motion& in, saccade_idl::Motion& out);
 void from_wire(const saccade_idl::Motion& in, Motion& out);
 void to_wire(const Region& in, saccade_idl::Region& out);
@@ -51,7 +52,7 @@ void from_wire(const saccade_idl::JointState& in, JointState& out);
 void to_wire(const JointTargets& in, saccade_idl::JointTargets& out);
 void from_wire(const saccade_idl::JointTargets& in, JointTargets& out);
 void to_wire(const FoveaState& in, saccade_idl::FoveaState& out);
-void from_wire(const saccade_idl::FoveaState& in, FoveaState& out);
+void from_wire(const saccade_idl::FoveaState& in, FoveaState& out, std::shared_ptr<Retina>* spare = nullptr);
 void to_wire(const Classification& in, saccade_idl::Classification& out);
 void from_wire(const saccade_idl::Classification& in, Classification& out);
 void to_wire(const CanFrames& in, saccade_idl::CanFrames& out);

@@ -136,6 +136,30 @@ TEST(DdsWire, FeatureMapsKeepNamesLevelsAndTheirRetina) {
   EXPECT_EQ(out.retina, nullptr);
 }
 
+// A reader refills the retina of an earlier message once no message holds it:
+// no allocation per message in steady state, never a retina someone still reads.
+TEST(DdsWire, AReaderReusesAReleasedRetinaAndNeverOneStillHeld) {
+  saccade_idl::FeatureMaps wire;
+  FeatureMaps in;
+  in.retina = std::make_shared<Retina>(make_retina());
+  dds::to_wire(in, wire);
+  std::shared_ptr<Retina> spare;
+  FeatureMaps first, second, third;
+  dds::from_wire(wire, first, &spare);
+  ASSERT_NE(first.retina, nullptr);
+  const Retina* held = first.retina.get();
+  dds::from_wire(wire, second, &spare);
+  EXPECT_NE(second.retina.get(), held) << "the first message still holds its retina";
+  expect_same_retina(*first.retina, *in.retina);
+  const Retina* second_retina = second.retina.get();
+  first.retina.reset();
+  second.retina.reset();  // both released: the spare (the second) is free again
+  dds::from_wire(wire, third, &spare);
+  EXPECT_EQ(third.retina.get(), second_retina);
+  EXPECT_EQ(spare.get(), third.retina.get()) << "the reader keeps it for the next message";
+  expect_same_retina(*third.retina, *in.retina);
+}
+
 TEST(DdsWire, MotionRegionAndGazeRequestRoundTrip) {
   Motion m, m2;
   stamp(m, 3);
