@@ -162,6 +162,8 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
                    {"depth", std::to_string(pe.qos.depth), e.line},
                    {"deadline_ms", text::format_number(pe.qos.deadline_ms), e.line}};
     if (publish) decl.params.push_back({"wait_ms", text::format_number(pe.qos.wait_ms), e.line});
+    // Steady clocks are per host: across hosts, latency counts from arrival.
+    if (!publish && pe.route == EdgeRoute::kOtherHost) decl.params.push_back({"same_clock", "false", e.line});
     // Zero copy needs every reader of the topic on the writer's host; one
     // elsewhere gets the serialised type over UDP, so all of them do.
     const bool one_host = std::all_of(plan.edges.begin(), plan.edges.end(), [&](const PlannedEdge& other) {

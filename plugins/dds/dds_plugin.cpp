@@ -241,7 +241,10 @@ class Subscribe final : public Node {
         Contract("Emits every message that arrives on a DDS topic (the consumer's end of an edge between processes); "
                  "a source. Ends when the writer sends its end of stream; a writer that vanishes without one (a "
                  "crash) is waited for and rejoined when it comes back.")
-            .output<Message>("out", "messages of the topic's type"));
+            .output<Message>("out", "messages of the topic's type"))
+        .param_bool("same_clock", true,
+                    "the writer runs on this host: keep its steady-clock origin, so latency counts from the capture "
+                    "in the writer's process; false (another host, another clock): latency counts from arrival here");
   }
 
   Status open(OpenContext& ctx) override {
@@ -251,6 +254,7 @@ class Subscribe final : public Node {
     fdds::Topic* topic = end_.topic;
     fdds::DataReaderQos qos = sd::reader_qos(*end_.domain->subscriber(), edge_settings(p, *end_.codec));
     listener_.owner = this;
+    same_clock_ = p.get_bool("same_clock");
     reader_ = end_.domain->subscriber()->create_datareader(topic, qos, &listener_, fdds::StatusMask::all());
     if (reader_ == nullptr) return Status::error("cannot create a DDS reader on " + end_.topic_name);
     return {};
@@ -260,7 +264,11 @@ class Subscribe final : public Node {
     while (!ctx.stop_requested()) {
       MessagePtr message;
       switch (end_.sample->take(*reader_, &ctx, out_.index, message)) {
-        case sd::WireSample::Taken::kMessage: ctx.emit(out_, std::move(message)); return {};
+        case sd::WireSample::Taken::kMessage:
+          // Not yet shared with anyone: this node made it.
+          if (!same_clock_) std::const_pointer_cast<Message>(message)->origin_ns = steady_now_ns();
+          ctx.emit(out_, std::move(message));
+          return {};
         case sd::WireSample::Taken::kEnd: return Status::end_of_stream();
         case sd::WireSample::Taken::kUnreadable:
           if (invalid_++ == 0)
@@ -315,6 +323,7 @@ class Subscribe final : public Node {
   TopicEnd end_;
   fdds::DataReader* reader_ = nullptr;
   Listener listener_;
+  bool same_clock_ = true;
   uint64_t invalid_ = 0;
 };
 

@@ -171,5 +171,41 @@ TEST(DdsSharedMemory, WhatAKilledProcessLeftIsRemovedAsStale) {
   EXPECT_EQ(test::wait_child(live, 30), 0);
 }
 
+// Steady clocks are per host: a reader on another host (same_clock=false, as
+// the partitioner sets it) counts latency from arrival, not from an origin on
+// a clock it does not share.
+TEST(DdsPeers, AReaderOnAnotherClockCountsLatencyFromArrival) {
+  for (bool same_clock : {true, false}) {
+    const std::string topic = "test_peers/" + std::to_string(getpid()) + "/clock" + (same_clock ? "1" : "0");
+    std::string error;
+    auto sub = testing::NodeHarness::create(
+        "<node plugin=\"dds.subscribe\"><param name=\"topic\" value=\"" + topic +
+            "\"/><param name=\"type\" value=\"Image\"/><param name=\"reliable\" value=\"true\"/>"
+            "<param name=\"same_clock\" value=\"" + (same_clock ? "true" : "false") + "\"/></node>",
+        &error);
+    ASSERT_NE(sub, nullptr) << error;
+    auto pub = testing::NodeHarness::create(
+        "<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + topic +
+            "\"/><param name=\"type\" value=\"Image\"/><param name=\"reliable\" value=\"true\"/>"
+            "<param name=\"wait_ms\" value=\"20000\"/></node>",
+        &error);
+    ASSERT_NE(pub, nullptr) << error;
+    auto image = std::make_shared<Image>();
+    image->mat = cv::Mat(4, 4, CV_8UC1, cv::Scalar(7));
+    image->origin_ns = 12345;  // another host's steady clock
+    pub->set("in", image);
+    const int64_t before = steady_now_ns();
+    ASSERT_TRUE(pub->process().ok());
+    ASSERT_TRUE(sub->process().ok());
+    auto got = sub->last<Image>("out");
+    ASSERT_NE(got, nullptr);
+    if (same_clock) {
+      EXPECT_EQ(got->origin_ns, 12345);
+    } else {
+      EXPECT_GE(got->origin_ns, before);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace saccade

@@ -134,6 +134,14 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
   for (const auto& n : c->nodes) {
     if (n.decl.plugin == "dds.subscribe") {
       EXPECT_FALSE(n.params.get_bool("zero_copy")) << n.decl.name;
+      EXPECT_FALSE(n.params.get_bool("same_clock")) << n.decl.name << ": another host's steady clock";
+    }
+  }
+  auto b = partition_graph(*graph, *plan, "b", testing::default_registry(), diag);
+  ASSERT_TRUE(b) << diag.format();
+  for (const auto& n : b->nodes) {
+    if (n.decl.plugin == "dds.subscribe") {
+      EXPECT_TRUE(n.params.get_bool("same_clock")) << n.decl.name;
     }
   }
 
