@@ -150,6 +150,9 @@ class Publish final : public Node {
     auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(p.get_double("wait_ms"));
     while (listener_.events.matched.load() == 0 && std::chrono::steady_clock::now() < give_up)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (p.get_double("wait_ms") > 0 && listener_.events.matched.load() == 0)
+      log().warn("{}: no reader of {} after {} ms (is the other process running, on domain {}?); writing anyway",
+                 end_.node, end_.topic_name, p.get_double("wait_ms"), p.get_int("domain"));
     return {};
   }
 
@@ -242,6 +245,8 @@ class Subscribe final : public Node {
                  "a source. Ends when the writer sends its end of stream; a writer that vanishes without one (a "
                  "crash) is waited for and rejoined when it comes back.")
             .output<Message>("out", "messages of the topic's type"))
+        .param_double("missing_peer_ms", 5000, 0, 3.6e6,
+                      "report once when no writer has joined this long after start (0: never)")
         .param_bool("same_clock", true,
                     "the writer runs on this host: keep its steady-clock origin, so latency counts from the capture "
                     "in the writer's process; false (another host, another clock): latency counts from arrival here");
@@ -255,6 +260,9 @@ class Subscribe final : public Node {
     fdds::DataReaderQos qos = sd::reader_qos(*end_.domain->subscriber(), edge_settings(p, *end_.codec));
     listener_.owner = this;
     same_clock_ = p.get_bool("same_clock");
+    const double missing_ms = p.get_double("missing_peer_ms");
+    missing_peer_at_ = missing_ms > 0 ? steady_now_ns() + static_cast<int64_t>(missing_ms * 1e6) : 0;
+    domain_id_ = static_cast<int>(p.get_int("domain"));
     reader_ = end_.domain->subscriber()->create_datareader(topic, qos, &listener_, fdds::StatusMask::all());
     if (reader_ == nullptr) return Status::error("cannot create a DDS reader on " + end_.topic_name);
     return {};
@@ -278,6 +286,13 @@ class Subscribe final : public Node {
           continue;
         case sd::WireSample::Taken::kNothing: break;
       }
+      if (missing_peer_at_ > 0 && steady_now_ns() > missing_peer_at_) {
+        missing_peer_at_ = 0;
+        if (listener_.events.matched.load() == 0 && !listener_.ever_matched.load())
+          log().warn("{}: no writer of {} has joined yet (is the other process running, on domain {}, with the same "
+                     "topic prefix?)",
+                     end_.node, end_.topic_name, domain_id_);
+      }
       reader_->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, 50'000'000));
     }
     return {};
@@ -299,15 +314,21 @@ class Subscribe final : public Node {
   struct Listener final : fdds::DataReaderListener {
     Subscribe* owner = nullptr;
     PeerEvents events;
+    std::atomic<bool> ever_matched{false};
     void on_subscription_matched(fdds::DataReader*, const fdds::SubscriptionMatchedStatus& s) override {
       events.matched.store(s.current_count);
+      if (s.current_count > 0) ever_matched.store(true);
       if (s.current_count_change > 0)
         log().info("{}: the writer of {} joined", owner->end_.node, owner->end_.topic_name);
       else if (s.current_count_change < 0)
         log().warn("{}: the writer of {} left; waiting for it to come back", owner->end_.node, owner->end_.topic_name);
     }
     void on_requested_deadline_missed(fdds::DataReader*, const fdds::RequestedDeadlineMissedStatus& s) override {
-      if (events.deadlines_missed.fetch_add(1) == 0 || s.total_count_change > 0)
+      // A silent writer misses every period: said at the 1st, 10th, 100th, ... miss (the total is in the summary).
+      const uint64_t n = events.deadlines_missed.fetch_add(1) + 1;
+      uint64_t p = 1;
+      while (p < n) p *= 10;
+      if (p == n)
         log().warn("{}: nothing on {} within its deadline ({} times)", owner->end_.node, owner->end_.topic_name, s.total_count);
     }
     void on_sample_lost(fdds::DataReader*, const fdds::SampleLostStatus& s) override {
@@ -324,6 +345,8 @@ class Subscribe final : public Node {
   fdds::DataReader* reader_ = nullptr;
   Listener listener_;
   bool same_clock_ = true;
+  int64_t missing_peer_at_ = 0;
+  int domain_id_ = 0;
   uint64_t invalid_ = 0;
 };
 

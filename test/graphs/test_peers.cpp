@@ -207,5 +207,65 @@ TEST(DdsPeers, AReaderOnAnotherClockCountsLatencyFromArrival) {
   }
 }
 
+// What goes wrong between peers is said in the log, naming the topic: a
+// writer that never comes, a reader that never comes, QoS the two ends
+// cannot agree on, a writer silent past its deadline.
+TEST(DdsPeers, AMissingPeerAnIncompatibleQosAndAMissedDeadlineAreReported) {
+  const std::string base = "test_peers/" + std::to_string(getpid()) + "/";
+  auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256);
+  saccade::log().sinks().push_back(ring);
+  auto logged = [&](const std::string& text) {
+    for (const std::string& line : ring->last_formatted())
+      if (line.find(text) != std::string::npos) return true;
+    return false;
+  };
+  std::string error;
+  auto lonely = testing::NodeHarness::create("<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base +
+                                                 "nobody\"/><param name=\"wait_ms\" value=\"100\"/></node>",
+                                             &error);
+  ASSERT_NE(lonely, nullptr) << error;
+  auto best_effort = testing::NodeHarness::create(
+      "<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base + "mismatch\"/></node>", &error);
+  ASSERT_NE(best_effort, nullptr) << error;
+  auto sub = [&](const std::string& name, const std::string& params) {
+    return "<node name=\"" + name + "\" plugin=\"dds.subscribe\"><param name=\"topic\" value=\"" + base + name +
+           "\"/>" + params + "</node><node name=\"" + name + "_sink\" plugin=\"util.null\"/><edge from=\"" + name +
+           ".out\" to=\"" + name + "_sink.in\"/>";
+  };
+  ExecutorOptions options;
+  options.duration_s = 1.5;
+  auto run = test::open_graph(
+      "<graph name=\"peers\">" + sub("absent", "<param name=\"missing_peer_ms\" value=\"200\"/>") +
+          sub("mismatch", "<param name=\"reliable\" value=\"true\"/>") +
+          sub("deadline", "<param name=\"reliable\" value=\"true\"/><param name=\"deadline_ms\" value=\"50\"/>") +
+          "</graph>",
+      options);
+  std::thread writer([&] {
+    // Waits for the deadline's reader, writes once, then stays silent. The
+    // writer offers the deadline too (a writer offering none is incompatible).
+    std::string e;
+    auto once = testing::NodeHarness::create(
+        "<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base +
+            "deadline\"/><param name=\"reliable\" value=\"true\"/><param name=\"deadline_ms\" value=\"50\"/>"
+            "<param name=\"wait_ms\" value=\"20000\"/></node>",
+        &e);
+    if (once == nullptr) return;
+    auto image = std::make_shared<Image>();
+    image->mat = cv::Mat(2, 2, CV_8UC1, cv::Scalar(1));
+    once->set("in", image);
+    (void)once->process();
+  });
+  ASSERT_TRUE(run->run().ok());
+  writer.join();
+  saccade::log().sinks().pop_back();
+
+  EXPECT_TRUE(logged("no reader of " + base + "nobody after 100 ms"));
+  EXPECT_TRUE(logged("no writer of " + base + "absent has joined yet"));
+  EXPECT_TRUE(logged("the writer of " + base + "mismatch offers an incompatible QoS (reliability); nothing will arrive"));
+  EXPECT_TRUE(logged("a reader of " + base + "mismatch asks for an incompatible QoS (reliability)"));
+  EXPECT_TRUE(logged("nothing on " + base + "deadline within its deadline"));
+  EXPECT_FALSE(logged("no writer of " + base + "deadline has joined yet"));
+}
+
 }  // namespace
 }  // namespace saccade
