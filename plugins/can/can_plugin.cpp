@@ -42,9 +42,12 @@ bool parse_list(const std::string& text, std::size_t count, std::vector<double>&
   return true;
 }
 
+constexpr const char* kBusSpecDoc =
+    "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME";
+
 // Parameters both nodes share: the bus, the joints' nodes and units, the clock.
 Contract& common(Contract& c) {
-  return c.param_string("bus", "virtual:head", "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME")
+  return c.param_string("bus", "virtual:head", kBusSpecDoc)
       .param_string("nodes", "1,2,3,4,5", "CANopen node ids of the joints: neck, vergence left, tilt left, vergence right, tilt right")
       .param_string("counts_per_rad", "20000", "encoder counts per radian at the joint (one value, or one per joint)")
       .param_string("zero_counts", "0", "encoder reading at joint angle 0 (one value, or one per joint)")
@@ -323,7 +326,7 @@ class Tap final : public Node {
                     "candump): to watch the head's bus from another process or PC, or to bridge it (with can.send).")
         .output<CanFrames>("frames", "the frames of one period, in arrival order (periods without frames emit nothing)")
         .param_string("bus", "virtual:head",
-                      "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME")
+                      kBusSpecDoc)
         .param_double("period_ms", 10.0, 0.1, 60000.0, "batch period")
         .param_int("max_frames", 1000, 1, 1000000, "a batch ends early when it holds this many frames")
         .param_bool("errors", false, "also deliver error frames (all error classes)")
@@ -383,7 +386,7 @@ class Send final : public Node {
                     "can.tap at the other end, a bus bridged across processes or PCs. Error frames are not sent.")
         .input<CanFrames>("frames", "the frames to send")
         .param_string("bus", "virtual:head",
-                      "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME");
+                      kBusSpecDoc);
   }
   Status open(OpenContext& ctx) override {
     in_ = ctx.input<CanFrames>("frames");

@@ -34,16 +34,6 @@ pid_t start_peer(const std::string& topic, const std::vector<std::string>& extra
   return test::spawn_saccade(args);
 }
 
-template <class Pred>
-bool wait_for(Pred done, double timeout_s) {
-  auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > give_up) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return true;
-}
-
 TEST(DdsPeers, AWriterKilledAndStartedAgainIsRejoinedWhileTheReaderKeepsRunning) {
   const std::string topic = "test_peers/" + std::to_string(getpid()) + "/images";
   auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256);
@@ -63,7 +53,7 @@ TEST(DdsPeers, AWriterKilledAndStartedAgainIsRejoinedWhileTheReaderKeepsRunning)
 
   pid_t first = start_peer(topic, {"--set", "camera.camera_id=1"});
   ASSERT_GT(first, 0);
-  EXPECT_TRUE(wait_for([&] { return received() >= 20; }, 60)) << "the first writer's frames";
+  EXPECT_TRUE(test::wait_for([&] { return received() >= 20; }, 60)) << "the first writer's frames";
   kill(first, SIGKILL);
   EXPECT_EQ(test::wait_child(first, 10), -1) << "killed";
   const std::size_t before_restart = received();
@@ -74,11 +64,11 @@ TEST(DdsPeers, AWriterKilledAndStartedAgainIsRejoinedWhileTheReaderKeepsRunning)
       if (line.find("the writer of " + topic + " " + what) != std::string::npos) ++n;
     return n;
   };
-  EXPECT_TRUE(wait_for([&] { return reported("left; waiting for it to come back") == 1; }, 20));
+  EXPECT_TRUE(test::wait_for([&] { return reported("left; waiting for it to come back") == 1; }, 20));
 
   pid_t second = start_peer(topic, {"--set", "camera.camera_id=2"});
   ASSERT_GT(second, 0);
-  EXPECT_TRUE(wait_for([&] { return received() >= before_restart + 20; }, 60)) << "the second writer's frames";
+  EXPECT_TRUE(test::wait_for([&] { return received() >= before_restart + 20; }, 60)) << "the second writer's frames";
   kill(second, SIGTERM);  // a clean stop: its end of stream ends the reader's graph too
   EXPECT_EQ(test::wait_child(second, 30), 0);
   reader.join();
@@ -129,7 +119,7 @@ std::set<std::string> start_lone_peer(pid_t& pid) {
   pid = start_peer("test_peers/" + std::to_string(getpid()) + "/lone",
                    {"--set", "publish.zero_copy=true", "--set", "publish.capacity=65536"});
   std::set<std::string> files;
-  wait_for(
+  test::wait_for(
       [&] {
         files = dds_files_mapped_by(pid);
         return std::any_of(files.begin(), files.end(), [](auto& f) { return f.rfind("fastrtps_", 0) == 0; }) &&

@@ -89,14 +89,13 @@ bool take_within(fdds::DataReader* reader, T& sample, double timeout_s, pid_t ch
 }
 
 bool matched_within(fdds::DataWriter* writer, double timeout_s) {
-  auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  fdds::PublicationMatchedStatus status;
-  while (std::chrono::steady_clock::now() < give_up) {
-    writer->get_publication_matched_status(status);
-    if (status.current_count > 0) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return false;
+  return test::wait_for(
+      [&] {
+        fdds::PublicationMatchedStatus status;
+        writer->get_publication_matched_status(status);
+        return status.current_count > 0;
+      },
+      timeout_s);
 }
 
 std::string unique_topic(const std::string& name) { return "test_ros2_" + std::to_string(getpid()) + "/" + name; }

@@ -38,16 +38,6 @@ int count_of(const std::string& text, const std::string& what) {
   return n;
 }
 
-template <class Pred>
-bool wait_for(Pred done, double timeout_s) {
-  auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > give_up) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  return true;
-}
-
 class TwoHosts : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -157,18 +147,18 @@ TEST_F(TwoHosts, MulticastDiscoveryAcrossTheLinkSurvivesALinkCut) {
   ASSERT_GT(head, 0);
   const std::string joined = "the writer of hosts/images joined", left = "the writer of hosts/images left";
   const std::string reader_joined = "a reader of hosts/images joined", reader_left = "a reader of hosts/images left";
-  ASSERT_TRUE(wait_for([&] { return count_of(log_of("robot.log"), joined) == 1; }, 30)) << log_of("robot.log");
-  ASSERT_TRUE(wait_for([&] { return count_of(log_of("head.log"), reader_joined) == 1; }, 30)) << log_of("head.log");
+  ASSERT_TRUE(test::wait_for([&] { return count_of(log_of("robot.log"), joined) == 1; }, 30)) << log_of("robot.log");
+  ASSERT_TRUE(test::wait_for([&] { return count_of(log_of("head.log"), reader_joined) == 1; }, 30)) << log_of("head.log");
   std::this_thread::sleep_for(std::chrono::seconds(1));  // frames flow
 
   ASSERT_EQ(std::system(link_down_.c_str()), 0);
   // Within the participants' lease (3 s) each side reports the silent peer, and keeps running.
-  EXPECT_TRUE(wait_for([&] { return count_of(log_of("robot.log"), left) == 1; }, 15)) << log_of("robot.log");
-  EXPECT_TRUE(wait_for([&] { return count_of(log_of("head.log"), reader_left) == 1; }, 15)) << log_of("head.log");
+  EXPECT_TRUE(test::wait_for([&] { return count_of(log_of("robot.log"), left) == 1; }, 15)) << log_of("robot.log");
+  EXPECT_TRUE(test::wait_for([&] { return count_of(log_of("head.log"), reader_left) == 1; }, 15)) << log_of("head.log");
   ASSERT_EQ(std::system(link_up_.c_str()), 0);
-  EXPECT_TRUE(wait_for([&] { return count_of(log_of("robot.log"), joined) == 2; }, 30)) << log_of("robot.log");
+  EXPECT_TRUE(test::wait_for([&] { return count_of(log_of("robot.log"), joined) == 2; }, 30)) << log_of("robot.log");
   // Both ends have matched again (DDS matches each side on its own).
-  EXPECT_TRUE(wait_for([&] { return count_of(log_of("head.log"), reader_joined) == 2; }, 30))
+  EXPECT_TRUE(test::wait_for([&] { return count_of(log_of("head.log"), reader_joined) == 2; }, 30))
       << log_of("head.log");
 
   // Frames flow again: the head's end of stream, sent over the restored
@@ -195,9 +185,9 @@ TEST_F(TwoHosts, InitialPeersAloneFindThePeerWhereMulticastIsOff) {
   robot = run_in(robot_, unicast_profile("robot.xml.profile", "10.77.0.2", "10.77.0.1"), subscriber("--duration 60"),
                  "robot2.log");
   head = run_in(head_, unicast_profile("head.xml.profile", "10.77.0.1", "10.77.0.2"), publisher("", "info"), "head2.log");
-  EXPECT_TRUE(wait_for([&] { return count_of(log_of("robot2.log"), "the writer of hosts/images joined") == 1; }, 30))
+  EXPECT_TRUE(test::wait_for([&] { return count_of(log_of("robot2.log"), "the writer of hosts/images joined") == 1; }, 30))
       << log_of("robot2.log");
-  EXPECT_TRUE(wait_for([&] { return count_of(log_of("head2.log"), "a reader of hosts/images joined") == 1; }, 30))
+  EXPECT_TRUE(test::wait_for([&] { return count_of(log_of("head2.log"), "a reader of hosts/images joined") == 1; }, 30))
       << log_of("head2.log");
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   kill(head, SIGTERM);
