@@ -297,12 +297,15 @@ class Drives final : public Node {
   std::size_t fault_joint_ = 0;
 };
 
+// can::Frame's fd_flags and CanFrames' low flag bits are both the kernel's CANFD_BRS / CANFD_ESI.
+constexpr uint8_t kFdFlags = CanFrames::kBitRateSwitch | CanFrames::kErrorStateIndicator;
+
 // A bus frame as the CanFrames message carries it (the kernel's can_id and FD flags), and back.
 CanFrames::Frame to_message(const can::Frame& f) {
   CanFrames::Frame m;
   m.can_id = f.raw_id();
   m.length = std::min<uint8_t>(f.length, f.fd ? 64 : 8);
-  m.flags = static_cast<uint8_t>((f.fd ? CanFrames::kFd : 0) | (f.fd_flags & 0x03));
+  m.flags = static_cast<uint8_t>((f.fd ? CanFrames::kFd : 0) | (f.fd_flags & kFdFlags));
   std::copy_n(f.data.begin(), m.length, m.data.begin());
   m.timestamp_ns = f.timestamp_ns;
   return m;
@@ -311,7 +314,7 @@ CanFrames::Frame to_message(const can::Frame& f) {
 can::Frame from_message(const CanFrames::Frame& m) {
   can::Frame f = can::Frame::from_raw_id(m.can_id);
   f.fd = (m.flags & CanFrames::kFd) != 0;
-  f.fd_flags = static_cast<uint8_t>(m.flags & 0x03);
+  f.fd_flags = static_cast<uint8_t>(m.flags & kFdFlags);
   f.length = std::min<uint8_t>(m.length, f.fd ? 64 : 8);
   std::copy_n(m.data.begin(), f.length, f.data.begin());
   f.timestamp_ns = m.timestamp_ns;
@@ -325,8 +328,7 @@ class Tap final : public Node {
     return Contract("Every frame a bus delivers, as CanFrames messages of one batch per period (a source, like "
                     "candump): to watch the head's bus from another process or PC, or to bridge it (with can.send).")
         .output<CanFrames>("frames", "the frames of one period, in arrival order (periods without frames emit nothing)")
-        .param_string("bus", "virtual:head",
-                      kBusSpecDoc)
+        .param_string("bus", "virtual:head", kBusSpecDoc)
         .param_double("period_ms", 10.0, 0.1, 60000.0, "batch period")
         .param_int("max_frames", 1000, 1, 1000000, "a batch ends early when it holds this many frames")
         .param_bool("errors", false, "also deliver error frames (all error classes)")
@@ -385,8 +387,7 @@ class Send final : public Node {
     return Contract("Sends every frame of its CanFrames input onto a bus, in order (a sink, like cansend): with "
                     "can.tap at the other end, a bus bridged across processes or PCs. Error frames are not sent.")
         .input<CanFrames>("frames", "the frames to send")
-        .param_string("bus", "virtual:head",
-                      kBusSpecDoc);
+        .param_string("bus", "virtual:head", kBusSpecDoc);
   }
   Status open(OpenContext& ctx) override {
     in_ = ctx.input<CanFrames>("frames");

@@ -147,12 +147,13 @@ class Publish final : public Node {
     listener_.owner = this;
     writer_ = end_.domain->publisher()->create_datawriter(topic, qos, &listener_, fdds::StatusMask::all());
     if (writer_ == nullptr) return Status::error("cannot create a DDS writer on " + end_.topic_name);
-    auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(p.get_double("wait_ms"));
+    const double wait_ms = p.get_double("wait_ms");
+    auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(wait_ms);
     while (listener_.events.matched.load() == 0 && std::chrono::steady_clock::now() < give_up)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    if (p.get_double("wait_ms") > 0 && listener_.events.matched.load() == 0)
+    if (wait_ms > 0 && listener_.events.matched.load() == 0)
       log().warn("{}: no reader of {} after {} ms (is the other process running, on domain {}?); writing anyway",
-                 end_.node, end_.topic_name, p.get_double("wait_ms"), p.get_int("domain"));
+                 end_.node, end_.topic_name, wait_ms, p.get_int("domain"));
     return {};
   }
 
@@ -288,7 +289,7 @@ class Subscribe final : public Node {
       }
       if (missing_peer_at_ > 0 && steady_now_ns() > missing_peer_at_) {
         missing_peer_at_ = 0;
-        if (listener_.events.matched.load() == 0 && !listener_.ever_matched.load())
+        if (!listener_.ever_matched.load())
           log().warn("{}: no writer of {} has joined yet (is the other process running, on domain {}, with the same "
                      "topic prefix?)",
                      end_.node, end_.topic_name, domain_id_);

@@ -113,26 +113,25 @@ std::shared_ptr<Domain> Domain::get(int domain_id, std::string* error) {
     qos.transport().user_transports.push_back(udp);
     qos.transport().send_socket_buffer_size = settings.udp_buffer_bytes;
     qos.transport().listen_socket_buffer_size = settings.udp_buffer_bytes;
-  }
-  qos.name("saccade");
-  if (std::getenv("FASTRTPS_DEFAULT_PROFILES_FILE") == nullptr) {
     // A peer that dies without saying so (kill -9, power, cable) is dropped
     // and reported after 3 s rather than Fast DDS' default 20 s.
     auto& discovery = qos.wire_protocol().builtin.discovery_config;
     discovery.leaseDuration = eprosima::fastrtps::Duration_t(3, 0);
     discovery.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(1, 0);
   }
-  const char* security = std::getenv("SACCADE_DDS_SECURITY");
-  if (security != nullptr && *security != '\0' && !add_security(qos, security, error)) return nullptr;
+  qos.name("saccade");
+  const char* env_security = std::getenv("SACCADE_DDS_SECURITY");
+  const std::string security = env_security != nullptr ? env_security : "";
+  if (!security.empty() && !add_security(qos, security, error)) return nullptr;
   std::shared_ptr<Domain> domain(new Domain());
   domain->participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_id), qos);
   if (domain->participant_ == nullptr) {
     if (error)
       *error = "cannot create a DDS participant in domain " + std::to_string(domain_id) +
-               (security != nullptr && *security != '\0'
-                    ? std::string(" with the DDS security of ") + security +
-                          " (a certificate, key or signed document that does not check out: Fast DDS' log says which)"
-                    : std::string());
+               (security.empty() ? std::string()
+                                 : " with the DDS security of " + security +
+                                       " (a certificate, key or signed document that does not check out: Fast DDS' "
+                                       "log says which)");
     return nullptr;
   }
   domain->publisher_ = domain->participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);

@@ -484,7 +484,6 @@ void to_wire(const CanFrames& in, w::CanFrames& out) {
     const CanFrames::Frame& f = in.frames[i];
     w::CanFrame& o = out.frames()[i];
     o.can_id(f.can_id);
-    o.length(f.length);
     o.flags(f.flags);
     o.data().assign(f.data.begin(), f.data.begin() + std::min<std::size_t>(f.length, f.data.size()));
     o.timestamp_ns(f.timestamp_ns);
@@ -501,7 +500,7 @@ void from_wire(const w::CanFrames& in, CanFrames& out) {
     o.can_id = f.can_id();
     o.flags = f.flags();
     const std::size_t n = std::min(f.data().size(), o.data.size());
-    o.length = static_cast<uint8_t>(n);  // what arrived, whatever the length field claims
+    o.length = static_cast<uint8_t>(n);
     o.data.fill(0);
     std::copy_n(f.data().begin(), n, o.data.begin());
     o.timestamp_ns = f.timestamp_ns();

@@ -11,8 +11,6 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <thread>
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
@@ -91,18 +89,6 @@ int make_security(const fs::path& dir, const std::string& names) {
   return std::system(command.c_str());
 }
 
-// The "emitted" count of node `name` in a stats JSON file; -1 when absent.
-long emitted(const fs::path& stats_json, const std::string& name) {
-  std::ifstream in(stats_json);
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::string s = text.str();
-  auto node = s.find("\"name\": \"" + name + "\"");
-  if (node == std::string::npos) return -1;
-  auto field = s.find("\"emitted\": ", node);
-  return field == std::string::npos ? -1 : std::stol(s.substr(field + 11));
-}
-
 TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJointTargets) {
   const fs::path root = fs::temp_directory_path() / ("saccade_security_" + std::to_string(getpid()));
   fs::remove_all(root);
@@ -168,8 +154,8 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
   intruders.join();
   EXPECT_EQ(head_code, 0);
   ASSERT_EQ(robot_code, 0) << "the robot ends once both secured streams end";
-  EXPECT_EQ(emitted(stats, "images"), 40) << "every image, over the secured edge";
-  EXPECT_EQ(emitted(stats, "targets"), 5) << "the authorised targets and none of the intruders'";
+  EXPECT_EQ(test::stats_emitted(stats, "images"), 40) << "every image, over the secured edge";
+  EXPECT_EQ(test::stats_emitted(stats, "targets"), 5) << "the authorised targets and none of the intruders'";
 
   for (fdds::DataReader* reader : {plain_reader, foreign_reader}) {
     saccade_idl::Image image;
@@ -198,12 +184,10 @@ TEST(DdsSecurity, AMissingFileOfTheFolderIsNamed) {
                               SACCADE_SOURCE_DIR "/test/graphs/secure_images.xml --security " +
                               (root / "head_pc").string() + " > " + log.string() + " 2>&1";
   EXPECT_NE(std::system(command.c_str()), 0);
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_NE(text.str().find("DDS security: " + (root / "head_pc" / "permissions.p7s").string() + " is missing"),
+  const std::string text = test::read_text(log);
+  EXPECT_NE(text.find("DDS security: " + (root / "head_pc" / "permissions.p7s").string() + " is missing"),
             std::string::npos)
-      << text.str();
+      << text;
   fs::remove_all(root);
   fs::remove(root.string() + ".log");
 }

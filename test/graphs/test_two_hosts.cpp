@@ -13,7 +13,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <thread>
 
 #include "support.hpp"
@@ -24,13 +23,6 @@ namespace saccade {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string read_file(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 int count_of(const std::string& text, const std::string& what) {
   int n = 0;
@@ -60,7 +52,7 @@ class TwoHosts : public ::testing::Test {
     if (!made_)
       GTEST_SKIP() << "cannot make network namespaces and a veth pair here (ip netns and veth need root or "
                       "CAP_NET_ADMIN; iproute2 and util-linux's unshare): "
-                   << read_file(dir_ / "setup.log");
+                   << test::read_text(dir_ / "setup.log");
   }
   void TearDown() override {
     for (pid_t pid : children_) {
@@ -90,7 +82,7 @@ class TwoHosts : public ::testing::Test {
     children_.erase(std::remove(children_.begin(), children_.end(), pid), children_.end());
     return code;
   }
-  std::string log_of(const std::string& log) { return read_file(dir_ / log); }
+  std::string log_of(const std::string& log) { return test::read_text(dir_ / log); }
 
   // A profile with discovery by unicast only (no multicast locator at all) and these initial peers.
   std::string unicast_profile(const std::string& name, const std::string& self, const std::string& peer) {
@@ -127,12 +119,7 @@ class TwoHosts : public ::testing::Test {
 </graph>)";
     return "--log-level info run " + graph.string() + " --stats-json " + (dir_ / "robot.json").string() + " " + extra;
   }
-  long received() {
-    const std::string s = read_file(dir_ / "robot.json");
-    auto node = s.find("\"name\": \"sub\"");
-    auto field = node == std::string::npos ? node : s.find("\"emitted\": ", node);
-    return field == std::string::npos ? -1 : std::stol(s.substr(field + 11));
-  }
+  long received() { return test::stats_emitted(dir_ / "robot.json", "sub"); }
 
   std::string head_, robot_, link_down_, link_up_;
   fs::path dir_;
