@@ -101,6 +101,24 @@ void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, dou
         crop ? std::clamp(static_cast<int>(std::floor(y0)) + j, 0, frame.rows - 1)
              : std::clamp(static_cast<int>(std::floor(y0 + (j + 0.5) * step_y)), sy, frame.rows - 1 - sy);
   const std::ptrdiff_t pitch = static_cast<std::ptrdiff_t>(frame.step[0]);
+  if (cn == 1) {
+    // Gray, the stereo matcher's case: the same sums without the channel loop
+    // and the crop test per pixel.
+    const int* col = cols.data();
+    for (int j = 0; j < size.height; ++j) {
+      uint8_t* o = out.ptr<uint8_t>(j);
+      const uint8_t* r = frame.ptr<uint8_t>(rows[static_cast<std::size_t>(j)]);
+      if (crop) {
+        for (int i = 0; i < size.width; ++i) o[i] = r[col[i]];
+        continue;
+      }
+      for (int i = 0; i < size.width; ++i) {
+        const uint8_t* p = r + col[i];
+        o[i] = mean5(static_cast<unsigned>(p[0]) + p[-sx] + p[sx] + p[-sy * pitch] + p[sy * pitch]);
+      }
+    }
+    return;
+  }
   for (int j = 0; j < size.height; ++j) {
     uint8_t* o = out.ptr<uint8_t>(j);
     const uint8_t* r = frame.ptr<uint8_t>(rows[static_cast<std::size_t>(j)]);

@@ -134,16 +134,22 @@ void ncc_match_reference(const cv::Mat& left, const cv::Mat& right, Direction di
 
 namespace {
 
-// Sums over (2r+1)-wide windows along each row of `in` (rows y0..y1, all
-// columns), written at the window's centre; columns within r of the edge are
-// left untouched.
-inline void row_box(const float* in, float* out, int width, int r) {
-  float s = 0;
-  const int w = 2 * r + 1;
-  for (int x = 0; x < w && x < width; ++x) s += in[x];
-  for (int x = r; x + r < width; ++x) {
-    out[x] = s;
-    if (x + r + 1 < width) s += in[x + r + 1] - in[x - r];
+// Window sums along a row: out[x] = in[x - r] + ... + in[x + r] for x in
+// 0 .. n - 1 (in readable from -r to n - 1 + r). Summed term by term rather
+// than sliding, so it vectorises and no rounding error accumulates along the row.
+SACCADE_AVX2_CLONE void window_sums(float* __restrict out, const float* __restrict in, int n, int r) {
+  for (int x = 0; x < n; ++x) out[x] = in[x - r];
+  for (int k = 1 - r; k <= r; ++k)
+    for (int x = 0; x < n; ++x) out[x] += in[x + k];
+}
+
+// Mean and standard deviation from a row of window sums of values and squares.
+SACCADE_AVX2_CLONE void moments(float* __restrict mean, float* __restrict stddev, const float* __restrict sum,
+                                const float* __restrict sum2, int n, float inv_count) {
+  for (int x = 0; x < n; ++x) {
+    const float mu = sum[x] * inv_count;
+    mean[x] = mu;
+    stddev[x] = std::sqrt(std::max(0.0f, sum2[x] * inv_count - mu * mu));
   }
 }
 
@@ -160,6 +166,7 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
   col2.assign(static_cast<std::size_t>(w), 0.0f);
   row.assign(static_cast<std::size_t>(w), 0.0f);
   row2.assign(static_cast<std::size_t>(w), 0.0f);
+  const int inner = w - 2 * r;
   for (int y = 0; y < h; ++y) {
     const float* add = src.ptr<float>(y);
     for (int x = 0; x < w; ++x) {
@@ -173,17 +180,12 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
         col2[static_cast<std::size_t>(x)] -= sub[x] * sub[x];
       }
     }
-    if (y < 2 * r) continue;
+    if (y < 2 * r || inner <= 0) continue;
     const int yc = y - r;
-    row_box(col.data(), row.data(), w, r);
-    row_box(col2.data(), row2.data(), w, r);
-    float* m = mean.ptr<float>(yc);
-    float* sd = stddev.ptr<float>(yc);
-    for (int x = r; x + r < w; ++x) {
-      const float mu = row[static_cast<std::size_t>(x)] / static_cast<float>(n);
-      m[x] = mu;
-      sd[x] = std::sqrt(std::max(0.0f, row2[static_cast<std::size_t>(x)] / static_cast<float>(n) - mu * mu));
-    }
+    window_sums(row.data() + r, col.data() + r, inner, r);
+    window_sums(row2.data() + r, col2.data() + r, inner, r);
+    moments(mean.ptr<float>(yc) + r, stddev.ptr<float>(yc) + r, row.data() + r, row2.data() + r, inner,
+            1.0f / static_cast<float>(n));
   }
 }
 
@@ -191,170 +193,47 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
 
 namespace {
 
-// One direction's search state: per pixel the best score and its disparity,
-// the scores next to it (for the sub-pixel parabola), the last score seen and
-// at which disparity.
+// Where one direction searches: the rows, columns and disparities of its
+// pixels that have a range and texture.
 struct Search {
   const cv::Mat* lo;
   const cv::Mat* hi;
-  const cv::Mat* stddev;  // of the image this direction's pixels belong to
-  cv::Mat *best, *best_d, *before, *after, *last, *last_d;
   int y0 = 0, y1 = -1, x0 = 0, x1 = -1, d_min = 0, d_max = -1;
   bool active() const { return y1 >= y0; }
+  bool wants(int d) const { return active() && d >= d_min && d <= d_max; }
 };
 
-void prepare(Search& s, NccScratch::Side& side, const cv::Mat& lo, const cv::Mat& hi, const cv::Mat& stddev, int r,
-             float min_texture) {
+Search bounds(const cv::Mat& lo, const cv::Mat& hi, const cv::Mat& stddev, int r, float min_texture) {
+  Search s;
   s.lo = &lo;
   s.hi = &hi;
-  s.stddev = &stddev;
   const int w = lo.cols, h = lo.rows;
-  s.y0 = h;
-  s.y1 = -1;
-  s.x0 = w;
-  s.x1 = -1;
-  s.d_min = 1 << 30;
-  s.d_max = -(1 << 30);
+  int y0 = h, y1 = -1, x0 = w, x1 = -1, d_min = 1 << 30, d_max = -(1 << 30);
   for (int y = r; y < h - r; ++y) {
     const int* l = lo.ptr<int>(y);
     const int* u = hi.ptr<int>(y);
     const float* sd = stddev.ptr<float>(y);
+    int row_x0 = w, row_x1 = -1;
     for (int x = r; x < w - r; ++x) {
       if (u[x] < l[x] || sd[x] < min_texture) continue;
-      s.y0 = std::min(s.y0, y);
-      s.y1 = std::max(s.y1, y);
-      s.x0 = std::min(s.x0, x);
-      s.x1 = std::max(s.x1, x);
-      s.d_min = std::min(s.d_min, l[x]);
-      s.d_max = std::max(s.d_max, u[x]);
+      row_x0 = std::min(row_x0, x);
+      row_x1 = x;
+      d_min = std::min(d_min, l[x]);
+      d_max = std::max(d_max, u[x]);
     }
+    if (row_x1 < 0) continue;
+    y0 = std::min(y0, y);
+    y1 = y;
+    x0 = std::min(x0, row_x0);
+    x1 = std::max(x1, row_x1);
   }
-  for (cv::Mat* m : {&side.best, &side.before, &side.after, &side.last}) {
-    m->create(lo.size(), CV_32F);
-    fill(*m, -2.0f);
-  }
-  side.best_d.create(lo.size(), CV_32S);
-  side.last_d.create(lo.size(), CV_32S);
-  fill(side.best_d, 0);
-  fill(side.last_d, -(1 << 30));
-  s.best = &side.best;
-  s.best_d = &side.best_d;
-  s.before = &side.before;
-  s.after = &side.after;
-  s.last = &side.last;
-  s.last_d = &side.last_d;
-}
-
-// One row of a direction's state, so the inner loop indexes plain arrays.
-struct Row {
-  const int *lo, *hi;
-  const float* stddev;
-  float *best, *before, *after, *last;
-  int *best_d, *last_d;
-  Row(const Search& s, int y)
-      : lo(s.lo->ptr<int>(y)), hi(s.hi->ptr<int>(y)), stddev(s.stddev->ptr<float>(y)), best(s.best->ptr<float>(y)),
-        before(s.before->ptr<float>(y)), after(s.after->ptr<float>(y)), last(s.last->ptr<float>(y)),
-        best_d(s.best_d->ptr<int>(y)), last_d(s.last_d->ptr<int>(y)) {}
-};
-
-// Candidates c[i] at disparity d for the pixels first .. first + count - 1 of
-// one direction's row. Written with selects and no early exits over
-// restrict-qualified arrays, so the compiler vectorises it: this loop is where
-// the search spends its time.
-SACCADE_AVX2_CLONE void offer_span(const Row& s, int first, int count, int d, const float* __restrict c,
-                                   float min_texture) {
-  const int* __restrict lo = s.lo + first;
-  const int* __restrict hi = s.hi + first;
-  const float* __restrict sd = s.stddev + first;
-  float* __restrict best = s.best + first;
-  float* __restrict before = s.before + first;
-  float* __restrict after = s.after + first;
-  float* __restrict last = s.last + first;
-  int* __restrict best_d = s.best_d + first;
-  int* __restrict last_d = s.last_d + first;
-  // Eight pixels at a time with GCC's vector extension (two SSE2 registers,
-  // or one AVX2 register in the AVX2 clone): the compiler's own vectoriser
-  // gives up on this loop's selects.
-  typedef float v4f __attribute__((vector_size(32)));
-  typedef int v4i __attribute__((vector_size(32)));
-  const v4i dv = v4i{} + d, d1 = dv - 1;
-  const v4f minus2 = v4f{} - 2.0f;
-  const v4f texture = v4f{} + min_texture;
-  constexpr int kLanes = static_cast<int>(sizeof(v4f) / sizeof(float));
-  int i = 0;
-  for (; i + kLanes <= count; i += kLanes) {
-    v4f ci, bi, li, ai, fi, sdi;
-    v4i bdi, ldi, loi, hii;
-    std::memcpy(&ci, c + i, sizeof ci);
-    std::memcpy(&bi, best + i, sizeof bi);
-    std::memcpy(&li, last + i, sizeof li);
-    std::memcpy(&ai, after + i, sizeof ai);
-    std::memcpy(&fi, before + i, sizeof fi);
-    std::memcpy(&sdi, sd + i, sizeof sdi);
-    std::memcpy(&bdi, best_d + i, sizeof bdi);
-    std::memcpy(&ldi, last_d + i, sizeof ldi);
-    std::memcpy(&loi, lo + i, sizeof loi);
-    std::memcpy(&hii, hi + i, sizeof hii);
-    const v4i in = (dv >= loi) & (dv <= hii) & (sdi >= texture);
-    const v4f previous = ldi == d1 ? li : minus2;
-    const v4i next_to_best = (dv == bdi + 1) & (bi > minus2);
-    const v4i take = in & (ci > bi);
-    const v4f a = (in & next_to_best) ? ci : ai;
-    const v4f after_new = take ? minus2 : a;
-    const v4f before_new = take ? previous : fi;
-    const v4i best_d_new = take ? dv : bdi;
-    const v4f best_new = take ? ci : bi;
-    const v4f last_new = in ? ci : li;
-    const v4i last_d_new = in ? dv : ldi;
-    std::memcpy(after + i, &after_new, sizeof after_new);
-    std::memcpy(before + i, &before_new, sizeof before_new);
-    std::memcpy(best_d + i, &best_d_new, sizeof best_d_new);
-    std::memcpy(best + i, &best_new, sizeof best_new);
-    std::memcpy(last + i, &last_new, sizeof last_new);
-    std::memcpy(last_d + i, &last_d_new, sizeof last_d_new);
-  }
-  for (; i < count; ++i) {
-    const bool in = d >= lo[i] && d <= hi[i] && sd[i] >= min_texture;
-    if (!in) continue;
-    const float previous = last_d[i] == d - 1 ? last[i] : -2.0f;
-    if (d == best_d[i] + 1 && best[i] > -2.0f) after[i] = c[i];
-    if (c[i] > best[i]) {
-      before[i] = previous;
-      best[i] = c[i];
-      best_d[i] = d;
-      after[i] = -2.0f;
-    }
-    last[i] = c[i];
-    last_d[i] = d;
-  }
-}
-
-void finish(const Search& s, int r, const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
-  disparity.create(s.lo->size(), CV_32F);
-  score.create(s.lo->size(), CV_32F);
-  fill(disparity, -1);
-  fill(score, -1);
-  for (int y = s.y0; y <= s.y1; ++y) {
-    const int* l = s.lo->ptr<int>(y);
-    const int* u = s.hi->ptr<int>(y);
-    const float* bs = s.best->ptr<float>(y);
-    const int* bd = s.best_d->ptr<int>(y);
-    const float* bf = s.before->ptr<float>(y);
-    const float* af = s.after->ptr<float>(y);
-    float* out_d = disparity.ptr<float>(y);
-    float* out_s = score.ptr<float>(y);
-    for (int x = r; x < s.lo->cols - r; ++x) {
-      if (!(bs[x] > -2.0f) || bs[x] < config.min_score) continue;
-      float dd = static_cast<float>(bd[x]);
-      if (config.subpixel && bd[x] > l[x] && bd[x] < u[x]) {
-        const float c0 = bf[x], c1 = bs[x], c2 = af[x];
-        const float denom = c0 - 2 * c1 + c2;
-        if (c0 > -2 && c2 > -2 && denom < 0) dd += std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f);
-      }
-      out_d[x] = dd;
-      out_s[x] = bs[x];
-    }
-  }
+  s.y0 = y0;
+  s.y1 = y1;
+  s.x0 = x0;
+  s.x1 = x1;
+  s.d_min = d_min;
+  s.d_max = d_max;
+  return s;
 }
 
 // The sweep's column sums: add the products of the row entering the window,
@@ -368,15 +247,126 @@ SACCADE_AVX2_CLONE void slide_products(float* __restrict col, const float* __res
   }
 }
 
-// The correlation coefficients of one row of window sums; -2 where either
-// window is too flat to match.
-SACCADE_AVX2_CLONE void correlations(float* __restrict c, const float* __restrict sum, const float* __restrict ma,
-                                     const float* __restrict sa, const float* __restrict mb,
-                                     const float* __restrict sb, int n, float inv_n, float min_texture) {
-  for (int x = 0; x < n; ++x) {
+// One row of one direction's search: per pixel its range, and the best
+// score and disparity so far. Pointers are indexed by the left image's column
+// at the disparity being swept (the right direction's shifted by -d).
+struct BestRow {
+  const int* lo;
+  const int* hi;
+  float* best;
+  int* best_d;
+};
+
+// One row y of the sweep at disparity d, for left columns 0 .. n - 1 (all
+// pointers at the span's first column): the window sums of the products from
+// the column sums, their correlation coefficients (-2 where either window is
+// too flat), kept in the volume row, and offered to both directions' pixels
+// whose range holds d. The first of equal scores (the smallest disparity)
+// wins. GCC's vector extension, eight pixels at a time: its own vectoriser
+// gives up on the selects.
+SACCADE_AVX2_CLONE void sweep_row(const float* __restrict col, int r, const float* __restrict ma,
+                                  const float* __restrict sa, const float* __restrict mb, const float* __restrict sb,
+                                  float inv_n, float min_texture, float* __restrict volume, BestRow lr, BestRow rl,
+                                  int n, int d) {
+  typedef float v8f __attribute__((vector_size(32)));
+  typedef int v8i __attribute__((vector_size(32)));
+  constexpr int kLanes = static_cast<int>(sizeof(v8f) / sizeof(float));
+  const v8i dv = v8i{} + d;
+  const v8f minus2 = v8f{} - 2.0f, texture = v8f{} + min_texture, scale = v8f{} + inv_n, tiny = v8f{} + 1e-6f;
+  int x = 0;
+  for (; x + kLanes <= n; x += kLanes) {
+    v8f sum, term, va, vb, vma, vmb;
+    std::memcpy(&sum, col + x - r, sizeof sum);
+    for (int k = 1 - r; k <= r; ++k) {
+      std::memcpy(&term, col + x + k, sizeof term);
+      sum += term;
+    }
+    std::memcpy(&va, sa + x, sizeof va);
+    std::memcpy(&vb, sb + x, sizeof vb);
+    std::memcpy(&vma, ma + x, sizeof vma);
+    std::memcpy(&vmb, mb + x, sizeof vmb);
+    const v8f prod = va * vb;
+    const v8f value = (sum * scale - vma * vmb) / (prod > tiny ? prod : tiny);
+    const v8f c = ((va >= texture) & (vb >= texture)) ? value : minus2;
+    std::memcpy(volume + x, &c, sizeof c);
+    for (const BestRow* s : {&lr, &rl}) {
+      v8f b;
+      v8i bd, lo, hi;
+      std::memcpy(&b, s->best + x, sizeof b);
+      std::memcpy(&bd, s->best_d + x, sizeof bd);
+      std::memcpy(&lo, s->lo + x, sizeof lo);
+      std::memcpy(&hi, s->hi + x, sizeof hi);
+      const v8i take = (dv >= lo) & (dv <= hi) & (c > b);
+      const v8f b_new = take ? c : b;
+      const v8i bd_new = take ? dv : bd;
+      std::memcpy(s->best + x, &b_new, sizeof b_new);
+      std::memcpy(s->best_d + x, &bd_new, sizeof bd_new);
+    }
+  }
+  for (; x < n; ++x) {
+    float sum = col[x - r];
+    for (int k = 1 - r; k <= r; ++k) sum += col[x + k];
     const bool textured = (sa[x] >= min_texture) & (sb[x] >= min_texture);
-    const float value = (sum[x] * inv_n - ma[x] * mb[x]) / std::max(sa[x] * sb[x], 1e-6f);
-    c[x] = textured ? value : -2.0f;
+    const float c = textured ? (sum * inv_n - ma[x] * mb[x]) / std::max(sa[x] * sb[x], 1e-6f) : -2.0f;
+    volume[x] = c;
+    for (const BestRow* s : {&lr, &rl})
+      if (d >= s->lo[x] && d <= s->hi[x] && c > s->best[x]) {
+        s->best[x] = c;
+        s->best_d[x] = d;
+      }
+  }
+}
+
+// The sweep's result: the correlation of every left pixel x with right pixel
+// x - d that was computed, at volume[(d - d_min) * plane + y * width + x], for
+// x in [span_lo[d - d_min], span_hi[d - d_min]] on rows y0 .. y1.
+struct Volume {
+  const float* data;
+  std::size_t plane;
+  int width, d_min;
+  const int *span_lo, *span_hi;
+  const float* row(int d, int y) const {
+    return data + static_cast<std::size_t>(d - d_min) * plane + static_cast<std::size_t>(y) * width;
+  }
+  bool has(int d, int x) const {
+    const int i = d - d_min;
+    return i >= 0 && x >= span_lo[i] && x <= span_hi[i];
+  }
+  // The score of left pixel x at d, -2 where it was not computed.
+  float at(int d, int y, int x) const { return has(d, x) ? row(d, y)[x] : -2.0f; }
+};
+
+// One direction's disparities from its best scores, with the parabola
+// through the scores either side of the best from the volume. `shift` 0: the
+// pixels are the left image's (left x at d is volume column x); 1: the right
+// image's (right x at d is left x + d).
+void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const Volume& volume, int shift,
+            const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
+  disparity.create(s.lo->size(), CV_32F);
+  score.create(s.lo->size(), CV_32F);
+  fill(disparity, -1);
+  fill(score, -1);
+  for (int y = s.y0; y <= s.y1; ++y) {
+    const int* l = s.lo->ptr<int>(y);
+    const int* u = s.hi->ptr<int>(y);
+    const float* bs = best.ptr<float>(y);
+    const int* bds = best_d.ptr<int>(y);
+    float* out_d = disparity.ptr<float>(y);
+    float* out_s = score.ptr<float>(y);
+    for (int x = s.x0; x <= s.x1; ++x) {
+      const float b = bs[x];
+      if (!(b > -2.0f) || b < config.min_score) continue;
+      const int bd = bds[x];
+      float dd = static_cast<float>(bd);
+      if (config.subpixel && bd > l[x] && bd < u[x]) {
+        const float c0 = volume.at(bd - 1, y, x + shift * (bd - 1));
+        const float c2 = volume.at(bd + 1, y, x + shift * (bd + 1));
+        const float denom = c0 - 2 * b + c2;
+        if (c0 > -2 && c2 > -2 && denom < 0) dd += std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f);
+      }
+      out_d[x] = dd;
+      out_s[x] = b;
+    }
   }
 }
 
@@ -403,62 +393,73 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
   box_stats(scratch.ref_f, r, scratch.ref_mean, scratch.ref_std, scratch.col, scratch.col2, scratch.row, scratch.row2);
   box_stats(scratch.other_f, r, scratch.other_mean, scratch.other_std, scratch.col, scratch.col2, scratch.row,
             scratch.row2);
-  Search lr, rl;
-  prepare(lr, scratch.lr, lo_lr, hi_lr, scratch.ref_std, r, min_texture);
-  prepare(rl, scratch.rl, lo_rl, hi_rl, scratch.other_std, r, min_texture);
-  if (lr.active() || rl.active()) {
-    const int y0 = std::min(lr.active() ? lr.y0 : h, rl.active() ? rl.y0 : h);
-    const int y1 = std::max(lr.y1, rl.y1);
-    const int d_min = std::min(lr.active() ? lr.d_min : (1 << 30), rl.active() ? rl.d_min : (1 << 30));
-    const int d_max = std::max(lr.active() ? lr.d_max : -(1 << 30), rl.active() ? rl.d_max : -(1 << 30));
-    const float inv_n = 1.0f / static_cast<float>(n);
-    std::vector<float>& col = scratch.col;
-    std::vector<float>& row = scratch.row;
-    col.assign(static_cast<std::size_t>(w), 0.0f);
-    row.assign(static_cast<std::size_t>(w), 0.0f);
-    scratch.scores.assign(static_cast<std::size_t>(w), -2.0f);
-    for (int d = d_min; d <= d_max; ++d) {
-      // Left pixels x paired with right pixels x - d: those either direction
-      // wants at this disparity, with both windows inside the images.
-      int xs = w, xe = -1;
-      if (lr.active() && d >= lr.d_min && d <= lr.d_max) {
-        xs = std::min(xs, lr.x0);
-        xe = std::max(xe, lr.x1);
-      }
-      if (rl.active() && d >= rl.d_min && d <= rl.d_max) {
-        xs = std::min(xs, rl.x0 + d);
-        xe = std::max(xe, rl.x1 + d);
-      }
-      xs = std::max({xs, r, r + d});
-      xe = std::min({xe, w - r - 1, w - r - 1 + d});
-      if (xe < xs) continue;
-      // Window sums of left(x) * right(x - d) over columns xs - r .. xe + r.
-      const int xa = xs - r, xb = xe + r + 1;
-      std::fill(col.begin() + xa, col.begin() + xb, 0.0f);
-      for (int yy = y0 - r; yy <= y1 + r; ++yy) {
-        const float* a = scratch.ref_f.ptr<float>(yy);
-        const float* b = scratch.other_f.ptr<float>(yy) - d;
-        const bool leaving = yy - 2 * r - 1 >= y0 - r;
-        const float* a0 = leaving ? scratch.ref_f.ptr<float>(yy - 2 * r - 1) : nullptr;
-        const float* b0 = leaving ? scratch.other_f.ptr<float>(yy - 2 * r - 1) - d : nullptr;
-        slide_products(col.data() + xa, a + xa, b + xa, a0 ? a0 + xa : nullptr, b0 ? b0 + xa : nullptr, xb - xa);
-        if (yy < y0 + r) continue;
-        const int y = yy - r;
-        row_box(col.data() + xa, row.data() + xa, xb - xa, r);
-        const float* ma = scratch.ref_mean.ptr<float>(y);
-        const float* sa = scratch.ref_std.ptr<float>(y);
-        const float* mb = scratch.other_mean.ptr<float>(y);
-        const float* sb = scratch.other_std.ptr<float>(y);
-        float* __restrict c = scratch.scores.data();
-        const float* __restrict sum = row.data();
-        correlations(c, sum + xs, ma + xs, sa + xs, mb + xs - d, sb + xs - d, xe - xs + 1, inv_n, min_texture);
-        if (lr.active()) offer_span(Row(lr, y), xs, xe - xs + 1, d, c, min_texture);
-        if (rl.active()) offer_span(Row(rl, y), xs - d, xe - xs + 1, d, c, min_texture);
-      }
+  const Search lr = bounds(lo_lr, hi_lr, scratch.ref_std, r, min_texture);
+  const Search rl = bounds(lo_rl, hi_rl, scratch.other_std, r, min_texture);
+  // One sweep over the disparities either direction wants fills the volume
+  // of correlations; each direction then picks its best from it. The left
+  // pixel x at d and the right pixel x - d at d share one correlation.
+  const int y0 = std::min(lr.active() ? lr.y0 : h, rl.active() ? rl.y0 : h);
+  const int y1 = std::max(lr.y1, rl.y1);
+  const int d_min = std::min(lr.active() ? lr.d_min : (1 << 30), rl.active() ? rl.d_min : (1 << 30));
+  const int d_max = std::max(lr.active() ? lr.d_max : -(1 << 30), rl.active() ? rl.d_max : -(1 << 30));
+  const int count = y1 >= y0 ? d_max - d_min + 1 : 0;
+  const std::size_t plane = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  if (scratch.volume.size() < plane * static_cast<std::size_t>(count)) scratch.volume.resize(plane * static_cast<std::size_t>(count));
+  scratch.span_lo.assign(static_cast<std::size_t>(count), 0);
+  scratch.span_hi.assign(static_cast<std::size_t>(count), -1);
+  const float inv_n = 1.0f / static_cast<float>(n);
+  std::vector<float>& col = scratch.col;
+  col.assign(static_cast<std::size_t>(w), 0.0f);
+  for (cv::Mat* m : {&scratch.best_lr, &scratch.best_rl}) {
+    m->create(left.size(), CV_32F);
+    fill(*m, -2.0f);
+  }
+  for (cv::Mat* m : {&scratch.best_d_lr, &scratch.best_d_rl}) {
+    m->create(left.size(), CV_32S);
+    fill(*m, 0);
+  }
+  for (int d = d_min; d < d_min + count; ++d) {
+    // Left pixels x paired with right pixels x - d: those either direction
+    // wants at this disparity, with both windows inside the images.
+    int xs = w, xe = -1;
+    if (lr.wants(d)) {
+      xs = std::min(xs, lr.x0);
+      xe = std::max(xe, lr.x1);
+    }
+    if (rl.wants(d)) {
+      xs = std::min(xs, rl.x0 + d);
+      xe = std::max(xe, rl.x1 + d);
+    }
+    xs = std::max({xs, r, r + d});
+    xe = std::min({xe, w - r - 1, w - r - 1 + d});
+    if (xe < xs) continue;
+    scratch.span_lo[static_cast<std::size_t>(d - d_min)] = xs;
+    scratch.span_hi[static_cast<std::size_t>(d - d_min)] = xe;
+    float* plane_d = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
+    // Window sums of left(x) * right(x - d) over columns xs - r .. xe + r.
+    const int xa = xs - r, xb = xe + r + 1;
+    std::fill(col.begin() + xa, col.begin() + xb, 0.0f);
+    for (int yy = y0 - r; yy <= y1 + r; ++yy) {
+      const float* a = scratch.ref_f.ptr<float>(yy);
+      const float* b = scratch.other_f.ptr<float>(yy) - d;
+      const bool leaving = yy - 2 * r - 1 >= y0 - r;
+      const float* a0 = leaving ? scratch.ref_f.ptr<float>(yy - 2 * r - 1) : nullptr;
+      const float* b0 = leaving ? scratch.other_f.ptr<float>(yy - 2 * r - 1) - d : nullptr;
+      slide_products(col.data() + xa, a + xa, b + xa, a0 ? a0 + xa : nullptr, b0 ? b0 + xa : nullptr, xb - xa);
+      if (yy < y0 + r) continue;
+      const int y = yy - r;
+      const BestRow lr_row{lo_lr.ptr<int>(y) + xs, hi_lr.ptr<int>(y) + xs, scratch.best_lr.ptr<float>(y) + xs,
+                           scratch.best_d_lr.ptr<int>(y) + xs};
+      const BestRow rl_row{lo_rl.ptr<int>(y) + xs - d, hi_rl.ptr<int>(y) + xs - d,
+                           scratch.best_rl.ptr<float>(y) + xs - d, scratch.best_d_rl.ptr<int>(y) + xs - d};
+      sweep_row(col.data() + xs, r, scratch.ref_mean.ptr<float>(y) + xs, scratch.ref_std.ptr<float>(y) + xs,
+                scratch.other_mean.ptr<float>(y) + xs - d, scratch.other_std.ptr<float>(y) + xs - d, inv_n, min_texture,
+                plane_d + static_cast<std::size_t>(y) * w + xs, lr_row, rl_row, xe - xs + 1, d);
     }
   }
-  finish(lr, r, config, disparity_lr, score_lr);
-  finish(rl, r, config, disparity_rl, score_rl);
+  const Volume volume{scratch.volume.data(), plane, w, d_min, scratch.span_lo.data(), scratch.span_hi.data()};
+  finish(lr, scratch.best_lr, scratch.best_d_lr, volume, 0, config, disparity_lr, score_lr);
+  finish(rl, scratch.best_rl, scratch.best_d_rl, volume, 1, config, disparity_rl, score_rl);
 }
 
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,

@@ -25,11 +25,11 @@ enum class Direction { kLeftToRight, kRightToLeft };
 struct NccScratch {
   cv::Mat ref_mean, ref_std, other_mean, other_std;
   cv::Mat ref_f, other_f;
-  struct Side {
-    cv::Mat best, best_d, before, after, last, last_d;
-  } lr, rl;
   cv::Mat none_lo, none_hi, unused_d, unused_s;
   std::vector<float> scores, col, col2, row, row2;
+  std::vector<int> span_lo, span_hi;
+  cv::Mat best_lr, best_d_lr, best_rl, best_d_rl;  // per pixel, the best score so far and its disparity
+  std::vector<float> volume;  // the sweep's correlations, one plane per disparity
 };
 
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in

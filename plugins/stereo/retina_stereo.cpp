@@ -167,13 +167,17 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     LevelDisparity& level = out[k];
     level.vergence = 0;
     bool verged = false;
+    const bool padded_path = left_frame != nullptr && right_frame != nullptr && config_.pad > 0;
     if (config_.vergence && k > 0 && right_frame != nullptr && fixation_.per_level[k] > 0) {
       // Sample the right frame where the left level's scene is at the fixation
       // disparity: the left region moved left by it, in whole level pixels.
+      // (The padded path samples it itself, with its margin.)
       offset = static_cast<int>(std::lround(fixation_.per_level[k] / gl.step_x));
-      retina::sample_level(*right_frame, gl.region.x - offset * gl.step_x, gl.region.y, gl.step_x, gl.step_y,
-                           left.levels[k].size(), k + 1 == n, right_level_);
-      right_level = &right_level_;
+      if (!padded_path) {
+        retina::sample_level(*right_frame, gl.region.x - offset * gl.step_x, gl.region.y, gl.step_x, gl.step_y,
+                             left.levels[k].size(), k + 1 == n, right_level_);
+        right_level = &right_level_;
+      }
       level.vergence = offset * gl.step_x;
       verged = true;
     }
@@ -200,7 +204,7 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
         predict(out, left, k, reverse, reverse ? level.right_x0 : gl.region.x, full_lo, full_hi, offset);
       }
     };
-    if (left_frame != nullptr && right_frame != nullptr && config_.pad > 0) {
+    if (padded_path) {
       // Sample both frames with a margin around the level, so that windows and
       // matches near the level's edges see real pixels instead of none.
       // Only as far as both frames reach: beyond them there is nothing to see.
@@ -212,8 +216,11 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       const int mx0 = std::min({m, room(gl.region.x, gl.step_x), room(right_x, gl.step_x)});
       const int mx1 = std::min({m, room(frame.width - gl.region.x - w * gl.step_x, gl.step_x),
                                 room(frame.width - right_x - w * gl.step_x, gl.step_x)});
-      const int my0 = std::min(m, room(gl.region.y, gl.step_y));
-      const int my1 = std::min(m, room(frame.height - gl.region.y - h * gl.step_y, gl.step_y));
+      // Rows: only the window's half height. Matches move along rows, so rows
+      // beyond the windows' reach would be sampled and never read.
+      const int mr = config_.ncc.window / 2;
+      const int my0 = std::min(mr, room(gl.region.y, gl.step_y));
+      const int my1 = std::min(mr, room(frame.height - gl.region.y - h * gl.step_y, gl.step_y));
       const cv::Size padded(w + mx0 + mx1, h + my0 + my1);
       const bool crop = k + 1 == n;
       retina::sample_level(*left_frame, gl.region.x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x,
