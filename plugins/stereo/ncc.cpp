@@ -257,53 +257,73 @@ struct BestRow {
   int* best_d;
 };
 
+// Eight lanes of one sweep row from column x (see sweep_row); R > 0 the
+// window's half width known at compile time, 0 read from r.
+template <int R>
+__attribute__((always_inline)) inline void sweep_lanes(const float* __restrict col, int r, const float* __restrict ma,
+                                                       const float* __restrict sa, const float* __restrict mb,
+                                                       const float* __restrict sb, float inv_n, float min_texture,
+                                                       float* __restrict volume, const BestRow& lr, const BestRow& rl,
+                                                       int x, int d) {
+  typedef float v8f __attribute__((vector_size(32)));
+  typedef int v8i __attribute__((vector_size(32)));
+  const int half = R > 0 ? R : r;
+  v8f sum, term, va, vb, vma, vmb;
+  std::memcpy(&sum, col + x - half, sizeof sum);
+  for (int k = 1 - half; k <= half; ++k) {
+    std::memcpy(&term, col + x + k, sizeof term);
+    sum += term;
+  }
+  std::memcpy(&va, sa + x, sizeof va);
+  std::memcpy(&vb, sb + x, sizeof vb);
+  std::memcpy(&vma, ma + x, sizeof vma);
+  std::memcpy(&vmb, mb + x, sizeof vmb);
+  const v8f tiny = v8f{} + 1e-6f, texture = v8f{} + min_texture;
+  const v8f prod = va * vb;
+  const v8f value = (sum * inv_n - vma * vmb) / (prod > tiny ? prod : tiny);
+  const v8f c = ((va >= texture) & (vb >= texture)) ? value : v8f{} - 2.0f;
+  std::memcpy(volume + x, &c, sizeof c);
+  const v8i dv = v8i{} + d;
+  for (const BestRow* s : {&lr, &rl}) {
+    v8f b;
+    v8i bd, lo, hi;
+    std::memcpy(&b, s->best + x, sizeof b);
+    std::memcpy(&bd, s->best_d + x, sizeof bd);
+    std::memcpy(&lo, s->lo + x, sizeof lo);
+    std::memcpy(&hi, s->hi + x, sizeof hi);
+    const v8i take = (dv >= lo) & (dv <= hi) & (c > b);
+    const v8f b_new = take ? c : b;
+    const v8i bd_new = take ? dv : bd;
+    std::memcpy(s->best + x, &b_new, sizeof b_new);
+    std::memcpy(s->best_d + x, &bd_new, sizeof bd_new);
+  }
+}
+
 // One row y of the sweep at disparity d, for left columns 0 .. n - 1 (all
 // pointers at the span's first column): the window sums of the products from
 // the column sums, their correlation coefficients (-2 where either window is
 // too flat), kept in the volume row, and offered to both directions' pixels
 // whose range holds d. The first of equal scores (the smallest disparity)
-// wins. GCC's vector extension, eight pixels at a time: its own vectoriser
-// gives up on the selects.
+// wins. GCC's vector extension, eight pixels at a time (its own vectoriser
+// gives up on the selects); the last eight overlap the ones before where n is
+// not a multiple of eight, which is harmless: offering a score again at the
+// same disparity changes nothing.
 SACCADE_AVX2_CLONE void sweep_row(const float* __restrict col, int r, const float* __restrict ma,
                                   const float* __restrict sa, const float* __restrict mb, const float* __restrict sb,
                                   float inv_n, float min_texture, float* __restrict volume, BestRow lr, BestRow rl,
                                   int n, int d) {
-  typedef float v8f __attribute__((vector_size(32)));
-  typedef int v8i __attribute__((vector_size(32)));
-  constexpr int kLanes = static_cast<int>(sizeof(v8f) / sizeof(float));
-  const v8i dv = v8i{} + d;
-  const v8f minus2 = v8f{} - 2.0f, texture = v8f{} + min_texture, scale = v8f{} + inv_n, tiny = v8f{} + 1e-6f;
-  int x = 0;
-  for (; x + kLanes <= n; x += kLanes) {
-    v8f sum, term, va, vb, vma, vmb;
-    std::memcpy(&sum, col + x - r, sizeof sum);
-    for (int k = 1 - r; k <= r; ++k) {
-      std::memcpy(&term, col + x + k, sizeof term);
-      sum += term;
+  constexpr int kLanes = 8;
+  if (n >= kLanes) {
+    for (int x = 0;; x += kLanes) {
+      const int at = std::min(x, n - kLanes);
+      if (r == 2) sweep_lanes<2>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+      else if (r == 1) sweep_lanes<1>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+      else sweep_lanes<0>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+      if (at == n - kLanes) break;
     }
-    std::memcpy(&va, sa + x, sizeof va);
-    std::memcpy(&vb, sb + x, sizeof vb);
-    std::memcpy(&vma, ma + x, sizeof vma);
-    std::memcpy(&vmb, mb + x, sizeof vmb);
-    const v8f prod = va * vb;
-    const v8f value = (sum * scale - vma * vmb) / (prod > tiny ? prod : tiny);
-    const v8f c = ((va >= texture) & (vb >= texture)) ? value : minus2;
-    std::memcpy(volume + x, &c, sizeof c);
-    for (const BestRow* s : {&lr, &rl}) {
-      v8f b;
-      v8i bd, lo, hi;
-      std::memcpy(&b, s->best + x, sizeof b);
-      std::memcpy(&bd, s->best_d + x, sizeof bd);
-      std::memcpy(&lo, s->lo + x, sizeof lo);
-      std::memcpy(&hi, s->hi + x, sizeof hi);
-      const v8i take = (dv >= lo) & (dv <= hi) & (c > b);
-      const v8f b_new = take ? c : b;
-      const v8i bd_new = take ? dv : bd;
-      std::memcpy(s->best + x, &b_new, sizeof b_new);
-      std::memcpy(s->best_d + x, &bd_new, sizeof bd_new);
-    }
+    return;
   }
-  for (; x < n; ++x) {
+  for (int x = 0; x < n; ++x) {
     float sum = col[x - r];
     for (int k = 1 - r; k <= r; ++k) sum += col[x + k];
     const bool textured = (sa[x] >= min_texture) & (sb[x] >= min_texture);
@@ -317,23 +337,13 @@ SACCADE_AVX2_CLONE void sweep_row(const float* __restrict col, int r, const floa
   }
 }
 
-// The sweep's result: the correlation of every left pixel x with right pixel
-// x - d that was computed, at volume[(d - d_min) * plane + y * width + x], for
-// x in [span_lo[d - d_min], span_hi[d - d_min]] on rows y0 .. y1.
+// The sweep's result: the correlation of left pixel x with right pixel x - d
+// at volume[(d - d_min) * plane + y * width + x] on rows y0 .. y1, -2 where
+// it was not computed.
 struct Volume {
   const float* data;
   std::size_t plane;
   int width, d_min;
-  const int *span_lo, *span_hi;
-  const float* row(int d, int y) const {
-    return data + static_cast<std::size_t>(d - d_min) * plane + static_cast<std::size_t>(y) * width;
-  }
-  bool has(int d, int x) const {
-    const int i = d - d_min;
-    return i >= 0 && x >= span_lo[i] && x <= span_hi[i];
-  }
-  // The score of left pixel x at d, -2 where it was not computed.
-  float at(int d, int y, int x) const { return has(d, x) ? row(d, y)[x] : -2.0f; }
 };
 
 // One direction's disparities from its best scores, with the parabola
@@ -346,6 +356,9 @@ void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const V
   score.create(s.lo->size(), CV_32F);
   fill(disparity, -1);
   fill(score, -1);
+  const bool subpixel = config.subpixel;
+  const float min_score = config.min_score;
+  const int w = volume.width;
   for (int y = s.y0; y <= s.y1; ++y) {
     const int* l = s.lo->ptr<int>(y);
     const int* u = s.hi->ptr<int>(y);
@@ -353,14 +366,22 @@ void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const V
     const int* bds = best_d.ptr<int>(y);
     float* out_d = disparity.ptr<float>(y);
     float* out_s = score.ptr<float>(y);
+    // Row y of the plane of disparity 0 (not necessarily one that exists):
+    // the score at (d, x) is at base[d * plane + x].
+    const float* base = volume.data + static_cast<std::ptrdiff_t>(y) * w -
+                        static_cast<std::ptrdiff_t>(volume.d_min) * static_cast<std::ptrdiff_t>(volume.plane);
+    const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(volume.plane);
     for (int x = s.x0; x <= s.x1; ++x) {
       const float b = bs[x];
-      if (!(b > -2.0f) || b < config.min_score) continue;
+      if (!(b > -2.0f) || b < min_score) continue;
       const int bd = bds[x];
       float dd = static_cast<float>(bd);
-      if (config.subpixel && bd > l[x] && bd < u[x]) {
-        const float c0 = volume.at(bd - 1, y, x + shift * (bd - 1));
-        const float c2 = volume.at(bd + 1, y, x + shift * (bd + 1));
+      // Neighbours inside the pixel's range are in the volume (-2 where not
+      // computed); their columns may still fall outside the left image.
+      const int x0 = x + shift * (bd - 1), x2 = x + shift * (bd + 1);
+      if (subpixel && bd > l[x] && bd < u[x] && x0 >= 0 && x2 < w) {
+        const float c0 = base[(bd - 1) * plane + x0];
+        const float c2 = base[(bd + 1) * plane + x2];
         const float denom = c0 - 2 * b + c2;
         if (c0 > -2 && c2 > -2 && denom < 0) dd += std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f);
       }
@@ -405,8 +426,6 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
   const int count = y1 >= y0 ? d_max - d_min + 1 : 0;
   const std::size_t plane = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   if (scratch.volume.size() < plane * static_cast<std::size_t>(count)) scratch.volume.resize(plane * static_cast<std::size_t>(count));
-  scratch.span_lo.assign(static_cast<std::size_t>(count), 0);
-  scratch.span_hi.assign(static_cast<std::size_t>(count), -1);
   const float inv_n = 1.0f / static_cast<float>(n);
   std::vector<float>& col = scratch.col;
   col.assign(static_cast<std::size_t>(w), 0.0f);
@@ -432,10 +451,13 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
     }
     xs = std::max({xs, r, r + d});
     xe = std::min({xe, w - r - 1, w - r - 1 + d});
-    if (xe < xs) continue;
-    scratch.span_lo[static_cast<std::size_t>(d - d_min)] = xs;
-    scratch.span_hi[static_cast<std::size_t>(d - d_min)] = xe;
+    if (xe < xs) {
+      float* empty = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
+      std::fill(empty + static_cast<std::size_t>(y0) * w, empty + static_cast<std::size_t>(y1 + 1) * w, -2.0f);
+      continue;
+    }
     float* plane_d = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
+    std::fill(plane_d + static_cast<std::size_t>(y0) * w, plane_d + static_cast<std::size_t>(y1 + 1) * w, -2.0f);
     // Window sums of left(x) * right(x - d) over columns xs - r .. xe + r.
     const int xa = xs - r, xb = xe + r + 1;
     std::fill(col.begin() + xa, col.begin() + xb, 0.0f);
@@ -457,7 +479,7 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
                 plane_d + static_cast<std::size_t>(y) * w + xs, lr_row, rl_row, xe - xs + 1, d);
     }
   }
-  const Volume volume{scratch.volume.data(), plane, w, d_min, scratch.span_lo.data(), scratch.span_hi.data()};
+  const Volume volume{scratch.volume.data(), plane, w, d_min};
   finish(lr, scratch.best_lr, scratch.best_d_lr, volume, 0, config, disparity_lr, score_lr);
   finish(rl, scratch.best_rl, scratch.best_d_rl, volume, 1, config, disparity_rl, score_rl);
 }
@@ -486,20 +508,26 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
 double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,
                         float tolerance, cv::Mat& valid) {
   int matched = 0, kept = 0;
-  for (int y = 0; y < lr.rows; ++y)
+  for (int y = 0; y < lr.rows; ++y) {
+    const float* d_row = lr.ptr<float>(y);
+    const float* s_row = lr_score.ptr<float>(y);
+    const float* back = rl.ptr<float>(y);
+    const float* back_score = rl_score.ptr<float>(y);
+    uint8_t* ok = valid.ptr<uint8_t>(y);
     for (int x = 0; x < lr.cols; ++x) {
-      if (lr_score.at<float>(y, x) <= -1.0f) {
-        valid.at<uint8_t>(y, x) = 0;
+      if (s_row[x] <= -1.0f) {
+        ok[x] = 0;
         continue;
       }
       ++matched;
-      const float d = lr.at<float>(y, x);
+      const float d = d_row[x];
       const int xr = static_cast<int>(std::lround(x - d));
-      const bool agrees = xr >= 0 && xr < rl.cols && rl_score.at<float>(y, xr) > -1.0f &&
-                          std::fabs(rl.at<float>(y, xr) - d) <= tolerance;
+      const bool agrees =
+          xr >= 0 && xr < rl.cols && back_score[xr] > -1.0f && std::fabs(back[xr] - d) <= tolerance;
       if (agrees) ++kept;
-      else valid.at<uint8_t>(y, x) = 0;
+      else ok[x] = 0;
     }
+  }
   return matched > 0 ? static_cast<double>(kept) / matched : 0.0;
 }
 

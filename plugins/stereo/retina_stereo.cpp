@@ -8,8 +8,18 @@
 #include <string>
 
 #include "saccade/fill.hpp"
+#include "saccade/simd.hpp"
 
 namespace saccade::stereo {
+
+namespace {
+
+// out[j] += scale * in[j]: one window pixel's products with the strip at every shift.
+SACCADE_AVX2_CLONE void add_scaled(float* __restrict out, const float* __restrict in, float scale, int n) {
+  for (int j = 0; j < n; ++j) out[j] += scale * in[j];
+}
+
+}  // namespace
 
 // Search ranges for level k of the reference image: around the disparity the
 // level outside found at the same source point, or the whole range where it
@@ -29,18 +39,30 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
   // The outer level knows the disparity to about one of its own pixels, which is
   // outer.step / g.step of this level's: the radius is counted in outer pixels.
   const int radius = static_cast<int>(std::ceil(config_.search_radius * outer.step_x / g.step_x));
-  for (int y = 0; y < size.height; ++y)
+  // The outer pixel under each column and each row (the mapping is separable).
+  outer_col_.resize(static_cast<std::size_t>(size.width));
+  for (int x = 0; x < size.width; ++x) {
+    const double sx = x0 + (x + 0.5) * g.step_x;
+    const int px = static_cast<int>(std::lround((sx - outer_x0) / outer.step_x - 0.5));
+    outer_col_[static_cast<std::size_t>(x)] = px >= 0 && px < prev.cols ? px : -1;
+  }
+  for (int y = 0; y < size.height; ++y) {
+    const double sy = g.region.y + (y + 0.5) * g.step_y;
+    const int py = static_cast<int>(std::lround((sy - outer.region.y) / outer.step_y - 0.5));
+    if (py < 0 || py >= prev.rows) continue;
+    const float* outer_row = prev.ptr<float>(py);
+    int* lo = lo_.ptr<int>(y);
+    int* hi = hi_.ptr<int>(y);
     for (int x = 0; x < size.width; ++x) {
-      const double sx = x0 + (x + 0.5) * g.step_x, sy = g.region.y + (y + 0.5) * g.step_y;
-      const int px = static_cast<int>(std::lround((sx - outer_x0) / outer.step_x - 0.5));
-      const int py = static_cast<int>(std::lround((sy - outer.region.y) / outer.step_y - 0.5));
-      if (px < 0 || py < 0 || px >= prev.cols || py >= prev.rows) continue;
-      const float d = prev.at<float>(py, px);
+      const int px = outer_col_[static_cast<std::size_t>(x)];
+      if (px < 0) continue;
+      const float d = outer_row[px];
       if (d < 0) continue;
       const int centre = static_cast<int>(std::lround(d / g.step_x)) - offset;
-      lo_.at<int>(y, x) = std::max(full_lo, centre - radius);
-      hi_.at<int>(y, x) = std::min(full_hi, centre + radius);
+      lo[x] = std::max(full_lo, centre - radius);
+      hi[x] = std::min(full_hi, centre + radius);
     }
+  }
 }
 
 void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out) {
@@ -74,26 +96,41 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
     const double x0 = g.region.x + (wx - s_hi) * g.step_x;
     retina::sample_level(right_frame, x0, g.region.y + wy * g.step_y, g.step_x, g.step_y,
                          cv::Size(ww + s_hi - s_lo, wh), k + 1 == n, ls.strip);
-    level(cv::Rect(wx, wy, ww, wh)).convertTo(ls.window_f, CV_32F);
-    ls.strip.convertTo(ls.strip_f, CV_32F);
-    cv::Scalar wm, ws;
-    cv::meanStdDev(ls.window_f, wm, ws);
-    if (ws[0] < config_.ncc.min_texture) continue;
-    const int count = s_hi - s_lo + 1;
-    samples_.assign(static_cast<std::size_t>(count), -2.0f);
-    int best = -1;
-    // Column sums of the strip over the window's rows, so that each shift's
-    // mean and deviation come from ww column sums.
-    column_sum_.assign(static_cast<std::size_t>(ls.strip_f.cols), 0.0);
-    column_sq_.assign(static_cast<std::size_t>(ls.strip_f.cols), 0.0);
+    // The window's mean and deviation, then its values less the mean: the
+    // cross term of the correlation at every shift is then a plain sum of
+    // products, computed for all shifts at once (a vector loop over shifts).
+    const cv::Mat window = level(cv::Rect(wx, wy, ww, wh));
+    double wsum = 0, wsq = 0;
     for (int y = 0; y < wh; ++y) {
-      const float* b = ls.strip_f.ptr<float>(y);
-      for (int x = 0; x < ls.strip_f.cols; ++x) {
-        column_sum_[static_cast<std::size_t>(x)] += b[x];
-        column_sq_[static_cast<std::size_t>(x)] += static_cast<double>(b[x]) * b[x];
+      const uint8_t* a = window.ptr<uint8_t>(y);
+      for (int x = 0; x < ww; ++x) {
+        wsum += a[x];
+        wsq += static_cast<double>(a[x]) * a[x];
       }
     }
     const double area = static_cast<double>(ww) * wh;
+    const double wm = wsum / area, ws = std::sqrt(std::max(0.0, wsq / area - wm * wm));
+    if (ws < config_.ncc.min_texture) continue;
+    const int count = s_hi - s_lo + 1;
+    const int strip_cols = ls.strip.cols;
+    samples_.assign(static_cast<std::size_t>(count), -2.0f);
+    cross_.assign(static_cast<std::size_t>(count), 0.0f);
+    column_sum_.assign(static_cast<std::size_t>(strip_cols), 0.0);
+    column_sq_.assign(static_cast<std::size_t>(strip_cols), 0.0);
+    strip_row_.resize(static_cast<std::size_t>(strip_cols));
+    for (int y = 0; y < wh; ++y) {
+      const uint8_t* a = window.ptr<uint8_t>(y);
+      const uint8_t* b = ls.strip.ptr<uint8_t>(y);
+      for (int x = 0; x < strip_cols; ++x) {
+        column_sum_[static_cast<std::size_t>(x)] += b[x];
+        column_sq_[static_cast<std::size_t>(x)] += static_cast<double>(b[x]) * b[x];
+        strip_row_[static_cast<std::size_t>(x)] = static_cast<float>(b[x]) - 128.0f;  // small sums stay exact in float
+      }
+      // Shift s pairs window column x with strip column x + s_hi - s.
+      for (int x = 0; x < ww; ++x)
+        add_scaled(cross_.data(), strip_row_.data() + x, static_cast<float>(a[x] - wm), count);
+    }
+    int best = -1;
     for (int s = s_lo; s <= s_hi; ++s) {
       const int x0s = s_hi - s;
       double sum = 0, sq = 0;
@@ -103,13 +140,7 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
       }
       const double om = sum / area, os = std::sqrt(std::max(0.0, sq / area - om * om));
       if (os < config_.ncc.min_texture) continue;
-      double cross = 0;
-      for (int y = 0; y < wh; ++y) {
-        const float* a = ls.window_f.ptr<float>(y);
-        const float* b = ls.strip_f.ptr<float>(y) + x0s;
-        for (int x = 0; x < ww; ++x) cross += (a[x] - wm[0]) * b[x];
-      }
-      const float ncc = static_cast<float>(cross / (area * ws[0] * os));
+      const float ncc = static_cast<float>(cross_[static_cast<std::size_t>(x0s)] / (area * ws * os));
       samples_[static_cast<std::size_t>(s - s_lo)] = ncc;
       if (best < 0 || ncc > samples_[static_cast<std::size_t>(best)]) best = s - s_lo;
     }
@@ -293,16 +324,23 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     level.disparity.create(level_lr_.size(), CV_32F);
     level.reverse.create(level_rl_.size(), CV_32F);
     int valid = 0;
-    for (int y = 0; y < level_lr_.rows; ++y)
+    for (int y = 0; y < level_lr_.rows; ++y) {
+      const float* d = level_lr_.ptr<float>(y);
+      const float* r = level_rl_.ptr<float>(y);
+      const float* r_score = score_rl_.ptr<float>(y);
+      const uint8_t* checked = valid_lr_.ptr<uint8_t>(y);
+      float* score = level.score.ptr<float>(y);
+      float* forward = level.disparity.ptr<float>(y);
+      float* reverse = level.reverse.ptr<float>(y);
       for (int x = 0; x < level_lr_.cols; ++x) {
-        const float d = level_lr_.at<float>(y, x), r = level_rl_.at<float>(y, x);
-        const bool dv = level.score.at<float>(y, x) > -1.0f && valid_lr_.at<uint8_t>(y, x);
-        const bool rv = score_rl_.at<float>(y, x) > -1.0f;
-        level.disparity.at<float>(y, x) = dv ? static_cast<float>((d + offset) * gl.step_x) : -1.0f;
-        level.reverse.at<float>(y, x) = rv ? static_cast<float>((r + offset) * gl.step_x) : -1.0f;
-        if (!dv) level.score.at<float>(y, x) = -1.0f;
+        const bool dv = score[x] > -1.0f && checked[x];
+        const bool rv = r_score[x] > -1.0f;
+        forward[x] = dv ? static_cast<float>((d[x] + offset) * gl.step_x) : -1.0f;
+        reverse[x] = rv ? static_cast<float>((r[x] + offset) * gl.step_x) : -1.0f;
+        if (!dv) score[x] = -1.0f;
         valid += dv;
       }
+    }
     level.density = static_cast<double>(valid) / static_cast<double>(level_lr_.total());
     level.filled_density = level.density;
     if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[k]);

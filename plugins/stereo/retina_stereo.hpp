@@ -106,14 +106,15 @@ class RetinaStereo {
   // Buffers per level: the levels' padded sizes differ, and sharing one set
   // would reallocate on every level of every frame.
   struct LevelScratch {
-    cv::Mat strip, window_f, strip_f;
+    cv::Mat strip;
     cv::Mat left_padded, right_padded, lo_padded, hi_padded, lo_rl_padded, hi_rl_padded, lr_padded, lr_score_padded, rl_padded, rl_score_padded,
         valid_padded;
     NccScratch ncc;
   };
   std::vector<LevelScratch> level_scratch_;
   std::vector<double> column_sum_, column_sq_;
-  std::vector<float> samples_;
+  std::vector<float> samples_, cross_, strip_row_;
+  std::vector<int> outer_col_;
   cv::Mat right_level_, right_gray_, left_gray_;
   cv::Mat lo_, hi_, level_lr_, level_rl_, score_rl_, valid_lr_;
 };
