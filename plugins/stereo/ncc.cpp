@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 #include "saccade/fill.hpp"
@@ -503,6 +504,30 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
   cv::Mat lo(left.size(), CV_32S, cv::Scalar(d_min)), hi(left.size(), CV_32S, cv::Scalar(d_max));
   ncc_match(left, right, direction, lo, hi, config, disparity, score);
+}
+
+void reverse_ranges(const cv::Mat& lo, const cv::Mat& hi, cv::Mat& lo_rl, cv::Mat& hi_rl) {
+  CV_Assert(lo.type() == CV_32S && hi.type() == CV_32S && lo.size() == hi.size());
+  lo_rl.create(lo.size(), CV_32S);
+  hi_rl.create(lo.size(), CV_32S);
+  fill(lo_rl, std::numeric_limits<int>::max());
+  fill(hi_rl, std::numeric_limits<int>::min());
+  const int w = lo.cols;
+  for (int y = 0; y < lo.rows; ++y) {
+    const int* l = lo.ptr<int>(y);
+    const int* u = hi.ptr<int>(y);
+    int* rl_lo = lo_rl.ptr<int>(y);
+    int* rl_hi = hi_rl.ptr<int>(y);
+    for (int x = 0; x < w; ++x) {
+      // Right pixels x - d for d in [l, u], clipped to the image.
+      const int d_lo = std::max(l[x], x - (w - 1)), d_hi = std::min(u[x], x);
+      for (int d = d_lo; d <= d_hi; ++d) {
+        const int xr = x - d;
+        rl_lo[xr] = std::min(rl_lo[xr], d);
+        rl_hi[xr] = std::max(rl_hi[xr], d);
+      }
+    }
+  }
 }
 
 double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,

@@ -63,6 +63,13 @@ void ncc_match_reference(const cv::Mat& left, const cv::Mat& right, Direction di
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, int d_min, int d_max,
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
 
+// Right->left ranges from left->right ones (CV_32S): each right pixel xr gets
+// the smallest and largest d at which some left pixel's range reaches it
+// (left x = xr + d with d in [lo(x), hi(x)]); empty (lo > hi) where none does.
+// A left pixel's match is then always among its right pixel's candidates, and
+// the check compares like with like.
+void reverse_ranges(const cv::Mat& lo, const cv::Mat& hi, cv::Mat& lo_rl, cv::Mat& hi_rl);
+
 // Clears `valid` (CV_8U) where the left->right match (score > -1) has no
 // right->left match, read at the matched pixel, within `tolerance` (signed
 // disparities allowed). Returns the share of matched pixels kept.

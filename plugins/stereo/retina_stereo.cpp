@@ -21,21 +21,20 @@ SACCADE_AVX2_CLONE void add_scaled(float* __restrict out, const float* __restric
 
 }  // namespace
 
-// Search ranges for level k of the reference image: around the disparity the
-// level outside found at the same source point, or the whole range where it
-// found none. `offset` is how far left of the left region the right one lies, in
-// level pixels: level disparity = source disparity / step - offset, both ways.
-void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, bool reverse,
-                           double x0, int full_lo, int full_hi, int offset) {
+// Search ranges for level k's left pixels: around the disparity the level
+// outside found at the same source point, or the whole range where it found
+// none. `offset` is how far left of the left region the right one lies, in
+// level pixels: level disparity = source disparity / step - offset.
+void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo,
+                           int full_hi, int offset) {
   const cv::Size size = left.levels[k].size();
   fill(lo_, full_lo);
   fill(hi_, full_hi);
   if (!config_.coarse_to_fine || k == 0) return;
-  // Both sides share steps and rows; only the regions' left edges differ.
   const LevelGeometry& g = left.geometry[k];
   const LevelGeometry& outer = left.geometry[k - 1];
-  const double outer_x0 = reverse ? out[k - 1].right_x0 : outer.region.x;
-  const cv::Mat& prev = reverse ? out[k - 1].reverse : out[k - 1].disparity;
+  const double x0 = g.region.x, outer_x0 = outer.region.x;
+  const cv::Mat& prev = out[k - 1].disparity;
   // The outer level knows the disparity to about one of its own pixels, which is
   // outer.step / g.step of this level's: the radius is counted in outer pixels.
   const int radius = static_cast<int>(std::ceil(config_.search_radius * outer.step_x / g.step_x));
@@ -225,14 +224,17 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     // level's per-pixel estimates are coarser than its whole-window fixation.
     const bool around_fixation = verged && k + 1 == n;
     const int radius_lo = std::max(full_lo, -config_.fovea_radius), radius_hi = std::min(full_hi, config_.fovea_radius);
-    auto ranges = [&](bool reverse) {
+    // Left->right ranges per pixel; right->left ones follow from them (see
+    // reverse_ranges), so one sweep over the left pixels' candidates serves
+    // both directions and the check.
+    auto ranges = [&]() {
       lo_.create(left.levels[k].size(), CV_32S);
       hi_.create(left.levels[k].size(), CV_32S);
       if (around_fixation) {
         fill(lo_, radius_lo);
         fill(hi_, radius_hi);
       } else {
-        predict(out, left, k, reverse, reverse ? level.right_x0 : gl.region.x, full_lo, full_hi, offset);
+        predict(out, left, k, full_lo, full_hi, offset);
       }
     };
     if (padded_path) {
@@ -259,33 +261,15 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       retina::sample_level(*right_frame, right_x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x, gl.step_y,
                            padded, crop, ls.right_padded);
       const cv::Rect inside(mx0, my0, w, h);
-      auto padded_ranges = [&](bool reverse, cv::Mat& lo_padded, cv::Mat& hi_padded) {
-        ranges(reverse);
-        double lo_min = 0, hi_max = 0;
-        cv::minMaxLoc(lo_, &lo_min, nullptr);
-        cv::minMaxLoc(hi_, nullptr, &hi_max);
-        lo_padded.create(padded, CV_32S);
-        hi_padded.create(padded, CV_32S);
-        // Outside the level: nothing to find left->right; right->left, on the
-        // level's rows, the columns its matches can land on, with the widest
-        // range it uses, so the check can read every match.
-        fill(lo_padded, 1);
-        fill(hi_padded, 0);
-        if (reverse) {
-          const int band0 = std::max(0, inside.x - static_cast<int>(hi_max));
-          const int band1 = std::min(padded.width, inside.x + inside.width - static_cast<int>(lo_min));
-          if (band1 > band0) {
-            const cv::Rect band(band0, inside.y, band1 - band0, inside.height);
-            cv::Mat lo_band = lo_padded(band), hi_band = hi_padded(band);
-            fill(lo_band, lo_min);
-            fill(hi_band, hi_max);
-          }
-        }
-        lo_.copyTo(lo_padded(inside));
-        hi_.copyTo(hi_padded(inside));
-      };
-      padded_ranges(false, ls.lo_padded, ls.hi_padded);
-      padded_ranges(true, ls.lo_rl_padded, ls.hi_rl_padded);
+      // Outside the level nothing is searched left->right.
+      ranges();
+      ls.lo_padded.create(padded, CV_32S);
+      ls.hi_padded.create(padded, CV_32S);
+      fill(ls.lo_padded, 1);
+      fill(ls.hi_padded, 0);
+      lo_.copyTo(ls.lo_padded(inside));
+      hi_.copyTo(ls.hi_padded(inside));
+      reverse_ranges(ls.lo_padded, ls.hi_padded, ls.lo_rl_padded, ls.hi_rl_padded);
       ncc_match_both(ls.left_padded, ls.right_padded, ls.lo_padded, ls.hi_padded, ls.lo_rl_padded, ls.hi_rl_padded,
                      config_.ncc, ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, ls.ncc);
       ls.valid_padded.create(padded, CV_8U);
@@ -308,11 +292,9 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
         right_level->copyTo(level.right_image);
         level.margin = {};
       }
-      ranges(false);
-      lo_.copyTo(ls.lo_padded);
-      hi_.copyTo(ls.hi_padded);
-      ranges(true);
-      ncc_match_both(left.levels[k], *right_level, ls.lo_padded, ls.hi_padded, lo_, hi_, config_.ncc, level_lr_,
+      ranges();
+      reverse_ranges(lo_, hi_, ls.lo_rl_padded, ls.hi_rl_padded);
+      ncc_match_both(left.levels[k], *right_level, lo_, hi_, ls.lo_rl_padded, ls.hi_rl_padded, config_.ncc, level_lr_,
                      level.score, level_rl_, score_rl_, ls.ncc);
       // Validity comes from the scores: with vergence a level disparity may be negative.
       valid_lr_.create(level_lr_.size(), CV_8U);

@@ -97,9 +97,9 @@ class RetinaStereo {
   void find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out);
 
  private:
-  // Search ranges for level k of one side, whose region starts at source x `x0`.
-  void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, bool reverse, double x0,
-               int full_lo, int full_hi, int offset);
+  // Search ranges for level k's left pixels, from the level outside it.
+  void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo, int full_hi,
+               int offset);
   int around_fixation_range(bool around, int full, bool low) const;
   RetinaStereoConfig config_;
   Fixation fixation_;
