@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <vector>
 
 #include "saccade/fill.hpp"
@@ -260,7 +259,9 @@ struct BestRow {
 
 // Eight lanes of one sweep row from column x (see sweep_row); R > 0 the
 // window's half width known at compile time, 0 read from r.
-template <int R>
+// kImplicit: the right pixels have no ranges of their own and take every
+// pair a left pixel searches (rl.lo and rl.hi unused).
+template <int R, bool kImplicit>
 __attribute__((always_inline)) inline void sweep_lanes(const float* __restrict col, int r, const float* __restrict ma,
                                                        const float* __restrict sa, const float* __restrict mb,
                                                        const float* __restrict sb, float inv_n, float min_texture,
@@ -285,18 +286,27 @@ __attribute__((always_inline)) inline void sweep_lanes(const float* __restrict c
   const v8f c = ((va >= texture) & (vb >= texture)) ? value : v8f{} - 2.0f;
   std::memcpy(volume + x, &c, sizeof c);
   const v8i dv = v8i{} + d;
-  for (const BestRow* s : {&lr, &rl}) {
+  v8i lo, hi;
+  std::memcpy(&lo, lr.lo + x, sizeof lo);
+  std::memcpy(&hi, lr.hi + x, sizeof hi);
+  const v8i wanted_lr = (dv >= lo) & (dv <= hi);
+  v8i wanted_rl = wanted_lr;
+  if (!kImplicit) {
+    std::memcpy(&lo, rl.lo + x, sizeof lo);
+    std::memcpy(&hi, rl.hi + x, sizeof hi);
+    wanted_rl = (dv >= lo) & (dv <= hi);
+  }
+  for (int side = 0; side < 2; ++side) {
+    const BestRow& s = side == 0 ? lr : rl;
     v8f b;
-    v8i bd, lo, hi;
-    std::memcpy(&b, s->best + x, sizeof b);
-    std::memcpy(&bd, s->best_d + x, sizeof bd);
-    std::memcpy(&lo, s->lo + x, sizeof lo);
-    std::memcpy(&hi, s->hi + x, sizeof hi);
-    const v8i take = (dv >= lo) & (dv <= hi) & (c > b);
+    v8i bd;
+    std::memcpy(&b, s.best + x, sizeof b);
+    std::memcpy(&bd, s.best_d + x, sizeof bd);
+    const v8i take = (side == 0 ? wanted_lr : wanted_rl) & (c > b);
     const v8f b_new = take ? c : b;
     const v8i bd_new = take ? dv : bd;
-    std::memcpy(s->best + x, &b_new, sizeof b_new);
-    std::memcpy(s->best_d + x, &bd_new, sizeof bd_new);
+    std::memcpy(s.best + x, &b_new, sizeof b_new);
+    std::memcpy(s.best_d + x, &bd_new, sizeof bd_new);
   }
 }
 
@@ -317,9 +327,15 @@ SACCADE_AVX2_CLONE void sweep_row(const float* __restrict col, int r, const floa
   if (n >= kLanes) {
     for (int x = 0;; x += kLanes) {
       const int at = std::min(x, n - kLanes);
-      if (r == 2) sweep_lanes<2>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
-      else if (r == 1) sweep_lanes<1>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
-      else sweep_lanes<0>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+      if (rl.lo == nullptr) {
+        if (r == 2) sweep_lanes<2, true>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+        else if (r == 1) sweep_lanes<1, true>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+        else sweep_lanes<0, true>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+      } else {
+        if (r == 2) sweep_lanes<2, false>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+        else if (r == 1) sweep_lanes<1, false>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+        else sweep_lanes<0, false>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
+      }
       if (at == n - kLanes) break;
     }
     return;
@@ -330,11 +346,16 @@ SACCADE_AVX2_CLONE void sweep_row(const float* __restrict col, int r, const floa
     const bool textured = (sa[x] >= min_texture) & (sb[x] >= min_texture);
     const float c = textured ? (sum * inv_n - ma[x] * mb[x]) / std::max(sa[x] * sb[x], 1e-6f) : -2.0f;
     volume[x] = c;
-    for (const BestRow* s : {&lr, &rl})
-      if (d >= s->lo[x] && d <= s->hi[x] && c > s->best[x]) {
-        s->best[x] = c;
-        s->best_d[x] = d;
-      }
+    const bool wanted_lr = d >= lr.lo[x] && d <= lr.hi[x];
+    const bool wanted_rl = rl.lo == nullptr ? wanted_lr : d >= rl.lo[x] && d <= rl.hi[x];
+    if (wanted_lr && c > lr.best[x]) {
+      lr.best[x] = c;
+      lr.best_d[x] = d;
+    }
+    if (wanted_rl && c > rl.best[x]) {
+      rl.best[x] = c;
+      rl.best_d[x] = d;
+    }
   }
 }
 
@@ -350,19 +371,24 @@ struct Volume {
 // One direction's disparities from its best scores, with the parabola
 // through the scores either side of the best from the volume. `shift` 0: the
 // pixels are the left image's (left x at d is volume column x); 1: the right
-// image's (right x at d is left x + d).
+// image's (right x at d is left x + d). A neighbour counts where it was
+// searched: inside the pixel's range, or with `searched_by` (the left ranges,
+// for right pixels without their own) where the left pixel's range held it.
 void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const Volume& volume, int shift,
-            const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
-  disparity.create(s.lo->size(), CV_32F);
-  score.create(s.lo->size(), CV_32F);
+            const cv::Mat* lo_left, const cv::Mat* hi_left, const NccConfig& config, cv::Mat& disparity,
+            cv::Mat& score) {
+  disparity.create(best.size(), CV_32F);
+  score.create(best.size(), CV_32F);
   fill(disparity, -1);
   fill(score, -1);
+  if (!s.active()) return;
   const bool subpixel = config.subpixel;
   const float min_score = config.min_score;
   const int w = volume.width;
+  const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(volume.plane);
   for (int y = s.y0; y <= s.y1; ++y) {
-    const int* l = s.lo->ptr<int>(y);
-    const int* u = s.hi->ptr<int>(y);
+    const int* l = lo_left != nullptr ? lo_left->ptr<int>(y) : s.lo->ptr<int>(y);
+    const int* u = hi_left != nullptr ? hi_left->ptr<int>(y) : s.hi->ptr<int>(y);
     const float* bs = best.ptr<float>(y);
     const int* bds = best_d.ptr<int>(y);
     float* out_d = disparity.ptr<float>(y);
@@ -370,17 +396,21 @@ void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const V
     // Row y of the plane of disparity 0 (not necessarily one that exists):
     // the score at (d, x) is at base[d * plane + x].
     const float* base = volume.data + static_cast<std::ptrdiff_t>(y) * w -
-                        static_cast<std::ptrdiff_t>(volume.d_min) * static_cast<std::ptrdiff_t>(volume.plane);
-    const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(volume.plane);
+                        static_cast<std::ptrdiff_t>(volume.d_min) * plane;
     for (int x = s.x0; x <= s.x1; ++x) {
       const float b = bs[x];
       if (!(b > -2.0f) || b < min_score) continue;
       const int bd = bds[x];
       float dd = static_cast<float>(bd);
-      // Neighbours inside the pixel's range are in the volume (-2 where not
-      // computed); their columns may still fall outside the left image.
       const int x0 = x + shift * (bd - 1), x2 = x + shift * (bd + 1);
-      if (subpixel && bd > l[x] && bd < u[x] && x0 >= 0 && x2 < w) {
+      bool neighbours = x0 >= 0 && x2 < w;
+      if (neighbours) {
+        if (lo_left != nullptr)
+          neighbours = l[x0] <= bd - 1 && bd - 1 <= u[x0] && l[x2] <= bd + 1 && bd + 1 <= u[x2];
+        else
+          neighbours = bd > l[x] && bd < u[x];
+      }
+      if (subpixel && neighbours) {
         const float c0 = base[(bd - 1) * plane + x0];
         const float c2 = base[(bd + 1) * plane + x2];
         const float denom = c0 - 2 * b + c2;
@@ -394,11 +424,17 @@ void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const V
 
 }  // namespace
 
-void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, const cv::Mat& hi_lr,
-                    const cv::Mat& lo_rl, const cv::Mat& hi_rl, const NccConfig& config, cv::Mat& disparity_lr,
-                    cv::Mat& score_lr, cv::Mat& disparity_rl, cv::Mat& score_rl, NccScratch& scratch) {
+namespace {
+
+// Both directions in one sweep. lo_rl and hi_rl null: the right pixels take
+// exactly the pairs the left pixels search.
+void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, const cv::Mat& hi_lr, const cv::Mat* lo_rl,
+           const cv::Mat* hi_rl, const NccConfig& config, cv::Mat& disparity_lr, cv::Mat& score_lr,
+           cv::Mat& disparity_rl, cv::Mat& score_rl, NccScratch& scratch) {
   CV_Assert(left.size() == right.size() && left.channels() == 1 && right.channels() == 1 && config.window % 2 == 1);
-  for (const cv::Mat* m : {&lo_lr, &hi_lr, &lo_rl, &hi_rl}) CV_Assert(m->size() == left.size() && m->type() == CV_32S);
+  CV_Assert((lo_rl == nullptr) == (hi_rl == nullptr));
+  for (const cv::Mat* m : {&lo_lr, &hi_lr, lo_rl, hi_rl})
+    if (m != nullptr) CV_Assert(m->size() == left.size() && m->type() == CV_32S);
   const int r = config.window / 2, n = config.window * config.window;
   const int w = left.cols, h = left.rows;
   const float min_texture = config.min_texture;
@@ -416,7 +452,17 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
   box_stats(scratch.other_f, r, scratch.other_mean, scratch.other_std, scratch.col, scratch.col2, scratch.row,
             scratch.row2);
   const Search lr = bounds(lo_lr, hi_lr, scratch.ref_std, r, min_texture);
-  const Search rl = bounds(lo_rl, hi_rl, scratch.other_std, r, min_texture);
+  const bool implicit = lo_rl == nullptr;
+  Search rl;
+  if (!implicit) {
+    rl = bounds(*lo_rl, *hi_rl, scratch.other_std, r, min_texture);
+  } else if (lr.active()) {
+    // The right pixels any left pixel's search reaches.
+    rl = lr;
+    rl.lo = rl.hi = nullptr;
+    rl.x0 = std::max(r, lr.x0 - lr.d_max);
+    rl.x1 = std::min(w - 1 - r, lr.x1 - lr.d_min);
+  }
   // One sweep over the disparities either direction wants fills the volume
   // of correlations; each direction then picks its best from it. The left
   // pixel x at d and the right pixel x - d at d share one correlation.
@@ -446,7 +492,7 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
       xs = std::min(xs, lr.x0);
       xe = std::max(xe, lr.x1);
     }
-    if (rl.wants(d)) {
+    if (!implicit && rl.wants(d)) {
       xs = std::min(xs, rl.x0 + d);
       xe = std::max(xe, rl.x1 + d);
     }
@@ -473,16 +519,32 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
       const int y = yy - r;
       const BestRow lr_row{lo_lr.ptr<int>(y) + xs, hi_lr.ptr<int>(y) + xs, scratch.best_lr.ptr<float>(y) + xs,
                            scratch.best_d_lr.ptr<int>(y) + xs};
-      const BestRow rl_row{lo_rl.ptr<int>(y) + xs - d, hi_rl.ptr<int>(y) + xs - d,
-                           scratch.best_rl.ptr<float>(y) + xs - d, scratch.best_d_rl.ptr<int>(y) + xs - d};
+      const BestRow rl_row{implicit ? nullptr : lo_rl->ptr<int>(y) + xs - d,
+                           implicit ? nullptr : hi_rl->ptr<int>(y) + xs - d, scratch.best_rl.ptr<float>(y) + xs - d,
+                           scratch.best_d_rl.ptr<int>(y) + xs - d};
       sweep_row(col.data() + xs, r, scratch.ref_mean.ptr<float>(y) + xs, scratch.ref_std.ptr<float>(y) + xs,
                 scratch.other_mean.ptr<float>(y) + xs - d, scratch.other_std.ptr<float>(y) + xs - d, inv_n, min_texture,
                 plane_d + static_cast<std::size_t>(y) * w + xs, lr_row, rl_row, xe - xs + 1, d);
     }
   }
   const Volume volume{scratch.volume.data(), plane, w, d_min};
-  finish(lr, scratch.best_lr, scratch.best_d_lr, volume, 0, config, disparity_lr, score_lr);
-  finish(rl, scratch.best_rl, scratch.best_d_rl, volume, 1, config, disparity_rl, score_rl);
+  finish(lr, scratch.best_lr, scratch.best_d_lr, volume, 0, nullptr, nullptr, config, disparity_lr, score_lr);
+  finish(rl, scratch.best_rl, scratch.best_d_rl, volume, 1, implicit ? &lo_lr : nullptr, implicit ? &hi_lr : nullptr,
+         config, disparity_rl, score_rl);
+}
+
+}  // namespace
+
+void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, const cv::Mat& hi_lr,
+                    const cv::Mat& lo_rl, const cv::Mat& hi_rl, const NccConfig& config, cv::Mat& disparity_lr,
+                    cv::Mat& score_lr, cv::Mat& disparity_rl, cv::Mat& score_rl, NccScratch& scratch) {
+  match(left, right, lo_lr, hi_lr, &lo_rl, &hi_rl, config, disparity_lr, score_lr, disparity_rl, score_rl, scratch);
+}
+
+void ncc_match_cross(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo, const cv::Mat& hi,
+                     const NccConfig& config, cv::Mat& disparity_lr, cv::Mat& score_lr, cv::Mat& disparity_rl,
+                     cv::Mat& score_rl, NccScratch& scratch) {
+  match(left, right, lo, hi, nullptr, nullptr, config, disparity_lr, score_lr, disparity_rl, score_rl, scratch);
 }
 
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, const cv::Mat& lo, const cv::Mat& hi,
@@ -504,30 +566,6 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
   cv::Mat lo(left.size(), CV_32S, cv::Scalar(d_min)), hi(left.size(), CV_32S, cv::Scalar(d_max));
   ncc_match(left, right, direction, lo, hi, config, disparity, score);
-}
-
-void reverse_ranges(const cv::Mat& lo, const cv::Mat& hi, cv::Mat& lo_rl, cv::Mat& hi_rl) {
-  CV_Assert(lo.type() == CV_32S && hi.type() == CV_32S && lo.size() == hi.size());
-  lo_rl.create(lo.size(), CV_32S);
-  hi_rl.create(lo.size(), CV_32S);
-  fill(lo_rl, std::numeric_limits<int>::max());
-  fill(hi_rl, std::numeric_limits<int>::min());
-  const int w = lo.cols;
-  for (int y = 0; y < lo.rows; ++y) {
-    const int* l = lo.ptr<int>(y);
-    const int* u = hi.ptr<int>(y);
-    int* rl_lo = lo_rl.ptr<int>(y);
-    int* rl_hi = hi_rl.ptr<int>(y);
-    for (int x = 0; x < w; ++x) {
-      // Right pixels x - d for d in [l, u], clipped to the image.
-      const int d_lo = std::max(l[x], x - (w - 1)), d_hi = std::min(u[x], x);
-      for (int d = d_lo; d <= d_hi; ++d) {
-        const int xr = x - d;
-        rl_lo[xr] = std::min(rl_lo[xr], d);
-        rl_hi[xr] = std::max(rl_hi[xr], d);
-      }
-    }
-  }
 }
 
 double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,

@@ -51,6 +51,15 @@ void ncc_match_both(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo
                     const cv::Mat& lo_rl, const cv::Mat& hi_rl, const NccConfig& config, cv::Mat& disparity_lr,
                     cv::Mat& score_lr, cv::Mat& disparity_rl, cv::Mat& score_rl, NccScratch& scratch);
 
+// Left->right over per-pixel ranges and right->left over exactly the pairs
+// the left pixels search: each right pixel takes its best among the left
+// pixels whose search reached it. A left pixel's match is then always among
+// its right pixel's candidates, so the left-right check compares like with
+// like, and the sweep computes nothing for the right side alone.
+void ncc_match_cross(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo, const cv::Mat& hi,
+                     const NccConfig& config, cv::Mat& disparity_lr, cv::Mat& score_lr, cv::Mat& disparity_rl,
+                     cv::Mat& score_rl, NccScratch& scratch);
+
 // The same, plainly: every window summed pixel by pixel in double precision.
 // The reference ncc_match is tested against. ncc_match itself sweeps the
 // disparities, summing the products of each in sliding windows (box sums), so
@@ -62,13 +71,6 @@ void ncc_match_reference(const cv::Mat& left, const cv::Mat& right, Direction di
 // The same over a fixed range [d_min, d_max] for every pixel.
 void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, int d_min, int d_max,
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score);
-
-// Right->left ranges from left->right ones (CV_32S): each right pixel xr gets
-// the smallest and largest d at which some left pixel's range reaches it
-// (left x = xr + d with d in [lo(x), hi(x)]); empty (lo > hi) where none does.
-// A left pixel's match is then always among its right pixel's candidates, and
-// the check compares like with like.
-void reverse_ranges(const cv::Mat& lo, const cv::Mat& hi, cv::Mat& lo_rl, cv::Mat& hi_rl);
 
 // Clears `valid` (CV_8U) where the left->right match (score > -1) has no
 // right->left match, read at the matched pixel, within `tolerance` (signed

@@ -224,8 +224,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     // level's per-pixel estimates are coarser than its whole-window fixation.
     const bool around_fixation = verged && k + 1 == n;
     const int radius_lo = std::max(full_lo, -config_.fovea_radius), radius_hi = std::min(full_hi, config_.fovea_radius);
-    // Left->right ranges per pixel; right->left ones follow from them (see
-    // reverse_ranges), so one sweep over the left pixels' candidates serves
+    // Left->right ranges per pixel; right->left searches the same pairs (see
+    // ncc_match_cross), so one sweep over the left pixels' candidates serves
     // both directions and the check.
     auto ranges = [&]() {
       lo_.create(left.levels[k].size(), CV_32S);
@@ -269,9 +269,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       fill(ls.hi_padded, 0);
       lo_.copyTo(ls.lo_padded(inside));
       hi_.copyTo(ls.hi_padded(inside));
-      reverse_ranges(ls.lo_padded, ls.hi_padded, ls.lo_rl_padded, ls.hi_rl_padded);
-      ncc_match_both(ls.left_padded, ls.right_padded, ls.lo_padded, ls.hi_padded, ls.lo_rl_padded, ls.hi_rl_padded,
-                     config_.ncc, ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, ls.ncc);
+      ncc_match_cross(ls.left_padded, ls.right_padded, ls.lo_padded, ls.hi_padded, config_.ncc, ls.lr_padded,
+                      ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, ls.ncc);
       ls.valid_padded.create(padded, CV_8U);
       fill(ls.valid_padded, 255);
       if (config_.left_right_check)
@@ -293,9 +292,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
         level.margin = {};
       }
       ranges();
-      reverse_ranges(lo_, hi_, ls.lo_rl_padded, ls.hi_rl_padded);
-      ncc_match_both(left.levels[k], *right_level, lo_, hi_, ls.lo_rl_padded, ls.hi_rl_padded, config_.ncc, level_lr_,
-                     level.score, level_rl_, score_rl_, ls.ncc);
+      ncc_match_cross(left.levels[k], *right_level, lo_, hi_, config_.ncc, level_lr_,
+                      level.score, level_rl_, score_rl_, ls.ncc);
       // Validity comes from the scores: with vergence a level disparity may be negative.
       valid_lr_.create(level_lr_.size(), CV_8U);
       fill(valid_lr_, 255);

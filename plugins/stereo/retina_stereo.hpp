@@ -107,7 +107,7 @@ class RetinaStereo {
   // would reallocate on every level of every frame.
   struct LevelScratch {
     cv::Mat strip;
-    cv::Mat left_padded, right_padded, lo_padded, hi_padded, lo_rl_padded, hi_rl_padded, lr_padded, lr_score_padded, rl_padded, rl_score_padded,
+    cv::Mat left_padded, right_padded, lo_padded, hi_padded, lr_padded, lr_score_padded, rl_padded, rl_score_padded,
         valid_padded;
     NccScratch ncc;
   };
