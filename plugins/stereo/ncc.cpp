@@ -236,136 +236,164 @@ Search bounds(const cv::Mat& lo, const cv::Mat& hi, const cv::Mat& stddev, int r
   return s;
 }
 
-// The sweep's column sums: add the products of the row entering the window,
-// subtract those of the row leaving it (a0, b0 null: none leaves).
-SACCADE_AVX2_CLONE void slide_products(float* __restrict col, const float* __restrict a, const float* __restrict b,
-                                       const float* __restrict a0, const float* __restrict b0, int n) {
-  if (a0 != nullptr) {
-    for (int x = 0; x < n; ++x) col[x] += a[x] * b[x] - a0[x] * b0[x];
-  } else {
-    for (int x = 0; x < n; ++x) col[x] += a[x] * b[x];
-  }
-}
-
-// One row of one direction's search: per pixel its range, and the best
-// score and disparity so far. Pointers are indexed by the left image's column
-// at the disparity being swept (the right direction's shifted by -d).
-struct BestRow {
-  const int* lo;
-  const int* hi;
-  float* best;
-  int* best_d;
+// Everything one disparity's pass of the sweep reads and writes, as base
+// pointers and row strides (elements), so one call covers every row.
+struct SweepArgs {
+  const float *left, *right;          // centred values
+  const float *left_mean, *left_std, *right_mean, *right_std;
+  std::ptrdiff_t image_step;          // of the eight images above and of the best arrays
+  const int *lo_lr, *hi_lr;           // left pixels' ranges
+  const int *lo_rl, *hi_rl;           // right pixels' ranges, null: the left pixels' pairs
+  std::ptrdiff_t lr_step, rl_step;
+  float *best_lr, *best_rl;
+  int *best_d_lr, *best_d_rl;
+  float* col;                         // column sums, one row's width
+  float* volume;                      // this disparity's plane, rows of image_step
+  int r, y0, y1;                      // window half size; rows whose pixels are searched
+  float inv_n, min_texture;
 };
 
-// Eight lanes of one sweep row from column x (see sweep_row); R > 0 the
-// window's half width known at compile time, 0 read from r.
-// kImplicit: the right pixels have no ranges of their own and take every
-// pair a left pixel searches (rl.lo and rl.hi unused).
+// Eight lanes of one row of the sweep from left column x; R > 0 the window's
+// half width known at compile time, 0 read from a.r. kImplicit: the right
+// pixels have no ranges of their own and take every pair a left pixel searches.
 template <int R, bool kImplicit>
-__attribute__((always_inline)) inline void sweep_lanes(const float* __restrict col, int r, const float* __restrict ma,
-                                                       const float* __restrict sa, const float* __restrict mb,
-                                                       const float* __restrict sb, float inv_n, float min_texture,
-                                                       float* __restrict volume, const BestRow& lr, const BestRow& rl,
-                                                       int x, int d) {
+__attribute__((always_inline)) inline void sweep_lanes(const SweepArgs& a, std::ptrdiff_t row, std::ptrdiff_t lr_row,
+                                                       std::ptrdiff_t rl_row, int x, int d) {
   typedef float v8f __attribute__((vector_size(32)));
   typedef int v8i __attribute__((vector_size(32)));
-  const int half = R > 0 ? R : r;
+  const int half = R > 0 ? R : a.r;
   v8f sum, term, va, vb, vma, vmb;
-  std::memcpy(&sum, col + x - half, sizeof sum);
+  std::memcpy(&sum, a.col + x - half, sizeof sum);
   for (int k = 1 - half; k <= half; ++k) {
-    std::memcpy(&term, col + x + k, sizeof term);
+    std::memcpy(&term, a.col + x + k, sizeof term);
     sum += term;
   }
-  std::memcpy(&va, sa + x, sizeof va);
-  std::memcpy(&vb, sb + x, sizeof vb);
-  std::memcpy(&vma, ma + x, sizeof vma);
-  std::memcpy(&vmb, mb + x, sizeof vmb);
-  const v8f tiny = v8f{} + 1e-6f, texture = v8f{} + min_texture;
+  const std::ptrdiff_t at = row + x, at_right = row + x - d;
+  std::memcpy(&va, a.left_std + at, sizeof va);
+  std::memcpy(&vb, a.right_std + at_right, sizeof vb);
+  std::memcpy(&vma, a.left_mean + at, sizeof vma);
+  std::memcpy(&vmb, a.right_mean + at_right, sizeof vmb);
+  const v8f tiny = v8f{} + 1e-6f, texture = v8f{} + a.min_texture;
   const v8f prod = va * vb;
-  const v8f value = (sum * inv_n - vma * vmb) / (prod > tiny ? prod : tiny);
+  const v8f value = (sum * a.inv_n - vma * vmb) / (prod > tiny ? prod : tiny);
   const v8f c = ((va >= texture) & (vb >= texture)) ? value : v8f{} - 2.0f;
-  std::memcpy(volume + x, &c, sizeof c);
+  std::memcpy(a.volume + at, &c, sizeof c);
   const v8i dv = v8i{} + d;
   v8i lo, hi;
-  std::memcpy(&lo, lr.lo + x, sizeof lo);
-  std::memcpy(&hi, lr.hi + x, sizeof hi);
+  std::memcpy(&lo, a.lo_lr + lr_row + x, sizeof lo);
+  std::memcpy(&hi, a.hi_lr + lr_row + x, sizeof hi);
   const v8i wanted_lr = (dv >= lo) & (dv <= hi);
   v8i wanted_rl = wanted_lr;
   if (!kImplicit) {
-    std::memcpy(&lo, rl.lo + x, sizeof lo);
-    std::memcpy(&hi, rl.hi + x, sizeof hi);
+    std::memcpy(&lo, a.lo_rl + rl_row + x - d, sizeof lo);
+    std::memcpy(&hi, a.hi_rl + rl_row + x - d, sizeof hi);
     wanted_rl = (dv >= lo) & (dv <= hi);
   }
   for (int side = 0; side < 2; ++side) {
-    const BestRow& s = side == 0 ? lr : rl;
+    float* best = side == 0 ? a.best_lr + at : a.best_rl + at_right;
+    int* best_d = side == 0 ? a.best_d_lr + at : a.best_d_rl + at_right;
     v8f b;
     v8i bd;
-    std::memcpy(&b, s.best + x, sizeof b);
-    std::memcpy(&bd, s.best_d + x, sizeof bd);
+    std::memcpy(&b, best, sizeof b);
+    std::memcpy(&bd, best_d, sizeof bd);
     const v8i take = (side == 0 ? wanted_lr : wanted_rl) & (c > b);
     const v8f b_new = take ? c : b;
     const v8i bd_new = take ? dv : bd;
-    std::memcpy(s.best + x, &b_new, sizeof b_new);
-    std::memcpy(s.best_d + x, &bd_new, sizeof bd_new);
+    std::memcpy(best, &b_new, sizeof b_new);
+    std::memcpy(best_d, &bd_new, sizeof bd_new);
   }
 }
 
-// One row y of the sweep at disparity d, for left columns 0 .. n - 1 (all
-// pointers at the span's first column): the window sums of the products from
-// the column sums, their correlation coefficients (-2 where either window is
-// too flat), kept in the volume row, and offered to both directions' pixels
-// whose range holds d. The first of equal scores (the smallest disparity)
-// wins. GCC's vector extension, eight pixels at a time (its own vectoriser
-// gives up on the selects); the last eight overlap the ones before where n is
-// not a multiple of eight, which is harmless: offering a score again at the
-// same disparity changes nothing.
-SACCADE_AVX2_CLONE void sweep_row(const float* __restrict col, int r, const float* __restrict ma,
-                                  const float* __restrict sa, const float* __restrict mb, const float* __restrict sb,
-                                  float inv_n, float min_texture, float* __restrict volume, BestRow lr, BestRow rl,
-                                  int n, int d) {
-  constexpr int kLanes = 8;
-  if (n >= kLanes) {
-    for (int x = 0;; x += kLanes) {
-      const int at = std::min(x, n - kLanes);
-      if (rl.lo == nullptr) {
-        if (r == 2) sweep_lanes<2, true>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
-        else if (r == 1) sweep_lanes<1, true>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
-        else sweep_lanes<0, true>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
-      } else {
-        if (r == 2) sweep_lanes<2, false>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
-        else if (r == 1) sweep_lanes<1, false>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
-        else sweep_lanes<0, false>(col, r, ma, sa, mb, sb, inv_n, min_texture, volume, lr, rl, at, d);
-      }
-      if (at == n - kLanes) break;
-    }
-    return;
+// One pixel of the same, where a row is narrower than eight lanes.
+inline void sweep_pixel(const SweepArgs& a, std::ptrdiff_t row, std::ptrdiff_t lr_row, std::ptrdiff_t rl_row, int x,
+                        int d) {
+  float sum = a.col[x - a.r];
+  for (int k = 1 - a.r; k <= a.r; ++k) sum += a.col[x + k];
+  const std::ptrdiff_t at = row + x, at_right = row + x - d;
+  const float sa = a.left_std[at], sb = a.right_std[at_right];
+  const bool textured = (sa >= a.min_texture) & (sb >= a.min_texture);
+  const float c =
+      textured ? (sum * a.inv_n - a.left_mean[at] * a.right_mean[at_right]) / std::max(sa * sb, 1e-6f) : -2.0f;
+  a.volume[at] = c;
+  const bool wanted_lr = d >= a.lo_lr[lr_row + x] && d <= a.hi_lr[lr_row + x];
+  const bool wanted_rl =
+      a.lo_rl == nullptr ? wanted_lr : d >= a.lo_rl[rl_row + x - d] && d <= a.hi_rl[rl_row + x - d];
+  if (wanted_lr && c > a.best_lr[at]) {
+    a.best_lr[at] = c;
+    a.best_d_lr[at] = d;
   }
-  for (int x = 0; x < n; ++x) {
-    float sum = col[x - r];
-    for (int k = 1 - r; k <= r; ++k) sum += col[x + k];
-    const bool textured = (sa[x] >= min_texture) & (sb[x] >= min_texture);
-    const float c = textured ? (sum * inv_n - ma[x] * mb[x]) / std::max(sa[x] * sb[x], 1e-6f) : -2.0f;
-    volume[x] = c;
-    const bool wanted_lr = d >= lr.lo[x] && d <= lr.hi[x];
-    const bool wanted_rl = rl.lo == nullptr ? wanted_lr : d >= rl.lo[x] && d <= rl.hi[x];
-    if (wanted_lr && c > lr.best[x]) {
-      lr.best[x] = c;
-      lr.best_d[x] = d;
+  if (wanted_rl && c > a.best_rl[at_right]) {
+    a.best_rl[at_right] = c;
+    a.best_d_rl[at_right] = d;
+  }
+}
+
+// The sweep at disparity d over left columns xs .. xe: column sums of
+// left(x) * right(x - d) slid down the rows, and per row the window sums,
+// their correlation coefficients (-2 where either window is too flat), kept
+// in the volume, and offered to both directions' pixels that search the
+// pair. The first of equal scores (the smallest disparity) wins. GCC's vector
+// extension, eight pixels at a time (its own vectoriser gives up on the
+// selects); the last eight overlap the ones before where the row is not a
+// multiple of eight, which is harmless: offering a score again at the same
+// disparity changes nothing.
+template <int R, bool kImplicit>
+__attribute__((always_inline)) inline void sweep_plane_impl(const SweepArgs& a, int d, int xs, int xe) {
+  constexpr int kLanes = 8;
+  const int r = R > 0 ? R : a.r;
+  const int xa = xs - r, xb = xe + r + 1, n = xe - xs + 1;
+  for (int x = xa; x < xb; ++x) a.col[x] = 0.0f;
+  for (int yy = a.y0 - r; yy <= a.y1 + r; ++yy) {
+    const float* __restrict in_a = a.left + yy * a.image_step;
+    const float* __restrict in_b = a.right + yy * a.image_step - d;
+    float* __restrict col = a.col;
+    if (yy - 2 * r - 1 >= a.y0 - r) {
+      const float* __restrict out_a = in_a - (2 * r + 1) * a.image_step;
+      const float* __restrict out_b = in_b - (2 * r + 1) * a.image_step;
+      for (int x = xa; x < xb; ++x) col[x] += in_a[x] * in_b[x] - out_a[x] * out_b[x];
+    } else {
+      for (int x = xa; x < xb; ++x) col[x] += in_a[x] * in_b[x];
     }
-    if (wanted_rl && c > rl.best[x]) {
-      rl.best[x] = c;
-      rl.best_d[x] = d;
+    if (yy < a.y0 + r) continue;
+    const int y = yy - r;
+    const std::ptrdiff_t row = y * a.image_step, lr_row = y * a.lr_step, rl_row = y * a.rl_step;
+    if (n < kLanes) {
+      for (int x = xs; x <= xe; ++x) sweep_pixel(a, row, lr_row, rl_row, x, d);
+      continue;
     }
+    for (int x = xs;; x += kLanes) {
+      const int at = std::min(x, xe + 1 - kLanes);
+      sweep_lanes<R, kImplicit>(a, row, lr_row, rl_row, at, d);
+      if (at == xe + 1 - kLanes) break;
+    }
+  }
+}
+
+SACCADE_AVX2_CLONE void sweep_plane(const SweepArgs& a, int d, int xs, int xe) {
+  const bool implicit = a.lo_rl == nullptr;
+  if (a.r == 2) {
+    if (implicit) sweep_plane_impl<2, true>(a, d, xs, xe);
+    else sweep_plane_impl<2, false>(a, d, xs, xe);
+  } else if (a.r == 1) {
+    if (implicit) sweep_plane_impl<1, true>(a, d, xs, xe);
+    else sweep_plane_impl<1, false>(a, d, xs, xe);
+  } else {
+    if (implicit) sweep_plane_impl<0, true>(a, d, xs, xe);
+    else sweep_plane_impl<0, false>(a, d, xs, xe);
   }
 }
 
 // The sweep's result: the correlation of left pixel x with right pixel x - d
-// at volume[(d - d_min) * plane + y * width + x] on rows y0 .. y1, -2 where
-// it was not computed.
+// at data[(d - d_min) * plane + y * width + x], computed for the columns
+// span_lo[d - d_min] .. span_hi[d - d_min] of rows y0 .. y1.
 struct Volume {
   const float* data;
   std::size_t plane;
-  int width, d_min;
+  int width, d_min, d_max;
+  const int *span_lo, *span_hi;
+  bool has(int d, int x) const {
+    return d >= d_min && d <= d_max && x >= span_lo[d - d_min] && x <= span_hi[d - d_min];
+  }
 };
 
 // One direction's disparities from its best scores, with the parabola
@@ -384,7 +412,7 @@ void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const V
   if (!s.active()) return;
   const bool subpixel = config.subpixel;
   const float min_score = config.min_score;
-  const int w = volume.width;
+  const std::ptrdiff_t w = volume.width;
   const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(volume.plane);
   for (int y = s.y0; y <= s.y1; ++y) {
     const int* l = lo_left != nullptr ? lo_left->ptr<int>(y) : s.lo->ptr<int>(y);
@@ -403,7 +431,7 @@ void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const V
       const int bd = bds[x];
       float dd = static_cast<float>(bd);
       const int x0 = x + shift * (bd - 1), x2 = x + shift * (bd + 1);
-      bool neighbours = x0 >= 0 && x2 < w;
+      bool neighbours = volume.has(bd - 1, x0) && volume.has(bd + 1, x2);
       if (neighbours) {
         if (lo_left != nullptr)
           neighbours = l[x0] <= bd - 1 && bd - 1 <= u[x0] && l[x2] <= bd + 1 && bd + 1 <= u[x2];
@@ -473,9 +501,6 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   const int count = y1 >= y0 ? d_max - d_min + 1 : 0;
   const std::size_t plane = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   if (scratch.volume.size() < plane * static_cast<std::size_t>(count)) scratch.volume.resize(plane * static_cast<std::size_t>(count));
-  const float inv_n = 1.0f / static_cast<float>(n);
-  std::vector<float>& col = scratch.col;
-  col.assign(static_cast<std::size_t>(w), 0.0f);
   for (cv::Mat* m : {&scratch.best_lr, &scratch.best_rl}) {
     m->create(left.size(), CV_32F);
     fill(*m, -2.0f);
@@ -484,6 +509,22 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
     m->create(left.size(), CV_32S);
     fill(*m, 0);
   }
+  scratch.col.assign(static_cast<std::size_t>(w), 0.0f);
+  scratch.span_lo.assign(static_cast<std::size_t>(count), 0);
+  scratch.span_hi.assign(static_cast<std::size_t>(count), -1);
+  // Every image here was created by this function: continuous, rows of w.
+  SweepArgs args{scratch.ref_f.ptr<float>(), scratch.other_f.ptr<float>(), scratch.ref_mean.ptr<float>(),
+                 scratch.ref_std.ptr<float>(), scratch.other_mean.ptr<float>(), scratch.other_std.ptr<float>(), w,
+                 lo_lr.ptr<int>(), hi_lr.ptr<int>(), implicit ? nullptr : lo_rl->ptr<int>(),
+                 implicit ? nullptr : hi_rl->ptr<int>(), static_cast<std::ptrdiff_t>(lo_lr.step1()),
+                 implicit ? 0 : static_cast<std::ptrdiff_t>(lo_rl->step1()), scratch.best_lr.ptr<float>(),
+                 scratch.best_rl.ptr<float>(), scratch.best_d_lr.ptr<int>(), scratch.best_d_rl.ptr<int>(),
+                 scratch.col.data(), nullptr, r, y0, y1, 1.0f / static_cast<float>(n), min_texture};
+  CV_Assert(hi_lr.step1() == lo_lr.step1() && (implicit || hi_rl->step1() == lo_rl->step1()));
+  for (const cv::Mat* m : {&scratch.ref_f, &scratch.other_f, &scratch.ref_mean, &scratch.ref_std, &scratch.other_mean,
+                           &scratch.other_std, &scratch.best_lr, &scratch.best_rl, &scratch.best_d_lr,
+                           &scratch.best_d_rl})
+    CV_Assert(m->isContinuous());
   for (int d = d_min; d < d_min + count; ++d) {
     // Left pixels x paired with right pixels x - d: those either direction
     // wants at this disparity, with both windows inside the images.
@@ -498,36 +539,14 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
     }
     xs = std::max({xs, r, r + d});
     xe = std::min({xe, w - r - 1, w - r - 1 + d});
-    if (xe < xs) {
-      float* empty = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
-      std::fill(empty + static_cast<std::size_t>(y0) * w, empty + static_cast<std::size_t>(y1 + 1) * w, -2.0f);
-      continue;
-    }
-    float* plane_d = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
-    std::fill(plane_d + static_cast<std::size_t>(y0) * w, plane_d + static_cast<std::size_t>(y1 + 1) * w, -2.0f);
-    // Window sums of left(x) * right(x - d) over columns xs - r .. xe + r.
-    const int xa = xs - r, xb = xe + r + 1;
-    std::fill(col.begin() + xa, col.begin() + xb, 0.0f);
-    for (int yy = y0 - r; yy <= y1 + r; ++yy) {
-      const float* a = scratch.ref_f.ptr<float>(yy);
-      const float* b = scratch.other_f.ptr<float>(yy) - d;
-      const bool leaving = yy - 2 * r - 1 >= y0 - r;
-      const float* a0 = leaving ? scratch.ref_f.ptr<float>(yy - 2 * r - 1) : nullptr;
-      const float* b0 = leaving ? scratch.other_f.ptr<float>(yy - 2 * r - 1) - d : nullptr;
-      slide_products(col.data() + xa, a + xa, b + xa, a0 ? a0 + xa : nullptr, b0 ? b0 + xa : nullptr, xb - xa);
-      if (yy < y0 + r) continue;
-      const int y = yy - r;
-      const BestRow lr_row{lo_lr.ptr<int>(y) + xs, hi_lr.ptr<int>(y) + xs, scratch.best_lr.ptr<float>(y) + xs,
-                           scratch.best_d_lr.ptr<int>(y) + xs};
-      const BestRow rl_row{implicit ? nullptr : lo_rl->ptr<int>(y) + xs - d,
-                           implicit ? nullptr : hi_rl->ptr<int>(y) + xs - d, scratch.best_rl.ptr<float>(y) + xs - d,
-                           scratch.best_d_rl.ptr<int>(y) + xs - d};
-      sweep_row(col.data() + xs, r, scratch.ref_mean.ptr<float>(y) + xs, scratch.ref_std.ptr<float>(y) + xs,
-                scratch.other_mean.ptr<float>(y) + xs - d, scratch.other_std.ptr<float>(y) + xs - d, inv_n, min_texture,
-                plane_d + static_cast<std::size_t>(y) * w + xs, lr_row, rl_row, xe - xs + 1, d);
-    }
+    if (xe < xs) continue;
+    scratch.span_lo[static_cast<std::size_t>(d - d_min)] = xs;
+    scratch.span_hi[static_cast<std::size_t>(d - d_min)] = xe;
+    args.volume = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
+    sweep_plane(args, d, xs, xe);
   }
-  const Volume volume{scratch.volume.data(), plane, w, d_min};
+  const Volume volume{scratch.volume.data(), plane, w, d_min, d_min + count - 1, scratch.span_lo.data(),
+                      scratch.span_hi.data()};
   finish(lr, scratch.best_lr, scratch.best_d_lr, volume, 0, nullptr, nullptr, config, disparity_lr, score_lr);
   finish(rl, scratch.best_rl, scratch.best_d_rl, volume, 1, implicit ? &lo_lr : nullptr, implicit ? &hi_lr : nullptr,
          config, disparity_rl, score_rl);
