@@ -134,22 +134,46 @@ void ncc_match_reference(const cv::Mat& left, const cv::Mat& right, Direction di
 
 namespace {
 
-// Window sums along a row: out[x] = in[x - r] + ... + in[x + r] for x in
-// 0 .. n - 1 (in readable from -r to n - 1 + r). Summed term by term rather
-// than sliding, so it vectorises and no rounding error accumulates along the row.
-SACCADE_AVX2_CLONE void window_sums(float* __restrict out, const float* __restrict in, int n, int r) {
-  for (int x = 0; x < n; ++x) out[x] = in[x - r];
-  for (int k = 1 - r; k <= r; ++k)
-    for (int x = 0; x < n; ++x) out[x] += in[x + k];
-}
-
-// Mean and standard deviation from a row of window sums of values and squares.
-SACCADE_AVX2_CLONE void moments(float* __restrict mean, float* __restrict stddev, const float* __restrict sum,
-                                const float* __restrict sum2, int n, float inv_count) {
-  for (int x = 0; x < n; ++x) {
-    const float mu = sum[x] * inv_count;
-    mean[x] = mu;
-    stddev[x] = std::sqrt(std::max(0.0f, sum2[x] * inv_count - mu * mu));
+// The rows of box_stats: column sums of values and squares slid down the
+// image, window sums along each row (term by term, so they vectorise and no
+// rounding error accumulates along the row), then mean and deviation. One
+// call per image: the rows are short, and calls per row cost as much as
+// their arithmetic.
+SACCADE_AVX2_CLONE void box_stats_rows(const float* __restrict src, std::ptrdiff_t step, int w, int h, int r,
+                                       float* __restrict mean, float* __restrict stddev, float* __restrict col,
+                                       float* __restrict col2, float* __restrict row, float* __restrict row2) {
+  const float inv_count = 1.0f / static_cast<float>((2 * r + 1) * (2 * r + 1));
+  const int inner = w - 2 * r;
+  for (int y = 0; y < h; ++y) {
+    const float* add = src + y * step;
+    for (int x = 0; x < w; ++x) {
+      col[x] += add[x];
+      col2[x] += add[x] * add[x];
+    }
+    if (y >= 2 * r + 1) {
+      const float* sub = add - (2 * r + 1) * step;
+      for (int x = 0; x < w; ++x) {
+        col[x] -= sub[x];
+        col2[x] -= sub[x] * sub[x];
+      }
+    }
+    if (y < 2 * r || inner <= 0) continue;
+    for (int x = 0; x < inner; ++x) {
+      row[x] = col[x];
+      row2[x] = col2[x];
+    }
+    for (int k = 1; k <= 2 * r; ++k)
+      for (int x = 0; x < inner; ++x) {
+        row[x] += col[x + k];
+        row2[x] += col2[x + k];
+      }
+    float* m = mean + (y - r) * step + r;
+    float* sd = stddev + (y - r) * step + r;
+    for (int x = 0; x < inner; ++x) {
+      const float mu = row[x] * inv_count;
+      m[x] = mu;
+      sd[x] = std::sqrt(std::max(0.0f, row2[x] * inv_count - mu * mu));
+    }
   }
 }
 
@@ -157,7 +181,8 @@ SACCADE_AVX2_CLONE void moments(float* __restrict mean, float* __restrict stddev
 // window fits; 0 elsewhere.
 void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::vector<float>& col, std::vector<float>& col2,
                std::vector<float>& row, std::vector<float>& row2) {
-  const int w = src.cols, h = src.rows, n = (2 * r + 1) * (2 * r + 1);
+  CV_Assert(src.isContinuous());
+  const int w = src.cols;
   mean.create(src.size(), CV_32F);
   stddev.create(src.size(), CV_32F);
   fill(mean, 0);
@@ -166,27 +191,8 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
   col2.assign(static_cast<std::size_t>(w), 0.0f);
   row.assign(static_cast<std::size_t>(w), 0.0f);
   row2.assign(static_cast<std::size_t>(w), 0.0f);
-  const int inner = w - 2 * r;
-  for (int y = 0; y < h; ++y) {
-    const float* add = src.ptr<float>(y);
-    for (int x = 0; x < w; ++x) {
-      col[static_cast<std::size_t>(x)] += add[x];
-      col2[static_cast<std::size_t>(x)] += add[x] * add[x];
-    }
-    if (y >= 2 * r + 1) {
-      const float* sub = src.ptr<float>(y - 2 * r - 1);
-      for (int x = 0; x < w; ++x) {
-        col[static_cast<std::size_t>(x)] -= sub[x];
-        col2[static_cast<std::size_t>(x)] -= sub[x] * sub[x];
-      }
-    }
-    if (y < 2 * r || inner <= 0) continue;
-    const int yc = y - r;
-    window_sums(row.data() + r, col.data() + r, inner, r);
-    window_sums(row2.data() + r, col2.data() + r, inner, r);
-    moments(mean.ptr<float>(yc) + r, stddev.ptr<float>(yc) + r, row.data() + r, row2.data() + r, inner,
-            1.0f / static_cast<float>(n));
-  }
+  box_stats_rows(src.ptr<float>(), w, w, src.rows, r, mean.ptr<float>(), stddev.ptr<float>(), col.data(), col2.data(),
+                 row.data(), row2.data());
 }
 
 }  // namespace
