@@ -594,15 +594,17 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
 }
 
 double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,
-                        float tolerance, cv::Mat& valid) {
+                        float tolerance, cv::Mat& valid, cv::Rect region) {
+  if (region.empty()) region = cv::Rect(0, 0, lr.cols, lr.rows);
+  region &= cv::Rect(0, 0, lr.cols, lr.rows);
   int matched = 0, kept = 0;
-  for (int y = 0; y < lr.rows; ++y) {
+  for (int y = region.y; y < region.y + region.height; ++y) {
     const float* d_row = lr.ptr<float>(y);
     const float* s_row = lr_score.ptr<float>(y);
     const float* back = rl.ptr<float>(y);
     const float* back_score = rl_score.ptr<float>(y);
     uint8_t* ok = valid.ptr<uint8_t>(y);
-    for (int x = 0; x < lr.cols; ++x) {
+    for (int x = region.x; x < region.x + region.width; ++x) {
       if (s_row[x] <= -1.0f) {
         ok[x] = 0;
         continue;

@@ -75,9 +75,11 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
 
 // Clears `valid` (CV_8U) where the left->right match (score > -1) has no
 // right->left match, read at the matched pixel, within `tolerance` (signed
-// disparities allowed). Returns the share of matched pixels kept.
+// disparities allowed). Returns the share of matched pixels kept. Only the
+// left pixels inside `region` (default: all) are checked; their matches may
+// be read anywhere on the row.
 double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,
-                        float tolerance, cv::Mat& valid);
+                        float tolerance, cv::Mat& valid, cv::Rect region = {});
 
 // Correlation coefficient of two w x w windows centred at (x0, y0) and (x1, y1)
 // (the plain definition, for tests).

@@ -274,7 +274,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       ls.valid_padded.create(padded, CV_8U);
       fill(ls.valid_padded, 255);
       if (config_.left_right_check)
-        left_right_check(ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, config_.lr_tolerance, ls.valid_padded);
+        left_right_check(ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, config_.lr_tolerance,
+                         ls.valid_padded, inside);
       if (config_.keep_images) {
         ls.left_padded.copyTo(level.left_image);
         ls.right_padded.copyTo(level.right_image);
