@@ -85,7 +85,7 @@ struct RetinaPipeline {
   motion::LevelMotionEstimator motion{{}};
   motion::LevelMotion level_motion;
   std::vector<cv::Mat> dI;
-  stereo::RetinaStereo stereo5, stereo3;
+  stereo::RetinaStereo stereo5, stereo3, stereo5_sgm;
   std::vector<stereo::LevelDisparity> disparity;
   fovea::FoveaController controller{[] {
     fovea::ControllerConfig c;
@@ -96,6 +96,11 @@ struct RetinaPipeline {
   const Scene& s;
   explicit RetinaPipeline(cv::Size size)
       : stereo5(stereo_config(5, scene(size).max_disparity)), stereo3(stereo_config(3, scene(size).max_disparity)),
+        stereo5_sgm([&] {
+          stereo::RetinaStereoConfig c = stereo_config(5, scene(size).max_disparity);
+          c.ncc.semi_global = true;
+          return c;
+        }()),
         s(scene(size)) {
     left = make_retina(left_sampler, s.left, s.fovea);
     right = make_retina(right_sampler, s.right, s.fovea);
@@ -158,6 +163,8 @@ void BM_Table6_Retina(benchmark::State& state, const char* row) {
     timed(state, [&] { p.stereo_pair(p.stereo3); });
   } else if (r == "stereo5") {
     timed(state, [&] { p.stereo_pair(p.stereo5); });
+  } else if (r == "stereo5_sgm") {
+    timed(state, [&] { p.stereo_pair(p.stereo5_sgm); });
   } else if (r == "fovea") {
     p.motion_all();
     timed(state, [&] { p.fovea_update(); });
@@ -276,6 +283,7 @@ TABLE6_RETINA(laplacian);
 TABLE6_RETINA(motion);
 TABLE6_RETINA(stereo3);
 TABLE6_RETINA(stereo5);
+TABLE6_RETINA(stereo5_sgm);
 TABLE6_RETINA(fovea);
 TABLE6_RETINA(total);
 TABLE6_RETINA(sgbm_levels);

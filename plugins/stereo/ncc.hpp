@@ -16,6 +16,13 @@ struct NccConfig {
   bool subpixel = true;         // parabola through the scores around the best
   float min_score = 0.5f;       // below this the match is invalid
   float min_texture = 2.0f;     // window standard deviation (gray levels) below which nothing can be matched
+  // Semi-global aggregation (ncc_match_cross only): each pixel's costs
+  // (1 - NCC) are summed with those along four paths through the image,
+  // which add p1 for a disparity step of one and p2 for a larger one, so that
+  // where a window alone is ambiguous or flat its neighbours decide. The
+  // score floor then does not apply; the left-right check still does.
+  bool semi_global = false;
+  float p1 = 0.2f, p2 = 0.8f;
 };
 
 enum class Direction { kLeftToRight, kRightToLeft };
@@ -30,6 +37,7 @@ struct NccScratch {
   std::vector<int> span_lo, span_hi;  // per disparity, the left columns the sweep computed
   cv::Mat best_lr, best_d_lr, best_rl, best_d_rl;  // per pixel, the best score so far and its disparity
   std::vector<float> volume;  // the sweep's correlations, one plane per disparity
+  std::vector<float> cost, aggregated, path, path_row;  // semi-global aggregation
 };
 
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in

@@ -34,6 +34,11 @@ class StereoNode final : public Node {
         .param_int("fovea_radius", 6, 1, 256, "with vergence: fovea pixels searched around the fixation disparity")
         .param_int("pad", 8, 0, 64, "level pixels sampled around each level from the frames (0: the levels alone)")
         .param_bool("fill", false, "give unmatched pixels the nearest matched disparity on their row (confidence 0)")
+        .param_bool("semi_global", false,
+                    "semi-global aggregation of the NCC costs along four paths: denser where windows alone are "
+                    "ambiguous or flat (min_score then does not apply)")
+        .param_double("sgm_p1", 0.2, 0.0, 8.0, "semi-global: cost of a disparity step of one (NCC units)")
+        .param_double("sgm_p2", 0.8, 0.0, 8.0, "semi-global: cost of a larger disparity step (NCC units)")
         .param_double("focal", 0.0, 0.0, 1e6, "focal length of the rectified images, pixels (with baseline: depth)")
         .param_double("baseline", 0.0, 0.0, 100.0, "distance between the cameras, metres")
         .param_string("calibration", "",
@@ -59,6 +64,10 @@ class StereoNode final : public Node {
     c.fovea_radius = static_cast<int>(p.get_int("fovea_radius"));
     c.pad = static_cast<int>(p.get_int("pad"));
     c.fill = p.get_bool("fill");
+    c.ncc.semi_global = p.get_bool("semi_global");
+    c.ncc.p1 = static_cast<float>(p.get_double("sgm_p1"));
+    c.ncc.p2 = static_cast<float>(p.get_double("sgm_p2"));
+    if (c.ncc.p2 < c.ncc.p1) return Status::error("sgm_p2 must not be smaller than sgm_p1");
     calibration_.focal_px = p.get_double("focal");
     calibration_.baseline_m = p.get_double("baseline");
     if (const std::string file = p.get_string("calibration"); !file.empty()) {

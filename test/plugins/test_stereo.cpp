@@ -155,6 +155,25 @@ TEST(StereoNode, EmitsDisparityConfidenceAndBothWays) {
   EXPECT_GT(confidence.at<float>(12, 20), 0.9f);
 }
 
+TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
+  Pair p = make_pair(12, {320, 240});
+  std::string error;
+  auto h = testing::NodeHarness::create(
+      R"(<node plugin="stereo"><param name="max_disparity" value="64"/><param name="semi_global" value="true"/></node>)",
+      &error);
+  ASSERT_NE(h, nullptr) << error;
+  h->set("left", p.left);
+  h->set("right", p.right);
+  ASSERT_TRUE(h->process().ok());
+  auto maps = h->last<FeatureMaps>("maps");
+  ASSERT_NE(maps, nullptr);
+  EXPECT_NEAR(maps->find("disparity")->back().at<float>(12, 20), 12.0, 0.25);
+  auto bad = testing::NodeHarness::create(
+      R"(<node plugin="stereo"><param name="sgm_p1" value="1"/><param name="sgm_p2" value="0.5"/></node>)", &error);
+  EXPECT_EQ(bad, nullptr);
+  EXPECT_NE(error.find("sgm_p2"), std::string::npos) << error;
+}
+
 TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
   Pair p = make_pair(40, {320, 240});
   std::string error;

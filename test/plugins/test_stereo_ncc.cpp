@@ -53,6 +53,42 @@ TEST(NccMatch, FindsAKnownDisparityBothWays) {
   EXPECT_NEAR(lr_score.at<float>(18, 20), 1.0, 1e-4);
 }
 
+TEST(NccMatchCross, RightPixelsTakeThePairsTheLeftPixelsSearch) {
+  const int d = 4;
+  cv::Mat left = test::random_image({48, 36}, 7);
+  cv::Mat right = shifted_right(left, d);
+  cv::Mat lo(left.size(), CV_32S, cv::Scalar(0)), hi(left.size(), CV_32S, cv::Scalar(8));
+  NccConfig config;
+  NccScratch scratch;
+  cv::Mat lr, lr_score, rl, rl_score;
+  ncc_match_cross(left, right, lo, hi, config, lr, lr_score, rl, rl_score, scratch);
+  EXPECT_GE(share_near(lr, d, 0.25f, cv::Rect(d + 3, 3, 48 - d - 6, 30)), 0.98);
+  EXPECT_GE(share_near(rl, d, 0.25f, cv::Rect(3, 3, 48 - d - 6, 30)), 0.98);
+  // A right pixel no left pixel's search reaches has no match: right pixel
+  // 46 pairs with left pixels 46 .. 54, none of which has a whole window.
+  EXPECT_LE(rl_score.at<float>(18, 46), -1.0f);
+}
+
+TEST(NccMatchCross, SemiGlobalCarriesTheNeighboursDisparityAcrossAFlatBand) {
+  const int d = 3;
+  cv::Mat left = test::random_image({56, 32}, 8);
+  left(cv::Rect(22, 0, 12, 32)).setTo(128);  // no texture: no window there can be matched alone
+  cv::Mat right = shifted_right(left, d);
+  cv::Mat lo(left.size(), CV_32S, cv::Scalar(0)), hi(left.size(), CV_32S, cv::Scalar(7));
+  const cv::Rect band(26, 4, 4, 24);  // windows wholly inside the flat band
+  NccConfig plain;
+  NccScratch scratch;
+  cv::Mat lr, lr_score, rl, rl_score;
+  ncc_match_cross(left, right, lo, hi, plain, lr, lr_score, rl, rl_score, scratch);
+  EXPECT_EQ(share_near(lr_score, -1.0f, 0.0f, band), 1.0) << "flat windows are not matched alone";
+  NccConfig semi_global = plain;
+  semi_global.semi_global = true;
+  ncc_match_cross(left, right, lo, hi, semi_global, lr, lr_score, rl, rl_score, scratch);
+  EXPECT_EQ(share_near(lr, d, 0.5f, band), 1.0) << "the band takes its neighbours' disparity";
+  EXPECT_GE(share_near(lr, d, 0.25f, cv::Rect(d + 3, 4, 14, 24)), 0.98) << "textured pixels stay exact";
+  EXPECT_GE(share_near(rl, d, 0.5f, cv::Rect(26 - d, 4, 4, 24)), 1.0) << "right to left too";
+}
+
 TEST(NccMatch, IsInsensitiveToGainAndOffset) {
   cv::Mat left = test::random_image({48, 36}, 3);
   cv::Mat right;
