@@ -5,6 +5,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "saccade/simd.hpp"
+
 namespace saccade::fovea {
 
 namespace {
@@ -22,6 +24,103 @@ double vertex(double a, double b, double c) {
 }
 
 }  // namespace
+
+namespace {
+
+// The cross terms of every placement: result row y gets, for each template
+// pixel (tx, ty), its centred value times the window row y + ty from column
+// tx on. One call for all of them: the rows are short, and a call per row and
+// template pixel cost more than the products. `centred` holds the window less
+// 128 (the template's centred values sum to zero, so the offset cancels and
+// the float sums stay small).
+SACCADE_AVX2_CLONE void cross_terms(float* __restrict result, std::ptrdiff_t result_step, int rw, int rh,
+                                    const float* __restrict centred, std::ptrdiff_t window_step,
+                                    const float* __restrict templ, std::ptrdiff_t templ_step, int tw, int th,
+                                    float t_mean) {
+  for (int y = 0; y < rh; ++y) {
+    float* __restrict out = result + y * result_step;
+    for (int x = 0; x < rw; ++x) out[x] = 0.0f;
+    for (int ty = 0; ty < th; ++ty) {
+      const float* w = centred + (y + ty) * window_step;
+      const float* t = templ + ty * templ_step;
+      for (int tx = 0; tx < tw; ++tx) {
+        const float scale = t[tx] - t_mean;
+        for (int x = 0; x < rw; ++x) out[x] += scale * w[x + tx];
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch) {
+  CV_Assert(window.type() == CV_32F && templ.type() == CV_32F && window.cols >= templ.cols && window.rows >= templ.rows);
+  const int tw = templ.cols, th = templ.rows, rw = window.cols - tw + 1, rh = window.rows - th + 1;
+  const double n = static_cast<double>(tw) * th;
+  result.create(rh, rw, CV_32F);
+  // The template less its mean, and its norm.
+  double t_sum = 0, t_sq = 0;
+  for (int y = 0; y < th; ++y) {
+    const float* t = templ.ptr<float>(y);
+    for (int x = 0; x < tw; ++x) {
+      t_sum += t[x];
+      t_sq += static_cast<double>(t[x]) * t[x];
+    }
+  }
+  const double t_mean = t_sum / n, t_norm = std::sqrt(std::max(0.0, t_sq - t_sum * t_mean));
+  // Rows padded to whole vectors of eight (zeros beyond the window), so the
+  // inner loop has no scalar tail; the padding's results are dropped.
+  const int rw8 = (rw + 7) / 8 * 8, cw = rw8 + tw - 1;
+  scratch.centred.assign(static_cast<std::size_t>(cw) * static_cast<std::size_t>(window.rows), 0.0f);
+  for (int y = 0; y < window.rows; ++y) {
+    const float* w = window.ptr<float>(y);
+    float* c = scratch.centred.data() + static_cast<std::size_t>(y) * cw;
+    for (int x = 0; x < window.cols; ++x) c[x] = w[x] - 128.0f;
+  }
+  scratch.cross.resize(static_cast<std::size_t>(rw8) * static_cast<std::size_t>(rh));
+  cross_terms(scratch.cross.data(), rw8, rw8, rh, scratch.centred.data(), cw, templ.ptr<float>(),
+              static_cast<std::ptrdiff_t>(templ.step1()), tw, th, static_cast<float>(t_mean));
+  for (int y = 0; y < rh; ++y)
+    std::copy_n(scratch.cross.data() + static_cast<std::size_t>(y) * rw8, rw, result.ptr<float>(y));
+  // Each placement's sums of W and W^2 from column sums over the template's rows.
+  scratch.column_sum.assign(static_cast<std::size_t>(window.cols), 0.0);
+  scratch.column_sq.assign(static_cast<std::size_t>(window.cols), 0.0);
+  for (int wy = 0; wy < window.rows; ++wy) {
+    const float* add = window.ptr<float>(wy);
+    for (int x = 0; x < window.cols; ++x) {
+      scratch.column_sum[static_cast<std::size_t>(x)] += add[x];
+      scratch.column_sq[static_cast<std::size_t>(x)] += static_cast<double>(add[x]) * add[x];
+    }
+    if (wy >= th) {
+      const float* sub = window.ptr<float>(wy - th);
+      for (int x = 0; x < window.cols; ++x) {
+        scratch.column_sum[static_cast<std::size_t>(x)] -= sub[x];
+        scratch.column_sq[static_cast<std::size_t>(x)] -= static_cast<double>(sub[x]) * sub[x];
+      }
+    }
+    if (wy < th - 1) continue;
+    float* out = result.ptr<float>(wy - th + 1);
+    double s = 0, s2 = 0;
+    for (int x = 0; x < tw; ++x) {
+      s += scratch.column_sum[static_cast<std::size_t>(x)];
+      s2 += scratch.column_sq[static_cast<std::size_t>(x)];
+    }
+    for (int x = 0; x < rw; ++x) {
+      if (x > 0) {
+        s += scratch.column_sum[static_cast<std::size_t>(x + tw - 1)] - scratch.column_sum[static_cast<std::size_t>(x - 1)];
+        s2 += scratch.column_sq[static_cast<std::size_t>(x + tw - 1)] - scratch.column_sq[static_cast<std::size_t>(x - 1)];
+      }
+      // OpenCV's rule: a flat window (or template) scores 0, and a
+      // numerator rounding past the denominator is clamped to +-1.
+      const double norm = std::sqrt(std::max(0.0, s2 - s * s / n)) * t_norm;
+      const double num = out[x];
+      double r = 0;
+      if (std::fabs(num) < norm) r = num / norm;
+      else if (std::fabs(num) < norm * 1.125) r = num > 0 ? 1.0 : -1.0;
+      out[x] = static_cast<float>(r);
+    }
+  }
+}
 
 TemplateTracker::TemplateTracker(TrackerConfig config) : config_(config) {}
 
@@ -77,7 +176,7 @@ TemplateTracker::Match TemplateTracker::match(const Retina& retina) {
   if (template_.empty() || retina.levels.empty()) return m;
   const cv::Point origin = search_window(retina);
   if (window_f_.cols < template_.cols || window_f_.rows < template_.rows) return m;
-  cv::matchTemplate(window_f_, template_, result_, cv::TM_CCOEFF_NORMED);
+  match_template_normed(window_f_, template_, result_, correlation_);
   double best = 0;
   cv::Point at;
   cv::minMaxLoc(result_, nullptr, &best, nullptr, &at);

@@ -2,6 +2,8 @@
 // Keeps a target in view: normalised cross-correlation of a small template
 // with the fovea (or a window of the frame around it), peak refined to
 // sub-pixel.
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "saccade/message.hpp"
@@ -19,6 +21,17 @@ struct TrackerConfig {
   double update_min_score = 0.85; // only confident matches update the template
   double min_contrast = 4.0;      // a template whose standard deviation is below this is refused
 };
+
+// cv::matchTemplate(window, templ, result, TM_CCOEFF_NORMED) for small CV_32F
+// images, computed directly: OpenCV 4.6 takes the DFT path even for a 12x12
+// template in a 40x32 window, which allocates on every call and costs several
+// times more. Same definition, and the same rule for flat windows (their
+// score is 0). `scratch` keeps the buffers between calls.
+struct CorrelationScratch {
+  std::vector<float> centred, cross;
+  std::vector<double> column_sum, column_sq;
+};
+void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch);
 
 class TemplateTracker {
  public:
@@ -52,6 +65,7 @@ class TemplateTracker {
   cv::Mat template_;  // CV_32F
   cv::Point2d offset_;
   cv::Mat window_gray_, window_f_, result_, patch_;
+  CorrelationScratch correlation_;
 };
 
 }  // namespace saccade::fovea

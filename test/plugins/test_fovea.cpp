@@ -156,6 +156,27 @@ TEST(InhibitionOfReturn, MovesAttentionToTheNextPlace) {
   for (std::size_t i = 0; i < places.size(); ++i) EXPECT_TRUE(seen[i]) << "place " << i << " never visited";
 }
 
+TEST(MatchTemplateNormed, IsOpenCvsNormalisedCorrelationCoefficient) {
+  CorrelationScratch scratch;
+  for (int trial = 0; trial < 4; ++trial) {
+    cv::Mat window, templ, ours, theirs;
+    test::random_image({40, 32}, 60 + trial).convertTo(window, CV_32F);
+    window(cv::Rect(0, 0, 14, 14)).setTo(90);  // flat placements score 0 in both
+    window(cv::Rect(20, 10, 12, 12)).copyTo(templ);  // one perfect match
+    match_template_normed(window, templ, ours, scratch);
+    cv::matchTemplate(window, templ, theirs, cv::TM_CCOEFF_NORMED);
+    ASSERT_EQ(ours.size(), theirs.size());
+    double worst = 0;
+    cv::Point at;
+    for (int y = 0; y < ours.rows; ++y)
+      for (int x = 0; x < ours.cols; ++x) worst = std::max(worst, std::fabs(double(ours.at<float>(y, x)) - theirs.at<float>(y, x)));
+    EXPECT_LT(worst, 1e-4) << "trial " << trial;
+    cv::minMaxLoc(ours, nullptr, nullptr, nullptr, &at);
+    EXPECT_EQ(at, cv::Point(20, 10));
+    EXPECT_EQ(ours.at<float>(0, 0), 0.0f) << "flat window";
+  }
+}
+
 TEST(TemplateTracker, FindsATextureShiftedByWholeAndHalfPixels) {
   cv::Mat base = test::random_image({640, 480}, 3);
   cv::GaussianBlur(base, base, cv::Size(5, 5), 1.2);
