@@ -221,6 +221,7 @@ struct Executor::Impl {
       n.sink.impl = this;
       n.sink.node = static_cast<int>(i);
       n.slot.sink = &n.sink;
+      n.slot.stats = n.stats.get();
     }
     for (const auto& e : graph.edges) {
       NodeRt& from = nodes[static_cast<std::size_t>(e.from_node)];

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "saccade/node.hpp"
+#include "saccade/stats.hpp"
 
 namespace saccade {
 
@@ -101,6 +102,16 @@ int checked_port(const NodeSlot& slot, const std::vector<PortSpec>& ports, const
 }
 
 }  // namespace
+
+std::atomic<uint64_t>& OpenContext::counter(std::string_view name) const {
+  if (slot_->stats == nullptr) throw std::logic_error("node '" + slot_->name + "' has no stats to count in");
+  for (auto& c : slot_->stats->counters)
+    if (c->name == name) return c->value;
+  auto c = std::make_unique<NamedCounter>();
+  c->name = std::string(name);
+  slot_->stats->counters.push_back(std::move(c));
+  return slot_->stats->counters.back()->value;
+}
 
 int OpenContext::checked_input(std::string_view name, std::string_view type) const {
   return checked_port(*slot_, slot_->contract->inputs(), "input", name, type);

@@ -92,7 +92,7 @@ std::string format_stats_table(const std::vector<const NodeStats*>& nodes, doubl
   char line[512];
   std::snprintf(line, sizeof line, "stats after %.2f s\n%-18s %-22s %9s %7s %9s %9s %9s %9s %9s  %s\n",
                 elapsed_s, "node", "plugin", "processed", "errors", "rate/s", "p50 us", "p99 us", "max us",
-                "lat p50", "drops per input");
+                "lat p50", "drops per input, the node's own counts");
   out += line;
   for (const NodeStats* n : nodes) {
     std::string drops;
@@ -103,12 +103,15 @@ std::string format_stats_table(const std::vector<const NodeStats*>& nodes, doubl
       if (s) drops += "+" + std::to_string(s) + "sync";
       drops += " ";
     }
-    std::snprintf(line, sizeof line, "%-18s %-22s %9llu %7llu %9.1f %9s %9s %9s %9s  %s\n", n->name.c_str(),
+    for (const auto& c : n->counters) drops += c->name + ":" + std::to_string(c->value.load()) + " ";
+    std::snprintf(line, sizeof line, "%-18s %-22s %9llu %7llu %9.1f %9s %9s %9s %9s  ", n->name.c_str(),
                   n->plugin.c_str(), static_cast<unsigned long long>(n->processed.load()),
                   static_cast<unsigned long long>(n->errors.load()), n->rate_hz(),
                   us(n->process_time.percentile(0.5)).c_str(), us(n->process_time.percentile(0.99)).c_str(),
-                  us(n->process_time.max()).c_str(), us(n->latency.percentile(0.5)).c_str(), drops.c_str());
+                  us(n->process_time.max()).c_str(), us(n->latency.percentile(0.5)).c_str());
     out += line;
+    out += drops;  // any length: node names and counters are the plugins'
+    out += "\n";
   }
   return out;
 }
@@ -139,7 +142,10 @@ std::string format_stats_json(const std::vector<const NodeStats*>& nodes, double
              ", \"dropped\": " + std::to_string(in->dropped.load()) +
              ", \"sync_dropped\": " + std::to_string(in->sync_dropped.load()) + "}";
     }
-    out += "]}";
+    out += "], \"counters\": {";
+    for (std::size_t k = 0; k < n->counters.size(); ++k)
+      out += (k ? ", \"" : "\"") + json_escape(n->counters[k]->name) + "\": " + std::to_string(n->counters[k]->value.load());
+    out += "}}";
   }
   out += "\n  ]\n}\n";
   return out;

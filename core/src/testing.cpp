@@ -50,6 +50,9 @@ std::unique_ptr<NodeHarness> NodeHarness::create(const std::string& node_xml, st
   h->slot_.input_connected.assign(c.inputs().size(), true);
   h->slot_.output_connected.assign(c.outputs().size(), true);
   h->slot_.sink = h.get();
+  h->stats_.name = h->resolved_.decl.name;
+  h->stats_.plugin = h->resolved_.decl.plugin;
+  h->slot_.stats = &h->stats_;
   h->emitted_.resize(c.outputs().size());
   OpenContext ctx(h->slot_);
   Status s = h->node_->open(ctx);
@@ -89,6 +92,12 @@ const std::vector<MessagePtr>& NodeHarness::outputs(const std::string& output) c
   int k = resolved_.contract.output_index(output);
   if (k < 0) throw std::invalid_argument("no output '" + output + "' on " + resolved_.decl.plugin);
   return emitted_[static_cast<std::size_t>(k)];
+}
+
+uint64_t NodeHarness::counter(const std::string& name) const {
+  for (const auto& c : stats_.counters)
+    if (c->name == name) return c->value.load();
+  throw std::logic_error("node '" + slot_.name + "' has no counter '" + name + "'");
 }
 
 void NodeHarness::clear_outputs() {

@@ -12,6 +12,7 @@
 #include "master.hpp"
 #include "saccade/log.hpp"
 #include "saccade/plugin.hpp"
+#include "saccade/stats.hpp"
 #include "virtual_bus.hpp"
 
 namespace {
@@ -394,30 +395,35 @@ class Send final : public Node {
     std::string error;
     bus_ = can::open_bus(ctx.params().get_string("bus"), error);
     if (!bus_) return Status::error(error);
+    sent_ = &ctx.counter("sent");
+    failed_ = &ctx.counter("failed");
+    skipped_ = &ctx.counter("error_frames_skipped");
     return {};
   }
   Status process(ProcessContext& ctx) override {
     for (const CanFrames::Frame& m : ctx.get(in_)->frames) {
       const can::Frame f = from_message(m);
       if (f.error) {
-        ++skipped_;
+        bump(*skipped_);
         continue;
       }
-      if (!bus_->send(f)) ++failed_;
+      bump(bus_->send(f) ? *sent_ : *failed_);
     }
     bus_->flush();
     return {};
   }
   void close() override {
-    if (failed_ > 0 || skipped_ > 0)
-      log().warn("{}: {} frames could not be sent, {} error frames not sent", bus_ ? bus_->describe() : "", failed_,
-                 skipped_);
+    if (failed_ != nullptr && (failed_->load() > 0 || skipped_->load() > 0))
+      log().warn("{}: {} frames could not be sent, {} error frames not sent", bus_ ? bus_->describe() : "",
+                 failed_->load(), skipped_->load());
   }
 
  private:
   InputHandle<CanFrames> in_;
   std::unique_ptr<can::Bus> bus_;
-  uint64_t failed_ = 0, skipped_ = 0;
+  std::atomic<uint64_t>* sent_ = nullptr;
+  std::atomic<uint64_t>* failed_ = nullptr;
+  std::atomic<uint64_t>* skipped_ = nullptr;
 };
 
 }  // namespace

@@ -89,11 +89,12 @@ sd::EdgeSettings edge_settings(const Params& p, const sd::Codec& codec) {
   return s;
 }
 
-// What a peer did, as the listeners see it (on Fast DDS' threads).
+// What a peer did, as the listeners see it (on Fast DDS' threads). The
+// counts are the node's own counters (in its stats), registered at open.
 struct PeerEvents {
   std::atomic<int> matched{0};
-  std::atomic<uint64_t> deadlines_missed{0};
-  std::atomic<uint64_t> lost{0};
+  std::atomic<uint64_t>* deadlines_missed = nullptr;
+  std::atomic<uint64_t>* lost = nullptr;
 };
 
 // What both ends of a bridge hold: the topic, its codec, the process's
@@ -145,6 +146,9 @@ class Publish final : public Node {
     fdds::DataWriterQos qos = sd::writer_qos(*end_.domain->publisher(), edge_settings(p, *end_.codec));
     reliable_ = p.get_bool("reliable");
     listener_.owner = this;
+    written_ = &ctx.counter("written");
+    failed_ = &ctx.counter("failed_writes");
+    listener_.events.deadlines_missed = &ctx.counter("deadlines_missed");
     writer_ = end_.domain->publisher()->create_datawriter(topic, qos, &listener_, fdds::StatusMask::all());
     if (writer_ == nullptr) return Status::error("cannot create a DDS writer on " + end_.topic_name);
     const double wait_ms = p.get_double("wait_ms");
@@ -166,9 +170,10 @@ class Publish final : public Node {
     if (Status s = end_.sample->write(*writer_, message.get(), written); !s.ok())
       return Status::error("topic " + end_.topic_name + ": " + s.message());
     if (!written) {
-      if (failed_++ == 0) log().warn("{}: write to {} failed (the reader's history is full?)", end_.node, end_.topic_name);
+      if (failed_->fetch_add(1) == 0)
+        log().warn("{}: write to {} failed (the reader's history is full?)", end_.node, end_.topic_name);
     } else {
-      ++written_;
+      written_->fetch_add(1);
     }
     return {};
   }
@@ -182,10 +187,10 @@ class Publish final : public Node {
       send_end_of_stream();
       end_.domain->publisher()->delete_datawriter(writer_);
       writer_ = nullptr;
-      log().debug("{}: {} written to {}, {} failed, {} deadlines missed", end_.node, written_, end_.topic_name, failed_,
-                  listener_.events.deadlines_missed.load());
-      if (failed_ > 0)
-        log().warn("{}: {} of {} writes to {} failed", end_.node, failed_, failed_ + written_, end_.topic_name);
+      const uint64_t written = written_->load(), failed = failed_->load();
+      log().debug("{}: {} written to {}, {} failed, {} deadlines missed", end_.node, written, end_.topic_name, failed,
+                  listener_.events.deadlines_missed->load());
+      if (failed > 0) log().warn("{}: {} of {} writes to {} failed", end_.node, failed, failed + written, end_.topic_name);
     }
     end_.domain.reset();
   }
@@ -220,7 +225,7 @@ class Publish final : public Node {
         log().warn("{}: a reader of {} left ({} now)", owner->end_.node, owner->end_.topic_name, s.current_count);
     }
     void on_offered_deadline_missed(fdds::DataWriter*, const fdds::OfferedDeadlineMissedStatus&) override {
-      events.deadlines_missed.fetch_add(1);
+      events.deadlines_missed->fetch_add(1);
     }
     void on_offered_incompatible_qos(fdds::DataWriter*, const fdds::OfferedIncompatibleQosStatus& s) override {
       log().error("{}: a reader of {} asks for an incompatible QoS ({}); it gets nothing", owner->end_.node,
@@ -234,7 +239,8 @@ class Publish final : public Node {
   Listener listener_;
   bool reliable_ = false;
   bool ended_ = false;
-  uint64_t written_ = 0, failed_ = 0;
+  std::atomic<uint64_t>* written_ = nullptr;
+  std::atomic<uint64_t>* failed_ = nullptr;
 };
 
 class Subscribe final : public Node {
@@ -260,6 +266,9 @@ class Subscribe final : public Node {
     fdds::Topic* topic = end_.topic;
     fdds::DataReaderQos qos = sd::reader_qos(*end_.domain->subscriber(), edge_settings(p, *end_.codec));
     listener_.owner = this;
+    listener_.events.lost = &ctx.counter("lost");
+    listener_.events.deadlines_missed = &ctx.counter("deadlines_missed");
+    unreadable_ = &ctx.counter("unreadable");
     same_clock_ = p.get_bool("same_clock");
     const double missing_ms = p.get_double("missing_peer_ms");
     missing_peer_at_ = missing_ms > 0 ? steady_now_ns() + static_cast<int64_t>(missing_ms * 1e6) : 0;
@@ -280,7 +289,7 @@ class Subscribe final : public Node {
           return {};
         case sd::WireSample::Taken::kEnd: return Status::end_of_stream();
         case sd::WireSample::Taken::kUnreadable:
-          if (invalid_++ == 0)
+          if (unreadable_->fetch_add(1) == 0)
             log().warn("{}: a sample on {} could not be read: {}", end_.node, end_.topic_name,
                        end_.sample->why_unreadable().empty() ? "malformed, or overwritten while read"
                                                              : end_.sample->why_unreadable());
@@ -303,10 +312,11 @@ class Subscribe final : public Node {
     if (reader_ != nullptr) {
       end_.domain->subscriber()->delete_datareader(reader_);
       reader_ = nullptr;
-      uint64_t lost = listener_.events.lost.load(), missed = listener_.events.deadlines_missed.load();
-      if (lost > 0 || missed > 0 || invalid_ > 0)
+      const uint64_t lost = listener_.events.lost->load(), missed = listener_.events.deadlines_missed->load(),
+                     unreadable = unreadable_->load();
+      if (lost > 0 || missed > 0 || unreadable > 0)
         log().warn("{}: {} samples of {} lost, {} unreadable, {} deadlines missed", end_.node, lost, end_.topic_name,
-                   invalid_, missed);
+                   unreadable, missed);
     }
     end_.domain.reset();
   }
@@ -326,14 +336,14 @@ class Subscribe final : public Node {
     }
     void on_requested_deadline_missed(fdds::DataReader*, const fdds::RequestedDeadlineMissedStatus& s) override {
       // A silent writer misses every period: said at the 1st, 10th, 100th, ... miss (the total is in the summary).
-      const uint64_t n = events.deadlines_missed.fetch_add(1) + 1;
+      const uint64_t n = events.deadlines_missed->fetch_add(1) + 1;
       uint64_t p = 1;
       while (p < n) p *= 10;
       if (p == n)
         log().warn("{}: nothing on {} within its deadline ({} times)", owner->end_.node, owner->end_.topic_name, s.total_count);
     }
     void on_sample_lost(fdds::DataReader*, const fdds::SampleLostStatus& s) override {
-      events.lost.store(static_cast<uint64_t>(s.total_count));
+      events.lost->store(static_cast<uint64_t>(s.total_count));
     }
     void on_requested_incompatible_qos(fdds::DataReader*, const fdds::RequestedIncompatibleQosStatus& s) override {
       log().error("{}: the writer of {} offers an incompatible QoS ({}); nothing will arrive", owner->end_.node,
@@ -348,7 +358,7 @@ class Subscribe final : public Node {
   bool same_clock_ = true;
   int64_t missing_peer_at_ = 0;
   int domain_id_ = 0;
-  uint64_t invalid_ = 0;
+  std::atomic<uint64_t>* unreadable_ = nullptr;
 };
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "saccade/node.hpp"
 #include "saccade/stats.hpp"
 
 namespace saccade {
@@ -41,6 +42,31 @@ TEST(Stats, TableAndJsonNameEveryNode) {
   std::string json = format_stats_json({&a}, 1.0);
   EXPECT_NE(json.find("\"name\": \"cam\""), std::string::npos);
   EXPECT_NE(json.find("\"dropped\": 2"), std::string::npos);
+}
+
+TEST(Stats, ANodesOwnCountersAreRegisteredOnceAndReported) {
+  NodeStats stats;
+  stats.name = "sub";
+  stats.plugin = "dds.subscribe";
+  Contract contract("counts");
+  Params params;
+  NodeSlot slot;
+  slot.name = "sub";
+  slot.contract = &contract;
+  slot.params = &params;
+  slot.stats = &stats;
+  OpenContext ctx(slot);
+  std::atomic<uint64_t>& lost = ctx.counter("lost");
+  lost.fetch_add(3);
+  EXPECT_EQ(&ctx.counter("lost"), &lost) << "the same name is the same counter";
+  ctx.counter("unreadable").fetch_add(1);
+  ASSERT_EQ(stats.counters.size(), 2u);
+  const std::string json = format_stats_json({&stats}, 1.0);
+  EXPECT_NE(json.find("\"counters\": {\"lost\": 3, \"unreadable\": 1}"), std::string::npos) << json;
+  const std::string table = format_stats_table({&stats}, 1.0);
+  EXPECT_NE(table.find("lost:3 unreadable:1"), std::string::npos) << table;
+  slot.stats = nullptr;
+  EXPECT_THROW(ctx.counter("lost"), std::logic_error) << "nowhere to count";
 }
 
 }  // namespace

@@ -114,9 +114,10 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
                                      "--security", (root / "keys" / "robot_pc").string(), "--set",
                                      "images.topic=" + prefix + "images", "--set", "targets.topic=" + prefix + "targets",
                                      "--stats-json", stats.string()});
+  const fs::path head_stats = root / "head.json";
   pid_t head = test::spawn_saccade({"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_images.xml",
                                     "--security", (root / "keys" / "head_pc").string(), "--set",
-                                    "publish.topic=" + prefix + "images"});
+                                    "publish.topic=" + prefix + "images", "--stats-json", head_stats.string()});
   ASSERT_GT(robot, 0);
   ASSERT_GT(head, 0);
 
@@ -156,6 +157,12 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
   ASSERT_EQ(robot_code, 0) << "the robot ends once both secured streams end";
   EXPECT_EQ(test::stats_emitted(stats, "images"), 40) << "every image, over the secured edge";
   EXPECT_EQ(test::stats_emitted(stats, "targets"), 5) << "the authorised targets and none of the intruders'";
+  // The bridges' own counts, in the stats.
+  EXPECT_EQ(test::stats_counter(head_stats, "publish", "written"), 40);
+  EXPECT_EQ(test::stats_counter(head_stats, "publish", "failed_writes"), 0);
+  EXPECT_EQ(test::stats_counter(stats, "images", "unreadable"), 0);
+  EXPECT_EQ(test::stats_counter(stats, "images", "lost"), 0);
+  EXPECT_EQ(test::stats_counter(stats, "images", "nonexistent"), -1);
 
   for (fdds::DataReader* reader : {plain_reader, foreign_reader}) {
     saccade_idl::Image image;

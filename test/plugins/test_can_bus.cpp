@@ -385,6 +385,10 @@ TEST(CanNodes, FramesSentByCanSendComeBackFromCanTap) {
     got.timestamp_ns = 0;
     EXPECT_EQ(got, out->frames[i]) << "frame " << i;
   }
+  // Its counts are in the node's stats.
+  EXPECT_EQ(send->counter("sent"), 4u);
+  EXPECT_EQ(send->counter("error_frames_skipped"), 1u);
+  EXPECT_EQ(send->counter("failed"), 0u);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #pragma once
 // What a plugin author implements: a Node with open / process / close.
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -32,6 +33,8 @@ class EmitSink {
   virtual bool sleep_until(int64_t steady_ns) = 0;
 };
 
+struct NodeStats;
+
 // Everything one node instance needs while it runs; owned by whoever runs it.
 struct NodeSlot {
   std::string name;
@@ -43,6 +46,7 @@ struct NodeSlot {
   std::vector<bool> output_connected;
   const Message* trigger = nullptr;  // first trigger input that holds a message
   EmitSink* sink = nullptr;
+  NodeStats* stats = nullptr;  // where the node's own counters go
 };
 
 int64_t steady_now_ns();
@@ -69,6 +73,10 @@ class OpenContext {
   bool connected(OutputHandle<T> h) const {
     return slot_->output_connected[static_cast<std::size_t>(h.index)];
   }
+  // A counter of the node's own, shown by name in its stats (table and JSON)
+  // next to the executor's counts; the same name gives the same counter. Valid
+  // until the node is destroyed. Count with fetch_add where several threads may.
+  std::atomic<uint64_t>& counter(std::string_view name) const;
 
  private:
   int checked_input(std::string_view name, std::string_view type) const;

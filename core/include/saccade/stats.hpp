@@ -46,6 +46,14 @@ struct InputStats {
   std::atomic<uint64_t> sync_dropped{0};  // found no partner (in its sync group, or before end of stream)
 };
 
+// A count a node keeps of its own (samples lost, writes failed, ...),
+// registered when it opens and reported with the executor's counts. Written
+// with fetch_add where several threads may count (a middleware's listeners).
+struct NamedCounter {
+  std::string name;
+  std::atomic<uint64_t> value{0};
+};
+
 struct NodeStats {
   std::string name;
   std::string plugin;
@@ -57,6 +65,7 @@ struct NodeStats {
   Histogram process_time;
   Histogram latency;  // now - origin of the message that triggered the call
   std::vector<std::unique_ptr<InputStats>> inputs;
+  std::vector<std::unique_ptr<NamedCounter>> counters;  // the node's own, in the order it registered them
 
   double rate_hz() const;
 };

@@ -13,6 +13,7 @@
 #include "saccade/graph.hpp"
 #include "saccade/node.hpp"
 #include "saccade/registry.hpp"
+#include "saccade/stats.hpp"
 
 namespace saccade::testing {
 
@@ -39,6 +40,8 @@ class NodeHarness final : public EmitSink {
     return all.empty() ? nullptr : std::dynamic_pointer_cast<const T>(all.back());
   }
   void clear_outputs();
+  // A counter the node registered at open (OpenContext::counter); throws if none.
+  uint64_t counter(const std::string& name) const;
   Node& node() { return *node_; }
   const ResolvedNode& resolved() const { return resolved_; }
 
@@ -50,6 +53,7 @@ class NodeHarness final : public EmitSink {
   NodeHarness() = default;
   ResolvedNode resolved_;
   NodeSlot slot_;
+  NodeStats stats_;  // before node_: the node's counters outlive it
   std::shared_ptr<Node> node_;
   std::vector<std::vector<MessagePtr>> emitted_;
   bool opened_ = false;
