@@ -113,6 +113,16 @@ std::atomic<uint64_t>& OpenContext::counter(std::string_view name) const {
   return slot_->stats->counters.back()->value;
 }
 
+Histogram& OpenContext::timing(std::string_view name) const {
+  if (slot_->stats == nullptr) throw std::logic_error("node '" + slot_->name + "' has no stats to time in");
+  for (auto& t : slot_->stats->timings)
+    if (t->name == name) return t->histogram;
+  auto t = std::make_unique<NamedTiming>();
+  t->name = std::string(name);
+  slot_->stats->timings.push_back(std::move(t));
+  return slot_->stats->timings.back()->histogram;
+}
+
 int OpenContext::checked_input(std::string_view name, std::string_view type) const {
   return checked_port(*slot_, slot_->contract->inputs(), "input", name, type);
 }

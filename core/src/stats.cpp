@@ -104,6 +104,9 @@ std::string format_stats_table(const std::vector<const NodeStats*>& nodes, doubl
       drops += " ";
     }
     for (const auto& c : n->counters) drops += c->name + ":" + std::to_string(c->value.load()) + " ";
+    for (const auto& t : n->timings)
+      drops += t->name + ":" + us(t->histogram.percentile(0.5)) + "/" + us(t->histogram.percentile(0.99)) + "us(n=" +
+               std::to_string(t->histogram.count()) + ") ";
     std::snprintf(line, sizeof line, "%-18s %-22s %9llu %7llu %9.1f %9s %9s %9s %9s  ", n->name.c_str(),
                   n->plugin.c_str(), static_cast<unsigned long long>(n->processed.load()),
                   static_cast<unsigned long long>(n->errors.load()), n->rate_hz(),
@@ -145,6 +148,14 @@ std::string format_stats_json(const std::vector<const NodeStats*>& nodes, double
     out += "], \"counters\": {";
     for (std::size_t k = 0; k < n->counters.size(); ++k)
       out += (k ? ", \"" : "\"") + json_escape(n->counters[k]->name) + "\": " + std::to_string(n->counters[k]->value.load());
+    out += "}, \"timings_ns\": {";
+    for (std::size_t k = 0; k < n->timings.size(); ++k) {
+      const Histogram& h = n->timings[k]->histogram;
+      out += (k ? ", \"" : "\"") + json_escape(n->timings[k]->name) + "\": {\"count\": " + std::to_string(h.count()) +
+             ", \"mean\": " + std::to_string(static_cast<int64_t>(h.mean())) +
+             ", \"p50\": " + std::to_string(h.percentile(0.5)) + ", \"p99\": " + std::to_string(h.percentile(0.99)) +
+             ", \"max\": " + std::to_string(h.max()) + "}";
+    }
     out += "}}";
   }
   out += "\n  ]\n}\n";

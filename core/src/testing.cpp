@@ -94,6 +94,12 @@ const std::vector<MessagePtr>& NodeHarness::outputs(const std::string& output) c
   return emitted_[static_cast<std::size_t>(k)];
 }
 
+const Histogram& NodeHarness::timing(const std::string& name) const {
+  for (const auto& t : stats_.timings)
+    if (t->name == name) return t->histogram;
+  throw std::logic_error("node '" + slot_.name + "' has no timing '" + name + "'");
+}
+
 uint64_t NodeHarness::counter(const std::string& name) const {
   for (const auto& c : stats_.counters)
     if (c->name == name) return c->value.load();

@@ -158,6 +158,8 @@ class Driver final : public Node {
     config.feedback_timeout_ns = static_cast<int64_t>(p.get_double("feedback_timeout_ms") * 1e6);
     master_ = std::make_unique<can::Master>(*setup_.bus, config);
     feedback_.reserve(setup_.nodes.size());
+    capture_to_command_ = &ctx.timing("gaze_capture_to_command");
+    taken_to_command_ = &ctx.timing("gaze_taken_to_command");
     return {};
   }
   Status process(ProcessContext& ctx) override {
@@ -173,6 +175,15 @@ class Driver final : public Node {
     }
     master_->cycle(t, usable ? targets->position.data() : nullptr, usable ? targets->reset : 0, feedback_,
                    setup_.wait_ns);
+    if (usable && targets->cause_origin_ns > 0 && targets->cause_origin_ns != last_cause_) {
+      // The first command cycle that carries the targets answering a gaze
+      // request: from that request's camera frame, and from when the head took it.
+      last_cause_ = targets->cause_origin_ns;
+      const int64_t now = steady_now_ns();
+      if (now >= targets->cause_origin_ns) capture_to_command_->record(now - targets->cause_origin_ns);
+      if (targets->cause_taken_ns > 0 && now >= targets->cause_taken_ns)
+        taken_to_command_->record(now - targets->cause_taken_ns);
+    }
     auto state = ctx.make(state_);
     const std::size_t n = feedback_.size();
     state->position.resize(n);
@@ -203,6 +214,9 @@ class Driver final : public Node {
   std::unique_ptr<can::Master> master_;
   std::vector<can::JointFeedback> feedback_;
   bool warned_ = false;
+  Histogram* capture_to_command_ = nullptr;
+  Histogram* taken_to_command_ = nullptr;
+  int64_t last_cause_ = 0;
 };
 
 class Drives final : public Node {

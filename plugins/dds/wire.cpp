@@ -404,6 +404,8 @@ void to_wire(const JointTargets& in, w::JointTargets& out) {
   out.hold(in.hold);
   out.reset(in.reset);
   out.fault(in.fault);
+  out.cause_origin_ns(in.cause_origin_ns);
+  out.cause_taken_ns(in.cause_taken_ns);
 }
 
 void from_wire(const w::JointTargets& in, JointTargets& out) {
@@ -413,6 +415,8 @@ void from_wire(const w::JointTargets& in, JointTargets& out) {
   out.hold = in.hold();
   out.reset = in.reset();
   out.fault = in.fault();
+  out.cause_origin_ns = in.cause_origin_ns();
+  out.cause_taken_ns = in.cause_taken_ns();
 }
 
 void to_wire(const FoveaState& in, w::FoveaState& out) {

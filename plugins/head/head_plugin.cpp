@@ -102,9 +102,14 @@ class HeadNode final : public Node {
     if (command.hold && !was_holding)
       log().warn("{}: holding: {}{}{}", ctx.node_name(), command.fault, state->detail.empty() ? "" : "; the driver: ",
                  state->detail);
+    // The targets of this call were planned before a request this call takes:
+    // the trace of the one taken last time goes out now.
+    const Cause answered = pending_;
+    pending_ = {};
     if (auto gaze = ctx.get(gaze_); gaze && gaze != last_gaze_) {
       last_gaze_ = gaze;
       const std::string why = request(*gaze);
+      if (why.empty()) pending_ = {gaze->origin_ns, steady_now_ns()};
       if (!why.empty()) {
         log().info("{}: gaze request ({}) not taken: {}", ctx.node_name(), to_string(gaze->kind), why);
       } else if (gaze->kind != GazeRequest::Kind::kPoint && gaze->kind != GazeRequest::Kind::kRelative) {
@@ -122,6 +127,8 @@ class HeadNode final : public Node {
     targets->hold = command.hold;
     targets->reset = command.reset;
     targets->fault = command.fault;
+    targets->cause_origin_ns = answered.origin_ns;
+    targets->cause_taken_ns = answered.taken_ns;
     ctx.emit(targets_, std::move(targets));
     return {};
   }
@@ -156,6 +163,10 @@ class HeadNode final : public Node {
   std::unique_ptr<head::GazeController> controller_;
   std::vector<head::JointReading> readings_;
   std::shared_ptr<const GazeRequest> last_gaze_;
+  // A gaze request taken, for the trace on the next targets (JointTargets::cause_*).
+  struct Cause {
+    int64_t origin_ns = 0, taken_ns = 0;
+  } pending_;
   MessagePtr last_reset_;
   double focal_ = 0, hfov_ = 1;
 };

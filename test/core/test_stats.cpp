@@ -44,7 +44,7 @@ TEST(Stats, TableAndJsonNameEveryNode) {
   EXPECT_NE(json.find("\"dropped\": 2"), std::string::npos);
 }
 
-TEST(Stats, ANodesOwnCountersAreRegisteredOnceAndReported) {
+TEST(Stats, ANodesOwnCountersAndTimingsAreRegisteredOnceAndReported) {
   NodeStats stats;
   stats.name = "sub";
   stats.plugin = "dds.subscribe";
@@ -65,8 +65,15 @@ TEST(Stats, ANodesOwnCountersAreRegisteredOnceAndReported) {
   EXPECT_NE(json.find("\"counters\": {\"lost\": 3, \"unreadable\": 1}"), std::string::npos) << json;
   const std::string table = format_stats_table({&stats}, 1.0);
   EXPECT_NE(table.find("lost:3 unreadable:1"), std::string::npos) << table;
+  Histogram& delay = ctx.timing("cause_to_effect");
+  delay.record(2'000'000);
+  EXPECT_EQ(&ctx.timing("cause_to_effect"), &delay);
+  const std::string timed = format_stats_json({&stats}, 1.0);
+  EXPECT_NE(timed.find("\"timings_ns\": {\"cause_to_effect\": {\"count\": 1"), std::string::npos) << timed;
+  EXPECT_NE(format_stats_table({&stats}, 1.0).find("cause_to_effect:"), std::string::npos);
   slot.stats = nullptr;
   EXPECT_THROW(ctx.counter("lost"), std::logic_error) << "nowhere to count";
+  EXPECT_THROW(ctx.timing("cause_to_effect"), std::logic_error);
 }
 
 }  // namespace

@@ -13,6 +13,8 @@
 #include "cannelloni.hpp"
 #include "socketcan.hpp"
 #include "support.hpp"
+#include "saccade/message.hpp"
+#include "saccade/stats.hpp"
 #include "virtual_bus.hpp"
 
 namespace saccade::can {
@@ -389,6 +391,56 @@ TEST(CanNodes, FramesSentByCanSendComeBackFromCanTap) {
   EXPECT_EQ(send->counter("sent"), 4u);
   EXPECT_EQ(send->counter("error_frames_skipped"), 1u);
   EXPECT_EQ(send->counter("failed"), 0u);
+}
+
+// The trace of a gaze request to the joint command it causes: the head puts
+// the request's origin on the first targets planned after it took it (the
+// next cycle's), and the driver times, on the cycle that first commands those
+// targets, how long since the camera frame and since the head took it.
+TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
+  const std::string bus = "virtual:trace_test_" + std::to_string(getpid());
+  std::string error;
+  auto head = testing::NodeHarness::create("<node plugin=\"head\"/>", &error);
+  ASSERT_NE(head, nullptr) << error;
+  auto driver = testing::NodeHarness::create("<node plugin=\"can.driver\"><param name=\"bus\" value=\"" + bus +
+                                                 "\"/><param name=\"realtime\" value=\"false\"/></node>",
+                                             &error);
+  ASSERT_NE(driver, nullptr) << error;
+
+  auto state = std::make_shared<JointState>();
+  const int64_t now = steady_now_ns();
+  state->position.assign(5, 0.0);
+  state->velocity.assign(5, 0.0);
+  state->health.assign(5, JointState::Health::kReady);
+  state->updated_ns.assign(5, now);
+  state->timestamp_ns = now;
+  head->set("state", state);
+  auto gaze = std::make_shared<GazeRequest>();
+  gaze->kind = GazeRequest::Kind::kDirection;
+  gaze->direction = cv::Vec3d(0.2, 0, 1) / cv::norm(cv::Vec3d(0.2, 0, 1));
+  gaze->origin_ns = now - 3'000'000;  // its camera frame, 3 ms ago
+  head->set("gaze", gaze);
+
+  ASSERT_TRUE(head->process().ok());
+  auto first = head->last<JointTargets>("targets");
+  ASSERT_NE(first, nullptr);
+  EXPECT_EQ(first->cause_origin_ns, 0) << "planned before the request was taken";
+  ASSERT_TRUE(head->process().ok());
+  auto second = head->last<JointTargets>("targets");
+  EXPECT_EQ(second->cause_origin_ns, gaze->origin_ns);
+  EXPECT_GE(second->cause_taken_ns, now);
+  ASSERT_TRUE(head->process().ok());
+  EXPECT_EQ(head->last<JointTargets>("targets")->cause_origin_ns, 0) << "once per request";
+
+  driver->set("targets", std::const_pointer_cast<JointTargets>(second));
+  ASSERT_TRUE(driver->process().ok());
+  ASSERT_TRUE(driver->process().ok());  // the same targets again: not timed twice
+  const Histogram& from_capture = driver->timing("gaze_capture_to_command");
+  const Histogram& from_taken = driver->timing("gaze_taken_to_command");
+  ASSERT_EQ(from_capture.count(), 1u);
+  ASSERT_EQ(from_taken.count(), 1u);
+  EXPECT_GE(from_capture.max(), 3'000'000) << "at least the 3 ms since the frame";
+  EXPECT_LT(from_taken.max(), from_capture.max());
 }
 
 }  // namespace

@@ -250,12 +250,16 @@ TEST(DdsWire, JointStateAndTargetsRoundTrip) {
   t.hold = true;
   t.reset = 3;
   t.fault = "drive 4 silent";
+  t.cause_origin_ns = 123456789;
+  t.cause_taken_ns = 123999999;
   round_trip<JointTargets, saccade_idl::JointTargets, saccade_idl::JointTargetsPubSubType>(t, t2);
   expect_same_stamp(t, t2);
   EXPECT_EQ(t.position, t2.position);
   EXPECT_EQ(t.velocity, t2.velocity);
   EXPECT_EQ(t.hold, t2.hold);
   EXPECT_EQ(t.reset, t2.reset);
+  EXPECT_EQ(t.cause_origin_ns, t2.cause_origin_ns);
+  EXPECT_EQ(t.cause_taken_ns, t2.cause_taken_ns);
   EXPECT_EQ(t.fault, t2.fault);
 }
 

@@ -231,6 +231,12 @@ struct JointTargets final : Message {
   bool hold = false;             // the head holds after a fault and refuses motion until reset
   int64_t reset = 0;             // incremented by each reset: the driver clears its drives' faults
   std::string fault;             // why it holds
+  // Trace of a gaze request to the joint command it causes: on the first
+  // targets computed after the head took a request, that request's origin
+  // (its camera frame's capture, on the steady clock of the process that
+  // stamped it) and when the head took it (this process's clock); 0 otherwise.
+  int64_t cause_origin_ns = 0;
+  int64_t cause_taken_ns = 0;
 };
 
 // What the fovea controller saw and decided on one frame.

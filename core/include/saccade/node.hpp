@@ -34,6 +34,7 @@ class EmitSink {
 };
 
 struct NodeStats;
+class Histogram;
 
 // Everything one node instance needs while it runs; owned by whoever runs it.
 struct NodeSlot {
@@ -77,6 +78,9 @@ class OpenContext {
   // next to the executor's counts; the same name gives the same counter. Valid
   // until the node is destroyed. Count with fetch_add where several threads may.
   std::atomic<uint64_t>& counter(std::string_view name) const;
+  // A duration of the node's own (nanoseconds; Histogram::record from one
+  // thread at a time), shown by name with its p50/p99/max and count.
+  Histogram& timing(std::string_view name) const;
 
  private:
   int checked_input(std::string_view name, std::string_view type) const;

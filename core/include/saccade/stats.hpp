@@ -54,6 +54,13 @@ struct NamedCounter {
   std::atomic<uint64_t> value{0};
 };
 
+// A timing a node keeps of its own (how long from a cause to its effect),
+// registered when it opens and reported with the executor's timings.
+struct NamedTiming {
+  std::string name;
+  Histogram histogram;  // nanoseconds
+};
+
 struct NodeStats {
   std::string name;
   std::string plugin;
@@ -66,6 +73,7 @@ struct NodeStats {
   Histogram latency;  // now - origin of the message that triggered the call
   std::vector<std::unique_ptr<InputStats>> inputs;
   std::vector<std::unique_ptr<NamedCounter>> counters;  // the node's own, in the order it registered them
+  std::vector<std::unique_ptr<NamedTiming>> timings;    // the same, for durations
 
   double rate_hz() const;
 };

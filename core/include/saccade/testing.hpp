@@ -42,6 +42,8 @@ class NodeHarness final : public EmitSink {
   void clear_outputs();
   // A counter the node registered at open (OpenContext::counter); throws if none.
   uint64_t counter(const std::string& name) const;
+  // A timing the node registered at open (OpenContext::timing); throws if none.
+  const Histogram& timing(const std::string& name) const;
   Node& node() { return *node_; }
   const ResolvedNode& resolved() const { return resolved_; }
 
