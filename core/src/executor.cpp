@@ -134,7 +134,7 @@ struct Executor::Impl {
     int node = -1;
     void emit(int output, MessagePtr message) override { impl->emit(node, output, std::move(message)); }
     bool stop_requested() const override { return impl->stop_.load(std::memory_order_relaxed); }
-    bool sleep_until(int64_t steady_ns) override { return impl->sleep_until(steady_ns); }
+    bool sleep_until(int64_t steady_ns) override { return impl->sleep_until(steady_ns, node); }
   };
 
   struct NodeRt {
@@ -178,7 +178,7 @@ struct Executor::Impl {
 
   // A source pacing itself sleeps inside process(): that time is not work, so it
   // is kept out of the node's processing time like an inline consumer's.
-  bool sleep_until(int64_t steady_ns) {
+  bool sleep_until(int64_t steady_ns, int node) {
     int64_t start = steady_now_ns();
     struct Account {
       int64_t start;
@@ -187,6 +187,12 @@ struct Executor::Impl {
     std::unique_lock lock(mu);
     auto deadline = std::chrono::steady_clock::time_point(std::chrono::nanoseconds(steady_ns));
     room_cv.wait_until(lock, deadline, [&] { return stop_.load(); });
+    // What arrived on the side inputs while it slept is what it acts on now: a
+    // source pacing itself (a control loop's clock) would otherwise act on
+    // values one period old.
+    NodeRt& n = nodes[static_cast<std::size_t>(node)];
+    for (std::size_t k = 0; k < n.inputs.size(); ++k)
+      if (!n.inputs[k].triggers()) n.slot.current[k] = n.inputs[k].side_latest;
     return !stop_.load();
   }
 

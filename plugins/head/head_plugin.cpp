@@ -97,30 +97,31 @@ class HeadNode final : public Node {
       last_reset_ = reset;
       controller_->reset();
     }
+    // A new request first, so that this cycle's targets already head for it
+    // (taken after the cycle, it waited one control period more).
+    Cause answered;
+    if (auto gaze = ctx.get(gaze_); gaze && gaze != last_gaze_) {
+      last_gaze_ = gaze;
+      const std::string why = request(*gaze);
+      if (!why.empty()) {
+        log().info("{}: gaze request ({}) not taken: {}", ctx.node_name(), to_string(gaze->kind), why);
+      } else {
+        answered = {gaze->origin_ns, steady_now_ns()};
+        if (gaze->kind != GazeRequest::Kind::kPoint && gaze->kind != GazeRequest::Kind::kRelative) {
+          auto moved = ctx.make(moved_);
+          moved->stamp_from(*gaze);
+          moved->center = gaze->pixel;
+          moved->camera_id = gaze->camera_id;
+          moved->label = gaze->reason;
+          ctx.emit(moved_, std::move(moved));
+        }
+      }
+    }
     const bool was_holding = controller_->holding();
     const head::HeadCommand& command = controller_->cycle(state->timestamp_ns, readings_);
     if (command.hold && !was_holding)
       log().warn("{}: holding: {}{}{}", ctx.node_name(), command.fault, state->detail.empty() ? "" : "; the driver: ",
                  state->detail);
-    // The targets of this call were planned before a request this call takes:
-    // the trace of the one taken last time goes out now.
-    const Cause answered = pending_;
-    pending_ = {};
-    if (auto gaze = ctx.get(gaze_); gaze && gaze != last_gaze_) {
-      last_gaze_ = gaze;
-      const std::string why = request(*gaze);
-      if (why.empty()) pending_ = {gaze->origin_ns, steady_now_ns()};
-      if (!why.empty()) {
-        log().info("{}: gaze request ({}) not taken: {}", ctx.node_name(), to_string(gaze->kind), why);
-      } else if (gaze->kind != GazeRequest::Kind::kPoint && gaze->kind != GazeRequest::Kind::kRelative) {
-        auto moved = ctx.make(moved_);
-        moved->stamp_from(*gaze);
-        moved->center = gaze->pixel;
-        moved->camera_id = gaze->camera_id;
-        moved->label = gaze->reason;
-        ctx.emit(moved_, std::move(moved));
-      }
-    }
     auto targets = ctx.make(targets_);
     targets->position = command.position;
     targets->velocity = command.velocity;
@@ -163,10 +164,10 @@ class HeadNode final : public Node {
   std::unique_ptr<head::GazeController> controller_;
   std::vector<head::JointReading> readings_;
   std::shared_ptr<const GazeRequest> last_gaze_;
-  // A gaze request taken, for the trace on the next targets (JointTargets::cause_*).
+  // The gaze request this cycle's targets answer (JointTargets::cause_*).
   struct Cause {
     int64_t origin_ns = 0, taken_ns = 0;
-  } pending_;
+  };
   MessagePtr last_reset_;
   double focal_ = 0, hfov_ = 1;
 };

@@ -164,15 +164,19 @@ class Latch final : public Node {
     return Contract("Runs on 'in' and reports which message it saw on the side input: a probe for feedback edges.")
         .input<Message>("in", "triggers a call")
         .side_input<Message>("side", "newest value seen, never triggers")
-        .output<Region>("out", "center = (in.frame_id, side.frame_id or -1 when none yet)");
+        .output<Region>("out", "center = (in.frame_id, side.frame_id or -1 when none yet)")
+        .param_double("sleep_ms", 0.0, 0.0, 60'000.0,
+                      "sleep this long (ProcessContext::sleep_until) before reading the side input");
   }
   Status open(OpenContext& ctx) override {
     in_ = ctx.input<Message>("in");
     side_ = ctx.input<Message>("side");
     out_ = ctx.output<Region>("out");
+    sleep_ns_ = static_cast<int64_t>(ctx.params().get_double("sleep_ms") * 1e6);
     return {};
   }
   Status process(ProcessContext& ctx) override {
+    if (sleep_ns_ > 0 && !ctx.sleep_until(steady_now_ns() + sleep_ns_)) return Status::end_of_stream();
     auto side = ctx.get(side_);
     auto r = ctx.make(out_);
     r->center = {static_cast<double>(ctx.get(in_)->frame_id), side ? static_cast<double>(side->frame_id) : -1.0};
@@ -183,6 +187,7 @@ class Latch final : public Node {
  private:
   InputHandle<Message> in_, side_;
   OutputHandle<Region> out_;
+  int64_t sleep_ns_ = 0;
 };
 
 class Fail final : public Node {

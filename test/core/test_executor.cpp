@@ -131,6 +131,23 @@ TEST_F(Executor, DelayedFeedbackNeverSeesTheFutureWithThreads) {
   for (const auto& r : out) EXPECT_LT(r->center.y, r->center.x);
 }
 
+// A node that sleeps in its call (a control loop pacing itself) acts on what
+// its side inputs received while it slept, not on what they held when the
+// call began: "go" fires at once, "side" sends frames 0, 1, 2 50 ms apart, and
+// the latch sleeps 400 ms before it reads its side input.
+TEST_F(Executor, ANodeThatSleepsSeesWhatItsSideInputsReceivedMeanwhile) {
+  auto g = open_graph("<graph>" + counter("go", 1) + counter("side", 3, "<param name=\"rate_hz\" value=\"20\"/>") +
+                          "<node name=\"l\" plugin=\"util.latch\"><param name=\"sleep_ms\" value=\"400\"/></node>"
+                          "<node name=\"sink\" plugin=\"util.record\"/>"
+                          "<edge from=\"go.image\" to=\"l.in\"/><edge from=\"side.image\" to=\"l.side\"/>"
+                          "<edge from=\"l.out\" to=\"sink.in\"/></graph>",
+                      threads(2));
+  ASSERT_TRUE(g->run().ok());
+  auto out = recorded<Region>("sink");
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0]->center.y, 2.0) << "the side input's newest frame after the sleep";
+}
+
 TEST_F(Executor, EndOfStreamEndsAFileDrivenGraphByItself) {
   auto g = open_graph("<graph>" + counter("src", 5) +
                       "<node name=\"p\" plugin=\"util.passthrough\"/><node name=\"n\" plugin=\"util.null\"/>"

@@ -394,9 +394,9 @@ TEST(CanNodes, FramesSentByCanSendComeBackFromCanTap) {
 }
 
 // The trace of a gaze request to the joint command it causes: the head puts
-// the request's origin on the first targets planned after it took it (the
-// next cycle's), and the driver times, on the cycle that first commands those
-// targets, how long since the camera frame and since the head took it.
+// the request's origin on the targets of the cycle that takes it (they head
+// for it already), and the driver times, on the cycle that first commands
+// those targets, how long since the camera frame and since the head took it.
 TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
   const std::string bus = "virtual:trace_test_" + std::to_string(getpid());
   std::string error;
@@ -421,18 +421,18 @@ TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
   gaze->origin_ns = now - 3'000'000;  // its camera frame, 3 ms ago
   head->set("gaze", gaze);
 
+  head->set("gaze", nullptr);
+  ASSERT_TRUE(head->process().ok());  // the first state: a request needs one
+  head->set("gaze", gaze);
   ASSERT_TRUE(head->process().ok());
-  auto first = head->last<JointTargets>("targets");
-  ASSERT_NE(first, nullptr);
-  EXPECT_EQ(first->cause_origin_ns, 0) << "planned before the request was taken";
-  ASSERT_TRUE(head->process().ok());
-  auto second = head->last<JointTargets>("targets");
-  EXPECT_EQ(second->cause_origin_ns, gaze->origin_ns);
-  EXPECT_GE(second->cause_taken_ns, now);
+  auto answering = head->last<JointTargets>("targets");
+  ASSERT_NE(answering, nullptr);
+  EXPECT_EQ(answering->cause_origin_ns, gaze->origin_ns) << "this cycle's targets already head for it";
+  EXPECT_GE(answering->cause_taken_ns, now);
   ASSERT_TRUE(head->process().ok());
   EXPECT_EQ(head->last<JointTargets>("targets")->cause_origin_ns, 0) << "once per request";
 
-  driver->set("targets", std::const_pointer_cast<JointTargets>(second));
+  driver->set("targets", std::const_pointer_cast<JointTargets>(answering));
   ASSERT_TRUE(driver->process().ok());
   ASSERT_TRUE(driver->process().ok());  // the same targets again: not timed twice
   const Histogram& from_capture = driver->timing("gaze_capture_to_command");

@@ -29,7 +29,8 @@ class EmitSink {
   virtual ~EmitSink();
   virtual void emit(int output, MessagePtr message) = 0;
   virtual bool stop_requested() const = 0;
-  // Sleeps until the steady clock reaches `steady_ns`; false when woken by a stop.
+  // Sleeps until the steady clock reaches `steady_ns`; false when woken by a
+  // stop. On waking, the node's side inputs show their newest values.
   virtual bool sleep_until(int64_t steady_ns) = 0;
 };
 
