@@ -6,6 +6,7 @@
 #include "gaze_controller.hpp"
 #include "saccade/log.hpp"
 #include "saccade/plugin.hpp"
+#include "saccade/stats.hpp"
 
 namespace {
 
@@ -49,6 +50,7 @@ class HeadNode final : public Node {
     reset_ = ctx.input<Message>("reset");
     targets_ = ctx.output<JointTargets>("targets");
     moved_ = ctx.output<Region>("moved");
+    capture_to_taken_ = &ctx.timing("gaze_capture_to_taken");
     const Params& p = ctx.params();
     head::HeadConfig c;
     c.geometry = {p.get_double("l1"), p.get_double("l2"), p.get_double("l3")};
@@ -107,6 +109,8 @@ class HeadNode final : public Node {
         log().info("{}: gaze request ({}) not taken: {}", ctx.node_name(), to_string(gaze->kind), why);
       } else {
         answered = {gaze->origin_ns, steady_now_ns()};
+        if (gaze->origin_ns > 0 && answered.taken_ns >= gaze->origin_ns)
+          capture_to_taken_->record(answered.taken_ns - gaze->origin_ns);
         if (gaze->kind != GazeRequest::Kind::kPoint && gaze->kind != GazeRequest::Kind::kRelative) {
           auto moved = ctx.make(moved_);
           moved->stamp_from(*gaze);
@@ -164,6 +168,7 @@ class HeadNode final : public Node {
   std::unique_ptr<head::GazeController> controller_;
   std::vector<head::JointReading> readings_;
   std::shared_ptr<const GazeRequest> last_gaze_;
+  Histogram* capture_to_taken_ = nullptr;  // a request's camera frame -> this node takes it
   // The gaze request this cycle's targets answer (JointTargets::cause_*).
   struct Cause {
     int64_t origin_ns = 0, taken_ns = 0;

@@ -429,6 +429,8 @@ TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
   ASSERT_NE(answering, nullptr);
   EXPECT_EQ(answering->cause_origin_ns, gaze->origin_ns) << "this cycle's targets already head for it";
   EXPECT_GE(answering->cause_taken_ns, now);
+  ASSERT_EQ(head->timing("gaze_capture_to_taken").count(), 1u);
+  EXPECT_GE(head->timing("gaze_capture_to_taken").max(), 3'000'000);
   ASSERT_TRUE(head->process().ok());
   EXPECT_EQ(head->last<JointTargets>("targets")->cause_origin_ns, 0) << "once per request";
 
