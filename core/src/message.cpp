@@ -103,24 +103,27 @@ int checked_port(const NodeSlot& slot, const std::vector<PortSpec>& ports, const
 
 }  // namespace
 
+namespace {
+
+// The entry of that name (NamedCounter, NamedTiming), added at the end if new.
+template <class Named>
+Named& named(const NodeSlot& slot, std::vector<std::unique_ptr<Named>>* all, std::string_view name) {
+  if (all == nullptr) throw std::logic_error("node '" + slot.name + "' has no stats to count or time in");
+  for (auto& entry : *all)
+    if (entry->name == name) return *entry;
+  all->push_back(std::make_unique<Named>());
+  all->back()->name = std::string(name);
+  return *all->back();
+}
+
+}  // namespace
+
 std::atomic<uint64_t>& OpenContext::counter(std::string_view name) const {
-  if (slot_->stats == nullptr) throw std::logic_error("node '" + slot_->name + "' has no stats to count in");
-  for (auto& c : slot_->stats->counters)
-    if (c->name == name) return c->value;
-  auto c = std::make_unique<NamedCounter>();
-  c->name = std::string(name);
-  slot_->stats->counters.push_back(std::move(c));
-  return slot_->stats->counters.back()->value;
+  return named(*slot_, slot_->stats != nullptr ? &slot_->stats->counters : nullptr, name).value;
 }
 
 Histogram& OpenContext::timing(std::string_view name) const {
-  if (slot_->stats == nullptr) throw std::logic_error("node '" + slot_->name + "' has no stats to time in");
-  for (auto& t : slot_->stats->timings)
-    if (t->name == name) return t->histogram;
-  auto t = std::make_unique<NamedTiming>();
-  t->name = std::string(name);
-  slot_->stats->timings.push_back(std::move(t));
-  return slot_->stats->timings.back()->histogram;
+  return named(*slot_, slot_->stats != nullptr ? &slot_->stats->timings : nullptr, name).histogram;
 }
 
 int OpenContext::checked_input(std::string_view name, std::string_view type) const {

@@ -137,14 +137,24 @@ TEST(RetinaStereo, RefusesMismatchedRetinas) {
   EXPECT_NE(RetinaStereo({}).run(*p.left, *q.right, out).find("regions differ"), std::string::npos);
 }
 
-TEST(StereoNode, EmitsDisparityConfidenceAndBothWays) {
-  Pair p = make_pair(12, {320, 240});
+// A stereo node made from `node_xml`, run once on the pair; null (and a
+// failure) when it cannot be made or fails.
+std::unique_ptr<testing::NodeHarness> stereo_node_on(const Pair& p, const std::string& node_xml) {
   std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)", &error);
-  ASSERT_NE(h, nullptr) << error;
+  auto h = testing::NodeHarness::create(node_xml, &error);
+  EXPECT_NE(h, nullptr) << error;
+  if (h == nullptr) return nullptr;
   h->set("left", p.left);
   h->set("right", p.right);
-  ASSERT_TRUE(h->process().ok());
+  const Status s = h->process();
+  EXPECT_TRUE(s.ok()) << s.message();
+  return s.ok() ? std::move(h) : nullptr;
+}
+
+TEST(StereoNode, EmitsDisparityConfidenceAndBothWays) {
+  Pair p = make_pair(12, {320, 240});
+  auto h = stereo_node_on(p, R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)");
+  ASSERT_NE(h, nullptr);
   auto maps = h->last<FeatureMaps>("maps");
   ASSERT_NE(maps, nullptr);
   EXPECT_EQ(maps->names, (std::vector<std::string>{"disparity", "disparity_rl", "confidence"}));
@@ -157,17 +167,13 @@ TEST(StereoNode, EmitsDisparityConfidenceAndBothWays) {
 
 TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
   Pair p = make_pair(12, {320, 240});
-  std::string error;
-  auto h = testing::NodeHarness::create(
-      R"(<node plugin="stereo"><param name="max_disparity" value="64"/><param name="semi_global" value="true"/></node>)",
-      &error);
-  ASSERT_NE(h, nullptr) << error;
-  h->set("left", p.left);
-  h->set("right", p.right);
-  ASSERT_TRUE(h->process().ok());
+  auto h = stereo_node_on(
+      p, R"(<node plugin="stereo"><param name="max_disparity" value="64"/><param name="semi_global" value="true"/></node>)");
+  ASSERT_NE(h, nullptr);
   auto maps = h->last<FeatureMaps>("maps");
   ASSERT_NE(maps, nullptr);
   EXPECT_NEAR(maps->find("disparity")->back().at<float>(12, 20), 12.0, 0.25);
+  std::string error;
   auto bad = testing::NodeHarness::create(
       R"(<node plugin="stereo"><param name="sgm_p1" value="1"/><param name="sgm_p2" value="0.5"/></node>)", &error);
   EXPECT_EQ(bad, nullptr);
@@ -176,15 +182,10 @@ TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
 
 TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
   Pair p = make_pair(40, {320, 240});
-  std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="stereo">
+  auto h = stereo_node_on(p, R"(<node plugin="stereo">
       <param name="max_disparity" value="64"/>
-      <param name="focal" value="500"/><param name="baseline" value="0.1"/></node>)",
-                                        &error);
-  ASSERT_NE(h, nullptr) << error;
-  h->set("left", p.left);
-  h->set("right", p.right);
-  ASSERT_TRUE(h->process().ok());
+      <param name="focal" value="500"/><param name="baseline" value="0.1"/></node>)");
+  ASSERT_NE(h, nullptr);
   auto fixation = h->last<Region>("fixation");
   ASSERT_NE(fixation, nullptr);
   EXPECT_NEAR(fixation->score, 40.0, 0.25);
@@ -207,6 +208,7 @@ TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
     }
   EXPECT_GT(checked, 600) << "verged, the fovea matches nearly everywhere";
 
+  std::string error;
   EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="stereo"><param name="focal" value="500"/></node>)", &error),
             nullptr);
   EXPECT_NE(error.find("baseline"), std::string::npos) << error;
