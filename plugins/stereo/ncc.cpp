@@ -248,7 +248,7 @@ Search bounds(const cv::Mat& lo, const cv::Mat& hi, const cv::Mat& stddev, int r
 struct SweepArgs {
   const float *left, *right;          // centred values
   const float *left_mean, *left_std, *right_mean, *right_std;
-  std::ptrdiff_t image_step;          // of the eight images above and of the best arrays
+  std::ptrdiff_t image_step;          // of the six images above, the best arrays and the volume
   const int *lo_lr, *hi_lr;           // left pixels' ranges
   const int *lo_rl, *hi_rl;           // right pixels' ranges, null: the left pixels' pairs
   std::ptrdiff_t lr_step, rl_step;
