@@ -4,7 +4,11 @@
 // sharing, loans), and Fast DDS with its defaults (an unbounded type, default
 // QoS and transports). The reader runs in a child process (this program with
 // --role reader); both sides read CLOCK_MONOTONIC, so the latency is the
-// reader's clock at arrival minus the writer's just before write().
+// reader's clock once the payload is usable minus the writer's once it was
+// ready in the writer's memory: every edge's copy into what DDS sends counts,
+// as a saccade edge's does (the message is ready before the bridge packs it).
+// best_in_place alone starts its clock after filling the loan: a producer
+// that writes its payload straight into DDS' memory, the floor of the stack.
 //
 //   saccade_dds_bench [--messages N] [--period-us P] [--throughput-s S] [--payload NAME] [--variant NAME]
 #include <spawn.h>
@@ -65,7 +69,7 @@ const PayloadKind kPayloads[] = {
     {"gray", 1024 * 768, "Image"},
     {"colour", 1024 * 768 * 3, "Image"},
 };
-const char* const kVariants[] = {"saccade", "best", "best_copy", "defaults", "defaults_rel"};
+const char* const kVariants[] = {"saccade", "best_in_place", "best", "best_copy", "defaults", "defaults_rel"};
 
 // The saccade message a payload stands for, filled with noise.
 std::shared_ptr<Message> make_message(const PayloadKind& p) {
@@ -198,8 +202,11 @@ struct BestWriter final : Writer {
   PlainParticipant p;
   fdds::DataWriter* writer = nullptr;
   std::vector<uint8_t> frame;  // the application's frame, copied into the loan
-  BestWriter(const Options& o, const PayloadKind& k, const std::string& topic, const EdgeQos& edge)
-      : p(o.domain, fdds::TypeSupport(new TPubSub()), topic), frame(k.bytes) {
+  // in_place: the clock starts once the loan is filled, as if the producer
+  // had written the payload there itself (no copy of the application's).
+  bool in_place = false;
+  BestWriter(const Options& o, const PayloadKind& k, const std::string& topic, const EdgeQos& edge, bool in_place_fill)
+      : p(o.domain, fdds::TypeSupport(new TPubSub()), topic), frame(k.bytes), in_place(in_place_fill) {
     cv::Mat noise(1, static_cast<int>(frame.size()), CV_8UC1, frame.data());
     cv::randu(noise, 0, 256);
     fdds::DataWriterQos qos = p.publisher->get_default_datawriter_qos();
@@ -216,9 +223,10 @@ struct BestWriter final : Writer {
     void* memory = nullptr;
     if (writer->loan_sample(memory) != ReturnCode_t::RETCODE_OK) return false;
     T& s = *static_cast<T*>(memory);
+    const int64_t ready_ns = now_ns();
     std::memcpy(s.data().data(), frame.data(), frame.size());
     s.seq(seq);
-    s.sent_ns(now_ns());
+    s.sent_ns(in_place ? now_ns() : ready_ns);
     if (writer->write(memory)) return true;
     writer->discard_loan(memory);
     return false;
@@ -280,9 +288,9 @@ struct DefaultWriter final : Writer {
   }
   bool matched() override { return is_matched(writer); }
   bool write(uint64_t seq) override {
+    blob.sent_ns(now_ns());
     blob.data().assign(frame.begin(), frame.end());
     blob.seq(seq);
-    blob.sent_ns(now_ns());
     return writer->write(&blob);
   }
 };
@@ -321,14 +329,14 @@ std::unique_ptr<Base> make_best(std::size_t bytes, Args&&... args) {
 
 std::unique_ptr<Writer> make_writer(const Options& o, const PayloadKind& k, const std::string& variant, const std::string& topic) {
   if (variant == "saccade") return std::make_unique<SaccadeWriter>(o, k, topic);
-  if (variant == "best" || variant == "best_copy")
-    return make_best<Writer, BestWriter>(k.bytes, o, k, topic, default_qos(k.saccade_type));
+  if (variant == "best" || variant == "best_copy" || variant == "best_in_place")
+    return make_best<Writer, BestWriter>(k.bytes, o, k, topic, default_qos(k.saccade_type), variant == "best_in_place");
   return std::make_unique<DefaultWriter>(o, k, topic);
 }
 
 std::unique_ptr<Reader> make_reader(const Options& o, const PayloadKind& k, const std::string& variant, const std::string& topic) {
   if (variant == "saccade") return std::make_unique<SaccadeReader>(o, k, topic);
-  if (variant == "best" || variant == "best_copy")
+  if (variant == "best" || variant == "best_copy" || variant == "best_in_place")
     return make_best<Reader, BestReader>(k.bytes, o, k, topic, default_qos(k.saccade_type), variant == "best_copy");
   return std::make_unique<DefaultReader>(o, k, topic, variant == "defaults_rel");
 }
