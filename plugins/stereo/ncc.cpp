@@ -403,27 +403,48 @@ struct Volume {
   }
 };
 
-// One direction's disparities from its best scores, with the parabola
-// through the scores either side of the best from the volume. `shift` 0: the
-// pixels are the left image's (left x at d is volume column x); 1: the right
-// image's (right x at d is left x + d). A neighbour counts where it was
-// searched: inside the pixel's range, or with `searched_by` (the left ranges,
-// for right pixels without their own) where the left pixel's range held it.
-void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const Volume& volume, int shift,
-            const cv::Mat* lo_left, const cv::Mat* hi_left, const NccConfig& config, cv::Mat& disparity,
-            cv::Mat& score) {
-  disparity.create(best.size(), CV_32F);
-  score.create(best.size(), CV_32F);
-  fill(disparity, -1);
-  fill(score, -1);
-  if (!s.active()) return;
+// How a pixel's neighbouring disparities were searched, for the parabola.
+enum class Neighbours {
+  kOwnLeft,    // left pixels with their own ranges
+  kOwnRight,   // right pixels with their own ranges
+  kLeftPairs,  // right pixels that take the pairs the left pixels search
+};
+
+// Whether both neighbours of a pixel's best disparity bd were computed and
+// searched. The sweep computed disparity d for a box of the searching side's
+// pixels (every textured pixel with a range is in it) wherever both windows
+// fit; a pixel that searched bd +- 1 is in its side's box, so only the other
+// image's window is left to check. Right pixels that take the left pixels'
+// pairs keep their own column at every disparity: their neighbours are
+// left pixels x + bd +- 1, which must lie in the left box and have searched
+// the pair (a flat one holds -2, refused below).
+template <Neighbours kMode>
+inline bool neighbours_searched(int x, int bd, const int* l, const int* u, int inside_lo, int inside_hi,
+                                const Search* left_box) {
+  if constexpr (kMode == Neighbours::kOwnLeft) {
+    return bd > l[x] && bd < u[x] && x - bd - 1 >= inside_lo && x - bd + 1 <= inside_hi;
+  } else if constexpr (kMode == Neighbours::kOwnRight) {
+    return bd > l[x] && bd < u[x] && x + bd - 1 >= inside_lo && x + bd + 1 <= inside_hi;
+  } else {
+    const int x0 = x + bd - 1, x2 = x + bd + 1;
+    return x0 >= left_box->x0 && x2 <= left_box->x1 && bd - 1 >= left_box->d_min && bd + 1 <= left_box->d_max &&
+           l[x0] <= bd - 1 && bd - 1 <= u[x0] && l[x2] <= bd + 1 && bd + 1 <= u[x2];
+  }
+}
+
+template <Neighbours kMode>
+void finish_rows(const Search& s, const Search* left_box, const cv::Mat& best, const cv::Mat& best_d,
+                 const Volume& volume, const cv::Mat& lo, const cv::Mat& hi, int r, const NccConfig& config,
+                 cv::Mat& disparity, cv::Mat& score) {
+  constexpr int shift = kMode == Neighbours::kOwnLeft ? 0 : 1;
   const bool subpixel = config.subpixel;
   const float min_score = config.min_score;
   const std::ptrdiff_t w = volume.width;
   const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(volume.plane);
+  const int inside_lo = r, inside_hi = static_cast<int>(w) - r - 1;
   for (int y = s.y0; y <= s.y1; ++y) {
-    const int* l = lo_left != nullptr ? lo_left->ptr<int>(y) : s.lo->ptr<int>(y);
-    const int* u = hi_left != nullptr ? hi_left->ptr<int>(y) : s.hi->ptr<int>(y);
+    const int* l = lo.ptr<int>(y);
+    const int* u = hi.ptr<int>(y);
     const float* bs = best.ptr<float>(y);
     const int* bds = best_d.ptr<int>(y);
     float* out_d = disparity.ptr<float>(y);
@@ -434,20 +455,13 @@ void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const V
                         static_cast<std::ptrdiff_t>(volume.d_min) * plane;
     for (int x = s.x0; x <= s.x1; ++x) {
       const float b = bs[x];
-      if (!(b > -2.0f) || b < min_score) continue;
+      if (!(b >= min_score) || !(b > -2.0f)) continue;
       const int bd = bds[x];
       float dd = static_cast<float>(bd);
-      const int x0 = x + shift * (bd - 1), x2 = x + shift * (bd + 1);
-      bool neighbours = volume.has(bd - 1, x0) && volume.has(bd + 1, x2);
-      if (neighbours) {
-        if (lo_left != nullptr)
-          neighbours = l[x0] <= bd - 1 && bd - 1 <= u[x0] && l[x2] <= bd + 1 && bd + 1 <= u[x2];
-        else
-          neighbours = bd > l[x] && bd < u[x];
-      }
-      if (subpixel && neighbours) {
-        const float c0 = base[(bd - 1) * plane + x0];
-        const float c2 = base[(bd + 1) * plane + x2];
+      if (subpixel && neighbours_searched<kMode>(x, bd, l, u, inside_lo, inside_hi, left_box)) {
+        const std::ptrdiff_t at = static_cast<std::ptrdiff_t>(bd) * (plane + shift) + x;
+        const float c0 = base[at - plane - shift];
+        const float c2 = base[at + plane + shift];
         const float denom = c0 - 2 * b + c2;
         if (c0 > -2 && c2 > -2 && denom < 0) dd += std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f);
       }
@@ -455,6 +469,28 @@ void finish(const Search& s, const cv::Mat& best, const cv::Mat& best_d, const V
       out_s[x] = b;
     }
   }
+}
+
+// One direction's disparities from its best scores, with the parabola
+// through the scores either side of the best from the volume. `left_box`
+// null: the pixels searched their own ranges `lo`, `hi` (`shift` 0: left
+// pixels, left x at d is volume column x; 1: right pixels, right x at d is
+// left x + d). Otherwise right pixels that took the pairs the left pixels
+// (box `left_box`, ranges `lo`, `hi`) searched.
+void finish(const Search& s, const Search* left_box, const cv::Mat& best, const cv::Mat& best_d, const Volume& volume,
+            int shift, const cv::Mat& lo, const cv::Mat& hi, int r, const NccConfig& config, cv::Mat& disparity,
+            cv::Mat& score) {
+  disparity.create(best.size(), CV_32F);
+  score.create(best.size(), CV_32F);
+  fill(disparity, -1);
+  fill(score, -1);
+  if (!s.active()) return;
+  if (left_box != nullptr)
+    finish_rows<Neighbours::kLeftPairs>(s, left_box, best, best_d, volume, lo, hi, r, config, disparity, score);
+  else if (shift == 0)
+    finish_rows<Neighbours::kOwnLeft>(s, nullptr, best, best_d, volume, lo, hi, r, config, disparity, score);
+  else
+    finish_rows<Neighbours::kOwnRight>(s, nullptr, best, best_d, volume, lo, hi, r, config, disparity, score);
 }
 
 // One step of a path of the semi-global aggregation: the path's costs at a
@@ -735,9 +771,9 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
     pick_aggregated(box, volume, lo_lr, hi_lr, config, scratch, disparity_lr, score_lr, disparity_rl, score_rl);
     return;
   }
-  finish(lr, scratch.best_lr, scratch.best_d_lr, volume, 0, nullptr, nullptr, config, disparity_lr, score_lr);
-  finish(rl, scratch.best_rl, scratch.best_d_rl, volume, 1, implicit ? &lo_lr : nullptr, implicit ? &hi_lr : nullptr,
-         config, disparity_rl, score_rl);
+  finish(lr, nullptr, scratch.best_lr, scratch.best_d_lr, volume, 0, lo_lr, hi_lr, r, config, disparity_lr, score_lr);
+  finish(rl, implicit ? &lr : nullptr, scratch.best_rl, scratch.best_d_rl, volume, 1, implicit ? lo_lr : *lo_rl,
+         implicit ? hi_lr : *hi_rl, r, config, disparity_rl, score_rl);
 }
 
 }  // namespace
