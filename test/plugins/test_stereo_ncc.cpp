@@ -89,6 +89,85 @@ TEST(NccMatchCross, SemiGlobalCarriesTheNeighboursDisparityAcrossAFlatBand) {
   EXPECT_GE(share_near(rl, d, 0.5f, cv::Rect(26 - d, 4, 4, 24)), 1.0) << "right to left too";
 }
 
+// Window standard deviation (population), as the matcher's texture test reads it.
+double window_std(const cv::Mat& image, int x, int y, int window) {
+  const int r = window / 2;
+  double sum = 0, sq = 0;
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx) {
+      const double v = image.at<uint8_t>(y + dy, x + dx);
+      sum += v;
+      sq += v * v;
+    }
+  const double n = window * window, mean = sum / n;
+  return std::sqrt(std::max(0.0, sq / n - mean * mean));
+}
+
+TEST(NccMatchCross, RightPixelsTakeTheBestOfTheLeftPixelsPairsWithTheirParabola) {
+  // Plainly, per right pixel: the best among the left pixels whose range
+  // reached it, and the parabola where the left pixels either side of that
+  // one searched their pair with it. Random ranges, so the sweep's vector
+  // and scalar steps and every edge case of the neighbours are exercised.
+  cv::RNG rng(11);
+  int compared = 0, same = 0, with_subpixel = 0;
+  for (int trial = 0; trial < 6; ++trial) {
+    cv::Mat left = test::random_image({45, 26}, 300 + trial), right;
+    cv::GaussianBlur(left, left, {3, 3}, 0.8);
+    const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, -rng.uniform(-5, 6) - 0.3, 0, 1, 0);
+    cv::warpAffine(left, right, m, left.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    left(cv::Rect(20, 5, 6, 8)).setTo(90);  // flat windows: neither matched nor a neighbour
+    cv::Mat lo(left.size(), CV_32S), hi(left.size(), CV_32S);
+    for (int y = 0; y < lo.rows; ++y)
+      for (int x = 0; x < lo.cols; ++x) {
+        const int a = rng.uniform(-8, 9), b = rng.uniform(-8, 9);
+        lo.at<int>(y, x) = std::min(a, b);
+        hi.at<int>(y, x) = std::max(a, b);
+      }
+    for (int window : {3, 5}) {
+      NccConfig config;
+      config.window = window;
+      const int r = window / 2, w = left.cols;
+      NccScratch scratch;
+      cv::Mat lr, lr_score, rl, rl_score;
+      ncc_match_cross(left, right, lo, hi, config, lr, lr_score, rl, rl_score, scratch);
+      auto score = [&](int y, int xl, int d) -> double {  // -2: not searched or flat
+        if (xl < r || xl >= w - r || xl - d < r || xl - d >= w - r) return -2;
+        if (d < lo.at<int>(y, xl) || d > hi.at<int>(y, xl)) return -2;
+        if (window_std(left, xl, y, window) < config.min_texture ||
+            window_std(right, xl - d, y, window) < config.min_texture)
+          return -2;
+        return ncc_reference(left, xl, y, right, xl - d, y, window);
+      };
+      for (int y = r; y < left.rows - r; ++y)
+        for (int x = r; x < w - r; ++x) {
+          double best = -2;
+          int best_d = 0;
+          for (int d = -8; d <= 8; ++d)
+            if (const double c = score(y, x + d, d); c > best) {
+              best = c;
+              best_d = d;
+            }
+          float expected = -1;
+          if (best >= config.min_score) {
+            expected = static_cast<float>(best_d);
+            const double c0 = score(y, x + best_d - 1, best_d - 1), c2 = score(y, x + best_d + 1, best_d + 1);
+            const double denom = c0 - 2 * best + c2;
+            if (c0 > -2 && c2 > -2 && denom < 0) {
+              expected += static_cast<float>(std::clamp(0.5 * (c0 - c2) / denom, -0.5, 0.5));
+              ++with_subpixel;
+            }
+          }
+          ++compared;
+          const float got = rl_score.at<float>(y, x) > -1 ? rl.at<float>(y, x) : -1.0f;
+          same += std::abs(got - expected) < 1e-3f;
+        }
+    }
+  }
+  // Float sums against double: a near-tie may go the other way, rarely.
+  EXPECT_GE(static_cast<double>(same) / compared, 0.995) << same << " of " << compared;
+  EXPECT_GE(with_subpixel, compared / 20) << "the parabola was exercised";
+}
+
 TEST(NccMatch, IsInsensitiveToGainAndOffset) {
   cv::Mat left = test::random_image({48, 36}, 3);
   cv::Mat right;
