@@ -21,6 +21,31 @@ SACCADE_AVX2_CLONE void add_scaled(float* __restrict out, const float* __restric
 
 }  // namespace
 
+// The padded left level without sampling the level again: its pixels at
+// `at`, the window's half width of the frame sampled around them (the rows
+// above and below, the columns either side), zero beyond, where nothing reads.
+void RetinaStereo::sample_around_level(const cv::Mat& frame, const cv::Mat& level, const LevelGeometry& g, cv::Point at,
+                                       cv::Size padded, bool crop, cv::Mat& out) const {
+  out.create(padded, CV_8UC1);
+  fill(out, 0);
+  level.copyTo(out(cv::Rect(at, level.size())));
+  const int r = config_.ncc.window / 2;
+  const int c0 = std::max(0, at.x - r), c1 = std::min(padded.width, at.x + level.cols + r);
+  const double x0 = g.region.x - at.x * g.step_x, y0 = g.region.y - at.y * g.step_y;
+  const cv::Rect strips[] = {
+      {c0, 0, c1 - c0, at.y},                                               // above
+      {c0, at.y + level.rows, c1 - c0, padded.height - at.y - level.rows},  // below
+      {c0, at.y, at.x - c0, level.rows},                                    // left
+      {at.x + level.cols, at.y, c1 - at.x - level.cols, level.rows},        // right
+  };
+  for (const cv::Rect& strip : strips) {
+    if (strip.width <= 0 || strip.height <= 0) continue;
+    cv::Mat roi = out(strip);
+    retina::sample_level(frame, x0 + strip.x * g.step_x, y0 + strip.y * g.step_y, g.step_x, g.step_y, strip.size(),
+                         crop, roi);
+  }
+}
+
 // Search ranges for level k's left pixels: around the disparity the level
 // outside found at the same source point, or the whole range where it found
 // none. `offset` is how far left of the left region the right one lies, in
@@ -256,8 +281,16 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       const int my1 = std::min(mr, room(frame.height - gl.region.y - h * gl.step_y, gl.step_y));
       const cv::Size padded(w + mx0 + mx1, h + my0 + my1);
       const bool crop = k + 1 == n;
-      retina::sample_level(*left_frame, gl.region.x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x,
-                           gl.step_y, padded, crop, ls.left_padded);
+      // The left level's own pixels are the retina's (the same rule on the
+      // same frame, unless it averaged areas); around them only the windows'
+      // half width is read, as left pixels outside the level search nothing.
+      const bool own_pixels = !config_.keep_images && left_frame == &left.source->mat &&
+                              (crop || left.sampling == Retina::Sampling::kFivePoint);
+      if (own_pixels)
+        sample_around_level(*left_frame, left.levels[k], gl, cv::Point(mx0, my0), padded, crop, ls.left_padded);
+      else
+        retina::sample_level(*left_frame, gl.region.x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x,
+                             gl.step_y, padded, crop, ls.left_padded);
       retina::sample_level(*right_frame, right_x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x, gl.step_y,
                            padded, crop, ls.right_padded);
       const cv::Rect inside(mx0, my0, w, h);

@@ -130,6 +130,29 @@ TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   }
 }
 
+TEST(RetinaStereo, TheLeftLevelsOwnPixelsStandInForSamplingThemAgain) {
+  // Without keep_images the left level's pixels come from the retina and
+  // only a window's half width around them from the frame; with it the
+  // whole padded level is sampled. Same matches to the bit, at fractional
+  // steps (15.25, 10.5, 5.75 here) and with the fovea at the frame's edge.
+  for (cv::Point2d fovea : {cv::Point2d(320, 240), cv::Point2d(20, 470)}) {
+    Pair p = make_pair(12, fovea);
+    RetinaStereoConfig reused, sampled;
+    reused.vergence = sampled.vergence = true;
+    reused.max_disparity = sampled.max_disparity = 48;
+    sampled.keep_images = true;
+    std::vector<LevelDisparity> a, b;
+    ASSERT_EQ(RetinaStereo(reused).run(*p.left, *p.right, a), "");
+    ASSERT_EQ(RetinaStereo(sampled).run(*p.left, *p.right, b), "");
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      EXPECT_GT(a[k].density, 0.3) << "level " << k;
+      for (auto [u, v] : {std::pair{&a[k].disparity, &b[k].disparity}, std::pair{&a[k].reverse, &b[k].reverse},
+                          std::pair{&a[k].score, &b[k].score}})
+        EXPECT_EQ(cv::countNonZero(*u != *v), 0) << "level " << k << " fovea " << fovea;
+    }
+  }
+}
+
 TEST(RetinaStereo, RefusesMismatchedRetinas) {
   Pair p = make_pair(5, {320, 240});
   Pair q = make_pair(5, {100, 100});  // another fovea: regions differ in rows
