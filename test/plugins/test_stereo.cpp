@@ -60,6 +60,13 @@ std::pair<double, double> accuracy(const cv::Mat& disparity, double d, double to
   return {valid ? static_cast<double>(good) / valid : 0.0, static_cast<double>(valid) / static_cast<double>(disparity.total())};
 }
 
+// Runs one pair through two configurations.
+void run_both(const Pair& p, const RetinaStereoConfig& first, const RetinaStereoConfig& second,
+              std::vector<LevelDisparity>& a, std::vector<LevelDisparity>& b) {
+  ASSERT_EQ(RetinaStereo(first).run(*p.left, *p.right, a), "");
+  ASSERT_EQ(RetinaStereo(second).run(*p.left, *p.right, b), "");
+}
+
 TEST(RetinaStereo, FindsAKnownDisparityOnEveryLevel) {
   const int d = 12;
   Pair p = make_pair(d, {320, 240});
@@ -96,8 +103,7 @@ TEST(RetinaStereo, SoftwareVergenceLetsTheFoveaMatchWhatItCouldNotSee) {
   plain.max_disparity = verged.max_disparity = 96;
   verged.vergence = true;
   std::vector<LevelDisparity> a, b;
-  ASSERT_EQ(RetinaStereo(plain).run(*p.left, *p.right, a), "");
-  ASSERT_EQ(RetinaStereo(verged).run(*p.left, *p.right, b), "");
+  ASSERT_NO_FATAL_FAILURE(run_both(p, plain, verged, a, b));
   auto [plain_share, plain_density] = accuracy(a.back().disparity, d, 0.25);
   auto [verged_share, verged_density] = accuracy(b.back().disparity, d, 0.25);
   std::printf("fovea, 40 px: plain density %.3f, verged density %.3f (share %.3f), moved by %.1f px\n", plain_density,
@@ -114,8 +120,7 @@ TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   fine.max_disparity = full.max_disparity = 48;
   full.coarse_to_fine = false;
   std::vector<LevelDisparity> a, b;
-  ASSERT_EQ(RetinaStereo(fine).run(*p.left, *p.right, a), "");
-  ASSERT_EQ(RetinaStereo(full).run(*p.left, *p.right, b), "");
+  ASSERT_NO_FATAL_FAILURE(run_both(p, fine, full, a, b));
   for (std::size_t k = 1; k < a.size(); ++k) {
     int both = 0, agree = 0;
     for (int y = 0; y < a[k].disparity.rows; ++y)
@@ -142,8 +147,7 @@ TEST(RetinaStereo, TheLeftLevelsOwnPixelsStandInForSamplingThemAgain) {
     reused.max_disparity = sampled.max_disparity = 48;
     sampled.keep_images = true;
     std::vector<LevelDisparity> a, b;
-    ASSERT_EQ(RetinaStereo(reused).run(*p.left, *p.right, a), "");
-    ASSERT_EQ(RetinaStereo(sampled).run(*p.left, *p.right, b), "");
+    ASSERT_NO_FATAL_FAILURE(run_both(p, reused, sampled, a, b));
     for (std::size_t k = 0; k < a.size(); ++k) {
       EXPECT_GT(a[k].density, 0.3) << "level " << k;
       for (auto [u, v] : {std::pair{&a[k].disparity, &b[k].disparity}, std::pair{&a[k].reverse, &b[k].reverse},
