@@ -27,6 +27,18 @@ double share_near(const cv::Mat& disparity, float expected, float tolerance, cv:
   return static_cast<double>(good) / n;
 }
 
+// Per-pixel search ranges with both ends drawn from -reach .. reach.
+void random_ranges(cv::Size size, int reach, cv::RNG& rng, cv::Mat& lo, cv::Mat& hi) {
+  lo.create(size, CV_32S);
+  hi.create(size, CV_32S);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const int a = rng.uniform(-reach, reach + 1), b = rng.uniform(-reach, reach + 1);
+      lo.at<int>(y, x) = std::min(a, b);
+      hi.at<int>(y, x) = std::max(a, b);
+    }
+}
+
 TEST(NccReference, IsTheCorrelationCoefficient) {
   cv::Mat a = test::random_image({16, 16}, 1);
   cv::Mat b;
@@ -116,13 +128,8 @@ TEST(NccMatchCross, RightPixelsTakeTheBestOfTheLeftPixelsPairsWithTheirParabola)
     const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, -rng.uniform(-5, 6) - 0.3, 0, 1, 0);
     cv::warpAffine(left, right, m, left.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
     left(cv::Rect(20, 5, 6, 8)).setTo(90);  // flat windows: neither matched nor a neighbour
-    cv::Mat lo(left.size(), CV_32S), hi(left.size(), CV_32S);
-    for (int y = 0; y < lo.rows; ++y)
-      for (int x = 0; x < lo.cols; ++x) {
-        const int a = rng.uniform(-8, 9), b = rng.uniform(-8, 9);
-        lo.at<int>(y, x) = std::min(a, b);
-        hi.at<int>(y, x) = std::max(a, b);
-      }
+    cv::Mat lo, hi;
+    random_ranges(left.size(), 8, rng, lo, hi);
     for (int window : {3, 5}) {
       NccConfig config;
       config.window = window;
@@ -225,13 +232,8 @@ TEST(NccMatch, TheSweepAgreesWithThePlainReferenceEverywhere) {
     cv::Mat noise(left.size(), CV_8U);
     rng.fill(noise, cv::RNG::UNIFORM, 0, 6);
     right += noise;
-    cv::Mat lo(left.size(), CV_32S), hi(left.size(), CV_32S);
-    for (int y = 0; y < lo.rows; ++y)
-      for (int x = 0; x < lo.cols; ++x) {
-        const int a = rng.uniform(-9, 10), b = rng.uniform(-9, 10);
-        lo.at<int>(y, x) = std::min(a, b);
-        hi.at<int>(y, x) = std::max(a, b);
-      }
+    cv::Mat lo, hi;
+    random_ranges(left.size(), 9, rng, lo, hi);
     for (Direction direction : {Direction::kLeftToRight, Direction::kRightToLeft})
       for (int window : {3, 5}) {
         NccConfig config;
