@@ -71,7 +71,16 @@ EmitSink::~EmitSink() = default;
 Node::~Node() = default;
 
 void make_exclusive(cv::Mat& mat) {
-  if (mat.u != nullptr && mat.u->refcount > 1) mat.release();
+  if (mat.u == nullptr) return;
+  // A buffer of another allocator (a shared-memory frame ring, whose frames
+  // other processes may still read) is never rewritten in place: releasing it
+  // lets that allocator hand out a buffer nobody holds. Nor is one from
+  // another allocator than the Mat now asks for (its producer switched to a
+  // frame ring).
+  const cv::MatAllocator* owner = mat.u->currAllocator;
+  if (mat.u->refcount > 1 || (owner != cv::Mat::getStdAllocator() && owner != cv::Mat::getDefaultAllocator()) ||
+      (mat.allocator != nullptr && mat.allocator != owner))
+    mat.release();
 }
 
 const std::vector<cv::Mat>* FeatureMaps::find(std::string_view name) const {

@@ -40,10 +40,20 @@ Contract with_bridge_params(Contract c) {
       .param_int("depth", 1, 0, 100000, "keep-last history depth; 0 keeps all (a slow reader blocks the writer)")
       .param_double("deadline_ms", 0, 0, 3.6e6, "report a peer silent for this long (0: no deadline)")
       .param_bool("zero_copy", false,
-                  "one host only: Image and Retina travel as plain fixed-capacity types through Fast DDS data sharing, "
-                  "the writer filling loaned shared memory (both ends must agree; other types ignore it)")
-      .param_int("capacity", 0, 0, 1 << 30, "zero_copy: bytes of pixel data a sample holds (0: the type's default, 4 MiB "
-                 "for Image, 1 MiB for Retina); the smallest plain type at least this large is used")
+                  "one host only: Image and Retina pixels stay in shared memory (both ends must agree; other types "
+                  "ignore it); how: shared_memory")
+      .param_enum("shared_memory", "ring", {"ring", "loans"},
+                  "zero_copy: ring: the pixels stay in the writer's frame ring, readers read them in place (pinned "
+                  "while their graph holds the frame) and a producer may write into the ring itself; loans: plain "
+                  "fixed-capacity types through Fast DDS data sharing, the writer filling loaned samples, the reader "
+                  "copying out (what a plain Fast DDS peer reads). Reliable edges and DDS security always use loans "
+                  "(a ring of reused buffers cannot promise every frame to a slow reader; its pixels bypass "
+                  "encryption)")
+      .param_int("capacity", 0, 0, 1 << 30, "zero_copy: bytes of pixel data a ring buffer or sample holds (0: the type's "
+                 "default, 4 MiB for Image, 1 MiB for Retina); loans use the smallest plain type at least this large")
+      .param_int("ring_slots", 16, 4, 1024, "zero_copy ring: buffers in the writer's ring; a frame survives this many "
+                 "newer ones minus one while no reader holds it, and each reader pins at most a quarter of them (it "
+                 "copies the frames it keeps beyond that)")
       .param_bool("ros2", false,
                   "a ROS 2 topic: the DDS topic is rt/<topic> and the type ROS 2's (Image: sensor_msgs/msg/Image, "
                   "JointState: sensor_msgs/msg/JointState), so ROS 2 tools read it, or this node reads theirs")
@@ -56,6 +66,8 @@ Contract with_bridge_params(Contract c) {
 sd::WireOptions wire_options(const Params& p) {
   sd::WireOptions o;
   o.frame_id = p.get_string("frame_id");
+  o.capacity = static_cast<std::size_t>(p.get_int("capacity"));
+  o.ring_slots = static_cast<uint32_t>(p.get_int("ring_slots"));
   std::string names = p.get_string("joint_names");
   for (std::size_t begin = 0; begin < names.size();) {
     std::size_t end = std::min(names.find(',', begin), names.size());
@@ -85,7 +97,7 @@ sd::EdgeSettings edge_settings(const Params& p, const sd::Codec& codec) {
   s.reliable = p.get_bool("reliable");
   s.depth = static_cast<int>(p.get_int("depth"));
   s.deadline_ms = p.get_double("deadline_ms");
-  s.zero_copy = codec.form == sd::Codec::Form::kPlain;
+  s.zero_copy = codec.form == sd::Codec::Form::kPlain || codec.form == sd::Codec::Form::kRing;
   return s;
 }
 
@@ -110,19 +122,24 @@ struct TopicEnd {
     const Params& p = ctx.params();
     node = ctx.node_name();
     std::string error;
+    domain = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
+    if (!domain) return Status::error(error);
+    // The ring's pixels bypass DDS security's encryption and access control,
+    // and its buffers are reused whatever a reliable reader has not yet taken.
     sd::CodecRequest request{.zero_copy = p.get_bool("zero_copy"),
+                             .loans = p.get_string("shared_memory") == "loans" || domain->secure() || p.get_bool("reliable"),
                              .capacity = static_cast<std::size_t>(p.get_int("capacity")),
                              .ros2 = p.get_bool("ros2")};
     codec = sd::choose_codec(p.get_string("type"), request, &error);
     if (codec == nullptr) return Status::error(error);
     topic_name = request.ros2 ? sd::ros2_topic(p.get_string("topic")) : p.get_string("topic");
-    domain = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
-    if (!domain) return Status::error(error);
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) return Status::error(error);
     sample = codec->make_sample(wire_options(p));
     log().debug("{}: topic {} of type {}{}", node, topic_name, topic->get_type_name(),
-                codec->form == sd::Codec::Form::kPlain ? " (zero copy: data sharing, loaned samples)" : "");
+                codec->form == sd::Codec::Form::kPlain  ? " (zero copy: data sharing, loaned samples)"
+                : codec->form == sd::Codec::Form::kRing ? " (zero copy: the pixels stay in the writer's frame ring)"
+                                                         : "");
     return {};
   }
 };
@@ -269,6 +286,7 @@ class Subscribe final : public Node {
     listener_.events.lost = &ctx.counter("lost");
     listener_.events.deadlines_missed = &ctx.counter("deadlines_missed");
     unreadable_ = &ctx.counter("unreadable");
+    copied_ = &ctx.counter("copied_frames");
     same_clock_ = p.get_bool("same_clock");
     const double missing_ms = p.get_double("missing_peer_ms");
     missing_peer_at_ = missing_ms > 0 ? steady_now_ns() + static_cast<int64_t>(missing_ms * 1e6) : 0;
@@ -283,6 +301,7 @@ class Subscribe final : public Node {
       MessagePtr message;
       switch (end_.sample->take(*reader_, &ctx, out_.index, message)) {
         case sd::WireSample::Taken::kMessage:
+          copied_->store(end_.sample->frames_copied(), std::memory_order_relaxed);
           // Not yet shared with anyone: this node made it.
           if (!same_clock_) std::const_pointer_cast<Message>(message)->origin_ns = steady_now_ns();
           ctx.emit(out_, std::move(message));
@@ -359,6 +378,7 @@ class Subscribe final : public Node {
   int64_t missing_peer_at_ = 0;
   int domain_id_ = 0;
   std::atomic<uint64_t>* unreadable_ = nullptr;
+  std::atomic<uint64_t>* copied_ = nullptr;
 };
 
 }  // namespace

@@ -69,7 +69,8 @@ fdds::DataWriterQos writer_qos(const fdds::Publisher& publisher, const EdgeSetti
   // A keep-all writer waits for a slow reader rather than drop; a keep-last one never waits long.
   qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(s.depth == 0 ? 10.0 : 0.1);
   // A plain type's samples live in a ring of the writer's shared memory; a
-  // few spare ones keep a sample a reader is still copying from being reused.
+  // few spare ones keep a sample a reader is still copying from being reused
+  // (for the frame ring's, the small sample saying where the frame is).
   if (s.zero_copy) qos.resource_limits().extra_samples = 3;
   return qos;
 }
@@ -124,6 +125,8 @@ std::shared_ptr<Domain> Domain::get(int domain_id, std::string* error) {
   const std::string security = env_security != nullptr ? env_security : "";
   if (!security.empty() && !add_security(qos, security, error)) return nullptr;
   std::shared_ptr<Domain> domain(new Domain());
+  for (const auto& property : qos.properties().properties())  // from saccade's folder or an XML profile
+    if (property.name().rfind("dds.sec.", 0) == 0) domain->secure_ = true;
   domain->participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_id), qos);
   if (domain->participant_ == nullptr) {
     if (error)

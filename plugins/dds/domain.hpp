@@ -39,7 +39,7 @@ eprosima::fastdds::dds::DataReaderQos reader_qos(const eprosima::fastdds::dds::S
 
 // Shared memory that DDS processes which died without cleaning up (kill -9, a
 // crash) left in /dev/shm: Fast DDS participant segments whose owner's lock is
-// free, and data-sharing pools no process maps. Files younger than `min_age_s`
+// free, and data-sharing pools and saccade frame rings no process maps. Files younger than `min_age_s`
 // are left (their owner may be starting), and other users' files. A clean exit
 // (and SIGINT/SIGTERM, which saccade run turns into one) leaves none.
 struct StaleSharedMemory {
@@ -67,6 +67,8 @@ class Domain {
   eprosima::fastdds::dds::Publisher* publisher() const { return publisher_; }
   eprosima::fastdds::dds::Subscriber* subscriber() const { return subscriber_; }
   eprosima::fastdds::dds::DomainParticipant* participant() const { return participant_; }
+  // DDS security is on (SACCADE_DDS_SECURITY).
+  bool secure() const { return secure_; }
 
  private:
   Domain() = default;
@@ -75,6 +77,7 @@ class Domain {
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
+  bool secure_ = false;
 };
 
 }  // namespace saccade::dds

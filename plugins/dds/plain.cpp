@@ -1,7 +1,9 @@
-// The shared-memory forms of Image and Retina (idl/saccade.idl, module plain):
-// a writer fills a sample loaned from Fast DDS' data-sharing pool and writes
-// it; a reader takes a loan on the writer's memory and copies the pixels once
-// into a pooled message. Nothing is serialised on the way.
+// The shared-memory forms of Image and Retina (idl/saccade.idl, module plain).
+// Loans: a writer fills a sample loaned from Fast DDS' data-sharing pool and
+// writes it; a reader takes a loan on the writer's memory and copies the
+// pixels once into a pooled message. Ring: the pixels stay in the writer's
+// frame ring (frame_ring.hpp) and the sample says where; the reader's message
+// views them in place. Nothing is serialised on the way.
 #include <atomic>
 #include <cstring>
 
@@ -10,6 +12,7 @@
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include "frame_ring.hpp"
 #include "saccadePubSubTypes.h"
 #include "wire.hpp"
 
@@ -44,6 +47,8 @@ bool pack(const cv::Mat& in, std::array<uint8_t, N>& data, uint32_t offset, wp::
   return true;
 }
 
+bool is_cv_type(int type) { return type >= 0 && CV_MAT_DEPTH(type) <= CV_16F && CV_MAT_CN(type) <= 4 && CV_MAT_TYPE(type) == type; }
+
 // Unpacks a header's rows into `out` (its buffer reused when the size and type
 // match). A header that points outside the used bytes, or names no OpenCV
 // type, gives an empty mat: a malformed sample, never a crash.
@@ -54,7 +59,7 @@ bool unpack(const wp::MatHeader& header, const std::array<uint8_t, N>& data, uin
     return header.rows() == 0 && header.cols() == 0;
   }
   const int type = header.cv_type();
-  if (type < 0 || CV_MAT_DEPTH(type) > CV_16F || CV_MAT_CN(type) > 4 || CV_MAT_TYPE(type) != type) {
+  if (!is_cv_type(type)) {
     out = cv::Mat();
     return false;
   }
@@ -93,8 +98,12 @@ bool from_plain(const P& in, Image& out) {
   return unpack(in.mat(), in.data(), in.size(), out.mat);
 }
 
+namespace {
+
+// A retina's fields but its pixels, both shared-memory forms alike (the
+// levels' MatHeaders are the form's own).
 template <class P>
-std::string to_plain(const Retina& in, P& out) {
+std::string retina_fields_to(const Retina& in, P& out) {
   stamp_to_wire(in, out.stamp());
   out.camera_id(in.camera_id);
   out.source_width(in.source_size.width);
@@ -107,12 +116,36 @@ std::string to_plain(const Retina& in, P& out) {
            " geometries) does not fit the shared-memory form (at most " + std::to_string(out.levels().size()) +
            " levels, one geometry each)";
   out.level_count(static_cast<uint32_t>(in.levels.size()));
+  for (std::size_t i = 0; i < in.levels.size(); ++i) geometry_to_wire(in.geometry[i], out.geometry()[i]);
+  return {};
+}
+
+// Returns the number of levels to read (false when level_count is out of range).
+template <class P>
+bool retina_fields_from(const P& in, Retina& out, std::size_t& levels) {
+  stamp_from_wire(in.stamp(), out);
+  out.camera_id = in.camera_id();
+  out.source_size = {in.source_width(), in.source_height()};
+  out.fovea = {in.fovea_x(), in.fovea_y()};
+  out.sampling = in.sampling() == 1 ? Retina::Sampling::kAreaMean : Retina::Sampling::kFivePoint;
+  levels = std::min<std::size_t>(in.level_count(), in.levels().size());
+  out.levels.resize(levels);
+  out.geometry.resize(levels);
+  for (std::size_t i = 0; i < levels; ++i) out.geometry[i] = geometry_from_wire(in.geometry()[i]);
+  out.source.reset();
+  return levels == in.level_count();
+}
+
+}  // namespace
+
+template <class P>
+std::string to_plain(const Retina& in, P& out) {
+  if (std::string error = retina_fields_to(in, out); !error.empty()) return error;
   uint32_t end = 0;
   for (std::size_t i = 0; i < in.levels.size(); ++i) {
     if (!pack(in.levels[i], out.data(), end, out.levels()[i], end))
       return "a retina of " + std::to_string(in.levels.size()) + " levels does not fit the edge's shared-memory capacity (" +
              mib(out.data().size()) + ")";
-    geometry_to_wire(in.geometry[i], out.geometry()[i]);
   }
   out.size(end);
   return {};
@@ -120,20 +153,9 @@ std::string to_plain(const Retina& in, P& out) {
 
 template <class P>
 bool from_plain(const P& in, Retina& out) {
-  stamp_from_wire(in.stamp(), out);
-  out.camera_id = in.camera_id();
-  out.source_size = {in.source_width(), in.source_height()};
-  out.fovea = {in.fovea_x(), in.fovea_y()};
-  out.sampling = in.sampling() == 1 ? Retina::Sampling::kAreaMean : Retina::Sampling::kFivePoint;
-  const std::size_t n = std::min<std::size_t>(in.level_count(), in.levels().size());
-  out.levels.resize(n);
-  out.geometry.resize(n);
-  bool ok = n == in.level_count();
-  for (std::size_t i = 0; i < n; ++i) {
-    ok = unpack(in.levels()[i], in.data(), in.size(), out.levels[i]) && ok;
-    out.geometry[i] = geometry_from_wire(in.geometry()[i]);
-  }
-  out.source.reset();
+  std::size_t n = 0;
+  bool ok = retina_fields_from(in, out, n);
+  for (std::size_t i = 0; i < n; ++i) ok = unpack(in.levels()[i], in.data(), in.size(), out.levels[i]) && ok;
   return ok;
 }
 
@@ -213,6 +235,231 @@ class PlainSample final : public WireSample {
   fdds::SampleInfoSeq infos_;
 };
 
+// --- the frame ring ---
+
+void ring_to_wire(const RingAddress& in, wp::RingRef& out) {
+  out.writer_pid(in.writer_pid);
+  out.ring_id(in.ring_id);
+  out.slot(in.slot);
+  out.generation(in.generation);
+}
+
+RingAddress ring_from_wire(const wp::RingRef& in) {
+  return {.writer_pid = in.writer_pid(), .ring_id = in.ring_id(), .slot = in.slot(), .generation = in.generation()};
+}
+
+void mat_header(const cv::Mat& mat, std::size_t offset, wp::MatHeader& out) {
+  out.rows(mat.empty() ? 0 : mat.rows);
+  out.cols(mat.empty() ? 0 : mat.cols);
+  out.cv_type(mat.type());
+  out.offset(static_cast<uint32_t>(offset));
+}
+
+std::size_t packed_bytes(const cv::Mat& mat) { return mat.empty() ? 0 : mat.total() * mat.elemSize(); }
+
+std::string too_large(std::size_t bytes, const FrameRing& ring) {
+  return "a frame of " + std::to_string(bytes) + " bytes does not fit the edge's frame ring (buffers of " +
+         mib(ring.slot_bytes()) + "); give the edge a larger one (qos=\"capacity=16M\")";
+}
+
+// The mats' rows, packed one after another (each from a 64-byte boundary),
+// into a fresh buffer of `ring` held by `hold`; their offsets in it.
+template <std::size_t N>
+std::string copy_into_ring(const cv::Mat* const* mats, std::size_t n, FrameRing& ring, cv::Mat& hold,
+                           std::array<std::size_t, N>& offsets) {
+  std::size_t total = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    offsets[i] = total;
+    total += (packed_bytes(*mats[i]) + 63) / 64 * 64;
+  }
+  if (total > ring.slot_bytes()) return too_large(total, ring);
+  hold = ring.take(std::max<std::size_t>(total, 1));
+  if (hold.empty()) return kRingFull;
+  for (std::size_t i = 0; i < n; ++i) {
+    const cv::Mat& m = *mats[i];
+    if (m.empty()) continue;
+    cv::Mat into(m.rows, m.cols, m.type(), hold.data + offsets[i]);
+    m.copyTo(into);
+  }
+  return {};
+}
+
+// Where `mats` lie in one buffer of `ring`, when they all do (rows packed).
+template <std::size_t N>
+bool already_in_ring(const cv::Mat* const* mats, std::size_t n, const FrameRing& ring, RingAddress& at,
+                     std::array<std::size_t, N>& offsets) {
+  bool any = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    const cv::Mat& m = *mats[i];
+    if (m.empty()) {
+      offsets[i] = 0;
+      continue;
+    }
+    RingAddress here;
+    if (!m.isContinuous() || !ring.locate(m, here, offsets[i])) return false;
+    if (any && (here.slot != at.slot || here.generation != at.generation)) return false;
+    at = here;
+    any = true;
+  }
+  return any;
+}
+
+template <std::size_t N>
+std::string mats_to_ring(const cv::Mat* const* mats, std::size_t n, FrameRing& ring, cv::Mat& hold,
+                         RingAddress& at, std::array<std::size_t, N>& offsets) {
+  if (already_in_ring(mats, n, ring, at, offsets)) return {};  // the producer wrote into the ring: no copy
+  if (std::string why = copy_into_ring(mats, n, ring, hold, offsets); !why.empty()) return why;
+  std::size_t base = 0;
+  ring.locate(hold, at, base);
+  for (std::size_t i = 0; i < n; ++i) offsets[i] += base;
+  return {};
+}
+
+bool view_ring(const wp::MatHeader& header, const RingAddress& at, RingReader& reader, cv::Mat& out, std::string& why) {
+  if (header.rows() == 0 && header.cols() == 0) {
+    out = cv::Mat();
+    return true;
+  }
+  if (header.rows() < 0 || header.cols() < 0 || (header.rows() == 0) != (header.cols() == 0) ||
+      !is_cv_type(header.cv_type())) {
+    out = cv::Mat();
+    why = "a malformed image header (" + std::to_string(header.rows()) + "x" + std::to_string(header.cols()) +
+          ", type " + std::to_string(header.cv_type()) + ")";
+    return false;
+  }
+  return reader.view(at, header.offset(), header.rows(), header.cols(), header.cv_type(), out, why);
+}
+
+}  // namespace
+
+std::string to_ring(const Image& in, FrameRing& ring, cv::Mat& hold, wp::ImageRef& out) {
+  stamp_to_wire(in, out.stamp());
+  out.camera_id(in.camera_id);
+  const cv::Mat* mats[] = {&in.mat};
+  std::array<std::size_t, 1> offsets{};
+  RingAddress at;
+  if (std::string why = mats_to_ring(mats, 1, ring, hold, at, offsets); !why.empty()) return why;
+  mat_header(in.mat, offsets[0], out.mat());
+  ring_to_wire(at, out.ring());
+  return {};
+}
+
+std::string to_ring(const Retina& in, FrameRing& ring, cv::Mat& hold, wp::RetinaRef& out) {
+  if (std::string error = retina_fields_to(in, out); !error.empty()) return error;
+  std::array<const cv::Mat*, 16> mats{};
+  for (std::size_t i = 0; i < in.levels.size(); ++i) mats[i] = &in.levels[i];
+  std::array<std::size_t, 16> offsets{};
+  RingAddress at;
+  if (std::string why = mats_to_ring(mats.data(), in.levels.size(), ring, hold, at, offsets); !why.empty()) return why;
+  for (std::size_t i = 0; i < in.levels.size(); ++i) mat_header(in.levels[i], offsets[i], out.levels()[i]);
+  ring_to_wire(at, out.ring());
+  return {};
+}
+
+bool from_ring(const wp::ImageRef& in, RingReader& reader, Image& out, std::string& why) {
+  stamp_from_wire(in.stamp(), out);
+  out.camera_id = in.camera_id();
+  return view_ring(in.mat(), ring_from_wire(in.ring()), reader, out.mat, why);
+}
+
+bool from_ring(const wp::RetinaRef& in, RingReader& reader, Retina& out, std::string& why) {
+  std::size_t n = 0;
+  if (!retina_fields_from(in, out, n)) {
+    why = "a retina of " + std::to_string(in.level_count()) + " levels (at most " + std::to_string(in.levels().size()) + ")";
+    return false;
+  }
+  const RingAddress at = ring_from_wire(in.ring());
+  for (std::size_t i = 0; i < n; ++i)
+    if (!view_ring(in.levels()[i], at, reader, out.levels[i], why)) return false;
+  return true;
+}
+
+namespace {
+
+// The writer's frame ring is made at the first message (an edge that never
+// carries one makes none); the reader maps each writer's ring as it appears.
+template <class M, class P>
+class RingSample final : public WireSample {
+ public:
+  RingSample(std::size_t capacity, uint32_t slots) : capacity_(capacity), slots_(slots) {}
+
+  cv::MatAllocator* frame_allocator() override {
+    std::string error;
+    return ring(error);
+  }
+
+  Status write(fdds::DataWriter& writer, const Message* message, bool& written) override {
+    written = false;
+    std::string error;
+    if (message != nullptr && ring(error) == nullptr) return Status::error(error);
+    void* memory = nullptr;
+    if (writer.loan_sample(memory) != ReturnCode_t::RETCODE_OK) return {};  // pool exhausted: counted as a failed write
+    P& sample = *static_cast<P*>(memory);
+    cv::Mat hold;  // the buffer a copied frame went into, held until it is written
+    if (message == nullptr) {
+      sample.stamp().timestamp_ns(0);
+      sample.stamp().origin_ns(0);
+      sample.stamp().frame_id(-1);
+      sample.stamp().flags(kEndOfStream);
+    } else if (std::string why = to_ring(static_cast<const M&>(*message), *ring_, hold, sample); !why.empty()) {
+      writer.discard_loan(memory);
+      return why == kRingFull ? Status{} : Status::error(why);
+    }
+    written = writer.write(memory);
+    if (!written) writer.discard_loan(memory);
+    return {};
+  }
+
+  uint64_t frames_copied() const override { return frames_.copied(); }
+
+  Taken take(fdds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) override {
+    if (reader.take(samples_, infos_, 1) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
+    bool copied = samples_.length() == 1 && infos_[0].valid_data;
+    if (copied) {
+      // Fast DDS' keep-last pool may reuse the sample while it is copied: seen as a changed frame id.
+      const P& sample = samples_[0];
+      const int64_t frame = sample.stamp().frame_id();
+      read_fence();
+      copy_ = sample;
+      read_fence();
+      copied = sample.stamp().frame_id() == frame;
+    }
+    reader.return_loan(samples_, infos_);
+    why_.clear();
+    if (!copied) return Taken::kUnreadable;
+    if (copy_.stamp().flags() & kEndOfStream) return Taken::kEnd;
+    std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
+    if (!from_ring(copy_, frames_, *m, why_)) return Taken::kUnreadable;
+    slot = std::move(m);
+    return Taken::kMessage;
+  }
+
+ private:
+  FrameRing* ring(std::string& error) {
+    if (!ring_) ring_ = FrameRing::create(capacity_, slots_, &error);
+    return ring_.get();
+  }
+
+  std::size_t capacity_;
+  uint32_t slots_;
+  std::shared_ptr<FrameRing> ring_;
+  RingReader frames_;
+  P copy_;
+  FASTDDS_SEQUENCE(Samples, P);
+  Samples samples_;
+  fdds::SampleInfoSeq infos_;
+};
+
+template <class M, class P, class T>
+Codec ring_codec() {
+  return Codec{M::kTypeName, Codec::Form::kRing, 0,
+               +[]() -> std::unique_ptr<fdds::TopicDataType> { return std::make_unique<T>(); },
+               +[](const WireOptions& o) -> std::unique_ptr<WireSample> {
+                 return std::make_unique<RingSample<M, P>>(
+                     o.capacity != 0 ? o.capacity : default_capacity(M::kTypeName), o.ring_slots);
+               }};
+}
+
 template <class M, class P, class T>
 Codec plain_codec(std::size_t capacity) {
   return Codec{M::kTypeName, Codec::Form::kPlain, capacity,
@@ -228,6 +475,14 @@ const std::vector<Codec>& plain_codecs() {
       plain_codec<Image, wp::Image4M, wp::Image4MPubSubType>(4u << 20),
       plain_codec<Image, wp::Image16M, wp::Image16MPubSubType>(16u << 20),
       plain_codec<Retina, wp::Retina1M, wp::Retina1MPubSubType>(1u << 20),
+  };
+  return all;
+}
+
+const std::vector<Codec>& ring_codecs() {
+  static const std::vector<Codec> all = {
+      ring_codec<Image, wp::ImageRef, wp::ImageRefPubSubType>(),
+      ring_codec<Retina, wp::RetinaRef, wp::RetinaRefPubSubType>(),
   };
   return all;
 }

@@ -56,6 +56,7 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
   StaleSharedMemory result;
   static const std::regex participant_segment("fastrtps_[0-9a-f]{16}");
   static const std::regex data_sharing_pool("fast_datasharing_[0-9a-f_.]+");
+  static const std::regex frame_ring("saccade_ring_[0-9]+_[0-9a-f]{16}");
   std::error_code ec;
   std::set<std::string> mapped;
   bool mapped_known = false;
@@ -63,7 +64,7 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
   for (const auto& entry : fs::directory_iterator(kShm, ec)) {
     const std::string name = entry.path().filename().string();
     const bool segment = std::regex_match(name, participant_segment);
-    const bool pool = !segment && std::regex_match(name, data_sharing_pool);
+    const bool pool = !segment && (std::regex_match(name, data_sharing_pool) || std::regex_match(name, frame_ring));
     if (!segment && !pool) continue;
     struct stat st {};
     // Only this user's files, and none so young that its owner may still be setting it up.
@@ -74,7 +75,7 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
     if (segment) {
       stale = owner_is_gone(entry.path().string() + "_el");
     } else {
-      // A data-sharing pool is mapped by its writer for the writer's lifetime (and by its readers).
+      // A data-sharing pool or frame ring is mapped by its writer for the writer's lifetime (and by its readers).
       if (!mapped_known) {
         mapped = mapped_shm_files();
         mapped_known = true;

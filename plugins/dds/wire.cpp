@@ -160,13 +160,23 @@ const Codec* find_codec(std::string_view type) {
   return nullptr;
 }
 
+std::size_t default_capacity(std::string_view type) {
+  // Image: up to 1280x1024 colour (3.9 MB); larger frames name a larger capacity.
+  return type == Image::kTypeName ? 4u << 20 : 1u << 20;
+}
+
 const Codec* find_plain_codec(std::string_view type, std::size_t capacity) {
-  // Image: up to 1280x1024 colour (3.9 MB) by default; larger frames name a larger capacity.
-  if (capacity == 0) capacity = type == Image::kTypeName ? 4u << 20 : 1u << 20;
+  if (capacity == 0) capacity = default_capacity(type);
   const Codec* best = nullptr;
   for (const auto& c : plain_codecs())
     if (c.type == type && c.capacity >= capacity && (best == nullptr || c.capacity < best->capacity)) best = &c;
   return best;
+}
+
+const Codec* find_ring_codec(std::string_view type) {
+  for (const auto& c : ring_codecs())
+    if (c.type == type) return &c;
+  return nullptr;
 }
 
 const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error) {
@@ -183,6 +193,8 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
     return nullptr;
   }
   if (!request.zero_copy) return serialised;
+  if (!request.loans)
+    if (const Codec* ring = find_ring_codec(type)) return ring;
   if (const Codec* plain = find_plain_codec(type, request.capacity)) return plain;
   std::size_t largest = 0;
   for (const auto& c : plain_codecs())

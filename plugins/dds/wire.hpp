@@ -9,6 +9,7 @@
 
 #include <fastdds/dds/topic/TopicDataType.hpp>
 
+#include "frame_ring.hpp"
 #include "ros2.h"
 #include "saccade.h"
 #include "saccade/message.hpp"
@@ -70,6 +71,18 @@ std::string to_plain(const Retina& in, P& out);
 template <class P>
 bool from_plain(const P& in, Retina& out);
 
+// The frame-ring forms (frame_ring.hpp): the sample says where the pixels
+// are in the writer's ring. to_ring copies them into a free buffer of `ring`
+// (held by `hold` until the sample is written) unless the producer wrote them
+// there already; it returns empty on success, kRingFull when every buffer is
+// held (a failed write), else why the message does not fit. from_ring views
+// them in place (pinned while `out` holds them); false with `why` set.
+inline const std::string kRingFull = "every buffer of the frame ring is held";
+std::string to_ring(const Image& in, FrameRing& ring, cv::Mat& hold, saccade_idl::plain::ImageRef& out);
+std::string to_ring(const Retina& in, FrameRing& ring, cv::Mat& hold, saccade_idl::plain::RetinaRef& out);
+bool from_ring(const saccade_idl::plain::ImageRef& in, RingReader& reader, Image& out, std::string& why);
+bool from_ring(const saccade_idl::plain::RetinaRef& in, RingReader& reader, Retina& out, std::string& why);
+
 // How a bridge moves messages of one type through DDS, kept by the bridge for
 // its lifetime: a serialised sample it reuses for every message (its buffers
 // keep their capacity), or, for a plain type, samples loaned from Fast DDS'
@@ -89,6 +102,13 @@ class WireSample {
   virtual Taken take(eprosima::fastdds::dds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) = 0;
   // What was wrong with the last kUnreadable sample, when the form can tell.
   const std::string& why_unreadable() const { return why_; }
+  // The allocator a producer may create its frames' Mats with, so that they
+  // are made in the memory this form sends from and write() copies nothing
+  // (the frame ring's writer); nullptr when the form has none.
+  virtual cv::MatAllocator* frame_allocator() { return nullptr; }
+  // Frames a zero-copy reader copied after all (the frame ring's reader
+  // holding a quarter of the writer's buffers already).
+  virtual uint64_t frames_copied() const { return 0; }
 
  protected:
   std::string why_;
@@ -108,12 +128,15 @@ std::shared_ptr<M> fresh(ProcessContext* ctx, int output, MessagePtr& slot) {
 struct WireOptions {
   std::string frame_id;                  // ROS 2 Image header.frame_id; empty: "camera_<camera_id>"
   std::vector<std::string> joint_names;  // ROS 2 JointState name[], in saccade's joint order
+  std::size_t capacity = 0;              // kRing: bytes a buffer holds (0: 4 MiB for Image, 1 MiB for Retina)
+  uint32_t ring_slots = 16;              // kRing: buffers in the writer's ring
 };
 
 struct Codec {
   enum class Form {
     kSerialised,  // saccade's IDL type (any size, any host)
     kPlain,       // a plain fixed-capacity type (one host: data sharing and loans)
+    kRing,        // a plain type saying where the frame is in the writer's frame ring (one host, no copy)
     kRos2,        // the ROS 2 message (sensor_msgs), on an rt/ topic
   };
   std::string_view type;  // the message's type name
@@ -125,11 +148,15 @@ struct Codec {
 
 // How an edge asks its type to travel.
 struct CodecRequest {
-  bool zero_copy = false;     // the plain form, when the type has one
+  bool zero_copy = false;     // the frame ring, or the plain form with `loans`, when the type has one
+  bool loans = false;         // zero_copy through Fast DDS' loaned plain samples instead of the frame ring
   std::size_t capacity = 0;   // zero_copy: bytes the plain form must hold (0: the type's default)
   bool ros2 = false;          // the ROS 2 form (wins over zero_copy: ROS 2 cannot read plain types)
 };
 
+// Bytes a shared-memory sample or ring buffer of `type` holds unless the edge
+// says otherwise: 4 MiB for Image, 1 MiB for Retina.
+std::size_t default_capacity(std::string_view type);
 // The serialised codec of `type`; nullptr for a type without an IDL form.
 const Codec* find_codec(std::string_view type);
 // The plain codec of `type` with the smallest capacity >= `capacity` (0: the
@@ -138,13 +165,17 @@ const Codec* find_codec(std::string_view type);
 const Codec* find_plain_codec(std::string_view type, std::size_t capacity);
 // The ROS 2 codec of `type`; nullptr when ROS 2 has no such message.
 const Codec* find_ros2_codec(std::string_view type);
+// The frame-ring codec of `type`; nullptr when the type has none.
+const Codec* find_ring_codec(std::string_view type);
 // The codec an edge uses: the ROS 2 form when asked (an error when the type has
-// none); with `zero_copy`, the plain form holding `capacity` when the type has
-// plain forms (an error naming the largest when none is that large); else the
-// serialised form. nullptr with `error` set when there is none.
+// none); with `zero_copy`, the frame ring when the type has one (Image, Retina),
+// or with `loans` the plain form holding `capacity` (an error naming the
+// largest when none is that large); else the serialised form. nullptr with
+// `error` set when there is none.
 const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error);
 std::vector<std::string_view> codec_types();
 const std::vector<Codec>& plain_codecs();
+const std::vector<Codec>& ring_codecs();
 const std::vector<Codec>& ros2_codecs();
 
 // The DDS topic of a ROS 2 topic: "camera/image" and "/camera/image" are "rt/camera/image".

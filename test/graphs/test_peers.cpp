@@ -96,10 +96,66 @@ TEST(DdsPeers, AWriterKilledAndStartedAgainIsRejoinedWhileTheReaderKeepsRunning)
   EXPECT_EQ(reported("joined"), 2);
 }
 
+// The address ranges of this process's mappings of saccade frame rings.
+std::vector<std::pair<uintptr_t, uintptr_t>> frame_ring_mappings() {
+  std::vector<std::pair<uintptr_t, uintptr_t>> out;
+  std::ifstream maps("/proc/self/maps");
+  std::string line;
+  while (std::getline(maps, line)) {
+    if (line.find("/dev/shm/saccade_ring_") == std::string::npos) continue;
+    out.emplace_back(std::stoull(line.substr(0, line.find('-')), nullptr, 16),
+                     std::stoull(line.substr(line.find('-') + 1), nullptr, 16));
+  }
+  return out;
+}
+
+TEST(DdsPeers, FramesThroughTheFrameRingArriveIntactAndAreReadInPlace) {
+  const std::string topic = "test_peers/" + std::to_string(getpid()) + "/ring";
+  testing::Recorder::instance().clear();
+  auto run = test::open_graph(R"(<graph name="reader">
+  <node name="sub" plugin="dds.subscribe">
+    <param name="topic" value=")" + topic + R"("/><param name="type" value="Image"/>
+    <param name="domain" value=")" + std::to_string(private_domain()) + R"("/>
+    <param name="zero_copy" value="true"/>
+  </node>
+  <node name="rx" plugin="util.record"/>
+  <edge from="sub.out" to="rx.in" queue="block:16"/>
+</graph>)");
+  Status status;
+  std::thread reader([&] { status = run->run(); });
+  auto received = [] { return testing::Recorder::instance().get("rx").size(); };
+  pid_t writer = start_peer(topic, {"--set", "publish.zero_copy=true", "--set", "camera.size=640x480"});
+  ASSERT_GT(writer, 0);
+  EXPECT_TRUE(test::wait_for([&] { return received() >= 40; }, 60));
+  const auto rings = frame_ring_mappings();
+  kill(writer, SIGTERM);
+  EXPECT_EQ(test::wait_child(writer, 30), 0);
+  reader.join();
+  ASSERT_TRUE(status.ok()) << status.message();
+
+  // The recorder keeps every frame: the first ones stay pinned in the
+  // writer's ring (read in place), the rest are copied out so the writer
+  // never runs out of buffers. Every frame is whole: each pixel is its number.
+  auto images = test::recorded<Image>("rx");
+  ASSERT_GE(images.size(), 40u);
+  ASSERT_FALSE(rings.empty()) << "the reader mapped the writer's ring";
+  std::size_t in_place = 0;
+  for (const auto& im : images) {
+    ASSERT_EQ(im->mat.size(), cv::Size(640, 480));
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(im->mat, &lo, &hi);
+    EXPECT_EQ(lo, static_cast<double>(im->frame_id % 256));
+    EXPECT_EQ(hi, lo);
+    const auto at = reinterpret_cast<uintptr_t>(im->mat.data);
+    for (const auto& [begin, end] : rings) in_place += at >= begin && at < end ? 1 : 0;
+  }
+  EXPECT_EQ(in_place, 4u) << "a reader pins a quarter of the writer's 16 buffers";
+}
+
 // This process's view of /dev/shm files process `pid` maps, DDS' own only
 // (participant segments and data-sharing pools; port files are shared by design).
 std::set<std::string> dds_files_mapped_by(pid_t pid) {
-  static const std::regex own("fastrtps_[0-9a-f]{16}|fast_datasharing_.*");
+  static const std::regex own("fastrtps_[0-9a-f]{16}|fast_datasharing_.*|saccade_ring_.*");
   std::set<std::string> out;
   std::ifstream maps("/proc/" + std::to_string(pid) + "/maps");
   std::string line;
@@ -114,7 +170,8 @@ std::set<std::string> dds_files_mapped_by(pid_t pid) {
 
 bool exists_in_shm(const std::string& name) { return access(("/dev/shm/" + name).c_str(), F_OK) == 0; }
 
-// A lone publisher with a zero-copy edge: its participant segment and its data-sharing pool.
+// A lone publisher with a zero-copy edge: its participant segment, the
+// data-sharing pool of its samples and the frame ring of its pixels.
 std::set<std::string> start_lone_peer(pid_t& pid) {
   pid = start_peer("test_peers/" + std::to_string(getpid()) + "/lone",
                    {"--set", "publish.zero_copy=true", "--set", "publish.capacity=65536"});
@@ -122,8 +179,10 @@ std::set<std::string> start_lone_peer(pid_t& pid) {
   test::wait_for(
       [&] {
         files = dds_files_mapped_by(pid);
-        return std::any_of(files.begin(), files.end(), [](auto& f) { return f.rfind("fastrtps_", 0) == 0; }) &&
-               std::any_of(files.begin(), files.end(), [](auto& f) { return f.rfind("fast_datasharing_", 0) == 0; });
+        auto has = [&](const char* prefix) {
+          return std::any_of(files.begin(), files.end(), [&](auto& f) { return f.rfind(prefix, 0) == 0; });
+        };
+        return has("fastrtps_") && has("fast_datasharing_") && has("saccade_ring_");
       },
       30);
   return files;
@@ -132,7 +191,7 @@ std::set<std::string> start_lone_peer(pid_t& pid) {
 TEST(DdsSharedMemory, ACleanStopBySigtermLeavesNothingBehind) {
   pid_t pid = -1;
   std::set<std::string> files = start_lone_peer(pid);
-  ASSERT_GE(files.size(), 2u) << "a participant segment and a data-sharing pool";
+  ASSERT_GE(files.size(), 3u) << "a participant segment, a data-sharing pool and a frame ring";
   kill(pid, SIGTERM);
   ASSERT_EQ(test::wait_child(pid, 30), 0);
   for (const auto& f : files) EXPECT_FALSE(exists_in_shm(f)) << f;

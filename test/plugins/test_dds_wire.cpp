@@ -444,6 +444,144 @@ TEST(DdsPlain, TheSmallestPlainFormAtLeastTheCapacityIsChosen) {
   for (const auto& c : dds::plain_codecs()) EXPECT_TRUE(c.make_type()->is_plain()) << c.type << " " << c.capacity;
 }
 
+// --- The frame-ring forms: the sample says where the pixels are; the reader views them in place.
+
+std::shared_ptr<dds::FrameRing> ring_of(std::size_t bytes, uint32_t slots = 4) {
+  std::string error;
+  auto ring = dds::FrameRing::create(bytes, slots, &error);
+  EXPECT_TRUE(ring) << error;
+  return ring;
+}
+
+TEST(DdsRing, ImagesRoundTripBitExactlyWhateverTheirLayout) {
+  auto ring = ring_of(4u << 20);
+  ASSERT_TRUE(ring);
+  saccade_idl::plain::ImageRef sample;
+  dds::RingReader reader;
+  cv::Mat big = test::random_image({1280, 720}, 3, CV_8UC3);
+  std::vector<cv::Mat> mats = {test::random_image({1024, 768}, 1), test::random_image({1024, 768}, 2, CV_8UC3),
+                               cv::Mat(3, 5, CV_32FC1), big(cv::Rect(7, 5, 301, 199)), cv::Mat()};
+  cv::randu(mats[2], -1e6, 1e6);
+  for (std::size_t i = 0; i < mats.size(); ++i) {
+    Image image, back;
+    stamp(image, static_cast<int64_t>(i));
+    image.camera_id = static_cast<int>(i);
+    image.mat = mats[i];
+    cv::Mat hold;
+    ASSERT_EQ(dds::to_ring(image, *ring, hold, sample), "") << i;
+    std::string why;
+    ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << i << ": " << why;
+    expect_same_stamp(image, back);
+    EXPECT_EQ(back.camera_id, image.camera_id);
+    expect_same_mat(image.mat, back.mat);
+    EXPECT_TRUE(back.mat.empty() || back.mat.isContinuous());
+  }
+  EXPECT_EQ(reader.copied(), 0u) << "all read in place";
+}
+
+TEST(DdsRing, AnImageAProducerWroteIntoTheRingIsNotCopiedAgain) {
+  auto ring = ring_of(1u << 20);
+  ASSERT_TRUE(ring);
+  Image image;
+  image.mat.allocator = ring.get();
+  image.mat.create(480, 640, CV_8UC1);
+  test::random_image({640, 480}, 5).copyTo(image.mat);
+  saccade_idl::plain::ImageRef sample;
+  cv::Mat hold;
+  ASSERT_EQ(dds::to_ring(image, *ring, hold, sample), "");
+  EXPECT_TRUE(hold.empty()) << "no buffer taken for a copy";
+  EXPECT_EQ(ring->held_slots(), 1u);
+  dds::RingAddress at;
+  std::size_t offset = 0;
+  ASSERT_TRUE(ring->locate(image.mat, at, offset));
+  EXPECT_EQ(sample.ring().slot(), at.slot);
+  EXPECT_EQ(sample.ring().generation(), at.generation);
+
+  dds::RingReader reader;
+  Image back;
+  std::string why;
+  ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << why;
+  expect_same_mat(image.mat, back.mat);
+}
+
+TEST(DdsRing, RetinasTravelInOneBufferAndRoundTripBitExactly) {
+  auto ring = ring_of(1u << 20);
+  ASSERT_TRUE(ring);
+  Retina r = make_retina();
+  r.levels[2] = test::random_image({32, 24}, 7, CV_32FC1);
+  saccade_idl::plain::RetinaRef sample;
+  cv::Mat hold;
+  ASSERT_EQ(dds::to_ring(r, *ring, hold, sample), "");
+  EXPECT_FALSE(hold.empty());
+  dds::RingReader reader;
+  Retina back;
+  std::string why;
+  ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << why;
+  expect_same_retina(r, back);
+  hold.release();
+  EXPECT_EQ(ring->held_slots(), 1u) << "all five levels pin one buffer";
+  back.levels.clear();
+  EXPECT_EQ(ring->held_slots(), 0u);
+  r.levels.resize(17);
+  r.geometry.resize(17);
+  EXPECT_NE(dds::to_ring(r, *ring, hold, sample).find("at most 16 levels"), std::string::npos);
+}
+
+TEST(DdsRing, AFrameLargerThanABufferIsRefusedWithTheFixAndAFullRingIsAFailedWrite) {
+  auto ring = ring_of(1u << 20, 4);
+  ASSERT_TRUE(ring);
+  Image image;
+  image.mat = test::random_image({1024, 768}, 1, CV_8UC3);
+  saccade_idl::plain::ImageRef sample;
+  cv::Mat hold;
+  EXPECT_EQ(dds::to_ring(image, *ring, hold, sample),
+            "a frame of 2359296 bytes does not fit the edge's frame ring (buffers of 1 MiB); give the edge a larger "
+            "one (qos=\"capacity=16M\")");
+  std::vector<cv::Mat> held;
+  for (int i = 0; i < 4; ++i) held.push_back(ring->take(10));
+  image.mat = test::random_image({64, 48}, 1);
+  EXPECT_EQ(dds::to_ring(image, *ring, hold, sample), dds::kRingFull);
+}
+
+TEST(DdsRing, MalformedHeadersAreRefusedNotCrashes) {
+  auto ring = ring_of(1u << 20);
+  ASSERT_TRUE(ring);
+  Image image, back;
+  image.mat = test::random_image({64, 48}, 1);
+  saccade_idl::plain::ImageRef sample;
+  cv::Mat hold;
+  ASSERT_EQ(dds::to_ring(image, *ring, hold, sample), "");
+  dds::RingReader reader;
+  std::string why;
+  sample.mat().rows(100000);  // past the buffer's end
+  EXPECT_FALSE(dds::from_ring(sample, reader, back, why));
+  EXPECT_NE(why.find("outside the writer's ring"), std::string::npos) << why;
+  sample.mat().rows(48);
+  sample.mat().cv_type(12345);
+  EXPECT_FALSE(dds::from_ring(sample, reader, back, why));
+  EXPECT_NE(why.find("malformed"), std::string::npos) << why;
+  sample.mat().cv_type(CV_8UC1);
+  sample.mat().rows(-1);
+  EXPECT_FALSE(dds::from_ring(sample, reader, back, why));
+  sample.mat().rows(48);
+  ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << why;
+  expect_same_mat(image.mat, back.mat);
+}
+
+TEST(DdsRing, ZeroCopyPicksTheRingForFramesAndLoansWhenAsked) {
+  std::string error;
+  for (const char* type : {"Image", "Retina"}) {
+    const dds::Codec* ring = dds::choose_codec(type, {.zero_copy = true}, &error);
+    ASSERT_NE(ring, nullptr) << error;
+    EXPECT_EQ(ring->form, dds::Codec::Form::kRing) << type;
+    EXPECT_TRUE(ring->make_type()->is_plain()) << type << ": data sharing for the small sample too";
+    const dds::Codec* loans = dds::choose_codec(type, {.zero_copy = true, .loans = true}, &error);
+    ASSERT_NE(loans, nullptr) << error;
+    EXPECT_EQ(loans->form, dds::Codec::Form::kPlain) << type;
+  }
+  EXPECT_EQ(dds::choose_codec("JointState", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialised);
+}
+
 TEST(DdsWire, OutOfRangeEnumsDecodeToTheSafeValue) {
   saccade_idl::JointState wire;
   wire.health() = {0, 1, 200};

@@ -40,8 +40,9 @@ struct Message {
 };
 using MessagePtr = std::shared_ptr<const Message>;
 
-// Releases `mat` if its buffer is shared with another header, so that the next
-// create() allocates a private one; keeps it (no allocation) otherwise.
+// Releases `mat` if its buffer is shared with another header, or comes from an
+// allocator other than OpenCV's (a frame ring other processes read), so that
+// the next create() allocates a private one; keeps it (no allocation) otherwise.
 void make_exclusive(cv::Mat& mat);
 
 // Port type name that accepts every message type.

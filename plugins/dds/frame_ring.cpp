@@ -1,0 +1,478 @@
+#include "frame_ring.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <random>
+
+namespace saccade::dds {
+
+namespace {
+
+constexpr uint64_t kMagic = 0x676e6972'63636173ull;  // "saccring"
+constexpr uint32_t kVersion = 1;
+constexpr uint64_t kWriterBit = 1ull << 31;
+constexpr uint64_t kReaderBits = (1ull << FrameRing::kMaxReaders) - 1;
+constexpr uint64_t kHoldBits = kWriterBit | kReaderBits;
+constexpr std::size_t kPage = 4096;
+
+static_assert(std::atomic<uint64_t>::is_always_lock_free && std::atomic<int32_t>::is_always_lock_free,
+              "the ring's state words are shared between processes: they must be lock-free");
+
+uint32_t generation_of(uint64_t state) { return static_cast<uint32_t>(state >> 32); }
+uint64_t with_generation(uint32_t generation) { return static_cast<uint64_t>(generation) << 32; }
+std::size_t round_up(std::size_t n, std::size_t to) { return (n + to - 1) / to * to; }
+
+struct RingHeader {
+  uint64_t magic;
+  uint32_t version;
+  uint32_t slots;
+  uint64_t slot_bytes;
+  uint64_t ring_id;
+  uint64_t data_offset;
+  uint32_t writer_pid;
+  uint32_t reserved;
+  std::atomic<int32_t> reader_pid[FrameRing::kMaxReaders];
+};
+
+std::size_t states_offset() { return round_up(sizeof(RingHeader), 64); }
+std::size_t data_offset(uint32_t slots) { return round_up(states_offset() + slots * sizeof(uint64_t), kPage); }
+
+bool process_is_gone(int32_t pid) { return ::kill(pid, 0) != 0 && errno == ESRCH; }
+
+// Resets a buffer's OpenCV bookkeeping for its next Mat.
+void reset_umat(cv::UMatData& u, uchar* data, std::size_t size, uint32_t slot) {
+  u.refcount = 0;
+  u.urefcount = 0;
+  u.data = u.origdata = data;
+  u.size = size;
+  u.flags = static_cast<cv::UMatData::MemoryFlag>(0);
+  u.handle = nullptr;
+  u.userdata = reinterpret_cast<void*>(static_cast<uintptr_t>(slot));
+}
+
+uint32_t slot_of(const cv::UMatData* u) { return static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u->userdata)); }
+
+}  // namespace
+
+std::string ring_segment_name(uint32_t writer_pid, uint64_t ring_id) {
+  char name[64];
+  std::snprintf(name, sizeof name, "/saccade_ring_%u_%016llx", writer_pid, static_cast<unsigned long long>(ring_id));
+  return name;
+}
+
+// One mapped POSIX shared-memory segment; its creator unlinks the name.
+class SharedSegment {
+ public:
+  static std::unique_ptr<SharedSegment> create(const std::string& name, std::size_t bytes, std::string* error) {
+    int fd = ::shm_open(name.c_str(), O_CREAT | O_EXCL | O_RDWR | O_CLOEXEC, 0600);
+    if (fd < 0) return fail("cannot create shared memory " + name, error);
+    if (::ftruncate(fd, static_cast<off_t>(bytes)) != 0) {
+      ::close(fd);
+      ::shm_unlink(name.c_str());
+      return fail("cannot size shared memory " + name + " to " + std::to_string(bytes) + " bytes", error);
+    }
+    auto s = map(fd, name, bytes, error);
+    if (s) s->linked_ = true;
+    else ::shm_unlink(name.c_str());
+    return s;
+  }
+  static std::unique_ptr<SharedSegment> open(const std::string& name, std::string* error) {
+    int fd = ::shm_open(name.c_str(), O_RDWR | O_CLOEXEC, 0);
+    if (fd < 0) return fail("cannot open the writer's frame ring " + name, error);
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || st.st_size < static_cast<off_t>(sizeof(RingHeader))) {
+      ::close(fd);
+      return fail("the frame ring " + name + " is too small to be one", error);
+    }
+    return map(fd, name, static_cast<std::size_t>(st.st_size), error);
+  }
+  ~SharedSegment() {
+    unlink();
+    ::munmap(base_, bytes_);
+  }
+  void unlink() {
+    if (linked_) ::shm_unlink(name_.c_str());
+    linked_ = false;
+  }
+  uint8_t* base() const { return base_; }
+  std::size_t bytes() const { return bytes_; }
+  const std::string& name() const { return name_; }
+
+ private:
+  static std::unique_ptr<SharedSegment> fail(std::string why, std::string* error) {
+    if (error) *error = why + ": " + std::strerror(errno);
+    return nullptr;
+  }
+  static std::unique_ptr<SharedSegment> map(int fd, const std::string& name, std::size_t bytes, std::string* error) {
+    void* base = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    const int mmap_errno = errno;
+    ::close(fd);
+    if (base == MAP_FAILED) {
+      errno = mmap_errno;
+      return fail("cannot map shared memory " + name, error);
+    }
+    auto s = std::unique_ptr<SharedSegment>(new SharedSegment());
+    s->base_ = static_cast<uint8_t*>(base);
+    s->bytes_ = bytes;
+    s->name_ = name;
+    return s;
+  }
+  SharedSegment() = default;
+  uint8_t* base_ = nullptr;
+  std::size_t bytes_ = 0;
+  std::string name_;
+  bool linked_ = false;
+};
+
+namespace {
+
+RingHeader& header_of(const SharedSegment& s) { return *reinterpret_cast<RingHeader*>(s.base()); }
+std::atomic<uint64_t>* states_of(const SharedSegment& s) {
+  return reinterpret_cast<std::atomic<uint64_t>*>(s.base() + states_offset());
+}
+uint8_t* slot_data(const SharedSegment& s, uint32_t slot) {
+  const RingHeader& h = header_of(s);
+  return s.base() + h.data_offset + static_cast<std::size_t>(slot) * h.slot_bytes;
+}
+
+}  // namespace
+
+// --- the writer ---
+
+// The owner's shared_ptr lets go through this: the ring is deleted now when
+// no Mat holds one of its buffers, else by the last one's deallocate.
+struct RingRelease {
+  void operator()(FrameRing* ring) const {
+    bool last = false;
+    {
+      std::lock_guard lock(ring->mu_);
+      ring->retired_ = true;
+      ring->segment_->unlink();  // no reader opens it any more; mapped ones stay valid
+      last = ring->local_holds_ == 0;
+    }
+    if (last) delete ring;
+  }
+};
+
+std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t slots, std::string* error) {
+  if (slots == 0 || slot_bytes == 0) {
+    if (error) *error = "a frame ring needs at least one buffer of at least one byte";
+    return nullptr;
+  }
+  slot_bytes = round_up(slot_bytes, kPage);
+  std::unique_ptr<FrameRing> ring(new FrameRing());
+  ring->slot_bytes_ = slot_bytes;
+  ring->slots_ = slots;
+  ring->pid_ = static_cast<uint32_t>(::getpid());
+  std::random_device entropy;
+  ring->ring_id_ = (static_cast<uint64_t>(entropy()) << 32) ^ entropy();
+  const std::size_t bytes = data_offset(slots) + slot_bytes * slots;
+  ring->segment_ = SharedSegment::create(ring_segment_name(ring->pid_, ring->ring_id_), bytes, error);
+  if (!ring->segment_) return nullptr;
+  auto* h = new (ring->segment_->base()) RingHeader();
+  h->version = kVersion;
+  h->slots = slots;
+  h->slot_bytes = slot_bytes;
+  h->ring_id = ring->ring_id_;
+  h->data_offset = data_offset(slots);
+  h->writer_pid = ring->pid_;
+  for (auto& pid : h->reader_pid) pid.store(0, std::memory_order_relaxed);
+  std::atomic<uint64_t>* states = states_of(*ring->segment_);
+  for (uint32_t i = 0; i < slots; ++i) new (&states[i]) std::atomic<uint64_t>(0);
+  std::atomic_thread_fence(std::memory_order_release);
+  h->magic = kMagic;
+  ring->umat_.reserve(slots);
+  for (uint32_t i = 0; i < slots; ++i) ring->umat_.push_back(std::make_unique<cv::UMatData>(ring.get()));
+  return std::shared_ptr<FrameRing>(ring.release(), RingRelease());
+}
+
+FrameRing::~FrameRing() = default;
+
+const std::string& FrameRing::name() const { return segment_->name(); }
+
+int FrameRing::take_slot() const {
+  std::atomic<uint64_t>* states = states_of(*segment_);
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    for (uint32_t i = 0; i < slots_; ++i) {
+      const uint32_t k = (next_ + i) % slots_;
+      uint64_t s = states[k].load(std::memory_order_acquire);
+      if ((s & kHoldBits) != 0) continue;
+      // A reader pins only the generation it was told: from here on it cannot pin the old frame.
+      if (states[k].compare_exchange_strong(s, with_generation(generation_of(s) + 1) | kWriterBit,
+                                            std::memory_order_acq_rel)) {
+        next_ = (k + 1) % slots_;
+        return static_cast<int>(k);
+      }
+    }
+    if (attempt == 0 && release_dead_readers() == 0) break;
+  }
+  return -1;
+}
+
+cv::UMatData* FrameRing::allocate(int dims, const int* sizes, int type, void* data, size_t* step, cv::AccessFlag flags,
+                                  cv::UMatUsageFlags usage) const {
+  const cv::MatAllocator* heap = cv::Mat::getStdAllocator();
+  if (data != nullptr) return heap->allocate(dims, sizes, type, data, step, flags, usage);
+  std::size_t total = CV_ELEM_SIZE(type);
+  for (int i = dims - 1; i >= 0; --i) {
+    if (step != nullptr) step[i] = total;
+    total *= static_cast<std::size_t>(sizes[i]);
+  }
+  std::lock_guard lock(mu_);
+  const int slot = total <= slot_bytes_ && !retired_ ? take_slot() : -1;
+  if (slot < 0) {
+    ++heap_fallbacks_;
+    return heap->allocate(dims, sizes, type, nullptr, step, flags, usage);
+  }
+  cv::UMatData* u = umat_[static_cast<std::size_t>(slot)].get();
+  reset_umat(*u, slot_data(*segment_, static_cast<uint32_t>(slot)), total, static_cast<uint32_t>(slot));
+  ++local_holds_;
+  return u;
+}
+
+bool FrameRing::allocate(cv::UMatData*, cv::AccessFlag, cv::UMatUsageFlags) const { return false; }
+
+void FrameRing::deallocate(cv::UMatData* u) const {
+  bool last = false;
+  {
+    std::lock_guard lock(mu_);
+    const uint32_t slot = slot_of(u);
+    // The frame stays readable until the writer takes this buffer again.
+    states_of(*segment_)[slot].fetch_and(~kWriterBit, std::memory_order_release);
+    reset_umat(*u, nullptr, 0, slot);
+    last = --local_holds_ == 0 && retired_;
+  }
+  if (last) delete this;
+}
+
+cv::Mat FrameRing::take(std::size_t bytes) {
+  if (bytes == 0 || bytes > slot_bytes_) return {};
+  cv::Mat buffer;
+  buffer.allocator = this;
+  buffer.create(1, static_cast<int>(bytes), CV_8U);
+  if (buffer.u == nullptr || buffer.u->currAllocator != this) return {};  // every buffer held
+  return buffer;
+}
+
+bool FrameRing::locate(const cv::Mat& mat, RingAddress& at, std::size_t& offset) const {
+  if (mat.u == nullptr || mat.u->currAllocator != this || mat.data == nullptr) return false;
+  const uint32_t slot = slot_of(mat.u);
+  at.writer_pid = pid_;
+  at.ring_id = ring_id_;
+  at.slot = slot;
+  // The writer holds the buffer (mat is alive): its generation cannot change.
+  at.generation = generation_of(states_of(*segment_)[slot].load(std::memory_order_acquire));
+  offset = static_cast<std::size_t>(mat.data - slot_data(*segment_, slot));
+  return true;
+}
+
+int FrameRing::release_dead_readers() const {
+  RingHeader& h = header_of(*segment_);
+  std::atomic<uint64_t>* states = states_of(*segment_);
+  int released = 0;
+  for (uint32_t r = 0; r < kMaxReaders; ++r) {
+    int32_t pid = h.reader_pid[r].load(std::memory_order_acquire);
+    if (pid == 0 || !process_is_gone(pid)) continue;
+    for (uint32_t i = 0; i < slots_; ++i) states[i].fetch_and(~(1ull << r), std::memory_order_acq_rel);
+    // Only now may another reader register here: its pins cannot be cleared above.
+    if (h.reader_pid[r].compare_exchange_strong(pid, 0)) ++released;
+  }
+  return released;
+}
+
+uint32_t FrameRing::held_slots() const {
+  uint32_t held = 0;
+  for (uint32_t i = 0; i < slots_; ++i)
+    if ((states_of(*segment_)[i].load(std::memory_order_acquire) & kHoldBits) != 0) ++held;
+  return held;
+}
+
+uint64_t FrameRing::heap_fallbacks() const {
+  std::lock_guard lock(mu_);
+  return heap_fallbacks_;
+}
+
+// --- the reader ---
+
+// One writer's ring as a reader maps it, registered under one reader bit.
+// Deleted once its RingReader has let go and no Mat pins a buffer of it.
+class RingMapping final : public cv::MatAllocator {
+ public:
+  static RingMapping* open(const RingAddress& at, std::string& why) {
+    const std::string name = ring_segment_name(at.writer_pid, at.ring_id);
+    std::unique_ptr<SharedSegment> segment = SharedSegment::open(name, &why);
+    if (!segment) return nullptr;
+    RingHeader& h = header_of(*segment);
+    if (h.magic != kMagic || h.version != kVersion || h.ring_id != at.ring_id || h.slots == 0 ||
+        h.data_offset != data_offset(h.slots) || h.data_offset + h.slot_bytes * h.slots > segment->bytes()) {
+      why = "the frame ring " + name + " is not one this version of saccade wrote";
+      return nullptr;
+    }
+    const auto pid = static_cast<int32_t>(::getpid());
+    for (uint32_t r = 0; r < FrameRing::kMaxReaders; ++r) {
+      int32_t expected = 0;
+      if (!h.reader_pid[r].compare_exchange_strong(expected, pid)) continue;
+      auto* m = new RingMapping();
+      m->segment_ = std::move(segment);
+      m->bit_ = 1ull << r;
+      m->index_ = r;
+      m->at_ = at;
+      m->pinned_generation_.assign(h.slots, 0);
+      m->pinned_.assign(h.slots, false);
+      m->max_pins_ = std::max<uint32_t>(1, h.slots / 4);
+      for (uint32_t i = 0; i < h.slots; ++i) m->umat_.push_back(std::make_unique<cv::UMatData>(m));
+      return m;
+    }
+    why = "the frame ring " + name + " has " + std::to_string(FrameRing::kMaxReaders) + " readers already";
+    return nullptr;
+  }
+
+  bool same_ring(const RingAddress& at) const { return at.writer_pid == at_.writer_pid && at.ring_id == at_.ring_id; }
+
+  bool pin(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out, std::string& why,
+           bool& overwritten, bool& copied) {
+    const RingHeader& h = header_of(*segment_);
+    const std::size_t bytes = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type);
+    if (at.slot >= h.slots || offset > h.slot_bytes || bytes > h.slot_bytes - offset) {
+      why = "a frame outside the writer's ring (buffer " + std::to_string(at.slot) + ", bytes " +
+            std::to_string(offset) + ".." + std::to_string(offset + bytes) + " of " + std::to_string(h.slot_bytes) + ")";
+      return false;
+    }
+    out.release();  // before the lock: it may be a Mat of this ring, whose release locks it
+    std::lock_guard lock(mu_);
+    cv::UMatData* u = umat_[at.slot].get();
+    if (pinned_[at.slot]) {
+      // Pinned already (another part of the same frame, or the same frame
+      // again while its last Mat is being released: deallocate then sees the
+      // new reference and keeps the pin). The writer cannot have taken it.
+      if (pinned_generation_[at.slot] != at.generation) {
+        overwritten = true;
+        why = "the writer reused the frame's buffer before it was read";
+        return false;
+      }
+    } else {
+      std::atomic<uint64_t>& state = states_of(*segment_)[at.slot];
+      uint64_t s = state.load(std::memory_order_acquire);
+      do {
+        if (generation_of(s) != at.generation) {
+          overwritten = true;
+          why = "the writer reused the frame's buffer before it was read (its ring of " + std::to_string(h.slots) +
+                " buffers went round)";
+          return false;
+        }
+      } while (!state.compare_exchange_weak(s, s | bit_, std::memory_order_acq_rel));
+      if (pins_ >= max_pins_) {
+        // A graph that keeps many frames (a recorder, a long queue) would hold
+        // the writer's ring: past a quarter of it, frames are copied out.
+        cv::Mat copy(rows, cols, type);
+        std::memcpy(copy.data, slot_data(*segment_, at.slot) + offset, bytes);
+        state.fetch_and(~bit_, std::memory_order_release);
+        out = std::move(copy);
+        copied = true;
+        return true;
+      }
+      reset_umat(*u, slot_data(*segment_, at.slot), h.slot_bytes, at.slot);
+      pinned_generation_[at.slot] = at.generation;
+      pinned_[at.slot] = true;
+      ++pins_;
+    }
+    cv::Mat view(rows, cols, type, slot_data(*segment_, at.slot) + offset);
+    view.u = u;
+    CV_XADD(&u->refcount, 1);
+    out = std::move(view);
+    return true;
+  }
+
+  // Its RingReader let go: gone now when nothing is pinned, else with the last pin.
+  void retire() {
+    bool idle = false;
+    {
+      std::lock_guard lock(mu_);
+      retired_ = true;
+      idle = pins_ == 0;
+    }
+    if (idle) delete this;
+  }
+  bool idle() const {
+    std::lock_guard lock(mu_);
+    return pins_ == 0;
+  }
+
+  cv::UMatData* allocate(int, const int*, int, void*, size_t*, cv::AccessFlag, cv::UMatUsageFlags) const override {
+    return nullptr;  // a reader's Mats are never created here, only viewed
+  }
+  bool allocate(cv::UMatData*, cv::AccessFlag, cv::UMatUsageFlags) const override { return false; }
+  void deallocate(cv::UMatData* u) const override {
+    bool last = false;
+    {
+      std::lock_guard lock(mu_);
+      if (u->refcount != 0) return;  // pinned again meanwhile (see pin)
+      const uint32_t slot = slot_of(u);
+      states_of(*segment_)[slot].fetch_and(~bit_, std::memory_order_release);
+      reset_umat(*u, nullptr, 0, slot);
+      pinned_[slot] = false;
+      last = --pins_ == 0 && retired_;
+    }
+    if (last) delete this;
+  }
+
+  ~RingMapping() override {
+    header_of(*segment_).reader_pid[index_].store(0, std::memory_order_release);
+  }
+
+ private:
+  RingMapping() = default;
+  std::unique_ptr<SharedSegment> segment_;
+  uint64_t bit_ = 0;
+  uint32_t index_ = 0;
+  RingAddress at_;
+  mutable std::mutex mu_;
+  mutable uint32_t pins_ = 0;
+  uint32_t max_pins_ = 1;
+  bool retired_ = false;
+  std::vector<uint32_t> pinned_generation_;
+  mutable std::vector<bool> pinned_;
+  std::vector<std::unique_ptr<cv::UMatData>> umat_;
+};
+
+RingReader::~RingReader() {
+  for (RingMapping* m : mappings_) m->retire();
+}
+
+RingMapping* RingReader::find_or_open(const RingAddress& at, std::string& why) {
+  for (RingMapping* m : mappings_)
+    if (m->same_ring(at)) return m;
+  // A new writer (the old one restarted): earlier rings go once nothing pins them.
+  for (auto it = mappings_.begin(); it != mappings_.end();) {
+    if ((*it)->idle()) {
+      (*it)->retire();
+      it = mappings_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  RingMapping* m = RingMapping::open(at, why);
+  if (m != nullptr) mappings_.push_back(m);
+  return m;
+}
+
+bool RingReader::view(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out,
+                      std::string& why) {
+  RingMapping* m = find_or_open(at, why);
+  bool overwritten = false, copied = false;
+  const bool ok = m != nullptr && m->pin(at, offset, rows, cols, type, out, why, overwritten, copied);
+  overwritten_ += overwritten ? 1 : 0;
+  copied_ += copied ? 1 : 0;
+  return ok;
+}
+
+}  // namespace saccade::dds

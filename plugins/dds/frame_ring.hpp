@@ -1,0 +1,140 @@
+#pragma once
+// Frames shared in place between the processes of one host.
+//
+// A writer owns a ring of fixed-size buffers in POSIX shared memory; the DDS
+// sample of a frame carries only where its bytes sit (a RingAddress), and
+// each reader pins that buffer for as long as its graph holds the frame, so
+// the writer never takes a buffer somebody still reads. Fast DDS' own data
+// sharing cannot promise that: its keep-last pool reuses a sample whatever
+// the readers hold, so a reader there must copy before it returns the loan.
+//
+// Both ends hand the buffers out as cv::Mat through cv::MatAllocator: the
+// last Mat header of a buffer gone releases the writer's hold on it or the
+// reader's pin. A producer that creates its images with the writer's
+// allocator writes its frame straight into the ring (no copy on either side).
+//
+// Each buffer's state is one 64-bit word in the segment: a generation (upper
+// 32 bits, advanced each time the writer takes the buffer for a new frame),
+// the writer's hold (bit 31) and one pin bit per registered reader (bits
+// 0..15). A reader pins only the generation it was told, so a buffer the
+// writer took again meanwhile is reported lost, never read torn; the writer
+// takes only buffers nobody holds, round robin, so a frame survives the
+// writer's next `slots - 1` frames even unpinned.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace saccade::dds {
+
+// Where a frame's bytes are: the writer's ring and one buffer of it, as it was
+// when the frame was written.
+struct RingAddress {
+  uint32_t writer_pid = 0;
+  uint64_t ring_id = 0;
+  uint32_t slot = 0;
+  uint32_t generation = 0;
+};
+
+// "/saccade_ring_<pid>_<ring id, hex>": the segment's POSIX name.
+std::string ring_segment_name(uint32_t writer_pid, uint64_t ring_id);
+
+class SharedSegment;
+
+// The writer's end. Created once per edge; the Mats it handed out may outlive
+// it (the segment is unlinked at once, unmapped when the last one is gone).
+class FrameRing final : public cv::MatAllocator {
+ public:
+  static constexpr uint32_t kMaxReaders = 16;
+
+  // A ring of `slots` buffers of at least `slot_bytes` each; nullptr with
+  // `error` set when the segment cannot be made.
+  static std::shared_ptr<FrameRing> create(std::size_t slot_bytes, uint32_t slots, std::string* error);
+
+  // A buffer of `bytes` (one row of CV_8U) for a frame to be copied into;
+  // empty when the frame is larger than a buffer or every buffer is held.
+  cv::Mat take(std::size_t bytes);
+  // Where `mat`'s first byte lies when its buffer is one of this ring's:
+  // the buffer's address and the byte's offset in it.
+  bool locate(const cv::Mat& mat, RingAddress& at, std::size_t& offset) const;
+
+  // Readers whose process died keep their pins until the writer notices:
+  // take() does, when it finds every buffer held. Returns how many it dropped.
+  int release_dead_readers() const;
+
+  const std::string& name() const;
+  std::size_t slot_bytes() const { return slot_bytes_; }
+  uint32_t slots() const { return slots_; }
+  uint64_t ring_id() const { return ring_id_; }
+  // Buffers held now by the writer (a live Mat) or by any reader.
+  uint32_t held_slots() const;
+  // Mats created with this allocator that got heap memory instead (too large,
+  // or the ring full): such frames are copied into the ring when written.
+  uint64_t heap_fallbacks() const;
+
+  // cv::MatAllocator: a Mat whose `allocator` is this ring gets a free buffer.
+  cv::UMatData* allocate(int dims, const int* sizes, int type, void* data, size_t* step, cv::AccessFlag flags,
+                         cv::UMatUsageFlags usage) const override;
+  bool allocate(cv::UMatData* data, cv::AccessFlag flags, cv::UMatUsageFlags usage) const override;
+  void deallocate(cv::UMatData* data) const override;
+
+  ~FrameRing() override;
+  FrameRing(const FrameRing&) = delete;
+  FrameRing& operator=(const FrameRing&) = delete;
+
+ private:
+  friend struct RingRelease;
+  FrameRing() = default;
+  int take_slot() const;  // -1 when every buffer is held
+
+  std::unique_ptr<SharedSegment> segment_;
+  std::size_t slot_bytes_ = 0;
+  uint32_t slots_ = 0;
+  uint64_t ring_id_ = 0;
+  uint32_t pid_ = 0;
+  mutable std::mutex mu_;
+  mutable uint32_t next_ = 0;
+  mutable uint32_t local_holds_ = 0;  // buffers a Mat of this process holds
+  mutable uint64_t heap_fallbacks_ = 0;
+  bool retired_ = false;  // its owner let go: deleted when local_holds_ drops to 0
+  std::vector<std::unique_ptr<cv::UMatData>> umat_;
+};
+
+class RingMapping;
+
+// The reader's end: maps the writers' rings as their frames arrive.
+class RingReader {
+ public:
+  RingReader() = default;
+  ~RingReader();
+  RingReader(const RingReader&) = delete;
+  RingReader& operator=(const RingReader&) = delete;
+
+  // The frame bytes at `offset` of the buffer `at`, in place, as a rows x
+  // cols Mat of `type` (rows packed): the buffer stays pinned until the last
+  // header of it is gone. A reader that pins a quarter of the ring already
+  // gets a copy instead (counted), so it never starves the writer. False with
+  // `why` set when the writer's ring cannot be opened, the bytes lie outside
+  // the buffer, or the writer has taken the buffer for a newer frame
+  // (counted: a lost frame).
+  bool view(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out, std::string& why);
+
+  // Rings mapped now (the current writer's, and earlier ones still pinned).
+  std::size_t mapped() const { return mappings_.size(); }
+  // Frames copied out because this reader held too many buffers.
+  uint64_t copied() const { return copied_; }
+  // Frames whose buffer the writer had taken again before they were pinned.
+  uint64_t overwritten() const { return overwritten_; }
+
+ private:
+  RingMapping* find_or_open(const RingAddress& at, std::string& why);
+  std::vector<RingMapping*> mappings_;
+  uint64_t copied_ = 0;
+  uint64_t overwritten_ = 0;
+};
+
+}  // namespace saccade::dds

@@ -1,0 +1,247 @@
+// The frame ring (plugins/dds/frame_ring.hpp): a writer's buffers in shared
+// memory that readers of other processes read in place, pinned while held.
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <gtest/gtest.h>
+
+#include "domain.hpp"
+#include "frame_ring.hpp"
+#include "saccade/message.hpp"
+#include "support.hpp"
+
+using namespace saccade;
+using saccade::dds::FrameRing;
+using saccade::dds::RingAddress;
+using saccade::dds::RingReader;
+
+namespace {
+
+std::shared_ptr<FrameRing> make_ring(std::size_t bytes, uint32_t slots) {
+  std::string error;
+  auto ring = FrameRing::create(bytes, slots, &error);
+  EXPECT_TRUE(ring) << error;
+  return ring;
+}
+
+// A frame copied into a fresh buffer of `ring`, and where it is.
+cv::Mat write_frame(FrameRing& ring, const cv::Mat& frame, RingAddress& at) {
+  cv::Mat buffer = ring.take(frame.total() * frame.elemSize());
+  if (buffer.empty()) return buffer;
+  cv::Mat into(frame.rows, frame.cols, frame.type(), buffer.data);
+  frame.copyTo(into);
+  std::size_t offset = 1;
+  EXPECT_TRUE(ring.locate(buffer, at, offset));
+  EXPECT_EQ(offset, 0u);
+  return buffer;
+}
+
+bool shm_exists(const std::string& name) { return std::filesystem::exists("/dev/shm" + name); }
+
+}  // namespace
+
+TEST(FrameRing, AReaderSeesTheWritersBytesInPlaceAndTheWriterNeverTakesAPinnedBuffer) {
+  auto ring = make_ring(640 * 480, 4);
+  ASSERT_TRUE(ring);
+  const cv::Mat frame = test::random_image({640, 480}, 1);
+  RingAddress at;
+  cv::Mat buffer = write_frame(*ring, frame, at);
+  ASSERT_FALSE(buffer.empty());
+  const uint8_t* where = buffer.data;
+  buffer.release();  // the writer lets go once written: the frame stays until the buffer is taken again
+  EXPECT_EQ(ring->held_slots(), 0u);
+
+  RingReader reader;
+  cv::Mat view;
+  std::string why;
+  ASSERT_TRUE(reader.view(at, 0, 480, 640, CV_8UC1, view, why)) << why;
+  EXPECT_EQ(test::max_abs_diff(view, frame), 0);
+  EXPECT_NE(view.data, where) << "another mapping of the same memory";
+  EXPECT_EQ(ring->held_slots(), 1u) << "pinned by the reader";
+
+  // Every other buffer can be taken, that one never while pinned.
+  std::vector<cv::Mat> taken;
+  for (int i = 0; i < 3; ++i) {
+    taken.push_back(ring->take(100));
+    ASSERT_FALSE(taken.back().empty()) << i;
+    EXPECT_NE(taken.back().data, where);
+  }
+  EXPECT_TRUE(ring->take(100).empty()) << "the fourth buffer is the pinned one";
+  EXPECT_EQ(test::max_abs_diff(view, frame), 0);
+
+  cv::Mat copy_of_header = view;  // headers share the pin
+  view.release();
+  EXPECT_EQ(ring->held_slots(), 4u);
+  copy_of_header.release();
+  taken.clear();
+  EXPECT_EQ(ring->held_slots(), 0u) << "the last header gone unpins";
+  cv::Mat again = ring->take(100);
+  EXPECT_FALSE(again.empty());
+}
+
+TEST(FrameRing, AFrameWhoseBufferTheWriterTookAgainIsReportedLostNotReadTorn) {
+  auto ring = make_ring(4096, 2);
+  ASSERT_TRUE(ring);
+  RingAddress first;
+  ASSERT_FALSE(write_frame(*ring, test::random_image({64, 64}, 1), first).empty());
+  RingAddress second, third;
+  ASSERT_FALSE(write_frame(*ring, test::random_image({64, 64}, 2), second).empty());
+  const cv::Mat newest = test::random_image({64, 64}, 3);
+  ASSERT_FALSE(write_frame(*ring, newest, third).empty());  // round robin: first's buffer again
+  EXPECT_EQ(third.slot, first.slot);
+  EXPECT_NE(third.generation, first.generation);
+
+  RingReader reader;
+  cv::Mat view;
+  std::string why;
+  EXPECT_FALSE(reader.view(first, 0, 64, 64, CV_8UC1, view, why));
+  EXPECT_NE(why.find("reused the frame's buffer"), std::string::npos) << why;
+  EXPECT_EQ(reader.overwritten(), 1u);
+  EXPECT_TRUE(view.empty());
+  ASSERT_TRUE(reader.view(third, 0, 64, 64, CV_8UC1, view, why)) << why;
+  EXPECT_EQ(test::max_abs_diff(view, newest), 0);
+}
+
+TEST(FrameRing, BytesOutsideABufferOrAMissingRingAreRefusedWithTheReason) {
+  auto ring = make_ring(4096, 2);
+  ASSERT_TRUE(ring);
+  RingAddress at;
+  cv::Mat held = write_frame(*ring, test::random_image({64, 64}, 1), at);
+  RingReader reader;
+  cv::Mat view;
+  std::string why;
+  EXPECT_FALSE(reader.view(at, 4000, 64, 64, CV_8UC1, view, why));
+  EXPECT_NE(why.find("outside the writer's ring"), std::string::npos) << why;
+  RingAddress bad_slot = at;
+  bad_slot.slot = 7;
+  EXPECT_FALSE(reader.view(bad_slot, 0, 1, 1, CV_8UC1, view, why));
+  RingAddress gone = at;
+  gone.ring_id ^= 1;
+  EXPECT_FALSE(reader.view(gone, 0, 1, 1, CV_8UC1, view, why));
+  EXPECT_NE(why.find("cannot open the writer's frame ring"), std::string::npos) << why;
+}
+
+TEST(FrameRing, AReaderKeepingManyFramesGetsCopiesSoTheWriterNeverStarves) {
+  auto ring = make_ring(4096, 8);  // a reader pins at most 2 of 8
+  ASSERT_TRUE(ring);
+  RingReader reader;
+  std::vector<cv::Mat> kept;
+  for (int i = 0; i < 20; ++i) {
+    const cv::Mat frame = test::random_image({64, 64}, i);
+    RingAddress at;
+    ASSERT_FALSE(write_frame(*ring, frame, at).empty()) << "frame " << i << ": the writer found no free buffer";
+    cv::Mat view;
+    std::string why;
+    ASSERT_TRUE(reader.view(at, 0, 64, 64, CV_8UC1, view, why)) << why;
+    kept.push_back(view);
+  }
+  EXPECT_EQ(ring->held_slots(), 2u);
+  EXPECT_EQ(reader.copied(), 18u);
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(test::max_abs_diff(kept[i], test::random_image({64, 64}, i)), 0) << i;
+}
+
+TEST(FrameRing, MatsCreatedWithTheRingLiveInItAndARecycledOneIsNeverRewrittenInPlace) {
+  auto ring = make_ring(640 * 480, 4);
+  ASSERT_TRUE(ring);
+  Image image;
+  image.mat.allocator = ring.get();  // what a producer that writes into the ring does
+  image.mat.create(480, 640, CV_8UC1);
+  RingAddress at;
+  std::size_t offset = 1;
+  ASSERT_TRUE(ring->locate(image.mat, at, offset));
+  EXPECT_EQ(offset, 0u);
+  const uint8_t* first = image.mat.data;
+
+  // The pool recycles the message: its ring buffer may be read elsewhere, so it goes.
+  image.release_shared_buffers();
+  EXPECT_TRUE(image.mat.empty());
+  image.mat.create(480, 640, CV_8UC1);
+  EXPECT_NE(image.mat.data, first) << "the next buffer of the ring";
+  ASSERT_TRUE(ring->locate(image.mat, at, offset));
+
+  cv::Mat too_large;
+  too_large.allocator = ring.get();
+  too_large.create(1000, 1000, CV_8UC1);
+  EXPECT_FALSE(ring->locate(too_large, at, offset)) << "too large: on the heap";
+  EXPECT_EQ(ring->heap_fallbacks(), 1u);
+
+  cv::Mat plain(10, 10, CV_8UC1);
+  EXPECT_FALSE(ring->locate(plain, at, offset));
+  const uint8_t* kept = plain.data;
+  make_exclusive(plain);
+  EXPECT_EQ(plain.data, kept) << "OpenCV's own buffers are still reused";
+
+  // A producer that switches to the ring: its heap buffer goes at the next recycling.
+  plain.allocator = ring.get();
+  make_exclusive(plain);
+  plain.create(10, 10, CV_8UC1);
+  EXPECT_TRUE(ring->locate(plain, at, offset));
+}
+
+TEST(FrameRing, TheRingOutlivesItsOwnerWhileAMatHoldsOneOfItsBuffers) {
+  auto ring = make_ring(4096, 2);
+  ASSERT_TRUE(ring);
+  const std::string name = ring->name();
+  EXPECT_TRUE(shm_exists(name));
+  cv::Mat buffer = ring->take(4096);
+  ASSERT_FALSE(buffer.empty());
+  ring.reset();
+  EXPECT_FALSE(shm_exists(name)) << "unlinked as its owner lets go";
+  buffer.setTo(7);  // still mapped
+  EXPECT_EQ(buffer.at<uint8_t>(0, 4095), 7);
+  buffer.release();  // deletes the ring (ASan would see a leak or a use after free)
+}
+
+TEST(FrameRing, TheWriterTakesBackThePinsOfAReaderWhoseProcessDied) {
+  auto ring = make_ring(4096, 4);
+  ASSERT_TRUE(ring);
+  RingAddress at;
+  ASSERT_FALSE(write_frame(*ring, test::random_image({64, 64}, 1), at).empty());
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    auto* reader = new RingReader();  // never deleted: the process dies holding its pin
+    cv::Mat view;
+    std::string why;
+    const bool pinned = reader->view(at, 0, 64, 64, CV_8UC1, view, why);
+    new cv::Mat(view);  // keeps the pin past _exit's skipped destructors
+    _exit(pinned ? 0 : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the child could not pin the frame";
+  EXPECT_EQ(ring->held_slots(), 1u) << "the dead reader's pin";
+  std::vector<cv::Mat> taken;
+  for (int i = 0; i < 4; ++i) {
+    taken.push_back(ring->take(100));
+    EXPECT_FALSE(taken.back().empty()) << i << ": the full ring releases the dead reader's pins";
+  }
+  EXPECT_EQ(ring->release_dead_readers(), 0) << "done already";
+}
+
+TEST(FrameRing, ARingWhoseWriterDiedIsRemovedAsStale) {
+  int pipe_fds[2];
+  ASSERT_EQ(pipe(pipe_fds), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::string error;
+    auto* ring = new std::shared_ptr<FrameRing>(FrameRing::create(4096, 2, &error));
+    const std::string name = *ring ? (*ring)->name() : std::string();
+    (void)!write(pipe_fds[1], name.c_str(), name.size() + 1);
+    _exit(0);  // a crash: nothing unlinks it
+  }
+  char name[128] = {};
+  ASSERT_GT(read(pipe_fds[0], name, sizeof name - 1), 1);
+  close(pipe_fds[0]);
+  close(pipe_fds[1]);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(shm_exists(name)) << name;
+  auto stale = saccade::dds::remove_stale_shared_memory(0);
+  EXPECT_FALSE(shm_exists(name));
+  EXPECT_NE(std::find(stale.removed.begin(), stale.removed.end(), std::string(name + 1)), stale.removed.end());
+}
