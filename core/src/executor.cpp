@@ -224,6 +224,8 @@ struct Executor::Impl {
       n.slot.pools.resize(n.outputs.size());
       n.slot.input_connected.assign(n.inputs.size(), false);
       n.slot.output_connected.assign(n.outputs.size(), false);
+      n.slot.input_allocators.assign(n.inputs.size(), nullptr);
+      n.slot.output_allocators.assign(n.outputs.size(), nullptr);
       n.sink.impl = this;
       n.sink.node = static_cast<int>(i);
       n.slot.sink = &n.sink;
@@ -293,6 +295,13 @@ struct Executor::Impl {
       Status s = n.node->open(ctx);
       if (!s.ok()) return Status::error("node '" + n.slot.name + "' (" + n.resolved->decl.plugin + ") failed to open: " + s.message());
       n.opened = true;
+    }
+    // A consumer's frame allocator reaches its producers (the first offer
+    // wins where an output feeds several): consumers open after producers.
+    for (const auto& e : graph.edges) {
+      cv::MatAllocator* offered = nodes[static_cast<std::size_t>(e.to_node)].slot.input_allocators[static_cast<std::size_t>(e.to_port)];
+      cv::MatAllocator*& used = nodes[static_cast<std::size_t>(e.from_node)].slot.output_allocators[static_cast<std::size_t>(e.from_port)];
+      if (offered != nullptr && used == nullptr) used = offered;
     }
     return {};
   }

@@ -49,6 +49,8 @@ std::unique_ptr<NodeHarness> NodeHarness::create(const std::string& node_xml, st
   h->slot_.pools.resize(c.outputs().size());
   h->slot_.input_connected.assign(c.inputs().size(), true);
   h->slot_.output_connected.assign(c.outputs().size(), true);
+  h->slot_.input_allocators.assign(c.inputs().size(), nullptr);
+  h->slot_.output_allocators.assign(c.outputs().size(), nullptr);
   h->slot_.sink = h.get();
   h->stats_.name = h->resolved_.decl.name;
   h->stats_.plugin = h->resolved_.decl.plugin;
@@ -86,6 +88,12 @@ Status NodeHarness::process() {
     }
   ProcessContext ctx(slot_);
   return node_->process(ctx);
+}
+
+void NodeHarness::set_frame_allocator(const std::string& output, cv::MatAllocator* allocator) {
+  int k = resolved_.contract.output_index(output);
+  if (k < 0) throw std::invalid_argument("no output '" + output + "' on " + resolved_.decl.plugin);
+  slot_.output_allocators[static_cast<std::size_t>(k)] = allocator;
 }
 
 const std::vector<MessagePtr>& NodeHarness::outputs(const std::string& output) const {

@@ -38,18 +38,30 @@ class Delivery {
     return f > 0 && f < 1000 ? f : 30.0;
   }
 
-  // Reads the next frame of `reader` into `image`; false at end (error set on failure).
-  bool read(FrameReader& reader, Image& image, std::string* error) {
+  // Reads the next frame of `reader` into `image`; false at end (error set on
+  // failure). With `allocator` (what the consumer sends from, a DDS edge's
+  // frame ring: ProcessContext::frame_allocator) the frame is decoded, or
+  // converted, straight into a buffer of it.
+  bool read(FrameReader& reader, Image& image, cv::MatAllocator* allocator, std::string* error) {
+    cv::Mat& target = allocator != nullptr ? image.mat : raw_;
+    image.mat.allocator = allocator;
     int64_t media = 0;
     error->clear();
-    if (!reader.read(raw_, media, error)) {
+    if (!reader.read(target, media, error)) {
       if (!error->empty() || !loop_ || !reader.rewind()) return false;
       loop_offset_ns_ = last_media_ns_ + static_cast<int64_t>(1e9 / fps_for(reader));
-      if (!reader.read(raw_, media, error)) return false;
+      if (!reader.read(target, media, error)) return false;
     }
     media += loop_offset_ns_;
     last_media_ns_ = media;
-    convert(image.mat);
+    if (allocator == nullptr) {
+      convert(image.mat);
+    } else if (needs_conversion(image.mat)) {
+      std::swap(raw_, image.mat);
+      image.mat.allocator = allocator;
+      convert(image.mat);
+      raw_.release();  // a buffer of the consumer's: not kept here
+    }
     image.camera_id = camera_;
     image.timestamp_ns = media;
     image.origin_ns = steady_now_ns();
@@ -71,8 +83,14 @@ class Delivery {
   int camera_id() const { return camera_; }
 
  private:
+  bool needs_conversion(const cv::Mat& frame) const {
+    return (color_ == "gray" && frame.channels() != 1) || (color_ == "color" && frame.channels() != 3) ||
+           (resize_.area() > 0 && frame.size() != resize_);
+  }
+
   // Converts raw_ into `out` without allocating in steady state: when no
-  // conversion is needed the buffers swap, so the reader refills the old one.
+  // conversion is needed the buffers swap, so the reader refills the old one
+  // (or, for a consumer's allocator, the frame is copied into its buffer).
   void convert(cv::Mat& out) {
     cv::Mat* src = &raw_;
     if (color_ == "gray" && raw_.channels() != 1) {
@@ -84,6 +102,10 @@ class Delivery {
     }
     if (resize_.area() > 0 && src->size() != resize_) {
       cv::resize(*src, out, resize_, 0, 0, cv::INTER_AREA);
+      return;
+    }
+    if (out.allocator != nullptr) {
+      src->copyTo(out);
       return;
     }
     std::swap(out, *src);
@@ -112,7 +134,7 @@ class SingleCapture : public Node {
   }
   Status process(ProcessContext& ctx) override {
     auto image = ctx.make(out_);
-    if (!delivery_.read(*reader_, *image, &error_))
+    if (!delivery_.read(*reader_, *image, ctx.frame_allocator(out_), &error_))
       return error_.empty() ? Status::end_of_stream() : Status::error(error_);
     image->frame_id = frame_++;
     if (!delivery_.pace(ctx, *reader_, image->timestamp_ns)) return Status::end_of_stream();
@@ -222,7 +244,8 @@ class Stereo final : public Node {
   Status process(ProcessContext& ctx) override {
     auto l = ctx.make(left_out_);
     auto r = ctx.make(right_out_);
-    if (!left_.read(*left_reader_, *l, &error_) || !right_.read(*right_reader_, *r, &error_))
+    if (!left_.read(*left_reader_, *l, ctx.frame_allocator(left_out_), &error_) ||
+        !right_.read(*right_reader_, *r, ctx.frame_allocator(right_out_), &error_))
       return error_.empty() ? Status::end_of_stream() : Status::error(error_);
     l->camera_id = 0;
     r->camera_id = 1;

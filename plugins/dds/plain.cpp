@@ -405,12 +405,13 @@ class RingSample final : public WireSample {
       writer.discard_loan(memory);
       return why == kRingFull ? Status{} : Status::error(why);
     }
+    if (!hold.empty()) ++written_copied_;
     written = writer.write(memory);
     if (!written) writer.discard_loan(memory);
     return {};
   }
 
-  uint64_t frames_copied() const override { return frames_.copied(); }
+  uint64_t frames_copied() const override { return written_copied_ + frames_.copied(); }
 
   Taken take(fdds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) override {
     if (reader.take(samples_, infos_, 1) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
@@ -442,6 +443,7 @@ class RingSample final : public WireSample {
 
   std::size_t capacity_;
   uint32_t slots_;
+  uint64_t written_copied_ = 0;  // frames the writer copied in (their producer did not write them there)
   std::shared_ptr<FrameRing> ring_;
   RingReader frames_;
   P copy_;

@@ -106,8 +106,9 @@ class WireSample {
   // are made in the memory this form sends from and write() copies nothing
   // (the frame ring's writer); nullptr when the form has none.
   virtual cv::MatAllocator* frame_allocator() { return nullptr; }
-  // Frames a zero-copy reader copied after all (the frame ring's reader
-  // holding a quarter of the writer's buffers already).
+  // Frames a zero-copy edge copied after all: a writer whose producer did
+  // not create them with frame_allocator(), a reader that holds a quarter of
+  // the writer's frame ring already.
   virtual uint64_t frames_copied() const { return 0; }
 
  protected:

@@ -109,6 +109,7 @@ class Counter final : public Node {
         return Status::end_of_stream();
     }
     auto img = ctx.make(out_);
+    img->mat.allocator = ctx.frame_allocator(out_);  // a DDS edge's frame ring: written in place
     img->mat.create(size_, CV_8UC1);
     img->mat.setTo(cv::Scalar(static_cast<double>(k % 256)));
     img->camera_id = camera_;

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <chrono>
 #include <fstream>
 #include <regex>
@@ -124,7 +125,8 @@ TEST(DdsPeers, FramesThroughTheFrameRingArriveIntactAndAreReadInPlace) {
   Status status;
   std::thread reader([&] { status = run->run(); });
   auto received = [] { return testing::Recorder::instance().get("rx").size(); };
-  pid_t writer = start_peer(topic, {"--set", "publish.zero_copy=true", "--set", "camera.size=640x480"});
+  const std::string stats = "/tmp/saccade_test_ring_" + std::to_string(getpid()) + ".json";
+  pid_t writer = start_peer(topic, {"--set", "publish.zero_copy=true", "--set", "camera.size=640x480", "--stats-json", stats});
   ASSERT_GT(writer, 0);
   EXPECT_TRUE(test::wait_for([&] { return received() >= 40; }, 60));
   const auto rings = frame_ring_mappings();
@@ -132,6 +134,11 @@ TEST(DdsPeers, FramesThroughTheFrameRingArriveIntactAndAreReadInPlace) {
   EXPECT_EQ(test::wait_child(writer, 30), 0);
   reader.join();
   ASSERT_TRUE(status.ok()) << status.message();
+
+  // The counter made its images in the edge's frame ring: the writer copied none.
+  EXPECT_GE(test::stats_counter(stats, "publish", "written"), 40);
+  EXPECT_EQ(test::stats_counter(stats, "publish", "copied_frames"), 0);
+  std::remove(stats.c_str());
 
   // The recorder keeps every frame: the first ones stay pinned in the
   // writer's ring (read in place), the rest are copied out so the writer

@@ -49,6 +49,10 @@ struct NodeSlot {
   const Message* trigger = nullptr;  // first trigger input that holds a message
   EmitSink* sink = nullptr;
   NodeStats* stats = nullptr;  // where the node's own counters go
+  // Per input: the allocator the node asks its producers to make frames with.
+  std::vector<cv::MatAllocator*> input_allocators;
+  // Per output: the allocator a consumer asked for (nullptr: OpenCV's own).
+  std::vector<cv::MatAllocator*> output_allocators;
 };
 
 int64_t steady_now_ns();
@@ -82,6 +86,14 @@ class OpenContext {
   // A duration of the node's own (nanoseconds; Histogram::record from one
   // thread at a time), shown by name with its p50/p99/max and count.
   Histogram& timing(std::string_view name) const;
+  // Asks the producers of input `h` to create their frames' pixels with
+  // `allocator`: memory this node sends from without copying (dds.publish's
+  // frame ring). Producers that can read it with ProcessContext::frame_allocator;
+  // the allocator must outlive every Mat it made (the frame ring does).
+  template <class T>
+  void offer_frame_allocator(InputHandle<T> h, cv::MatAllocator* allocator) const {
+    slot_->input_allocators[static_cast<std::size_t>(h.index)] = allocator;
+  }
 
  private:
   int checked_input(std::string_view name, std::string_view type) const;
@@ -118,6 +130,16 @@ class ProcessContext {
   void emit(OutputHandle<T> h, std::shared_ptr<U> message) {
     static_assert(std::is_base_of_v<Message, U>);
     slot_->sink->emit(h.index, MessagePtr(std::move(message)));
+  }
+
+  // The allocator a consumer of output `h` asked frames to be made with (see
+  // OpenContext::offer_frame_allocator), or nullptr. A producer that supports
+  // it sets it before create(): `image->mat.allocator = ctx.frame_allocator(out_)`;
+  // the pool's recycling then never rewrites such a buffer in place.
+  template <class T>
+  cv::MatAllocator* frame_allocator(OutputHandle<T> h) const {
+    const auto k = static_cast<std::size_t>(h.index);
+    return k < slot_->output_allocators.size() ? slot_->output_allocators[k] : nullptr;
   }
 
   const Message* trigger() const { return slot_->trigger; }

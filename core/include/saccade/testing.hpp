@@ -40,6 +40,9 @@ class NodeHarness final : public EmitSink {
     return all.empty() ? nullptr : std::dynamic_pointer_cast<const T>(all.back());
   }
   void clear_outputs();
+  // What a consumer of `output` offers to make frames with (as the executor
+  // passes a dds.publish's frame ring on): ProcessContext::frame_allocator.
+  void set_frame_allocator(const std::string& output, cv::MatAllocator* allocator);
   // A counter the node registered at open (OpenContext::counter); throws if none.
   uint64_t counter(const std::string& name) const;
   // A timing the node registered at open (OpenContext::timing); throws if none.
