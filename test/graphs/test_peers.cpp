@@ -35,19 +35,25 @@ pid_t start_peer(const std::string& topic, const std::vector<std::string>& extra
   return test::spawn_saccade(args);
 }
 
+// This process's graph: a subscriber of `topic` whose images util.record keeps under "rx".
+std::unique_ptr<test::GraphRun> open_recording_reader(const std::string& topic, bool zero_copy) {
+  return test::open_graph(R"(<graph name="reader">
+  <node name="sub" plugin="dds.subscribe">
+    <param name="topic" value=")" + topic + R"("/><param name="type" value="Image"/>
+    <param name="domain" value=")" + std::to_string(private_domain()) + R"("/>
+    <param name="zero_copy" value=")" + (zero_copy ? "true" : "false") + R"("/>
+  </node>
+  <node name="rx" plugin="util.record"/>
+  <edge from="sub.out" to="rx.in" queue="block:16"/>
+</graph>)");
+}
+
 TEST(DdsPeers, AWriterKilledAndStartedAgainIsRejoinedWhileTheReaderKeepsRunning) {
   const std::string topic = "test_peers/" + std::to_string(getpid()) + "/images";
   auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256);
   saccade::log().sinks().push_back(ring);
   testing::Recorder::instance().clear();
-  auto run = test::open_graph(R"(<graph name="reader">
-  <node name="sub" plugin="dds.subscribe">
-    <param name="topic" value=")" + topic + R"("/><param name="type" value="Image"/>
-    <param name="domain" value=")" + std::to_string(private_domain()) + R"("/>
-  </node>
-  <node name="rx" plugin="util.record"/>
-  <edge from="sub.out" to="rx.in" queue="block:16"/>
-</graph>)");
+  auto run = open_recording_reader(topic, false);
   Status status;
   std::thread reader([&] { status = run->run(); });
   auto received = [] { return testing::Recorder::instance().get("rx").size(); };
@@ -113,15 +119,7 @@ std::vector<std::pair<uintptr_t, uintptr_t>> frame_ring_mappings() {
 TEST(DdsPeers, FramesThroughTheFrameRingArriveIntactAndAreReadInPlace) {
   const std::string topic = "test_peers/" + std::to_string(getpid()) + "/ring";
   testing::Recorder::instance().clear();
-  auto run = test::open_graph(R"(<graph name="reader">
-  <node name="sub" plugin="dds.subscribe">
-    <param name="topic" value=")" + topic + R"("/><param name="type" value="Image"/>
-    <param name="domain" value=")" + std::to_string(private_domain()) + R"("/>
-    <param name="zero_copy" value="true"/>
-  </node>
-  <node name="rx" plugin="util.record"/>
-  <edge from="sub.out" to="rx.in" queue="block:16"/>
-</graph>)");
+  auto run = open_recording_reader(topic, true);
   Status status;
   std::thread reader([&] { status = run->run(); });
   auto received = [] { return testing::Recorder::instance().get("rx").size(); };

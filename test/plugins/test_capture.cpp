@@ -58,8 +58,8 @@ TEST(CaptureVideo, FramesAreMadeWithTheAllocatorAConsumerOffers) {
     const std::string xml = R"(<node plugin="capture.video"><param name="path" value=")" + path +
                             R"("/><param name="rate" value="fast"/><param name="color" value=")" + color +
                             R"("/></node>)";
+    NamedAllocator ring;  // outlives the harnesses' pooled frames it made
     auto plain = harness(xml), offered = harness(xml);
-    NamedAllocator ring;
     offered->set_frame_allocator("image", &ring);
     for (int i = 0; i < 5; ++i) {
       ASSERT_TRUE(plain->process().ok());
