@@ -188,7 +188,7 @@ std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t sl
   for (auto& pid : h->reader_pid) pid.store(0, std::memory_order_relaxed);
   std::atomic<uint64_t>* states = states_of(*ring->segment_);
   for (uint32_t i = 0; i < slots; ++i) new (&states[i]) std::atomic<uint64_t>(0);
-  std::atomic_thread_fence(std::memory_order_release);
+  // Readers open the ring only once a DDS sample names it, after all this.
   h->magic = kMagic;
   ring->umat_.reserve(slots);
   for (uint32_t i = 0; i < slots; ++i) ring->umat_.push_back(std::make_unique<cv::UMatData>(ring.get()));
