@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -80,7 +81,7 @@ class SharedSegment {
       ::shm_unlink(name.c_str());
       return fail("cannot size shared memory " + name + " to " + std::to_string(bytes) + " bytes", error);
     }
-    auto s = map(fd, name, bytes, error);
+    auto s = map(fd, name, bytes, error, /*keep_fd=*/true);
     if (s) s->linked_ = true;
     else ::shm_unlink(name.c_str());
     return s;
@@ -98,6 +99,12 @@ class SharedSegment {
   ~SharedSegment() {
     unlink();
     ::munmap(base_, bytes_);
+    if (fd_ >= 0) ::close(fd_);
+  }
+  // Gives [offset, offset + bytes) memory now (the creator only): false when
+  // /dev/shm is full, where writing there would have killed the process (SIGBUS).
+  bool reserve(std::size_t offset, std::size_t bytes) {
+    return fd_ >= 0 && ::posix_fallocate(fd_, static_cast<off_t>(offset), static_cast<off_t>(bytes)) == 0;
   }
   void unlink() {
     if (linked_) ::shm_unlink(name_.c_str());
@@ -112,21 +119,24 @@ class SharedSegment {
     if (error) *error = why + ": " + std::strerror(errno);
     return nullptr;
   }
-  static std::unique_ptr<SharedSegment> map(int fd, const std::string& name, std::size_t bytes, std::string* error) {
+  static std::unique_ptr<SharedSegment> map(int fd, const std::string& name, std::size_t bytes, std::string* error,
+                                            bool keep_fd = false) {
     void* base = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
     const int mmap_errno = errno;
-    ::close(fd);
+    if (base == MAP_FAILED || !keep_fd) ::close(fd);
     if (base == MAP_FAILED) {
       errno = mmap_errno;
       return fail("cannot map shared memory " + name, error);
     }
     auto s = std::unique_ptr<SharedSegment>(new SharedSegment());
+    s->fd_ = keep_fd ? fd : -1;
     s->base_ = static_cast<uint8_t*>(base);
     s->bytes_ = bytes;
     s->name_ = name;
     return s;
   }
   SharedSegment() = default;
+  int fd_ = -1;
   uint8_t* base_ = nullptr;
   std::size_t bytes_ = 0;
   std::string name_;
@@ -163,7 +173,18 @@ struct RingRelease {
   }
 };
 
-std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t slots, std::string* error) {
+std::string shared_memory_shortfall(std::size_t slot_bytes, uint32_t slots, std::size_t free_bytes) {
+  const std::size_t bytes = slot_bytes * slots;
+  if (bytes <= free_bytes) return {};
+  return "the frame ring's " + std::to_string(slots) + " buffers of " + std::to_string(slot_bytes >> 20) + " MiB (" +
+         std::to_string(bytes >> 20) + " MiB) exceed the " + std::to_string(free_bytes >> 20) +
+         " MiB free in /dev/shm: once its frames fill /dev/shm, more frames are written from the heap or fail "
+         "(counted); give the edge a capacity near its frames' size (qos=\"capacity=...\"), fewer ring_slots, or "
+         "/dev/shm more room (a container's --shm-size)";
+}
+
+std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t slots, std::string* error,
+                                             std::string* warning) {
   if (slots == 0 || slot_bytes == 0) {
     if (error) *error = "a frame ring needs at least one buffer of at least one byte";
     return nullptr;
@@ -176,6 +197,9 @@ std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t sl
   std::random_device entropy;
   ring->ring_id_ = (static_cast<uint64_t>(entropy()) << 32) ^ entropy();
   const std::size_t bytes = data_offset(slots) + slot_bytes * slots;
+  struct statvfs shm {};
+  if (warning != nullptr && ::statvfs("/dev/shm", &shm) == 0)
+    *warning = shared_memory_shortfall(slot_bytes, slots, static_cast<std::size_t>(shm.f_bavail) * shm.f_frsize);
   ring->segment_ = SharedSegment::create(ring_segment_name(ring->pid_, ring->ring_id_), bytes, error);
   if (!ring->segment_) return nullptr;
   auto* h = new (ring->segment_->base()) RingHeader();
@@ -190,6 +214,7 @@ std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t sl
   for (uint32_t i = 0; i < slots; ++i) new (&states[i]) std::atomic<uint64_t>(0);
   // Readers open the ring only once a DDS sample names it, after all this.
   h->magic = kMagic;
+  ring->reserved_.assign(slots, 0);
   ring->umat_.reserve(slots);
   for (uint32_t i = 0; i < slots; ++i) ring->umat_.push_back(std::make_unique<cv::UMatData>(ring.get()));
   return std::shared_ptr<FrameRing>(ring.release(), RingRelease());
@@ -228,7 +253,16 @@ cv::UMatData* FrameRing::allocate(int dims, const int* sizes, int type, void* da
     total *= static_cast<std::size_t>(sizes[i]);
   }
   std::lock_guard lock(mu_);
-  const int slot = total <= slot_bytes_ && !retired_ ? take_slot() : -1;
+  int slot = total <= slot_bytes_ && !retired_ ? take_slot() : -1;
+  if (slot >= 0 && total > reserved_[static_cast<std::size_t>(slot)]) {
+    const std::size_t offset = header_of(*segment_).data_offset + static_cast<std::size_t>(slot) * slot_bytes_;
+    if (segment_->reserve(offset, total)) {
+      reserved_[static_cast<std::size_t>(slot)] = total;
+    } else {  // /dev/shm is full: this buffer stays free, the frame goes to the heap
+      states_of(*segment_)[slot].fetch_and(~kWriterBit, std::memory_order_release);
+      slot = -1;
+    }
+  }
   if (slot < 0) {
     ++heap_fallbacks_;
     return heap->allocate(dims, sizes, type, nullptr, step, flags, usage);

@@ -40,6 +40,13 @@ struct RingAddress {
   uint32_t generation = 0;
 };
 
+// The segment is sparse: only the frames written take memory, reserved
+// before a buffer is first handed out for that many bytes, so a full
+// /dev/shm means frames on the heap and failed writes (counted), never a
+// SIGBUS. Empty when `free_bytes` holds the whole ring, else the warning
+// that it may run out and what to change.
+std::string shared_memory_shortfall(std::size_t slot_bytes, uint32_t slots, std::size_t free_bytes);
+
 // "/saccade_ring_<pid>_<ring id, hex>": the segment's POSIX name.
 std::string ring_segment_name(uint32_t writer_pid, uint64_t ring_id);
 
@@ -52,8 +59,11 @@ class FrameRing final : public cv::MatAllocator {
   static constexpr uint32_t kMaxReaders = 16;
 
   // A ring of `slots` buffers of at least `slot_bytes` each; nullptr with
-  // `error` set when the segment cannot be made.
-  static std::shared_ptr<FrameRing> create(std::size_t slot_bytes, uint32_t slots, std::string* error);
+  // `error` set when the segment cannot be made. `warning`, when given, is
+  // set when /dev/shm has less room free than the whole ring (see
+  // shared_memory_shortfall).
+  static std::shared_ptr<FrameRing> create(std::size_t slot_bytes, uint32_t slots, std::string* error,
+                                           std::string* warning = nullptr);
 
   // A buffer of `bytes` (one row of CV_8U) for a frame to be copied into;
   // empty when the frame is larger than a buffer or every buffer is held.
@@ -102,6 +112,7 @@ class FrameRing final : public cv::MatAllocator {
   mutable uint64_t heap_fallbacks_ = 0;
   bool retired_ = false;  // its owner let go: deleted when local_holds_ drops to 0
   std::vector<std::unique_ptr<cv::UMatData>> umat_;
+  mutable std::vector<std::size_t> reserved_;  // bytes of each buffer given memory (posix_fallocate)
 };
 
 class RingMapping;

@@ -13,6 +13,7 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include "frame_ring.hpp"
+#include "saccade/log.hpp"
 #include "saccadePubSubTypes.h"
 #include "wire.hpp"
 
@@ -437,7 +438,11 @@ class RingSample final : public WireSample {
 
  private:
   FrameRing* ring(std::string& error) {
-    if (!ring_) ring_ = FrameRing::create(capacity_, slots_, &error);
+    if (!ring_) {
+      std::string warning;
+      ring_ = FrameRing::create(capacity_, slots_, &error, &warning);
+      if (!warning.empty()) log().warn("{}", warning);
+    }
     return ring_.get();
   }
 

@@ -1,10 +1,13 @@
 // The frame ring (plugins/dds/frame_ring.hpp): a writer's buffers in shared
 // memory that readers of other processes read in place, pinned while held.
+#include <sched.h>
 #include <sys/mman.h>
+#include <sys/mount.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <gtest/gtest.h>
 
@@ -179,6 +182,63 @@ TEST(FrameRing, MatsCreatedWithTheRingLiveInItAndARecycledOneIsNeverRewrittenInP
   make_exclusive(plain);
   plain.create(10, 10, CV_8UC1);
   EXPECT_TRUE(ring->locate(plain, at, offset));
+}
+
+TEST(FrameRing, ARingLargerThanTheFreeSharedMemoryIsWarnedAboutWithTheFix) {
+  EXPECT_EQ(saccade::dds::shared_memory_shortfall(4u << 20, 16, 64u << 20), "") << "exactly fits";
+  const std::string warning = saccade::dds::shared_memory_shortfall(4u << 20, 16, 60u << 20);
+  EXPECT_NE(warning.find("16 buffers of 4 MiB (64 MiB) exceed the 60 MiB free in /dev/shm"), std::string::npos)
+      << warning;
+  EXPECT_NE(warning.find("capacity"), std::string::npos) << warning;
+  std::string error, none = "unset";
+  auto ring = FrameRing::create(4096, 2, &error, &none);
+  ASSERT_TRUE(ring) << error;
+  EXPECT_EQ(none, "") << "this machine's /dev/shm holds 8 KiB";
+}
+
+// In a child with a user and mount namespace of its own and a 400 KiB
+// /dev/shm: exit 0 when a full /dev/shm sent frames to the heap instead of
+// killing the process, 1 when not, 2 when the namespaces cannot be made.
+int fill_a_small_shared_memory() {
+  const uid_t uid = getuid();
+  const gid_t gid = getgid();
+  if (unshare(CLONE_NEWUSER | CLONE_NEWNS) != 0) return 2;
+  auto write_file = [](const char* path, const std::string& text) {
+    FILE* f = std::fopen(path, "w");
+    if (f == nullptr) return false;
+    const bool ok = std::fputs(text.c_str(), f) >= 0;
+    return std::fclose(f) == 0 && ok;
+  };
+  if (!write_file("/proc/self/setgroups", "deny") || !write_file("/proc/self/uid_map", "0 " + std::to_string(uid) + " 1") ||
+      !write_file("/proc/self/gid_map", "0 " + std::to_string(gid) + " 1") ||
+      mount("none", "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
+      mount("tmpfs", "/dev/shm", "tmpfs", 0, "size=400k") != 0)
+    return 2;
+  std::string error;
+  auto ring = FrameRing::create(640 * 480, 4, &error);
+  if (!ring) return 1;
+  RingAddress at;
+  std::size_t offset = 0;
+  cv::Mat first, second;
+  first.allocator = second.allocator = ring.get();
+  first.create(480, 640, CV_8UC1);
+  first.setTo(1);
+  second.create(480, 640, CV_8UC1);  // no room left for a second 300 KiB buffer
+  second.setTo(2);
+  const bool ok = ring->locate(first, at, offset) && !ring->locate(second, at, offset) && ring->heap_fallbacks() == 1 &&
+                  ring->take(640 * 480).empty() && !ring->take(1000).empty() /* fits the first buffer's room */;
+  return ok ? 0 : 1;
+}
+
+TEST(FrameRing, AFullSharedMemorySendsFramesToTheHeapInsteadOfKillingTheProcess) {
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) _exit(fill_a_small_shared_memory());
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status)) << "the child died of signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  if (WEXITSTATUS(status) == 2) GTEST_SKIP() << "no user and mount namespaces here to make a small /dev/shm";
+  EXPECT_EQ(WEXITSTATUS(status), 0);
 }
 
 TEST(FrameRing, TheRingOutlivesItsOwnerWhileAMatHoldsOneOfItsBuffers) {
