@@ -324,8 +324,9 @@ class Subscribe final : public Node {
         missing_peer_at_ = 0;
         if (!listener_.ever_matched.load())
           log().warn("{}: no writer of {} has joined yet (is the other process running, on domain {}, with the same "
-                     "topic prefix?)",
-                     end_.node, end_.topic_name, domain_id_);
+                     "topic prefix? A writer of another type does not match: this end reads {}, which both ends' "
+                     "zero_copy, shared_memory and reliable settings decide)",
+                     end_.node, end_.topic_name, domain_id_, end_.topic->get_type_name());
       }
       reader_->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, 50'000'000));
     }

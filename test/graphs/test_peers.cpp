@@ -315,6 +315,7 @@ TEST(DdsPeers, AMissingPeerAnIncompatibleQosAndAMissedDeadlineAreReported) {
 
   EXPECT_TRUE(logged("no reader of " + base + "nobody after 100 ms"));
   EXPECT_TRUE(logged("no writer of " + base + "absent has joined yet"));
+  EXPECT_TRUE(logged("this end reads saccade_idl::Image, which both ends' zero_copy")) << "the type a writer must match";
   EXPECT_TRUE(logged("the writer of " + base + "mismatch offers an incompatible QoS (reliability); nothing will arrive"));
   EXPECT_TRUE(logged("a reader of " + base + "mismatch asks for an incompatible QoS (reliability)"));
   EXPECT_TRUE(logged("nothing on " + base + "deadline within its deadline"));
