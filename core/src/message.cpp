@@ -1,5 +1,6 @@
 #include "saccade/message.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "saccade/node.hpp"
@@ -81,6 +82,21 @@ void make_exclusive(cv::Mat& mat) {
   if (mat.u->refcount > 1 || (owner != cv::Mat::getStdAllocator() && owner != cv::Mat::getDefaultAllocator()) ||
       (mat.allocator != nullptr && mat.allocator != owner))
     mat.release();
+}
+
+void create_together(cv::MatAllocator* allocator, std::size_t count, cv::Size size, int type, std::vector<cv::Mat>& mats) {
+  const std::size_t bytes = static_cast<std::size_t>(size.area()) * CV_ELEM_SIZE(type);
+  const std::size_t stride = (bytes + 63) / 64 * 64;
+  cv::Mat buffer;
+  buffer.allocator = allocator;
+  buffer.create(1, static_cast<int>(std::max<std::size_t>(stride * count, 1)), CV_8U);
+  mats.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    cv::Mat view(size, type, buffer.data + k * stride);
+    view.u = buffer.u;  // shares the buffer's reference count, as an ROI does
+    CV_XADD(&buffer.u->refcount, 1);
+    mats[k] = std::move(view);
+  }
 }
 
 const std::vector<cv::Mat>* FeatureMaps::find(std::string_view name) const {

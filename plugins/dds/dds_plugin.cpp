@@ -42,13 +42,13 @@ Contract with_bridge_params(Contract c) {
       .param_bool("zero_copy", false,
                   "one host only: Image and Retina pixels stay in shared memory (both ends must agree; other types "
                   "ignore it); how: shared_memory")
-      .param_enum("shared_memory", "ring", {"ring", "loans"},
+      .param_enum("shared_memory", "auto", {"auto", "ring", "loans"},
                   "zero_copy: ring: the pixels stay in the writer's frame ring, readers read them in place (pinned "
                   "while their graph holds the frame) and a producer may write into the ring itself; loans: plain "
                   "fixed-capacity types through Fast DDS data sharing, the writer filling loaned samples, the reader "
-                  "copying out (what a plain Fast DDS peer reads). Reliable edges and DDS security always use loans "
-                  "(a ring of reused buffers cannot promise every frame to a slow reader; its pixels bypass "
-                  "encryption)")
+                  "copying out (what a plain Fast DDS peer reads); auto: ring for Image, loans for Retina (a few "
+                  "kilobytes travel faster loaned). Reliable edges and DDS security always use loans (a ring of "
+                  "reused buffers cannot promise every frame to a slow reader; its pixels bypass encryption)")
       .param_int("capacity", 0, 0, 1 << 30, "zero_copy: bytes of pixel data a ring buffer or sample holds (0: the type's "
                  "default, 4 MiB for Image, 1 MiB for Retina); loans use the smallest plain type at least this large")
       .param_int("ring_slots", 16, 4, 1024, "zero_copy ring: buffers in the writer's ring; a frame survives this many "
@@ -126,8 +126,13 @@ struct TopicEnd {
     if (!domain) return Status::error(error);
     // The ring's pixels bypass DDS security's encryption and access control,
     // and its buffers are reused whatever a reliable reader has not yet taken.
+    using SharedMemory = sd::CodecRequest::SharedMemory;
+    const std::string shm = p.get_string("shared_memory");
     sd::CodecRequest request{.zero_copy = p.get_bool("zero_copy"),
-                             .loans = p.get_string("shared_memory") == "loans" || domain->secure() || p.get_bool("reliable"),
+                             .shared_memory = shm == "loans" || domain->secure() || p.get_bool("reliable")
+                                                  ? SharedMemory::kLoans
+                                              : shm == "ring" ? SharedMemory::kRing
+                                                              : SharedMemory::kAuto,
                              .capacity = static_cast<std::size_t>(p.get_int("capacity")),
                              .ros2 = p.get_bool("ros2")};
     codec = sd::choose_codec(p.get_string("type"), request, &error);

@@ -193,8 +193,11 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
     return nullptr;
   }
   if (!request.zero_copy) return serialised;
-  if (!request.loans)
-    if (const Codec* ring = find_ring_codec(type)) return ring;
+  using SharedMemory = CodecRequest::SharedMemory;
+  const bool ring = request.shared_memory == SharedMemory::kRing ||
+                    (request.shared_memory == SharedMemory::kAuto && type == Image::kTypeName);
+  if (ring)
+    if (const Codec* c = find_ring_codec(type)) return c;
   if (const Codec* plain = find_plain_codec(type, request.capacity)) return plain;
   std::size_t largest = 0;
   for (const auto& c : plain_codecs())

@@ -149,8 +149,10 @@ struct Codec {
 
 // How an edge asks its type to travel.
 struct CodecRequest {
-  bool zero_copy = false;     // the frame ring, or the plain form with `loans`, when the type has one
-  bool loans = false;         // zero_copy through Fast DDS' loaned plain samples instead of the frame ring
+  bool zero_copy = false;     // the frame ring or the plain form, when the type has one
+  // zero_copy: kAuto is the frame ring for Image and loans for Retina, whose
+  // few kilobytes a loaned sample carries faster (docs/performance.md).
+  enum class SharedMemory { kAuto, kRing, kLoans } shared_memory = SharedMemory::kAuto;
   std::size_t capacity = 0;   // zero_copy: bytes the plain form must hold (0: the type's default)
   bool ros2 = false;          // the ROS 2 form (wins over zero_copy: ROS 2 cannot read plain types)
 };
@@ -169,10 +171,9 @@ const Codec* find_ros2_codec(std::string_view type);
 // The frame-ring codec of `type`; nullptr when the type has none.
 const Codec* find_ring_codec(std::string_view type);
 // The codec an edge uses: the ROS 2 form when asked (an error when the type has
-// none); with `zero_copy`, the frame ring when the type has one (Image, Retina),
-// or with `loans` the plain form holding `capacity` (an error naming the
-// largest when none is that large); else the serialised form. nullptr with
-// `error` set when there is none.
+// none); with `zero_copy`, the frame ring or the plain form holding `capacity`
+// as `shared_memory` says (a plain form too small is an error naming the
+// largest); else the serialised form. nullptr with `error` set when there is none.
 const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error);
 std::vector<std::string_view> codec_types();
 const std::vector<Codec>& plain_codecs();

@@ -50,6 +50,10 @@ class RetinaNode final : public Node {
     if (initial_fovea_) fovea = *initial_fovea_;
     if (auto f = ctx.get(fovea_in_)) fovea = f->center;
     auto retina = ctx.make(out_);
+    // A zero-copy DDS edge downstream: the levels are made in its frame ring, in one buffer.
+    if (cv::MatAllocator* ring = ctx.frame_allocator(out_))
+      create_together(ring, static_cast<std::size_t>(sampler_->config().levels), sampler_->config().size, frame->type(),
+                      retina->levels);
     sampler_->sample(*frame, fovea, *retina);
     retina->camera_id = image->camera_id;
     retina->source = image;

@@ -36,29 +36,13 @@ TEST(CaptureVideo, ReadsEveryFrameOfVtestWithMediaTimestamps) {
   EXPECT_GT(first->origin_ns, 0);
 }
 
-// OpenCV's heap allocator under another name: Mats made with it say so.
-struct NamedAllocator final : cv::MatAllocator {
-  mutable int made = 0;
-  cv::UMatData* allocate(int dims, const int* sizes, int type, void* data, size_t* step, cv::AccessFlag flags,
-                         cv::UMatUsageFlags usage) const override {
-    cv::UMatData* u = cv::Mat::getStdAllocator()->allocate(dims, sizes, type, data, step, flags, usage);
-    u->currAllocator = u->prevAllocator = this;
-    ++made;
-    return u;
-  }
-  bool allocate(cv::UMatData* u, cv::AccessFlag flags, cv::UMatUsageFlags usage) const override {
-    return cv::Mat::getStdAllocator()->allocate(u, flags, usage);
-  }
-  void deallocate(cv::UMatData* u) const override { cv::Mat::getStdAllocator()->deallocate(u); }
-};
-
 TEST(CaptureVideo, FramesAreMadeWithTheAllocatorAConsumerOffers) {
   const std::string path = sample_path("vtest.avi");
   for (const char* color : {"gray", "color"}) {  // vtest is colour: decoded in place, or converted into it
     const std::string xml = R"(<node plugin="capture.video"><param name="path" value=")" + path +
                             R"("/><param name="rate" value="fast"/><param name="color" value=")" + color +
                             R"("/></node>)";
-    NamedAllocator ring;  // outlives the harnesses' pooled frames it made
+    test::NamedAllocator ring;  // outlives the harnesses' pooled frames it made
     auto plain = harness(xml), offered = harness(xml);
     offered->set_frame_allocator("image", &ring);
     for (int i = 0; i < 5; ++i) {

@@ -527,6 +527,26 @@ TEST(DdsRing, RetinasTravelInOneBufferAndRoundTripBitExactly) {
   EXPECT_NE(dds::to_ring(r, *ring, hold, sample).find("at most 16 levels"), std::string::npos);
 }
 
+TEST(DdsRing, ARetinaWhoseLevelsWereMadeTogetherInTheRingIsNotCopiedAgain) {
+  auto ring = ring_of(1u << 20);
+  ASSERT_TRUE(ring);
+  Retina r = make_retina();
+  std::vector<cv::Mat> in_ring;
+  create_together(ring.get(), r.levels.size(), r.levels[0].size(), r.levels[0].type(), in_ring);
+  for (std::size_t k = 0; k < r.levels.size(); ++k) r.levels[k].copyTo(in_ring[k]);
+  Retina made = r;
+  made.levels = in_ring;
+  saccade_idl::plain::RetinaRef sample;
+  cv::Mat hold;
+  ASSERT_EQ(dds::to_ring(made, *ring, hold, sample), "");
+  EXPECT_TRUE(hold.empty()) << "no buffer taken for a copy";
+  dds::RingReader reader;
+  Retina back;
+  std::string why;
+  ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << why;
+  expect_same_retina(r, back);
+}
+
 TEST(DdsRing, AFrameLargerThanABufferIsRefusedWithTheFixAndAFullRingIsAFailedWrite) {
   auto ring = ring_of(1u << 20, 4);
   ASSERT_TRUE(ring);
@@ -568,14 +588,17 @@ TEST(DdsRing, MalformedHeadersAreRefusedNotCrashes) {
   expect_same_mat(image.mat, back.mat);
 }
 
-TEST(DdsRing, ZeroCopyPicksTheRingForFramesAndLoansWhenAsked) {
+TEST(DdsRing, ZeroCopyPicksTheRingForImagesLoansForRetinasOrWhatIsAsked) {
+  using SharedMemory = dds::CodecRequest::SharedMemory;
   std::string error;
+  EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true}, &error)->form, dds::Codec::Form::kRing);
+  EXPECT_EQ(dds::choose_codec("Retina", {.zero_copy = true}, &error)->form, dds::Codec::Form::kPlain);
   for (const char* type : {"Image", "Retina"}) {
-    const dds::Codec* ring = dds::choose_codec(type, {.zero_copy = true}, &error);
+    const dds::Codec* ring = dds::choose_codec(type, {.zero_copy = true, .shared_memory = SharedMemory::kRing}, &error);
     ASSERT_NE(ring, nullptr) << error;
     EXPECT_EQ(ring->form, dds::Codec::Form::kRing) << type;
     EXPECT_TRUE(ring->make_type()->is_plain()) << type << ": data sharing for the small sample too";
-    const dds::Codec* loans = dds::choose_codec(type, {.zero_copy = true, .loans = true}, &error);
+    const dds::Codec* loans = dds::choose_codec(type, {.zero_copy = true, .shared_memory = SharedMemory::kLoans}, &error);
     ASSERT_NE(loans, nullptr) << error;
     EXPECT_EQ(loans->form, dds::Codec::Form::kPlain) << type;
   }

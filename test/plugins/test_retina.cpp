@@ -193,6 +193,33 @@ TEST(RetinaNode, ReusesItsBuffersInSteadyState) {
   EXPECT_EQ(h->last<Retina>("retina")->levels[0].data, pixels);
 }
 
+TEST(RetinaNode, LevelsAreMadeTogetherInTheAllocatorAConsumerOffers) {
+  test::NamedAllocator ring;  // outlives the harnesses' pooled retinas it made
+  auto plain = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto offered = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  ASSERT_TRUE(plain && offered);
+  offered->set_frame_allocator("retina", &ring);
+  for (int i = 0; i < 3; ++i) {
+    auto image = std::make_shared<Image>();
+    image->mat = test::random_image({640, 480}, i, CV_8UC1);
+    plain->set("image", image);
+    offered->set("image", image);
+    ASSERT_TRUE(plain->process().ok());
+    ASSERT_TRUE(offered->process().ok());
+    auto a = plain->last<Retina>("retina");
+    auto b = offered->last<Retina>("retina");
+    ASSERT_EQ(b->levels.size(), a->levels.size());
+    for (std::size_t k = 0; k < b->levels.size(); ++k) {
+      ASSERT_NE(b->levels[k].u, nullptr);
+      EXPECT_EQ(b->levels[k].u, b->levels[0].u) << "one buffer for all levels";
+      EXPECT_EQ(b->levels[k].u->currAllocator, &ring);
+      EXPECT_EQ(b->levels[k].data, b->levels[0].data + k * 768) << "32x24 bytes a level, 64-byte aligned";
+      EXPECT_EQ(test::max_abs_diff(a->levels[k], b->levels[k]), 0) << "frame " << i << " level " << k;
+    }
+  }
+  EXPECT_EQ(ring.made, 3) << "one buffer a frame";
+}
+
 TEST(RetinaNode, RefusesFramesSmallerThanALevel) {
   auto h = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
   auto image = std::make_shared<Image>();

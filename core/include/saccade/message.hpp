@@ -45,6 +45,12 @@ using MessagePtr = std::shared_ptr<const Message>;
 // the next create() allocates a private one; keeps it (no allocation) otherwise.
 void make_exclusive(cv::Mat& mat);
 
+// Gives `mats` `count` Mats of `size` and `type` that share one buffer of
+// `allocator`, each from a 64-byte boundary: a consumer that sends from that
+// allocator's memory (a DDS edge's frame ring) then sends them all at once,
+// without a copy. The buffer lives as long as any of them.
+void create_together(cv::MatAllocator* allocator, std::size_t count, cv::Size size, int type, std::vector<cv::Mat>& mats);
+
 // Port type name that accepts every message type.
 inline constexpr std::string_view kAnyType = "any";
 
