@@ -137,7 +137,7 @@ struct SaccadeEnd {
     const EdgeQos qos = default_qos(p.saccade_type);
     settings.reliable = qos.reliable;
     settings.depth = qos.depth;
-    settings.zero_copy = codec->form == sd::Codec::Form::kPlain || codec->form == sd::Codec::Form::kRing;
+    settings.zero_copy = codec->shares_memory();
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) throw std::runtime_error(error);
     sample = codec->make_sample({});

@@ -91,12 +91,14 @@ void create_together(cv::MatAllocator* allocator, std::size_t count, cv::Size si
   buffer.allocator = allocator;
   buffer.create(1, static_cast<int>(std::max<std::size_t>(stride * count, 1)), CV_8U);
   mats.resize(count);
-  for (std::size_t k = 0; k < count; ++k) {
-    cv::Mat view(size, type, buffer.data + k * stride);
-    view.u = buffer.u;  // shares the buffer's reference count, as an ROI does
-    CV_XADD(&buffer.u->refcount, 1);
-    mats[k] = std::move(view);
-  }
+  for (std::size_t k = 0; k < count; ++k) mats[k] = view_of_buffer(buffer.u, buffer.data + k * stride, size, type);
+}
+
+cv::Mat view_of_buffer(cv::UMatData* u, uchar* data, cv::Size size, int type) {
+  cv::Mat view(size, type, data);
+  view.u = u;
+  CV_XADD(&u->refcount, 1);
+  return view;
 }
 
 const std::vector<cv::Mat>* FeatureMaps::find(std::string_view name) const {

@@ -97,7 +97,7 @@ sd::EdgeSettings edge_settings(const Params& p, const sd::Codec& codec) {
   s.reliable = p.get_bool("reliable");
   s.depth = static_cast<int>(p.get_int("depth"));
   s.deadline_ms = p.get_double("deadline_ms");
-  s.zero_copy = codec.form == sd::Codec::Form::kPlain || codec.form == sd::Codec::Form::kRing;
+  s.zero_copy = codec.shares_memory();
   return s;
 }
 

@@ -14,6 +14,8 @@
 #include <cstring>
 #include <random>
 
+#include "saccade/message.hpp"
+
 namespace saccade::dds {
 
 namespace {
@@ -419,10 +421,7 @@ class RingMapping final : public cv::MatAllocator {
       pinned_[at.slot] = true;
       ++pins_;
     }
-    cv::Mat view(rows, cols, type, slot_data(*segment_, at.slot) + offset);
-    view.u = u;
-    CV_XADD(&u->refcount, 1);
-    out = std::move(view);
+    out = view_of_buffer(u, slot_data(*segment_, at.slot) + offset, {cols, rows}, type);
     return true;
   }
 

@@ -180,29 +180,39 @@ inline void read_fence() {
 #endif
 }
 
+// Both shared-memory forms write a sample loaned from the data-sharing pool:
+// `fill` fills it from `message`, or, without one, it says the stream ended.
+// `fill` returns empty, kRingFull (nothing written, counted as a failed
+// write like an exhausted pool) or why the message does not fit.
+template <class P, class Fill>
+Status write_loaned(fdds::DataWriter& writer, const Message* message, bool& written, Fill&& fill) {
+  written = false;
+  void* memory = nullptr;
+  if (writer.loan_sample(memory) != ReturnCode_t::RETCODE_OK) return {};  // pool exhausted: counted as a failed write
+  P& sample = *static_cast<P*>(memory);
+  if (message == nullptr) {
+    sample.stamp().timestamp_ns(0);
+    sample.stamp().origin_ns(0);
+    sample.stamp().frame_id(-1);
+    sample.stamp().flags(kEndOfStream);
+    if constexpr (requires { sample.size(0u); }) sample.size(0);
+  } else if (std::string why = fill(sample); !why.empty()) {
+    writer.discard_loan(memory);
+    return why == kRingFull ? Status{} : Status::error(why);
+  }
+  written = writer.write(memory);
+  if (!written) writer.discard_loan(memory);
+  return {};
+}
+
 // A plain sample is never held by the bridge: the writer loans one per
 // message from the data-sharing pool, the reader loans the writer's.
 template <class M, class P>
 class PlainSample final : public WireSample {
  public:
   Status write(fdds::DataWriter& writer, const Message* message, bool& written) override {
-    written = false;
-    void* memory = nullptr;
-    if (writer.loan_sample(memory) != ReturnCode_t::RETCODE_OK) return {};  // pool exhausted: counted as a failed write
-    P& sample = *static_cast<P*>(memory);
-    if (message == nullptr) {
-      sample.stamp().timestamp_ns(0);
-      sample.stamp().origin_ns(0);
-      sample.stamp().frame_id(-1);
-      sample.stamp().flags(kEndOfStream);
-      sample.size(0);
-    } else if (std::string error = to_plain(static_cast<const M&>(*message), sample); !error.empty()) {
-      writer.discard_loan(memory);
-      return Status::error(error);
-    }
-    written = writer.write(memory);
-    if (!written) writer.discard_loan(memory);
-    return {};
+    return write_loaned<P>(writer, message, written,
+                           [&](P& sample) { return to_plain(static_cast<const M&>(*message), sample); });
   }
 
   Taken take(fdds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) override {
@@ -393,23 +403,12 @@ class RingSample final : public WireSample {
     written = false;
     std::string error;
     if (message != nullptr && ring(error) == nullptr) return Status::error(error);
-    void* memory = nullptr;
-    if (writer.loan_sample(memory) != ReturnCode_t::RETCODE_OK) return {};  // pool exhausted: counted as a failed write
-    P& sample = *static_cast<P*>(memory);
     cv::Mat hold;  // the buffer a copied frame went into, held until it is written
-    if (message == nullptr) {
-      sample.stamp().timestamp_ns(0);
-      sample.stamp().origin_ns(0);
-      sample.stamp().frame_id(-1);
-      sample.stamp().flags(kEndOfStream);
-    } else if (std::string why = to_ring(static_cast<const M&>(*message), *ring_, hold, sample); !why.empty()) {
-      writer.discard_loan(memory);
-      return why == kRingFull ? Status{} : Status::error(why);
-    }
+    Status s = write_loaned<P>(writer, message, written, [&](P& sample) {
+      return to_ring(static_cast<const M&>(*message), *ring_, hold, sample);
+    });
     if (!hold.empty()) ++written_copied_;
-    written = writer.write(memory);
-    if (!written) writer.discard_loan(memory);
-    return {};
+    return s;
   }
 
   uint64_t frames_copied() const override { return written_copied_ + frames_.copied(); }

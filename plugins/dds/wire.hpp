@@ -145,6 +145,9 @@ struct Codec {
   std::size_t capacity = 0;  // kPlain: bytes of data a sample holds
   std::unique_ptr<eprosima::fastdds::dds::TopicDataType> (*make_type)();
   std::unique_ptr<WireSample> (*make_sample)(const WireOptions&);
+
+  // Plain samples in the writer's data-sharing pool (loans, or the ring's small samples).
+  bool shares_memory() const { return form == Form::kPlain || form == Form::kRing; }
 };
 
 // How an edge asks its type to travel.

@@ -45,6 +45,10 @@ using MessagePtr = std::shared_ptr<const Message>;
 // the next create() allocates a private one; keeps it (no allocation) otherwise.
 void make_exclusive(cv::Mat& mat);
 
+// A Mat of `size` and `type` over `data`, bytes inside the buffer `u` holds,
+// that keeps that buffer alive as an ROI of it does (one more reference on `u`).
+cv::Mat view_of_buffer(cv::UMatData* u, uchar* data, cv::Size size, int type);
+
 // Gives `mats` `count` Mats of `size` and `type` that share one buffer of
 // `allocator`, each from a 64-byte boundary: a consumer that sends from that
 // allocator's memory (a DDS edge's frame ring) then sends them all at once,
