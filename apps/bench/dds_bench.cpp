@@ -50,6 +50,12 @@ int64_t now_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
+int64_t process_cpu_ns() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
+}
+
 struct Options {
   std::string role = "driver", payload = "all", variant = "all";
   int messages = 2000;
@@ -199,7 +205,7 @@ struct SaccadeReader final : Reader {
     seq = static_cast<uint64_t>(slot->frame_id);
     return true;
   }
-  void wait(int ms) override { reader->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, ms * 1'000'000u)); }
+  void wait(int ms) override { end.sample->wait(*reader, ms); }
 };
 
 // A participant of its own with Fast DDS' default QoS (the peers do not share saccade's).
@@ -384,6 +390,9 @@ int run_reader(const Options& o) {
   latency.reserve(static_cast<std::size_t>(o.messages));
   uint64_t throughput_count = 0;
   int64_t first_ns = 0, last_ns = 0, last_seen = now_ns();
+  // The reader process's CPU (all its threads) over the paced phase, as a
+  // share of one core: what waiting for frames costs, sleeping or spinning.
+  int64_t paced_cpu0 = -1, paced_wall0 = 0, paced_cpu1 = 0, paced_wall1 = 0;
   const int64_t give_up = now_ns() + 60'000'000'000;
   std::printf("ready\n");
   std::fflush(stdout);
@@ -394,6 +403,12 @@ int run_reader(const Options& o) {
       last_seen = now_ns();
       if (seq < static_cast<uint64_t>(o.messages)) {
         latency.push_back(ns);
+        if (paced_cpu0 < 0) {
+          paced_cpu0 = process_cpu_ns();
+          paced_wall0 = last_seen;
+        }
+        paced_cpu1 = process_cpu_ns();
+        paced_wall1 = last_seen;
       } else {
         if (throughput_count++ == 0) first_ns = last_seen;
         last_ns = last_seen;
@@ -408,14 +423,16 @@ int run_reader(const Options& o) {
     return latency.empty() ? 0.0 : latency[std::min(latency.size() - 1, static_cast<std::size_t>(q * latency.size()))] / 1e3;
   };
   const double span_s = (last_ns - first_ns) / 1e9;
-  std::printf("result %zu %.1f %.1f %.1f %.1f\n", latency.size(), pct(0.5), pct(0.99), latency.empty() ? 0.0 : latency.back() / 1e3,
-              throughput_count > 1 && span_s > 0 ? (throughput_count - 1) / span_s : 0.0);
+  const double cpu = paced_wall1 > paced_wall0 ? 100.0 * (paced_cpu1 - paced_cpu0) / (paced_wall1 - paced_wall0) : 0.0;
+  std::printf("result %zu %.1f %.1f %.1f %.1f %.1f\n", latency.size(), pct(0.5), pct(0.99),
+              latency.empty() ? 0.0 : latency.back() / 1e3, throughput_count > 1 && span_s > 0 ? (throughput_count - 1) / span_s : 0.0,
+              cpu);
   return 0;
 }
 
 struct Result {
   std::size_t received = 0;
-  double p50 = 0, p99 = 0, max = 0, per_s = 0;
+  double p50 = 0, p99 = 0, max = 0, per_s = 0, cpu = 0;
   bool ok = false;
   int status = 0;  // the reader's wait status
 };
@@ -461,7 +478,8 @@ Result run_case(const Options& o, const char* self, const PayloadKind& k, const 
     const int64_t stop = now_ns() + static_cast<int64_t>(o.throughput_s * 1e9);
     for (uint64_t seq = static_cast<uint64_t>(o.messages); now_ns() < stop; ++seq) writer->write(seq);
     while (std::fgets(line, sizeof line, from_child) != nullptr) {
-      if (std::sscanf(line, "result %zu %lf %lf %lf %lf", &r.received, &r.p50, &r.p99, &r.max, &r.per_s) == 5) r.ok = true;
+      if (std::sscanf(line, "result %zu %lf %lf %lf %lf %lf", &r.received, &r.p50, &r.p99, &r.max, &r.per_s, &r.cpu) == 6)
+        r.ok = true;
     }
   }
   std::fclose(from_child);
@@ -489,8 +507,8 @@ int main(int argc, char** argv) {
   }
   try {
     if (o.role == "reader") return run_reader(o);
-    std::printf("%-8s %-16s %9s %10s %10s %10s %12s %10s\n", "payload", "edge", "received", "p50_us", "p99_us", "max_us",
-                "msgs_per_s", "MB_per_s");
+    std::printf("%-8s %-16s %9s %10s %10s %10s %12s %10s %8s\n", "payload", "edge", "received", "p50_us", "p99_us", "max_us",
+                "msgs_per_s", "MB_per_s", "cpu_%");
     for (const auto& k : kPayloads) {
       if (o.payload != "all" && o.payload != k.name) continue;
       for (const char* variant : kVariants) {
@@ -502,8 +520,8 @@ int main(int argc, char** argv) {
                       WIFSIGNALED(r.status) ? WTERMSIG(r.status) : WEXITSTATUS(r.status));
           continue;
         }
-        std::printf("%-8s %-16s %5zu/%-4d %10.1f %10.1f %10.1f %12.0f %10.1f\n", k.name, variant, r.received, o.messages, r.p50,
-                    r.p99, r.max, r.per_s, r.per_s * static_cast<double>(k.bytes) / 1e6);
+        std::printf("%-8s %-16s %5zu/%-4d %10.1f %10.1f %10.1f %12.0f %10.1f %8.1f\n", k.name, variant, r.received, o.messages,
+                    r.p50, r.p99, r.max, r.per_s, r.per_s * static_cast<double>(k.bytes) / 1e6, r.cpu);
         std::fflush(stdout);
       }
     }

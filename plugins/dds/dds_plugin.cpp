@@ -268,6 +268,7 @@ class Publish final : public Node {
   std::atomic<uint64_t>* written_ = nullptr;
   std::atomic<uint64_t>* failed_ = nullptr;
   std::atomic<uint64_t>* copied_ = nullptr;
+  std::atomic<uint64_t>* mailed_ = nullptr;
 };
 
 class Subscribe final : public Node {
@@ -297,6 +298,7 @@ class Subscribe final : public Node {
     listener_.events.deadlines_missed = &ctx.counter("deadlines_missed");
     unreadable_ = &ctx.counter("unreadable");
     copied_ = &ctx.counter("copied_frames");
+    mailed_ = &ctx.counter("mailbox_frames");
     same_clock_ = p.get_bool("same_clock");
     const double missing_ms = p.get_double("missing_peer_ms");
     missing_peer_at_ = missing_ms > 0 ? steady_now_ns() + static_cast<int64_t>(missing_ms * 1e6) : 0;
@@ -312,6 +314,7 @@ class Subscribe final : public Node {
       switch (end_.sample->take(*reader_, &ctx, out_.index, message)) {
         case sd::WireSample::Taken::kMessage:
           copied_->store(end_.sample->frames_copied(), std::memory_order_relaxed);
+          mailed_->store(end_.sample->frames_mailed(), std::memory_order_relaxed);
           // Not yet shared with anyone: this node made it.
           if (!same_clock_) std::const_pointer_cast<Message>(message)->origin_ns = steady_now_ns();
           ctx.emit(out_, std::move(message));
@@ -333,7 +336,7 @@ class Subscribe final : public Node {
                      "zero_copy, shared_memory and reliable settings decide)",
                      end_.node, end_.topic_name, domain_id_, end_.topic->get_type_name());
       }
-      reader_->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, 50'000'000));
+      end_.sample->wait(*reader_, 50);
     }
     return {};
   }
@@ -390,6 +393,7 @@ class Subscribe final : public Node {
   int domain_id_ = 0;
   std::atomic<uint64_t>* unreadable_ = nullptr;
   std::atomic<uint64_t>* copied_ = nullptr;
+  std::atomic<uint64_t>* mailed_ = nullptr;
 };
 
 }  // namespace

@@ -1,7 +1,10 @@
 #include "frame_ring.hpp"
 
 #include <fcntl.h>
+#include <linux/futex.h>
+#include <sched.h>
 #include <signal.h>
+#include <sys/syscall.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
@@ -12,6 +15,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <random>
 
 #include "saccade/message.hpp"
@@ -21,7 +25,7 @@ namespace saccade::dds {
 namespace {
 
 constexpr uint64_t kMagic = 0x676e6972'63636173ull;  // "saccring"
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2: the mailbox
 constexpr uint64_t kWriterBit = 1ull << 31;
 constexpr uint64_t kReaderBits = (1ull << FrameRing::kMaxReaders) - 1;
 constexpr uint64_t kHoldBits = kWriterBit | kReaderBits;
@@ -46,8 +50,42 @@ struct RingHeader {
   std::atomic<int32_t> reader_pid[FrameRing::kMaxReaders];
 };
 
+// The last sample the writer posted, behind a sequence lock: `sequence` is
+// odd while the writer copies it in, twice the post number once it is
+// whole. The words are atomics so that a reader racing the writer reads
+// stale or mixed words (which the sequence then rejects), never undefined
+// behaviour. `doorbell` (the post number's low 32 bits, a futex) wakes
+// `waiters`; `closed` says the writer let go of the ring.
+struct RingMailbox {
+  alignas(64) std::atomic<uint64_t> sequence;
+  std::atomic<uint32_t> doorbell;
+  std::atomic<uint32_t> waiters;
+  std::atomic<uint32_t> closed;
+  std::atomic<uint32_t> bytes;
+  alignas(64) std::atomic<uint64_t> words[FrameRing::kMailBytes / 8];
+};
+
+static_assert(std::atomic<uint32_t>::is_always_lock_free && sizeof(std::atomic<uint32_t>) == sizeof(uint32_t),
+              "the doorbell is a futex: a plain 32-bit word");
+
 std::size_t states_offset() { return round_up(sizeof(RingHeader), 64); }
-std::size_t data_offset(uint32_t slots) { return round_up(states_offset() + slots * sizeof(uint64_t), kPage); }
+std::size_t mailbox_offset(uint32_t slots) { return round_up(states_offset() + slots * sizeof(uint64_t), 64); }
+std::size_t data_offset(uint32_t slots) { return round_up(mailbox_offset(slots) + sizeof(RingMailbox), kPage); }
+
+// Between processes: no FUTEX_PRIVATE_FLAG.
+long futex_wait(std::atomic<uint32_t>& word, uint32_t expected, int64_t timeout_ns) {
+  timespec timeout{static_cast<time_t>(timeout_ns / 1'000'000'000), static_cast<long>(timeout_ns % 1'000'000'000)};
+  return ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAIT, expected, &timeout, nullptr, 0);
+}
+inline void cpu_relax() {
+#if defined(__x86_64__)
+  __builtin_ia32_pause();
+#endif
+}
+
+void futex_wake_all(std::atomic<uint32_t>& word) {
+  ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0);
+}
 
 bool process_is_gone(int32_t pid) { return ::kill(pid, 0) != 0 && errno == ESRCH; }
 
@@ -151,6 +189,9 @@ RingHeader& header_of(const SharedSegment& s) { return *reinterpret_cast<RingHea
 std::atomic<uint64_t>* states_of(const SharedSegment& s) {
   return reinterpret_cast<std::atomic<uint64_t>*>(s.base() + states_offset());
 }
+RingMailbox& mailbox_of(const SharedSegment& s) {
+  return *reinterpret_cast<RingMailbox*>(s.base() + mailbox_offset(header_of(s).slots));
+}
 uint8_t* slot_data(const SharedSegment& s, uint32_t slot) {
   const RingHeader& h = header_of(s);
   return s.base() + h.data_offset + static_cast<std::size_t>(slot) * h.slot_bytes;
@@ -169,6 +210,10 @@ struct RingRelease {
       std::lock_guard lock(ring->mu_);
       ring->retired_ = true;
       ring->segment_->unlink();  // no reader opens it any more; mapped ones stay valid
+      RingMailbox& mail = mailbox_of(*ring->segment_);
+      mail.closed.store(1, std::memory_order_seq_cst);
+      mail.doorbell.fetch_add(1, std::memory_order_seq_cst);  // its followers go back to DDS now
+      futex_wake_all(mail.doorbell);
       last = ring->local_holds_ == 0;
     }
     if (last) delete ring;
@@ -214,6 +259,7 @@ std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t sl
   for (auto& pid : h->reader_pid) pid.store(0, std::memory_order_relaxed);
   std::atomic<uint64_t>* states = states_of(*ring->segment_);
   for (uint32_t i = 0; i < slots; ++i) new (&states[i]) std::atomic<uint64_t>(0);
+  new (ring->segment_->base() + mailbox_offset(slots)) RingMailbox();
   // Readers open the ring only once a DDS sample names it, after all this.
   h->magic = kMagic;
   ring->reserved_.assign(slots, 0);
@@ -311,6 +357,29 @@ bool FrameRing::locate(const cv::Mat& mat, RingAddress& at, std::size_t& offset)
   return true;
 }
 
+uint64_t FrameRing::next_post() const {
+  return mailbox_of(*segment_).sequence.load(std::memory_order_relaxed) / 2 + 1;
+}
+
+void FrameRing::post(const void* sample, std::size_t bytes) {
+  RingMailbox& mail = mailbox_of(*segment_);
+  bytes = std::min(bytes, kMailBytes);
+  uint64_t words[kMailBytes / 8];
+  const std::size_t n = (bytes + 7) / 8;
+  words[n - 1] = 0;
+  std::memcpy(words, sample, bytes);
+  const uint64_t sequence = mail.sequence.load(std::memory_order_relaxed);
+  mail.sequence.store(sequence + 1, std::memory_order_relaxed);
+  std::atomic_thread_fence(std::memory_order_release);
+  for (std::size_t i = 0; i < n; ++i) mail.words[i].store(words[i], std::memory_order_relaxed);
+  mail.bytes.store(static_cast<uint32_t>(bytes), std::memory_order_relaxed);
+  mail.sequence.store(sequence + 2, std::memory_order_release);
+  // seq_cst with the waiters' count: a reader either sees the new doorbell
+  // before it sleeps, or counted itself before this looks (no lost wake-up).
+  mail.doorbell.store(static_cast<uint32_t>(sequence / 2 + 1), std::memory_order_seq_cst);
+  if (mail.waiters.load(std::memory_order_seq_cst) != 0) futex_wake_all(mail.doorbell);
+}
+
 int FrameRing::release_dead_readers() const {
   RingHeader& h = header_of(*segment_);
   std::atomic<uint64_t>* states = states_of(*segment_);
@@ -373,6 +442,7 @@ class RingMapping final : public cv::MatAllocator {
   }
 
   bool same_ring(const RingAddress& at) const { return at.writer_pid == at_.writer_pid && at.ring_id == at_.ring_id; }
+  RingMailbox& mailbox() const { return mailbox_of(*segment_); }
 
   bool pin(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out, std::string& why,
            bool& overwritten, bool& copied) {
@@ -487,6 +557,7 @@ RingMapping* RingReader::find_or_open(const RingAddress& at, std::string& why) {
   // A new writer (the old one restarted): earlier rings go once nothing pins them.
   for (auto it = mappings_.begin(); it != mappings_.end();) {
     if ((*it)->idle()) {
+      if (*it == followed_) followed_ = nullptr;
       (*it)->retire();
       it = mappings_.erase(it);
     } else {
@@ -506,6 +577,58 @@ bool RingReader::view(const RingAddress& at, std::size_t offset, int rows, int c
   overwritten_ += overwritten ? 1 : 0;
   copied_ += copied ? 1 : 0;
   return ok;
+}
+
+bool RingReader::follow(const RingAddress& at, std::string& why) {
+  RingMapping* m = find_or_open(at, why);
+  followed_ = m;
+  return m != nullptr;
+}
+
+bool RingReader::follows(const RingAddress& at) const { return followed_ != nullptr && followed_->same_ring(at); }
+
+bool RingReader::mail(uint64_t after, void* out, std::size_t bytes, uint64_t& post) {
+  if (followed_ == nullptr) return false;
+  RingMailbox& mail = followed_->mailbox();
+  uint64_t words[FrameRing::kMailBytes / 8];
+  const std::size_t n = (std::min(bytes, FrameRing::kMailBytes) + 7) / 8;
+  // The writer copies a sample in well under a microsecond: wait that out,
+  // but never for a writer that died in the middle of a post (~1 ms at most).
+  for (int attempt = 0; attempt < 20000; ++attempt) {
+    const uint64_t sequence = mail.sequence.load(std::memory_order_acquire);
+    if (sequence / 2 <= after) return false;
+    if (sequence & 1) {
+      if (attempt >= 1000) sched_yield();
+      else cpu_relax();
+      continue;
+    }
+    for (std::size_t i = 0; i < n; ++i) words[i] = mail.words[i].load(std::memory_order_relaxed);
+    const uint32_t posted_bytes = mail.bytes.load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (mail.sequence.load(std::memory_order_relaxed) != sequence) continue;
+    if (posted_bytes != bytes) {  // not the sample type this reader reads: DDS only
+      followed_ = nullptr;
+      return false;
+    }
+    std::memcpy(out, words, bytes);
+    post = sequence / 2;
+    ++mailed_;
+    return true;
+  }
+  return false;
+}
+
+bool RingReader::wait_mail(uint64_t after, int64_t timeout_ns) {
+  if (followed_ == nullptr) return false;
+  RingMailbox& mail = followed_->mailbox();
+  mail.waiters.fetch_add(1, std::memory_order_seq_cst);
+  const uint32_t doorbell = mail.doorbell.load(std::memory_order_seq_cst);
+  if (mail.closed.load(std::memory_order_seq_cst) == 0 && doorbell == static_cast<uint32_t>(after))
+    futex_wait(mail.doorbell, doorbell, std::max<int64_t>(timeout_ns, 1));
+  mail.waiters.fetch_sub(1, std::memory_order_seq_cst);
+  const bool closed = mail.closed.load(std::memory_order_seq_cst) != 0;
+  if (closed) followed_ = nullptr;
+  return !closed;
 }
 
 }  // namespace saccade::dds

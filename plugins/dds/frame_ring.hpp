@@ -20,6 +20,15 @@
 // writer took again meanwhile is reported lost, never read torn; the writer
 // takes only buffers nobody holds, round robin, so a frame survives the
 // writer's next `slots - 1` frames even unpinned.
+//
+// The ring also has a mailbox: the writer posts each frame's DDS sample there
+// as well and rings a doorbell (a futex in the segment), so a reader on the
+// same host is woken once, by the writer itself, instead of through Fast
+// DDS' listener thread and then its own (two hand-offs between threads, most
+// of an in-place edge's latency). DDS still carries every sample (the first
+// one names the ring; a restarted writer's new ring; every reader the
+// mailbox does not serve); a reader drops the DDS copies of what its mailbox
+// gave it by the post number each sample carries.
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -57,6 +66,7 @@ class SharedSegment;
 class FrameRing final : public cv::MatAllocator {
  public:
   static constexpr uint32_t kMaxReaders = 16;
+  static constexpr std::size_t kMailBytes = 2048;  // the largest sample the mailbox holds
 
   // A ring of `slots` buffers of at least `slot_bytes` each; nullptr with
   // `error` set when the segment cannot be made. `warning`, when given, is
@@ -71,6 +81,12 @@ class FrameRing final : public cv::MatAllocator {
   // Where `mat`'s first byte lies when its buffer is one of this ring's:
   // the buffer's address and the byte's offset in it.
   bool locate(const cv::Mat& mat, RingAddress& at, std::size_t& offset) const;
+
+  // The number the next post() gets (1, 2, ...): put it in the sample first.
+  uint64_t next_post() const;
+  // Copies `bytes` of `sample` (at most kMailBytes) into the mailbox, replacing
+  // what was there, and wakes the readers waiting for it. One thread posts.
+  void post(const void* sample, std::size_t bytes);
 
   // Readers whose process died keep their pins until the writer notices:
   // take() does, when it finds every buffer held. Returns how many it dropped.
@@ -134,6 +150,23 @@ class RingReader {
   // (counted: a lost frame).
   bool view(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out, std::string& why);
 
+  // The mailbox of the ring `at` lies in (mapped now if it is not) becomes the
+  // one mail() and wait_mail() read. False with `why` when it cannot be opened.
+  bool follow(const RingAddress& at, std::string& why);
+  bool following() const { return followed_ != nullptr; }
+  // Whether `at` lies in the followed ring.
+  bool follows(const RingAddress& at) const;
+  // The newest sample posted to the followed ring after post number `after`:
+  // copied into `out` (`bytes` of it), its number in `post`. False when there
+  // is none (or no ring is followed).
+  bool mail(uint64_t after, void* out, std::size_t bytes, uint64_t& post);
+  // Sleeps until the followed ring's writer posts after `after`, or
+  // `timeout_ns` pass. False at once when no ring is followed or its writer
+  // closed it (let go of the ring: a new one comes through DDS).
+  bool wait_mail(uint64_t after, int64_t timeout_ns);
+  // Samples mail() gave.
+  uint64_t mailed() const { return mailed_; }
+
   // Rings mapped now (the current writer's, and earlier ones still pinned).
   std::size_t mapped() const { return mappings_.size(); }
   // Frames copied out because this reader held too many buffers.
@@ -144,6 +177,8 @@ class RingReader {
  private:
   RingMapping* find_or_open(const RingAddress& at, std::string& why);
   std::vector<RingMapping*> mappings_;
+  RingMapping* followed_ = nullptr;  // one of mappings_
+  uint64_t mailed_ = 0;
   uint64_t copied_ = 0;
   uint64_t overwritten_ = 0;
 };

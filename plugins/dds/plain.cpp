@@ -184,8 +184,9 @@ inline void read_fence() {
 // `fill` fills it from `message`, or, without one, it says the stream ended.
 // `fill` returns empty, kRingFull (nothing written, counted as a failed
 // write like an exhausted pool) or why the message does not fit.
-template <class P, class Fill>
-Status write_loaned(fdds::DataWriter& writer, const Message* message, bool& written, Fill&& fill) {
+// `end` completes an end-of-stream sample.
+template <class P, class Fill, class End>
+Status write_loaned(fdds::DataWriter& writer, const Message* message, bool& written, Fill&& fill, End&& end) {
   written = false;
   void* memory = nullptr;
   if (writer.loan_sample(memory) != ReturnCode_t::RETCODE_OK) return {};  // pool exhausted: counted as a failed write
@@ -196,6 +197,7 @@ Status write_loaned(fdds::DataWriter& writer, const Message* message, bool& writ
     sample.stamp().frame_id(-1);
     sample.stamp().flags(kEndOfStream);
     if constexpr (requires { sample.size(0u); }) sample.size(0);
+    end(sample);
   } else if (std::string why = fill(sample); !why.empty()) {
     writer.discard_loan(memory);
     return why == kRingFull ? Status{} : Status::error(why);
@@ -211,8 +213,9 @@ template <class M, class P>
 class PlainSample final : public WireSample {
  public:
   Status write(fdds::DataWriter& writer, const Message* message, bool& written) override {
-    return write_loaned<P>(writer, message, written,
-                           [&](P& sample) { return to_plain(static_cast<const M&>(*message), sample); });
+    return write_loaned<P>(
+        writer, message, written, [&](P& sample) { return to_plain(static_cast<const M&>(*message), sample); },
+        [](P&) {});
   }
 
   Taken take(fdds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) override {
@@ -404,30 +407,83 @@ class RingSample final : public WireSample {
     std::string error;
     if (message != nullptr && ring(error) == nullptr) return Status::error(error);
     cv::Mat hold;  // the buffer a copied frame went into, held until it is written
-    Status s = write_loaned<P>(writer, message, written, [&](P& sample) {
-      return to_ring(static_cast<const M&>(*message), *ring_, hold, sample);
-    });
+    // Posted to the ring's mailbox before DDS writes it: the readers there
+    // wake while DDS still hands the sample on (it then counts as delivered
+    // to them even if DDS refuses it).
+    auto post = [&](P& sample) {
+      sample.ring().post(ring_->next_post());
+      ring_->post(&sample, sizeof sample);
+    };
+    Status s = write_loaned<P>(
+        writer, message, written,
+        [&](P& sample) {
+          std::string why = to_ring(static_cast<const M&>(*message), *ring_, hold, sample);
+          if (why.empty()) post(sample);
+          return why;
+        },
+        [&](P& sample) {
+          // The end names the ring too, so that readers drop DDS' copy of what the mailbox gave them.
+          sample.ring(wp::RingRef{});
+          if (!ring_) return;
+          ring_to_wire({.writer_pid = static_cast<uint32_t>(::getpid()), .ring_id = ring_->ring_id()}, sample.ring());
+          post(sample);
+        });
     if (!hold.empty()) ++written_copied_;
     return s;
   }
 
   uint64_t frames_copied() const override { return written_copied_ + frames_.copied(); }
 
+  // The mailbox of the ring the last sample came from first (its newest
+  // sample, if newer than what this reader had), then DDS, whose copies of
+  // what the mailbox gave are dropped.
   Taken take(fdds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) override {
-    if (reader.take(samples_, infos_, 1) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
-    bool copied = samples_.length() == 1 && infos_[0].valid_data;
-    if (copied) {
-      // Fast DDS' keep-last pool may reuse the sample while it is copied: seen as a changed frame id.
-      const P& sample = samples_[0];
-      const int64_t frame = sample.stamp().frame_id();
-      read_fence();
-      copy_ = sample;
-      read_fence();
-      copied = sample.stamp().frame_id() == frame;
-    }
-    reader.return_loan(samples_, infos_);
     why_.clear();
-    if (!copied) return Taken::kUnreadable;
+    uint64_t post = 0;
+    if (frames_.mail(last_post_, &copy_, sizeof copy_, post)) {
+      last_post_ = post;
+      return deliver(ctx, output, slot);
+    }
+    for (;;) {
+      if (reader.take(samples_, infos_, 1) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
+      bool copied = samples_.length() == 1 && infos_[0].valid_data;
+      if (copied) {
+        // Fast DDS' keep-last pool may reuse the sample while it is copied: seen as a changed frame id.
+        const P& sample = samples_[0];
+        const int64_t frame = sample.stamp().frame_id();
+        read_fence();
+        copy_ = sample;
+        read_fence();
+        copied = sample.stamp().frame_id() == frame;
+      }
+      reader.return_loan(samples_, infos_);
+      if (!copied) return Taken::kUnreadable;
+      const RingAddress at = ring_from_wire(copy_.ring());
+      post = copy_.ring().post();
+      if (post != 0 && !frames_.follows(at)) {
+        std::string ignored;  // a ring that cannot be opened says why when its frame is read
+        frames_.follow(at, ignored);
+        last_post_ = 0;
+      }
+      if (post != 0 && frames_.follows(at)) {
+        if (post <= last_post_) continue;  // the mailbox gave it already
+        last_post_ = post;
+      }
+      return deliver(ctx, output, slot);
+    }
+  }
+
+  // Sleeps on the followed ring's doorbell, or, without one, on DDS.
+  void wait(fdds::DataReader& reader, int timeout_ms) override {
+    if (reader.get_unread_count() > 0) return;
+    if (frames_.wait_mail(last_post_, static_cast<int64_t>(timeout_ms) * 1'000'000)) return;
+    reader.wait_for_unread_message(eprosima::fastrtps::Duration_t(0, static_cast<uint32_t>(timeout_ms) * 1'000'000u));
+  }
+
+  uint64_t frames_mailed() const override { return frames_.mailed(); }
+
+ private:
+  Taken deliver(ProcessContext* ctx, int output, MessagePtr& slot) {
     if (copy_.stamp().flags() & kEndOfStream) return Taken::kEnd;
     std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
     if (!from_ring(copy_, frames_, *m, why_)) return Taken::kUnreadable;
@@ -435,7 +491,6 @@ class RingSample final : public WireSample {
     return Taken::kMessage;
   }
 
- private:
   FrameRing* ring(std::string& error) {
     if (!ring_) {
       std::string warning;
@@ -450,6 +505,7 @@ class RingSample final : public WireSample {
   uint64_t written_copied_ = 0;  // frames the writer copied in (their producer did not write them there)
   std::shared_ptr<FrameRing> ring_;
   RingReader frames_;
+  uint64_t last_post_ = 0;  // the newest post of the followed ring this reader had
   P copy_;
   FASTDDS_SEQUENCE(Samples, P);
   Samples samples_;

@@ -154,6 +154,10 @@ LevelGeometry geometry_from_wire(const wc::LevelGeometry& in) {
 
 WireSample::~WireSample() = default;
 
+void WireSample::wait(eprosima::fastdds::dds::DataReader& reader, int timeout_ms) {
+  reader.wait_for_unread_message(eprosima::fastrtps::Duration_t(0, static_cast<uint32_t>(timeout_ms) * 1'000'000u));
+}
+
 const Codec* find_codec(std::string_view type) {
   for (const auto& c : codecs())
     if (c.type == type) return &c;

@@ -100,6 +100,8 @@ class WireSample {
   // else holds it, else a new one). kEnd: the writer ended its stream.
   // kUnreadable: a sample that could not be read.
   virtual Taken take(eprosima::fastdds::dds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) = 0;
+  // Sleeps until take() may find something, or `timeout_ms` pass.
+  virtual void wait(eprosima::fastdds::dds::DataReader& reader, int timeout_ms);
   // What was wrong with the last kUnreadable sample, when the form can tell.
   const std::string& why_unreadable() const { return why_; }
   // The allocator a producer may create its frames' Mats with, so that they
@@ -110,6 +112,9 @@ class WireSample {
   // not create them with frame_allocator(), a reader that holds a quarter of
   // the writer's frame ring already.
   virtual uint64_t frames_copied() const { return 0; }
+  // Frames a reader took from the writer's frame ring mailbox (woken by the
+  // writer itself) rather than from DDS.
+  virtual uint64_t frames_mailed() const { return 0; }
 
  protected:
   std::string why_;

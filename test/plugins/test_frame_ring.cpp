@@ -7,8 +7,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <thread>
 #include <gtest/gtest.h>
 
 #include "domain.hpp"
@@ -304,4 +306,132 @@ TEST(FrameRing, ARingWhoseWriterDiedIsRemovedAsStale) {
   auto stale = saccade::dds::remove_stale_shared_memory(0);
   EXPECT_FALSE(shm_exists(name));
   EXPECT_NE(std::find(stale.removed.begin(), stale.removed.end(), std::string(name + 1)), stale.removed.end());
+}
+
+namespace {
+
+// A sample as the mailbox carries it: words that all hold the post's number,
+// so a torn read (some words from one post, some from the next) shows.
+struct Numbered {
+  uint64_t words[100];
+};
+
+Numbered numbered(uint64_t n) {
+  Numbered s;
+  std::fill(std::begin(s.words), std::end(s.words), n);
+  return s;
+}
+
+}  // namespace
+
+TEST(FrameRing, TheMailboxHoldsTheNewestSampleAndSaysWhenThereIsNothingNewer) {
+  auto ring = make_ring(4096, 2);
+  ASSERT_TRUE(ring);
+  RingAddress at;
+  cv::Mat frame = write_frame(*ring, test::random_image({16, 16}, 1), at);
+  RingReader reader;
+  Numbered got{};
+  uint64_t post = 0;
+  EXPECT_FALSE(reader.mail(0, &got, sizeof got, post)) << "no ring followed yet";
+  std::string why;
+  ASSERT_TRUE(reader.follow(at, why)) << why;
+  EXPECT_TRUE(reader.follows(at));
+  EXPECT_FALSE(reader.mail(0, &got, sizeof got, post)) << "nothing posted yet";
+
+  EXPECT_EQ(ring->next_post(), 1u);
+  for (uint64_t n = 1; n <= 3; ++n) {
+    const Numbered s = numbered(n);
+    ring->post(&s, sizeof s);
+  }
+  EXPECT_EQ(ring->next_post(), 4u);
+  ASSERT_TRUE(reader.mail(0, &got, sizeof got, post));
+  EXPECT_EQ(post, 3u) << "only the newest is kept";
+  EXPECT_EQ(got.words[0], 3u);
+  EXPECT_EQ(got.words[99], 3u);
+  EXPECT_FALSE(reader.mail(3, &got, sizeof got, post)) << "nothing after 3";
+  EXPECT_EQ(reader.mailed(), 1u);
+
+  // A sample of another size is not this reader's type: it goes back to DDS.
+  struct Small {
+    uint64_t word = 9;
+  } small;
+  ring->post(&small, sizeof small);
+  EXPECT_FALSE(reader.mail(3, &got, sizeof got, post));
+  EXPECT_FALSE(reader.following());
+}
+
+TEST(FrameRing, AReaderSleepingOnTheDoorbellWakesWhenTheWriterPostsAndNeverReadsATornSample) {
+  auto ring = make_ring(4096, 2);
+  ASSERT_TRUE(ring);
+  RingAddress at;
+  cv::Mat frame = write_frame(*ring, test::random_image({16, 16}, 1), at);
+  const Numbered first = numbered(1);
+  ring->post(&first, sizeof first);
+
+  // Another process reads every post it is woken for; the writer posts
+  // 20000 more, back to back, so that reads race writes.
+  constexpr uint64_t kPosts = 20001;
+  int to_parent[2];
+  ASSERT_EQ(pipe(to_parent), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    RingReader reader;
+    std::string why;
+    uint64_t last = 0, reads = 0, torn = 0, backwards = 0;
+    if (reader.follow(at, why)) {
+      (void)!write(to_parent[1], "r", 1);
+      Numbered got{};
+      const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+      while (last < kPosts && std::chrono::steady_clock::now() < give_up) {
+        uint64_t post = 0;
+        if (reader.mail(last, &got, sizeof got, post)) {
+          ++reads;
+          torn += std::any_of(std::begin(got.words), std::end(got.words), [&](uint64_t w) { return w != post; });
+          backwards += post <= last;
+          last = post;
+          continue;
+        }
+        if (!reader.wait_mail(last, 100'000'000)) break;
+      }
+    }
+    std::printf("reads %llu, last %llu, torn %llu, backwards %llu\n", static_cast<unsigned long long>(reads),
+                static_cast<unsigned long long>(last), static_cast<unsigned long long>(torn),
+                static_cast<unsigned long long>(backwards));
+    std::fflush(stdout);
+    _exit(last == kPosts && torn == 0 && backwards == 0 && reads > 1 ? 0 : 1);
+  }
+  char ready = 0;
+  ASSERT_EQ(read(to_parent[0], &ready, 1), 1) << "the child follows the ring";
+  close(to_parent[0]);
+  close(to_parent[1]);
+  // The first wake: the child is asleep (or about to be) on post 1.
+  usleep(20000);
+  for (uint64_t n = 2; n <= kPosts; ++n) {
+    const Numbered s = numbered(n);
+    ring->post(&s, sizeof s);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << "the child saw a torn or out-of-order sample, or missed the last post (its line above says which)";
+}
+
+TEST(FrameRing, AWriterLettingGoOfItsRingSendsItsReadersBackToDds) {
+  auto ring = make_ring(4096, 2);
+  ASSERT_TRUE(ring);
+  RingAddress at;
+  write_frame(*ring, test::random_image({16, 16}, 1), at);
+  RingReader reader;
+  std::string why;
+  ASSERT_TRUE(reader.follow(at, why)) << why;
+  std::thread sleeper([&] {
+    // Woken at once by the writer's end, not after a minute.
+    EXPECT_FALSE(reader.wait_mail(0, 60'000'000'000));
+  });
+  usleep(20000);
+  ring.reset();
+  sleeper.join();
+  EXPECT_FALSE(reader.following());
+  EXPECT_FALSE(reader.wait_mail(0, 60'000'000'000)) << "nothing to follow";
 }
