@@ -47,6 +47,8 @@ struct RingHeader {
   uint64_t data_offset;
   uint32_t writer_pid;
   uint32_t reserved;
+  // 0: free; else the reader's pid as its own pid namespace sees it (for
+  // diagnostics: whether it lives is told by its lock, below).
   std::atomic<int32_t> reader_pid[FrameRing::kMaxReaders];
 };
 
@@ -87,7 +89,43 @@ void futex_wake_all(std::atomic<uint32_t>& word) {
   ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0);
 }
 
-bool process_is_gone(int32_t pid) { return ::kill(pid, 0) != 0 && errno == ESRCH; }
+// Who is alive is told by locks, not process ids: each reader holds a lock
+// on byte `reader index` of the segment and the writer one on byte
+// kWriterLockByte, for as long as they have it mapped. The kernel drops a
+// dead process's locks, and locks work across pid namespaces (containers
+// that share /dev/shm but not their process ids), where a pid would name
+// nobody or somebody else. Open-file-description locks: per open of the
+// segment, so a writer and a reader in one process do not share theirs.
+constexpr off_t kWriterLockByte = FrameRing::kMaxReaders;
+
+bool lock_byte(int fd, off_t at) {
+  struct flock lock {};
+  lock.l_type = F_WRLCK;
+  lock.l_whence = SEEK_SET;
+  lock.l_start = at;
+  lock.l_len = 1;
+  return ::fcntl(fd, F_OFD_SETLK, &lock) == 0;
+}
+
+void unlock_byte(int fd, off_t at) {
+  struct flock lock {};
+  lock.l_type = F_UNLCK;
+  lock.l_whence = SEEK_SET;
+  lock.l_start = at;
+  lock.l_len = 1;
+  ::fcntl(fd, F_OFD_SETLK, &lock);
+}
+
+// Whether another open of the segment holds the lock on byte `at`.
+bool byte_is_locked(int fd, off_t at) {
+  struct flock lock {};
+  lock.l_type = F_WRLCK;
+  lock.l_whence = SEEK_SET;
+  lock.l_start = at;
+  lock.l_len = 1;
+  if (::fcntl(fd, F_OFD_GETLK, &lock) != 0) return true;  // cannot tell: assume alive
+  return lock.l_type != F_UNLCK;
+}
 
 // Resets a buffer's OpenCV bookkeeping for its next Mat.
 void reset_umat(cv::UMatData& u, uchar* data, std::size_t size, uint32_t slot) {
@@ -103,6 +141,14 @@ void reset_umat(cv::UMatData& u, uchar* data, std::size_t size, uint32_t slot) {
 uint32_t slot_of(const cv::UMatData* u) { return static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u->userdata)); }
 
 }  // namespace
+
+bool frame_ring_has_writer(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+  if (fd < 0) return errno != ENOENT;  // cannot tell: leave it
+  const bool locked = byte_is_locked(fd, kWriterLockByte);
+  ::close(fd);
+  return locked;
+}
 
 std::string ring_segment_name(uint32_t writer_pid, uint64_t ring_id) {
   char name[64];
@@ -134,7 +180,7 @@ class SharedSegment {
       ::close(fd);
       return fail("the frame ring " + name + " is too small to be one", error);
     }
-    return map(fd, name, static_cast<std::size_t>(st.st_size), error);
+    return map(fd, name, static_cast<std::size_t>(st.st_size), error, /*keep_fd=*/true);
   }
   ~SharedSegment() {
     unlink();
@@ -151,6 +197,7 @@ class SharedSegment {
     linked_ = false;
   }
   uint8_t* base() const { return base_; }
+  int fd() const { return fd_; }
   std::size_t bytes() const { return bytes_; }
   const std::string& name() const { return name_; }
 
@@ -249,6 +296,10 @@ std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t sl
     *warning = shared_memory_shortfall(slot_bytes, slots, static_cast<std::size_t>(shm.f_bavail) * shm.f_frsize);
   ring->segment_ = SharedSegment::create(ring_segment_name(ring->pid_, ring->ring_id_), bytes, error);
   if (!ring->segment_) return nullptr;
+  if (!lock_byte(ring->segment_->fd(), kWriterLockByte)) {
+    if (error) *error = "cannot lock the frame ring " + ring->segment_->name() + ": " + std::strerror(errno);
+    return nullptr;
+  }
   auto* h = new (ring->segment_->base()) RingHeader();
   h->version = kVersion;
   h->slots = slots;
@@ -369,10 +420,11 @@ void FrameRing::post(const void* sample, std::size_t bytes) {
   words[n - 1] = 0;
   std::memcpy(words, sample, bytes);
   const uint64_t sequence = mail.sequence.load(std::memory_order_relaxed);
+  // Release stores instead of a fence (TSan has no fences; on x86 both are
+  // plain moves): a reader that sees any new word sees the odd sequence too.
   mail.sequence.store(sequence + 1, std::memory_order_relaxed);
-  std::atomic_thread_fence(std::memory_order_release);
-  for (std::size_t i = 0; i < n; ++i) mail.words[i].store(words[i], std::memory_order_relaxed);
-  mail.bytes.store(static_cast<uint32_t>(bytes), std::memory_order_relaxed);
+  for (std::size_t i = 0; i < n; ++i) mail.words[i].store(words[i], std::memory_order_release);
+  mail.bytes.store(static_cast<uint32_t>(bytes), std::memory_order_release);
   mail.sequence.store(sequence + 2, std::memory_order_release);
   // seq_cst with the waiters' count: a reader either sees the new doorbell
   // before it sleeps, or counted itself before this looks (no lost wake-up).
@@ -386,7 +438,7 @@ int FrameRing::release_dead_readers() const {
   int released = 0;
   for (uint32_t r = 0; r < kMaxReaders; ++r) {
     int32_t pid = h.reader_pid[r].load(std::memory_order_acquire);
-    if (pid == 0 || !process_is_gone(pid)) continue;
+    if (pid == 0 || byte_is_locked(segment_->fd(), static_cast<off_t>(r))) continue;
     for (uint32_t i = 0; i < slots_; ++i) states[i].fetch_and(~(1ull << r), std::memory_order_acq_rel);
     // Only now may another reader register here: its pins cannot be cleared above.
     if (h.reader_pid[r].compare_exchange_strong(pid, 0)) ++released;
@@ -424,8 +476,14 @@ class RingMapping final : public cv::MatAllocator {
     }
     const auto pid = static_cast<int32_t>(::getpid());
     for (uint32_t r = 0; r < FrameRing::kMaxReaders; ++r) {
+      // The lock first: a registered reader always holds it, so the writer
+      // never takes one between the two for dead.
+      if (!lock_byte(segment->fd(), static_cast<off_t>(r))) continue;
       int32_t expected = 0;
-      if (!h.reader_pid[r].compare_exchange_strong(expected, pid)) continue;
+      if (!h.reader_pid[r].compare_exchange_strong(expected, pid)) {
+        unlock_byte(segment->fd(), static_cast<off_t>(r));  // a dead reader's, not yet cleared
+        continue;
+      }
       auto* m = new RingMapping();
       m->segment_ = std::move(segment);
       m->bit_ = 1ull << r;
@@ -602,9 +660,9 @@ bool RingReader::mail(uint64_t after, void* out, std::size_t bytes, uint64_t& po
       else cpu_relax();
       continue;
     }
-    for (std::size_t i = 0; i < n; ++i) words[i] = mail.words[i].load(std::memory_order_relaxed);
-    const uint32_t posted_bytes = mail.bytes.load(std::memory_order_relaxed);
-    std::atomic_thread_fence(std::memory_order_acquire);
+    // Acquire loads: the sequence is read again only after them.
+    for (std::size_t i = 0; i < n; ++i) words[i] = mail.words[i].load(std::memory_order_acquire);
+    const uint32_t posted_bytes = mail.bytes.load(std::memory_order_acquire);
     if (mail.sequence.load(std::memory_order_relaxed) != sequence) continue;
     if (posted_bytes != bytes) {  // not the sample type this reader reads: DDS only
       followed_ = nullptr;

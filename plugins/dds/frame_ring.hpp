@@ -56,6 +56,11 @@ struct RingAddress {
 // that it may run out and what to change.
 std::string shared_memory_shortfall(std::size_t slot_bytes, uint32_t slots, std::size_t free_bytes);
 
+// Whether a writer still has the frame ring file at `path` (its lock on the
+// file, which the kernel drops when the process dies, whatever its pid
+// namespace): false for a crashed writer's leftover.
+bool frame_ring_has_writer(const std::string& path);
+
 // "/saccade_ring_<pid>_<ring id, hex>": the segment's POSIX name.
 std::string ring_segment_name(uint32_t writer_pid, uint64_t ring_id);
 

@@ -10,6 +10,7 @@
 #include <set>
 
 #include "domain.hpp"
+#include "frame_ring.hpp"
 
 namespace saccade::dds {
 
@@ -74,8 +75,12 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
     bool stale = false;
     if (segment) {
       stale = owner_is_gone(entry.path().string() + "_el");
+    } else if (std::regex_match(name, frame_ring)) {
+      stale = !frame_ring_has_writer(entry.path().string());
     } else {
-      // A data-sharing pool or frame ring is mapped by its writer for the writer's lifetime (and by its readers).
+      // A data-sharing pool is mapped by its writer for the writer's lifetime
+      // (and by its readers): seen in /proc only for processes of this pid
+      // namespace, so processes that share /dev/shm must share that too.
       if (!mapped_known) {
         mapped = mapped_shm_files();
         mapped_known = true;

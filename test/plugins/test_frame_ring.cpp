@@ -1,6 +1,8 @@
 // The frame ring (plugins/dds/frame_ring.hpp): a writer's buffers in shared
 // memory that readers of other processes read in place, pinned while held.
+#include <fcntl.h>
 #include <sched.h>
+#include <signal.h>
 #include <sys/mman.h>
 #include <sys/mount.h>
 #include <sys/wait.h>
@@ -434,4 +436,42 @@ TEST(FrameRing, AWriterLettingGoOfItsRingSendsItsReadersBackToDds) {
   sleeper.join();
   EXPECT_FALSE(reader.following());
   EXPECT_FALSE(reader.wait_mail(0, 60'000'000'000)) << "nothing to follow";
+}
+
+TEST(FrameRing, AReaderLivesWhileItHoldsTheRingWhateverItsProcessIdSays) {
+  // Processes in other pid namespaces (containers sharing /dev/shm) register
+  // pids that name nobody here, or somebody else: a reader's liveness is its
+  // lock on the ring, which only its death releases.
+  auto ring = make_ring(4096, 4);
+  ASSERT_TRUE(ring);
+  RingAddress at;
+  ASSERT_FALSE(write_frame(*ring, test::random_image({64, 64}, 1), at).empty());
+  RingReader reader;
+  cv::Mat view;
+  std::string why;
+  ASSERT_TRUE(reader.view(at, 0, 64, 64, CV_8UC1, view, why)) << why;
+  EXPECT_EQ(ring->held_slots(), 1u);
+
+  // The segment's header, as laid out in frame_ring.cpp: the first reader's pid at byte 48.
+  const int fd = ::open(("/dev/shm" + ring->name()).c_str(), O_RDWR);
+  ASSERT_GE(fd, 0);
+  void* base = ::mmap(nullptr, 4096, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  ::close(fd);
+  ASSERT_NE(base, MAP_FAILED);
+  auto* first_reader_pid = reinterpret_cast<int32_t*>(static_cast<uint8_t*>(base) + 48);
+  ASSERT_EQ(*first_reader_pid, getpid()) << "the header's layout changed: update this test";
+  int32_t nobody = 4'000'000;
+  while (kill(nobody, 0) == 0 || errno != ESRCH) ++nobody;
+  *first_reader_pid = nobody;
+
+  EXPECT_EQ(ring->release_dead_readers(), 0) << "the reader still holds its lock";
+  EXPECT_EQ(ring->held_slots(), 1u) << "its pin stays";
+  EXPECT_EQ(test::max_abs_diff(view, test::random_image({64, 64}, 1)), 0);
+  *first_reader_pid = getpid();
+  ::munmap(base, 4096);
+
+  // And a ring whose writer lives is never stale, whoever can see its process.
+  EXPECT_TRUE(saccade::dds::frame_ring_has_writer("/dev/shm" + ring->name()));
+  saccade::dds::remove_stale_shared_memory(0);
+  EXPECT_TRUE(shm_exists(ring->name()));
 }
