@@ -98,31 +98,28 @@ void futex_wake_all(std::atomic<uint32_t>& word) {
 // segment, so a writer and a reader in one process do not share theirs.
 constexpr off_t kWriterLockByte = FrameRing::kMaxReaders;
 
-bool lock_byte(int fd, off_t at) {
+struct flock one_byte(short type, off_t at) {
   struct flock lock {};
-  lock.l_type = F_WRLCK;
+  lock.l_type = type;
   lock.l_whence = SEEK_SET;
   lock.l_start = at;
   lock.l_len = 1;
+  return lock;
+}
+
+bool lock_byte(int fd, off_t at) {
+  struct flock lock = one_byte(F_WRLCK, at);
   return ::fcntl(fd, F_OFD_SETLK, &lock) == 0;
 }
 
 void unlock_byte(int fd, off_t at) {
-  struct flock lock {};
-  lock.l_type = F_UNLCK;
-  lock.l_whence = SEEK_SET;
-  lock.l_start = at;
-  lock.l_len = 1;
+  struct flock lock = one_byte(F_UNLCK, at);
   ::fcntl(fd, F_OFD_SETLK, &lock);
 }
 
 // Whether another open of the segment holds the lock on byte `at`.
 bool byte_is_locked(int fd, off_t at) {
-  struct flock lock {};
-  lock.l_type = F_WRLCK;
-  lock.l_whence = SEEK_SET;
-  lock.l_start = at;
-  lock.l_len = 1;
+  struct flock lock = one_byte(F_WRLCK, at);
   if (::fcntl(fd, F_OFD_GETLK, &lock) != 0) return true;  // cannot tell: assume alive
   return lock.l_type != F_UNLCK;
 }
