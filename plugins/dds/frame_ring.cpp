@@ -673,6 +673,10 @@ bool RingReader::mail(uint64_t after, void* out, std::size_t bytes, uint64_t& po
   return false;
 }
 
+uint64_t RingReader::newest_post() const {
+  return followed_ == nullptr ? 0 : followed_->mailbox().sequence.load(std::memory_order_acquire) / 2;
+}
+
 bool RingReader::wait_mail(uint64_t after, int64_t timeout_ns) {
   if (followed_ == nullptr) return false;
   RingMailbox& mail = followed_->mailbox();

@@ -165,6 +165,8 @@ class RingReader {
   // copied into `out` (`bytes` of it), its number in `post`. False when there
   // is none (or no ring is followed).
   bool mail(uint64_t after, void* out, std::size_t bytes, uint64_t& post);
+  // The number of the followed ring's newest post (0: none, or no ring followed).
+  uint64_t newest_post() const;
   // Sleeps until the followed ring's writer posts after `after`, or
   // `timeout_ns` pass. False at once when no ring is followed or its writer
   // closed it (let go of the ring: a new one comes through DDS).

@@ -180,6 +180,20 @@ inline void read_fence() {
 #endif
 }
 
+// Copies a sample loaned from a data-sharing writer's pool with `copy`; false
+// when the writer took that memory for a newer sample meanwhile (so the copy
+// may be torn). Fast DDS marks a payload dirty when the writer loans it,
+// before any field is written: checking a field of our own (the frame id)
+// is not enough, as a copy that began after the writer wrote it but before
+// it wrote the rest would pass.
+template <class P, class Copy>
+bool copy_loaned(fdds::DataReader& reader, const P& sample, const fdds::SampleInfo& info, Copy&& copy) {
+  read_fence();
+  const bool copied = copy(sample);
+  read_fence();
+  return copied && reader.is_sample_valid(&sample, &info);
+}
+
 // Both shared-memory forms write a sample loaned from the data-sharing pool:
 // `fill` fills it from `message`, or, without one, it says the stream ended.
 // `fill` returns empty, kRingFull (nothing written, counted as a failed
@@ -227,13 +241,9 @@ class PlainSample final : public WireSample {
         result = Taken::kEnd;
       } else {
         std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
-        const int64_t frame = sample.stamp().frame_id();
-        read_fence();
-        bool ok = from_plain(sample, *m);
-        read_fence();
-        // The writer's pool is a ring: a writer far ahead may reuse this sample
-        // while it is copied. Seen as a changed frame id: drop, never emit a torn frame.
-        if (ok && sample.stamp().frame_id() == frame) {
+        // The writer's pool is a ring: a writer far ahead may reuse this
+        // sample while it is copied. Dropped, never emitted torn.
+        if (copy_loaned(reader, sample, infos_[0], [&](const P& from) { return from_plain(from, *m); })) {
           slot = std::move(m);
           result = Taken::kMessage;
         }
@@ -448,18 +458,23 @@ class RingSample final : public WireSample {
       if (reader.take(samples_, infos_, 1) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
       bool copied = samples_.length() == 1 && infos_[0].valid_data;
       if (copied) {
-        // Fast DDS' keep-last pool may reuse the sample while it is copied: seen as a changed frame id.
-        const P& sample = samples_[0];
-        const int64_t frame = sample.stamp().frame_id();
-        read_fence();
-        copy_ = sample;
-        read_fence();
-        copied = sample.stamp().frame_id() == frame;
+        // Fast DDS' keep-last pool may reuse the sample while it is copied.
+        copied = copy_loaned(reader, samples_[0], infos_[0], [&](const P& from) {
+          copy_ = from;
+          return true;
+        });
       }
       reader.return_loan(samples_, infos_);
       if (!copied) return Taken::kUnreadable;
       const RingAddress at = ring_from_wire(copy_.ring());
       post = copy_.ring().post();
+      if (post != 0 && frames_.follows(at) && post > frames_.newest_post()) {
+        // The writer posts before DDS writes: a number its mailbox never
+        // reached is not one it sent (and would stop the mailbox for good).
+        why_ = "a sample naming post " + std::to_string(post) + " of a ring that has made " +
+               std::to_string(frames_.newest_post());
+        return Taken::kUnreadable;
+      }
       if (post != 0 && !frames_.follows(at)) {
         std::string ignored;  // a ring that cannot be opened says why when its frame is read
         frames_.follow(at, ignored);
