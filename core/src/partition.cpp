@@ -86,6 +86,15 @@ std::optional<GraphPlan> plan_graph(const ResolvedGraph& graph, Diagnostics& dia
                      " by the edge at line " + std::to_string(it->second->edge->line) + "; one topic, one QoS");
   }
   if (diag.error_count() > errors_before) return std::nullopt;
+  // Zero copy needs every reader of the topic on the writer's host; one
+  // elsewhere gets the serialised type over UDP, so all of them do.
+  for (auto& pe : plan.edges) {
+    if (pe.route == EdgeRoute::kInProcess || pe.qos.ros2) continue;
+    pe.zero_copy = std::none_of(plan.edges.begin(), plan.edges.end(), [&](const PlannedEdge& other) {
+      return other.edge->from_node == pe.edge->from_node && other.edge->from_port == pe.edge->from_port &&
+             other.route == EdgeRoute::kOtherHost;
+    });
+  }
   return plan;
 }
 
@@ -115,6 +124,7 @@ std::string format_plan(const ResolvedGraph& graph, const GraphPlan& plan) {
     } else {
       out += "  " + process_label(pe.from_process) + " -> " + process_label(pe.to_process) + "  topic " + pe.topic +
              "  qos " + pe.qos.text();
+      if (pe.zero_copy) out += "  zero_copy";
     }
     if (e.delay) out += "  delayed";
     out += "\n";
@@ -164,15 +174,9 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
     if (publish) decl.params.push_back({"wait_ms", text::format_number(pe.qos.wait_ms), e.line});
     // Steady clocks are per host: across hosts, latency counts from arrival.
     if (!publish && pe.route == EdgeRoute::kOtherHost) decl.params.push_back({"same_clock", "false", e.line});
-    // Zero copy needs every reader of the topic on the writer's host; one
-    // elsewhere gets the serialised type over UDP, so all of them do.
-    const bool one_host = std::all_of(plan.edges.begin(), plan.edges.end(), [&](const PlannedEdge& other) {
-      return other.edge->from_node != e.from_node || other.edge->from_port != e.from_port ||
-             other.route != EdgeRoute::kOtherHost;
-    });
     if (pe.qos.ros2) {
       decl.params.push_back({"ros2", "true", e.line});
-    } else if (one_host) {
+    } else if (pe.zero_copy) {
       decl.params.push_back({"zero_copy", "true", e.line});
       decl.params.push_back({"capacity", std::to_string(pe.qos.capacity), e.line});
     }

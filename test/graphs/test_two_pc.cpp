@@ -120,6 +120,16 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
   ASSERT_TRUE(plan) << diag.format();
   EXPECT_EQ(plan->edges[0].qos.capacity, 16u << 20);
   EXPECT_EQ(plan->edges[0].qos.text(), "best_effort,depth=1,capacity=16M");
+  // The plan says which edges the bridges will carry without a copy.
+  EXPECT_TRUE(plan->edges[0].zero_copy);
+  EXPECT_FALSE(plan->edges[1].zero_copy) << "its reader is on another host";
+  const std::string text = format_plan(*graph, *plan);
+  EXPECT_NE(text.find("cam.image -> near.in  Image  dds-shm  a -> b  topic g/cam/image  qos best_effort,depth=1,capacity=16M  zero_copy"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("cam.right -> far.in  Image  dds-udp  a -> c  topic g/cam/right  qos best_effort,depth=1\n"),
+            std::string::npos)
+      << text;
   auto a = partition_graph(*graph, *plan, "a", testing::default_registry(), diag);
   ASSERT_TRUE(a) << diag.format();
   std::map<std::string, const ResolvedNode*> nodes;

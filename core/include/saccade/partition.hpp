@@ -27,6 +27,10 @@ struct PlannedEdge {
   EdgeRoute route = EdgeRoute::kInProcess;
   std::string topic;                     // DDS edges only
   EdgeQos qos;                           // DDS edges only
+  // DDS edges whose output has every reader on the writer's host (and is no
+  // ROS 2 topic): the bridges are told zero_copy, so Image and Retina stay
+  // in shared memory (how: the bridges' shared_memory); other types ignore it.
+  bool zero_copy = false;
 };
 
 struct GraphPlan {
