@@ -324,13 +324,25 @@ Numbered numbered(uint64_t n) {
   return s;
 }
 
+// A ring with one frame written, whose address a reader follows the ring by.
+struct RingWithAFrame {
+  std::shared_ptr<FrameRing> ring;
+  RingAddress at;
+  cv::Mat frame;
+};
+
+RingWithAFrame ring_with_a_frame() {
+  RingWithAFrame r;
+  r.ring = make_ring(4096, 2);
+  if (r.ring) r.frame = write_frame(*r.ring, test::random_image({16, 16}, 1), r.at);
+  return r;
+}
+
 }  // namespace
 
 TEST(FrameRing, TheMailboxHoldsTheNewestSampleAndSaysWhenThereIsNothingNewer) {
-  auto ring = make_ring(4096, 2);
+  auto [ring, at, frame] = ring_with_a_frame();
   ASSERT_TRUE(ring);
-  RingAddress at;
-  cv::Mat frame = write_frame(*ring, test::random_image({16, 16}, 1), at);
   RingReader reader;
   Numbered got{};
   uint64_t post = 0;
@@ -363,10 +375,8 @@ TEST(FrameRing, TheMailboxHoldsTheNewestSampleAndSaysWhenThereIsNothingNewer) {
 }
 
 TEST(FrameRing, AReaderSleepingOnTheDoorbellWakesWhenTheWriterPostsAndNeverReadsATornSample) {
-  auto ring = make_ring(4096, 2);
+  auto [ring, at, frame] = ring_with_a_frame();
   ASSERT_TRUE(ring);
-  RingAddress at;
-  cv::Mat frame = write_frame(*ring, test::random_image({16, 16}, 1), at);
   const Numbered first = numbered(1);
   ring->post(&first, sizeof first);
 
@@ -420,10 +430,8 @@ TEST(FrameRing, AReaderSleepingOnTheDoorbellWakesWhenTheWriterPostsAndNeverReads
 }
 
 TEST(FrameRing, AWriterLettingGoOfItsRingSendsItsReadersBackToDds) {
-  auto ring = make_ring(4096, 2);
+  auto [ring, at, frame] = ring_with_a_frame();
   ASSERT_TRUE(ring);
-  RingAddress at;
-  write_frame(*ring, test::random_image({16, 16}, 1), at);
   RingReader reader;
   std::string why;
   ASSERT_TRUE(reader.follow(at, why)) << why;
