@@ -14,6 +14,7 @@
 
 #include "frame_ring.hpp"
 #include "saccade/log.hpp"
+#include "saccade/node.hpp"
 #include "saccadePubSubTypes.h"
 #include "wire.hpp"
 
@@ -488,11 +489,24 @@ class RingSample final : public WireSample {
     }
   }
 
-  // Sleeps on the followed ring's doorbell, or, without one, on DDS.
+  // Sleeps on the followed ring's doorbell, or, without one, on DDS. On the
+  // doorbell in slices of 5 ms, looking at DDS between them: a sample only
+  // DDS brings (a restarted writer's new ring, a second writer) waits at
+  // most a slice.
   void wait(fdds::DataReader& reader, int timeout_ms) override {
-    if (reader.get_unread_count() > 0) return;
-    if (frames_.wait_mail(last_post_, static_cast<int64_t>(timeout_ms) * 1'000'000)) return;
-    reader.wait_for_unread_message(eprosima::fastrtps::Duration_t(0, static_cast<uint32_t>(timeout_ms) * 1'000'000u));
+    constexpr int64_t kSliceNs = 5'000'000;
+    const int64_t deadline = steady_now_ns() + static_cast<int64_t>(timeout_ms) * 1'000'000;
+    for (;;) {
+      if (reader.get_unread_count() > 0) return;
+      const int64_t left = deadline - steady_now_ns();
+      if (left <= 0) return;
+      if (!frames_.following() || !frames_.wait_mail(last_post_, std::min(left, kSliceNs))) {
+        reader.wait_for_unread_message(eprosima::fastrtps::Duration_t(static_cast<int32_t>(left / 1'000'000'000),
+                                                                      static_cast<uint32_t>(left % 1'000'000'000)));
+        return;
+      }
+      if (frames_.newest_post() > last_post_) return;
+    }
   }
 
   uint64_t frames_mailed() const override { return frames_.mailed(); }
