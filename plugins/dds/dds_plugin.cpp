@@ -268,7 +268,6 @@ class Publish final : public Node {
   std::atomic<uint64_t>* written_ = nullptr;
   std::atomic<uint64_t>* failed_ = nullptr;
   std::atomic<uint64_t>* copied_ = nullptr;
-  std::atomic<uint64_t>* mailed_ = nullptr;
 };
 
 class Subscribe final : public Node {

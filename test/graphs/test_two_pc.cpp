@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <thread>
 
@@ -285,11 +286,22 @@ TEST(TwoPcRun, TwoProcessesOverDdsGiveExactlyWhatOneProcessGives) {
                                "--topic-prefix", prefix});
   ASSERT_GT(child, 0);
   Status status;
-  std::thread runner([&] { status = executor.run(); });
+  std::atomic<bool> finished{false};
+  std::thread runner([&] {
+    status = executor.run();
+    finished = true;
+  });
   int code = test::wait_child(child, 120);
-  if (code != 0) executor.request_stop();
+  // The child's end of stream ends this graph; if it never arrives, fail
+  // saying so instead of hanging until CTest's timeout.
+  const bool ended = code == 0 && test::wait_for([&] { return finished.load(); }, 30);
+  if (!ended) executor.request_stop();
   runner.join();
   ASSERT_EQ(code, 0) << "the head_pc process failed or hung";
+  ASSERT_TRUE(ended) << "the head_pc process exited, but its end of stream did not reach this graph within 30 s ("
+                     << testing::Recorder::instance().get("retinas").size() << " retinas, "
+                     << testing::Recorder::instance().get("maps").size() << " maps, "
+                     << testing::Recorder::instance().get("motions").size() << " motions recorded)";
   ASSERT_TRUE(status.ok()) << status.message();
   Records split = take_records();
 
