@@ -469,19 +469,19 @@ class RingSample final : public WireSample {
       if (!copied) return Taken::kUnreadable;
       const RingAddress at = ring_from_wire(copy_.ring());
       post = copy_.ring().post();
-      if (post != 0 && frames_.follows(at) && post > frames_.newest_post()) {
-        // The writer posts before DDS writes: a number its mailbox never
-        // reached is not one it sent (and would stop the mailbox for good).
-        why_ = "a sample naming post " + std::to_string(post) + " of a ring that has made " +
-               std::to_string(frames_.newest_post());
-        return Taken::kUnreadable;
-      }
       if (post != 0 && !frames_.follows(at)) {
         std::string ignored;  // a ring that cannot be opened says why when its frame is read
         frames_.follow(at, ignored);
         last_post_ = 0;
       }
       if (post != 0 && frames_.follows(at)) {
+        if (post > frames_.newest_post()) {
+          // The writer posts before DDS writes: a number its mailbox never
+          // reached is not one it sent (and would stop the mailbox for good).
+          why_ = "a sample naming post " + std::to_string(post) + " of a ring that has made " +
+                 std::to_string(frames_.newest_post());
+          return Taken::kUnreadable;
+        }
         if (post <= last_post_) continue;  // the mailbox gave it already
         last_post_ = post;
       }
