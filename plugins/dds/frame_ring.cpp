@@ -3,7 +3,6 @@
 #include <fcntl.h>
 #include <linux/futex.h>
 #include <sched.h>
-#include <signal.h>
 #include <sys/syscall.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -164,7 +163,7 @@ class SharedSegment {
       ::shm_unlink(name.c_str());
       return fail("cannot size shared memory " + name + " to " + std::to_string(bytes) + " bytes", error);
     }
-    auto s = map(fd, name, bytes, error, /*keep_fd=*/true);
+    auto s = map(fd, name, bytes, error);
     if (s) s->linked_ = true;
     else ::shm_unlink(name.c_str());
     return s;
@@ -177,17 +176,17 @@ class SharedSegment {
       ::close(fd);
       return fail("the frame ring " + name + " is too small to be one", error);
     }
-    return map(fd, name, static_cast<std::size_t>(st.st_size), error, /*keep_fd=*/true);
+    return map(fd, name, static_cast<std::size_t>(st.st_size), error);
   }
   ~SharedSegment() {
     unlink();
     ::munmap(base_, bytes_);
-    if (fd_ >= 0) ::close(fd_);
+    ::close(fd_);
   }
   // Gives [offset, offset + bytes) memory now (the creator only): false when
   // /dev/shm is full, where writing there would have killed the process (SIGBUS).
   bool reserve(std::size_t offset, std::size_t bytes) {
-    return fd_ >= 0 && ::posix_fallocate(fd_, static_cast<off_t>(offset), static_cast<off_t>(bytes)) == 0;
+    return ::posix_fallocate(fd_, static_cast<off_t>(offset), static_cast<off_t>(bytes)) == 0;
   }
   void unlink() {
     if (linked_) ::shm_unlink(name_.c_str());
@@ -203,17 +202,18 @@ class SharedSegment {
     if (error) *error = why + ": " + std::strerror(errno);
     return nullptr;
   }
-  static std::unique_ptr<SharedSegment> map(int fd, const std::string& name, std::size_t bytes, std::string* error,
-                                            bool keep_fd = false) {
+  // Keeps `fd`: the writer reserves memory through it, and both ends hold
+  // their liveness locks on it.
+  static std::unique_ptr<SharedSegment> map(int fd, const std::string& name, std::size_t bytes, std::string* error) {
     void* base = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
-    const int mmap_errno = errno;
-    if (base == MAP_FAILED || !keep_fd) ::close(fd);
     if (base == MAP_FAILED) {
+      const int mmap_errno = errno;
+      ::close(fd);
       errno = mmap_errno;
       return fail("cannot map shared memory " + name, error);
     }
     auto s = std::unique_ptr<SharedSegment>(new SharedSegment());
-    s->fd_ = keep_fd ? fd : -1;
+    s->fd_ = fd;
     s->base_ = static_cast<uint8_t*>(base);
     s->bytes_ = bytes;
     s->name_ = name;

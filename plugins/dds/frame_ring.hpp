@@ -100,6 +100,7 @@ class FrameRing final : public cv::MatAllocator {
   const std::string& name() const;
   std::size_t slot_bytes() const { return slot_bytes_; }
   uint32_t slots() const { return slots_; }
+  uint32_t writer_pid() const { return pid_; }
   uint64_t ring_id() const { return ring_id_; }
   // Buffers held now by the writer (a live Mat) or by any reader.
   uint32_t held_slots() const;

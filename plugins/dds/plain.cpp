@@ -436,7 +436,7 @@ class RingSample final : public WireSample {
           // The end names the ring too, so that readers drop DDS' copy of what the mailbox gave them.
           sample.ring(wp::RingRef{});
           if (!ring_) return;
-          ring_to_wire({.writer_pid = static_cast<uint32_t>(::getpid()), .ring_id = ring_->ring_id()}, sample.ring());
+          ring_to_wire({.writer_pid = ring_->writer_pid(), .ring_id = ring_->ring_id()}, sample.ring());
           post(sample);
         });
     if (!hold.empty()) ++written_copied_;
@@ -501,8 +501,7 @@ class RingSample final : public WireSample {
       const int64_t left = deadline - steady_now_ns();
       if (left <= 0) return;
       if (!frames_.following() || !frames_.wait_mail(last_post_, std::min(left, kSliceNs))) {
-        reader.wait_for_unread_message(eprosima::fastrtps::Duration_t(static_cast<int32_t>(left / 1'000'000'000),
-                                                                      static_cast<uint32_t>(left % 1'000'000'000)));
+        wait_for_dds(reader, left);
         return;
       }
       if (frames_.newest_post() > last_post_) return;

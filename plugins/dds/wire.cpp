@@ -155,7 +155,12 @@ LevelGeometry geometry_from_wire(const wc::LevelGeometry& in) {
 WireSample::~WireSample() = default;
 
 void WireSample::wait(eprosima::fastdds::dds::DataReader& reader, int timeout_ms) {
-  reader.wait_for_unread_message(eprosima::fastrtps::Duration_t(0, static_cast<uint32_t>(timeout_ms) * 1'000'000u));
+  wait_for_dds(reader, static_cast<int64_t>(timeout_ms) * 1'000'000);
+}
+
+void wait_for_dds(eprosima::fastdds::dds::DataReader& reader, int64_t timeout_ns) {
+  reader.wait_for_unread_message(eprosima::fastrtps::Duration_t(static_cast<int32_t>(timeout_ns / 1'000'000'000),
+                                                                static_cast<uint32_t>(timeout_ns % 1'000'000'000)));
 }
 
 const Codec* find_codec(std::string_view type) {

@@ -120,6 +120,9 @@ class WireSample {
   std::string why_;
 };
 
+// Sleeps until `reader` has an unread sample, or `timeout_ns` pass.
+void wait_for_dds(eprosima::fastdds::dds::DataReader& reader, int64_t timeout_ns);
+
 // A message of type M to fill: see WireSample::take.
 template <class M>
 std::shared_ptr<M> fresh(ProcessContext* ctx, int output, MessagePtr& slot) {
