@@ -1,11 +1,7 @@
 #include "frame_ring.hpp"
 
 #include <fcntl.h>
-#include <linux/futex.h>
 #include <sched.h>
-#include <sys/syscall.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
 
@@ -18,6 +14,7 @@
 #include <random>
 
 #include "saccade/message.hpp"
+#include "shared_segment.hpp"
 
 namespace saccade::dds {
 
@@ -66,62 +63,13 @@ struct RingMailbox {
   alignas(64) std::atomic<uint64_t> words[FrameRing::kMailBytes / 8];
 };
 
-static_assert(std::atomic<uint32_t>::is_always_lock_free && sizeof(std::atomic<uint32_t>) == sizeof(uint32_t),
-              "the doorbell is a futex: a plain 32-bit word");
-
 std::size_t states_offset() { return round_up(sizeof(RingHeader), 64); }
 std::size_t mailbox_offset(uint32_t slots) { return round_up(states_offset() + slots * sizeof(uint64_t), 64); }
 std::size_t data_offset(uint32_t slots) { return round_up(mailbox_offset(slots) + sizeof(RingMailbox), kPage); }
 
-// Between processes: no FUTEX_PRIVATE_FLAG.
-long futex_wait(std::atomic<uint32_t>& word, uint32_t expected, int64_t timeout_ns) {
-  timespec timeout{static_cast<time_t>(timeout_ns / 1'000'000'000), static_cast<long>(timeout_ns % 1'000'000'000)};
-  return ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAIT, expected, &timeout, nullptr, 0);
-}
-inline void cpu_relax() {
-#if defined(__x86_64__)
-  __builtin_ia32_pause();
-#endif
-}
-
-void futex_wake_all(std::atomic<uint32_t>& word) {
-  ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0);
-}
-
-// Who is alive is told by locks, not process ids: each reader holds a lock
-// on byte `reader index` of the segment and the writer one on byte
-// kWriterLockByte, for as long as they have it mapped. The kernel drops a
-// dead process's locks, and locks work across pid namespaces (containers
-// that share /dev/shm but not their process ids), where a pid would name
-// nobody or somebody else. Open-file-description locks: per open of the
-// segment, so a writer and a reader in one process do not share theirs.
+// Liveness (shared_segment.hpp): each reader locks byte `reader index` of
+// the segment and the writer byte kWriterLockByte while they have it mapped.
 constexpr off_t kWriterLockByte = FrameRing::kMaxReaders;
-
-struct flock one_byte(short type, off_t at) {
-  struct flock lock {};
-  lock.l_type = type;
-  lock.l_whence = SEEK_SET;
-  lock.l_start = at;
-  lock.l_len = 1;
-  return lock;
-}
-
-bool lock_byte(int fd, off_t at) {
-  struct flock lock = one_byte(F_WRLCK, at);
-  return ::fcntl(fd, F_OFD_SETLK, &lock) == 0;
-}
-
-void unlock_byte(int fd, off_t at) {
-  struct flock lock = one_byte(F_UNLCK, at);
-  ::fcntl(fd, F_OFD_SETLK, &lock);
-}
-
-// Whether another open of the segment holds the lock on byte `at`.
-bool byte_is_locked(int fd, off_t at) {
-  struct flock lock = one_byte(F_WRLCK, at);
-  if (::fcntl(fd, F_OFD_GETLK, &lock) != 0) return true;  // cannot tell: assume alive
-  return lock.l_type != F_UNLCK;
-}
 
 // Resets a buffer's OpenCV bookkeeping for its next Mat.
 void reset_umat(cv::UMatData& u, uchar* data, std::size_t size, uint32_t slot) {
@@ -138,94 +86,13 @@ uint32_t slot_of(const cv::UMatData* u) { return static_cast<uint32_t>(reinterpr
 
 }  // namespace
 
-bool frame_ring_has_writer(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
-  if (fd < 0) return errno != ENOENT;  // cannot tell: leave it
-  const bool locked = byte_is_locked(fd, kWriterLockByte);
-  ::close(fd);
-  return locked;
-}
+bool frame_ring_has_writer(const std::string& path) { return file_byte_is_locked(path, kWriterLockByte); }
 
 std::string ring_segment_name(uint32_t writer_pid, uint64_t ring_id) {
   char name[64];
   std::snprintf(name, sizeof name, "/saccade_ring_%u_%016llx", writer_pid, static_cast<unsigned long long>(ring_id));
   return name;
 }
-
-// One mapped POSIX shared-memory segment; its creator unlinks the name.
-class SharedSegment {
- public:
-  static std::unique_ptr<SharedSegment> create(const std::string& name, std::size_t bytes, std::string* error) {
-    int fd = ::shm_open(name.c_str(), O_CREAT | O_EXCL | O_RDWR | O_CLOEXEC, 0600);
-    if (fd < 0) return fail("cannot create shared memory " + name, error);
-    if (::ftruncate(fd, static_cast<off_t>(bytes)) != 0) {
-      ::close(fd);
-      ::shm_unlink(name.c_str());
-      return fail("cannot size shared memory " + name + " to " + std::to_string(bytes) + " bytes", error);
-    }
-    auto s = map(fd, name, bytes, error);
-    if (s) s->linked_ = true;
-    else ::shm_unlink(name.c_str());
-    return s;
-  }
-  static std::unique_ptr<SharedSegment> open(const std::string& name, std::string* error) {
-    int fd = ::shm_open(name.c_str(), O_RDWR | O_CLOEXEC, 0);
-    if (fd < 0) return fail("cannot open the writer's frame ring " + name, error);
-    struct stat st {};
-    if (::fstat(fd, &st) != 0 || st.st_size < static_cast<off_t>(sizeof(RingHeader))) {
-      ::close(fd);
-      return fail("the frame ring " + name + " is too small to be one", error);
-    }
-    return map(fd, name, static_cast<std::size_t>(st.st_size), error);
-  }
-  ~SharedSegment() {
-    unlink();
-    ::munmap(base_, bytes_);
-    ::close(fd_);
-  }
-  // Gives [offset, offset + bytes) memory now (the creator only): false when
-  // /dev/shm is full, where writing there would have killed the process (SIGBUS).
-  bool reserve(std::size_t offset, std::size_t bytes) {
-    return ::posix_fallocate(fd_, static_cast<off_t>(offset), static_cast<off_t>(bytes)) == 0;
-  }
-  void unlink() {
-    if (linked_) ::shm_unlink(name_.c_str());
-    linked_ = false;
-  }
-  uint8_t* base() const { return base_; }
-  int fd() const { return fd_; }
-  std::size_t bytes() const { return bytes_; }
-  const std::string& name() const { return name_; }
-
- private:
-  static std::unique_ptr<SharedSegment> fail(std::string why, std::string* error) {
-    if (error) *error = why + ": " + std::strerror(errno);
-    return nullptr;
-  }
-  // Keeps `fd`: the writer reserves memory through it, and both ends hold
-  // their liveness locks on it.
-  static std::unique_ptr<SharedSegment> map(int fd, const std::string& name, std::size_t bytes, std::string* error) {
-    void* base = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
-    if (base == MAP_FAILED) {
-      const int mmap_errno = errno;
-      ::close(fd);
-      errno = mmap_errno;
-      return fail("cannot map shared memory " + name, error);
-    }
-    auto s = std::unique_ptr<SharedSegment>(new SharedSegment());
-    s->fd_ = fd;
-    s->base_ = static_cast<uint8_t*>(base);
-    s->bytes_ = bytes;
-    s->name_ = name;
-    return s;
-  }
-  SharedSegment() = default;
-  int fd_ = -1;
-  uint8_t* base_ = nullptr;
-  std::size_t bytes_ = 0;
-  std::string name_;
-  bool linked_ = false;
-};
 
 namespace {
 
@@ -463,7 +330,7 @@ class RingMapping final : public cv::MatAllocator {
  public:
   static RingMapping* open(const RingAddress& at, std::string& why) {
     const std::string name = ring_segment_name(at.writer_pid, at.ring_id);
-    std::unique_ptr<SharedSegment> segment = SharedSegment::open(name, &why);
+    std::unique_ptr<SharedSegment> segment = SharedSegment::open(name, sizeof(RingHeader), "the writer's frame ring", &why);
     if (!segment) return nullptr;
     RingHeader& h = header_of(*segment);
     if (h.magic != kMagic || h.version != kVersion || h.ring_id != at.ring_id || h.slots == 0 ||

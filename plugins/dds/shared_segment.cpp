@@ -1,0 +1,130 @@
+#include "shared_segment.hpp"
+
+#include <fcntl.h>
+#include <linux/futex.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <climits>
+#include <cstring>
+#include <ctime>
+
+namespace saccade::dds {
+
+static_assert(std::atomic<uint32_t>::is_always_lock_free && sizeof(std::atomic<uint32_t>) == sizeof(uint32_t),
+              "a futex is a plain 32-bit word");
+
+namespace {
+
+std::unique_ptr<SharedSegment> fail(const std::string& why, std::string* error) {
+  if (error) *error = why + ": " + std::strerror(errno);
+  return nullptr;
+}
+
+struct flock one_byte(short type, off_t at) {
+  struct flock lock {};
+  lock.l_type = type;
+  lock.l_whence = SEEK_SET;
+  lock.l_start = at;
+  lock.l_len = 1;
+  return lock;
+}
+
+}  // namespace
+
+std::unique_ptr<SharedSegment> SharedSegment::create(const std::string& name, std::size_t bytes, std::string* error) {
+  int fd = ::shm_open(name.c_str(), O_CREAT | O_EXCL | O_RDWR | O_CLOEXEC, 0600);
+  if (fd < 0) return fail("cannot create shared memory " + name, error);
+  if (::ftruncate(fd, static_cast<off_t>(bytes)) != 0) {
+    ::close(fd);
+    ::shm_unlink(name.c_str());
+    return fail("cannot size shared memory " + name + " to " + std::to_string(bytes) + " bytes", error);
+  }
+  auto s = map(fd, name, bytes, error);
+  if (s) s->linked_ = true;
+  else ::shm_unlink(name.c_str());
+  return s;
+}
+
+std::unique_ptr<SharedSegment> SharedSegment::open(const std::string& name, std::size_t min_bytes,
+                                                   const std::string& what, std::string* error) {
+  int fd = ::shm_open(name.c_str(), O_RDWR | O_CLOEXEC, 0);
+  if (fd < 0) return fail("cannot open " + what + " " + name, error);
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || st.st_size < static_cast<off_t>(min_bytes)) {
+    ::close(fd);
+    if (error) *error = what + " " + name + " is too small to be one";
+    return nullptr;
+  }
+  return map(fd, name, static_cast<std::size_t>(st.st_size), error);
+}
+
+std::unique_ptr<SharedSegment> SharedSegment::map(int fd, const std::string& name, std::size_t bytes,
+                                                  std::string* error) {
+  void* base = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  if (base == MAP_FAILED) {
+    const int mmap_errno = errno;
+    ::close(fd);
+    errno = mmap_errno;
+    return fail("cannot map shared memory " + name, error);
+  }
+  auto s = std::unique_ptr<SharedSegment>(new SharedSegment());
+  s->fd_ = fd;
+  s->base_ = static_cast<uint8_t*>(base);
+  s->bytes_ = bytes;
+  s->name_ = name;
+  return s;
+}
+
+SharedSegment::~SharedSegment() {
+  unlink();
+  ::munmap(base_, bytes_);
+  ::close(fd_);
+}
+
+bool SharedSegment::reserve(std::size_t offset, std::size_t bytes) {
+  return ::posix_fallocate(fd_, static_cast<off_t>(offset), static_cast<off_t>(bytes)) == 0;
+}
+
+void SharedSegment::unlink() {
+  if (linked_) ::shm_unlink(name_.c_str());
+  linked_ = false;
+}
+
+long futex_wait(std::atomic<uint32_t>& word, uint32_t expected, int64_t timeout_ns) {
+  timespec timeout{static_cast<time_t>(timeout_ns / 1'000'000'000), static_cast<long>(timeout_ns % 1'000'000'000)};
+  return ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAIT, expected, &timeout, nullptr, 0);
+}
+
+void futex_wake_all(std::atomic<uint32_t>& word) {
+  ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0);
+}
+
+bool lock_byte(int fd, off_t at) {
+  struct flock lock = one_byte(F_WRLCK, at);
+  return ::fcntl(fd, F_OFD_SETLK, &lock) == 0;
+}
+
+void unlock_byte(int fd, off_t at) {
+  struct flock lock = one_byte(F_UNLCK, at);
+  ::fcntl(fd, F_OFD_SETLK, &lock);
+}
+
+bool byte_is_locked(int fd, off_t at) {
+  struct flock lock = one_byte(F_WRLCK, at);
+  if (::fcntl(fd, F_OFD_GETLK, &lock) != 0) return true;  // cannot tell: assume alive
+  return lock.l_type != F_UNLCK;
+}
+
+bool file_byte_is_locked(const std::string& path, off_t at) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+  if (fd < 0) return errno != ENOENT;  // cannot tell: leave it
+  const bool locked = byte_is_locked(fd, at);
+  ::close(fd);
+  return locked;
+}
+
+}  // namespace saccade::dds

@@ -1,0 +1,69 @@
+#pragma once
+// POSIX shared memory between the processes of one host, and what the frame
+// ring and the message mailbox both build on: futex waits and wakes on a word
+// in a segment, and liveness told by open-file-description locks.
+#include <sys/types.h>
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace saccade::dds {
+
+// One mapped POSIX shared-memory segment; its creator unlinks the name
+// (at unlink() or when it is destroyed). Keeps its descriptor: the creator
+// reserves memory through it, and both ends hold their liveness locks on it.
+class SharedSegment {
+ public:
+  static std::unique_ptr<SharedSegment> create(const std::string& name, std::size_t bytes, std::string* error);
+  // `what` names the segment in errors ("the writer's frame ring"); a segment
+  // smaller than `min_bytes` is refused.
+  static std::unique_ptr<SharedSegment> open(const std::string& name, std::size_t min_bytes, const std::string& what,
+                                             std::string* error);
+  ~SharedSegment();
+  SharedSegment(const SharedSegment&) = delete;
+  SharedSegment& operator=(const SharedSegment&) = delete;
+  // Gives [offset, offset + bytes) memory now (the creator only): false when
+  // /dev/shm is full, where writing there would have killed the process (SIGBUS).
+  bool reserve(std::size_t offset, std::size_t bytes);
+  void unlink();
+  uint8_t* base() const { return base_; }
+  int fd() const { return fd_; }
+  std::size_t bytes() const { return bytes_; }
+  const std::string& name() const { return name_; }
+
+ private:
+  SharedSegment() = default;
+  static std::unique_ptr<SharedSegment> map(int fd, const std::string& name, std::size_t bytes, std::string* error);
+  int fd_ = -1;
+  uint8_t* base_ = nullptr;
+  std::size_t bytes_ = 0;
+  std::string name_;
+  bool linked_ = false;
+};
+
+// A futex on a 32-bit word of a segment (between processes: not private).
+long futex_wait(std::atomic<uint32_t>& word, uint32_t expected, int64_t timeout_ns);
+void futex_wake_all(std::atomic<uint32_t>& word);
+inline void cpu_relax() {
+#if defined(__x86_64__)
+  __builtin_ia32_pause();
+#endif
+}
+
+// Who is alive is told by locks, not process ids: a process holds a lock on
+// its byte of the segment for as long as it has it mapped. The kernel drops
+// a dead process's locks, and locks work across pid namespaces (containers
+// that share /dev/shm but not their process ids), where a pid would name
+// nobody or somebody else. Open-file-description locks: per open of the
+// segment, so two ends in one process do not share theirs.
+bool lock_byte(int fd, off_t at);
+void unlock_byte(int fd, off_t at);
+// Whether another open of the segment holds the lock on byte `at`.
+bool byte_is_locked(int fd, off_t at);
+// The same for the segment file at `path` (true when it cannot tell).
+bool file_byte_is_locked(const std::string& path, off_t at);
+
+}  // namespace saccade::dds
