@@ -138,15 +138,20 @@ struct SaccadeEnd {
     std::string error;
     domain = sd::Domain::get(o.domain, &error);
     if (!domain) throw std::runtime_error(error);
-    codec = sd::choose_codec(p.saccade_type, {.zero_copy = true}, &error);  // as the partitioner does on one host
-    if (codec == nullptr) throw std::runtime_error(error);
     const EdgeQos qos = default_qos(p.saccade_type);
+    // As the partitioner does on one host: a zero-copy edge.
+    codec = sd::choose_codec(p.saccade_type, {.zero_copy = true, .reliable = qos.reliable}, &error);
+    if (codec == nullptr) throw std::runtime_error(error);
     settings.reliable = qos.reliable;
     settings.depth = qos.depth;
     settings.zero_copy = codec->shares_memory();
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) throw std::runtime_error(error);
-    sample = codec->make_sample({});
+    sd::WireOptions options;  // as dds.publish / dds.subscribe set them on a zero-copy edge
+    options.mailbox = codec->form == sd::Codec::Form::kSerialised;
+    options.in_order = settings.reliable;
+    options.mailbox_slots = static_cast<uint32_t>(std::max(16, settings.depth));
+    sample = codec->make_sample(options);
   }
 };
 

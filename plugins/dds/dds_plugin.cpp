@@ -40,15 +40,19 @@ Contract with_bridge_params(Contract c) {
       .param_int("depth", 1, 0, 100000, "keep-last history depth; 0 keeps all (a slow reader blocks the writer)")
       .param_double("deadline_ms", 0, 0, 3.6e6, "report a peer silent for this long (0: no deadline)")
       .param_bool("zero_copy", false,
-                  "one host only: Image and Retina pixels stay in shared memory (both ends must agree; other types "
-                  "ignore it); how: shared_memory")
-      .param_enum("shared_memory", "auto", {"auto", "ring", "loans"},
-                  "zero_copy: ring: the pixels stay in the writer's frame ring, readers read them in place (pinned "
-                  "while their graph holds the frame) and a producer may write into the ring itself; loans: plain "
-                  "fixed-capacity types through Fast DDS data sharing, the writer filling loaned samples, the reader "
-                  "copying out (what a plain Fast DDS peer reads); auto: ring for Image, loans for Retina (a few "
-                  "kilobytes travel faster loaned). Reliable edges and DDS security always use loans (a ring of "
-                  "reused buffers cannot promise every frame to a slow reader; its pixels bypass encryption)")
+                  "one host only (both ends must agree for Image): messages travel through shared memory; how: "
+                  "shared_memory")
+      .param_enum("shared_memory", "auto", {"auto", "ring", "loans", "mailbox"},
+                  "zero_copy: ring (Image, Retina): the pixels stay in the writer's frame ring, readers read them in "
+                  "place (pinned while their graph holds the frame) and a producer may write into the ring itself; "
+                  "loans (Image, Retina): plain fixed-capacity types through Fast DDS data sharing, the writer filling "
+                  "loaned samples, the reader copying out (what a plain Fast DDS peer reads); mailbox (any type): the "
+                  "serialised message, which the writer also posts to a same-host mailbox in shared memory, waking the "
+                  "readers there itself (DDS still carries every message, so either end may have it off); auto: ring "
+                  "for Image, mailbox for every other type. Reliable edges use loans for ring (a ring of reused "
+                  "buffers cannot promise every frame to a slow reader; a reliable mailbox reader reads every post in "
+                  "order, from DDS when it fell behind); DDS security always uses loans and no mailbox (they would "
+                  "bypass its encryption and access control)")
       .param_int("capacity", 0, 0, 1 << 30, "zero_copy: bytes of pixel data a ring buffer or sample holds (0: the type's "
                  "default, 4 MiB for Image, 1 MiB for Retina); loans use the smallest plain type at least this large")
       .param_int("ring_slots", 16, 4, 1024, "zero_copy ring: buffers in the writer's ring; a frame survives this many "
@@ -129,10 +133,11 @@ struct TopicEnd {
     using SharedMemory = sd::CodecRequest::SharedMemory;
     const std::string shm = p.get_string("shared_memory");
     sd::CodecRequest request{.zero_copy = p.get_bool("zero_copy"),
-                             .shared_memory = shm == "loans" || domain->secure() || p.get_bool("reliable")
-                                                  ? SharedMemory::kLoans
-                                              : shm == "ring" ? SharedMemory::kRing
-                                                              : SharedMemory::kAuto,
+                             .shared_memory = shm == "loans" || domain->secure() ? SharedMemory::kLoans
+                                              : shm == "ring"                    ? SharedMemory::kRing
+                                              : shm == "mailbox"                 ? SharedMemory::kMailbox
+                                                                                 : SharedMemory::kAuto,
+                             .reliable = p.get_bool("reliable"),
                              .capacity = static_cast<std::size_t>(p.get_int("capacity")),
                              .ros2 = p.get_bool("ros2")};
     codec = sd::choose_codec(p.get_string("type"), request, &error);
@@ -140,10 +145,17 @@ struct TopicEnd {
     topic_name = request.ros2 ? sd::ros2_topic(p.get_string("topic")) : p.get_string("topic");
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) return Status::error(error);
-    sample = codec->make_sample(wire_options(p));
+    sd::WireOptions options = wire_options(p);
+    // The mailbox bypasses DDS security's encryption and access control.
+    options.mailbox = request.zero_copy && codec->form == sd::Codec::Form::kSerialised &&
+                      (request.shared_memory == SharedMemory::kAuto || request.shared_memory == SharedMemory::kMailbox);
+    options.in_order = p.get_bool("reliable");
+    options.mailbox_slots = static_cast<uint32_t>(std::max<int64_t>(16, p.get_int("depth")));
+    sample = codec->make_sample(options);
     log().debug("{}: topic {} of type {}{}", node, topic_name, topic->get_type_name(),
                 codec->form == sd::Codec::Form::kPlain  ? " (zero copy: data sharing, loaned samples)"
                 : codec->form == sd::Codec::Form::kRing ? " (zero copy: the pixels stay in the writer's frame ring)"
+                : options.mailbox                        ? " (serialised, and through a same-host mailbox)"
                                                          : "");
     return {};
   }

@@ -39,7 +39,7 @@ eprosima::fastdds::dds::DataReaderQos reader_qos(const eprosima::fastdds::dds::S
 
 // Shared memory that DDS processes which died without cleaning up (kill -9, a
 // crash) left in /dev/shm: Fast DDS participant segments whose owner's lock is
-// free, and data-sharing pools and saccade frame rings no process maps. Files younger than `min_age_s`
+// free, and data-sharing pools, saccade frame rings and mailboxes no process maps. Files younger than `min_age_s`
 // are left (their owner may be starting), and other users' files. A clean exit
 // (and SIGINT/SIGTERM, which saccade run turns into one) leaves none.
 struct StaleSharedMemory {

@@ -11,6 +11,7 @@
 
 #include "domain.hpp"
 #include "frame_ring.hpp"
+#include "mailbox.hpp"
 
 namespace saccade::dds {
 
@@ -58,6 +59,7 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
   static const std::regex participant_segment("fastrtps_[0-9a-f]{16}");
   static const std::regex data_sharing_pool("fast_datasharing_[0-9a-f_.]+");
   static const std::regex frame_ring("saccade_ring_[0-9]+_[0-9a-f]{16}");
+  static const std::regex mailbox("saccade_mail_[0-9a-f]{16}");
   std::error_code ec;
   std::set<std::string> mapped;
   bool mapped_known = false;
@@ -65,7 +67,8 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
   for (const auto& entry : fs::directory_iterator(kShm, ec)) {
     const std::string name = entry.path().filename().string();
     const bool segment = std::regex_match(name, participant_segment);
-    const bool pool = !segment && (std::regex_match(name, data_sharing_pool) || std::regex_match(name, frame_ring));
+    const bool pool = !segment && (std::regex_match(name, data_sharing_pool) || std::regex_match(name, frame_ring) ||
+                                        std::regex_match(name, mailbox));
     if (!segment && !pool) continue;
     struct stat st {};
     // Only this user's files, and none so young that its owner may still be setting it up.
@@ -77,6 +80,8 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
       stale = owner_is_gone(entry.path().string() + "_el");
     } else if (std::regex_match(name, frame_ring)) {
       stale = !frame_ring_has_writer(entry.path().string());
+    } else if (std::regex_match(name, mailbox)) {
+      stale = !mailbox_has_writer(entry.path().string());
     } else {
       // A data-sharing pool is mapped by its writer for the writer's lifetime
       // (and by its readers): seen in /proc only for processes of this pid

@@ -7,6 +7,12 @@
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include <fastcdr/Cdr.h>
+#include <fastcdr/FastBuffer.h>
+#include <fastcdr/exceptions/Exception.h>
+
+#include "mailbox.hpp"
+#include "saccade/log.hpp"
 #include "saccadePubSubTypes.h"
 
 namespace saccade::dds {
@@ -69,9 +75,16 @@ std::shared_ptr<const Retina> retina_from_wire(const std::vector<w::Retina>& in,
   return retina;
 }
 
+// The serialised form. With a mailbox (WireOptions::mailbox) the writer also
+// posts each message's serialised bytes to its same-host mailbox before DDS
+// writes it, and a reader follows the mailbox the first sample names: it
+// reads the mailbox first and drops DDS' copies of what it read there (see
+// mailbox.hpp).
 template <class M, class W>
 class Sample final : public WireSample {
  public:
+  explicit Sample(const WireOptions& options) : options_(options) {}
+
   Status write(eprosima::fastdds::dds::DataWriter& writer, const Message* message, bool& written) override {
     if (message != nullptr) {
       to_wire(static_cast<const M&>(*message), wire_);
@@ -79,13 +92,64 @@ class Sample final : public WireSample {
       wire_.stamp().frame_id(-1);
       wire_.stamp().flags(kEndOfStream);
     }
+    wire_.stamp().mailbox(0);
+    wire_.stamp().post(0);
+    if (options_.mailbox) post_to_mailbox();
     written = writer.write(&wire_);
     return {};
   }
+
   Taken take(eprosima::fastdds::dds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) override {
-    eprosima::fastdds::dds::SampleInfo info;
-    if (reader.take_next_sample(&wire_, &info) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
-    if (!info.valid_data) return Taken::kUnreadable;
+    why_.clear();
+    if (options_.mailbox && !dds_turn_ && mail_.open()) {
+      const uint64_t newest = mail_.newest();
+      if (newest > last_) {
+        // In order, every post (a reliable edge); else the newest.
+        uint64_t post = options_.in_order ? last_ + 1 : newest;
+        MailboxReader::Read r = mail_.read(post, bytes_);
+        if (r == MailboxReader::Read::kOverwritten && !options_.in_order) r = mail_.read(post = mail_.newest(), bytes_);
+        if (r == MailboxReader::Read::kMessage) {
+          last_ = post;
+          ++mailed_;
+          if (!deserialise()) return Taken::kUnreadable;
+          return deliver(ctx, output, slot);
+        }
+        // Too large for the slots, or gone past (this reader fell a ring
+        // behind): DDS has it, and the mailbox waits until DDS gave it.
+        if (r != MailboxReader::Read::kNotYet) dds_turn_ = true;
+      }
+    }
+    for (;;) {
+      eprosima::fastdds::dds::SampleInfo info;
+      if (reader.take_next_sample(&wire_, &info) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
+      if (!info.valid_data) return Taken::kUnreadable;
+      if (options_.mailbox && !seen_first_time(wire_.stamp().mailbox(), wire_.stamp().post())) continue;
+      return deliver(ctx, output, slot);
+    }
+  }
+
+  // On the followed mailbox's doorbell in slices of 5 ms, looking at DDS
+  // between them: a sample only DDS brings (a restarted writer's new
+  // mailbox, a second writer) waits at most a slice. On DDS otherwise.
+  void wait(eprosima::fastdds::dds::DataReader& reader, int timeout_ms) override {
+    constexpr int64_t kSliceNs = 5'000'000;
+    const int64_t deadline = steady_now_ns() + static_cast<int64_t>(timeout_ms) * 1'000'000;
+    for (;;) {
+      if (reader.get_unread_count() > 0) return;
+      const int64_t left = deadline - steady_now_ns();
+      if (left <= 0) return;
+      if (!options_.mailbox || dds_turn_ || !mail_.wait(last_, std::min(left, kSliceNs))) {
+        wait_for_dds(reader, left);
+        return;
+      }
+      if (mail_.newest() > last_) return;
+    }
+  }
+
+  uint64_t frames_mailed() const override { return mailed_; }
+
+ private:
+  Taken deliver(ProcessContext* ctx, int output, MessagePtr& slot) {
     if (wire_.stamp().flags() & kEndOfStream) return Taken::kEnd;
     std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
     if constexpr (requires { from_wire(wire_, *m, &spare_retina_); }) from_wire(wire_, *m, &spare_retina_);
@@ -94,16 +158,99 @@ class Sample final : public WireSample {
     return Taken::kMessage;
   }
 
- private:
+  // The mailbox is made at the first message, with slots twice its size (at
+  // least 4 KiB), and made again larger when a message outgrows them (up to
+  // kMaxSlotBytes; larger ones are left to DDS): its readers follow the new
+  // one from its first DDS sample.
+  void post_to_mailbox() {
+    constexpr std::size_t kMinSlotBytes = 4096, kMaxSlotBytes = 64 * 1024;
+    const std::size_t bytes = W::getCdrSerializedSize(wire_) + 4;  // + the encapsulation
+    if (!box_ || (bytes > box_->slot_bytes() && box_->slot_bytes() < kMaxSlotBytes)) {
+      box_.reset();
+      std::string error;
+      const std::size_t slot_bytes = std::clamp<std::size_t>((2 * bytes + 4095) / 4096 * 4096, kMinSlotBytes, kMaxSlotBytes);
+      box_ = Mailbox::create(slot_bytes, options_.mailbox_slots, &error);
+      if (!box_) {
+        log().warn("no same-host mailbox ({}): messages go through DDS alone", error);
+        options_.mailbox = false;
+        return;
+      }
+    }
+    wire_.stamp().mailbox(box_->id());
+    wire_.stamp().post(box_->next_post());
+    if (bytes > box_->slot_bytes()) {
+      box_->post(nullptr, bytes);  // posted as "in DDS"
+      return;
+    }
+    bytes_.resize(bytes);
+    eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(bytes_.data()), bytes_.size());
+    eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+    cdr.serialize_encapsulation();
+    wire_.serialize(cdr);
+    box_->post(bytes_.data(), cdr.getSerializedDataLength());
+  }
+
+  bool deserialise() {
+    try {
+      eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(bytes_.data()), bytes_.size());
+      eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+      cdr.read_encapsulation();
+      wire_.deserialize(cdr);
+      return true;
+    } catch (const eprosima::fastcdr::exception::Exception& e) {
+      why_ = std::string("a mailbox message that does not deserialise: ") + e.what();
+      return false;
+    }
+  }
+
+  // Whether a DDS sample (of mailbox `box`, post `post`) is one this reader
+  // has not had from a mailbox. Follows the first mailbox a sample names, and
+  // a new one once that one's writer closed it or died (a restarted writer);
+  // a second live writer's samples come through DDS alone.
+  bool seen_first_time(uint64_t box, uint64_t post) {
+    if (box == 0 || post == 0) return true;
+    if (box == mail_.id()) {
+      if (post <= last_) return false;
+      last_ = post;
+      dds_turn_ = false;
+      return true;
+    }
+    if (box == previous_id_) {
+      if (post <= previous_last_) return false;
+      previous_last_ = post;
+      return true;
+    }
+    if (box == unreachable_id_ || (mail_.open() && mail_.writer_alive())) return true;
+    previous_id_ = mail_.id();
+    previous_last_ = last_;
+    std::string ignored;  // another host's writer: DDS alone
+    if (mail_.follow(box, ignored)) {
+      last_ = post;
+      dds_turn_ = false;
+    } else {
+      unreachable_id_ = box;
+    }
+    return true;
+  }
+
+  WireOptions options_;
   W wire_;
   std::shared_ptr<Retina> spare_retina_;
+  std::vector<uint8_t> bytes_;   // a message's serialised bytes, to or from the mailbox
+  std::unique_ptr<Mailbox> box_;  // the writer's
+  MailboxReader mail_;            // the reader's
+  uint64_t last_ = 0;             // the newest post of the followed mailbox this reader had
+  uint64_t previous_id_ = 0, previous_last_ = 0;  // the mailbox followed before, and its newest post had
+  uint64_t unreachable_id_ = 0;   // a mailbox that could not be opened (another host's)
+  bool dds_turn_ = false;         // the next post is DDS' to bring
+  uint64_t mailed_ = 0;
 };
 
 template <class M, class W, class P>
 Codec codec() {
   return Codec{M::kTypeName, Codec::Form::kSerialised, 0,
                +[]() -> std::unique_ptr<eprosima::fastdds::dds::TopicDataType> { return std::make_unique<P>(); },
-               +[](const WireOptions&) -> std::unique_ptr<WireSample> { return std::make_unique<Sample<M, W>>(); }};
+               +[](const WireOptions& o) -> std::unique_ptr<WireSample> { return std::make_unique<Sample<M, W>>(o); }};
 }
 
 const std::vector<Codec>& codecs() {
@@ -130,6 +277,8 @@ void stamp_to_wire(const Message& in, wc::Stamp& out) {
   out.origin_ns(in.origin_ns);
   out.frame_id(in.frame_id);
   out.flags(0);
+  out.mailbox(0);
+  out.post(0);
 }
 
 void stamp_from_wire(const wc::Stamp& in, Message& out) {
@@ -203,8 +352,11 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
   }
   if (!request.zero_copy) return serialised;
   using SharedMemory = CodecRequest::SharedMemory;
-  const bool ring = request.shared_memory == SharedMemory::kRing ||
-                    (request.shared_memory == SharedMemory::kAuto && type == Image::kTypeName);
+  const bool is_image = type == Image::kTypeName;
+  if (request.shared_memory == SharedMemory::kMailbox || (request.shared_memory == SharedMemory::kAuto && !is_image))
+    return serialised;
+  const bool ring = !request.reliable && (request.shared_memory == SharedMemory::kRing ||
+                                          (request.shared_memory == SharedMemory::kAuto && is_image));
   if (ring)
     if (const Codec* c = find_ring_codec(type)) return c;
   if (const Codec* plain = find_plain_codec(type, request.capacity)) return plain;

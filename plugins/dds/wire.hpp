@@ -139,6 +139,13 @@ struct WireOptions {
   std::vector<std::string> joint_names;  // ROS 2 JointState name[], in saccade's joint order
   std::size_t capacity = 0;              // kRing: bytes a buffer holds (0: 4 MiB for Image, 1 MiB for Retina)
   uint32_t ring_slots = 16;              // kRing: buffers in the writer's ring
+  // kSerialised: the writer also posts each message to a same-host mailbox
+  // (mailbox.hpp) of `mailbox_slots` slots, and the reader reads the
+  // mailbox its writer's samples name; `in_order`: every post in order (a
+  // reliable edge), else the newest.
+  bool mailbox = false;
+  bool in_order = false;
+  uint32_t mailbox_slots = 16;
 };
 
 struct Codec {
@@ -161,9 +168,13 @@ struct Codec {
 // How an edge asks its type to travel.
 struct CodecRequest {
   bool zero_copy = false;     // the frame ring or the plain form, when the type has one
-  // zero_copy: kAuto is the frame ring for Image and loans for Retina, whose
-  // few kilobytes a loaned sample carries faster (docs/performance.md).
-  enum class SharedMemory { kAuto, kRing, kLoans } shared_memory = SharedMemory::kAuto;
+  // zero_copy: kAuto is the frame ring for Image (loans when reliable) and
+  // the serialised form through the same-host mailbox for every other type,
+  // whose few kilobytes it carries faster than a loaned sample
+  // (docs/performance.md). kRing on a reliable edge is loans: a ring of
+  // reused buffers cannot promise every frame to a slow reader.
+  enum class SharedMemory { kAuto, kRing, kLoans, kMailbox } shared_memory = SharedMemory::kAuto;
+  bool reliable = false;
   std::size_t capacity = 0;   // zero_copy: bytes the plain form must hold (0: the type's default)
   bool ros2 = false;          // the ROS 2 form (wins over zero_copy: ROS 2 cannot read plain types)
 };
@@ -182,9 +193,10 @@ const Codec* find_ros2_codec(std::string_view type);
 // The frame-ring codec of `type`; nullptr when the type has none.
 const Codec* find_ring_codec(std::string_view type);
 // The codec an edge uses: the ROS 2 form when asked (an error when the type has
-// none); with `zero_copy`, the frame ring or the plain form holding `capacity`
-// as `shared_memory` says (a plain form too small is an error naming the
-// largest); else the serialised form. nullptr with `error` set when there is none.
+// none); with `zero_copy`, the frame ring, the plain form holding `capacity`
+// or the serialised form (for the mailbox) as `shared_memory` says (a plain
+// form too small is an error naming the largest); else the serialised form.
+// nullptr with `error` set when there is none.
 const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error);
 std::vector<std::string_view> codec_types();
 const std::vector<Codec>& plain_codecs();

@@ -186,7 +186,7 @@ TEST(DdsPeers, FramesThroughTheFrameRingArriveIntactAndAreReadInPlace) {
 // This process's view of /dev/shm files process `pid` maps, DDS' own only
 // (participant segments and data-sharing pools; port files are shared by design).
 std::set<std::string> dds_files_mapped_by(pid_t pid) {
-  static const std::regex own("fastrtps_[0-9a-f]{16}|fast_datasharing_.*|saccade_ring_.*");
+  static const std::regex own("fastrtps_[0-9a-f]{16}|fast_datasharing_.*|saccade_ring_.*|saccade_mail_.*");
   std::set<std::string> out;
   std::ifstream maps("/proc/" + std::to_string(pid) + "/maps");
   std::string line;

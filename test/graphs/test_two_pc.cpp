@@ -304,6 +304,13 @@ TEST(TwoPcRun, TwoProcessesOverDdsGiveExactlyWhatOneProcessGives) {
                      << testing::Recorder::instance().get("motions").size() << " motions recorded)";
   ASSERT_TRUE(status.ok()) << status.message();
   Records split = take_records();
+  // One host: the retinas, maps and motions travel serialised through their
+  // writers' mailboxes (those that fit a slot), in order, once each.
+  uint64_t mailed = 0;
+  for (const NodeStats* s : executor.stats())
+    for (const auto& c : s->counters)
+      if (c->name == "mailbox_frames") mailed += c->value.load();
+  EXPECT_GE(mailed, static_cast<uint64_t>(frames)) << "at least the retinas came through the mailbox";
 
   ASSERT_EQ(split.retinas.size(), single.retinas.size());
   ASSERT_EQ(split.maps.size(), single.maps.size());

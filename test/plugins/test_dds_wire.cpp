@@ -588,11 +588,18 @@ TEST(DdsRing, MalformedHeadersAreRefusedNotCrashes) {
   expect_same_mat(image.mat, back.mat);
 }
 
-TEST(DdsRing, ZeroCopyPicksTheRingForImagesLoansForRetinasOrWhatIsAsked) {
+TEST(DdsRing, ZeroCopyPicksTheRingForImagesTheMailboxForOtherTypesOrWhatIsAsked) {
   using SharedMemory = dds::CodecRequest::SharedMemory;
   std::string error;
   EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true}, &error)->form, dds::Codec::Form::kRing);
-  EXPECT_EQ(dds::choose_codec("Retina", {.zero_copy = true}, &error)->form, dds::Codec::Form::kPlain);
+  // The mailbox carries the serialised form.
+  EXPECT_EQ(dds::choose_codec("Retina", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialised);
+  EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true, .shared_memory = SharedMemory::kMailbox}, &error)->form,
+            dds::Codec::Form::kSerialised);
+  // A reliable image edge is not promised every frame by a ring of reused buffers: loans.
+  for (SharedMemory asked : {SharedMemory::kAuto, SharedMemory::kRing})
+    EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true, .shared_memory = asked, .reliable = true}, &error)->form,
+              dds::Codec::Form::kPlain);
   for (const char* type : {"Image", "Retina"}) {
     const dds::Codec* ring = dds::choose_codec(type, {.zero_copy = true, .shared_memory = SharedMemory::kRing}, &error);
     ASSERT_NE(ring, nullptr) << error;

@@ -1,0 +1,215 @@
+// The same-host mailbox (plugins/dds/mailbox.hpp): a writer's numbered slots
+// of serialised messages in shared memory, read in order or newest first by
+// readers it wakes itself.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "domain.hpp"
+#include "mailbox.hpp"
+
+using saccade::dds::Mailbox;
+using saccade::dds::MailboxReader;
+using Read = saccade::dds::MailboxReader::Read;
+
+namespace {
+
+// A message whose bytes all hold its post's number (low byte) and whose
+// length depends on it, so that a torn or misplaced read shows.
+std::vector<uint8_t> message_of(uint64_t post) {
+  return std::vector<uint8_t>(100 + post % 37, static_cast<uint8_t>(post));
+}
+
+bool is_message_of(const std::vector<uint8_t>& bytes, uint64_t post) { return bytes == message_of(post); }
+
+bool shm_exists(const std::string& name) { return std::filesystem::exists("/dev/shm" + name); }
+
+std::unique_ptr<Mailbox> make_mailbox(std::size_t slot_bytes, uint32_t slots) {
+  std::string error;
+  auto box = Mailbox::create(slot_bytes, slots, &error);
+  EXPECT_TRUE(box) << error;
+  return box;
+}
+
+void post(Mailbox& box, uint64_t n) {
+  const std::vector<uint8_t> m = message_of(n);
+  box.post(m.data(), m.size());
+}
+
+}  // namespace
+
+TEST(Mailbox, EveryPostIsReadInOrderUntilTheWriterHasUsedItsSlotAgain) {
+  auto box = make_mailbox(256, 4);
+  ASSERT_TRUE(box);
+  MailboxReader reader;
+  std::string why;
+  ASSERT_TRUE(reader.follow(box->id(), why)) << why;
+  EXPECT_TRUE(reader.open());
+  EXPECT_TRUE(reader.writer_alive());
+  std::vector<uint8_t> got;
+  EXPECT_EQ(reader.newest(), 0u);
+  EXPECT_EQ(reader.read(1, got), Read::kNotYet) << "nothing posted yet";
+
+  EXPECT_EQ(box->next_post(), 1u);
+  for (uint64_t n = 1; n <= 3; ++n) post(*box, n);
+  EXPECT_EQ(box->next_post(), 4u);
+  EXPECT_EQ(reader.newest(), 3u);
+  for (uint64_t n = 1; n <= 3; ++n) {
+    ASSERT_EQ(reader.read(n, got), Read::kMessage) << n;
+    EXPECT_TRUE(is_message_of(got, n)) << n;
+  }
+  EXPECT_EQ(reader.read(4, got), Read::kNotYet);
+
+  // Four slots: posts 4..7 take the slots of 1..3 and 4 again.
+  for (uint64_t n = 4; n <= 7; ++n) post(*box, n);
+  EXPECT_EQ(reader.read(3, got), Read::kOverwritten) << "gone: its slot holds post 7";
+  EXPECT_EQ(reader.read(2, got), Read::kOverwritten);
+  for (uint64_t n = 4; n <= 7; ++n) {
+    ASSERT_EQ(reader.read(n, got), Read::kMessage) << n;
+    EXPECT_TRUE(is_message_of(got, n)) << n;
+  }
+}
+
+TEST(Mailbox, AMessageLargerThanASlotIsPostedAsOneToTakeFromDds) {
+  auto box = make_mailbox(64, 4);
+  ASSERT_TRUE(box);
+  MailboxReader reader;
+  std::string why;
+  ASSERT_TRUE(reader.follow(box->id(), why)) << why;
+  const std::vector<uint8_t> large(65, 7), fits(64, 8);
+  box->post(large.data(), large.size());
+  box->post(fits.data(), fits.size());
+  std::vector<uint8_t> got;
+  EXPECT_EQ(reader.read(1, got), Read::kInDds);
+  ASSERT_EQ(reader.read(2, got), Read::kMessage);
+  EXPECT_EQ(got, fits);
+}
+
+TEST(Mailbox, AnUnknownOrForeignMailboxIsRefusedWithTheReason) {
+  MailboxReader reader;
+  std::string why;
+  EXPECT_FALSE(reader.follow(0x1234, why));
+  EXPECT_NE(why.find("saccade_mail_0000000000001234"), std::string::npos) << why;
+  EXPECT_FALSE(reader.open());
+  std::vector<uint8_t> got;
+  EXPECT_EQ(reader.read(1, got), Read::kNotYet);
+  EXPECT_FALSE(reader.wait(0, 1'000'000)) << "nothing followed";
+}
+
+TEST(Mailbox, AWriterClosingItsMailboxWakesItsReadersAndSendsThemBackToDds) {
+  auto box = make_mailbox(256, 4);
+  ASSERT_TRUE(box);
+  const std::string name = saccade::dds::mailbox_segment_name(box->id());
+  EXPECT_TRUE(shm_exists(name));
+  MailboxReader reader;
+  std::string why;
+  ASSERT_TRUE(reader.follow(box->id(), why)) << why;
+  post(*box, 1);
+  std::thread sleeper([&] {
+    // Woken at once by the writer's end, not after a minute.
+    EXPECT_FALSE(reader.wait(1, 60'000'000'000));
+  });
+  usleep(20000);
+  box.reset();
+  sleeper.join();
+  EXPECT_FALSE(reader.open());
+  EXPECT_FALSE(shm_exists(name)) << "the writer unlinks its name";
+  std::vector<uint8_t> got;
+  ASSERT_EQ(reader.read(1, got), Read::kMessage) << "what was posted stays readable";
+  EXPECT_TRUE(is_message_of(got, 1));
+}
+
+TEST(Mailbox, AReaderInAnotherProcessReadsEveryPostInOrderAndNeverATornOne) {
+  // The child reads each post in order as the writer posts 20000, back to
+  // back, into four slots: the writer laps the reader all the time, so reads
+  // race writes of the same slot.
+  constexpr uint32_t kSlots = 4;
+  auto box = make_mailbox(256, kSlots);
+  ASSERT_TRUE(box);
+  constexpr uint64_t kPosts = 20000;
+  int to_parent[2];
+  ASSERT_EQ(pipe(to_parent), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    MailboxReader reader;
+    std::string why;
+    uint64_t last = 0, torn = 0, overwritten = 0, woken = 0;
+    if (reader.follow(box->id(), why)) {
+      (void)!write(to_parent[1], "r", 1);
+      std::vector<uint8_t> got;
+      const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+      while (last < kPosts && std::chrono::steady_clock::now() < give_up) {
+        const Read r = reader.read(last + 1, got);
+        if (r == Read::kMessage) {
+          torn += is_message_of(got, last + 1) ? 0 : 1;
+          ++last;
+          continue;
+        }
+        if (r == Read::kOverwritten) {  // lapped: on from the oldest post still there
+          ++overwritten;
+          last = reader.newest() - (kSlots - 1) - 1;
+          continue;
+        }
+        if (!reader.wait(last, 100'000'000)) break;
+        ++woken;
+      }
+    }
+    std::printf("last %llu, torn %llu, overwritten %llu, woken %llu\n", static_cast<unsigned long long>(last),
+                static_cast<unsigned long long>(torn), static_cast<unsigned long long>(overwritten),
+                static_cast<unsigned long long>(woken));
+    std::fflush(stdout);
+    _exit(last == kPosts && torn == 0 && woken > 0 ? 0 : 1);
+  }
+  char ready = 0;
+  ASSERT_EQ(read(to_parent[0], &ready, 1), 1) << "the child follows the mailbox";
+  close(to_parent[0]);
+  close(to_parent[1]);
+  usleep(20000);  // the child is asleep (or about to be) on post 1
+  for (uint64_t n = 1; n <= kPosts; ++n) post(*box, n);
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << "the child read a torn message or missed the last post (its line above says which)";
+}
+
+TEST(Mailbox, AMailboxWhoseWriterDiedIsRemovedAsStale) {
+  int pipe_fds[2];
+  ASSERT_EQ(pipe(pipe_fds), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::string error;
+    auto* box = Mailbox::create(256, 4, &error).release();
+    const std::string name = box != nullptr ? saccade::dds::mailbox_segment_name(box->id()) : std::string();
+    (void)!write(pipe_fds[1], name.c_str(), name.size() + 1);
+    _exit(0);  // a crash: nothing unlinks it
+  }
+  char name[128] = {};
+  ASSERT_GT(read(pipe_fds[0], name, sizeof name - 1), 1);
+  close(pipe_fds[0]);
+  close(pipe_fds[1]);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(shm_exists(name)) << name;
+  EXPECT_FALSE(saccade::dds::mailbox_has_writer(std::string("/dev/shm") + name));
+
+  // A live writer's mailbox is kept.
+  auto live = make_mailbox(256, 4);
+  ASSERT_TRUE(live);
+  const std::string live_name = saccade::dds::mailbox_segment_name(live->id());
+  EXPECT_TRUE(saccade::dds::mailbox_has_writer("/dev/shm" + live_name));
+
+  auto stale = saccade::dds::remove_stale_shared_memory(0);
+  EXPECT_FALSE(shm_exists(name));
+  EXPECT_NE(std::find(stale.removed.begin(), stale.removed.end(), std::string(name + 1)), stale.removed.end());
+  EXPECT_TRUE(shm_exists(live_name));
+}
