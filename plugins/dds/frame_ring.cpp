@@ -21,7 +21,7 @@ namespace saccade::dds {
 namespace {
 
 constexpr uint64_t kMagic = 0x676e6972'63636173ull;  // "saccring"
-constexpr uint32_t kVersion = 2;  // 2: the mailbox
+constexpr uint32_t kVersion = 3;  // 2: the mailbox; 3: its readers say what they took
 constexpr uint64_t kWriterBit = 1ull << 31;
 constexpr uint64_t kReaderBits = (1ull << FrameRing::kMaxReaders) - 1;
 constexpr uint64_t kHoldBits = kWriterBit | kReaderBits;
@@ -56,6 +56,7 @@ struct RingHeader {
 // `waiters`; `closed` says the writer let go of the ring.
 struct RingMailbox {
   alignas(64) std::atomic<uint64_t> sequence;
+  std::atomic<uint64_t> taken;  // the newest post a reader took
   std::atomic<uint32_t> doorbell;
   std::atomic<uint32_t> waiters;
   std::atomic<uint32_t> closed;
@@ -276,7 +277,7 @@ uint64_t FrameRing::next_post() const {
   return mailbox_of(*segment_).sequence.load(std::memory_order_relaxed) / 2 + 1;
 }
 
-void FrameRing::post(const void* sample, std::size_t bytes) {
+bool FrameRing::post(const void* sample, std::size_t bytes) {
   RingMailbox& mail = mailbox_of(*segment_);
   bytes = std::min(bytes, kMailBytes);
   uint64_t words[kMailBytes / 8];
@@ -293,7 +294,17 @@ void FrameRing::post(const void* sample, std::size_t bytes) {
   // seq_cst with the waiters' count: a reader either sees the new doorbell
   // before it sleeps, or counted itself before this looks (no lost wake-up).
   mail.doorbell.store(static_cast<uint32_t>(sequence / 2 + 1), std::memory_order_seq_cst);
-  if (mail.waiters.load(std::memory_order_seq_cst) != 0) futex_wake_all(mail.doorbell);
+  if (mail.waiters.load(std::memory_order_seq_cst) == 0) return false;
+  futex_wake_all(mail.doorbell);
+  return true;
+}
+
+uint32_t FrameRing::sleeping_readers() const {
+  return mailbox_of(*segment_).waiters.load(std::memory_order_seq_cst);
+}
+
+bool FrameRing::wait_until_taken(uint64_t post, int64_t timeout_ns) const {
+  return spin_until_taken(mailbox_of(*segment_).taken, post, timeout_ns);
 }
 
 int FrameRing::release_dead_readers() const {
@@ -534,6 +545,7 @@ bool RingReader::mail(uint64_t after, void* out, std::size_t bytes, uint64_t& po
     }
     std::memcpy(out, words, bytes);
     post = sequence / 2;
+    mark_taken(mail.taken, post);
     ++mailed_;
     return true;
   }

@@ -91,7 +91,14 @@ class FrameRing final : public cv::MatAllocator {
   uint64_t next_post() const;
   // Copies `bytes` of `sample` (at most kMailBytes) into the mailbox, replacing
   // what was there, and wakes the readers waiting for it. One thread posts.
-  void post(const void* sample, std::size_t bytes);
+  // True when a reader was asleep on the doorbell.
+  bool post(const void* sample, std::size_t bytes);
+  // Spins until a reader has taken post `post` from the mailbox, or
+  // `timeout_ns` pass; false on the timeout (see spin_until_taken in
+  // shared_segment.hpp).
+  bool wait_until_taken(uint64_t post, int64_t timeout_ns) const;
+  // Readers asleep on the doorbell now.
+  uint32_t sleeping_readers() const;
 
   // Readers whose process died keep their pins until the writer notices:
   // take() does, when it finds every buffer held. Returns how many it dropped.

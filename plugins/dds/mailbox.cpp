@@ -33,6 +33,7 @@ struct MailHeader {
   // The newest whole post; `doorbell` (its low 32 bits, a futex) wakes
   // `waiters`; `closed` says the writer let go of the mailbox.
   alignas(64) std::atomic<uint64_t> newest;
+  std::atomic<uint64_t> taken;  // the newest post a reader read
   std::atomic<uint32_t> doorbell;
   std::atomic<uint32_t> waiters;
   std::atomic<uint32_t> closed;
@@ -98,6 +99,7 @@ std::unique_ptr<Mailbox> Mailbox::create(std::size_t slot_bytes, uint32_t slots,
   h->id = box->id_;
   h->writer_pid = static_cast<uint32_t>(::getpid());
   h->newest.store(0, std::memory_order_relaxed);
+  h->taken.store(0, std::memory_order_relaxed);
   h->doorbell.store(0, std::memory_order_relaxed);
   h->waiters.store(0, std::memory_order_relaxed);
   h->closed.store(0, std::memory_order_relaxed);
@@ -119,7 +121,7 @@ Mailbox::~Mailbox() {
   futex_wake_all(h.doorbell);
 }
 
-void Mailbox::post(const void* data, std::size_t bytes) {
+bool Mailbox::post(const void* data, std::size_t bytes) {
   const uint64_t post = next_++;
   uint8_t* slot = slot_of(*segment_, post);
   SlotHead& head = head_of(slot);
@@ -143,7 +145,15 @@ void Mailbox::post(const void* data, std::size_t bytes) {
   // seq_cst with the waiters' count: a reader either sees the new doorbell
   // before it sleeps, or counted itself before this looks (no lost wake-up).
   h.doorbell.store(static_cast<uint32_t>(post), std::memory_order_seq_cst);
-  if (h.waiters.load(std::memory_order_seq_cst) != 0) futex_wake_all(h.doorbell);
+  if (h.waiters.load(std::memory_order_seq_cst) == 0) return false;
+  futex_wake_all(h.doorbell);
+  return true;
+}
+
+uint32_t Mailbox::sleeping_readers() const { return header_of(*segment_).waiters.load(std::memory_order_seq_cst); }
+
+bool Mailbox::wait_until_taken(uint64_t post, int64_t timeout_ns) const {
+  return spin_until_taken(header_of(*segment_).taken, post, timeout_ns);
 }
 
 // --- the reader ---
@@ -210,6 +220,7 @@ MailboxReader::Read MailboxReader::read(uint64_t post, std::vector<uint8_t>& out
     }
     if (head.sequence.load(std::memory_order_relaxed) != sequence) return Read::kOverwritten;
     out.resize(bytes);
+    mark_taken(header_of(*segment_).taken, post);
     return Read::kMessage;
   }
   return Read::kNotYet;

@@ -51,8 +51,13 @@ class Mailbox {
   uint64_t next_post() const { return next_; }
   // Copies `bytes` into the next post's slot and wakes the readers; a message
   // larger than a slot is posted as kInDds (its readers take it from DDS).
-  // One thread posts.
-  void post(const void* data, std::size_t bytes);
+  // One thread posts. True when a reader was asleep on the doorbell.
+  bool post(const void* data, std::size_t bytes);
+  // Spins until a reader has read post `post`, or `timeout_ns` pass (see
+  // spin_until_taken in shared_segment.hpp); false on the timeout.
+  bool wait_until_taken(uint64_t post, int64_t timeout_ns) const;
+  // Readers asleep on the doorbell now.
+  uint32_t sleeping_readers() const;
 
  private:
   Mailbox() = default;

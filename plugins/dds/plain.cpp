@@ -13,6 +13,7 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include "frame_ring.hpp"
+#include "shared_segment.hpp"
 #include "saccade/log.hpp"
 #include "saccade/node.hpp"
 #include "saccadePubSubTypes.h"
@@ -422,8 +423,9 @@ class RingSample final : public WireSample {
     // wake while DDS still hands the sample on (it then counts as delivered
     // to them even if DDS refuses it).
     auto post = [&](P& sample) {
-      sample.ring().post(ring_->next_post());
-      ring_->post(&sample, sizeof sample);
+      const uint64_t number = ring_->next_post();
+      sample.ring().post(number);
+      if (reader_first_.wait_for(ring_->post(&sample, sizeof sample), steady_now_ns())) ring_->wait_until_taken(number, kReaderFirstNs);
     };
     Status s = write_loaned<P>(
         writer, message, written,
@@ -489,23 +491,11 @@ class RingSample final : public WireSample {
     }
   }
 
-  // Sleeps on the followed ring's doorbell, or, without one, on DDS. On the
-  // doorbell in slices of 5 ms, looking at DDS between them: a sample only
-  // DDS brings (a restarted writer's new ring, a second writer) waits at
-  // most a slice.
+  // On the followed ring's doorbell.
   void wait(fdds::DataReader& reader, int timeout_ms) override {
-    constexpr int64_t kSliceNs = 5'000'000;
-    const int64_t deadline = steady_now_ns() + static_cast<int64_t>(timeout_ms) * 1'000'000;
-    for (;;) {
-      if (reader.get_unread_count() > 0) return;
-      const int64_t left = deadline - steady_now_ns();
-      if (left <= 0) return;
-      if (!frames_.following() || !frames_.wait_mail(last_post_, std::min(left, kSliceNs))) {
-        wait_for_dds(reader, left);
-        return;
-      }
-      if (frames_.newest_post() > last_post_) return;
-    }
+    wait_on_doorbell(
+        reader, timeout_ms, [&](int64_t ns) { return frames_.following() && frames_.wait_mail(last_post_, ns); },
+        [&] { return frames_.newest_post() > last_post_; });
   }
 
   uint64_t frames_mailed() const override { return frames_.mailed(); }
@@ -532,6 +522,7 @@ class RingSample final : public WireSample {
   uint32_t slots_;
   uint64_t written_copied_ = 0;  // frames the writer copied in (their producer did not write them there)
   std::shared_ptr<FrameRing> ring_;
+  ReaderFirst reader_first_;
   RingReader frames_;
   uint64_t last_post_ = 0;  // the newest post of the followed ring this reader had
   P copy_;

@@ -1,6 +1,7 @@
 #include "shared_segment.hpp"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <linux/futex.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -101,6 +102,32 @@ long futex_wait(std::atomic<uint32_t>& word, uint32_t expected, int64_t timeout_
 
 void futex_wake_all(std::atomic<uint32_t>& word) {
   ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0);
+}
+
+void mark_taken(std::atomic<uint64_t>& taken, uint64_t post) {
+  uint64_t seen = taken.load(std::memory_order_relaxed);
+  while (seen < post && !taken.compare_exchange_weak(seen, post, std::memory_order_release)) {
+  }
+}
+
+bool ReaderFirst::wait_for(bool woke, int64_t now_ns) {
+  constexpr int64_t kPacedGapNs = 1'000'000;
+  const bool paced = now_ns - last_post_ns_ >= kPacedGapNs;
+  last_post_ns_ = now_ns;
+  return woke && paced;
+}
+
+bool spin_until_taken(const std::atomic<uint64_t>& taken, uint64_t post, int64_t timeout_ns) {
+  timespec now{};
+  ::clock_gettime(CLOCK_MONOTONIC, &now);
+  const int64_t deadline = now.tv_sec * 1'000'000'000LL + now.tv_nsec + timeout_ns;
+  for (;;) {
+    if (taken.load(std::memory_order_acquire) >= post) return true;
+    // The reader woken may be queued on this core: let it run.
+    ::sched_yield();
+    ::clock_gettime(CLOCK_MONOTONIC, &now);
+    if (now.tv_sec * 1'000'000'000LL + now.tv_nsec >= deadline) return false;
+  }
 }
 
 bool lock_byte(int fd, off_t at) {

@@ -12,6 +12,7 @@
 #include <fastcdr/exceptions/Exception.h>
 
 #include "mailbox.hpp"
+#include "shared_segment.hpp"
 #include "saccade/log.hpp"
 #include "saccadePubSubTypes.h"
 
@@ -128,22 +129,11 @@ class Sample final : public WireSample {
     }
   }
 
-  // On the followed mailbox's doorbell in slices of 5 ms, looking at DDS
-  // between them: a sample only DDS brings (a restarted writer's new
-  // mailbox, a second writer) waits at most a slice. On DDS otherwise.
+  // On the followed mailbox's doorbell (unless DDS has the next post).
   void wait(eprosima::fastdds::dds::DataReader& reader, int timeout_ms) override {
-    constexpr int64_t kSliceNs = 5'000'000;
-    const int64_t deadline = steady_now_ns() + static_cast<int64_t>(timeout_ms) * 1'000'000;
-    for (;;) {
-      if (reader.get_unread_count() > 0) return;
-      const int64_t left = deadline - steady_now_ns();
-      if (left <= 0) return;
-      if (!options_.mailbox || dds_turn_ || !mail_.wait(last_, std::min(left, kSliceNs))) {
-        wait_for_dds(reader, left);
-        return;
-      }
-      if (mail_.newest() > last_) return;
-    }
+    wait_on_doorbell(
+        reader, timeout_ms, [&](int64_t ns) { return options_.mailbox && !dds_turn_ && mail_.wait(last_, ns); },
+        [&] { return mail_.newest() > last_; });
   }
 
   uint64_t frames_mailed() const override { return mailed_; }
@@ -176,8 +166,9 @@ class Sample final : public WireSample {
         return;
       }
     }
+    const uint64_t post = box_->next_post();
     wire_.stamp().mailbox(box_->id());
-    wire_.stamp().post(box_->next_post());
+    wire_.stamp().post(post);
     if (bytes > box_->slot_bytes()) {
       box_->post(nullptr, bytes);  // posted as "in DDS"
       return;
@@ -187,7 +178,8 @@ class Sample final : public WireSample {
     eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
     cdr.serialize_encapsulation();
     wire_.serialize(cdr);
-    box_->post(bytes_.data(), cdr.getSerializedDataLength());
+    if (reader_first_.wait_for(box_->post(bytes_.data(), cdr.getSerializedDataLength()), steady_now_ns()))
+      box_->wait_until_taken(post, kReaderFirstNs);
   }
 
   bool deserialise() {
@@ -238,6 +230,7 @@ class Sample final : public WireSample {
   std::shared_ptr<Retina> spare_retina_;
   std::vector<uint8_t> bytes_;   // a message's serialised bytes, to or from the mailbox
   std::unique_ptr<Mailbox> box_;  // the writer's
+  ReaderFirst reader_first_;
   MailboxReader mail_;            // the reader's
   uint64_t last_ = 0;             // the newest post of the followed mailbox this reader had
   uint64_t previous_id_ = 0, previous_last_ = 0;  // the mailbox followed before, and its newest post had
@@ -305,6 +298,22 @@ WireSample::~WireSample() = default;
 
 void WireSample::wait(eprosima::fastdds::dds::DataReader& reader, int timeout_ms) {
   wait_for_dds(reader, static_cast<int64_t>(timeout_ms) * 1'000'000);
+}
+
+void wait_on_doorbell(eprosima::fastdds::dds::DataReader& reader, int timeout_ms,
+                      const std::function<bool(int64_t)>& sleep, const std::function<bool()>& arrived) {
+  constexpr int64_t kSliceNs = 5'000'000;
+  const int64_t deadline = steady_now_ns() + static_cast<int64_t>(timeout_ms) * 1'000'000;
+  for (;;) {
+    if (reader.get_unread_count() > 0) return;
+    const int64_t left = deadline - steady_now_ns();
+    if (left <= 0) return;
+    if (!sleep(std::min(left, kSliceNs))) {
+      wait_for_dds(reader, left);
+      return;
+    }
+    if (arrived()) return;
+  }
 }
 
 void wait_for_dds(eprosima::fastdds::dds::DataReader& reader, int64_t timeout_ns) {

@@ -287,27 +287,15 @@ TEST(FrameRing, TheWriterTakesBackThePinsOfAReaderWhoseProcessDied) {
 }
 
 TEST(FrameRing, ARingWhoseWriterDiedIsRemovedAsStale) {
-  int pipe_fds[2];
-  ASSERT_EQ(pipe(pipe_fds), 0);
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
+  const std::string name = test::left_by_a_crashed_child([] {
     std::string error;
     auto* ring = new std::shared_ptr<FrameRing>(FrameRing::create(4096, 2, &error));
-    const std::string name = *ring ? (*ring)->name() : std::string();
-    (void)!write(pipe_fds[1], name.c_str(), name.size() + 1);
-    _exit(0);  // a crash: nothing unlinks it
-  }
-  char name[128] = {};
-  ASSERT_GT(read(pipe_fds[0], name, sizeof name - 1), 1);
-  close(pipe_fds[0]);
-  close(pipe_fds[1]);
-  int status = 0;
-  waitpid(child, &status, 0);
+    return *ring ? (*ring)->name() : std::string();
+  });
   ASSERT_TRUE(shm_exists(name)) << name;
   auto stale = saccade::dds::remove_stale_shared_memory(0);
   EXPECT_FALSE(shm_exists(name));
-  EXPECT_NE(std::find(stale.removed.begin(), stale.removed.end(), std::string(name + 1)), stale.removed.end());
+  EXPECT_NE(std::find(stale.removed.begin(), stale.removed.end(), name.substr(1)), stale.removed.end());
 }
 
 namespace {
@@ -482,4 +470,31 @@ TEST(FrameRing, AReaderLivesWhileItHoldsTheRingWhateverItsProcessIdSays) {
   EXPECT_TRUE(saccade::dds::frame_ring_has_writer("/dev/shm" + ring->name()));
   saccade::dds::remove_stale_shared_memory(0);
   EXPECT_TRUE(shm_exists(ring->name()));
+}
+
+TEST(FrameRing, AWriterThatWokeASleepingReaderCanWaitUntilItHasTakenThePost) {
+  auto [ring, at, frame] = ring_with_a_frame();
+  ASSERT_TRUE(ring);
+  RingReader reader;
+  std::string why;
+  ASSERT_TRUE(reader.follow(at, why)) << why;
+  const Numbered first = numbered(1);
+  EXPECT_FALSE(ring->post(&first, sizeof first)) << "nobody was asleep on the doorbell";
+  EXPECT_FALSE(ring->wait_until_taken(1, 2'000'000)) << "nobody took it: the wait times out";
+  Numbered got{};
+  uint64_t post = 0;
+  ASSERT_TRUE(reader.mail(0, &got, sizeof got, post));
+  EXPECT_TRUE(ring->wait_until_taken(1, 0)) << "taken";
+
+  std::thread sleeper([&] {
+    Numbered mine{};
+    uint64_t number = 0;
+    ASSERT_TRUE(reader.wait_mail(1, 10'000'000'000));
+    EXPECT_TRUE(reader.mail(1, &mine, sizeof mine, number));
+  });
+  for (int i = 0; i < 10000 && ring->sleeping_readers() == 0; ++i) usleep(1000);
+  const Numbered second = numbered(2);
+  EXPECT_TRUE(ring->post(&second, sizeof second));
+  EXPECT_TRUE(ring->wait_until_taken(2, 10'000'000'000));
+  sleeper.join();
 }

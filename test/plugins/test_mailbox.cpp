@@ -15,6 +15,8 @@
 
 #include "domain.hpp"
 #include "mailbox.hpp"
+#include "shared_segment.hpp"
+#include "support.hpp"
 
 using saccade::dds::Mailbox;
 using saccade::dds::MailboxReader;
@@ -182,25 +184,13 @@ TEST(Mailbox, AReaderInAnotherProcessReadsEveryPostInOrderAndNeverATornOne) {
 }
 
 TEST(Mailbox, AMailboxWhoseWriterDiedIsRemovedAsStale) {
-  int pipe_fds[2];
-  ASSERT_EQ(pipe(pipe_fds), 0);
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
+  const std::string name = saccade::test::left_by_a_crashed_child([] {
     std::string error;
     auto* box = Mailbox::create(256, 4, &error).release();
-    const std::string name = box != nullptr ? saccade::dds::mailbox_segment_name(box->id()) : std::string();
-    (void)!write(pipe_fds[1], name.c_str(), name.size() + 1);
-    _exit(0);  // a crash: nothing unlinks it
-  }
-  char name[128] = {};
-  ASSERT_GT(read(pipe_fds[0], name, sizeof name - 1), 1);
-  close(pipe_fds[0]);
-  close(pipe_fds[1]);
-  int status = 0;
-  waitpid(child, &status, 0);
+    return box != nullptr ? saccade::dds::mailbox_segment_name(box->id()) : std::string();
+  });
   ASSERT_TRUE(shm_exists(name)) << name;
-  EXPECT_FALSE(saccade::dds::mailbox_has_writer(std::string("/dev/shm") + name));
+  EXPECT_FALSE(saccade::dds::mailbox_has_writer("/dev/shm" + name));
 
   // A live writer's mailbox is kept.
   auto live = make_mailbox(256, 4);
@@ -210,6 +200,42 @@ TEST(Mailbox, AMailboxWhoseWriterDiedIsRemovedAsStale) {
 
   auto stale = saccade::dds::remove_stale_shared_memory(0);
   EXPECT_FALSE(shm_exists(name));
-  EXPECT_NE(std::find(stale.removed.begin(), stale.removed.end(), std::string(name + 1)), stale.removed.end());
+  EXPECT_NE(std::find(stale.removed.begin(), stale.removed.end(), name.substr(1)), stale.removed.end());
   EXPECT_TRUE(shm_exists(live_name));
+}
+
+TEST(Mailbox, AWriterThatWokeASleepingReaderCanWaitUntilItHasReadThePost) {
+  auto box = make_mailbox(256, 4);
+  ASSERT_TRUE(box);
+  MailboxReader reader;
+  std::string why;
+  ASSERT_TRUE(reader.follow(box->id(), why)) << why;
+  const std::vector<uint8_t> m = message_of(1);
+  EXPECT_FALSE(box->post(m.data(), m.size())) << "nobody was asleep on the doorbell";
+  EXPECT_FALSE(box->wait_until_taken(1, 2'000'000)) << "nobody read it: the wait times out";
+  std::vector<uint8_t> got;
+  ASSERT_EQ(reader.read(1, got), Read::kMessage);
+  EXPECT_TRUE(box->wait_until_taken(1, 0)) << "read";
+
+  // A reader asleep on the doorbell: the post says it woke somebody, and
+  // the writer's wait ends once that reader has read it.
+  std::thread sleeper([&] {
+    std::vector<uint8_t> mine;
+    ASSERT_TRUE(reader.wait(1, 10'000'000'000));
+    EXPECT_EQ(reader.read(2, mine), Read::kMessage);
+  });
+  for (int i = 0; i < 10000 && box->sleeping_readers() == 0; ++i) usleep(1000);
+  const std::vector<uint8_t> second = message_of(2);
+  EXPECT_TRUE(box->post(second.data(), second.size()));
+  EXPECT_TRUE(box->wait_until_taken(2, 10'000'000'000));
+  sleeper.join();
+}
+
+TEST(Mailbox, AWriterWaitsForTheReaderItWokeOnlyWhenItsPostsArePaced) {
+  saccade::dds::ReaderFirst first;
+  const int64_t t0 = 1'000'000'000;
+  EXPECT_TRUE(first.wait_for(true, t0)) << "the first post of a stream";
+  EXPECT_FALSE(first.wait_for(true, t0 + 50'000)) << "back to back: the reader is awake anyway";
+  EXPECT_FALSE(first.wait_for(false, t0 + 2'000'000)) << "nobody was woken";
+  EXPECT_TRUE(first.wait_for(true, t0 + 4'000'000)) << "paced: 2 ms after the post before";
 }
