@@ -140,7 +140,8 @@ struct SaccadeEnd {
     if (!domain) throw std::runtime_error(error);
     const EdgeQos qos = default_qos(p.saccade_type);
     // As the partitioner does on one host: a zero-copy edge.
-    codec = sd::choose_codec(p.saccade_type, {.zero_copy = true, .reliable = qos.reliable}, &error);
+    const sd::CodecRequest request{.zero_copy = true, .reliable = qos.reliable};
+    codec = sd::choose_codec(p.saccade_type, request, &error);
     if (codec == nullptr) throw std::runtime_error(error);
     settings.reliable = qos.reliable;
     settings.depth = qos.depth;
@@ -148,7 +149,7 @@ struct SaccadeEnd {
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) throw std::runtime_error(error);
     sd::WireOptions options;  // as dds.publish / dds.subscribe set them on a zero-copy edge
-    options.mailbox = codec->form == sd::Codec::Form::kSerialised;
+    options.mailbox = sd::uses_mailbox(request, *codec);
     options.in_order = settings.reliable;
     options.mailbox_slots = static_cast<uint32_t>(std::max(16, settings.depth));
     sample = codec->make_sample(options);

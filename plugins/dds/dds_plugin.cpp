@@ -147,8 +147,7 @@ struct TopicEnd {
     if (topic == nullptr) return Status::error(error);
     sd::WireOptions options = wire_options(p);
     // The mailbox bypasses DDS security's encryption and access control.
-    options.mailbox = request.zero_copy && codec->form == sd::Codec::Form::kSerialised &&
-                      (request.shared_memory == SharedMemory::kAuto || request.shared_memory == SharedMemory::kMailbox);
+    options.mailbox = sd::uses_mailbox(request, *codec);
     options.in_order = p.get_bool("reliable");
     options.mailbox_slots = static_cast<uint32_t>(std::max<int64_t>(16, p.get_int("depth")));
     sample = codec->make_sample(options);

@@ -379,6 +379,12 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
   return nullptr;
 }
 
+bool uses_mailbox(const CodecRequest& request, const Codec& codec) {
+  using SharedMemory = CodecRequest::SharedMemory;
+  return request.zero_copy && !request.ros2 && codec.form == Codec::Form::kSerialised &&
+         (request.shared_memory == SharedMemory::kAuto || request.shared_memory == SharedMemory::kMailbox);
+}
+
 std::vector<std::string_view> codec_types() {
   std::vector<std::string_view> out;
   for (const auto& c : codecs()) out.push_back(c.type);

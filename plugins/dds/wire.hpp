@@ -208,6 +208,11 @@ const Codec* find_ring_codec(std::string_view type);
 // form too small is an error naming the largest); else the serialised form.
 // nullptr with `error` set when there is none.
 const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error);
+// Whether an edge that asked `request` and got `codec` uses the same-host
+// message mailbox (WireOptions::mailbox): zero copy, the serialised form,
+// shared_memory auto or mailbox. The bridges ask for loans under DDS
+// security, so a secure edge has none.
+bool uses_mailbox(const CodecRequest& request, const Codec& codec);
 std::vector<std::string_view> codec_types();
 const std::vector<Codec>& plain_codecs();
 const std::vector<Codec>& ring_codecs();

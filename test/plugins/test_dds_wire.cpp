@@ -612,6 +612,24 @@ TEST(DdsRing, ZeroCopyPicksTheRingForImagesTheMailboxForOtherTypesOrWhatIsAsked)
   EXPECT_EQ(dds::choose_codec("JointState", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialised);
 }
 
+TEST(DdsMailbox, OnlyZeroCopySerialisedEdgesThatDoNotAskForLoansUseTheMailbox) {
+  using SharedMemory = dds::CodecRequest::SharedMemory;
+  std::string error;
+  auto uses = [&](const char* type, dds::CodecRequest request) {
+    const dds::Codec* codec = dds::choose_codec(type, request, &error);
+    return codec != nullptr && dds::uses_mailbox(request, *codec);
+  };
+  EXPECT_TRUE(uses("JointTargets", {.zero_copy = true, .reliable = true}));
+  EXPECT_TRUE(uses("Retina", {.zero_copy = true}));
+  EXPECT_TRUE(uses("Image", {.zero_copy = true, .shared_memory = SharedMemory::kMailbox}));
+  EXPECT_FALSE(uses("JointTargets", {})) << "not zero copy: another host may read it";
+  EXPECT_FALSE(uses("Image", {.zero_copy = true})) << "the frame ring has its own mailbox";
+  // What the bridges ask for under DDS security: the mailbox would bypass it.
+  EXPECT_FALSE(uses("JointTargets", {.zero_copy = true, .shared_memory = SharedMemory::kLoans}));
+  EXPECT_FALSE(uses("Retina", {.zero_copy = true, .shared_memory = SharedMemory::kLoans}));
+  EXPECT_FALSE(uses("JointState", {.zero_copy = true, .ros2 = true})) << "ROS 2's type";
+}
+
 TEST(DdsWire, OutOfRangeEnumsDecodeToTheSafeValue) {
   saccade_idl::JointState wire;
   wire.health() = {0, 1, 200};
