@@ -294,9 +294,10 @@ bool FrameRing::post(const void* sample, std::size_t bytes) {
   // seq_cst with the waiters' count: a reader either sees the new doorbell
   // before it sleeps, or counted itself before this looks (no lost wake-up).
   mail.doorbell.store(static_cast<uint32_t>(sequence / 2 + 1), std::memory_order_seq_cst);
-  if (mail.waiters.load(std::memory_order_seq_cst) == 0) return false;
-  futex_wake_all(mail.doorbell);
-  return true;
+  const bool woke = mail.waiters.load(std::memory_order_seq_cst) != 0;
+  if (woke) futex_wake_all(mail.doorbell);
+  reader_first_.settle(woke, mail.taken, sequence / 2 + 1);
+  return woke;
 }
 
 uint32_t FrameRing::sleeping_readers() const {

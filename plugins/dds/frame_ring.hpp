@@ -38,6 +38,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "shared_segment.hpp"
+
 namespace saccade::dds {
 
 // Where a frame's bytes are: the writer's ring and one buffer of it, as it was
@@ -90,8 +92,10 @@ class FrameRing final : public cv::MatAllocator {
   // The number the next post() gets (1, 2, ...): put it in the sample first.
   uint64_t next_post() const;
   // Copies `bytes` of `sample` (at most kMailBytes) into the mailbox, replacing
-  // what was there, and wakes the readers waiting for it. One thread posts.
-  // True when a reader was asleep on the doorbell.
+  // what was there, and wakes the readers waiting for it; on a paced stream
+  // waits until a woken reader took it, for at most kReaderFirstNs
+  // (ReaderFirst, shared_segment.hpp). One thread posts. True when a reader
+  // was asleep on the doorbell.
   bool post(const void* sample, std::size_t bytes);
   // Spins until a reader has taken post `post` from the mailbox, or
   // `timeout_ns` pass; false on the timeout (see spin_until_taken in
@@ -140,6 +144,7 @@ class FrameRing final : public cv::MatAllocator {
   mutable uint32_t local_holds_ = 0;  // buffers a Mat of this process holds
   mutable uint64_t heap_fallbacks_ = 0;
   bool retired_ = false;  // its owner let go: deleted when local_holds_ drops to 0
+  ReaderFirst reader_first_;
   std::vector<std::unique_ptr<cv::UMatData>> umat_;
   mutable std::vector<std::size_t> reserved_;  // bytes of each buffer given memory (posix_fallocate)
 };

@@ -145,9 +145,11 @@ bool Mailbox::post(const void* data, std::size_t bytes) {
   // seq_cst with the waiters' count: a reader either sees the new doorbell
   // before it sleeps, or counted itself before this looks (no lost wake-up).
   h.doorbell.store(static_cast<uint32_t>(post), std::memory_order_seq_cst);
-  if (h.waiters.load(std::memory_order_seq_cst) == 0) return false;
-  futex_wake_all(h.doorbell);
-  return true;
+  const bool woke = h.waiters.load(std::memory_order_seq_cst) != 0;
+  if (woke) futex_wake_all(h.doorbell);
+  // A message only in DDS is never marked taken: nobody to wait for.
+  if (fits) reader_first_.settle(woke, h.taken, post);
+  return woke;
 }
 
 uint32_t Mailbox::sleeping_readers() const { return header_of(*segment_).waiters.load(std::memory_order_seq_cst); }

@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
-namespace saccade::dds {
+#include "shared_segment.hpp"
 
-class SharedSegment;
+namespace saccade::dds {
 
 // "/saccade_mail_<id, hex>": the segment's POSIX name.
 std::string mailbox_segment_name(uint64_t id);
@@ -49,8 +49,10 @@ class Mailbox {
   uint32_t slots() const { return slots_; }
   // The number the next post gets (1, 2, ...): put it in the DDS sample first.
   uint64_t next_post() const { return next_; }
-  // Copies `bytes` into the next post's slot and wakes the readers; a message
-  // larger than a slot is posted as kInDds (its readers take it from DDS).
+  // Copies `bytes` into the next post's slot and wakes the readers; on a
+  // paced stream waits until a woken reader read it, for at most
+  // kReaderFirstNs (ReaderFirst, shared_segment.hpp). A message larger than
+  // a slot is posted as kInDds (its readers take it from DDS; nobody waits).
   // One thread posts. True when a reader was asleep on the doorbell.
   bool post(const void* data, std::size_t bytes);
   // Spins until a reader has read post `post`, or `timeout_ns` pass (see
@@ -66,6 +68,7 @@ class Mailbox {
   std::size_t slot_bytes_ = 0;
   uint32_t slots_ = 0;
   uint64_t next_ = 1;
+  ReaderFirst reader_first_;
 };
 
 // The reader's end: one writer's mailbox at a time.

@@ -13,9 +13,7 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include "frame_ring.hpp"
-#include "shared_segment.hpp"
 #include "saccade/log.hpp"
-#include "saccade/node.hpp"
 #include "saccadePubSubTypes.h"
 #include "wire.hpp"
 
@@ -419,13 +417,12 @@ class RingSample final : public WireSample {
     std::string error;
     if (message != nullptr && ring(error) == nullptr) return Status::error(error);
     cv::Mat hold;  // the buffer a copied frame went into, held until it is written
-    // Posted to the ring's mailbox before DDS writes it: the readers there
-    // wake while DDS still hands the sample on (it then counts as delivered
-    // to them even if DDS refuses it).
+    // Posted to the ring's mailbox before DDS writes it: a reader there
+    // takes it first (see FrameRing::post), and it counts as delivered to
+    // them even if DDS then refuses it.
     auto post = [&](P& sample) {
-      const uint64_t number = ring_->next_post();
-      sample.ring().post(number);
-      if (reader_first_.wait_for(ring_->post(&sample, sizeof sample), steady_now_ns())) ring_->wait_until_taken(number, kReaderFirstNs);
+      sample.ring().post(ring_->next_post());
+      ring_->post(&sample, sizeof sample);
     };
     Status s = write_loaned<P>(
         writer, message, written,
@@ -522,7 +519,6 @@ class RingSample final : public WireSample {
   uint32_t slots_;
   uint64_t written_copied_ = 0;  // frames the writer copied in (their producer did not write them there)
   std::shared_ptr<FrameRing> ring_;
-  ReaderFirst reader_first_;
   RingReader frames_;
   uint64_t last_post_ = 0;  // the newest post of the followed ring this reader had
   P copy_;

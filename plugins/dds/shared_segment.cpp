@@ -1,5 +1,7 @@
 #include "shared_segment.hpp"
 
+#include "saccade/node.hpp"
+
 #include <fcntl.h>
 #include <sched.h>
 #include <linux/futex.h>
@@ -117,16 +119,17 @@ bool ReaderFirst::wait_for(bool woke, int64_t now_ns) {
   return woke && paced;
 }
 
+void ReaderFirst::settle(bool woke, const std::atomic<uint64_t>& taken, uint64_t post) {
+  if (wait_for(woke, steady_now_ns())) spin_until_taken(taken, post, kReaderFirstNs);
+}
+
 bool spin_until_taken(const std::atomic<uint64_t>& taken, uint64_t post, int64_t timeout_ns) {
-  timespec now{};
-  ::clock_gettime(CLOCK_MONOTONIC, &now);
-  const int64_t deadline = now.tv_sec * 1'000'000'000LL + now.tv_nsec + timeout_ns;
+  const int64_t deadline = steady_now_ns() + timeout_ns;
   for (;;) {
     if (taken.load(std::memory_order_acquire) >= post) return true;
     // The reader woken may be queued on this core: let it run.
     ::sched_yield();
-    ::clock_gettime(CLOCK_MONOTONIC, &now);
-    if (now.tv_sec * 1'000'000'000LL + now.tv_nsec >= deadline) return false;
+    if (steady_now_ns() >= deadline) return false;
   }
 }
 

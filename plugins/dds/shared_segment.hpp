@@ -59,7 +59,7 @@ inline void cpu_relax() {
 // camera rates: twice the latency). The reader marks what it took
 // (mark_taken); the writer spins until then, yielding its core (the woken
 // reader may be queued on it), for at most `timeout_ns` (spin_until_taken,
-// false on the timeout).
+// false on the timeout). Both mailboxes' post() do this (ReaderFirst).
 // Only for paced streams (the writer's previous post at least 1 ms before):
 // back to back the reader is awake anyway, and the wait would halve the
 // throughput for nothing (measured: 1024x768 gray 29k -> 12.5k frames/s).
@@ -71,6 +71,10 @@ class ReaderFirst {
   // Called at each post (at `now_ns`, steady clock) with whether it woke a
   // sleeping reader: whether to wait for that reader now.
   bool wait_for(bool woke, int64_t now_ns);
+  // Called by a mailbox's post() once post `post` is whole and its readers
+  // woken (`woke`): waits, when wait_for says so, until a reader marked it in
+  // `taken`, for at most kReaderFirstNs.
+  void settle(bool woke, const std::atomic<uint64_t>& taken, uint64_t post);
 
  private:
   int64_t last_post_ns_ = 0;
