@@ -149,9 +149,7 @@ struct SaccadeEnd {
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) throw std::runtime_error(error);
     sd::WireOptions options;  // as dds.publish / dds.subscribe set them on a zero-copy edge
-    options.mailbox = sd::uses_mailbox(request, *codec);
-    options.in_order = settings.reliable;
-    options.mailbox_slots = static_cast<uint32_t>(std::max(16, settings.depth));
+    sd::set_mailbox(request, *codec, settings.depth, options);
     sample = codec->make_sample(options);
   }
 };

@@ -146,10 +146,7 @@ struct TopicEnd {
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) return Status::error(error);
     sd::WireOptions options = wire_options(p);
-    // The mailbox bypasses DDS security's encryption and access control.
-    options.mailbox = sd::uses_mailbox(request, *codec);
-    options.in_order = p.get_bool("reliable");
-    options.mailbox_slots = static_cast<uint32_t>(std::max<int64_t>(16, p.get_int("depth")));
+    sd::set_mailbox(request, *codec, static_cast<int>(p.get_int("depth")), options);
     sample = codec->make_sample(options);
     log().debug("{}: topic {} of type {}{}", node, topic_name, topic->get_type_name(),
                 codec->form == sd::Codec::Form::kPlain  ? " (zero copy: data sharing, loaned samples)"

@@ -12,7 +12,6 @@
 #include <fastcdr/exceptions/Exception.h>
 
 #include "mailbox.hpp"
-#include "shared_segment.hpp"
 #include "saccade/log.hpp"
 #include "saccadePubSubTypes.h"
 
@@ -166,9 +165,8 @@ class Sample final : public WireSample {
         return;
       }
     }
-    const uint64_t post = box_->next_post();
     wire_.stamp().mailbox(box_->id());
-    wire_.stamp().post(post);
+    wire_.stamp().post(box_->next_post());
     if (bytes > box_->slot_bytes()) {
       box_->post(nullptr, bytes);  // posted as "in DDS"
       return;
@@ -178,8 +176,7 @@ class Sample final : public WireSample {
     eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
     cdr.serialize_encapsulation();
     wire_.serialize(cdr);
-    if (reader_first_.wait_for(box_->post(bytes_.data(), cdr.getSerializedDataLength()), steady_now_ns()))
-      box_->wait_until_taken(post, kReaderFirstNs);
+    box_->post(bytes_.data(), cdr.getSerializedDataLength());
   }
 
   bool deserialise() {
@@ -230,7 +227,6 @@ class Sample final : public WireSample {
   std::shared_ptr<Retina> spare_retina_;
   std::vector<uint8_t> bytes_;   // a message's serialised bytes, to or from the mailbox
   std::unique_ptr<Mailbox> box_;  // the writer's
-  ReaderFirst reader_first_;
   MailboxReader mail_;            // the reader's
   uint64_t last_ = 0;             // the newest post of the followed mailbox this reader had
   uint64_t previous_id_ = 0, previous_last_ = 0;  // the mailbox followed before, and its newest post had
@@ -379,10 +375,12 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
   return nullptr;
 }
 
-bool uses_mailbox(const CodecRequest& request, const Codec& codec) {
+void set_mailbox(const CodecRequest& request, const Codec& codec, int depth, WireOptions& options) {
   using SharedMemory = CodecRequest::SharedMemory;
-  return request.zero_copy && !request.ros2 && codec.form == Codec::Form::kSerialised &&
-         (request.shared_memory == SharedMemory::kAuto || request.shared_memory == SharedMemory::kMailbox);
+  options.mailbox = request.zero_copy && !request.ros2 && codec.form == Codec::Form::kSerialised &&
+                    (request.shared_memory == SharedMemory::kAuto || request.shared_memory == SharedMemory::kMailbox);
+  options.in_order = request.reliable;
+  options.mailbox_slots = static_cast<uint32_t>(std::max(16, depth));
 }
 
 std::vector<std::string_view> codec_types() {

@@ -177,7 +177,7 @@ struct Codec {
 
 // How an edge asks its type to travel.
 struct CodecRequest {
-  bool zero_copy = false;     // the frame ring or the plain form, when the type has one
+  bool zero_copy = false;     // one host: the frame ring, the plain form or the mailbox (shared_memory)
   // zero_copy: kAuto is the frame ring for Image (loans when reliable) and
   // the serialised form through the same-host mailbox for every other type,
   // whose few kilobytes it carries faster than a loaned sample
@@ -208,11 +208,12 @@ const Codec* find_ring_codec(std::string_view type);
 // form too small is an error naming the largest); else the serialised form.
 // nullptr with `error` set when there is none.
 const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error);
-// Whether an edge that asked `request` and got `codec` uses the same-host
-// message mailbox (WireOptions::mailbox): zero copy, the serialised form,
-// shared_memory auto or mailbox. The bridges ask for loans under DDS
-// security, so a secure edge has none.
-bool uses_mailbox(const CodecRequest& request, const Codec& codec);
+// Sets `options`' mailbox fields for an edge that asked `request`, got
+// `codec` and keeps `depth` samples: the same-host message mailbox for zero
+// copy, the serialised form and shared_memory auto or mailbox (the bridges
+// ask for loans under DDS security, so a secure edge has none); every post
+// in order on a reliable edge; max(16, depth) slots.
+void set_mailbox(const CodecRequest& request, const Codec& codec, int depth, WireOptions& options);
 std::vector<std::string_view> codec_types();
 const std::vector<Codec>& plain_codecs();
 const std::vector<Codec>& ring_codecs();

@@ -16,6 +16,7 @@
 
 #include "domain.hpp"
 #include "saccade/message.hpp"
+#include "support.hpp"
 #include "wire.hpp"
 
 namespace saccade {
@@ -24,8 +25,7 @@ namespace {
 namespace fdds = eprosima::fastdds::dds;
 namespace sd = saccade::dds;
 
-// Alone on its domain: ctest runs other DDS tests at the same time.
-int private_domain() { return 100 + static_cast<int>(getpid() % 100); }
+using test::private_domain;
 
 struct EdgeEnds {
   std::shared_ptr<sd::Domain> domain;

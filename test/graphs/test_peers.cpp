@@ -24,8 +24,7 @@
 namespace saccade {
 namespace {
 
-// Alone on its domain: ctest runs other DDS tests at the same time.
-int private_domain() { return 100 + static_cast<int>(getpid() % 100); }
+using test::private_domain;
 
 pid_t start_peer(const std::string& topic, const std::vector<std::string>& extra = {}) {
   std::vector<std::string> args = {"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/test/graphs/peer_counter.xml",

@@ -617,7 +617,9 @@ TEST(DdsMailbox, OnlyZeroCopySerialisedEdgesThatDoNotAskForLoansUseTheMailbox) {
   std::string error;
   auto uses = [&](const char* type, dds::CodecRequest request) {
     const dds::Codec* codec = dds::choose_codec(type, request, &error);
-    return codec != nullptr && dds::uses_mailbox(request, *codec);
+    dds::WireOptions options;
+    if (codec != nullptr) dds::set_mailbox(request, *codec, 8, options);
+    return codec != nullptr && options.mailbox;
   };
   EXPECT_TRUE(uses("JointTargets", {.zero_copy = true, .reliable = true}));
   EXPECT_TRUE(uses("Retina", {.zero_copy = true}));

@@ -28,8 +28,9 @@ struct PlannedEdge {
   std::string topic;                     // DDS edges only
   EdgeQos qos;                           // DDS edges only
   // DDS edges whose output has every reader on the writer's host (and is no
-  // ROS 2 topic): the bridges are told zero_copy, so Image and Retina stay
-  // in shared memory (how: the bridges' shared_memory); other types ignore it.
+  // ROS 2 topic): the bridges are told zero_copy, so messages travel through
+  // shared memory (images in the writer's frame ring, other types through its
+  // message mailbox; how: the bridges' shared_memory).
   bool zero_copy = false;
 };
 
