@@ -444,6 +444,27 @@ TEST(DdsPlain, TheSmallestPlainFormAtLeastTheCapacityIsChosen) {
   for (const auto& c : dds::plain_codecs()) EXPECT_TRUE(c.make_type()->is_plain()) << c.type << " " << c.capacity;
 }
 
+// A loaned sample is the C++ struct written straight into Fast DDS' payload,
+// which holds the type's CDR size: a struct that C++ pads beyond it spills
+// into the next payload (ImageRef once did, by the 8 bytes of its post).
+template <class Sample, class PubSub>
+void expect_it_fits_its_loan(const char* name) {
+  PubSub type;
+  EXPECT_TRUE(type.is_plain()) << name;
+  EXPECT_LE(sizeof(Sample), Sample::getMaxCdrSerializedSize()) << name;
+  EXPECT_LE(sizeof(Sample) + 4, type.m_typeSize) << name << ": the loan (its CDR size and encapsulation)";
+}
+
+TEST(DdsPlain, EveryPlainSampleFitsTheLoanFastDdsGivesIt) {
+  namespace p = saccade_idl::plain;
+  expect_it_fits_its_loan<p::ImageRef, p::ImageRefPubSubType>("ImageRef");
+  expect_it_fits_its_loan<p::RetinaRef, p::RetinaRefPubSubType>("RetinaRef");
+  expect_it_fits_its_loan<p::Image1M, p::Image1MPubSubType>("Image1M");
+  expect_it_fits_its_loan<p::Image4M, p::Image4MPubSubType>("Image4M");
+  expect_it_fits_its_loan<p::Image16M, p::Image16MPubSubType>("Image16M");
+  expect_it_fits_its_loan<p::Retina1M, p::Retina1MPubSubType>("Retina1M");
+}
+
 // --- The frame-ring forms: the sample says where the pixels are; the reader views them in place.
 
 std::shared_ptr<dds::FrameRing> ring_of(std::size_t bytes, uint32_t slots = 4) {
