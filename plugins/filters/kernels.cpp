@@ -157,7 +157,7 @@ void pad_level(const cv::Mat& level, int pad, Border border, std::vector<int>& m
 // One output row of the 3x3 masks. Rows start one pixel left of the output's
 // first pixel. Restrict parameters (GCC honours restrict on parameters) and
 // float arithmetic on small integers (exact) let this vectorise.
-void row_3x3(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
+SACCADE_AVX2_CLONE void row_3x3(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
              float* __restrict og, float* __restrict ox, float* __restrict oy, float* __restrict ol, int w) {
   for (int x = 0; x < w; ++x) {
     const float a = r0[x], b = r0[x + 1], c = r0[x + 2];
@@ -172,16 +172,16 @@ void row_3x3(const float* __restrict r0, const float* __restrict r1, const float
 }
 
 // One output row of the 4-neighbour Laplacian, rows as in row_3x3.
-void row_cross(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2, float* __restrict o,
+SACCADE_AVX2_CLONE void row_cross(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2, float* __restrict o,
                int w) {
   for (int x = 0; x < w; ++x) o[x] = (r0[x + 1] + r2[x + 1] + r1[x] + r1[x + 2]) - 4.0f * r1[x + 1];
 }
 
-void row_magnitude(const float* __restrict gx, const float* __restrict gy, float* __restrict mag, int w) {
+SACCADE_AVX2_CLONE void row_magnitude(const float* __restrict gx, const float* __restrict gy, float* __restrict mag, int w) {
   for (int x = 0; x < w; ++x) mag[x] = std::sqrt(gx[x] * gx[x] + gy[x] * gy[x]);
 }
 
-void row_threshold(const float* __restrict v, float thr, uint8_t* __restrict mask, int w) {
+SACCADE_AVX2_CLONE void row_threshold(const float* __restrict v, float thr, uint8_t* __restrict mask, int w) {
   for (int x = 0; x < w; ++x) mask[x] = v[x] > thr ? 255 : 0;
 }
 
@@ -192,15 +192,13 @@ SACCADE_AVX2_CLONE void row_direction(const float* __restrict gx, const float* _
 }
 
 // GCC's auto-vectoriser keeps these loops scalar behind an alias check, so
-// they are written with its portable vector extension (SSE2 and up).
-typedef float v4sf __attribute__((vector_size(16)));
+// they are written with its portable vector extension, eight lanes (two SSE2
+// registers, one AVX2 register in the AVX2 clone of gradient_passes).
+typedef float v8sf __attribute__((vector_size(32)));
 
-inline v4sf load4(const float* p) {
-  v4sf v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void store4(float* p, v4sf v) { std::memcpy(p, &v, sizeof v); }
+// (By reference: a 32-byte vector passed by value changes the ABI without AVX.)
+__attribute__((always_inline)) inline void load8(v8sf& v, const float* p) { std::memcpy(&v, p, sizeof v); }
+__attribute__((always_inline)) inline void store8(float* p, const v8sf& v) { std::memcpy(p, &v, sizeof v); }
 
 // Horizontal pass over one padded row: out_g = g * src, out_dg = dg * src (src
 // starts at the first tap). N taps known at compile time: the tap loop unrolls
@@ -208,22 +206,23 @@ inline void store4(float* p, v4sf v) { std::memcpy(p, &v, sizeof v); }
 // table of rows; serving this pass with it (rows src, src + 1, ...) costs 6% more
 // instructions per map (callgrind), so the row pass keeps its direct offsets.
 template <int N>
-void row_taps(const float* src, const float* g, const float* dg, float* out_g, float* out_dg, int w) {
-  v4sf wg[N], wd[N];
+__attribute__((always_inline)) inline void row_taps(const float* src, const float* g, const float* dg, float* out_g, float* out_dg, int w) {
+  v8sf wg[N], wd[N];
   for (int k = 0; k < N; ++k) {
-    wg[k] = v4sf{g[k], g[k], g[k], g[k]};
-    wd[k] = v4sf{dg[k], dg[k], dg[k], dg[k]};
+    wg[k] = v8sf{} + g[k];
+    wd[k] = v8sf{} + dg[k];
   }
   int x = 0;
-  for (; x + 4 <= w; x += 4) {
-    v4sf ag = v4sf{}, ad = v4sf{};
+  for (; x + 8 <= w; x += 8) {
+    v8sf ag = v8sf{}, ad = v8sf{};
     for (int k = 0; k < N; ++k) {
-      const v4sf v = load4(src + x + k);
+      v8sf v;
+      load8(v, src + x + k);
       ag += wg[k] * v;
       ad += wd[k] * v;
     }
-    store4(out_g + x, ag);
-    store4(out_dg + x, ad);
+    store8(out_g + x, ag);
+    store8(out_dg + x, ad);
   }
   for (; x < w; ++x) {
     float ag = 0, ad = 0;
@@ -238,22 +237,25 @@ void row_taps(const float* src, const float* g, const float* dg, float* out_g, f
 
 // Vertical pass for one output row: out_x = sum g[k] rows_dg[k], out_y = sum dg[k] rows_g[k].
 template <int N>
-void column_taps(const float* const* rows_dg, const float* const* rows_g, const float* g, const float* dg,
+__attribute__((always_inline)) inline void column_taps(const float* const* rows_dg, const float* const* rows_g, const float* g, const float* dg,
                  float* out_x, float* out_y, int w) {
-  v4sf wg[N], wd[N];
+  v8sf wg[N], wd[N];
   for (int k = 0; k < N; ++k) {
-    wg[k] = v4sf{g[k], g[k], g[k], g[k]};
-    wd[k] = v4sf{dg[k], dg[k], dg[k], dg[k]};
+    wg[k] = v8sf{} + g[k];
+    wd[k] = v8sf{} + dg[k];
   }
   int x = 0;
-  for (; x + 4 <= w; x += 4) {
-    v4sf ax = v4sf{}, ay = v4sf{};
+  for (; x + 8 <= w; x += 8) {
+    v8sf ax = v8sf{}, ay = v8sf{};
     for (int k = 0; k < N; ++k) {
-      ax += wg[k] * load4(rows_dg[k] + x);
-      ay += wd[k] * load4(rows_g[k] + x);
+      v8sf vx, vy;
+      load8(vx, rows_dg[k] + x);
+      load8(vy, rows_g[k] + x);
+      ax += wg[k] * vx;
+      ay += wd[k] * vy;
     }
-    store4(out_x + x, ax);
-    store4(out_y + x, ay);
+    store8(out_x + x, ax);
+    store8(out_y + x, ay);
   }
   for (; x < w; ++x) {
     float ax = 0, ay = 0;
@@ -268,7 +270,7 @@ void column_taps(const float* const* rows_dg, const float* const* rows_g, const 
 
 // Both passes for a kernel of N taps.
 template <int N>
-void separable_gradient(const cv::Mat& padded, int pad, int w, int h, const float* g, const float* dg, cv::Mat& row_g,
+__attribute__((always_inline)) inline void separable_gradient(const cv::Mat& padded, int pad, int w, int h, const float* g, const float* dg, cv::Mat& row_g,
                         cv::Mat& row_dg, const float** rows_g, const float** rows_dg, cv::Mat& gx, cv::Mat& gy) {
   constexpr int r = N / 2;
   for (int y = 0; y < h + 2 * pad; ++y)
@@ -279,6 +281,21 @@ void separable_gradient(const cv::Mat& padded, int pad, int w, int h, const floa
       rows_g[k] = row_g.ptr<float>(y + pad - r + k);
     }
     column_taps<N>(rows_dg, rows_g, g, dg, gx.ptr<float>(y), gy.ptr<float>(y), w);
+  }
+}
+
+// Every kernel size's passes in one function, so the AVX2 clone covers them.
+SACCADE_AVX2_CLONE void gradient_passes(int n, const cv::Mat& padded, int pad, int w, int h, const float* g,
+                                        const float* dg, cv::Mat& row_g, cv::Mat& row_dg, const float** rows_g,
+                                        const float** rows_dg, cv::Mat& gx, cv::Mat& gy) {
+  // sigma in [0.3, 3] gives radius 1..9.
+  switch (n) {
+#define SACCADE_TAPS(N) \
+  case N: separable_gradient<N>(padded, pad, w, h, g, dg, row_g, row_dg, rows_g, rows_dg, gx, gy); break;
+    SACCADE_TAPS(3) SACCADE_TAPS(5) SACCADE_TAPS(7) SACCADE_TAPS(9) SACCADE_TAPS(11) SACCADE_TAPS(13)
+    SACCADE_TAPS(15) SACCADE_TAPS(17) SACCADE_TAPS(19)
+#undef SACCADE_TAPS
+    default: CV_Error(cv::Error::StsOutOfRange, "Gaussian gradient radius above 9 (sigma above 3)");
   }
 }
 
@@ -309,15 +326,7 @@ void GaussianGradient::run_padded(const cv::Mat& padded, int pad, int w, int h, 
   gy.create(h, w, CV_32F);
   const float** rg = rows_g_.data();
   const float** rd = rows_dg_.data();
-  // sigma in [0.3, 3] gives radius 1..9.
-  switch (n) {
-#define SACCADE_TAPS(N) \
-  case N: separable_gradient<N>(padded, pad, w, h, g_.data(), dg_.data(), row_g_, row_dg_, rg, rd, gx, gy); break;
-    SACCADE_TAPS(3) SACCADE_TAPS(5) SACCADE_TAPS(7) SACCADE_TAPS(9) SACCADE_TAPS(11) SACCADE_TAPS(13)
-    SACCADE_TAPS(15) SACCADE_TAPS(17) SACCADE_TAPS(19)
-#undef SACCADE_TAPS
-    default: CV_Error(cv::Error::StsOutOfRange, "Gaussian gradient radius above 9 (sigma above 3)");
-  }
+  gradient_passes(n, padded, pad, w, h, g_.data(), dg_.data(), row_g_, row_dg_, rg, rd, gx, gy);
 }
 
 FilterBank::FilterBank(BankConfig config) : config_(config), ggrad_(config.ggrad_sigma, config.border) {}
