@@ -375,7 +375,7 @@ class RingMapping final : public cv::MatAllocator {
     return nullptr;
   }
 
-  bool same_ring(const RingAddress& at) const { return at.writer_pid == at_.writer_pid && at.ring_id == at_.ring_id; }
+  bool same_ring(const RingAddress& at) const { return dds::same_ring(at, at_); }
   RingMailbox& mailbox() const { return mailbox_of(*segment_); }
 
   bool pin(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out, std::string& why,

@@ -51,6 +51,36 @@ struct RingAddress {
   uint32_t generation = 0;
 };
 
+// Whether two addresses lie in the same ring (of the same writer process).
+inline bool same_ring(const RingAddress& a, const RingAddress& b) {
+  return a.writer_pid == b.writer_pid && a.ring_id == b.ring_id;
+}
+
+// The newest post a reader delivered, and of which ring, so that DDS' copy of
+// a sample the ring's mailbox gave first is dropped, even when it comes after
+// the reader let go of the ring (closed, or a mail of another type) and
+// follows it again: only a different ring starts the count afresh.
+class DeliveredPosts {
+ public:
+  // Whether post `post` of the ring `at` lies in is new to this reader; if
+  // so it becomes the newest.
+  bool take(const RingAddress& at, uint64_t post) {
+    if (!same_ring(at, ring_)) {
+      ring_ = at;
+      newest_ = 0;
+    }
+    if (post <= newest_) return false;
+    newest_ = post;
+    return true;
+  }
+  uint64_t newest() const { return newest_; }
+  const RingAddress& ring() const { return ring_; }
+
+ private:
+  RingAddress ring_;
+  uint64_t newest_ = 0;
+};
+
 // The segment is sparse: only the frames written take memory, reserved
 // before a buffer is first handed out for that many bytes, so a full
 // /dev/shm means frames on the heap and failed writes (counted), never a

@@ -450,10 +450,11 @@ class RingSample final : public WireSample {
   Taken take(fdds::DataReader& reader, ProcessContext* ctx, int output, MessagePtr& slot) override {
     why_.clear();
     uint64_t post = 0;
-    if (frames_.mail(last_post_, &copy_, sizeof copy_, post)) {
-      last_post_ = post;
+    // Only while the followed ring is the one the count is of (a sample of
+    // a new ring may have been refused after the reader followed it).
+    if (frames_.follows(delivered_.ring()) && frames_.mail(delivered_.newest(), &copy_, sizeof copy_, post) &&
+        delivered_.take(delivered_.ring(), post))
       return deliver(ctx, output, slot);
-    }
     for (;;) {
       if (reader.take(samples_, infos_, 1) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
       bool copied = samples_.length() == 1 && infos_[0].valid_data;
@@ -471,7 +472,6 @@ class RingSample final : public WireSample {
       if (post != 0 && !frames_.follows(at)) {
         std::string ignored;  // a ring that cannot be opened says why when its frame is read
         frames_.follow(at, ignored);
-        last_post_ = 0;
       }
       if (post != 0 && frames_.follows(at)) {
         if (post > frames_.newest_post()) {
@@ -481,8 +481,7 @@ class RingSample final : public WireSample {
                  std::to_string(frames_.newest_post());
           return Taken::kUnreadable;
         }
-        if (post <= last_post_) continue;  // the mailbox gave it already
-        last_post_ = post;
+        if (!delivered_.take(at, post)) continue;  // the mailbox gave it already
       }
       return deliver(ctx, output, slot);
     }
@@ -491,8 +490,8 @@ class RingSample final : public WireSample {
   // On the followed ring's doorbell.
   void wait(fdds::DataReader& reader, int timeout_ms) override {
     wait_on_doorbell(
-        reader, timeout_ms, [&](int64_t ns) { return frames_.following() && frames_.wait_mail(last_post_, ns); },
-        [&] { return frames_.newest_post() > last_post_; });
+        reader, timeout_ms, [&](int64_t ns) { return frames_.following() && frames_.wait_mail(delivered_.newest(), ns); },
+        [&] { return frames_.newest_post() > delivered_.newest(); });
   }
 
   uint64_t frames_mailed() const override { return frames_.mailed(); }
@@ -520,7 +519,7 @@ class RingSample final : public WireSample {
   uint64_t written_copied_ = 0;  // frames the writer copied in (their producer did not write them there)
   std::shared_ptr<FrameRing> ring_;
   RingReader frames_;
-  uint64_t last_post_ = 0;  // the newest post of the followed ring this reader had
+  DeliveredPosts delivered_;
   P copy_;
   FASTDDS_SEQUENCE(Samples, P);
   Samples samples_;

@@ -498,3 +498,29 @@ TEST(FrameRing, AWriterThatWokeASleepingReaderCanWaitUntilItHasTakenThePost) {
   EXPECT_TRUE(ring->wait_until_taken(2, 10'000'000'000));
   sleeper.join();
 }
+
+// The reader's count of what it delivered from a ring's mailbox: a DDS copy of
+// a post it had already is dropped, also when it arrives after the reader let
+// go of the ring (closed) and follows it again; only another ring (a writer
+// that restarted) starts the count afresh. (Re-following the same ring used to
+// start it afresh too, delivering the late copies twice.)
+TEST(DeliveredPosts, ALateCopyOfAPostAlreadyDeliveredIsDroppedEvenAfterTheRingWasLetGo) {
+  saccade::dds::DeliveredPosts delivered;
+  const RingAddress ring{.writer_pid = 41, .ring_id = 7, .slot = 0, .generation = 0};
+  EXPECT_TRUE(delivered.take(ring, 1));  // through DDS, the reader follows the ring
+  EXPECT_TRUE(delivered.take(ring, 3));  // the mailbox's newest
+  EXPECT_FALSE(delivered.take(ring, 2)) << "older than what the mailbox gave";
+  EXPECT_FALSE(delivered.take(ring, 3)) << "DDS' copy of what the mailbox gave";
+  RingAddress other_slot = ring;
+  other_slot.slot = 5;
+  other_slot.generation = 2;
+  EXPECT_FALSE(delivered.take(other_slot, 3)) << "another buffer of the same ring is the same ring";
+  EXPECT_TRUE(delivered.take(other_slot, 4));
+  EXPECT_EQ(delivered.newest(), 4u);
+
+  const RingAddress restarted{.writer_pid = 42, .ring_id = 1, .slot = 0, .generation = 0};
+  EXPECT_TRUE(delivered.take(restarted, 1)) << "a new writer's ring counts from its own first post";
+  EXPECT_EQ(delivered.newest(), 1u);
+  EXPECT_TRUE(saccade::dds::same_ring(delivered.ring(), restarted));
+  EXPECT_FALSE(delivered.take(restarted, 1));
+}
