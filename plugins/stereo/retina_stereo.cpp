@@ -5,6 +5,7 @@
 #include "retina.hpp"
 
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "saccade/fill.hpp"
@@ -51,10 +52,10 @@ void RetinaStereo::sample_around_level(const cv::Mat& frame, const cv::Mat& leve
 // none. `offset` is how far left of the left region the right one lies, in
 // level pixels: level disparity = source disparity / step - offset.
 void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo,
-                           int full_hi, int offset) {
+                           int full_hi, int offset, cv::Mat& lo_out, cv::Mat& hi_out) {
   const cv::Size size = left.levels[k].size();
-  fill(lo_, full_lo);
-  fill(hi_, full_hi);
+  fill(lo_out, full_lo);
+  fill(hi_out, full_hi);
   if (!config_.coarse_to_fine || k == 0) return;
   const LevelGeometry& g = left.geometry[k];
   const LevelGeometry& outer = left.geometry[k - 1];
@@ -70,19 +71,34 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
     const int px = static_cast<int>(std::lround((sx - outer_x0) / outer.step_x - 0.5));
     outer_col_[static_cast<std::size_t>(x)] = px >= 0 && px < prev.cols ? px : -1;
   }
+  // Each outer pixel's prediction once per outer row (several of this
+  // level's pixels lie under each); rows under the same outer row are copies.
+  constexpr int kNone = std::numeric_limits<int>::min();
+  outer_centre_.resize(static_cast<std::size_t>(prev.cols));
+  int last_py = -1;
   for (int y = 0; y < size.height; ++y) {
     const double sy = g.region.y + (y + 0.5) * g.step_y;
     const int py = static_cast<int>(std::lround((sy - outer.region.y) / outer.step_y - 0.5));
     if (py < 0 || py >= prev.rows) continue;
+    int* lo = lo_out.ptr<int>(y);
+    int* hi = hi_out.ptr<int>(y);
+    if (py == last_py) {
+      std::copy_n(lo_out.ptr<int>(y - 1), size.width, lo);
+      std::copy_n(hi_out.ptr<int>(y - 1), size.width, hi);
+      continue;
+    }
+    last_py = py;
     const float* outer_row = prev.ptr<float>(py);
-    int* lo = lo_.ptr<int>(y);
-    int* hi = hi_.ptr<int>(y);
+    for (int px = 0; px < prev.cols; ++px) {
+      const float d = outer_row[px];
+      outer_centre_[static_cast<std::size_t>(px)] =
+          d < 0 ? kNone : static_cast<int>(std::lround(d / g.step_x)) - offset;
+    }
     for (int x = 0; x < size.width; ++x) {
       const int px = outer_col_[static_cast<std::size_t>(x)];
       if (px < 0) continue;
-      const float d = outer_row[px];
-      if (d < 0) continue;
-      const int centre = static_cast<int>(std::lround(d / g.step_x)) - offset;
+      const int centre = outer_centre_[static_cast<std::size_t>(px)];
+      if (centre == kNone) continue;
       lo[x] = std::max(full_lo, centre - radius);
       hi[x] = std::min(full_hi, centre + radius);
     }
@@ -252,16 +268,17 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     // Left->right ranges per pixel; right->left searches the same pairs (see
     // ncc_match_cross), so one sweep over the left pixels' candidates serves
     // both directions and the check.
-    auto ranges = [&]() {
-      lo_.create(left.levels[k].size(), CV_32S);
-      hi_.create(left.levels[k].size(), CV_32S);
+    auto ranges = [&](cv::Mat& lo, cv::Mat& hi) {
       if (around_fixation) {
-        fill(lo_, radius_lo);
-        fill(hi_, radius_hi);
+        fill(lo, radius_lo);
+        fill(hi, radius_hi);
       } else {
-        predict(out, left, k, full_lo, full_hi, offset);
+        predict(out, left, k, full_lo, full_hi, offset, lo, hi);
       }
     };
+    // The matcher's results, as views of the level's pixels (the padded
+    // path's lie inside larger images).
+    cv::Mat lr_view, lr_score_view, rl_view, rl_score_view, valid_view;
     if (padded_path) {
       // Sample both frames with a margin around the level, so that windows and
       // matches near the level's edges see real pixels instead of none.
@@ -295,17 +312,17 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
                            padded, crop, ls.right_padded);
       const cv::Rect inside(mx0, my0, w, h);
       // Outside the level nothing is searched left->right.
-      ranges();
       ls.lo_padded.create(padded, CV_32S);
       ls.hi_padded.create(padded, CV_32S);
       fill(ls.lo_padded, 1);
       fill(ls.hi_padded, 0);
-      lo_.copyTo(ls.lo_padded(inside));
-      hi_.copyTo(ls.hi_padded(inside));
+      cv::Mat lo_inside = ls.lo_padded(inside), hi_inside = ls.hi_padded(inside);
+      ranges(lo_inside, hi_inside);
       ncc_match_cross(ls.left_padded, ls.right_padded, ls.lo_padded, ls.hi_padded, config_.ncc, ls.lr_padded,
                       ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, ls.ncc);
       ls.valid_padded.create(padded, CV_8U);
-      fill(ls.valid_padded, 255);
+      valid_view = ls.valid_padded(inside);
+      fill(valid_view, 255);
       if (config_.left_right_check)
         left_right_check(ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, config_.lr_tolerance,
                          ls.valid_padded, inside);
@@ -314,48 +331,58 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
         ls.right_padded.copyTo(level.right_image);
         level.margin = inside.tl();
       }
-      ls.lr_padded(inside).copyTo(level_lr_);
-      ls.lr_score_padded(inside).copyTo(level.score);
-      ls.rl_padded(inside).copyTo(level_rl_);
-      ls.rl_score_padded(inside).copyTo(score_rl_);
-      ls.valid_padded(inside).copyTo(valid_lr_);
+      lr_view = ls.lr_padded(inside);
+      lr_score_view = ls.lr_score_padded(inside);
+      rl_view = ls.rl_padded(inside);
+      rl_score_view = ls.rl_score_padded(inside);
     } else {
       if (config_.keep_images) {
         left.levels[k].copyTo(level.left_image);
         right_level->copyTo(level.right_image);
         level.margin = {};
       }
-      ranges();
-      ncc_match_cross(left.levels[k], *right_level, lo_, hi_, config_.ncc, level_lr_,
-                      level.score, level_rl_, score_rl_, ls.ncc);
+      lo_.create(left.levels[k].size(), CV_32S);
+      hi_.create(left.levels[k].size(), CV_32S);
+      ranges(lo_, hi_);
+      ncc_match_cross(left.levels[k], *right_level, lo_, hi_, config_.ncc, ls.lr_padded, ls.lr_score_padded,
+                      ls.rl_padded, ls.rl_score_padded, ls.ncc);
       // Validity comes from the scores: with vergence a level disparity may be negative.
-      valid_lr_.create(level_lr_.size(), CV_8U);
-      fill(valid_lr_, 255);
+      ls.valid_padded.create(left.levels[k].size(), CV_8U);
+      fill(ls.valid_padded, 255);
       if (config_.left_right_check)
-        left_right_check(level_lr_, level.score, level_rl_, score_rl_, config_.lr_tolerance, valid_lr_);
+        left_right_check(ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, config_.lr_tolerance,
+                         ls.valid_padded);
+      lr_view = ls.lr_padded;
+      lr_score_view = ls.lr_score_padded;
+      rl_view = ls.rl_padded;
+      rl_score_view = ls.rl_score_padded;
+      valid_view = ls.valid_padded;
     }
     // Back to source pixels.
-    level.disparity.create(level_lr_.size(), CV_32F);
-    level.reverse.create(level_rl_.size(), CV_32F);
+    const cv::Size size = lr_view.size();
+    level.disparity.create(size, CV_32F);
+    level.reverse.create(size, CV_32F);
+    level.score.create(size, CV_32F);
     int valid = 0;
-    for (int y = 0; y < level_lr_.rows; ++y) {
-      const float* d = level_lr_.ptr<float>(y);
-      const float* r = level_rl_.ptr<float>(y);
-      const float* r_score = score_rl_.ptr<float>(y);
-      const uint8_t* checked = valid_lr_.ptr<uint8_t>(y);
+    for (int y = 0; y < size.height; ++y) {
+      const float* d = lr_view.ptr<float>(y);
+      const float* d_score = lr_score_view.ptr<float>(y);
+      const float* r = rl_view.ptr<float>(y);
+      const float* r_score = rl_score_view.ptr<float>(y);
+      const uint8_t* checked = valid_view.ptr<uint8_t>(y);
       float* score = level.score.ptr<float>(y);
       float* forward = level.disparity.ptr<float>(y);
       float* reverse = level.reverse.ptr<float>(y);
-      for (int x = 0; x < level_lr_.cols; ++x) {
-        const bool dv = score[x] > -1.0f && checked[x];
+      for (int x = 0; x < size.width; ++x) {
+        const bool dv = d_score[x] > -1.0f && checked[x];
         const bool rv = r_score[x] > -1.0f;
         forward[x] = dv ? static_cast<float>((d[x] + offset) * gl.step_x) : -1.0f;
         reverse[x] = rv ? static_cast<float>((r[x] + offset) * gl.step_x) : -1.0f;
-        if (!dv) score[x] = -1.0f;
+        score[x] = dv ? d_score[x] : -1.0f;
         valid += dv;
       }
     }
-    level.density = static_cast<double>(valid) / static_cast<double>(level_lr_.total());
+    level.density = static_cast<double>(valid) / static_cast<double>(size.area());
     level.filled_density = level.density;
     if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[k]);
   }

@@ -99,7 +99,7 @@ class RetinaStereo {
  private:
   // Search ranges for level k's left pixels, from the level outside it.
   void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo, int full_hi,
-               int offset);
+               int offset, cv::Mat& lo, cv::Mat& hi);
   int around_fixation_range(bool around, int full, bool low) const;
   void sample_around_level(const cv::Mat& frame, const cv::Mat& level, const LevelGeometry& g, cv::Point at,
                            cv::Size padded, bool crop, cv::Mat& out) const;
@@ -116,9 +116,9 @@ class RetinaStereo {
   std::vector<LevelScratch> level_scratch_;
   std::vector<double> column_sum_, column_sq_;
   std::vector<float> samples_, cross_, strip_row_;
-  std::vector<int> outer_col_;
+  std::vector<int> outer_col_, outer_centre_;
   cv::Mat right_level_, right_gray_, left_gray_;
-  cv::Mat lo_, hi_, level_lr_, level_rl_, score_rl_, valid_lr_;
+  cv::Mat lo_, hi_;
 };
 
 }  // namespace saccade::stereo
