@@ -29,6 +29,29 @@ TEST(LevelMotion, DifferenceMaskEnergyAndCentroidAreExact) {
   EXPECT_DOUBLE_EQ(out.centroid.y, 5.5);
 }
 
+// Two 8-bit levels take a whole-number path; a float previous level (a
+// resampled one) the general one. On the same pixels both give the same bits.
+TEST(LevelMotion, EightBitAndFloatPreviousLevelsGiveTheSameResults) {
+  cv::Mat prev = test::random_image({32, 24}, 3), cur = test::random_image({32, 24}, 4);
+  cv::Mat prev_f;
+  prev.convertTo(prev_f, CV_32F);
+  cv::Mat valid = cv::Mat::zeros(24, 32, CV_8UC1);
+  valid(cv::Rect(3, 2, 25, 19)).setTo(255);
+  for (const cv::Mat& seen : {cv::Mat(), valid}) {
+    LevelMotionEstimator est({});
+    LevelMotion whole, general;
+    est.run(cur, prev, seen, whole);
+    est.run(cur, prev_f, seen, general);
+    EXPECT_EQ(test::max_abs_diff(whole.diff, general.diff), 0.0);
+    EXPECT_EQ(cv::countNonZero(whole.mask != general.mask), 0);
+    EXPECT_EQ(cv::countNonZero(whole.valid != general.valid), 0);
+    EXPECT_GT(whole.moving, 0.1) << "random images differ almost everywhere";
+    EXPECT_EQ(whole.energy, general.energy);
+    EXPECT_EQ(whole.moving, general.moving);
+    EXPECT_EQ(whole.centroid, general.centroid);
+  }
+}
+
 TEST(LevelMotion, DerivativesAreTheGaussianGradientOfTheDifference) {
   cv::Mat prev = test::random_image({32, 24}, 1), cur = test::random_image({32, 24}, 2);
   LevelMotionEstimator est({});
