@@ -15,9 +15,30 @@ namespace saccade::stereo {
 
 namespace {
 
-// out[j] += scale * in[j]: one window pixel's products with the strip at every shift.
-SACCADE_AVX2_CLONE void add_scaled(float* __restrict out, const float* __restrict in, float scale, int n) {
-  for (int j = 0; j < n; ++j) out[j] += scale * in[j];
+// The fixation window (ww x wh) against a strip of the right frame at every
+// shift j (window column x paired with strip column x + j): the sums of
+// products, and the strip's column sums and sums of squares, all whole
+// numbers summed exactly in integers (at most 255^2 per product: exact for
+// windows of up to 33k pixels), in one call per level.
+SACCADE_AVX2_CLONE void window_products(const uint8_t* __restrict window, std::ptrdiff_t window_step, int ww, int wh,
+                                        const uint8_t* __restrict strip, std::ptrdiff_t strip_step, int strip_cols,
+                                        int count, int32_t* __restrict products, int32_t* __restrict column_sum,
+                                        int32_t* __restrict column_sq) {
+  for (int j = 0; j < count; ++j) products[j] = 0;
+  for (int x = 0; x < strip_cols; ++x) column_sum[x] = column_sq[x] = 0;
+  for (int y = 0; y < wh; ++y) {
+    const uint8_t* a = window + y * window_step;
+    const uint8_t* b = strip + y * strip_step;
+    for (int x = 0; x < strip_cols; ++x) {
+      column_sum[x] += b[x];
+      column_sq[x] += b[x] * b[x];
+    }
+    for (int j = 0; j < count; ++j) {
+      int32_t sum = 0;
+      for (int x = 0; x < ww; ++x) sum += a[x] * b[x + j];
+      products[j] += sum;
+    }
+  }
 }
 
 }  // namespace
@@ -136,9 +157,9 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
     const double x0 = g.region.x + (wx - s_hi) * g.step_x;
     retina::sample_level(right_frame, x0, g.region.y + wy * g.step_y, g.step_x, g.step_y,
                          cv::Size(ww + s_hi - s_lo, wh), k + 1 == n, ls.strip);
-    // The window's mean and deviation, then its values less the mean: the
-    // cross term of the correlation at every shift is then a plain sum of
-    // products, computed for all shifts at once (a vector loop over shifts).
+    // The window's mean and deviation; the cross term of the correlation at
+    // a shift is then its sum of products less the mean times the strip's sum
+    // there (the window's values less their mean sum to zero).
     const cv::Mat window = level(cv::Rect(wx, wy, ww, wh));
     double wsum = 0, wsq = 0;
     for (int y = 0; y < wh; ++y) {
@@ -154,33 +175,26 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
     const int count = s_hi - s_lo + 1;
     const int strip_cols = ls.strip.cols;
     samples_.assign(static_cast<std::size_t>(count), -2.0f);
-    cross_.assign(static_cast<std::size_t>(count), 0.0f);
-    column_sum_.assign(static_cast<std::size_t>(strip_cols), 0.0);
-    column_sq_.assign(static_cast<std::size_t>(strip_cols), 0.0);
-    strip_row_.resize(static_cast<std::size_t>(strip_cols));
-    for (int y = 0; y < wh; ++y) {
-      const uint8_t* a = window.ptr<uint8_t>(y);
-      const uint8_t* b = ls.strip.ptr<uint8_t>(y);
-      for (int x = 0; x < strip_cols; ++x) {
-        column_sum_[static_cast<std::size_t>(x)] += b[x];
-        column_sq_[static_cast<std::size_t>(x)] += static_cast<double>(b[x]) * b[x];
-        strip_row_[static_cast<std::size_t>(x)] = static_cast<float>(b[x]) - 128.0f;  // small sums stay exact in float
-      }
-      // Shift s pairs window column x with strip column x + s_hi - s.
-      for (int x = 0; x < ww; ++x)
-        add_scaled(cross_.data(), strip_row_.data() + x, static_cast<float>(a[x] - wm), count);
-    }
+    products_.resize(static_cast<std::size_t>(count));
+    column_sum_.resize(static_cast<std::size_t>(strip_cols));
+    column_sq_.resize(static_cast<std::size_t>(strip_cols));
+    // Shift s pairs window column x with strip column x + s_hi - s.
+    window_products(window.ptr<uint8_t>(), static_cast<std::ptrdiff_t>(window.step), ww, wh, ls.strip.ptr<uint8_t>(),
+                    static_cast<std::ptrdiff_t>(ls.strip.step), strip_cols, count, products_.data(),
+                    column_sum_.data(), column_sq_.data());
     int best = -1;
     for (int s = s_lo; s <= s_hi; ++s) {
       const int x0s = s_hi - s;
-      double sum = 0, sq = 0;
+      int64_t sum = 0, sq = 0;
       for (int x = 0; x < ww; ++x) {
         sum += column_sum_[static_cast<std::size_t>(x0s + x)];
         sq += column_sq_[static_cast<std::size_t>(x0s + x)];
       }
-      const double om = sum / area, os = std::sqrt(std::max(0.0, sq / area - om * om));
+      const double om = static_cast<double>(sum) / area;
+      const double os = std::sqrt(std::max(0.0, static_cast<double>(sq) / area - om * om));
       if (os < config_.ncc.min_texture) continue;
-      const float ncc = static_cast<float>(cross_[static_cast<std::size_t>(x0s)] / (area * ws * os));
+      const double cross = static_cast<double>(products_[static_cast<std::size_t>(x0s)]) - wm * static_cast<double>(sum);
+      const float ncc = static_cast<float>(cross / (area * ws * os));
       samples_[static_cast<std::size_t>(s - s_lo)] = ncc;
       if (best < 0 || ncc > samples_[static_cast<std::size_t>(best)]) best = s - s_lo;
     }

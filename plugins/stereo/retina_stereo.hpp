@@ -2,6 +2,7 @@
 // Stereo on a pair of retinas, coarse to fine: the outer level is searched over
 // the whole range; every inner level searches only around what the level
 // outside it found (mapped through the levels' geometry).
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -114,8 +115,8 @@ class RetinaStereo {
     NccScratch ncc;
   };
   std::vector<LevelScratch> level_scratch_;
-  std::vector<double> column_sum_, column_sq_;
-  std::vector<float> samples_, cross_, strip_row_;
+  std::vector<int32_t> column_sum_, column_sq_, products_;
+  std::vector<float> samples_;
   std::vector<int> outer_col_, outer_centre_;
   cv::Mat right_level_, right_gray_, left_gray_;
   cv::Mat lo_, hi_;
