@@ -5,6 +5,7 @@
 #include "retina.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -17,28 +18,55 @@ namespace {
 
 // The fixation window (ww x wh) against a strip of the right frame at every
 // shift j (window column x paired with strip column x + j): the sums of
-// products, and the strip's column sums and sums of squares, all whole
+// products and the strip's column sums and sums of squares, all whole
 // numbers summed exactly in integers (at most 255^2 per product: exact for
-// windows of up to 33k pixels), in one call per level.
-SACCADE_AVX2_CLONE void window_products(const uint8_t* __restrict window, std::ptrdiff_t window_step, int ww, int wh,
-                                        const uint8_t* __restrict strip, std::ptrdiff_t strip_step, int strip_cols,
-                                        int count, int32_t* __restrict products, int32_t* __restrict column_sum,
-                                        int32_t* __restrict column_sq) {
-  for (int j = 0; j < count; ++j) products[j] = 0;
-  for (int x = 0; x < strip_cols; ++x) column_sum[x] = column_sq[x] = 0;
+// windows of up to 33k pixels), in one call per level. The fovea searches the
+// whole range (177 shifts at 1024x768), so the shifts are the vector lanes,
+// K vectors of them held in registers over the window's pixels; `strip32`
+// holds the strip as integers, rows of `stride` >= ww + 8K * blocks, zero
+// beyond the strip.
+typedef int32_t v8i32 __attribute__((vector_size(32)));
+
+template <int K>
+__attribute__((always_inline)) inline void shift_block(const uint8_t* __restrict window, std::ptrdiff_t window_step,
+                                                       int ww, int wh, const int32_t* __restrict strip32,
+                                                       std::ptrdiff_t stride, int32_t* __restrict products) {
+  v8i32 acc[K];
+  for (int k = 0; k < K; ++k) acc[k] = v8i32{};
   for (int y = 0; y < wh; ++y) {
     const uint8_t* a = window + y * window_step;
+    const int32_t* b = strip32 + y * stride;
+    for (int x = 0; x < ww; ++x) {
+      const int32_t av = a[x];
+      for (int k = 0; k < K; ++k) {
+        v8i32 v;
+        std::memcpy(&v, b + x + 8 * k, sizeof v);
+        acc[k] += av * v;
+      }
+    }
+  }
+  std::memcpy(products, acc, sizeof acc);
+}
+
+SACCADE_AVX2_CLONE void window_products(const uint8_t* __restrict window, std::ptrdiff_t window_step, int ww, int wh,
+                                        const uint8_t* __restrict strip, std::ptrdiff_t strip_step, int strip_cols,
+                                        int count, int32_t* __restrict strip32, std::ptrdiff_t stride,
+                                        int32_t* __restrict products, int32_t* __restrict column_sum,
+                                        int32_t* __restrict column_sq) {
+  for (int x = 0; x < strip_cols; ++x) column_sum[x] = column_sq[x] = 0;
+  for (int y = 0; y < wh; ++y) {
     const uint8_t* b = strip + y * strip_step;
+    int32_t* b32 = strip32 + y * stride;
     for (int x = 0; x < strip_cols; ++x) {
       column_sum[x] += b[x];
       column_sq[x] += b[x] * b[x];
+      b32[x] = b[x];
     }
-    for (int j = 0; j < count; ++j) {
-      int32_t sum = 0;
-      for (int x = 0; x < ww; ++x) sum += a[x] * b[x + j];
-      products[j] += sum;
-    }
+    for (int x = strip_cols; x < stride; ++x) b32[x] = 0;
   }
+  int j = 0;
+  for (; j + 32 <= count; j += 32) shift_block<4>(window, window_step, ww, wh, strip32 + j, stride, products + j);
+  for (; j < count; j += 8) shift_block<1>(window, window_step, ww, wh, strip32 + j, stride, products + j);
 }
 
 }  // namespace
@@ -175,13 +203,17 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
     const int count = s_hi - s_lo + 1;
     const int strip_cols = ls.strip.cols;
     samples_.assign(static_cast<std::size_t>(count), -2.0f);
-    products_.resize(static_cast<std::size_t>(count));
+    // Whole vectors of eight shifts; the strip's rows padded for the last one.
+    const int count8 = (count + 7) / 8 * 8;
+    const std::ptrdiff_t stride = ww + count8;
+    products_.resize(static_cast<std::size_t>(count8));
     column_sum_.resize(static_cast<std::size_t>(strip_cols));
     column_sq_.resize(static_cast<std::size_t>(strip_cols));
+    strip32_.resize(static_cast<std::size_t>(stride * wh));
     // Shift s pairs window column x with strip column x + s_hi - s.
     window_products(window.ptr<uint8_t>(), static_cast<std::ptrdiff_t>(window.step), ww, wh, ls.strip.ptr<uint8_t>(),
-                    static_cast<std::ptrdiff_t>(ls.strip.step), strip_cols, count, products_.data(),
-                    column_sum_.data(), column_sq_.data());
+                    static_cast<std::ptrdiff_t>(ls.strip.step), strip_cols, count, strip32_.data(), stride,
+                    products_.data(), column_sum_.data(), column_sq_.data());
     int best = -1;
     for (int s = s_lo; s <= s_hi; ++s) {
       const int x0s = s_hi - s;

@@ -115,7 +115,7 @@ class RetinaStereo {
     NccScratch ncc;
   };
   std::vector<LevelScratch> level_scratch_;
-  std::vector<int32_t> column_sum_, column_sq_, products_;
+  std::vector<int32_t> column_sum_, column_sq_, products_, strip32_;
   std::vector<float> samples_;
   std::vector<int> outer_col_, outer_centre_;
   cv::Mat right_level_, right_gray_, left_gray_;
