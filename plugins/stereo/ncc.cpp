@@ -136,52 +136,61 @@ void ncc_match_reference(const cv::Mat& left, const cv::Mat& right, Direction di
 namespace {
 
 // The rows of box_stats: column sums of values and squares slid down the
-// image, window sums along each row (term by term, so they vectorise and no
-// rounding error accumulates along the row), then mean and deviation. One
-// call per image: the rows are short, and calls per row cost as much as
-// their arithmetic.
-SACCADE_AVX2_CLONE void box_stats_rows(const float* __restrict src, std::ptrdiff_t step, int w, int h, int r,
-                                       float* __restrict mean, float* __restrict stddev, float* __restrict col,
-                                       float* __restrict col2, float* __restrict row, float* __restrict row2) {
+// image, then per pixel its window's sums along the row (term by term in
+// registers: no rounding error accumulates along the row), mean and
+// deviation. One call per image: the rows are short, and calls per row cost
+// as much as their arithmetic. R > 0: the window's half width known at
+// compile time.
+template <int R>
+__attribute__((always_inline)) inline void box_stats_rows_impl(const float* __restrict src, std::ptrdiff_t step, int w,
+                                                               int h, int r_arg, float* __restrict mean,
+                                                               float* __restrict stddev, float* __restrict col,
+                                                               float* __restrict col2) {
+  const int r = R > 0 ? R : r_arg;
   const float inv_count = 1.0f / static_cast<float>((2 * r + 1) * (2 * r + 1));
   const int inner = w - 2 * r;
   for (int y = 0; y < h; ++y) {
     const float* add = src + y * step;
-    for (int x = 0; x < w; ++x) {
-      col[x] += add[x];
-      col2[x] += add[x] * add[x];
-    }
     if (y >= 2 * r + 1) {
       const float* sub = add - (2 * r + 1) * step;
       for (int x = 0; x < w; ++x) {
-        col[x] -= sub[x];
-        col2[x] -= sub[x] * sub[x];
+        col[x] = (col[x] + add[x]) - sub[x];
+        col2[x] = (col2[x] + add[x] * add[x]) - sub[x] * sub[x];
+      }
+    } else {
+      for (int x = 0; x < w; ++x) {
+        col[x] += add[x];
+        col2[x] += add[x] * add[x];
       }
     }
     if (y < 2 * r || inner <= 0) continue;
-    for (int x = 0; x < inner; ++x) {
-      row[x] = col[x];
-      row2[x] = col2[x];
-    }
-    for (int k = 1; k <= 2 * r; ++k)
-      for (int x = 0; x < inner; ++x) {
-        row[x] += col[x + k];
-        row2[x] += col2[x + k];
-      }
     float* m = mean + (y - r) * step + r;
     float* sd = stddev + (y - r) * step + r;
     for (int x = 0; x < inner; ++x) {
-      const float mu = row[x] * inv_count;
+      float sum = col[x], sum2 = col2[x];
+      for (int k = 1; k <= 2 * r; ++k) {
+        sum += col[x + k];
+        sum2 += col2[x + k];
+      }
+      const float mu = sum * inv_count;
       m[x] = mu;
-      sd[x] = std::sqrt(std::max(0.0f, row2[x] * inv_count - mu * mu));
+      sd[x] = std::sqrt(std::max(0.0f, sum2 * inv_count - mu * mu));
     }
   }
 }
 
+SACCADE_AVX2_CLONE void box_stats_rows(const float* __restrict src, std::ptrdiff_t step, int w, int h, int r,
+                                       float* __restrict mean, float* __restrict stddev, float* __restrict col,
+                                       float* __restrict col2) {
+  if (r == 2) box_stats_rows_impl<2>(src, step, w, h, r, mean, stddev, col, col2);
+  else if (r == 1) box_stats_rows_impl<1>(src, step, w, h, r, mean, stddev, col, col2);
+  else box_stats_rows_impl<0>(src, step, w, h, r, mean, stddev, col, col2);
+}
+
 // Window mean and standard deviation of `src` (CV_32F) at every pixel whose
 // window fits; 0 elsewhere.
-void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::vector<float>& col, std::vector<float>& col2,
-               std::vector<float>& row, std::vector<float>& row2) {
+void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::vector<float>& col,
+               std::vector<float>& col2) {
   CV_Assert(src.isContinuous());
   const int w = src.cols;
   mean.create(src.size(), CV_32F);
@@ -190,10 +199,7 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
   fill(stddev, 0);
   col.assign(static_cast<std::size_t>(w), 0.0f);
   col2.assign(static_cast<std::size_t>(w), 0.0f);
-  row.assign(static_cast<std::size_t>(w), 0.0f);
-  row2.assign(static_cast<std::size_t>(w), 0.0f);
-  box_stats_rows(src.ptr<float>(), w, w, src.rows, r, mean.ptr<float>(), stddev.ptr<float>(), col.data(), col2.data(),
-                 row.data(), row2.data());
+  box_stats_rows(src.ptr<float>(), w, w, src.rows, r, mean.ptr<float>(), stddev.ptr<float>(), col.data(), col2.data());
 }
 
 }  // namespace
@@ -680,9 +686,8 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   // Centred values keep the float sums of products exact enough.
   left.convertTo(scratch.ref_f, CV_32F, 1.0, -128.0);
   right.convertTo(scratch.other_f, CV_32F, 1.0, -128.0);
-  box_stats(scratch.ref_f, r, scratch.ref_mean, scratch.ref_std, scratch.col, scratch.col2, scratch.row, scratch.row2);
-  box_stats(scratch.other_f, r, scratch.other_mean, scratch.other_std, scratch.col, scratch.col2, scratch.row,
-            scratch.row2);
+  box_stats(scratch.ref_f, r, scratch.ref_mean, scratch.ref_std, scratch.col, scratch.col2);
+  box_stats(scratch.other_f, r, scratch.other_mean, scratch.other_std, scratch.col, scratch.col2);
   const Search lr = bounds(lo_lr, hi_lr, scratch.ref_std, r, min_texture);
   const bool implicit = lo_rl == nullptr;
   Search rl;

@@ -33,7 +33,7 @@ struct NccScratch {
   cv::Mat ref_mean, ref_std, other_mean, other_std;
   cv::Mat ref_f, other_f;
   cv::Mat none_lo, none_hi, unused_d, unused_s;
-  std::vector<float> scores, col, col2, row, row2;
+  std::vector<float> scores, col, col2;
   std::vector<int> span_lo, span_hi;  // per disparity, the left columns the sweep computed
   cv::Mat best_lr, best_d_lr, best_rl, best_d_rl;  // per pixel, the best score so far and its disparity
   std::vector<float> volume;  // the sweep's correlations, one plane per disparity
