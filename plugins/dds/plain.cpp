@@ -489,9 +489,11 @@ class RingSample final : public WireSample {
 
   // On the followed ring's doorbell.
   void wait(fdds::DataReader& reader, int timeout_ms) override {
+    // Through DDS while the followed ring is not the one the count is of (see take()).
+    const bool counted = frames_.follows(delivered_.ring());
     wait_on_doorbell(
-        reader, timeout_ms, [&](int64_t ns) { return frames_.following() && frames_.wait_mail(delivered_.newest(), ns); },
-        [&] { return frames_.newest_post() > delivered_.newest(); });
+        reader, timeout_ms, [&](int64_t ns) { return counted && frames_.wait_mail(delivered_.newest(), ns); },
+        [&] { return counted && frames_.newest_post() > delivered_.newest(); });
   }
 
   uint64_t frames_mailed() const override { return frames_.mailed(); }
