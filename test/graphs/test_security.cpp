@@ -100,7 +100,7 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
   // participant it discovers, and a handshake that other tests' participants
   // (or a loaded machine) delay past Fast DDS 2.9's fixed resends is given up
   // for good. (CTest runs this test alone too.)
-  const int domain = 100 + static_cast<int>(getpid() % 100);
+  const int domain = test::private_domain();
   const std::string domain_text = std::to_string(domain);
 
   Participant plain("", prefix, domain), foreign((root / "foreign" / "head_pc").string(), prefix, domain),
