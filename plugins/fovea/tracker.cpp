@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 #include <opencv2/imgproc.hpp>
 
@@ -30,48 +29,23 @@ namespace {
 
 // The cross terms of every placement: result row y gets, for each template
 // pixel (tx, ty), its centred value times the window row y + ty from column
-// tx on. One call for all of them: the rows are short, and a call per row and
-// template pixel cost more than the products. `centred` holds the window less
-// 128 (the template's centred values sum to zero, so the offset cancels and
-// the float sums stay small).
-// Eight lanes of GCC's vector extension, K vectors of a result row at a time
-// held in registers over all template pixels (summed in the same order as one
-// pixel at a time, so the same bits): through memory, every product waited on
-// the store of the one before.
-typedef float v8f __attribute__((vector_size(32)));
-
-template <int K>
-__attribute__((always_inline)) inline void cross_block(float* __restrict out, const float* __restrict centred,
-                                                       std::ptrdiff_t window_step, const float* __restrict templ,
-                                                       std::ptrdiff_t templ_step, int tw, int th, float t_mean) {
-  v8f acc[K];
-  for (int k = 0; k < K; ++k) acc[k] = v8f{};
-  for (int ty = 0; ty < th; ++ty) {
-    const float* w = centred + ty * window_step;
-    const float* t = templ + ty * templ_step;
-    for (int tx = 0; tx < tw; ++tx) {
-      const float scale = t[tx] - t_mean;
-      for (int k = 0; k < K; ++k) {
-        v8f v;
-        std::memcpy(&v, w + tx + 8 * k, sizeof v);
-        acc[k] += scale * v;
-      }
-    }
-  }
-  std::memcpy(out, acc, sizeof acc);
-}
-
-// `rw` a multiple of eight.
+// tx on, 32 or 8 placements at a time (sliding_dots, summed in the same order
+// as one placement at a time). One call for all of them: the rows are short,
+// and a call per row and template pixel cost more than the products.
+// `centred` holds the window less 128 (the template's centred values sum to
+// zero, so the offset cancels and the float sums stay small). `rw` a multiple
+// of eight.
 SACCADE_AVX2_CLONE void cross_terms(float* __restrict result, std::ptrdiff_t result_step, int rw, int rh,
                                     const float* __restrict centred, std::ptrdiff_t window_step,
                                     const float* __restrict templ, std::ptrdiff_t templ_step, int tw, int th,
                                     float t_mean) {
+  const auto scale = [&](int ty, int tx) { return templ[ty * templ_step + tx] - t_mean; };
   for (int y = 0; y < rh; ++y) {
     float* out = result + y * result_step;
     const float* w = centred + y * window_step;
     int x = 0;
-    for (; x + 32 <= rw; x += 32) cross_block<4>(out + x, w + x, window_step, templ, templ_step, tw, th, t_mean);
-    for (; x < rw; x += 8) cross_block<1>(out + x, w + x, window_step, templ, templ_step, tw, th, t_mean);
+    for (; x + 32 <= rw; x += 32) sliding_dots<4>(w + x, window_step, th, tw, scale, out + x);
+    for (; x < rw; x += 8) sliding_dots<1>(w + x, window_step, th, tw, scale, out + x);
   }
 }
 

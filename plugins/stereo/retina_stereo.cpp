@@ -5,7 +5,6 @@
 #include "retina.hpp"
 
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <string>
 
@@ -21,33 +20,9 @@ namespace {
 // products and the strip's column sums and sums of squares, all whole
 // numbers summed exactly in integers (at most 255^2 per product: exact for
 // windows of up to 33k pixels), in one call per level. The fovea searches the
-// whole range (177 shifts at 1024x768), so the shifts are the vector lanes,
-// K vectors of them held in registers over the window's pixels; `strip32`
-// holds the strip as integers, rows of `stride` >= ww + 8K * blocks, zero
-// beyond the strip.
-typedef int32_t v8i32 __attribute__((vector_size(32)));
-
-template <int K>
-__attribute__((always_inline)) inline void shift_block(const uint8_t* __restrict window, std::ptrdiff_t window_step,
-                                                       int ww, int wh, const int32_t* __restrict strip32,
-                                                       std::ptrdiff_t stride, int32_t* __restrict products) {
-  v8i32 acc[K];
-  for (int k = 0; k < K; ++k) acc[k] = v8i32{};
-  for (int y = 0; y < wh; ++y) {
-    const uint8_t* a = window + y * window_step;
-    const int32_t* b = strip32 + y * stride;
-    for (int x = 0; x < ww; ++x) {
-      const int32_t av = a[x];
-      for (int k = 0; k < K; ++k) {
-        v8i32 v;
-        std::memcpy(&v, b + x + 8 * k, sizeof v);
-        acc[k] += av * v;
-      }
-    }
-  }
-  std::memcpy(products, acc, sizeof acc);
-}
-
+// whole range (177 shifts at 1024x768), so the shifts are the vector lanes
+// (sliding_dots); `strip32` holds the strip as integers, rows of `stride` >=
+// ww + count rounded up to eight, zero beyond the strip.
 SACCADE_AVX2_CLONE void window_products(const uint8_t* __restrict window, std::ptrdiff_t window_step, int ww, int wh,
                                         const uint8_t* __restrict strip, std::ptrdiff_t strip_step, int strip_cols,
                                         int count, int32_t* __restrict strip32, std::ptrdiff_t stride,
@@ -64,9 +39,10 @@ SACCADE_AVX2_CLONE void window_products(const uint8_t* __restrict window, std::p
     }
     for (int x = strip_cols; x < stride; ++x) b32[x] = 0;
   }
+  const auto pixel = [&](int y, int x) { return static_cast<int32_t>(window[y * window_step + x]); };
   int j = 0;
-  for (; j + 32 <= count; j += 32) shift_block<4>(window, window_step, ww, wh, strip32 + j, stride, products + j);
-  for (; j < count; j += 8) shift_block<1>(window, window_step, ww, wh, strip32 + j, stride, products + j);
+  for (; j + 32 <= count; j += 32) sliding_dots<4>(strip32 + j, stride, wh, ww, pixel, products + j);
+  for (; j < count; j += 8) sliding_dots<1>(strip32 + j, stride, wh, ww, pixel, products + j);
 }
 
 }  // namespace

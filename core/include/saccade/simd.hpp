@@ -8,3 +8,37 @@
 #else
 #define SACCADE_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
 #endif
+
+#include <cstddef>
+#include <cstring>
+
+namespace saccade {
+
+// Sliding dot products with the placements as vector lanes: out[j], j < 8K, is
+// the sum over rows y < rows and columns x < cols, in that order, of
+// weight(y, x) * data[y * data_step + x + j]. K vectors of eight placements
+// stay in registers over every weight (through memory, each product would
+// wait on the store of the one before). Inlined into an AVX2 clone, a vector
+// is one register (two SSE2 registers elsewhere). T: float, or int32_t for
+// exact sums of whole numbers.
+template <int K, class T, class Weight>
+__attribute__((always_inline)) inline void sliding_dots(const T* __restrict data, std::ptrdiff_t data_step, int rows,
+                                                        int cols, Weight weight, T* __restrict out) {
+  typedef T Lanes __attribute__((vector_size(8 * sizeof(T))));
+  Lanes acc[K];
+  for (int k = 0; k < K; ++k) acc[k] = Lanes{};
+  for (int y = 0; y < rows; ++y) {
+    const T* row = data + y * data_step;
+    for (int x = 0; x < cols; ++x) {
+      const T w = weight(y, x);
+      for (int k = 0; k < K; ++k) {
+        Lanes v;
+        std::memcpy(&v, row + x + 8 * k, sizeof v);
+        acc[k] += w * v;
+      }
+    }
+  }
+  std::memcpy(out, acc, sizeof acc);
+}
+
+}  // namespace saccade
