@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "saccade/simd.hpp"
 
@@ -12,12 +13,11 @@ LevelMotionEstimator::LevelMotionEstimator(MotionConfig config)
 
 namespace {
 
-// One row: d = a - b where seen, its mask, and the running sums. T, U: the two
-// images' pixel types (8-bit levels, or a float resampled previous level).
-template <class T, class U>
-void diff_row(const T* __restrict a, const U* __restrict b, const uint8_t* __restrict seen, float threshold, int w,
-              int y, float* __restrict d, uint8_t* __restrict m, uint8_t* __restrict v, double& sum_sq, double& cx,
-              double& cy, int& n_valid, int& n_moving) {
+// One row against a float (resampled) previous level: d = a - b where seen,
+// its mask, and the running sums.
+void diff_row(const uint8_t* __restrict a, const float* __restrict b, const uint8_t* __restrict seen, float threshold,
+              int w, int y, float* __restrict d, uint8_t* __restrict m, uint8_t* __restrict v, double& sum_sq,
+              double& cx, double& cy, int& n_valid, int& n_moving) {
   for (int x = 0; x < w; ++x) d[x] = static_cast<float>(a[x]) - static_cast<float>(b[x]);
   if (seen != nullptr)
     for (int x = 0; x < w; ++x) {
@@ -55,7 +55,8 @@ SACCADE_AVX2_CLONE void diff_rows_u8(const uint8_t* __restrict a, std::ptrdiff_t
     float* dr = d + y * d_step;
     uint8_t* mr = m + y * m_step;
     uint8_t* vr = v + y * v_step;
-    int row_sq = 0, row_valid = 0, row_moving = 0, row_x = 0;  // at most 65025 per pixel: an int holds 33k pixels' worth
+    int64_t row_sq = 0, row_x = 0;
+    int row_valid = 0, row_moving = 0;
     for (int x = 0; x < w; ++x) {
       int diff = static_cast<int>(ar[x]) - static_cast<int>(br[x]);
       const bool in_view = sr == nullptr || sr[x] != 0;
@@ -64,15 +65,15 @@ SACCADE_AVX2_CLONE void diff_rows_u8(const uint8_t* __restrict a, std::ptrdiff_t
       dr[x] = static_cast<float>(diff);
       vr[x] = in_view ? 255 : 0;
       mr[x] = moving ? 255 : 0;
-      row_sq += diff * diff;
+      row_sq += static_cast<int64_t>(diff * diff);
       row_valid += in_view;
       row_moving += moving;
       row_x += moving ? x : 0;
     }
-    sum_sq += row_sq;
+    sum_sq += static_cast<double>(row_sq);
     n_valid += row_valid;
     n_moving += row_moving;
-    cx += row_x;
+    cx += static_cast<double>(row_x);
     cy += static_cast<double>(y) * row_moving;
   }
 }
@@ -88,24 +89,18 @@ void LevelMotionEstimator::run(const cv::Mat& cur, const cv::Mat& prev, const cv
   out.valid.create(h, w, CV_8U);
   double sum_sq = 0, cx = 0, cy = 0;
   int n_valid = 0, n_moving = 0;
-  int h_done = 0;  // rows done by the whole-number path
-  if (prev.depth() == CV_8U && w <= 30000) {
+  if (prev.depth() == CV_8U) {
     diff_rows_u8(cur.ptr<uint8_t>(), static_cast<std::ptrdiff_t>(cur.step), prev.ptr<uint8_t>(),
                  static_cast<std::ptrdiff_t>(prev.step), valid.empty() ? nullptr : valid.ptr<uint8_t>(),
                  valid.empty() ? 0 : static_cast<std::ptrdiff_t>(valid.step), config_.threshold, w, h,
                  out.diff.ptr<float>(), static_cast<std::ptrdiff_t>(out.diff.step1()), out.mask.ptr<uint8_t>(),
                  static_cast<std::ptrdiff_t>(out.mask.step), out.valid.ptr<uint8_t>(),
                  static_cast<std::ptrdiff_t>(out.valid.step), sum_sq, cx, cy, n_valid, n_moving);
-    h_done = h;
-  }
-  for (int y = h_done; y < h; ++y) {
-    const uint8_t* seen = valid.empty() ? nullptr : valid.ptr<uint8_t>(y);
-    if (prev.depth() == CV_8U)
-      diff_row(cur.ptr<uint8_t>(y), prev.ptr<uint8_t>(y), seen, config_.threshold, w, y, out.diff.ptr<float>(y),
-               out.mask.ptr<uint8_t>(y), out.valid.ptr<uint8_t>(y), sum_sq, cx, cy, n_valid, n_moving);
-    else
-      diff_row(cur.ptr<uint8_t>(y), prev.ptr<float>(y), seen, config_.threshold, w, y, out.diff.ptr<float>(y),
-               out.mask.ptr<uint8_t>(y), out.valid.ptr<uint8_t>(y), sum_sq, cx, cy, n_valid, n_moving);
+  } else {
+    for (int y = 0; y < h; ++y)
+      diff_row(cur.ptr<uint8_t>(y), prev.ptr<float>(y), valid.empty() ? nullptr : valid.ptr<uint8_t>(y),
+               config_.threshold, w, y, out.diff.ptr<float>(y), out.mask.ptr<uint8_t>(y), out.valid.ptr<uint8_t>(y),
+               sum_sq, cx, cy, n_valid, n_moving);
   }
   gradient_.run(out.diff, out.mx, out.my);
   out.energy = n_valid > 0 ? sum_sq / n_valid : 0.0;
