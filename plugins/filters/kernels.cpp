@@ -158,7 +158,8 @@ void pad_level(const cv::Mat& level, int pad, Border border, std::vector<int>& m
 // first pixel. Restrict parameters (GCC honours restrict on parameters) and
 // float arithmetic on small integers (exact) let this vectorise.
 SACCADE_AVX2_CLONE void row_3x3(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
-             float* __restrict og, float* __restrict ox, float* __restrict oy, float* __restrict ol, int w) {
+                                float* __restrict og, float* __restrict ox, float* __restrict oy, float* __restrict ol,
+                                int w) {
   for (int x = 0; x < w; ++x) {
     const float a = r0[x], b = r0[x + 1], c = r0[x + 2];
     const float d = r1[x], e = r1[x + 1], f = r1[x + 2];
@@ -172,12 +173,13 @@ SACCADE_AVX2_CLONE void row_3x3(const float* __restrict r0, const float* __restr
 }
 
 // One output row of the 4-neighbour Laplacian, rows as in row_3x3.
-SACCADE_AVX2_CLONE void row_cross(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2, float* __restrict o,
-               int w) {
+SACCADE_AVX2_CLONE void row_cross(const float* __restrict r0, const float* __restrict r1, const float* __restrict r2,
+                                  float* __restrict o, int w) {
   for (int x = 0; x < w; ++x) o[x] = (r0[x + 1] + r2[x + 1] + r1[x] + r1[x + 2]) - 4.0f * r1[x + 1];
 }
 
-SACCADE_AVX2_CLONE void row_magnitude(const float* __restrict gx, const float* __restrict gy, float* __restrict mag, int w) {
+SACCADE_AVX2_CLONE void row_magnitude(const float* __restrict gx, const float* __restrict gy, float* __restrict mag,
+                                      int w) {
   for (int x = 0; x < w; ++x) mag[x] = std::sqrt(gx[x] * gx[x] + gy[x] * gy[x]);
 }
 
@@ -206,7 +208,8 @@ __attribute__((always_inline)) inline void store8(float* p, const v8sf& v) { std
 // table of rows; serving this pass with it (rows src, src + 1, ...) costs 6% more
 // instructions per map (callgrind), so the row pass keeps its direct offsets.
 template <int N>
-__attribute__((always_inline)) inline void row_taps(const float* src, const float* g, const float* dg, float* out_g, float* out_dg, int w) {
+__attribute__((always_inline)) inline void row_taps(const float* src, const float* g, const float* dg, float* out_g,
+                                                    float* out_dg, int w) {
   v8sf wg[N], wd[N];
   for (int k = 0; k < N; ++k) {
     wg[k] = v8sf{} + g[k];
@@ -237,8 +240,9 @@ __attribute__((always_inline)) inline void row_taps(const float* src, const floa
 
 // Vertical pass for one output row: out_x = sum g[k] rows_dg[k], out_y = sum dg[k] rows_g[k].
 template <int N>
-__attribute__((always_inline)) inline void column_taps(const float* const* rows_dg, const float* const* rows_g, const float* g, const float* dg,
-                 float* out_x, float* out_y, int w) {
+__attribute__((always_inline)) inline void column_taps(const float* const* rows_dg, const float* const* rows_g,
+                                                       const float* g, const float* dg, float* out_x, float* out_y,
+                                                       int w) {
   v8sf wg[N], wd[N];
   for (int k = 0; k < N; ++k) {
     wg[k] = v8sf{} + g[k];
@@ -270,8 +274,10 @@ __attribute__((always_inline)) inline void column_taps(const float* const* rows_
 
 // Both passes for a kernel of N taps.
 template <int N>
-__attribute__((always_inline)) inline void separable_gradient(const cv::Mat& padded, int pad, int w, int h, const float* g, const float* dg, cv::Mat& row_g,
-                        cv::Mat& row_dg, const float** rows_g, const float** rows_dg, cv::Mat& gx, cv::Mat& gy) {
+__attribute__((always_inline)) inline void separable_gradient(const cv::Mat& padded, int pad, int w, int h,
+                                                              const float* g, const float* dg, cv::Mat& row_g,
+                                                              cv::Mat& row_dg, const float** rows_g,
+                                                              const float** rows_dg, cv::Mat& gx, cv::Mat& gy) {
   constexpr int r = N / 2;
   for (int y = 0; y < h + 2 * pad; ++y)
     row_taps<N>(padded.ptr<float>(y) + pad - r, g, dg, row_g.ptr<float>(y), row_dg.ptr<float>(y), w);

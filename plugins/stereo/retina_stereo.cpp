@@ -201,7 +201,8 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
       const double om = static_cast<double>(sum) / area;
       const double os = std::sqrt(std::max(0.0, static_cast<double>(sq) / area - om * om));
       if (os < config_.ncc.min_texture) continue;
-      const double cross = static_cast<double>(products_[static_cast<std::size_t>(x0s)]) - wm * static_cast<double>(sum);
+      const double cross =
+          static_cast<double>(products_[static_cast<std::size_t>(x0s)]) - wm * static_cast<double>(sum);
       const float ncc = static_cast<float>(cross / (area * ws * os));
       samples_[static_cast<std::size_t>(s - s_lo)] = ncc;
       if (best < 0 || ncc > samples_[static_cast<std::size_t>(best)]) best = s - s_lo;

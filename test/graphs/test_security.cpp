@@ -50,7 +50,8 @@ class Participant {
       p.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", dir + "permissions.p7s");
       p.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
     }
-    participant_ = fdds::DomainParticipantFactory::get_instance()->create_participant(static_cast<fdds::DomainId_t>(domain), qos);
+    participant_ = fdds::DomainParticipantFactory::get_instance()->create_participant(
+        static_cast<fdds::DomainId_t>(domain), qos);
     if (participant_ == nullptr) return;
     fdds::TypeSupport image(new saccade_idl::ImagePubSubType()), targets(new saccade_idl::JointTargetsPubSubType());
     image.register_type(participant_);
