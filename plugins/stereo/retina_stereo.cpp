@@ -299,9 +299,13 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
         predict(out, left, k, full_lo, full_hi, offset, lo, hi);
       }
     };
-    // The matcher's results, as views of the level's pixels (the padded
-    // path's lie inside larger images).
-    cv::Mat lr_view, lr_score_view, rl_view, rl_score_view, valid_view;
+    // The images matched, their ranges, and where the level lies in them
+    // (the padded path's lie inside larger images).
+    const cv::Mat* left_image = &left.levels[k];
+    const cv::Mat* right_image = right_level;
+    const cv::Mat* lo = &lo_;
+    const cv::Mat* hi = &hi_;
+    cv::Rect inside(cv::Point(), left.levels[k].size());
     if (padded_path) {
       // Sample both frames with a margin around the level, so that windows and
       // matches near the level's edges see real pixels instead of none.
@@ -333,7 +337,7 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
                              gl.step_y, padded, crop, ls.left_padded);
       retina::sample_level(*right_frame, right_x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x, gl.step_y,
                            padded, crop, ls.right_padded);
-      const cv::Rect inside(mx0, my0, w, h);
+      inside = cv::Rect(mx0, my0, w, h);
       // Outside the level nothing is searched left->right.
       ls.lo_padded.create(padded, CV_32S);
       ls.hi_padded.create(padded, CV_32S);
@@ -341,46 +345,30 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       fill(ls.hi_padded, 0);
       cv::Mat lo_inside = ls.lo_padded(inside), hi_inside = ls.hi_padded(inside);
       ranges(lo_inside, hi_inside);
-      ncc_match_cross(ls.left_padded, ls.right_padded, ls.lo_padded, ls.hi_padded, config_.ncc, ls.lr_padded,
-                      ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, ls.ncc);
-      ls.valid_padded.create(padded, CV_8U);
-      valid_view = ls.valid_padded(inside);
-      fill(valid_view, 255);
-      if (config_.left_right_check)
-        left_right_check(ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, config_.lr_tolerance,
-                         ls.valid_padded, inside);
-      if (config_.keep_images) {
-        ls.left_padded.copyTo(level.left_image);
-        ls.right_padded.copyTo(level.right_image);
-        level.margin = inside.tl();
-      }
-      lr_view = ls.lr_padded(inside);
-      lr_score_view = ls.lr_score_padded(inside);
-      rl_view = ls.rl_padded(inside);
-      rl_score_view = ls.rl_score_padded(inside);
+      left_image = &ls.left_padded;
+      right_image = &ls.right_padded;
+      lo = &ls.lo_padded;
+      hi = &ls.hi_padded;
     } else {
-      if (config_.keep_images) {
-        left.levels[k].copyTo(level.left_image);
-        right_level->copyTo(level.right_image);
-        level.margin = {};
-      }
       lo_.create(left.levels[k].size(), CV_32S);
       hi_.create(left.levels[k].size(), CV_32S);
       ranges(lo_, hi_);
-      ncc_match_cross(left.levels[k], *right_level, lo_, hi_, config_.ncc, ls.lr_padded, ls.lr_score_padded,
-                      ls.rl_padded, ls.rl_score_padded, ls.ncc);
-      // Validity comes from the scores: with vergence a level disparity may be negative.
-      ls.valid_padded.create(left.levels[k].size(), CV_8U);
-      fill(ls.valid_padded, 255);
-      if (config_.left_right_check)
-        left_right_check(ls.lr_padded, ls.lr_score_padded, ls.rl_padded, ls.rl_score_padded, config_.lr_tolerance,
-                         ls.valid_padded);
-      lr_view = ls.lr_padded;
-      lr_score_view = ls.lr_score_padded;
-      rl_view = ls.rl_padded;
-      rl_score_view = ls.rl_score_padded;
-      valid_view = ls.valid_padded;
     }
+    if (config_.keep_images) {
+      left_image->copyTo(level.left_image);
+      right_image->copyTo(level.right_image);
+      level.margin = inside.tl();
+    }
+    ncc_match_cross(*left_image, *right_image, *lo, *hi, config_.ncc, ls.lr, ls.lr_score, ls.rl, ls.rl_score, ls.ncc);
+    // Validity comes from the scores: with vergence a level disparity may be negative.
+    ls.valid.create(left_image->size(), CV_8U);
+    cv::Mat valid_view = ls.valid(inside);
+    fill(valid_view, 255);
+    if (config_.left_right_check)
+      left_right_check(ls.lr, ls.lr_score, ls.rl, ls.rl_score, config_.lr_tolerance, ls.valid, inside);
+    // The results as views of the level's pixels.
+    const cv::Mat lr_view = ls.lr(inside), lr_score_view = ls.lr_score(inside), rl_view = ls.rl(inside),
+                  rl_score_view = ls.rl_score(inside);
     // Back to source pixels.
     const cv::Size size = lr_view.size();
     level.disparity.create(size, CV_32F);

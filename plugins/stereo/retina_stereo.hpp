@@ -110,8 +110,8 @@ class RetinaStereo {
   // would reallocate on every level of every frame.
   struct LevelScratch {
     cv::Mat strip;
-    cv::Mat left_padded, right_padded, lo_padded, hi_padded, lr_padded, lr_score_padded, rl_padded, rl_score_padded,
-        valid_padded;
+    cv::Mat left_padded, right_padded, lo_padded, hi_padded;
+    cv::Mat lr, lr_score, rl, rl_score, valid;  // the matcher's results (padded when the level is)
     NccScratch ncc;
   };
   std::vector<LevelScratch> level_scratch_;
