@@ -254,14 +254,12 @@ Search bounds(const cv::Mat& lo, const cv::Mat& hi, const cv::Mat& stddev, int r
 struct SweepArgs {
   const float *left, *right;          // centred values
   const float *left_mean, *left_std, *right_mean, *right_std;
-  std::ptrdiff_t image_step;          // of the six images above, the best arrays and the volume
+  std::ptrdiff_t image_step;          // of the six images above and the volumes
   const int *lo_lr, *hi_lr;           // left pixels' ranges
   const int *lo_rl, *hi_rl;           // right pixels' ranges, null: the left pixels' pairs
   std::ptrdiff_t lr_step, rl_step;
-  float *best_lr, *best_rl;
-  int *best_d_lr, *best_d_rl;
   float* col;                         // column sums, one row's width
-  float* volume;                      // this disparity's plane, rows of image_step
+  float *volume_lr, *volume_rl;       // this disparity's planes, rows of image_step
   int r, y0, y1;                      // window half size; rows whose pixels are searched
   float inv_n, min_texture;
 };
@@ -290,7 +288,6 @@ __attribute__((always_inline)) inline void sweep_lanes(const SweepArgs& a, std::
   const v8f prod = va * vb;
   const v8f value = (sum * a.inv_n - vma * vmb) / (prod > tiny ? prod : tiny);
   const v8f c = ((va >= texture) & (vb >= texture)) ? value : v8f{} - 2.0f;
-  std::memcpy(a.volume + at, &c, sizeof c);
   const v8i dv = v8i{} + d;
   v8i lo, hi;
   std::memcpy(&lo, a.lo_lr + lr_row + x, sizeof lo);
@@ -302,19 +299,11 @@ __attribute__((always_inline)) inline void sweep_lanes(const SweepArgs& a, std::
     std::memcpy(&hi, a.hi_rl + rl_row + x - d, sizeof hi);
     wanted_rl = (dv >= lo) & (dv <= hi);
   }
-  for (int side = 0; side < 2; ++side) {
-    float* best = side == 0 ? a.best_lr + at : a.best_rl + at_right;
-    int* best_d = side == 0 ? a.best_d_lr + at : a.best_d_rl + at_right;
-    v8f b;
-    v8i bd;
-    std::memcpy(&b, best, sizeof b);
-    std::memcpy(&bd, best_d, sizeof bd);
-    const v8i take = (side == 0 ? wanted_lr : wanted_rl) & (c > b);
-    const v8f b_new = take ? c : b;
-    const v8i bd_new = take ? dv : bd;
-    std::memcpy(best, &b_new, sizeof b_new);
-    std::memcpy(best_d, &bd_new, sizeof bd_new);
-  }
+  const v8f none = v8f{} - 2.0f;
+  const v8f c_lr = wanted_lr ? c : none;
+  const v8f c_rl = wanted_rl ? c : none;
+  std::memcpy(a.volume_lr + at, &c_lr, sizeof c_lr);
+  std::memcpy(a.volume_rl + at_right, &c_rl, sizeof c_rl);
 }
 
 // One pixel of the same, where a row is narrower than eight lanes.
@@ -327,29 +316,22 @@ inline void sweep_pixel(const SweepArgs& a, std::ptrdiff_t row, std::ptrdiff_t l
   const bool textured = (sa >= a.min_texture) & (sb >= a.min_texture);
   const float c =
       textured ? (sum * a.inv_n - a.left_mean[at] * a.right_mean[at_right]) / std::max(sa * sb, 1e-6f) : -2.0f;
-  a.volume[at] = c;
   const bool wanted_lr = d >= a.lo_lr[lr_row + x] && d <= a.hi_lr[lr_row + x];
   const bool wanted_rl =
       a.lo_rl == nullptr ? wanted_lr : d >= a.lo_rl[rl_row + x - d] && d <= a.hi_rl[rl_row + x - d];
-  if (wanted_lr && c > a.best_lr[at]) {
-    a.best_lr[at] = c;
-    a.best_d_lr[at] = d;
-  }
-  if (wanted_rl && c > a.best_rl[at_right]) {
-    a.best_rl[at_right] = c;
-    a.best_d_rl[at_right] = d;
-  }
+  a.volume_lr[at] = wanted_lr ? c : -2.0f;
+  a.volume_rl[at_right] = wanted_rl ? c : -2.0f;
 }
 
 // The sweep at disparity d over left columns xs .. xe: column sums of
-// left(x) * right(x - d) slid down the rows, and per row the window sums,
+// left(x) * right(x - d) slid down the rows, and per row the window sums and
 // their correlation coefficients (-2 where either window is too flat), kept
-// in the volume, and offered to both directions' pixels that search the
-// pair. The first of equal scores (the smallest disparity) wins. GCC's vector
-// extension, eight pixels at a time (its own vectoriser gives up on the
+// twice: at the left pixel (volume_lr) and at the right one (volume_rl), each
+// -2 where that side's pixel does not search the pair, so that each side then
+// picks its best reading whole vectors of its own pixels (pick_lanes). GCC's
+// vector extension, eight pixels at a time (its own vectoriser gives up on the
 // selects); the last eight overlap the ones before where the row is not a
-// multiple of eight, which is harmless: offering a score again at the same
-// disparity changes nothing.
+// multiple of eight, which is harmless: they store the same values again.
 template <int R, bool kImplicit>
 __attribute__((always_inline)) inline void sweep_plane_impl(const SweepArgs& a, int d, int xs, int xe) {
   constexpr int kLanes = 8;
@@ -409,94 +391,140 @@ struct Volume {
   }
 };
 
-// How a pixel's neighbouring disparities were searched, for the parabola.
-enum class Neighbours {
-  kOwnLeft,    // left pixels with their own ranges
-  kOwnRight,   // right pixels with their own ranges
-  kLeftPairs,  // right pixels that take the pairs the left pixels search
+// What one side's pick reads: one of the sweep's two volumes, whose planes
+// hold, at each of that side's pixels, the correlation of the pair it
+// searches at that disparity, or -2 (not searched, a flat window, or a pair
+// the sweep did not compute: outside the plane's span, read as -2 whatever
+// the buffer holds there).
+struct PickArgs {
+  const float* volume;           // plane of d_min, rows of step
+  std::ptrdiff_t plane, step;
+  int d_min, count;
+  const int *span_lo, *span_hi;  // per plane, the left columns computed
+  int right_side;                // 1: the volume is indexed by right pixels (left x = right x + d)
+  float min_score;
+  bool subpixel;
+  float *disparity, *score;      // rows of step
 };
 
-// Whether both neighbours of a pixel's best disparity bd were computed and
-// searched. The sweep computed disparity d for a box of the searching side's
-// pixels (every textured pixel with a range is in it) wherever both windows
-// fit; a pixel that searched bd +- 1 is in its side's box, so only the other
-// image's window is left to check. Right pixels that take the left pixels'
-// pairs keep their own column at every disparity: their neighbours are
-// left pixels x + bd +- 1, which must lie in the left box and have searched
-// the pair (a flat one holds -2, refused below).
-template <Neighbours kMode>
-inline bool neighbours_searched(int x, int bd, const int* l, const int* u, int inside_lo, int inside_hi,
-                                const Search* left_box) {
-  if constexpr (kMode == Neighbours::kOwnLeft) {
-    return bd > l[x] && bd < u[x] && x - bd - 1 >= inside_lo && x - bd + 1 <= inside_hi;
-  } else if constexpr (kMode == Neighbours::kOwnRight) {
-    return bd > l[x] && bd < u[x] && x + bd - 1 >= inside_lo && x + bd + 1 <= inside_hi;
-  } else {
-    const int x0 = x + bd - 1, x2 = x + bd + 1;
-    return x0 >= left_box->x0 && x2 <= left_box->x1 && bd - 1 >= left_box->d_min && bd + 1 <= left_box->d_max &&
-           l[x0] <= bd - 1 && bd - 1 <= u[x0] && l[x2] <= bd + 1 && bd + 1 <= u[x2];
+// Picks of kBlocks vectors of eight pixels at row y, from columns xs[0..]:
+// every disparity in turn, the best score (the first of equal ones, the
+// smallest disparity) and the scores either side of it held in registers,
+// then the parabola through those three where both neighbours were searched
+// and computed (> -2) and it opens downwards. Unmatched pixels get -1. The
+// same arithmetic as the scalar pick_pixel, lane by lane. Several vectors at
+// once: each one's best is a chain of dependent steps through the
+// disparities, and independent chains overlap.
+template <int kBlocks>
+__attribute__((always_inline)) inline void pick_lanes(const PickArgs& a, int y, const int* xs) {
+  typedef float v8f __attribute__((vector_size(32)));
+  typedef int v8i __attribute__((vector_size(32)));
+  const v8f none = v8f{} - 2.0f;
+  v8i lane[kBlocks];
+  v8f best[kBlocks], before[kBlocks], after[kBlocks], previous[kBlocks];
+  v8i best_d[kBlocks];
+  const float* at[kBlocks];
+  for (int b = 0; b < kBlocks; ++b) {
+    lane[b] = v8i{0, 1, 2, 3, 4, 5, 6, 7} + xs[b];
+    best[b] = before[b] = after[b] = previous[b] = none;
+    best_d[b] = v8i{} + (a.d_min - 2);
+    at[b] = a.volume + y * a.step + xs[b];
   }
-}
-
-template <Neighbours kMode>
-void finish_rows(const Search& s, const Search* left_box, const cv::Mat& best, const cv::Mat& best_d,
-                 const Volume& volume, const cv::Mat& lo, const cv::Mat& hi, int r, const NccConfig& config,
-                 cv::Mat& disparity, cv::Mat& score) {
-  constexpr int shift = kMode == Neighbours::kOwnLeft ? 0 : 1;
-  const bool subpixel = config.subpixel;
-  const float min_score = config.min_score;
-  const std::ptrdiff_t w = volume.width;
-  const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(volume.plane);
-  const int inside_lo = r, inside_hi = static_cast<int>(w) - r - 1;
-  for (int y = s.y0; y <= s.y1; ++y) {
-    const int* l = lo.ptr<int>(y);
-    const int* u = hi.ptr<int>(y);
-    const float* bs = best.ptr<float>(y);
-    const int* bds = best_d.ptr<int>(y);
-    float* out_d = disparity.ptr<float>(y);
-    float* out_s = score.ptr<float>(y);
-    // Row y of the plane of disparity 0 (not necessarily one that exists):
-    // the score at (d, x) is at base[d * plane + x].
-    const float* base = volume.data + static_cast<std::ptrdiff_t>(y) * w -
-                        static_cast<std::ptrdiff_t>(volume.d_min) * plane;
-    for (int x = s.x0; x <= s.x1; ++x) {
-      const float b = bs[x];
-      if (!(b >= min_score) || !(b > -2.0f)) continue;
-      const int bd = bds[x];
-      float dd = static_cast<float>(bd);
-      if (subpixel && neighbours_searched<kMode>(x, bd, l, u, inside_lo, inside_hi, left_box)) {
-        const std::ptrdiff_t at = static_cast<std::ptrdiff_t>(bd) * (plane + shift) + x;
-        const float c0 = base[at - plane - shift];
-        const float c2 = base[at + plane + shift];
-        const float denom = c0 - 2 * b + c2;
-        if (c0 > -2 && c2 > -2 && denom < 0) dd += std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f);
-      }
-      out_d[x] = dd;
-      out_s[x] = b;
+  // The score after the best is the one read just after a take; a take at
+  // the last disparity has none.
+  v8i took[kBlocks];
+  for (int b = 0; b < kBlocks; ++b) took[b] = v8i{};
+  for (int i = 0; i < a.count; ++i) {
+    const int d = a.d_min + i, shift = a.right_side * d;
+    const int first = a.span_lo[i] - shift, last = a.span_hi[i] - shift;
+    // Most planes span all the vectors: no lane to mask then.
+    const bool whole = xs[0] >= first && xs[kBlocks - 1] + 7 <= last;
+    const v8i dv = v8i{} + d;
+    for (int b = 0; b < kBlocks; ++b) {
+      v8f c;
+      std::memcpy(&c, at[b] + i * a.plane, sizeof c);
+      if (!whole) c = (lane[b] > first - 1) & (last + 1 > lane[b]) ? c : none;
+      after[b] = took[b] ? c : after[b];
+      const v8i take = c > best[b];
+      before[b] = take ? previous[b] : before[b];
+      best[b] = take ? c : best[b];
+      best_d[b] = take ? dv : best_d[b];
+      previous[b] = c;
+      took[b] = take;
     }
   }
+  for (int b = 0; b < kBlocks; ++b) after[b] = took[b] ? none : after[b];
+  for (int b = 0; b < kBlocks; ++b) {
+    v8f d_out = __builtin_convertvector(best_d[b], v8f);
+    if (a.subpixel) {
+      const v8f denom = before[b] - 2.0f * best[b] + after[b];
+      const v8i fits = (before[b] > none) & (after[b] > none) & (denom < 0.0f);
+      v8f step = 0.5f * (before[b] - after[b]) / denom;
+      step = step < -0.5f ? v8f{} - 0.5f : (0.5f < step ? v8f{} + 0.5f : step);
+      d_out = fits ? d_out + step : d_out;
+    }
+    const v8i matched = (best[b] >= a.min_score) & (best[b] > none);
+    const v8f minus_one = v8f{} - 1.0f;
+    const v8f out_d = matched ? d_out : minus_one, out_s = matched ? best[b] : minus_one;
+    std::memcpy(a.disparity + y * a.step + xs[b], &out_d, sizeof out_d);
+    std::memcpy(a.score + y * a.step + xs[b], &out_s, sizeof out_s);
+  }
 }
 
-// One direction's disparities from its best scores, with the parabola
-// through the scores either side of the best from the volume. `left_box`
-// null: the pixels searched their own ranges `lo`, `hi` (`shift` 0: left
-// pixels, left x at d is volume column x; 1: right pixels, right x at d is
-// left x + d). Otherwise right pixels that took the pairs the left pixels
-// (box `left_box`, ranges `lo`, `hi`) searched.
-void finish(const Search& s, const Search* left_box, const cv::Mat& best, const cv::Mat& best_d, const Volume& volume,
-            int shift, const cv::Mat& lo, const cv::Mat& hi, int r, const NccConfig& config, cv::Mat& disparity,
-            cv::Mat& score) {
-  disparity.create(best.size(), CV_32F);
-  score.create(best.size(), CV_32F);
-  fill(disparity, -1);
-  fill(score, -1);
-  if (!s.active()) return;
-  if (left_box != nullptr)
-    finish_rows<Neighbours::kLeftPairs>(s, left_box, best, best_d, volume, lo, hi, r, config, disparity, score);
-  else if (shift == 0)
-    finish_rows<Neighbours::kOwnLeft>(s, nullptr, best, best_d, volume, lo, hi, r, config, disparity, score);
-  else
-    finish_rows<Neighbours::kOwnRight>(s, nullptr, best, best_d, volume, lo, hi, r, config, disparity, score);
+// One pixel of the same, for images narrower than eight.
+inline void pick_pixel(const PickArgs& a, int y, int x) {
+  float best = -2.0f, before = -2.0f, after = -2.0f, previous = -2.0f;
+  int best_d = a.d_min - 2;
+  const float* at = a.volume + y * a.step + x;
+  for (int i = 0; i < a.count; ++i) {
+    const int d = a.d_min + i, shift = a.right_side * d;
+    const bool computed = x >= a.span_lo[i] - shift && x <= a.span_hi[i] - shift;
+    const float c = computed ? at[i * a.plane] : -2.0f;
+    if (best_d == d - 1) after = c;
+    if (c > best) {
+      before = previous;
+      after = -2.0f;
+      best = c;
+      best_d = d;
+    }
+    previous = c;
+  }
+  if (!(best >= a.min_score) || !(best > -2.0f)) return;
+  float d_out = static_cast<float>(best_d);
+  const float denom = before - 2.0f * best + after;
+  if (a.subpixel && before > -2.0f && after > -2.0f && denom < 0.0f)
+    d_out += std::clamp(0.5f * (before - after) / denom, -0.5f, 0.5f);
+  a.disparity[y * a.step + x] = d_out;
+  a.score[y * a.step + x] = best;
+}
+
+// One side's picks over its box (rows y0 .. y1, columns x0 .. x1): whole
+// vectors, the last overlapping the one before, four at a time; outside the
+// box's columns a vector's extra pixels are outside every plane's span, so
+// they write the -1 the outputs start with.
+SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, int width) {
+  constexpr int kLanes = 8;
+  if (width < kLanes) {
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) pick_pixel(a, y, x);
+    return;
+  }
+  for (int y = y0; y <= y1; ++y) {
+    int xs[4], blocks = 0;
+    for (int x = std::min(x0, width - kLanes);; x += kLanes) {
+      const int at = std::min(x, std::max(x1 + 1, kLanes) - kLanes);
+      const bool last = at + kLanes > x1;
+      xs[blocks++] = at;
+      if (blocks == 4 || last) {
+        if (blocks == 4) pick_lanes<4>(a, y, xs);
+        else if (blocks == 3) pick_lanes<3>(a, y, xs);
+        else if (blocks == 2) pick_lanes<2>(a, y, xs);
+        else pick_lanes<1>(a, y, xs);
+        blocks = 0;
+      }
+      if (last) break;
+    }
+  }
 }
 
 // One step of a path of the semi-global aggregation: the path's costs at a
@@ -709,15 +737,8 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   const int d_max = std::max(lr.active() ? lr.d_max : -(1 << 30), rl.active() ? rl.d_max : -(1 << 30));
   const int count = y1 >= y0 ? d_max - d_min + 1 : 0;
   const std::size_t plane = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
-  if (scratch.volume.size() < plane * static_cast<std::size_t>(count)) scratch.volume.resize(plane * static_cast<std::size_t>(count));
-  for (cv::Mat* m : {&scratch.best_lr, &scratch.best_rl}) {
-    m->create(left.size(), CV_32F);
-    fill(*m, -2.0f);
-  }
-  for (cv::Mat* m : {&scratch.best_d_lr, &scratch.best_d_rl}) {
-    m->create(left.size(), CV_32S);
-    fill(*m, 0);
-  }
+  for (std::vector<float>* v : {&scratch.volume, &scratch.volume_rl})
+    if (v->size() < plane * static_cast<std::size_t>(count)) v->resize(plane * static_cast<std::size_t>(count));
   scratch.col.assign(static_cast<std::size_t>(w), 0.0f);
   scratch.span_lo.assign(static_cast<std::size_t>(count), 0);
   scratch.span_hi.assign(static_cast<std::size_t>(count), -1);
@@ -726,13 +747,11 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
                  scratch.ref_std.ptr<float>(), scratch.other_mean.ptr<float>(), scratch.other_std.ptr<float>(), w,
                  lo_lr.ptr<int>(), hi_lr.ptr<int>(), implicit ? nullptr : lo_rl->ptr<int>(),
                  implicit ? nullptr : hi_rl->ptr<int>(), static_cast<std::ptrdiff_t>(lo_lr.step1()),
-                 implicit ? 0 : static_cast<std::ptrdiff_t>(lo_rl->step1()), scratch.best_lr.ptr<float>(),
-                 scratch.best_rl.ptr<float>(), scratch.best_d_lr.ptr<int>(), scratch.best_d_rl.ptr<int>(),
-                 scratch.col.data(), nullptr, r, y0, y1, 1.0f / static_cast<float>(n), min_texture};
+                 implicit ? 0 : static_cast<std::ptrdiff_t>(lo_rl->step1()), scratch.col.data(), nullptr, nullptr, r,
+                 y0, y1, 1.0f / static_cast<float>(n), min_texture};
   CV_Assert(hi_lr.step1() == lo_lr.step1() && (implicit || hi_rl->step1() == lo_rl->step1()));
   for (const cv::Mat* m : {&scratch.ref_f, &scratch.other_f, &scratch.ref_mean, &scratch.ref_std, &scratch.other_mean,
-                           &scratch.other_std, &scratch.best_lr, &scratch.best_rl, &scratch.best_d_lr,
-                           &scratch.best_d_rl})
+                           &scratch.other_std})
     CV_Assert(m->isContinuous());
   for (int d = d_min; d < d_min + count; ++d) {
     // Left pixels x paired with right pixels x - d: those either direction
@@ -751,7 +770,8 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
     if (xe < xs) continue;
     scratch.span_lo[static_cast<std::size_t>(d - d_min)] = xs;
     scratch.span_hi[static_cast<std::size_t>(d - d_min)] = xe;
-    args.volume = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
+    args.volume_lr = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
+    args.volume_rl = scratch.volume_rl.data() + static_cast<std::size_t>(d - d_min) * plane;
     sweep_plane(args, d, xs, xe);
   }
   const Volume volume{scratch.volume.data(), plane, w, d_min, d_min + count - 1, scratch.span_lo.data(),
@@ -776,9 +796,21 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
     pick_aggregated(box, volume, lo_lr, hi_lr, config, scratch, disparity_lr, score_lr, disparity_rl, score_rl);
     return;
   }
-  finish(lr, nullptr, scratch.best_lr, scratch.best_d_lr, volume, 0, lo_lr, hi_lr, r, config, disparity_lr, score_lr);
-  finish(rl, implicit ? &lr : nullptr, scratch.best_rl, scratch.best_d_rl, volume, 1, implicit ? lo_lr : *lo_rl,
-         implicit ? hi_lr : *hi_rl, r, config, disparity_rl, score_rl);
+  for (cv::Mat* m : {&disparity_lr, &score_lr, &disparity_rl, &score_rl}) {
+    m->create(left.size(), CV_32F);
+    fill(*m, -1);
+  }
+  // Each side picks from the volume indexed by its own pixels; every output
+  // here was created above: continuous, rows of w.
+  PickArgs pick_args{scratch.volume.data(), static_cast<std::ptrdiff_t>(plane), w, d_min, count,
+                     scratch.span_lo.data(), scratch.span_hi.data(), 0, config.min_score, config.subpixel,
+                     disparity_lr.ptr<float>(), score_lr.ptr<float>()};
+  if (lr.active()) pick(pick_args, lr.y0, lr.y1, lr.x0, lr.x1, w);
+  pick_args.volume = scratch.volume_rl.data();
+  pick_args.right_side = 1;
+  pick_args.disparity = disparity_rl.ptr<float>();
+  pick_args.score = score_rl.ptr<float>();
+  if (rl.active()) pick(pick_args, rl.y0, rl.y1, rl.x0, rl.x1, w);
 }
 
 }  // namespace

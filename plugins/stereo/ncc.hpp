@@ -35,8 +35,9 @@ struct NccScratch {
   cv::Mat none_lo, none_hi, unused_d, unused_s;
   std::vector<float> scores, col, col2;
   std::vector<int> span_lo, span_hi;  // per disparity, the left columns the sweep computed
-  cv::Mat best_lr, best_d_lr, best_rl, best_d_rl;  // per pixel, the best score so far and its disparity
-  std::vector<float> volume;  // the sweep's correlations, one plane per disparity
+  // The sweep's correlations, one plane per disparity: at the left pixels
+  // (volume) and at the right ones (volume_rl).
+  std::vector<float> volume, volume_rl;
   std::vector<float> cost, aggregated, path, path_row;  // semi-global aggregation
 };
 
