@@ -259,7 +259,7 @@ struct SweepArgs {
   const int *lo_rl, *hi_rl;           // right pixels' ranges, null: the left pixels' pairs
   std::ptrdiff_t lr_step, rl_step;
   float* col;                         // column sums, one row's width
-  float *volume_lr, *volume_rl;       // this disparity's planes, rows of image_step
+  float *volume_lr, *volume_rl;       // this disparity's planes, rows of image_step; no volume_rl with kImplicit
   int r, y0, y1;                      // window half size; rows whose pixels are searched
   float inv_n, min_texture;
 };
@@ -301,9 +301,11 @@ __attribute__((always_inline)) inline void sweep_lanes(const SweepArgs& a, std::
   }
   const v8f none = v8f{} - 2.0f;
   const v8f c_lr = wanted_lr ? c : none;
-  const v8f c_rl = wanted_rl ? c : none;
   std::memcpy(a.volume_lr + at, &c_lr, sizeof c_lr);
-  std::memcpy(a.volume_rl + at_right, &c_rl, sizeof c_rl);
+  if (!kImplicit) {
+    const v8f c_rl = wanted_rl ? c : none;
+    std::memcpy(a.volume_rl + at_right, &c_rl, sizeof c_rl);
+  }
 }
 
 // One pixel of the same, where a row is narrower than eight lanes.
@@ -320,15 +322,16 @@ inline void sweep_pixel(const SweepArgs& a, std::ptrdiff_t row, std::ptrdiff_t l
   const bool wanted_rl =
       a.lo_rl == nullptr ? wanted_lr : d >= a.lo_rl[rl_row + x - d] && d <= a.hi_rl[rl_row + x - d];
   a.volume_lr[at] = wanted_lr ? c : -2.0f;
-  a.volume_rl[at_right] = wanted_rl ? c : -2.0f;
+  if (a.volume_rl != nullptr) a.volume_rl[at_right] = wanted_rl ? c : -2.0f;
 }
 
 // The sweep at disparity d over left columns xs .. xe: column sums of
 // left(x) * right(x - d) slid down the rows, and per row the window sums and
 // their correlation coefficients (-2 where either window is too flat), kept
-// twice: at the left pixel (volume_lr) and at the right one (volume_rl), each
-// -2 where that side's pixel does not search the pair, so that each side then
-// picks its best reading whole vectors of its own pixels (pick_lanes). GCC's
+// at the left pixel (volume_lr), -2 where it does not search the pair; where
+// the right pixels have ranges of their own, also at the right pixel
+// (volume_rl), -2 where that one does not search it. Each side then picks its
+// best reading whole vectors of its own pixels (pick_lanes). GCC's
 // vector extension, eight pixels at a time (its own vectoriser gives up on the
 // selects); the last eight overlap the ones before where the row is not a
 // multiple of eight, which is harmless: they store the same values again.
@@ -391,17 +394,20 @@ struct Volume {
   }
 };
 
-// What one side's pick reads: one of the sweep's two volumes, whose planes
-// hold, at each of that side's pixels, the correlation of the pair it
-// searches at that disparity, or -2 (not searched, a flat window, or a pair
-// the sweep did not compute: outside the plane's span, read as -2 whatever
-// the buffer holds there).
+// What one side's pick reads: one of the sweep's volumes, whose planes hold
+// the correlation of each pair that side's pixel searches at that disparity,
+// or -2 (not searched, a flat window, or a pair the sweep did not compute:
+// outside the plane's span, read as -2 whatever the buffer holds there).
+// Right pixels that take the left pixels' pairs read the left pixels'
+// volume along its diagonal: right x at d is left x + d, so eight right
+// pixels are eight consecutive left ones there too.
 struct PickArgs {
   const float* volume;           // plane of d_min, rows of step
   std::ptrdiff_t plane, step;
   int d_min, count;
   const int *span_lo, *span_hi;  // per plane, the left columns computed
-  int right_side;                // 1: the volume is indexed by right pixels (left x = right x + d)
+  int right_side;                // 1: right pixels (left x = right x + d)
+  int diagonal;                  // 1: right pixels reading the left pixels' volume
   float min_score;
   bool subpixel;
   float *disparity, *score;      // rows of step
@@ -442,7 +448,7 @@ __attribute__((always_inline)) inline void pick_lanes(const PickArgs& a, int y, 
     const v8i dv = v8i{} + d;
     for (int b = 0; b < kBlocks; ++b) {
       v8f c;
-      std::memcpy(&c, at[b] + i * a.plane, sizeof c);
+      std::memcpy(&c, at[b] + i * a.plane + a.diagonal * d, sizeof c);
       if (!whole) c = (lane[b] > first - 1) & (last + 1 > lane[b]) ? c : none;
       after[b] = took[b] ? c : after[b];
       const v8i take = c > best[b];
@@ -479,7 +485,7 @@ inline void pick_pixel(const PickArgs& a, int y, int x) {
   for (int i = 0; i < a.count; ++i) {
     const int d = a.d_min + i, shift = a.right_side * d;
     const bool computed = x >= a.span_lo[i] - shift && x <= a.span_hi[i] - shift;
-    const float c = computed ? at[i * a.plane] : -2.0f;
+    const float c = computed ? at[i * a.plane + a.diagonal * d] : -2.0f;
     if (best_d == d - 1) after = c;
     if (c > best) {
       before = previous;
@@ -737,8 +743,15 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   const int d_max = std::max(lr.active() ? lr.d_max : -(1 << 30), rl.active() ? rl.d_max : -(1 << 30));
   const int count = y1 >= y0 ? d_max - d_min + 1 : 0;
   const std::size_t plane = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
-  for (std::vector<float>* v : {&scratch.volume, &scratch.volume_rl})
-    if (v->size() < plane * static_cast<std::size_t>(count)) v->resize(plane * static_cast<std::size_t>(count));
+  // The left pixels' volume has a row's worth and a vector either side: the
+  // right pixels read it along its diagonal, up to a row beyond its planes
+  // (lanes outside the planes' spans, whose values are not used).
+  const std::size_t guard = static_cast<std::size_t>(w) + 8;
+  if (scratch.volume.size() < plane * static_cast<std::size_t>(count) + 2 * guard)
+    scratch.volume.resize(plane * static_cast<std::size_t>(count) + 2 * guard);
+  if (!implicit && scratch.volume_rl.size() < plane * static_cast<std::size_t>(count))
+    scratch.volume_rl.resize(plane * static_cast<std::size_t>(count));
+  float* const volume_lr = scratch.volume.data() + guard;
   scratch.col.assign(static_cast<std::size_t>(w), 0.0f);
   scratch.span_lo.assign(static_cast<std::size_t>(count), 0);
   scratch.span_hi.assign(static_cast<std::size_t>(count), -1);
@@ -770,11 +783,11 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
     if (xe < xs) continue;
     scratch.span_lo[static_cast<std::size_t>(d - d_min)] = xs;
     scratch.span_hi[static_cast<std::size_t>(d - d_min)] = xe;
-    args.volume_lr = scratch.volume.data() + static_cast<std::size_t>(d - d_min) * plane;
-    args.volume_rl = scratch.volume_rl.data() + static_cast<std::size_t>(d - d_min) * plane;
+    args.volume_lr = volume_lr + static_cast<std::size_t>(d - d_min) * plane;
+    args.volume_rl = implicit ? nullptr : scratch.volume_rl.data() + static_cast<std::size_t>(d - d_min) * plane;
     sweep_plane(args, d, xs, xe);
   }
-  const Volume volume{scratch.volume.data(), plane, w, d_min, d_min + count - 1, scratch.span_lo.data(),
+  const Volume volume{volume_lr, plane, w, d_min, d_min + count - 1, scratch.span_lo.data(),
                       scratch.span_hi.data()};
   if (implicit && config.semi_global && lr.active()) {
     // Every pixel with a range takes part, flat ones too: their neighbours decide.
@@ -802,12 +815,13 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   }
   // Each side picks from the volume indexed by its own pixels; every output
   // here was created above: continuous, rows of w.
-  PickArgs pick_args{scratch.volume.data(), static_cast<std::ptrdiff_t>(plane), w, d_min, count,
-                     scratch.span_lo.data(), scratch.span_hi.data(), 0, config.min_score, config.subpixel,
-                     disparity_lr.ptr<float>(), score_lr.ptr<float>()};
+  PickArgs pick_args{volume_lr, static_cast<std::ptrdiff_t>(plane), w, d_min, count, scratch.span_lo.data(),
+                     scratch.span_hi.data(), 0, 0, config.min_score, config.subpixel, disparity_lr.ptr<float>(),
+                     score_lr.ptr<float>()};
   if (lr.active()) pick(pick_args, lr.y0, lr.y1, lr.x0, lr.x1, w);
-  pick_args.volume = scratch.volume_rl.data();
+  pick_args.volume = implicit ? volume_lr : scratch.volume_rl.data();
   pick_args.right_side = 1;
+  pick_args.diagonal = implicit ? 1 : 0;
   pick_args.disparity = disparity_rl.ptr<float>();
   pick_args.score = score_rl.ptr<float>();
   if (rl.active()) pick(pick_args, rl.y0, rl.y1, rl.x0, rl.x1, w);
