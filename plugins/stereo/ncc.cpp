@@ -516,15 +516,13 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
     return;
   }
   for (int y = y0; y <= y1; ++y) {
-    int xs[4], blocks = 0;
+    int xs[2], blocks = 0;
     for (int x = std::min(x0, width - kLanes);; x += kLanes) {
       const int at = std::min(x, std::max(x1 + 1, kLanes) - kLanes);
       const bool last = at + kLanes > x1;
       xs[blocks++] = at;
-      if (blocks == 4 || last) {
-        if (blocks == 4) pick_lanes<4>(a, y, xs);
-        else if (blocks == 3) pick_lanes<3>(a, y, xs);
-        else if (blocks == 2) pick_lanes<2>(a, y, xs);
+      if (blocks == 2 || last) {
+        if (blocks == 2) pick_lanes<2>(a, y, xs);
         else pick_lanes<1>(a, y, xs);
         blocks = 0;
       }
