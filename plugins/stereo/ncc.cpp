@@ -195,8 +195,18 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
   const int w = src.cols;
   mean.create(src.size(), CV_32F);
   stddev.create(src.size(), CV_32F);
-  fill(mean, 0);
-  fill(stddev, 0);
+  // Zero where the window does not fit: the rows above and below and the
+  // columns either side (the rows between are all written).
+  const int h = src.rows, edge = std::min(r, h);
+  for (cv::Mat* m : {&mean, &stddev}) {
+    float* p = m->ptr<float>();
+    std::fill_n(p, static_cast<std::size_t>(edge) * w, 0.0f);
+    std::fill_n(p + static_cast<std::size_t>(h - edge) * w, static_cast<std::size_t>(edge) * w, 0.0f);
+    for (int y = edge; y < h - edge; ++y) {
+      std::fill_n(p + static_cast<std::size_t>(y) * w, std::min(r, w), 0.0f);
+      std::fill_n(p + static_cast<std::size_t>(y) * w + std::max(0, w - r), std::min(r, w), 0.0f);
+    }
+  }
   col.assign(static_cast<std::size_t>(w), 0.0f);
   col2.assign(static_cast<std::size_t>(w), 0.0f);
   box_stats_rows(src.ptr<float>(), w, w, src.rows, r, mean.ptr<float>(), stddev.ptr<float>(), col.data(), col2.data());
@@ -216,29 +226,63 @@ struct Search {
   bool wants(int d) const { return active() && d >= d_min && d <= d_max; }
 };
 
-Search bounds(const cv::Mat& lo, const cv::Mat& hi, const cv::Mat& stddev, int r, float min_texture) {
+// Eight pixels at a time (GCC's vectoriser leaves these reductions scalar),
+// the last eight overlapping the ones before: the minima and maxima do not
+// mind seeing a pixel twice.
+SACCADE_AVX2_CLONE Search bounds(const cv::Mat& lo, const cv::Mat& hi, const cv::Mat& stddev, int r,
+                                 float min_texture) {
+  typedef float v8f __attribute__((vector_size(32)));
+  typedef int v8i __attribute__((vector_size(32)));
+  constexpr int kLanes = 8, kNone = 1 << 30;
   Search s;
   s.lo = &lo;
   s.hi = &hi;
   const int w = lo.cols, h = lo.rows;
-  int y0 = h, y1 = -1, x0 = w, x1 = -1, d_min = 1 << 30, d_max = -(1 << 30);
+  int y0 = h, y1 = -1, x0 = w, x1 = -1, d_min = kNone, d_max = -kNone;
   for (int y = r; y < h - r; ++y) {
     const int* l = lo.ptr<int>(y);
     const int* u = hi.ptr<int>(y);
     const float* sd = stddev.ptr<float>(y);
-    int row_x0 = w, row_x1 = -1;
-    for (int x = r; x < w - r; ++x) {
-      if (u[x] < l[x] || sd[x] < min_texture) continue;
-      row_x0 = std::min(row_x0, x);
-      row_x1 = x;
-      d_min = std::min(d_min, l[x]);
-      d_max = std::max(d_max, u[x]);
+    int row_x0 = w, row_x1 = -1, row_min = kNone, row_max = -kNone;
+    if (w - 2 * r >= kLanes) {
+      v8i first = v8i{} + w, last = v8i{} - 1, low = v8i{} + kNone, high = v8i{} - kNone;
+      for (int x = r;; x += kLanes) {
+        const int at = std::min(x, w - r - kLanes);
+        v8i vl, vu;
+        v8f vs;
+        std::memcpy(&vl, l + at, sizeof vl);
+        std::memcpy(&vu, u + at, sizeof vu);
+        std::memcpy(&vs, sd + at, sizeof vs);
+        const v8i lane = v8i{0, 1, 2, 3, 4, 5, 6, 7} + at;
+        const v8i searches = (vu >= vl) & (vs >= min_texture);
+        first = searches & (lane < first) ? lane : first;
+        last = searches & (lane > last) ? lane : last;
+        low = searches & (vl < low) ? vl : low;
+        high = searches & (vu > high) ? vu : high;
+        if (at == w - r - kLanes) break;
+      }
+      for (int i = 0; i < kLanes; ++i) {
+        row_x0 = std::min(row_x0, first[i]);
+        row_x1 = std::max(row_x1, last[i]);
+        row_min = std::min(row_min, low[i]);
+        row_max = std::max(row_max, high[i]);
+      }
+    } else {
+      for (int x = r; x < w - r; ++x) {
+        if (u[x] < l[x] || sd[x] < min_texture) continue;
+        row_x0 = std::min(row_x0, x);
+        row_x1 = x;
+        row_min = std::min(row_min, l[x]);
+        row_max = std::max(row_max, u[x]);
+      }
     }
     if (row_x1 < 0) continue;
     y0 = std::min(y0, y);
     y1 = y;
     x0 = std::min(x0, row_x0);
     x1 = std::max(x1, row_x1);
+    d_min = std::min(d_min, row_min);
+    d_max = std::max(d_max, row_max);
   }
   s.y0 = y0;
   s.y1 = y1;
