@@ -5,6 +5,8 @@
 #include <cstring>
 #include <vector>
 
+#include "saccade/simd.hpp"
+
 namespace saccade::retina {
 
 namespace {
@@ -81,15 +83,28 @@ void sample_reference(const RetinaConfig& config, const cv::Mat& frame, const st
   }
 }
 
-void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, double step_y, cv::Size size, bool crop,
-                  cv::Mat& out) {
-  CV_Assert(frame.depth() == CV_8U);
+namespace {
+
+// Column offsets and rows of sample_level, reused by a thread's calls (one
+// lookup of the thread's storage per call).
+struct SampleTables {
+  std::vector<int> cols, rows;
+};
+
+SampleTables& sample_tables() {
+  thread_local SampleTables tables;
+  return tables;
+}
+
+// The sampling proper; an AVX2 clone for its floors (one instruction there)
+// and the gray loop's five loads.
+SACCADE_AVX2_CLONE void sample_level_with(const cv::Mat& frame, double x0, double y0, double step_x, double step_y,
+                                          cv::Size size, bool crop, cv::Mat& out, std::vector<int>& cols,
+                                          std::vector<int>& rows) {
   const int cn = frame.channels();
-  out.create(size, frame.type());
   const int sx = sub_step(step_x), sy = sub_step(step_y);
   // Column offsets and rows first (the same for every row and column), so the
   // loop over pixels is integer indexing only.
-  thread_local std::vector<int> cols, rows;
   cols.resize(static_cast<std::size_t>(size.width));
   rows.resize(static_cast<std::size_t>(size.height));
   for (int i = 0; i < size.width; ++i)
@@ -135,6 +150,16 @@ void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, dou
       }
     }
   }
+}
+
+}  // namespace
+
+void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, double step_y, cv::Size size, bool crop,
+                  cv::Mat& out) {
+  CV_Assert(frame.depth() == CV_8U);
+  out.create(size, frame.type());
+  SampleTables& tables = sample_tables();
+  sample_level_with(frame, x0, y0, step_x, step_y, size, crop, out, tables.cols, tables.rows);
 }
 
 RetinaSampler::RetinaSampler(RetinaConfig config) : config_(config) {
