@@ -466,7 +466,7 @@ struct PickArgs {
 // once: each one's best is a chain of dependent steps through the
 // disparities, and independent chains overlap.
 template <int kBlocks>
-__attribute__((always_inline)) inline void pick_lanes(const PickArgs& a, int y, const int* xs) {
+__attribute__((always_inline)) inline void pick_lanes(const PickArgs& a, int y, const int* xs, int begin, int end) {
   typedef float v8f __attribute__((vector_size(32)));
   typedef int v8i __attribute__((vector_size(32)));
   const v8f none = v8f{} - 2.0f;
@@ -484,7 +484,7 @@ __attribute__((always_inline)) inline void pick_lanes(const PickArgs& a, int y, 
   // the last disparity has none.
   v8i took[kBlocks];
   for (int b = 0; b < kBlocks; ++b) took[b] = v8i{};
-  for (int i = 0; i < a.count; ++i) {
+  for (int i = begin; i <= end; ++i) {
     const int d = a.d_min + i, shift = a.right_side * d;
     const int first = a.span_lo[i] - shift, last = a.span_hi[i] - shift;
     // Most planes span all the vectors: no lane to mask then.
@@ -559,19 +559,31 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
       for (int x = x0; x <= x1; ++x) pick_pixel(a, y, x);
     return;
   }
-  for (int y = y0; y <= y1; ++y) {
-    int xs[2], blocks = 0;
-    for (int x = std::min(x0, width - kLanes);; x += kLanes) {
-      const int at = std::min(x, std::max(x1 + 1, kLanes) - kLanes);
-      const bool last = at + kLanes > x1;
-      xs[blocks++] = at;
-      if (blocks == 2 || last) {
-        if (blocks == 2) pick_lanes<2>(a, y, xs);
-        else pick_lanes<1>(a, y, xs);
-        blocks = 0;
+  // Two vectors at a time, each pair down every row; only the disparities
+  // whose span reaches the pair's pixels: before and after them every score
+  // read would be -2, which changes nothing (right pixels far to one side of
+  // the left pixels' columns reach few disparities).
+  int xs[2], blocks = 0;
+  for (int x = std::min(x0, width - kLanes);; x += kLanes) {
+    const int at = std::min(x, std::max(x1 + 1, kLanes) - kLanes);
+    const bool last = at + kLanes > x1;
+    xs[blocks++] = at;
+    if (blocks == 2 || last) {
+      int begin = a.count, end = -1;
+      for (int i = 0; i < a.count; ++i) {
+        const int shift = a.right_side * (a.d_min + i);
+        if (a.span_hi[i] - shift >= xs[0] && a.span_lo[i] - shift <= xs[blocks - 1] + kLanes - 1) {
+          begin = std::min(begin, i);
+          end = i;
+        }
       }
-      if (last) break;
+      for (int y = y0; y <= y1; ++y) {
+        if (blocks == 2) pick_lanes<2>(a, y, xs, begin, end);
+        else pick_lanes<1>(a, y, xs, begin, end);
+      }
+      blocks = 0;
     }
+    if (last) break;
   }
 }
 
