@@ -47,28 +47,35 @@ SACCADE_AVX2_CLONE void window_products(const uint8_t* __restrict window, std::p
 
 }  // namespace
 
-// The padded left level without sampling the level again: its pixels at
-// `at`, the window's half width of the frame sampled around them (the rows
-// above and below, the columns either side), zero beyond, where nothing reads.
-void RetinaStereo::sample_around_level(const cv::Mat& frame, const cv::Mat& level, const LevelGeometry& g, cv::Point at,
-                                       cv::Size padded, bool crop, cv::Mat& out) const {
+// A padded level without sampling again what a retina's level already holds:
+// the level's pixels placed at `at` (any part of them may fall outside), and
+// the frame sampled (the level's rule, padded pixel (0, 0) at `origin`) in
+// columns cols.start .. cols.end - 1 around them; zero in the other columns,
+// where nothing reads.
+void RetinaStereo::sample_around_level(const cv::Mat& frame, const cv::Mat& level, cv::Point2d origin,
+                                       const LevelGeometry& g, cv::Point at, cv::Size padded, cv::Range cols, bool crop,
+                                       cv::Mat& out) const {
   out.create(padded, CV_8UC1);
-  fill(out, 0);
-  level.copyTo(out(cv::Rect(at, level.size())));
-  const int r = config_.ncc.window / 2;
-  const int c0 = std::max(0, at.x - r), c1 = std::min(padded.width, at.x + level.cols + r);
-  const double x0 = g.region.x - at.x * g.step_x, y0 = g.region.y - at.y * g.step_y;
+  const cv::Rect placed(at, level.size());
+  const cv::Rect seen = placed & cv::Rect(cv::Point(), padded);
+  if (seen.empty()) {
+    retina::sample_level(frame, origin.x, origin.y, g.step_x, g.step_y, padded, crop, out);
+    return;
+  }
+  if (cols.start > 0 || cols.end < padded.width) fill(out, 0);
+  level(cv::Rect(seen.tl() - at, seen.size())).copyTo(out(seen));
+  const int c0 = cols.start, c1 = cols.end;
   const cv::Rect strips[] = {
-      {c0, 0, c1 - c0, at.y},                                               // above
-      {c0, at.y + level.rows, c1 - c0, padded.height - at.y - level.rows},  // below
-      {c0, at.y, at.x - c0, level.rows},                                    // left
-      {at.x + level.cols, at.y, c1 - at.x - level.cols, level.rows},        // right
+      {c0, 0, c1 - c0, seen.y},                                             // above
+      {c0, seen.br().y, c1 - c0, padded.height - seen.br().y},              // below
+      {c0, seen.y, seen.x - c0, seen.height},                               // left
+      {seen.br().x, seen.y, c1 - seen.br().x, seen.height},                 // right
   };
   for (const cv::Rect& strip : strips) {
     if (strip.width <= 0 || strip.height <= 0) continue;
     cv::Mat roi = out(strip);
-    retina::sample_level(frame, x0 + strip.x * g.step_x, y0 + strip.y * g.step_y, g.step_x, g.step_y, strip.size(),
-                         crop, roi);
+    retina::sample_level(frame, origin.x + strip.x * g.step_x, origin.y + strip.y * g.step_y, g.step_x, g.step_y,
+                         strip.size(), crop, roi);
   }
 }
 
@@ -254,7 +261,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     if (std::abs(gl.step_x - gr.step_x) > 1e-9 || gl.region.y != gr.region.y || gl.region.height != gr.region.height)
       return "level " + std::to_string(k) + ": left and right regions differ in step or rows";
     const double shift = (gl.region.x - gr.region.x) / gl.step_x;
-    int offset = static_cast<int>(std::lround(shift));
+    const int region_shift = static_cast<int>(std::lround(shift));
+    int offset = region_shift;
     if (std::abs(shift - offset) > 1e-6)
       return "level " + std::to_string(k) + ": the right region is shifted by a fraction of a level pixel";
     const cv::Mat* right_level = &right.levels[k];
@@ -330,13 +338,30 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       // half width is read, as left pixels outside the level search nothing.
       const bool own_pixels = !config_.keep_images && left_frame == &left.source->mat &&
                               (crop || left.sampling == Retina::Sampling::kFivePoint);
+      const double top = gl.region.y - my0 * gl.step_y;
+      const cv::Point2d left_origin(gl.region.x - mx0 * gl.step_x, top), right_origin(right_x - mx0 * gl.step_x, top);
+      const int r = config_.ncc.window / 2;
       if (own_pixels)
-        sample_around_level(*left_frame, left.levels[k], gl, cv::Point(mx0, my0), padded, crop, ls.left_padded);
+        sample_around_level(*left_frame, left.levels[k], left_origin, gl, cv::Point(mx0, my0), padded,
+                            cv::Range(std::max(0, mx0 - r), std::min(padded.width, mx0 + w + r)), crop,
+                            ls.left_padded);
       else
-        retina::sample_level(*left_frame, gl.region.x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x,
-                             gl.step_y, padded, crop, ls.left_padded);
-      retina::sample_level(*right_frame, right_x - mx0 * gl.step_x, gl.region.y - my0 * gl.step_y, gl.step_x, gl.step_y,
-                           padded, crop, ls.right_padded);
+        retina::sample_level(*left_frame, left_origin.x, left_origin.y, gl.step_x, gl.step_y, padded, crop,
+                             ls.left_padded);
+      // The right retina's level, where the verged level overlaps it (outer
+      // levels verge by a few of their pixels), is the right frame sampled by
+      // the same rule on the same grid: its pixel x lies at padded column
+      // mx0 + x + offset - region_shift (region_shift: how many level pixels
+      // left of the left retina's region the right one's lies).
+      const bool right_pixels = !config_.keep_images && right_frame == &right.source->mat &&
+                                (crop || right.sampling == Retina::Sampling::kFivePoint);
+      if (right_pixels)
+        sample_around_level(*right_frame, right.levels[k], right_origin, gl,
+                            cv::Point(mx0 + offset - region_shift, my0), padded, cv::Range(0, padded.width), crop,
+                            ls.right_padded);
+      else
+        retina::sample_level(*right_frame, right_origin.x, right_origin.y, gl.step_x, gl.step_y, padded, crop,
+                             ls.right_padded);
       inside = cv::Rect(mx0, my0, w, h);
       // Outside the level nothing is searched left->right.
       ls.lo_padded.create(padded, CV_32S);

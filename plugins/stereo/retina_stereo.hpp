@@ -102,8 +102,8 @@ class RetinaStereo {
   void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo, int full_hi,
                int offset, cv::Mat& lo, cv::Mat& hi);
   int around_fixation_range(bool around, int full, bool low) const;
-  void sample_around_level(const cv::Mat& frame, const cv::Mat& level, const LevelGeometry& g, cv::Point at,
-                           cv::Size padded, bool crop, cv::Mat& out) const;
+  void sample_around_level(const cv::Mat& frame, const cv::Mat& level, cv::Point2d origin, const LevelGeometry& g,
+                           cv::Point at, cv::Size padded, cv::Range cols, bool crop, cv::Mat& out) const;
   RetinaStereoConfig config_;
   Fixation fixation_;
   // Buffers per level: the levels' padded sizes differ, and sharing one set

@@ -135,11 +135,13 @@ TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   }
 }
 
-TEST(RetinaStereo, TheLeftLevelsOwnPixelsStandInForSamplingThemAgain) {
+TEST(RetinaStereo, TheRetinasOwnPixelsStandInForSamplingThemAgain) {
   // Without keep_images the left level's pixels come from the retina and
-  // only a window's half width around them from the frame; with it the
-  // whole padded level is sampled. Same matches to the bit, at fractional
-  // steps (15.25, 10.5, 5.75 here) and with the fovea at the frame's edge.
+  // only a window's half width around them from the frame, and the verged
+  // right level takes the right retina's pixels where it overlaps them
+  // (moved by the vergence); with it both padded levels are sampled whole.
+  // Same matches to the bit, at fractional steps (15.25, 10.5, 5.75 here)
+  // and with the fovea at the frame's edge.
   for (cv::Point2d fovea : {cv::Point2d(320, 240), cv::Point2d(20, 470)}) {
     Pair p = make_pair(12, fovea);
     RetinaStereoConfig reused, sampled;
