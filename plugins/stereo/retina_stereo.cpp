@@ -5,6 +5,7 @@
 #include "retina.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -43,6 +44,51 @@ SACCADE_AVX2_CLONE void window_products(const uint8_t* __restrict window, std::p
   int j = 0;
   for (; j + 32 <= count; j += 32) sliding_dots<4>(strip32 + j, stride, wh, ww, pixel, products + j);
   for (; j < count; j += 8) sliding_dots<1>(strip32 + j, stride, wh, ww, pixel, products + j);
+}
+
+// One row of a level's results back to source pixels: (d + offset) * step
+// where matched (left to right: and kept by the check), -1 elsewhere, and the
+// left pixels' scores where valid. Four pixels at a time (GCC leaves the
+// loop scalar: its float -> double -> float steps and selects); the same
+// arithmetic as the scalar tail. Returns the valid left pixels.
+SACCADE_AVX2_CLONE int to_source_pixels(const float* __restrict d, const float* __restrict d_score,
+                                        const float* __restrict r, const float* __restrict r_score,
+                                        const uint8_t* __restrict checked, int width, int offset, double step,
+                                        float* __restrict forward, float* __restrict reverse,
+                                        float* __restrict score) {
+  typedef float v4f __attribute__((vector_size(16)));
+  typedef int v4i __attribute__((vector_size(16)));
+  typedef double v4d __attribute__((vector_size(32)));
+  const float shift = static_cast<float>(offset);
+  const v4f minus_one = v4f{} - 1.0f;
+  v4i valid{};
+  int x = 0;
+  for (; x + 4 <= width; x += 4) {
+    v4f vd, vs, vr, vrs;
+    std::memcpy(&vd, d + x, sizeof vd);
+    std::memcpy(&vs, d_score + x, sizeof vs);
+    std::memcpy(&vr, r + x, sizeof vr);
+    std::memcpy(&vrs, r_score + x, sizeof vrs);
+    const v4i kept = v4i{checked[x], checked[x + 1], checked[x + 2], checked[x + 3]} != 0;
+    const v4i dv = (vs > -1.0f) & kept, rv = vrs > -1.0f;
+    const v4f fd = __builtin_convertvector(__builtin_convertvector(vd + shift, v4d) * step, v4f);
+    const v4f fr = __builtin_convertvector(__builtin_convertvector(vr + shift, v4d) * step, v4f);
+    const v4f out_d = dv ? fd : minus_one, out_r = rv ? fr : minus_one, out_s = dv ? vs : minus_one;
+    std::memcpy(forward + x, &out_d, sizeof out_d);
+    std::memcpy(reverse + x, &out_r, sizeof out_r);
+    std::memcpy(score + x, &out_s, sizeof out_s);
+    valid -= dv;
+  }
+  int count = valid[0] + valid[1] + valid[2] + valid[3];
+  for (; x < width; ++x) {
+    const bool dv = d_score[x] > -1.0f && checked[x];
+    const bool rv = r_score[x] > -1.0f;
+    forward[x] = dv ? static_cast<float>((d[x] + shift) * step) : -1.0f;
+    reverse[x] = rv ? static_cast<float>((r[x] + shift) * step) : -1.0f;
+    score[x] = dv ? d_score[x] : -1.0f;
+    count += dv;
+  }
+  return count;
 }
 
 }  // namespace
@@ -409,14 +455,7 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       float* score = level.score.ptr<float>(y);
       float* forward = level.disparity.ptr<float>(y);
       float* reverse = level.reverse.ptr<float>(y);
-      for (int x = 0; x < size.width; ++x) {
-        const bool dv = d_score[x] > -1.0f && checked[x];
-        const bool rv = r_score[x] > -1.0f;
-        forward[x] = dv ? static_cast<float>((d[x] + offset) * gl.step_x) : -1.0f;
-        reverse[x] = rv ? static_cast<float>((r[x] + offset) * gl.step_x) : -1.0f;
-        score[x] = dv ? d_score[x] : -1.0f;
-        valid += dv;
-      }
+      valid += to_source_pixels(d, d_score, r, r_score, checked, size.width, offset, gl.step_x, forward, reverse, score);
     }
     level.density = static_cast<double>(valid) / static_cast<double>(size.area());
     level.filled_density = level.density;
