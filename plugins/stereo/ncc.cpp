@@ -1,10 +1,15 @@
 #include "ncc.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <vector>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "saccade/fill.hpp"
 #include "saccade/simd.hpp"
@@ -548,6 +553,70 @@ inline void pick_pixel(const PickArgs& a, int y, int x) {
   a.score[y * a.step + x] = best;
 }
 
+#if defined(__x86_64__)
+// pick_lanes sixteen pixels wide in AVX-512 (masks in mask registers; GCC's
+// vector extension turns sixteen-lane selects into per-lane branches), the
+// same arithmetic in the same order: the same results to the bit.
+__attribute__((target("avx512f"))) void pick_avx512(const PickArgs& a, int y, int x, int begin, int end) {
+  const __m512 none = _mm512_set1_ps(-2.0f);
+  const __m512i lane = _mm512_add_epi32(_mm512_set1_epi32(x),
+                                        _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+  __m512 best = none, before = none, after = none, previous = none;
+  __m512i best_d = _mm512_set1_epi32(a.d_min - 2);
+  __mmask16 took = 0;
+  const float* at = a.volume + y * a.step + x;
+  for (int i = begin; i <= end; ++i) {
+    const int d = a.d_min + i, shift = a.right_side * d;
+    const int first = a.span_lo[i] - shift, last = a.span_hi[i] - shift;
+    __m512 c = _mm512_loadu_ps(at + i * a.plane + a.diagonal * d);
+    if (x < first || x + 15 > last) {
+      const __mmask16 computed = _mm512_cmpgt_epi32_mask(lane, _mm512_set1_epi32(first - 1)) &
+                                 _mm512_cmplt_epi32_mask(lane, _mm512_set1_epi32(last + 1));
+      c = _mm512_mask_blend_ps(computed, none, c);
+    }
+    after = _mm512_mask_blend_ps(took, after, c);
+    const __mmask16 take = _mm512_cmp_ps_mask(c, best, _CMP_GT_OQ);
+    before = _mm512_mask_blend_ps(take, before, previous);
+    best = _mm512_mask_blend_ps(take, best, c);
+    best_d = _mm512_mask_blend_epi32(take, best_d, _mm512_set1_epi32(d));
+    previous = c;
+    took = take;
+  }
+  after = _mm512_mask_blend_ps(took, after, none);
+  // (maskz: GCC 12 warns of the undefined source plain _mm512_cvtepi32_ps uses.)
+  __m512 d_out = _mm512_maskz_cvtepi32_ps(0xFFFF, best_d);
+  if (a.subpixel) {
+    const __m512 denom = _mm512_add_ps(_mm512_sub_ps(before, _mm512_mul_ps(_mm512_set1_ps(2.0f), best)), after);
+    const __mmask16 fits = _mm512_cmp_ps_mask(before, none, _CMP_GT_OQ) & _mm512_cmp_ps_mask(after, none, _CMP_GT_OQ) &
+                           _mm512_cmp_ps_mask(denom, _mm512_setzero_ps(), _CMP_LT_OQ);
+    __m512 step = _mm512_div_ps(_mm512_mul_ps(_mm512_set1_ps(0.5f), _mm512_sub_ps(before, after)), denom);
+    const __m512 low = _mm512_set1_ps(-0.5f), high = _mm512_set1_ps(0.5f);
+    const __mmask16 below = _mm512_cmp_ps_mask(step, low, _CMP_LT_OQ);
+    step = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(high, step, _CMP_LT_OQ), step, high);
+    step = _mm512_mask_blend_ps(below, step, low);
+    d_out = _mm512_mask_blend_ps(fits, d_out, _mm512_add_ps(d_out, step));
+  }
+  const __mmask16 matched =
+      _mm512_cmp_ps_mask(best, _mm512_set1_ps(a.min_score), _CMP_GE_OQ) & _mm512_cmp_ps_mask(best, none, _CMP_GT_OQ);
+  const __m512 minus_one = _mm512_set1_ps(-1.0f);
+  _mm512_storeu_ps(a.disparity + y * a.step + x, _mm512_mask_blend_ps(matched, minus_one, d_out));
+  _mm512_storeu_ps(a.score + y * a.step + x, _mm512_mask_blend_ps(matched, minus_one, best));
+}
+
+std::atomic<bool> avx512_allowed{true};
+
+bool cpu_has_avx512() {
+  static const bool yes = [] {
+    __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
+    return __builtin_cpu_supports("avx512f") != 0;
+  }();
+  return yes;
+}
+
+// Whether pick_avx512 runs: the CPU has it and tests have not turned it off.
+bool use_avx512() { return cpu_has_avx512() && avx512_allowed.load(std::memory_order_relaxed); }
+#endif
+
 // One side's picks over its box (rows y0 .. y1, columns x0 .. x1): whole
 // vectors, the last overlapping the one before, four at a time; outside the
 // box's columns a vector's extra pixels are outside every plane's span, so
@@ -559,6 +628,27 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
       for (int x = x0; x <= x1; ++x) pick_pixel(a, y, x);
     return;
   }
+#if defined(__x86_64__)
+  // Sixteen lanes where the CPU has them, each vector down every row over
+  // the disparities that reach it (as below).
+  constexpr int kWide = 16;
+  if (width >= kWide && use_avx512()) {
+    for (int x = std::min(x0, width - kWide);; x += kWide) {
+      const int at = std::min(x, std::max(x1 + 1, kWide) - kWide);
+      int begin = a.count, end = -1;
+      for (int i = 0; i < a.count; ++i) {
+        const int shift = a.right_side * (a.d_min + i);
+        if (a.span_hi[i] - shift >= at && a.span_lo[i] - shift <= at + kWide - 1) {
+          begin = std::min(begin, i);
+          end = i;
+        }
+      }
+      for (int y = y0; y <= y1; ++y) pick_avx512(a, y, at, begin, end);
+      if (at + kWide > x1) break;
+    }
+    return;
+  }
+#endif
   // Two vectors at a time, each pair down every row; only the disparities
   // whose span reaches the pair's pixels: before and after them every score
   // read would be -2, which changes nothing (right pixels far to one side of
@@ -914,6 +1004,16 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
                const NccConfig& config, cv::Mat& disparity, cv::Mat& score) {
   cv::Mat lo(left.size(), CV_32S, cv::Scalar(d_min)), hi(left.size(), CV_32S, cv::Scalar(d_max));
   ncc_match(left, right, direction, lo, hi, config, disparity, score);
+}
+
+bool allow_avx512(bool allowed) {
+#if defined(__x86_64__)
+  avx512_allowed.store(allowed, std::memory_order_relaxed);
+  return cpu_has_avx512();
+#else
+  (void)allowed;
+  return false;
+#endif
 }
 
 double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,

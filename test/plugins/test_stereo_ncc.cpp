@@ -2,6 +2,8 @@
 // disparity (synthetic data: random texture shifted by a known amount).
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include <opencv2/imgproc.hpp>
 
 #include "ncc.hpp"
@@ -255,6 +257,56 @@ TEST(NccMatch, TheSweepAgreesWithThePlainReferenceEverywhere) {
   }
   // Float sums against double: a near-tie may go the other way, rarely.
   EXPECT_GE(static_cast<double>(same) / compared, 0.999) << same << " of " << compared;
+}
+
+TEST(NccMatch, AvxTwoAndAvx512PicksAreTheSameToTheBit) {
+  // Random textures, shifts, widths (narrow ones too), ranges with holes,
+  // windows, score floors and with and without the parabola; both
+  // directions with their own ranges and with the left pixels' pairs.
+  cv::RNG rng(11);
+  int valid = 0;
+  bool cpu_has = false;
+  for (int trial = 0; trial < 120; ++trial) {
+    const cv::Size size(6 + rng.uniform(0, 70), 6 + rng.uniform(0, 30));
+    cv::Mat left = test::random_image(size, 300 + trial), right;
+    if (trial % 3 == 0) cv::GaussianBlur(left, left, {3, 3}, 0.8);
+    if (trial % 7 == 0) left(cv::Rect(0, 0, size.width / 2, size.height)).setTo(90);  // flat: unmatched
+    const int shift = rng.uniform(-8, 9);
+    const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, -shift, 0, 1, 0);
+    cv::warpAffine(left, right, m, size, cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    cv::Mat lo, hi, lo2, hi2;
+    random_ranges(size, 12, rng, lo, hi);
+    random_ranges(size, 10, rng, lo2, hi2);
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x)
+        if (rng.uniform(0, 10) == 0) lo.at<int>(y, x) = hi.at<int>(y, x) + 1;  // searches nothing
+    NccConfig config;
+    config.window = trial % 2 == 0 ? 5 : 3;
+    config.subpixel = trial % 5 != 0;
+    config.min_score = trial % 4 == 0 ? -1.0f : 0.3f;
+    std::vector<cv::Mat> outputs[2];
+    for (int wide = 0; wide < 2; ++wide) {
+      cpu_has = allow_avx512(wide == 1);
+      NccScratch scratch;
+      cv::Mat d_lr, s_lr, d_rl, s_rl;
+      ncc_match_cross(left, right, lo, hi, config, d_lr, s_lr, d_rl, s_rl, scratch);
+      for (const cv::Mat& out : {d_lr, s_lr, d_rl, s_rl}) outputs[wide].push_back(out.clone());
+      ncc_match_both(left, right, lo, hi, lo2, hi2, config, d_lr, s_lr, d_rl, s_rl, scratch);
+      for (const cv::Mat& out : {d_lr, s_lr, d_rl, s_rl}) outputs[wide].push_back(out.clone());
+    }
+    allow_avx512(true);
+    for (std::size_t i = 0; i < outputs[0].size(); ++i) {
+      const cv::Mat& a = outputs[0][i];
+      const cv::Mat& b = outputs[1][i];
+      ASSERT_EQ(a.size(), b.size());
+      for (int y = 0; y < a.rows; ++y)
+        ASSERT_EQ(std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()), 0)
+            << "trial " << trial << ", output " << i << ", row " << y;
+      if (i % 2 == 1) valid += cv::countNonZero(a > -1);
+    }
+  }
+  EXPECT_GT(valid, 20000);  // the comparison saw matched pixels, not only -1
+  if (!cpu_has) GTEST_SKIP() << "no AVX-512 on this CPU: both runs took the AVX2 (or baseline) path";
 }
 
 }  // namespace
