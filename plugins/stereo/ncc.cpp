@@ -307,7 +307,8 @@ struct SweepArgs {
   const int *lo_lr, *hi_lr;           // left pixels' ranges
   const int *lo_rl, *hi_rl;           // right pixels' ranges, null: the left pixels' pairs
   std::ptrdiff_t lr_step, rl_step;
-  float* col;                         // column sums, one row's width
+  float* col;                         // column sums, two rows of col_stride
+  std::ptrdiff_t col_stride;
   float *volume_lr, *volume_rl;       // this disparity's planes, rows of image_step; no volume_rl with kImplicit
   int r, y0, y1;                      // window half size; rows whose pixels are searched
   float inv_n, min_texture;
@@ -317,15 +318,15 @@ struct SweepArgs {
 // half width known at compile time, 0 read from a.r. kImplicit: the right
 // pixels have no ranges of their own and take every pair a left pixel searches.
 template <int R, bool kImplicit>
-__attribute__((always_inline)) inline void sweep_lanes(const SweepArgs& a, std::ptrdiff_t row, std::ptrdiff_t lr_row,
-                                                       std::ptrdiff_t rl_row, int x, int d) {
+__attribute__((always_inline)) inline void sweep_lanes(const SweepArgs& a, const float* col, std::ptrdiff_t row,
+                                                       std::ptrdiff_t lr_row, std::ptrdiff_t rl_row, int x, int d) {
   typedef float v8f __attribute__((vector_size(32)));
   typedef int v8i __attribute__((vector_size(32)));
   const int half = R > 0 ? R : a.r;
   v8f sum, term, va, vb, vma, vmb;
-  std::memcpy(&sum, a.col + x - half, sizeof sum);
+  std::memcpy(&sum, col + x - half, sizeof sum);
   for (int k = 1 - half; k <= half; ++k) {
-    std::memcpy(&term, a.col + x + k, sizeof term);
+    std::memcpy(&term, col + x + k, sizeof term);
     sum += term;
   }
   const std::ptrdiff_t at = row + x, at_right = row + x - d;
@@ -358,10 +359,10 @@ __attribute__((always_inline)) inline void sweep_lanes(const SweepArgs& a, std::
 }
 
 // One pixel of the same, where a row is narrower than eight lanes.
-inline void sweep_pixel(const SweepArgs& a, std::ptrdiff_t row, std::ptrdiff_t lr_row, std::ptrdiff_t rl_row, int x,
-                        int d) {
-  float sum = a.col[x - a.r];
-  for (int k = 1 - a.r; k <= a.r; ++k) sum += a.col[x + k];
+inline void sweep_pixel(const SweepArgs& a, const float* col, std::ptrdiff_t row, std::ptrdiff_t lr_row,
+                        std::ptrdiff_t rl_row, int x, int d) {
+  float sum = col[x - a.r];
+  for (int k = 1 - a.r; k <= a.r; ++k) sum += col[x + k];
   const std::ptrdiff_t at = row + x, at_right = row + x - d;
   const float sa = a.left_std[at], sb = a.right_std[at_right];
   const bool textured = (sa >= a.min_texture) & (sb >= a.min_texture);
@@ -389,31 +390,41 @@ __attribute__((always_inline)) inline void sweep_plane_impl(const SweepArgs& a, 
   constexpr int kLanes = 8;
   const int r = R > 0 ? R : a.r;
   const int xa = xs - r, xb = xe + r + 1, n = xe - xs + 1;
-  for (int x = xa; x < xb; ++x) a.col[x] = 0.0f;
-  for (int yy = a.y0 - r; yy <= a.y1 + r; ++yy) {
-    const float* __restrict in_a = a.left + yy * a.image_step;
-    const float* __restrict in_b = a.right + yy * a.image_step - d;
-    float* __restrict col = a.col;
-    if (yy - 2 * r - 1 >= a.y0 - r) {
-      const float* __restrict out_a = in_a - (2 * r + 1) * a.image_step;
-      const float* __restrict out_b = in_b - (2 * r + 1) * a.image_step;
-      for (int x = xa; x < xb; ++x) col[x] += in_a[x] * in_b[x] - out_a[x] * out_b[x];
-    } else {
-      for (int x = xa; x < xb; ++x) col[x] += in_a[x] * in_b[x];
-    }
-    if (yy < a.y0 + r) continue;
-    const int y = yy - r;
+  // Two rows of column sums: a row's window sums read the row before's,
+  // stored an iteration earlier, while this iteration stores the next row's.
+  // (Read right after their stores, the window sums' unaligned loads each
+  // spanned two of them, which a store cannot forward to a load.)
+  float* sums[2] = {a.col, a.col + a.col_stride};
+  for (int x = xa; x < xb; ++x) sums[1][x] = 0.0f;
+  const auto lanes = [&](const float* col, int y) {
     const std::ptrdiff_t row = y * a.image_step, lr_row = y * a.lr_step, rl_row = y * a.rl_step;
     if (n < kLanes) {
-      for (int x = xs; x <= xe; ++x) sweep_pixel(a, row, lr_row, rl_row, x, d);
-      continue;
+      for (int x = xs; x <= xe; ++x) sweep_pixel(a, col, row, lr_row, rl_row, x, d);
+      return;
     }
     for (int x = xs;; x += kLanes) {
       const int at = std::min(x, xe + 1 - kLanes);
-      sweep_lanes<R, kImplicit>(a, row, lr_row, rl_row, at, d);
+      sweep_lanes<R, kImplicit>(a, col, row, lr_row, rl_row, at, d);
       if (at == xe + 1 - kLanes) break;
     }
+  };
+  int t = 0;
+  for (int yy = a.y0 - r; yy <= a.y1 + r; ++yy, ++t) {
+    const float* __restrict in_a = a.left + yy * a.image_step;
+    const float* __restrict in_b = a.right + yy * a.image_step - d;
+    float* __restrict col = sums[t & 1];
+    const float* __restrict before = sums[(t + 1) & 1];
+    if (yy - 2 * r - 1 >= a.y0 - r) {
+      const float* __restrict out_a = in_a - (2 * r + 1) * a.image_step;
+      const float* __restrict out_b = in_b - (2 * r + 1) * a.image_step;
+      for (int x = xa; x < xb; ++x) col[x] = before[x] + (in_a[x] * in_b[x] - out_a[x] * out_b[x]);
+    } else {
+      for (int x = xa; x < xb; ++x) col[x] = before[x] + in_a[x] * in_b[x];
+    }
+    // The row before's windows, now that its sums are an iteration old.
+    if (yy - 1 >= a.y0 + r) lanes(before, yy - 1 - r);
   }
+  lanes(sums[(t + 1) & 1], a.y1);
 }
 
 SACCADE_AVX2_CLONE void sweep_plane(const SweepArgs& a, int d, int xs, int xe) {
@@ -896,7 +907,7 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   if (!implicit && scratch.volume_rl.size() < plane * static_cast<std::size_t>(count))
     scratch.volume_rl.resize(plane * static_cast<std::size_t>(count));
   float* const volume_lr = scratch.volume.data() + guard;
-  scratch.col.assign(static_cast<std::size_t>(w), 0.0f);
+  scratch.col.assign(2 * static_cast<std::size_t>(w), 0.0f);
   scratch.span_lo.assign(static_cast<std::size_t>(count), 0);
   scratch.span_hi.assign(static_cast<std::size_t>(count), -1);
   // Every image here was created by this function: continuous, rows of w.
@@ -904,7 +915,7 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
                  scratch.ref_std.ptr<float>(), scratch.other_mean.ptr<float>(), scratch.other_std.ptr<float>(), w,
                  lo_lr.ptr<int>(), hi_lr.ptr<int>(), implicit ? nullptr : lo_rl->ptr<int>(),
                  implicit ? nullptr : hi_rl->ptr<int>(), static_cast<std::ptrdiff_t>(lo_lr.step1()),
-                 implicit ? 0 : static_cast<std::ptrdiff_t>(lo_rl->step1()), scratch.col.data(), nullptr, nullptr, r,
+                 implicit ? 0 : static_cast<std::ptrdiff_t>(lo_rl->step1()), scratch.col.data(), w, nullptr, nullptr, r,
                  y0, y1, 1.0f / static_cast<float>(n), min_texture};
   CV_Assert(hi_lr.step1() == lo_lr.step1() && (implicit || hi_rl->step1() == lo_rl->step1()));
   for (const cv::Mat* m : {&scratch.ref_f, &scratch.other_f, &scratch.ref_mean, &scratch.ref_std, &scratch.other_mean,
