@@ -386,7 +386,11 @@ inline void sweep_pixel(const SweepArgs& a, const float* col, std::ptrdiff_t row
 // selects); the last eight overlap the ones before where the row is not a
 // multiple of eight, which is harmless: they store the same values again.
 template <int R, bool kImplicit>
-__attribute__((always_inline)) inline void sweep_plane_impl(const SweepArgs& a, int d, int xs, int xe) {
+__attribute__((always_inline)) inline void sweep_plane_impl(const SweepArgs& args, int d, int xs, int xe) {
+  // A local copy: the stores into the volume could alias the caller's
+  // arguments as far as the compiler knows, and it would load every pointer
+  // again after each store.
+  const SweepArgs a = args;
   constexpr int kLanes = 8;
   const int r = R > 0 ? R : a.r;
   const int xa = xs - r, xb = xe + r + 1, n = xe - xs + 1;
