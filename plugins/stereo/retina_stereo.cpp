@@ -244,12 +244,18 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
                     static_cast<std::ptrdiff_t>(ls.strip.step), strip_cols, count, strip32_.data(), stride,
                     products_.data(), column_sum_.data(), column_sq_.data());
     int best = -1;
+    // The strip's sums over the window's columns, slid one column per shift
+    // (whole numbers: exact).
+    int64_t sum = 0, sq = 0;
+    for (int x = 0; x < ww; ++x) {
+      sum += column_sum_[static_cast<std::size_t>(s_hi - s_lo + x)];
+      sq += column_sq_[static_cast<std::size_t>(s_hi - s_lo + x)];
+    }
     for (int s = s_lo; s <= s_hi; ++s) {
       const int x0s = s_hi - s;
-      int64_t sum = 0, sq = 0;
-      for (int x = 0; x < ww; ++x) {
-        sum += column_sum_[static_cast<std::size_t>(x0s + x)];
-        sq += column_sq_[static_cast<std::size_t>(x0s + x)];
+      if (s > s_lo) {
+        sum += column_sum_[static_cast<std::size_t>(x0s)] - column_sum_[static_cast<std::size_t>(x0s + ww)];
+        sq += column_sq_[static_cast<std::size_t>(x0s)] - column_sq_[static_cast<std::size_t>(x0s + ww)];
       }
       const double om = static_cast<double>(sum) / area;
       const double os = std::sqrt(std::max(0.0, static_cast<double>(sq) / area - om * om));
