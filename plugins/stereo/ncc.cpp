@@ -664,50 +664,64 @@ inline void pick_pixel(const PickArgs& a, int y, int x) {
 // pick_lanes sixteen pixels wide in AVX-512 (masks in mask registers; GCC's
 // vector extension turns sixteen-lane selects into per-lane branches), the
 // same arithmetic in the same order: the same results to the bit.
+template <int kRows>
 __attribute__((target("avx512f"))) void pick_avx512(const PickArgs& a, int y, int x, int begin, int end) {
   const __m512 none = _mm512_set1_ps(-2.0f);
   const __m512i lane = _mm512_add_epi32(_mm512_set1_epi32(x),
                                         _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
-  __m512 best = none, before = none, after = none, previous = none;
-  __m512i best_d = _mm512_set1_epi32(a.d_min - 2);
-  __mmask16 took = 0;
-  const float* at = a.volume + y * a.step + x;
+  __m512 best[kRows], before[kRows], after[kRows], previous[kRows];
+  __m512i best_d[kRows];
+  __mmask16 took[kRows];
+  const float* at[kRows];
+  for (int k = 0; k < kRows; ++k) {
+    best[k] = before[k] = after[k] = previous[k] = none;
+    best_d[k] = _mm512_set1_epi32(a.d_min - 2);
+    took[k] = 0;
+    at[k] = a.volume + (y + k) * a.step + x;
+  }
   for (int i = begin; i <= end; ++i) {
     const int d = a.d_min + i, shift = a.right_side * d;
     const int first = a.span_lo[i] - shift, last = a.span_hi[i] - shift;
-    __m512 c = _mm512_loadu_ps(at + i * a.plane + a.diagonal * d);
-    if (x < first || x + 15 > last) {
-      const __mmask16 computed = _mm512_cmpgt_epi32_mask(lane, _mm512_set1_epi32(first - 1)) &
-                                 _mm512_cmplt_epi32_mask(lane, _mm512_set1_epi32(last + 1));
-      c = _mm512_mask_blend_ps(computed, none, c);
+    const bool partial = x < first || x + 15 > last;
+    const __mmask16 computed = _mm512_cmpgt_epi32_mask(lane, _mm512_set1_epi32(first - 1)) &
+                               _mm512_cmplt_epi32_mask(lane, _mm512_set1_epi32(last + 1));
+    for (int k = 0; k < kRows; ++k) {
+      __m512 c = _mm512_loadu_ps(at[k] + i * a.plane + a.diagonal * d);
+      if (partial) c = _mm512_mask_blend_ps(computed, none, c);
+      after[k] = _mm512_mask_blend_ps(took[k], after[k], c);
+      const __mmask16 take = _mm512_cmp_ps_mask(c, best[k], _CMP_GT_OQ);
+      before[k] = _mm512_mask_blend_ps(take, before[k], previous[k]);
+      // max(c, best) is c where c > best and best otherwise (equal ones too):
+      // the take without waiting for the comparison.
+      best[k] = _mm512_max_ps(c, best[k]);
+      best_d[k] = _mm512_mask_blend_epi32(take, best_d[k], _mm512_set1_epi32(d));
+      previous[k] = c;
+      took[k] = take;
     }
-    after = _mm512_mask_blend_ps(took, after, c);
-    const __mmask16 take = _mm512_cmp_ps_mask(c, best, _CMP_GT_OQ);
-    before = _mm512_mask_blend_ps(take, before, previous);
-    best = _mm512_mask_blend_ps(take, best, c);
-    best_d = _mm512_mask_blend_epi32(take, best_d, _mm512_set1_epi32(d));
-    previous = c;
-    took = take;
   }
-  after = _mm512_mask_blend_ps(took, after, none);
-  // (maskz: GCC 12 warns of the undefined source plain _mm512_cvtepi32_ps uses.)
-  __m512 d_out = _mm512_maskz_cvtepi32_ps(0xFFFF, best_d);
-  if (a.subpixel) {
-    const __m512 denom = _mm512_add_ps(_mm512_sub_ps(before, _mm512_mul_ps(_mm512_set1_ps(2.0f), best)), after);
-    const __mmask16 fits = _mm512_cmp_ps_mask(before, none, _CMP_GT_OQ) & _mm512_cmp_ps_mask(after, none, _CMP_GT_OQ) &
-                           _mm512_cmp_ps_mask(denom, _mm512_setzero_ps(), _CMP_LT_OQ);
-    __m512 step = _mm512_div_ps(_mm512_mul_ps(_mm512_set1_ps(0.5f), _mm512_sub_ps(before, after)), denom);
-    const __m512 low = _mm512_set1_ps(-0.5f), high = _mm512_set1_ps(0.5f);
-    const __mmask16 below = _mm512_cmp_ps_mask(step, low, _CMP_LT_OQ);
-    step = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(high, step, _CMP_LT_OQ), step, high);
-    step = _mm512_mask_blend_ps(below, step, low);
-    d_out = _mm512_mask_blend_ps(fits, d_out, _mm512_add_ps(d_out, step));
+  for (int k = 0; k < kRows; ++k) {
+    after[k] = _mm512_mask_blend_ps(took[k], after[k], none);
+    // (maskz: GCC 12 warns of the undefined source plain _mm512_cvtepi32_ps uses.)
+    __m512 d_out = _mm512_maskz_cvtepi32_ps(0xFFFF, best_d[k]);
+    if (a.subpixel) {
+      const __m512 denom =
+          _mm512_add_ps(_mm512_sub_ps(before[k], _mm512_mul_ps(_mm512_set1_ps(2.0f), best[k])), after[k]);
+      const __mmask16 fits = _mm512_cmp_ps_mask(before[k], none, _CMP_GT_OQ) &
+                             _mm512_cmp_ps_mask(after[k], none, _CMP_GT_OQ) &
+                             _mm512_cmp_ps_mask(denom, _mm512_setzero_ps(), _CMP_LT_OQ);
+      __m512 step = _mm512_div_ps(_mm512_mul_ps(_mm512_set1_ps(0.5f), _mm512_sub_ps(before[k], after[k])), denom);
+      const __m512 low = _mm512_set1_ps(-0.5f), high = _mm512_set1_ps(0.5f);
+      const __mmask16 below = _mm512_cmp_ps_mask(step, low, _CMP_LT_OQ);
+      step = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(high, step, _CMP_LT_OQ), step, high);
+      step = _mm512_mask_blend_ps(below, step, low);
+      d_out = _mm512_mask_blend_ps(fits, d_out, _mm512_add_ps(d_out, step));
+    }
+    const __mmask16 matched = _mm512_cmp_ps_mask(best[k], _mm512_set1_ps(a.min_score), _CMP_GE_OQ) &
+                              _mm512_cmp_ps_mask(best[k], none, _CMP_GT_OQ);
+    const __m512 minus_one = _mm512_set1_ps(-1.0f);
+    _mm512_storeu_ps(a.disparity + (y + k) * a.step + x, _mm512_mask_blend_ps(matched, minus_one, d_out));
+    _mm512_storeu_ps(a.score + (y + k) * a.step + x, _mm512_mask_blend_ps(matched, minus_one, best[k]));
   }
-  const __mmask16 matched =
-      _mm512_cmp_ps_mask(best, _mm512_set1_ps(a.min_score), _CMP_GE_OQ) & _mm512_cmp_ps_mask(best, none, _CMP_GT_OQ);
-  const __m512 minus_one = _mm512_set1_ps(-1.0f);
-  _mm512_storeu_ps(a.disparity + y * a.step + x, _mm512_mask_blend_ps(matched, minus_one, d_out));
-  _mm512_storeu_ps(a.score + y * a.step + x, _mm512_mask_blend_ps(matched, minus_one, best));
 }
 
 #endif
@@ -738,7 +752,11 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
           end = i;
         }
       }
-      for (int y = y0; y <= y1; ++y) pick_avx512(a, y, at, begin, end);
+      // Two rows at a time: each one's best is a chain of steps through the
+      // disparities, and two chains overlap.
+      int y = y0;
+      for (; y + 1 <= y1; y += 2) pick_avx512<2>(a, y, at, begin, end);
+      if (y <= y1) pick_avx512<1>(a, y, at, begin, end);
       if (at + kWide > x1) break;
     }
     return;
