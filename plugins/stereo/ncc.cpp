@@ -752,9 +752,10 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
           end = i;
         }
       }
-      // Two rows at a time: each one's best is a chain of steps through the
-      // disparities, and two chains overlap.
+      // Four rows at a time: each one's best is a chain of steps through the
+      // disparities, and independent chains overlap.
       int y = y0;
+      for (; y + 3 <= y1; y += 4) pick_avx512<4>(a, y, at, begin, end);
       for (; y + 1 <= y1; y += 2) pick_avx512<2>(a, y, at, begin, end);
       if (y <= y1) pick_avx512<1>(a, y, at, begin, end);
       if (at + kWide > x1) break;
