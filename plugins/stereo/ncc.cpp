@@ -513,11 +513,100 @@ __attribute__((target("avx512f"))) void sweep_plane_avx512(const SweepArgs& args
   }
   sweep_row_avx512<R>(a, sums[(t + 1) & 1], a.y1, d, xs, xe);
 }
+
+// The same with the row's column sums held in kChunks registers instead of
+// memory (rows at least sixteen wide, and at most 16 kChunks wide with the
+// windows' margins): a row's windows take their sums from the registers by
+// permutes, and nothing waits on a store. The same additions in the same
+// order: the same results to the bit.
+template <int R, int kChunks>
+__attribute__((target("avx512f"))) void sweep_plane_avx512_held(const SweepArgs& args, int d, int xs, int xe) {
+  const SweepArgs a = args;
+  constexpr int kLanes = 16;
+  const int r = R > 0 ? R : a.r;
+  const int xa = xs - r, xb = xe + r + 1;
+  const __m512 none = _mm512_set1_ps(-2.0f), tiny = _mm512_set1_ps(1e-6f), texture = _mm512_set1_ps(a.min_texture);
+  const __m512 inv_n = _mm512_set1_ps(a.inv_n);
+  const __m512i dv = _mm512_set1_epi32(d);
+  const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  __mmask16 chunk_mask[kChunks];
+  __m512 sums[kChunks];
+  for (int j = 0; j < kChunks; ++j) {
+    const int left = xb - (xa + kLanes * j);
+    chunk_mask[j] = left >= kLanes ? static_cast<__mmask16>(0xFFFF)
+                                   : static_cast<__mmask16>(left > 0 ? (1u << left) - 1 : 0u);
+    sums[j] = _mm512_setzero_ps();
+  }
+  for (int yy = a.y0 - r; yy <= a.y1 + r; ++yy) {
+    const float* in_a = a.left + yy * a.image_step + xa;
+    const float* in_b = a.right + yy * a.image_step - d + xa;
+    const bool slide = yy - 2 * r - 1 >= a.y0 - r;
+    const float* out_a = in_a - (2 * r + 1) * a.image_step;
+    const float* out_b = in_b - (2 * r + 1) * a.image_step;
+    for (int j = 0; j < kChunks; ++j) {
+      const __mmask16 m = chunk_mask[j];
+      __m512 term = _mm512_mul_ps(_mm512_maskz_loadu_ps(m, in_a + kLanes * j), _mm512_maskz_loadu_ps(m, in_b + kLanes * j));
+      if (slide)
+        term = _mm512_sub_ps(term, _mm512_mul_ps(_mm512_maskz_loadu_ps(m, out_a + kLanes * j),
+                                                 _mm512_maskz_loadu_ps(m, out_b + kLanes * j)));
+      sums[j] = _mm512_add_ps(sums[j], term);
+    }
+    if (yy < a.y0 + r) continue;
+    const int y = yy - r;
+    const std::ptrdiff_t row = y * a.image_step, lr_row = y * a.lr_step;
+    for (int x = xs;; x += kLanes) {
+      const int at_x = std::min(x, xe + 1 - kLanes);
+      // Lane i's window: columns at_x + i - r .. at_x + i + r, which are
+      // sums lanes o + i .. o + i + 2r, o = at_x - r - xa: in two registers,
+      // or three for a last block that overlaps the one before.
+      const int o = at_x - r - xa, j0 = o / kLanes, j1 = std::min(j0 + 1, kChunks - 1);
+      const int j2 = std::min(j0 + 2, kChunks - 1);
+      const bool third = o - kLanes * j0 + kLanes - 1 + 2 * r >= 2 * kLanes;
+      const __m512i base = _mm512_add_epi32(iota, _mm512_set1_epi32(o - kLanes * j0));
+      __m512 sum = _mm512_setzero_ps();
+      for (int k = 0; k <= 2 * r; ++k) {
+        const __m512i index = _mm512_add_epi32(base, _mm512_set1_epi32(k));
+        __m512 v = _mm512_permutex2var_ps(sums[j0], index, sums[j1]);
+        if (third)
+          v = _mm512_mask_permutexvar_ps(v, _mm512_cmpge_epi32_mask(index, _mm512_set1_epi32(2 * kLanes)), index,
+                                         sums[j2]);
+        sum = k == 0 ? v : _mm512_add_ps(sum, v);
+      }
+      const std::ptrdiff_t at = row + at_x, at_right = row + at_x - d;
+      const __m512 va = _mm512_loadu_ps(a.left_std + at), vb = _mm512_loadu_ps(a.right_std + at_right);
+      const __m512 vma = _mm512_loadu_ps(a.left_mean + at), vmb = _mm512_loadu_ps(a.right_mean + at_right);
+      const __m512 prod = _mm512_mul_ps(va, vb);
+      const __m512 den = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(prod, tiny, _CMP_GT_OQ), tiny, prod);
+      const __m512 value = _mm512_div_ps(_mm512_sub_ps(_mm512_mul_ps(sum, inv_n), _mm512_mul_ps(vma, vmb)), den);
+      const __mmask16 textured =
+          _mm512_cmp_ps_mask(va, texture, _CMP_GE_OQ) & _mm512_cmp_ps_mask(vb, texture, _CMP_GE_OQ);
+      const __m512i lo = _mm512_loadu_si512(a.lo_lr + lr_row + at_x);
+      const __m512i hi = _mm512_loadu_si512(a.hi_lr + lr_row + at_x);
+      const __mmask16 wanted =
+          _mm512_cmp_epi32_mask(dv, lo, _MM_CMPINT_NLT) & _mm512_cmp_epi32_mask(dv, hi, _MM_CMPINT_LE);
+      _mm512_storeu_ps(a.volume_lr + at, _mm512_mask_blend_ps(textured & wanted, none, value));
+      if (at_x == xe + 1 - kLanes) break;
+    }
+  }
+}
 #endif
 
 SACCADE_AVX2_CLONE void sweep_plane(const SweepArgs& a, int d, int xs, int xe) {
 #if defined(__x86_64__)
   if (a.lo_rl == nullptr && use_avx512()) {
+    const int n = xe - xs + 1, chunks = (n + 2 * a.r + 15) / 16;
+    if ((a.r == 1 || a.r == 2) && n >= 16 && chunks <= 4) {
+      if (a.r == 2) {
+        if (chunks == 2) sweep_plane_avx512_held<2, 2>(a, d, xs, xe);
+        else if (chunks == 3) sweep_plane_avx512_held<2, 3>(a, d, xs, xe);
+        else sweep_plane_avx512_held<2, 4>(a, d, xs, xe);
+      } else {
+        if (chunks == 2) sweep_plane_avx512_held<1, 2>(a, d, xs, xe);
+        else if (chunks == 3) sweep_plane_avx512_held<1, 3>(a, d, xs, xe);
+        else sweep_plane_avx512_held<1, 4>(a, d, xs, xe);
+      }
+      return;
+    }
     if (a.r == 2) sweep_plane_avx512<2>(a, d, xs, xe);
     else if (a.r == 1) sweep_plane_avx512<1>(a, d, xs, xe);
     else sweep_plane_avx512<0>(a, d, xs, xe);
