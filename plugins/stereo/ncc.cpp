@@ -445,82 +445,16 @@ bool cpu_has_avx512() {
 // Whether pick_avx512 runs: the CPU has it and tests have not turned it off.
 bool use_avx512() { return cpu_has_avx512() && avx512_allowed.load(std::memory_order_relaxed); }
 
-// One row of sweep_plane_avx512's windows, from the row's column sums.
-template <int R>
-__attribute__((target("avx512f"), always_inline)) inline void sweep_row_avx512(const SweepArgs& a, const float* col,
-                                                                                int y, int d, int xs, int xe) {
-  constexpr int kLanes = 16;
-  const int r = R > 0 ? R : a.r, n = xe - xs + 1;
-  const __m512 none = _mm512_set1_ps(-2.0f), tiny = _mm512_set1_ps(1e-6f), texture = _mm512_set1_ps(a.min_texture);
-  const __m512 inv_n = _mm512_set1_ps(a.inv_n);
-  const __m512i dv = _mm512_set1_epi32(d);
-  const __mmask16 narrow = n < kLanes ? static_cast<__mmask16>((1u << n) - 1) : static_cast<__mmask16>(0xFFFF);
-    const std::ptrdiff_t row = y * a.image_step, lr_row = y * a.lr_step;
-  for (int x = xs;; x += kLanes) {
-    const int at_x = n < kLanes ? xs : std::min(x, xe + 1 - kLanes);
-    const __mmask16 m = narrow;
-    __m512 sum = _mm512_maskz_loadu_ps(m, col + at_x - r);
-    for (int k = 1 - r; k <= r; ++k) sum = _mm512_add_ps(sum, _mm512_maskz_loadu_ps(m, col + at_x + k));
-    const std::ptrdiff_t at = row + at_x, at_right = row + at_x - d;
-    const __m512 va = _mm512_maskz_loadu_ps(m, a.left_std + at), vb = _mm512_maskz_loadu_ps(m, a.right_std + at_right);
-    const __m512 vma = _mm512_maskz_loadu_ps(m, a.left_mean + at);
-    const __m512 vmb = _mm512_maskz_loadu_ps(m, a.right_mean + at_right);
-    const __m512 prod = _mm512_mul_ps(va, vb);
-    const __m512 den = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(prod, tiny, _CMP_GT_OQ), tiny, prod);
-    const __m512 value = _mm512_div_ps(_mm512_sub_ps(_mm512_mul_ps(sum, inv_n), _mm512_mul_ps(vma, vmb)), den);
-    const __mmask16 textured =
-        _mm512_cmp_ps_mask(va, texture, _CMP_GE_OQ) & _mm512_cmp_ps_mask(vb, texture, _CMP_GE_OQ);
-    const __m512i lo = _mm512_maskz_loadu_epi32(m, a.lo_lr + lr_row + at_x);
-    const __m512i hi = _mm512_maskz_loadu_epi32(m, a.hi_lr + lr_row + at_x);
-    const __mmask16 wanted =
-        _mm512_cmp_epi32_mask(dv, lo, _MM_CMPINT_NLT) & _mm512_cmp_epi32_mask(dv, hi, _MM_CMPINT_LE);
-    _mm512_mask_storeu_ps(a.volume_lr + at, m, _mm512_mask_blend_ps(textured & wanted, none, value));
-    if (n < kLanes || at_x == xe + 1 - kLanes) break;
-  }
-}
-
-// sweep_plane_impl<R, true> sixteen pixels wide in AVX-512 (intrinsics),
-// the same arithmetic in the same order: the same results to the bit. Two
-// rows of column sums as there (a masked store cannot forward to a load at
-// all, so the row's windows must read sums stored an iteration earlier).
-template <int R>
-__attribute__((target("avx512f"))) void sweep_plane_avx512(const SweepArgs& args, int d, int xs, int xe) {
-  const SweepArgs a = args;
-  constexpr int kLanes = 16;
-  const int r = R > 0 ? R : a.r;
-  const int xa = xs - r, xb = xe + r + 1;
-  float* sums[2] = {a.col, a.col + a.col_stride};
-  for (int x = xa; x < xb; ++x) sums[1][x] = 0.0f;
-  int t = 0;
-  for (int yy = a.y0 - r; yy <= a.y1 + r; ++yy, ++t) {
-    const float* in_a = a.left + yy * a.image_step;
-    const float* in_b = a.right + yy * a.image_step - d;
-    float* col = sums[t & 1];
-    const float* before = sums[(t + 1) & 1];
-    const bool slide = yy - 2 * r - 1 >= a.y0 - r;
-    const float* out_a = in_a - (2 * r + 1) * a.image_step;
-    const float* out_b = in_b - (2 * r + 1) * a.image_step;
-    for (int x = xa; x < xb; x += kLanes) {
-      const __mmask16 m =
-          xb - x >= kLanes ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << (xb - x)) - 1);
-      __m512 term = _mm512_mul_ps(_mm512_maskz_loadu_ps(m, in_a + x), _mm512_maskz_loadu_ps(m, in_b + x));
-      if (slide)
-        term = _mm512_sub_ps(term,
-                             _mm512_mul_ps(_mm512_maskz_loadu_ps(m, out_a + x), _mm512_maskz_loadu_ps(m, out_b + x)));
-      _mm512_mask_storeu_ps(col + x, m, _mm512_add_ps(_mm512_maskz_loadu_ps(m, before + x), term));
-    }
-    if (yy - 1 >= a.y0 + r) sweep_row_avx512<R>(a, before, yy - 1 - r, d, xs, xe);
-  }
-  sweep_row_avx512<R>(a, sums[(t + 1) & 1], a.y1, d, xs, xe);
-}
-
-// The same with the row's column sums held in kChunks registers instead of
-// memory (rows at least sixteen wide, and at most 16 kChunks wide with the
-// windows' margins): a row's windows take their sums from the registers by
-// permutes, and nothing waits on a store. The same additions in the same
-// order: the same results to the bit.
+// sweep_plane_impl<R, true> sixteen pixels wide in AVX-512 (intrinsics: GCC's
+// vector extension turns sixteen-lane selects into per-lane branches), for
+// rows at least sixteen wide and at most 16 kChunks wide with the windows'
+// margins: a row's column sums stay in kChunks registers and its windows take
+// their sums from them by permutes, so nothing waits on a store (through
+// memory, each window's unaligned loads would span two stores, which cannot
+// forward to a load). The same arithmetic in the same order: the same results
+// to the bit.
 template <int R, int kChunks>
-__attribute__((target("avx512f"))) void sweep_plane_avx512_held(const SweepArgs& args, int d, int xs, int xe) {
+__attribute__((target("avx512f"))) void sweep_plane_avx512(const SweepArgs& args, int d, int xs, int xe) {
   const SweepArgs a = args;
   constexpr int kLanes = 16;
   const int r = R > 0 ? R : a.r;
@@ -597,20 +531,16 @@ SACCADE_AVX2_CLONE void sweep_plane(const SweepArgs& a, int d, int xs, int xe) {
     const int n = xe - xs + 1, chunks = (n + 2 * a.r + 15) / 16;
     if ((a.r == 1 || a.r == 2) && n >= 16 && chunks <= 4) {
       if (a.r == 2) {
-        if (chunks == 2) sweep_plane_avx512_held<2, 2>(a, d, xs, xe);
-        else if (chunks == 3) sweep_plane_avx512_held<2, 3>(a, d, xs, xe);
-        else sweep_plane_avx512_held<2, 4>(a, d, xs, xe);
+        if (chunks == 2) sweep_plane_avx512<2, 2>(a, d, xs, xe);
+        else if (chunks == 3) sweep_plane_avx512<2, 3>(a, d, xs, xe);
+        else sweep_plane_avx512<2, 4>(a, d, xs, xe);
       } else {
-        if (chunks == 2) sweep_plane_avx512_held<1, 2>(a, d, xs, xe);
-        else if (chunks == 3) sweep_plane_avx512_held<1, 3>(a, d, xs, xe);
-        else sweep_plane_avx512_held<1, 4>(a, d, xs, xe);
+        if (chunks == 2) sweep_plane_avx512<1, 2>(a, d, xs, xe);
+        else if (chunks == 3) sweep_plane_avx512<1, 3>(a, d, xs, xe);
+        else sweep_plane_avx512<1, 4>(a, d, xs, xe);
       }
       return;
     }
-    if (a.r == 2) sweep_plane_avx512<2>(a, d, xs, xe);
-    else if (a.r == 1) sweep_plane_avx512<1>(a, d, xs, xe);
-    else sweep_plane_avx512<0>(a, d, xs, xe);
-    return;
   }
 #endif
   const bool implicit = a.lo_rl == nullptr;
