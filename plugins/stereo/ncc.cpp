@@ -154,34 +154,50 @@ __attribute__((always_inline)) inline void box_stats_rows_impl(const float* __re
   const int r = R > 0 ? R : r_arg;
   const float inv_count = 1.0f / static_cast<float>((2 * r + 1) * (2 * r + 1));
   const int inner = w - 2 * r;
-  for (int y = 0; y < h; ++y) {
-    const float* add = src + y * step;
-    if (y >= 2 * r + 1) {
-      const float* sub = add - (2 * r + 1) * step;
-      for (int x = 0; x < w; ++x) {
-        col[x] = (col[x] + add[x]) - sub[x];
-        col2[x] = (col2[x] + add[x] * add[x]) - sub[x] * sub[x];
-      }
-    } else {
-      for (int x = 0; x < w; ++x) {
-        col[x] += add[x];
-        col2[x] += add[x] * add[x];
-      }
-    }
-    if (y < 2 * r || inner <= 0) continue;
-    float* m = mean + (y - r) * step + r;
-    float* sd = stddev + (y - r) * step + r;
+  // Two rows of column sums (col, col2: 2 w each): a row's windows read the
+  // sums stored an iteration before, while this one stores the next row's
+  // (read right after their stores, the windows' unaligned loads each span
+  // two stores, which cannot forward to a load).
+  float* sums[2] = {col, col + w};
+  float* squares[2] = {col2, col2 + w};
+  for (int x = 0; x < w; ++x) sums[1][x] = squares[1][x] = 0.0f;
+  const auto windows = [&](const float* __restrict c, const float* __restrict c2, int y) {
+    float* m = mean + y * step + r;
+    float* sd = stddev + y * step + r;
     for (int x = 0; x < inner; ++x) {
-      float sum = col[x], sum2 = col2[x];
+      float sum = c[x], sum2 = c2[x];
       for (int k = 1; k <= 2 * r; ++k) {
-        sum += col[x + k];
-        sum2 += col2[x + k];
+        sum += c[x + k];
+        sum2 += c2[x + k];
       }
       const float mu = sum * inv_count;
       m[x] = mu;
       sd[x] = std::sqrt(std::max(0.0f, sum2 * inv_count - mu * mu));
     }
+  };
+  for (int y = 0; y < h; ++y) {
+    const float* add = src + y * step;
+    float* __restrict c = sums[y & 1];
+    float* __restrict c2 = squares[y & 1];
+    const float* __restrict before = sums[(y + 1) & 1];
+    const float* __restrict before2 = squares[(y + 1) & 1];
+    if (y >= 2 * r + 1) {
+      const float* sub = add - (2 * r + 1) * step;
+      for (int x = 0; x < w; ++x) {
+        c[x] = (before[x] + add[x]) - sub[x];
+        c2[x] = (before2[x] + add[x] * add[x]) - sub[x] * sub[x];
+      }
+    } else {
+      for (int x = 0; x < w; ++x) {
+        c[x] = before[x] + add[x];
+        c2[x] = before2[x] + add[x] * add[x];
+      }
+    }
+    // The row before's windows (centred on row y - 1 - r), its sums now an
+    // iteration old.
+    if (y - 1 >= 2 * r && inner > 0) windows(before, before2, y - 1 - r);
   }
+  if (h - 1 >= 2 * r && inner > 0) windows(sums[(h - 1) & 1], squares[(h - 1) & 1], h - 1 - r);
 }
 
 SACCADE_AVX2_CLONE void box_stats_rows(const float* __restrict src, std::ptrdiff_t step, int w, int h, int r,
@@ -212,8 +228,8 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
       std::fill_n(p + static_cast<std::size_t>(y) * w + std::max(0, w - r), std::min(r, w), 0.0f);
     }
   }
-  col.assign(static_cast<std::size_t>(w), 0.0f);
-  col2.assign(static_cast<std::size_t>(w), 0.0f);
+  col.assign(2 * static_cast<std::size_t>(w), 0.0f);
+  col2.assign(2 * static_cast<std::size_t>(w), 0.0f);
   box_stats_rows(src.ptr<float>(), w, w, src.rows, r, mean.ptr<float>(), stddev.ptr<float>(), col.data(), col2.data());
 }
 
