@@ -124,7 +124,11 @@ SACCADE_AVX2_CLONE void sample_level_with(const cv::Mat& frame, double x0, doubl
       uint8_t* o = out.ptr<uint8_t>(j);
       const uint8_t* r = frame.ptr<uint8_t>(rows[static_cast<std::size_t>(j)]);
       if (crop) {
-        for (int i = 0; i < size.width; ++i) o[i] = r[col[i]];
+        // Inside the frame the columns are consecutive: one copy.
+        if (size.width > 0 && col[size.width - 1] - col[0] == size.width - 1)
+          std::memcpy(o, r + col[0], static_cast<std::size_t>(size.width));
+        else
+          for (int i = 0; i < size.width; ++i) o[i] = r[col[i]];
         continue;
       }
       for (int i = 0; i < size.width; ++i) {
