@@ -450,6 +450,11 @@ __attribute__((always_inline)) inline void sweep_plane_impl(const SweepArgs& arg
 #if defined(__x86_64__)
 std::atomic<bool> avx512_allowed{true};
 
+// The first n of sixteen lanes (none for n <= 0, all for n >= 16).
+inline __mmask16 first_lanes(int n) {
+  return n >= 16 ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << std::max(n, 0)) - 1);
+}
+
 bool cpu_has_avx512() {
   static const bool yes = [] {
     __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
@@ -483,8 +488,7 @@ __attribute__((target("avx512f"))) void sweep_plane_avx512(const SweepArgs& args
   __m512 sums[kChunks];
   for (int j = 0; j < kChunks; ++j) {
     const int left = xb - (xa + kLanes * j);
-    chunk_mask[j] = left >= kLanes ? static_cast<__mmask16>(0xFFFF)
-                                   : static_cast<__mmask16>(left > 0 ? (1u << left) - 1 : 0u);
+    chunk_mask[j] = first_lanes(left);
     sums[j] = _mm512_setzero_ps();
   }
   for (int yy = a.y0 - r; yy <= a.y1 + r; ++yy) {
@@ -495,7 +499,8 @@ __attribute__((target("avx512f"))) void sweep_plane_avx512(const SweepArgs& args
     const float* out_b = in_b - (2 * r + 1) * a.image_step;
     for (int j = 0; j < kChunks; ++j) {
       const __mmask16 m = chunk_mask[j];
-      __m512 term = _mm512_mul_ps(_mm512_maskz_loadu_ps(m, in_a + kLanes * j), _mm512_maskz_loadu_ps(m, in_b + kLanes * j));
+      __m512 term =
+          _mm512_mul_ps(_mm512_maskz_loadu_ps(m, in_a + kLanes * j), _mm512_maskz_loadu_ps(m, in_b + kLanes * j));
       if (slide)
         term = _mm512_sub_ps(term, _mm512_mul_ps(_mm512_maskz_loadu_ps(m, out_a + kLanes * j),
                                                  _mm512_maskz_loadu_ps(m, out_b + kLanes * j)));
@@ -1181,7 +1186,7 @@ __attribute__((target("avx512f"))) void left_right_check_avx512(const float* d_r
   const __m512 limit = _mm512_set1_ps(tolerance);
   const __m512i one = _mm512_set1_epi32(1), width = _mm512_set1_epi32(cols);
   for (int x = x0; x < x1; x += kLanes) {
-    const __mmask16 m = x1 - x >= kLanes ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << (x1 - x)) - 1);
+    const __mmask16 m = first_lanes(x1 - x);
     const __m512 score = _mm512_maskz_loadu_ps(m, s_row + x);
     const __m512 d = _mm512_maskz_loadu_ps(m, d_row + x);
     const __mmask16 has = m & _mm512_cmp_ps_mask(score, minus_one, _CMP_NLE_UQ);
@@ -1201,9 +1206,7 @@ __attribute__((target("avx512f"))) void left_right_check_avx512(const float* d_r
     if (inside != 0 && last - first < 2 * kLanes) {
       const __m512i index = _mm512_sub_epi32(xr, _mm512_set1_epi32(first));
       const int reach = cols - first;
-      const __mmask16 low = reach >= kLanes ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << reach) - 1);
-      const int beyond = std::min(kLanes, std::max(0, reach - kLanes));
-      const __mmask16 high = static_cast<__mmask16>((1u << beyond) - 1);
+      const __mmask16 low = first_lanes(reach), high = first_lanes(reach - kLanes);
       other_score = _mm512_mask_blend_ps(
           inside, minus_one,
           _mm512_permutex2var_ps(_mm512_maskz_loadu_ps(low, back_score + first), index,
