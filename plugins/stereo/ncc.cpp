@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <string_view>
 #include <vector>
 
 #if defined(__x86_64__)
@@ -463,8 +465,19 @@ bool cpu_has_avx512() {
   return yes;
 }
 
-// Whether pick_avx512 runs: the CPU has it and tests have not turned it off.
-bool use_avx512() { return cpu_has_avx512() && avx512_allowed.load(std::memory_order_relaxed); }
+// SACCADE_AVX512=0 in the environment keeps the matcher on its AVX2 code (to
+// compare, or where AVX-512 lowers the clock).
+bool avx512_wanted() {
+  static const bool yes = [] {
+    const char* value = std::getenv("SACCADE_AVX512");
+    return value == nullptr || std::string_view(value) != "0";
+  }();
+  return yes;
+}
+
+// Whether the AVX-512 code runs: the CPU has it, the environment does not
+// say no, and tests have not turned it off.
+bool use_avx512() { return cpu_has_avx512() && avx512_wanted() && avx512_allowed.load(std::memory_order_relaxed); }
 
 // sweep_plane_impl<R, true> sixteen pixels wide in AVX-512 (intrinsics: GCC's
 // vector extension turns sixteen-lane selects into per-lane branches), for
@@ -1163,7 +1176,7 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
 bool allow_avx512(bool allowed) {
 #if defined(__x86_64__)
   avx512_allowed.store(allowed, std::memory_order_relaxed);
-  return cpu_has_avx512();
+  return cpu_has_avx512() && avx512_wanted();
 #else
   (void)allowed;
   return false;

@@ -90,10 +90,12 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
 double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,
                         float tolerance, cv::Mat& valid, cv::Rect region = {});
 
-// Whether the matcher may pick with AVX-512 where the CPU has it (it does by
-// default); off, the AVX2 or baseline code runs, which gives the same
-// results to the bit (tests compare them). Returns whether the CPU has
-// AVX-512. Not for use while another thread matches.
+// Whether the matcher may use AVX-512 (its sweep, pick and left-right check)
+// where the CPU has it (it does by default, unless SACCADE_AVX512=0 is in the
+// environment); off, the AVX2 or baseline code runs, which gives the same
+// results to the bit (tests compare them). Returns whether the AVX-512 code
+// can run here (the CPU has it and the environment does not say no). Not for
+// use while another thread matches.
 bool allow_avx512(bool allowed);
 
 // Correlation coefficient of two w x w windows centred at (x0, y0) and (x1, y1)

@@ -313,7 +313,8 @@ TEST(NccMatch, AvxTwoAndAvx512AreTheSameToTheBit) {
     }
   }
   EXPECT_GT(valid, 20000);  // the comparison saw matched pixels, not only -1
-  if (!cpu_has) GTEST_SKIP() << "no AVX-512 on this CPU: both runs took the AVX2 (or baseline) path";
+  if (!cpu_has)
+    GTEST_SKIP() << "no AVX-512 here (the CPU, or SACCADE_AVX512=0): both runs took the AVX2 (or baseline) path";
 }
 
 }  // namespace
