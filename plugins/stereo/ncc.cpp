@@ -862,10 +862,11 @@ SACCADE_AVX2_CLONE void path_step(float* __restrict out, const float* __restrict
 // columns x0 .. x1), disparities d_min .. d_max: costs 1 - NCC where the sweep
 // computed the pair, 1 (no preference) where a window was too flat, and a
 // prohibitive cost outside the pixel's range; four paths (along the rows
-// both ways, along the columns both ways) summed into `aggregated`, at
-// [((y - y0) * cols + x - x0) * count + d - d_min].
+// both ways, along the columns both ways), or eight (and the diagonals both
+// ways), summed into `aggregated`, at [((y - y0) * cols + x - x0) * count +
+// d - d_min].
 void aggregate(const Search& box, const Volume& volume, const cv::Mat& lo, const cv::Mat& hi, float p1, float p2,
-               NccScratch& scratch) {
+               int paths, NccScratch& scratch) {
   constexpr float kOutside = 16.0f, kFlat = 1.0f;
   const int rows = box.y1 - box.y0 + 1, cols = box.x1 - box.x0 + 1, count = volume.d_max - volume.d_min + 1;
   const std::size_t pixel_count = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols);
@@ -933,6 +934,30 @@ void aggregate(const Search& box, const Volume& volume, const cv::Mat& lo, const
       }
     }
   }
+  if (paths < 8) return;
+  // Along the diagonals, down and up, leaning left and right: a row of paths
+  // at a time, each pixel's from the row before's a column to the side (two
+  // rows' worth: the row before is still read while this one is written).
+  std::vector<float>& rows_of_paths = scratch.path_rows;
+  rows_of_paths.assign(2 * static_cast<std::size_t>(cols) * stride, kOutside);
+  for (int dir = 0; dir < 2; ++dir)
+    for (const int lean : {-1, 1}) {
+      float* before = rows_of_paths.data();
+      float* now = rows_of_paths.data() + static_cast<std::size_t>(cols) * stride;
+      for (int k = 0; k < rows; ++k) {
+        const int y = dir == 0 ? k : rows - 1 - k;
+        for (int x = 0; x < cols; ++x) {
+          const std::size_t pixel = static_cast<std::size_t>(y) * cols + x;
+          const float* c = cost.data() + pixel * count;
+          float* next = now + static_cast<std::size_t>(x) * stride;
+          const int from = x - lean;
+          if (k == 0 || from < 0 || from >= cols) std::copy(c, c + count, next + 1);
+          else path_step(next + 1, c, before + static_cast<std::size_t>(from) * stride, count, p1, p2);
+          add(pixel, next + 1);
+        }
+        std::swap(before, now);
+      }
+    }
 }
 
 // Both directions' disparities from the aggregated costs: each left pixel
@@ -1116,7 +1141,7 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
         box.x1 = std::max(box.x1, x);
       }
     }
-    aggregate(box, volume, lo_lr, hi_lr, config.p1, config.p2, scratch);
+    aggregate(box, volume, lo_lr, hi_lr, config.p1, config.p2, config.paths, scratch);
     pick_aggregated(box, volume, lo_lr, hi_lr, config, scratch, disparity_lr, score_lr, disparity_rl, score_rl);
     return;
   }

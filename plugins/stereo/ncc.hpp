@@ -23,6 +23,7 @@ struct NccConfig {
   // score floor then does not apply; the left-right check still does.
   bool semi_global = false;
   float p1 = 0.2f, p2 = 0.8f;
+  int paths = 4;  // semi-global: 4 (along rows and columns) or 8 (and along the diagonals)
 };
 
 enum class Direction { kLeftToRight, kRightToLeft };
@@ -38,7 +39,7 @@ struct NccScratch {
   // The sweep's correlations, one plane per disparity: at the left pixels
   // (volume) and at the right ones (volume_rl).
   std::vector<float> volume, volume_rl;
-  std::vector<float> cost, aggregated, path, path_row;  // semi-global aggregation
+  std::vector<float> cost, aggregated, path, path_row, path_rows;  // semi-global aggregation
 };
 
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in

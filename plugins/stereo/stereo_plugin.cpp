@@ -39,6 +39,9 @@ class StereoNode final : public Node {
                     "ambiguous or flat (min_score then does not apply)")
         .param_double("sgm_p1", 0.2, 0.0, 8.0, "semi-global: cost of a disparity step of one (NCC units)")
         .param_double("sgm_p2", 0.8, 0.0, 8.0, "semi-global: cost of a larger disparity step (NCC units)")
+        .param_enum("sgm_paths", "4", {"4", "8"},
+                    "semi-global: paths summed, along rows and columns (4) or also the diagonals (8: a little "
+                    "denser on Aloe's fovea, a third slower)")
         .param_double("focal", 0.0, 0.0, 1e6, "focal length of the rectified images, pixels (with baseline: depth)")
         .param_double("baseline", 0.0, 0.0, 100.0, "distance between the cameras, metres")
         .param_string("calibration", "",
@@ -68,6 +71,7 @@ class StereoNode final : public Node {
     c.ncc.p1 = static_cast<float>(p.get_double("sgm_p1"));
     c.ncc.p2 = static_cast<float>(p.get_double("sgm_p2"));
     if (c.ncc.p2 < c.ncc.p1) return Status::error("sgm_p2 must not be smaller than sgm_p1");
+    c.ncc.paths = p.get_string("sgm_paths") == "8" ? 8 : 4;
     calibration_.focal_px = p.get_double("focal");
     calibration_.baseline_m = p.get_double("baseline");
     if (const std::string file = p.get_string("calibration"); !file.empty()) {

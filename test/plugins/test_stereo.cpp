@@ -196,17 +196,23 @@ TEST(StereoNode, EmitsDisparityConfidenceAndBothWays) {
 
 TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
   Pair p = make_pair(12, {320, 240});
-  auto h = stereo_node_on(
-      p, R"(<node plugin="stereo"><param name="max_disparity" value="64"/><param name="semi_global" value="true"/></node>)");
-  ASSERT_NE(h, nullptr);
-  auto maps = h->last<FeatureMaps>("maps");
-  ASSERT_NE(maps, nullptr);
-  EXPECT_NEAR(maps->find("disparity")->back().at<float>(12, 20), 12.0, 0.25);
+  for (const char* paths : {"4", "8"}) {
+    auto h = stereo_node_on(p, std::string(R"(<node plugin="stereo"><param name="max_disparity" value="64"/>)") +
+                                   R"(<param name="semi_global" value="true"/><param name="sgm_paths" value=")" +
+                                   paths + R"("/></node>)");
+    ASSERT_NE(h, nullptr);
+    auto maps = h->last<FeatureMaps>("maps");
+    ASSERT_NE(maps, nullptr);
+    EXPECT_NEAR(maps->find("disparity")->back().at<float>(12, 20), 12.0, 0.25) << paths << " paths";
+  }
   std::string error;
   auto bad = testing::NodeHarness::create(
       R"(<node plugin="stereo"><param name="sgm_p1" value="1"/><param name="sgm_p2" value="0.5"/></node>)", &error);
   EXPECT_EQ(bad, nullptr);
   EXPECT_NE(error.find("sgm_p2"), std::string::npos) << error;
+  auto six = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="sgm_paths" value="6"/></node>)", &error);
+  EXPECT_EQ(six, nullptr);
+  EXPECT_NE(error.find("sgm_paths"), std::string::npos) << error;
 }
 
 TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {

@@ -95,12 +95,45 @@ TEST(NccMatchCross, SemiGlobalCarriesTheNeighboursDisparityAcrossAFlatBand) {
   cv::Mat lr, lr_score, rl, rl_score;
   ncc_match_cross(left, right, lo, hi, plain, lr, lr_score, rl, rl_score, scratch);
   EXPECT_EQ(share_near(lr_score, -1.0f, 0.0f, band), 1.0) << "flat windows are not matched alone";
-  NccConfig semi_global = plain;
-  semi_global.semi_global = true;
-  ncc_match_cross(left, right, lo, hi, semi_global, lr, lr_score, rl, rl_score, scratch);
-  EXPECT_EQ(share_near(lr, d, 0.5f, band), 1.0) << "the band takes its neighbours' disparity";
-  EXPECT_GE(share_near(lr, d, 0.25f, cv::Rect(d + 3, 4, 14, 24)), 0.98) << "textured pixels stay exact";
-  EXPECT_GE(share_near(rl, d, 0.5f, cv::Rect(26 - d, 4, 4, 24)), 1.0) << "right to left too";
+  for (int paths : {4, 8}) {
+    NccConfig semi_global = plain;
+    semi_global.semi_global = true;
+    semi_global.paths = paths;
+    ncc_match_cross(left, right, lo, hi, semi_global, lr, lr_score, rl, rl_score, scratch);
+    EXPECT_EQ(share_near(lr, d, 0.5f, band), 1.0) << "the band takes its neighbours' disparity, " << paths << " paths";
+    EXPECT_GE(share_near(lr, d, 0.25f, cv::Rect(d + 3, 4, 14, 24)), 0.98) << "textured pixels stay exact";
+    EXPECT_GE(share_near(rl, d, 0.5f, cv::Rect(26 - d, 4, 4, 24)), 1.0) << "right to left too";
+  }
+}
+
+TEST(NccMatchCross, EightSemiGlobalPathsCarryDisparityAlongTheDiagonals) {
+  // Flat but for two textured blocks diagonal to each other: the pixels
+  // between them see texture along neither their row nor their column, only
+  // along a diagonal. Four paths leave them undecided (every disparity costs
+  // the same: the first wins), eight carry the blocks' disparity to them.
+  const int d = 2;
+  const cv::Mat texture = test::random_image({64, 48}, 21);
+  cv::Mat left(texture.size(), CV_8U, cv::Scalar(128));
+  texture(cv::Rect(10, 10, 11, 11)).copyTo(left(cv::Rect(10, 10, 11, 11)));  // columns and rows 10..20
+  texture(cv::Rect(40, 30, 11, 11)).copyTo(left(cv::Rect(40, 30, 11, 11)));  // columns 40..50, rows 30..40
+  cv::Mat right = shifted_right(left, d);
+  cv::Mat lo(left.size(), CV_32S, cv::Scalar(0)), hi(left.size(), CV_32S, cv::Scalar(6));
+  // Rows 23..27 and columns 26..34: their windows, their rows and their
+  // columns (in both images) are flat.
+  const cv::Rect between(26, 23, 9, 5);
+  NccScratch scratch;
+  double right_share[2];
+  for (int i = 0; i < 2; ++i) {
+    NccConfig config;
+    config.semi_global = true;
+    config.paths = i == 0 ? 4 : 8;
+    cv::Mat disparity, score, rl, rl_score;
+    ncc_match_cross(left, right, lo, hi, config, disparity, score, rl, rl_score, scratch);
+    right_share[i] = share_near(disparity, d, 0.5f, between);
+    EXPECT_GE(share_near(disparity, d, 0.25f, cv::Rect(13, 13, 5, 5)), 0.9) << "inside a block, " << config.paths;
+  }
+  EXPECT_LE(right_share[0], 0.1) << "four paths: nothing reaches them";
+  EXPECT_GE(right_share[1], 0.9) << "eight paths: the diagonals do";
 }
 
 // Window standard deviation (population), as the matcher's texture test reads it.
