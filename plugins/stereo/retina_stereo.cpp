@@ -465,9 +465,34 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     }
     level.density = static_cast<double>(valid) / static_cast<double>(size.area());
     level.filled_density = level.density;
+    if (config_.fill_gaps > 0)
+      level.filled_density = fill_gaps(level.disparity, level.score, config_.fill_gaps, gl.step_x);
     if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[k]);
   }
   return {};
+}
+
+double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double tolerance) {
+  int known = 0;
+  for (int y = 0; y < disparity.rows; ++y) {
+    float* d = disparity.ptr<float>(y);
+    float* c = score.ptr<float>(y);
+    int last = -1;  // the last matched pixel of the row
+    for (int x = 0; x < disparity.cols; ++x) {
+      if (d[x] < 0) continue;
+      const int gap = x - last - 1;
+      if (last >= 0 && gap > 0 && gap <= max_gap && std::abs(d[x] - d[last]) <= tolerance) {
+        const float value = std::min(d[last], d[x]);
+        for (int i = last + 1; i < x; ++i) {
+          d[i] = value;
+          c[i] = 0.0f;
+        }
+      }
+      last = x;
+    }
+    for (int x = 0; x < disparity.cols; ++x) known += d[x] >= 0;
+  }
+  return static_cast<double>(known) / static_cast<double>(disparity.total());
 }
 
 double fill_holes(cv::Mat& disparity, cv::Mat& score, double fallback) {

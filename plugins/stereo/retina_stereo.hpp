@@ -34,6 +34,11 @@ struct RetinaStereoConfig {
   // nearest matched pixel on their row (the farther of the two neighbours), or
   // the fixation disparity; their confidence is 0 (matched: the NCC, > 0).
   bool fill = false;
+  // Give unmatched runs of at most this many pixels on a row the smaller of
+  // their two ends' disparities where those agree within a level pixel (one
+  // surface, a gap its windows could not resolve); confidence 0. 0: off.
+  // Before `fill`.
+  int fill_gaps = 0;
   // Keep, per level, the images actually compared (for comparisons with other
   // matchers on exactly the same pixels).
   bool keep_images = false;
@@ -82,6 +87,12 @@ std::string read_calibration(const std::string& path, StereoCalibration& out);
 // (the smaller of the two disparities), or with `fallback` (>= 0) on rows
 // without any; filled pixels get score 0. Returns the share with a disparity.
 double fill_holes(cv::Mat& disparity, cv::Mat& score, double fallback);
+
+// Fills unmatched runs (disparity < 0) of at most `max_gap` pixels between
+// two matched pixels of the same row whose disparities differ by at most
+// `tolerance`, with the smaller of the two; filled pixels get score 0.
+// Returns the share with a disparity.
+double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double tolerance);
 
 // Both retinas must have the same level size and steps; the right retina's
 // regions may be shifted horizontally from the left's by whole level pixels

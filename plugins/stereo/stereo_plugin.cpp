@@ -34,6 +34,9 @@ class StereoNode final : public Node {
         .param_int("fovea_radius", 6, 1, 256, "with vergence: fovea pixels searched around the fixation disparity")
         .param_int("pad", 8, 0, 64, "level pixels sampled around each level from the frames (0: the levels alone)")
         .param_bool("fill", false, "give unmatched pixels the nearest matched disparity on their row (confidence 0)")
+        .param_int("fill_gaps", 0, 0, 64,
+                   "give unmatched runs of at most this many pixels on a row the smaller of their ends' disparities "
+                   "where those agree within a level pixel (confidence 0; 0: off; before fill)")
         .param_bool("semi_global", false,
                     "semi-global aggregation of the NCC costs along four paths: denser where windows alone are "
                     "ambiguous or flat (min_score then does not apply)")
@@ -67,6 +70,7 @@ class StereoNode final : public Node {
     c.fovea_radius = static_cast<int>(p.get_int("fovea_radius"));
     c.pad = static_cast<int>(p.get_int("pad"));
     c.fill = p.get_bool("fill");
+    c.fill_gaps = static_cast<int>(p.get_int("fill_gaps"));
     c.ncc.semi_global = p.get_bool("semi_global");
     c.ncc.p1 = static_cast<float>(p.get_double("sgm_p1"));
     c.ncc.p2 = static_cast<float>(p.get_double("sgm_p2"));

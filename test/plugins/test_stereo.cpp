@@ -198,8 +198,8 @@ TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
   Pair p = make_pair(12, {320, 240});
   for (const char* paths : {"4", "8"}) {
     auto h = stereo_node_on(p, std::string(R"(<node plugin="stereo"><param name="max_disparity" value="64"/>)") +
-                                   R"(<param name="semi_global" value="true"/><param name="sgm_paths" value=")" +
-                                   paths + R"("/></node>)");
+                                   R"(<param name="semi_global" value="true"/><param name="fill_gaps" value="2"/>)" +
+                                   R"(<param name="sgm_paths" value=")" + paths + R"("/></node>)");
     ASSERT_NE(h, nullptr);
     auto maps = h->last<FeatureMaps>("maps");
     ASSERT_NE(maps, nullptr);
@@ -265,6 +265,28 @@ TEST(FillHoles, TakesTheFartherNeighbourOnTheRowAndTheFallbackOnEmptyRows) {
   EXPECT_FLOAT_EQ(c.at<float>(0, 0), 0.9f) << "matched pixels keep theirs";
   cv::Mat empty(2, 3, CV_32F, cv::Scalar(-1)), none(2, 3, CV_32F, cv::Scalar(-1));
   EXPECT_DOUBLE_EQ(fill_holes(empty, none, -1.0), 0.0);
+}
+
+TEST(FillGaps, FillsOnlyShortRunsBetweenAgreeingEndsOfARow) {
+  // Row 0: a gap of 2 between 10 and 10.5 (filled with 10), then one of 3
+  // (too long). Row 1: a gap of 1 between 10 and 20 (ends disagree), and runs
+  // at the row's ends (one end only). Row 2: a matched pixel with score 0 (as
+  // semi-global gives) is an end, not a gap.
+  cv::Mat d = (cv::Mat_<float>(3, 8) << 10, -1, -1, 10.5f, -1, -1, -1, 10.5f,  //
+               -1, 10, -1, 20, 20, -1, -1, -1,                                  //
+               12, 12, -1, 12.5f, -1, 13, 13, 13);
+  cv::Mat c = (cv::Mat_<float>(3, 8) << 0.9f, -1, -1, 0.8f, -1, -1, -1, 0.7f,  //
+               -1, 0.9f, -1, 0.9f, 0.9f, -1, -1, -1,                             //
+               0.9f, 0.9f, -1, 0.0f, -1, 0.9f, 0.9f, 0.9f);
+  const double density = fill_gaps(d, c, 2, 1.0);
+  const cv::Mat expected = (cv::Mat_<float>(3, 8) << 10, 10, 10, 10.5f, -1, -1, -1, 10.5f,  //
+                            -1, 10, -1, 20, 20, -1, -1, -1,                                 //
+                            12, 12, 12, 12.5f, 12.5f, 13, 13, 13);
+  EXPECT_EQ(cv::norm(d, expected, cv::NORM_INF), 0.0) << d;
+  EXPECT_DOUBLE_EQ(density, 16.0 / 24.0);
+  EXPECT_FLOAT_EQ(c.at<float>(0, 1), 0.0f) << "filled: confidence 0";
+  EXPECT_FLOAT_EQ(c.at<float>(0, 4), -1.0f) << "left unmatched";
+  EXPECT_FLOAT_EQ(c.at<float>(2, 3), 0.0f) << "matched with score 0: kept";
 }
 
 TEST(StereoCalibration, ReadsFocalAndBaselineFromQOrP2OrM1AndT) {
