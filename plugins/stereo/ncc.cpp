@@ -242,8 +242,6 @@ namespace {
 // Where one direction searches: the rows, columns and disparities of its
 // pixels that have a range and texture.
 struct Search {
-  const cv::Mat* lo;
-  const cv::Mat* hi;
   int y0 = 0, y1 = -1, x0 = 0, x1 = -1, d_min = 0, d_max = -1;
   bool active() const { return y1 >= y0; }
   bool wants(int d) const { return active() && d >= d_min && d <= d_max; }
@@ -258,8 +256,6 @@ SACCADE_AVX2_CLONE Search bounds(const cv::Mat& lo, const cv::Mat& hi, const cv:
   typedef int v8i __attribute__((vector_size(32)));
   constexpr int kLanes = 8, kNone = 1 << 30;
   Search s;
-  s.lo = &lo;
-  s.hi = &hi;
   const int w = lo.cols, h = lo.rows;
   int y0 = h, y1 = -1, x0 = w, x1 = -1, d_min = kNone, d_max = -kNone;
   for (int y = r; y < h - r; ++y) {
@@ -457,6 +453,11 @@ inline __mmask16 first_lanes(int n) {
   return n >= 16 ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << std::max(n, 0)) - 1);
 }
 
+// 0, 1, ..., 15: each lane's offset from a vector's first pixel.
+__attribute__((target("avx512f"), always_inline)) inline __m512i lane_offsets() {
+  return _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+}
+
 bool cpu_has_avx512() {
   static const bool yes = [] {
     __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
@@ -496,7 +497,7 @@ __attribute__((target("avx512f"))) void sweep_plane_avx512(const SweepArgs& args
   const __m512 none = _mm512_set1_ps(-2.0f), tiny = _mm512_set1_ps(1e-6f), texture = _mm512_set1_ps(a.min_texture);
   const __m512 inv_n = _mm512_set1_ps(a.inv_n);
   const __m512i dv = _mm512_set1_epi32(d);
-  const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m512i iota = lane_offsets();
   __mmask16 chunk_mask[kChunks];
   __m512 sums[kChunks];
   for (int j = 0; j < kChunks; ++j) {
@@ -720,8 +721,7 @@ inline void pick_pixel(const PickArgs& a, int y, int x) {
 template <int kRows>
 __attribute__((target("avx512f"))) void pick_avx512(const PickArgs& a, int y, int x, int begin, int end) {
   const __m512 none = _mm512_set1_ps(-2.0f);
-  const __m512i lane = _mm512_add_epi32(_mm512_set1_epi32(x),
-                                        _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+  const __m512i lane = _mm512_add_epi32(_mm512_set1_epi32(x), lane_offsets());
   __m512 best[kRows], before[kRows], after[kRows], previous[kRows];
   __m512i best_d[kRows];
   __mmask16 took[kRows];
@@ -779,10 +779,27 @@ __attribute__((target("avx512f"))) void pick_avx512(const PickArgs& a, int y, in
 
 #endif
 
+// The planes whose span reaches columns first .. last of this side, as
+// begin .. end (end < begin: none). Before and after them every score the
+// pick would read there is -2, which changes nothing: right pixels far to one
+// side of the left pixels' columns reach few disparities.
+void planes_reaching(const PickArgs& a, int first, int last, int& begin, int& end) {
+  begin = a.count;
+  end = -1;
+  for (int i = 0; i < a.count; ++i) {
+    const int shift = a.right_side * (a.d_min + i);
+    if (a.span_hi[i] - shift >= first && a.span_lo[i] - shift <= last) {
+      begin = std::min(begin, i);
+      end = i;
+    }
+  }
+}
+
 // One side's picks over its box (rows y0 .. y1, columns x0 .. x1): whole
-// vectors, the last overlapping the one before, four at a time; outside the
-// box's columns a vector's extra pixels are outside every plane's span, so
-// they write the -1 the outputs start with.
+// vectors, the last overlapping the one before, each group of vectors down
+// every row over the planes that reach it; outside the box's columns a
+// vector's extra pixels are outside every plane's span, so they write the -1
+// the outputs start with.
 SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, int width) {
   constexpr int kLanes = 8;
   if (width < kLanes) {
@@ -791,20 +808,13 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
     return;
   }
 #if defined(__x86_64__)
-  // Sixteen lanes where the CPU has them, each vector down every row over
-  // the disparities that reach it (as below).
+  // Sixteen lanes where the CPU has them.
   constexpr int kWide = 16;
   if (width >= kWide && use_avx512()) {
     for (int x = std::min(x0, width - kWide);; x += kWide) {
       const int at = std::min(x, std::max(x1 + 1, kWide) - kWide);
-      int begin = a.count, end = -1;
-      for (int i = 0; i < a.count; ++i) {
-        const int shift = a.right_side * (a.d_min + i);
-        if (a.span_hi[i] - shift >= at && a.span_lo[i] - shift <= at + kWide - 1) {
-          begin = std::min(begin, i);
-          end = i;
-        }
-      }
+      int begin, end;
+      planes_reaching(a, at, at + kWide - 1, begin, end);
       // Four rows at a time: each one's best is a chain of steps through the
       // disparities, and independent chains overlap.
       int y = y0;
@@ -816,24 +826,15 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
     return;
   }
 #endif
-  // Two vectors at a time, each pair down every row; only the disparities
-  // whose span reaches the pair's pixels: before and after them every score
-  // read would be -2, which changes nothing (right pixels far to one side of
-  // the left pixels' columns reach few disparities).
+  // Two vectors of eight at a time.
   int xs[2], blocks = 0;
   for (int x = std::min(x0, width - kLanes);; x += kLanes) {
     const int at = std::min(x, std::max(x1 + 1, kLanes) - kLanes);
     const bool last = at + kLanes > x1;
     xs[blocks++] = at;
     if (blocks == 2 || last) {
-      int begin = a.count, end = -1;
-      for (int i = 0; i < a.count; ++i) {
-        const int shift = a.right_side * (a.d_min + i);
-        if (a.span_hi[i] - shift >= xs[0] && a.span_lo[i] - shift <= xs[blocks - 1] + kLanes - 1) {
-          begin = std::min(begin, i);
-          end = i;
-        }
-      }
+      int begin, end;
+      planes_reaching(a, xs[0], xs[blocks - 1] + kLanes - 1, begin, end);
       for (int y = y0; y <= y1; ++y) {
         if (blocks == 2) pick_lanes<2>(a, y, xs, begin, end);
         else pick_lanes<1>(a, y, xs, begin, end);
@@ -893,12 +894,13 @@ void aggregate(const Search& box, const Volume& volume, const cv::Mat& lo, const
     }
   }
   // A path's previous costs, padded either side so that d - 1 and d + 1 read
-  // something: one row's worth for the paths along columns.
-  std::vector<float>& prev_row = scratch.path_row;
+  // something: two entries for the paths along rows, two rows' worth for the
+  // others (the row before is still read while this one is written).
   std::vector<float>& current = scratch.path;
+  std::vector<float>& rows_of_paths = scratch.path_rows;
   const int stride = count + 2;
-  prev_row.assign(static_cast<std::size_t>(cols) * stride, kOutside);
   current.assign(static_cast<std::size_t>(stride) * 2, kOutside);
+  rows_of_paths.assign(2 * static_cast<std::size_t>(cols) * stride, kOutside);
   auto add = [&](std::size_t pixel, const float* values) {
     float* s_out = sum.data() + pixel * count;
     for (int i = 0; i < count; ++i) s_out[i] += values[i];
@@ -918,46 +920,31 @@ void aggregate(const Search& box, const Volume& volume, const cv::Mat& lo, const
         std::swap(prev, next);
       }
     }
-  // Along the columns, top to bottom and bottom to top: a row of paths at a time.
-  for (int dir = 0; dir < 2; ++dir) {
+  // Down and up the columns (lean 0), then with eight paths along the
+  // diagonals (leaning left and right): a row of paths at a time, each
+  // pixel's from the row before's, `lean` columns to the side.
+  struct Path {
+    int dir, lean;
+  };
+  constexpr Path kPaths[] = {{0, 0}, {1, 0}, {0, -1}, {0, 1}, {1, -1}, {1, 1}};
+  for (const Path& path : kPaths) {
+    if (path.lean != 0 && paths < 8) break;
+    float* before = rows_of_paths.data();
+    float* now = rows_of_paths.data() + static_cast<std::size_t>(cols) * stride;
     for (int k = 0; k < rows; ++k) {
-      const int y = dir == 0 ? k : rows - 1 - k;
+      const int y = path.dir == 0 ? k : rows - 1 - k;
       for (int x = 0; x < cols; ++x) {
         const std::size_t pixel = static_cast<std::size_t>(y) * cols + x;
         const float* c = cost.data() + pixel * count;
-        float* prev = prev_row.data() + static_cast<std::size_t>(x) * stride;
-        float* next = current.data();
-        if (k == 0) std::copy(c, c + count, next + 1);
-        else path_step(next + 1, c, prev, count, p1, p2);
+        float* next = now + static_cast<std::size_t>(x) * stride;
+        const int from = x - path.lean;
+        if (k == 0 || from < 0 || from >= cols) std::copy(c, c + count, next + 1);
+        else path_step(next + 1, c, before + static_cast<std::size_t>(from) * stride, count, p1, p2);
         add(pixel, next + 1);
-        std::copy(next + 1, next + 1 + count, prev + 1);
       }
+      std::swap(before, now);
     }
   }
-  if (paths < 8) return;
-  // Along the diagonals, down and up, leaning left and right: a row of paths
-  // at a time, each pixel's from the row before's a column to the side (two
-  // rows' worth: the row before is still read while this one is written).
-  std::vector<float>& rows_of_paths = scratch.path_rows;
-  rows_of_paths.assign(2 * static_cast<std::size_t>(cols) * stride, kOutside);
-  for (int dir = 0; dir < 2; ++dir)
-    for (const int lean : {-1, 1}) {
-      float* before = rows_of_paths.data();
-      float* now = rows_of_paths.data() + static_cast<std::size_t>(cols) * stride;
-      for (int k = 0; k < rows; ++k) {
-        const int y = dir == 0 ? k : rows - 1 - k;
-        for (int x = 0; x < cols; ++x) {
-          const std::size_t pixel = static_cast<std::size_t>(y) * cols + x;
-          const float* c = cost.data() + pixel * count;
-          float* next = now + static_cast<std::size_t>(x) * stride;
-          const int from = x - lean;
-          if (k == 0 || from < 0 || from >= cols) std::copy(c, c + count, next + 1);
-          else path_step(next + 1, c, before + static_cast<std::size_t>(from) * stride, count, p1, p2);
-          add(pixel, next + 1);
-        }
-        std::swap(before, now);
-      }
-    }
 }
 
 // Both directions' disparities from the aggregated costs: each left pixel
@@ -1066,7 +1053,6 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   } else if (lr.active()) {
     // The right pixels any left pixel's search reaches.
     rl = lr;
-    rl.lo = rl.hi = nullptr;
     rl.x0 = std::max(r, lr.x0 - lr.d_max);
     rl.x1 = std::min(w - 1 - r, lr.x1 - lr.d_min);
   }
@@ -1212,14 +1198,14 @@ namespace {
 
 #if defined(__x86_64__)
 // One row of left_right_check sixteen pixels at a time in AVX-512, the
-// right pixels' results gathered: the same decisions (lround's halves away
-// from zero made exact from the truncation and the exact remainder).
+// right pixels' results read by lane: the same decisions (lround's halves
+// away from zero made exact from the truncation and the exact remainder).
 __attribute__((target("avx512f"))) void left_right_check_avx512(const float* d_row, const float* s_row,
                                                                  const float* back, const float* back_score, int cols,
                                                                  float tolerance, uint8_t* ok, int x0, int x1,
                                                                  int& matched, int& kept) {
   constexpr int kLanes = 16;
-  const __m512i lanes = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m512i lanes = lane_offsets();
   const __m512 minus_one = _mm512_set1_ps(-1.0f), half = _mm512_set1_ps(0.5f), minus_half = _mm512_set1_ps(-0.5f);
   const __m512 limit = _mm512_set1_ps(tolerance);
   const __m512i one = _mm512_set1_epi32(1), width = _mm512_set1_epi32(cols);

@@ -39,7 +39,7 @@ struct NccScratch {
   // The sweep's correlations, one plane per disparity: at the left pixels
   // (volume) and at the right ones (volume_rl).
   std::vector<float> volume, volume_rl;
-  std::vector<float> cost, aggregated, path, path_row, path_rows;  // semi-global aggregation
+  std::vector<float> cost, aggregated, path, path_rows;  // semi-global aggregation
 };
 
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in

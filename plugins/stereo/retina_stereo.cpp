@@ -385,29 +385,29 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       const int my1 = std::min(mr, room(frame.height - gl.region.y - h * gl.step_y, gl.step_y));
       const cv::Size padded(w + mx0 + mx1, h + my0 + my1);
       const bool crop = k + 1 == n;
-      // The left level's own pixels are the retina's (the same rule on the
-      // same frame, unless it averaged areas); around them only the windows'
-      // half width is read, as left pixels outside the level search nothing.
-      const bool own_pixels = !config_.keep_images && left_frame == &left.source->mat &&
-                              (crop || left.sampling == Retina::Sampling::kFivePoint);
+      // A retina's level holds its frame's pixels by the same rule on the
+      // same grid (unless it averaged areas), so the padded levels take them
+      // instead of sampling them again.
+      const auto holds_frame_pixels = [&](const Retina& retina, const cv::Mat* source) {
+        return !config_.keep_images && source == &retina.source->mat &&
+               (crop || retina.sampling == Retina::Sampling::kFivePoint);
+      };
       const double top = gl.region.y - my0 * gl.step_y;
       const cv::Point2d left_origin(gl.region.x - mx0 * gl.step_x, top), right_origin(right_x - mx0 * gl.step_x, top);
-      const int r = config_.ncc.window / 2;
-      if (own_pixels)
+      // Around the left level only the windows' half width is read, as left
+      // pixels outside the level search nothing.
+      if (holds_frame_pixels(left, left_frame))
         sample_around_level(*left_frame, left.levels[k], left_origin, gl, cv::Point(mx0, my0), padded,
-                            cv::Range(std::max(0, mx0 - r), std::min(padded.width, mx0 + w + r)), crop,
+                            cv::Range(std::max(0, mx0 - mr), std::min(padded.width, mx0 + w + mr)), crop,
                             ls.left_padded);
       else
         retina::sample_level(*left_frame, left_origin.x, left_origin.y, gl.step_x, gl.step_y, padded, crop,
                              ls.left_padded);
-      // The right retina's level, where the verged level overlaps it (outer
-      // levels verge by a few of their pixels), is the right frame sampled by
-      // the same rule on the same grid: its pixel x lies at padded column
-      // mx0 + x + offset - region_shift (region_shift: how many level pixels
-      // left of the left retina's region the right one's lies).
-      const bool right_pixels = !config_.keep_images && right_frame == &right.source->mat &&
-                                (crop || right.sampling == Retina::Sampling::kFivePoint);
-      if (right_pixels)
+      // The right retina's level serves where the verged level overlaps it
+      // (outer levels verge by a few of their pixels): its pixel x lies at
+      // padded column mx0 + x + offset - region_shift (region_shift: how many
+      // level pixels left of the left retina's region the right one's lies).
+      if (holds_frame_pixels(right, right_frame))
         sample_around_level(*right_frame, right.levels[k], right_origin, gl,
                             cv::Point(mx0 + offset - region_shift, my0), padded, cv::Range(0, padded.width), crop,
                             ls.right_padded);

@@ -10,12 +10,12 @@ namespace saccade {
 
 // Sets every element of a CV_8U, CV_32S or CV_32F matrix (any channel count) to `value`.
 inline void fill(cv::Mat& m, double value) {
+  if (m.empty()) return;
   // A continuous matrix is one long row: one loop instead of one per row.
   const bool one_row = m.isContinuous();
   const int rows = one_row ? 1 : m.rows;
   const std::size_t n = one_row ? m.total() * static_cast<std::size_t>(m.channels())
                                 : static_cast<std::size_t>(m.cols) * static_cast<std::size_t>(m.channels());
-  if (m.empty()) return;
   for (int y = 0; y < rows; ++y) {
     switch (m.depth()) {
       case CV_8U: std::fill_n(m.ptr<uint8_t>(y), n, cv::saturate_cast<uint8_t>(value)); break;
