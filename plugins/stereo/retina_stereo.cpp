@@ -91,6 +91,20 @@ SACCADE_AVX2_CLONE int to_source_pixels(const float* __restrict d, const float* 
   return count;
 }
 
+// Each pixel's range made to cover the fixation's too; pixels without a
+// prediction (the whole range) search the fixation's alone.
+void widen_to_fixation(cv::Mat& lo, cv::Mat& hi, int full_lo, int full_hi, int fixation_lo, int fixation_hi) {
+  for (int y = 0; y < lo.rows; ++y) {
+    int* l = lo.ptr<int>(y);
+    int* h = hi.ptr<int>(y);
+    for (int x = 0; x < lo.cols; ++x) {
+      const bool predicted = l[x] != full_lo || h[x] != full_hi;
+      l[x] = predicted ? std::min(l[x], fixation_lo) : fixation_lo;
+      h[x] = predicted ? std::max(h[x], fixation_hi) : fixation_hi;
+    }
+  }
+}
+
 }  // namespace
 
 // A padded level without sampling again what a retina's level already holds:
@@ -352,11 +366,14 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     // ncc_match_cross), so one sweep over the left pixels' candidates serves
     // both directions and the check.
     auto ranges = [&](cv::Mat& lo, cv::Mat& hi) {
-      if (around_fixation) {
+      if (!around_fixation) {
+        predict(out, left, k, full_lo, full_hi, offset, lo, hi);
+      } else if (config_.fovea_prediction) {
+        predict(out, left, k, full_lo, full_hi, offset, lo, hi);
+        widen_to_fixation(lo, hi, full_lo, full_hi, radius_lo, radius_hi);
+      } else {
         fill(lo, radius_lo);
         fill(hi, radius_hi);
-      } else {
-        predict(out, left, k, full_lo, full_hi, offset, lo, hi);
       }
     };
     // The images matched, their ranges, and where the level lies in them
@@ -374,13 +391,31 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       const int w = left.levels[k].cols, h = left.levels[k].rows;
       const cv::Size frame = left_frame->size();
       const double right_x = gl.region.x - offset * gl.step_x;
+      const int mr = config_.ncc.window / 2;
+      // The fovea's ranges, when they follow the level outside, may reach
+      // right pixels beyond the usual margin: the margin then covers them.
+      int reach0 = m, reach1 = m;
+      const bool ranges_first = around_fixation && config_.fovea_prediction;
+      if (ranges_first) {
+        lo_.create(left.levels[k].size(), CV_32S);
+        hi_.create(left.levels[k].size(), CV_32S);
+        ranges(lo_, hi_);
+        for (int y = 0; y < h; ++y) {
+          const int* l = lo_.ptr<int>(y);
+          const int* u = hi_.ptr<int>(y);
+          for (int x = 0; x < w; ++x) {
+            if (l[x] > u[x]) continue;
+            reach0 = std::max(reach0, u[x] - x + mr);            // right pixel x - hi, its window's left column
+            reach1 = std::max(reach1, x - l[x] - (w - 1) + mr);  // right pixel x - lo past the last column
+          }
+        }
+      }
       auto room = [](double pixels, double step) { return std::max(0, static_cast<int>(std::floor(pixels / step + 1e-9))); };
-      const int mx0 = std::min({m, room(gl.region.x, gl.step_x), room(right_x, gl.step_x)});
-      const int mx1 = std::min({m, room(frame.width - gl.region.x - w * gl.step_x, gl.step_x),
+      const int mx0 = std::min({reach0, room(gl.region.x, gl.step_x), room(right_x, gl.step_x)});
+      const int mx1 = std::min({reach1, room(frame.width - gl.region.x - w * gl.step_x, gl.step_x),
                                 room(frame.width - right_x - w * gl.step_x, gl.step_x)});
       // Rows: only the window's half height. Matches move along rows, so rows
       // beyond the windows' reach would be sampled and never read.
-      const int mr = config_.ncc.window / 2;
       const int my0 = std::min(mr, room(gl.region.y, gl.step_y));
       const int my1 = std::min(mr, room(frame.height - gl.region.y - h * gl.step_y, gl.step_y));
       const cv::Size padded(w + mx0 + mx1, h + my0 + my1);
@@ -421,7 +456,12 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
       fill(ls.lo_padded, 1);
       fill(ls.hi_padded, 0);
       cv::Mat lo_inside = ls.lo_padded(inside), hi_inside = ls.hi_padded(inside);
-      ranges(lo_inside, hi_inside);
+      if (ranges_first) {
+        lo_.copyTo(lo_inside);
+        hi_.copyTo(hi_inside);
+      } else {
+        ranges(lo_inside, hi_inside);
+      }
       left_image = &ls.left_padded;
       right_image = &ls.right_padded;
       lo = &ls.lo_padded;
@@ -467,6 +507,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     level.filled_density = level.density;
     if (config_.fill_gaps > 0)
       level.filled_density = fill_gaps(level.disparity, level.score, config_.fill_gaps, gl.step_x);
+    if (config_.fill_occlusions)
+      level.filled_density = fill_occlusions(level.disparity, level.score, gl.step_x, config_.occlusion_slack);
     if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[k]);
   }
   return {};
@@ -485,6 +527,28 @@ double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double toleran
         const float value = std::min(d[last], d[x]);
         for (int i = last + 1; i < x; ++i) {
           d[i] = value;
+          c[i] = 0.0f;
+        }
+      }
+      last = x;
+    }
+    for (int x = 0; x < disparity.cols; ++x) known += d[x] >= 0;
+  }
+  return static_cast<double>(known) / static_cast<double>(disparity.total());
+}
+
+double fill_occlusions(cv::Mat& disparity, cv::Mat& score, double step, int slack) {
+  int known = 0;
+  for (int y = 0; y < disparity.rows; ++y) {
+    float* d = disparity.ptr<float>(y);
+    float* c = score.ptr<float>(y);
+    int last = -1;  // the last matched pixel of the row
+    for (int x = 0; x < disparity.cols; ++x) {
+      if (d[x] < 0) continue;
+      if (last >= 0 && x - last > 1 && d[x] > d[last]) {
+        const double hidden = (d[x] - d[last]) / step + slack;
+        for (int i = std::max(last + 1, x - static_cast<int>(hidden)); i < x; ++i) {
+          d[i] = d[last];
           c[i] = 0.0f;
         }
       }

@@ -26,6 +26,10 @@ struct RetinaStereoConfig {
   bool vergence = false;
   cv::Size fixation_window{16, 12};  // level pixels of the window that finds the fixation disparity
   int fovea_radius = 6;              // fovea level with vergence: pixels searched around the fixation disparity
+  // With vergence, the fovea also searches around what the level outside it
+  // found at each pixel (coarse to fine, as the other levels do), so surfaces
+  // farther than fovea_radius from the fixation's can be matched.
+  bool fovea_prediction = false;
   // Level pixels sampled around each level from the frames (when the retinas
   // carry them), so that windows and matches at a level's edge see real
   // pixels; 0 matches on the level images alone.
@@ -39,6 +43,13 @@ struct RetinaStereoConfig {
   // surface, a gap its windows could not resolve); confidence 0. 0: off.
   // Before `fill`.
   int fill_gaps = 0;
+  // Give unmatched pixels that a nearer surface hides from the right camera
+  // the farther surface's disparity (confidence 0): on a row, in a run between
+  // a far matched pixel (left) and a near one (right) whose disparities differ
+  // by D source pixels, the pixels within D / step + `occlusion_slack` level
+  // pixels of the near one. After `fill_gaps`, before `fill`.
+  bool fill_occlusions = false;
+  int occlusion_slack = 2;
   // Keep, per level, the images actually compared (for comparisons with other
   // matchers on exactly the same pixels).
   bool keep_images = false;
@@ -93,6 +104,14 @@ double fill_holes(cv::Mat& disparity, cv::Mat& score, double fallback);
 // `tolerance`, with the smaller of the two; filled pixels get score 0.
 // Returns the share with a disparity.
 double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double tolerance);
+
+// Fills the unmatched pixels (disparity < 0) of each row that half occlusion
+// explains: in a run between matched pixels a < b with d[b] > d[a] (b nearer),
+// pixel i takes d[a] when b - i <= (d[b] - d[a]) / step + slack; such pixels
+// get score 0. (Left of a near surface's edge, the right camera cannot see
+// the (d[b] - d[a]) source pixels of the far one it hides.) Returns the share
+// with a disparity.
+double fill_occlusions(cv::Mat& disparity, cv::Mat& score, double step, int slack);
 
 // Both retinas must have the same level size and steps; the right retina's
 // regions may be shifted horizontally from the left's by whole level pixels

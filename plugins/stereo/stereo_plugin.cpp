@@ -32,11 +32,19 @@ class StereoNode final : public Node {
                     "software vergence: find the fixation disparity coarse to fine and sample the right frame there "
                     "(needs the retinas' frames)")
         .param_int("fovea_radius", 6, 1, 256, "with vergence: fovea pixels searched around the fixation disparity")
+        .param_bool("fovea_prediction", false,
+                    "with vergence: the fovea also searches around what the level outside it found at each pixel "
+                    "(surfaces farther than fovea_radius from the fixation)")
         .param_int("pad", 8, 0, 64, "level pixels sampled around each level from the frames (0: the levels alone)")
         .param_bool("fill", false, "give unmatched pixels the nearest matched disparity on their row (confidence 0)")
         .param_int("fill_gaps", 0, 0, 64,
                    "give unmatched runs of at most this many pixels on a row the smaller of their ends' disparities "
                    "where those agree within a level pixel (confidence 0; 0: off; before fill)")
+        .param_bool("fill_occlusions", false,
+                    "give unmatched pixels a nearer surface hides from the right camera the farther surface's "
+                    "disparity (confidence 0; after fill_gaps, before fill)")
+        .param_int("occlusion_slack", 2, 0, 64,
+                   "fill_occlusions: level pixels beyond the hidden width (d_near - d_far) / step also filled")
         .param_bool("semi_global", false,
                     "semi-global aggregation of the NCC costs along four paths: denser where windows alone are "
                     "ambiguous or flat (min_score then does not apply)")
@@ -71,6 +79,9 @@ class StereoNode final : public Node {
     c.pad = static_cast<int>(p.get_int("pad"));
     c.fill = p.get_bool("fill");
     c.fill_gaps = static_cast<int>(p.get_int("fill_gaps"));
+    c.fill_occlusions = p.get_bool("fill_occlusions");
+    c.occlusion_slack = static_cast<int>(p.get_int("occlusion_slack"));
+    c.fovea_prediction = p.get_bool("fovea_prediction");
     c.ncc.semi_global = p.get_bool("semi_global");
     c.ncc.p1 = static_cast<float>(p.get_double("sgm_p1"));
     c.ncc.p2 = static_cast<float>(p.get_double("sgm_p2"));

@@ -16,21 +16,45 @@ struct Pair {
   std::shared_ptr<const Retina> left, right;
 };
 
-// right(x) = left(x + d): every left pixel is seen d pixels further left.
-Pair make_pair(int d, cv::Point2d fovea) {
-  // Texture at every scale (as real scenes have), so the coarse levels, which
-  // sample every 20 pixels, still see structure that shifts coherently.
-  cv::Mat texture(480, 640 + d, CV_32F, cv::Scalar(0));
-  int seed = 11;
+// Texture at every scale (as real scenes have), so the coarse levels, which
+// sample every 20 pixels, still see structure that shifts coherently.
+cv::Mat texture_of(cv::Size size, int seed) {
+  cv::Mat texture(size, CV_32F, cv::Scalar(0));
   for (int scale : {1, 4, 16, 48}) {
-    cv::Mat small = test::random_image({(640 + d) / scale + 2, 480 / scale + 2}, seed++), big;
+    cv::Mat small = test::random_image({size.width / scale + 2, size.height / scale + 2}, seed++), big;
     small.convertTo(small, CV_32F);
     cv::resize(small, big, {}, scale, scale, scale == 1 ? cv::INTER_NEAREST : cv::INTER_CUBIC);
-    texture += big(cv::Rect(0, 0, 640 + d, 480)) * 0.25;
+    texture += big(cv::Rect(cv::Point(), size)) * 0.25;
   }
   texture.convertTo(texture, CV_8U);
-  cv::Mat left = texture(cv::Rect(0, 0, 640, 480)).clone();
-  cv::Mat right = texture(cv::Rect(d, 0, 640, 480)).clone();
+  return texture;
+}
+
+Pair retinas_of(const cv::Mat& left, const cv::Mat& right, cv::Point2d fovea);
+
+// right(x) = left(x + d): every left pixel is seen d pixels further left.
+Pair make_pair(int d, cv::Point2d fovea) {
+  const cv::Mat texture = texture_of({640 + d, 480}, 11);
+  return retinas_of(texture(cv::Rect(0, 0, 640, 480)).clone(), texture(cv::Rect(d, 0, 640, 480)).clone(), fovea);
+}
+
+// A far surface at disparity `far` with a nearer block at `near` in front of
+// it (left image pixels `block`): the right camera sees the block `near`
+// pixels further left and the far surface `far`, so the (near - far) far
+// pixels just left of the block are hidden from it.
+Pair make_block_pair(int far, int near, cv::Rect block, cv::Point2d fovea) {
+  const cv::Mat back = texture_of({640 + near, 480}, 11), front = texture_of({640 + near, 480}, 29);
+  cv::Mat left = back(cv::Rect(0, 0, 640, 480)).clone(), right(480, 640, CV_8U);
+  front(block).copyTo(left(block));
+  for (int y = 0; y < 480; ++y)
+    for (int x = 0; x < 640; ++x) {
+      const bool on_block = block.contains({x + near, y});
+      right.at<uint8_t>(y, x) = on_block ? front.at<uint8_t>(y, x + near) : back.at<uint8_t>(y, x + far);
+    }
+  return retinas_of(left, right, fovea);
+}
+
+Pair retinas_of(const cv::Mat& left, const cv::Mat& right, cv::Point2d fovea) {
   auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
   Pair p;
   for (int side = 0; side < 2; ++side) {
@@ -112,6 +136,65 @@ TEST(RetinaStereo, SoftwareVergenceLetsTheFoveaMatchWhatItCouldNotSee) {
   EXPECT_GT(verged_density, 0.6);
   EXPECT_GE(verged_share, 0.95);
   EXPECT_NEAR(b.back().vergence, d, 1.0);
+}
+
+TEST(RetinaStereo, FoveaPredictionMatchesSurfacesBeyondTheFixationsRadius) {
+  // The fovea (x 304..335) fixates the far surface (disparity 20); its left
+  // ten columns show a block at 40, beyond the +-6 searched around the
+  // fixation. The level outside found the block, and with fovea_prediction
+  // the fovea searches there too.
+  const Pair p = make_block_pair(20, 40, cv::Rect(100, 150, 214, 180), {320, 240});
+  RetinaStereoConfig around, predicted;
+  around.max_disparity = predicted.max_disparity = 96;
+  around.vergence = predicted.vergence = true;
+  predicted.fovea_prediction = true;
+  std::vector<LevelDisparity> a, b;
+  ASSERT_NO_FATAL_FAILURE(run_both(p, around, predicted, a, b));
+  EXPECT_NEAR(b.back().vergence, 20, 1.0);
+  // The block's fovea columns (0..7, away from its edge's windows) and the far
+  // surface's (14..31).
+  const cv::Rect block(0, 0, 8, 24), far(14, 0, 18, 24);
+  auto [around_share, around_density] = accuracy(a.back().disparity(block), 40, 0.5);
+  auto [block_share, block_density] = accuracy(b.back().disparity(block), 40, 0.5);
+  auto [far_share, far_density] = accuracy(b.back().disparity(far), 20, 0.5);
+  std::printf("block in the fovea: around the fixation %.3f right of %.3f matched, with prediction %.3f of %.3f; far "
+              "surface %.3f of %.3f\n",
+              around_share, around_density, block_share, block_density, far_share, far_density);
+  EXPECT_LT(around_share * around_density, 0.05) << "the block's disparity is outside the fixation's range";
+  EXPECT_GE(block_share, 0.95);
+  EXPECT_GE(block_density, 0.9);
+  EXPECT_GE(far_share, 0.95);
+  EXPECT_GE(far_density, 0.9);
+}
+
+TEST(RetinaStereo, FillOcclusionsGivesTheHiddenStripTheFarSurface) {
+  // The far pixels just left of a nearer block, which the right camera
+  // cannot see, fail the check; filled, they take the far disparity. The
+  // fovea fixates the block's left edge region (its left 20 columns are far,
+  // 10 of them hidden).
+  const Pair p = make_block_pair(20, 30, cv::Rect(330, 150, 200, 180), {320, 240});
+  RetinaStereoConfig plain, filled;
+  plain.max_disparity = filled.max_disparity = 96;
+  plain.vergence = filled.vergence = true;
+  plain.fovea_prediction = filled.fovea_prediction = true;
+  filled.fill_occlusions = true;
+  std::vector<LevelDisparity> a, b;
+  ASSERT_NO_FATAL_FAILURE(run_both(p, plain, filled, a, b));
+  // Fovea columns 16..25: source x 320..329, hidden (their right match lies
+  // under the block).
+  const cv::Rect hidden(16, 0, 10, 24);
+  auto [plain_share, plain_density] = accuracy(a.back().disparity(hidden), 20, 0.5);
+  auto [filled_share, filled_density] = accuracy(b.back().disparity(hidden), 20, 0.5);
+  const int zero_confidence = cv::countNonZero(b.back().score(hidden) == 0.0f);
+  std::printf("hidden strip: %.3f matched (%.3f right), filled %.3f (%.3f right), %d of %d with confidence 0\n",
+              plain_density, plain_share, filled_density, filled_share, zero_confidence, hidden.area());
+  EXPECT_LT(plain_density, 0.2);
+  // Measured 0.896 of them with a disparity, 0.828 of those right: a
+  // spurious match inside the strip (there is no true one) becomes the far
+  // end of a run on a few rows.
+  EXPECT_GE(filled_density, 0.85);
+  EXPECT_GE(filled_share, 0.8);
+  EXPECT_GE(zero_confidence, hidden.area() * 7 / 10) << "filled pixels have confidence 0";
 }
 
 TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
@@ -199,6 +282,7 @@ TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
   for (const char* paths : {"4", "8"}) {
     auto h = stereo_node_on(p, std::string(R"(<node plugin="stereo"><param name="max_disparity" value="64"/>)") +
                                    R"(<param name="semi_global" value="true"/><param name="fill_gaps" value="2"/>)" +
+                                   R"(<param name="fill_occlusions" value="true"/><param name="fovea_prediction" value="true"/>)" +
                                    R"(<param name="sgm_paths" value=")" + paths + R"("/></node>)");
     ASSERT_NE(h, nullptr);
     auto maps = h->last<FeatureMaps>("maps");
@@ -287,6 +371,32 @@ TEST(FillGaps, FillsOnlyShortRunsBetweenAgreeingEndsOfARow) {
   EXPECT_FLOAT_EQ(c.at<float>(0, 1), 0.0f) << "filled: confidence 0";
   EXPECT_FLOAT_EQ(c.at<float>(0, 4), -1.0f) << "left unmatched";
   EXPECT_FLOAT_EQ(c.at<float>(2, 3), 0.0f) << "matched with score 0: kept";
+}
+
+TEST(FillOcclusions, FillsWithinTheHiddenWidthLeftOfANearerSurface) {
+  // Step 1. Row 0: far 10, near 14 at x 7: 4 + slack 1 = 5 pixels left of it
+  // are filled (x 2..6), x 1 is beyond. Row 1: the nearer end is on the left
+  // (the right camera sees that side): nothing. Row 2: step 2 halves the
+  // hidden width in level pixels: (14 - 10) / 2 + 1 = 3 (x 4..6), runs at the
+  // row's ends are left.
+  cv::Mat d = (cv::Mat_<float>(3, 8) << 10, -1, -1, -1, -1, -1, -1, 14,  //
+               14, -1, -1, -1, -1, -1, -1, 10,                             //
+               -1, 10, -1, -1, -1, -1, -1, 14);
+  cv::Mat c = (cv::Mat_<float>(3, 8) << 0.9f, -1, -1, -1, -1, -1, -1, 0.8f,  //
+               0.9f, -1, -1, -1, -1, -1, -1, 0.8f,                             //
+               -1, 0.9f, -1, -1, -1, -1, -1, 0.8f);
+  cv::Mat rows_1 = d.rowRange(0, 2).clone(), scores_1 = c.rowRange(0, 2).clone();
+  const double density = fill_occlusions(rows_1, scores_1, 1.0, 1);
+  const cv::Mat expected_1 = (cv::Mat_<float>(2, 8) << 10, -1, 10, 10, 10, 10, 10, 14,  //
+                              14, -1, -1, -1, -1, -1, -1, 10);
+  EXPECT_EQ(cv::norm(rows_1, expected_1, cv::NORM_INF), 0.0) << rows_1;
+  EXPECT_DOUBLE_EQ(density, 9.0 / 16.0);
+  EXPECT_FLOAT_EQ(scores_1.at<float>(0, 2), 0.0f) << "filled: confidence 0";
+  EXPECT_FLOAT_EQ(scores_1.at<float>(0, 7), 0.8f) << "matched pixels keep theirs";
+  cv::Mat row_2 = d.row(2).clone(), score_2 = c.row(2).clone();
+  fill_occlusions(row_2, score_2, 2.0, 1);
+  const cv::Mat expected_2 = (cv::Mat_<float>(1, 8) << -1, 10, -1, -1, 10, 10, 10, 14);
+  EXPECT_EQ(cv::norm(row_2, expected_2, cv::NORM_INF), 0.0) << row_2;
 }
 
 TEST(StereoCalibration, ReadsFocalAndBaselineFromQOrP2OrM1AndT) {
