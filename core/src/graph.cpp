@@ -89,6 +89,7 @@ std::string EdgeQos::text() const {
                            : capacity % (1u << 10) == 0 ? std::to_string(capacity >> 10) + "K"
                                                         : std::to_string(capacity));
   if (ros2) out += ",ros2";
+  if (spin) out += ",spin";
   return out;
 }
 
@@ -137,11 +138,12 @@ std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std
     else if (value_after("wait_ms=", 0, 3.6e6, v)) base.wait_ms = v;
     else if (auto bytes = parse_capacity(item)) base.capacity = *bytes;
     else if (item == "ros2") base.ros2 = true;
+    else if (item == "spin") base.spin = true;
     else {
       if (error)
         *error = "qos: unknown item '" + item +
                  "'; expected best_effort or reliable, depth=N (1..100000) or keep_all, deadline_ms=X, wait_ms=X, "
-                 "capacity=N, NK or NM (1 byte to 1024M), ros2";
+                 "capacity=N, NK or NM (1 byte to 1024M), ros2, spin";
       return std::nullopt;
     }
   }

@@ -174,6 +174,7 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
     if (publish) decl.params.push_back({"wait_ms", text::format_number(pe.qos.wait_ms), e.line});
     // Steady clocks are per host: across hosts, latency counts from arrival.
     if (!publish && pe.route == EdgeRoute::kOtherHost) decl.params.push_back({"same_clock", "false", e.line});
+    if (!publish && pe.qos.spin) decl.params.push_back({"spin", "true", e.line});
     if (pe.qos.ros2) {
       decl.params.push_back({"ros2", "true", e.line});
     } else if (pe.zero_copy) {

@@ -563,7 +563,7 @@ bool RingReader::wait_mail(uint64_t after, int64_t timeout_ns) {
   mail.waiters.fetch_add(1, std::memory_order_seq_cst);
   const uint32_t doorbell = mail.doorbell.load(std::memory_order_seq_cst);
   if (mail.closed.load(std::memory_order_seq_cst) == 0 && doorbell == static_cast<uint32_t>(after))
-    futex_wait(mail.doorbell, doorbell, std::max<int64_t>(timeout_ns, 1));
+    wait_for_doorbell(mail.doorbell, doorbell, mail.closed, timeout_ns, wait_);
   mail.waiters.fetch_sub(1, std::memory_order_seq_cst);
   const bool closed = mail.closed.load(std::memory_order_seq_cst) != 0;
   if (closed) followed_ = nullptr;

@@ -210,10 +210,12 @@ class RingReader {
   bool mail(uint64_t after, void* out, std::size_t bytes, uint64_t& post);
   // The number of the followed ring's newest post (0: none, or no ring followed).
   uint64_t newest_post() const;
-  // Sleeps until the followed ring's writer posts after `after`, or
-  // `timeout_ns` pass. False at once when no ring is followed or its writer
-  // closed it (let go of the ring: a new one comes through DDS).
+  // Waits (asleep, or spinning: set_wait) until the followed ring's writer
+  // posts after `after`, or `timeout_ns` pass. False at once when no ring is
+  // followed or its writer closed it (let go of the ring: a new one comes
+  // through DDS).
   bool wait_mail(uint64_t after, int64_t timeout_ns);
+  void set_wait(ReaderWait how) { wait_ = how; }
   // Samples mail() gave.
   uint64_t mailed() const { return mailed_; }
 
@@ -228,6 +230,7 @@ class RingReader {
   RingMapping* find_or_open(const RingAddress& at, std::string& why);
   std::vector<RingMapping*> mappings_;
   RingMapping* followed_ = nullptr;  // one of mappings_
+  ReaderWait wait_ = ReaderWait::kSleep;
   uint64_t mailed_ = 0;
   uint64_t copied_ = 0;
   uint64_t overwritten_ = 0;

@@ -234,7 +234,7 @@ bool MailboxReader::wait(uint64_t after, int64_t timeout_ns) {
   h.waiters.fetch_add(1, std::memory_order_seq_cst);
   const uint32_t doorbell = h.doorbell.load(std::memory_order_seq_cst);
   if (h.closed.load(std::memory_order_seq_cst) == 0 && doorbell == static_cast<uint32_t>(after))
-    futex_wait(h.doorbell, doorbell, std::max<int64_t>(timeout_ns, 1));
+    wait_for_doorbell(h.doorbell, doorbell, h.closed, timeout_ns, wait_);
   h.waiters.fetch_sub(1, std::memory_order_seq_cst);
   return h.closed.load(std::memory_order_seq_cst) == 0;
 }

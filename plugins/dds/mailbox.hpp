@@ -97,13 +97,16 @@ class MailboxReader {
     kOverwritten,  // the writer has used the slot again: the post is gone
   };
   Read read(uint64_t post, std::vector<uint8_t>& out);
-  // Sleeps until the writer posts after `after`, or `timeout_ns` pass. False
-  // at once when nothing is followed or its writer closed the mailbox.
+  // Waits (asleep, or spinning: set_wait) until the writer posts after
+  // `after`, or `timeout_ns` pass. False at once when nothing is followed or
+  // its writer closed the mailbox.
   bool wait(uint64_t after, int64_t timeout_ns);
+  void set_wait(ReaderWait how) { wait_ = how; }
 
  private:
   std::unique_ptr<SharedSegment> segment_;
   uint64_t id_ = 0;
+  ReaderWait wait_ = ReaderWait::kSleep;
 };
 
 }  // namespace saccade::dds

@@ -405,7 +405,9 @@ namespace {
 template <class M, class P>
 class RingSample final : public WireSample {
  public:
-  RingSample(std::size_t capacity, uint32_t slots) : capacity_(capacity), slots_(slots) {}
+  RingSample(std::size_t capacity, uint32_t slots, ReaderWait wait) : capacity_(capacity), slots_(slots) {
+    frames_.set_wait(wait);
+  }
 
   cv::MatAllocator* frame_allocator() override {
     std::string error;
@@ -534,7 +536,8 @@ Codec ring_codec() {
                +[]() -> std::unique_ptr<fdds::TopicDataType> { return std::make_unique<T>(); },
                +[](const WireOptions& o) -> std::unique_ptr<WireSample> {
                  return std::make_unique<RingSample<M, P>>(
-                     o.capacity != 0 ? o.capacity : default_capacity(M::kTypeName), o.ring_slots);
+                     o.capacity != 0 ? o.capacity : default_capacity(M::kTypeName), o.ring_slots,
+                     o.spin ? ReaderWait::kSpin : ReaderWait::kSleep);
                }};
 }
 

@@ -102,6 +102,21 @@ long futex_wait(std::atomic<uint32_t>& word, uint32_t expected, int64_t timeout_
   return ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAIT, expected, &timeout, nullptr, 0);
 }
 
+void wait_for_doorbell(std::atomic<uint32_t>& word, uint32_t value, const std::atomic<uint32_t>& closed,
+                       int64_t timeout_ns, ReaderWait how) {
+  if (how == ReaderWait::kSleep) {
+    futex_wait(word, value, std::max<int64_t>(timeout_ns, 1));
+    return;
+  }
+  const int64_t deadline = steady_now_ns() + timeout_ns;
+  for (unsigned i = 0;; ++i) {
+    if (word.load(std::memory_order_acquire) != value || closed.load(std::memory_order_acquire) != 0) return;
+    // The clock every 256 pauses (a few microseconds): a timeout that late is still a timeout.
+    if ((i & 255u) == 0 && steady_now_ns() >= deadline) return;
+    cpu_relax();
+  }
+}
+
 void futex_wake_all(std::atomic<uint32_t>& word) {
   ::syscall(SYS_futex, reinterpret_cast<uint32_t*>(&word), FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0);
 }

@@ -53,6 +53,18 @@ inline void cpu_relax() {
 #endif
 }
 
+// How a reader waits for its writer's doorbell: asleep on the futex (the
+// default: a wake-up costs some microseconds), or spinning on the word (a
+// post is seen within a microsecond, at the cost of a whole core while it
+// waits). Either way it counts itself among the waiters, so its writer
+// behaves the same (the wake-up it sends a spinning reader is wasted, ~1 us
+// of the writer's, after the post is visible).
+enum class ReaderWait { kSleep, kSpin };
+// Waits until `word` is no longer `value`, `closed` is set, or `timeout_ns`
+// pass, in the way `how` says.
+void wait_for_doorbell(std::atomic<uint32_t>& word, uint32_t value, const std::atomic<uint32_t>& closed,
+                       int64_t timeout_ns, ReaderWait how);
+
 // A writer that woke a sleeping reader lets it take the post before DDS
 // delivers the same message: DDS' delivery wakes threads in the reader's
 // process too, which then compete with the reader for its core (measured at

@@ -83,7 +83,9 @@ std::shared_ptr<const Retina> retina_from_wire(const std::vector<w::Retina>& in,
 template <class M, class W>
 class Sample final : public WireSample {
  public:
-  explicit Sample(const WireOptions& options) : options_(options) {}
+  explicit Sample(const WireOptions& options) : options_(options) {
+    mail_.set_wait(options.spin ? ReaderWait::kSpin : ReaderWait::kSleep);
+  }
 
   Status write(eprosima::fastdds::dds::DataWriter& writer, const Message* message, bool& written) override {
     if (message != nullptr) {

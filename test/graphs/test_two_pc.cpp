@@ -193,6 +193,35 @@ TEST(TwoPcPlan, ARos2EdgeAsksBothBridgesForTheRos2FormNotZeroCopy) {
   }
 }
 
+TEST(TwoPcPlan, ASpinningEdgeAsksItsSubscriberToSpin) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_string(R"(<graph name="g">
+<process name="a" host="h1"/><process name="b" host="h1"/>
+<node name="cam" process="a" plugin="capture.synthetic"/>
+<node name="rec" process="b" plugin="util.record"/>
+<node name="truth" process="b" plugin="util.record"/>
+<edge from="cam.image" to="rec.in" qos="spin"/>
+<edge from="cam.truth" to="truth.in"/>
+</graph>)",
+                                     "spin.xml", diag);
+  auto graph = resolve_graph(decl, testing::default_registry(), diag);
+  ASSERT_TRUE(graph) << diag.format();
+  auto plan = plan_graph(*graph, diag);
+  ASSERT_TRUE(plan) << diag.format();
+  EXPECT_EQ(plan->edges[0].qos.text(), "best_effort,depth=1,spin");
+  EXPECT_NE(format_plan(*graph, *plan).find("qos best_effort,depth=1,spin  zero_copy"), std::string::npos);
+  auto b = partition_graph(*graph, *plan, "b", testing::default_registry(), diag);
+  ASSERT_TRUE(b) << diag.format();
+  std::map<std::string, bool> spins;
+  for (const auto& n : b->nodes)
+    if (n.decl.plugin == "dds.subscribe") spins[n.decl.name] = n.params.get_bool("spin");
+  EXPECT_EQ(spins, (std::map<std::string, bool>{{"dds_sub_cam_image", true}, {"dds_sub_cam_truth", false}}));
+  auto a = partition_graph(*graph, *plan, "a", testing::default_registry(), diag);
+  ASSERT_TRUE(a) << diag.format();
+  for (const auto& n : a->nodes)
+    EXPECT_FALSE(n.params.has("spin") && n.params.get_bool("spin")) << n.decl.name << ": only readers spin";
+}
+
 TEST(TwoPcPlan, MistakesAreReportedWithFileLineAndWhatWasExpected) {
   auto diagnose = [](const std::string& xml, const std::string& process = "") {
     Diagnostics diag;

@@ -24,6 +24,7 @@ using namespace saccade;
 using saccade::dds::FrameRing;
 using saccade::dds::RingAddress;
 using saccade::dds::RingReader;
+using saccade::dds::ReaderWait;
 
 namespace {
 
@@ -362,7 +363,9 @@ TEST(FrameRing, TheMailboxHoldsTheNewestSampleAndSaysWhenThereIsNothingNewer) {
   EXPECT_FALSE(reader.following());
 }
 
-TEST(FrameRing, AReaderSleepingOnTheDoorbellWakesWhenTheWriterPostsAndNeverReadsATornSample) {
+// A reader in another process, asleep or spinning on the doorbell, against
+// a writer posting back to back.
+void reader_races_the_writer(ReaderWait how) {
   auto [ring, at, frame] = ring_with_a_frame();
   ASSERT_TRUE(ring);
   const Numbered first = numbered(1);
@@ -377,6 +380,7 @@ TEST(FrameRing, AReaderSleepingOnTheDoorbellWakesWhenTheWriterPostsAndNeverReads
   ASSERT_GE(child, 0);
   if (child == 0) {
     RingReader reader;
+    reader.set_wait(how);
     std::string why;
     uint64_t last = 0, reads = 0, torn = 0, backwards = 0;
     if (reader.follow(at, why)) {
@@ -417,10 +421,34 @@ TEST(FrameRing, AReaderSleepingOnTheDoorbellWakesWhenTheWriterPostsAndNeverReads
       << "the child saw a torn or out-of-order sample, or missed the last post (its line above says which)";
 }
 
-TEST(FrameRing, AWriterLettingGoOfItsRingSendsItsReadersBackToDds) {
+TEST(FrameRing, AReaderSleepingOnTheDoorbellWakesWhenTheWriterPostsAndNeverReadsATornSample) {
+  reader_races_the_writer(ReaderWait::kSleep);
+}
+
+TEST(FrameRing, AReaderSpinningOnTheDoorbellSeesEveryPostAndNeverReadsATornSample) {
+  reader_races_the_writer(ReaderWait::kSpin);
+}
+
+TEST(FrameRing, ASpinningReaderWaitsOutItsTimeoutWhenNothingIsPosted) {
   auto [ring, at, frame] = ring_with_a_frame();
   ASSERT_TRUE(ring);
   RingReader reader;
+  reader.set_wait(ReaderWait::kSpin);
+  std::string why;
+  ASSERT_TRUE(reader.follow(at, why)) << why;
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_TRUE(reader.wait_mail(0, 20'000'000)) << "the ring is still there";
+  EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(20));
+  const Numbered s = numbered(1);
+  ring->post(&s, sizeof s);
+  EXPECT_TRUE(reader.wait_mail(0, 60'000'000'000)) << "a post already there: at once";
+}
+
+void letting_go_sends_readers_back(ReaderWait how) {
+  auto [ring, at, frame] = ring_with_a_frame();
+  ASSERT_TRUE(ring);
+  RingReader reader;
+  reader.set_wait(how);
   std::string why;
   ASSERT_TRUE(reader.follow(at, why)) << why;
   std::thread sleeper([&] {
@@ -432,6 +460,13 @@ TEST(FrameRing, AWriterLettingGoOfItsRingSendsItsReadersBackToDds) {
   sleeper.join();
   EXPECT_FALSE(reader.following());
   EXPECT_FALSE(reader.wait_mail(0, 60'000'000'000)) << "nothing to follow";
+}
+
+TEST(FrameRing, AWriterLettingGoOfItsRingSendsItsReadersBackToDds) {
+  for (const ReaderWait how : {ReaderWait::kSleep, ReaderWait::kSpin}) {
+    SCOPED_TRACE(how == ReaderWait::kSpin ? "spinning" : "asleep");
+    letting_go_sends_readers_back(how);
+  }
 }
 
 TEST(FrameRing, AReaderLivesWhileItHoldsTheRingWhateverItsProcessIdSays) {

@@ -20,6 +20,7 @@
 
 using saccade::dds::Mailbox;
 using saccade::dds::MailboxReader;
+using saccade::dds::ReaderWait;
 using Read = saccade::dds::MailboxReader::Read;
 
 namespace {
@@ -106,12 +107,13 @@ TEST(Mailbox, AnUnknownOrForeignMailboxIsRefusedWithTheReason) {
   EXPECT_FALSE(reader.wait(0, 1'000'000)) << "nothing followed";
 }
 
-TEST(Mailbox, AWriterClosingItsMailboxWakesItsReadersAndSendsThemBackToDds) {
+void closing_sends_readers_back(ReaderWait how) {
   auto box = make_mailbox(256, 4);
   ASSERT_TRUE(box);
   const std::string name = saccade::dds::mailbox_segment_name(box->id());
   EXPECT_TRUE(shm_exists(name));
   MailboxReader reader;
+  reader.set_wait(how);
   std::string why;
   ASSERT_TRUE(reader.follow(box->id(), why)) << why;
   post(*box, 1);
@@ -129,7 +131,16 @@ TEST(Mailbox, AWriterClosingItsMailboxWakesItsReadersAndSendsThemBackToDds) {
   EXPECT_TRUE(is_message_of(got, 1));
 }
 
-TEST(Mailbox, AReaderInAnotherProcessReadsEveryPostInOrderAndNeverATornOne) {
+TEST(Mailbox, AWriterClosingItsMailboxWakesItsReadersAndSendsThemBackToDds) {
+  for (const ReaderWait how : {ReaderWait::kSleep, ReaderWait::kSpin}) {
+    SCOPED_TRACE(how == ReaderWait::kSpin ? "spinning" : "asleep");
+    closing_sends_readers_back(how);
+  }
+}
+
+// A reader in another process, asleep or spinning, against a writer posting
+// back to back.
+void reader_reads_every_post(ReaderWait how) {
   // The child reads each post in order as the writer posts 20000, back to
   // back, into four slots: the writer laps the reader all the time, so reads
   // race writes of the same slot.
@@ -143,6 +154,7 @@ TEST(Mailbox, AReaderInAnotherProcessReadsEveryPostInOrderAndNeverATornOne) {
   ASSERT_GE(child, 0);
   if (child == 0) {
     MailboxReader reader;
+    reader.set_wait(how);
     std::string why;
     uint64_t last = 0, torn = 0, overwritten = 0, woken = 0;
     if (reader.follow(box->id(), why)) {
@@ -181,6 +193,14 @@ TEST(Mailbox, AReaderInAnotherProcessReadsEveryPostInOrderAndNeverATornOne) {
   ASSERT_EQ(waitpid(child, &status, 0), child);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
       << "the child read a torn message or missed the last post (its line above says which)";
+}
+
+TEST(Mailbox, AReaderInAnotherProcessReadsEveryPostInOrderAndNeverATornOne) {
+  reader_reads_every_post(ReaderWait::kSleep);
+}
+
+TEST(Mailbox, ASpinningReaderInAnotherProcessReadsEveryPostInOrderAndNeverATornOne) {
+  reader_reads_every_post(ReaderWait::kSpin);
 }
 
 TEST(Mailbox, AMailboxWhoseWriterDiedIsRemovedAsStale) {
