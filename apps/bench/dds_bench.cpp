@@ -75,11 +75,18 @@ const PayloadKind kPayloads[] = {
     {"gray", 1024 * 768, "Image"},
     {"colour", 1024 * 768 * 3, "Image"},
 };
+// *_spin: the reader spins instead of sleeping between messages (a whole
+// core): saccade's on its writer's doorbell (the edge's `spin`), the plain
+// peer by polling take() (what a plain Fast DDS reader can do).
 const char* const kVariants[] = {"saccade_in_place", "saccade", "best_in_place", "best", "best_copy", "defaults",
-                                 "defaults_rel"};
+                                 "defaults_rel", "saccade_in_place_spin", "best_in_place_spin"};
+bool spins(const std::string& variant) { return variant.ends_with("_spin"); }
+std::string without_spin(const std::string& variant) {
+  return spins(variant) ? variant.substr(0, variant.size() - 5) : variant;
+}
 // saccade_in_place needs a producer that can write into the edge's memory: images.
 bool applies(const char* variant, const PayloadKind& k) {
-  return std::string(variant) != "saccade_in_place" || std::string(k.saccade_type) == "Image";
+  return without_spin(variant) != "saccade_in_place" || std::string(k.saccade_type) == "Image";
 }
 
 // The saccade message a payload stands for, filled with noise.
@@ -134,7 +141,7 @@ struct SaccadeEnd {
   std::unique_ptr<sd::WireSample> sample;
   fdds::Topic* topic = nullptr;
   sd::EdgeSettings settings;
-  void open(const Options& o, const PayloadKind& p, const std::string& topic_name) {
+  void open(const Options& o, const PayloadKind& p, const std::string& topic_name, bool spin = false) {
     std::string error;
     domain = sd::Domain::get(o.domain, &error);
     if (!domain) throw std::runtime_error(error);
@@ -150,6 +157,7 @@ struct SaccadeEnd {
     if (topic == nullptr) throw std::runtime_error(error);
     sd::WireOptions options;  // as dds.publish / dds.subscribe set them on a zero-copy edge
     sd::set_mailbox(request, *codec, settings.depth, options);
+    options.spin = spin;
     sample = codec->make_sample(options);
   }
 };
@@ -196,8 +204,8 @@ struct SaccadeReader final : Reader {
   fdds::DataReader* reader = nullptr;
   MessagePtr slot;
   uint64_t checksum = 0;
-  SaccadeReader(const Options& o, const PayloadKind& p, const std::string& topic) {
-    end.open(o, p, topic);
+  SaccadeReader(const Options& o, const PayloadKind& p, const std::string& topic, bool spin) {
+    end.open(o, p, topic, spin);
     reader = end.domain->subscriber()->create_datareader(end.topic, sd::reader_qos(*end.domain->subscriber(), end.settings));
   }
   ~SaccadeReader() override { end.domain->subscriber()->delete_datareader(reader); }
@@ -278,9 +286,11 @@ struct BestReader final : Reader {
   // best_copy: the payload copied out before the loan goes back, as a consumer
   // that keeps the frame must (the writer's ring reuses the sample).
   bool copy_out = false;
+  bool poll = false;  // wait() returns at once: the reader polls take()
   std::vector<uint8_t> kept;
-  BestReader(const Options& o, const PayloadKind& k, const std::string& topic, const EdgeQos& edge, bool copy)
-      : p(o.domain, fdds::TypeSupport(new TPubSub()), topic), copy_out(copy), kept(k.bytes) {
+  BestReader(const Options& o, const PayloadKind& k, const std::string& topic, const EdgeQos& edge, bool copy,
+             bool polls)
+      : p(o.domain, fdds::TypeSupport(new TPubSub()), topic), copy_out(copy), poll(polls), kept(k.bytes) {
     fdds::DataReaderQos qos = p.subscriber->get_default_datareader_qos();
     // The same reliability and depth as the saccade edge of the payload's type.
     qos.reliability().kind = edge.reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
@@ -306,7 +316,9 @@ struct BestReader final : Reader {
     reader->return_loan(samples, infos);
     return ok;
   }
-  void wait(int ms) override { reader->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, ms * 1'000'000u)); }
+  void wait(int ms) override {
+    if (!poll) reader->wait_for_unread_message(eprosima::fastrtps::Duration_t(0, ms * 1'000'000u));
+  }
 };
 
 // defaults: an unbounded type, default participant, writer and reader QoS.
@@ -362,7 +374,8 @@ std::unique_ptr<Base> make_best(std::size_t bytes, Args&&... args) {
   }
 }
 
-std::unique_ptr<Writer> make_writer(const Options& o, const PayloadKind& k, const std::string& variant, const std::string& topic) {
+std::unique_ptr<Writer> make_writer(const Options& o, const PayloadKind& k, const std::string& spun, const std::string& topic) {
+  const std::string variant = without_spin(spun);  // the writer is the same
   if (variant == "saccade" || variant == "saccade_in_place")
     return std::make_unique<SaccadeWriter>(o, k, topic, variant == "saccade_in_place");
   if (variant == "best" || variant == "best_copy" || variant == "best_in_place")
@@ -370,10 +383,13 @@ std::unique_ptr<Writer> make_writer(const Options& o, const PayloadKind& k, cons
   return std::make_unique<DefaultWriter>(o, k, topic);
 }
 
-std::unique_ptr<Reader> make_reader(const Options& o, const PayloadKind& k, const std::string& variant, const std::string& topic) {
-  if (variant == "saccade" || variant == "saccade_in_place") return std::make_unique<SaccadeReader>(o, k, topic);
+std::unique_ptr<Reader> make_reader(const Options& o, const PayloadKind& k, const std::string& spun, const std::string& topic) {
+  const std::string variant = without_spin(spun);
+  if (variant == "saccade" || variant == "saccade_in_place")
+    return std::make_unique<SaccadeReader>(o, k, topic, spins(spun));
   if (variant == "best" || variant == "best_copy" || variant == "best_in_place")
-    return make_best<Reader, BestReader>(k.bytes, o, k, topic, default_qos(k.saccade_type), variant == "best_copy");
+    return make_best<Reader, BestReader>(k.bytes, o, k, topic, default_qos(k.saccade_type), variant == "best_copy",
+                                         spins(spun));
   return std::make_unique<DefaultReader>(o, k, topic, variant == "defaults_rel");
 }
 
@@ -528,7 +544,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (o.role == "reader") return run_reader(o);
-    std::printf("%-8s %-16s %9s %10s %10s %10s %12s %10s %8s\n", "payload", "edge", "received", "p50_us", "p99_us", "max_us",
+    std::printf("%-8s %-21s %9s %10s %10s %10s %12s %10s %8s\n", "payload", "edge", "received", "p50_us", "p99_us", "max_us",
                 "msgs_per_s", "MB_per_s", "cpu_%");
     for (const auto& k : kPayloads) {
       if (o.payload != "all" && o.payload != k.name) continue;
@@ -538,16 +554,16 @@ int main(int argc, char** argv) {
         const char* ended = WIFSIGNALED(r.status) ? "signal" : "exit status";
         const int code = WIFSIGNALED(r.status) ? WTERMSIG(r.status) : WEXITSTATUS(r.status);
         if (!r.ok && !r.paced) {
-          std::printf("%-8s %-16s  failed: no result from the reader (%s %d)\n", k.name, variant, ended, code);
+          std::printf("%-8s %-21s  failed: no result from the reader (%s %d)\n", k.name, variant, ended, code);
           continue;
         }
         if (!r.ok) {
-          std::printf("%-8s %-16s %5zu/%-4d %10.1f %10.1f %10.1f %12s %10s %8.1f  (the reader died back to back: %s %d)\n",
+          std::printf("%-8s %-21s %5zu/%-4d %10.1f %10.1f %10.1f %12s %10s %8.1f  (the reader died back to back: %s %d)\n",
                       k.name, variant, r.received, o.messages, r.p50, r.p99, r.max, "-", "-", r.cpu, ended, code);
           std::fflush(stdout);
           continue;
         }
-        std::printf("%-8s %-16s %5zu/%-4d %10.1f %10.1f %10.1f %12.0f %10.1f %8.1f\n", k.name, variant, r.received, o.messages,
+        std::printf("%-8s %-21s %5zu/%-4d %10.1f %10.1f %10.1f %12.0f %10.1f %8.1f\n", k.name, variant, r.received, o.messages,
                     r.p50, r.p99, r.max, r.per_s, r.per_s * static_cast<double>(k.bytes) / 1e6, r.cpu);
         std::fflush(stdout);
       }
