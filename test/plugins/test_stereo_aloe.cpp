@@ -377,12 +377,13 @@ TEST(StereoAloe, OnAGridOfFixations) {
   EXPECT_GE(t.ours_seen[kGapsFilled][kFovea].density(), 0.9);
   // Gaps, occlusions filled and the fovea following the level outside: the
   // floor over the seen pixels (measured 0.920 / 0.059) and over every known
-  // pixel (0.901 / 0.127 against StereoBM's 0.811 / 0.133: at the floor, so
-  // checked a little under it).
+  // pixel (0.901 / 0.127 against StereoBM's 0.811 / 0.133: just over the
+  // floor, which is what is checked; the result is the same to the bit with
+  // AVX2 and AVX-512).
   for (const std::size_t v : {kOcclusionsFilled, kDensest}) {
     EXPECT_GE(t.ours_seen[v][kFovea].density(), 0.9) << kVariants[v].name;
     EXPECT_LE(t.ours_seen[v][kFovea].bad2_rate(), t.bm_seen[kFovea].bad2_rate()) << kVariants[v].name;
-    EXPECT_GE(t.ours[v][kFovea].density(), 0.89) << kVariants[v].name;  // 0.911 and 0.901
+    EXPECT_GE(t.ours[v][kFovea].density(), 0.9) << kVariants[v].name;  // 0.911 and 0.901
     EXPECT_LE(t.ours[v][kFovea].bad2_rate(), t.bm[kFovea].bad2_rate()) << kVariants[v].name;  // 0.131 and 0.127
   }
 }
