@@ -514,7 +514,14 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
   return {};
 }
 
-double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double tolerance) {
+namespace {
+
+// Calls `fill(d, c, a, b)` for every unmatched run a+1 .. b-1 between two
+// matched pixels a < b of each row (d, c: the row's disparities and scores),
+// then returns the share of pixels with a disparity. `fill` may write only
+// inside the run.
+template <class Fill>
+double fill_runs(cv::Mat& disparity, cv::Mat& score, Fill fill) {
   int known = 0;
   for (int y = 0; y < disparity.rows; ++y) {
     float* d = disparity.ptr<float>(y);
@@ -522,14 +529,7 @@ double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double toleran
     int last = -1;  // the last matched pixel of the row
     for (int x = 0; x < disparity.cols; ++x) {
       if (d[x] < 0) continue;
-      const int gap = x - last - 1;
-      if (last >= 0 && gap > 0 && gap <= max_gap && std::abs(d[x] - d[last]) <= tolerance) {
-        const float value = std::min(d[last], d[x]);
-        for (int i = last + 1; i < x; ++i) {
-          d[i] = value;
-          c[i] = 0.0f;
-        }
-      }
+      if (last >= 0 && x - last > 1) fill(d, c, last, x);
       last = x;
     }
     for (int x = 0; x < disparity.cols; ++x) known += d[x] >= 0;
@@ -537,26 +537,29 @@ double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double toleran
   return static_cast<double>(known) / static_cast<double>(disparity.total());
 }
 
-double fill_occlusions(cv::Mat& disparity, cv::Mat& score, double step, int slack) {
-  int known = 0;
-  for (int y = 0; y < disparity.rows; ++y) {
-    float* d = disparity.ptr<float>(y);
-    float* c = score.ptr<float>(y);
-    int last = -1;  // the last matched pixel of the row
-    for (int x = 0; x < disparity.cols; ++x) {
-      if (d[x] < 0) continue;
-      if (last >= 0 && x - last > 1 && d[x] > d[last]) {
-        const double hidden = (d[x] - d[last]) / step + slack;
-        for (int i = std::max(last + 1, x - static_cast<int>(hidden)); i < x; ++i) {
-          d[i] = d[last];
-          c[i] = 0.0f;
-        }
-      }
-      last = x;
-    }
-    for (int x = 0; x < disparity.cols; ++x) known += d[x] >= 0;
+void set_run(float* d, float* c, int first, int end, float value) {
+  for (int i = first; i < end; ++i) {
+    d[i] = value;
+    c[i] = 0.0f;
   }
-  return static_cast<double>(known) / static_cast<double>(disparity.total());
+}
+
+}  // namespace
+
+double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double tolerance) {
+  return fill_runs(disparity, score, [&](float* d, float* c, int a, int b) {
+    if (b - a - 1 <= max_gap && std::abs(d[b] - d[a]) <= tolerance) set_run(d, c, a + 1, b, std::min(d[a], d[b]));
+  });
+}
+
+double fill_occlusions(cv::Mat& disparity, cv::Mat& score, double step, int slack) {
+  return fill_runs(disparity, score, [&](float* d, float* c, int a, int b) {
+    if (d[b] <= d[a]) return;
+    // The nearer surface at b hides (d[b] - d[a]) source pixels of the
+    // farther one from the right camera, just left of its edge.
+    const double hidden = (d[b] - d[a]) / step + slack;
+    set_run(d, c, std::max(a + 1, b - static_cast<int>(hidden)), b, d[a]);
+  });
 }
 
 double fill_holes(cv::Mat& disparity, cv::Mat& score, double fallback) {
