@@ -91,20 +91,6 @@ SACCADE_AVX2_CLONE int to_source_pixels(const float* __restrict d, const float* 
   return count;
 }
 
-// Each pixel's range made to cover the fixation's too; pixels without a
-// prediction (the whole range) search the fixation's alone.
-void widen_to_fixation(cv::Mat& lo, cv::Mat& hi, int full_lo, int full_hi, int fixation_lo, int fixation_hi) {
-  for (int y = 0; y < lo.rows; ++y) {
-    int* l = lo.ptr<int>(y);
-    int* h = hi.ptr<int>(y);
-    for (int x = 0; x < lo.cols; ++x) {
-      const bool predicted = l[x] != full_lo || h[x] != full_hi;
-      l[x] = predicted ? std::min(l[x], fixation_lo) : fixation_lo;
-      h[x] = predicted ? std::max(h[x], fixation_hi) : fixation_hi;
-    }
-  }
-}
-
 }  // namespace
 
 // A padded level without sampling again what a retina's level already holds:
@@ -144,10 +130,10 @@ void RetinaStereo::sample_around_level(const cv::Mat& frame, const cv::Mat& leve
 // none. `offset` is how far left of the left region the right one lies, in
 // level pixels: level disparity = source disparity / step - offset.
 void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo,
-                           int full_hi, int offset, cv::Mat& lo_out, cv::Mat& hi_out) {
+                           int full_hi, int offset, const Span* fixation, cv::Mat& lo_out, cv::Mat& hi_out) {
   const cv::Size size = left.levels[k].size();
-  fill(lo_out, full_lo);
-  fill(hi_out, full_hi);
+  fill(lo_out, fixation != nullptr ? fixation->lo : full_lo);
+  fill(hi_out, fixation != nullptr ? fixation->hi : full_hi);
   if (!config_.coarse_to_fine || k == 0) return;
   const LevelGeometry& g = left.geometry[k];
   const LevelGeometry& outer = left.geometry[k - 1];
@@ -193,6 +179,10 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
       if (centre == kNone) continue;
       lo[x] = std::max(full_lo, centre - radius);
       hi[x] = std::min(full_hi, centre + radius);
+      if (fixation != nullptr) {
+        lo[x] = std::min(lo[x], fixation->lo);
+        hi[x] = std::max(hi[x], fixation->hi);
+      }
     }
   }
 }
@@ -367,10 +357,10 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     // both directions and the check.
     auto ranges = [&](cv::Mat& lo, cv::Mat& hi) {
       if (!around_fixation) {
-        predict(out, left, k, full_lo, full_hi, offset, lo, hi);
+        predict(out, left, k, full_lo, full_hi, offset, nullptr, lo, hi);
       } else if (config_.fovea_prediction) {
-        predict(out, left, k, full_lo, full_hi, offset, lo, hi);
-        widen_to_fixation(lo, hi, full_lo, full_hi, radius_lo, radius_hi);
+        const Span fixation{radius_lo, radius_hi};
+        predict(out, left, k, full_lo, full_hi, offset, &fixation, lo, hi);
       } else {
         fill(lo, radius_lo);
         fill(hi, radius_hi);

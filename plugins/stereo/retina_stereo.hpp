@@ -128,9 +128,14 @@ class RetinaStereo {
   void find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out);
 
  private:
-  // Search ranges for level k's left pixels, from the level outside it.
+  // Search ranges for level k's left pixels, from the level outside it. With
+  // `fixation` (level disparities lo..hi), pixels without a prediction search
+  // it alone and every prediction is widened to cover it.
+  struct Span {
+    int lo, hi;
+  };
   void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo, int full_hi,
-               int offset, cv::Mat& lo, cv::Mat& hi);
+               int offset, const Span* fixation, cv::Mat& lo, cv::Mat& hi);
   int around_fixation_range(bool around, int full, bool low) const;
   void sample_around_level(const cv::Mat& frame, const cv::Mat& level, cv::Point2d origin, const LevelGeometry& g,
                            cv::Point at, cv::Size padded, cv::Range cols, bool crop, cv::Mat& out) const;
