@@ -157,7 +157,7 @@ struct SaccadeEnd {
     if (topic == nullptr) throw std::runtime_error(error);
     sd::WireOptions options;  // as dds.publish / dds.subscribe set them on a zero-copy edge
     sd::set_mailbox(request, *codec, settings.depth, options);
-    options.spin = spin;
+    if (spin) options.reader_wait = sd::ReaderWait::kSpin;
     sample = codec->make_sample(options);
   }
 };

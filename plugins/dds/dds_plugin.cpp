@@ -72,7 +72,7 @@ sd::WireOptions wire_options(const Params& p) {
   o.frame_id = p.get_string("frame_id");
   o.capacity = static_cast<std::size_t>(p.get_int("capacity"));
   o.ring_slots = static_cast<uint32_t>(p.get_int("ring_slots"));
-  o.spin = p.has("spin") && p.get_bool("spin");  // a subscriber's
+  if (p.has("spin") && p.get_bool("spin")) o.reader_wait = sd::ReaderWait::kSpin;  // a subscriber's
   std::string names = p.get_string("joint_names");
   for (std::size_t begin = 0; begin < names.size();) {
     std::size_t end = std::min(names.find(',', begin), names.size());

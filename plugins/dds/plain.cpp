@@ -536,8 +536,7 @@ Codec ring_codec() {
                +[]() -> std::unique_ptr<fdds::TopicDataType> { return std::make_unique<T>(); },
                +[](const WireOptions& o) -> std::unique_ptr<WireSample> {
                  return std::make_unique<RingSample<M, P>>(
-                     o.capacity != 0 ? o.capacity : default_capacity(M::kTypeName), o.ring_slots,
-                     o.spin ? ReaderWait::kSpin : ReaderWait::kSleep);
+                     o.capacity != 0 ? o.capacity : default_capacity(M::kTypeName), o.ring_slots, o.reader_wait);
                }};
 }
 

@@ -84,7 +84,7 @@ template <class M, class W>
 class Sample final : public WireSample {
  public:
   explicit Sample(const WireOptions& options) : options_(options) {
-    mail_.set_wait(options.spin ? ReaderWait::kSpin : ReaderWait::kSleep);
+    mail_.set_wait(options.reader_wait);
   }
 
   Status write(eprosima::fastdds::dds::DataWriter& writer, const Message* message, bool& written) override {

@@ -156,10 +156,10 @@ struct WireOptions {
   bool mailbox = false;
   bool in_order = false;
   uint32_t mailbox_slots = 16;
-  // A reader of a ring or a mailbox spins on its doorbell instead of
-  // sleeping (ReaderWait, shared_segment.hpp): ~1 us instead of ~5-10 us a
-  // frame, at a whole core while it waits. No effect on other edges.
-  bool spin = false;
+  // How a reader of a ring or a mailbox waits for its doorbell (kSpin: ~1 us
+  // instead of ~5-10 us a frame, at a whole core while it waits;
+  // shared_segment.hpp). No effect on other edges.
+  ReaderWait reader_wait = ReaderWait::kSleep;
 };
 
 struct Codec {

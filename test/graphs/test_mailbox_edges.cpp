@@ -54,7 +54,7 @@ sd::WireOptions options(bool mailbox, bool in_order, bool spin = false) {
   sd::WireOptions o;
   o.mailbox = mailbox;
   o.in_order = in_order;
-  o.spin = spin;
+  if (spin) o.reader_wait = sd::ReaderWait::kSpin;
   return o;
 }
 
