@@ -24,6 +24,15 @@ std::optional<ResolvedGraph> load(const std::string& file, const std::string& to
   return graph;
 }
 
+// The same for a graph given as XML text, `name` standing for its file.
+std::optional<ResolvedGraph> load_text(const std::string& xml, const std::string& name) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_string(xml, name, diag);
+  auto graph = resolve_graph(decl, testing::default_registry(), diag);
+  EXPECT_FALSE(diag.has_errors()) << diag.format();
+  return graph;
+}
+
 const PlannedEdge* find_edge(const GraphPlan& plan, const ResolvedGraph& g, const std::string& from,
                              const std::string& to) {
   for (const auto& pe : plan.edges)
@@ -103,8 +112,7 @@ TEST(TwoPcPlan, EachProcessRunsItsNodesAndOneBridgePerRemoteOutput) {
 }
 
 TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTravels) {
-  Diagnostics diag;
-  GraphDecl decl = load_graph_string(R"(<graph name="g">
+  auto graph = load_text(R"(<graph name="g">
 <process name="a" host="h1"/><process name="b" host="h1"/><process name="c" host="h2"/>
 <node name="cam" process="a" plugin="capture.synthetic"/>
 <node name="near" process="b" plugin="util.record"/>
@@ -114,9 +122,9 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
 <edge from="cam.right" to="far.in"/>
 <edge from="cam.truth" to="near_truth.in"/>
 </graph>)",
-                                     "hosts.xml", diag);
-  auto graph = resolve_graph(decl, testing::default_registry(), diag);
-  ASSERT_TRUE(graph) << diag.format();
+                         "hosts.xml");
+  ASSERT_TRUE(graph);
+  Diagnostics diag;
   auto plan = plan_graph(*graph, diag);
   ASSERT_TRUE(plan) << diag.format();
   EXPECT_EQ(plan->edges[0].qos.capacity, 16u << 20);
@@ -166,16 +174,15 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
 }
 
 TEST(TwoPcPlan, ARos2EdgeAsksBothBridgesForTheRos2FormNotZeroCopy) {
-  Diagnostics diag;
-  GraphDecl decl = load_graph_string(R"(<graph name="g">
+  auto graph = load_text(R"(<graph name="g">
 <process name="a" host="h1"/><process name="b" host="h1"/>
 <node name="cam" process="a" plugin="capture.synthetic"/>
 <node name="rec" process="b" plugin="util.record"/>
 <edge from="cam.image" to="rec.in" qos="ros2"/>
 </graph>)",
-                                     "ros2.xml", diag);
-  auto graph = resolve_graph(decl, testing::default_registry(), diag);
-  ASSERT_TRUE(graph) << diag.format();
+                         "ros2.xml");
+  ASSERT_TRUE(graph);
+  Diagnostics diag;
   auto plan = plan_graph(*graph, diag);
   ASSERT_TRUE(plan) << diag.format();
   EXPECT_EQ(plan->edges[0].qos.text(), "best_effort,depth=1,ros2");
@@ -194,8 +201,7 @@ TEST(TwoPcPlan, ARos2EdgeAsksBothBridgesForTheRos2FormNotZeroCopy) {
 }
 
 TEST(TwoPcPlan, ASpinningEdgeAsksItsSubscriberToSpin) {
-  Diagnostics diag;
-  GraphDecl decl = load_graph_string(R"(<graph name="g">
+  auto graph = load_text(R"(<graph name="g">
 <process name="a" host="h1"/><process name="b" host="h1"/>
 <node name="cam" process="a" plugin="capture.synthetic"/>
 <node name="rec" process="b" plugin="util.record"/>
@@ -203,9 +209,9 @@ TEST(TwoPcPlan, ASpinningEdgeAsksItsSubscriberToSpin) {
 <edge from="cam.image" to="rec.in" qos="spin"/>
 <edge from="cam.truth" to="truth.in"/>
 </graph>)",
-                                     "spin.xml", diag);
-  auto graph = resolve_graph(decl, testing::default_registry(), diag);
-  ASSERT_TRUE(graph) << diag.format();
+                         "spin.xml");
+  ASSERT_TRUE(graph);
+  Diagnostics diag;
   auto plan = plan_graph(*graph, diag);
   ASSERT_TRUE(plan) << diag.format();
   EXPECT_EQ(plan->edges[0].qos.text(), "best_effort,depth=1,spin");
