@@ -25,6 +25,7 @@ std::string_view to_string(ParamType type) {
 
 namespace {
 
+using text::format_exact;
 using text::format_number;
 using text::join;
 using text::parse_number;
@@ -158,7 +159,7 @@ Contract& Contract::param_int(std::string name, int64_t def, int64_t min, int64_
                     static_cast<double>(max), {}, std::move(doc)});
 }
 Contract& Contract::param_double(std::string name, double def, double min, double max, std::string doc) {
-  return add_param({std::move(name), ParamType::kDouble, format_number(def), min, max, {}, std::move(doc)});
+  return add_param({std::move(name), ParamType::kDouble, format_exact(def), min, max, {}, std::move(doc)});
 }
 Contract& Contract::param_bool(std::string name, bool def, std::string doc) {
   return add_param({std::move(name), ParamType::kBool, def ? "true" : "false", {}, {}, {}, std::move(doc)});
@@ -205,6 +206,16 @@ const ParamSpec* Contract::find_param(std::string_view name) const {
 int Contract::input_index(std::string_view name) const {
   for (std::size_t i = 0; i < inputs_.size(); ++i)
     if (inputs_[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+int Contract::input_index(const void* key) const {
+  for (std::size_t i = 0; i < inputs_.size(); ++i)
+    if (inputs_[i].key == key) return static_cast<int>(i);
+  return -1;
+}
+int Contract::output_index(const void* key) const {
+  for (std::size_t i = 0; i < outputs_.size(); ++i)
+    if (outputs_[i].key == key) return static_cast<int>(i);
   return -1;
 }
 int Contract::output_index(std::string_view name) const {

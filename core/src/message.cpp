@@ -1,10 +1,6 @@
 #include "saccade/message.hpp"
 
 #include <algorithm>
-#include <chrono>
-
-#include "saccade/node.hpp"
-#include "saccade/stats.hpp"
 
 namespace saccade {
 
@@ -34,6 +30,14 @@ const char* to_string(GazeRequest::Kind kind) {
     case GazeRequest::Kind::kPixelDisparity: return "pixel+disparity";
     case GazeRequest::Kind::kPoint: return "point";
     case GazeRequest::Kind::kRelative: return "relative";
+  }
+  return "?";
+}
+
+const char* to_string(Retina::Sampling sampling) {
+  switch (sampling) {
+    case Retina::Sampling::kFivePoint: return "five_point";
+    case Retina::Sampling::kAreaMean: return "area_mean";
   }
   return "?";
 }
@@ -68,8 +72,6 @@ const char* to_string(FoveaState::State state) {
   }
   return "unknown";
 }
-EmitSink::~EmitSink() = default;
-Node::~Node() = default;
 
 void make_exclusive(cv::Mat& mat) {
   if (mat.u == nullptr) return;
@@ -105,60 +107,6 @@ const std::vector<cv::Mat>* FeatureMaps::find(std::string_view name) const {
   for (std::size_t i = 0; i < names.size(); ++i)
     if (names[i] == name) return &maps[i];
   return nullptr;
-}
-
-int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
-
-namespace {
-
-int checked_port(const NodeSlot& slot, const std::vector<PortSpec>& ports, const char* kind, std::string_view name,
-                 std::string_view type) {
-  for (std::size_t i = 0; i < ports.size(); ++i) {
-    if (ports[i].name != name) continue;
-    // A node may take any output as a plain Message (the DDS bridges do).
-    if (ports[i].type != type && type != kAnyType)
-      throw std::logic_error(std::string(kind) + " '" + std::string(name) + "' carries " + ports[i].type + ", not " +
-                             std::string(type));
-    return static_cast<int>(i);
-  }
-  throw std::logic_error("node '" + slot.name + "' has no " + kind + " '" + std::string(name) + "'");
-}
-
-}  // namespace
-
-namespace {
-
-// The entry of that name (NamedCounter, NamedTiming), added at the end if new.
-template <class Named>
-Named& named(const NodeSlot& slot, std::vector<std::unique_ptr<Named>>* all, std::string_view name) {
-  if (all == nullptr) throw std::logic_error("node '" + slot.name + "' has no stats to count or time in");
-  for (auto& entry : *all)
-    if (entry->name == name) return *entry;
-  all->push_back(std::make_unique<Named>());
-  all->back()->name = std::string(name);
-  return *all->back();
-}
-
-}  // namespace
-
-std::atomic<uint64_t>& OpenContext::counter(std::string_view name) const {
-  return named(*slot_, slot_->stats != nullptr ? &slot_->stats->counters : nullptr, name).value;
-}
-
-Histogram& OpenContext::timing(std::string_view name) const {
-  return named(*slot_, slot_->stats != nullptr ? &slot_->stats->timings : nullptr, name).histogram;
-}
-
-int OpenContext::checked_input(std::string_view name, std::string_view type) const {
-  return checked_port(*slot_, slot_->contract->inputs(), "input", name, type);
-}
-
-int OpenContext::checked_output(std::string_view name, std::string_view type) const {
-  return checked_port(*slot_, slot_->contract->outputs(), "output", name, type);
 }
 
 }  // namespace saccade

@@ -131,6 +131,11 @@ bool Registry::load_library(const std::string& path, std::string* error) {
     e.info.type = type;
     e.info.library = path;
     e.info.contract = f.contract();
+    if (!e.info.contract.problems().empty()) {
+      for (const std::string& problem : e.info.contract.problems())
+        load_errors_.push_back(path + ": node type '" + type + "': " + problem);
+      continue;
+    }
     e.library = lib;
     e.factory = i;
     entries_.emplace(type, std::move(e));

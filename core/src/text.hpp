@@ -50,4 +50,12 @@ inline std::string format_number(double v) {
   return s.str();
 }
 
+// The shortest text that parses back to exactly `v` (a default written in a
+// contract must read back as the value it came from).
+inline std::string format_exact(double v) {
+  char buffer[32];
+  auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, v);
+  return ec == std::errc() ? std::string(buffer, end) : format_number(v);
+}
+
 }  // namespace saccade::text

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "saccade/contract.hpp"
+#include "saccade/node.hpp"
 
 namespace saccade {
 namespace {
@@ -72,6 +73,97 @@ TEST(Params, WrongNameOrTypeThrowsInsideThePlugin) {
   EXPECT_EQ(p.get_int("n"), 3);
   EXPECT_THROW(p.get_double("n"), std::logic_error);
   EXPECT_THROW(p.get_int("m"), std::logic_error);
+}
+
+// A configuration struct as an algorithm would have it, with a nested part.
+enum class Shape { kRound, kSquare };
+struct Inner {
+  float rate = 0.1f;
+  cv::Size size{12, 10};
+};
+struct Sample {
+  int window = 5;
+  double gain = 0.123456789012;  // survives its own text only when written exactly
+  bool enabled = true;
+  Shape shape = Shape::kSquare;
+  bool lock_on_motion = false;
+  std::string label = "x";
+  Inner inner;
+};
+
+void bind_sample(ParamBinder<Sample>& b) {
+  b.field("window", {3, 9}, "odd window", &Sample::window)
+      .field("gain", {0, 1}, "gain", &Sample::gain)
+      .field("enabled", "on or off", &Sample::enabled)
+      .field("shape", {{"round", Shape::kRound}, {"square", Shape::kSquare}}, "shape", &Sample::shape)
+      .field("lock_on", {{"moving", true}, {"salient", false}}, "a bool with names", &Sample::lock_on_motion)
+      .field("label", "text", &Sample::label)
+      .field("rate", {0, 1}, "nested float", &Sample::inner, &Inner::rate)
+      .field("size", "nested size", &Sample::inner, &Inner::size);
+}
+
+TEST(ParamBinder, ContractTakesEveryDefaultFromTheStruct) {
+  const Contract c = Contract("sample").params(&bind_sample);
+  EXPECT_TRUE(c.problems().empty()) << c.problems().front();
+  ASSERT_EQ(c.params().size(), 8u);
+  for (const ParamSpec& p : c.params()) EXPECT_TRUE(p.bound) << p.name;
+  EXPECT_EQ(c.find_param("window")->default_value, "5");
+  EXPECT_EQ(c.find_param("window")->type, ParamType::kInt);
+  EXPECT_EQ(*c.find_param("window")->max, 9);
+  EXPECT_EQ(c.find_param("gain")->default_value, "0.123456789012");
+  EXPECT_EQ(c.find_param("enabled")->default_value, "true");
+  EXPECT_EQ(c.find_param("shape")->default_value, "square");
+  EXPECT_EQ(c.find_param("shape")->choices, (std::vector<std::string>{"round", "square"}));
+  EXPECT_EQ(c.find_param("lock_on")->default_value, "salient");
+  EXPECT_EQ(c.find_param("label")->default_value, "x");
+  EXPECT_EQ(c.find_param("rate")->type, ParamType::kDouble);
+  EXPECT_EQ(c.find_param("rate")->default_value, "0.1") << "a float's default as the float's own text";
+  EXPECT_EQ(c.find_param("size")->default_value, "12x10");
+}
+
+TEST(ParamBinder, ConfigIsFilledFromTheNodesParameters) {
+  const Contract contract = Contract("sample").params(&bind_sample);
+  Params params;
+  for (const ParamSpec& p : contract.params()) {
+    ParamValue v;
+    ASSERT_FALSE(parse_param(p, p.default_value, v)) << p.name;
+    params.set(p.name, v);
+  }
+  params.set("window", int64_t{7});
+  params.set("shape", std::string("round"));
+  params.set("lock_on", std::string("moving"));
+  params.set("rate", 0.5);
+  params.set("size", cv::Size(4, 3));
+  NodeSlot slot;
+  slot.params = &params;
+  slot.contract = &contract;
+  const Sample s = OpenContext(slot).config(&bind_sample);
+  EXPECT_EQ(s.window, 7);
+  EXPECT_DOUBLE_EQ(s.gain, 0.123456789012);
+  EXPECT_TRUE(s.enabled);
+  EXPECT_EQ(s.shape, Shape::kRound);
+  EXPECT_TRUE(s.lock_on_motion);
+  EXPECT_EQ(s.label, "x");
+  EXPECT_FLOAT_EQ(s.inner.rate, 0.5f);
+  EXPECT_EQ(s.inner.size, cv::Size(4, 3));
+}
+
+struct Broken {
+  int window = 50;            // outside the range the node declares
+  Shape shape = Shape::kRound;  // none of the named choices
+};
+
+void bind_broken(ParamBinder<Broken>& b) {
+  b.field("window", {3, 9}, "odd window", &Broken::window)
+      .field("shape", {{"square", Shape::kSquare}}, "shape", &Broken::shape);
+}
+
+TEST(ParamBinder, AStructDefaultTheContractCannotHoldIsAProblem) {
+  const Contract c = Contract("broken").params(&bind_broken);
+  ASSERT_EQ(c.problems().size(), 2u);
+  EXPECT_NE(c.problems()[0].find("'window'"), std::string::npos) << c.problems()[0];
+  EXPECT_NE(c.problems()[0].find("out of range"), std::string::npos) << c.problems()[0];
+  EXPECT_NE(c.problems()[1].find("'shape'"), std::string::npos) << c.problems()[1];
 }
 
 }  // namespace

@@ -27,6 +27,9 @@ struct ParamSpec {
   std::vector<std::string> choices;  // kEnum: one of them; kFlags: a comma list of them
   std::string doc;
   bool required = false;
+  // Taken from a field of the node's configuration struct (Contract::params):
+  // the default is the struct's, and the node reads it back into that field.
+  bool bound = false;
 };
 
 enum class InputKind {
@@ -40,7 +43,42 @@ struct PortSpec {
   std::string type;  // message type name, or "any"
   std::string doc;
   InputKind kind = InputKind::kTrigger;
+  // The node's port constant (In / Out) this port was declared from, so that
+  // process code finds the port by the constant itself; nullptr for ports
+  // declared by name.
+  const void* key = nullptr;
 };
+
+// A node's port, declared once as a constant and used by both its contract
+// and its process code (MediaPipe api2's Input<T> kIn{"IN"}):
+//   static constexpr In<Retina> kRetina{"retina", "the retina to smooth"};
+//   static constexpr Out<FeatureMaps> kMaps{"maps", "the filtered levels"};
+//   Contract("...").ports(kRetina, kMaps)      ctx.get(kRetina), ctx.make(kMaps)
+// The message type is part of the constant, so a port cannot be read as
+// another type than it carries.
+template <class T, InputKind Kind = InputKind::kTrigger>
+struct In {
+  using type = T;
+  static constexpr InputKind kind = Kind;
+  std::string_view name;
+  std::string_view doc;
+};
+// Triggers like In when connected; may stay unconnected (get() gives nullptr).
+template <class T>
+using OptionalIn = In<T, InputKind::kOptional>;
+// Never triggers: the node sees the newest message that arrived, if any.
+template <class T>
+using SideIn = In<T, InputKind::kSide>;
+
+template <class T>
+struct Out {
+  using type = T;
+  std::string_view name;
+  std::string_view doc;
+};
+
+template <class Config>
+class ParamBinder;
 
 using ParamValue =
     std::variant<int64_t, double, bool, std::string, cv::Size, cv::Point2d, std::vector<std::string>>;
@@ -96,6 +134,20 @@ class Contract {
     return *this;
   }
 
+  // Ports from their constants (In, OptionalIn, SideIn, Out), in order.
+  template <class... Ports>
+  Contract& ports(const Ports&... ports) {
+    (add_port(ports), ...);
+    return *this;
+  }
+
+  // Parameters bound to the fields of a configuration struct: `bind` names
+  // each field once (ParamBinder::field), the contract takes each default
+  // from a default-constructed Config, and OpenContext::config fills a
+  // Config from a node's parameters through the same function.
+  template <class Config>
+  Contract& params(void (*bind)(ParamBinder<Config>&));
+
   Contract& param_int(std::string name, int64_t def, int64_t min, int64_t max, std::string doc);
   Contract& param_double(std::string name, double def, double min, double max, std::string doc);
   Contract& param_bool(std::string name, bool def, std::string doc);
@@ -120,19 +172,38 @@ class Contract {
     return true;
   }
 
+  // What is wrong with the contract itself (a bound default that does not
+  // survive its own text, a default outside its range, ...); empty when sound.
+  const std::vector<std::string>& problems() const { return problems_; }
+  void add_problem(std::string problem) { problems_.push_back(std::move(problem)); }
+  void mark_last_param_bound() { params_.back().bound = true; }
+
   const PortSpec* find_input(std::string_view name) const;
   const PortSpec* find_output(std::string_view name) const;
   const ParamSpec* find_param(std::string_view name) const;
   int input_index(std::string_view name) const;   // -1 when absent
   int output_index(std::string_view name) const;  // -1 when absent
+  int input_index(const void* key) const;          // by port constant; -1 when absent
+  int output_index(const void* key) const;
 
  private:
+  template <class T, InputKind Kind>
+  void add_port(const In<T, Kind>& port) {
+    add_input(std::string(port.name), message_type_name<T>(), std::string(port.doc), Kind);
+    inputs_.back().key = &port;
+  }
+  template <class T>
+  void add_port(const Out<T>& port) {
+    output<T>(std::string(port.name), std::string(port.doc));
+    outputs_.back().key = &port;
+  }
   Contract& add_input(std::string name, std::string_view type, std::string doc, InputKind kind);
   Contract& add_param(ParamSpec spec);
   std::string doc_;
   std::vector<PortSpec> inputs_;
   std::vector<PortSpec> outputs_;
   std::vector<ParamSpec> params_;
+  std::vector<std::string> problems_;
 };
 
 // True when a message of type `produced` may travel into an input of type `accepted`.
@@ -141,3 +212,5 @@ inline bool port_types_match(std::string_view produced, std::string_view accepte
 }
 
 }  // namespace saccade
+
+#include "saccade/params.hpp"

@@ -57,6 +57,19 @@ struct NodeSlot {
 
 int64_t steady_now_ns();
 
+// Where a port constant stands in the node's contract; throws (a programming
+// error: the node uses a constant its contract does not list) when absent.
+std::size_t input_port_index(const NodeSlot& slot, const void* key, std::string_view name);
+std::size_t output_port_index(const NodeSlot& slot, const void* key, std::string_view name);
+template <class T, InputKind Kind>
+std::size_t port_index(const NodeSlot& slot, const In<T, Kind>& port) {
+  return input_port_index(slot, &port, port.name);
+}
+template <class T>
+std::size_t port_index(const NodeSlot& slot, const Out<T>& port) {
+  return output_port_index(slot, &port, port.name);
+}
+
 class OpenContext {
  public:
   explicit OpenContext(NodeSlot& slot) : slot_(&slot) {}
@@ -74,6 +87,22 @@ class OpenContext {
   template <class T>
   bool connected(InputHandle<T> h) const {
     return slot_->input_connected[static_cast<std::size_t>(h.index)];
+  }
+  template <class T, InputKind Kind>
+  bool connected(const In<T, Kind>& port) const {
+    return slot_->input_connected[port_index(*slot_, port)];
+  }
+  template <class T>
+  bool connected(const Out<T>& port) const {
+    return slot_->output_connected[port_index(*slot_, port)];
+  }
+  // The node's parameters as its configuration struct (see Contract::params).
+  template <class Config>
+  Config config(void (*bind)(ParamBinder<Config>&)) const {
+    Config config{};
+    ParamBinder<Config> binder(params(), config);
+    bind(binder);
+    return config;
   }
   template <class T>
   bool connected(OutputHandle<T> h) const {
@@ -93,6 +122,10 @@ class OpenContext {
   template <class T>
   void offer_frame_allocator(InputHandle<T> h, cv::MatAllocator* allocator) const {
     slot_->input_allocators[static_cast<std::size_t>(h.index)] = allocator;
+  }
+  template <class T, InputKind Kind>
+  void offer_frame_allocator(const In<T, Kind>& port, cv::MatAllocator* allocator) const {
+    slot_->input_allocators[port_index(*slot_, port)] = allocator;
   }
 
  private:
@@ -117,6 +150,11 @@ class ProcessContext {
     }
   }
 
+  template <class T, InputKind Kind>
+  std::shared_ptr<const T> get(const In<T, Kind>& port) const {
+    return get(InputHandle<T>{static_cast<int>(port_index(*slot_, port))});
+  }
+
   // A pooled message for output `h`, stamped with the trigger input's capture
   // time, origin and frame id.
   template <class T>
@@ -126,10 +164,20 @@ class ProcessContext {
     return m;
   }
 
+  template <class T>
+  std::shared_ptr<T> make(const Out<T>& port) {
+    return make(OutputHandle<T>{static_cast<int>(port_index(*slot_, port))});
+  }
+
   template <class T, class U>
   void emit(OutputHandle<T> h, std::shared_ptr<U> message) {
     static_assert(std::is_base_of_v<Message, U>);
     slot_->sink->emit(h.index, MessagePtr(std::move(message)));
+  }
+  template <class T, class U>
+  void emit(const Out<T>& port, std::shared_ptr<U> message) {
+    static_assert(std::is_base_of_v<T, U> || std::is_same_v<T, Message>, "a port emits the type it carries");
+    emit(OutputHandle<T>{static_cast<int>(port_index(*slot_, port))}, std::move(message));
   }
 
   // The allocator a consumer of output `h` asked frames to be made with (see
@@ -140,6 +188,10 @@ class ProcessContext {
   cv::MatAllocator* frame_allocator(OutputHandle<T> h) const {
     const auto k = static_cast<std::size_t>(h.index);
     return k < slot_->output_allocators.size() ? slot_->output_allocators[k] : nullptr;
+  }
+  template <class T>
+  cv::MatAllocator* frame_allocator(const Out<T>& port) const {
+    return frame_allocator(OutputHandle<T>{static_cast<int>(port_index(*slot_, port))});
   }
 
   const Message* trigger() const { return slot_->trigger; }

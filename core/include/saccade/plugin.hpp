@@ -15,7 +15,7 @@
 namespace saccade {
 
 // Bumped whenever Node, Contract, messages or the descriptor change layout.
-inline constexpr uint32_t kAbiVersion = 7;
+inline constexpr uint32_t kAbiVersion = 8;
 
 // Stamped into every plugin at its build and compared by the host at load.
 struct AbiStamp {
