@@ -14,6 +14,7 @@
 #include "saccade/log.hpp"
 #include "saccade/partition.hpp"
 #include "saccade/registry.hpp"
+#include "saccade/schema.hpp"
 
 namespace {
 
@@ -110,6 +111,18 @@ void print_plugin_text(const NodeTypeInfo& info) {
 std::string md_cell(std::string text) {
   for (std::size_t i = 0; (i = text.find('|', i)) != std::string::npos; i += 2) text.insert(i, "\\");
   return text;
+}
+
+// The JSON every message type is written as (util.jsonl), from the fields
+// each type names once (saccade/schema.hpp).
+void print_message_schemas_markdown() {
+  std::printf("# Messages as JSON\n\nWhat `util.jsonl` writes: one object per message, `type`, `frame` (the frame id), "
+              "`stamp_ns` (capture time), `origin_ns`, then the type's fields in order. Matrices appear by shape "
+              "(`rows`, `cols`, `depth` as OpenCV's CV_8U = 0 ... CV_64F = 6, `channels`), not by pixels; "
+              "non-finite numbers are `null`. The JSON Schema of each type:\n\n");
+  for (std::string_view type : saccade::described_message_types())
+    std::printf("## %.*s\n\n```json\n%s\n```\n\n", static_cast<int>(type.size()), type.data(),
+                saccade::json_schema(type).c_str());
 }
 
 void print_plugin_markdown(const NodeTypeInfo& info) {
@@ -284,6 +297,7 @@ int main(int argc, char** argv) {
       std::cerr << "no plugin '" << plugin_name << "'" << did_you_mean(plugin_name, registry.types()) << "\n";
       return 2;
     }
+    if (markdown && plugin_name.empty()) print_message_schemas_markdown();
     return 0;
   }
 

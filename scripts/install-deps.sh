@@ -12,7 +12,7 @@ packages=(
   libeigen3-dev
   libspdlog-dev libfmt-dev
   libcli11-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   libfastrtps-dev libfastcdr-dev fastddsgen
   gstreamer1.0-tools gstreamer1.0-plugins-base
   openssl iproute2

@@ -1,6 +1,10 @@
 #pragma once
 // Messages travel between nodes as std::shared_ptr<const T>: immutable once emitted,
 // shared across fan-out by reference count, never copied.
+//
+// Each type names its fields once, in `fields(self, visit)`: visit("name", field)
+// for every field in order (the stamp's fields come from Message itself). The
+// JSON lines sink and the schema tests read messages through it (schema.hpp).
 #include <array>
 #include <cstdint>
 #include <initializer_list>
@@ -76,6 +80,12 @@ struct Image final : Message {
 
   cv::Mat mat;
   int camera_id = 0;
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("camera_id", self.camera_id);
+    visit("mat", self.mat);
+  }
 };
 
 // Where one retina level came from: its region of the source frame, in source
@@ -92,6 +102,13 @@ struct LevelGeometry {
   // Level coordinates of source point p (inverse of to_source).
   cv::Point2d from_source(cv::Point2d p) const {
     return {(p.x - region.x) / step_x - 0.5, (p.y - region.y) / step_y - 0.5};
+  }
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("region", self.region);
+    visit("step_x", self.step_x);
+    visit("step_y", self.step_y);
   }
 };
 
@@ -116,6 +133,16 @@ struct Retina final : Message {
   enum class Sampling : uint8_t { kFivePoint, kAreaMean } sampling = Sampling::kFivePoint;
   // The frame the levels were sampled from (shared, not copied), for overlays.
   std::shared_ptr<const Image> source;
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("camera_id", self.camera_id);
+    visit("source_size", self.source_size);
+    visit("fovea", self.fovea);
+    visit("sampling", self.sampling);
+    visit("geometry", self.geometry);
+    visit("levels", self.levels);
+  }
 };
 
 // Named per-level maps sharing a Retina's geometry: maps[i][level] is feature
@@ -150,6 +177,12 @@ struct FeatureMaps final : Message {
   std::shared_ptr<const Retina> retina;
   std::vector<std::string> names;
   std::vector<std::vector<cv::Mat>> maps;
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("names", self.names);
+    visit("maps", self.maps);
+  }
 };
 
 // Motion between two consecutive retinas, per level (index as in the Retina).
@@ -163,6 +196,15 @@ struct Motion final : Message {
   std::vector<cv::Point2d> centroid;   // of the moving pixels, in source pixels ((-1,-1) when none)
   int camera_id = 0;
   bool first = false;  // the first frame: nothing to compare with, no motion reported
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("camera_id", self.camera_id);
+    visit("first", self.first);
+    visit("energy", self.energy);
+    visit("moving", self.moving);
+    visit("centroid", self.centroid);
+  }
 };
 
 // A point or region in a source frame: a fovea position, a target, a ground truth.
@@ -177,6 +219,16 @@ struct Region final : Message {
   double depth = -1.0;  // metres along the optical axis, when known (< 0: unknown)
   int camera_id = 0;
   std::string label;
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("center", self.center);
+    visit("size", self.size);
+    visit("score", self.score);
+    visit("depth", self.depth);
+    visit("camera_id", self.camera_id);
+    visit("label", self.label);
+  }
 };
 
 // A request to turn the head. The fovea controller sends a direction (the
@@ -204,9 +256,26 @@ struct GazeRequest final : Message {
   double azimuth = 0, elevation = 0;  // kRelative
   int camera_id = 0;     // 0 left, 1 right
   std::string reason;    // why: "border" (the fovea reached the margin), "target", ...
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("kind", self.kind);
+    visit("pixel", self.pixel);
+    visit("direction", self.direction);
+    visit("image_size", self.image_size);
+    visit("focal_px", self.focal_px);
+    visit("depth", self.depth);
+    visit("disparity", self.disparity);
+    visit("point", self.point);
+    visit("azimuth", self.azimuth);
+    visit("elevation", self.elevation);
+    visit("camera_id", self.camera_id);
+    visit("reason", self.reason);
+  }
 };
 
 const char* to_string(GazeRequest::Kind kind);
+const char* to_string(Retina::Sampling sampling);
 
 // Where the joints are, as the drives report it; one entry per joint in the
 // head's order (neck, vergence left, tilt left, vergence right, tilt right).
@@ -228,6 +297,17 @@ struct JointState final : Message {
   int64_t cycle = 0;                  // control cycles since the start
   std::string detail;                 // the first problem in words, empty when every joint is ready
   bool all_ready() const;
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("position", self.position);
+    visit("velocity", self.velocity);
+    visit("health", self.health);
+    visit("updated_ns", self.updated_ns);
+    visit("error_code", self.error_code);
+    visit("cycle", self.cycle);
+    visit("detail", self.detail);
+  }
 };
 
 const char* to_string(JointState::Health health);
@@ -248,6 +328,17 @@ struct JointTargets final : Message {
   // stamped it) and when the head took it (this process's clock); 0 otherwise.
   int64_t cause_origin_ns = 0;
   int64_t cause_taken_ns = 0;
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("position", self.position);
+    visit("velocity", self.velocity);
+    visit("hold", self.hold);
+    visit("reset", self.reset);
+    visit("fault", self.fault);
+    visit("cause_origin_ns", self.cause_origin_ns);
+    visit("cause_taken_ns", self.cause_taken_ns);
+  }
 };
 
 // What the fovea controller saw and decided on one frame.
@@ -270,6 +361,22 @@ struct FoveaState final : Message {
   int64_t frames_lost = 0;       // consecutive frames in the lost state
   int camera_id = 0;
   std::shared_ptr<const Retina> retina;  // the retina it was decided on, for overlays
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("state", self.state);
+    visit("fovea", self.fovea);
+    visit("next", self.next);
+    visit("target_center", self.target);
+    visit("target_valid", self.target_valid);
+    visit("score", self.score);
+    visit("attention_shift", self.attention_shift);
+    visit("gaze_request", self.gaze_request);
+    visit("attention_shifts", self.attention_shifts);
+    visit("gaze_requests", self.gaze_requests);
+    visit("frames_lost", self.frames_lost);
+    visit("camera_id", self.camera_id);
+  }
 };
 
 const char* to_string(FoveaState::State state);
@@ -288,6 +395,17 @@ struct Classification final : Message {
   std::shared_ptr<const std::vector<std::string>> classes;  // class names (shared by every message)
   cv::Rect region;               // source pixels the classifier looked at
   int camera_id = 0;
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("outcome", self.outcome);
+    visit("best", self.best);
+    visit("score", self.score);
+    visit("scores", self.scores);
+    visit("classes", self.classes);
+    visit("region", self.region);
+    visit("camera_id", self.camera_id);
+  }
   std::string_view label() const {
     return classes && best >= 0 && best < static_cast<int>(classes->size()) ? std::string_view((*classes)[static_cast<std::size_t>(best)])
                                                                             : std::string_view();
@@ -312,9 +430,24 @@ struct CanFrames final : Message {
     std::array<uint8_t, 64> data{};
     int64_t timestamp_ns = 0;  // when the bus delivered it (the bus's clock)
     bool operator==(const Frame&) const = default;
+
+    template <class Self, class Visit>
+    static void fields(Self& self, Visit&& visit) {
+      visit("can_id", self.can_id);
+      visit("length", self.length);
+      visit("flags", self.flags);
+      visit("data", self.data);
+      visit("timestamp_ns", self.timestamp_ns);
+    }
   };
   std::vector<Frame> frames;
   std::string bus;  // where they were seen, e.g. "socketcan:can0"
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("bus", self.bus);
+    visit("frames", self.frames);
+  }
 };
 
 }  // namespace saccade
