@@ -20,33 +20,30 @@ Status require_gray(const Image& image) {
 class Filters final : public Node {
  public:
   static constexpr const char* kName = "filters";
+  static constexpr In<Image> kImage{"image", "8-bit gray frame"};
+  static constexpr Out<FeatureMaps> kMaps{"maps", "one full-frame map per feature"};
   static Contract contract() {
     return Contract("OpenCV's GaussianBlur, Sobel, magnitude, Laplacian and LoG on the full frame (one level).")
-        .input<Image>("image", "8-bit gray frame")
-        .output<FeatureMaps>("maps", "one full-frame map per feature")
+        .ports(kImage, kMaps)
         .param_flags("features", "gauss,sobel_x,sobel_y,grad_mag,laplacian", full_frame_features(),
                      "features to compute (comma list, or all)");
   }
   Status open(OpenContext& ctx) override {
-    in_ = ctx.input<Image>("image");
-    out_ = ctx.output<FeatureMaps>("maps");
     names_ = ctx.params().get_flags("features");
     if (names_.empty()) return Status::error("features selects nothing");
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto image = ctx.get(in_);
+    auto image = ctx.get(kImage);
     if (Status s = require_gray(*image); !s.ok()) return s;
-    auto maps = ctx.make(out_);
+    auto maps = ctx.make(kMaps);
     maps->set_layout(names_, 1);
     for (std::size_t i = 0; i < names_.size(); ++i) compute_feature(names_[i], image->mat, maps->maps[i][0], scratch_);
-    ctx.emit(out_, std::move(maps));
+    ctx.emit(kMaps, std::move(maps));
     return {};
   }
 
  private:
-  InputHandle<Image> in_;
-  OutputHandle<FeatureMaps> out_;
   std::vector<std::string> names_;
   cv::Mat scratch_;
 };
@@ -54,35 +51,32 @@ class Filters final : public Node {
 class FrameDifference final : public Node {
  public:
   static constexpr const char* kName = "motion";
+  static constexpr In<Image> kImage{"image", "8-bit gray frame"};
+  static constexpr Out<FeatureMaps> kMaps{"maps", "absdiff (CV_8U) and mask (255 above threshold)"};
   static Contract contract() {
     return Contract("OpenCV's absdiff of consecutive full frames and its threshold.")
-        .input<Image>("image", "8-bit gray frame")
-        .output<FeatureMaps>("maps", "absdiff (CV_8U) and mask (255 above threshold)")
+        .ports(kImage, kMaps)
         .param_double("threshold", 15.0, 0.0, 255.0, "absdiff above this is motion");
   }
   Status open(OpenContext& ctx) override {
-    in_ = ctx.input<Image>("image");
-    out_ = ctx.output<FeatureMaps>("maps");
     threshold_ = ctx.params().get_double("threshold");
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto image = ctx.get(in_);
+    auto image = ctx.get(kImage);
     if (Status s = require_gray(*image); !s.ok()) return s;
-    auto maps = ctx.make(out_);
+    auto maps = ctx.make(kMaps);
     maps->set_layout({"absdiff", "mask"}, 1);
     if (prev_ && prev_->mat.size() == image->mat.size()) cv::absdiff(image->mat, prev_->mat, maps->maps[0][0]);
     else maps->maps[0][0] = cv::Mat::zeros(image->mat.size(), CV_8U);
     cv::threshold(maps->maps[0][0], maps->maps[1][0], threshold_, 255, cv::THRESH_BINARY);
     prev_ = image;
-    ctx.emit(out_, std::move(maps));
+    ctx.emit(kMaps, std::move(maps));
     return {};
   }
   void close() override { prev_.reset(); }
 
  private:
-  InputHandle<Image> in_;
-  OutputHandle<FeatureMaps> out_;
   double threshold_ = 15;
   std::shared_ptr<const Image> prev_;
 };
@@ -90,53 +84,51 @@ class FrameDifference final : public Node {
 class Stereo final : public Node {
  public:
   static constexpr const char* kName = "stereo";
+  static constexpr In<Image> kLeft{"left", "8-bit gray left frame"};
+  static constexpr In<Image> kRight{"right", "8-bit gray right frame"};
+  static constexpr Out<FeatureMaps> kMaps{"maps", "disparity_lr and/or disparity_rl (CV_32F)"};
+
+  static void bind(ParamBinder<StereoConfig>& b) {
+    b.field("algorithm", {{"bm", StereoAlgorithm::kBlockMatching}, {"sgbm", StereoAlgorithm::kSemiGlobal}},
+            "block matching or semi-global matching", &StereoConfig::algorithm)
+        .field("num_disparities", {16, 1024}, "search range, a multiple of 16", &StereoConfig::num_disparities)
+        .field("block_size", {3, 51}, "matching window side, odd", &StereoConfig::block_size);
+  }
+
   static Contract contract() {
     return Contract("OpenCV's StereoBM or StereoSGBM (3-way) on full frames, left->right and right->left; "
                     "disparity in pixels, -1 where invalid.")
-        .input<Image>("left", "8-bit gray left frame")
-        .input<Image>("right", "8-bit gray right frame")
-        .output<FeatureMaps>("maps", "disparity_lr and/or disparity_rl (CV_32F)")
-        .param_enum("algorithm", "bm", {"bm", "sgbm"}, "block matching or semi-global matching")
-        .param_int("num_disparities", 128, 16, 1024, "search range, a multiple of 16")
-        .param_int("block_size", 5, 3, 51, "matching window side, odd")
+        .ports(kLeft, kRight, kMaps)
+        .params(&bind)
         .param_enum("direction", "both", {"left_to_right", "right_to_left", "both"}, "which disparity maps");
   }
   Status open(OpenContext& ctx) override {
-    const Params& p = ctx.params();
-    left_ = ctx.input<Image>("left");
-    right_ = ctx.input<Image>("right");
-    out_ = ctx.output<FeatureMaps>("maps");
-    StereoConfig config;
-    config.algorithm = p.get_string("algorithm") == "sgbm" ? StereoAlgorithm::kSemiGlobal : StereoAlgorithm::kBlockMatching;
-    config.num_disparities = static_cast<int>(p.get_int("num_disparities"));
-    config.block_size = static_cast<int>(p.get_int("block_size"));
+    const StereoConfig config = ctx.config(&bind);
     if (config.num_disparities % 16 != 0) return Status::error("num_disparities must be a multiple of 16");
     if (config.block_size % 2 == 0) return Status::error("block_size must be odd");
     stereo_ = std::make_unique<FullFrameStereo>(config);
-    const std::string& d = p.get_string("direction");
+    const std::string& d = ctx.params().get_string("direction");
     if (d != "right_to_left") names_.push_back("disparity_lr");
     if (d != "left_to_right") names_.push_back("disparity_rl");
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto l = ctx.get(left_);
-    auto r = ctx.get(right_);
+    auto l = ctx.get(kLeft);
+    auto r = ctx.get(kRight);
     if (Status s = require_gray(*l); !s.ok()) return s;
     if (Status s = require_gray(*r); !s.ok()) return s;
     if (l->mat.size() != r->mat.size()) return Status::error("left and right frames differ in size");
-    auto maps = ctx.make(out_);
+    auto maps = ctx.make(kMaps);
     maps->set_layout(names_, 1);
     for (std::size_t i = 0; i < names_.size(); ++i) {
       if (names_[i] == "disparity_lr") stereo_->left_to_right(l->mat, r->mat, maps->maps[i][0]);
       else stereo_->right_to_left(l->mat, r->mat, maps->maps[i][0]);
     }
-    ctx.emit(out_, std::move(maps));
+    ctx.emit(kMaps, std::move(maps));
     return {};
   }
 
  private:
-  InputHandle<Image> left_, right_;
-  OutputHandle<FeatureMaps> out_;
   std::unique_ptr<FullFrameStereo> stereo_;
   std::vector<std::string> names_;
 };

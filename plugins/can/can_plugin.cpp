@@ -47,17 +47,37 @@ constexpr const char* kBusSpecDoc =
     "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME";
 
 // Parameters both nodes share: the bus, the joints' nodes and units, the clock.
-Contract& common(Contract& c) {
-  return c.param_string("bus", "virtual:head", kBusSpecDoc)
-      .param_string("nodes", "1,2,3,4,5", "CANopen node ids of the joints: neck, vergence left, tilt left, vergence right, tilt right")
-      .param_string("counts_per_rad", "20000", "encoder counts per radian at the joint (one value, or one per joint)")
-      .param_string("zero_counts", "0", "encoder reading at joint angle 0 (one value, or one per joint)")
-      .param_double("rate", 250.0, 1.0, 10000.0, "control cycles per second")
-      .param_bool("realtime", true, "pace the cycles on the wall clock (false: as fast as the graph runs, simulated time)")
-      .param_double("duration", 0.0, 0.0, 1e9, "stop after this many seconds of control time (0: never)")
-      .param_double("wait_ms", 0.0, 0.0, 1000.0, "wait this long for the first frame of a cycle (a tunnel's packets in flight)")
-      .param_double("loss", 0.0, 0.0, 1.0, "fault injection: the probability that a frame (virtual) or packet (udp) is lost")
-      .param_double("latency_ms", 0.0, 0.0, 1000.0, "fault injection on a virtual bus: every frame arrives this much later");
+struct CommonConfig {
+  std::string bus = "virtual:head";
+  std::string nodes = "1,2,3,4,5";
+  std::string counts_per_rad = "20000";
+  std::string zero_counts = "0";
+  double rate = 250.0;
+  bool realtime = true;
+  double duration = 0.0;
+  double wait_ms = 0.0;
+  double loss = 0.0;
+  double latency_ms = 0.0;
+};
+
+void bind_common(ParamBinder<CommonConfig>& b) {
+  using C = CommonConfig;
+  b.field("bus", kBusSpecDoc, &C::bus)
+      .field("nodes", "CANopen node ids of the joints: neck, vergence left, tilt left, vergence right, tilt right",
+             &C::nodes)
+      .field("counts_per_rad", "encoder counts per radian at the joint (one value, or one per joint)",
+             &C::counts_per_rad)
+      .field("zero_counts", "encoder reading at joint angle 0 (one value, or one per joint)", &C::zero_counts)
+      .field("rate", {1.0, 10000.0}, "control cycles per second", &C::rate)
+      .field("realtime", "pace the cycles on the wall clock (false: as fast as the graph runs, simulated time)",
+             &C::realtime)
+      .field("duration", {0.0, 1e9}, "stop after this many seconds of control time (0: never)", &C::duration)
+      .field("wait_ms", {0.0, 1000.0}, "wait this long for the first frame of a cycle (a tunnel's packets in flight)",
+             &C::wait_ms)
+      .field("loss", {0.0, 1.0}, "fault injection: the probability that a frame (virtual) or packet (udp) is lost",
+             &C::loss)
+      .field("latency_ms", {0.0, 1000.0}, "fault injection on a virtual bus: every frame arrives this much later",
+             &C::latency_ms);
 }
 
 struct Clock {
@@ -85,30 +105,29 @@ struct Setup {
   int64_t wait_ns = 0;
 };
 
-Status setup(const Params& p, Setup& s) {
+Status setup(const CommonConfig& c, Setup& s) {
   std::string error;
-  if (!parse_list(p.get_string("nodes"), 0, s.nodes, error, "nodes") ||
-      !parse_list(p.get_string("counts_per_rad"), s.nodes.size(), s.counts, error, "counts_per_rad") ||
-      !parse_list(p.get_string("zero_counts"), s.nodes.size(), s.zero, error, "zero_counts"))
+  if (!parse_list(c.nodes, 0, s.nodes, error, "nodes") ||
+      !parse_list(c.counts_per_rad, s.nodes.size(), s.counts, error, "counts_per_rad") ||
+      !parse_list(c.zero_counts, s.nodes.size(), s.zero, error, "zero_counts"))
     return Status::error(error);
   for (double n : s.nodes)
     if (n < 1 || n > 127 || n != static_cast<int>(n)) return Status::error("nodes: " + std::to_string(n) + " is not a CANopen node id (1..127)");
-  for (double c : s.counts)
-    if (c == 0) return Status::error("counts_per_rad: 0 counts per radian");
-  s.bus = can::open_bus(p.get_string("bus"), error);
+  for (double counts : s.counts)
+    if (counts == 0) return Status::error("counts_per_rad: 0 counts per radian");
+  s.bus = can::open_bus(c.bus, error);
   if (!s.bus) return Status::error(error);
-  const double loss = p.get_double("loss");
   if (auto* port = dynamic_cast<can::VirtualPort*>(s.bus.get())) {
     s.virtual_bus = &port->bus();
-    if (loss > 0 || p.get_double("latency_ms") > 0)
-      s.virtual_bus->set_faults({loss, static_cast<int64_t>(p.get_double("latency_ms") * 1e6), 1});
+    if (c.loss > 0 || c.latency_ms > 0)
+      s.virtual_bus->set_faults({c.loss, static_cast<int64_t>(c.latency_ms * 1e6), 1});
   } else if (auto* tunnel = dynamic_cast<can::UdpTunnel*>(s.bus.get())) {
-    tunnel->set_loss(loss, 1);
+    tunnel->set_loss(c.loss, 1);
   }
-  s.clock.period_s = 1.0 / p.get_double("rate");
-  s.clock.realtime = p.get_bool("realtime");
-  s.clock.stop_after = static_cast<int64_t>(p.get_double("duration") * p.get_double("rate") + 0.5);
-  s.wait_ns = static_cast<int64_t>(p.get_double("wait_ms") * 1e6);
+  s.clock.period_s = 1.0 / c.rate;
+  s.clock.realtime = c.realtime;
+  s.clock.stop_after = static_cast<int64_t>(c.duration * c.rate + 0.5);
+  s.wait_ns = static_cast<int64_t>(c.wait_ms * 1e6);
   return {};
 }
 
@@ -122,41 +141,55 @@ JointState::Health health(can::DriveHealth h) {
   return JointState::Health::kStarting;
 }
 
+// The master's settings; its timeouts in the parameters' unit, ms, their
+// defaults the master's own.
+struct DriverConfig {
+  can::MasterConfig master;
+  double heartbeat_timeout_ms = static_cast<double>(can::MasterConfig{}.heartbeat_timeout_ns) / 1e6;
+  double feedback_timeout_ms = static_cast<double>(can::MasterConfig{}.feedback_timeout_ns) / 1e6;
+};
+
 class Driver final : public Node {
  public:
   static constexpr const char* kName = "driver";
+  static constexpr SideIn<JointTargets> kTargets{"targets", "the head's targets (newest); none yet: the drives hold"};
+  static constexpr Out<JointState> kState{"state", "positions, velocities and health of every joint, each cycle"};
+
+  static void bind(ParamBinder<DriverConfig>& b) {
+    using C = DriverConfig;
+    using M = can::MasterConfig;
+    b.field("profile_velocity", {0.01, 1000.0}, "rad/s written to the drives (0x6081)", &C::master,
+            &M::profile_velocity)
+        .field("profile_acceleration", {0.1, 1e5}, "rad/s^2 written to the drives (0x6083, 0x6084)", &C::master,
+               &M::profile_acceleration)
+        .field("following_error", {0.001, 10.0}, "rad: the drives' own following-error window (0x6065)", &C::master,
+               &M::following_error_window)
+        .field("heartbeat_ms", {0, 65535}, "heartbeat time written to the drives (0x1017); 0: none", &C::master,
+               &M::heartbeat_ms)
+        .field("heartbeat_timeout_ms", {1.0, 1e6}, "a drive without heartbeat this long is silent",
+               &C::heartbeat_timeout_ms)
+        .field("feedback_timeout_ms", {1.0, 1e6}, "a drive without position this long is silent",
+               &C::feedback_timeout_ms);
+  }
+
   static Contract contract() {
-    Contract c("The CANopen master of the head's CiA 402 drives: configures them by SDO, enables them, streams the "
-               "targets as profile-position set-points, sends SYNC, supervises heartbeats and process data, and "
-               "reports the joints. One control cycle per call: the control loop's clock.");
-    c.side_input<JointTargets>("targets", "the head's targets (newest); none yet: the drives hold")
-        .output<JointState>("state", "positions, velocities and health of every joint, each cycle");
-    common(c)
-        .param_double("profile_velocity", 8.0, 0.01, 1000.0, "rad/s written to the drives (0x6081)")
-        .param_double("profile_acceleration", 400.0, 0.1, 1e5, "rad/s^2 written to the drives (0x6083, 0x6084)")
-        .param_double("following_error", 0.1, 0.001, 10.0, "rad: the drives' own following-error window (0x6065)")
-        .param_int("heartbeat_ms", 20, 0, 65535, "heartbeat time written to the drives (0x1017); 0: none")
-        .param_double("heartbeat_timeout_ms", 100.0, 1.0, 1e6, "a drive without heartbeat this long is silent")
-        .param_double("feedback_timeout_ms", 50.0, 1.0, 1e6, "a drive without position this long is silent");
-    return c;
+    return Contract("The CANopen master of the head's CiA 402 drives: configures them by SDO, enables them, streams "
+                    "the targets as profile-position set-points, sends SYNC, supervises heartbeats and process data, "
+                    "and reports the joints. One control cycle per call: the control loop's clock.")
+        .ports(kTargets, kState)
+        .params(&bind_common)
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    targets_ = ctx.input<JointTargets>("targets");
-    state_ = ctx.output<JointState>("state");
-    const Params& p = ctx.params();
-    if (Status s = setup(p, setup_); !s.ok()) return s;
-    can::MasterConfig config;
+    if (Status s = setup(ctx.config(&bind_common), setup_); !s.ok()) return s;
+    DriverConfig c = ctx.config(&bind);
     static const char* const names[] = {"neck", "vergence_left", "tilt_left", "vergence_right", "tilt_right"};
     for (std::size_t j = 0; j < setup_.nodes.size(); ++j)
-      config.joints.push_back({j < 5 ? names[j] : "joint" + std::to_string(j), static_cast<int>(setup_.nodes[j]),
-                               setup_.counts[j], static_cast<int32_t>(setup_.zero[j])});
-    config.profile_velocity = p.get_double("profile_velocity");
-    config.profile_acceleration = p.get_double("profile_acceleration");
-    config.following_error_window = p.get_double("following_error");
-    config.heartbeat_ms = static_cast<uint16_t>(p.get_int("heartbeat_ms"));
-    config.heartbeat_timeout_ns = static_cast<int64_t>(p.get_double("heartbeat_timeout_ms") * 1e6);
-    config.feedback_timeout_ns = static_cast<int64_t>(p.get_double("feedback_timeout_ms") * 1e6);
-    master_ = std::make_unique<can::Master>(*setup_.bus, config);
+      c.master.joints.push_back({j < 5 ? names[j] : "joint" + std::to_string(j), static_cast<int>(setup_.nodes[j]),
+                                 setup_.counts[j], static_cast<int32_t>(setup_.zero[j])});
+    c.master.heartbeat_timeout_ns = static_cast<int64_t>(c.heartbeat_timeout_ms * 1e6);
+    c.master.feedback_timeout_ns = static_cast<int64_t>(c.feedback_timeout_ms * 1e6);
+    master_ = std::make_unique<can::Master>(*setup_.bus, c.master);
     feedback_.reserve(setup_.nodes.size());
     capture_to_command_ = &ctx.timing("gaze_capture_to_command");
     taken_to_command_ = &ctx.timing("gaze_taken_to_command");
@@ -166,7 +199,7 @@ class Driver final : public Node {
     const int64_t t = setup_.clock.next(ctx);
     if (t < 0) return Status::end_of_stream();
     if (setup_.virtual_bus != nullptr) setup_.virtual_bus->set_time(t);
-    auto targets = ctx.get(targets_);
+    auto targets = ctx.get(kTargets);
     const bool usable = targets && targets->position.size() == setup_.nodes.size();
     if (targets && !usable && !warned_) {
       log().warn("{}: targets for {} joints, expected {}: ignored", ctx.node_name(), targets->position.size(),
@@ -184,7 +217,7 @@ class Driver final : public Node {
       if (targets->cause_taken_ns > 0 && now >= targets->cause_taken_ns)
         taken_to_command_->record(now - targets->cause_taken_ns);
     }
-    auto state = ctx.make(state_);
+    auto state = ctx.make(kState);
     const std::size_t n = feedback_.size();
     state->position.resize(n);
     state->velocity.resize(n);
@@ -203,13 +236,11 @@ class Driver final : public Node {
     state->timestamp_ns = t;
     state->origin_ns = steady_now_ns();
     state->frame_id = setup_.clock.ticks;
-    ctx.emit(state_, std::move(state));
+    ctx.emit(kState, std::move(state));
     return {};
   }
 
  private:
-  InputHandle<JointTargets> targets_;
-  OutputHandle<JointState> state_;
   Setup setup_;
   std::unique_ptr<can::Master> master_;
   std::vector<can::JointFeedback> feedback_;
@@ -219,40 +250,55 @@ class Driver final : public Node {
   int64_t last_cause_ = 0;
 };
 
+// The simulated drives: one motor model for every joint, and the faults to inject.
+struct DrivesConfig {
+  std::string initial = "0";  // rad, one value or one per joint
+  can::MotorModel motor;
+  double fault_at = -1.0, silent_at = -1.0;  // s; -1: never
+  int fault_joint = 0;
+};
+
 class Drives final : public Node {
  public:
   static constexpr const char* kName = "drives";
+  static constexpr Out<JointState> kTruth{
+      "truth", "the shafts' true positions and velocities, each step (for tests and overlays)"};
+
+  static void bind(ParamBinder<DrivesConfig>& b) {
+    using C = DrivesConfig;
+    using M = can::MotorModel;
+    b.field("initial", "joint angles at power-on, rad (one value, or one per joint)", &C::initial)
+        .field("inertia", {1e-6, 10.0}, "kg m^2 at each joint", &C::motor, &M::inertia)
+        .field("friction", {0.0, 10.0}, "Coulomb friction, N m", &C::motor, &M::coulomb)
+        .field("torque_limit", {0.001, 1000.0}, "N m", &C::motor, &M::torque_limit)
+        .field("fault_at", {-1.0, 1e9}, "fault injection: this joint's drive faults at this time, s (-1: never)",
+               &C::fault_at)
+        .field("silent_at", {-1.0, 1e9},
+               "fault injection: this joint's drive falls silent at this time, s (-1: never)", &C::silent_at)
+        .field("fault_joint", {0, 126}, "the joint (index) that faults or falls silent", &C::fault_joint);
+  }
+
   static Contract contract() {
-    Contract c("Simulated CiA 402 drives, one per joint, on a bus: NMT, heartbeat, SDO, PDOs, the 402 state machine "
-               "and profile position mode over a PID position loop on a plant with inertia and friction. Alone in a "
-               "graph on a UDP tunnel they stand in for the robot PC's motors.");
-    c.output<JointState>("truth", "the shafts' true positions and velocities, each step (for tests and overlays)");
-    common(c)
-        .param_string("initial", "0", "joint angles at power-on, rad (one value, or one per joint)")
-        .param_double("inertia", 0.002, 1e-6, 10.0, "kg m^2 at each joint")
-        .param_double("friction", 0.02, 0.0, 10.0, "Coulomb friction, N m")
-        .param_double("torque_limit", 1.5, 0.001, 1000.0, "N m")
-        .param_double("fault_at", -1.0, -1.0, 1e9, "fault injection: this joint's drive faults at this time, s (-1: never)")
-        .param_double("silent_at", -1.0, -1.0, 1e9, "fault injection: this joint's drive falls silent at this time, s (-1: never)")
-        .param_int("fault_joint", 0, 0, 126, "the joint (index) that faults or falls silent");
-    return c;
+    return Contract("Simulated CiA 402 drives, one per joint, on a bus: NMT, heartbeat, SDO, PDOs, the 402 state "
+                    "machine and profile position mode over a PID position loop on a plant with inertia and "
+                    "friction. Alone in a graph on a UDP tunnel they stand in for the robot PC's motors.")
+        .ports(kTruth)
+        .params(&bind_common)
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    truth_ = ctx.output<JointState>("truth");
-    const Params& p = ctx.params();
-    if (Status s = setup(p, setup_); !s.ok()) return s;
+    if (Status s = setup(ctx.config(&bind_common), setup_); !s.ok()) return s;
+    const DrivesConfig c = ctx.config(&bind);
     std::vector<double> initial;
     std::string error;
-    if (!parse_list(p.get_string("initial"), setup_.nodes.size(), initial, error, "initial")) return Status::error(error);
+    if (!parse_list(c.initial, setup_.nodes.size(), initial, error, "initial")) return Status::error(error);
     std::vector<can::DriveConfig> drives;
     for (std::size_t j = 0; j < setup_.nodes.size(); ++j) {
       can::DriveConfig d;
       d.node = static_cast<int>(setup_.nodes[j]);
       d.counts_per_rad = setup_.counts[j];
       d.initial_position = initial[j] + setup_.zero[j] / setup_.counts[j];
-      d.motor.inertia = p.get_double("inertia");
-      d.motor.coulomb = p.get_double("friction");
-      d.motor.torque_limit = p.get_double("torque_limit");
+      d.motor = c.motor;
       // Gains for the same closed-loop bandwidth whatever the inertia.
       const double scale = d.motor.inertia / can::MotorModel{}.inertia;
       d.motor.kp *= scale;
@@ -260,9 +306,9 @@ class Drives final : public Node {
       d.motor.kd *= scale;
       drives.push_back(d);
     }
-    fault_at_ = p.get_double("fault_at");
-    silent_at_ = p.get_double("silent_at");
-    fault_joint_ = static_cast<std::size_t>(p.get_int("fault_joint"));
+    fault_at_ = c.fault_at;
+    silent_at_ = c.silent_at;
+    fault_joint_ = static_cast<std::size_t>(c.fault_joint);
     if ((fault_at_ >= 0 || silent_at_ >= 0) && fault_joint_ >= drives.size())
       return Status::error("fault_joint " + std::to_string(fault_joint_) + " is beyond the " +
                            std::to_string(drives.size()) + " joints");
@@ -282,7 +328,7 @@ class Drives final : public Node {
       silent_at_ = -1;
     }
     rack_->step(t, setup_.clock.period_s, setup_.wait_ns);
-    auto truth = ctx.make(truth_);
+    auto truth = ctx.make(kTruth);
     const std::size_t n = rack_->size();
     truth->position.resize(n);
     truth->velocity.resize(n);
@@ -300,12 +346,11 @@ class Drives final : public Node {
     truth->timestamp_ns = t;
     truth->origin_ns = steady_now_ns();
     truth->frame_id = setup_.clock.ticks;
-    ctx.emit(truth_, std::move(truth));
+    ctx.emit(kTruth, std::move(truth));
     return {};
   }
 
  private:
-  OutputHandle<JointState> truth_;
   Setup setup_;
   std::unique_ptr<can::DriveRack> rack_;
   double fault_at_ = -1, silent_at_ = -1;
@@ -336,35 +381,49 @@ can::Frame from_message(const CanFrames::Frame& m) {
   return f;
 }
 
+struct TapConfig {
+  std::string bus = "virtual:head";
+  double period_ms = 10.0;
+  int max_frames = 1000;
+  bool errors = false;
+  double duration = 0.0;  // s; 0: never ends
+};
+
 class Tap final : public Node {
  public:
   static constexpr const char* kName = "tap";
+  static constexpr Out<CanFrames> kFrames{
+      "frames", "the frames of one period, in arrival order (periods without frames emit nothing)"};
+
+  static void bind(ParamBinder<TapConfig>& b) {
+    using C = TapConfig;
+    b.field("bus", kBusSpecDoc, &C::bus)
+        .field("period_ms", {0.1, 60000.0}, "batch period", &C::period_ms)
+        .field("max_frames", {1, 1000000}, "a batch ends early when it holds this many frames", &C::max_frames)
+        .field("errors", "also deliver error frames (all error classes)", &C::errors)
+        .field("duration", {0.0, 1e7}, "end the stream after this many seconds (0: never)", &C::duration);
+  }
+
   static Contract contract() {
     return Contract("Every frame a bus delivers, as CanFrames messages of one batch per period (a source, like "
                     "candump): to watch the head's bus from another process or PC, or to bridge it (with can.send).")
-        .output<CanFrames>("frames", "the frames of one period, in arrival order (periods without frames emit nothing)")
-        .param_string("bus", "virtual:head", kBusSpecDoc)
-        .param_double("period_ms", 10.0, 0.1, 60000.0, "batch period")
-        .param_int("max_frames", 1000, 1, 1000000, "a batch ends early when it holds this many frames")
-        .param_bool("errors", false, "also deliver error frames (all error classes)")
-        .param_double("duration", 0.0, 0.0, 1e7, "end the stream after this many seconds (0: never)");
+        .ports(kFrames)
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    out_ = ctx.output<CanFrames>("frames");
-    const Params& p = ctx.params();
+    const TapConfig c = ctx.config(&bind);
     std::string error;
-    spec_ = p.get_string("bus");
+    spec_ = c.bus;
     bus_ = can::open_bus(spec_, error);
     if (!bus_) return Status::error(error);
-    if (p.get_bool("errors")) {
+    if (c.errors) {
       can::FilterSet filters;
       filters.error_mask = can::error_class::kAll;
       bus_->set_filters(filters);
     }
-    period_ns_ = static_cast<int64_t>(p.get_double("period_ms") * 1e6);
-    max_frames_ = static_cast<std::size_t>(p.get_int("max_frames"));
-    const double duration = p.get_double("duration");
-    end_ns_ = duration > 0 ? steady_now_ns() + static_cast<int64_t>(duration * 1e9) : 0;
+    period_ns_ = static_cast<int64_t>(c.period_ms * 1e6);
+    max_frames_ = static_cast<std::size_t>(c.max_frames);
+    end_ns_ = c.duration > 0 ? steady_now_ns() + static_cast<int64_t>(c.duration * 1e9) : 0;
     return {};
   }
   Status process(ProcessContext& ctx) override {
@@ -372,7 +431,7 @@ class Tap final : public Node {
       const int64_t start = steady_now_ns();
       if ((end_ns_ > 0 && start >= end_ns_) || ctx.stop_requested()) return Status::end_of_stream();
       const int64_t until = end_ns_ > 0 ? std::min(start + period_ns_, end_ns_) : start + period_ns_;
-      auto batch = ctx.make(out_);
+      auto batch = ctx.make(kFrames);
       batch->frames.clear();
       batch->bus = spec_;
       can::Frame f;
@@ -382,13 +441,12 @@ class Tap final : public Node {
       batch->timestamp_ns = batch->frames.front().timestamp_ns;
       batch->origin_ns = start;
       batch->frame_id = batches_++;
-      ctx.emit(out_, std::move(batch));
+      ctx.emit(kFrames, std::move(batch));
       return {};
     }
   }
 
  private:
-  OutputHandle<CanFrames> out_;
   std::unique_ptr<can::Bus> bus_;
   std::string spec_;
   int64_t period_ns_ = 0, end_ns_ = 0, batches_ = 0;
@@ -398,14 +456,15 @@ class Tap final : public Node {
 class Send final : public Node {
  public:
   static constexpr const char* kName = "send";
+  static constexpr In<CanFrames> kFrames{"frames", "the frames to send"};
+
   static Contract contract() {
     return Contract("Sends every frame of its CanFrames input onto a bus, in order (a sink, like cansend): with "
                     "can.tap at the other end, a bus bridged across processes or PCs. Error frames are not sent.")
-        .input<CanFrames>("frames", "the frames to send")
+        .ports(kFrames)
         .param_string("bus", "virtual:head", kBusSpecDoc);
   }
   Status open(OpenContext& ctx) override {
-    in_ = ctx.input<CanFrames>("frames");
     std::string error;
     bus_ = can::open_bus(ctx.params().get_string("bus"), error);
     if (!bus_) return Status::error(error);
@@ -415,7 +474,7 @@ class Send final : public Node {
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    for (const CanFrames::Frame& m : ctx.get(in_)->frames) {
+    for (const CanFrames::Frame& m : ctx.get(kFrames)->frames) {
       const can::Frame f = from_message(m);
       if (f.error) {
         bump(*skipped_);
@@ -433,7 +492,6 @@ class Send final : public Node {
   }
 
  private:
-  InputHandle<CanFrames> in_;
   std::unique_ptr<can::Bus> bus_;
   std::atomic<uint64_t>* sent_ = nullptr;
   std::atomic<uint64_t>* failed_ = nullptr;

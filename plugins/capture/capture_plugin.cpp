@@ -12,28 +12,37 @@ namespace {
 using namespace saccade;
 using namespace saccade::capture;
 
-Contract& common_params(Contract& c) {
-  return c.param_enum("rate", "realtime", {"realtime", "fast"}, "pace frames at their media time, or as fast as consumers allow")
-      .param_double("fps", 0.0, 0.0, 10000.0, "frame rate for timestamps and pacing (0: the source's own, else 30)")
-      .param_bool("loop", false, "start again at the end instead of ending the stream")
-      .param_enum("color", "gray", {"gray", "color", "unchanged"}, "convert frames to 8-bit gray or BGR, or keep them")
-      .param_size("resize", {0, 0}, "resize every frame to WxH (0x0: keep)")
-      .param_int("camera_id", 0, 0, 255, "camera id carried by the images");
+enum class ColorMode { kGray, kColor, kUnchanged };
+
+// How every file and camera node delivers its frames (Delivery).
+struct DeliveryConfig {
+  bool realtime = true;  // pace at media time, else as fast as consumers allow
+  double fps = 0.0;      // 0: the source's own, else 30
+  bool loop = false;
+  ColorMode color = ColorMode::kGray;
+  cv::Size resize{0, 0};  // 0x0: keep
+  int camera_id = 0;
+};
+
+// The delivery parameters of a node whose Config derives from DeliveryConfig.
+template <class Config>
+void bind_delivery(ParamBinder<Config>& b) {
+  b.field("rate", {{"realtime", true}, {"fast", false}}, "pace frames at their media time, or as fast as consumers allow",
+          &Config::realtime)
+      .field("fps", {0, 10000}, "frame rate for timestamps and pacing (0: the source's own, else 30)", &Config::fps)
+      .field("loop", "start again at the end instead of ending the stream", &Config::loop)
+      .field("color", {{"gray", ColorMode::kGray}, {"color", ColorMode::kColor}, {"unchanged", ColorMode::kUnchanged}},
+             "convert frames to 8-bit gray or BGR, or keep them", &Config::color)
+      .field("resize", "resize every frame to WxH (0x0: keep)", &Config::resize)
+      .field("camera_id", {0, 255}, "camera id carried by the images", &Config::camera_id);
 }
 
 // Turns raw reads into pooled, stamped, paced Image messages.
 class Delivery {
  public:
-  void configure(const Params& p) {
-    realtime_ = p.get_string("rate") == "realtime";
-    fps_ = p.get_double("fps");
-    loop_ = p.get_bool("loop");
-    color_ = p.get_string("color");
-    resize_ = p.get_size("resize");
-    camera_ = static_cast<int>(p.get_int("camera_id"));
-  }
+  void configure(const DeliveryConfig& config) { config_ = config; }
   double fps_for(const FrameReader& r) const {
-    if (fps_ > 0) return fps_;
+    if (config_.fps > 0) return config_.fps;
     double f = r.fps();
     return f > 0 && f < 1000 ? f : 30.0;
   }
@@ -48,7 +57,7 @@ class Delivery {
     int64_t media = 0;
     error->clear();
     if (!reader.read(target, media, error)) {
-      if (!error->empty() || !loop_ || !reader.rewind()) return false;
+      if (!error->empty() || !config_.loop || !reader.rewind()) return false;
       loop_offset_ns_ = last_media_ns_ + static_cast<int64_t>(1e9 / fps_for(reader));
       if (!reader.read(target, media, error)) return false;
     }
@@ -62,7 +71,7 @@ class Delivery {
       convert(image.mat);
       raw_.release();  // a buffer of the consumer's: not kept here
     }
-    image.camera_id = camera_;
+    image.camera_id = config_.camera_id;
     image.timestamp_ns = media;
     image.origin_ns = steady_now_ns();
     return true;
@@ -70,7 +79,7 @@ class Delivery {
 
   // Sleeps until the frame's media time (realtime files); false when stopped.
   bool pace(ProcessContext& ctx, const FrameReader& reader, int64_t media_ns) {
-    if (!realtime_ || reader.live()) return true;
+    if (!config_.realtime || reader.live()) return true;
     if (first_frame_) {
       first_frame_ = false;
       start_steady_ns_ = steady_now_ns();
@@ -80,12 +89,11 @@ class Delivery {
     return ctx.sleep_until(start_steady_ns_ + (media_ns - start_media_ns_));
   }
 
-  int camera_id() const { return camera_; }
-
  private:
   bool needs_conversion(const cv::Mat& frame) const {
-    return (color_ == "gray" && frame.channels() != 1) || (color_ == "color" && frame.channels() != 3) ||
-           (resize_.area() > 0 && frame.size() != resize_);
+    return (config_.color == ColorMode::kGray && frame.channels() != 1) ||
+           (config_.color == ColorMode::kColor && frame.channels() != 3) ||
+           (config_.resize.area() > 0 && frame.size() != config_.resize);
   }
 
   // Converts raw_ into `out` without allocating in steady state: when no
@@ -93,15 +101,15 @@ class Delivery {
   // (or, for a consumer's allocator, the frame is copied into its buffer).
   void convert(cv::Mat& out) {
     cv::Mat* src = &raw_;
-    if (color_ == "gray" && raw_.channels() != 1) {
+    if (config_.color == ColorMode::kGray && raw_.channels() != 1) {
       cv::cvtColor(raw_, tmp_, raw_.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
       src = &tmp_;
-    } else if (color_ == "color" && raw_.channels() != 3) {
+    } else if (config_.color == ColorMode::kColor && raw_.channels() != 3) {
       cv::cvtColor(raw_, tmp_, raw_.channels() == 4 ? cv::COLOR_BGRA2BGR : cv::COLOR_GRAY2BGR);
       src = &tmp_;
     }
-    if (resize_.area() > 0 && src->size() != resize_) {
-      cv::resize(*src, out, resize_, 0, 0, cv::INTER_AREA);
+    if (config_.resize.area() > 0 && src->size() != config_.resize) {
+      cv::resize(*src, out, config_.resize, 0, 0, cv::INTER_AREA);
       return;
     }
     if (out.allocator != nullptr) {
@@ -111,43 +119,38 @@ class Delivery {
     std::swap(out, *src);
   }
 
-  bool realtime_ = true, loop_ = false, first_frame_ = true;
-  double fps_ = 0;
-  std::string color_;
-  cv::Size resize_;
-  int camera_ = 0;
+  DeliveryConfig config_;
+  bool first_frame_ = true;
   cv::Mat raw_, tmp_;
   int64_t loop_offset_ns_ = 0, last_media_ns_ = 0, start_steady_ns_ = 0, start_media_ns_ = 0;
 };
 
-// A single-output capture node over one reader; Derived opens the reader.
+// A single-output capture node over one reader; Derived declares its port
+// kImage, its Config (a DeliveryConfig) with bind, and opens the reader.
 template <class Derived>
 class SingleCapture : public Node {
  public:
   Status open(OpenContext& ctx) override {
-    out_ = ctx.output<Image>("image");
-    delivery_.configure(ctx.params());
+    const typename Derived::Config config = ctx.config(&Derived::bind);
+    delivery_.configure(config);
     std::string error;
-    reader_ = static_cast<Derived*>(this)->open_reader(ctx.params(), &error);
+    reader_ = static_cast<Derived*>(this)->open_reader(config, ctx.params(), &error);
     if (!reader_) return Status::error(error);
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto image = ctx.make(out_);
-    if (!delivery_.read(*reader_, *image, ctx.frame_allocator(out_), &error_))
+    auto image = ctx.make(Derived::kImage);
+    if (!delivery_.read(*reader_, *image, ctx.frame_allocator(Derived::kImage), &error_))
       return error_.empty() ? Status::end_of_stream() : Status::error(error_);
     image->frame_id = frame_++;
     if (!delivery_.pace(ctx, *reader_, image->timestamp_ns)) return Status::end_of_stream();
     image->origin_ns = steady_now_ns();  // released now: latency starts here, not before the pacing sleep
-    ctx.emit(out_, std::move(image));
+    ctx.emit(Derived::kImage, std::move(image));
     return {};
   }
 
- protected:
-  Delivery delivery_;
-
  private:
-  OutputHandle<Image> out_;
+  Delivery delivery_;
   std::unique_ptr<FrameReader> reader_;
   std::string error_;
   int64_t frame_ = 0;
@@ -156,12 +159,16 @@ class SingleCapture : public Node {
 class Video final : public SingleCapture<Video> {
  public:
   static constexpr const char* kName = "video";
+  static constexpr Out<Image> kImage{"image", "one frame"};
+  using Config = DeliveryConfig;
+  static void bind(ParamBinder<Config>& b) { bind_delivery(b); }
   static Contract contract() {
-    Contract c("Frames of a video file (any format OpenCV's FFmpeg backend reads).");
-    c.output<Image>("image", "one frame").required_string("path", "video file");
-    return common_params(c);
+    return Contract("Frames of a video file (any format OpenCV's FFmpeg backend reads).")
+        .ports(kImage)
+        .required_string("path", "video file")
+        .params(&bind);
   }
-  std::unique_ptr<FrameReader> open_reader(const Params& p, std::string* error) {
+  std::unique_ptr<FrameReader> open_reader(const Config&, const Params& p, std::string* error) {
     return open_video(p.get_string("path"), error);
   }
 };
@@ -169,83 +176,111 @@ class Video final : public SingleCapture<Video> {
 class Images final : public SingleCapture<Images> {
  public:
   static constexpr const char* kName = "images";
-  static Contract contract() {
-    Contract c("An image sequence named by a printf pattern, read until the first missing number.");
-    c.output<Image>("image", "one image of the sequence")
-        .required_string("pattern", "file pattern, e.g. ${SACCADE_SAMPLE_DATA}/left%02d.jpg")
-        .param_int("first", 1, 0, 1'000'000'000, "number of the first image");
-    return common_params(c);
+  static constexpr Out<Image> kImage{"image", "one image of the sequence"};
+  struct Config : DeliveryConfig {
+    int first = 1;
+  };
+  static void bind(ParamBinder<Config>& b) {
+    b.field("first", {0, 1'000'000'000}, "number of the first image", &Config::first);
+    bind_delivery(b);
   }
-  std::unique_ptr<FrameReader> open_reader(const Params& p, std::string* error) {
-    return open_sequence(p.get_string("pattern"), static_cast<int>(p.get_int("first")), p.get_double("fps"), error);
+  static Contract contract() {
+    return Contract("An image sequence named by a printf pattern, read until the first missing number.")
+        .ports(kImage)
+        .required_string("pattern", "file pattern, e.g. ${SACCADE_SAMPLE_DATA}/left%02d.jpg")
+        .params(&bind);
+  }
+  std::unique_ptr<FrameReader> open_reader(const Config& c, const Params& p, std::string* error) {
+    return open_sequence(p.get_string("pattern"), c.first, c.fps, error);
   }
 };
 
 class OneImage final : public SingleCapture<OneImage> {
  public:
   static constexpr const char* kName = "image";
-  static Contract contract() {
-    Contract c("One image, decoded once and emitted repeatedly without copying (a memory source).");
-    c.output<Image>("image", "the image")
-        .required_string("path", "image file")
-        .param_int("count", 1, 0, 1'000'000'000, "times to emit it (0: until stopped)");
-    return common_params(c);
+  static constexpr Out<Image> kImage{"image", "the image"};
+  struct Config : DeliveryConfig {
+    int64_t count = 1;  // 0: until stopped
+  };
+  static void bind(ParamBinder<Config>& b) {
+    b.field("count", {0, 1'000'000'000}, "times to emit it (0: until stopped)", &Config::count);
+    bind_delivery(b);
   }
-  std::unique_ptr<FrameReader> open_reader(const Params& p, std::string* error) {
-    return open_image(p.get_string("path"), p.get_int("count"), p.get_double("fps"), error);
+  static Contract contract() {
+    return Contract("One image, decoded once and emitted repeatedly without copying (a memory source).")
+        .ports(kImage)
+        .required_string("path", "image file")
+        .params(&bind);
+  }
+  std::unique_ptr<FrameReader> open_reader(const Config& c, const Params& p, std::string* error) {
+    return open_image(p.get_string("path"), c.count, c.fps, error);
   }
 };
 
 class Camera final : public SingleCapture<Camera> {
  public:
   static constexpr const char* kName = "camera";
-  static Contract contract() {
-    Contract c("A V4L2 camera through OpenCV, by index (0) or device path (/dev/video0).");
-    c.output<Image>("image", "one frame, stamped with its capture time")
-        .param_string("device", "0", "camera index or device path")
-        .param_size("size", {0, 0}, "requested frame size (0x0: the camera's default)");
-    return common_params(c);
+  static constexpr Out<Image> kImage{"image", "one frame, stamped with its capture time"};
+  struct Config : DeliveryConfig {
+    std::string device = "0";
+    cv::Size size{0, 0};  // 0x0: the camera's default
+  };
+  static void bind(ParamBinder<Config>& b) {
+    b.field("device", "camera index or device path", &Config::device)
+        .field("size", "requested frame size (0x0: the camera's default)", &Config::size);
+    bind_delivery(b);
   }
-  std::unique_ptr<FrameReader> open_reader(const Params& p, std::string* error) {
-    return open_camera(p.get_string("device"), p.get_size("size"), p.get_double("fps"), error);
+  static Contract contract() {
+    return Contract("A V4L2 camera through OpenCV, by index (0) or device path (/dev/video0).")
+        .ports(kImage)
+        .params(&bind);
+  }
+  std::unique_ptr<FrameReader> open_reader(const Config& c, const Params&, std::string* error) {
+    return open_camera(c.device, c.size, c.fps, error);
   }
 };
 
 class Stereo final : public Node {
  public:
   static constexpr const char* kName = "stereo";
+  static constexpr Out<Image> kLeft{"left", "left image (camera 0)"};
+  static constexpr Out<Image> kRight{"right", "right image (camera 1)"};
+  struct Config : DeliveryConfig {
+    int64_t count = 0;  // still images: pairs to emit (0: one)
+  };
+  static void bind(ParamBinder<Config>& b) {
+    b.field("count", {0, 1'000'000'000}, "pairs to emit for still images (0: one pair for images, all for videos)",
+            &Config::count);
+    bind_delivery(b);
+  }
   static Contract contract() {
-    Contract c("Two sources read in lockstep as a stereo pair: both images of a pair carry the same timestamp and frame id.");
-    c.output<Image>("left", "left image (camera 0)")
-        .output<Image>("right", "right image (camera 1)")
+    return Contract("Two sources read in lockstep as a stereo pair: both images of a pair carry the same timestamp "
+                    "and frame id.")
+        .ports(kLeft, kRight)
         .required_string("left_path", "left video, image, pattern (%d) or camera")
         .required_string("right_path", "right video, image, pattern (%d) or camera")
-        .param_int("count", 0, 0, 1'000'000'000, "pairs to emit for still images (0: one pair for images, all for videos)");
-    return common_params(c);
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    const Params& p = ctx.params();
-    left_out_ = ctx.output<Image>("left");
-    right_out_ = ctx.output<Image>("right");
-    left_.configure(p);
-    right_.configure(p);
+    const Config c = ctx.config(&bind);
+    left_.configure(c);
+    right_.configure(c);
     std::string error;
-    int64_t count = p.get_int("count");
     auto make = [&](const std::string& path) -> std::unique_ptr<FrameReader> {
-      if (classify_source(path) == SourceKind::kImage) return open_image(path, count > 0 ? count : 1, p.get_double("fps"), &error);
-      return open_any(path, p.get_double("fps"), &error);
+      if (classify_source(path) == SourceKind::kImage) return open_image(path, c.count > 0 ? c.count : 1, c.fps, &error);
+      return open_any(path, c.fps, &error);
     };
-    left_reader_ = make(p.get_string("left_path"));
+    left_reader_ = make(ctx.params().get_string("left_path"));
     if (!left_reader_) return Status::error(error);
-    right_reader_ = make(p.get_string("right_path"));
+    right_reader_ = make(ctx.params().get_string("right_path"));
     if (!right_reader_) return Status::error(error);
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto l = ctx.make(left_out_);
-    auto r = ctx.make(right_out_);
-    if (!left_.read(*left_reader_, *l, ctx.frame_allocator(left_out_), &error_) ||
-        !right_.read(*right_reader_, *r, ctx.frame_allocator(right_out_), &error_))
+    auto l = ctx.make(kLeft);
+    auto r = ctx.make(kRight);
+    if (!left_.read(*left_reader_, *l, ctx.frame_allocator(kLeft), &error_) ||
+        !right_.read(*right_reader_, *r, ctx.frame_allocator(kRight), &error_))
       return error_.empty() ? Status::end_of_stream() : Status::error(error_);
     l->camera_id = 0;
     r->camera_id = 1;
@@ -253,82 +288,89 @@ class Stereo final : public Node {
     r->timestamp_ns = l->timestamp_ns;  // one pair, one instant
     if (!left_.pace(ctx, *left_reader_, l->timestamp_ns)) return Status::end_of_stream();
     l->origin_ns = r->origin_ns = steady_now_ns();
-    ctx.emit(left_out_, std::move(l));
-    ctx.emit(right_out_, std::move(r));
+    ctx.emit(kLeft, std::move(l));
+    ctx.emit(kRight, std::move(r));
     return {};
   }
 
  private:
-  OutputHandle<Image> left_out_, right_out_;
   Delivery left_, right_;
   std::unique_ptr<FrameReader> left_reader_, right_reader_;
   std::string error_;
   int64_t frame_ = 0;
 };
 
+// The synthetic node's parameters: the scene, and the frames it is seen in.
+struct SyntheticConfig {
+  SyntheticScene scene;  // its background comes from the file below
+  std::string background = "${SACCADE_SAMPLE_DATA}/vtest.avi";
+  cv::Size size{640, 480};
+  int64_t count = 300;  // 0: endless
+  bool realtime = false;
+  double fps = 30.0;
+  bool gray = true;
+};
+
 class Synthetic final : public Node {
  public:
   static constexpr const char* kName = "synthetic";
+  static constexpr Out<Image> kImage{"image", "left view"};
+  static constexpr Out<Image> kRight{"right",
+                                     "right view: target shifted left by 'disparity', background by 'background_disparity'"};
+  static constexpr Out<Region> kTruth{"truth", "the target's exact centre and size in the left view (the centre may be "
+                                               "outside the frame); score = its disparity; label: visible, partial or "
+                                               "outside"};
+
+  static void bind(ParamBinder<SyntheticConfig>& b) {
+    using C = SyntheticConfig;
+    using S = SyntheticScene;
+    b.field("background", "image or video whose first frame is the background", &C::background)
+        .field("size", "frame size (the background is resized to it)", &C::size)
+        .field("target_size", {4, 1024}, "side of the square target, pixels", &C::scene, &S::target_size)
+        .field("path", {{"circle", "circle"}, {"line", "line"}, {"still", "still"}, {"bounce", "bounce"}},
+               "how the target moves", &C::scene, &S::path)
+        .field("radius", {0, 10000}, "circle radius or half the line's length, pixels", &C::scene, &S::radius)
+        .field("period", {1, 1e9}, "frames per revolution or back-and-forth", &C::scene, &S::period_frames)
+        .field("speed", {0, 10000}, "bounce: pixels per frame", &C::scene, &S::speed)
+        .field("angle", {-360, 360}, "bounce: direction of the first run, degrees (y down)", &C::scene, &S::angle_deg)
+        .field("overshoot", {0, 10000}, "bounce: how far beyond the frame's edges the target goes, pixels", &C::scene,
+               &S::overshoot)
+        .field("jump_every", {0, 1'000'000'000}, "bounce: jump to a new place every N frames (0: never)", &C::scene,
+               &S::jump_every)
+        .field("disparity", {-1024, 1024}, "target disparity in the right view, pixels", &C::scene, &S::disparity)
+        .field("background_disparity", {-1024, 1024}, "background disparity in the right view, pixels", &C::scene,
+               &S::background_disparity)
+        .field("count", {0, 1'000'000'000}, "frames before end of stream (0: endless)", &C::count)
+        .field("seed", {0, 1'000'000'000}, "texture seed", &C::scene, &S::seed)
+        .field("rate", {{"realtime", true}, {"fast", false}}, "pace at fps, or as fast as consumers allow", &C::realtime)
+        .field("fps", {0.1, 10000}, "frame rate of the timestamps", &C::fps)
+        .field("color", {{"gray", true}, {"color", false}}, "emit gray or BGR images", &C::gray);
+  }
+
   static Contract contract() {
-    Contract c("A textured square moving on a known path over a real background frame, with exact ground truth "
-               "(synthetic data); optionally a right view with known disparities.");
-    c.output<Image>("image", "left view")
-        .output<Image>("right", "right view: target shifted left by 'disparity', background by 'background_disparity'")
-        .output<Region>("truth", "the target's exact centre and size in the left view (the centre may be outside the "
-                                 "frame); score = its disparity; label: visible, partial or outside")
-        .param_string("background", "${SACCADE_SAMPLE_DATA}/vtest.avi", "image or video whose first frame is the background")
-        .param_size("size", {640, 480}, "frame size (the background is resized to it)")
-        .param_int("target_size", 48, 4, 1024, "side of the square target, pixels")
-        .param_enum("path", "circle", {"circle", "line", "still", "bounce"}, "how the target moves")
-        .param_double("radius", 120.0, 0.0, 10000.0, "circle radius or half the line's length, pixels")
-        .param_double("period", 120.0, 1.0, 1e9, "frames per revolution or back-and-forth")
-        .param_double("speed", 4.0, 0.0, 10000.0, "bounce: pixels per frame")
-        .param_double("angle", 30.0, -360.0, 360.0, "bounce: direction of the first run, degrees (y down)")
-        .param_double("overshoot", 0.0, 0.0, 10000.0, "bounce: how far beyond the frame's edges the target goes, pixels")
-        .param_int("jump_every", 0, 0, 1'000'000'000, "bounce: jump to a new place every N frames (0: never)")
-        .param_int("disparity", 0, -1024, 1024, "target disparity in the right view, pixels")
-        .param_int("background_disparity", 0, -1024, 1024, "background disparity in the right view, pixels")
-        .param_int("count", 300, 0, 1'000'000'000, "frames before end of stream (0: endless)")
-        .param_int("seed", 1, 0, 1'000'000'000, "texture seed")
-        .param_enum("rate", "fast", {"realtime", "fast"}, "pace at fps, or as fast as consumers allow")
-        .param_double("fps", 30.0, 0.1, 10000.0, "frame rate of the timestamps")
-        .param_enum("color", "gray", {"gray", "color"}, "emit gray or BGR images");
-    return c;
+    return Contract("A textured square moving on a known path over a real background frame, with exact ground truth "
+                    "(synthetic data); optionally a right view with known disparities.")
+        .ports(kImage, kRight, kTruth)
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    const Params& p = ctx.params();
-    image_out_ = ctx.output<Image>("image");
-    right_out_ = ctx.output<Image>("right");
-    truth_out_ = ctx.output<Region>("truth");
-    right_wanted_ = ctx.connected(right_out_);
+    SyntheticConfig c = ctx.config(&bind);
+    right_wanted_ = ctx.connected(kRight);
     std::string error;
-    auto reader = open_any(p.get_string("background"), 0, &error);
+    auto reader = open_any(c.background, 0, &error);
     if (!reader) return Status::error("background: " + error);
     cv::Mat bg;
     int64_t t = 0;
     if (!reader->read(bg, t, &error)) return Status::error("background: cannot read a frame " + error);
     if (bg.channels() == 1) cv::cvtColor(bg, bg, cv::COLOR_GRAY2BGR);
-    cv::Size size = p.get_size("size");
-    if (size.area() > 0) cv::resize(bg, bg, size, 0, 0, cv::INTER_AREA);
-    SyntheticScene scene;
-    scene.background = bg;
-    scene.target_size = static_cast<int>(p.get_int("target_size"));
-    if (scene.target_size > std::min(bg.cols, bg.rows)) return Status::error("target_size is larger than the frame");
-    scene.path = p.get_string("path");
-    scene.radius = p.get_double("radius");
-    scene.period_frames = p.get_double("period");
-    scene.speed = p.get_double("speed");
-    scene.angle_deg = p.get_double("angle");
-    scene.overshoot = p.get_double("overshoot");
-    scene.jump_every = static_cast<int>(p.get_int("jump_every"));
-    scene.disparity = static_cast<int>(p.get_int("disparity"));
-    scene.background_disparity = static_cast<int>(p.get_int("background_disparity"));
-    scene.seed = static_cast<uint64_t>(p.get_int("seed"));
-    renderer_ = std::make_unique<SyntheticRenderer>(scene);
-    count_ = p.get_int("count");
-    realtime_ = p.get_string("rate") == "realtime";
-    fps_ = p.get_double("fps");
-    gray_ = p.get_string("color") == "gray";
+    if (c.size.area() > 0) cv::resize(bg, bg, c.size, 0, 0, cv::INTER_AREA);
+    if (c.scene.target_size > std::min(bg.cols, bg.rows)) return Status::error("target_size is larger than the frame");
+    c.scene.background = bg;
+    renderer_ = std::make_unique<SyntheticRenderer>(c.scene);
+    count_ = c.count;
+    realtime_ = c.realtime;
+    fps_ = c.fps;
+    gray_ = c.gray;
     return {};
   }
   Status process(ProcessContext& ctx) override {
@@ -348,26 +390,26 @@ class Synthetic final : public Node {
       m.timestamp_ns = ts;
       m.origin_ns = origin;
     };
-    auto left = ctx.make(image_out_);
+    auto left = ctx.make(kImage);
     to_output(left_bgr_, left->mat);
     left->camera_id = 0;
     stamp(*left);
-    auto truth = ctx.make(truth_out_);
+    auto truth = ctx.make(kTruth);
     truth->center = renderer_->target_center(k);
     truth->size = cv::Size2d(renderer_->scene().target_size, renderer_->scene().target_size);
     truth->score = renderer_->scene().disparity;
     const double visible = renderer_->target_visible(k);
     truth->label = visible >= 1.0 ? "visible" : visible > 0.0 ? "partial" : "outside";
     stamp(*truth);
-    ctx.emit(image_out_, std::move(left));
+    ctx.emit(kImage, std::move(left));
     if (right_wanted_) {
-      auto right = ctx.make(right_out_);
+      auto right = ctx.make(kRight);
       to_output(right_bgr_, right->mat);
       right->camera_id = 1;
       stamp(*right);
-      ctx.emit(right_out_, std::move(right));
+      ctx.emit(kRight, std::move(right));
     }
-    ctx.emit(truth_out_, std::move(truth));
+    ctx.emit(kTruth, std::move(truth));
     return {};
   }
 
@@ -376,8 +418,6 @@ class Synthetic final : public Node {
     if (gray_) cv::cvtColor(bgr, out, cv::COLOR_BGR2GRAY);
     else bgr.copyTo(out);
   }
-  OutputHandle<Image> image_out_, right_out_;
-  OutputHandle<Region> truth_out_;
   std::unique_ptr<SyntheticRenderer> renderer_;
   cv::Mat left_bgr_, right_bgr_;
   int64_t count_ = 0, frame_ = 0, start_ns_ = 0;
@@ -385,65 +425,69 @@ class Synthetic final : public Node {
   bool realtime_ = false, gray_ = true, right_wanted_ = false;
 };
 
+// The sim_head node's parameters: the head's cameras and scene, and what they are read from.
+struct SimHeadParams {
+  std::string scene = "${SACCADE_SAMPLE_DATA}/aloeL.jpg";
+  capture::SimHeadConfig head;  // its focal_px comes from hfov_deg
+  double hfov_deg = 60.0;
+  double fps = 25.0;
+};
+
 class SimHeadNode final : public Node {
  public:
   static constexpr const char* kName = "sim_head";
+  static constexpr In<JointState> kState{
+      "state", "the joints (the drives' encoder feedback); a frame is rendered every 1/fps of its time"};
+  static constexpr Out<Image> kLeft{"left", "left camera (camera_id 0), BGR"};
+  static constexpr Out<Image> kRight{"right", "right camera (camera_id 1), BGR"};
+  static constexpr Out<Region> kTruth{"truth",
+                                      "the target in the left image: centre, size, depth; label visible or outside"};
+  static constexpr Out<Region> kTruthRight{"truth_right", "the target in the right image"};
+
+  static void bind(ParamBinder<SimHeadParams>& b) {
+    using P = SimHeadParams;
+    using H = capture::SimHeadConfig;
+    using G = kinematics::HeadGeometry;
+    b.field("scene", "image on the wall", &P::scene)
+        .field("size", "camera image size", &P::head, &H::size)
+        .field("hfov", {1, 170}, "horizontal field of view, degrees", &P::hfov_deg)
+        .field("fps", {0.1, 1000}, "frames per second of the joint state's time", &P::fps)
+        .field("wall_distance", {0.2, 1000}, "m from the neck axis to the wall", &P::head, &H::wall_distance)
+        .field("wall_width", {0.01, 1000}, "m the scene image spans", &P::head, &H::wall_width)
+        .field("l1", {0, 10}, "m: the head's L1 (as the head node's)", &P::head, &H::geometry, &G::l1)
+        .field("l2", {0, 10}, "m: the head's L2", &P::head, &H::geometry, &G::l2)
+        .field("l3", {0, 10}, "m: the head's L3", &P::head, &H::geometry, &G::l3)
+        .field("target", "draw the moving target", &P::head, &H::target)
+        .field("target_radius", {0.001, 10}, "m", &P::head, &H::target_radius)
+        .field("target_distance", {0.2, 1000}, "m: the target moves in the plane this far ahead", &P::head,
+               &H::target_distance)
+        .field("target_speed", {0, 100}, "m/s sideways, back and forth", &P::head, &H::target_speed)
+        .field("target_range", {0, 1000}, "m: it turns at +-range", &P::head, &H::target_range)
+        .field("target_start", {-1000, 1000}, "m: sideways position at time 0", &P::head, &H::target_start)
+        .field("target_height", {-1000, 1000}, "m above the cameras", &P::head, &H::target_height);
+  }
+
   static Contract contract() {
     return Contract("The simulated stereo head's cameras: a wide scene on a wall in front of the head and a textured "
                     "target moving between head and wall, rendered into both cameras for the joint angles the drives "
                     "report, so the active vision loop runs on one machine.")
-        .input<JointState>("state", "the joints (the drives' encoder feedback); a frame is rendered every 1/fps of its time")
-        .output<Image>("left", "left camera (camera_id 0), BGR")
-        .output<Image>("right", "right camera (camera_id 1), BGR")
-        .output<Region>("truth", "the target in the left image: centre, size, depth; label visible or outside")
-        .output<Region>("truth_right", "the target in the right image")
-        .param_string("scene", "${SACCADE_SAMPLE_DATA}/aloeL.jpg", "image on the wall")
-        .param_size("size", {320, 240}, "camera image size")
-        .param_double("hfov", 60.0, 1.0, 170.0, "horizontal field of view, degrees")
-        .param_double("fps", 25.0, 0.1, 1000.0, "frames per second of the joint state's time")
-        .param_double("wall_distance", 2.0, 0.2, 1000.0, "m from the neck axis to the wall")
-        .param_double("wall_width", 4.0, 0.01, 1000.0, "m the scene image spans")
-        .param_double("l1", 0.12, 0.0, 10.0, "m: the head's L1 (as the head node's)")
-        .param_double("l2", 0.12, 0.0, 10.0, "m: the head's L2")
-        .param_double("l3", 0.06, 0.0, 10.0, "m: the head's L3")
-        .param_bool("target", true, "draw the moving target")
-        .param_double("target_radius", 0.08, 0.001, 10.0, "m")
-        .param_double("target_distance", 1.6, 0.2, 1000.0, "m: the target moves in the plane this far ahead")
-        .param_double("target_speed", 0.3, 0.0, 100.0, "m/s sideways, back and forth")
-        .param_double("target_range", 1.5, 0.0, 1000.0, "m: it turns at +-range")
-        .param_double("target_start", 0.0, -1000.0, 1000.0, "m: sideways position at time 0")
-        .param_double("target_height", 0.0, -1000.0, 1000.0, "m above the cameras");
+        .ports(kState, kLeft, kRight, kTruth, kTruthRight)
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    const Params& p = ctx.params();
-    state_ = ctx.input<JointState>("state");
-    left_ = ctx.output<Image>("left");
-    right_ = ctx.output<Image>("right");
-    truth_ = ctx.output<Region>("truth");
-    truth_right_ = ctx.output<Region>("truth_right");
-    cv::Mat scene = cv::imread(p.get_string("scene"), cv::IMREAD_COLOR);
-    if (scene.empty()) return Status::error("scene: cannot read image '" + p.get_string("scene") + "'");
-    capture::SimHeadConfig c;
-    c.size = p.get_size("size");
+    SimHeadParams p = ctx.config(&bind);
+    cv::Mat scene = cv::imread(p.scene, cv::IMREAD_COLOR);
+    if (scene.empty()) return Status::error("scene: cannot read image '" + p.scene + "'");
+    capture::SimHeadConfig& c = p.head;
     if (c.size.width < 8 || c.size.height < 8) return Status::error("size must be at least 8x8");
-    c.focal_px = (c.size.width / 2.0) / std::tan(p.get_double("hfov") * M_PI / 360.0);
-    c.wall_distance = p.get_double("wall_distance");
-    c.wall_width = p.get_double("wall_width");
-    c.geometry = {p.get_double("l1"), p.get_double("l2"), p.get_double("l3")};
-    c.target = p.get_bool("target");
-    c.target_radius = p.get_double("target_radius");
-    c.target_distance = p.get_double("target_distance");
-    c.target_speed = p.get_double("target_speed");
-    c.target_range = p.get_double("target_range");
-    c.target_start = p.get_double("target_start");
-    c.target_height = p.get_double("target_height");
+    c.focal_px = (c.size.width / 2.0) / std::tan(p.hfov_deg * M_PI / 360.0);
     if (c.target_distance >= c.wall_distance) return Status::error("target_distance must be less than wall_distance");
     head_ = std::make_unique<capture::SimHead>(std::move(scene), c);
-    period_ns_ = static_cast<int64_t>(1e9 / p.get_double("fps"));
+    period_ns_ = static_cast<int64_t>(1e9 / p.fps);
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto state = ctx.get(state_);
+    auto state = ctx.get(kState);
     if (state->position.size() != 5) return Status::error("joint state for " + std::to_string(state->position.size()) + " joints, expected 5");
     if (state->timestamp_ns < next_ns_) return {};
     next_ns_ += period_ns_;
@@ -451,33 +495,30 @@ class SimHeadNode final : public Node {
     const kinematics::HeadJoints q{state->position[0], state->position[1], state->position[2], state->position[3],
                                    state->position[4]};
     const double t = static_cast<double>(state->timestamp_ns) * 1e-9;
-    OutputHandle<Image> outs[2] = {left_, right_};
-    OutputHandle<Region> truths[2] = {truth_, truth_right_};
+    const Out<Image>* outs[2] = {&kLeft, &kRight};
+    const Out<Region>* truths[2] = {&kTruth, &kTruthRight};
     for (int camera = 0; camera < 2; ++camera) {
-      auto image = ctx.make(outs[camera]);
+      auto image = ctx.make(*outs[camera]);
       const capture::TargetView view = head_->render(camera, q, t, image->mat);
       image->camera_id = camera;
       image->timestamp_ns = state->timestamp_ns;
       image->origin_ns = steady_now_ns();
       image->frame_id = frame_;
-      auto truth = ctx.make(truths[camera]);
+      auto truth = ctx.make(*truths[camera]);
       truth->stamp_from(*image);
       truth->center = view.center;
       truth->size = cv::Size2d(2 * view.radius, 2 * view.radius);
       truth->depth = view.depth;
       truth->camera_id = camera;
       truth->label = view.visible ? "visible" : "outside";
-      ctx.emit(outs[camera], std::move(image));
-      ctx.emit(truths[camera], std::move(truth));
+      ctx.emit(*outs[camera], std::move(image));
+      ctx.emit(*truths[camera], std::move(truth));
     }
     ++frame_;
     return {};
   }
 
  private:
-  InputHandle<JointState> state_;
-  OutputHandle<Image> left_, right_;
-  OutputHandle<Region> truth_, truth_right_;
   std::unique_ptr<capture::SimHead> head_;
   int64_t period_ns_ = 40'000'000, next_ns_ = 0, frame_ = 0;
 };

@@ -10,53 +10,72 @@ namespace {
 using namespace saccade;
 using namespace saccade::classifier;
 
+// The classifier node's parameters besides the model file.
+struct ClassifierConfig {
+  Thresholds thresholds;
+  bool target_when_probable = false;  // else only 'classified' gives a target
+  std::string target_classes;         // comma-separated; empty: every class
+  std::string levels, features;       // empty: the model's
+};
+
 class ClassifierNode final : public Node {
  public:
   static constexpr const char* kName = "";
+  static constexpr In<Retina> kRetina{"retina", "the retina whose fovea is classified"};
+  static constexpr Out<Classification> kResult{"result",
+                                               "class scores, the best class, the outcome and the region looked at"};
+  static constexpr Out<Region> kTarget{"target", "when classified (or probable, with target_when=probable): the "
+                                                 "fovea's region and the class, for the fovea's top-down target"};
+
+  static void bind(ParamBinder<ClassifierConfig>& b) {
+    using C = ClassifierConfig;
+    using T = Thresholds;
+    b.field("classified", {0, 1}, "best score at least this (and ahead by 'margin'): classified", &C::thresholds,
+            &T::classified)
+        .field("margin", {0, 1}, "how far the best score must lead the second for 'classified'", &C::thresholds,
+               &T::margin)
+        .field("probable", {0, 1}, "best score at least this: probable; below: not classified", &C::thresholds,
+               &T::probable)
+        .field("target_when", {{"classified", false}, {"probable", true}},
+               "the weakest outcome that still produces a 'target'", &C::target_when_probable)
+        .field("target_classes", "classes that produce a 'target' (comma-separated; empty: every class)",
+               &C::target_classes)
+        .field("levels", "if given, must match the model's levels (0 = the fovea), else the model's are used",
+               &C::levels)
+        .field("features", "if given, must match the model's features, else the model's are used", &C::features);
+  }
+
   static Contract contract() {
     return Contract("Recognises what the fovea sees: a feature vector from the retina (the model's recipe: levels, "
                     "features, size), a multilayer perceptron trained by backpropagation (OpenCV ANN_MLP, made by "
                     "'saccade train'), and the paper's three outcomes from thresholds.")
-        .input<Retina>("retina", "the retina whose fovea is classified")
-        .output<Classification>("result", "class scores, the best class, the outcome and the region looked at")
-        .output<Region>("target", "when classified (or probable, with target_when=probable): the fovea's region and the "
-                                  "class, for the fovea's top-down target")
+        .ports(kRetina, kResult, kTarget)
         .required_string("model", "model file written by 'saccade train' (network, feature recipe, class names)")
-        .param_double("classified", 0.7, 0.0, 1.0, "best score at least this (and ahead by 'margin'): classified")
-        .param_double("margin", 0.2, 0.0, 1.0, "how far the best score must lead the second for 'classified'")
-        .param_double("probable", 0.4, 0.0, 1.0, "best score at least this: probable; below: not classified")
-        .param_enum("target_when", "classified", {"classified", "probable"},
-                    "the weakest outcome that still produces a 'target'")
-        .param_string("target_classes", "", "classes that produce a 'target' (comma-separated; empty: every class)")
-        .param_string("levels", "", "if given, must match the model's levels (0 = the fovea), else the model's are used")
-        .param_string("features", "", "if given, must match the model's features, else the model's are used");
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    const Params& p = ctx.params();
-    retina_ = ctx.input<Retina>("retina");
-    result_out_ = ctx.output<Classification>("result");
-    target_out_ = ctx.output<Region>("target");
+    const ClassifierConfig c = ctx.config(&bind);
     std::string error;
-    const std::string path = p.get_string("model");
+    const std::string path = ctx.params().get_string("model");
     model_ = Model::load(path, &error);
     if (!model_) return Status::error(error);
     // The graph may state the recipe it expects: a model made with another is refused.
-    if (const std::string levels = p.get_string("levels"); !levels.empty()) {
-      auto parsed = parse_levels(levels, &error);
+    if (!c.levels.empty()) {
+      auto parsed = parse_levels(c.levels, &error);
       if (!parsed) return Status::error(error);
       if (*parsed != model_->recipe.levels)
         return Status::error("model '" + path + "' was trained on " + model_->recipe.describe() +
-                             "; the graph asks for levels " + levels);
+                             "; the graph asks for levels " + c.levels);
     }
-    if (const std::string features = p.get_string("features"); !features.empty()) {
-      auto parsed = parse_features(features, &error);
+    if (!c.features.empty()) {
+      auto parsed = parse_features(c.features, &error);
       if (!parsed) return Status::error(error);
       if (*parsed != model_->recipe.features)
         return Status::error("model '" + path + "' was trained on " + model_->recipe.describe() +
-                             "; the graph asks for features " + features);
+                             "; the graph asks for features " + c.features);
     }
-    if (const std::string wanted = p.get_string("target_classes"); !wanted.empty()) {
-      std::stringstream in(wanted);
+    if (!c.target_classes.empty()) {
+      std::stringstream in(c.target_classes);
       std::string name;
       while (std::getline(in, name, ',')) {
         auto it = std::find(model_->classes->begin(), model_->classes->end(), name);
@@ -65,18 +84,16 @@ class ClassifierNode final : public Node {
         target_classes_.push_back(static_cast<int>(it - model_->classes->begin()));
       }
     }
-    target_when_probable_ = p.get_string("target_when") == "probable";
-    thresholds_.classified = p.get_double("classified");
-    thresholds_.margin = p.get_double("margin");
-    thresholds_.probable = p.get_double("probable");
+    target_when_probable_ = c.target_when_probable;
+    thresholds_ = c.thresholds;
     if (thresholds_.probable > thresholds_.classified) return Status::error("probable must not exceed classified");
     extractor_ = std::make_unique<FeatureExtractor>(model_->recipe);
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto retina = ctx.get(retina_);
+    auto retina = ctx.get(kRetina);
     if (std::string e = extractor_->extract(*retina, row_); !e.empty()) return Status::error(e);
-    auto result = ctx.make(result_out_);
+    auto result = ctx.make(kResult);
     model_->scores(row_, result->scores);
     int best = -1;
     result->outcome = decide(result->scores, thresholds_, &best);
@@ -90,23 +107,20 @@ class ClassifierNode final : public Node {
     const bool strong = result->outcome == Classification::Outcome::kClassified ||
                         (target_when_probable_ && result->outcome == Classification::Outcome::kProbable);
     if (strong && wanted) {
-      auto target = ctx.make(target_out_);
+      auto target = ctx.make(kTarget);
       const cv::Rect r = retina->geometry.back().region;
       target->center = cv::Point2d(r.x + r.width / 2.0, r.y + r.height / 2.0);
       target->size = cv::Size2d(r.size());
       target->score = result->score;
       target->label = std::string(result->label());
       target->camera_id = retina->camera_id;
-      ctx.emit(target_out_, std::move(target));
+      ctx.emit(kTarget, std::move(target));
     }
-    ctx.emit(result_out_, std::move(result));
+    ctx.emit(kResult, std::move(result));
     return {};
   }
 
  private:
-  InputHandle<Retina> retina_;
-  OutputHandle<Classification> result_out_;
-  OutputHandle<Region> target_out_;
   std::unique_ptr<Model> model_;
   std::unique_ptr<FeatureExtractor> extractor_;
   Thresholds thresholds_;
@@ -115,83 +129,100 @@ class ClassifierNode final : public Node {
   cv::Mat row_;
 };
 
+struct TruthLabelConfig {
+  std::string inside = "target";
+  std::string outside = "background";
+};
+
 // Labels what the fovea sees from a ground truth (a synthetic scene's): the
 // label source of a training graph.
 class TruthLabel final : public Node {
  public:
   static constexpr const char* kName = "truth_label";
+  static constexpr In<Retina> kRetina{"retina", "the retina whose fovea is labelled"};
+  static constexpr In<Region> kTruth{
+      "truth", "the object's true place in the frame (e.g. capture.synthetic's truth); sync with retina"};
+  static constexpr Out<Region> kLabel{"label", "the fovea's region with the label"};
+
+  static void bind(ParamBinder<TruthLabelConfig>& b) {
+    b.field("inside", "label when the object's centre is in the fovea", &TruthLabelConfig::inside)
+        .field("outside", "label otherwise ('-': emit no label)", &TruthLabelConfig::outside);
+  }
   static Contract contract() {
     return Contract("Says what the fovea sees from a ground-truth region: 'inside' when the truth's centre lies in "
                     "the fovea's region, else 'outside'. The label source of a training graph (classifier.collect).")
-        .input<Retina>("retina", "the retina whose fovea is labelled")
-        .input<Region>("truth", "the object's true place in the frame (e.g. capture.synthetic's truth); sync with retina")
-        .output<Region>("label", "the fovea's region with the label")
-        .param_string("inside", "target", "label when the object's centre is in the fovea")
-        .param_string("outside", "background", "label otherwise ('-': emit no label)");
+        .ports(kRetina, kTruth, kLabel)
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    retina_ = ctx.input<Retina>("retina");
-    truth_ = ctx.input<Region>("truth");
-    out_ = ctx.output<Region>("label");
-    inside_ = ctx.params().get_string("inside");
-    outside_ = ctx.params().get_string("outside");
+    config_ = ctx.config(&bind);
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto retina = ctx.get(retina_);
-    auto truth = ctx.get(truth_);
+    auto retina = ctx.get(kRetina);
+    auto truth = ctx.get(kTruth);
     const cv::Rect fovea = retina->geometry.back().region;
     const bool in = fovea.contains(cv::Point(static_cast<int>(truth->center.x), static_cast<int>(truth->center.y)));
-    auto label = ctx.make(out_);
+    auto label = ctx.make(kLabel);
     label->center = cv::Point2d(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
     label->size = cv::Size2d(fovea.size());
-    label->label = in ? inside_ : outside_;
-    ctx.emit(out_, std::move(label));
+    label->label = in ? config_.inside : config_.outside;
+    ctx.emit(kLabel, std::move(label));
     return {};
   }
 
  private:
-  InputHandle<Retina> retina_;
-  InputHandle<Region> truth_;
-  OutputHandle<Region> out_;
-  std::string inside_, outside_;
+  TruthLabelConfig config_;
 };
 
 // Collects labelled feature rows from a running graph for 'saccade train
 // --samples': the retina's vector by the recipe, the label from another node.
+// The collect node's recipe as written (levels and features as text) and its sampling.
+struct CollectConfig {
+  std::string levels = "0";
+  std::string features = "gray,grad_hist";
+  FeatureRecipe recipe;  // its size; levels and features come from the text above
+  int64_t every = 1;
+};
+
 class Collect final : public Node {
  public:
   static constexpr const char* kName = "collect";
+  static constexpr In<Retina> kRetina{"retina", "the retina whose fovea is sampled"};
+  static constexpr In<Region> kLabel{
+      "label", "what the fovea sees: the label text names the class ('' or '-': skip); sync with retina"};
+
+  static void bind(ParamBinder<CollectConfig>& b) {
+    using C = CollectConfig;
+    b.field("levels", "retina levels of the vector, 0 = the fovea", &C::levels)
+        .field("features", "gray, grad_hist and/or filter-bank maps", &C::features)
+        .field("size", "each map reduced to WxH (grad_hist: its cell grid)", &C::recipe, &FeatureRecipe::size)
+        .field("every", {1, 1000000}, "keep one frame in N", &C::every);
+  }
   static Contract contract() {
     return Contract("Collects training samples from a graph run: the fovea's feature vector (by the recipe) with the "
                     "label a label source gives for the same frame; written at the end for 'saccade train --samples'.")
-        .input<Retina>("retina", "the retina whose fovea is sampled")
-        .input<Region>("label", "what the fovea sees: the label text names the class ('' or '-': skip); sync with retina")
+        .ports(kRetina, kLabel)
         .required_string("out", "samples file to write (OpenCV FileStorage)")
-        .param_string("levels", "0", "retina levels of the vector, 0 = the fovea")
-        .param_string("features", "gray,grad_hist", "gray, grad_hist and/or filter-bank maps")
-        .param_size("size", {8, 6}, "each map reduced to WxH (grad_hist: its cell grid)")
-        .param_int("every", 1, 1, 1000000, "keep one frame in N");
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    const Params& p = ctx.params();
-    retina_ = ctx.input<Retina>("retina");
-    label_ = ctx.input<Region>("label");
-    out_path_ = p.get_string("out");
+    const CollectConfig c = ctx.config(&bind);
+    out_path_ = ctx.params().get_string("out");
     std::string error;
-    auto levels = parse_levels(p.get_string("levels"), &error);
+    auto levels = parse_levels(c.levels, &error);
     if (!levels) return Status::error(error);
-    auto features = parse_features(p.get_string("features"), &error);
+    auto features = parse_features(c.features, &error);
     if (!features) return Status::error(error);
+    samples_.recipe = c.recipe;
     samples_.recipe.levels = *levels;
     samples_.recipe.features = *features;
-    samples_.recipe.size = p.get_size("size");
-    every_ = p.get_int("every");
+    every_ = c.every;
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto retina = ctx.get(retina_);
-    auto label = ctx.get(label_);
+    auto retina = ctx.get(kRetina);
+    auto label = ctx.get(kLabel);
     if (retina->frame_id % every_ != 0 || label->label.empty() || label->label == "-") {
       ++skipped_;
       return {};
@@ -216,8 +247,6 @@ class Collect final : public Node {
   }
 
  private:
-  InputHandle<Retina> retina_;
-  InputHandle<Region> label_;
   std::string out_path_;
   SampleSet samples_;
   std::unique_ptr<FeatureExtractor> extractor_;

@@ -32,57 +32,84 @@ std::vector<std::string> type_choices() {
   return out;
 }
 
+// What both bridges read beyond the topic and its type, into the structs of
+// the DDS side. One parameter feeds two of them: `reliable` the QoS and the
+// codec's choice (TopicEnd::open copies it), `capacity` the codec and the ring.
+struct BridgeConfig {
+  int domain = 0;
+  sd::EdgeSettings edge;     // zero_copy: the codec's, at open
+  sd::CodecRequest request;  // reliable: edge's
+  sd::WireOptions wire;      // capacity: request's; joint_names: parsed from joint_names
+  std::string joint_names = "neck,vergence_left,tilt_left,vergence_right,tilt_right";
+};
+
+void bind_bridge(ParamBinder<BridgeConfig>& b) {
+  using C = BridgeConfig;
+  using E = sd::EdgeSettings;
+  using R = sd::CodecRequest;
+  using W = sd::WireOptions;
+  using M = R::SharedMemory;
+  b.field("domain", {0, 232}, "DDS domain id", &C::domain)
+      .field("reliable", "reliable (else best effort)", &C::edge, &E::reliable)
+      .field("depth", {0, 100000}, "keep-last history depth; 0 keeps all (a slow reader blocks the writer)", &C::edge,
+             &E::depth)
+      .field("deadline_ms", {0, 3.6e6}, "report a peer silent for this long (0: no deadline)", &C::edge,
+             &E::deadline_ms)
+      .field("zero_copy",
+             "one host only (both ends must agree for Image): messages travel through shared memory; how: "
+             "shared_memory",
+             &C::request, &R::zero_copy)
+      .field("shared_memory", {{"auto", M::kAuto}, {"ring", M::kRing}, {"loans", M::kLoans}, {"mailbox", M::kMailbox}},
+             "zero_copy: ring (Image, Retina): the pixels stay in the writer's frame ring, readers read them in "
+             "place (pinned while their graph holds the frame) and a producer may write into the ring itself; "
+             "loans (Image, Retina): plain fixed-capacity types through Fast DDS data sharing, the writer filling "
+             "loaned samples, the reader copying out (what a plain Fast DDS peer reads); mailbox (any type): the "
+             "serialised message, which the writer also posts to a same-host mailbox in shared memory, waking the "
+             "readers there itself (DDS still carries every message, so either end may have it off); auto: ring "
+             "for Image, mailbox for every other type. Reliable edges use loans for ring (a ring of reused "
+             "buffers cannot promise every frame to a slow reader; a reliable mailbox reader reads every post in "
+             "order, from DDS when it fell behind); DDS security always uses loans and no mailbox (they would "
+             "bypass its encryption and access control)",
+             &C::request, &R::shared_memory)
+      .field("capacity", {0, 1 << 30},
+             "zero_copy: bytes of pixel data a ring buffer or sample holds (0: the type's default, 4 MiB for Image, "
+             "1 MiB for Retina); loans use the smallest plain type at least this large",
+             &C::request, &R::capacity)
+      .field("ring_slots", {4, 1024},
+             "zero_copy ring: buffers in the writer's ring; a frame survives this many newer ones minus one while no "
+             "reader holds it, and each reader pins at most a quarter of them (it copies the frames it keeps beyond "
+             "that)",
+             &C::wire, &W::ring_slots)
+      .field("ros2",
+             "a ROS 2 topic: the DDS topic is rt/<topic> and the type ROS 2's (Image: sensor_msgs/msg/Image, "
+             "JointState: sensor_msgs/msg/JointState), so ROS 2 tools read it, or this node reads theirs",
+             &C::request, &R::ros2)
+      .field("frame_id", "ros2: the header's frame_id (empty: camera_<camera id> for images)", &C::wire,
+             &W::frame_id)
+      .field("joint_names",
+             "ros2, JointState: the joints' names in saccade's order, comma-separated (reading: joints are matched "
+             "by name; empty: in the message's order)",
+             &C::joint_names);
+}
+
 Contract with_bridge_params(Contract c) {
   return c.required_string("topic", "DDS topic name")
       .param_enum("type", "Image", type_choices(), "message type the topic carries")
-      .param_int("domain", 0, 0, 232, "DDS domain id")
-      .param_bool("reliable", false, "reliable (else best effort)")
-      .param_int("depth", 1, 0, 100000, "keep-last history depth; 0 keeps all (a slow reader blocks the writer)")
-      .param_double("deadline_ms", 0, 0, 3.6e6, "report a peer silent for this long (0: no deadline)")
-      .param_bool("zero_copy", false,
-                  "one host only (both ends must agree for Image): messages travel through shared memory; how: "
-                  "shared_memory")
-      .param_enum("shared_memory", "auto", {"auto", "ring", "loans", "mailbox"},
-                  "zero_copy: ring (Image, Retina): the pixels stay in the writer's frame ring, readers read them in "
-                  "place (pinned while their graph holds the frame) and a producer may write into the ring itself; "
-                  "loans (Image, Retina): plain fixed-capacity types through Fast DDS data sharing, the writer filling "
-                  "loaned samples, the reader copying out (what a plain Fast DDS peer reads); mailbox (any type): the "
-                  "serialised message, which the writer also posts to a same-host mailbox in shared memory, waking the "
-                  "readers there itself (DDS still carries every message, so either end may have it off); auto: ring "
-                  "for Image, mailbox for every other type. Reliable edges use loans for ring (a ring of reused "
-                  "buffers cannot promise every frame to a slow reader; a reliable mailbox reader reads every post in "
-                  "order, from DDS when it fell behind); DDS security always uses loans and no mailbox (they would "
-                  "bypass its encryption and access control)")
-      .param_int("capacity", 0, 0, 1 << 30, "zero_copy: bytes of pixel data a ring buffer or sample holds (0: the type's "
-                 "default, 4 MiB for Image, 1 MiB for Retina); loans use the smallest plain type at least this large")
-      .param_int("ring_slots", 16, 4, 1024, "zero_copy ring: buffers in the writer's ring; a frame survives this many "
-                 "newer ones minus one while no reader holds it, and each reader pins at most a quarter of them (it "
-                 "copies the frames it keeps beyond that)")
-      .param_bool("ros2", false,
-                  "a ROS 2 topic: the DDS topic is rt/<topic> and the type ROS 2's (Image: sensor_msgs/msg/Image, "
-                  "JointState: sensor_msgs/msg/JointState), so ROS 2 tools read it, or this node reads theirs")
-      .param_string("frame_id", "", "ros2: the header's frame_id (empty: camera_<camera id> for images)")
-      .param_string("joint_names", "neck,vergence_left,tilt_left,vergence_right,tilt_right",
-                    "ros2, JointState: the joints' names in saccade's order, comma-separated (reading: joints are "
-                    "matched by name; empty: in the message's order)");
+      .params(&bind_bridge);
 }
 
-sd::WireOptions wire_options(const Params& p) {
-  sd::WireOptions o;
-  o.frame_id = p.get_string("frame_id");
-  o.capacity = static_cast<std::size_t>(p.get_int("capacity"));
-  o.ring_slots = static_cast<uint32_t>(p.get_int("ring_slots"));
-  if (p.has("spin") && p.get_bool("spin")) o.reader_wait = sd::ReaderWait::kSpin;  // a subscriber's
-  std::string names = p.get_string("joint_names");
+// "a, b,c" -> {"a", "b", "c"}; empty names are dropped.
+std::vector<std::string> split_names(const std::string& names) {
+  std::vector<std::string> out;
   for (std::size_t begin = 0; begin < names.size();) {
     std::size_t end = std::min(names.find(',', begin), names.size());
     std::string name = names.substr(begin, end - begin);
     name.erase(0, name.find_first_not_of(' '));
     name.erase(name.find_last_not_of(' ') + 1);
-    if (!name.empty()) o.joint_names.push_back(name);
+    if (!name.empty()) out.push_back(name);
     begin = end + 1;
   }
-  return o;
+  return out;
 }
 
 const char* policy_name(fdds::QosPolicyId_t id) {
@@ -97,15 +124,6 @@ const char* policy_name(fdds::QosPolicyId_t id) {
   }
 }
 
-sd::EdgeSettings edge_settings(const Params& p, const sd::Codec& codec) {
-  sd::EdgeSettings s;
-  s.reliable = p.get_bool("reliable");
-  s.depth = static_cast<int>(p.get_int("depth"));
-  s.deadline_ms = p.get_double("deadline_ms");
-  s.zero_copy = codec.shares_memory();
-  return s;
-}
-
 // What a peer did, as the listeners see it (on Fast DDS' threads). The
 // counts are the node's own counters (in its stats), registered at open.
 struct PeerEvents {
@@ -114,41 +132,39 @@ struct PeerEvents {
   std::atomic<uint64_t>* lost = nullptr;
 };
 
-// What both ends of a bridge hold: the topic, its codec, the process's
-// participant and the wire sample reused for every message.
+// What both ends of a bridge hold: the topic, its codec and QoS, the
+// process's participant and the wire sample reused for every message.
 struct TopicEnd {
   std::string node, topic_name;
   const sd::Codec* codec = nullptr;
+  sd::EdgeSettings edge;
   std::shared_ptr<sd::Domain> domain;
   fdds::Topic* topic = nullptr;
   std::unique_ptr<sd::WireSample> sample;
   bool doorbell = false;  // a same-host frame ring or mailbox, whose reader waits on its writer's doorbell
 
-  Status open(const OpenContext& ctx) {
+  Status open(const OpenContext& ctx, BridgeConfig c) {
     const Params& p = ctx.params();
     node = ctx.node_name();
     std::string error;
-    domain = sd::Domain::get(static_cast<int>(p.get_int("domain")), &error);
+    domain = sd::Domain::get(c.domain, &error);
     if (!domain) return Status::error(error);
+    sd::CodecRequest& request = c.request;
+    request.reliable = c.edge.reliable;
     // The ring's pixels bypass DDS security's encryption and access control,
     // and its buffers are reused whatever a reliable reader has not yet taken.
-    using SharedMemory = sd::CodecRequest::SharedMemory;
-    const std::string shm = p.get_string("shared_memory");
-    sd::CodecRequest request{.zero_copy = p.get_bool("zero_copy"),
-                             .shared_memory = shm == "loans" || domain->secure() ? SharedMemory::kLoans
-                                              : shm == "ring"                    ? SharedMemory::kRing
-                                              : shm == "mailbox"                 ? SharedMemory::kMailbox
-                                                                                 : SharedMemory::kAuto,
-                             .reliable = p.get_bool("reliable"),
-                             .capacity = static_cast<std::size_t>(p.get_int("capacity")),
-                             .ros2 = p.get_bool("ros2")};
+    if (domain->secure()) request.shared_memory = sd::CodecRequest::SharedMemory::kLoans;
     codec = sd::choose_codec(p.get_string("type"), request, &error);
     if (codec == nullptr) return Status::error(error);
+    edge = c.edge;
+    edge.zero_copy = codec->shares_memory();
     topic_name = request.ros2 ? sd::ros2_topic(p.get_string("topic")) : p.get_string("topic");
     topic = domain->topic(topic_name, *codec, &error);
     if (topic == nullptr) return Status::error(error);
-    sd::WireOptions options = wire_options(p);
-    sd::set_mailbox(request, *codec, static_cast<int>(p.get_int("depth")), options);
+    sd::WireOptions& options = c.wire;
+    options.capacity = request.capacity;
+    options.joint_names = split_names(c.joint_names);
+    sd::set_mailbox(request, *codec, edge.depth, options);
     sample = codec->make_sample(options);
     doorbell = codec->form == sd::Codec::Form::kRing || options.mailbox;
     log().debug("{}: topic {} of type {}{}", node, topic_name, topic->get_type_name(),
@@ -173,11 +189,11 @@ class Publish final : public Node {
 
   Status open(OpenContext& ctx) override {
     in_ = ctx.input<Message>("in");
-    const Params& p = ctx.params();
-    if (Status s = end_.open(ctx); !s.ok()) return s;
+    const BridgeConfig c = ctx.config(&bind_bridge);
+    if (Status s = end_.open(ctx, c); !s.ok()) return s;
     fdds::Topic* topic = end_.topic;
-    fdds::DataWriterQos qos = sd::writer_qos(*end_.domain->publisher(), edge_settings(p, *end_.codec));
-    reliable_ = p.get_bool("reliable");
+    fdds::DataWriterQos qos = sd::writer_qos(*end_.domain->publisher(), end_.edge);
+    reliable_ = c.edge.reliable;
     listener_.owner = this;
     written_ = &ctx.counter("written");
     failed_ = &ctx.counter("failed_writes");
@@ -187,13 +203,13 @@ class Publish final : public Node {
     // A producer that makes its frames in the frame ring spares the writer its copy.
     if (cv::MatAllocator* ring = end_.sample->frame_allocator()) ctx.offer_frame_allocator(in_, ring);
     copied_ = &ctx.counter("copied_frames");
-    const double wait_ms = p.get_double("wait_ms");
+    const double wait_ms = ctx.params().get_double("wait_ms");
     auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double, std::milli>(wait_ms);
     while (listener_.events.matched.load() == 0 && std::chrono::steady_clock::now() < give_up)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     if (wait_ms > 0 && listener_.events.matched.load() == 0)
       log().warn("{}: no reader of {} after {} ms (is the other process running, on domain {}?); writing anyway",
-                 end_.node, end_.topic_name, wait_ms, p.get_int("domain"));
+                 end_.node, end_.topic_name, wait_ms, c.domain);
     return {};
   }
 
@@ -281,45 +297,60 @@ class Publish final : public Node {
   std::atomic<uint64_t>* copied_ = nullptr;
 };
 
+struct SubscribeConfig {
+  double missing_peer_ms = 5000;
+  bool spin = false;  // WireOptions::reader_wait: kSpin
+  bool same_clock = true;
+};
+
 class Subscribe final : public Node {
  public:
   static constexpr const char* kName = "subscribe";
+
+  static void bind(ParamBinder<SubscribeConfig>& b) {
+    using C = SubscribeConfig;
+    b.field("missing_peer_ms", {0, 3.6e6}, "report once when no writer has joined this long after start (0: never)",
+            &C::missing_peer_ms)
+        .field("spin",
+               "zero_copy on one host (a frame ring or a mailbox): wait for the writer's posts spinning instead of "
+               "asleep, about 1 us a frame instead of 5-10 us, at a whole core while waiting (other edges: no "
+               "effect, said at open)",
+               &C::spin)
+        .field("same_clock",
+               "the writer runs on this host: keep its steady-clock origin, so latency counts from the capture in "
+               "the writer's process; false (another host, another clock): latency counts from arrival here",
+               &C::same_clock);
+  }
+
   static Contract contract() {
     return with_bridge_params(
         Contract("Emits every message that arrives on a DDS topic (the consumer's end of an edge between processes); "
                  "a source. Ends when the writer sends its end of stream; a writer that vanishes without one (a "
                  "crash) is waited for and rejoined when it comes back.")
             .output<Message>("out", "messages of the topic's type"))
-        .param_double("missing_peer_ms", 5000, 0, 3.6e6,
-                      "report once when no writer has joined this long after start (0: never)")
-        .param_bool("spin", false,
-                    "zero_copy on one host (a frame ring or a mailbox): wait for the writer's posts spinning instead "
-                    "of asleep, about 1 us a frame instead of 5-10 us, at a whole core while waiting (other edges: "
-                    "no effect, said at open)")
-        .param_bool("same_clock", true,
-                    "the writer runs on this host: keep its steady-clock origin, so latency counts from the capture "
-                    "in the writer's process; false (another host, another clock): latency counts from arrival here");
+        .params(&bind);
   }
 
   Status open(OpenContext& ctx) override {
     out_ = ctx.output<Message>("out");
-    const Params& p = ctx.params();
-    if (Status s = end_.open(ctx); !s.ok()) return s;
-    if (p.get_bool("spin") && !end_.doorbell)
+    BridgeConfig bridge = ctx.config(&bind_bridge);
+    const SubscribeConfig c = ctx.config(&bind);
+    if (c.spin) bridge.wire.reader_wait = sd::ReaderWait::kSpin;
+    if (Status s = end_.open(ctx, bridge); !s.ok()) return s;
+    if (c.spin && !end_.doorbell)
       log().warn("{}: spin has no effect on this edge (it spins on a same-host frame ring or mailbox; this one is {})",
                  end_.node, end_.codec->form == sd::Codec::Form::kPlain ? "loaned samples" : "DDS alone");
     fdds::Topic* topic = end_.topic;
-    fdds::DataReaderQos qos = sd::reader_qos(*end_.domain->subscriber(), edge_settings(p, *end_.codec));
+    fdds::DataReaderQos qos = sd::reader_qos(*end_.domain->subscriber(), end_.edge);
     listener_.owner = this;
     listener_.events.lost = &ctx.counter("lost");
     listener_.events.deadlines_missed = &ctx.counter("deadlines_missed");
     unreadable_ = &ctx.counter("unreadable");
     copied_ = &ctx.counter("copied_frames");
     mailed_ = &ctx.counter("mailbox_frames");
-    same_clock_ = p.get_bool("same_clock");
-    const double missing_ms = p.get_double("missing_peer_ms");
-    missing_peer_at_ = missing_ms > 0 ? steady_now_ns() + static_cast<int64_t>(missing_ms * 1e6) : 0;
-    domain_id_ = static_cast<int>(p.get_int("domain"));
+    same_clock_ = c.same_clock;
+    missing_peer_at_ = c.missing_peer_ms > 0 ? steady_now_ns() + static_cast<int64_t>(c.missing_peer_ms * 1e6) : 0;
+    domain_id_ = bridge.domain;
     reader_ = end_.domain->subscriber()->create_datareader(topic, qos, &listener_, fdds::StatusMask::all());
     if (reader_ == nullptr) return Status::error("cannot create a DDS reader on " + end_.topic_name);
     return {};

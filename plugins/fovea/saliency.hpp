@@ -21,7 +21,7 @@ struct SaliencyConfig {
   double contrast_weight = 1.0;
   double edge_weight = 1.0;
   double motion_weight = 2.0;
-  double color_weight = 0.0;
+  double color_weight = 1.0;
   double contrast_floor = 10.0;  // gray levels
   double edge_floor = 120.0;     // Sobel magnitude
   double motion_floor = 15.0;    // |dI|, gray levels

@@ -14,72 +14,105 @@ using namespace saccade;
 
 constexpr double kDeg = M_PI / 180.0;
 
+// The head node's parameters in the units users write (degrees, ms);
+// to_config turns them into the controller's (radians, s).
+struct HeadParams {
+  kinematics::HeadGeometry geometry;
+  cv::Point2d neck_limits{-90, 90};  // degrees: min,max
+  cv::Point2d vergence_limits{-35, 35};
+  cv::Point2d tilt_limits{-45, 45};
+  double velocity_deg = 170.0;
+  double acceleration_deg = 1700.0;
+  double saccade_threshold_deg = 2.0;
+  double pursuit_ms = 120.0;
+  double following_error_deg = 11.5;
+  double feedback_timeout_ms = 50.0;
+  double default_depth = 1.5;
+  double focal_px = 0.0;  // 0: from hfov
+  double hfov_deg = 60.0;
+};
+
+// The controller's configuration; false when a joint range is not min < max.
+bool to_config(const HeadParams& p, head::HeadConfig& c) {
+  const auto range = [](const cv::Point2d& r, double& lo, double& hi) {
+    lo = r.x * kDeg;
+    hi = r.y * kDeg;
+    return r.x < r.y;
+  };
+  c.geometry = p.geometry;
+  c.velocity = p.velocity_deg * kDeg;
+  c.acceleration = p.acceleration_deg * kDeg;
+  c.saccade_threshold = p.saccade_threshold_deg * kDeg;
+  c.pursuit_time = p.pursuit_ms * 1e-3;
+  c.following_error = p.following_error_deg * kDeg;
+  c.feedback_timeout = p.feedback_timeout_ms * 1e-3;
+  c.default_depth = p.default_depth;
+  return range(p.neck_limits, c.limits.neck_min, c.limits.neck_max) &&
+         range(p.vergence_limits, c.limits.vergence_min, c.limits.vergence_max) &&
+         range(p.tilt_limits, c.limits.tilt_min, c.limits.tilt_max);
+}
+
 class HeadNode final : public Node {
  public:
   static constexpr const char* kName = "";
+  static constexpr In<JointState> kState{"state", "the joints as the drives report them; one control cycle per message"};
+  static constexpr SideIn<GazeRequest> kGaze{"gaze", "where to look (each new request is taken once)"};
+  static constexpr Out<JointTargets> kTargets{"targets", "joint targets for the driver, every cycle"};
+  static constexpr Out<Region> kMoved{"moved", "when a request from an image is taken: the pixel the head turns to "
+                                               "bring to the centre (for the fovea's 'head' input)"};
+
+  static void bind(ParamBinder<HeadParams>& b) {
+    using P = HeadParams;
+    using G = kinematics::HeadGeometry;
+    b.field("l1", {0, 10}, "m: neck axis to the vergence axis (the paper's L1)", &P::geometry, &G::l1)
+        .field("l2", {0, 10}, "m: height of the tilt axis (L2)", &P::geometry, &G::l2)
+        .field("l3", {0, 10}, "m: tilt axis to the camera (L3)", &P::geometry, &G::l3)
+        .field("neck_limits", "degrees: min,max of the neck pan", &P::neck_limits)
+        .field("vergence_limits", "degrees: min,max of each vergence joint", &P::vergence_limits)
+        .field("tilt_limits", "degrees: min,max of each tilt joint", &P::tilt_limits)
+        .field("velocity", {1, 10000}, "degrees/s: every joint's velocity limit", &P::velocity_deg)
+        .field("acceleration", {1, 1e6}, "degrees/s^2: every joint's acceleration limit", &P::acceleration_deg)
+        .field("saccade_threshold", {0, 180}, "degrees: a larger change of any joint is a saccade, smaller ones pursuit",
+               &P::saccade_threshold_deg)
+        .field("pursuit_ms", {0, 10000}, "the shortest re-planned pursuit move", &P::pursuit_ms)
+        .field("following_error", {0.01, 360}, "degrees between commanded and measured that hold the head",
+               &P::following_error_deg)
+        .field("feedback_timeout_ms", {1, 1e6}, "a joint without a new position this long holds the head",
+               &P::feedback_timeout_ms)
+        .field("default_depth", {0.01, 1000},
+               "m: depth of a request without one when no fixation point is known", &P::default_depth)
+        .field("focal", {0, 1e6}, "focal length in pixels for pixel requests that carry none (0: from hfov)",
+               &P::focal_px)
+        .field("hfov", {1, 179}, "horizontal field of view, degrees (when focal is 0 and the request has none)",
+               &P::hfov_deg);
+  }
+
   static Contract contract() {
     return Contract("The gaze controller of the 5-DOF stereo head: gaze requests (a point, a camera direction or pixel "
                     "with or without depth, a stereo pixel pair, a relative turn, the fovea's requests) become joint "
                     "targets along minimum-jerk saccades or re-planned pursuit within the joints' limits. A drive "
                     "fault, a silent drive, stale feedback or a following error hold the head until 'reset'.")
-        .input<JointState>("state", "the joints as the drives report them; one control cycle per message")
-        .side_input<GazeRequest>("gaze", "where to look (each new request is taken once)")
+        .ports(kState, kGaze)
         .side_input<Message>("reset", "any new message clears a hold")
-        .output<JointTargets>("targets", "joint targets for the driver, every cycle")
-        .output<Region>("moved", "when a request from an image is taken: the pixel the head turns to bring to the centre (for the fovea's 'head' input)")
-        .param_double("l1", 0.12, 0.0, 10.0, "m: neck axis to the vergence axis (the paper's L1)")
-        .param_double("l2", 0.12, 0.0, 10.0, "m: height of the tilt axis (L2)")
-        .param_double("l3", 0.06, 0.0, 10.0, "m: tilt axis to the camera (L3)")
-        .param_point("neck_limits", cv::Point2d(-90, 90), "degrees: min,max of the neck pan")
-        .param_point("vergence_limits", cv::Point2d(-35, 35), "degrees: min,max of each vergence joint")
-        .param_point("tilt_limits", cv::Point2d(-45, 45), "degrees: min,max of each tilt joint")
-        .param_double("velocity", 170.0, 1.0, 10000.0, "degrees/s: every joint's velocity limit")
-        .param_double("acceleration", 1700.0, 1.0, 1e6, "degrees/s^2: every joint's acceleration limit")
-        .param_double("saccade_threshold", 2.0, 0.0, 180.0, "degrees: a larger change of any joint is a saccade, smaller ones pursuit")
-        .param_double("pursuit_ms", 120.0, 0.0, 10000.0, "the shortest re-planned pursuit move")
-        .param_double("following_error", 11.5, 0.01, 360.0, "degrees between commanded and measured that hold the head")
-        .param_double("feedback_timeout_ms", 50.0, 1.0, 1e6, "a joint without a new position this long holds the head")
-        .param_double("default_depth", 1.5, 0.01, 1000.0, "m: depth of a request without one when no fixation point is known")
-        .param_double("focal", 0.0, 0.0, 1e6, "focal length in pixels for pixel requests that carry none (0: from hfov)")
-        .param_double("hfov", 60.0, 1.0, 179.0, "horizontal field of view, degrees (when focal is 0 and the request has none)");
+        .ports(kTargets, kMoved)
+        .params(&bind);
   }
 
   Status open(OpenContext& ctx) override {
-    state_ = ctx.input<JointState>("state");
-    gaze_ = ctx.input<GazeRequest>("gaze");
     reset_ = ctx.input<Message>("reset");
-    targets_ = ctx.output<JointTargets>("targets");
-    moved_ = ctx.output<Region>("moved");
     capture_to_taken_ = &ctx.timing("gaze_capture_to_taken");
-    const Params& p = ctx.params();
+    const HeadParams p = ctx.config(&bind);
     head::HeadConfig c;
-    c.geometry = {p.get_double("l1"), p.get_double("l2"), p.get_double("l3")};
-    const auto range = [&](const char* name, double& lo, double& hi) {
-      const cv::Point2d r = p.get_point(name);
-      lo = r.x * kDeg;
-      hi = r.y * kDeg;
-      return r.x < r.y;
-    };
-    if (!range("neck_limits", c.limits.neck_min, c.limits.neck_max) ||
-        !range("vergence_limits", c.limits.vergence_min, c.limits.vergence_max) ||
-        !range("tilt_limits", c.limits.tilt_min, c.limits.tilt_max))
-      return Status::error("joint limits must be min,max with min < max");
-    c.velocity = p.get_double("velocity") * kDeg;
-    c.acceleration = p.get_double("acceleration") * kDeg;
-    c.saccade_threshold = p.get_double("saccade_threshold") * kDeg;
-    c.pursuit_time = p.get_double("pursuit_ms") * 1e-3;
-    c.following_error = p.get_double("following_error") * kDeg;
-    c.feedback_timeout = p.get_double("feedback_timeout_ms") * 1e-3;
-    c.default_depth = p.get_double("default_depth");
-    focal_ = p.get_double("focal");
-    hfov_ = p.get_double("hfov") * kDeg;
+    if (!to_config(p, c)) return Status::error("joint limits must be min,max with min < max");
+    focal_ = p.focal_px;
+    hfov_ = p.hfov_deg * kDeg;
     controller_ = std::make_unique<head::GazeController>(c);
     readings_.resize(head::kJoints);
     return {};
   }
 
   Status process(ProcessContext& ctx) override {
-    auto state = ctx.get(state_);
+    auto state = ctx.get(kState);
     if (state->position.size() != static_cast<std::size_t>(head::kJoints) || state->health.size() != state->position.size())
       return Status::error("joint state for " + std::to_string(state->position.size()) + " joints, expected " +
                            std::to_string(head::kJoints));
@@ -102,7 +135,7 @@ class HeadNode final : public Node {
     // A new request first, so that this cycle's targets already head for it
     // (taken after the cycle, it waited one control period more).
     Cause answered;
-    if (auto gaze = ctx.get(gaze_); gaze && gaze != last_gaze_) {
+    if (auto gaze = ctx.get(kGaze); gaze && gaze != last_gaze_) {
       last_gaze_ = gaze;
       const std::string why = request(*gaze);
       if (!why.empty()) {
@@ -112,12 +145,12 @@ class HeadNode final : public Node {
         if (gaze->origin_ns > 0 && answered.taken_ns >= gaze->origin_ns)
           capture_to_taken_->record(answered.taken_ns - gaze->origin_ns);
         if (gaze->kind != GazeRequest::Kind::kPoint && gaze->kind != GazeRequest::Kind::kRelative) {
-          auto moved = ctx.make(moved_);
+          auto moved = ctx.make(kMoved);
           moved->stamp_from(*gaze);
           moved->center = gaze->pixel;
           moved->camera_id = gaze->camera_id;
           moved->label = gaze->reason;
-          ctx.emit(moved_, std::move(moved));
+          ctx.emit(kMoved, std::move(moved));
         }
       }
     }
@@ -126,7 +159,7 @@ class HeadNode final : public Node {
     if (command.hold && !was_holding)
       log().warn("{}: holding: {}{}{}", ctx.node_name(), command.fault, state->detail.empty() ? "" : "; the driver: ",
                  state->detail);
-    auto targets = ctx.make(targets_);
+    auto targets = ctx.make(kTargets);
     targets->position = command.position;
     targets->velocity = command.velocity;
     targets->hold = command.hold;
@@ -134,7 +167,7 @@ class HeadNode final : public Node {
     targets->fault = command.fault;
     targets->cause_origin_ns = answered.origin_ns;
     targets->cause_taken_ns = answered.taken_ns;
-    ctx.emit(targets_, std::move(targets));
+    ctx.emit(kTargets, std::move(targets));
     return {};
   }
 
@@ -160,11 +193,7 @@ class HeadNode final : public Node {
     return "unknown request kind";
   }
 
-  InputHandle<JointState> state_;
-  InputHandle<GazeRequest> gaze_;
   InputHandle<Message> reset_;
-  OutputHandle<JointTargets> targets_;
-  OutputHandle<Region> moved_;
   std::unique_ptr<head::GazeController> controller_;
   std::vector<head::JointReading> readings_;
   std::shared_ptr<const GazeRequest> last_gaze_;

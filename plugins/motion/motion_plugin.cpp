@@ -13,40 +13,40 @@ using namespace saccade::motion;
 class MotionNode final : public Node {
  public:
   static constexpr const char* kName = "";
+  static constexpr In<Retina> kRetina{"retina", "8-bit gray retina"};
+  static constexpr Out<FeatureMaps> kMaps{"maps", "dI, mx, my, mask per level (on the current retina's geometry)"};
+  static constexpr Out<Motion> kMotion{"motion", "per level: energy, moving fraction, centroid in source pixels"};
+
+  static void bind(ParamBinder<MotionConfig>& b) {
+    using filters::Border;
+    b.field("threshold", {0, 255}, "|dI| above this is motion (gray levels)", &MotionConfig::threshold)
+        .field("sigma", {0.3, 3}, "sigma of the Gaussian derivatives, level pixels", &MotionConfig::sigma)
+        .field("border", {{"reflect101", Border::kReflect101}, {"replicate", Border::kReplicate}},
+               "border rule of the derivatives", &MotionConfig::border);
+  }
+
   static Contract contract() {
     return Contract("Frame difference per retina level, its Gaussian derivatives Mx/My, a motion mask, and per level "
                     "the motion energy and centroid; a fovea shift is not reported as motion.")
-        .input<Retina>("retina", "8-bit gray retina")
-        .output<FeatureMaps>("maps", "dI, mx, my, mask per level (on the current retina's geometry)")
-        .output<Motion>("motion", "per level: energy, moving fraction, centroid in source pixels")
-        .param_double("threshold", 15.0, 0.0, 255.0, "|dI| above this is motion (gray levels)")
-        .param_double("sigma", 1.0, 0.3, 3.0, "sigma of the Gaussian derivatives, level pixels")
-        .param_enum("border", "reflect101", {"reflect101", "replicate"}, "border rule of the derivatives");
+        .ports(kRetina, kMaps, kMotion)
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    const Params& p = ctx.params();
-    in_ = ctx.input<Retina>("retina");
-    maps_out_ = ctx.output<FeatureMaps>("maps");
-    motion_out_ = ctx.output<Motion>("motion");
-    MotionConfig config;
-    config.threshold = static_cast<float>(p.get_double("threshold"));
-    config.sigma = static_cast<float>(p.get_double("sigma"));
-    config.border = p.get_string("border") == "replicate" ? filters::Border::kReplicate : filters::Border::kReflect101;
-    estimator_ = std::make_unique<LevelMotionEstimator>(config);
+    estimator_ = std::make_unique<LevelMotionEstimator>(ctx.config(&bind));
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    auto cur = ctx.get(in_);
+    auto cur = ctx.get(kRetina);
     if (cur->levels.empty() || cur->levels[0].type() != CV_8UC1)
       return Status::error("expected an 8-bit gray retina (set the retina's channels=gray)");
     const std::size_t n = cur->levels.size();
-    auto summary = ctx.make(motion_out_);
+    auto summary = ctx.make(kMotion);
     summary->camera_id = cur->camera_id;
     summary->energy.assign(n, 0.0);
     summary->moving.assign(n, 0.0);
     summary->centroid.assign(n, cv::Point2d(-1, -1));
     summary->first = !prev_ || !compatible(*prev_, *cur);
-    auto maps = ctx.make(maps_out_);
+    auto maps = ctx.make(kMaps);
     maps->retina = cur;
     maps->set_layout({"dI", "mx", "my", "mask"}, n);
     if (!summary->first) {
@@ -80,8 +80,8 @@ class MotionNode final : public Node {
         }
     }
     prev_ = cur;
-    ctx.emit(maps_out_, std::move(maps));
-    ctx.emit(motion_out_, std::move(summary));
+    ctx.emit(kMaps, std::move(maps));
+    ctx.emit(kMotion, std::move(summary));
     return {};
   }
   void close() override { prev_.reset(); }
@@ -124,9 +124,6 @@ class MotionNode final : public Node {
   }
   void swap_out(FeatureMaps& maps, std::size_t k) { swap_in(maps, k); }
 
-  InputHandle<Retina> in_;
-  OutputHandle<FeatureMaps> maps_out_;
-  OutputHandle<Motion> motion_out_;
   std::unique_ptr<LevelMotionEstimator> estimator_;
   std::unique_ptr<retina::RetinaSampler> sampler_;
   std::shared_ptr<const Retina> prev_;

@@ -11,35 +11,46 @@ namespace {
 using namespace saccade;
 using namespace saccade::snapshot;
 
+// The node's parameters.
+struct SnapshotConfig {
+  std::string dir = "out";
+  std::string prefix;  // empty: the node's name
+  int64_t every = 1;
+  int64_t first = 0;
+  int scale = 6;
+  bool disparity_png16 = false;
+};
+
 class Snapshot final : public Node {
  public:
   static constexpr const char* kName = "";
+
+  static void bind(ParamBinder<SnapshotConfig>& b) {
+    using C = SnapshotConfig;
+    b.field("dir", "folder for the PNGs (created)", &C::dir)
+        .field("prefix", "file name prefix (default: the node's name)", &C::prefix)
+        .field("every", {1, 1'000'000}, "write one frame in N", &C::every)
+        .field("first", {0, 1'000'000'000}, "skip frames before this frame id", &C::first)
+        .field("scale", {1, 32}, "enlargement of level images", &C::scale)
+        .field("disparity_png16",
+               "also write every disparity* map as a 16-bit PNG per level (disparity x 256, 0 = invalid)",
+               &C::disparity_png16);
+  }
+
   static Contract contract() {
     return Contract("Writes PNG mosaics every N frames: an Image as it is; a Retina as the frame with its level "
                     "rectangles, the level strip and the foveated view; FeatureMaps as all of those plus one strip per feature.")
         .input<Message>("in", "Image, Retina, FeatureMaps or FoveaState (the fovea's track over the frame)")
-        .param_string("dir", "out", "folder for the PNGs (created)")
-        .param_string("prefix", "", "file name prefix (default: the node's name)")
-        .param_int("every", 1, 1, 1'000'000, "write one frame in N")
-        .param_int("first", 0, 0, 1'000'000'000, "skip frames before this frame id")
-        .param_int("scale", 6, 1, 32, "enlargement of level images")
-        .param_bool("disparity_png16", false,
-                    "also write every disparity* map as a 16-bit PNG per level (disparity x 256, 0 = invalid)");
+        .params(&bind);
   }
   Status open(OpenContext& ctx) override {
-    const Params& p = ctx.params();
     in_ = ctx.input<Message>("in");
-    dir_ = p.get_string("dir");
-    prefix_ = p.get_string("prefix");
-    if (prefix_.empty()) prefix_ = ctx.node_name();
-    every_ = p.get_int("every");
-    first_ = p.get_int("first");
-    scale_ = static_cast<int>(p.get_int("scale"));
-    png16_ = p.get_bool("disparity_png16");
+    config_ = ctx.config(&bind);
+    if (config_.prefix.empty()) config_.prefix = ctx.node_name();
     std::error_code ec;
     track_.reserve(kTrackLength);
-    std::filesystem::create_directories(dir_, ec);
-    if (ec) return Status::error("cannot create folder '" + dir_ + "': " + ec.message());
+    std::filesystem::create_directories(config_.dir, ec);
+    if (ec) return Status::error("cannot create folder '" + config_.dir + "': " + ec.message());
     return {};
   }
   Status process(ProcessContext& ctx) override {
@@ -50,7 +61,7 @@ class Snapshot final : public Node {
       if (track_.size() == kTrackLength) track_.erase(track_.begin());
       track_.push_back(TrackPoint{fovea->fovea, fovea->target, fovea->target_valid, fovea->state, fovea->gaze_request});
     }
-    if (msg->frame_id < first_ || (msg->frame_id - first_) % every_ != 0) return {};
+    if (msg->frame_id < config_.first || (msg->frame_id - config_.first) % config_.every != 0) return {};
     if (fovea) return write("track", msg->frame_id, track_overlay(*fovea, track_));
     if (auto image = std::dynamic_pointer_cast<const Image>(msg)) return write("frame", msg->frame_id, to_display(image->mat));
     const Retina* retina = nullptr;
@@ -61,15 +72,16 @@ class Snapshot final : public Node {
     if (retina == nullptr && !maps) return Status::error("cannot draw a " + std::string(msg->type_name()));
     if (retina != nullptr) {
       if (Status s = write("source", msg->frame_id, retina_overlay(*retina)); !s.ok()) return s;
-      if (Status s = write("levels", msg->frame_id, level_strip(retina->levels, scale_, "retina")); !s.ok()) return s;
+      if (Status s = write("levels", msg->frame_id, level_strip(retina->levels, config_.scale, "retina")); !s.ok())
+        return s;
       if (Status s = write("foveated", msg->frame_id, foveated_view(*retina)); !s.ok()) return s;
     }
     if (maps) {
-      if (Status s = write("features", msg->frame_id, feature_grid(*maps, scale_)); !s.ok()) return s;
+      if (Status s = write("features", msg->frame_id, feature_grid(*maps, config_.scale)); !s.ok()) return s;
       for (std::size_t i = 0; i < maps->names.size(); ++i) {
-        if (Status s = write(maps->names[i], msg->frame_id, level_strip(maps->maps[i], scale_, maps->names[i])); !s.ok())
-          return s;
-        if (!png16_ || maps->names[i].rfind("disparity", 0) != 0) continue;
+        const cv::Mat strip = level_strip(maps->maps[i], config_.scale, maps->names[i]);
+        if (Status s = write(maps->names[i], msg->frame_id, strip); !s.ok()) return s;
+        if (!config_.disparity_png16 || maps->names[i].rfind("disparity", 0) != 0) continue;
         for (std::size_t k = 0; k < maps->maps[i].size(); ++k) {
           if (maps->maps[i][k].type() != CV_32F) continue;
           std::string what = maps->names[i] + "_L" + std::to_string(k) + "_16";
@@ -84,7 +96,7 @@ class Snapshot final : public Node {
   Status write(const std::string& what, int64_t frame, const cv::Mat& image) {
     char name[64];
     std::snprintf(name, sizeof name, "_%06lld_", static_cast<long long>(frame));
-    std::string path = dir_ + "/" + prefix_ + name + what + ".png";
+    std::string path = config_.dir + "/" + config_.prefix + name + what + ".png";
     if (image.empty() || !cv::imwrite(path, image)) return Status::error("cannot write " + path);
     ++written_;
     return {};
@@ -92,10 +104,8 @@ class Snapshot final : public Node {
   static constexpr std::size_t kTrackLength = 300;
   InputHandle<Message> in_;
   std::vector<TrackPoint> track_;
-  std::string dir_, prefix_;
-  int64_t every_ = 1, first_ = 0, written_ = 0;
-  int scale_ = 6;
-  bool png16_ = false;
+  SnapshotConfig config_;
+  int64_t written_ = 0;
 };
 
 }  // namespace

@@ -23,7 +23,7 @@ struct RetinaStereoConfig {
   // coarse to fine with one large window per level, and each level then looks
   // at the right frame where the left level's scene is at that disparity
   // (needs the right retina's frame). Per-pixel searches run around it.
-  bool vergence = false;
+  bool vergence = true;
   cv::Size fixation_window{16, 12};  // level pixels of the window that finds the fixation disparity
   int fovea_radius = 6;              // fovea level with vergence: pixels searched around the fixation disparity
   // With vergence, the fovea also searches around what the level outside it

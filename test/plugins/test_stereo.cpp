@@ -96,6 +96,7 @@ TEST(RetinaStereo, FindsAKnownDisparityOnEveryLevel) {
   Pair p = make_pair(d, {320, 240});
   RetinaStereoConfig config;
   config.max_disparity = 64;
+  config.vergence = false;
   RetinaStereo stereo(config);
   std::vector<LevelDisparity> out;
   ASSERT_EQ(stereo.run(*p.left, *p.right, out), "");
@@ -125,6 +126,7 @@ TEST(RetinaStereo, SoftwareVergenceLetsTheFoveaMatchWhatItCouldNotSee) {
   Pair p = make_pair(d, {320, 240});
   RetinaStereoConfig plain, verged;
   plain.max_disparity = verged.max_disparity = 96;
+  plain.vergence = false;
   verged.vergence = true;
   std::vector<LevelDisparity> a, b;
   ASSERT_NO_FATAL_FAILURE(run_both(p, plain, verged, a, b));
@@ -201,6 +203,7 @@ TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   Pair p = make_pair(9, {300, 200});
   RetinaStereoConfig fine, full;
   fine.max_disparity = full.max_disparity = 48;
+  fine.vergence = full.vergence = false;
   full.coarse_to_fine = false;
   std::vector<LevelDisparity> a, b;
   ASSERT_NO_FATAL_FAILURE(run_both(p, fine, full, a, b));
@@ -246,7 +249,9 @@ TEST(RetinaStereo, RefusesMismatchedRetinas) {
   Pair p = make_pair(5, {320, 240});
   Pair q = make_pair(5, {100, 100});  // another fovea: regions differ in rows
   std::vector<LevelDisparity> out;
-  EXPECT_NE(RetinaStereo({}).run(*p.left, *q.right, out).find("regions differ"), std::string::npos);
+  RetinaStereoConfig config;
+  config.vergence = false;
+  EXPECT_NE(RetinaStereo(config).run(*p.left, *q.right, out).find("regions differ"), std::string::npos);
 }
 
 // A stereo node made from `node_xml`, run once on the pair; null (and a
