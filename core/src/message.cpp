@@ -69,6 +69,7 @@ const char* to_string(FoveaState::State state) {
     case FoveaState::State::kSearching: return "searching";
     case FoveaState::State::kTracking: return "tracking";
     case FoveaState::State::kLost: return "lost";
+    case FoveaState::State::kUncertain: return "uncertain";
   }
   return "unknown";
 }

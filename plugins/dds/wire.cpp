@@ -30,6 +30,17 @@ wc::Point2 point_to_wire(cv::Point2d p) {
 }
 cv::Point2d point_from_wire(const wc::Point2& p) { return {p.x(), p.y()}; }
 
+wc::Box box_to_wire(const Box& b) {
+  wc::Box out;
+  out.x(b.x);
+  out.y(b.y);
+  out.w(b.w);
+  out.h(b.h);
+  return out;
+}
+
+Box box_from_wire(const wc::Box& b) { return {b.x(), b.y(), b.w(), b.h()}; }
+
 wc::Vec3 vec_to_wire(const cv::Vec3d& v) {
   wc::Vec3 out;
   out.x(v[0]);
@@ -615,8 +626,9 @@ void to_wire(const FoveaState& in, w::FoveaState& out) {
   out.state(static_cast<uint8_t>(in.state));
   out.fovea(point_to_wire(in.fovea));
   out.next(point_to_wire(in.next));
-  out.target(point_to_wire(in.target));
+  out.target(box_to_wire(in.target));
   out.target_valid(in.target_valid);
+  out.confidence(in.confidence);
   out.score(in.score);
   out.attention_shift(in.attention_shift);
   out.gaze_request(in.gaze_request);
@@ -629,12 +641,14 @@ void to_wire(const FoveaState& in, w::FoveaState& out) {
 
 void from_wire(const w::FoveaState& in, FoveaState& out, std::shared_ptr<Retina>* spare) {
   stamp_from_wire(in.stamp(), out);
-  out.state = in.state() <= static_cast<uint8_t>(FoveaState::State::kLost) ? static_cast<FoveaState::State>(in.state())
-                                                                           : FoveaState::State::kLost;
+  out.state = in.state() <= static_cast<uint8_t>(FoveaState::State::kUncertain)
+                  ? static_cast<FoveaState::State>(in.state())
+                  : FoveaState::State::kLost;
   out.fovea = point_from_wire(in.fovea());
   out.next = point_from_wire(in.next());
-  out.target = point_from_wire(in.target());
+  out.target = box_from_wire(in.target());
   out.target_valid = in.target_valid();
+  out.confidence = in.confidence();
   out.score = in.score();
   out.attention_shift = in.attention_shift();
   out.gaze_request = in.gaze_request();

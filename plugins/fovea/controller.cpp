@@ -32,6 +32,7 @@ void FoveaController::head_moved(cv::Point2d pixel, cv::Size image) {
   acquire_at_ += shift;
   ior_.shift(shift);
   recentre_shift_ = shift;
+  box_tracker_.camera_moved(shift);
   gaze_armed_ = true;
   gaze_wait_ = 0;
 }
@@ -47,6 +48,12 @@ Decision FoveaController::step(const Retina& retina, const std::vector<cv::Mat>*
   d.next = cv::Point2d(retina.fovea);
   ior_.tick();
   if (gaze_wait_ > 0) --gaze_wait_;
+  if (phase_ == Phase::kBox) {
+    recentre_shift_.reset();  // the box tracker was told (camera_moved)
+    follow_box(retina, d);
+    check_border(retina, d);
+    return d;
+  }
   if (recentre_shift_) {
     // The frame was taken before the head's move was known: the target is
     // where it was, shifted with the scene. Put the fovea there; match again on
@@ -176,6 +183,12 @@ Decision FoveaController::step(const Retina& retina, const std::vector<cv::Mat>*
     case Phase::kSearch:
       search(retina, motion_dI, top_down, d);
       break;
+    case Phase::kBox:
+      break;
+  }
+  if (d.target_valid) {
+    d.target_size = cv::Size2d(config_.tracker.template_size);
+    d.confidence = d.score;
   }
   check_border(retina, d);
   return d;
@@ -253,6 +266,35 @@ void FoveaController::lost(const Retina& retina, const std::vector<cv::Mat>* mot
     d.attention_shift = true;
     ++shifts_;
   }
+}
+
+std::string FoveaController::track_box(const cv::Mat& frame, cv::Rect2d box) {
+  if (std::string why = box_tracker_.init(frame, box); !why.empty()) return why;
+  phase_ = Phase::kBox;
+  frames_lost_ = 0;
+  ever_locked_ = true;
+  return {};
+}
+
+void FoveaController::follow_box(const Retina& retina, Decision& d) {
+  if (!retina.source) {  // the retina node always attaches its frame; another producer may not
+    d.state = FoveaState::State::kLost;
+    return;
+  }
+  const TrackEstimate e = box_tracker_.update(retina.source->mat);
+  const cv::Point2d centre(e.box.x + e.box.width / 2, e.box.y + e.box.height / 2);
+  d.target = centre;
+  d.target_size = e.box.size();
+  d.confidence = d.score = e.confidence;
+  d.target_valid = e.state != TrackState::kLost;
+  switch (e.state) {
+    case TrackState::kTracking: d.state = FoveaState::State::kTracking; break;
+    case TrackState::kUncertain: d.state = FoveaState::State::kUncertain; break;
+    case TrackState::kLost: d.state = FoveaState::State::kLost; break;
+  }
+  frames_lost_ = e.state == TrackState::kLost ? frames_lost_ + 1 : 0;
+  if (d.target_valid) d.next = centre;  // lost: the fovea stays while the tracker sweeps the frame
+  target_ = centre;
 }
 
 void FoveaController::check_border(const Retina& retina, Decision& d) {

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "saccade/message.hpp"
+#include "box_tracker.hpp"
 #include "saliency.hpp"
 #include "tracker.hpp"
 
@@ -43,13 +44,16 @@ struct ControllerConfig {
   std::string track_label;
   double focal_px = 0.0;      // 0: from hfov_deg
   double hfov_deg = 60.0;
+  BoxTrackerConfig box;       // a target given as a box (track_box)
 };
 
 struct Decision {
   FoveaState::State state = FoveaState::State::kSearching;
   cv::Point2d next;            // fovea centre for the next frame
   cv::Point2d target{-1, -1};  // the target in this frame
+  cv::Size2d target_size;      // and its size, source pixels
   bool target_valid = false;
+  double confidence = 0.0;     // the tracker's (box: peak-to-sidelobe ratio; template: NCC)
   double score = 0.0;
   bool attention_shift = false;
   bool reacquired = false;     // the target was found again after being lost
@@ -61,6 +65,12 @@ class FoveaController {
   explicit FoveaController(ControllerConfig config);
   // A top-down template: the controller searches for it and never drops it.
   bool set_template(const cv::Mat& image);
+  // From now on follows the target inside `box` (source pixels) of `frame`
+  // with the box tracker: honest states (tracking, uncertain, lost) and
+  // re-detection when lost. Empty on success, else why not (the controller
+  // is then unchanged).
+  std::string track_box(const cv::Mat& frame, cv::Rect2d box);
+  bool tracking_box() const { return phase_ == Phase::kBox; }
   // One frame. `motion_dI`: the motion node's dI per level on this retina's
   // geometry (or nullptr); `top_down`: a place to look at given from outside
   // (a classifier's detection, a user's click), or nullptr.
@@ -71,15 +81,16 @@ class FoveaController {
 
   int64_t attention_shifts() const { return shifts_; }
   int64_t gaze_requests() const { return gaze_requests_; }
-  int64_t frames_lost() const { return phase_ == Phase::kLost ? frames_lost_ : 0; }
+  int64_t frames_lost() const { return phase_ == Phase::kLost || phase_ == Phase::kBox ? frames_lost_ : 0; }
   const ControllerConfig& config() const { return config_; }
 
  private:
-  enum class Phase { kSearch, kAcquire, kTrack, kLost };
+  enum class Phase { kSearch, kAcquire, kTrack, kLost, kBox };
   void look_at(cv::Point2d point, Decision& d);
   void search(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
   void lost(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
   void check_border(const Retina& retina, Decision& d);
+  void follow_box(const Retina& retina, Decision& d);
   bool moving_only(const std::vector<cv::Mat>* motion_dI) const {
     return config_.mode == FoveaMode::kTrack && config_.lock_on_motion && motion_dI != nullptr;
   }
@@ -87,6 +98,7 @@ class FoveaController {
   ControllerConfig config_;
   Saliency saliency_;
   TemplateTracker tracker_;
+  BoxTracker box_tracker_;
   InhibitionOfReturn ior_;
   Phase phase_ = Phase::kSearch;
   bool fixed_template_ = false;

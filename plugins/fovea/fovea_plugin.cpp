@@ -1,6 +1,13 @@
+#include <charconv>
+#include <cmath>
+#include <optional>
+#include <sstream>
+#include <vector>
+
 #include <opencv2/imgcodecs.hpp>
 
 #include "controller.hpp"
+#include "saccade/log.hpp"
 #include "saccade/plugin.hpp"
 
 namespace {
@@ -20,6 +27,44 @@ std::optional<cv::Vec3d> parse_color(const std::string& text, std::string* error
   return c;
 }
 
+struct InitBox {
+  cv::Rect2d box;
+  int64_t frame = -1;  // the frame id to start on; -1: the first frame
+  std::string text;    // as written, for errors
+};
+
+// "x,y,w,h" or "x,y,w,h,frame" -> a box; "" -> none. Fills `error` when the
+// text is not a box a tracker can follow.
+std::optional<InitBox> parse_init(const std::string& text, double min_side, std::string* error) {
+  if (text.empty()) return std::nullopt;
+  std::vector<double> v;
+  bool numbers = true;
+  std::stringstream items(text);
+  for (std::string item; std::getline(items, item, ',');) {
+    const auto first = item.find_first_not_of(' '), last = item.find_last_not_of(' ');
+    double value = 0;
+    const char* end = item.data() + (last == std::string::npos ? 0 : last + 1);
+    const auto [ptr, ec] = std::from_chars(item.data() + (first == std::string::npos ? 0 : first), end, value);
+    numbers = numbers && ec == std::errc() && ptr == end && first != std::string::npos;
+    v.push_back(value);
+  }
+  if (!numbers || (v.size() != 4 && v.size() != 5)) {
+    *error = "expected x,y,w,h or x,y,w,h,frame (numbers), got '" + text + "'";
+    return std::nullopt;
+  }
+  if (!(v[2] >= min_side && v[3] >= min_side)) {
+    *error = "box '" + text + "': width and height must be at least " + std::to_string(static_cast<int>(min_side)) +
+             " pixels";
+    return std::nullopt;
+  }
+  const double frame = v.size() == 5 ? v[4] : -1;
+  if (v.size() == 5 && (frame < 0 || frame != std::floor(frame))) {
+    *error = "box '" + text + "': the frame must be a whole number >= 0";
+    return std::nullopt;
+  }
+  return InitBox{{v[0], v[1], v[2], v[3]}, static_cast<int64_t>(frame), text};
+}
+
 class FoveaNode final : public Node {
  public:
   static constexpr const char* kName = "";
@@ -35,6 +80,7 @@ class FoveaNode final : public Node {
     using C = ControllerConfig;
     using T = TrackerConfig;
     using S = SaliencyConfig;
+    using B = BoxTrackerConfig;
     b.field("mode", {{"track", FoveaMode::kTrack}, {"attend", FoveaMode::kAttend}},
             "track: lock on one target and follow it; attend: visit salient places in turn", &C::mode)
         .field("dwell", {1, 100000}, "attend: frames on one place before attention moves on", &C::dwell_frames)
@@ -70,7 +116,18 @@ class FoveaNode final : public Node {
                &C::border_margin)
         .field("gaze_repeat", {1, 1000000}, "frames before an unanswered gaze request is repeated", &C::gaze_repeat)
         .field("focal", {0, 1e6}, "focal length in pixels for gaze directions (0: from hfov)", &C::focal_px)
-        .field("hfov", {1, 179}, "horizontal field of view, degrees (when focal is 0)", &C::hfov_deg);
+        .field("hfov", {1, 179}, "horizontal field of view, degrees (when focal is 0)", &C::hfov_deg)
+        .field("box_learning_rate", {0, 1}, "box tracking: model <- (1-a) model + a frame, on confident frames",
+               &C::box, &B::learning_rate)
+        .field("box_tracking_psr", {0, 1000}, "box tracking: peak-to-sidelobe ratio from which the target is tracked",
+               &C::box, &B::tracking_psr)
+        .field("box_lost_psr", {0, 1000}, "box tracking: below this peak-to-sidelobe ratio the peak is not trusted",
+               &C::box, &B::lost_psr)
+        .field("box_lost_frames", {1, 100000}, "box tracking: untrusted frames in a row before the target is lost",
+               &C::box, &B::lost_frames)
+        .field("box_redetect_psr", {0, 1000},
+               "box tracking: peak-to-sidelobe ratio a re-detection must reach (twice, at one place)", &C::box,
+               &B::redetect_psr);
   }
 
   static Contract contract() {
@@ -81,6 +138,9 @@ class FoveaNode final : public Node {
         .ports(kRetina, kMotion, kTarget, kHead, kFovea, kState, kGaze)
         .params(&bind)
         .param_string("template", "", "image file of the target to look for (top-down); empty: lock on saliency")
+        .param_string("init", "",
+                      "the target as a box x,y,w,h in source pixels (optionally x,y,w,h,frame: on that frame id), "
+                      "followed by the box tracker; empty: none (a 'target' with a size also gives one)")
         .param_string("color", "", "wanted colour B,G,R (BGR retina); empty: none");
   }
 
@@ -89,8 +149,16 @@ class FoveaNode final : public Node {
     std::string error;
     c.saliency.color = parse_color(ctx.params().get_string("color"), &error);
     if (!error.empty()) return Status::error(error);
-    if (c.tracker.template_size.width < 3 || c.tracker.template_size.height < 3)
-      return Status::error("template_size must be at least 3x3");
+    const cv::Size t = c.tracker.template_size, w = c.tracker.search_size;
+    if (t.width < 3 || t.height < 3) return Status::error("template_size must be at least 3x3");
+    if (w.area() > 0 && (t.width > w.width || t.height > w.height))
+      return Status::error("template_size " + std::to_string(t.width) + "x" + std::to_string(t.height) +
+                           " is larger than search_size " + std::to_string(w.width) + "x" + std::to_string(w.height) +
+                           ": the template could never be found");
+    if (auto init = parse_init(ctx.params().get_string("init"), c.box.min_target, &error)) init_ = *init;
+    if (!error.empty()) return Status::error("init: " + error);
+    track_mode_ = c.mode == FoveaMode::kTrack;
+    bad_targets_ = &ctx.counter("bad_targets");
     controller_ = std::make_unique<FoveaController>(c);
     if (const std::string path = ctx.params().get_string("template"); !path.empty()) {
       cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
@@ -109,7 +177,20 @@ class FoveaNode final : public Node {
       last_head_ = head;
       controller_->head_moved(head->center, retina->source_size);
     }
+    if (Status s = start_box(*retina); !s.ok()) return s;
     auto target = ctx.get(kTarget);
+    if (target && target != last_target_ && track_mode_ && target->size.area() > 0) {
+      // A box from outside (a detection, a click): follow it from this frame.
+      last_target_ = target;
+      const cv::Rect2d box(target->center.x - target->size.width / 2, target->center.y - target->size.height / 2,
+                           target->size.width, target->size.height);
+      const std::string why = retina->source ? controller_->track_box(retina->source->mat, box) : "no frame with the retina";
+      if (!why.empty()) {
+        log().warn("{}: target ignored: {}", ctx.node_name(), why);
+        bad_targets_->fetch_add(1, std::memory_order_relaxed);
+      }
+      target.reset();
+    }
     const Decision d = controller_->step(*retina, dI, target.get());
 
     auto fovea = ctx.make(kFovea);
@@ -135,8 +216,9 @@ class FoveaNode final : public Node {
     state->state = d.state;
     state->fovea = cv::Point2d(retina->fovea);
     state->next = d.next;
-    state->target = d.target;
+    state->target = Box::around(d.target, d.target_size);
     state->target_valid = d.target_valid;
+    state->confidence = d.confidence;
     state->score = d.score;
     state->attention_shift = d.attention_shift;
     state->gaze_request = d.gaze.has_value();
@@ -150,7 +232,22 @@ class FoveaNode final : public Node {
   }
 
  private:
+  // The `init` box, until the frame it names arrives.
+  Status start_box(const Retina& retina) {
+    if (!init_ || (init_->frame >= 0 && retina.frame_id < init_->frame)) return {};
+    const InitBox box = *init_;
+    init_.reset();
+    if (!retina.source) return Status::error("init: the retina carries no frame to learn the target from");
+    if (std::string why = controller_->track_box(retina.source->mat, box.box); !why.empty())
+      return Status::error("init " + box.text + ": " + why);
+    return {};
+  }
+
   std::unique_ptr<FoveaController> controller_;
+  std::optional<InitBox> init_;
+  std::shared_ptr<const Region> last_target_;
+  bool track_mode_ = true;
+  std::atomic<uint64_t>* bad_targets_ = nullptr;
   std::shared_ptr<const Region> last_head_;  // held, so the pool cannot reuse it for the next move
 };
 

@@ -78,6 +78,7 @@ cv::Mat track_overlay(const FoveaState& state, const std::vector<TrackPoint>& tr
     switch (s) {
       case FoveaState::State::kTracking: return cv::Scalar(0, 220, 0);
       case FoveaState::State::kLost: return cv::Scalar(0, 0, 255);
+      case FoveaState::State::kUncertain: return cv::Scalar(0, 140, 255);
       case FoveaState::State::kSearching: break;
     }
     return cv::Scalar(0, 220, 255);
@@ -89,7 +90,12 @@ cv::Mat track_overlay(const FoveaState& state, const std::vector<TrackPoint>& tr
   }
   for (const TrackPoint& t : track)
     if (t.gaze_request) cv::circle(out, t.fovea, 10 * thickness, cv::Scalar(255, 0, 255), thickness, cv::LINE_AA);
-  if (state.target_valid) cv::drawMarker(out, state.target, cv::Scalar(255, 160, 0), cv::MARKER_SQUARE, 10, thickness);
+  if (state.target_valid) {
+    if (state.target.w > 0 && state.target.h > 0)
+      cv::rectangle(out, state.target.rect(), cv::Scalar(255, 160, 0), thickness, cv::LINE_AA);
+    else
+      cv::drawMarker(out, state.target.center(), cv::Scalar(255, 160, 0), cv::MARKER_SQUARE, 10, thickness);
+  }
   char text[160];
   std::snprintf(text, sizeof text, "%s  score %.2f  shifts %lld  gaze requests %lld", to_string(state.state), state.score,
                 static_cast<long long>(state.attention_shifts), static_cast<long long>(state.gaze_requests));

@@ -59,7 +59,7 @@ class Snapshot final : public Node {
     if (fovea) {
       // The track is remembered on every frame, drawn on the frames written.
       if (track_.size() == kTrackLength) track_.erase(track_.begin());
-      track_.push_back(TrackPoint{fovea->fovea, fovea->target, fovea->target_valid, fovea->state, fovea->gaze_request});
+      track_.push_back(TrackPoint{fovea->fovea, fovea->target.center(), fovea->target_valid, fovea->state, fovea->gaze_request});
     }
     if (msg->frame_id < config_.first || (msg->frame_id - config_.first) % config_.every != 0) return {};
     if (fovea) return write("track", msg->frame_id, track_overlay(*fovea, track_));

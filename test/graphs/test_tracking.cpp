@@ -47,7 +47,7 @@ TrackFigures evaluate(const std::vector<std::shared_ptr<const FoveaState>>& stat
     const double error = std::hypot(s.fovea.x - t.center.x, s.fovea.y - t.center.y);
     if (std::getenv("SACCADE_TRACK_DUMP"))
       std::printf("%4lld %-9s fovea %6.1f %6.1f target %6.1f %6.1f truth %6.1f %6.1f %s score %.2f err %.1f\n",
-                  static_cast<long long>(s.frame_id), to_string(s.state), s.fovea.x, s.fovea.y, s.target.x, s.target.y,
+                  static_cast<long long>(s.frame_id), to_string(s.state), s.fovea.x, s.fovea.y, s.target.center().x, s.target.center().y,
                   t.center.x, t.center.y, t.label.c_str(), s.score, error);
     const int k = static_cast<int>(s.frame_id);
     if (jump_every > 0 && k > 0 && k % jump_every == 0) {

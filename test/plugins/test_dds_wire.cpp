@@ -270,7 +270,8 @@ TEST(DdsWire, FoveaStateAndClassificationRoundTrip) {
   f.state = FoveaState::State::kTracking;
   f.fovea = {1, 2};
   f.next = {3, 4};
-  f.target = {5.5, 6.5};
+  f.target = {5.5, 6.5, 20, 10};
+  f.confidence = 12.5;
   f.target_valid = true;
   f.score = 0.93;
   f.attention_shift = true;
@@ -287,6 +288,7 @@ TEST(DdsWire, FoveaStateAndClassificationRoundTrip) {
   EXPECT_EQ(f2.next, f.next);
   EXPECT_EQ(f2.target, f.target);
   EXPECT_EQ(f2.target_valid, f.target_valid);
+  EXPECT_EQ(f2.confidence, f.confidence);
   EXPECT_EQ(f2.score, f.score);
   EXPECT_EQ(f2.attention_shift, f.attention_shift);
   EXPECT_EQ(f2.gaze_request, f.gaze_request);

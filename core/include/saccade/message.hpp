@@ -207,6 +207,27 @@ struct Motion final : Message {
   }
 };
 
+// An axis-aligned box in source pixels: its top-left corner and its size (a
+// tracked target, a detection).
+struct Box {
+  double x = 0, y = 0, w = 0, h = 0;
+
+  static Box around(cv::Point2d centre, cv::Size2d size) {
+    return {centre.x - size.width / 2, centre.y - size.height / 2, size.width, size.height};
+  }
+  cv::Point2d center() const { return {x + w / 2, y + h / 2}; }
+  cv::Rect2d rect() const { return {x, y, w, h}; }
+  bool operator==(const Box&) const = default;
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("x", self.x);
+    visit("y", self.y);
+    visit("w", self.w);
+    visit("h", self.h);
+  }
+};
+
 // A point or region in a source frame: a fovea position, a target, a ground truth.
 struct Region final : Message {
   static constexpr std::string_view kTypeName = "Region";
@@ -347,13 +368,17 @@ struct FoveaState final : Message {
   std::string_view type_name() const override { return kTypeName; }
   void release_shared_buffers() override { retina.reset(); }
   ~FoveaState() override;
-  enum class State : uint8_t { kSearching, kTracking, kLost };
+  // kUncertain: the target is believed near `target` but the tracker is not
+  // sure (partly hidden, changing fast) and does not learn from this frame.
+  // kLost: the target is gone (hidden, out of view); the tracker looks for it.
+  enum class State : uint8_t { kSearching, kTracking, kLost, kUncertain };
   State state = State::kSearching;
   cv::Point2d fovea;       // fovea centre the retina used for this frame, source pixels
   cv::Point2d next;        // fovea centre asked for the next frame
-  cv::Point2d target;      // the target's centre in this frame (when target_valid)
+  Box target;              // the target in this frame, source pixels (when target_valid)
   bool target_valid = false;
-  double score = 0.0;      // tracking: the template's match (NCC); searching: the attended saliency
+  double confidence = 0.0; // the tracker's: a box's peak-to-sidelobe ratio, a template's match (NCC)
+  double score = 0.0;      // tracking: as confidence; searching: the attended saliency
   bool attention_shift = false;  // the fovea was sent somewhere new this frame
   bool gaze_request = false;     // a GazeRequest went out this frame
   int64_t attention_shifts = 0;  // since the start
@@ -367,8 +392,9 @@ struct FoveaState final : Message {
     visit("state", self.state);
     visit("fovea", self.fovea);
     visit("next", self.next);
-    visit("target_center", self.target);
+    visit("target", self.target);
     visit("target_valid", self.target_valid);
+    visit("confidence", self.confidence);
     visit("score", self.score);
     visit("attention_shift", self.attention_shift);
     visit("gaze_request", self.gaze_request);

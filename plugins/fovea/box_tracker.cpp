@@ -1,0 +1,586 @@
+#include "box_tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+
+#include <opencv2/imgproc.hpp>
+
+namespace saccade::fovea {
+
+const char* to_string(TrackState state) {
+  switch (state) {
+    case TrackState::kTracking: return "tracking";
+    case TrackState::kUncertain: return "uncertain";
+    case TrackState::kLost: return "lost";
+  }
+  return "?";
+}
+
+namespace {
+
+constexpr int kChannels = 5;  // gray, and the gradient's strength along 4 directions
+
+// Where a patch comes from: its centre and its step (source pixels per patch pixel).
+struct Placement {
+  cv::Point2d centre;
+  double step = 1;
+};
+
+// One correlation's outcome, in patch pixels from the patch's centre.
+struct Peak {
+  cv::Point2d offset;
+  double value = 0;
+  double psr = 0;
+};
+
+cv::Mat hann_window(int side) {
+  cv::Mat w(side, side, CV_32F);
+  for (int y = 0; y < side; ++y)
+    for (int x = 0; x < side; ++x)
+      w.at<float>(y, x) = static_cast<float>(0.25 * (1 - std::cos(2 * CV_PI * x / (side - 1))) *
+                                             (1 - std::cos(2 * CV_PI * y / (side - 1))));
+  return w;
+}
+
+// The desired response: a Gaussian at the patch's centre, as a spectrum.
+cv::Mat gaussian_spectrum(int side, double sigma) {
+  cv::Mat g(side, side, CV_32F);
+  const double c = side / 2;
+  for (int y = 0; y < side; ++y)
+    for (int x = 0; x < side; ++x)
+      g.at<float>(y, x) = static_cast<float>(std::exp(-((x - c) * (x - c) + (y - c) * (y - c)) / (2 * sigma * sigma)));
+  cv::Mat spectrum;
+  cv::dft(g, spectrum, cv::DFT_COMPLEX_OUTPUT);
+  return spectrum;
+}
+
+// Sub-pixel position of a peak along one axis from its neighbours (a parabola).
+double parabola(float left, float centre, float right) {
+  const double d = left - 2.0 * centre + right;
+  return d < 0 ? 0.5 * (left - right) / d : 0.0;
+}
+
+// Peak-to-sidelobe ratio: the peak against the response outside an 11x11
+// window around it. A sharp, lone peak (the target) scores high; a flat or
+// many-peaked response (occlusion, clutter) low.
+double peak_to_sidelobe(const cv::Mat& response, cv::Point peak) {
+  const int r = 5;
+  double sum = 0, sq = 0;
+  int n = 0;
+  for (int y = 0; y < response.rows; ++y) {
+    const float* row = response.ptr<float>(y);
+    const bool near_row = std::abs(y - peak.y) <= r;
+    for (int x = 0; x < response.cols; ++x) {
+      if (near_row && std::abs(x - peak.x) <= r) continue;
+      sum += row[x];
+      sq += static_cast<double>(row[x]) * row[x];
+      ++n;
+    }
+  }
+  const double mean = sum / n;
+  const double sd = std::sqrt(std::max(sq / n - mean * mean, 1e-12));
+  return (response.at<float>(peak) - mean) / sd;
+}
+
+}  // namespace
+
+// Samples `size` pixels centred on `centre` at `step_x` x `step_y` source
+// pixels per pixel from an 8-bit gray or BGR frame, into 8-bit gray `out`.
+// Steps above 1.5 are sampled at twice the resolution and halved, so that a
+// pixel is a mean over its cell (as a retina level's), not one source pixel.
+// Only the sample is converted to gray: the cost does not grow with the frame.
+void sample_gray(const cv::Mat& frame, cv::Point2d centre, double step_x, double step_y, cv::Size size, cv::Mat& out,
+                 cv::Mat& fine, cv::Mat& fine_gray) {
+  const bool halve = std::max(step_x, step_y) > 1.5;
+  const cv::Size n = halve ? size * 2 : size;
+  const double sx = halve ? step_x / 2 : step_x, sy = halve ? step_y / 2 : step_y;
+  const cv::Matx23d m(sx, 0, centre.x - sx * (n.width - 1) / 2.0, 0, sy, centre.y - sy * (n.height - 1) / 2.0);
+  cv::warpAffine(frame, fine, m, n, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+  if (fine.channels() != 1) {
+    cv::cvtColor(fine, fine_gray, fine.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+    std::swap(fine, fine_gray);
+  }
+  if (halve)
+    cv::pyrDown(fine, out, size);
+  else
+    fine.copyTo(out);
+}
+
+// The mean gray of a cell of `step_x` x `step_y` source pixels around (x, y),
+// from four bilinear samples at its quarter points: a retina level's pixel,
+// for any step and any sub-pixel position, read straight from the frame.
+template <int Channels>
+float cell_mean(const cv::Mat& frame, double x, double y, double step_x, double step_y) {
+  float total = 0;
+  for (const double qy : {-0.25, 0.25})
+    for (const double qx : {-0.25, 0.25}) {
+      const double sx = std::clamp(x + qx * step_x, 0.0, frame.cols - 1.001);
+      const double sy = std::clamp(y + qy * step_y, 0.0, frame.rows - 1.001);
+      const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
+      const float ax = static_cast<float>(sx - x0), ay = static_cast<float>(sy - y0);
+      const uchar* r0 = frame.ptr<uchar>(y0) + x0 * Channels;
+      const uchar* r1 = frame.ptr<uchar>(y0 + 1) + x0 * Channels;
+      auto gray = [](const uchar* p) {
+        if constexpr (Channels == 1)
+          return static_cast<float>(p[0]);
+        else
+          return 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2];
+      };
+      const float top = (1 - ax) * gray(r0) + ax * gray(r0 + Channels);
+      const float bottom = (1 - ax) * gray(r1) + ax * gray(r1 + Channels);
+      total += (1 - ay) * top + ay * bottom;
+    }
+  return total * 0.25f;
+}
+
+// A side x side gray sample centred on `centre`, one cell_mean per pixel.
+void sample_area(const cv::Mat& frame, cv::Point2d centre, double step_x, double step_y, int side, float* out) {
+  const double half = (side - 1) / 2.0;
+  for (int j = 0; j < side; ++j)
+    for (int i = 0; i < side; ++i) {
+      const double x = centre.x + (i - half) * step_x, y = centre.y + (j - half) * step_y;
+      out[j * side + i] = frame.channels() == 1 ? cell_mean<1>(frame, x, y, step_x, step_y)
+                          : frame.channels() == 3 ? cell_mean<3>(frame, x, y, step_x, step_y)
+                                                  : cell_mean<4>(frame, x, y, step_x, step_y);
+    }
+}
+
+// DSST's scale filter: a one-dimensional correlation filter across `count`
+// scales of the target (Danelljan et al., BMVC 2014). Each scale's sample is
+// the target's box times that scale, sampled to a small fixed patch; the
+// filter learns which scale matches the model, independent of translation.
+class ScaleFilter {
+ public:
+  ScaleFilter(int count, double step, int side) : count_(count), side_(side), dims_(3 * side * side) {
+    const auto n = static_cast<std::size_t>(count);
+    factors_.resize(n);
+    window_.resize(n);
+    std::vector<double> g(n);
+    const double sigma = std::sqrt(count) / 4.0;
+    for (int k = 0; k < count; ++k) {
+      const double i = k - (count - 1) / 2.0;
+      factors_[static_cast<std::size_t>(k)] = std::pow(step, -i);
+      g[static_cast<std::size_t>(k)] = std::exp(-0.5 * i * i / (sigma * sigma));
+      window_[static_cast<std::size_t>(k)] = static_cast<float>(0.5 * (1 - std::cos(2 * CV_PI * (k + 1) / (count + 1))));
+    }
+    twiddle_.resize(n * n);
+    for (int a = 0; a < count; ++a)
+      for (int b = 0; b < count; ++b)
+        twiddle_[static_cast<std::size_t>(a * count + b)] = std::polar(1.0f, static_cast<float>(-2 * CV_PI * a * b / count));
+    target_.assign(n, {});
+    for (int k = 0; k < count; ++k)
+      for (int s = 0; s < count; ++s) target_[static_cast<std::size_t>(k)] += static_cast<float>(g[static_cast<std::size_t>(s)]) * twiddle_[static_cast<std::size_t>(s * count + k)];
+    samples_.resize(n * static_cast<std::size_t>(dims_));
+    spectra_.resize(n * static_cast<std::size_t>(dims_));
+    sample_.resize(static_cast<std::size_t>(side * side));
+  }
+
+  // The best scale factor for a target of `size` around `centre` (1: unchanged).
+  double estimate(const cv::Mat& frame, cv::Point2d centre, cv::Size2d size, double lambda) {
+    if (numerator_.empty()) return 1.0;
+    spectra(frame, centre, size);
+    // Response = IDFT over scales of sum_d A_d(k) Z_d(k) / (B(k) + lambda).
+    std::vector<std::complex<float>>& r = response_;
+    r.assign(static_cast<std::size_t>(count_), {});
+    for (int k = 0; k < count_; ++k) {
+      const std::complex<float>* a = &numerator_[static_cast<std::size_t>(k * dims_)];
+      const std::complex<float>* z = &spectra_[static_cast<std::size_t>(k * dims_)];
+      std::complex<float> sum = 0;
+      for (int d = 0; d < dims_; ++d) sum += a[d] * z[d];
+      r[static_cast<std::size_t>(k)] = sum / (denominator_[static_cast<std::size_t>(k)] + static_cast<float>(lambda));
+    }
+    int best = 0;
+    float best_value = -INFINITY;
+    for (int s = 0; s < count_; ++s) {
+      float value = 0;  // the real part of the inverse transform at s
+      for (int k = 0; k < count_; ++k) value += (r[static_cast<std::size_t>(k)] * std::conj(twiddle_[static_cast<std::size_t>(s * count_ + k)])).real();
+      if (value > best_value) best_value = value, best = s;
+    }
+    return factors_[static_cast<std::size_t>(best)];
+  }
+
+  // Learns from the samples estimate() took when `fresh` is false (the
+  // scale did not change, so they are this frame's samples at this size).
+  void learn(const cv::Mat& frame, cv::Point2d centre, cv::Size2d size, double rate, bool fresh) {
+    if (fresh || numerator_.empty()) spectra(frame, centre, size);
+    if (numerator_.empty()) {
+      numerator_.assign(spectra_.size(), {});
+      denominator_.assign(static_cast<std::size_t>(count_), 0.0f);
+      rate = 1;
+    }
+    const float a = static_cast<float>(rate), keep = 1 - a;
+    for (int k = 0; k < count_; ++k) {
+      const std::complex<float> g = target_[static_cast<std::size_t>(k)];
+      const std::complex<float>* f = &spectra_[static_cast<std::size_t>(k * dims_)];
+      std::complex<float>* n = &numerator_[static_cast<std::size_t>(k * dims_)];
+      float energy = 0;
+      for (int d = 0; d < dims_; ++d) {
+        n[d] = keep * n[d] + a * g * std::conj(f[d]);
+        energy += std::norm(f[d]);
+      }
+      float& b = denominator_[static_cast<std::size_t>(k)];
+      b = keep * b + a * energy;
+    }
+  }
+
+ private:
+  // Per scale (row), the scale's sample as gray and gradient strengths,
+  // windowed across scales; then the transform across scales, per dimension.
+  void spectra(const cv::Mat& frame, cv::Point2d centre, cv::Size2d size) {
+    const int pixels = side_ * side_;
+    for (int k = 0; k < count_; ++k) {
+      const double f = factors_[static_cast<std::size_t>(k)];
+      sample_area(frame, centre, size.width * f / side_, size.height * f / side_, side_, sample_.data());
+      double sum = 0, sq = 0;
+      for (float v : sample_) sum += v, sq += static_cast<double>(v) * v;
+      const double mean = sum / pixels;
+      const float gain = static_cast<float>(window_[static_cast<std::size_t>(k)] /
+                                            (std::sqrt(std::max(sq / pixels - mean * mean, 0.0)) + 1.0));
+      const float offset = static_cast<float>(mean);
+      const float* v = sample_.data();
+      float* out = &samples_[static_cast<std::size_t>(k * dims_)];
+      for (int y = 0; y < side_; ++y)
+        for (int x = 0; x < side_; ++x) {
+          const int i = y * side_ + x;
+          const float dx = v[y * side_ + std::min(x + 1, side_ - 1)] - v[y * side_ + std::max(x - 1, 0)];
+          const float dy = v[std::min(y + 1, side_ - 1) * side_ + x] - v[std::max(y - 1, 0) * side_ + x];
+          out[i] = gain * (v[i] - offset);
+          out[pixels + i] = gain * std::abs(dx);
+          out[2 * pixels + i] = gain * std::abs(dy);
+        }
+    }
+    for (int k = 0; k < count_; ++k) {
+      std::complex<float>* z = &spectra_[static_cast<std::size_t>(k * dims_)];
+      std::fill(z, z + dims_, std::complex<float>());
+      for (int s = 0; s < count_; ++s) {
+        const std::complex<float> w = twiddle_[static_cast<std::size_t>(s * count_ + k)];
+        const float* x = &samples_[static_cast<std::size_t>(s * dims_)];
+        for (int d = 0; d < dims_; ++d) z[d] += w * x[d];
+      }
+    }
+  }
+
+  int count_, side_, dims_;
+  std::vector<double> factors_;
+  std::vector<float> window_, sample_, samples_, denominator_;
+  std::vector<std::complex<float>> twiddle_, target_, spectra_, numerator_, response_;
+};
+
+struct BoxTracker::Impl {
+  explicit Impl(const BoxTrackerConfig& c)
+      : config(c),
+        window(hann_window(c.patch)),
+        target_spectrum(gaussian_spectrum(c.patch, c.sigma * c.patch / c.padding)),
+        scale_filter(c.scales, c.scale_step, 12) {}
+
+  // The patch at `p`: a retina level's view of the target and around it.
+  void sample(const cv::Mat& frame, const Placement& p, cv::Mat& out) {
+    sample_gray(frame, p.centre, p.step, p.step, cv::Size(config.patch, config.patch), out, fine, fine_gray);
+  }
+
+  // The patch's feature channels, windowed, as spectra: gray under local
+  // contrast normalisation (as HOG's blocks: each pixel against its
+  // neighbourhood's mean and spread, so a shadow or a light falling on part
+  // of the target changes little), and the gradient's strength along four
+  // directions under the same normalisation.
+  void features(const cv::Mat& patch8, std::vector<cv::Mat>& out) {
+    patch8.convertTo(patch_f, CV_32F);
+    const cv::Size block(7, 7);
+    cv::boxFilter(patch_f, local_mean, CV_32F, block);
+    cv::sqrBoxFilter(patch_f, local_sq, CV_32F, block);
+    cv::Sobel(patch_f, gx, CV_32F, 1, 0);
+    cv::Sobel(patch_f, gy, CV_32F, 0, 1);
+    channels.resize(kChannels);
+    for (cv::Mat& c : channels) c.create(patch_f.size(), CV_32F);
+    const float diagonal = static_cast<float>(M_SQRT1_2);
+    for (int y = 0; y < patch_f.rows; ++y) {
+      const float* v = patch_f.ptr<float>(y);
+      const float* mean = local_mean.ptr<float>(y);
+      const float* sq = local_sq.ptr<float>(y);
+      const float* dx = gx.ptr<float>(y);
+      const float* dy = gy.ptr<float>(y);
+      const float* w = window.ptr<float>(y);
+      float* c[kChannels];
+      for (int k = 0; k < kChannels; ++k) c[k] = channels[static_cast<std::size_t>(k)].ptr<float>(y);
+      for (int x = 0; x < patch_f.cols; ++x) {
+        // +4: flat neighbourhoods stay flat rather than amplify noise.
+        const float spread = std::sqrt(std::max(sq[x] - mean[x] * mean[x], 0.0f)) + 4.0f;
+        const float g = w[x] / spread, e = g * 0.25f;
+        c[0][x] = (v[x] - mean[x]) * g;
+        c[1][x] = std::abs(dx[x]) * e;
+        c[2][x] = std::abs(dy[x]) * e;
+        c[3][x] = std::abs(dx[x] + dy[x]) * diagonal * e;
+        c[4][x] = std::abs(dx[x] - dy[x]) * diagonal * e;
+      }
+    }
+    out.resize(kChannels);
+    for (int k = 0; k < kChannels; ++k) cv::dft(channels[static_cast<std::size_t>(k)], out[static_cast<std::size_t>(k)], cv::DFT_COMPLEX_OUTPUT);
+  }
+
+  // Model <- (1 - rate) model + rate (this patch's filter): per channel
+  // G conj(F), and the channels' summed energy F conj(F). The target stands
+  // `offset` patch pixels from the patch's centre: the desired response G is
+  // moved there by a phase ramp, so the patch the target was found in is
+  // learnt from without sampling it again.
+  void learn(const std::vector<cv::Mat>& spectra_in, double rate, cv::Point2d offset = {}) {
+    const int side = config.patch;
+    shifted_target(offset);
+    const cv::Mat& target = offset == cv::Point2d() ? target_spectrum : shifted;
+    if (numerator.size() != spectra_in.size()) {
+      numerator.assign(spectra_in.size(), cv::Mat());
+      for (cv::Mat& n : numerator) n = cv::Mat::zeros(side, side, CV_32FC2);
+      denominator = cv::Mat::zeros(side, side, CV_32F);
+      rate = 1;
+    }
+    const float a = static_cast<float>(rate), keep = 1.0f - a;
+    for (int y = 0; y < side; ++y) {
+      const auto* g = target.ptr<cv::Vec2f>(y);
+      float* d = denominator.ptr<float>(y);
+      for (int x = 0; x < side; ++x) d[x] *= keep;
+      for (std::size_t c = 0; c < spectra_in.size(); ++c) {
+        const auto* f = spectra_in[c].ptr<cv::Vec2f>(y);
+        auto* n = numerator[c].ptr<cv::Vec2f>(y);
+        for (int x = 0; x < side; ++x) {
+          // G conj(F)
+          const float re = g[x][0] * f[x][0] + g[x][1] * f[x][1];
+          const float im = g[x][1] * f[x][0] - g[x][0] * f[x][1];
+          n[x][0] = keep * n[x][0] + a * re;
+          n[x][1] = keep * n[x][1] + a * im;
+          d[x] += a * (f[x][0] * f[x][0] + f[x][1] * f[x][1]);
+        }
+      }
+    }
+  }
+
+  // The desired response's spectrum moved by `offset` (patch pixels), in `shifted`.
+  void shifted_target(cv::Point2d offset) {
+    if (offset == cv::Point2d()) return;
+    const int side = config.patch;
+    ramp_x.resize(static_cast<std::size_t>(side));
+    ramp_y.resize(static_cast<std::size_t>(side));
+    for (int u = 0; u < side; ++u) {
+      const double f = 2 * CV_PI * (u < side / 2 ? u : u - side) / side;  // signed: a fractional move interpolates
+      ramp_x[static_cast<std::size_t>(u)] = std::polar(1.0f, static_cast<float>(-f * offset.x));
+      ramp_y[static_cast<std::size_t>(u)] = std::polar(1.0f, static_cast<float>(-f * offset.y));
+    }
+    shifted.create(side, side, CV_32FC2);
+    for (int y = 0; y < side; ++y) {
+      const auto* g = target_spectrum.ptr<std::complex<float>>(y);
+      auto* out = shifted.ptr<std::complex<float>>(y);
+      for (int x = 0; x < side; ++x)
+        out[x] = g[x] * ramp_x[static_cast<std::size_t>(x)] * ramp_y[static_cast<std::size_t>(y)];
+    }
+  }
+
+  // The filter's response to `spectra`, and its best peak.
+  Peak correlate(const std::vector<cv::Mat>& spectra_in) {
+    const int side = config.patch;
+    sum.create(side, side, CV_32FC2);
+    const float lambda = static_cast<float>(config.lambda);
+    for (int y = 0; y < side; ++y) {
+      auto* out = sum.ptr<cv::Vec2f>(y);
+      const float* d = denominator.ptr<float>(y);
+      for (int x = 0; x < side; ++x) out[x] = cv::Vec2f(0, 0);
+      for (std::size_t c = 0; c < spectra_in.size(); ++c) {
+        const auto* z = spectra_in[c].ptr<cv::Vec2f>(y);
+        const auto* n = numerator[c].ptr<cv::Vec2f>(y);
+        for (int x = 0; x < side; ++x) {
+          out[x][0] += z[x][0] * n[x][0] - z[x][1] * n[x][1];
+          out[x][1] += z[x][0] * n[x][1] + z[x][1] * n[x][0];
+        }
+      }
+      for (int x = 0; x < side; ++x) out[x] *= 1.0f / (d[x] + lambda);
+    }
+    cv::idft(sum, response, cv::DFT_REAL_OUTPUT | cv::DFT_SCALE);
+    cv::Point at;
+    double value = 0;
+    cv::minMaxLoc(response, nullptr, &value, nullptr, &at);
+    const int last = config.patch - 1;
+    cv::Point2d sub(at);
+    if (at.x > 0 && at.x < last)
+      sub.x += parabola(response.at<float>(at.y, at.x - 1), response.at<float>(at), response.at<float>(at.y, at.x + 1));
+    if (at.y > 0 && at.y < last)
+      sub.y += parabola(response.at<float>(at.y - 1, at.x), response.at<float>(at), response.at<float>(at.y + 1, at.x));
+    const double c = config.patch / 2;
+    return {sub - cv::Point2d(c, c), value, peak_to_sidelobe(response, at)};
+  }
+
+
+  // The whole-frame re-detection sweep at the model's step: windows half a
+  // patch apart cover the frame; each frame looks at enough of them to cover
+  // it in `sweep_frames` frames (at most `kMostWindows` a frame).
+  void sweep_windows(cv::Size frame, std::vector<Placement>& out) {
+    constexpr int kMostWindows = 12;
+    const double span = config.patch * step;
+    const int nx = std::max(1, static_cast<int>(std::ceil(frame.width / (span / 2))));
+    const int ny = std::max(1, static_cast<int>(std::ceil(frame.height / (span / 2))));
+    const int per_frame = std::clamp((nx * ny + config.sweep_frames - 1) / config.sweep_frames, 1, kMostWindows);
+    for (int n = 0; n < per_frame; ++n) {
+      const int k = sweep_next++ % (nx * ny);
+      out.push_back({{(k % nx + 0.5) * frame.width / nx, (k / nx + 0.5) * frame.height / ny}, step});
+    }
+  }
+
+  Peak look_at(const cv::Mat& gray_frame, const Placement& p) {
+    sample(gray_frame, p, patch);
+    features(patch, patch_spectra);
+    return correlate(patch_spectra);
+  }
+
+  BoxTrackerConfig config;
+  cv::Mat window, target_spectrum;
+  ScaleFilter scale_filter;
+  // The target: its centre and size (source pixels), the patch's step for
+  // that size, its velocity, how sure the tracker has been.
+  cv::Point2d centre, velocity;
+  cv::Size2d size;
+  double step = 1;
+  double psr_mean = 0;  // over the frames the model learnt from
+  int low_frames = 0;   // consecutive frames below lost_psr
+  int unsure_frames = 0;  // consecutive frames not confident enough to learn from
+  int sweep_next = 0;
+  cv::Point2d candidate{-1, -1};  // lost: a re-detection waiting for confirmation
+  std::vector<Placement> looks;
+  int candidate_frames = 0;
+  std::vector<cv::Mat> numerator;  // per channel, CV_32FC2
+  cv::Mat denominator;             // CV_32F, the channels' summed energy
+  // Scratch, kept between frames so that steady state allocates little.
+  cv::Mat fine, fine_gray, patch, patch_f, gx, gy, local_mean, local_sq, sum, response, shifted;
+  std::vector<std::complex<float>> ramp_x, ramp_y;
+  std::vector<cv::Mat> channels, patch_spectra;
+};
+
+BoxTracker::BoxTracker(BoxTrackerConfig config) : config_(config), impl_(std::make_shared<Impl>(config)) {}
+
+namespace {
+
+const cv::Mat& to_gray(const cv::Mat& frame, cv::Mat& scratch) {
+  if (frame.channels() == 1) return frame;
+  cv::cvtColor(frame, scratch, frame.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+  return scratch;
+}
+
+std::string describe(cv::Rect2d b) {
+  char text[96];
+  std::snprintf(text, sizeof text, "%g,%g,%g,%g", b.x, b.y, b.width, b.height);
+  return text;
+}
+
+}  // namespace
+
+std::string BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
+  if (frame.empty() || frame.depth() != CV_8U) return "the frame must be an 8-bit image";
+  const cv::Rect2d inside = box & cv::Rect2d(0, 0, frame.cols, frame.rows);
+  if (!(box.width >= config_.min_target && box.height >= config_.min_target))
+    return "box " + describe(box) + " is smaller than the smallest target, " + std::to_string(config_.min_target) +
+           " pixels a side";
+  if (inside.area() < 0.5 * box.area())
+    return "box " + describe(box) + " lies mostly outside the " + std::to_string(frame.cols) + "x" +
+           std::to_string(frame.rows) + " frame";
+  Impl& m = *impl_;
+  m = Impl(config_);
+  cv::Mat gray_box;
+  cv::Mat scratch;
+  to_gray(frame(cv::Rect(inside)), scratch).copyTo(gray_box);  // the box alone: is it flat?
+  cv::Scalar mean, sd;
+  cv::meanStdDev(gray_box, mean, sd);
+  if (sd[0] < 2) return "box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) + "): nothing to follow";
+  m.centre = {box.x + box.width / 2, box.y + box.height / 2};
+  m.size = box.size();
+  m.step = config_.padding * std::max(box.width, box.height) / config_.patch;
+  m.sample(frame, {m.centre, m.step}, m.patch);
+  m.features(m.patch, m.patch_spectra);
+  m.learn(m.patch_spectra, 1.0);
+  m.scale_filter.learn(frame, m.centre, m.size, 1.0, true);
+  camera_shift_ = {};
+  initialised_ = true;
+  last_ = {box, 0, TrackState::kTracking};
+  return {};
+}
+
+TrackEstimate BoxTracker::update(const cv::Mat& frame) {
+  if (!initialised_ || frame.empty()) return last_;
+  Impl& m = *impl_;
+  const cv::Mat& gray = frame;  // 8-bit gray or BGR: patches are converted, never the frame
+  const cv::Point2d predicted = m.centre + m.velocity + camera_shift_;
+  camera_shift_ = {};
+  if (last_.state == TrackState::kLost)
+    redetect(gray, predicted);
+  else
+    follow(gray, predicted);
+  last_.box = cv::Rect2d(m.centre.x - m.size.width / 2, m.centre.y - m.size.height / 2, m.size.width, m.size.height);
+  return last_;
+}
+
+void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
+  Impl& m = *impl_;
+  const Peak peak = m.look_at(gray, {predicted, m.step});
+  const double psr = peak.psr;
+  last_.confidence = psr;
+  if (psr < config_.lost_psr) {
+    // Too weak to trust even the position: coast on the prediction.
+    m.velocity *= 0.8;
+    m.centre = predicted;
+    ++m.unsure_frames;
+    last_.state = ++m.low_frames >= config_.lost_frames || m.unsure_frames >= config_.unsure_frames
+                      ? TrackState::kLost
+                      : TrackState::kUncertain;
+    return;
+  }
+  m.low_frames = 0;
+  const cv::Point2d measured = predicted + peak.offset * m.step;
+  if (psr < std::max(config_.tracking_psr, config_.relative_psr * m.psr_mean)) {
+    // Where the peak is, but not sure enough to learn from it or to trust
+    // its motion (an occluder's edge, a distractor passing).
+    m.velocity *= 0.8;
+    m.centre = measured;
+    last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
+    return;
+  }
+  m.unsure_frames = 0;
+  m.velocity = config_.velocity_gain * (measured - m.centre) + (1 - config_.velocity_gain) * m.velocity;
+  m.centre = measured;
+  const double scale = m.scale_filter.estimate(gray, m.centre, m.size, config_.lambda);
+  m.size *= scale;
+  m.step *= scale;
+  last_.state = TrackState::kTracking;
+  m.psr_mean = m.psr_mean == 0 ? psr : 0.95 * m.psr_mean + 0.05 * psr;
+  m.learn(m.patch_spectra, config_.learning_rate, peak.offset);
+  m.scale_filter.learn(gray, m.centre, m.size, config_.learning_rate, scale != 1.0);
+}
+
+void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
+  Impl& m = *impl_;
+  const double threshold = config_.redetect_psr;
+  // A candidate from the last frame is looked at again first: a re-detection
+  // must hold on consecutive frames at one place.
+  std::vector<Placement>& looks = m.looks;
+  looks.clear();
+  if (m.candidate_frames > 0) looks.push_back({m.candidate, m.step});
+  looks.push_back({predicted, m.step});
+  m.sweep_windows(gray.size(), looks);
+  Peak best;
+  Placement where;
+  for (const Placement& p : looks) {
+    const Peak peak = m.look_at(gray, p);
+    if (peak.psr > best.psr) best = peak, where = p;
+  }
+  last_.confidence = best.psr;
+  if (best.psr < threshold) {
+    m.candidate_frames = 0;
+    return;
+  }
+  const cv::Point2d found = where.centre + best.offset * where.step;
+  const bool consistent = m.candidate_frames > 0 && cv::norm(found - m.candidate) < 0.25 * std::max(m.size.width, m.size.height);
+  m.candidate = found;
+  m.candidate_frames = consistent ? m.candidate_frames + 1 : 1;
+  if (m.candidate_frames < config_.redetect_frames) return;
+  m.centre = found;
+  m.velocity = {};
+  m.low_frames = m.unsure_frames = 0;
+  m.candidate_frames = 0;
+  last_.state = TrackState::kTracking;
+}
+
+}  // namespace saccade::fovea

@@ -1,0 +1,79 @@
+#pragma once
+// A target given as a box, followed by a discriminative correlation filter
+// built for the retina: the filter sees the target through a small patch
+// sampled around it the way a retina level is (sample_level), at the step
+// that makes the target span a fixed number of patch pixels, so the target's
+// scale picks the sampling step as the retina's levels do, and the cost per
+// frame does not grow with the target or the frame.
+//
+// Per frame: predict (constant velocity, minus the camera's own moves),
+// sample patches at a few scales around the prediction, correlate, take the
+// best peak; its peak-to-sidelobe ratio is the confidence. Confident frames
+// update the model; unconfident ones do not (a model that learns the
+// occluder locks on it). After `lost_frames` unconfident frames the target is
+// lost and the whole frame is searched at the model's scale until a
+// confident, consistent peak re-detects it.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace saccade::fovea {
+
+enum class TrackState { kTracking, kUncertain, kLost };
+const char* to_string(TrackState state);
+
+struct BoxTrackerConfig {
+  int patch = 64;                   // patch side, pixels (a power of two keeps the DFT fast)
+  double padding = 2.0;             // patch side / the target's larger side
+  double learning_rate = 0.02;      // model <- (1 - a) model + a frame, on confident frames
+  double lambda = 1e-3;             // regularisation of the filter
+  double sigma = 0.1;               // the desired response's width, times the target's size in patch pixels
+  double scale_step = 1.02;         // ratio between the scale filter's neighbouring scales
+  int scales = 17;                  // scales the scale filter compares (odd)
+  double min_target = 8;            // smallest target side accepted, source pixels
+  double tracking_psr = 6.0;        // peak-to-sidelobe ratio at or above which the target is tracked ...
+  double relative_psr = 0.4;        // ... and at or above this share of its mean over tracked frames
+  double lost_psr = 5.0;            // below this the peak is not trusted at all
+  int lost_frames = 5;              // consecutive frames below lost_psr before the target is lost
+  int unsure_frames = 30;           // consecutive frames not tracked before the target is lost
+  double redetect_psr = 9.0;        // a re-detection must reach this ...
+  int redetect_frames = 2;          // ... on this many consecutive frames, at a consistent place
+  int sweep_frames = 8;             // lost: frames the search takes to cover the whole frame once
+  double velocity_gain = 0.5;       // weight of the newest velocity measurement
+};
+
+struct TrackEstimate {
+  cv::Rect2d box;            // the target, source pixels
+  double confidence = 0;     // peak-to-sidelobe ratio of the best response
+  TrackState state = TrackState::kLost;
+};
+
+class BoxTracker {
+ public:
+  explicit BoxTracker(BoxTrackerConfig config = {});
+  // Learns the target inside `box` (source pixels) of `frame` (8-bit, gray or
+  // BGR). Empty on success, else why not (a box outside the frame, too small).
+  std::string init(const cv::Mat& frame, cv::Rect2d box);
+  bool initialised() const { return initialised_; }
+  // Follows the target into `frame`.
+  TrackEstimate update(const cv::Mat& frame);
+  // The camera (a head turn, the fovea's own move) shifted the image content
+  // by `shift` source pixels since the last frame.
+  void camera_moved(cv::Point2d shift) { camera_shift_ += shift; }
+  const TrackEstimate& last() const { return last_; }
+  const BoxTrackerConfig& config() const { return config_; }
+
+ private:
+  struct Impl;
+  void follow(const cv::Mat& gray, cv::Point2d predicted);
+  void redetect(const cv::Mat& gray, cv::Point2d predicted);
+  BoxTrackerConfig config_;
+  bool initialised_ = false;
+  TrackEstimate last_;
+  cv::Point2d camera_shift_;
+  std::shared_ptr<Impl> impl_;
+};
+
+}  // namespace saccade::fovea
