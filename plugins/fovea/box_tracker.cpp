@@ -271,7 +271,7 @@ struct BoxTracker::Impl {
   explicit Impl(const BoxTrackerConfig& c)
       : config(c),
         window(hann_window(c.patch)),
-        target_spectrum(gaussian_spectrum(c.patch, c.sigma * c.patch / c.padding)),
+        target_spectrum(gaussian_spectrum(c.patch, c.sigma * c.patch / c.padding)),  // set again by init
         scale_filter(c.scales, c.scale_step, 12) {}
 
   // The patch at `p`: a retina level's view of the target and around it.
@@ -407,18 +407,56 @@ struct BoxTracker::Impl {
   }
 
 
-  // The whole-frame re-detection sweep at the model's step: windows half a
-  // patch apart cover the frame; each frame looks at enough of them to cover
-  // it in `sweep_frames` frames (at most `kMostWindows` a frame).
-  void sweep_windows(cv::Size frame, std::vector<Placement>& out) {
-    constexpr int kMostWindows = 12;
-    const double span = config.patch * step;
-    const int nx = std::max(1, static_cast<int>(std::ceil(frame.width / (span / 2))));
-    const int ny = std::max(1, static_cast<int>(std::ceil(frame.height / (span / 2))));
-    const int per_frame = std::clamp((nx * ny + config.sweep_frames - 1) / config.sweep_frames, 1, kMostWindows);
-    for (int n = 0; n < per_frame; ++n) {
-      const int k = sweep_next++ % (nx * ny);
-      out.push_back({{(k % nx + 0.5) * frame.width / nx, (k / nx + 0.5) * frame.height / ny}, step});
+  // The target's look at a coarse step (its larger side kCoarseSide pixels),
+  // learnt as the filter is: what the lost target is looked for with over
+  // the whole frame, at a cost that does not grow with the target.
+  static constexpr double kCoarseSide = 8;
+  double coarse_step() const { return std::max(1.0, std::max(size.width, size.height) / kCoarseSide); }
+
+  void learn_appearance(const cv::Mat& frame, double rate) {
+    const double s = coarse_step();
+    const cv::Size t(std::max(3, static_cast<int>(std::lround(size.width / s))),
+                     std::max(3, static_cast<int>(std::lround(size.height / s))));
+    coarse_sample.resize(static_cast<std::size_t>(t.area()));
+    const double half_w = (t.width - 1) / 2.0, half_h = (t.height - 1) / 2.0;
+    for (int j = 0; j < t.height; ++j)
+      for (int i = 0; i < t.width; ++i) {
+        float* out = &coarse_sample[static_cast<std::size_t>(j * t.width + i)];
+        const cv::Point2d at(centre.x + (i - half_w) * s, centre.y + (j - half_h) * s);
+        sample_area(frame, at, s, s, 1, out);
+      }
+    const cv::Mat fresh(t, CV_32F, coarse_sample.data());
+    if (appearance.size() != t || rate >= 1)
+      fresh.copyTo(appearance);
+    else
+      cv::addWeighted(appearance, 1 - rate, fresh, rate, 0, appearance);
+  }
+
+  // Where the lost target may be: the best matches (normalised correlation)
+  // of its coarse look over the whole frame seen at the coarse step, at
+  // least a target apart.
+  void propose(const cv::Mat& frame, int count, std::vector<Placement>& out) {
+    if (appearance.empty()) return;
+    const double s = coarse_step();
+    const cv::Size coarse_size(static_cast<int>(frame.cols / s), static_cast<int>(frame.rows / s));
+    if (coarse_size.width < appearance.cols || coarse_size.height < appearance.rows) return;
+    if (frame.channels() == 1)
+      cv::resize(frame, coarse, coarse_size, 0, 0, cv::INTER_AREA);
+    else {
+      cv::resize(frame, coarse_colour, coarse_size, 0, 0, cv::INTER_AREA);
+      cv::cvtColor(coarse_colour, coarse, frame.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+    }
+    coarse.convertTo(coarse_f, CV_32F);
+    cv::matchTemplate(coarse_f, appearance, match, cv::TM_CCOEFF_NORMED);
+    for (int n = 0; n < count; ++n) {
+      cv::Point at;
+      double value = 0;
+      cv::minMaxLoc(match, nullptr, &value, nullptr, &at);
+      if (value <= 0) break;
+      const cv::Point2d middle(at.x + appearance.cols / 2.0, at.y + appearance.rows / 2.0);
+      out.push_back({{middle.x * frame.cols / coarse_size.width, middle.y * frame.rows / coarse_size.height}, step});
+      cv::rectangle(match, cv::Rect(at - cv::Point(appearance.cols, appearance.rows), appearance.size() * 2), -1.0,
+                    cv::FILLED);
     }
   }
 
@@ -439,7 +477,9 @@ struct BoxTracker::Impl {
   double psr_mean = 0;  // over the frames the model learnt from
   int low_frames = 0;   // consecutive frames below lost_psr
   int unsure_frames = 0;  // consecutive frames not confident enough to learn from
-  int sweep_next = 0;
+  cv::Mat appearance;  // CV_32F, the target at the coarse step
+  std::vector<float> coarse_sample;
+  cv::Mat coarse, coarse_colour, coarse_f, match;
   cv::Point2d candidate{-1, -1};  // lost: a re-detection waiting for confirmation
   std::vector<Placement> looks;
   int candidate_frames = 0;
@@ -488,10 +528,14 @@ std::string BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   if (sd[0] < 2) return "box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) + "): nothing to follow";
   m.centre = {box.x + box.width / 2, box.y + box.height / 2};
   m.size = box.size();
-  m.step = config_.padding * std::max(box.width, box.height) / config_.patch;
+  // A small target is not magnified: the patch then covers more than
+  // `padding` times it, which also widens the search around a fast one.
+  m.step = std::max(1.0, config_.padding * std::max(box.width, box.height) / config_.patch);
+  m.target_spectrum = gaussian_spectrum(config_.patch, config_.sigma * std::max(box.width, box.height) / m.step);
   m.sample(frame, {m.centre, m.step}, m.patch);
   m.features(m.patch, m.patch_spectra);
   m.learn(m.patch_spectra, 1.0);
+  m.learn_appearance(frame, 1.0);
   m.scale_filter.learn(frame, m.centre, m.size, 1.0, true);
   camera_shift_ = {};
   initialised_ = true;
@@ -526,6 +570,7 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
     last_.state = ++m.low_frames >= config_.lost_frames || m.unsure_frames >= config_.unsure_frames
                       ? TrackState::kLost
                       : TrackState::kUncertain;
+    look_elsewhere(gray);
     return;
   }
   m.low_frames = 0;
@@ -536,6 +581,7 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
     m.velocity *= 0.8;
     m.centre = measured;
     last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
+    look_elsewhere(gray);
     return;
   }
   m.unsure_frames = 0;
@@ -545,9 +591,24 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   m.size *= scale;
   m.step *= scale;
   last_.state = TrackState::kTracking;
-  m.psr_mean = m.psr_mean == 0 ? psr : 0.95 * m.psr_mean + 0.05 * psr;
+  // Clamped: on a clean synthetic background a PSR can reach thousands, and
+  // one such frame would make every ordinary one look unsure.
+  const double usual = std::min(psr, 10 * config_.tracking_psr);
+  m.psr_mean = m.psr_mean == 0 ? usual : 0.95 * m.psr_mean + 0.05 * usual;
   m.learn(m.patch_spectra, config_.learning_rate, peak.offset);
+  m.learn_appearance(gray, config_.learning_rate);
   m.scale_filter.learn(gray, m.centre, m.size, config_.learning_rate, scale != 1.0);
+}
+
+void BoxTracker::look_elsewhere(const cv::Mat& gray) {
+  // Unsure for a few frames: the target may have jumped (a fast turn of the
+  // camera, a cut) rather than be hidden. The whole-frame search runs beside
+  // the local one, and a confirmed re-detection ends the doubt at once.
+  if (impl_->unsure_frames < config_.redetect_after) return;
+  const double confidence = last_.confidence;
+  const TrackState state = last_.state;
+  redetect(gray, impl_->centre);
+  if (last_.state != TrackState::kTracking) last_.confidence = confidence, last_.state = state;
 }
 
 void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
@@ -559,7 +620,7 @@ void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
   looks.clear();
   if (m.candidate_frames > 0) looks.push_back({m.candidate, m.step});
   looks.push_back({predicted, m.step});
-  m.sweep_windows(gray.size(), looks);
+  m.propose(gray, config_.proposals, looks);
   Peak best;
   Placement where;
   for (const Placement& p : looks) {
@@ -572,7 +633,10 @@ void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
     return;
   }
   const cv::Point2d found = where.centre + best.offset * where.step;
-  const bool consistent = m.candidate_frames > 0 && cv::norm(found - m.candidate) < 0.25 * std::max(m.size.width, m.size.height);
+  // One place: as near as a moving target can be on the next frame, the
+  // search's reach around the candidate (a quarter patch) or half the target.
+  const double near = std::max(0.5 * std::max(m.size.width, m.size.height), 0.25 * config_.patch * m.step);
+  const bool consistent = m.candidate_frames > 0 && cv::norm(found - m.candidate) < near;
   m.candidate = found;
   m.candidate_frames = consistent ? m.candidate_frames + 1 : 1;
   if (m.candidate_frames < config_.redetect_frames) return;

@@ -10,9 +10,11 @@
 // sample patches at a few scales around the prediction, correlate, take the
 // best peak; its peak-to-sidelobe ratio is the confidence. Confident frames
 // update the model; unconfident ones do not (a model that learns the
-// occluder locks on it). After `lost_frames` unconfident frames the target is
-// lost and the whole frame is searched at the model's scale until a
-// confident, consistent peak re-detects it.
+// occluder locks on it). After `lost_frames` untrusted frames the target is
+// lost: each frame, its coarse look (learnt alongside the filter) is matched
+// over the whole frame seen at a coarse step, as a retina's outer level sees
+// it, and the best places are checked by the filter until a confident peak
+// holds at one place on consecutive frames.
 #include <memory>
 #include <string>
 #include <vector>
@@ -26,10 +28,10 @@ const char* to_string(TrackState state);
 
 struct BoxTrackerConfig {
   int patch = 64;                   // patch side, pixels (a power of two keeps the DFT fast)
-  double padding = 2.0;             // patch side / the target's larger side
+  double padding = 2.0;             // patch side / the target's larger side (more for targets under patch / padding pixels)
   double learning_rate = 0.02;      // model <- (1 - a) model + a frame, on confident frames
   double lambda = 1e-3;             // regularisation of the filter
-  double sigma = 0.1;               // the desired response's width, times the target's size in patch pixels
+  double sigma = 0.1;               // the desired response's width, times the target's larger side
   double scale_step = 1.02;         // ratio between the scale filter's neighbouring scales
   int scales = 17;                  // scales the scale filter compares (odd)
   double min_target = 8;            // smallest target side accepted, source pixels
@@ -38,9 +40,10 @@ struct BoxTrackerConfig {
   double lost_psr = 5.0;            // below this the peak is not trusted at all
   int lost_frames = 5;              // consecutive frames below lost_psr before the target is lost
   int unsure_frames = 30;           // consecutive frames not tracked before the target is lost
+  int redetect_after = 3;           // consecutive frames not tracked before the whole frame is searched too
   double redetect_psr = 9.0;        // a re-detection must reach this ...
   int redetect_frames = 2;          // ... on this many consecutive frames, at a consistent place
-  int sweep_frames = 8;             // lost: frames the search takes to cover the whole frame once
+  int proposals = 3;                // lost: places per frame the whole-frame search proposes to the filter
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 
@@ -69,6 +72,7 @@ class BoxTracker {
   struct Impl;
   void follow(const cv::Mat& gray, cv::Point2d predicted);
   void redetect(const cv::Mat& gray, cv::Point2d predicted);
+  void look_elsewhere(const cv::Mat& gray);
   BoxTrackerConfig config_;
   bool initialised_ = false;
   TrackEstimate last_;

@@ -273,6 +273,7 @@ std::string FoveaController::track_box(const cv::Mat& frame, cv::Rect2d box) {
   phase_ = Phase::kBox;
   frames_lost_ = 0;
   ever_locked_ = true;
+  box_learnt_ = true;
   return {};
 }
 
@@ -281,7 +282,9 @@ void FoveaController::follow_box(const Retina& retina, Decision& d) {
     d.state = FoveaState::State::kLost;
     return;
   }
-  const TrackEstimate e = box_tracker_.update(retina.source->mat);
+  // The frame the box was given on was learnt from, not tracked in.
+  const TrackEstimate e = box_learnt_ ? box_tracker_.last() : box_tracker_.update(retina.source->mat);
+  box_learnt_ = false;
   const cv::Point2d centre(e.box.x + e.box.width / 2, e.box.y + e.box.height / 2);
   d.target = centre;
   d.target_size = e.box.size();

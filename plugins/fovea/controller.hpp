@@ -99,6 +99,7 @@ class FoveaController {
   Saliency saliency_;
   TemplateTracker tracker_;
   BoxTracker box_tracker_;
+  bool box_learnt_ = false;  // the box tracker learnt on this frame: nothing to track yet
   InhibitionOfReturn ior_;
   Phase phase_ = Phase::kSearch;
   bool fixed_template_ = false;

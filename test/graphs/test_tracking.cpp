@@ -1,11 +1,15 @@
-// graphs/tracking.xml and graphs/attention.xml on real backgrounds: the moving
-// fovea against exact ground truth.
+// graphs/tracking.xml (a given box followed), graphs/lock_on.xml (the fovea
+// locks on what moves) and graphs/attention.xml on real backgrounds: the
+// moving fovea against exact ground truth.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
@@ -98,6 +102,7 @@ void print(const char* what, const TrackFigures& f) {
               f.max_reacquire);
 }
 
+const std::string kLockOn = std::string(SACCADE_SOURCE_DIR) + "/graphs/lock_on.xml";
 const std::string kTracking = std::string(SACCADE_SOURCE_DIR) + "/graphs/tracking.xml";
 
 // The floor: no loss at speeds up to a quarter of the fovea's width (32 px)
@@ -111,7 +116,7 @@ TEST(TrackingGraph, FollowsATargetAtAQuarterFoveaWidthPerFrameWithoutLoss) {
     std::vector<std::string> overrides = {"scene.speed=8", "scene.jump_every=0", "scene.count=400",
                                           "scene.angle=" + std::to_string(angle), "snapshot.every=1000"};
     if (!start.empty()) overrides.push_back(start);
-    test::run_recording(kTracking, overrides, {"snapshot", "truth", "gaze"});
+    test::run_recording(kLockOn, overrides, {"snapshot", "truth", "gaze"});
     auto states = test::recorded<FoveaState>("snapshot");
     auto truth = test::recorded<Region>("truth");
     ASSERT_EQ(states.size(), 400u);
@@ -125,17 +130,17 @@ TEST(TrackingGraph, FollowsATargetAtAQuarterFoveaWidthPerFrameWithoutLoss) {
 }
 
 TEST(TrackingGraph, FindsTheTargetAgainAfterJumpsAndAsksTheHeadToTurnAtTheBorder) {
-  fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "tracking";
+  fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "lock_on";
   fs::remove_all(out);
-  test::run_recording(kTracking, {"snapshot.dir=" + out.string()}, {"truth", "gaze"});
+  test::run_recording(kLockOn, {"snapshot.dir=" + out.string()}, {"truth", "gaze"});
   EXPECT_TRUE(fs::exists(out / "snapshot_000150_track.png"));
-  test::run_recording(kTracking, {}, {"snapshot", "truth", "gaze"});
+  test::run_recording(kLockOn, {}, {"snapshot", "truth", "gaze"});
   auto states = test::recorded<FoveaState>("snapshot");
   auto truth = test::recorded<Region>("truth");
   auto gaze = test::recorded<GazeRequest>("gaze");
   ASSERT_EQ(states.size(), 600u);
   TrackFigures f = evaluate(states, truth, 150, 10);
-  print("tracking.xml (6 px/frame, a jump every 150 frames)", f);
+  print("lock_on.xml (6 px/frame, a jump every 150 frames)", f);
   EXPECT_EQ(f.jumps, 3);
   EXPECT_LE(f.max_reacquire, 20) << "every jump is followed by re-acquisition";
   EXPECT_LE(f.mean_error, 2.0);
@@ -167,6 +172,57 @@ TEST(TrackingGraph, FindsTheTargetAgainAfterJumpsAndAsksTheHeadToTurnAtTheBorder
   }
 }
 
+
+// graphs/tracking.xml as a user runs it: the box given on frame 0 followed
+// through three jumps no tracker can follow. While the target is where the
+// tracker is not, the state is never `tracking`; it is found again within 15
+// frames; and every frame is a line of JSON with the state, the confidence
+// and the target's box.
+TEST(BoxTrackingGraph, FollowsTheGivenBoxIsHonestAfterJumpsAndWritesJsonLines) {
+  const fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "tracking";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const std::string results = (out / "fovea.jsonl").string();
+  test::run_recording(kTracking,
+                      {"snapshot.dir=" + out.string(), "results.path=" + results,
+                       "truth.path=" + (out / "truth.jsonl").string()},
+                      {"gaze"});
+  std::ifstream lines(results);
+  std::vector<nlohmann::json> states;
+  for (std::string line; std::getline(lines, line);) states.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(states.size(), 600u);
+  test::run_recording(kTracking, {"snapshot.every=1000", "results.path=" + results}, {"truth", "gaze"});
+  auto truth = test::recorded<Region>("truth");
+  ASSERT_EQ(truth.size(), 600u);
+  int tracked = 0, false_claims = 0, worst_reacquire = 0, since_jump = -1;
+  double error_sum = 0;
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    const nlohmann::json& s = states[i];
+    ASSERT_EQ(s["frame"], static_cast<int64_t>(i));
+    const nlohmann::json& box = s["target"];
+    const double error = std::hypot(box["x"].get<double>() + box["w"].get<double>() / 2 - truth[i]->center.x,
+                                    box["y"].get<double>() + box["h"].get<double>() / 2 - truth[i]->center.y);
+    const bool claims = s["state"] == "tracking";
+    if (i > 0 && i % 150 == 0) since_jump = 0;
+    if (since_jump >= 0 && claims && error < 4) {
+      worst_reacquire = std::max(worst_reacquire, since_jump);
+      since_jump = -1;
+    } else if (since_jump >= 0) {
+      ++since_jump;
+    }
+    if (claims && error > 8) ++false_claims;
+    if (claims) ++tracked, error_sum += error;
+  }
+  std::printf("tracking.xml: %d of 600 frames tracked, mean error %.2f px, %d claimed far from the target, re-acquired "
+              "within %d frames of each jump\n",
+              tracked, error_sum / tracked, false_claims, worst_reacquire);
+  EXPECT_EQ(since_jump, -1) << "the last jump was never followed by re-acquisition";
+  EXPECT_LE(worst_reacquire, 15);
+  EXPECT_EQ(false_claims, 0);
+  EXPECT_GT(tracked, 540);
+  EXPECT_LT(error_sum / tracked, 1.0);
+  EXPECT_TRUE(fs::exists(out / "snapshot_000150_track.png"));
+}
 }  // namespace
 }  // namespace saccade
 

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "controller.hpp"
@@ -379,6 +380,87 @@ TEST(FoveaPlugin, EmitsTheNextFoveaStateAndRejectsBadParameters) {
   EXPECT_FALSE(testing::NodeHarness::create(
       R"(<node plugin="fovea"><param name="template" value="/nonexistent.png"/></node>)", &error));
   EXPECT_NE(error.find("/nonexistent.png"), std::string::npos) << error;
+}
+
+// A textured 40x30 target (a real photograph's patch) on the plain
+// background, so that the box tracker has something to learn.
+cv::Mat frame_with_patch(cv::Point2d centre) {
+  static const cv::Mat patch = [] {
+    cv::Mat image = cv::imread(test::sample_path("baboon.jpg"), cv::IMREAD_GRAYSCALE), p;
+    cv::resize(image(cv::Rect(180, 40, 160, 120)), p, {40, 30}, 0, 0, cv::INTER_AREA);
+    return p;
+  }();
+  cv::Mat frame = plain_background();
+  patch.copyTo(frame(cv::Rect(static_cast<int>(centre.x) - 20, static_cast<int>(centre.y) - 15, 40, 30)));
+  return frame;
+}
+
+TEST(FoveaPlugin, FollowsTheBoxGivenByInitAndReportsItsBoxConfidenceAndState) {
+  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"><param name="init" value="180,135,40,30,2"/></node>)");
+  ASSERT_TRUE(h);
+  cv::Point2d at(200, 150), fovea(320, 240);
+  for (int64_t k = 0; k < 40; ++k, at += cv::Point2d(3, 1)) {
+    h->set("retina", make_retina(frame_with_patch(k < 2 ? cv::Point2d(200, 150) : at - cv::Point2d(6, 2)), fovea, k));
+    ASSERT_TRUE(h->process().ok()) << k;
+    fovea = h->last<Region>("fovea")->center;
+  }
+  auto state = h->last<FoveaState>("state");
+  ASSERT_TRUE(state);
+  EXPECT_EQ(state->state, FoveaState::State::kTracking);
+  EXPECT_TRUE(state->target_valid);
+  const cv::Point2d truth = at - cv::Point2d(9, 3);  // where the last frame drew it
+  EXPECT_LT(cv::norm(state->target.center() - truth), 2.0) << state->target.x << "," << state->target.y;
+  EXPECT_NEAR(state->target.w, 40, 4);
+  EXPECT_NEAR(state->target.h, 30, 3);
+  EXPECT_GT(state->confidence, 6.0);
+  EXPECT_LT(cv::norm(fovea - truth), 2.0) << "the fovea follows the target";
+}
+
+TEST(FoveaPlugin, ASizedTargetStartsTheBoxTrackerAndABadOneChangesNothing) {
+  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"/>)");
+  ASSERT_TRUE(h);
+  const cv::Mat frame = frame_with_patch({400, 300});
+  auto bad = std::make_shared<Region>();
+  bad->center = {700, 300};  // outside the 640x480 frame
+  bad->size = {40, 30};
+  h->set("target", bad);
+  h->set("retina", make_retina(frame, {320, 240}, 0));
+  ASSERT_TRUE(h->process().ok());
+  EXPECT_EQ(h->counter("bad_targets"), 1u);
+  EXPECT_EQ(h->last<FoveaState>("state")->state, FoveaState::State::kSearching) << "no state change";
+  auto good = std::make_shared<Region>();
+  good->center = {400, 300};
+  good->size = {40, 30};
+  h->set("target", good);
+  h->set("retina", make_retina(frame, {320, 240}, 1));
+  ASSERT_TRUE(h->process().ok());
+  h->set("retina", make_retina(frame, h->last<Region>("fovea")->center, 2));
+  ASSERT_TRUE(h->process().ok());
+  auto state = h->last<FoveaState>("state");
+  EXPECT_EQ(state->state, FoveaState::State::kTracking);
+  EXPECT_LT(cv::norm(state->target.center() - cv::Point2d(400, 300)), 1.5);
+  EXPECT_EQ(h->counter("bad_targets"), 1u);
+}
+
+TEST(FoveaPlugin, BadBoxesAndTemplatesAreErrorsAtOpenNamingTheValue) {
+  std::string error;
+  for (const char* bad : {"10,10,40", "10,10,40,30,x", "a,b,c,d", "10,10,4,30", "10,10,40,30,-1", "10,10,40,30,1.5"}) {
+    EXPECT_FALSE(testing::NodeHarness::create(
+        std::string(R"(<node plugin="fovea"><param name="init" value=")") + bad + R"("/></node>)", &error))
+        << bad;
+    EXPECT_NE(error.find(bad), std::string::npos) << error;
+  }
+  EXPECT_FALSE(testing::NodeHarness::create(R"(<node plugin="fovea"><param name="template_size" value="50x20"/>
+      <param name="search_size" value="40x32"/></node>)", &error));
+  EXPECT_NE(error.find("template_size 50x20 is larger than search_size 40x32"), std::string::npos) << error;
+  // A box outside the frame is known only with the first frame: an error then, naming both.
+  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"><param name="init" value="900,10,40,30"/></node>)");
+  ASSERT_TRUE(h);
+  h->set("retina", make_retina(plain_background(), {320, 240}, 0));
+  const Status s = h->process();
+  EXPECT_TRUE(s.is_error());
+  EXPECT_NE(s.message().find("900,10,40,30"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("640x480"), std::string::npos) << s.message();
 }
 
 }  // namespace
