@@ -11,6 +11,7 @@ Image::~Image() = default;
 Retina::~Retina() = default;
 FeatureMaps::~FeatureMaps() = default;
 Region::~Region() = default;
+StereoFixation::~StereoFixation() = default;
 Motion::~Motion() = default;
 GazeRequest::~GazeRequest() = default;
 JointState::~JointState() = default;

@@ -262,6 +262,7 @@ const std::vector<Codec>& codecs() {
       codec<FeatureMaps, w::FeatureMaps, w::FeatureMapsPubSubType>(),
       codec<Motion, w::Motion, w::MotionPubSubType>(),
       codec<Region, w::Region, w::RegionPubSubType>(),
+      codec<StereoFixation, w::StereoFixation, w::StereoFixationPubSubType>(),
       codec<GazeRequest, w::GazeRequest, w::GazeRequestPubSubType>(),
       codec<JointState, w::JointState, w::JointStatePubSubType>(),
       codec<JointTargets, w::JointTargets, w::JointTargetsPubSubType>(),
@@ -537,6 +538,27 @@ void from_wire(const w::Region& in, Region& out) {
   out.depth = in.depth();
   out.camera_id = in.camera_id();
   out.label = in.label();
+}
+
+void to_wire(const StereoFixation& in, w::StereoFixation& out) {
+  stamp_to_wire(in, out.stamp());
+  out.pixel(point_to_wire(in.pixel));
+  out.fovea_width(in.fovea.width);
+  out.fovea_height(in.fovea.height);
+  out.disparity(in.disparity);
+  out.score(in.score);
+  out.depth(in.depth);
+  out.camera_id(in.camera_id);
+}
+
+void from_wire(const w::StereoFixation& in, StereoFixation& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.pixel = point_from_wire(in.pixel());
+  out.fovea = {in.fovea_width(), in.fovea_height()};
+  out.disparity = in.disparity();
+  out.score = in.score();
+  out.depth = in.depth();
+  out.camera_id = in.camera_id();
 }
 
 void to_wire(const GazeRequest& in, w::GazeRequest& out) {

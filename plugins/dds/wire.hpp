@@ -47,6 +47,8 @@ void to_wire(const Motion& in, saccade_idl::Motion& out);
 void from_wire(const saccade_idl::Motion& in, Motion& out);
 void to_wire(const Region& in, saccade_idl::Region& out);
 void from_wire(const saccade_idl::Region& in, Region& out);
+void to_wire(const StereoFixation& in, saccade_idl::StereoFixation& out);
+void from_wire(const saccade_idl::StereoFixation& in, StereoFixation& out);
 void to_wire(const GazeRequest& in, saccade_idl::GazeRequest& out);
 void from_wire(const saccade_idl::GazeRequest& in, GazeRequest& out);
 void to_wire(const JointState& in, saccade_idl::JointState& out);

@@ -20,9 +20,9 @@ class StereoNode final : public Node {
   static constexpr In<Retina> kLeft{"left", "left retina (8-bit gray)"};
   static constexpr In<Retina> kRight{"right",
                                      "right retina, same level size; regions equal or shifted by whole level pixels"};
-  static constexpr Out<Region> kFixation{"fixation",
-                                         "the fixation disparity (score, source pixels; -1 when not found) at the left "
-                                         "fovea (center), and its depth when calibrated: for the head's vergence"};
+  static constexpr Out<StereoFixation> kFixation{
+      "fixation", "the disparity at the left fovea's centre (-1 when not found), its NCC, and its depth when "
+                  "calibrated: for the head's vergence"};
   static constexpr Out<FeatureMaps> kMaps{"maps",
                                           "per level on the left geometry: disparity (source pixels, -1 invalid), "
                                           "disparity_rl (right->left, on the right geometry), confidence (NCC)"};
@@ -134,12 +134,12 @@ class StereoNode final : public Node {
     ctx.emit(kMaps, std::move(maps));
     auto fixation = ctx.make(kFixation);
     const cv::Rect fovea = l->geometry.back().region;
-    fixation->center = cv::Point2d(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
-    fixation->size = cv::Size2d(fovea.size());
-    fixation->score = stereo_->fixation().disparity;
+    fixation->pixel = cv::Point2d(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
+    fixation->fovea = cv::Size2d(fovea.size());
+    fixation->disparity = stereo_->fixation().disparity;
+    fixation->score = stereo_->fixation().score;
     fixation->depth = calibration_.valid() ? calibration_.depth(stereo_->fixation().disparity) : -1.0;
     fixation->camera_id = l->camera_id;
-    fixation->label = "fixation";
     ctx.emit(kFixation, std::move(fixation));
     return {};
   }

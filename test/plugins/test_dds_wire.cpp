@@ -413,17 +413,18 @@ TEST(DdsWire, EveryDescribedFieldOfEveryTypeSurvivesTheWire) {
   expect_every_field_round_trips<saccade::FeatureMaps, saccade_idl::FeatureMaps, saccade_idl::FeatureMapsPubSubType>();
   expect_every_field_round_trips<saccade::Motion, saccade_idl::Motion, saccade_idl::MotionPubSubType>();
   expect_every_field_round_trips<saccade::Region, saccade_idl::Region, saccade_idl::RegionPubSubType>();
+  expect_every_field_round_trips<saccade::StereoFixation, saccade_idl::StereoFixation, saccade_idl::StereoFixationPubSubType>();
   expect_every_field_round_trips<saccade::GazeRequest, saccade_idl::GazeRequest, saccade_idl::GazeRequestPubSubType>();
   expect_every_field_round_trips<saccade::JointState, saccade_idl::JointState, saccade_idl::JointStatePubSubType>();
   expect_every_field_round_trips<saccade::JointTargets, saccade_idl::JointTargets, saccade_idl::JointTargetsPubSubType>();
   expect_every_field_round_trips<saccade::FoveaState, saccade_idl::FoveaState, saccade_idl::FoveaStatePubSubType>();
   expect_every_field_round_trips<saccade::Classification, saccade_idl::Classification, saccade_idl::ClassificationPubSubType>();
   expect_every_field_round_trips<saccade::CanFrames, saccade_idl::CanFrames, saccade_idl::CanFramesPubSubType>();
-  EXPECT_EQ(described_message_types().size(), 11u) << "a new type needs its line here";
+  EXPECT_EQ(described_message_types().size(), 12u) << "a new type needs its line here";
 }
 
 TEST(DdsWire, EveryMessageTypeHasACodec) {
-  for (auto type : {"Image", "Retina", "FeatureMaps", "Motion", "Region", "GazeRequest", "JointState", "JointTargets",
+  for (auto type : {"Image", "Retina", "FeatureMaps", "Motion", "Region", "StereoFixation", "GazeRequest", "JointState", "JointTargets",
                     "FoveaState", "Classification", "CanFrames"}) {
     const dds::Codec* codec = dds::find_codec(type);
     ASSERT_NE(codec, nullptr) << type;

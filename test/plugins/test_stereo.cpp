@@ -310,11 +310,12 @@ TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
       <param name="max_disparity" value="64"/>
       <param name="focal" value="500"/><param name="baseline" value="0.1"/></node>)");
   ASSERT_NE(h, nullptr);
-  auto fixation = h->last<Region>("fixation");
+  auto fixation = h->last<StereoFixation>("fixation");
   ASSERT_NE(fixation, nullptr);
-  EXPECT_NEAR(fixation->score, 40.0, 0.25);
+  EXPECT_NEAR(fixation->disparity, 40.0, 0.25);
+  EXPECT_GT(fixation->score, 0.5);
   EXPECT_NEAR(fixation->depth, 500 * 0.1 / 40.0, 0.01);
-  EXPECT_EQ(fixation->center, cv::Point2d(320, 240));
+  EXPECT_EQ(fixation->pixel, cv::Point2d(320, 240));
   auto maps = h->last<FeatureMaps>("maps");
   ASSERT_NE(maps->find("depth"), nullptr);
   const cv::Mat& disparity = maps->find("disparity")->back();

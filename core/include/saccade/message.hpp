@@ -252,6 +252,32 @@ struct Region final : Message {
   }
 };
 
+// Where the two cameras' foveas meet: the stereo node's disparity at the left
+// fovea's centre, found coarse to fine, and the depth it gives when the
+// cameras are calibrated. What the head verges on.
+struct StereoFixation final : Message {
+  static constexpr std::string_view kTypeName = "StereoFixation";
+  std::string_view type_name() const override { return kTypeName; }
+  ~StereoFixation() override;
+
+  cv::Point2d pixel;        // the left fovea's centre, source pixels
+  cv::Size2d fovea;         // the fovea's size there, source pixels
+  double disparity = -1.0;  // left x minus right x, source pixels; < 0: not found
+  double score = -1.0;      // the match's NCC at that disparity
+  double depth = -1.0;      // metres along the optical axis (< 0: not calibrated or not found)
+  int camera_id = 0;        // of the left retina
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("pixel", self.pixel);
+    visit("fovea", self.fovea);
+    visit("disparity", self.disparity);
+    visit("score", self.score);
+    visit("depth", self.depth);
+    visit("camera_id", self.camera_id);
+  }
+};
+
 // A request to turn the head. The fovea controller sends a direction (the
 // pixel it wants at the image centre); other senders may name a 3D point, a
 // pixel with its depth or its disparity, or a turn relative to the current gaze.
