@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench bench-dds docs asan tsan clean
+.PHONY: deps build demo test bench bench-dds bench-track docs asan tsan clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -25,6 +25,12 @@ bench: build
 
 bench-dds: build
 	$(BUILD)/bin/saccade_dds_bench --messages 2000 --throughput-s 1
+
+# The fovea box tracker against OpenCV's CSRT, KCF and MIL on generated sequences
+# (add OTB/VOT folders with TRACK_ARGS="--otb DIR --vot DIR").
+bench-track: build
+	@mkdir -p out
+	$(BUILD)/bin/saccade_track_bench --data /usr/share/doc/opencv-doc/examples/data --markdown out/bench-track.md $(TRACK_ARGS)
 
 docs: build
 	$(BUILD)/bin/saccade plugins --markdown > docs/plugins.md

@@ -1,0 +1,386 @@
+// The tracking benchmark: the fovea's box tracker against OpenCV's CSRT, KCF
+// and MIL on the same sequences from the same initial box, scored with the
+// OTB/VOT measures (see tracking_data.hpp). Every tracker sees every frame;
+// the time per frame is the wall clock of its update alone (for the fovea
+// tracker: the retina sampled at its last box's centre plus its update), with
+// OpenCV on one thread for all.
+//
+//   saccade_track_bench [--data DIR] [--otb DIR]... [--vot DIR]... [--no-generated]
+//                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--sequences a,b] [--markdown FILE]
+#ifndef SACCADE_TRACK_BENCH_FOVEA
+#define SACCADE_TRACK_BENCH_FOVEA 1
+#endif
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/tracking.hpp>
+
+#include "tracking_data.hpp"
+
+#if SACCADE_TRACK_BENCH_FOVEA
+#include "box_tracker.hpp"
+#include "retina.hpp"
+#endif
+
+namespace {
+
+using namespace saccade::bench;
+
+// One tracker under test, behind the interface the benchmark drives.
+class Tracker {
+ public:
+  virtual ~Tracker() = default;
+  // "" on success, else why the tracker refused the box.
+  virtual std::string init(const cv::Mat& frame, cv::Rect2d box) = 0;
+  // The box and whether the tracker claims to follow the target (ms left 0).
+  virtual TrackedFrame update(const cv::Mat& frame) = 0;
+};
+
+// MIL draws its samples from OpenCV's thread-wide generator; each tracker
+// gets a stream of its own, so a run repeats whatever else runs beside it.
+class OwnRandomStream {
+ public:
+  explicit OwnRandomStream(cv::RNG& own) : own_(own), saved_(cv::theRNG()) { cv::theRNG() = own_; }
+  ~OwnRandomStream() {
+    own_ = cv::theRNG();
+    cv::theRNG() = saved_;
+  }
+  OwnRandomStream(const OwnRandomStream&) = delete;
+  OwnRandomStream& operator=(const OwnRandomStream&) = delete;
+
+ private:
+  cv::RNG& own_;
+  cv::RNG saved_;
+};
+
+class OpenCvTracker final : public Tracker {
+ public:
+  explicit OpenCvTracker(cv::Ptr<cv::Tracker> tracker) : tracker_(std::move(tracker)) {}
+  std::string init(const cv::Mat& frame, cv::Rect2d box) override {
+    // OpenCV's trackers take integer boxes.
+    last_ = cv::Rect(cvRound(box.x), cvRound(box.y), cvRound(box.width), cvRound(box.height));
+    const OwnRandomStream stream(random_);
+    try {
+      tracker_->init(frame, last_);
+    } catch (const cv::Exception& e) {
+      return e.what();
+    }
+    return "";
+  }
+  TrackedFrame update(const cv::Mat& frame) override {
+    cv::Rect box;
+    bool found = false;
+    const OwnRandomStream stream(random_);
+    try {
+      found = tracker_->update(frame, box);
+    } catch (const cv::Exception&) {
+      found = false;  // a box driven off the frame makes some of them throw: lost, not fatal
+    }
+    // On failure the box is not always set: keep the last one.
+    if (found && box.area() > 0) last_ = box;
+    return {cv::Rect2d(last_), found, 0};
+  }
+
+ private:
+  cv::Ptr<cv::Tracker> tracker_;
+  cv::Rect last_;
+  cv::RNG random_{0x5eed};
+};
+
+#if SACCADE_TRACK_BENCH_FOVEA
+// The fovea tracker as the robot runs it: every frame the retina is sampled
+// where the tracker last saw the target, then the tracker updates.
+class FoveaTracker final : public Tracker {
+ public:
+  FoveaTracker() : tracker_(saccade::fovea::BoxTrackerConfig{}), retina_(saccade::retina::RetinaConfig{}) {}
+  std::string init(const cv::Mat& frame, cv::Rect2d box) override {
+    fovea_ = (box.tl() + box.br()) * 0.5;
+    return tracker_.init(frame, box);
+  }
+  TrackedFrame update(const cv::Mat& frame) override {
+    retina_.sample(frame, fovea_, levels_, geometry_);
+    const saccade::fovea::TrackEstimate e = tracker_.update(frame);
+    const cv::Point2d centre = (e.box.tl() + e.box.br()) * 0.5;
+    if (std::isfinite(centre.x) && std::isfinite(centre.y)) fovea_ = centre;
+    return {e.box, e.state == saccade::fovea::TrackState::kTracking, 0};
+  }
+
+ private:
+  saccade::fovea::BoxTracker tracker_;
+  saccade::retina::RetinaSampler retina_;
+  std::vector<cv::Mat> levels_;
+  std::vector<saccade::LevelGeometry> geometry_;
+  cv::Point2d fovea_;
+};
+#endif
+
+std::unique_ptr<Tracker> make_tracker(const std::string& name) {
+#if SACCADE_TRACK_BENCH_FOVEA
+  if (name == "fovea") return std::make_unique<FoveaTracker>();
+#endif
+  if (name == "csrt") return std::make_unique<OpenCvTracker>(cv::TrackerCSRT::create());
+  if (name == "kcf") return std::make_unique<OpenCvTracker>(cv::TrackerKCF::create());
+  if (name == "mil") return std::make_unique<OpenCvTracker>(cv::TrackerMIL::create());
+  return nullptr;
+}
+
+#ifndef SACCADE_SAMPLE_DATA
+#define SACCADE_SAMPLE_DATA "/usr/share/doc/opencv-doc/examples/data"
+#endif
+
+struct Options {
+  std::string data = SACCADE_SAMPLE_DATA;
+  std::vector<std::string> otb, vot;
+  bool no_generated = false;
+  std::string trackers = SACCADE_TRACK_BENCH_FOVEA ? "fovea,csrt,kcf,mil" : "csrt,kcf,mil";
+  std::string markdown;
+  std::string sequences;  // names to keep, all when empty
+  int frames = 0;
+};
+
+std::vector<std::string> split_list(const std::string& list) {
+  std::vector<std::string> items;
+  std::stringstream in(list);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) items.push_back(item);
+  return items;
+}
+
+// --- Running.
+
+struct Result {
+  std::string tracker;
+  std::string error;  // why it did not run, "" when it did
+  TrackScore score;
+};
+
+struct SequenceResults {
+  std::string name;
+  int frames = 0, invisible = 0;
+  cv::Size size;
+  std::vector<Result> results;
+};
+
+// Runs all trackers frame by frame (each frame is read or rendered once).
+SequenceResults run_sequence(const Sequence& sequence, const std::vector<std::string>& names) {
+  SequenceResults out{sequence.name, sequence.size(),
+                      static_cast<int>(std::count(sequence.visible.begin(), sequence.visible.end(), false)),
+                      sequence.frame_size, {}};
+  const cv::Mat first = sequence.frame(0);
+  std::vector<std::unique_ptr<Tracker>> trackers;
+  std::vector<std::vector<TrackedFrame>> tracks;
+  for (const std::string& name : names) {
+    out.results.push_back({name, "", {}});
+    trackers.push_back(make_tracker(name));
+    if (!sequence.visible.front()) out.results.back().error = "the target is not visible in frame 1";
+    else out.results.back().error = trackers.back()->init(first, sequence.truth.front());
+    tracks.emplace_back(static_cast<std::size_t>(sequence.size()));
+    tracks.back()[0] = {sequence.truth.front(), true, 0};
+  }
+  for (int i = 1; i < sequence.size(); ++i) {
+    const cv::Mat frame = sequence.frame(i);
+    for (std::size_t k = 0; k < trackers.size(); ++k) {
+      if (!out.results[k].error.empty()) continue;
+      const auto t0 = std::chrono::steady_clock::now();
+      TrackedFrame f = trackers[k]->update(frame);
+      f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      // A tracker that gives no usable box keeps its last one (scores stay finite).
+      const bool usable = std::isfinite(f.box.x) && std::isfinite(f.box.y) && std::isfinite(f.box.width) &&
+                          std::isfinite(f.box.height);
+      if (!usable) f.box = tracks[k][static_cast<std::size_t>(i - 1)].box;
+      tracks[k][static_cast<std::size_t>(i)] = f;
+    }
+  }
+  for (std::size_t k = 0; k < trackers.size(); ++k)
+    if (out.results[k].error.empty()) out.results[k].score = score_track(sequence.truth, sequence.visible, tracks[k]);
+  return out;
+}
+
+// --- Reporting: Markdown tables with padded columns, readable as plain text too.
+
+std::string fixed(double value, int decimals) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*f", decimals, value);
+  return text;
+}
+
+std::string table(const std::vector<std::vector<std::string>>& rows) {
+  std::vector<std::size_t> width(rows.front().size(), 3);
+  for (const auto& row : rows)
+    for (std::size_t c = 0; c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
+  std::string out;
+  auto line = [&](const std::vector<std::string>& cells) {
+    for (std::size_t c = 0; c < cells.size(); ++c)
+      out += "| " + cells[c] + std::string(width[c] - cells[c].size(), ' ') + " ";
+    out += "|\n";
+  };
+  line(rows.front());
+  std::vector<std::string> rule;
+  for (std::size_t w : width) rule.push_back(std::string(w, '-'));
+  line(rule);
+  for (std::size_t r = 1; r < rows.size(); ++r) line(rows[r]);
+  return out;
+}
+
+const std::vector<std::string> kHeader = {"tracker", "centre error (px)", "precision@20", "success AUC", "success@0.5",
+                                          "frames lost", "honest lost", "max re-acquisition (frames)", "ms/frame"};
+
+std::string reacquisition_cell(const TrackScore& s) {
+  if (s.reappearances == 0) return "-";
+  std::string cell = s.max_reacquire_delay >= 0 ? std::to_string(s.max_reacquire_delay) : "";
+  if (s.reacquire_misses > 0)
+    cell += (cell.empty() ? "" : ", ") + std::string("never ") + std::to_string(s.reacquire_misses) + "/" +
+            std::to_string(s.reappearances);
+  return cell;
+}
+
+std::vector<std::string> score_row(const Result& r) {
+  if (!r.error.empty()) return {r.tracker, "failed: " + r.error, "", "", "", "", "", "", ""};
+  const TrackScore& s = r.score;
+  return {r.tracker,
+          fixed(s.mean_centre_error, 1),
+          fixed(s.precision20, 3),
+          fixed(s.success_auc, 3),
+          fixed(s.success50, 3),
+          std::to_string(s.frames_lost),
+          s.honest_lost >= 0 ? fixed(s.honest_lost, 2) : "-",
+          reacquisition_cell(s),
+          fixed(s.ms_per_frame, 2)};
+}
+
+std::string sequence_section(const SequenceResults& sequence) {
+  std::vector<std::vector<std::string>> rows{kHeader};
+  for (const Result& r : sequence.results) rows.push_back(score_row(r));
+  return "## " + sequence.name + " (" + std::to_string(sequence.frames) + " frames, " +
+         std::to_string(sequence.size.width) + "x" + std::to_string(sequence.size.height) + ", target invisible in " +
+         std::to_string(sequence.invisible) + ")\n\n" + table(rows) + "\n";
+}
+
+// Mean of a measure over the sequences that have it.
+struct Mean {
+  double sum = 0;
+  int count = 0;
+  void add(double value) { sum += value, ++count; }
+  std::string cell(int decimals) const { return count > 0 ? fixed(sum / count, decimals) : "-"; }
+};
+
+std::vector<std::string> average_row(const std::string& tracker, const std::vector<SequenceResults>& all) {
+  Mean error, precision, auc, success, lost, honest, reacquire, ms;
+  int misses = 0, reappearances = 0, failed = 0;
+  for (const SequenceResults& sequence : all)
+    for (const Result& r : sequence.results) {
+      if (r.tracker != tracker) continue;
+      if (!r.error.empty()) {
+        ++failed;
+        continue;
+      }
+      const TrackScore& s = r.score;
+      error.add(s.mean_centre_error), precision.add(s.precision20), auc.add(s.success_auc);
+      success.add(s.success50), lost.add(s.frames_lost), ms.add(s.ms_per_frame);
+      if (s.honest_lost >= 0) honest.add(s.honest_lost);
+      if (s.max_reacquire_delay >= 0) reacquire.add(s.max_reacquire_delay);
+      misses += s.reacquire_misses, reappearances += s.reappearances;
+    }
+  std::string reacquire_cell = reacquire.count > 0 || misses == 0 ? reacquire.cell(1) : "";
+  if (misses > 0)
+    reacquire_cell += (reacquire_cell.empty() ? "never " : ", never ") + std::to_string(misses) + "/" +
+                      std::to_string(reappearances);
+  const std::string name = failed > 0 ? tracker + " (failed on " + std::to_string(failed) + ")" : tracker;
+  return {name, error.cell(1), precision.cell(3), auc.cell(3), success.cell(3),
+          lost.cell(1), honest.cell(2), reacquire_cell, ms.cell(2)};
+}
+
+std::string report(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers) {
+  std::string out = "# Tracking benchmark\n\n"
+                    "Centre error, precision and success over the frames after the first where the target is visible; "
+                    "success AUC over IoU thresholds 0, 0.05, ..., 1 (OTB); frames lost: the tracker did not claim "
+                    "tracking; honest lost: share of the frames without the target where it did not claim tracking; "
+                    "max re-acquisition: frames after a reappearance until it claims tracking with IoU >= 0.3; "
+                    "ms/frame: its update alone (fovea: retina + update), one thread.\n\n";
+  for (const SequenceResults& sequence : all) out += sequence_section(sequence);
+  std::vector<std::vector<std::string>> rows{kHeader};
+  for (const std::string& tracker : trackers) rows.push_back(average_row(tracker, all));
+  rows.front()[5] = "frames lost (per sequence)";
+  out += "## Average over " + std::to_string(all.size()) + " sequences\n\n" + table(rows);
+  return out;
+}
+
+// --- Main.
+
+std::vector<Sequence> load_sequences(const Options& options) {
+  std::vector<Sequence> sequences;
+  if (!options.no_generated) sequences = generate_sequences(options.data);
+  for (const std::string& dir : options.otb) sequences.push_back(read_otb(dir));
+  for (const std::string& dir : options.vot) sequences.push_back(read_vot(dir));
+  const std::vector<std::string> keep = split_list(options.sequences);
+  if (!keep.empty())
+    std::erase_if(sequences, [&](const Sequence& s) { return std::find(keep.begin(), keep.end(), s.name) == keep.end(); });
+  for (Sequence& s : sequences) truncate(s, options.frames);
+  return sequences;
+}
+
+int run(const Options& options) {
+  const std::vector<std::string> trackers = split_list(options.trackers);
+  for (const std::string& name : trackers)
+    if (!make_tracker(name)) {
+      std::cerr << "unknown tracker '" << name << "' (known: " << (SACCADE_TRACK_BENCH_FOVEA ? "fovea, " : "")
+                << "csrt, kcf, mil)\n";
+      return 2;
+    }
+  const std::vector<Sequence> sequences = load_sequences(options);
+  if (sequences.empty()) {
+    std::cerr << "no sequences to run\n";
+    return 2;
+  }
+  std::vector<SequenceResults> results;
+  for (const Sequence& sequence : sequences) {
+    std::cerr << "running " << sequence.name << " (" << sequence.size() << " frames)\n";
+    results.push_back(run_sequence(sequence, trackers));
+  }
+  const std::string text = report(results, trackers);
+  std::cout << text;
+  if (!options.markdown.empty()) {
+    std::ofstream file(options.markdown);
+    if (!(file << text)) {
+      std::cerr << "cannot write " << options.markdown << "\n";
+      return 1;
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  CLI::App app{"Tracking benchmark: the fovea box tracker against OpenCV's CSRT, KCF and MIL"};
+  app.add_option("--data", options.data, "OpenCV's sample data folder (the generated sequences' images)");
+  app.add_option("--otb", options.otb, "an OTB sequence folder (img/, groundtruth_rect.txt); repeatable");
+  app.add_option("--vot", options.vot, "a VOT sequence folder (groundtruth.txt, frames or color/); repeatable");
+  app.add_flag("--no-generated", options.no_generated, "leave out the generated sequences");
+  app.add_option("--trackers", options.trackers, "comma-separated trackers to run")->capture_default_str();
+  app.add_option("--sequences", options.sequences, "comma-separated sequence names to keep (default all)");
+  app.add_option("--frames", options.frames, "at most this many frames per sequence (quick runs)");
+  app.add_option("--markdown", options.markdown, "also write the tables to this Markdown file");
+  CLI11_PARSE(app, argc, argv);
+  // One thread for everything: the times compare the algorithms, not how
+  // well each spreads over cores.
+  cv::setNumThreads(1);
+  try {
+    return run(options);
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+}

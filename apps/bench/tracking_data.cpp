@@ -1,0 +1,730 @@
+#include "tracking_data.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace saccade::bench {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kPi = std::numbers::pi;
+
+cv::Mat read_image(const std::string& path) {
+  cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+  if (image.empty()) throw std::runtime_error("cannot read image " + path);
+  return image;
+}
+
+}  // namespace
+
+void truncate(Sequence& sequence, int frames) {
+  if (frames <= 0 || frames >= sequence.size()) return;
+  sequence.truth.resize(static_cast<std::size_t>(frames));
+  sequence.visible.resize(static_cast<std::size_t>(frames));
+}
+
+// ---------------------------------------------------------------- readers
+
+cv::Rect2d parse_truth_row(const std::string& row, const std::string& where, bool& visible) {
+  std::string text = row;
+  // Commas, tabs and a CR left by CRLF line ends are all separators.
+  std::replace_if(text.begin(), text.end(), [](char c) { return c == ',' || c == '\t' || c == '\r'; }, ' ');
+  std::istringstream tokens(text);
+  std::vector<double> v;
+  for (std::string token; tokens >> token;) {
+    char* end = nullptr;
+    const double number = std::strtod(token.c_str(), &end);
+    if (end == token.c_str() || *end != '\0')
+      throw std::runtime_error(where + ": '" + token + "' is not a number");
+    v.push_back(number);
+  }
+  if (v.size() != 4 && v.size() != 8)
+    throw std::runtime_error(where + ": expected 4 numbers (x,y,w,h) or 8 (a polygon x1,y1,...,x4,y4), got " +
+                             std::to_string(v.size()));
+  visible = std::none_of(v.begin(), v.end(), [](double x) { return std::isnan(x); });
+  if (!visible) return {};
+  cv::Rect2d box(v[0], v[1], v[2], v[3]);
+  if (v.size() == 8) {
+    const double x0 = std::min({v[0], v[2], v[4], v[6]}), x1 = std::max({v[0], v[2], v[4], v[6]});
+    const double y0 = std::min({v[1], v[3], v[5], v[7]}), y1 = std::max({v[1], v[3], v[5], v[7]});
+    box = {x0, y0, x1 - x0, y1 - y0};
+  } else if (box.width < 0 || box.height < 0) {
+    throw std::runtime_error(where + ": negative width or height");
+  }
+  // An empty box is how several datasets (GOT-10k, LaSOT) mark an absent target.
+  visible = box.width > 0 && box.height > 0;
+  return box;
+}
+
+namespace {
+
+void read_truth_file(const fs::path& path, Sequence& sequence) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open " + path.string());
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  // Trailing blank lines are common; a blank line inside would shift every later frame.
+  auto blank = [](const std::string& s) { return s.find_first_not_of(" \t\r") == std::string::npos; };
+  while (!lines.empty() && blank(lines.back())) lines.pop_back();
+  if (lines.empty()) throw std::runtime_error(path.string() + ": no ground-truth rows");
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    bool visible = true;
+    sequence.truth.push_back(parse_truth_row(lines[i], path.string() + ":" + std::to_string(i + 1), visible));
+    sequence.visible.push_back(visible);
+  }
+}
+
+// Frame paths numbered from 1 with `digits` digits; every frame the truth
+// names must exist.
+std::vector<std::string> numbered_frames(const fs::path& folder, int digits, const std::string& extension,
+                                         std::size_t count, const fs::path& truth_file) {
+  std::vector<std::string> paths;
+  for (std::size_t i = 1; i <= count; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%0*zu%s", digits, i, extension.c_str());
+    const fs::path path = folder / name;
+    if (!fs::exists(path))
+      throw std::runtime_error(path.string() + ": missing (" + truth_file.filename().string() + " has " +
+                               std::to_string(count) + " rows)");
+    paths.push_back(path.string());
+  }
+  return paths;
+}
+
+void attach_frames(Sequence& sequence, std::vector<std::string> paths) {
+  sequence.frame_size = read_image(paths.front()).size();
+  auto shared = std::make_shared<std::vector<std::string>>(std::move(paths));
+  sequence.frame = [shared](int i) { return read_image(shared->at(static_cast<std::size_t>(i))); };
+}
+
+void require_folder(const fs::path& dir) {
+  if (!fs::is_directory(dir)) throw std::runtime_error(dir.string() + ": not a folder");
+}
+
+// "data/Basketball/" and "data/Basketball" are both named Basketball.
+std::string folder_name(const std::string& dir) {
+  fs::path path = fs::path(dir).lexically_normal();
+  if (path.filename().empty()) path = path.parent_path();
+  return path.filename().string();
+}
+
+}  // namespace
+
+Sequence read_otb(const std::string& dir) {
+  require_folder(dir);
+  Sequence sequence;
+  sequence.name = folder_name(dir);
+  const fs::path truth_file = fs::path(dir) / "groundtruth_rect.txt";
+  read_truth_file(truth_file, sequence);
+  attach_frames(sequence, numbered_frames(fs::path(dir) / "img", 4, ".jpg", sequence.truth.size(), truth_file));
+  return sequence;
+}
+
+Sequence read_vot(const std::string& dir) {
+  require_folder(dir);
+  Sequence sequence;
+  sequence.name = folder_name(dir);
+  const fs::path truth_file = fs::path(dir) / "groundtruth.txt";
+  read_truth_file(truth_file, sequence);
+  // VOT 2020 and later keep the frames in color/; older editions next to the truth.
+  fs::path folder = fs::path(dir) / "color";
+  if (!fs::is_directory(folder)) folder = dir;
+  const std::string extension = fs::exists(folder / "00000001.png") ? ".png" : ".jpg";
+  attach_frames(sequence, numbered_frames(folder, 8, extension, sequence.truth.size(), truth_file));
+  return sequence;
+}
+
+// ---------------------------------------------------------------- generator
+
+namespace {
+
+// std::mt19937's output is fixed by the standard; the library's
+// distributions are not, so the conversion to doubles is done here.
+class Random {
+ public:
+  explicit Random(uint32_t seed) : engine_(seed) {}
+  double uniform(double lo, double hi) { return lo + (hi - lo) * (engine_() / 4294967296.0); }
+
+ private:
+  std::mt19937 engine_;
+};
+
+// A piecewise-linear ramp through (u, value) knots, u in [0, 1].
+double ramp(double u, std::initializer_list<std::pair<double, double>> knots) {
+  auto previous = *knots.begin();
+  for (const auto& knot : knots) {
+    if (u <= knot.first) {
+      if (knot.first <= previous.first) return knot.second;
+      const double t = (u - previous.first) / (knot.first - previous.first);
+      return previous.second + t * (knot.second - previous.second);
+    }
+    previous = knot;
+  }
+  return previous.second;
+}
+
+double smoothstep(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return t * t * (3 - 2 * t);
+}
+
+// Smooth motion as a sum of sinusoids with seeded periods and phases.
+struct Wave {
+  double amplitude = 0, period = 1, phase = 0;
+  double at(double t) const { return amplitude * std::sin(2 * kPi * t / period + phase); }
+};
+
+struct Wobble {
+  std::vector<Wave> x, y;
+  cv::Point2d at(double t) const {
+    cv::Point2d p;
+    for (const Wave& w : x) p.x += w.at(t);
+    for (const Wave& w : y) p.y += w.at(t);
+    return p;
+  }
+};
+
+// Hand-held shake: three components per axis, from `shortest` frames up,
+// their amplitudes adding up to `amplitude`.
+Wobble make_shake(Random& random, double amplitude, double shortest) {
+  Wobble shake;
+  const double weights[] = {0.5, 0.3, 0.2}, stretch[] = {1.0, 1.9, 3.3};
+  for (int k = 0; k < 3; ++k) {
+    shake.x.push_back({amplitude * weights[k], shortest * stretch[k] * random.uniform(0.9, 1.1), random.uniform(0, 2 * kPi)});
+    shake.y.push_back({amplitude * weights[k], shortest * stretch[k] * random.uniform(0.9, 1.1), random.uniform(0, 2 * kPi)});
+  }
+  return shake;
+}
+
+// Everything that differs between frames, planned before any is rendered so
+// that frames can be rendered in any order.
+struct FramePlan {
+  cv::Point2d view;        // the view's top-left corner in the (scaled) background
+  cv::Point2d centre;      // the target's centre, frame pixels (edge coordinates)
+  double scale = 1;
+  double angle_deg = 0;
+  cv::Point2d smear;       // image motion during the exposure, pixels
+  double gain = 1, offset = 0;
+  int occlusion = -1;      // index of the occluder in front, -1 when none
+  cv::Rect occluder;       // frame pixels
+  bool distractor = false;
+  cv::Point2d distractor_centre;
+};
+
+// An image drawn at many scales: a pyramid, so that drawing shrinks by at
+// most 2 (no aliasing) and rarely magnifies.
+struct Sprite {
+  cv::Size2d base;               // frame pixels at scale 1
+  std::vector<cv::Mat> levels;   // largest first
+};
+
+struct Scene {
+  SyntheticScript script;
+  cv::Mat background;
+  Sprite target, distractor;
+  std::vector<cv::Mat> occluders;  // one patch per Occlusion, at its size in the frame
+  std::vector<FramePlan> plans;
+};
+
+cv::Size2d target_base_size(const SyntheticScript& script) {
+  const double k = script.target_side / std::max(script.target_crop.width, script.target_crop.height);
+  return {script.target_crop.width * k, script.target_crop.height * k};
+}
+
+cv::Mat crop_of(const cv::Mat& image, const cv::Rect& rect, const std::string& what) {
+  if ((rect & cv::Rect(0, 0, image.cols, image.rows)) != rect || rect.empty())
+    throw std::runtime_error(what + ": crop rectangle outside the image");
+  return image(rect).clone();
+}
+
+Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, double min_scale) {
+  Sprite sprite;
+  sprite.base = base;
+  const double k = std::max(1.0, max_scale);
+  const cv::Size largest(std::max(1, static_cast<int>(std::lround(base.width * k))),
+                         std::max(1, static_cast<int>(std::lround(base.height * k))));
+  cv::Mat level;
+  const bool magnify = largest.width > image.cols;
+  cv::resize(image, level, largest, 0, 0, magnify ? cv::INTER_CUBIC : cv::INTER_AREA);
+  sprite.levels.push_back(level);
+  const double smallest_side = std::max(base.width, base.height) * std::min(1.0, min_scale) / 2;
+  while (std::max(level.cols, level.rows) / 2.0 > std::max(8.0, smallest_side)) {
+    cv::resize(level, level, cv::Size((level.cols + 1) / 2, (level.rows + 1) / 2), 0, 0, cv::INTER_AREA);
+    sprite.levels.push_back(level);
+  }
+  return sprite;
+}
+
+// The axis-aligned box around the target rotated by `angle_deg`.
+cv::Rect2d rotated_bounds(cv::Point2d centre, cv::Size2d size, double angle_deg) {
+  const double a = angle_deg * kPi / 180, c = std::abs(std::cos(a)), s = std::abs(std::sin(a));
+  const double hw = (size.width * c + size.height * s) / 2, hh = (size.width * s + size.height * c) / 2;
+  return {centre.x - hw, centre.y - hh, 2 * hw, 2 * hh};
+}
+
+cv::Rect2d truth_box(cv::Point2d centre, cv::Size2d size) {
+  return {centre.x - size.width / 2, centre.y - size.height / 2, size.width, size.height};
+}
+
+// --- Planning the motion.
+
+struct Motion {
+  Wobble shake, pan, wander;
+  std::vector<cv::Point2d> excursion_direction;
+  double rotation_period = 150, scale_period = 200, distractor_period = 90;
+};
+
+Motion plan_motion(const SyntheticScript& s, Random& random) {
+  Motion m;
+  m.shake = make_shake(random, s.shake, s.shake_period);
+  m.pan.x.push_back({s.pan, 230 * random.uniform(0.8, 1.2), random.uniform(0, 2 * kPi)});
+  m.pan.y.push_back({s.pan / 2, 170 * random.uniform(0.8, 1.2), random.uniform(0, 2 * kPi)});
+  const double ax = s.wander * s.frame_size.width / 2, ay = s.wander * s.frame_size.height / 2;
+  m.wander.x.push_back({ax, s.wander_period * random.uniform(0.9, 1.1), random.uniform(0, 2 * kPi)});
+  m.wander.y.push_back({ay, 1.37 * s.wander_period * random.uniform(0.9, 1.1), random.uniform(0, 2 * kPi)});
+  for (std::size_t i = 0; i < s.excursions.size(); ++i) {
+    // Alternate sides, mostly sideways as a head's pan would.
+    const double side = (i % 2 == 0 ? 1.0 : -1.0), tilt = random.uniform(-0.3, 0.3);
+    m.excursion_direction.push_back(cv::Point2d(side, tilt) / std::hypot(1.0, tilt));
+  }
+  m.rotation_period = s.frames / 2.0 * random.uniform(0.8, 1.2);
+  m.scale_period = s.frames / 1.5 * random.uniform(0.9, 1.1);
+  m.distractor_period = 90 * random.uniform(0.8, 1.2);
+  return m;
+}
+
+double scale_at(const SyntheticScript& s, const Motion& m, double t) {
+  // From 1 up to scale_max, back, down to scale_min, back: log-scale sine.
+  const double wave = std::sin(2 * kPi * t / m.scale_period);
+  return std::exp(wave > 0 ? std::log(s.scale_max) * wave : -std::log(s.scale_min) * wave);
+}
+
+// How far the camera has looked away at frame t.
+cv::Point2d excursion_at(const SyntheticScript& s, const Motion& m, int t) {
+  const cv::Size2d base = target_base_size(s);
+  const double reach = std::hypot(base.width, base.height) * std::max(1.0, s.scale_max) / 2 + s.shake + 12;
+  cv::Point2d shift;
+  for (std::size_t i = 0; i < s.excursions.size(); ++i) {
+    const Excursion& e = s.excursions[i];
+    const double away = smoothstep((t - e.start) / 20.0) * smoothstep((e.start + e.length - t) / 20.0);
+    const cv::Point2d d = m.excursion_direction[i];  // mostly sideways: |d.x| > 0.95
+    // Far enough sideways that the target, wherever it wanders, is wholly outside.
+    const double distance = (s.frame_size.width / 2.0 * (1 + s.wander) + reach) / std::abs(d.x);
+    shift += away * distance * d;
+  }
+  return shift;
+}
+
+void plan_occlusion(const SyntheticScript& s, const Motion& m, const cv::Size2d& target_size, int t, FramePlan& p) {
+  const cv::Size2d base = target_base_size(s);
+  for (std::size_t k = 0; k < s.occlusions.size(); ++k) {
+    const Occlusion& o = s.occlusions[k];
+    if (t < o.start || t >= o.end) continue;
+    // Sized once, by the target's size as the occluder comes in.
+    const double start_side = std::max(base.width, base.height) * scale_at(s, m, o.start);
+    const int side = static_cast<int>(std::lround(o.size * start_side));
+    const cv::Rect2d bounds = rotated_bounds(p.centre, target_size, p.angle_deg);
+    const double reach = (side + bounds.width) / 2 + 4;
+    const double u = o.end - o.start > 1 ? (t - o.start) / double(o.end - o.start - 1) : 0.5;
+    const double cx = p.centre.x - reach + 2 * reach * u, cy = p.centre.y + o.offset_y * target_size.height;
+    p.occlusion = static_cast<int>(k);
+    p.occluder = cv::Rect(static_cast<int>(std::lround(cx - side / 2.0)), static_cast<int>(std::lround(cy - side / 2.0)),
+                          side, side);
+  }
+}
+
+std::vector<FramePlan> plan_frames(const SyntheticScript& s, const cv::Size2d& base, const Motion& m) {
+  std::vector<FramePlan> plans(static_cast<std::size_t>(s.frames));
+  const cv::Point2d middle(s.frame_size.width / 2.0, s.frame_size.height / 2.0);
+  cv::Point2d previous_view;
+  for (int t = 0; t < s.frames; ++t) {
+    FramePlan& p = plans[static_cast<std::size_t>(t)];
+    const cv::Point2d shake = m.shake.at(t), away = excursion_at(s, m, t);
+    // The camera follows the target with its pan; shake and looking away move
+    // the background and the target alike.
+    p.view = m.pan.at(t) + shake + away;
+    p.centre = middle + m.wander.at(t) - shake - away;
+    p.scale = scale_at(s, m, t);
+    p.angle_deg = s.rotation_deg * std::sin(2 * kPi * t / m.rotation_period);
+    p.smear = t > 0 ? -s.blur * (p.view - previous_view) : cv::Point2d();
+    // A camera's exposure is short even while it turns fast: at most a 20th of the frame's width.
+    const double smear_length = std::hypot(p.smear.x, p.smear.y), longest = s.frame_size.width / 20.0;
+    if (smear_length > longest) p.smear *= longest / smear_length;
+    previous_view = p.view;
+    const double u = t / double(std::max(1, s.frames - 1));
+    p.gain = 1 + s.light * ramp(u, {{0, 0}, {0.15, 0}, {0.35, -1}, {0.5, -1}, {0.7, 1}, {0.85, 1}, {1, 0}});
+    p.offset = 40 * s.light * ramp(u, {{0, 0}, {0.2, 0}, {0.4, 0.6}, {0.6, -0.8}, {0.8, 1}, {1, 0}});
+    const cv::Size2d size(base.width * p.scale, base.height * p.scale);
+    plan_occlusion(s, m, size, t, p);
+    if (s.distractor && t >= 10) {
+      // Circles the target, passing behind it twice a lap.
+      const double a = 2 * kPi * t / m.distractor_period, r = 1.7 * size.width;
+      p.distractor = true;
+      p.distractor_centre = p.centre + cv::Point2d(r * std::cos(a), 0.15 * r * std::sin(a));
+    }
+  }
+  return plans;
+}
+
+// Invisible: nothing of the target inside the frame, or what is inside lies
+// under the occluder (with a pixel to spare for interpolation's blur).
+bool target_visible(const FramePlan& p, cv::Size2d target_size, cv::Size frame) {
+  const cv::Rect2d inside = rotated_bounds(p.centre, target_size, p.angle_deg) & cv::Rect2d(0, 0, frame.width, frame.height);
+  if (inside.width < 1 || inside.height < 1) return false;
+  if (p.occlusion < 0) return true;
+  const cv::Rect2d padded(inside.x - 1, inside.y - 1, inside.width + 2, inside.height + 2);
+  const cv::Rect2d needed = padded & cv::Rect2d(0, 0, frame.width, frame.height);
+  return (cv::Rect2d(p.occluder) & needed) != needed;
+}
+
+// --- Building the scene.
+
+// Scales the background so that every view lies inside it, and moves the
+// views into it.
+cv::Mat fit_background(const cv::Mat& image, cv::Size frame, std::vector<FramePlan>& plans) {
+  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+  for (const FramePlan& p : plans) {
+    x0 = std::min(x0, p.view.x), y0 = std::min(y0, p.view.y);
+    x1 = std::max(x1, p.view.x), y1 = std::max(y1, p.view.y);
+  }
+  const double margin = 4, need_w = x1 - x0 + frame.width + 2 * margin, need_h = y1 - y0 + frame.height + 2 * margin;
+  const double k = std::max({1.0, need_w / image.cols, need_h / image.rows});
+  cv::Mat background;
+  if (k > 1) cv::resize(image, background, cv::Size(), k, k, cv::INTER_CUBIC);
+  else background = image;
+  // Centre the views' span in the background.
+  const cv::Point2d origin((background.cols - (x1 - x0 + frame.width)) / 2 - x0,
+                           (background.rows - (y1 - y0 + frame.height)) / 2 - y0);
+  for (FramePlan& p : plans) p.view += origin;
+  return background;
+}
+
+// A dimmer, tinted mirror image of the target: similar, not identical.
+cv::Mat look_alike(const cv::Mat& target) {
+  cv::Mat mirrored, tinted;
+  cv::flip(target, mirrored, 1);
+  mirrored.convertTo(tinted, CV_8UC3, 0.85, 0);
+  cv::add(tinted, cv::Scalar(14, -6, 8), tinted);
+  return tinted;
+}
+
+std::vector<cv::Mat> make_occluders(const SyntheticScript& s, const std::string& data_dir, Random& random,
+                                    const std::vector<FramePlan>& plans) {
+  std::vector<cv::Mat> patches(s.occlusions.size());
+  if (s.occlusions.empty()) return patches;
+  const cv::Mat source = read_image(data_dir + "/" + s.occluder_image);
+  for (const FramePlan& p : plans) {
+    if (p.occlusion < 0 || !patches[static_cast<std::size_t>(p.occlusion)].empty()) continue;
+    // A random square of the occluder image, a third of its smaller side.
+    const int side = std::min(source.cols, source.rows) / 3;
+    const int x = static_cast<int>(random.uniform(0, source.cols - side)), y = static_cast<int>(random.uniform(0, source.rows - side));
+    cv::resize(source(cv::Rect(x, y, side, side)), patches[static_cast<std::size_t>(p.occlusion)], p.occluder.size(), 0, 0,
+               cv::INTER_AREA);
+  }
+  return patches;
+}
+
+std::shared_ptr<Scene> build_scene(const SyntheticScript& s, const std::string& data_dir) {
+  if (s.frames < 1 || s.frame_size.area() <= 0 || s.scale_min <= 0 || s.scale_max < s.scale_min)
+    throw std::runtime_error(s.name + ": invalid script");
+  auto scene = std::make_shared<Scene>();
+  scene->script = s;
+  Random random(s.seed);
+  const Motion motion = plan_motion(s, random);
+  const cv::Size2d base = target_base_size(s);
+  scene->plans = plan_frames(s, base, motion);
+  scene->background = fit_background(read_image(data_dir + "/" + s.background), s.frame_size, scene->plans);
+  const cv::Mat target = crop_of(read_image(data_dir + "/" + s.target_image), s.target_crop, s.target_image);
+  scene->target = make_sprite(target, base, s.scale_max, s.scale_min);
+  if (s.distractor) scene->distractor = make_sprite(look_alike(target), base, s.scale_max, s.scale_min);
+  scene->occluders = make_occluders(s, data_dir, random, scene->plans);
+  return scene;
+}
+
+// --- Rendering.
+
+// Draws the sprite centred on `centre` (edge coordinates) at `scale` and
+// `angle_deg`: exactly over truth_box(centre, base * scale) when unrotated.
+void draw_sprite(cv::Mat& frame, const Sprite& sprite, cv::Point2d centre, double scale, double angle_deg) {
+  const cv::Size2d size(sprite.base.width * scale, sprite.base.height * scale);
+  std::size_t k = 0;
+  while (k + 1 < sprite.levels.size() && sprite.levels[k + 1].cols >= size.width) ++k;
+  const cv::Mat& image = sprite.levels[k];
+  const double fx = size.width / image.cols, fy = size.height / image.rows;
+  const double a = angle_deg * kPi / 180, c = std::cos(a), s = std::sin(a);
+  const cv::Rect roi = cv::Rect(rotated_bounds(centre, size, angle_deg) + cv::Size2d(2, 2) - cv::Point2d(1, 1)) &
+                       cv::Rect(0, 0, frame.cols, frame.rows);
+  if (roi.empty()) return;
+  // Image pixel centres (i - (n-1)/2) map to the frame's pixel-centre
+  // coordinates around centre - 0.5 (pixel centres sit at edge + 0.5).
+  const double ix = (image.cols - 1) / 2.0, iy = (image.rows - 1) / 2.0;
+  const double tx = centre.x - 0.5 - roi.x, ty = centre.y - 0.5 - roi.y;
+  const cv::Matx23d m(c * fx, -s * fy, tx - (c * fx * ix - s * fy * iy), s * fx, c * fy, ty - (s * fx * ix + c * fy * iy));
+  cv::Mat dst = frame(roi);
+  // Transparent border: only pixels the sprite covers are written.
+  cv::warpAffine(image, dst, m, roi.size(), cv::INTER_LINEAR, cv::BORDER_TRANSPARENT);
+}
+
+void motion_blur(cv::Mat& frame, cv::Point2d smear) {
+  const double length = std::hypot(smear.x, smear.y);
+  if (length < 1) return;
+  const int half = static_cast<int>(std::ceil(length / 2)), side = 2 * half + 1;
+  cv::Mat kernel = cv::Mat::zeros(side, side, CV_32F);
+  constexpr int kShift = 4;  // sub-pixel bits of cv::line's coordinates
+  const cv::Point2d mid(half, half);
+  auto fixed = [](cv::Point2d p) {
+    return cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))), static_cast<int>(std::lround(p.y * (1 << kShift))));
+  };
+  cv::line(kernel, fixed(mid - smear / 2), fixed(mid + smear / 2), cv::Scalar(1), 1, cv::LINE_AA, kShift);
+  kernel /= cv::sum(kernel)[0];
+  cv::filter2D(frame, frame, -1, kernel, cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
+}
+
+cv::Mat render_frame(const Scene& scene, int i) {
+  const SyntheticScript& s = scene.script;
+  const FramePlan& p = scene.plans.at(static_cast<std::size_t>(i));
+  cv::Mat frame;
+  const cv::Matx23d view(1, 0, -p.view.x, 0, 1, -p.view.y);
+  cv::warpAffine(scene.background, frame, view, s.frame_size, cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  if (p.distractor) draw_sprite(frame, scene.distractor, p.distractor_centre, p.scale, p.angle_deg);
+  draw_sprite(frame, scene.target, p.centre, p.scale, p.angle_deg);
+  if (p.occlusion >= 0) {
+    const cv::Rect inside = p.occluder & cv::Rect(0, 0, frame.cols, frame.rows);
+    const cv::Mat& patch = scene.occluders[static_cast<std::size_t>(p.occlusion)];
+    if (!inside.empty()) patch(inside - p.occluder.tl()).copyTo(frame(inside));
+  }
+  motion_blur(frame, p.smear);
+  // Lighting, then sensor noise seeded by the frame's index: any frame
+  // renders the same whatever was rendered before it.
+  cv::Mat work, noise(frame.size(), CV_16SC3);
+  frame.convertTo(work, CV_16SC3, p.gain, p.offset);
+  cv::RNG rng(static_cast<uint64_t>(s.seed) * 1000003u + static_cast<uint64_t>(i) + 1);
+  rng.fill(noise, cv::RNG::NORMAL, 0, s.noise);
+  work += noise;
+  work.convertTo(frame, CV_8UC3);
+  return frame;
+}
+
+}  // namespace
+
+Sequence generate_sequence(const SyntheticScript& script, const std::string& data_dir) {
+  std::shared_ptr<const Scene> scene = build_scene(script, data_dir);
+  Sequence sequence;
+  sequence.name = script.name;
+  sequence.frame_size = script.frame_size;
+  const cv::Size2d base = target_base_size(script);
+  for (const FramePlan& p : scene->plans) {
+    const cv::Size2d size(base.width * p.scale, base.height * p.scale);
+    sequence.truth.push_back(truth_box(p.centre, size));
+    sequence.visible.push_back(target_visible(p, size, script.frame_size));
+  }
+  sequence.frame = [scene](int i) { return render_frame(*scene, i); };
+  return sequence;
+}
+
+cv::Mat target_appearance(const SyntheticScript& script, const std::string& data_dir) {
+  const cv::Mat target = crop_of(read_image(data_dir + "/" + script.target_image), script.target_crop, script.target_image);
+  const cv::Size2d base = target_base_size(script);
+  cv::Mat out;
+  cv::resize(target, out, cv::Size(static_cast<int>(std::lround(base.width)), static_cast<int>(std::lround(base.height))),
+             0, 0, cv::INTER_AREA);
+  return out;
+}
+
+std::vector<Sequence> generate_sequences(const std::string& data_dir) {
+  std::vector<Sequence> sequences;
+  for (const SyntheticScript& script : standard_scripts()) sequences.push_back(generate_sequence(script, data_dir));
+  return sequences;
+}
+
+// ---------------------------------------------------------------- scripts
+
+namespace {
+
+// The objects the targets are cut from (rectangles found by eye).
+const cv::Rect kOrange(35, 50, 430, 440);      // orange.jpg
+const cv::Rect kApple(40, 5, 425, 490);        // apple.jpg
+const cv::Rect kButterfly(10, 80, 475, 230);   // butterfly.jpg
+const cv::Rect kFish(35, 15, 215, 175);        // HappyFish.jpg
+const cv::Rect kBox(0, 0, 324, 223);           // box.png
+const cv::Rect kFace(204, 58, 62, 64);         // messi5.jpg
+const cv::Rect kSquirrel(140, 100, 210, 250);  // squirrel_cls.jpg
+
+SyntheticScript make_script(std::string name, std::string background, std::string target, cv::Rect crop, uint32_t seed) {
+  SyntheticScript s;
+  s.name = std::move(name);
+  s.background = std::move(background);
+  s.target_image = std::move(target);
+  s.target_crop = crop;
+  s.occluder_image = "baboon.jpg";
+  s.seed = seed;
+  return s;
+}
+
+}  // namespace
+
+std::vector<SyntheticScript> standard_scripts() {
+  std::vector<SyntheticScript> all;
+  {  // A shaky hand: fast jitter and the motion blur it brings.
+    SyntheticScript s = make_script("shake_blur", "building.jpg", "orange.jpg", kOrange, 11);
+    s.target_side = 56, s.wander = 0.35, s.pan = 60, s.shake = 6, s.shake_period = 7, s.blur = 1.2;
+    all.push_back(s);
+  }
+  {  // The target approaching and receding: 0.5x to 2x.
+    SyntheticScript s = make_script("scale", "aero1.jpg", "butterfly.jpg", kButterfly, 12);
+    s.target_side = 70, s.wander = 0.25, s.pan = 30, s.scale_min = 0.5, s.scale_max = 2.0;
+    all.push_back(s);
+  }
+  {  // In-plane rotation up to 80 degrees, some scale change.
+    SyntheticScript s = make_script("rotation", "home.jpg", "HappyFish.jpg", kFish, 13);
+    s.target_side = 64, s.rotation_deg = 80, s.scale_min = 0.8, s.scale_max = 1.25, s.shake = 2;
+    all.push_back(s);
+  }
+  {  // Lighting: the scene darkens to 40 % and brightens to 160 %, with offsets.
+    SyntheticScript s = make_script("lighting", "board.jpg", "box.png", kBox, 14);
+    s.target_side = 70, s.light = 0.6, s.pan = 50, s.shake = 2;
+    all.push_back(s);
+  }
+  {  // Occluders: one partial, two hiding the face completely for a while.
+    SyntheticScript s = make_script("occlusion", "graf1.png", "messi5.jpg", kFace, 15);
+    s.target_side = 56, s.wander = 0.25;
+    s.occlusions = {{50, 90, 0.45, 1.2}, {130, 190, 0, 1.8}, {230, 280, 0, 1.8}};
+    all.push_back(s);
+  }
+  {  // A look-alike circling the target on a plain table.
+    SyntheticScript s = make_script("distractor", "stuff.jpg", "apple.jpg", kApple, 16);
+    s.target_side = 56, s.wander = 0.3, s.distractor = true;
+    all.push_back(s);
+  }
+  {  // The camera looks away twice; the target leaves the view and comes back.
+    SyntheticScript s = make_script("out_of_view", "starry_night.jpg", "squirrel_cls.jpg", kSquirrel, 17);
+    s.target_side = 64, s.wander = 0.2, s.shake = 2;
+    s.excursions = {{60, 75}, {190, 65}};
+    all.push_back(s);
+  }
+  {  // Everything a little, on a background of similar colours.
+    SyntheticScript s = make_script("mixed", "fruits.jpg", "orange.jpg", kOrange, 18);
+    s.target_side = 60, s.scale_min = 0.7, s.scale_max = 1.4, s.rotation_deg = 30, s.shake = 3, s.blur = 0.8;
+    s.light = 0.3, s.occlusions = {{150, 200, 0, 2.0}};
+    all.push_back(s);
+  }
+  {  // VGA: scale, rotation, blur, lighting, a partial occluder, a look-alike, a look away.
+    SyntheticScript s = make_script("mixed_640", "leuvenA.jpg", "butterfly.jpg", kButterfly, 19);
+    s.frame_size = {640, 480}, s.frames = 320, s.target_side = 120, s.scale_min = 0.6, s.scale_max = 1.6;
+    s.rotation_deg = 25, s.shake = 4, s.blur = 0.8, s.light = 0.4, s.pan = 80, s.distractor = true;
+    s.occlusions = {{100, 150, 0.4, 1.3}}, s.excursions = {{200, 70}};
+    all.push_back(s);
+  }
+  {  // VGA, fast: quick wandering and panning, a full occlusion, a look-alike, a look away.
+    SyntheticScript s = make_script("fast_640", "aero3.jpg", "messi5.jpg", kFace, 20);
+    s.frame_size = {640, 480}, s.target_side = 110, s.wander = 0.5, s.wander_period = 70, s.pan = 120;
+    s.shake = 5, s.blur = 1.0, s.distractor = true;
+    s.occlusions = {{90, 150, 0, 1.8}}, s.excursions = {{200, 60}};
+    all.push_back(s);
+  }
+  return all;
+}
+
+// ---------------------------------------------------------------- scoring
+
+double iou(const cv::Rect2d& a, const cv::Rect2d& b) {
+  const double overlap = (a & b).area();
+  const double join = a.area() + b.area() - overlap;
+  return join > 0 ? overlap / join : 0.0;
+}
+
+double centre_error(const cv::Rect2d& a, const cv::Rect2d& b) {
+  return std::hypot(a.x + a.width / 2 - (b.x + b.width / 2), a.y + a.height / 2 - (b.y + b.height / 2));
+}
+
+namespace {
+
+// After each reappearance: frames until the tracker claims tracking again
+// with IoU >= 0.3, searched while the target stays visible.
+void score_reacquisition(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
+                         const std::vector<TrackedFrame>& track, TrackScore& score) {
+  const std::size_t n = truth.size();
+  for (std::size_t i = 1; i < n; ++i) {
+    if (!visible[i] || visible[i - 1]) continue;
+    ++score.reappearances;
+    bool found = false;
+    for (std::size_t j = i; j < n && visible[j]; ++j) {
+      if (track[j].tracking && iou(track[j].box, truth[j]) >= 0.3) {
+        score.max_reacquire_delay = std::max(score.max_reacquire_delay, static_cast<int>(j - i));
+        found = true;
+        break;
+      }
+    }
+    if (!found) ++score.reacquire_misses;
+  }
+}
+
+}  // namespace
+
+TrackScore score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
+                       const std::vector<TrackedFrame>& track) {
+  if (truth.size() != visible.size() || truth.size() != track.size())
+    throw std::invalid_argument("score_track: truth, visibility and track differ in length");
+  TrackScore score;
+  std::vector<double> overlaps;
+  double error_sum = 0, ms_sum = 0;
+  int precise = 0, invisible = 0, honest = 0;
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    ms_sum += track[i].ms;
+    if (!track[i].tracking) ++score.frames_lost;
+    if (!visible[i]) {
+      ++invisible;
+      if (!track[i].tracking) ++honest;
+      continue;
+    }
+    const double error = centre_error(track[i].box, truth[i]);
+    error_sum += error;
+    if (error <= 20) ++precise;
+    overlaps.push_back(iou(track[i].box, truth[i]));
+  }
+  const std::size_t tracked = truth.size() > 1 ? truth.size() - 1 : 0;
+  if (tracked > 0) score.ms_per_frame = ms_sum / static_cast<double>(tracked);
+  if (invisible > 0) score.honest_lost = honest / double(invisible);
+  score.scored_frames = static_cast<int>(overlaps.size());
+  if (!overlaps.empty()) {
+    const double n = static_cast<double>(overlaps.size());
+    score.mean_centre_error = error_sum / n;
+    score.precision20 = precise / n;
+    // OTB's success plot: thresholds 0:0.05:1, success = IoU strictly above
+    // (so a perfect track scores 20/21). k / 20.0 is the nearest double to each.
+    for (int k = 0; k <= 20; ++k) {
+      const double threshold = k / 20.0;
+      const double share = static_cast<double>(std::count_if(overlaps.begin(), overlaps.end(),
+                                                             [&](double o) { return o > threshold; })) / n;
+      score.success_auc += share / 21;
+      if (k == 10) score.success50 = share;
+    }
+  }
+  score_reacquisition(truth, visible, track, score);
+  return score;
+}
+
+uint64_t frame_hash(const cv::Mat& frame) {
+  uint64_t hash = 1469598103934665603ull;
+  for (int y = 0; y < frame.rows; ++y) {
+    const uint8_t* row = frame.ptr<uint8_t>(y);
+    for (std::size_t x = 0; x < frame.cols * frame.elemSize(); ++x) hash = (hash ^ row[x]) * 1099511628211ull;
+  }
+  return hash;
+}
+
+}  // namespace saccade::bench

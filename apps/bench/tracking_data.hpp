@@ -1,0 +1,148 @@
+#pragma once
+// Sequences for the tracking benchmark and the measures it scores them with.
+//
+// Sequences come from the two standard layouts (OTB and VOT folders) or from
+// a generator that renders real images (Debian's opencv-doc sample data) into
+// moving-camera sequences with exact ground truth: pans and hand-held shake,
+// scale changes, in-plane rotation, motion blur, lighting ramps, occluders, a
+// look-alike distractor and the target leaving the view.
+//
+// Box convention everywhere: cv::Rect2d in pixel-edge coordinates (a box
+// covering pixels 0..w-1 is x = 0, width = w), as OTB and VOT files give them.
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace saccade::bench {
+
+struct Sequence {
+  std::string name;
+  cv::Size frame_size;
+  std::vector<cv::Rect2d> truth;  // per frame; may lie partly (or, when invisible, wholly) outside the frame
+  std::vector<bool> visible;      // false where the target is fully occluded or out of view
+  // Frame i (0-based) as 8-bit BGR, read or rendered on demand: a few
+  // sequences of hundreds of frames at 640x480 would not fit in memory.
+  std::function<cv::Mat(int)> frame;
+  int size() const { return static_cast<int>(truth.size()); }
+};
+
+// Keeps the first `frames` frames (all when frames <= 0 or more than there are).
+void truncate(Sequence& sequence, int frames);
+
+// --- Readers. Both throw std::runtime_error naming the file (and line) at fault.
+
+// OTB layout: DIR/img/0001.jpg ... and DIR/groundtruth_rect.txt, one x,y,w,h
+// row per frame (separated by commas, tabs or spaces; CRLF allowed). Rows of
+// NaN or with a zero width or height mark frames without the target. Only
+// sequences whose ground truth starts at image 0001 are supported.
+Sequence read_otb(const std::string& dir);
+
+// VOT layout: DIR/00000001.jpg ... (or DIR/color/00000001.jpg ...) and
+// DIR/groundtruth.txt, one row per frame of 4 numbers (x,y,w,h) or 8 (the
+// polygon x1,y1,...,x4,y4, scored as its axis-aligned bounding box); NaN rows
+// mark frames without the target.
+Sequence read_vot(const std::string& dir);
+
+// One ground-truth row as a box; `where` ("file:line") prefixes the error.
+// Sets `visible` false for NaN or empty rows.
+cv::Rect2d parse_truth_row(const std::string& row, const std::string& where, bool& visible);
+
+// --- The generator.
+
+// An occluder crossing the target horizontally, from just left of it to just
+// right of it, over frames [start, end).
+struct Occlusion {
+  int start = 0;
+  int end = 0;
+  double offset_y = 0;  // the occluder's centre below the target's, in target heights (0: through the middle)
+  double size = 1.6;    // the occluder's side, in the target's larger side (> 1.3 with offset 0 hides it fully)
+};
+
+// The camera looks away from the target over frames [start, start + length):
+// it pans away in 20 frames, stays, and pans back in 20 frames.
+struct Excursion {
+  int start = 0;
+  int length = 80;
+};
+
+// What one generated sequence shows and which difficulties it stresses.
+struct SyntheticScript {
+  std::string name;
+  cv::Size frame_size{320, 240};
+  int frames = 300;
+  uint32_t seed = 1;
+  std::string background;    // image file in the data folder, viewed by the moving camera
+  std::string target_image;  // image file the target is cut from ...
+  cv::Rect target_crop;      // ... this rectangle of it (pixels)
+  std::string occluder_image;
+  double target_side = 60;    // the target's larger side at scale 1, frame pixels
+  double wander = 0.3;        // the target's motion in the frame, share of half the frame
+  double wander_period = 160; // frames
+  double pan = 40;            // the camera's slow pan (following the target), background pixels
+  double shake = 1.5;         // hand-held shake amplitude, pixels
+  double shake_period = 12;   // shortest shake period, frames
+  double blur = 0;            // exposure as a share of the frame interval (motion blur along the camera's motion)
+  double scale_min = 1, scale_max = 1;
+  double rotation_deg = 0;    // in-plane rotation amplitude
+  double light = 0;           // lighting ramps: gain within 1 +- light, offset within +-40 light
+  std::vector<Occlusion> occlusions;
+  bool distractor = false;    // a dimmer, tinted copy of the target circling it (passing behind it)
+  std::vector<Excursion> excursions;
+  double noise = 2.0;         // sensor noise, grey levels (standard deviation)
+};
+
+// The benchmark's standard set: 8 sequences at 320x240 and 2 at 640x480, 300+
+// frames each, each stressing a different mix.
+std::vector<SyntheticScript> standard_scripts();
+
+// Renders a script from the images in `data_dir`. The same script gives the
+// same frames and truth on every run (seeded, no wall-clock or thread
+// dependence). Throws std::runtime_error when an image is missing.
+Sequence generate_sequence(const SyntheticScript& script, const std::string& data_dir);
+std::vector<Sequence> generate_sequences(const std::string& data_dir);
+
+// The target's appearance at scale 1 and no rotation (BGR), as the generator
+// renders it: the script's crop resized to target_side.
+cv::Mat target_appearance(const SyntheticScript& script, const std::string& data_dir);
+
+// --- Scoring.
+
+// What a tracker reported for one frame.
+struct TrackedFrame {
+  cv::Rect2d box;
+  bool tracking = true;  // the tracker claims to follow the target
+  double ms = 0;         // wall clock of this frame's update
+};
+
+// OTB/VOT measures of one track. Frame 0 (the initialisation, given to the
+// tracker) is never scored; frames where the target is invisible are left out
+// of the centre error, precision and success (as VOT does): a box reported
+// there costs nothing except through `honest_lost`.
+struct TrackScore {
+  int scored_frames = 0;         // visible frames after frame 0
+  double mean_centre_error = 0;  // pixels, over scored frames
+  double precision20 = 0;        // share of scored frames with centre error <= 20 px
+  double success_auc = 0;        // mean over IoU thresholds 0, 0.05, ..., 1 of the share with IoU > threshold (OTB)
+  double success50 = 0;          // share with IoU > 0.5
+  int frames_lost = 0;           // frames after frame 0 where the tracker did not claim tracking
+  double honest_lost = -1;       // share of invisible frames where it did not claim tracking; -1 without any
+  int reappearances = 0;         // invisible -> visible transitions
+  int max_reacquire_delay = -1;  // frames from a reappearance until tracking with IoU >= 0.3; -1 without any
+  int reacquire_misses = 0;      // reappearances not re-acquired while the target stayed visible
+  double ms_per_frame = 0;       // mean over frames after frame 0
+};
+
+double iou(const cv::Rect2d& a, const cv::Rect2d& b);
+double centre_error(const cv::Rect2d& a, const cv::Rect2d& b);
+
+// `track` has one entry per frame (entry 0 is ignored).
+TrackScore score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
+                       const std::vector<TrackedFrame>& track);
+
+// FNV-1a over a frame's pixels: cheap evidence that two renders are equal.
+uint64_t frame_hash(const cv::Mat& frame);
+
+}  // namespace saccade::bench

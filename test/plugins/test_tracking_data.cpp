@@ -1,0 +1,332 @@
+// The tracking benchmark's data: OTB and VOT readers, the sequence generator
+// (deterministic, enough sequences, truth that matches what it renders) and
+// the OTB/VOT measures on hand-made tracks.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "support.hpp"
+#include "tracking_data.hpp"
+
+// OpenCV's own parallel loops run on TBB, whose synchronisation ThreadSanitizer
+// cannot see; these tests do not need them.
+static const bool kOpenCvSingleThread = (cv::setNumThreads(1), true);
+
+namespace saccade::bench {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string data_dir() {
+  return fs::path(test::sample_path("baboon.jpg")).parent_path().string();
+}
+
+// A fresh folder under the system's temporary folder, removed afterwards.
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() / ("saccade_tracking_data_" + std::to_string(::getpid()) + "_" +
+                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+void write_file(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+void write_frames(const fs::path& folder, int count, int digits) {
+  fs::create_directories(folder);
+  for (int i = 1; i <= count; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%0*d.jpg", digits, i);
+    cv::Mat frame(48, 64, CV_8UC3, cv::Scalar(10 * i, 20, 30));
+    ASSERT_TRUE(cv::imwrite((folder / name).string(), frame));
+  }
+}
+
+// The error the call throws, "" when it does not.
+template <class F>
+std::string error_of(F&& call) {
+  try {
+    call();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+void expect_box(const cv::Rect2d& box, double x, double y, double w, double h) {
+  EXPECT_DOUBLE_EQ(box.x, x);
+  EXPECT_DOUBLE_EQ(box.y, y);
+  EXPECT_DOUBLE_EQ(box.width, w);
+  EXPECT_DOUBLE_EQ(box.height, h);
+}
+
+// ------------------------------------------------------------------ readers
+
+TEST(OtbReader, ReadsCommaTabSpaceAndCrlfRows) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 4, 4);
+  write_file(dir.path() / "groundtruth_rect.txt", "10,20,30,40\r\n11\t21\t31\t41\r\n12 22  32 42\nNaN,NaN,NaN,NaN\n\n");
+  const Sequence s = read_otb(dir.path().string());
+  ASSERT_EQ(s.size(), 4);
+  expect_box(s.truth[0], 10, 20, 30, 40);
+  expect_box(s.truth[1], 11, 21, 31, 41);
+  expect_box(s.truth[2], 12, 22, 32, 42);
+  EXPECT_EQ(s.visible, (std::vector<bool>{true, true, true, false}));
+  EXPECT_EQ(s.frame_size, cv::Size(64, 48));
+  EXPECT_EQ(s.name, dir.path().filename().string());
+  const cv::Mat third = s.frame(2);
+  ASSERT_EQ(third.type(), CV_8UC3);
+  EXPECT_NEAR(third.at<cv::Vec3b>(10, 10)[0], 30, 3);  // image 0003.jpg
+}
+
+TEST(OtbReader, NamesAMissingImage) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 2, 4);
+  write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3,4\n1,2,3,4\n");
+  const std::string error = error_of([&] { read_otb(dir.path().string()); });
+  EXPECT_NE(error.find("img/0003.jpg: missing"), std::string::npos) << error;
+}
+
+TEST(OtbReader, NamesTheFileAndLineOfAMalformedRow) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 3, 4);
+  write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3\n1,2,3,4\n");
+  std::string error = error_of([&] { read_otb(dir.path().string()); });
+  EXPECT_NE(error.find("groundtruth_rect.txt:2: expected 4 numbers"), std::string::npos) << error;
+  write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3,4\n1,2,x3,4\n");
+  error = error_of([&] { read_otb(dir.path().string()); });
+  EXPECT_NE(error.find("groundtruth_rect.txt:3: 'x3' is not a number"), std::string::npos) << error;
+  error = error_of([&] { read_otb((dir.path() / "nowhere").string()); });
+  EXPECT_NE(error.find("nowhere: not a folder"), std::string::npos) << error;
+}
+
+TEST(VotReader, PolygonsBecomeTheirBoundingBoxesAndNanRowsInvisible) {
+  TempDir dir;
+  write_frames(dir.path() / "color", 3, 8);
+  write_file(dir.path() / "groundtruth.txt",
+             "10.5,20,40.5,22,38,50,8,48\n"  // a slightly rotated quadrilateral
+             "nan,nan,nan,nan\n"
+             "5,6,7,8\n");
+  const Sequence s = read_vot(dir.path().string());
+  ASSERT_EQ(s.size(), 3);
+  expect_box(s.truth[0], 8, 20, 32.5, 30);
+  EXPECT_EQ(s.visible, (std::vector<bool>{true, false, true}));
+  expect_box(s.truth[2], 5, 6, 7, 8);
+  EXPECT_FALSE(s.frame(1).empty());
+}
+
+TEST(VotReader, ReadsFramesBesideTheTruthAndNamesBadRows) {
+  TempDir dir;
+  write_frames(dir.path(), 2, 8);
+  write_file(dir.path() / "groundtruth.txt", "1,2,3,4,5,6\n1,2,3,4\n");
+  const std::string error = error_of([&] { read_vot(dir.path().string()); });
+  EXPECT_NE(error.find("groundtruth.txt:1: expected 4 numbers (x,y,w,h) or 8"), std::string::npos) << error;
+  write_file(dir.path() / "groundtruth.txt", "1,2,3,4\n1,2,3,4\n");
+  EXPECT_EQ(read_vot(dir.path().string()).size(), 2);
+}
+
+// ------------------------------------------------------------------ generator
+
+TEST(Generator, HasEnoughLongSequencesWithInvisibleFrames) {
+  const std::vector<SyntheticScript> scripts = standard_scripts();
+  const std::vector<Sequence> all = generate_sequences(data_dir());
+  ASSERT_EQ(all.size(), scripts.size());
+  int small = 0, large = 0;
+  std::set<std::string> names;
+  for (const Sequence& s : all) {
+    names.insert(s.name);
+    EXPECT_GE(s.size(), 300) << s.name;
+    EXPECT_EQ(s.visible.size(), s.truth.size());
+    EXPECT_TRUE(s.visible.front()) << s.name;
+    small += s.frame_size == cv::Size(320, 240);
+    large += s.frame_size == cv::Size(640, 480);
+  }
+  EXPECT_EQ(names.size(), all.size());
+  EXPECT_GE(small, 8);
+  EXPECT_GE(large, 1);
+  // Occlusion and leaving the view both hide the target for a while.
+  for (const Sequence& s : all) {
+    const auto hidden = std::count(s.visible.begin(), s.visible.end(), false);
+    if (s.name == "occlusion" || s.name == "out_of_view") {
+      EXPECT_GE(hidden, 20) << s.name;
+    }
+    if (s.name == "scale" || s.name == "rotation") {
+      EXPECT_EQ(hidden, 0) << s.name;
+    }
+  }
+}
+
+TEST(Generator, IsDeterministic) {
+  const std::vector<Sequence> a = generate_sequences(data_dir());
+  const std::vector<Sequence> b = generate_sequences(data_dir());
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    ASSERT_EQ(a[k].truth.size(), b[k].truth.size());
+    for (int i = 0; i < a[k].size(); ++i) {
+      EXPECT_EQ(a[k].truth[i], b[k].truth[i]);
+      EXPECT_EQ(a[k].visible[i], b[k].visible[i]);
+    }
+    // Frames in a different order in the second run: each renders on its own.
+    for (int i = 0; i < a[k].size(); i += 37) {
+      const int j = a[k].size() - 1 - i;
+      const cv::Mat fa = a[k].frame(j), fb = b[k].frame(j);
+      ASSERT_EQ(fa.size(), a[k].frame_size);
+      ASSERT_EQ(fa.type(), CV_8UC3);
+      EXPECT_EQ(frame_hash(fa), frame_hash(fb)) << a[k].name << " frame " << j;
+    }
+  }
+  EXPECT_NE(frame_hash(a[0].frame(1)), frame_hash(a[0].frame(2)));
+  // One sequence with everything (blur, lighting, noise, occluder) frame by frame.
+  const auto mixed = std::find_if(a.begin(), a.end(), [](const Sequence& s) { return s.name == "mixed"; });
+  ASSERT_NE(mixed, a.end());
+  const Sequence& again = b[static_cast<std::size_t>(mixed - a.begin())];
+  for (int i = 0; i < mixed->size(); ++i) EXPECT_EQ(frame_hash(mixed->frame(i)), frame_hash(again.frame(i))) << i;
+}
+
+// Where the target's picture, scaled to the truth box, matches the frame best
+// within `margin` pixels of the box, relative to the box; `peak` is the
+// normalised correlation there.
+cv::Point best_match_offset(const cv::Mat& frame, const cv::Rect& box, const cv::Mat& target, int margin, double& peak) {
+  cv::Mat area, picture, score;
+  cv::cvtColor(frame(box + cv::Size(2 * margin, 2 * margin) - cv::Point(margin, margin)), area, cv::COLOR_BGR2GRAY);
+  cv::resize(target, picture, box.size(), 0, 0, cv::INTER_AREA);
+  cv::cvtColor(picture, picture, cv::COLOR_BGR2GRAY);
+  cv::matchTemplate(area, picture, score, cv::TM_CCOEFF_NORMED);
+  cv::Point at;
+  cv::minMaxLoc(score, nullptr, &peak, nullptr, &at);
+  return at - cv::Point(margin, margin);
+}
+
+TEST(Generator, TruthBoxesFrameTheRenderedTarget) {
+  constexpr int kMargin = 8;
+  for (const SyntheticScript& script : standard_scripts()) {
+    if (script.name != "scale" && script.name != "distractor") continue;  // neither occluded nor rotated
+    const Sequence s = generate_sequence(script, data_dir());
+    const cv::Mat target = target_appearance(script, data_dir());
+    const cv::Rect frame_rect(0, 0, s.frame_size.width, s.frame_size.height);
+    int checked = 0;
+    for (int i = 0; i < s.size(); i += 10) {
+      const cv::Rect2d& t = s.truth[i];
+      const cv::Rect box(cvRound(t.x), cvRound(t.y), cvRound(t.width), cvRound(t.height));
+      const cv::Rect search = box + cv::Size(2 * kMargin, 2 * kMargin) - cv::Point(kMargin, kMargin);
+      if ((search & frame_rect) != search) continue;
+      double peak = 0;
+      const cv::Point offset = best_match_offset(s.frame(i), box, target, kMargin, peak);
+      // The picture sits where the truth says, to the rounding of the box.
+      EXPECT_LE(std::abs(offset.x), 1) << s.name << " frame " << i;
+      EXPECT_LE(std::abs(offset.y), 1) << s.name << " frame " << i;
+      EXPECT_GT(peak, 0.8) << s.name << " frame " << i;
+      ++checked;
+    }
+    EXPECT_GE(checked, 20) << s.name;
+  }
+}
+
+TEST(Generator, TheTargetLeavesTheViewAndComesBack) {
+  const Sequence s = generate_sequence(standard_scripts().at(6), data_dir());
+  ASSERT_EQ(s.name, "out_of_view");
+  const cv::Rect2d frame_rect(0, 0, s.frame_size.width, s.frame_size.height);
+  int reappearances = 0;
+  for (int i = 1; i < s.size(); ++i) {
+    if (!s.visible[i]) {  // no occluder here: not visible means (next to) nothing inside the frame
+      const cv::Rect2d inside = s.truth[i] & frame_rect;
+      EXPECT_TRUE(inside.width < 1 || inside.height < 1) << "frame " << i;
+    }
+    reappearances += s.visible[i] && !s.visible[i - 1];
+  }
+  EXPECT_EQ(reappearances, 2);
+}
+
+// ------------------------------------------------------------------ scoring
+
+TEST(Scoring, HandMadeTrackGivesTheExpectedMeasures) {
+  const cv::Rect2d t(10, 10, 20, 20);
+  // Frame 0 is the initialisation (never scored, here nonsense); frame 3 has no target.
+  const std::vector<cv::Rect2d> truth(6, t);
+  const std::vector<bool> visible{true, true, true, false, true, true};
+  const std::vector<TrackedFrame> track{
+      {cv::Rect2d(500, 500, 1, 1), false, 100},
+      {t, true, 1},                            // IoU 1, error 0
+      {t + cv::Point2d(4, 0), true, 2},        // IoU 320/480 = 2/3, error 4
+      {cv::Rect2d(90, 90, 20, 20), true, 3},   // invisible: unscored, claims tracking
+      {t + cv::Point2d(10, 0), false, 4},      // IoU 200/600 = 1/3, error 10
+      {t + cv::Point2d(0, 25), false, 5},      // IoU 0, error 25
+  };
+  const TrackScore s = score_track(truth, visible, track);
+  EXPECT_EQ(s.scored_frames, 4);
+  EXPECT_DOUBLE_EQ(s.mean_centre_error, (0 + 4 + 10 + 25) / 4.0);
+  EXPECT_DOUBLE_EQ(s.precision20, 0.75);
+  EXPECT_DOUBLE_EQ(s.success50, 0.5);
+  // Shares above thresholds k/20: 3/4 for k = 0..6, 2/4 for k = 7..13, 1/4 for k = 14..19, 0 at 1.
+  EXPECT_NEAR(s.success_auc, (7 * 3 + 7 * 2 + 6 * 1) / (4.0 * 21), 1e-12);
+  EXPECT_EQ(s.frames_lost, 2);
+  EXPECT_DOUBLE_EQ(s.honest_lost, 0.0);
+  EXPECT_EQ(s.reappearances, 1);
+  EXPECT_EQ(s.max_reacquire_delay, -1);  // frames 4 and 5 do not claim tracking
+  EXPECT_EQ(s.reacquire_misses, 1);
+  EXPECT_DOUBLE_EQ(s.ms_per_frame, 3.0);
+}
+
+TEST(Scoring, PerfectTrackScoresAsOtbDoes) {
+  const std::vector<cv::Rect2d> truth(11, cv::Rect2d(3, 4, 15, 9));
+  const std::vector<bool> visible(11, true);
+  std::vector<TrackedFrame> track;
+  for (const cv::Rect2d& box : truth) track.push_back({box, true, 0});
+  const TrackScore s = score_track(truth, visible, track);
+  EXPECT_DOUBLE_EQ(s.mean_centre_error, 0);
+  EXPECT_DOUBLE_EQ(s.precision20, 1);
+  EXPECT_NEAR(s.success_auc, 20.0 / 21, 1e-12);  // IoU 1 is not above the threshold 1
+  EXPECT_DOUBLE_EQ(s.success50, 1);
+  EXPECT_EQ(s.frames_lost, 0);
+  EXPECT_LT(s.honest_lost, 0);  // no invisible frame
+  EXPECT_EQ(s.reappearances, 0);
+}
+
+TEST(Scoring, ReacquisitionDelayAndHonesty) {
+  const cv::Rect2d t(0, 0, 10, 10), far(100, 100, 10, 10);
+  //                           0     1     2      3      4      5     6     7     8      9     10    11
+  const std::vector<bool> visible{true, true, false, false, false, true, true, true, false, true, true, true};
+  const std::vector<cv::Rect2d> truth(visible.size(), t);
+  std::vector<TrackedFrame> track(visible.size(), TrackedFrame{t, true, 0});
+  track[2].tracking = track[3].tracking = false;   // honest on 2 of the first 3 invisible frames
+  track[5].box = far;                               // reappears at 5: wrong box at 5,
+  track[6].tracking = false;                        // lost at 6, right at 7: delay 2
+  track[8].tracking = false;                        // honest; reappears at 9: right at once, delay 0
+  const TrackScore s = score_track(truth, visible, track);
+  EXPECT_EQ(s.reappearances, 2);
+  EXPECT_EQ(s.max_reacquire_delay, 2);
+  EXPECT_EQ(s.reacquire_misses, 0);
+  EXPECT_DOUBLE_EQ(s.honest_lost, 3.0 / 4);
+  EXPECT_EQ(s.frames_lost, 4);
+  EXPECT_EQ(s.scored_frames, 7);
+}
+
+TEST(Scoring, IouAndCentreError) {
+  EXPECT_DOUBLE_EQ(iou({0, 0, 10, 10}, {5, 0, 10, 10}), 50.0 / 150);
+  EXPECT_DOUBLE_EQ(iou({0, 0, 10, 10}, {20, 0, 10, 10}), 0);
+  EXPECT_DOUBLE_EQ(iou({0, 0, 0, 0}, {0, 0, 0, 0}), 0);
+  EXPECT_DOUBLE_EQ(centre_error({0, 0, 10, 10}, {3, 4, 10, 10}), 5);
+  EXPECT_THROW(score_track({{0, 0, 1, 1}}, {true, false}, {{}}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace saccade::bench
