@@ -25,6 +25,13 @@ constexpr int kChannels = 5;  // gray, and the gradient's strength along 4 direc
 struct Placement {
   cv::Point2d centre;
   double step = 1;
+  double angle = 0;  // radians: the patch's axes turned by this from the frame's
+
+  // Where patch offset `d` (patch pixels from its centre) is in the frame.
+  cv::Point2d to_frame(cv::Point2d d) const {
+    const double c = std::cos(angle), s = std::sin(angle);
+    return centre + step * cv::Point2d(c * d.x - s * d.y, s * d.x + c * d.y);
+  }
 };
 
 // One correlation's outcome, in patch pixels from the patch's centre.
@@ -86,16 +93,21 @@ double peak_to_sidelobe(const cv::Mat& response, cv::Point peak) {
 }  // namespace
 
 // Samples `size` pixels centred on `centre` at `step_x` x `step_y` source
-// pixels per pixel from an 8-bit gray or BGR frame, into 8-bit gray `out`.
+// pixels per pixel, its axes turned by `angle` (radians), from an 8-bit gray
+// or BGR frame, into 8-bit gray `out`.
 // Steps above 1.5 are sampled at twice the resolution and halved, so that a
 // pixel is a mean over its cell (as a retina level's), not one source pixel.
 // Only the sample is converted to gray: the cost does not grow with the frame.
 void sample_gray(const cv::Mat& frame, cv::Point2d centre, double step_x, double step_y, cv::Size size, cv::Mat& out,
-                 cv::Mat& fine, cv::Mat& fine_gray) {
+                 cv::Mat& fine, cv::Mat& fine_gray, double angle = 0) {
   const bool halve = std::max(step_x, step_y) > 1.5;
   const cv::Size n = halve ? size * 2 : size;
   const double sx = halve ? step_x / 2 : step_x, sy = halve ? step_y / 2 : step_y;
-  const cv::Matx23d m(sx, 0, centre.x - sx * (n.width - 1) / 2.0, 0, sy, centre.y - sy * (n.height - 1) / 2.0);
+  // Patch pixel (u, v) samples centre + R(angle) diag(sx, sy) ((u, v) - the patch's middle).
+  const double c = std::cos(angle), s = std::sin(angle);
+  const double mx = (n.width - 1) / 2.0, my = (n.height - 1) / 2.0;
+  const cv::Matx23d m(c * sx, -s * sy, centre.x - (c * sx * mx - s * sy * my), s * sx, c * sy,
+                      centre.y - (s * sx * mx + c * sy * my));
   cv::warpAffine(frame, fine, m, n, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
   if (fine.channels() != 1) {
     cv::cvtColor(fine, fine_gray, fine.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
@@ -276,7 +288,7 @@ struct BoxTracker::Impl {
 
   // The patch at `p`: a retina level's view of the target and around it.
   void sample(const cv::Mat& frame, const Placement& p, cv::Mat& out) {
-    sample_gray(frame, p.centre, p.step, p.step, cv::Size(config.patch, config.patch), out, fine, fine_gray);
+    sample_gray(frame, p.centre, p.step, p.step, cv::Size(config.patch, config.patch), out, fine, fine_gray, p.angle);
   }
 
   // The patch's feature channels, windowed, as spectra: gray under local
@@ -454,7 +466,7 @@ struct BoxTracker::Impl {
       cv::minMaxLoc(match, nullptr, &value, nullptr, &at);
       if (value <= 0) break;
       const cv::Point2d middle(at.x + appearance.cols / 2.0, at.y + appearance.rows / 2.0);
-      out.push_back({{middle.x * frame.cols / coarse_size.width, middle.y * frame.rows / coarse_size.height}, step});
+      out.push_back({{middle.x * frame.cols / coarse_size.width, middle.y * frame.rows / coarse_size.height}, step, angle});
       cv::rectangle(match, cv::Rect(at - cv::Point(appearance.cols, appearance.rows), appearance.size() * 2), -1.0,
                     cv::FILLED);
     }
@@ -474,7 +486,10 @@ struct BoxTracker::Impl {
   cv::Point2d centre, velocity;
   cv::Size2d size;
   double step = 1;
+  double angle = 0;  // radians: how far the target has turned since it was given
+  int frames_since_turn_search = 0;
   double psr_mean = 0;  // over the frames the model learnt from
+  int search_tick = 0;
   int low_frames = 0;   // consecutive frames below lost_psr
   int unsure_frames = 0;  // consecutive frames not confident enough to learn from
   cv::Mat appearance;  // CV_32F, the target at the coarse step
@@ -559,7 +574,22 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
 
 void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   Impl& m = *impl_;
-  const Peak peak = m.look_at(gray, {predicted, m.step});
+  // The target may turn in the image: when the peak weakens, or every few
+  // frames, the patch is also sampled turned by +-angle_step from the
+  // target's angle, and the best peak wins (the current angle by a margin,
+  // or noise would make it wobble). The filter then keeps seeing the target
+  // as it learnt it.
+  Placement at{predicted, m.step, m.angle};
+  Peak peak = m.look_at(gray, at);
+  const bool weaker = peak.psr < config_.turn_psr * m.psr_mean;
+  if (config_.angle_step > 0 && (weaker || ++m.frames_since_turn_search >= config_.turn_search_every)) {
+    m.frames_since_turn_search = 0;
+    for (const double turn : {-config_.angle_step, config_.angle_step}) {
+      const Placement turned{predicted, m.step, m.angle + turn * CV_PI / 180};
+      const Peak other = m.look_at(gray, turned);
+      if (other.value > peak.value * 1.01) peak = other, at = turned;
+    }
+  }
   const double psr = peak.psr;
   last_.confidence = psr;
   if (psr < config_.lost_psr) {
@@ -574,7 +604,7 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
     return;
   }
   m.low_frames = 0;
-  const cv::Point2d measured = predicted + peak.offset * m.step;
+  const cv::Point2d measured = at.to_frame(peak.offset);
   if (psr < std::max(config_.tracking_psr, config_.relative_psr * m.psr_mean)) {
     // Where the peak is, but not sure enough to learn from it or to trust
     // its motion (an occluder's edge, a distractor passing).
@@ -585,6 +615,7 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
     return;
   }
   m.unsure_frames = 0;
+  m.angle = at.angle;
   m.velocity = config_.velocity_gain * (measured - m.centre) + (1 - config_.velocity_gain) * m.velocity;
   m.centre = measured;
   const double scale = m.scale_filter.estimate(gray, m.centre, m.size, config_.lambda);
@@ -618,9 +649,11 @@ void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
   // must hold on consecutive frames at one place.
   std::vector<Placement>& looks = m.looks;
   looks.clear();
-  if (m.candidate_frames > 0) looks.push_back({m.candidate, m.step});
-  looks.push_back({predicted, m.step});
-  m.propose(gray, config_.proposals, looks);
+  if (m.candidate_frames > 0) looks.push_back({m.candidate, m.step, m.angle});
+  looks.push_back({predicted, m.step, m.angle});
+  // The whole-frame search on every other frame: it costs as much as the
+  // rest of the frame, and a candidate it found is confirmed locally meanwhile.
+  if (m.search_tick++ % 2 == 0) m.propose(gray, config_.proposals, looks);
   Peak best;
   Placement where;
   for (const Placement& p : looks) {
@@ -632,7 +665,7 @@ void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
     m.candidate_frames = 0;
     return;
   }
-  const cv::Point2d found = where.centre + best.offset * where.step;
+  const cv::Point2d found = where.to_frame(best.offset);
   // One place: as near as a moving target can be on the next frame, the
   // search's reach around the candidate (a quarter patch) or half the target.
   const double near = std::max(0.5 * std::max(m.size.width, m.size.height), 0.25 * config_.patch * m.step);

@@ -32,11 +32,14 @@ struct BoxTrackerConfig {
   double learning_rate = 0.02;      // model <- (1 - a) model + a frame, on confident frames
   double lambda = 1e-3;             // regularisation of the filter
   double sigma = 0.1;               // the desired response's width, times the target's larger side
+  double angle_step = 5;            // degrees: the target's turn searched either side (0: never) ...
+  double turn_psr = 0.8;            // ... when the peak-to-sidelobe ratio falls below this share of its mean ...
+  int turn_search_every = 4;        // ... and at least every this many frames
   double scale_step = 1.02;         // ratio between the scale filter's neighbouring scales
   int scales = 17;                  // scales the scale filter compares (odd)
   double min_target = 8;            // smallest target side accepted, source pixels
   double tracking_psr = 6.0;        // peak-to-sidelobe ratio at or above which the target is tracked ...
-  double relative_psr = 0.4;        // ... and at or above this share of its mean over tracked frames
+  double relative_psr = 0.5;        // ... and at or above this share of its mean over tracked frames
   double lost_psr = 5.0;            // below this the peak is not trusted at all
   int lost_frames = 5;              // consecutive frames below lost_psr before the target is lost
   int unsure_frames = 30;           // consecutive frames not tracked before the target is lost
