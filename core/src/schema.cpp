@@ -50,6 +50,20 @@ void append_number(std::string& out, N v) {
   out.append(buffer.data(), ec == std::errc() ? end : buffer.data());
 }
 
+// Appends `"name":` and what `write` makes of the field, for each of v's
+// fields, separated by commas (one before the first too when `after_others`).
+template <class V, class Write>
+void append_members(std::string& out, const V& v, bool after_others, Write&& write) {
+  bool first = !after_others;
+  V::fields(v, [&](const char* name, const auto& field) {
+    if (!first) out += ',';
+    first = false;
+    append_string(out, name);
+    out += ':';
+    write(field);
+  });
+}
+
 // Writes one value as JSON; the overloads mirror the field types messages use.
 struct JsonValue {
   std::string& out;
@@ -118,14 +132,7 @@ struct JsonValue {
     requires Described<V>
   void operator()(const V& v) const {
     out += '{';
-    bool first = true;
-    V::fields(v, [&](const char* name, const auto& field) {
-      if (!first) out += ',';
-      first = false;
-      append_string(out, name);
-      out += ':';
-      (*this)(field);
-    });
+    append_members(out, v, false, *this);
     out += '}';
   }
 
@@ -220,14 +227,7 @@ struct SchemaOf {
     requires Described<V>
   void operator()(const V& v) const {
     out += R"({"type":"object","properties":{)";
-    bool first = true;
-    V::fields(v, [&](const char* name, const auto& field) {
-      if (!first) out += ',';
-      first = false;
-      append_string(out, name);
-      out += ':';
-      (*this)(field);
-    });
+    append_members(out, v, false, *this);
     out += "}}";
   }
 };
@@ -258,12 +258,7 @@ std::string schema_of(std::string_view type_name, TypeList<T...>) {
           R"(","type":"object","properties":{"type":{"const":")" + std::string(M::kTypeName) +
           R"("},"frame":{"type":"integer"},"stamp_ns":{"type":"integer"},"origin_ns":{"type":"integer"})";
     const M defaults{};
-    M::fields(defaults, [&](const char* name, const auto& field) {
-      out += ',';
-      append_string(out, name);
-      out += ':';
-      SchemaOf{out}(field);
-    });
+    append_members(out, defaults, true, SchemaOf{out});
     out += R"(},"required":["type","frame","stamp_ns"]})";
   };
   (one(static_cast<T*>(nullptr)), ...);
@@ -277,13 +272,7 @@ std::vector<std::string_view> described_message_types() { return type_names(Mess
 void append_json(std::string& out, const Message& message) {
   append_stamp(out, message);
   visit_message(message, [&](const auto& m) {
-    using M = std::remove_cvref_t<decltype(m)>;
-    M::fields(m, [&](const char* name, const auto& field) {
-      out += ',';
-      append_string(out, name);
-      out += ':';
-      JsonValue{out}(field);
-    });
+    append_members(out, m, true, JsonValue{out});
   });
   out += '}';
 }
