@@ -489,6 +489,7 @@ struct BoxTracker::Impl {
   double angle = 0;  // radians: how far the target has turned since it was given
   int frames_since_turn_search = 0;
   double psr_mean = 0;  // over the frames the model learnt from
+  int tracked_frames = 0;
   int search_tick = 0;
   int low_frames = 0;   // consecutive frames below lost_psr
   int unsure_frames = 0;  // consecutive frames not confident enough to learn from
@@ -605,7 +606,11 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   }
   m.low_frames = 0;
   const cv::Point2d measured = at.to_frame(peak.offset);
-  if (psr < std::max(config_.tracking_psr, config_.relative_psr * m.psr_mean)) {
+  // Right after the box was given, the model knows one frame and its peaks
+  // are higher than they will stay: the mean is made over the first
+  // warmup_frames tracked frames before a fall below it counts.
+  const bool warm = m.tracked_frames >= config_.warmup_frames;
+  if (psr < std::max(config_.tracking_psr, warm ? config_.relative_psr * m.psr_mean : 0.0)) {
     // Where the peak is, but not sure enough to learn from it or to trust
     // its motion (an occluder's edge, a distractor passing).
     m.velocity *= 0.8;
@@ -625,7 +630,8 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   // Clamped: on a clean synthetic background a PSR can reach thousands, and
   // one such frame would make every ordinary one look unsure.
   const double usual = std::min(psr, 10 * config_.tracking_psr);
-  m.psr_mean = m.psr_mean == 0 ? usual : 0.95 * m.psr_mean + 0.05 * usual;
+  ++m.tracked_frames;
+  m.psr_mean = warm ? 0.95 * m.psr_mean + 0.05 * usual : m.psr_mean + (usual - m.psr_mean) / m.tracked_frames;
   m.learn(m.patch_spectra, config_.learning_rate, peak.offset);
   m.learn_appearance(gray, config_.learning_rate);
   m.scale_filter.learn(gray, m.centre, m.size, config_.learning_rate, scale != 1.0);
