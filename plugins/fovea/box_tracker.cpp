@@ -146,15 +146,16 @@ float cell_mean(const cv::Mat& frame, double x, double y, double step_x, double 
   return total * 0.25f;
 }
 
-// A side x side gray sample centred on `centre`, one cell_mean per pixel.
-void sample_area(const cv::Mat& frame, cv::Point2d centre, double step_x, double step_y, int side, float* out) {
-  const double half = (side - 1) / 2.0;
-  for (int j = 0; j < side; ++j)
-    for (int i = 0; i < side; ++i) {
-      const double x = centre.x + (i - half) * step_x, y = centre.y + (j - half) * step_y;
-      out[j * side + i] = frame.channels() == 1 ? cell_mean<1>(frame, x, y, step_x, step_y)
-                          : frame.channels() == 3 ? cell_mean<3>(frame, x, y, step_x, step_y)
-                                                  : cell_mean<4>(frame, x, y, step_x, step_y);
+// A size.width x size.height gray sample centred on `centre`, one cell_mean
+// per pixel (row by row into `out`).
+void sample_area(const cv::Mat& frame, cv::Point2d centre, double step_x, double step_y, cv::Size size, float* out) {
+  const double half_x = (size.width - 1) / 2.0, half_y = (size.height - 1) / 2.0;
+  for (int j = 0; j < size.height; ++j)
+    for (int i = 0; i < size.width; ++i) {
+      const double x = centre.x + (i - half_x) * step_x, y = centre.y + (j - half_y) * step_y;
+      out[j * size.width + i] = frame.channels() == 1 ? cell_mean<1>(frame, x, y, step_x, step_y)
+                                : frame.channels() == 3 ? cell_mean<3>(frame, x, y, step_x, step_y)
+                                                        : cell_mean<4>(frame, x, y, step_x, step_y);
     }
 }
 
@@ -243,7 +244,7 @@ class ScaleFilter {
     const int pixels = side_ * side_;
     for (int k = 0; k < count_; ++k) {
       const double f = factors_[static_cast<std::size_t>(k)];
-      sample_area(frame, centre, size.width * f / side_, size.height * f / side_, side_, sample_.data());
+      sample_area(frame, centre, size.width * f / side_, size.height * f / side_, cv::Size(side_, side_), sample_.data());
       double sum = 0, sq = 0;
       for (float v : sample_) sum += v, sq += static_cast<double>(v) * v;
       const double mean = sum / pixels;
@@ -430,13 +431,7 @@ struct BoxTracker::Impl {
     const cv::Size t(std::max(3, static_cast<int>(std::lround(size.width / s))),
                      std::max(3, static_cast<int>(std::lround(size.height / s))));
     coarse_sample.resize(static_cast<std::size_t>(t.area()));
-    const double half_w = (t.width - 1) / 2.0, half_h = (t.height - 1) / 2.0;
-    for (int j = 0; j < t.height; ++j)
-      for (int i = 0; i < t.width; ++i) {
-        float* out = &coarse_sample[static_cast<std::size_t>(j * t.width + i)];
-        const cv::Point2d at(centre.x + (i - half_w) * s, centre.y + (j - half_h) * s);
-        sample_area(frame, at, s, s, 1, out);
-      }
+    sample_area(frame, centre, s, s, t, coarse_sample.data());
     const cv::Mat fresh(t, CV_32F, coarse_sample.data());
     if (appearance.size() != t || rate >= 1)
       fresh.copyTo(appearance);
@@ -452,13 +447,11 @@ struct BoxTracker::Impl {
     const double s = coarse_step();
     const cv::Size coarse_size(static_cast<int>(frame.cols / s), static_cast<int>(frame.rows / s));
     if (coarse_size.width < appearance.cols || coarse_size.height < appearance.rows) return;
-    if (frame.channels() == 1)
-      cv::resize(frame, coarse, coarse_size, 0, 0, cv::INTER_AREA);
-    else {
-      cv::resize(frame, coarse_colour, coarse_size, 0, 0, cv::INTER_AREA);
-      cv::cvtColor(coarse_colour, coarse, frame.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-    }
-    coarse.convertTo(coarse_f, CV_32F);
+    // Cell means straight from the frame (OpenCV's INTER_AREA takes over a
+    // millisecond for a VGA frame at a step that is not a whole number).
+    coarse_f.create(coarse_size, CV_32F);
+    sample_area(frame, {frame.cols / 2.0, frame.rows / 2.0}, static_cast<double>(frame.cols) / coarse_size.width,
+                static_cast<double>(frame.rows) / coarse_size.height, coarse_size, coarse_f.ptr<float>());
     cv::matchTemplate(coarse_f, appearance, match, cv::TM_CCOEFF_NORMED);
     for (int n = 0; n < count; ++n) {
       cv::Point at;
@@ -495,7 +488,7 @@ struct BoxTracker::Impl {
   int unsure_frames = 0;  // consecutive frames not confident enough to learn from
   cv::Mat appearance;  // CV_32F, the target at the coarse step
   std::vector<float> coarse_sample;
-  cv::Mat coarse, coarse_colour, coarse_f, match;
+  cv::Mat coarse_f, match;
   cv::Point2d candidate{-1, -1};  // lost: a re-detection waiting for confirmation
   std::vector<Placement> looks;
   int candidate_frames = 0;
