@@ -452,16 +452,27 @@ struct BoxTracker::Impl {
     coarse_f.create(coarse_size, CV_32F);
     sample_area(frame, {frame.cols / 2.0, frame.rows / 2.0}, static_cast<double>(frame.cols) / coarse_size.width,
                 static_cast<double>(frame.rows) / coarse_size.height, coarse_size, coarse_f.ptr<float>());
-    cv::matchTemplate(coarse_f, appearance, match, cv::TM_CCOEFF_NORMED);
-    for (int n = 0; n < count; ++n) {
-      cv::Point at;
-      double value = 0;
-      cv::minMaxLoc(match, nullptr, &value, nullptr, &at);
-      if (value <= 0) break;
-      const cv::Point2d middle(at.x + appearance.cols / 2.0, at.y + appearance.rows / 2.0);
-      out.push_back({{middle.x * frame.cols / coarse_size.width, middle.y * frame.rows / coarse_size.height}, step, angle});
-      cv::rectangle(match, cv::Rect(at - cv::Point(appearance.cols, appearance.rows), appearance.size() * 2), -1.0,
-                    cv::FILLED);
+    // The target may have grown or shrunk while it was away: its look is
+    // matched at three sizes, and each place is proposed at its size.
+    for (const double factor : {1.0, 1.25, 0.8}) {
+      const cv::Size t(std::max(3, static_cast<int>(std::lround(appearance.cols * factor))),
+                       std::max(3, static_cast<int>(std::lround(appearance.rows * factor))));
+      if (coarse_size.width < t.width || coarse_size.height < t.height) continue;
+      if (factor == 1.0)
+        appearance.copyTo(resized);
+      else
+        cv::resize(appearance, resized, t, 0, 0, cv::INTER_LINEAR);
+      cv::matchTemplate(coarse_f, resized, match, cv::TM_CCOEFF_NORMED);
+      for (int n = 0; n < count; ++n) {
+        cv::Point at;
+        double value = 0;
+        cv::minMaxLoc(match, nullptr, &value, nullptr, &at);
+        if (value <= 0) break;
+        const cv::Point2d middle(at.x + t.width / 2.0, at.y + t.height / 2.0);
+        out.push_back({{middle.x * frame.cols / coarse_size.width, middle.y * frame.rows / coarse_size.height},
+                       step * factor, angle});
+        cv::rectangle(match, cv::Rect(at - cv::Point(t.width, t.height), t * 2), -1.0, cv::FILLED);
+      }
     }
   }
 
@@ -488,8 +499,9 @@ struct BoxTracker::Impl {
   int unsure_frames = 0;  // consecutive frames not confident enough to learn from
   cv::Mat appearance;  // CV_32F, the target at the coarse step
   std::vector<float> coarse_sample;
-  cv::Mat coarse_f, match;
-  cv::Point2d candidate{-1, -1};  // lost: a re-detection waiting for confirmation
+  cv::Mat coarse_f, resized, match;
+  cv::Point2d candidate{-1, -1};  // lost: a re-detection waiting for confirmation, and its step
+  double candidate_step = 1;
   std::vector<Placement> looks;
   int candidate_frames = 0;
   std::vector<cv::Mat> numerator;  // per channel, CV_32FC2
@@ -648,7 +660,7 @@ void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
   // must hold on consecutive frames at one place.
   std::vector<Placement>& looks = m.looks;
   looks.clear();
-  if (m.candidate_frames > 0) looks.push_back({m.candidate, m.step, m.angle});
+  if (m.candidate_frames > 0) looks.push_back({m.candidate, m.candidate_step, m.angle});
   looks.push_back({predicted, m.step, m.angle});
   // The whole-frame search on every other frame: it costs as much as the
   // rest of the frame, and a candidate it found is confirmed locally meanwhile.
@@ -670,9 +682,12 @@ void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
   const double near = std::max(0.5 * std::max(m.size.width, m.size.height), 0.25 * config_.patch * m.step);
   const bool consistent = m.candidate_frames > 0 && cv::norm(found - m.candidate) < near;
   m.candidate = found;
+  m.candidate_step = where.step;
   m.candidate_frames = consistent ? m.candidate_frames + 1 : 1;
   if (m.candidate_frames < config_.redetect_frames) return;
   m.centre = found;
+  m.size *= where.step / m.step;  // found at another size
+  m.step = where.step;
   m.velocity = {};
   m.low_frames = m.unsure_frames = 0;
   m.candidate_frames = 0;
