@@ -66,125 +66,11 @@ Decision FoveaController::step(const Retina& retina, const std::vector<cv::Mat>*
     }
   }
   switch (phase_) {
-    case Phase::kTrack: {
-      const TemplateTracker::Match m = tracker_.match(retina);
-      if (!m.found) {
-        phase_ = Phase::kLost;
-        frames_lost_ = 0;
-        attempts_ = 0;
-        candidate_ = target_;
-        d.score = m.score;
-        lost(retina, motion_dI, top_down, d);
-        break;
-      }
-      const cv::Point2d measured = m.point - target_;
-      velocity_ = dwell_ == 0 ? measured : config_.velocity_gain * measured + (1.0 - config_.velocity_gain) * velocity_;
-      target_ = m.point;
-      ++dwell_;
-      if (centring_ > 0 && !fixed_template_) {
-        // Just acquired, maybe on a part of the object: while the fovea
-        // settles on it, move the tracked point to the object's centre.
-        --centring_;
-        saliency_.compute(retina, motion_dI);
-        bool cut = false;
-        const cv::Point2d centre =
-            saliency_.blob_centre(static_cast<int>(retina.levels.size()) - 1, target_, 0.5, &cut);
-        if (!cut) {
-          // Cut the template again around the centre, so that it holds the
-          // object rather than the background next to it.
-          if (!tracker_.acquire(retina, centre)) tracker_.move_point(centre - target_);
-          target_ = centre;
-          centring_ = 0;
-        } else {
-          centre_next_ = centre;  // bring the whole object into the fovea first
-        }
-      }
-      d.state = FoveaState::State::kTracking;
-      d.target = target_;
-      d.target_valid = true;
-      d.score = m.score;
-      d.next = target_ + (config_.predict ? velocity_ : cv::Point2d());
-      if (centre_next_) {
-        d.next = *centre_next_ + (config_.predict ? velocity_ : cv::Point2d());
-        centre_next_.reset();
-      }
-      if (config_.mode == FoveaMode::kAttend && !config_.track_label.empty() && top_down != nullptr &&
-          top_down->label == config_.track_label && distance(top_down->center, target_) < config_.ior_radius)
-        recognised_ = true;
-      if (config_.mode == FoveaMode::kAttend && dwell_ >= config_.dwell_frames && !recognised_) {
-        // Seen long enough: inhibit it and let attention move on.
-        ior_.add(target_);
-        tracker_.reset();
-        phase_ = Phase::kSearch;
-        search(retina, motion_dI, top_down, d);
-        d.target = target_;
-        d.target_valid = true;
-      }
-      break;
-    }
-    case Phase::kLost: {
-      const TemplateTracker::Match m = tracker_.match(retina);
-      if (m.found) {
-        phase_ = Phase::kTrack;
-        d.reacquired = ever_locked_;
-        ever_locked_ = true;
-        target_ = m.point;
-        velocity_ = {};
-        dwell_ = 0;
-        frames_lost_ = 0;
-        d.state = FoveaState::State::kTracking;
-        d.target = target_;
-        d.target_valid = true;
-        d.score = m.score;
-        d.next = target_;
-        break;
-      }
-      lost(retina, motion_dI, top_down, d);
-      break;
-    }
-    case Phase::kAcquire: {
-      cv::Point2d at = acquire_at_;
-      if (acquire_refine_) {
-        // The place was chosen on a coarse level: look again, at full
-        // resolution, for the most salient point of the fovea.
-        saliency_.compute(retina, motion_dI);
-        const cv::Size t = config_.tracker.template_size;
-        const int inner = static_cast<int>(retina.levels.size()) - 1;
-        const Candidate c = saliency_.peak_on_level(inner, t.width / 2, t.height / 2);
-        bool cut = false;
-        if (c.valid() && c.value > 0) at = saliency_.blob_centre(inner, c.point, 0.5, &cut);
-        if (cut && ++acquire_looks_ < kAcquireLooks) {
-          // Part of the object is outside the fovea: centre on what is seen and
-          // look again before cutting the template.
-          acquire_at_ = at;
-          d.next = at;
-          break;
-        }
-      }
-      if (tracker_.acquire(retina, at)) {
-        phase_ = Phase::kTrack;
-        centring_ = acquire_refine_ ? kCentringFrames : 0;
-        ever_locked_ = true;
-        target_ = at;
-        velocity_ = {};
-        dwell_ = 0;
-        d.state = FoveaState::State::kTracking;
-        d.target = at;
-        d.target_valid = true;
-        d.score = 1.0;
-        d.next = at;
-      } else {
-        ior_.add(acquire_at_);
-        phase_ = Phase::kSearch;
-        search(retina, motion_dI, top_down, d);
-      }
-      break;
-    }
-    case Phase::kSearch:
-      search(retina, motion_dI, top_down, d);
-      break;
-    case Phase::kBox:
-      break;
+    case Phase::kTrack: track(retina, motion_dI, top_down, d); break;
+    case Phase::kLost: reacquire(retina, motion_dI, top_down, d); break;
+    case Phase::kAcquire: acquire(retina, motion_dI, top_down, d); break;
+    case Phase::kSearch: search(retina, motion_dI, top_down, d); break;
+    case Phase::kBox: break;
   }
   if (d.target_valid) {
     d.target_size = cv::Size2d(config_.tracker.template_size);
@@ -192,6 +78,118 @@ Decision FoveaController::step(const Retina& retina, const std::vector<cv::Mat>*
   }
   check_border(retina, d);
   return d;
+}
+
+void FoveaController::track(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down,
+                            Decision& d) {
+  const TemplateTracker::Match m = tracker_.match(retina);
+  if (!m.found) {
+    phase_ = Phase::kLost;
+    frames_lost_ = 0;
+    attempts_ = 0;
+    candidate_ = target_;
+    d.score = m.score;
+    lost(retina, motion_dI, top_down, d);
+    return;
+  }
+  const cv::Point2d measured = m.point - target_;
+  velocity_ = dwell_ == 0 ? measured : config_.velocity_gain * measured + (1.0 - config_.velocity_gain) * velocity_;
+  target_ = m.point;
+  ++dwell_;
+  if (centring_ > 0 && !fixed_template_) {
+    // Just acquired, maybe on a part of the object: while the fovea
+    // settles on it, move the tracked point to the object's centre.
+    --centring_;
+    saliency_.compute(retina, motion_dI);
+    bool cut = false;
+    const cv::Point2d centre =
+        saliency_.blob_centre(static_cast<int>(retina.levels.size()) - 1, target_, 0.5, &cut);
+    if (!cut) {
+      // Cut the template again around the centre, so that it holds the
+      // object rather than the background next to it.
+      if (!tracker_.acquire(retina, centre)) tracker_.move_point(centre - target_);
+      target_ = centre;
+      centring_ = 0;
+    } else {
+      centre_next_ = centre;  // bring the whole object into the fovea first
+    }
+  }
+  d.state = FoveaState::State::kTracking;
+  d.target = target_;
+  d.target_valid = true;
+  d.score = m.score;
+  d.next = target_ + (config_.predict ? velocity_ : cv::Point2d());
+  if (centre_next_) {
+    d.next = *centre_next_ + (config_.predict ? velocity_ : cv::Point2d());
+    centre_next_.reset();
+  }
+  if (config_.mode == FoveaMode::kAttend && !config_.track_label.empty() && top_down != nullptr &&
+      top_down->label == config_.track_label && distance(top_down->center, target_) < config_.ior_radius)
+    recognised_ = true;
+  if (config_.mode == FoveaMode::kAttend && dwell_ >= config_.dwell_frames && !recognised_) {
+    // Seen long enough: inhibit it and let attention move on.
+    ior_.add(target_);
+    tracker_.reset();
+    phase_ = Phase::kSearch;
+    search(retina, motion_dI, top_down, d);
+    d.target = target_;
+    d.target_valid = true;
+  }
+}
+
+void FoveaController::reacquire(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down,
+                                Decision& d) {
+  const TemplateTracker::Match m = tracker_.match(retina);
+  if (!m.found) {
+    lost(retina, motion_dI, top_down, d);
+    return;
+  }
+  d.reacquired = ever_locked_;  // before start_tracking sets it: the first lock is no re-acquisition
+  frames_lost_ = 0;
+  start_tracking(m.point, m.score, d);
+}
+
+void FoveaController::acquire(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down,
+                              Decision& d) {
+  cv::Point2d at = acquire_at_;
+  if (acquire_refine_) {
+    // The place was chosen on a coarse level: look again, at full
+    // resolution, for the most salient point of the fovea.
+    saliency_.compute(retina, motion_dI);
+    const cv::Size t = config_.tracker.template_size;
+    const int inner = static_cast<int>(retina.levels.size()) - 1;
+    const Candidate c = saliency_.peak_on_level(inner, t.width / 2, t.height / 2);
+    bool cut = false;
+    if (c.valid() && c.value > 0) at = saliency_.blob_centre(inner, c.point, 0.5, &cut);
+    if (cut && ++acquire_looks_ < kAcquireLooks) {
+      // Part of the object is outside the fovea: centre on what is seen and
+      // look again before cutting the template.
+      acquire_at_ = at;
+      d.next = at;
+      return;
+    }
+  }
+  if (tracker_.acquire(retina, at)) {
+    centring_ = acquire_refine_ ? kCentringFrames : 0;
+    start_tracking(at, 1.0, d);
+  } else {
+    ior_.add(acquire_at_);
+    phase_ = Phase::kSearch;
+    search(retina, motion_dI, top_down, d);
+  }
+}
+
+void FoveaController::start_tracking(cv::Point2d at, double score, Decision& d) {
+  phase_ = Phase::kTrack;
+  ever_locked_ = true;
+  target_ = at;
+  velocity_ = {};  // no motion measured yet: the first match gives it (dwell_ == 0)
+  dwell_ = 0;
+  d.state = FoveaState::State::kTracking;
+  d.target = at;
+  d.target_valid = true;
+  d.score = score;
+  d.next = at;
 }
 
 void FoveaController::search(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down,

@@ -87,7 +87,12 @@ class FoveaController {
  private:
   enum class Phase { kSearch, kAcquire, kTrack, kLost, kBox };
   void look_at(cv::Point2d point, Decision& d);
+  void track(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
+  void reacquire(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
+  void acquire(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
   void search(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
+  // The one way into kTrack, from a match of the lost target or a new template cut at `at`.
+  void start_tracking(cv::Point2d at, double score, Decision& d);
   void lost(const Retina& retina, const std::vector<cv::Mat>* motion_dI, const Region* top_down, Decision& d);
   void check_border(const Retina& retina, Decision& d);
   void follow_box(const Retina& retina, Decision& d);
