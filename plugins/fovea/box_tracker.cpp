@@ -196,12 +196,13 @@ class ScaleFilter {
     // Response = IDFT over scales of sum_d A_d(k) Z_d(k) / (B(k) + lambda).
     std::vector<std::complex<float>>& r = response_;
     r.assign(static_cast<std::size_t>(count_), {});
-    for (int k = 0; k < count_; ++k) {
+    for (int k = 0; k <= count_ / 2; ++k) {  // the rest mirrors it: real samples
       const std::complex<float>* a = &numerator_[static_cast<std::size_t>(k * dims_)];
       const std::complex<float>* z = &spectra_[static_cast<std::size_t>(k * dims_)];
       std::complex<float> sum = 0;
       for (int d = 0; d < dims_; ++d) sum += a[d] * z[d];
       r[static_cast<std::size_t>(k)] = sum / (denominator_[static_cast<std::size_t>(k)] + static_cast<float>(lambda));
+      if (k > 0) r[static_cast<std::size_t>(count_ - k)] = std::conj(r[static_cast<std::size_t>(k)]);
     }
     int best = 0;
     float best_value = -INFINITY;
@@ -223,7 +224,7 @@ class ScaleFilter {
       rate = 1;
     }
     const float a = static_cast<float>(rate), keep = 1 - a;
-    for (int k = 0; k < count_; ++k) {
+    for (int k = 0; k <= count_ / 2; ++k) {  // the rest mirrors it: real samples
       const std::complex<float> g = target_[static_cast<std::size_t>(k)];
       const std::complex<float>* f = &spectra_[static_cast<std::size_t>(k * dims_)];
       std::complex<float>* n = &numerator_[static_cast<std::size_t>(k * dims_)];
@@ -234,6 +235,10 @@ class ScaleFilter {
       }
       float& b = denominator_[static_cast<std::size_t>(k)];
       b = keep * b + a * energy;
+      if (k == 0) continue;
+      std::complex<float>* mirror = &numerator_[static_cast<std::size_t>((count_ - k) * dims_)];
+      for (int d = 0; d < dims_; ++d) mirror[d] = std::conj(n[d]);
+      denominator_[static_cast<std::size_t>(count_ - k)] = b;
     }
   }
 
@@ -263,7 +268,7 @@ class ScaleFilter {
           out[2 * pixels + i] = gain * std::abs(dy);
         }
     }
-    for (int k = 0; k < count_; ++k) {
+    for (int k = 0; k <= count_ / 2; ++k) {  // the rest mirrors it: real samples
       std::complex<float>* z = &spectra_[static_cast<std::size_t>(k * dims_)];
       std::fill(z, z + dims_, std::complex<float>());
       for (int s = 0; s < count_; ++s) {
@@ -271,6 +276,9 @@ class ScaleFilter {
         const float* x = &samples_[static_cast<std::size_t>(s * dims_)];
         for (int d = 0; d < dims_; ++d) z[d] += w * x[d];
       }
+      if (k == 0) continue;
+      std::complex<float>* mirror = &spectra_[static_cast<std::size_t>((count_ - k) * dims_)];
+      for (int d = 0; d < dims_; ++d) mirror[d] = std::conj(z[d]);
     }
   }
 
