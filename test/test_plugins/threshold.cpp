@@ -1,26 +1,21 @@
-// The guide's example (docs/guide.md): a whole plugin with one input, one output and two parameters.
+// The guide's example (docs/guide.md): a whole plugin, one input, one output, two parameters.
 #include <opencv2/imgproc.hpp>
 
 #include "saccade/plugin.hpp"
 
-namespace example {
 struct ThresholdConfig {  // the algorithm's settings; their defaults live here, once
   double level = 128;
   bool invert = false;
 };
-inline void threshold(const cv::Mat& in, cv::Mat& out, const ThresholdConfig& c) {
-  cv::threshold(in, out, c.level, 255, c.invert ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
-}
-}  // namespace example
 
 class Threshold final : public saccade::Node {
  public:
   static constexpr const char* kName = "threshold";  // the node type is "example.threshold"
   static constexpr saccade::In<saccade::Retina> kRetina{"retina", "gray retina"};
   static constexpr saccade::Out<saccade::Retina> kBinary{"binary", "255 where brighter than level, else 0"};
-  static void bind(saccade::ParamBinder<example::ThresholdConfig>& b) {
-    b.field("level", {0, 255}, "gray level", &example::ThresholdConfig::level)
-        .field("invert", "255 where darker instead", &example::ThresholdConfig::invert);
+  static void bind(saccade::ParamBinder<ThresholdConfig>& b) {
+    b.field("level", {0, 255}, "gray level", &ThresholdConfig::level)
+        .field("invert", "255 where darker instead", &ThresholdConfig::invert);
   }
   static saccade::Contract contract() {
     return saccade::Contract("A binary retina by a gray threshold.").ports(kRetina, kBinary).params(&bind);
@@ -34,13 +29,12 @@ class Threshold final : public saccade::Node {
     auto out = ctx.make(kBinary);  // pooled, stamped with the input's time and frame id
     out->geometry = in->geometry, out->source_size = in->source_size, out->fovea = in->fovea;
     out->levels.resize(in->levels.size());
-    for (std::size_t k = 0; k < in->levels.size(); ++k) example::threshold(in->levels[k], out->levels[k], config_);
+    const int type = config_.invert ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY;
+    for (std::size_t k = 0; k < in->levels.size(); ++k) cv::threshold(in->levels[k], out->levels[k], config_.level, 255, type);
     ctx.emit(kBinary, std::move(out));
     return {};
   }
-
  private:
-  example::ThresholdConfig config_;
+  ThresholdConfig config_;
 };
-
 SACCADE_PLUGIN("example", Threshold)
