@@ -148,82 +148,107 @@ void print_plugin_markdown(const NodeTypeInfo& info) {
   }
 }
 
-}  // namespace
+// The options of run, plan, check and dot: each reads and resolves a graph.
+struct GraphArgs {
+  std::string file;
+  std::vector<std::string> sets;
+  std::string process;
+  GraphOverrides overrides;
+};
 
-int main(int argc, char** argv) {
-  CLI::App app{"saccade: dataflow graphs for real-time active vision"};
-  app.require_subcommand(1);
-  Common common;
+struct RunArgs {
+  ExecutorOptions options;
+  double stats_interval = 0;
+  CLI::Option* stats = nullptr;  // given at all: print the table at exit
+  std::string stats_json;
+  std::string security;
+};
+
+struct PluginsArgs {
+  std::string name;
+  bool markdown = false;
+};
+
+struct TrainArgs {
+  classifier::FolderTraining training;
+  std::string levels = "0", features = "gray,grad_hist", hidden = "128", method = "backprop";
+  std::string size = "8x6";
+  std::string samples;
+};
+
+void add_global_options(CLI::App& app, Common& common) {
   app.add_option("--plugin-path", common.plugin_path, "extra plugin folders, ':'-separated (searched first)");
   app.add_option("--log-level", common.log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
+}
 
-  std::string graph_file;
-  std::vector<std::string> sets;
-  ExecutorOptions options;
-  double stats_interval = 0;
-  bool stats = false;
-  std::string stats_json;
-
+CLI::App* add_run_command(CLI::App& app, GraphArgs& graph, RunArgs& args) {
   auto* run = app.add_subcommand("run", "run a graph");
-  run->add_option("graph", graph_file, "graph file (XML)")->required();
-  run->add_option("--frames", options.max_frames, "stop each source after N frames");
-  run->add_option("--duration", options.duration_s, "stop after S seconds");
-  run->add_option("--threads", options.threads, "worker threads (default: one per core)")->check(CLI::Range(0, 256));
-  run->add_flag("--deterministic", options.deterministic, "one thread, fixed order: same input, bit-identical output");
-  auto* stats_opt = run->add_option("--stats", stats_interval, "print per-node stats at exit, and every INTERVAL seconds if given")
-                        ->expected(0, 1)
-                        ->default_val(0);
-  run->add_option("--stats-json", stats_json, "write the final stats as JSON to FILE");
-  run->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
-  std::string process;
-  GraphOverrides graph_overrides;
-  run->add_option("--process", process,
+  run->add_option("graph", graph.file, "graph file (XML)")->required();
+  run->add_option("--frames", args.options.max_frames, "stop each source after N frames");
+  run->add_option("--duration", args.options.duration_s, "stop after S seconds");
+  run->add_option("--threads", args.options.threads, "worker threads (default: one per core)")->check(CLI::Range(0, 256));
+  run->add_flag("--deterministic", args.options.deterministic, "one thread, fixed order: same input, bit-identical output");
+  args.stats = run->add_option("--stats", args.stats_interval, "print per-node stats at exit, and every INTERVAL seconds if given")
+                   ->expected(0, 1)
+                   ->default_val(0);
+  run->add_option("--stats-json", args.stats_json, "write the final stats as JSON to FILE");
+  run->add_option("--set", graph.sets, "override a parameter: node.param=value (repeatable)");
+  run->add_option("--process", graph.process,
                   "run only this process's part of the graph; its edges to other processes become DDS topics");
-  run->add_option("--domain", graph_overrides.domain, "DDS domain of the edges between processes (default: the graph's)")
+  run->add_option("--domain", graph.overrides.domain, "DDS domain of the edges between processes (default: the graph's)")
       ->check(CLI::Range(0, 232));
-  run->add_option("--topic-prefix", graph_overrides.topic_prefix,
+  run->add_option("--topic-prefix", graph.overrides.topic_prefix,
                   "prefix of their DDS topics (default: the graph's topic_prefix, else its name)");
-  std::string security;
-  run->add_option("--security", security,
+  run->add_option("--security", args.security,
                   "DDS Security: this participant's folder made by scripts/make-security.sh (sets SACCADE_DDS_SECURITY)")
       ->check(CLI::ExistingDirectory);
+  return run;
+}
 
+CLI::App* add_plan_command(CLI::App& app, GraphArgs& graph) {
   auto* plan = app.add_subcommand("plan", "print which node runs in which process and how each edge travels");
-  plan->add_option("graph", graph_file, "graph file (XML)")->required();
-  plan->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
-  plan->add_option("--process", process, "show this process's part, with its DDS bridge nodes");
-  plan->add_option("--domain", graph_overrides.domain, "DDS domain")->check(CLI::Range(0, 232));
-  plan->add_option("--topic-prefix", graph_overrides.topic_prefix, "prefix of the DDS topics");
+  plan->add_option("graph", graph.file, "graph file (XML)")->required();
+  plan->add_option("--set", graph.sets, "override a parameter: node.param=value (repeatable)");
+  plan->add_option("--process", graph.process, "show this process's part, with its DDS bridge nodes");
+  plan->add_option("--domain", graph.overrides.domain, "DDS domain")->check(CLI::Range(0, 232));
+  plan->add_option("--topic-prefix", graph.overrides.topic_prefix, "prefix of the DDS topics");
+  return plan;
+}
 
+CLI::App* add_check_command(CLI::App& app, GraphArgs& graph) {
   auto* check = app.add_subcommand("check", "validate a graph without running it");
-  check->add_option("graph", graph_file, "graph file (XML)")->required();
-  check->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
+  check->add_option("graph", graph.file, "graph file (XML)")->required();
+  check->add_option("--set", graph.sets, "override a parameter: node.param=value (repeatable)");
+  return check;
+}
 
-  std::string plugin_name;
-  bool markdown = false;
+CLI::App* add_plugins_command(CLI::App& app, PluginsArgs& args) {
   auto* plugins = app.add_subcommand("plugins", "list plugins with their ports and parameters");
-  plugins->add_option("name", plugin_name, "one plugin type, or a library prefix such as 'capture'");
-  plugins->add_flag("--markdown", markdown, "print the reference as Markdown");
+  plugins->add_option("name", args.name, "one plugin type, or a library prefix such as 'capture'");
+  plugins->add_flag("--markdown", args.markdown, "print the reference as Markdown");
+  return plugins;
+}
 
+CLI::App* add_dot_command(CLI::App& app, GraphArgs& graph) {
   auto* dot = app.add_subcommand("dot", "print a graph as Graphviz");
-  dot->add_option("graph", graph_file, "graph file (XML)")->required();
-  dot->add_option("--set", sets, "override a parameter: node.param=value (repeatable)");
+  dot->add_option("graph", graph.file, "graph file (XML)")->required();
+  dot->add_option("--set", graph.sets, "override a parameter: node.param=value (repeatable)");
+  return dot;
+}
 
-  classifier::FolderTraining training;
-  std::string train_levels = "0", train_features = "gray,grad_hist", train_hidden = "128", train_method = "backprop";
-  std::string train_size = "8x6";
+CLI::App* add_train_command(CLI::App& app, TrainArgs& args) {
+  classifier::FolderTraining& training = args.training;
   auto* train = app.add_subcommand("train", "train a classifier model from a folder with one sub-folder per class");
-  std::string train_samples;
   train->add_option("data", training.data, "folder with one sub-folder of images or videos per class");
-  train->add_option("--samples", train_samples, "instead of a folder: samples a graph collected (classifier.collect)");
+  train->add_option("--samples", args.samples, "instead of a folder: samples a graph collected (classifier.collect)");
   train->add_option("--out", training.out, "model file to write (OpenCV FileStorage: .yml, .yml.gz, .xml)")->required();
-  train->add_option("--levels", train_levels, "retina levels of the vector, 0 = the fovea (e.g. 0,1)");
-  train->add_option("--features", train_features, "gray, grad_hist and/or filter-bank maps (e.g. gray,grad_hist)");
-  train->add_option("--size", train_size, "each map reduced to WxH (grad_hist: its cell grid)");
-  train->add_option("--hidden", train_hidden, "hidden layer sizes, e.g. 64 or 128,32");
+  train->add_option("--levels", args.levels, "retina levels of the vector, 0 = the fovea (e.g. 0,1)");
+  train->add_option("--features", args.features, "gray, grad_hist and/or filter-bank maps (e.g. gray,grad_hist)");
+  train->add_option("--size", args.size, "each map reduced to WxH (grad_hist: its cell grid)");
+  train->add_option("--hidden", args.hidden, "hidden layer sizes, e.g. 64 or 128,32");
   train->add_option("--epochs", training.train.epochs, "training epochs")->check(CLI::Range(1, 1000000));
-  train->add_option("--method", train_method, "backprop (online; the default) or rprop (batch; each epoch restarts its steps)")->check(CLI::IsMember({"rprop", "backprop"}));
+  train->add_option("--method", args.method, "backprop (online; the default) or rprop (batch; each epoch restarts its steps)")->check(CLI::IsMember({"rprop", "backprop"}));
   train->add_option("--learning-rate", training.train.learning_rate, "backprop: learning rate");
   train->add_option("--validation", training.validation, "share of each class kept for validation (the last files)")
       ->check(CLI::Range(0.0, 0.9));
@@ -231,126 +256,192 @@ int main(int argc, char** argv) {
                     "seed of the order samples are presented in (OpenCV fixes the initial weights itself)");
   train->add_option("--video-step", training.video_step, "videos: use every Nth frame")->check(CLI::Range(1, 100000));
   train->add_option("--report-every", training.report_every, "epochs between progress lines")->check(CLI::Range(1, 100000));
+  return train;
+}
 
-  CLI11_PARSE(app, argc, argv);
-  log().set_level(spdlog::level::from_str(common.log_level));
-  // The DDS plugin reads it when it creates the process's participant.
-  if (!security.empty()) setenv("SACCADE_DDS_SECURITY", security.c_str(), 1);
-  if (train->parsed()) {
-    std::string error;
-    auto levels = classifier::parse_levels(train_levels, &error);
-    auto features = levels ? classifier::parse_features(train_features, &error) : std::nullopt;
-    auto hidden = features ? classifier::parse_int_list(train_hidden, "--hidden", &error) : std::nullopt;
-    int w = 0, h = 0;
-    char tail = 0;
-    if (hidden && (std::sscanf(train_size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1))
-      error = "--size: expected WxH, got '" + train_size + "'";
-    if (!error.empty()) {
-      std::cerr << "saccade train: " << error << "\n";
-      return 2;
-    }
-    training.recipe.levels = *levels;
-    training.recipe.features = *features;
-    training.recipe.size = cv::Size(w, h);
-    training.train.hidden = *hidden;
-    training.train.method = train_method == "backprop" ? classifier::TrainConfig::Method::kBackprop
-                                                       : classifier::TrainConfig::Method::kRprop;
-    if (training.data.empty() == train_samples.empty()) {
-      std::cerr << "saccade train: give either a data folder or --samples FILE\n";
-      return 2;
-    }
-    classifier::TrainingResult result;
-    if (!train_samples.empty()) {
-      // The recipe is the one the graph collected with.
-      classifier::SampleSet samples;
-      if (std::string e = samples.load(train_samples); !e.empty()) {
-        std::cerr << "saccade train: " << e << "\n";
-        return 2;
-      }
-      result = classifier::train_rows(samples, training, std::cout);
-    } else {
-      result = classifier::train_folder(training, std::cout);
-    }
-    if (!result.error.empty()) {
-      std::cerr << "saccade train: " << result.error << "\n";
-      return 2;
-    }
-    return 0;
+// Parses the recipe and network options into args.training; the first error, if any.
+std::string parse_training_options(TrainArgs& args) {
+  std::string error;
+  auto levels = classifier::parse_levels(args.levels, &error);
+  auto features = levels ? classifier::parse_features(args.features, &error) : std::nullopt;
+  auto hidden = features ? classifier::parse_int_list(args.hidden, "--hidden", &error) : std::nullopt;
+  int w = 0, h = 0;
+  char tail = 0;
+  if (hidden && (std::sscanf(args.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1))
+    error = "--size: expected WxH, got '" + args.size + "'";
+  if (!error.empty()) return error;
+  classifier::FolderTraining& training = args.training;
+  training.recipe.levels = *levels;
+  training.recipe.features = *features;
+  training.recipe.size = cv::Size(w, h);
+  training.train.hidden = *hidden;
+  training.train.method = args.method == "backprop" ? classifier::TrainConfig::Method::kBackprop
+                                                    : classifier::TrainConfig::Method::kRprop;
+  return {};
+}
+
+int train_command(TrainArgs& args) {
+  if (std::string error = parse_training_options(args); !error.empty()) {
+    std::cerr << "saccade train: " << error << "\n";
+    return 2;
   }
-  stats = stats_opt->count() > 0;
+  if (args.training.data.empty() == args.samples.empty()) {
+    std::cerr << "saccade train: give either a data folder or --samples FILE\n";
+    return 2;
+  }
+  classifier::TrainingResult result;
+  if (!args.samples.empty()) {
+    // The recipe is the one the graph collected with.
+    classifier::SampleSet samples;
+    if (std::string e = samples.load(args.samples); !e.empty()) {
+      std::cerr << "saccade train: " << e << "\n";
+      return 2;
+    }
+    result = classifier::train_rows(samples, args.training, std::cout);
+  } else {
+    result = classifier::train_folder(args.training, std::cout);
+  }
+  if (!result.error.empty()) {
+    std::cerr << "saccade train: " << result.error << "\n";
+    return 2;
+  }
+  return 0;
+}
 
+int plugins_command(const Common& common, const PluginsArgs& args) {
   Registry registry;
-  if (plugins->parsed()) {
-    load_registry(registry, common, true);
-    if (markdown && plugin_name.empty())
-      std::printf("# Plugin reference\n\nGenerated from the plugins' own contracts by `saccade plugins --markdown`; a test "
-                  "fails when\nthis file and the built plugins disagree (regenerate with `make docs`).\n\n");
-    int shown = 0;
-    for (const auto& type : registry.types()) {
-      if (!plugin_name.empty() && type != plugin_name && type.rfind(plugin_name + ".", 0) != 0) continue;
-      const NodeTypeInfo* info = registry.find(type);
-      if (markdown) print_plugin_markdown(*info);
-      else print_plugin_text(*info);
-      ++shown;
-    }
-    if (shown == 0) {
-      std::cerr << "no plugin '" << plugin_name << "'" << did_you_mean(plugin_name, registry.types()) << "\n";
-      return 2;
-    }
-    if (markdown && plugin_name.empty()) print_message_schemas_markdown();
-    return 0;
+  load_registry(registry, common, true);
+  const bool reference = args.markdown && args.name.empty();
+  if (reference)
+    std::printf("# Plugin reference\n\nGenerated from the plugins' own contracts by `saccade plugins --markdown`; a test "
+                "fails when\nthis file and the built plugins disagree (regenerate with `make docs`).\n\n");
+  int shown = 0;
+  for (const auto& type : registry.types()) {
+    if (!args.name.empty() && type != args.name && type.rfind(args.name + ".", 0) != 0) continue;
+    const NodeTypeInfo* info = registry.find(type);
+    if (args.markdown) print_plugin_markdown(*info);
+    else print_plugin_text(*info);
+    ++shown;
   }
+  if (shown == 0) {
+    std::cerr << "no plugin '" << args.name << "'" << did_you_mean(args.name, registry.types()) << "\n";
+    return 2;
+  }
+  if (reference) print_message_schemas_markdown();
+  return 0;
+}
 
+// A graph checked, planned and, with --process, cut to that process's part.
+// The caller owns it: the plan points into the graph's edges.
+struct LoadedGraph {
+  std::optional<ResolvedGraph> graph;
+  std::optional<GraphPlan> plan;  // after a --process cut, only when asked for
+};
+
+// Prints every diagnostic; false on error.
+bool load_graph(const GraphArgs& args, const Registry& registry, bool keep_plan, LoadedGraph& out) {
+  out.graph = prepare(args.file, args.sets, registry, args.overrides);
+  if (!out.graph) return false;
+  Diagnostics diag;
+  out.plan = plan_graph(*out.graph, diag);
+  if (!args.process.empty() && out.plan) {
+    out.graph = partition_graph(*out.graph, *out.plan, args.process, registry, diag);
+    // The old plan points into the graph it replaced; only `plan` needs the new one.
+    out.plan = out.graph && keep_plan ? plan_graph(*out.graph, diag) : std::nullopt;
+  }
+  std::cerr << diag.format();
+  return !diag.has_errors();
+}
+
+int plan_command(const Common& common, const GraphArgs& args) {
+  Registry registry;
   load_registry(registry, common, false);
-  auto graph = prepare(graph_file, sets, registry, graph_overrides);
-  if (!graph) return 2;
-  std::optional<GraphPlan> graph_plan;
-  {
-    Diagnostics diag;
-    graph_plan = plan_graph(*graph, diag);
-    if (!process.empty() && graph_plan) {
-      graph = partition_graph(*graph, *graph_plan, process, registry, diag);
-      // The old plan points into the graph it replaced; only `plan` needs the new one.
-      graph_plan = graph && plan->parsed() ? plan_graph(*graph, diag) : std::nullopt;
-    }
-    std::cerr << diag.format();
-    if (diag.has_errors()) return 2;
-  }
-  if (plan->parsed()) {
-    std::printf("%s", format_plan(*graph, *graph_plan).c_str());
-    return 0;
-  }
-  if (check->parsed()) {
-    std::printf("%s: ok (%zu nodes, %zu edges)\n", graph_file.c_str(), graph->nodes.size(), graph->edges.size());
-    return 0;
-  }
-  if (dot->parsed()) {
-    std::printf("%s", to_dot(*graph).c_str());
-    return 0;
-  }
+  LoadedGraph loaded;
+  if (!load_graph(args, registry, true, loaded)) return 2;
+  std::printf("%s", format_plan(*loaded.graph, *loaded.plan).c_str());
+  return 0;
+}
 
+int check_command(const Common& common, const GraphArgs& args) {
+  Registry registry;
+  load_registry(registry, common, false);
+  LoadedGraph loaded;
+  if (!load_graph(args, registry, false, loaded)) return 2;
+  std::printf("%s: ok (%zu nodes, %zu edges)\n", args.file.c_str(), loaded.graph->nodes.size(),
+              loaded.graph->edges.size());
+  return 0;
+}
+
+int dot_command(const Common& common, const GraphArgs& args) {
+  Registry registry;
+  load_registry(registry, common, false);
+  LoadedGraph loaded;
+  if (!load_graph(args, registry, false, loaded)) return 2;
+  std::printf("%s", to_dot(*loaded.graph).c_str());
+  return 0;
+}
+
+int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args) {
+  const bool stats = args.stats->count() > 0;
+  Registry registry;
+  load_registry(registry, common, false);
+  LoadedGraph loaded;
+  if (!load_graph(graph_args, registry, false, loaded)) return 2;
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  ExecutorOptions& options = args.options;
   options.external_stop = &g_stop;
-  options.stats_interval_s = stats ? stats_interval : 0;
+  options.stats_interval_s = stats ? args.stats_interval : 0;
   options.on_stats = [](const std::string& table) { std::fprintf(stderr, "%s\n", table.c_str()); };
-  Executor executor(*graph, registry, options);
+  Executor executor(*loaded.graph, registry, options);
   Status status = executor.open();
   if (!status.ok()) {
-    std::cerr << graph_file << ": error: " << status.message() << "\n";
+    std::cerr << graph_args.file << ": error: " << status.message() << "\n";
     return 1;
   }
   status = executor.run();
   if (stats) std::printf("%s", executor.stats_table().c_str());
-  if (!stats_json.empty()) {
-    std::ofstream out(stats_json);
+  if (!args.stats_json.empty()) {
+    std::ofstream out(args.stats_json);
     out << executor.stats_json();
-    if (!out) std::cerr << "error: cannot write " << stats_json << "\n";
+    if (!out) std::cerr << "error: cannot write " << args.stats_json << "\n";
   }
   if (!status.ok()) {
-    std::cerr << graph_file << ": error: " << status.message() << "\n";
+    std::cerr << graph_args.file << ": error: " << status.message() << "\n";
     return 1;
   }
   if (g_stop.load()) std::cerr << "stopped by signal\n";
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"saccade: dataflow graphs for real-time active vision"};
+  app.require_subcommand(1);
+  Common common;
+  GraphArgs graph;
+  RunArgs run_args;
+  PluginsArgs plugins_args;
+  TrainArgs train_args;
+  add_global_options(app, common);
+  // Added in the order `saccade --help` lists them.
+  add_run_command(app, graph, run_args);
+  auto* plan = add_plan_command(app, graph);
+  auto* check = add_check_command(app, graph);
+  auto* plugins = add_plugins_command(app, plugins_args);
+  auto* dot = add_dot_command(app, graph);
+  auto* train = add_train_command(app, train_args);
+
+  CLI11_PARSE(app, argc, argv);
+  log().set_level(spdlog::level::from_str(common.log_level));
+  // The DDS plugin reads it when it creates the process's participant.
+  if (!run_args.security.empty()) setenv("SACCADE_DDS_SECURITY", run_args.security.c_str(), 1);
+  if (train->parsed()) return train_command(train_args);
+  if (plugins->parsed()) return plugins_command(common, plugins_args);
+  if (plan->parsed()) return plan_command(common, graph);
+  if (check->parsed()) return check_command(common, graph);
+  if (dot->parsed()) return dot_command(common, graph);
+  // Exactly one subcommand parsed: what is left is run.
+  return run_command(common, graph, run_args);
 }

@@ -178,17 +178,17 @@ bool split_endpoint(const char* text, std::string& node, std::string& port) {
   return true;
 }
 
-GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics& diag) {
-  GraphDecl graph;
-  graph.file = file;
+// The <graph> element with its attributes read into `graph`; null when the
+// document has none (the error is reported).
+const XMLElement* parse_root(const XMLDocument& doc, const std::string& file, Diagnostics& diag, GraphDecl& graph) {
   if (doc.Error()) {
     diag.error(file, doc.ErrorLineNum(), "", "", std::string("malformed XML: ") + doc.ErrorStr());
-    return graph;
+    return nullptr;
   }
   const XMLElement* root = doc.RootElement();
   if (root == nullptr || std::string(root->Name()) != "graph") {
     diag.error(file, root ? root->GetLineNum() : 1, "", "", "expected a <graph> root element");
-    return graph;
+    return nullptr;
   }
   graph.line = root->GetLineNum();
   check_attributes(root, {"name", "domain", "topic_prefix"}, file, "", diag);
@@ -202,112 +202,142 @@ GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics&
       graph.domain = v;
   }
   if (const char* t = root->Attribute("topic_prefix")) graph.topic_prefix = t;
+  return root;
+}
 
+void parse_param(const XMLElement* c, const std::string& file, Diagnostics& diag, NodeDecl& node) {
+  check_attributes(c, {"name", "value"}, file, node.name, diag);
+  const char* pn = c->Attribute("name");
+  const char* pv = c->Attribute("value");
+  if (!pv) pv = c->GetText();
+  if (!pn || !*pn) {
+    diag.error(file, c->GetLineNum(), node.name, "", "<param> needs a name attribute");
+    return;
+  }
+  if (!pv) {
+    diag.error(file, c->GetLineNum(), node.name, "", std::string("parameter '") + pn + "' has no value");
+    return;
+  }
+  node.params.push_back({pn, pv, c->GetLineNum()});
+}
+
+SyncDecl parse_sync(const XMLElement* c, const std::string& file, const std::string& node, Diagnostics& diag) {
+  check_attributes(c, {"inputs", "tolerance_ms"}, file, node, diag);
+  SyncDecl sync;
+  sync.line = c->GetLineNum();
+  // Not text::split_list: inputs may be separated by spaces as well as commas,
+  // and a tab or newline stays part of a name (reported as an unknown input).
+  std::string inputs = c->Attribute("inputs") ? c->Attribute("inputs") : "";
+  std::string item;
+  for (char ch : inputs + ",") {
+    if (ch == ',' || ch == ' ') {
+      if (!item.empty()) sync.inputs.push_back(item);
+      item.clear();
+    } else {
+      item += ch;
+    }
+  }
+  if (sync.inputs.size() < 2)
+    diag.error(file, sync.line, node, "", "<sync> needs inputs=\"a,b\" naming two or more inputs");
+  if (const char* tol = c->Attribute("tolerance_ms")) {
+    // Not text::parse_number: that would also take " 5" and "+5", which are errors here.
+    std::string t = tol;
+    auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), sync.tolerance_ms);
+    if (ec != std::errc() || ptr != t.data() + t.size() || sync.tolerance_ms < 0)
+      diag.error(file, sync.line, node, "", "tolerance_ms must be a number >= 0, got '" + t + "'");
+  }
+  return sync;
+}
+
+NodeDecl parse_node(const XMLElement* e, const std::string& file, Diagnostics& diag) {
+  NodeDecl node;
+  const int line = e->GetLineNum();
+  node.line = line;
+  const char* name = e->Attribute("name");
+  const char* plugin = e->Attribute("plugin");
+  if (!name || !*name) diag.error(file, line, "", "", "<node> needs a name attribute");
+  if (!plugin || !*plugin) diag.error(file, line, name ? name : "", "", "<node> needs a plugin attribute");
+  node.name = name ? name : "";
+  node.plugin = plugin ? plugin : "";
+  check_attributes(e, {"name", "plugin", "process", "on_error", "inline"}, file, node.name, diag);
+  if (const char* p = e->Attribute("process")) node.process = p;
+  if (const char* oe = e->Attribute("on_error")) {
+    std::string v = oe;
+    if (v == "stop") node.on_error = OnError::kStop;
+    else if (v == "skip") node.on_error = OnError::kSkip;
+    else diag.error(file, line, node.name, "", "on_error must be 'stop' or 'skip', got '" + v + "'");
+  }
+  if (const char* in = e->Attribute("inline")) {
+    std::string v = in;
+    if (v == "true") node.run_inline = true;
+    else if (v != "false") diag.error(file, line, node.name, "", "inline must be 'true' or 'false', got '" + v + "'");
+  }
+  for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    std::string ctag = c->Name();
+    if (ctag == "param")
+      parse_param(c, file, diag, node);
+    else if (ctag == "sync")
+      node.syncs.push_back(parse_sync(c, file, node.name, diag));
+    else
+      diag.error(file, c->GetLineNum(), node.name, "",
+                 "unknown element <" + ctag + "> in <node>; expected <param> or <sync>");
+  }
+  return node;
+}
+
+void parse_edge(const XMLElement* e, const std::string& file, Diagnostics& diag, GraphDecl& graph) {
+  const int line = e->GetLineNum();
+  check_attributes(e, {"from", "to", "queue", "delay", "qos"}, file, "", diag);
+  EdgeDecl edge;
+  edge.line = line;
+  bool ok = true;
+  if (!split_endpoint(e->Attribute("from"), edge.from_node, edge.from_port)) {
+    diag.error(file, line, "", "", "edge 'from' must be node.port, got '" +
+                                      std::string(e->Attribute("from") ? e->Attribute("from") : "") + "'");
+    ok = false;
+  }
+  if (!split_endpoint(e->Attribute("to"), edge.to_node, edge.to_port)) {
+    diag.error(file, line, "", "", "edge 'to' must be node.port, got '" +
+                                      std::string(e->Attribute("to") ? e->Attribute("to") : "") + "'");
+    ok = false;
+  }
+  if (const char* q = e->Attribute("queue")) edge.queue = q;
+  if (const char* q = e->Attribute("qos")) edge.qos = q;
+  if (const char* d = e->Attribute("delay")) {
+    std::string v = d;
+    if (v == "0") edge.delay = 0;
+    else if (v == "1") edge.delay = 1;
+    else diag.error(file, line, edge.to_node, edge.to_port, "delay must be 0 or 1, got '" + v + "'");
+  }
+  if (ok) graph.edges.push_back(std::move(edge));
+}
+
+void parse_process(const XMLElement* e, const std::string& file, Diagnostics& diag, GraphDecl& graph) {
+  const int line = e->GetLineNum();
+  check_attributes(e, {"name", "host"}, file, "", diag);
+  ProcessDecl process;
+  process.line = line;
+  if (const char* n = e->Attribute("name")) process.name = n;
+  if (const char* h = e->Attribute("host")) process.host = h;
+  if (process.name.empty()) diag.error(file, line, "", "", "<process> needs a name attribute");
+  else graph.processes.push_back(std::move(process));
+}
+
+GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics& diag) {
+  GraphDecl graph;
+  graph.file = file;
+  const XMLElement* root = parse_root(doc, file, diag, graph);
+  if (root == nullptr) return graph;
   for (const XMLElement* e = root->FirstChildElement(); e; e = e->NextSiblingElement()) {
     std::string tag = e->Name();
-    int line = e->GetLineNum();
-    if (tag == "node") {
-      NodeDecl node;
-      node.line = line;
-      const char* name = e->Attribute("name");
-      const char* plugin = e->Attribute("plugin");
-      if (!name || !*name) diag.error(file, line, "", "", "<node> needs a name attribute");
-      if (!plugin || !*plugin) diag.error(file, line, name ? name : "", "", "<node> needs a plugin attribute");
-      node.name = name ? name : "";
-      node.plugin = plugin ? plugin : "";
-      check_attributes(e, {"name", "plugin", "process", "on_error", "inline"}, file, node.name, diag);
-      if (const char* p = e->Attribute("process")) node.process = p;
-      if (const char* oe = e->Attribute("on_error")) {
-        std::string v = oe;
-        if (v == "stop") node.on_error = OnError::kStop;
-        else if (v == "skip") node.on_error = OnError::kSkip;
-        else diag.error(file, line, node.name, "", "on_error must be 'stop' or 'skip', got '" + v + "'");
-      }
-      if (const char* in = e->Attribute("inline")) {
-        std::string v = in;
-        if (v == "true") node.run_inline = true;
-        else if (v != "false") diag.error(file, line, node.name, "", "inline must be 'true' or 'false', got '" + v + "'");
-      }
-      for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
-        std::string ctag = c->Name();
-        if (ctag == "param") {
-          check_attributes(c, {"name", "value"}, file, node.name, diag);
-          const char* pn = c->Attribute("name");
-          const char* pv = c->Attribute("value");
-          if (!pv) pv = c->GetText();
-          if (!pn || !*pn) {
-            diag.error(file, c->GetLineNum(), node.name, "", "<param> needs a name attribute");
-            continue;
-          }
-          if (!pv) {
-            diag.error(file, c->GetLineNum(), node.name, "", std::string("parameter '") + pn + "' has no value");
-            continue;
-          }
-          node.params.push_back({pn, pv, c->GetLineNum()});
-        } else if (ctag == "sync") {
-          check_attributes(c, {"inputs", "tolerance_ms"}, file, node.name, diag);
-          SyncDecl sync;
-          sync.line = c->GetLineNum();
-          std::string inputs = c->Attribute("inputs") ? c->Attribute("inputs") : "";
-          std::string item;
-          for (char ch : inputs + ",") {
-            if (ch == ',' || ch == ' ') {
-              if (!item.empty()) sync.inputs.push_back(item);
-              item.clear();
-            } else {
-              item += ch;
-            }
-          }
-          if (sync.inputs.size() < 2)
-            diag.error(file, sync.line, node.name, "", "<sync> needs inputs=\"a,b\" naming two or more inputs");
-          if (const char* tol = c->Attribute("tolerance_ms")) {
-            std::string t = tol;
-            auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), sync.tolerance_ms);
-            if (ec != std::errc() || ptr != t.data() + t.size() || sync.tolerance_ms < 0)
-              diag.error(file, sync.line, node.name, "", "tolerance_ms must be a number >= 0, got '" + t + "'");
-          }
-          node.syncs.push_back(std::move(sync));
-        } else {
-          diag.error(file, c->GetLineNum(), node.name, "",
-                     "unknown element <" + ctag + "> in <node>; expected <param> or <sync>");
-        }
-      }
-      graph.nodes.push_back(std::move(node));
-    } else if (tag == "edge") {
-      check_attributes(e, {"from", "to", "queue", "delay", "qos"}, file, "", diag);
-      EdgeDecl edge;
-      edge.line = line;
-      bool ok = true;
-      if (!split_endpoint(e->Attribute("from"), edge.from_node, edge.from_port)) {
-        diag.error(file, line, "", "", "edge 'from' must be node.port, got '" +
-                                          std::string(e->Attribute("from") ? e->Attribute("from") : "") + "'");
-        ok = false;
-      }
-      if (!split_endpoint(e->Attribute("to"), edge.to_node, edge.to_port)) {
-        diag.error(file, line, "", "", "edge 'to' must be node.port, got '" +
-                                          std::string(e->Attribute("to") ? e->Attribute("to") : "") + "'");
-        ok = false;
-      }
-      if (const char* q = e->Attribute("queue")) edge.queue = q;
-      if (const char* q = e->Attribute("qos")) edge.qos = q;
-      if (const char* d = e->Attribute("delay")) {
-        std::string v = d;
-        if (v == "0") edge.delay = 0;
-        else if (v == "1") edge.delay = 1;
-        else diag.error(file, line, edge.to_node, edge.to_port, "delay must be 0 or 1, got '" + v + "'");
-      }
-      if (ok) graph.edges.push_back(std::move(edge));
-    } else if (tag == "process") {
-      check_attributes(e, {"name", "host"}, file, "", diag);
-      ProcessDecl process;
-      process.line = line;
-      if (const char* n = e->Attribute("name")) process.name = n;
-      if (const char* h = e->Attribute("host")) process.host = h;
-      if (process.name.empty()) diag.error(file, line, "", "", "<process> needs a name attribute");
-      else graph.processes.push_back(std::move(process));
-    } else {
-      diag.error(file, line, "", "", "unknown element <" + tag + ">; expected <node>, <edge> or <process>");
-    }
+    if (tag == "node")
+      graph.nodes.push_back(parse_node(e, file, diag));
+    else if (tag == "edge")
+      parse_edge(e, file, diag, graph);
+    else if (tag == "process")
+      parse_process(e, file, diag, graph);
+    else
+      diag.error(file, e->GetLineNum(), "", "", "unknown element <" + tag + ">; expected <node>, <edge> or <process>");
   }
   return graph;
 }
@@ -392,94 +422,97 @@ bool resolve_node(const NodeDecl& n, const Registry& registry, const std::string
                   ResolvedNode& rn) {
   std::size_t errors_before = diag.error_count();
   rn.decl = n;
-    const NodeTypeInfo* info = registry.find(n.plugin);
-    if (info == nullptr) {
-      std::string msg = "unknown plugin '" + n.plugin + "'" + did_you_mean(n.plugin, registry.types());
-      std::string lib = n.plugin.substr(0, n.plugin.find('.'));
-      for (const auto& e : registry.load_errors())
-        if (e.find("saccade_" + lib + ".so") != std::string::npos) msg += "; its library failed to load: " + e;
-      diag.error(file, n.line, n.name, "", msg);
-    } else {
-      rn.contract = info->contract;
-      // Parameters: every given one known and well-formed, every required one given.
-      std::set<std::string> given;
-      std::vector<std::string> known;
-      for (const auto& spec : rn.contract.params()) known.push_back(spec.name);
-      for (const auto& p : n.params) {
-        int line = p.line > 0 ? p.line : n.line;
-        const ParamSpec* spec = rn.contract.find_param(p.name);
-        if (spec == nullptr) {
-          diag.error(file, line, n.name, "", "unknown parameter '" + p.name + "' for plugin '" + n.plugin + "'" +
-                                                did_you_mean(p.name, known));
-          continue;
-        }
-        if (!given.insert(p.name).second) {
-          diag.error(file, line, n.name, "", "parameter '" + p.name + "' given twice");
-          continue;
-        }
-        std::string expand_error;
-        std::string value = expand_variables(p.value, file, &expand_error);
-        if (!expand_error.empty()) {
-          diag.error(file, line, n.name, "", "parameter '" + p.name + "': " + expand_error);
-          continue;
-        }
-        ParamValue v;
-        if (auto err = parse_param(*spec, value, v)) {
-          diag.error(file, line, n.name, "",
-                     "parameter '" + p.name + "' (" + std::string(to_string(spec->type)) + "): " + *err +
-                         (p.line == 0 ? " [from --set]" : ""));
-          continue;
-        }
-        rn.params.set(p.name, std::move(v));
+  const NodeTypeInfo* info = registry.find(n.plugin);
+  if (info == nullptr) {
+    std::string msg = "unknown plugin '" + n.plugin + "'" + did_you_mean(n.plugin, registry.types());
+    std::string lib = n.plugin.substr(0, n.plugin.find('.'));
+    for (const auto& e : registry.load_errors())
+      if (e.find("saccade_" + lib + ".so") != std::string::npos) msg += "; its library failed to load: " + e;
+    diag.error(file, n.line, n.name, "", msg);
+  } else {
+    rn.contract = info->contract;
+    // Parameters: every given one known and well-formed, every required one given.
+    std::set<std::string> given;
+    std::vector<std::string> known;
+    for (const auto& spec : rn.contract.params()) known.push_back(spec.name);
+    for (const auto& p : n.params) {
+      int line = p.line > 0 ? p.line : n.line;
+      const ParamSpec* spec = rn.contract.find_param(p.name);
+      if (spec == nullptr) {
+        diag.error(file, line, n.name, "", "unknown parameter '" + p.name + "' for plugin '" + n.plugin + "'" +
+                                              did_you_mean(p.name, known));
+        continue;
       }
-      for (const auto& spec : rn.contract.params()) {
-        if (given.count(spec.name)) continue;
-        if (spec.required) {
-          diag.error(file, n.line, n.name, "", "missing required parameter '" + spec.name + "' (" + spec.doc + ")");
-          continue;
-        }
-        if (spec.default_value.empty() && spec.type != ParamType::kString && spec.type != ParamType::kFlags)
-          continue;  // optional, no default: absent
-        ParamValue v;
-        std::string expand_error;
-        std::string value = expand_variables(spec.default_value, file, &expand_error);
-        if (auto err = parse_param(spec, value, v))
-          diag.error(file, n.line, n.name, "", "default of parameter '" + spec.name + "' is invalid: " + *err);
-        else
-          rn.params.set(spec.name, std::move(v));
+      if (!given.insert(p.name).second) {
+        diag.error(file, line, n.name, "", "parameter '" + p.name + "' given twice");
+        continue;
       }
-      // Sync groups name existing trigger inputs, each in one group at most.
-      std::set<std::string> in_group;
-      for (const auto& s : n.syncs) {
-        for (const auto& in : s.inputs) {
-          const PortSpec* port = rn.contract.find_input(in);
-          if (port == nullptr) {
-            std::vector<std::string> inputs;
-            for (const auto& ip : rn.contract.inputs()) inputs.push_back(ip.name);
-            diag.error(file, s.line, n.name, in, "<sync> names an unknown input" + did_you_mean(in, inputs));
-          } else if (port->kind == InputKind::kSide) {
-            diag.error(file, s.line, n.name, in, "<sync> cannot pair a side input");
-          } else if (!in_group.insert(in).second) {
-            diag.error(file, s.line, n.name, in, "input is in two sync groups");
-          }
+      std::string expand_error;
+      std::string value = expand_variables(p.value, file, &expand_error);
+      if (!expand_error.empty()) {
+        diag.error(file, line, n.name, "", "parameter '" + p.name + "': " + expand_error);
+        continue;
+      }
+      ParamValue v;
+      if (auto err = parse_param(*spec, value, v)) {
+        diag.error(file, line, n.name, "",
+                   "parameter '" + p.name + "' (" + std::string(to_string(spec->type)) + "): " + *err +
+                       (p.line == 0 ? " [from --set]" : ""));
+        continue;
+      }
+      rn.params.set(p.name, std::move(v));
+    }
+    for (const auto& spec : rn.contract.params()) {
+      if (given.count(spec.name)) continue;
+      if (spec.required) {
+        diag.error(file, n.line, n.name, "", "missing required parameter '" + spec.name + "' (" + spec.doc + ")");
+        continue;
+      }
+      if (spec.default_value.empty() && spec.type != ParamType::kString && spec.type != ParamType::kFlags)
+        continue;  // optional, no default: absent
+      ParamValue v;
+      std::string expand_error;
+      std::string value = expand_variables(spec.default_value, file, &expand_error);
+      if (auto err = parse_param(spec, value, v))
+        diag.error(file, n.line, n.name, "", "default of parameter '" + spec.name + "' is invalid: " + *err);
+      else
+        rn.params.set(spec.name, std::move(v));
+    }
+    // Sync groups name existing trigger inputs, each in one group at most.
+    std::set<std::string> in_group;
+    for (const auto& s : n.syncs) {
+      for (const auto& in : s.inputs) {
+        const PortSpec* port = rn.contract.find_input(in);
+        if (port == nullptr) {
+          std::vector<std::string> inputs;
+          for (const auto& ip : rn.contract.inputs()) inputs.push_back(ip.name);
+          diag.error(file, s.line, n.name, in, "<sync> names an unknown input" + did_you_mean(in, inputs));
+        } else if (port->kind == InputKind::kSide) {
+          diag.error(file, s.line, n.name, in, "<sync> cannot pair a side input");
+        } else if (!in_group.insert(in).second) {
+          diag.error(file, s.line, n.name, in, "input is in two sync groups");
         }
       }
     }
+  }
   return diag.error_count() == errors_before;
 }
 
-std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registry& registry, Diagnostics& diag) {
-  const std::string& file = graph.file;
-  ResolvedGraph out;
-  static_cast<GraphAttributes&>(out) = graph;
-  std::size_t errors_before = diag.error_count();
-  std::map<std::string, int> index;
-  std::vector<std::string> node_names;
+namespace {
 
+// Where each resolved node is, by name; and the names, for "did you mean".
+struct NodeIndex {
+  std::map<std::string, int> index;
+  std::vector<std::string> names;
+};
+
+NodeIndex resolve_nodes(const GraphDecl& graph, const Registry& registry, Diagnostics& diag, ResolvedGraph& out) {
+  const std::string& file = graph.file;
+  NodeIndex nodes;
   for (const auto& n : graph.nodes) {
     if (n.name.find('.') != std::string::npos)
       diag.error(file, n.line, n.name, "", "node names may not contain '.'");
-    if (index.count(n.name)) {
+    if (nodes.index.count(n.name)) {
       const NodeDecl* first = graph.find_node(n.name);
       diag.error(file, n.line, n.name, "",
                  "duplicate node name (first defined at line " + std::to_string(first->line) + ")");
@@ -487,12 +520,16 @@ std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registr
     }
     ResolvedNode rn;
     resolve_node(n, registry, file, diag, rn);
-    index[n.name] = static_cast<int>(out.nodes.size());
-    node_names.push_back(n.name);
+    nodes.index[n.name] = static_cast<int>(out.nodes.size());
+    nodes.names.push_back(n.name);
     out.nodes.push_back(std::move(rn));
   }
+  return nodes;
+}
 
-  // Processes: when the graph declares any, every node's process must be one of them.
+// When the graph declares processes, every node's process must be one of them.
+void check_processes(const GraphDecl& graph, Diagnostics& diag) {
+  const std::string& file = graph.file;
   std::vector<std::string> process_names;
   for (const auto& p : graph.processes) {
     if (std::find(process_names.begin(), process_names.end(), p.name) != process_names.end())
@@ -504,72 +541,92 @@ std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registr
       if (!n.process.empty() && std::find(process_names.begin(), process_names.end(), n.process) == process_names.end())
         diag.error(file, n.line, n.name, "",
                    "process '" + n.process + "' is not declared by a <process>" + did_you_mean(n.process, process_names));
+}
 
-  // Edges.
-  std::map<std::pair<int, int>, int> producer_line;
+// An edge's own attributes and its endpoint nodes; false when any is wrong.
+bool resolve_edge_decl(const EdgeDecl& e, const NodeIndex& nodes, const std::string& file, Diagnostics& diag,
+                       ResolvedEdge& re) {
+  re.line = e.line;
+  re.delay = e.delay;
+  re.qos = e.qos;
+  bool ok = true;
+  if (std::string qos_error; !e.qos.empty() && !parse_edge_qos(e.qos, EdgeQos{}, &qos_error)) {
+    diag.error(file, e.line, e.to_node, e.to_port, qos_error);
+    ok = false;
+  }
+  auto from = nodes.index.find(e.from_node);
+  auto to = nodes.index.find(e.to_node);
+  if (from == nodes.index.end()) {
+    diag.error(file, e.line, e.from_node, "", "edge from an unknown node" + did_you_mean(e.from_node, nodes.names));
+    ok = false;
+  }
+  if (to == nodes.index.end()) {
+    diag.error(file, e.line, e.to_node, "", "edge to an unknown node" + did_you_mean(e.to_node, nodes.names));
+    ok = false;
+  }
+  auto queue = parse_queue_spec(e.queue);
+  if (!queue) {
+    diag.error(file, e.line, e.to_node, e.to_port,
+               "queue must be latest, fifo:N or block:N (N from 1 to 65536), got '" + e.queue + "'");
+    ok = false;
+  } else {
+    re.queue = *queue;
+    if (e.delay == 1 && queue->policy == QueuePolicy::kBlock) {
+      diag.error(file, e.line, e.to_node, e.to_port, "a delayed (feedback) edge cannot block its producer");
+      ok = false;
+    }
+  }
+  if (!ok) return false;
+  re.from_node = from->second;
+  re.to_node = to->second;
+  return true;
+}
+
+// The edge's ports on its nodes' contracts, and their types agreeing; false
+// when the edge is to be dropped.
+bool resolve_edge_ports(const EdgeDecl& e, const ResolvedGraph& out, const std::string& file, Diagnostics& diag,
+                        ResolvedEdge& re) {
+  const ResolvedNode& fn = out.nodes[static_cast<std::size_t>(re.from_node)];
+  const ResolvedNode& tn = out.nodes[static_cast<std::size_t>(re.to_node)];
+  if (fn.contract.outputs().empty() && fn.contract.inputs().empty() && fn.contract.params().empty())
+    return false;  // unknown plugin, already reported
+  re.from_port = fn.contract.output_index(e.from_port);
+  re.to_port = tn.contract.input_index(e.to_port);
+  bool ok = true;
+  if (re.from_port < 0) {
+    std::vector<std::string> outs;
+    for (const auto& p : fn.contract.outputs()) outs.push_back(p.name);
+    std::string hint = fn.contract.find_input(e.from_port) ? " ('" + e.from_port + "' is an input)" : did_you_mean(e.from_port, outs);
+    diag.error(file, e.line, e.from_node, e.from_port, "unknown output port of plugin '" + fn.decl.plugin + "'" + hint);
+    ok = false;
+  }
+  if (re.to_port < 0 && !(tn.contract.outputs().empty() && tn.contract.inputs().empty() && tn.contract.params().empty())) {
+    std::vector<std::string> ins;
+    for (const auto& p : tn.contract.inputs()) ins.push_back(p.name);
+    std::string hint = tn.contract.find_output(e.to_port) ? " ('" + e.to_port + "' is an output)" : did_you_mean(e.to_port, ins);
+    diag.error(file, e.line, e.to_node, e.to_port, "unknown input port of plugin '" + tn.decl.plugin + "'" + hint);
+    ok = false;
+  }
+  if (!ok || re.to_port < 0) return false;
+  const PortSpec& op = fn.contract.outputs()[static_cast<std::size_t>(re.from_port)];
+  const PortSpec& ip = tn.contract.inputs()[static_cast<std::size_t>(re.to_port)];
+  if (!port_types_match(op.type, ip.type)) {
+    diag.error(file, e.line, e.to_node, e.to_port,
+               "type mismatch: " + e.from_node + "." + e.from_port + " produces " + op.type + ", input expects " + ip.type);
+    return false;
+  }
+  return true;
+}
+
+// The line of the edge feeding each (node, input).
+using ProducerLines = std::map<std::pair<int, int>, int>;
+
+ProducerLines resolve_edges(const GraphDecl& graph, const NodeIndex& nodes, Diagnostics& diag, ResolvedGraph& out) {
+  const std::string& file = graph.file;
+  ProducerLines producer_line;
   for (const auto& e : graph.edges) {
     ResolvedEdge re;
-    re.line = e.line;
-    re.delay = e.delay;
-    re.qos = e.qos;
-    bool ok = true;
-    if (std::string qos_error; !e.qos.empty() && !parse_edge_qos(e.qos, EdgeQos{}, &qos_error)) {
-      diag.error(file, e.line, e.to_node, e.to_port, qos_error);
-      ok = false;
-    }
-    auto from = index.find(e.from_node);
-    auto to = index.find(e.to_node);
-    if (from == index.end()) {
-      diag.error(file, e.line, e.from_node, "", "edge from an unknown node" + did_you_mean(e.from_node, node_names));
-      ok = false;
-    }
-    if (to == index.end()) {
-      diag.error(file, e.line, e.to_node, "", "edge to an unknown node" + did_you_mean(e.to_node, node_names));
-      ok = false;
-    }
-    auto queue = parse_queue_spec(e.queue);
-    if (!queue) {
-      diag.error(file, e.line, e.to_node, e.to_port,
-                 "queue must be latest, fifo:N or block:N (N from 1 to 65536), got '" + e.queue + "'");
-      ok = false;
-    } else {
-      re.queue = *queue;
-      if (e.delay == 1 && queue->policy == QueuePolicy::kBlock) {
-        diag.error(file, e.line, e.to_node, e.to_port, "a delayed (feedback) edge cannot block its producer");
-        ok = false;
-      }
-    }
-    if (!ok) continue;
-    re.from_node = from->second;
-    re.to_node = to->second;
-    const ResolvedNode& fn = out.nodes[static_cast<std::size_t>(re.from_node)];
-    const ResolvedNode& tn = out.nodes[static_cast<std::size_t>(re.to_node)];
-    if (fn.contract.outputs().empty() && fn.contract.inputs().empty() && fn.contract.params().empty())
-      continue;  // unknown plugin, already reported
-    re.from_port = fn.contract.output_index(e.from_port);
-    re.to_port = tn.contract.input_index(e.to_port);
-    if (re.from_port < 0) {
-      std::vector<std::string> outs;
-      for (const auto& p : fn.contract.outputs()) outs.push_back(p.name);
-      std::string hint = fn.contract.find_input(e.from_port) ? " ('" + e.from_port + "' is an input)" : did_you_mean(e.from_port, outs);
-      diag.error(file, e.line, e.from_node, e.from_port, "unknown output port of plugin '" + fn.decl.plugin + "'" + hint);
-      ok = false;
-    }
-    if (re.to_port < 0 && !(tn.contract.outputs().empty() && tn.contract.inputs().empty() && tn.contract.params().empty())) {
-      std::vector<std::string> ins;
-      for (const auto& p : tn.contract.inputs()) ins.push_back(p.name);
-      std::string hint = tn.contract.find_output(e.to_port) ? " ('" + e.to_port + "' is an output)" : did_you_mean(e.to_port, ins);
-      diag.error(file, e.line, e.to_node, e.to_port, "unknown input port of plugin '" + tn.decl.plugin + "'" + hint);
-      ok = false;
-    }
-    if (!ok || re.to_port < 0) continue;
-    const PortSpec& op = fn.contract.outputs()[static_cast<std::size_t>(re.from_port)];
-    const PortSpec& ip = tn.contract.inputs()[static_cast<std::size_t>(re.to_port)];
-    if (!port_types_match(op.type, ip.type)) {
-      diag.error(file, e.line, e.to_node, e.to_port,
-                 "type mismatch: " + e.from_node + "." + e.from_port + " produces " + op.type + ", input expects " + ip.type);
-      continue;
-    }
+    if (!resolve_edge_decl(e, nodes, file, diag, re) || !resolve_edge_ports(e, out, file, diag, re)) continue;
     auto key = std::make_pair(re.to_node, re.to_port);
     if (auto it = producer_line.find(key); it != producer_line.end()) {
       diag.error(file, e.line, e.to_node, e.to_port,
@@ -579,18 +636,23 @@ std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registr
     producer_line[key] = e.line;
     out.edges.push_back(re);
   }
+  return producer_line;
+}
 
-  // Required inputs connected.
+void check_required_inputs(const ResolvedGraph& out, const ProducerLines& producer_line, Diagnostics& diag) {
   for (std::size_t i = 0; i < out.nodes.size(); ++i) {
     const auto& n = out.nodes[i];
     for (std::size_t k = 0; k < n.contract.inputs().size(); ++k) {
       const auto& port = n.contract.inputs()[k];
       if (port.kind == InputKind::kTrigger && !producer_line.count({static_cast<int>(i), static_cast<int>(k)}))
-        diag.error(file, n.decl.line, n.decl.name, port.name, "required input is not connected (" + port.type + ": " + port.doc + ")");
+        diag.error(out.file, n.decl.line, n.decl.name, port.name,
+                   "required input is not connected (" + port.type + ": " + port.doc + ")");
     }
   }
+}
 
-  // Cycles must pass through a delayed edge.
+// Cycles must pass through a delayed edge; the first one found is reported.
+void check_cycles(const ResolvedGraph& out, Diagnostics& diag) {
   std::vector<std::vector<const ResolvedEdge*>> adj(out.nodes.size());
   for (const auto& e : out.edges)
     if (e.delay == 0) adj[static_cast<std::size_t>(e.from_node)].push_back(&e);
@@ -610,7 +672,7 @@ std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registr
           if (on) path += " -> " + out.nodes[static_cast<std::size_t>(s->to_node)].decl.name;
         }
         path += " -> " + out.nodes[static_cast<std::size_t>(v)].decl.name;
-        diag.error(file, e->line, out.nodes[static_cast<std::size_t>(v)].decl.name, "",
+        diag.error(out.file, e->line, out.nodes[static_cast<std::size_t>(v)].decl.name, "",
                    "cycle without a delayed edge: " + path + " (mark the feedback edge delay=\"1\")");
         cycle_reported = true;
         return;
@@ -625,7 +687,19 @@ std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registr
   };
   for (std::size_t i = 0; i < out.nodes.size() && !cycle_reported; ++i)
     if (state[i] == 0) dfs(static_cast<int>(i));
+}
 
+}  // namespace
+
+std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registry& registry, Diagnostics& diag) {
+  ResolvedGraph out;
+  static_cast<GraphAttributes&>(out) = graph;
+  std::size_t errors_before = diag.error_count();
+  NodeIndex nodes = resolve_nodes(graph, registry, diag, out);
+  check_processes(graph, diag);
+  ProducerLines producer_line = resolve_edges(graph, nodes, diag, out);
+  check_required_inputs(out, producer_line, diag);
+  check_cycles(out, diag);
   if (diag.error_count() > errors_before) return std::nullopt;
   return out;
 }
