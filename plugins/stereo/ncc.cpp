@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <limits>
 #include <string_view>
 #include <vector>
 
@@ -15,6 +14,7 @@
 
 #include "saccade/fill.hpp"
 #include "saccade/simd.hpp"
+#include "sgm.hpp"
 
 namespace saccade::stereo {
 
@@ -234,10 +234,6 @@ void box_stats(const cv::Mat& src, int r, cv::Mat& mean, cv::Mat& stddev, std::v
   col2.assign(2 * static_cast<std::size_t>(w), 0.0f);
   box_stats_rows(src.ptr<float>(), w, w, src.rows, r, mean.ptr<float>(), stddev.ptr<float>(), col.data(), col2.data());
 }
-
-}  // namespace
-
-namespace {
 
 // Where one direction searches: the rows, columns and disparities of its
 // pixels that have a range and texture.
@@ -591,19 +587,6 @@ SACCADE_AVX2_CLONE void sweep_plane(const SweepArgs& a, int d, int xs, int xe) {
   }
 }
 
-// The sweep's result: the correlation of left pixel x with right pixel x - d
-// at data[(d - d_min) * plane + y * width + x], computed for the columns
-// span_lo[d - d_min] .. span_hi[d - d_min] of rows y0 .. y1.
-struct Volume {
-  const float* data;
-  std::size_t plane;
-  int width, d_min, d_max;
-  const int *span_lo, *span_hi;
-  bool has(int d, int x) const {
-    return d >= d_min && d <= d_max && x >= span_lo[d - d_min] && x <= span_hi[d - d_min];
-  }
-};
-
 // What one side's pick reads: one of the sweep's volumes, whose planes hold
 // the correlation of each pair that side's pixel searches at that disparity,
 // or -2 (not searched, a flat window, or a pair the sweep did not compute:
@@ -845,181 +828,111 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
   }
 }
 
-// One step of a path of the semi-global aggregation: the path's costs at a
-// pixel from its costs at the previous pixel on the path (prev, with one
-// padding entry either side holding a large value) and the pixel's own.
-SACCADE_AVX2_CLONE void path_step(float* __restrict out, const float* __restrict cost, const float* __restrict prev,
-                                  int n, float p1, float p2) {
-  float prev_min = prev[1];
-  for (int d = 1; d < n; ++d) prev_min = std::min(prev_min, prev[d + 1]);
-  const float jump = prev_min + p2;
-  for (int d = 0; d < n; ++d) {
-    const float step = std::min(prev[d], prev[d + 2]) + p1;
-    out[d] = cost[d] + std::min(std::min(prev[d + 1], step), jump) - prev_min;
-  }
-}
-
-// Semi-global aggregation over the left pixels of `box` (rows y0 .. y1,
-// columns x0 .. x1), disparities d_min .. d_max: costs 1 - NCC where the sweep
-// computed the pair, 1 (no preference) where a window was too flat, and a
-// prohibitive cost outside the pixel's range; four paths (along the rows
-// both ways, along the columns both ways), or eight (and the diagonals both
-// ways), summed into `aggregated`, at [((y - y0) * cols + x - x0) * count +
-// d - d_min].
-void aggregate(const Search& box, const Volume& volume, const cv::Mat& lo, const cv::Mat& hi, float p1, float p2,
-               int paths, NccScratch& scratch) {
-  constexpr float kOutside = 16.0f, kFlat = 1.0f;
-  const int rows = box.y1 - box.y0 + 1, cols = box.x1 - box.x0 + 1, count = volume.d_max - volume.d_min + 1;
-  const std::size_t pixel_count = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols);
-  std::vector<float>& cost = scratch.cost;
-  std::vector<float>& sum = scratch.aggregated;
-  cost.resize(pixel_count * static_cast<std::size_t>(count));
-  sum.assign(cost.size(), 0.0f);
-  for (int y = box.y0; y <= box.y1; ++y) {
-    const int* l = lo.ptr<int>(y);
-    const int* u = hi.ptr<int>(y);
-    for (int x = box.x0; x <= box.x1; ++x) {
-      float* c = cost.data() + (static_cast<std::size_t>(y - box.y0) * cols + (x - box.x0)) * count;
-      for (int i = 0; i < count; ++i) {
-        const int d = volume.d_min + i;
-        if (d < l[x] || d > u[x]) {
-          c[i] = kOutside;
-          continue;
-        }
-        const float ncc = volume.has(d, x) ? volume.data[static_cast<std::size_t>(i) * volume.plane +
-                                                         static_cast<std::size_t>(y) * volume.width + x]
-                                           : -2.0f;
-        c[i] = ncc > -2.0f ? 1.0f - ncc : kFlat;
-      }
-    }
-  }
-  // A path's previous costs, padded either side so that d - 1 and d + 1 read
-  // something: two entries for the paths along rows, two rows' worth for the
-  // others (the row before is still read while this one is written).
-  std::vector<float>& current = scratch.path;
-  std::vector<float>& rows_of_paths = scratch.path_rows;
-  const int stride = count + 2;
-  current.assign(static_cast<std::size_t>(stride) * 2, kOutside);
-  rows_of_paths.assign(2 * static_cast<std::size_t>(cols) * stride, kOutside);
-  auto add = [&](std::size_t pixel, const float* values) {
-    float* s_out = sum.data() + pixel * count;
-    for (int i = 0; i < count; ++i) s_out[i] += values[i];
-  };
-  // Along the rows, left to right and right to left.
-  for (int y = 0; y < rows; ++y)
-    for (int dir = 0; dir < 2; ++dir) {
-      float* prev = current.data();
-      float* next = current.data() + stride;
-      for (int k = 0; k < cols; ++k) {
-        const int x = dir == 0 ? k : cols - 1 - k;
-        const std::size_t pixel = static_cast<std::size_t>(y) * cols + x;
-        const float* c = cost.data() + pixel * count;
-        if (k == 0) std::copy(c, c + count, next + 1);
-        else path_step(next + 1, c, prev, count, p1, p2);
-        add(pixel, next + 1);
-        std::swap(prev, next);
-      }
-    }
-  // Down and up the columns (lean 0), then with eight paths along the
-  // diagonals (leaning left and right): a row of paths at a time, each
-  // pixel's from the row before's, `lean` columns to the side.
-  struct Path {
-    int dir, lean;
-  };
-  constexpr Path kPaths[] = {{0, 0}, {1, 0}, {0, -1}, {0, 1}, {1, -1}, {1, 1}};
-  for (const Path& path : kPaths) {
-    if (path.lean != 0 && paths < 8) break;
-    float* before = rows_of_paths.data();
-    float* now = rows_of_paths.data() + static_cast<std::size_t>(cols) * stride;
-    for (int k = 0; k < rows; ++k) {
-      const int y = path.dir == 0 ? k : rows - 1 - k;
-      for (int x = 0; x < cols; ++x) {
-        const std::size_t pixel = static_cast<std::size_t>(y) * cols + x;
-        const float* c = cost.data() + pixel * count;
-        float* next = now + static_cast<std::size_t>(x) * stride;
-        const int from = x - path.lean;
-        if (k == 0 || from < 0 || from >= cols) std::copy(c, c + count, next + 1);
-        else path_step(next + 1, c, before + static_cast<std::size_t>(from) * stride, count, p1, p2);
-        add(pixel, next + 1);
-      }
-      std::swap(before, now);
-    }
-  }
-}
-
-// Both directions' disparities from the aggregated costs: each left pixel
-// the smallest in its range, each right pixel the smallest among the pairs
-// the left pixels search; a parabola through the costs either side. Scores:
-// the NCC at the chosen pair where the sweep computed one, 0 otherwise.
-void pick_aggregated(const Search& box, const Volume& volume, const cv::Mat& lo, const cv::Mat& hi,
-                     const NccConfig& config, const NccScratch& scratch, cv::Mat& disparity_lr, cv::Mat& score_lr,
-                     cv::Mat& disparity_rl, cv::Mat& score_rl) {
-  const int cols = box.x1 - box.x0 + 1, count = volume.d_max - volume.d_min + 1;
-  const int w = lo.cols;
-  const std::vector<float>& sum = scratch.aggregated;
-  auto at = [&](int y, int x, int i) {
-    return sum[(static_cast<std::size_t>(y - box.y0) * cols + (x - box.x0)) * count + i];
-  };
-  auto ncc = [&](int y, int x, int d) {
-    if (!volume.has(d, x)) return 0.0f;
-    const float v = volume.data[static_cast<std::size_t>(d - volume.d_min) * volume.plane +
-                                static_cast<std::size_t>(y) * volume.width + x];
-    return v > -2.0f ? v : 0.0f;
-  };
-  auto refine = [&](float c0, float c1, float c2) {
-    const float denom = c0 - 2 * c1 + c2;
-    return config.subpixel && denom > 0 ? std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f) : 0.0f;
-  };
+// Outputs where nothing matched.
+void unmatched(cv::Size size, cv::Mat& disparity_lr, cv::Mat& score_lr, cv::Mat& disparity_rl, cv::Mat& score_rl) {
   for (cv::Mat* m : {&disparity_lr, &score_lr, &disparity_rl, &score_rl}) {
-    m->create(lo.size(), CV_32F);
+    m->create(size, CV_32F);
     fill(*m, -1);
   }
-  for (int y = box.y0; y <= box.y1; ++y) {
-    const int* l = lo.ptr<int>(y);
-    const int* u = hi.ptr<int>(y);
-    float* out_d = disparity_lr.ptr<float>(y);
-    float* out_s = score_lr.ptr<float>(y);
-    for (int x = box.x0; x <= box.x1; ++x) {
-      const int first = std::max(l[x], volume.d_min) - volume.d_min, last = std::min(u[x], volume.d_max) - volume.d_min;
-      if (last < first) continue;
-      int best = first;
-      for (int i = first + 1; i <= last; ++i)
-        if (at(y, x, i) < at(y, x, best)) best = i;
-      const float step = best > first && best < last ? refine(at(y, x, best - 1), at(y, x, best), at(y, x, best + 1)) : 0.0f;
-      out_d[x] = static_cast<float>(best + volume.d_min) + step;
-      out_s[x] = ncc(y, x, best + volume.d_min);
-    }
-    // Right pixel xr at d is left pixel xr + d.
-    float* back_d = disparity_rl.ptr<float>(y);
-    float* back_s = score_rl.ptr<float>(y);
-    for (int xr = 0; xr < w; ++xr) {
-      int best = -1;
-      float best_cost = 0;
-      auto wanted = [&](int i) {
-        const int d = i + volume.d_min, x = xr + d;
-        return x >= box.x0 && x <= box.x1 && d >= l[x] && d <= u[x];
-      };
-      for (int i = 0; i < count; ++i) {
-        if (!wanted(i)) continue;
-        const float c = at(y, xr + i + volume.d_min, i);
-        if (best < 0 || c < best_cost) {
-          best = i;
-          best_cost = c;
-        }
-      }
-      if (best < 0) continue;
-      float step = 0.0f;
-      if (best > 0 && best + 1 < count && wanted(best - 1) && wanted(best + 1))
-        step = refine(at(y, xr + best - 1 + volume.d_min, best - 1), best_cost, at(y, xr + best + 1 + volume.d_min, best + 1));
-      back_d[xr] = static_cast<float>(best + volume.d_min) + step;
-      back_s[xr] = ncc(y, xr + best + volume.d_min, best + volume.d_min);
-    }
-  }
 }
 
-}  // namespace
+// Where the right pixels search: within their own ranges, or without any
+// (lo_rl null) wherever a left pixel's search reaches.
+Search right_search(const Search& lr, const cv::Mat* lo_rl, const cv::Mat* hi_rl, const cv::Mat& stddev, int r,
+                    float min_texture, int w) {
+  if (lo_rl != nullptr) return bounds(*lo_rl, *hi_rl, stddev, r, min_texture);
+  Search rl;
+  if (lr.active()) {
+    rl = lr;
+    rl.x0 = std::max(r, lr.x0 - lr.d_max);
+    rl.x1 = std::min(w - 1 - r, lr.x1 - lr.d_min);
+  }
+  return rl;
+}
 
-namespace {
+// The rows and disparities one sweep covers: all that either side searches
+// (no disparities where neither searches anything).
+struct SweepExtent {
+  int y0, y1, d_min, count;
+};
+
+SweepExtent sweep_extent(const Search& lr, const Search& rl, int h) {
+  const int y0 = std::min(lr.active() ? lr.y0 : h, rl.active() ? rl.y0 : h);
+  const int y1 = std::max(lr.y1, rl.y1);
+  const int d_min = std::min(lr.active() ? lr.d_min : (1 << 30), rl.active() ? rl.d_min : (1 << 30));
+  const int d_max = std::max(lr.active() ? lr.d_max : -(1 << 30), rl.active() ? rl.d_max : -(1 << 30));
+  return {.y0 = y0, .y1 = y1, .d_min = d_min, .count = y1 >= y0 ? d_max - d_min + 1 : 0};
+}
+
+// The sweep's buffers, grown to `count` planes and no plane computed yet;
+// returns the left pixels' volume. That volume has a row's worth and a vector
+// either side: the right pixels read it along its diagonal, up to a row
+// beyond its planes (lanes outside the planes' spans, whose values are not
+// used).
+float* sweep_buffers(NccScratch& scratch, int w, std::size_t plane, int count, bool implicit) {
+  const std::size_t guard = static_cast<std::size_t>(w) + 8;
+  if (scratch.volume.size() < plane * static_cast<std::size_t>(count) + 2 * guard)
+    scratch.volume.resize(plane * static_cast<std::size_t>(count) + 2 * guard);
+  if (!implicit && scratch.volume_rl.size() < plane * static_cast<std::size_t>(count))
+    scratch.volume_rl.resize(plane * static_cast<std::size_t>(count));
+  scratch.col.assign(2 * static_cast<std::size_t>(w), 0.0f);
+  scratch.span_lo.assign(static_cast<std::size_t>(count), 0);
+  scratch.span_hi.assign(static_cast<std::size_t>(count), -1);
+  return scratch.volume.data() + guard;
+}
+
+// What every plane of the sweep reads; each plane then sets where it writes.
+// The images are match's own (continuous, rows of w); the ranges the caller's.
+SweepArgs sweep_args(NccScratch& scratch, const cv::Mat& lo_lr, const cv::Mat& hi_lr, const cv::Mat* lo_rl,
+                     const cv::Mat* hi_rl, int r, const SweepExtent& extent, const NccConfig& config) {
+  const bool implicit = lo_rl == nullptr;
+  CV_Assert(hi_lr.step1() == lo_lr.step1() && (implicit || hi_rl->step1() == lo_rl->step1()));
+  for (const cv::Mat* m : {&scratch.ref_f, &scratch.other_f, &scratch.ref_mean, &scratch.ref_std, &scratch.other_mean,
+                           &scratch.other_std})
+    CV_Assert(m->isContinuous());
+  const int w = scratch.ref_f.cols;
+  return {
+      .left = scratch.ref_f.ptr<float>(),
+      .right = scratch.other_f.ptr<float>(),
+      .left_mean = scratch.ref_mean.ptr<float>(),
+      .left_std = scratch.ref_std.ptr<float>(),
+      .right_mean = scratch.other_mean.ptr<float>(),
+      .right_std = scratch.other_std.ptr<float>(),
+      .image_step = w,
+      .lo_lr = lo_lr.ptr<int>(),
+      .hi_lr = hi_lr.ptr<int>(),
+      .lo_rl = implicit ? nullptr : lo_rl->ptr<int>(),
+      .hi_rl = implicit ? nullptr : hi_rl->ptr<int>(),
+      .lr_step = static_cast<std::ptrdiff_t>(lo_lr.step1()),
+      .rl_step = implicit ? 0 : static_cast<std::ptrdiff_t>(lo_rl->step1()),
+      .col = scratch.col.data(),
+      .col_stride = w,
+      .volume_lr = nullptr,
+      .volume_rl = nullptr,
+      .r = r,
+      .y0 = extent.y0,
+      .y1 = extent.y1,
+      .inv_n = 1.0f / static_cast<float>(config.window * config.window),
+      .min_texture = config.min_texture,
+  };
+}
+
+// Left pixels x paired with right pixels x - d at disparity d: those either
+// side wants, with both windows inside the images (none where xe < xs).
+void sweep_columns(const Search& lr, const Search& rl, bool implicit, int d, int r, int w, int& xs, int& xe) {
+  xs = w;
+  xe = -1;
+  if (lr.wants(d)) {
+    xs = std::min(xs, lr.x0);
+    xe = std::max(xe, lr.x1);
+  }
+  if (!implicit && rl.wants(d)) {
+    xs = std::min(xs, rl.x0 + d);
+    xe = std::max(xe, rl.x1 + d);
+  }
+  xs = std::max({xs, r, r + d});
+  xe = std::min({xe, w - r - 1, w - r - 1 + d});
+}
 
 // Both directions in one sweep. lo_rl and hi_rl null: the right pixels take
 // exactly the pairs the left pixels search.
@@ -1030,14 +943,10 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   CV_Assert((lo_rl == nullptr) == (hi_rl == nullptr));
   for (const cv::Mat* m : {&lo_lr, &hi_lr, lo_rl, hi_rl})
     if (m != nullptr) CV_Assert(m->size() == left.size() && m->type() == CV_32S);
-  const int r = config.window / 2, n = config.window * config.window;
+  const int r = config.window / 2;
   const int w = left.cols, h = left.rows;
-  const float min_texture = config.min_texture;
   if (w < 2 * r + 1 || h < 2 * r + 1) {
-    for (cv::Mat* m : {&disparity_lr, &score_lr, &disparity_rl, &score_rl}) {
-      m->create(left.size(), CV_32F);
-      fill(*m, -1);
-    }
+    unmatched(left.size(), disparity_lr, score_lr, disparity_rl, score_rl);
     return;
   }
   // Centred values keep the float sums of products exact enough.
@@ -1045,108 +954,62 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
   right.convertTo(scratch.other_f, CV_32F, 1.0, -128.0);
   box_stats(scratch.ref_f, r, scratch.ref_mean, scratch.ref_std, scratch.col, scratch.col2);
   box_stats(scratch.other_f, r, scratch.other_mean, scratch.other_std, scratch.col, scratch.col2);
-  const Search lr = bounds(lo_lr, hi_lr, scratch.ref_std, r, min_texture);
+  const Search lr = bounds(lo_lr, hi_lr, scratch.ref_std, r, config.min_texture);
   const bool implicit = lo_rl == nullptr;
-  Search rl;
-  if (!implicit) {
-    rl = bounds(*lo_rl, *hi_rl, scratch.other_std, r, min_texture);
-  } else if (lr.active()) {
-    // The right pixels any left pixel's search reaches.
-    rl = lr;
-    rl.x0 = std::max(r, lr.x0 - lr.d_max);
-    rl.x1 = std::min(w - 1 - r, lr.x1 - lr.d_min);
-  }
+  const Search rl = right_search(lr, lo_rl, hi_rl, scratch.other_std, r, config.min_texture, w);
   // One sweep over the disparities either direction wants fills the volume
   // of correlations; each direction then picks its best from it. The left
   // pixel x at d and the right pixel x - d at d share one correlation.
-  const int y0 = std::min(lr.active() ? lr.y0 : h, rl.active() ? rl.y0 : h);
-  const int y1 = std::max(lr.y1, rl.y1);
-  const int d_min = std::min(lr.active() ? lr.d_min : (1 << 30), rl.active() ? rl.d_min : (1 << 30));
-  const int d_max = std::max(lr.active() ? lr.d_max : -(1 << 30), rl.active() ? rl.d_max : -(1 << 30));
-  const int count = y1 >= y0 ? d_max - d_min + 1 : 0;
+  const SweepExtent extent = sweep_extent(lr, rl, h);
   const std::size_t plane = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
-  // The left pixels' volume has a row's worth and a vector either side: the
-  // right pixels read it along its diagonal, up to a row beyond its planes
-  // (lanes outside the planes' spans, whose values are not used).
-  const std::size_t guard = static_cast<std::size_t>(w) + 8;
-  if (scratch.volume.size() < plane * static_cast<std::size_t>(count) + 2 * guard)
-    scratch.volume.resize(plane * static_cast<std::size_t>(count) + 2 * guard);
-  if (!implicit && scratch.volume_rl.size() < plane * static_cast<std::size_t>(count))
-    scratch.volume_rl.resize(plane * static_cast<std::size_t>(count));
-  float* const volume_lr = scratch.volume.data() + guard;
-  scratch.col.assign(2 * static_cast<std::size_t>(w), 0.0f);
-  scratch.span_lo.assign(static_cast<std::size_t>(count), 0);
-  scratch.span_hi.assign(static_cast<std::size_t>(count), -1);
-  // Every image here was created by this function: continuous, rows of w.
-  SweepArgs args{scratch.ref_f.ptr<float>(), scratch.other_f.ptr<float>(), scratch.ref_mean.ptr<float>(),
-                 scratch.ref_std.ptr<float>(), scratch.other_mean.ptr<float>(), scratch.other_std.ptr<float>(), w,
-                 lo_lr.ptr<int>(), hi_lr.ptr<int>(), implicit ? nullptr : lo_rl->ptr<int>(),
-                 implicit ? nullptr : hi_rl->ptr<int>(), static_cast<std::ptrdiff_t>(lo_lr.step1()),
-                 implicit ? 0 : static_cast<std::ptrdiff_t>(lo_rl->step1()), scratch.col.data(), w, nullptr, nullptr, r,
-                 y0, y1, 1.0f / static_cast<float>(n), min_texture};
-  CV_Assert(hi_lr.step1() == lo_lr.step1() && (implicit || hi_rl->step1() == lo_rl->step1()));
-  for (const cv::Mat* m : {&scratch.ref_f, &scratch.other_f, &scratch.ref_mean, &scratch.ref_std, &scratch.other_mean,
-                           &scratch.other_std})
-    CV_Assert(m->isContinuous());
-  for (int d = d_min; d < d_min + count; ++d) {
-    // Left pixels x paired with right pixels x - d: those either direction
-    // wants at this disparity, with both windows inside the images.
-    int xs = w, xe = -1;
-    if (lr.wants(d)) {
-      xs = std::min(xs, lr.x0);
-      xe = std::max(xe, lr.x1);
-    }
-    if (!implicit && rl.wants(d)) {
-      xs = std::min(xs, rl.x0 + d);
-      xe = std::max(xe, rl.x1 + d);
-    }
-    xs = std::max({xs, r, r + d});
-    xe = std::min({xe, w - r - 1, w - r - 1 + d});
+  float* const volume_lr = sweep_buffers(scratch, w, plane, extent.count, implicit);
+  SweepArgs args = sweep_args(scratch, lo_lr, hi_lr, lo_rl, hi_rl, r, extent, config);
+  for (int d = extent.d_min; d < extent.d_min + extent.count; ++d) {
+    int xs, xe;
+    sweep_columns(lr, rl, implicit, d, r, w, xs, xe);
     if (xe < xs) continue;
-    scratch.span_lo[static_cast<std::size_t>(d - d_min)] = xs;
-    scratch.span_hi[static_cast<std::size_t>(d - d_min)] = xe;
-    args.volume_lr = volume_lr + static_cast<std::size_t>(d - d_min) * plane;
-    args.volume_rl = implicit ? nullptr : scratch.volume_rl.data() + static_cast<std::size_t>(d - d_min) * plane;
+    const std::size_t i = static_cast<std::size_t>(d - extent.d_min);
+    scratch.span_lo[i] = xs;
+    scratch.span_hi[i] = xe;
+    args.volume_lr = volume_lr + i * plane;
+    args.volume_rl = implicit ? nullptr : scratch.volume_rl.data() + i * plane;
     sweep_plane(args, d, xs, xe);
   }
-  const Volume volume{volume_lr, plane, w, d_min, d_min + count - 1, scratch.span_lo.data(),
-                      scratch.span_hi.data()};
   if (implicit && config.semi_global && lr.active()) {
-    // Every pixel with a range takes part, flat ones too: their neighbours decide.
-    Search box = lr;
-    box.y0 = box.x0 = std::numeric_limits<int>::max();
-    box.y1 = box.x1 = -1;
-    for (int y = r; y < h - r; ++y) {
-      const int* l = lo_lr.ptr<int>(y);
-      const int* u = hi_lr.ptr<int>(y);
-      for (int x = r; x < w - r; ++x) {
-        if (u[x] < l[x]) continue;
-        box.y0 = std::min(box.y0, y);
-        box.y1 = y;
-        box.x0 = std::min(box.x0, x);
-        box.x1 = std::max(box.x1, x);
-      }
-    }
-    aggregate(box, volume, lo_lr, hi_lr, config.p1, config.p2, config.paths, scratch);
-    pick_aggregated(box, volume, lo_lr, hi_lr, config, scratch, disparity_lr, score_lr, disparity_rl, score_rl);
+    const SweepVolume volume{.data = volume_lr,
+                             .plane = plane,
+                             .width = w,
+                             .d_min = extent.d_min,
+                             .d_max = extent.d_min + extent.count - 1,
+                             .span_lo = scratch.span_lo.data(),
+                             .span_hi = scratch.span_hi.data()};
+    semi_global_match(volume, lo_lr, hi_lr, r, config, scratch, disparity_lr, score_lr, disparity_rl, score_rl);
     return;
   }
-  for (cv::Mat* m : {&disparity_lr, &score_lr, &disparity_rl, &score_rl}) {
-    m->create(left.size(), CV_32F);
-    fill(*m, -1);
-  }
+  unmatched(left.size(), disparity_lr, score_lr, disparity_rl, score_rl);
   // Each side picks from the volume indexed by its own pixels; every output
   // here was created above: continuous, rows of w.
-  PickArgs pick_args{volume_lr, static_cast<std::ptrdiff_t>(plane), w, d_min, count, scratch.span_lo.data(),
-                     scratch.span_hi.data(), 0, 0, config.min_score, config.subpixel, disparity_lr.ptr<float>(),
-                     score_lr.ptr<float>()};
-  if (lr.active()) pick(pick_args, lr.y0, lr.y1, lr.x0, lr.x1, w);
-  pick_args.volume = implicit ? volume_lr : scratch.volume_rl.data();
-  pick_args.right_side = 1;
-  pick_args.diagonal = implicit ? 1 : 0;
-  pick_args.disparity = disparity_rl.ptr<float>();
-  pick_args.score = score_rl.ptr<float>();
-  if (rl.active()) pick(pick_args, rl.y0, rl.y1, rl.x0, rl.x1, w);
+  const PickArgs left_pick{.volume = volume_lr,
+                           .plane = static_cast<std::ptrdiff_t>(plane),
+                           .step = w,
+                           .d_min = extent.d_min,
+                           .count = extent.count,
+                           .span_lo = scratch.span_lo.data(),
+                           .span_hi = scratch.span_hi.data(),
+                           .right_side = 0,
+                           .diagonal = 0,
+                           .min_score = config.min_score,
+                           .subpixel = config.subpixel,
+                           .disparity = disparity_lr.ptr<float>(),
+                           .score = score_lr.ptr<float>()};
+  if (lr.active()) pick(left_pick, lr.y0, lr.y1, lr.x0, lr.x1, w);
+  PickArgs right_pick = left_pick;
+  right_pick.volume = implicit ? volume_lr : scratch.volume_rl.data();
+  right_pick.right_side = 1;
+  right_pick.diagonal = implicit ? 1 : 0;
+  right_pick.disparity = disparity_rl.ptr<float>();
+  right_pick.score = score_rl.ptr<float>();
+  if (rl.active()) pick(right_pick, rl.y0, rl.y1, rl.x0, rl.x1, w);
 }
 
 }  // namespace

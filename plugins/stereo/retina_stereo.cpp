@@ -187,6 +187,85 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
   }
 }
 
+namespace {
+
+// The mean and (population) deviation of a window's pixels.
+void mean_and_deviation(const cv::Mat& window, double& mean, double& deviation) {
+  double sum = 0, sq = 0;
+  for (int y = 0; y < window.rows; ++y) {
+    const uint8_t* a = window.ptr<uint8_t>(y);
+    for (int x = 0; x < window.cols; ++x) {
+      sum += a[x];
+      sq += static_cast<double>(a[x]) * a[x];
+    }
+  }
+  const double area = static_cast<double>(window.cols) * window.rows;
+  mean = sum / area;
+  deviation = std::sqrt(std::max(0.0, sq / area - mean * mean));
+}
+
+// Where between samples the peak at `best` lies: the vertex of the parabola
+// through it and its neighbours, where both were measured (> -2) and it
+// opens downwards; 0 otherwise.
+double peak_offset(const std::vector<float>& samples, int best) {
+  if (best <= 0 || best + 1 >= static_cast<int>(samples.size())) return 0.0;
+  const double a = samples[static_cast<std::size_t>(best - 1)], b = samples[static_cast<std::size_t>(best)],
+               c = samples[static_cast<std::size_t>(best + 1)];
+  const double den = a - 2 * b + c;
+  return den < 0 && a > -2 && c > -2 ? std::clamp(0.5 * (a - c) / den, -0.5, 0.5) : 0.0;
+}
+
+}  // namespace
+
+// The fixation window's NCC (its mean and deviation given) at every shift
+// s_lo .. s_hi into samples_ (-2 where the strip is too flat there); returns
+// the best shift's index in samples_, or -1. The cross term at a shift is
+// the sum of products less the mean times the strip's sum there (the
+// window's values less their mean sum to zero).
+int RetinaStereo::correlate_window(const cv::Mat& window, const cv::Mat& strip, double wm, double ws, int s_lo,
+                                   int s_hi) {
+  const int ww = window.cols, wh = window.rows;
+  const double area = static_cast<double>(ww) * wh;
+  const int count = s_hi - s_lo + 1;
+  const int strip_cols = strip.cols;
+  samples_.assign(static_cast<std::size_t>(count), -2.0f);
+  // Whole vectors of eight shifts; the strip's rows padded for the last one.
+  const int count8 = (count + 7) / 8 * 8;
+  const std::ptrdiff_t stride = ww + count8;
+  products_.resize(static_cast<std::size_t>(count8));
+  column_sum_.resize(static_cast<std::size_t>(strip_cols));
+  column_sq_.resize(static_cast<std::size_t>(strip_cols));
+  strip32_.resize(static_cast<std::size_t>(stride * wh));
+  // Shift s pairs window column x with strip column x + s_hi - s.
+  window_products(window.ptr<uint8_t>(), static_cast<std::ptrdiff_t>(window.step), ww, wh, strip.ptr<uint8_t>(),
+                  static_cast<std::ptrdiff_t>(strip.step), strip_cols, count, strip32_.data(), stride,
+                  products_.data(), column_sum_.data(), column_sq_.data());
+  int best = -1;
+  // The strip's sums over the window's columns, slid one column per shift
+  // (whole numbers: exact).
+  int64_t sum = 0, sq = 0;
+  for (int x = 0; x < ww; ++x) {
+    sum += column_sum_[static_cast<std::size_t>(s_hi - s_lo + x)];
+    sq += column_sq_[static_cast<std::size_t>(s_hi - s_lo + x)];
+  }
+  for (int s = s_lo; s <= s_hi; ++s) {
+    const int x0s = s_hi - s;
+    if (s > s_lo) {
+      sum += column_sum_[static_cast<std::size_t>(x0s)] - column_sum_[static_cast<std::size_t>(x0s + ww)];
+      sq += column_sq_[static_cast<std::size_t>(x0s)] - column_sq_[static_cast<std::size_t>(x0s + ww)];
+    }
+    const double om = static_cast<double>(sum) / area;
+    const double os = std::sqrt(std::max(0.0, static_cast<double>(sq) / area - om * om));
+    if (os < config_.ncc.min_texture) continue;
+    const double cross =
+        static_cast<double>(products_[static_cast<std::size_t>(x0s)]) - wm * static_cast<double>(sum);
+    const float ncc = static_cast<float>(cross / (area * ws * os));
+    samples_[static_cast<std::size_t>(s - s_lo)] = ncc;
+    if (best < 0 || ncc > samples_[static_cast<std::size_t>(best)]) best = s - s_lo;
+  }
+  return best;
+}
+
 void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out) {
   const std::size_t n = left.levels.size();
   if (level_scratch_.size() < n) level_scratch_.resize(n);
@@ -218,66 +297,13 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
     const double x0 = g.region.x + (wx - s_hi) * g.step_x;
     retina::sample_level(right_frame, x0, g.region.y + wy * g.step_y, g.step_x, g.step_y,
                          cv::Size(ww + s_hi - s_lo, wh), k + 1 == n, ls.strip);
-    // The window's mean and deviation; the cross term of the correlation at
-    // a shift is then its sum of products less the mean times the strip's sum
-    // there (the window's values less their mean sum to zero).
     const cv::Mat window = level(cv::Rect(wx, wy, ww, wh));
-    double wsum = 0, wsq = 0;
-    for (int y = 0; y < wh; ++y) {
-      const uint8_t* a = window.ptr<uint8_t>(y);
-      for (int x = 0; x < ww; ++x) {
-        wsum += a[x];
-        wsq += static_cast<double>(a[x]) * a[x];
-      }
-    }
-    const double area = static_cast<double>(ww) * wh;
-    const double wm = wsum / area, ws = std::sqrt(std::max(0.0, wsq / area - wm * wm));
+    double wm, ws;
+    mean_and_deviation(window, wm, ws);
     if (ws < config_.ncc.min_texture) continue;
-    const int count = s_hi - s_lo + 1;
-    const int strip_cols = ls.strip.cols;
-    samples_.assign(static_cast<std::size_t>(count), -2.0f);
-    // Whole vectors of eight shifts; the strip's rows padded for the last one.
-    const int count8 = (count + 7) / 8 * 8;
-    const std::ptrdiff_t stride = ww + count8;
-    products_.resize(static_cast<std::size_t>(count8));
-    column_sum_.resize(static_cast<std::size_t>(strip_cols));
-    column_sq_.resize(static_cast<std::size_t>(strip_cols));
-    strip32_.resize(static_cast<std::size_t>(stride * wh));
-    // Shift s pairs window column x with strip column x + s_hi - s.
-    window_products(window.ptr<uint8_t>(), static_cast<std::ptrdiff_t>(window.step), ww, wh, ls.strip.ptr<uint8_t>(),
-                    static_cast<std::ptrdiff_t>(ls.strip.step), strip_cols, count, strip32_.data(), stride,
-                    products_.data(), column_sum_.data(), column_sq_.data());
-    int best = -1;
-    // The strip's sums over the window's columns, slid one column per shift
-    // (whole numbers: exact).
-    int64_t sum = 0, sq = 0;
-    for (int x = 0; x < ww; ++x) {
-      sum += column_sum_[static_cast<std::size_t>(s_hi - s_lo + x)];
-      sq += column_sq_[static_cast<std::size_t>(s_hi - s_lo + x)];
-    }
-    for (int s = s_lo; s <= s_hi; ++s) {
-      const int x0s = s_hi - s;
-      if (s > s_lo) {
-        sum += column_sum_[static_cast<std::size_t>(x0s)] - column_sum_[static_cast<std::size_t>(x0s + ww)];
-        sq += column_sq_[static_cast<std::size_t>(x0s)] - column_sq_[static_cast<std::size_t>(x0s + ww)];
-      }
-      const double om = static_cast<double>(sum) / area;
-      const double os = std::sqrt(std::max(0.0, static_cast<double>(sq) / area - om * om));
-      if (os < config_.ncc.min_texture) continue;
-      const double cross =
-          static_cast<double>(products_[static_cast<std::size_t>(x0s)]) - wm * static_cast<double>(sum);
-      const float ncc = static_cast<float>(cross / (area * ws * os));
-      samples_[static_cast<std::size_t>(s - s_lo)] = ncc;
-      if (best < 0 || ncc > samples_[static_cast<std::size_t>(best)]) best = s - s_lo;
-    }
+    const int best = correlate_window(window, ls.strip, wm, ws, s_lo, s_hi);
     if (best < 0 || samples_[static_cast<std::size_t>(best)] < 0.3f) continue;
-    double shift = best + s_lo;
-    if (best > 0 && best + 1 < count) {
-      const double a = samples_[static_cast<std::size_t>(best - 1)], b = samples_[static_cast<std::size_t>(best)],
-                   cc = samples_[static_cast<std::size_t>(best + 1)];
-      const double den = a - 2 * b + cc;
-      if (den < 0 && a > -2 && cc > -2) shift += std::clamp(0.5 * (a - cc) / den, -0.5, 0.5);
-    }
+    const double shift = best + s_lo + peak_offset(samples_, best);
     out.per_level[k] = shift * g.step_x;
     out.disparity = out.per_level[k];
     out.score = samples_[static_cast<std::size_t>(best)];
@@ -291,215 +317,300 @@ int RetinaStereo::around_fixation_range(bool around, int full, bool low) const {
   return low ? std::max(full, -config_.fovea_radius) : std::min(full, config_.fovea_radius);
 }
 
+// One level's matching, as its steps share it.
+struct RetinaStereo::LevelPlan {
+  std::size_t k = 0;
+  bool innermost = false;  // the fovea: cropped from the frames, not sampled
+  bool padded = false;     // matched on the frames sampled with a margin around the level
+  int region_shift = 0;    // level pixels the right retina's region lies left of the left one's
+  int offset = 0;          // level pixels the right image lies left of the left one's (vergence's or the region's)
+  double right_x0 = 0;     // source x of the right image's left edge
+  bool around_fixation = false;          // the fovea, verged: searched around the fixation disparity
+  int full_lo = 0, full_hi = 0;          // level disparities of 0 .. max_disparity source pixels
+  int radius_lo = 0, radius_hi = 0;      // fovea_radius around the fixation, within those
+  const cv::Mat* right_level = nullptr;  // the right image without a margin
+};
+
+// The images matched, their ranges, and where the level lies in them (the
+// padded images' levels lie inside larger images).
+struct RetinaStereo::LevelImages {
+  const cv::Mat *left, *right, *lo, *hi;
+  cv::Rect inside;
+};
+
+namespace {
+
+const cv::Mat* gray_frame(const Retina& retina, cv::Mat& buffer) {
+  if (!retina.source || retina.source->mat.empty()) return nullptr;
+  if (retina.source->mat.channels() == 1) return &retina.source->mat;
+  cv::cvtColor(retina.source->mat, buffer, cv::COLOR_BGR2GRAY);
+  return &buffer;
+}
+
+// "" when level k of the two retinas can be matched, or what is wrong.
+std::string check_level(const Retina& left, const Retina& right, std::size_t k, int& region_shift) {
+  const LevelGeometry& gl = left.geometry[k];
+  const LevelGeometry& gr = right.geometry[k];
+  if (left.levels[k].size() != right.levels[k].size() || left.levels[k].type() != CV_8UC1 ||
+      right.levels[k].type() != CV_8UC1)
+    return "level " + std::to_string(k) + ": expected 8-bit gray levels of one size";
+  if (std::abs(gl.step_x - gr.step_x) > 1e-9 || gl.region.y != gr.region.y || gl.region.height != gr.region.height)
+    return "level " + std::to_string(k) + ": left and right regions differ in step or rows";
+  const double shift = (gl.region.x - gr.region.x) / gl.step_x;
+  region_shift = static_cast<int>(std::lround(shift));
+  if (std::abs(shift - region_shift) > 1e-6)
+    return "level " + std::to_string(k) + ": the right region is shifted by a fraction of a level pixel";
+  return {};
+}
+
+// Level pixels of margin on each side of the level in its padded images.
+struct Margins {
+  int left, right, top, bottom;
+};
+
+// Only as far as both frames reach: beyond them there is nothing to see.
+// Rows: only the window's half height. Matches move along rows, so rows
+// beyond the windows' reach would be sampled and never read.
+Margins padded_margins(const LevelGeometry& g, cv::Size level, cv::Size frame, double right_x, int reach_left,
+                       int reach_right, int half_window) {
+  const auto room = [](double pixels, double step) {
+    return std::max(0, static_cast<int>(std::floor(pixels / step + 1e-9)));
+  };
+  const int w = level.width, h = level.height;
+  return {.left = std::min({reach_left, room(g.region.x, g.step_x), room(right_x, g.step_x)}),
+          .right = std::min({reach_right, room(frame.width - g.region.x - w * g.step_x, g.step_x),
+                             room(frame.width - right_x - w * g.step_x, g.step_x)}),
+          .top = std::min(half_window, room(g.region.y, g.step_y)),
+          .bottom = std::min(half_window, room(frame.height - g.region.y - h * g.step_y, g.step_y))};
+}
+
+// The fovea's ranges, when they follow the level outside, may reach right
+// pixels beyond the usual margin: the margin then covers them.
+void widen_to_ranges(const cv::Mat& lo, const cv::Mat& hi, int half_window, int& reach_left, int& reach_right) {
+  const int w = lo.cols, h = lo.rows;
+  int left = reach_left, right = reach_right;  // (not through the references, which may alias the ranges)
+  for (int y = 0; y < h; ++y) {
+    const int* l = lo.ptr<int>(y);
+    const int* u = hi.ptr<int>(y);
+    for (int x = 0; x < w; ++x) {
+      if (l[x] > u[x]) continue;
+      left = std::max(left, u[x] - x + half_window);             // right pixel x - hi, its window's left column
+      right = std::max(right, x - l[x] - (w - 1) + half_window);  // right pixel x - lo past the last column
+    }
+  }
+  reach_left = left;
+  reach_right = right;
+}
+
+// The matcher's results (views of the level's pixels) back to source pixels;
+// returns the matched left pixels.
+int to_source_disparities(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Mat& rl, const cv::Mat& rl_score,
+                          const cv::Mat& kept, int offset, double step, LevelDisparity& level) {
+  const cv::Size size = lr.size();
+  level.disparity.create(size, CV_32F);
+  level.reverse.create(size, CV_32F);
+  level.score.create(size, CV_32F);
+  int valid = 0;
+  for (int y = 0; y < size.height; ++y)
+    valid += to_source_pixels(lr.ptr<float>(y), lr_score.ptr<float>(y), rl.ptr<float>(y), rl_score.ptr<float>(y),
+                              kept.ptr<uint8_t>(y), size.width, offset, step, level.disparity.ptr<float>(y),
+                              level.reverse.ptr<float>(y), level.score.ptr<float>(y));
+  return valid;
+}
+
+}  // namespace
+
+// Where the right image lies against the left one and which disparities the
+// level searches.
+void RetinaStereo::plan_level(const Retina& left, const Retina& right, const cv::Mat* right_frame, LevelPlan& plan,
+                              LevelDisparity& level) {
+  const std::size_t k = plan.k;
+  const LevelGeometry& gl = left.geometry[k];
+  // With vergence the right image is where the left level's scene is at the
+  // fixation disparity: the left region moved left by it, in whole level pixels.
+  const bool verged = config_.vergence && k > 0 && right_frame != nullptr && fixation_.per_level[k] > 0;
+  plan.offset = verged ? static_cast<int>(std::lround(fixation_.per_level[k] / gl.step_x)) : plan.region_shift;
+  plan.right_x0 = gl.region.x - plan.offset * gl.step_x;
+  plan.right_level = &right.levels[k];
+  // (The padded images sample it themselves, with their margin.)
+  if (verged && !plan.padded) {
+    retina::sample_level(*right_frame, plan.right_x0, gl.region.y, gl.step_x, gl.step_y, left.levels[k].size(),
+                         plan.innermost, right_level_);
+    plan.right_level = &right_level_;
+  }
+  level.vergence = verged ? plan.offset * gl.step_x : 0;
+  // A left level pixel x matches right x - d with d = D / step - offset, D the
+  // disparity in source pixels (0 .. max_disparity).
+  const int cols = left.levels[k].cols, offset = plan.offset;
+  plan.full_lo = std::clamp(-offset, -(cols - 1), cols - 1);
+  plan.full_hi =
+      std::clamp(static_cast<int>(std::floor(config_.max_disparity / gl.step_x)) - offset, -(cols - 1), cols - 1);
+  // The fovea, verged, is searched around the fixation disparity: the outer
+  // level's per-pixel estimates are coarser than its whole-window fixation.
+  plan.around_fixation = verged && plan.innermost;
+  plan.radius_lo = std::max(plan.full_lo, -config_.fovea_radius);
+  plan.radius_hi = std::min(plan.full_hi, config_.fovea_radius);
+  level.right_x0 = plan.right_x0;
+  level.offset = offset;
+  level.range_lo = around_fixation_range(plan.around_fixation, plan.full_lo, true);
+  level.range_hi = around_fixation_range(plan.around_fixation, plan.full_hi, false);
+}
+
+// Left->right ranges per pixel; right->left searches the same pairs (see
+// ncc_match_cross), so one sweep over the left pixels' candidates serves
+// both directions and the check.
+void RetinaStereo::search_ranges(const LevelPlan& plan, const std::vector<LevelDisparity>& out, const Retina& left,
+                                 cv::Mat& lo, cv::Mat& hi) {
+  if (!plan.around_fixation) {
+    predict(out, left, plan.k, plan.full_lo, plan.full_hi, plan.offset, nullptr, lo, hi);
+  } else if (config_.fovea_prediction) {
+    const Span fixation{plan.radius_lo, plan.radius_hi};
+    predict(out, left, plan.k, plan.full_lo, plan.full_hi, plan.offset, &fixation, lo, hi);
+  } else {
+    fill(lo, plan.radius_lo);
+    fill(hi, plan.radius_hi);
+  }
+}
+
+RetinaStereo::LevelImages RetinaStereo::level_images(const LevelPlan& plan, const std::vector<LevelDisparity>& out,
+                                                     const Retina& left) {
+  const cv::Mat& level = left.levels[plan.k];
+  lo_.create(level.size(), CV_32S);
+  hi_.create(level.size(), CV_32S);
+  search_ranges(plan, out, left, lo_, hi_);
+  return {.left = &level,
+          .right = plan.right_level,
+          .lo = &lo_,
+          .hi = &hi_,
+          .inside = cv::Rect(cv::Point(), level.size())};
+}
+
+// Both frames sampled with a margin around the level, so that windows and
+// matches near the level's edges see real pixels instead of none.
+RetinaStereo::LevelImages RetinaStereo::padded_images(const LevelPlan& plan, const std::vector<LevelDisparity>& out,
+                                                      const Retina& left, const Retina& right,
+                                                      const cv::Mat& left_frame, const cv::Mat& right_frame) {
+  LevelScratch& ls = level_scratch_[plan.k];
+  const LevelGeometry& gl = left.geometry[plan.k];
+  const cv::Size size = left.levels[plan.k].size();
+  const int half_window = config_.ncc.window / 2;
+  int reach_left = half_window + config_.pad, reach_right = reach_left;
+  const bool ranges_first = plan.around_fixation && config_.fovea_prediction;
+  if (ranges_first) {
+    lo_.create(size, CV_32S);
+    hi_.create(size, CV_32S);
+    search_ranges(plan, out, left, lo_, hi_);
+    widen_to_ranges(lo_, hi_, half_window, reach_left, reach_right);
+  }
+  const Margins m =
+      padded_margins(gl, size, left_frame.size(), plan.right_x0, reach_left, reach_right, half_window);
+  const cv::Size padded(size.width + m.left + m.right, size.height + m.top + m.bottom);
+  const cv::Rect inside(m.left, m.top, size.width, size.height);
+  sample_padded(plan, left, right, left_frame, right_frame, padded, inside, ls);
+  // Outside the level nothing is searched left->right.
+  ls.lo_padded.create(padded, CV_32S);
+  ls.hi_padded.create(padded, CV_32S);
+  fill(ls.lo_padded, 1);
+  fill(ls.hi_padded, 0);
+  cv::Mat lo_inside = ls.lo_padded(inside), hi_inside = ls.hi_padded(inside);
+  if (ranges_first) {
+    lo_.copyTo(lo_inside);
+    hi_.copyTo(hi_inside);
+  } else {
+    search_ranges(plan, out, left, lo_inside, hi_inside);
+  }
+  return {.left = &ls.left_padded,
+          .right = &ls.right_padded,
+          .lo = &ls.lo_padded,
+          .hi = &ls.hi_padded,
+          .inside = inside};
+}
+
+// A retina's level holds its frame's pixels by the same rule on the same grid
+// (unless it averaged areas), so the padded images take them instead of
+// sampling them again.
+void RetinaStereo::sample_padded(const LevelPlan& plan, const Retina& left, const Retina& right,
+                                 const cv::Mat& left_frame, const cv::Mat& right_frame, cv::Size padded,
+                                 cv::Rect inside, LevelScratch& ls) const {
+  const LevelGeometry& gl = left.geometry[plan.k];
+  const bool crop = plan.innermost;
+  const int mx0 = inside.x, my0 = inside.y, w = inside.width, mr = config_.ncc.window / 2;
+  const auto holds_frame_pixels = [&](const Retina& retina, const cv::Mat& frame) {
+    return !config_.keep_images && &frame == &retina.source->mat &&
+           (crop || retina.sampling == Retina::Sampling::kFivePoint);
+  };
+  const double top = gl.region.y - my0 * gl.step_y;
+  const cv::Point2d left_origin(gl.region.x - mx0 * gl.step_x, top), right_origin(plan.right_x0 - mx0 * gl.step_x, top);
+  // Around the left level only the windows' half width is read, as left
+  // pixels outside the level search nothing.
+  if (holds_frame_pixels(left, left_frame))
+    sample_around_level(left_frame, left.levels[plan.k], left_origin, gl, cv::Point(mx0, my0), padded,
+                        cv::Range(std::max(0, mx0 - mr), std::min(padded.width, mx0 + w + mr)), crop,
+                        ls.left_padded);
+  else
+    retina::sample_level(left_frame, left_origin.x, left_origin.y, gl.step_x, gl.step_y, padded, crop,
+                         ls.left_padded);
+  // The right retina's level serves where the verged level overlaps it
+  // (outer levels verge by a few of their pixels): its pixel x lies at
+  // padded column mx0 + x + offset - region_shift.
+  if (holds_frame_pixels(right, right_frame))
+    sample_around_level(right_frame, right.levels[plan.k], right_origin, gl,
+                        cv::Point(mx0 + plan.offset - plan.region_shift, my0), padded, cv::Range(0, padded.width),
+                        crop, ls.right_padded);
+  else
+    retina::sample_level(right_frame, right_origin.x, right_origin.y, gl.step_x, gl.step_y, padded, crop,
+                         ls.right_padded);
+}
+
+// Both directions in one sweep, checked against each other, back in source
+// pixels and filled as configured.
+void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan, double step, LevelDisparity& level) {
+  LevelScratch& ls = level_scratch_[plan.k];
+  if (config_.keep_images) {
+    images.left->copyTo(level.left_image);
+    images.right->copyTo(level.right_image);
+    level.margin = images.inside.tl();
+  }
+  ncc_match_cross(*images.left, *images.right, *images.lo, *images.hi, config_.ncc, ls.lr, ls.lr_score, ls.rl,
+                  ls.rl_score, ls.ncc);
+  const cv::Rect inside = images.inside;
+  // Validity comes from the scores: with vergence a level disparity may be negative.
+  ls.valid.create(images.left->size(), CV_8U);
+  cv::Mat valid_view = ls.valid(inside);
+  fill(valid_view, 255);
+  if (config_.left_right_check)
+    left_right_check(ls.lr, ls.lr_score, ls.rl, ls.rl_score, config_.lr_tolerance, ls.valid, inside);
+  const int valid = to_source_disparities(ls.lr(inside), ls.lr_score(inside), ls.rl(inside), ls.rl_score(inside),
+                                          valid_view, plan.offset, step, level);
+  level.density = static_cast<double>(valid) / static_cast<double>(level.disparity.size().area());
+  level.filled_density = level.density;
+  if (config_.fill_gaps > 0) level.filled_density = fill_gaps(level.disparity, level.score, config_.fill_gaps, step);
+  if (config_.fill_occlusions)
+    level.filled_density = fill_occlusions(level.disparity, level.score, step, config_.occlusion_slack);
+  if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[plan.k]);
+}
+
 std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out) {
   if (left.levels.size() != right.levels.size() || left.levels.empty()) return "left and right retinas differ in levels";
   const std::size_t n = left.levels.size();
   out.resize(n);
-  auto gray_source = [](const Retina& r, cv::Mat& buffer) -> const cv::Mat* {
-    if (!r.source || r.source->mat.empty()) return nullptr;
-    if (r.source->mat.channels() == 1) return &r.source->mat;
-    cv::cvtColor(r.source->mat, buffer, cv::COLOR_BGR2GRAY);
-    return &buffer;
-  };
-  const cv::Mat* right_frame = gray_source(right, right_gray_);
-  const cv::Mat* left_frame = config_.pad > 0 ? gray_source(left, left_gray_) : nullptr;
+  const cv::Mat* right_frame = gray_frame(right, right_gray_);
+  const cv::Mat* left_frame = config_.pad > 0 ? gray_frame(left, left_gray_) : nullptr;
   level_scratch_.resize(n);
   fixation_.per_level.assign(n, -1.0);
   fixation_.disparity = fixation_.score = -1;
   if (config_.vergence && right_frame != nullptr && !left.geometry.empty()) find_fixation(left, *right_frame, fixation_);
+  const bool padded = left_frame != nullptr && right_frame != nullptr && config_.pad > 0;
   for (std::size_t k = 0; k < n; ++k) {
-    LevelScratch& ls = level_scratch_[k];
-    const LevelGeometry& gl = left.geometry[k];
-    const LevelGeometry& gr = right.geometry[k];
-    if (left.levels[k].size() != right.levels[k].size() || left.levels[k].type() != CV_8UC1 ||
-        right.levels[k].type() != CV_8UC1)
-      return "level " + std::to_string(k) + ": expected 8-bit gray levels of one size";
-    if (std::abs(gl.step_x - gr.step_x) > 1e-9 || gl.region.y != gr.region.y || gl.region.height != gr.region.height)
-      return "level " + std::to_string(k) + ": left and right regions differ in step or rows";
-    const double shift = (gl.region.x - gr.region.x) / gl.step_x;
-    const int region_shift = static_cast<int>(std::lround(shift));
-    int offset = region_shift;
-    if (std::abs(shift - offset) > 1e-6)
-      return "level " + std::to_string(k) + ": the right region is shifted by a fraction of a level pixel";
-    const cv::Mat* right_level = &right.levels[k];
-    LevelDisparity& level = out[k];
-    level.vergence = 0;
-    bool verged = false;
-    const bool padded_path = left_frame != nullptr && right_frame != nullptr && config_.pad > 0;
-    if (config_.vergence && k > 0 && right_frame != nullptr && fixation_.per_level[k] > 0) {
-      // Sample the right frame where the left level's scene is at the fixation
-      // disparity: the left region moved left by it, in whole level pixels.
-      // (The padded path samples it itself, with its margin.)
-      offset = static_cast<int>(std::lround(fixation_.per_level[k] / gl.step_x));
-      if (!padded_path) {
-        retina::sample_level(*right_frame, gl.region.x - offset * gl.step_x, gl.region.y, gl.step_x, gl.step_y,
-                             left.levels[k].size(), k + 1 == n, right_level_);
-        right_level = &right_level_;
-      }
-      level.vergence = offset * gl.step_x;
-      verged = true;
-    }
-    // A left level pixel x matches right x - d with d = D / step - offset, D the
-    // disparity in source pixels (0 .. max_disparity).
-    const int cols = left.levels[k].cols;
-    const int full_lo = std::clamp(-offset, -(cols - 1), cols - 1);
-    const int full_hi = std::clamp(static_cast<int>(std::floor(config_.max_disparity / gl.step_x)) - offset, -(cols - 1), cols - 1);
-    level.right_x0 = gl.region.x - offset * gl.step_x;
-    level.offset = offset;
-    level.range_lo = around_fixation_range(verged && k + 1 == n, full_lo, true);
-    level.range_hi = around_fixation_range(verged && k + 1 == n, full_hi, false);
-    // The fovea, verged, is searched around the fixation disparity: the outer
-    // level's per-pixel estimates are coarser than its whole-window fixation.
-    const bool around_fixation = verged && k + 1 == n;
-    const int radius_lo = std::max(full_lo, -config_.fovea_radius), radius_hi = std::min(full_hi, config_.fovea_radius);
-    // Left->right ranges per pixel; right->left searches the same pairs (see
-    // ncc_match_cross), so one sweep over the left pixels' candidates serves
-    // both directions and the check.
-    auto ranges = [&](cv::Mat& lo, cv::Mat& hi) {
-      if (!around_fixation) {
-        predict(out, left, k, full_lo, full_hi, offset, nullptr, lo, hi);
-      } else if (config_.fovea_prediction) {
-        const Span fixation{radius_lo, radius_hi};
-        predict(out, left, k, full_lo, full_hi, offset, &fixation, lo, hi);
-      } else {
-        fill(lo, radius_lo);
-        fill(hi, radius_hi);
-      }
-    };
-    // The images matched, their ranges, and where the level lies in them
-    // (the padded path's lie inside larger images).
-    const cv::Mat* left_image = &left.levels[k];
-    const cv::Mat* right_image = right_level;
-    const cv::Mat* lo = &lo_;
-    const cv::Mat* hi = &hi_;
-    cv::Rect inside(cv::Point(), left.levels[k].size());
-    if (padded_path) {
-      // Sample both frames with a margin around the level, so that windows and
-      // matches near the level's edges see real pixels instead of none.
-      // Only as far as both frames reach: beyond them there is nothing to see.
-      const int m = config_.ncc.window / 2 + config_.pad;
-      const int w = left.levels[k].cols, h = left.levels[k].rows;
-      const cv::Size frame = left_frame->size();
-      const double right_x = gl.region.x - offset * gl.step_x;
-      const int mr = config_.ncc.window / 2;
-      // The fovea's ranges, when they follow the level outside, may reach
-      // right pixels beyond the usual margin: the margin then covers them.
-      int reach0 = m, reach1 = m;
-      const bool ranges_first = around_fixation && config_.fovea_prediction;
-      if (ranges_first) {
-        lo_.create(left.levels[k].size(), CV_32S);
-        hi_.create(left.levels[k].size(), CV_32S);
-        ranges(lo_, hi_);
-        for (int y = 0; y < h; ++y) {
-          const int* l = lo_.ptr<int>(y);
-          const int* u = hi_.ptr<int>(y);
-          for (int x = 0; x < w; ++x) {
-            if (l[x] > u[x]) continue;
-            reach0 = std::max(reach0, u[x] - x + mr);            // right pixel x - hi, its window's left column
-            reach1 = std::max(reach1, x - l[x] - (w - 1) + mr);  // right pixel x - lo past the last column
-          }
-        }
-      }
-      auto room = [](double pixels, double step) { return std::max(0, static_cast<int>(std::floor(pixels / step + 1e-9))); };
-      const int mx0 = std::min({reach0, room(gl.region.x, gl.step_x), room(right_x, gl.step_x)});
-      const int mx1 = std::min({reach1, room(frame.width - gl.region.x - w * gl.step_x, gl.step_x),
-                                room(frame.width - right_x - w * gl.step_x, gl.step_x)});
-      // Rows: only the window's half height. Matches move along rows, so rows
-      // beyond the windows' reach would be sampled and never read.
-      const int my0 = std::min(mr, room(gl.region.y, gl.step_y));
-      const int my1 = std::min(mr, room(frame.height - gl.region.y - h * gl.step_y, gl.step_y));
-      const cv::Size padded(w + mx0 + mx1, h + my0 + my1);
-      const bool crop = k + 1 == n;
-      // A retina's level holds its frame's pixels by the same rule on the
-      // same grid (unless it averaged areas), so the padded levels take them
-      // instead of sampling them again.
-      const auto holds_frame_pixels = [&](const Retina& retina, const cv::Mat* source) {
-        return !config_.keep_images && source == &retina.source->mat &&
-               (crop || retina.sampling == Retina::Sampling::kFivePoint);
-      };
-      const double top = gl.region.y - my0 * gl.step_y;
-      const cv::Point2d left_origin(gl.region.x - mx0 * gl.step_x, top), right_origin(right_x - mx0 * gl.step_x, top);
-      // Around the left level only the windows' half width is read, as left
-      // pixels outside the level search nothing.
-      if (holds_frame_pixels(left, left_frame))
-        sample_around_level(*left_frame, left.levels[k], left_origin, gl, cv::Point(mx0, my0), padded,
-                            cv::Range(std::max(0, mx0 - mr), std::min(padded.width, mx0 + w + mr)), crop,
-                            ls.left_padded);
-      else
-        retina::sample_level(*left_frame, left_origin.x, left_origin.y, gl.step_x, gl.step_y, padded, crop,
-                             ls.left_padded);
-      // The right retina's level serves where the verged level overlaps it
-      // (outer levels verge by a few of their pixels): its pixel x lies at
-      // padded column mx0 + x + offset - region_shift (region_shift: how many
-      // level pixels left of the left retina's region the right one's lies).
-      if (holds_frame_pixels(right, right_frame))
-        sample_around_level(*right_frame, right.levels[k], right_origin, gl,
-                            cv::Point(mx0 + offset - region_shift, my0), padded, cv::Range(0, padded.width), crop,
-                            ls.right_padded);
-      else
-        retina::sample_level(*right_frame, right_origin.x, right_origin.y, gl.step_x, gl.step_y, padded, crop,
-                             ls.right_padded);
-      inside = cv::Rect(mx0, my0, w, h);
-      // Outside the level nothing is searched left->right.
-      ls.lo_padded.create(padded, CV_32S);
-      ls.hi_padded.create(padded, CV_32S);
-      fill(ls.lo_padded, 1);
-      fill(ls.hi_padded, 0);
-      cv::Mat lo_inside = ls.lo_padded(inside), hi_inside = ls.hi_padded(inside);
-      if (ranges_first) {
-        lo_.copyTo(lo_inside);
-        hi_.copyTo(hi_inside);
-      } else {
-        ranges(lo_inside, hi_inside);
-      }
-      left_image = &ls.left_padded;
-      right_image = &ls.right_padded;
-      lo = &ls.lo_padded;
-      hi = &ls.hi_padded;
-    } else {
-      lo_.create(left.levels[k].size(), CV_32S);
-      hi_.create(left.levels[k].size(), CV_32S);
-      ranges(lo_, hi_);
-    }
-    if (config_.keep_images) {
-      left_image->copyTo(level.left_image);
-      right_image->copyTo(level.right_image);
-      level.margin = inside.tl();
-    }
-    ncc_match_cross(*left_image, *right_image, *lo, *hi, config_.ncc, ls.lr, ls.lr_score, ls.rl, ls.rl_score, ls.ncc);
-    // Validity comes from the scores: with vergence a level disparity may be negative.
-    ls.valid.create(left_image->size(), CV_8U);
-    cv::Mat valid_view = ls.valid(inside);
-    fill(valid_view, 255);
-    if (config_.left_right_check)
-      left_right_check(ls.lr, ls.lr_score, ls.rl, ls.rl_score, config_.lr_tolerance, ls.valid, inside);
-    // The results as views of the level's pixels.
-    const cv::Mat lr_view = ls.lr(inside), lr_score_view = ls.lr_score(inside), rl_view = ls.rl(inside),
-                  rl_score_view = ls.rl_score(inside);
-    // Back to source pixels.
-    const cv::Size size = lr_view.size();
-    level.disparity.create(size, CV_32F);
-    level.reverse.create(size, CV_32F);
-    level.score.create(size, CV_32F);
-    int valid = 0;
-    for (int y = 0; y < size.height; ++y) {
-      const float* d = lr_view.ptr<float>(y);
-      const float* d_score = lr_score_view.ptr<float>(y);
-      const float* r = rl_view.ptr<float>(y);
-      const float* r_score = rl_score_view.ptr<float>(y);
-      const uint8_t* checked = valid_view.ptr<uint8_t>(y);
-      float* score = level.score.ptr<float>(y);
-      float* forward = level.disparity.ptr<float>(y);
-      float* reverse = level.reverse.ptr<float>(y);
-      valid += to_source_pixels(d, d_score, r, r_score, checked, size.width, offset, gl.step_x, forward, reverse, score);
-    }
-    level.density = static_cast<double>(valid) / static_cast<double>(size.area());
-    level.filled_density = level.density;
-    if (config_.fill_gaps > 0)
-      level.filled_density = fill_gaps(level.disparity, level.score, config_.fill_gaps, gl.step_x);
-    if (config_.fill_occlusions)
-      level.filled_density = fill_occlusions(level.disparity, level.score, gl.step_x, config_.occlusion_slack);
-    if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[k]);
+    LevelPlan plan;
+    plan.k = k;
+    plan.innermost = k + 1 == n;
+    plan.padded = padded;
+    if (std::string error = check_level(left, right, k, plan.region_shift); !error.empty()) return error;
+    plan_level(left, right, right_frame, plan, out[k]);
+    const LevelImages images =
+        padded ? padded_images(plan, out, left, right, *left_frame, *right_frame) : level_images(plan, out, left);
+    match_level(images, plan, left.geometry[k].step_x, out[k]);
   }
   return {};
 }

@@ -128,6 +128,17 @@ class RetinaStereo {
   void find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out);
 
  private:
+  // Buffers per level: the levels' padded sizes differ, and sharing one set
+  // would reallocate on every level of every frame.
+  struct LevelScratch {
+    cv::Mat strip;
+    cv::Mat left_padded, right_padded, lo_padded, hi_padded;
+    cv::Mat lr, lr_score, rl, rl_score, valid;  // the matcher's results (padded when the level is)
+    NccScratch ncc;
+  };
+  // What a level's steps share, and the images it matches (retina_stereo.cpp).
+  struct LevelPlan;
+  struct LevelImages;
   // Search ranges for level k's left pixels, from the level outside it. With
   // `fixation` (level disparities lo..hi), pixels without a prediction search
   // it alone and every prediction is widened to cover it.
@@ -139,16 +150,20 @@ class RetinaStereo {
   int around_fixation_range(bool around, int full, bool low) const;
   void sample_around_level(const cv::Mat& frame, const cv::Mat& level, cv::Point2d origin, const LevelGeometry& g,
                            cv::Point at, cv::Size padded, cv::Range cols, bool crop, cv::Mat& out) const;
+  int correlate_window(const cv::Mat& window, const cv::Mat& strip, double wm, double ws, int s_lo, int s_hi);
+  // Run's steps on one level.
+  void plan_level(const Retina& left, const Retina& right, const cv::Mat* right_frame, LevelPlan& plan,
+                  LevelDisparity& level);
+  void search_ranges(const LevelPlan& plan, const std::vector<LevelDisparity>& out, const Retina& left, cv::Mat& lo,
+                     cv::Mat& hi);
+  LevelImages level_images(const LevelPlan& plan, const std::vector<LevelDisparity>& out, const Retina& left);
+  LevelImages padded_images(const LevelPlan& plan, const std::vector<LevelDisparity>& out, const Retina& left,
+                            const Retina& right, const cv::Mat& left_frame, const cv::Mat& right_frame);
+  void sample_padded(const LevelPlan& plan, const Retina& left, const Retina& right, const cv::Mat& left_frame,
+                     const cv::Mat& right_frame, cv::Size padded, cv::Rect inside, LevelScratch& ls) const;
+  void match_level(const LevelImages& images, const LevelPlan& plan, double step, LevelDisparity& level);
   RetinaStereoConfig config_;
   Fixation fixation_;
-  // Buffers per level: the levels' padded sizes differ, and sharing one set
-  // would reallocate on every level of every frame.
-  struct LevelScratch {
-    cv::Mat strip;
-    cv::Mat left_padded, right_padded, lo_padded, hi_padded;
-    cv::Mat lr, lr_score, rl, rl_score, valid;  // the matcher's results (padded when the level is)
-    NccScratch ncc;
-  };
   std::vector<LevelScratch> level_scratch_;
   std::vector<int32_t> column_sum_, column_sq_, products_, strip32_;
   std::vector<float> samples_;
