@@ -33,10 +33,11 @@
 #include <opencv2/core.hpp>
 
 #include "dds_benchPubSubTypes.h"
+#include "codec.hpp"
 #include "domain.hpp"
+#include "edge_codec.hpp"
 #include "saccade/graph.hpp"
 #include "saccade/message.hpp"
-#include "wire.hpp"
 
 extern char** environ;
 

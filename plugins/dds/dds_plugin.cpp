@@ -16,6 +16,8 @@
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
 
 #include "domain.hpp"
+#include "edge_codec.hpp"
+#include "ros2.hpp"
 #include "saccade/log.hpp"
 #include "saccade/plugin.hpp"
 #include "wire.hpp"

@@ -10,6 +10,7 @@
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 
 #include "saccade/log.hpp"
+#include "shared_memory.hpp"
 
 namespace saccade::dds {
 

@@ -5,7 +5,6 @@
 #include <memory>
 #include <mutex>
 #include <string>
-#include <vector>
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -14,7 +13,7 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 
-#include "wire.hpp"
+#include "codec.hpp"
 
 namespace saccade::dds {
 
@@ -36,17 +35,6 @@ struct EdgeSettings {
 };
 eprosima::fastdds::dds::DataWriterQos writer_qos(const eprosima::fastdds::dds::Publisher& publisher, const EdgeSettings& s);
 eprosima::fastdds::dds::DataReaderQos reader_qos(const eprosima::fastdds::dds::Subscriber& subscriber, const EdgeSettings& s);
-
-// Shared memory that DDS processes which died without cleaning up (kill -9, a
-// crash) left in /dev/shm: Fast DDS participant segments whose owner's lock is
-// free, and data-sharing pools, saccade frame rings and mailboxes no process maps. Files younger than `min_age_s`
-// are left (their owner may be starting), and other users' files. A clean exit
-// (and SIGINT/SIGTERM, which saccade run turns into one) leaves none.
-struct StaleSharedMemory {
-  std::vector<std::string> removed;  // file names
-  uint64_t bytes = 0;
-};
-StaleSharedMemory remove_stale_shared_memory(double min_age_s = 5.0);
 
 class Domain {
  public:

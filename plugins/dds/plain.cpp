@@ -4,6 +4,8 @@
 // pixels once into a pooled message. Ring: the pixels stay in the writer's
 // frame ring (frame_ring.hpp) and the sample says where; the reader's message
 // views them in place. Nothing is serialised on the way.
+#include "plain.hpp"
+
 #include <atomic>
 #include <cstring>
 
@@ -12,7 +14,6 @@
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
-#include "frame_ring.hpp"
 #include "saccade/log.hpp"
 #include "saccadePubSubTypes.h"
 #include "wire.hpp"
@@ -565,6 +566,25 @@ const std::vector<Codec>& ring_codecs() {
       ring_codec<Retina, wp::RetinaRef, wp::RetinaRefPubSubType>(),
   };
   return all;
+}
+
+std::size_t default_capacity(std::string_view type) {
+  // Image: up to 1280x1024 colour (3.9 MB); larger frames name a larger capacity.
+  return type == Image::kTypeName ? 4u << 20 : 1u << 20;
+}
+
+const Codec* find_plain_codec(std::string_view type, std::size_t capacity) {
+  if (capacity == 0) capacity = default_capacity(type);
+  const Codec* best = nullptr;
+  for (const auto& c : plain_codecs())
+    if (c.type == type && c.capacity >= capacity && (best == nullptr || c.capacity < best->capacity)) best = &c;
+  return best;
+}
+
+const Codec* find_ring_codec(std::string_view type) {
+  for (const auto& c : ring_codecs())
+    if (c.type == type) return &c;
+  return nullptr;
 }
 
 }  // namespace saccade::dds

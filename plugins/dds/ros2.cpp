@@ -1,6 +1,8 @@
 // The ROS 2 forms of saccade's images and joint states (idl/ros2.idl): an edge
 // published this way is a topic ROS 2 tools read without a bridge, and a
 // dds.subscribe in this form reads a ROS 2 camera driver or joint publisher.
+#include "ros2.hpp"
+
 #include <algorithm>
 #include <array>
 #include <charconv>
@@ -14,7 +16,6 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ros2PubSubTypes.h"
-#include "wire.hpp"
 
 namespace saccade::dds {
 

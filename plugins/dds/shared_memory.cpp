@@ -1,3 +1,5 @@
+#include "shared_memory.hpp"
+
 #include <fcntl.h>
 #include <sys/file.h>
 #include <sys/stat.h>
@@ -9,7 +11,6 @@
 #include <regex>
 #include <set>
 
-#include "domain.hpp"
 #include "frame_ring.hpp"
 #include "mailbox.hpp"
 

@@ -304,97 +304,10 @@ LevelGeometry geometry_from_wire(const wc::LevelGeometry& in) {
   return out;
 }
 
-WireSample::~WireSample() = default;
-
-void WireSample::wait(eprosima::fastdds::dds::DataReader& reader, int timeout_ms) {
-  wait_for_dds(reader, static_cast<int64_t>(timeout_ms) * 1'000'000);
-}
-
-void wait_on_doorbell(eprosima::fastdds::dds::DataReader& reader, int timeout_ms,
-                      const std::function<bool(int64_t)>& sleep, const std::function<bool()>& arrived) {
-  constexpr int64_t kSliceNs = 5'000'000;
-  const int64_t deadline = steady_now_ns() + static_cast<int64_t>(timeout_ms) * 1'000'000;
-  for (;;) {
-    if (reader.get_unread_count() > 0) return;
-    const int64_t left = deadline - steady_now_ns();
-    if (left <= 0) return;
-    if (!sleep(std::min(left, kSliceNs))) {
-      wait_for_dds(reader, left);
-      return;
-    }
-    if (arrived()) return;
-  }
-}
-
-void wait_for_dds(eprosima::fastdds::dds::DataReader& reader, int64_t timeout_ns) {
-  reader.wait_for_unread_message(eprosima::fastrtps::Duration_t(static_cast<int32_t>(timeout_ns / 1'000'000'000),
-                                                                static_cast<uint32_t>(timeout_ns % 1'000'000'000)));
-}
-
 const Codec* find_codec(std::string_view type) {
   for (const auto& c : codecs())
     if (c.type == type) return &c;
   return nullptr;
-}
-
-std::size_t default_capacity(std::string_view type) {
-  // Image: up to 1280x1024 colour (3.9 MB); larger frames name a larger capacity.
-  return type == Image::kTypeName ? 4u << 20 : 1u << 20;
-}
-
-const Codec* find_plain_codec(std::string_view type, std::size_t capacity) {
-  if (capacity == 0) capacity = default_capacity(type);
-  const Codec* best = nullptr;
-  for (const auto& c : plain_codecs())
-    if (c.type == type && c.capacity >= capacity && (best == nullptr || c.capacity < best->capacity)) best = &c;
-  return best;
-}
-
-const Codec* find_ring_codec(std::string_view type) {
-  for (const auto& c : ring_codecs())
-    if (c.type == type) return &c;
-  return nullptr;
-}
-
-const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error) {
-  const Codec* serialised = find_codec(type);
-  if (serialised == nullptr) {
-    if (error) *error = "no IDL type for '" + std::string(type) + "'";
-    return nullptr;
-  }
-  if (request.ros2) {
-    if (const Codec* ros2 = find_ros2_codec(type)) return ros2;
-    std::string have;
-    for (const auto& c : ros2_codecs()) have += (have.empty() ? "" : ", ") + std::string(c.type);
-    if (error) *error = "ROS 2 has no message for " + std::string(type) + " (it has for " + have + ")";
-    return nullptr;
-  }
-  if (!request.zero_copy) return serialised;
-  using SharedMemory = CodecRequest::SharedMemory;
-  const bool is_image = type == Image::kTypeName;
-  if (request.shared_memory == SharedMemory::kMailbox || (request.shared_memory == SharedMemory::kAuto && !is_image))
-    return serialised;
-  const bool ring = !request.reliable && (request.shared_memory == SharedMemory::kRing ||
-                                          (request.shared_memory == SharedMemory::kAuto && is_image));
-  if (ring)
-    if (const Codec* c = find_ring_codec(type)) return c;
-  if (const Codec* plain = find_plain_codec(type, request.capacity)) return plain;
-  std::size_t largest = 0;
-  for (const auto& c : plain_codecs())
-    if (c.type == type) largest = std::max(largest, c.capacity);
-  if (largest == 0) return serialised;  // no plain form: small types travel serialised
-  if (error)
-    *error = "no shared-memory form of " + std::string(type) + " holds " + std::to_string(request.capacity) +
-             " bytes (the largest holds " + std::to_string(largest) + ")";
-  return nullptr;
-}
-
-void set_mailbox(const CodecRequest& request, const Codec& codec, int depth, WireOptions& options) {
-  using SharedMemory = CodecRequest::SharedMemory;
-  options.mailbox = request.zero_copy && !request.ros2 && codec.form == Codec::Form::kSerialised &&
-                    (request.shared_memory == SharedMemory::kAuto || request.shared_memory == SharedMemory::kMailbox);
-  options.in_order = request.reliable;
-  options.mailbox_slots = static_cast<uint32_t>(std::max(16, depth));
 }
 
 std::vector<std::string_view> codec_types() {

@@ -15,10 +15,11 @@
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 
+#include "codec.hpp"
 #include "domain.hpp"
+#include "edge_codec.hpp"
 #include "saccade/message.hpp"
 #include "support.hpp"
-#include "wire.hpp"
 
 namespace saccade {
 namespace {

@@ -17,8 +17,8 @@
 
 #include <spdlog/sinks/ringbuffer_sink.h>
 
-#include "domain.hpp"
 #include "saccade/log.hpp"
+#include "shared_memory.hpp"
 #include "support.hpp"
 
 namespace saccade {

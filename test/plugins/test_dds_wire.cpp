@@ -4,6 +4,9 @@
 #include <fastdds/rtps/common/SerializedPayload.h>
 #include <opencv2/imgproc.hpp>
 
+#include "edge_codec.hpp"
+#include "plain.hpp"
+#include "ros2.hpp"
 #include "ros2PubSubTypes.h"
 #include "saccadePubSubTypes.h"
 #include "saccade/schema.hpp"
@@ -802,11 +805,11 @@ TEST(DdsRos2, ImagesKeepPixelsStampAndCameraInEveryEncoding) {
   cv::Mat f(3, 5, CV_32FC1), s(4, 3, CV_16SC2);
   cv::randu(f, -1e6, 1e6);
   cv::randu(s, -30000, 30000);
-  const cv::Mat colour = test::random_image({64, 48}, 2, CV_8UC3);
+  const cv::Mat color = test::random_image({64, 48}, 2, CV_8UC3);
   cv::Mat wide(6, 7, CV_16UC1);
   cv::randu(wide, 0, 65535);
-  std::vector<Case> cases = {{test::random_image({32, 24}, 1), "mono8"}, {colour, "bgr8"}, {wide, "mono16"},
-                             {f, "32FC1"}, {s, "16SC2"}, {colour(cv::Rect(3, 5, 17, 11)), "bgr8"}};
+  std::vector<Case> cases = {{test::random_image({32, 24}, 1), "mono8"}, {color, "bgr8"}, {wide, "mono16"},
+                             {f, "32FC1"}, {s, "16SC2"}, {color(cv::Rect(3, 5, 17, 11)), "bgr8"}};
   for (const auto& c : cases) {
     Image in, out;
     in.timestamp_ns = 1'700'000'000'123'456'789;

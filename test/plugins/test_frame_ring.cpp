@@ -15,8 +15,8 @@
 #include <thread>
 #include <gtest/gtest.h>
 
-#include "domain.hpp"
 #include "frame_ring.hpp"
+#include "shared_memory.hpp"
 #include "saccade/message.hpp"
 #include "support.hpp"
 

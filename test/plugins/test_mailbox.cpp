@@ -13,8 +13,8 @@
 
 #include <gtest/gtest.h>
 
-#include "domain.hpp"
 #include "mailbox.hpp"
+#include "shared_memory.hpp"
 #include "shared_segment.hpp"
 #include "support.hpp"
 
