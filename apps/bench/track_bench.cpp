@@ -111,8 +111,8 @@ class FoveaTracker final : public Tracker {
   TrackedFrame update(const cv::Mat& frame) override {
     retina_.sample(frame, fovea_, levels_, geometry_);
     const saccade::fovea::TrackEstimate e = tracker_.update(frame);
-    const cv::Point2d centre = (e.box.tl() + e.box.br()) * 0.5;
-    if (std::isfinite(centre.x) && std::isfinite(centre.y)) fovea_ = centre;
+    const cv::Point2d center = (e.box.tl() + e.box.br()) * 0.5;
+    if (std::isfinite(center.x) && std::isfinite(center.y)) fovea_ = center;
     return {e.box, e.state == saccade::fovea::TrackState::kTracking, 0};
   }
 
@@ -249,7 +249,7 @@ std::vector<std::string> score_row(const Result& r) {
   if (!r.error.empty()) return {r.tracker, "failed: " + r.error, "", "", "", "", "", "", ""};
   const TrackScore& s = r.score;
   return {r.tracker,
-          fixed(s.mean_centre_error, 1),
+          fixed(s.mean_center_error, 1),
           fixed(s.precision20, 3),
           fixed(s.success_auc, 3),
           fixed(s.success50, 3),
@@ -286,7 +286,7 @@ std::vector<std::string> average_row(const std::string& tracker, const std::vect
         continue;
       }
       const TrackScore& s = r.score;
-      error.add(s.mean_centre_error), precision.add(s.precision20), auc.add(s.success_auc);
+      error.add(s.mean_center_error), precision.add(s.precision20), auc.add(s.success_auc);
       success.add(s.success50), lost.add(s.frames_lost), ms.add(s.ms_per_frame);
       if (s.honest_lost >= 0) honest.add(s.honest_lost);
       if (s.max_reacquire_delay >= 0) reacquire.add(s.max_reacquire_delay);

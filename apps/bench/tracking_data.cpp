@@ -214,7 +214,7 @@ Wobble make_shake(Random& random, double amplitude, double shortest) {
 // that frames can be rendered in any order.
 struct FramePlan {
   cv::Point2d view;        // the view's top-left corner in the (scaled) background
-  cv::Point2d centre;      // the target's centre, frame pixels (edge coordinates)
+  cv::Point2d center;      // the target's centre, frame pixels (edge coordinates)
   double scale = 1;
   double angle_deg = 0;
   cv::Point2d smear;       // image motion during the exposure, pixels
@@ -222,7 +222,7 @@ struct FramePlan {
   int occlusion = -1;      // index of the occluder in front, -1 when none
   cv::Rect occluder;       // frame pixels
   bool distractor = false;
-  cv::Point2d distractor_centre;
+  cv::Point2d distractor_center;
 };
 
 // An image drawn at many scales: a pyramid, so that drawing shrinks by at
@@ -270,14 +270,14 @@ Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, doub
 }
 
 // The axis-aligned box around the target rotated by `angle_deg`.
-cv::Rect2d rotated_bounds(cv::Point2d centre, cv::Size2d size, double angle_deg) {
+cv::Rect2d rotated_bounds(cv::Point2d center, cv::Size2d size, double angle_deg) {
   const double a = angle_deg * kPi / 180, c = std::abs(std::cos(a)), s = std::abs(std::sin(a));
   const double hw = (size.width * c + size.height * s) / 2, hh = (size.width * s + size.height * c) / 2;
-  return {centre.x - hw, centre.y - hh, 2 * hw, 2 * hh};
+  return {center.x - hw, center.y - hh, 2 * hw, 2 * hh};
 }
 
-cv::Rect2d truth_box(cv::Point2d centre, cv::Size2d size) {
-  return {centre.x - size.width / 2, centre.y - size.height / 2, size.width, size.height};
+cv::Rect2d truth_box(cv::Point2d center, cv::Size2d size) {
+  return {center.x - size.width / 2, center.y - size.height / 2, size.width, size.height};
 }
 
 // --- Planning the motion.
@@ -337,10 +337,10 @@ void plan_occlusion(const SyntheticScript& s, const Motion& m, const cv::Size2d&
     // Sized once, by the target's size as the occluder comes in.
     const double start_side = std::max(base.width, base.height) * scale_at(s, m, o.start);
     const int side = static_cast<int>(std::lround(o.size * start_side));
-    const cv::Rect2d bounds = rotated_bounds(p.centre, target_size, p.angle_deg);
+    const cv::Rect2d bounds = rotated_bounds(p.center, target_size, p.angle_deg);
     const double reach = (side + bounds.width) / 2 + 4;
     const double u = o.end - o.start > 1 ? (t - o.start) / double(o.end - o.start - 1) : 0.5;
-    const double cx = p.centre.x - reach + 2 * reach * u, cy = p.centre.y + o.offset_y * target_size.height;
+    const double cx = p.center.x - reach + 2 * reach * u, cy = p.center.y + o.offset_y * target_size.height;
     p.occlusion = static_cast<int>(k);
     p.occluder = cv::Rect(static_cast<int>(std::lround(cx - side / 2.0)), static_cast<int>(std::lround(cy - side / 2.0)),
                           side, side);
@@ -357,7 +357,7 @@ std::vector<FramePlan> plan_frames(const SyntheticScript& s, const cv::Size2d& b
     // The camera follows the target with its pan; shake and looking away move
     // the background and the target alike.
     p.view = m.pan.at(t) + shake + away;
-    p.centre = middle + m.wander.at(t) - shake - away;
+    p.center = middle + m.wander.at(t) - shake - away;
     p.scale = scale_at(s, m, t);
     p.angle_deg = s.rotation_deg * std::sin(2 * kPi * t / m.rotation_period);
     p.smear = t > 0 ? -s.blur * (p.view - previous_view) : cv::Point2d();
@@ -374,7 +374,7 @@ std::vector<FramePlan> plan_frames(const SyntheticScript& s, const cv::Size2d& b
       // Circles the target, passing behind it twice a lap.
       const double a = 2 * kPi * t / m.distractor_period, r = 1.7 * size.width;
       p.distractor = true;
-      p.distractor_centre = p.centre + cv::Point2d(r * std::cos(a), 0.15 * r * std::sin(a));
+      p.distractor_center = p.center + cv::Point2d(r * std::cos(a), 0.15 * r * std::sin(a));
     }
   }
   return plans;
@@ -383,7 +383,7 @@ std::vector<FramePlan> plan_frames(const SyntheticScript& s, const cv::Size2d& b
 // Invisible: nothing of the target inside the frame, or what is inside lies
 // under the occluder (with a pixel to spare for interpolation's blur).
 bool target_visible(const FramePlan& p, cv::Size2d target_size, cv::Size frame) {
-  const cv::Rect2d inside = rotated_bounds(p.centre, target_size, p.angle_deg) & cv::Rect2d(0, 0, frame.width, frame.height);
+  const cv::Rect2d inside = rotated_bounds(p.center, target_size, p.angle_deg) & cv::Rect2d(0, 0, frame.width, frame.height);
   if (inside.width < 1 || inside.height < 1) return false;
   if (p.occlusion < 0) return true;
   const cv::Rect2d padded(inside.x - 1, inside.y - 1, inside.width + 2, inside.height + 2);
@@ -459,20 +459,20 @@ std::shared_ptr<Scene> build_scene(const SyntheticScript& s, const std::string& 
 
 // Draws the sprite centred on `centre` (edge coordinates) at `scale` and
 // `angle_deg`: exactly over truth_box(centre, base * scale) when unrotated.
-void draw_sprite(cv::Mat& frame, const Sprite& sprite, cv::Point2d centre, double scale, double angle_deg) {
+void draw_sprite(cv::Mat& frame, const Sprite& sprite, cv::Point2d center, double scale, double angle_deg) {
   const cv::Size2d size(sprite.base.width * scale, sprite.base.height * scale);
   std::size_t k = 0;
   while (k + 1 < sprite.levels.size() && sprite.levels[k + 1].cols >= size.width) ++k;
   const cv::Mat& image = sprite.levels[k];
   const double fx = size.width / image.cols, fy = size.height / image.rows;
   const double a = angle_deg * kPi / 180, c = std::cos(a), s = std::sin(a);
-  const cv::Rect roi = cv::Rect(rotated_bounds(centre, size, angle_deg) + cv::Size2d(2, 2) - cv::Point2d(1, 1)) &
+  const cv::Rect roi = cv::Rect(rotated_bounds(center, size, angle_deg) + cv::Size2d(2, 2) - cv::Point2d(1, 1)) &
                        cv::Rect(0, 0, frame.cols, frame.rows);
   if (roi.empty()) return;
   // Image pixel centres (i - (n-1)/2) map to the frame's pixel-centre
   // coordinates around centre - 0.5 (pixel centres sit at edge + 0.5).
   const double ix = (image.cols - 1) / 2.0, iy = (image.rows - 1) / 2.0;
-  const double tx = centre.x - 0.5 - roi.x, ty = centre.y - 0.5 - roi.y;
+  const double tx = center.x - 0.5 - roi.x, ty = center.y - 0.5 - roi.y;
   const cv::Matx23d m(c * fx, -s * fy, tx - (c * fx * ix - s * fy * iy), s * fx, c * fy, ty - (s * fx * ix + c * fy * iy));
   cv::Mat dst = frame(roi);
   // Transparent border: only pixels the sprite covers are written.
@@ -500,8 +500,8 @@ cv::Mat render_frame(const Scene& scene, int i) {
   cv::Mat frame;
   const cv::Matx23d view(1, 0, -p.view.x, 0, 1, -p.view.y);
   cv::warpAffine(scene.background, frame, view, s.frame_size, cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  if (p.distractor) draw_sprite(frame, scene.distractor, p.distractor_centre, p.scale, p.angle_deg);
-  draw_sprite(frame, scene.target, p.centre, p.scale, p.angle_deg);
+  if (p.distractor) draw_sprite(frame, scene.distractor, p.distractor_center, p.scale, p.angle_deg);
+  draw_sprite(frame, scene.target, p.center, p.scale, p.angle_deg);
   if (p.occlusion >= 0) {
     const cv::Rect inside = p.occluder & cv::Rect(0, 0, frame.cols, frame.rows);
     const cv::Mat& patch = scene.occluders[static_cast<std::size_t>(p.occlusion)];
@@ -529,7 +529,7 @@ Sequence generate_sequence(const SyntheticScript& script, const std::string& dat
   const cv::Size2d base = target_base_size(script);
   for (const FramePlan& p : scene->plans) {
     const cv::Size2d size(base.width * p.scale, base.height * p.scale);
-    sequence.truth.push_back(truth_box(p.centre, size));
+    sequence.truth.push_back(truth_box(p.center, size));
     sequence.visible.push_back(target_visible(p, size, script.frame_size));
   }
   sequence.frame = [scene](int i) { return render_frame(*scene, i); };
@@ -647,7 +647,7 @@ double iou(const cv::Rect2d& a, const cv::Rect2d& b) {
   return join > 0 ? overlap / join : 0.0;
 }
 
-double centre_error(const cv::Rect2d& a, const cv::Rect2d& b) {
+double center_error(const cv::Rect2d& a, const cv::Rect2d& b) {
   return std::hypot(a.x + a.width / 2 - (b.x + b.width / 2), a.y + a.height / 2 - (b.y + b.height / 2));
 }
 
@@ -691,7 +691,7 @@ TrackScore score_track(const std::vector<cv::Rect2d>& truth, const std::vector<b
       if (!track[i].tracking) ++honest;
       continue;
     }
-    const double error = centre_error(track[i].box, truth[i]);
+    const double error = center_error(track[i].box, truth[i]);
     error_sum += error;
     if (error <= 20) ++precise;
     overlaps.push_back(iou(track[i].box, truth[i]));
@@ -702,7 +702,7 @@ TrackScore score_track(const std::vector<cv::Rect2d>& truth, const std::vector<b
   score.scored_frames = static_cast<int>(overlaps.size());
   if (!overlaps.empty()) {
     const double n = static_cast<double>(overlaps.size());
-    score.mean_centre_error = error_sum / n;
+    score.mean_center_error = error_sum / n;
     score.precision20 = precise / n;
     // OTB's success plot: thresholds 0:0.05:1, success = IoU strictly above
     // (so a perfect track scores 20/21). k / 20.0 is the nearest double to each.

@@ -123,7 +123,7 @@ struct TrackedFrame {
 // there costs nothing except through `honest_lost`.
 struct TrackScore {
   int scored_frames = 0;         // visible frames after frame 0
-  double mean_centre_error = 0;  // pixels, over scored frames
+  double mean_center_error = 0;  // pixels, over scored frames
   double precision20 = 0;        // share of scored frames with centre error <= 20 px
   double success_auc = 0;        // mean over IoU thresholds 0, 0.05, ..., 1 of the share with IoU > threshold (OTB)
   double success50 = 0;          // share with IoU > 0.5
@@ -136,7 +136,7 @@ struct TrackScore {
 };
 
 double iou(const cv::Rect2d& a, const cv::Rect2d& b);
-double centre_error(const cv::Rect2d& a, const cv::Rect2d& b);
+double center_error(const cv::Rect2d& a, const cv::Rect2d& b);
 
 // `track` has one entry per frame (entry 0 is ignored).
 TrackScore score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,

@@ -32,7 +32,7 @@ TargetView SimHead::render(int camera, const kinematics::HeadJoints& q, double t
   const Eigen::Vector3d o = pose.translation();
   const double f = config_.focal_px, cx = size.width / 2.0, cy = size.height / 2.0;
   const double width = config_.wall_width, height = width * scene_.rows / scene_.cols;
-  const double sx = scene_.cols / width, sy = scene_.rows / height, centre_z = config_.geometry.l2;
+  const double sx = scene_.cols / width, sy = scene_.rows / height, center_z = config_.geometry.l2;
   map_x_.create(size, CV_32FC1);
   map_y_.create(size, CV_32FC1);
   for (int v = 0; v < size.height; ++v) {
@@ -48,7 +48,7 @@ TargetView SimHead::render(int camera, const kinematics::HeadJoints& q, double t
         continue;
       }
       mx[u] = static_cast<float>((o.x() + s * d.x() + width / 2) * sx);
-      my[u] = static_cast<float>((centre_z + height / 2 - (o.z() + s * d.z())) * sy);
+      my[u] = static_cast<float>((center_z + height / 2 - (o.z() + s * d.z())) * sy);
     }
   }
   cv::remap(scene_, out, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(96, 96, 96));

@@ -232,8 +232,8 @@ void retina_of_view(const cv::Mat& image, retina::RetinaSampler& sampler, Retina
   const int left = (size.width - fitted.width) / 2, top = (size.height - fitted.height) / 2;
   cv::copyMakeBorder(scaled, frame, top, size.height - fitted.height - top, left, size.width - fitted.width - left,
                      cv::BORDER_REPLICATE);
-  const cv::Point2d centre(left + fitted.width / 2.0, top + fitted.height / 2.0);
-  sampler.sample(frame, centre, out);
+  const cv::Point2d center(left + fitted.width / 2.0, top + fitted.height / 2.0);
+  sampler.sample(frame, center, out);
 }
 
 void Model::scores(const cv::Mat& row, std::vector<float>& out) const {

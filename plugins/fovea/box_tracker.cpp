@@ -23,14 +23,14 @@ constexpr int kChannels = 5;  // gray, and the gradient's strength along 4 direc
 
 // Where a patch comes from: its centre and its step (source pixels per patch pixel).
 struct Placement {
-  cv::Point2d centre;
+  cv::Point2d center;
   double step = 1;
   double angle = 0;  // radians: the patch's axes turned by this from the frame's
 
   // Where patch offset `d` (patch pixels from its centre) is in the frame.
   cv::Point2d to_frame(cv::Point2d d) const {
     const double c = std::cos(angle), s = std::sin(angle);
-    return centre + step * cv::Point2d(c * d.x - s * d.y, s * d.x + c * d.y);
+    return center + step * cv::Point2d(c * d.x - s * d.y, s * d.x + c * d.y);
   }
 };
 
@@ -63,8 +63,8 @@ cv::Mat gaussian_spectrum(int side, double sigma) {
 }
 
 // Sub-pixel position of a peak along one axis from its neighbours (a parabola).
-double parabola(float left, float centre, float right) {
-  const double d = left - 2.0 * centre + right;
+double parabola(float left, float center, float right) {
+  const double d = left - 2.0 * center + right;
   return d < 0 ? 0.5 * (left - right) / d : 0.0;
 }
 
@@ -98,7 +98,7 @@ double peak_to_sidelobe(const cv::Mat& response, cv::Point peak) {
 // Steps above 1.5 are sampled at twice the resolution and halved, so that a
 // pixel is a mean over its cell (as a retina level's), not one source pixel.
 // Only the sample is converted to gray: the cost does not grow with the frame.
-void sample_gray(const cv::Mat& frame, cv::Point2d centre, double step_x, double step_y, cv::Size size, cv::Mat& out,
+void sample_gray(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size, cv::Mat& out,
                  cv::Mat& fine, cv::Mat& fine_gray, double angle = 0) {
   const bool halve = std::max(step_x, step_y) > 1.5;
   const cv::Size n = halve ? size * 2 : size;
@@ -106,8 +106,8 @@ void sample_gray(const cv::Mat& frame, cv::Point2d centre, double step_x, double
   // Patch pixel (u, v) samples centre + R(angle) diag(sx, sy) ((u, v) - the patch's middle).
   const double c = std::cos(angle), s = std::sin(angle);
   const double mx = (n.width - 1) / 2.0, my = (n.height - 1) / 2.0;
-  const cv::Matx23d m(c * sx, -s * sy, centre.x - (c * sx * mx - s * sy * my), s * sx, c * sy,
-                      centre.y - (s * sx * mx + c * sy * my));
+  const cv::Matx23d m(c * sx, -s * sy, center.x - (c * sx * mx - s * sy * my), s * sx, c * sy,
+                      center.y - (s * sx * mx + c * sy * my));
   cv::warpAffine(frame, fine, m, n, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
   if (fine.channels() != 1) {
     cv::cvtColor(fine, fine_gray, fine.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
@@ -148,11 +148,11 @@ float cell_mean(const cv::Mat& frame, double x, double y, double step_x, double 
 
 // A size.width x size.height gray sample centred on `centre`, one cell_mean
 // per pixel (row by row into `out`).
-void sample_area(const cv::Mat& frame, cv::Point2d centre, double step_x, double step_y, cv::Size size, float* out) {
+void sample_area(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size, float* out) {
   const double half_x = (size.width - 1) / 2.0, half_y = (size.height - 1) / 2.0;
   for (int j = 0; j < size.height; ++j)
     for (int i = 0; i < size.width; ++i) {
-      const double x = centre.x + (i - half_x) * step_x, y = centre.y + (j - half_y) * step_y;
+      const double x = center.x + (i - half_x) * step_x, y = center.y + (j - half_y) * step_y;
       out[j * size.width + i] = frame.channels() == 1 ? cell_mean<1>(frame, x, y, step_x, step_y)
                                 : frame.channels() == 3 ? cell_mean<3>(frame, x, y, step_x, step_y)
                                                         : cell_mean<4>(frame, x, y, step_x, step_y);
@@ -190,9 +190,9 @@ class ScaleFilter {
   }
 
   // The best scale factor for a target of `size` around `centre` (1: unchanged).
-  double estimate(const cv::Mat& frame, cv::Point2d centre, cv::Size2d size, double lambda) {
+  double estimate(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, double lambda) {
     if (numerator_.empty()) return 1.0;
-    spectra(frame, centre, size);
+    spectra(frame, center, size);
     // Response = IDFT over scales of sum_d A_d(k) Z_d(k) / (B(k) + lambda).
     std::vector<std::complex<float>>& r = response_;
     r.assign(static_cast<std::size_t>(count_), {});
@@ -216,8 +216,8 @@ class ScaleFilter {
 
   // Learns from the samples estimate() took when `fresh` is false (the
   // scale did not change, so they are this frame's samples at this size).
-  void learn(const cv::Mat& frame, cv::Point2d centre, cv::Size2d size, double rate, bool fresh) {
-    if (fresh || numerator_.empty()) spectra(frame, centre, size);
+  void learn(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, double rate, bool fresh) {
+    if (fresh || numerator_.empty()) spectra(frame, center, size);
     if (numerator_.empty()) {
       numerator_.assign(spectra_.size(), {});
       denominator_.assign(static_cast<std::size_t>(count_), 0.0f);
@@ -245,11 +245,11 @@ class ScaleFilter {
  private:
   // Per scale (row), the scale's sample as gray and gradient strengths,
   // windowed across scales; then the transform across scales, per dimension.
-  void spectra(const cv::Mat& frame, cv::Point2d centre, cv::Size2d size) {
+  void spectra(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
     const int pixels = side_ * side_;
     for (int k = 0; k < count_; ++k) {
       const double f = factors_[static_cast<std::size_t>(k)];
-      sample_area(frame, centre, size.width * f / side_, size.height * f / side_, cv::Size(side_, side_), sample_.data());
+      sample_area(frame, center, size.width * f / side_, size.height * f / side_, cv::Size(side_, side_), sample_.data());
       double sum = 0, sq = 0;
       for (float v : sample_) sum += v, sq += static_cast<double>(v) * v;
       const double mean = sum / pixels;
@@ -297,7 +297,7 @@ struct BoxTracker::Impl {
 
   // The patch at `p`: a retina level's view of the target and around it.
   void sample(const cv::Mat& frame, const Placement& p, cv::Mat& out) {
-    sample_gray(frame, p.centre, p.step, p.step, cv::Size(config.patch, config.patch), out, fine, fine_gray, p.angle);
+    sample_gray(frame, p.center, p.step, p.step, cv::Size(config.patch, config.patch), out, fine, fine_gray, p.angle);
   }
 
   // The patch's feature channels, windowed, as spectra: gray under local
@@ -439,7 +439,7 @@ struct BoxTracker::Impl {
     const cv::Size t(std::max(3, static_cast<int>(std::lround(size.width / s))),
                      std::max(3, static_cast<int>(std::lround(size.height / s))));
     coarse_sample.resize(static_cast<std::size_t>(t.area()));
-    sample_area(frame, centre, s, s, t, coarse_sample.data());
+    sample_area(frame, center, s, s, t, coarse_sample.data());
     const cv::Mat fresh(t, CV_32F, coarse_sample.data());
     if (appearance.size() != t || rate >= 1)
       fresh.copyTo(appearance);
@@ -495,7 +495,7 @@ struct BoxTracker::Impl {
   ScaleFilter scale_filter;
   // The target: its centre and size (source pixels), the patch's step for
   // that size, its velocity, how sure the tracker has been.
-  cv::Point2d centre, velocity;
+  cv::Point2d center, velocity;
   cv::Size2d size;
   double step = 1;
   double angle = 0;  // radians: how far the target has turned since it was given
@@ -555,17 +555,17 @@ std::string BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   cv::Scalar mean, sd;
   cv::meanStdDev(gray_box, mean, sd);
   if (sd[0] < 2) return "box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) + "): nothing to follow";
-  m.centre = {box.x + box.width / 2, box.y + box.height / 2};
+  m.center = {box.x + box.width / 2, box.y + box.height / 2};
   m.size = box.size();
   // A small target is not magnified: the patch then covers more than
   // `padding` times it, which also widens the search around a fast one.
   m.step = std::max(1.0, config_.padding * std::max(box.width, box.height) / config_.patch);
   m.target_spectrum = gaussian_spectrum(config_.patch, config_.sigma * std::max(box.width, box.height) / m.step);
-  m.sample(frame, {m.centre, m.step}, m.patch);
+  m.sample(frame, {m.center, m.step}, m.patch);
   m.features(m.patch, m.patch_spectra);
   m.learn(m.patch_spectra, 1.0);
   m.learn_appearance(frame, 1.0);
-  m.scale_filter.learn(frame, m.centre, m.size, 1.0, true);
+  m.scale_filter.learn(frame, m.center, m.size, 1.0, true);
   camera_shift_ = {};
   initialised_ = true;
   last_ = {box, 0, TrackState::kTracking};
@@ -576,13 +576,13 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   if (!initialised_ || frame.empty()) return last_;
   Impl& m = *impl_;
   const cv::Mat& gray = frame;  // 8-bit gray or BGR: patches are converted, never the frame
-  const cv::Point2d predicted = m.centre + m.velocity + camera_shift_;
+  const cv::Point2d predicted = m.center + m.velocity + camera_shift_;
   camera_shift_ = {};
   if (last_.state == TrackState::kLost)
     redetect(gray, predicted);
   else
     follow(gray, predicted);
-  last_.box = cv::Rect2d(m.centre.x - m.size.width / 2, m.centre.y - m.size.height / 2, m.size.width, m.size.height);
+  last_.box = cv::Rect2d(m.center.x - m.size.width / 2, m.center.y - m.size.height / 2, m.size.width, m.size.height);
   return last_;
 }
 
@@ -609,7 +609,7 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   if (psr < config_.lost_psr) {
     // Too weak to trust even the position: coast on the prediction.
     m.velocity *= 0.8;
-    m.centre = predicted;
+    m.center = predicted;
     ++m.unsure_frames;
     last_.state = ++m.low_frames >= config_.lost_frames || m.unsure_frames >= config_.unsure_frames
                       ? TrackState::kLost
@@ -627,16 +627,16 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
     // Where the peak is, but not sure enough to learn from it or to trust
     // its motion (an occluder's edge, a distractor passing).
     m.velocity *= 0.8;
-    m.centre = measured;
+    m.center = measured;
     last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
     look_elsewhere(gray);
     return;
   }
   m.unsure_frames = 0;
   m.angle = at.angle;
-  m.velocity = config_.velocity_gain * (measured - m.centre) + (1 - config_.velocity_gain) * m.velocity;
-  m.centre = measured;
-  const double scale = m.scale_filter.estimate(gray, m.centre, m.size, config_.lambda);
+  m.velocity = config_.velocity_gain * (measured - m.center) + (1 - config_.velocity_gain) * m.velocity;
+  m.center = measured;
+  const double scale = m.scale_filter.estimate(gray, m.center, m.size, config_.lambda);
   m.size *= scale;
   m.step *= scale;
   last_.state = TrackState::kTracking;
@@ -647,7 +647,7 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   m.psr_mean = warm ? 0.95 * m.psr_mean + 0.05 * usual : m.psr_mean + (usual - m.psr_mean) / m.tracked_frames;
   m.learn(m.patch_spectra, config_.learning_rate, peak.offset);
   m.learn_appearance(gray, config_.learning_rate);
-  m.scale_filter.learn(gray, m.centre, m.size, config_.learning_rate, scale != 1.0);
+  m.scale_filter.learn(gray, m.center, m.size, config_.learning_rate, scale != 1.0);
 }
 
 void BoxTracker::look_elsewhere(const cv::Mat& gray) {
@@ -657,7 +657,7 @@ void BoxTracker::look_elsewhere(const cv::Mat& gray) {
   if (impl_->unsure_frames < config_.redetect_after) return;
   const double confidence = last_.confidence;
   const TrackState state = last_.state;
-  redetect(gray, impl_->centre);
+  redetect(gray, impl_->center);
   if (last_.state != TrackState::kTracking) last_.confidence = confidence, last_.state = state;
 }
 
@@ -693,7 +693,7 @@ void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
   m.candidate_step = where.step;
   m.candidate_frames = consistent ? m.candidate_frames + 1 : 1;
   if (m.candidate_frames < config_.redetect_frames) return;
-  m.centre = found;
+  m.center = found;
   m.size *= where.step / m.step;  // found at another size
   m.step = where.step;
   m.velocity = {};

@@ -31,7 +31,7 @@ void FoveaController::head_moved(cv::Point2d pixel, cv::Size image) {
   candidate_ += shift;
   acquire_at_ += shift;
   ior_.shift(shift);
-  recentre_shift_ = shift;
+  recenter_shift_ = shift;
   box_tracker_.camera_moved(shift);
   gaze_armed_ = true;
   gaze_wait_ = 0;
@@ -49,16 +49,16 @@ Decision FoveaController::step(const Retina& retina, const std::vector<cv::Mat>*
   ior_.tick();
   if (gaze_wait_ > 0) --gaze_wait_;
   if (phase_ == Phase::kBox) {
-    recentre_shift_.reset();  // the box tracker was told (camera_moved)
+    recenter_shift_.reset();  // the box tracker was told (camera_moved)
     follow_box(retina, d);
     check_border(retina, d);
     return d;
   }
-  if (recentre_shift_) {
+  if (recenter_shift_) {
     // The frame was taken before the head's move was known: the target is
     // where it was, shifted with the scene. Put the fovea there; match again on
     // the next frame.
-    recentre_shift_.reset();
+    recenter_shift_.reset();
     if (phase_ == Phase::kTrack) {
       d.state = FoveaState::State::kTracking;
       d.next = target_ + (config_.predict ? velocity_ : cv::Point2d());
@@ -96,22 +96,22 @@ void FoveaController::track(const Retina& retina, const std::vector<cv::Mat>* mo
   velocity_ = dwell_ == 0 ? measured : config_.velocity_gain * measured + (1.0 - config_.velocity_gain) * velocity_;
   target_ = m.point;
   ++dwell_;
-  if (centring_ > 0 && !fixed_template_) {
+  if (centering_ > 0 && !fixed_template_) {
     // Just acquired, maybe on a part of the object: while the fovea
     // settles on it, move the tracked point to the object's centre.
-    --centring_;
+    --centering_;
     saliency_.compute(retina, motion_dI);
     bool cut = false;
-    const cv::Point2d centre =
-        saliency_.blob_centre(static_cast<int>(retina.levels.size()) - 1, target_, 0.5, &cut);
+    const cv::Point2d center =
+        saliency_.blob_center(static_cast<int>(retina.levels.size()) - 1, target_, 0.5, &cut);
     if (!cut) {
       // Cut the template again around the centre, so that it holds the
       // object rather than the background next to it.
-      if (!tracker_.acquire(retina, centre)) tracker_.move_point(centre - target_);
-      target_ = centre;
-      centring_ = 0;
+      if (!tracker_.acquire(retina, center)) tracker_.move_point(center - target_);
+      target_ = center;
+      centering_ = 0;
     } else {
-      centre_next_ = centre;  // bring the whole object into the fovea first
+      center_next_ = center;  // bring the whole object into the fovea first
     }
   }
   d.state = FoveaState::State::kTracking;
@@ -119,9 +119,9 @@ void FoveaController::track(const Retina& retina, const std::vector<cv::Mat>* mo
   d.target_valid = true;
   d.score = m.score;
   d.next = target_ + (config_.predict ? velocity_ : cv::Point2d());
-  if (centre_next_) {
-    d.next = *centre_next_ + (config_.predict ? velocity_ : cv::Point2d());
-    centre_next_.reset();
+  if (center_next_) {
+    d.next = *center_next_ + (config_.predict ? velocity_ : cv::Point2d());
+    center_next_.reset();
   }
   if (config_.mode == FoveaMode::kAttend && !config_.track_label.empty() && top_down != nullptr &&
       top_down->label == config_.track_label && distance(top_down->center, target_) < config_.ior_radius)
@@ -160,7 +160,7 @@ void FoveaController::acquire(const Retina& retina, const std::vector<cv::Mat>* 
     const int inner = static_cast<int>(retina.levels.size()) - 1;
     const Candidate c = saliency_.peak_on_level(inner, t.width / 2, t.height / 2);
     bool cut = false;
-    if (c.valid() && c.value > 0) at = saliency_.blob_centre(inner, c.point, 0.5, &cut);
+    if (c.valid() && c.value > 0) at = saliency_.blob_center(inner, c.point, 0.5, &cut);
     if (cut && ++acquire_looks_ < kAcquireLooks) {
       // Part of the object is outside the fovea: centre on what is seen and
       // look again before cutting the template.
@@ -170,7 +170,7 @@ void FoveaController::acquire(const Retina& retina, const std::vector<cv::Mat>* 
     }
   }
   if (tracker_.acquire(retina, at)) {
-    centring_ = acquire_refine_ ? kCentringFrames : 0;
+    centering_ = acquire_refine_ ? kCenteringFrames : 0;
     start_tracking(at, 1.0, d);
   } else {
     ior_.add(acquire_at_);
@@ -283,8 +283,8 @@ void FoveaController::follow_box(const Retina& retina, Decision& d) {
   // The frame the box was given on was learnt from, not tracked in.
   const TrackEstimate e = box_learnt_ ? box_tracker_.last() : box_tracker_.update(retina.source->mat);
   box_learnt_ = false;
-  const cv::Point2d centre(e.box.x + e.box.width / 2, e.box.y + e.box.height / 2);
-  d.target = centre;
+  const cv::Point2d center(e.box.x + e.box.width / 2, e.box.y + e.box.height / 2);
+  d.target = center;
   d.target_size = e.box.size();
   d.confidence = d.score = e.confidence;
   d.target_valid = e.state != TrackState::kLost;
@@ -294,8 +294,8 @@ void FoveaController::follow_box(const Retina& retina, Decision& d) {
     case TrackState::kLost: d.state = FoveaState::State::kLost; break;
   }
   frames_lost_ = e.state == TrackState::kLost ? frames_lost_ + 1 : 0;
-  if (d.target_valid) d.next = centre;  // lost: the fovea stays while the tracker sweeps the frame
-  target_ = centre;
+  if (d.target_valid) d.next = center;  // lost: the fovea stays while the tracker sweeps the frame
+  target_ = center;
 }
 
 void FoveaController::check_border(const Retina& retina, Decision& d) {

@@ -113,14 +113,14 @@ class FoveaController {
   bool acquire_refine_ = true;
   static constexpr int kAcquireLooks = 3;  // looks at a place cut by the fovea's edge before acquiring anyway
   int acquire_looks_ = 0;
-  static constexpr int kCentringFrames = 8;  // frames after acquisition in which the point may move to the object's centre
-  int centring_ = 0;
-  std::optional<cv::Point2d> centre_next_;
+  static constexpr int kCenteringFrames = 8;  // frames after acquisition in which the point may move to the object's centre
+  int centering_ = 0;
+  std::optional<cv::Point2d> center_next_;
   int dwell_ = 0, attempts_ = 0;
   int64_t frames_lost_ = 0, shifts_ = 0, gaze_requests_ = 0;
   bool gaze_armed_ = true;
   int gaze_wait_ = 0;
-  std::optional<cv::Point2d> recentre_shift_;
+  std::optional<cv::Point2d> recenter_shift_;
   int64_t last_top_down_ = -1;
   bool recognised_ = false;  // attend: the tracked place is what track_label names
 };

@@ -93,13 +93,13 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
   bind(retina);
   geometry_.assign(retina.geometry.begin(), retina.geometry.end());
   const std::size_t n = retina.levels.size();
-  const bool colour = n > 0 && retina.levels[0].channels() == 3;
+  const bool color = n > 0 && retina.levels[0].channels() == 3;
   const bool use_motion = motion_dI != nullptr && motion_dI->size() == n && config_.motion_weight > 0;
   has_motion_ = use_motion;
-  const bool use_colour = colour && config_.color && config_.color_weight > 0;
+  const bool use_color = color && config_.color && config_.color_weight > 0;
   for (std::size_t k = 0; k < n; ++k) {
     const cv::Mat& level = retina.levels[k];
-    if (colour) cv::cvtColor(level, gray_[k], cv::COLOR_BGR2GRAY);
+    if (color) cv::cvtColor(level, gray_[k], cv::COLOR_BGR2GRAY);
     else level.copyTo(gray_[k]);
     gray_[k].convertTo(surround_, CV_32F);
     cv::GaussianBlur(surround_, blurred_[k], cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REFLECT_101);
@@ -113,7 +113,7 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
         for (int x = 0; x < dI.cols; ++x) d[x] = std::abs(s[x]);
       }
     }
-    if (use_colour) {
+    if (use_color) {
       const cv::Vec3d want = *config_.color;
       const double inv = 1.0 / (2.0 * config_.color_tolerance * config_.color_tolerance);
       for (int y = 0; y < level.rows; ++y) {
@@ -129,19 +129,19 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
   // Centre-surround across levels: each level against the next coarser one,
   // sampled at the same scene points; the outermost against a wide blur of itself.
   for (std::size_t k = 0; k < n; ++k) {
-    const cv::Mat& centre = blurred_[k];
+    const cv::Mat& center = blurred_[k];
     if (k == 0) {
-      cv::GaussianBlur(centre, surround_, cv::Size(0, 0), 4.0, 4.0, cv::BORDER_REFLECT_101);
-      cv::absdiff(centre, surround_, contrast_[k]);
+      cv::GaussianBlur(center, surround_, cv::Size(0, 0), 4.0, 4.0, cv::BORDER_REFLECT_101);
+      cv::absdiff(center, surround_, contrast_[k]);
       continue;
     }
     const LevelGeometry& fine = geometry_[k];
     const LevelGeometry& coarse = geometry_[k - 1];
     const cv::Mat& outer = blurred_[k - 1];
-    for (int y = 0; y < centre.rows; ++y) {
-      const float* c = centre.ptr<float>(y);
+    for (int y = 0; y < center.rows; ++y) {
+      const float* c = center.ptr<float>(y);
       float* d = contrast_[k].ptr<float>(y);
-      for (int x = 0; x < centre.cols; ++x) {
+      for (int x = 0; x < center.cols; ++x) {
         const cv::Point2d q = coarse.from_source(fine.to_source(x, y));
         d[x] = std::abs(c[x] - bilinear(outer, q.x, q.y));
       }
@@ -156,7 +156,7 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
   const double motion_max = use_motion ? std::max<double>(max_of(motion_), config_.motion_floor) : 1.0;
   double total = config_.contrast_weight + config_.edge_weight;
   if (use_motion) total += config_.motion_weight;
-  if (use_colour) total += config_.color_weight;
+  if (use_color) total += config_.color_weight;
   auto scale = [&](const cv::Mat& m, double global) {
     double hi = 0;
     cv::minMaxLoc(m, nullptr, &hi);
@@ -166,7 +166,7 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
     const float wc = static_cast<float>(config_.contrast_weight / total) * scale(contrast_[k], contrast_max);
     const float we = static_cast<float>(config_.edge_weight / total) * scale(edge_[k], edge_max);
     const float wm = use_motion ? static_cast<float>(config_.motion_weight / total) * scale(motion_[k], motion_max) : 0.0f;
-    const float wk = static_cast<float>(use_colour ? config_.color_weight / total : 0.0);
+    const float wk = static_cast<float>(use_color ? config_.color_weight / total : 0.0);
     for (int y = 0; y < maps_[k].rows; ++y) {
       const float* c = contrast_[k].ptr<float>(y);
       const float* e = edge_[k].ptr<float>(y);
@@ -178,7 +178,7 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
         float v = wc * c[x] + we * e[x];
         a[x] = v;
         if (use_motion) v += wm * m[x];
-        if (use_colour) v += wk * h[x];
+        if (use_color) v += wk * h[x];
         d[x] = v;
       }
     }
@@ -220,7 +220,7 @@ Candidate Saliency::peak_on_level(int level, int margin_x, int margin_y) const {
   return best;
 }
 
-cv::Point2d Saliency::blob_centre(int level, cv::Point2d seed, double fraction, bool* cut) {
+cv::Point2d Saliency::blob_center(int level, cv::Point2d seed, double fraction, bool* cut) {
   if (cut != nullptr) *cut = false;
   if (level < 0 || level >= static_cast<int>(maps_.size())) return seed;
   const cv::Mat& m = appearance_[static_cast<std::size_t>(level)];
@@ -228,10 +228,10 @@ cv::Point2d Saliency::blob_centre(int level, cv::Point2d seed, double fraction, 
   const cv::Point2d q = g.from_source(seed);
   cv::Point start(std::clamp(static_cast<int>(std::lround(q.x)), 0, m.cols - 1),
                   std::clamp(static_cast<int>(std::lround(q.y)), 0, m.rows - 1));
-  const cv::Point centre = start;
+  const cv::Point center = start;
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx) {
-      const cv::Point n = centre + cv::Point(dx, dy);
+      const cv::Point n = center + cv::Point(dx, dy);
       if (n.x >= 0 && n.y >= 0 && n.x < m.cols && n.y < m.rows && m.at<float>(n) > m.at<float>(start)) start = n;
     }
   const float threshold = static_cast<float>(fraction) * m.at<float>(start);

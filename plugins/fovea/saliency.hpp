@@ -90,7 +90,7 @@ class Saliency {
   // object is, this is its centre rather than its most salient corner.
   // `cut` (when given) tells whether the blob reaches the level's edge, where
   // the centre is biased towards the inside.
-  cv::Point2d blob_centre(int level, cv::Point2d seed, double fraction = 0.5, bool* cut = nullptr);
+  cv::Point2d blob_center(int level, cv::Point2d seed, double fraction = 0.5, bool* cut = nullptr);
   const SaliencyConfig& config() const { return config_; }
 
  private:

@@ -36,13 +36,13 @@ namespace {
 // zero, so the offset cancels and the float sums stay small). `rw` a multiple
 // of eight.
 SACCADE_AVX2_CLONE void cross_terms(float* __restrict result, std::ptrdiff_t result_step, int rw, int rh,
-                                    const float* __restrict centred, std::ptrdiff_t window_step,
+                                    const float* __restrict centered, std::ptrdiff_t window_step,
                                     const float* __restrict templ, std::ptrdiff_t templ_step, int tw, int th,
                                     float t_mean) {
   const auto scale = [&](int ty, int tx) { return templ[ty * templ_step + tx] - t_mean; };
   for (int y = 0; y < rh; ++y) {
     float* out = result + y * result_step;
-    const float* w = centred + y * window_step;
+    const float* w = centered + y * window_step;
     int x = 0;
     for (; x + 32 <= rw; x += 32) sliding_dots<4>(w + x, window_step, th, tw, scale, out + x);
     for (; x < rw; x += 8) sliding_dots<1>(w + x, window_step, th, tw, scale, out + x);
@@ -85,14 +85,14 @@ void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat&
   // Rows padded to whole vectors of eight (zeros beyond the window), so the
   // inner loop has no scalar tail; the padding's results are dropped.
   const int rw8 = (rw + 7) / 8 * 8, cw = rw8 + tw - 1;
-  scratch.centred.assign(static_cast<std::size_t>(cw) * static_cast<std::size_t>(window.rows), 0.0f);
+  scratch.centered.assign(static_cast<std::size_t>(cw) * static_cast<std::size_t>(window.rows), 0.0f);
   for (int y = 0; y < window.rows; ++y) {
     const float* w = window.ptr<float>(y);
-    float* c = scratch.centred.data() + static_cast<std::size_t>(y) * cw;
+    float* c = scratch.centered.data() + static_cast<std::size_t>(y) * cw;
     for (int x = 0; x < window.cols; ++x) c[x] = w[x] - 128.0f;
   }
   scratch.cross.resize(static_cast<std::size_t>(rw8) * static_cast<std::size_t>(rh));
-  cross_terms(scratch.cross.data(), rw8, rw8, rh, scratch.centred.data(), cw, templ.ptr<float>(),
+  cross_terms(scratch.cross.data(), rw8, rw8, rh, scratch.centered.data(), cw, templ.ptr<float>(),
               static_cast<std::ptrdiff_t>(templ.step1()), tw, th, static_cast<float>(t_mean));
   for (int y = 0; y < rh; ++y)
     std::copy_n(scratch.cross.data() + static_cast<std::size_t>(y) * rw8, rw, result.ptr<float>(y));

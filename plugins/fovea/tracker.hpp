@@ -28,7 +28,7 @@ struct TrackerConfig {
 // times more. Same definition, and the same rule for flat windows (their
 // score is 0). `scratch` keeps the buffers between calls.
 struct CorrelationScratch {
-  std::vector<float> centred, cross;
+  std::vector<float> centered, cross;
   std::vector<double> column_sum, column_sq, row_sum, row_sq;
 };
 void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch);

@@ -114,16 +114,16 @@ std::string GazeController::turn(double azimuth, double elevation) {
   const HeadJoints q = measured();
   const Eigen::Isometry3d l = kinematics::left_camera(config_.geometry, q);
   const Eigen::Isometry3d r = kinematics::right_camera(config_.geometry, q);
-  const Eigen::Vector3d centre = 0.5 * (l.translation() + r.translation());
+  const Eigen::Vector3d center = 0.5 * (l.translation() + r.translation());
   const kinematics::Fixation f = fixation();
   const Eigen::Vector3d p =
       f.valid ? f.point
-              : centre + (kinematics::optical_axis(l) + kinematics::optical_axis(r)).normalized() * config_.default_depth;
-  const Eigen::Vector3d v = p - centre;
+              : center + (kinematics::optical_axis(l) + kinematics::optical_axis(r)).normalized() * config_.default_depth;
+  const Eigen::Vector3d v = p - center;
   const double range = v.norm();
   const double az = std::atan2(v.x(), v.y()) + azimuth;
   const double el = std::atan2(v.z(), std::hypot(v.x(), v.y())) + elevation;
-  return aim(centre + range * Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)));
+  return aim(center + range * Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)));
 }
 
 void GazeController::hold(std::string why) {

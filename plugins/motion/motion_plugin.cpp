@@ -111,9 +111,9 @@ class MotionNode final : public Node {
     if (!sampler_ || sampler_->config().levels != config.levels || sampler_->config().size != config.size ||
         sampler_->config().mode != config.mode)
       sampler_ = std::make_unique<retina::RetinaSampler>(config);
-    cv::Point2d centre(cur.geometry.back().region.x + config.size.width / 2.0,
+    cv::Point2d center(cur.geometry.back().region.x + config.size.width / 2.0,
                        cur.geometry.back().region.y + config.size.height / 2.0);
-    sampler_->sample(*frame, centre, resampled_, geometry_);
+    sampler_->sample(*frame, center, resampled_, geometry_);
   }
   // The message's pooled buffers become the estimator's outputs and back: no copies.
   void swap_in(FeatureMaps& maps, std::size_t k) {

@@ -190,8 +190,8 @@ void RetinaSampler::prepare(const cv::Mat& frame, cv::Point corner) {
   if (frame.size() == prepared_size_ && frame.type() == prepared_type_ && pitch == prepared_pitch_ &&
       corner == prepared_corner_)
     return;
-  cv::Point2d centre(corner.x + config_.size.width / 2.0, corner.y + config_.size.height / 2.0);
-  std::vector<LevelGeometry> geometry = retina_geometry(config_, frame.size(), centre);
+  cv::Point2d center(corner.x + config_.size.width / 2.0, corner.y + config_.size.height / 2.0);
+  std::vector<LevelGeometry> geometry = retina_geometry(config_, frame.size(), center);
   geometry_.assign(geometry.begin(), geometry.end());
   const int cn = frame.channels();
   for (std::size_t k = 0; k < geometry_.size(); ++k) {

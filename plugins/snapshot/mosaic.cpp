@@ -40,15 +40,15 @@ cv::Mat to_display(const cv::Mat& image) {
   return bgr;
 }
 
-cv::Mat disparity_colour(const cv::Mat& disparity, double max_disparity) {
+cv::Mat disparity_color(const cv::Mat& disparity, double max_disparity) {
   CV_Assert(disparity.type() == CV_32F);
   cv::Mat valid = disparity >= 0;
   if (max_disparity <= 0) cv::minMaxLoc(disparity, nullptr, &max_disparity, nullptr, nullptr, valid);
-  cv::Mat scaled, colour;
+  cv::Mat scaled, color;
   disparity.convertTo(scaled, CV_8U, max_disparity > 0 ? 255.0 / max_disparity : 1.0);
-  cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
-  colour.setTo(cv::Scalar(0, 0, 0), ~valid);
-  return colour;
+  cv::applyColorMap(scaled, color, cv::COLORMAP_JET);
+  color.setTo(cv::Scalar(0, 0, 0), ~valid);
+  return color;
 }
 
 cv::Mat disparity_png16(const cv::Mat& disparity) {
@@ -74,7 +74,7 @@ cv::Mat track_overlay(const FoveaState& state, const std::vector<TrackPoint>& tr
   if (!state.retina) return {};
   cv::Mat out = retina_overlay(*state.retina);
   const int thickness = std::max(1, out.cols / 400);
-  auto colour = [](FoveaState::State s) {
+  auto color = [](FoveaState::State s) {
     switch (s) {
       case FoveaState::State::kTracking: return cv::Scalar(0, 220, 0);
       case FoveaState::State::kLost: return cv::Scalar(0, 0, 255);
@@ -84,7 +84,7 @@ cv::Mat track_overlay(const FoveaState& state, const std::vector<TrackPoint>& tr
     return cv::Scalar(0, 220, 255);
   };
   for (std::size_t i = 1; i < track.size(); ++i) {
-    cv::line(out, track[i - 1].fovea, track[i].fovea, colour(track[i].state), thickness, cv::LINE_AA);
+    cv::line(out, track[i - 1].fovea, track[i].fovea, color(track[i].state), thickness, cv::LINE_AA);
     if (track[i - 1].target_valid && track[i].target_valid)
       cv::line(out, track[i - 1].target, track[i].target, cv::Scalar(255, 160, 0), thickness, cv::LINE_AA);
   }
@@ -99,7 +99,7 @@ cv::Mat track_overlay(const FoveaState& state, const std::vector<TrackPoint>& tr
   char text[160];
   std::snprintf(text, sizeof text, "%s  score %.2f  shifts %lld  gaze requests %lld", to_string(state.state), state.score,
                 static_cast<long long>(state.attention_shifts), static_cast<long long>(state.gaze_requests));
-  cv::putText(out, text, {8, 42}, cv::FONT_HERSHEY_SIMPLEX, 0.6, colour(state.state), 1, cv::LINE_AA);
+  cv::putText(out, text, {8, 42}, cv::FONT_HERSHEY_SIMPLEX, 0.6, color(state.state), 1, cv::LINE_AA);
   return out;
 }
 
@@ -121,7 +121,7 @@ cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::st
     }
   for (std::size_t k = 0; k < levels.size(); ++k) {
     cv::Mat big;
-    cv::Mat shown = disparity && levels[k].type() == CV_32F ? disparity_colour(levels[k], max_disparity) : to_display(levels[k]);
+    cv::Mat shown = disparity && levels[k].type() == CV_32F ? disparity_color(levels[k], max_disparity) : to_display(levels[k]);
     cv::resize(shown, big, cell, 0, 0, cv::INTER_NEAREST);
     big.copyTo(out(cv::Rect(static_cast<int>(k) * (cell.width + gap), header, cell.width, cell.height)));
     cv::putText(out, "L" + std::to_string(k), {static_cast<int>(k) * (cell.width + gap) + 2, 13},

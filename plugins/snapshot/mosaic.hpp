@@ -15,7 +15,7 @@ cv::Mat to_display(const cv::Mat& image);
 
 // A disparity map (CV_32F, negative = invalid) colour-mapped: near red, far
 // blue, invalid black. `max_disparity` <= 0 takes the map's own maximum.
-cv::Mat disparity_colour(const cv::Mat& disparity, double max_disparity = 0);
+cv::Mat disparity_color(const cv::Mat& disparity, double max_disparity = 0);
 
 // A disparity map as 16-bit integers for outside evaluation: value = disparity
 // x 256, 0 = invalid (the KITTI convention).

@@ -152,7 +152,7 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
   // Each outer pixel's prediction once per outer row (several of this
   // level's pixels lie under each); rows under the same outer row are copies.
   constexpr int kNone = std::numeric_limits<int>::min();
-  outer_centre_.resize(static_cast<std::size_t>(prev.cols));
+  outer_center_.resize(static_cast<std::size_t>(prev.cols));
   int last_py = -1;
   for (int y = 0; y < size.height; ++y) {
     const double sy = g.region.y + (y + 0.5) * g.step_y;
@@ -169,16 +169,16 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
     const float* outer_row = prev.ptr<float>(py);
     for (int px = 0; px < prev.cols; ++px) {
       const float d = outer_row[px];
-      outer_centre_[static_cast<std::size_t>(px)] =
+      outer_center_[static_cast<std::size_t>(px)] =
           d < 0 ? kNone : static_cast<int>(std::lround(d / g.step_x)) - offset;
     }
     for (int x = 0; x < size.width; ++x) {
       const int px = outer_col_[static_cast<std::size_t>(x)];
       if (px < 0) continue;
-      const int centre = outer_centre_[static_cast<std::size_t>(px)];
-      if (centre == kNone) continue;
-      lo[x] = std::max(full_lo, centre - radius);
-      hi[x] = std::min(full_hi, centre + radius);
+      const int center = outer_center_[static_cast<std::size_t>(px)];
+      if (center == kNone) continue;
+      lo[x] = std::max(full_lo, center - radius);
+      hi[x] = std::min(full_hi, center + radius);
       if (fixation != nullptr) {
         lo[x] = std::min(lo[x], fixation->lo);
         hi[x] = std::max(hi[x], fixation->hi);
@@ -273,24 +273,24 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
   out.disparity = -1;
   out.score = -1;
   const cv::Rect fovea = left.geometry.back().region;
-  const cv::Point2d centre(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
+  const cv::Point2d center(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
   double previous = -1, previous_step = 0;
   for (std::size_t k = 0; k < n; ++k) {
     LevelScratch& ls = level_scratch_[k];
     const LevelGeometry& g = left.geometry[k];
     const cv::Mat& level = left.levels[k];
     const int ww = std::min(config_.fixation_window.width, level.cols), wh = std::min(config_.fixation_window.height, level.rows);
-    const cv::Point2d c = g.from_source(centre);
+    const cv::Point2d c = g.from_source(center);
     const int wx = std::clamp(static_cast<int>(std::lround(c.x - ww / 2.0 + 0.5)), 0, level.cols - ww);
     const int wy = std::clamp(static_cast<int>(std::lround(c.y - wh / 2.0 + 0.5)), 0, level.rows - wh);
     // Shifts in level pixels: the whole range on the outermost level, then
     // around the outer level's estimate (its uncertainty, a few of its pixels).
     int s_lo = 0, s_hi = static_cast<int>(std::ceil(config_.max_disparity / g.step_x));
     if (previous >= 0 && k + 1 < n) {
-      const int centre_shift = static_cast<int>(std::lround(previous / g.step_x));
+      const int center_shift = static_cast<int>(std::lround(previous / g.step_x));
       const int radius = static_cast<int>(std::ceil(2.0 * previous_step / g.step_x));
-      s_lo = std::max(0, centre_shift - radius);
-      s_hi = std::min(s_hi, centre_shift + radius);
+      s_lo = std::max(0, center_shift - radius);
+      s_hi = std::min(s_hi, center_shift + radius);
     }
     // One strip of the right frame covering every shift: strip column j is the
     // right frame at left window column j - s_hi.

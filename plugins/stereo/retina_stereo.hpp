@@ -167,7 +167,7 @@ class RetinaStereo {
   std::vector<LevelScratch> level_scratch_;
   std::vector<int32_t> column_sum_, column_sq_, products_, strip32_;
   std::vector<float> samples_;
-  std::vector<int> outer_col_, outer_centre_;
+  std::vector<int> outer_col_, outer_center_;
   cv::Mat right_level_, right_gray_, left_gray_;
   cv::Mat lo_, hi_;
 };

@@ -42,7 +42,7 @@ std::string train_target_model() {
   cv::Mat left, right, gray;
   renderer.render(0, left, right);
   cv::cvtColor(left, gray, cv::COLOR_BGR2GRAY);
-  const cv::Point2d centre = renderer.target_center(0);
+  const cv::Point2d center = renderer.target_center(0);
   classifier::FeatureRecipe recipe;
   classifier::FeatureExtractor extractor(recipe);
   retina::RetinaSampler sampler({});
@@ -52,8 +52,8 @@ std::string train_target_model() {
   cv::RNG rng(7);
   for (int i = 0; i < 160; ++i) {
     const bool target = i % 2 == 0;
-    cv::Point2d at = centre + cv::Point2d(rng.uniform(-8.0, 8.0), rng.uniform(-8.0, 8.0));
-    while (!target && cv::norm(at - centre) < 40) at = {rng.uniform(20.0, 620.0), rng.uniform(20.0, 460.0)};
+    cv::Point2d at = center + cv::Point2d(rng.uniform(-8.0, 8.0), rng.uniform(-8.0, 8.0));
+    while (!target && cv::norm(at - center) < 40) at = {rng.uniform(20.0, 620.0), rng.uniform(20.0, 460.0)};
     sampler.sample(gray, at, retina.levels, retina.geometry);
     EXPECT_EQ(extractor.extract(retina, row), "");
     x.push_back(row);

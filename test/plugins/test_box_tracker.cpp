@@ -33,13 +33,13 @@ struct Scene {
   cv::Mat target = read("baboon.jpg")(cv::Rect(180, 40, 150, 120)).clone();  // the mandrill's nose and eyes
   cv::Size frame{320, 240};
 
-  cv::Mat render(cv::Point2d camera, cv::Point2d centre, double scale = 0.3, double gain = 1.0,
+  cv::Mat render(cv::Point2d camera, cv::Point2d center, double scale = 0.3, double gain = 1.0,
                  cv::Rect occluder = {}) const {
     cv::Mat out = background(cv::Rect(cv::Point(static_cast<int>(camera.x), static_cast<int>(camera.y)), frame)).clone();
     cv::Mat t;
     cv::resize(target, t, cv::Size(), scale, scale, cv::INTER_AREA);
-    const cv::Rect where(static_cast<int>(std::lround(centre.x - t.cols / 2.0)),
-                         static_cast<int>(std::lround(centre.y - t.rows / 2.0)), t.cols, t.rows);
+    const cv::Rect where(static_cast<int>(std::lround(center.x - t.cols / 2.0)),
+                         static_cast<int>(std::lround(center.y - t.rows / 2.0)), t.cols, t.rows);
     const cv::Rect inside = where & cv::Rect(cv::Point(), frame);
     if (inside.area() > 0) t(inside - where.tl()).copyTo(out(inside));
     if (gain != 1.0) out.convertTo(out, -1, gain);
@@ -49,13 +49,13 @@ struct Scene {
     }
     return out;
   }
-  cv::Rect2d box(cv::Point2d centre, double scale = 0.3) const {
+  cv::Rect2d box(cv::Point2d center, double scale = 0.3) const {
     const double w = std::round(target.cols * scale), h = std::round(target.rows * scale);
-    return {centre.x - w / 2, centre.y - h / 2, w, h};
+    return {center.x - w / 2, center.y - h / 2, w, h};
   }
 };
 
-cv::Point2d centre(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b.height / 2}; }
+cv::Point2d center(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b.height / 2}; }
 
 TEST(BoxTracker, FollowsATargetAcrossARealBackgroundWhileTheCameraPans) {
   const Scene scene;
@@ -66,7 +66,7 @@ TEST(BoxTracker, FollowsATargetAcrossARealBackgroundWhileTheCameraPans) {
   double total = 0;
   for (int k = 1; k < 100; ++k) {
     const TrackEstimate e = tracker.update(scene.render(camera(k), path(k)));
-    const double error = cv::norm(centre(e.box) - path(k));
+    const double error = cv::norm(center(e.box) - path(k));
     total += error;
     EXPECT_EQ(e.state, TrackState::kTracking) << "frame " << k << " confidence " << e.confidence;
     EXPECT_LT(error, 4.0) << "frame " << k;
@@ -87,7 +87,7 @@ TEST(BoxTracker, TheBoxFollowsTheTargetsScale) {
   const cv::Rect2d truth = scene.box(c, 0.4);
   EXPECT_EQ(e.state, TrackState::kTracking);
   EXPECT_NEAR(e.box.width / truth.width, 1.0, 0.1) << e.box.width << " vs " << truth.width;
-  EXPECT_LT(cv::norm(centre(e.box) - c), 3.0);
+  EXPECT_LT(cv::norm(center(e.box) - c), 3.0);
 }
 
 TEST(BoxTracker, KeepsTheTargetThroughAChangeOfLight) {
@@ -98,7 +98,7 @@ TEST(BoxTracker, KeepsTheTargetThroughAChangeOfLight) {
   for (int k = 1; k <= 80; ++k) {
     const double gain = k < 20 ? 1.0 : std::max(0.45, 1.0 - (k - 20) * 0.02);  // dims to less than half
     const TrackEstimate e = tracker.update(scene.render({60, 60}, path(k), 0.3, gain));
-    EXPECT_LT(cv::norm(centre(e.box) - path(k)), 4.0) << "frame " << k;
+    EXPECT_LT(cv::norm(center(e.box) - path(k)), 4.0) << "frame " << k;
     EXPECT_NE(e.state, TrackState::kLost) << "frame " << k;
   }
 }
@@ -124,8 +124,8 @@ TEST(BoxTracker, AHiddenTargetIsLostAndFoundAgainWhenItReappears) {
   int found_after = -1;
   for (int k = 0; k < 40 && found_after < 0; ++k) {
     const TrackEstimate e = tracker.update(scene.render({60, 60}, after));
-    if (std::getenv("SACCADE_TEST_VERBOSE")) std::printf("after %d %s %.1f %.1f,%.1f\n", k, to_string(e.state), e.confidence, centre(e.box).x, centre(e.box).y);
-    if (e.state == TrackState::kTracking && cv::norm(centre(e.box) - after) < 6) found_after = k;
+    if (std::getenv("SACCADE_TEST_VERBOSE")) std::printf("after %d %s %.1f %.1f,%.1f\n", k, to_string(e.state), e.confidence, center(e.box).x, center(e.box).y);
+    if (e.state == TrackState::kTracking && cv::norm(center(e.box) - after) < 6) found_after = k;
   }
   EXPECT_GE(found_after, 0) << "never found again";
   EXPECT_LE(found_after, 15);
@@ -142,9 +142,9 @@ TEST(BoxTracker, TheCamerasOwnMoveIsNotTakenForTheTargets) {
   const cv::Mat turned = scene.render({60, 60}, c + shift);
   told.camera_moved(shift);
   const TrackEstimate a = told.update(turned), b = untold.update(turned);
-  EXPECT_LT(cv::norm(centre(a.box) - (c + shift)), 3.0);
+  EXPECT_LT(cv::norm(center(a.box) - (c + shift)), 3.0);
   EXPECT_EQ(a.state, TrackState::kTracking);
-  EXPECT_GT(cv::norm(centre(b.box) - (c + shift)), 10.0) << "70 px is beyond what one frame's search covers";
+  EXPECT_GT(cv::norm(center(b.box) - (c + shift)), 10.0) << "70 px is beyond what one frame's search covers";
 }
 
 TEST(BoxTracker, RefusesBoxesItCannotFollowAndSaysWhy) {

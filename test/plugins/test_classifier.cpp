@@ -312,11 +312,11 @@ struct TwoObjects {
       }
   }
   // Draws object `kind` (0 ball, 1 domino) into a copy of a background; returns the frame and its centre.
-  cv::Mat compose(int kind, cv::RNG& rng, cv::Point2d& centre) const {
+  cv::Mat compose(int kind, cv::RNG& rng, cv::Point2d& center) const {
     cv::Mat frame = backgrounds[static_cast<std::size_t>(rng.uniform(0, static_cast<int>(backgrounds.size())))].clone();
     const double scale = rng.uniform(0.8, 1.25), angle = rng.uniform(-30.0, 30.0);
     const double gain = rng.uniform(0.7, 1.3), offset = rng.uniform(-25.0, 25.0);
-    centre = cv::Point2d(rng.uniform(80, frame.cols - 80), rng.uniform(80, frame.rows - 80));
+    center = cv::Point2d(rng.uniform(80, frame.cols - 80), rng.uniform(80, frame.rows - 80));
     // The object on its own canvas (value and mask), then blended in.
     const int side = 48;
     cv::Mat object(side, side, CV_32F, cv::Scalar(0)), mask(side, side, CV_8U, cv::Scalar(0));
@@ -344,7 +344,7 @@ struct TwoObjects {
         cv::circle(object, at(du, dv), std::max(1, static_cast<int>(std::lround(1.6 * scale))), cv::Scalar(240),
                    cv::FILLED, cv::LINE_AA);
     }
-    const cv::Rect where(static_cast<int>(centre.x) - side / 2, static_cast<int>(centre.y) - side / 2, side, side);
+    const cv::Rect where(static_cast<int>(center.x) - side / 2, static_cast<int>(center.y) - side / 2, side, side);
     cv::Mat patch = frame(where);
     for (int y = 0; y < side; ++y)
       for (int x = 0; x < side; ++x) {
@@ -369,9 +369,9 @@ TEST(TwoObjectsAccuracy, BallAndDominoInVtestFramesBeatThePaper) {
     Retina retina;
     cv::Mat row;
     for (int i = 0; i < count; ++i) {
-      cv::Point2d centre;
-      cv::Mat frame = scene.compose(kind, rng, centre);
-      const cv::Point2d fovea = centre + cv::Point2d(rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0));
+      cv::Point2d center;
+      cv::Mat frame = scene.compose(kind, rng, center);
+      const cv::Point2d fovea = center + cv::Point2d(rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0));
       sampler.sample(frame, fovea, retina.levels, retina.geometry);
       ASSERT_EQ(extractor.extract(retina, row), "");
       rows.push_back(row);

@@ -75,13 +75,13 @@ TEST(Saliency, BlobCentreIsTheObjectsCentreNotItsMostSalientCorner) {
   const int inner = static_cast<int>(retina->levels.size()) - 1;
   const Candidate c = s.peak_on_level(inner, 0, 0);
   bool cut = true;
-  const cv::Point2d centre = s.blob_centre(inner, c.point, 0.5, &cut);
+  const cv::Point2d center = s.blob_center(inner, c.point, 0.5, &cut);
   EXPECT_FALSE(cut);
-  EXPECT_LE(cv::norm(centre - where), 2.0) << centre;
+  EXPECT_LE(cv::norm(center - where), 2.0) << center;
   // Half outside the fovea: the blob is cut, and says so.
   auto off = make_retina(frame, {323 + 16, 245});
   s.compute(*off, nullptr);
-  s.blob_centre(inner, where, 0.5, &cut);
+  s.blob_center(inner, where, 0.5, &cut);
   EXPECT_TRUE(cut);
 }
 
@@ -384,14 +384,14 @@ TEST(FoveaPlugin, EmitsTheNextFoveaStateAndRejectsBadParameters) {
 
 // A textured 40x30 target (a real photograph's patch) on the plain
 // background, so that the box tracker has something to learn.
-cv::Mat frame_with_patch(cv::Point2d centre) {
+cv::Mat frame_with_patch(cv::Point2d center) {
   static const cv::Mat patch = [] {
     cv::Mat image = cv::imread(test::sample_path("baboon.jpg"), cv::IMREAD_GRAYSCALE), p;
     cv::resize(image(cv::Rect(180, 40, 160, 120)), p, {40, 30}, 0, 0, cv::INTER_AREA);
     return p;
   }();
   cv::Mat frame = plain_background();
-  patch.copyTo(frame(cv::Rect(static_cast<int>(centre.x) - 20, static_cast<int>(centre.y) - 15, 40, 30)));
+  patch.copyTo(frame(cv::Rect(static_cast<int>(center.x) - 20, static_cast<int>(center.y) - 15, 40, 30)));
   return frame;
 }
 

@@ -69,10 +69,10 @@ TEST(Snapshot, DisparityIsColourMappedAndSavedAs16Bit) {
   ASSERT_EQ(png16.type(), CV_16UC1);
   EXPECT_EQ(png16.at<uint16_t>(10, 10), 12.5 * 256);
   EXPECT_EQ(png16.at<uint16_t>(1, 1), 0);
-  cv::Mat colour = cv::imread((dir / "d_000000_disparity_lr.png").string());
-  ASSERT_FALSE(colour.empty());
+  cv::Mat color = cv::imread((dir / "d_000000_disparity_lr.png").string());
+  ASSERT_FALSE(color.empty());
   // Invalid pixels are black; valid ones are coloured (not gray).
-  cv::Vec3b invalid = colour.at<cv::Vec3b>(20, 2), valid = colour.at<cv::Vec3b>(100, 150);
+  cv::Vec3b invalid = color.at<cv::Vec3b>(20, 2), valid = color.at<cv::Vec3b>(100, 150);
   EXPECT_EQ(invalid, cv::Vec3b(0, 0, 0));
   EXPECT_FALSE(valid[0] == valid[1] && valid[1] == valid[2]);
 }

@@ -273,7 +273,7 @@ TEST(Scoring, HandMadeTrackGivesTheExpectedMeasures) {
   };
   const TrackScore s = score_track(truth, visible, track);
   EXPECT_EQ(s.scored_frames, 4);
-  EXPECT_DOUBLE_EQ(s.mean_centre_error, (0 + 4 + 10 + 25) / 4.0);
+  EXPECT_DOUBLE_EQ(s.mean_center_error, (0 + 4 + 10 + 25) / 4.0);
   EXPECT_DOUBLE_EQ(s.precision20, 0.75);
   EXPECT_DOUBLE_EQ(s.success50, 0.5);
   // Shares above thresholds k/20: 3/4 for k = 0..6, 2/4 for k = 7..13, 1/4 for k = 14..19, 0 at 1.
@@ -292,7 +292,7 @@ TEST(Scoring, PerfectTrackScoresAsOtbDoes) {
   std::vector<TrackedFrame> track;
   for (const cv::Rect2d& box : truth) track.push_back({box, true, 0});
   const TrackScore s = score_track(truth, visible, track);
-  EXPECT_DOUBLE_EQ(s.mean_centre_error, 0);
+  EXPECT_DOUBLE_EQ(s.mean_center_error, 0);
   EXPECT_DOUBLE_EQ(s.precision20, 1);
   EXPECT_NEAR(s.success_auc, 20.0 / 21, 1e-12);  // IoU 1 is not above the threshold 1
   EXPECT_DOUBLE_EQ(s.success50, 1);
@@ -324,7 +324,7 @@ TEST(Scoring, IouAndCentreError) {
   EXPECT_DOUBLE_EQ(iou({0, 0, 10, 10}, {5, 0, 10, 10}), 50.0 / 150);
   EXPECT_DOUBLE_EQ(iou({0, 0, 10, 10}, {20, 0, 10, 10}), 0);
   EXPECT_DOUBLE_EQ(iou({0, 0, 0, 0}, {0, 0, 0, 0}), 0);
-  EXPECT_DOUBLE_EQ(centre_error({0, 0, 10, 10}, {3, 4, 10, 10}), 5);
+  EXPECT_DOUBLE_EQ(center_error({0, 0, 10, 10}, {3, 4, 10, 10}), 5);
   EXPECT_THROW(score_track({{0, 0, 1, 1}}, {true, false}, {{}}), std::invalid_argument);
 }
 

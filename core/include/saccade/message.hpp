@@ -212,8 +212,8 @@ struct Motion final : Message {
 struct Box {
   double x = 0, y = 0, w = 0, h = 0;
 
-  static Box around(cv::Point2d centre, cv::Size2d size) {
-    return {centre.x - size.width / 2, centre.y - size.height / 2, size.width, size.height};
+  static Box around(cv::Point2d center, cv::Size2d size) {
+    return {center.x - size.width / 2, center.y - size.height / 2, size.width, size.height};
   }
   cv::Point2d center() const { return {x + w / 2, y + h / 2}; }
   cv::Rect2d rect() const { return {x, y, w, h}; }
