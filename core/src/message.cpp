@@ -16,6 +16,7 @@ Motion::~Motion() = default;
 GazeRequest::~GazeRequest() = default;
 JointState::~JointState() = default;
 JointTargets::~JointTargets() = default;
+HeadPose::~HeadPose() = default;
 
 bool JointState::all_ready() const {
   if (health.empty()) return false;

@@ -50,6 +50,17 @@ wc::Vec3 vec_to_wire(const cv::Vec3d& v) {
 }
 cv::Vec3d vec_from_wire(const wc::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
+wc::Quaternion quaternion_to_wire(const cv::Vec4d& q) {
+  wc::Quaternion out;
+  out.w(q[0]);
+  out.x(q[1]);
+  out.y(q[2]);
+  out.z(q[3]);
+  return out;
+}
+
+cv::Vec4d quaternion_from_wire(const wc::Quaternion& q) { return {q.w(), q.x(), q.y(), q.z()}; }
+
 wc::Rect rect_to_wire(const cv::Rect& r) {
   wc::Rect out;
   out.x(r.x);
@@ -266,6 +277,7 @@ const std::vector<Codec>& codecs() {
       codec<GazeRequest, w::GazeRequest, w::GazeRequestPubSubType>(),
       codec<JointState, w::JointState, w::JointStatePubSubType>(),
       codec<JointTargets, w::JointTargets, w::JointTargetsPubSubType>(),
+      codec<HeadPose, w::HeadPose, w::HeadPosePubSubType>(),
       codec<FoveaState, w::FoveaState, w::FoveaStatePubSubType>(),
       codec<Classification, w::Classification, w::ClassificationPubSubType>(),
       codec<CanFrames, w::CanFrames, w::CanFramesPubSubType>(),
@@ -554,6 +566,28 @@ void from_wire(const w::JointTargets& in, JointTargets& out) {
   out.fault = in.fault();
   out.cause_origin_ns = in.cause_origin_ns();
   out.cause_taken_ns = in.cause_taken_ns();
+}
+
+void to_wire(const HeadPose& in, w::HeadPose& out) {
+  stamp_to_wire(in, out.stamp());
+  out.left_position(vec_to_wire(in.left_position));
+  out.left_rotation(quaternion_to_wire(in.left_rotation));
+  out.right_position(vec_to_wire(in.right_position));
+  out.right_rotation(quaternion_to_wire(in.right_rotation));
+  out.fixation(vec_to_wire(in.fixation));
+  out.fixation_valid(in.fixation_valid);
+  out.fixation_gap(in.fixation_gap);
+}
+
+void from_wire(const w::HeadPose& in, HeadPose& out) {
+  stamp_from_wire(in.stamp(), out);
+  out.left_position = vec_from_wire(in.left_position());
+  out.left_rotation = quaternion_from_wire(in.left_rotation());
+  out.right_position = vec_from_wire(in.right_position());
+  out.right_rotation = quaternion_from_wire(in.right_rotation());
+  out.fixation = vec_from_wire(in.fixation());
+  out.fixation_valid = in.fixation_valid();
+  out.fixation_gap = in.fixation_gap();
 }
 
 void to_wire(const FoveaState& in, w::FoveaState& out) {

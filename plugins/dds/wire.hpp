@@ -45,6 +45,8 @@ void to_wire(const JointState& in, saccade_idl::JointState& out);
 void from_wire(const saccade_idl::JointState& in, JointState& out);
 void to_wire(const JointTargets& in, saccade_idl::JointTargets& out);
 void from_wire(const saccade_idl::JointTargets& in, JointTargets& out);
+void to_wire(const HeadPose& in, saccade_idl::HeadPose& out);
+void from_wire(const saccade_idl::HeadPose& in, HeadPose& out);
 void to_wire(const FoveaState& in, saccade_idl::FoveaState& out);
 void from_wire(const saccade_idl::FoveaState& in, FoveaState& out, std::shared_ptr<Retina>* spare = nullptr);
 void to_wire(const Classification& in, saccade_idl::Classification& out);

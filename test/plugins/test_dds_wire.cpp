@@ -420,14 +420,15 @@ TEST(DdsWire, EveryDescribedFieldOfEveryTypeSurvivesTheWire) {
   expect_every_field_round_trips<saccade::GazeRequest, saccade_idl::GazeRequest, saccade_idl::GazeRequestPubSubType>();
   expect_every_field_round_trips<saccade::JointState, saccade_idl::JointState, saccade_idl::JointStatePubSubType>();
   expect_every_field_round_trips<saccade::JointTargets, saccade_idl::JointTargets, saccade_idl::JointTargetsPubSubType>();
+  expect_every_field_round_trips<saccade::HeadPose, saccade_idl::HeadPose, saccade_idl::HeadPosePubSubType>();
   expect_every_field_round_trips<saccade::FoveaState, saccade_idl::FoveaState, saccade_idl::FoveaStatePubSubType>();
   expect_every_field_round_trips<saccade::Classification, saccade_idl::Classification, saccade_idl::ClassificationPubSubType>();
   expect_every_field_round_trips<saccade::CanFrames, saccade_idl::CanFrames, saccade_idl::CanFramesPubSubType>();
-  EXPECT_EQ(described_message_types().size(), 12u) << "a new type needs its line here";
+  EXPECT_EQ(described_message_types().size(), 13u) << "a new type needs its line here";
 }
 
 TEST(DdsWire, EveryMessageTypeHasACodec) {
-  for (auto type : {"Image", "Retina", "FeatureMaps", "Motion", "Region", "StereoFixation", "GazeRequest", "JointState", "JointTargets",
+  for (auto type : {"Image", "Retina", "FeatureMaps", "Motion", "Region", "StereoFixation", "GazeRequest", "JointState", "JointTargets", "HeadPose",
                     "FoveaState", "Classification", "CanFrames"}) {
     const dds::Codec* codec = dds::find_codec(type);
     ASSERT_NE(codec, nullptr) << type;

@@ -5,7 +5,10 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/Geometry>
+
 #include "kinematics.hpp"
+#include "saccade/testing.hpp"
 
 namespace saccade::kinematics {
 namespace {
@@ -182,3 +185,48 @@ TEST(BackProject, PixelAndDepthToACameraPoint) {
 
 }  // namespace
 }  // namespace saccade::kinematics
+
+namespace saccade {
+namespace {
+
+// The kinematics node on a harness: the joints that make both cameras fixate
+// a point (gaze_at) give back that point as the fixation, and the cameras'
+// poses are the library's.
+TEST(KinematicsNode, GivesTheCamerasPosesAndTheFixationPointOfAJointState) {
+  auto h = testing::NodeHarness::create(R"(<node plugin="kinematics"/>)");
+  ASSERT_TRUE(h);
+  const kinematics::HeadGeometry g;
+  const Eigen::Vector3d target(0.3, 1.2, 0.25);
+  const kinematics::Gaze gaze = kinematics::gaze_at(target, g, kinematics::HeadLimits());
+  ASSERT_TRUE(gaze.reachable) << gaze.why;
+  auto state = std::make_shared<JointState>();
+  const kinematics::HeadJoints& q = gaze.joints;
+  state->position = {q.neck, q.vergence_left, q.tilt_left, q.vergence_right, q.tilt_right};
+  h->set("state", state);
+  ASSERT_TRUE(h->process().ok());
+  auto pose = h->last<HeadPose>("pose");
+  ASSERT_TRUE(pose);
+  EXPECT_TRUE(pose->fixation_valid);
+  EXPECT_NEAR(cv::norm(pose->fixation - cv::Vec3d(target.x(), target.y(), target.z())), 0.0, 1e-6);
+  EXPECT_NEAR(pose->fixation_gap, 0.0, 1e-6);
+  const Eigen::Vector3d left = kinematics::left_camera(g, q).translation();
+  EXPECT_NEAR(cv::norm(pose->left_position - cv::Vec3d(left.x(), left.y(), left.z())), 0.0, 1e-12);
+  // The left optical frame's z (the rotation applied to (0, 0, 1)) points at the target.
+  const cv::Vec4d r = pose->left_rotation;
+  const Eigen::Quaterniond rotation(r[0], r[1], r[2], r[3]);
+  EXPECT_NEAR(cv::norm(r), 1.0, 1e-12);
+  const Eigen::Vector3d axis = rotation * Eigen::Vector3d::UnitZ();
+  EXPECT_NEAR(axis.dot((target - left).normalized()), 1.0, 1e-9);
+
+  // Not a head's joints: counted, nothing emitted.
+  h->clear_outputs();
+  state = std::make_shared<JointState>();
+  state->position = {0.1, 0.2};
+  h->set("state", state);
+  ASSERT_TRUE(h->process().ok());
+  EXPECT_TRUE(h->outputs("pose").empty());
+  EXPECT_EQ(h->counter("short_states"), 1u);
+}
+
+}  // namespace
+}  // namespace saccade

@@ -359,6 +359,32 @@ struct JointState final : Message {
 
 const char* to_string(JointState::Health health);
 
+// Where the head's cameras are and where they look, from one joint state: each
+// camera's optical frame (x right, y down, z along the optical axis) in the
+// head's base frame, and the point the two optical axes meet.
+struct HeadPose final : Message {
+  static constexpr std::string_view kTypeName = "HeadPose";
+  std::string_view type_name() const override { return kTypeName; }
+  ~HeadPose() override;
+
+  cv::Vec3d left_position, right_position;  // metres, base frame
+  cv::Vec4d left_rotation, right_rotation;  // unit quaternions (w, x, y, z): optical frame -> base frame
+  cv::Vec3d fixation;                       // metres, base frame: the midpoint of the axes' closest points
+  bool fixation_valid = false;              // false: the axes are parallel or meet behind the cameras
+  double fixation_gap = 0;                  // metres between the two axes there (0: they meet)
+
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("left_position", self.left_position);
+    visit("left_rotation", self.left_rotation);
+    visit("right_position", self.right_position);
+    visit("right_rotation", self.right_rotation);
+    visit("fixation", self.fixation);
+    visit("fixation_valid", self.fixation_valid);
+    visit("fixation_gap", self.fixation_gap);
+  }
+};
+
 // What the head controller asks of the joints this control cycle.
 struct JointTargets final : Message {
   static constexpr std::string_view kTypeName = "JointTargets";

@@ -15,7 +15,7 @@ struct TypeList {};
 // Every message type core defines: the one list the JSON writer, the schemas
 // and their tests walk.
 using MessageTypes = TypeList<Image, Retina, FeatureMaps, Motion, Region, StereoFixation, GazeRequest, JointState,
-                              JointTargets, FoveaState, Classification, CanFrames>;
+                              JointTargets, HeadPose, FoveaState, Classification, CanFrames>;
 
 template <class F, class... T>
 bool visit_message_as(const Message& message, F&& f, TypeList<T...>) {
