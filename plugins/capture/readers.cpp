@@ -1,5 +1,8 @@
 #include "readers.hpp"
 
+#include <cctype>
+#include <optional>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -59,10 +62,67 @@ class VideoReader final : public FrameReader {
   int64_t index_ = 0;
 };
 
+}  // namespace
+
+std::optional<NumberedPattern> NumberedPattern::parse(const std::string& pattern, std::string* why) {
+  // The user's text is never handed to printf as a format: one %d (with an
+  // optional 0 flag and width, as in img_%04d.png) is the frame number, %% a
+  // percent sign, and anything else after a % is refused.
+  NumberedPattern out;
+  bool numbered = false;
+  std::string* text = &out.prefix_;
+  for (std::size_t k = 0; k < pattern.size(); ++k) {
+    if (pattern[k] != '%') {
+      *text += pattern[k];
+      continue;
+    }
+    std::size_t j = k + 1;
+    if (j < pattern.size() && pattern[j] == '%') {
+      *text += '%';
+      k = j;
+      continue;
+    }
+    const bool zero = j < pattern.size() && pattern[j] == '0';
+    if (zero) ++j;
+    int width = 0;
+    while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])) && width < 64)
+      width = width * 10 + (pattern[j++] - '0');
+    if (j >= pattern.size() || pattern[j] != 'd' || numbered) {
+      *why = "pattern '" + pattern + "': expected one %d for the frame number (such as img_%04d.png; %% for a percent sign), " +
+             (numbered && j < pattern.size() && pattern[j] == 'd' ? "found a second" : "found '" + pattern.substr(k, j - k + 1) + "'");
+      return std::nullopt;
+    }
+    numbered = true;
+    out.zero_ = zero;
+    out.width_ = width;
+    text = &out.suffix_;
+    k = j;
+  }
+  if (!numbered) {
+    *why = "pattern '" + pattern + "': expected one %d for the frame number (such as img_%04d.png)";
+    return std::nullopt;
+  }
+  return out;
+}
+
+std::string NumberedPattern::name(int i) const {
+  char digits[128];
+  std::snprintf(digits, sizeof digits, zero_ ? "%0*d" : "%*d", width_, i);  // our format, never the user's
+  return prefix_ + digits + suffix_;
+}
+
+namespace {
+
 class SequenceReader final : public FrameReader {
  public:
   bool open(const std::string& pattern, int first, double fps, std::string* error) {
-    pattern_ = pattern;
+    std::string why;
+    auto parsed = NumberedPattern::parse(pattern, &why);
+    if (!parsed) {
+      if (error) *error = why;
+      return false;
+    }
+    pattern_ = std::move(*parsed);
     first_ = next_ = first;
     fps_ = fps;
     if (!fs::exists(name(first))) {
@@ -90,12 +150,8 @@ class SequenceReader final : public FrameReader {
   double fps() const override { return fps_; }
 
  private:
-  std::string name(int i) const {
-    char buf[4096];
-    std::snprintf(buf, sizeof buf, pattern_.c_str(), i);
-    return buf;
-  }
-  std::string pattern_;
+  std::string name(int i) const { return pattern_.name(i); }
+  NumberedPattern pattern_;
   int first_ = 0, next_ = 0;
   double fps_ = 0;
 };

@@ -3,6 +3,7 @@
 // image repeated, a camera device, and a synthetic scene with exact ground truth.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -31,6 +32,20 @@ SourceKind classify_source(const std::string& path);
 
 // Each returns nullptr and fills `error` (naming the path) when it cannot open.
 std::unique_ptr<FrameReader> open_video(const std::string& path, std::string* error);
+// An image sequence's file pattern: the file of frame i is the pattern with its
+// one %d (optionally %0Nd) replaced by i, as printf would, without printf.
+class NumberedPattern {
+ public:
+  // The pattern, or nullopt and `why` (naming it) when it is not one %d.
+  static std::optional<NumberedPattern> parse(const std::string& pattern, std::string* why);
+  std::string name(int i) const;
+
+ private:
+  std::string prefix_, suffix_;
+  int width_ = 0;
+  bool zero_ = false;
+};
+
 std::unique_ptr<FrameReader> open_sequence(const std::string& pattern, int first, double fps, std::string* error);
 std::unique_ptr<FrameReader> open_image(const std::string& path, int64_t count, double fps, std::string* error);
 std::unique_ptr<FrameReader> open_camera(const std::string& device, cv::Size size, double fps, std::string* error);

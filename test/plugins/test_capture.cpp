@@ -180,3 +180,28 @@ TEST(SourceKinds, ClassifiesPaths) {
 
 }  // namespace
 }  // namespace saccade
+
+namespace saccade::capture {
+namespace {
+
+// A user's file pattern is never a printf format: %s, %n, two numbers or a
+// stray % are refused with the pattern named; one %d (with 0 and a width)
+// and %% work as printf would have them.
+TEST(NumberedPattern, TakesOneNumberAndRefusesEveryOtherConversion) {
+  std::string why;
+  for (const char* bad : {"img_%s.png", "img_%n.png", "img_%d_%d.png", "img_%04d_%s.png", "img.png", "100%", "%%d.png",
+                          "img_%ld.png", "img_%x.png"}) {
+    why.clear();
+    EXPECT_FALSE(NumberedPattern::parse(bad, &why)) << bad;
+    EXPECT_NE(why.find(std::string("'") + bad + "'"), std::string::npos) << why;
+  }
+  EXPECT_EQ(NumberedPattern::parse("img_%04d.png", &why)->name(7), "img_0007.png");
+  EXPECT_EQ(NumberedPattern::parse("a%%b_%d.jpg", &why)->name(12), "a%b_12.jpg");
+  EXPECT_EQ(NumberedPattern::parse("%3d", &why)->name(5), "  5");
+  std::string error;
+  EXPECT_EQ(open_sequence("/nonexistent/img_%s_%n.png", 0, 30, &error), nullptr);
+  EXPECT_NE(error.find("expected one %d"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace saccade::capture
