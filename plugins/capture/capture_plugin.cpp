@@ -93,7 +93,7 @@ class Delivery {
   bool needs_conversion(const cv::Mat& frame) const {
     return (config_.color == ColorMode::kGray && frame.channels() != 1) ||
            (config_.color == ColorMode::kColor && frame.channels() != 3) ||
-           (config_.resize.area() > 0 && frame.size() != config_.resize);
+           (!config_.resize.empty() && frame.size() != config_.resize);
   }
 
   // Converts raw_ into `out` without allocating in steady state: when no
@@ -108,7 +108,7 @@ class Delivery {
       cv::cvtColor(raw_, tmp_, raw_.channels() == 4 ? cv::COLOR_BGRA2BGR : cv::COLOR_GRAY2BGR);
       src = &tmp_;
     }
-    if (config_.resize.area() > 0 && src->size() != config_.resize) {
+    if (!config_.resize.empty() && src->size() != config_.resize) {
       cv::resize(*src, out, config_.resize, 0, 0, cv::INTER_AREA);
       return;
     }
@@ -363,7 +363,7 @@ class Synthetic final : public Node {
     int64_t t = 0;
     if (!reader->read(bg, t, &error)) return Status::error("background: cannot read a frame " + error);
     if (bg.channels() == 1) cv::cvtColor(bg, bg, cv::COLOR_GRAY2BGR);
-    if (c.size.area() > 0) cv::resize(bg, bg, c.size, 0, 0, cv::INTER_AREA);
+    if (!c.size.empty()) cv::resize(bg, bg, c.size, 0, 0, cv::INTER_AREA);
     if (c.scene.target_size > std::min(bg.cols, bg.rows)) return Status::error("target_size is larger than the frame");
     c.scene.background = bg;
     renderer_ = std::make_unique<SyntheticRenderer>(c.scene);

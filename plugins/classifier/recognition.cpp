@@ -62,11 +62,21 @@ std::string join(const std::vector<std::string>& v) {
 
 }  // namespace
 
-int FeatureRecipe::length() const {
-  int n = 0;
-  for (const auto& f : features) n += f == "grad_hist" ? size.area() * kOrientationBins : size.area();
-  return n * static_cast<int>(levels.size());
+namespace {
+
+// In 64 bits: a recipe read from a file may ask for more values than an int holds.
+int64_t values_in(const FeatureRecipe& r) {
+  const int64_t area = static_cast<int64_t>(r.size.width) * r.size.height;
+  int64_t n = 0;
+  for (const auto& f : r.features) n += f == "grad_hist" ? area * FeatureRecipe::kOrientationBins : area;
+  return n * static_cast<int64_t>(r.levels.size());
 }
+
+constexpr int64_t kMostValues = int64_t{1} << 24;
+
+}  // namespace
+
+int FeatureRecipe::length() const { return static_cast<int>(std::min(values_in(*this), kMostValues)); }
 
 std::string FeatureRecipe::describe() const {
   std::ostringstream o;
@@ -81,6 +91,9 @@ std::string FeatureRecipe::check() const {
   if (levels.empty()) return "the recipe names no level";
   if (features.empty()) return "the recipe names no feature";
   if (size.width < 1 || size.height < 1) return "the recipe's size must be at least 1x1";
+  if (const int64_t n = values_in(*this); n > kMostValues)
+    return "the recipe's feature vector would hold " + std::to_string(n) + " values; at most " +
+           std::to_string(kMostValues) + " (a smaller size, fewer levels or features)";
   for (int l : levels)
     if (l < 0 || l >= retina_levels)
       return "level " + std::to_string(l) + " is not one of the retina's " + std::to_string(retina_levels) +

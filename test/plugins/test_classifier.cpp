@@ -135,6 +135,11 @@ TEST(FeatureRecipe, ChecksItselfAndTheRetina) {
   r = {};
   r.levels = {7};
   EXPECT_NE(r.check().find("level 7"), std::string::npos);
+  // A size an int's arithmetic would overflow (read from a model file): refused, and counted without overflow.
+  r = {};
+  r.size = {100000, 100000};
+  EXPECT_NE(r.check().find("at most"), std::string::npos) << r.check();
+  EXPECT_GT(r.length(), 0);
   std::string error;
   EXPECT_FALSE(parse_levels("0,x", &error));
   EXPECT_NE(error.find("0,x"), std::string::npos);
