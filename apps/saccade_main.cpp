@@ -1,10 +1,11 @@
 // saccade: run, check, list and draw plugin graphs.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 
@@ -267,7 +268,9 @@ std::string parse_training_options(TrainArgs& args) {
   auto hidden = features ? classifier::parse_int_list(args.hidden, "--hidden", &error) : std::nullopt;
   int w = 0, h = 0;
   char tail = 0;
-  if (hidden && (std::sscanf(args.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1))
+  if (hidden && std::find(hidden->begin(), hidden->end(), 0) != hidden->end())
+    error = "--hidden: every layer needs at least one neuron, got '" + args.hidden + "'";
+  else if (hidden && (std::sscanf(args.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1))
     error = "--size: expected WxH, got '" + args.size + "'";
   if (!error.empty()) return error;
   classifier::FolderTraining& training = args.training;
