@@ -39,6 +39,7 @@ struct Peak {
   cv::Point2d offset;
   double value = 0;
   double psr = 0;
+  double rival = 0;  // the highest response outside the peak's window, as a share of the peak
 };
 
 cv::Mat hann_window(int side) {
@@ -71,9 +72,9 @@ double parabola(float left, float center, float right) {
 // Peak-to-sidelobe ratio: the peak against the response outside an 11x11
 // window around it. A sharp, lone peak (the target) scores high; a flat or
 // many-peaked response (occlusion, clutter) low.
-double peak_to_sidelobe(const cv::Mat& response, cv::Point peak) {
+double peak_to_sidelobe(const cv::Mat& response, cv::Point peak, double* rival) {
   const int r = 5;
-  double sum = 0, sq = 0;
+  double sum = 0, sq = 0, highest = -INFINITY;
   int n = 0;
   for (int y = 0; y < response.rows; ++y) {
     const float* row = response.ptr<float>(y);
@@ -82,12 +83,15 @@ double peak_to_sidelobe(const cv::Mat& response, cv::Point peak) {
       if (near_row && std::abs(x - peak.x) <= r) continue;
       sum += row[x];
       sq += static_cast<double>(row[x]) * row[x];
+      highest = std::max(highest, static_cast<double>(row[x]));
       ++n;
     }
   }
   const double mean = sum / n;
   const double sd = std::sqrt(std::max(sq / n - mean * mean, 1e-12));
-  return (response.at<float>(peak) - mean) / sd;
+  const double top = response.at<float>(peak);
+  *rival = top > 0 ? highest / top : 1.0;
+  return (top - mean) / sd;
 }
 
 }  // namespace
@@ -424,7 +428,9 @@ struct BoxTracker::Impl {
     if (at.y > 0 && at.y < last)
       sub.y += parabola(response.at<float>(at.y - 1, at.x), response.at<float>(at), response.at<float>(at.y + 1, at.x));
     const double c = config.patch / 2;
-    return {sub - cv::Point2d(c, c), value, peak_to_sidelobe(response, at)};
+    double rival = 0;
+    const double psr = peak_to_sidelobe(response, at, &rival);
+    return {sub - cv::Point2d(c, c), value, psr, rival};
   }
 
 
@@ -623,7 +629,10 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   // are higher than they will stay: the mean is made over the first
   // warmup_frames tracked frames before a fall below it counts.
   const bool warm = m.tracked_frames >= config_.warmup_frames;
-  if (psr < std::max(config_.tracking_psr, warm ? config_.relative_psr * m.psr_mean : 0.0)) {
+  // A second peak nearly as high: two look-alikes in the patch, and the
+  // filter cannot tell which is the target.
+  const bool contested = peak.rival > config_.rival_ratio;
+  if (contested || psr < std::max(config_.tracking_psr, warm ? config_.relative_psr * m.psr_mean : 0.0)) {
     // Where the peak is, but not sure enough to learn from it or to trust
     // its motion (an occluder's edge, a distractor passing).
     m.velocity *= 0.8;
