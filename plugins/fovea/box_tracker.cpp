@@ -490,8 +490,8 @@ struct BoxTracker::Impl {
     }
   }
 
-  Peak look_at(const cv::Mat& gray_frame, const Placement& p) {
-    sample(gray_frame, p, patch);
+  Peak look_at(const cv::Mat& frame, const Placement& p) {
+    sample(frame, p, patch);
     features(patch, patch_spectra);
     return correlate(patch_spectra);
   }
@@ -553,14 +553,13 @@ std::string BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   if (inside.area() < 0.5 * box.area())
     return "box " + describe(box) + " lies mostly outside the " + std::to_string(frame.cols) + "x" +
            std::to_string(frame.rows) + " frame";
+  cv::Mat scratch;
+  cv::Scalar mean, sd;
+  cv::meanStdDev(to_gray(frame(cv::Rect(inside)), scratch), mean, sd);  // the box alone: is it flat?
+  if (sd[0] < 2) return "box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) + "): nothing to follow";
+  // Only a box that will be followed replaces what the tracker had.
   Impl& m = *impl_;
   m = Impl(config_);
-  cv::Mat gray_box;
-  cv::Mat scratch;
-  to_gray(frame(cv::Rect(inside)), scratch).copyTo(gray_box);  // the box alone: is it flat?
-  cv::Scalar mean, sd;
-  cv::meanStdDev(gray_box, mean, sd);
-  if (sd[0] < 2) return "box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) + "): nothing to follow";
   m.center = {box.x + box.width / 2, box.y + box.height / 2};
   m.size = box.size();
   // A small target is not magnified: the patch then covers more than
@@ -581,18 +580,17 @@ std::string BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
 TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   if (!initialised_ || frame.empty()) return last_;
   Impl& m = *impl_;
-  const cv::Mat& gray = frame;  // 8-bit gray or BGR: patches are converted, never the frame
   const cv::Point2d predicted = m.center + m.velocity + camera_shift_;
   camera_shift_ = {};
   if (last_.state == TrackState::kLost)
-    redetect(gray, predicted);
+    redetect(frame, predicted);
   else
-    follow(gray, predicted);
+    follow(frame, predicted);
   last_.box = cv::Rect2d(m.center.x - m.size.width / 2, m.center.y - m.size.height / 2, m.size.width, m.size.height);
   return last_;
 }
 
-void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
+void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   Impl& m = *impl_;
   // The target may turn in the image: when the peak weakens, or every few
   // frames, the patch is also sampled turned by +-angle_step from the
@@ -600,13 +598,13 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   // or noise would make it wobble). The filter then keeps seeing the target
   // as it learnt it.
   Placement at{predicted, m.step, m.angle};
-  Peak peak = m.look_at(gray, at);
+  Peak peak = m.look_at(frame, at);
   const bool weaker = peak.psr < config_.turn_psr * m.psr_mean;
   if (config_.angle_step > 0 && (weaker || ++m.frames_since_turn_search >= config_.turn_search_every)) {
     m.frames_since_turn_search = 0;
     for (const double turn : {-config_.angle_step, config_.angle_step}) {
       const Placement turned{predicted, m.step, m.angle + turn * CV_PI / 180};
-      const Peak other = m.look_at(gray, turned);
+      const Peak other = m.look_at(frame, turned);
       if (other.value > peak.value * 1.01) peak = other, at = turned;
     }
   }
@@ -620,7 +618,7 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
     last_.state = ++m.low_frames >= config_.lost_frames || m.unsure_frames >= config_.unsure_frames
                       ? TrackState::kLost
                       : TrackState::kUncertain;
-    look_elsewhere(gray);
+    look_elsewhere(frame);
     return;
   }
   m.low_frames = 0;
@@ -638,14 +636,14 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
     m.velocity *= 0.8;
     m.center = measured;
     last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
-    look_elsewhere(gray);
+    look_elsewhere(frame);
     return;
   }
   m.unsure_frames = 0;
   m.angle = at.angle;
   m.velocity = config_.velocity_gain * (measured - m.center) + (1 - config_.velocity_gain) * m.velocity;
   m.center = measured;
-  const double scale = m.scale_filter.estimate(gray, m.center, m.size, config_.lambda);
+  const double scale = m.scale_filter.estimate(frame, m.center, m.size, config_.lambda);
   m.size *= scale;
   m.step *= scale;
   last_.state = TrackState::kTracking;
@@ -655,22 +653,22 @@ void BoxTracker::follow(const cv::Mat& gray, cv::Point2d predicted) {
   ++m.tracked_frames;
   m.psr_mean = warm ? 0.95 * m.psr_mean + 0.05 * usual : m.psr_mean + (usual - m.psr_mean) / m.tracked_frames;
   m.learn(m.patch_spectra, config_.learning_rate, peak.offset);
-  m.learn_appearance(gray, config_.learning_rate);
-  m.scale_filter.learn(gray, m.center, m.size, config_.learning_rate, scale != 1.0);
+  m.learn_appearance(frame, config_.learning_rate);
+  m.scale_filter.learn(frame, m.center, m.size, config_.learning_rate, scale != 1.0);
 }
 
-void BoxTracker::look_elsewhere(const cv::Mat& gray) {
+void BoxTracker::look_elsewhere(const cv::Mat& frame) {
   // Unsure for a few frames: the target may have jumped (a fast turn of the
   // camera, a cut) rather than be hidden. The whole-frame search runs beside
   // the local one, and a confirmed re-detection ends the doubt at once.
   if (impl_->unsure_frames < config_.redetect_after) return;
   const double confidence = last_.confidence;
   const TrackState state = last_.state;
-  redetect(gray, impl_->center);
+  redetect(frame, impl_->center);
   if (last_.state != TrackState::kTracking) last_.confidence = confidence, last_.state = state;
 }
 
-void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
+void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted) {
   Impl& m = *impl_;
   const double threshold = config_.redetect_psr;
   // A candidate from the last frame is looked at again first: a re-detection
@@ -681,11 +679,11 @@ void BoxTracker::redetect(const cv::Mat& gray, cv::Point2d predicted) {
   looks.push_back({predicted, m.step, m.angle});
   // The whole-frame search on every other frame: it costs as much as the
   // rest of the frame, and a candidate it found is confirmed locally meanwhile.
-  if (m.search_tick++ % 2 == 0) m.propose(gray, config_.proposals, looks);
+  if (m.search_tick++ % 2 == 0) m.propose(frame, config_.proposals, looks);
   Peak best;
   Placement where;
   for (const Placement& p : looks) {
-    const Peak peak = m.look_at(gray, p);
+    const Peak peak = m.look_at(frame, p);
     if (peak.psr > best.psr) best = peak, where = p;
   }
   last_.confidence = best.psr;

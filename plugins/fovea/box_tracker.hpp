@@ -40,8 +40,8 @@ struct BoxTrackerConfig {
   double min_target = 8;            // smallest target side accepted, source pixels
   double tracking_psr = 6.0;        // peak-to-sidelobe ratio at or above which the target is tracked ...
   double relative_psr = 0.5;        // ... and at or above this share of its mean over tracked frames
-  int warmup_frames = 10;
-  double rival_ratio = 0.7;         // a second peak above this share of the first: not sure (1: never)           // tracked frames that make that mean before it is used
+  int warmup_frames = 10;           // tracked frames that make that mean before it is used
+  double rival_ratio = 0.7;         // a second peak above this share of the first: not sure (1: never)
   double lost_psr = 5.0;            // below this the peak is not trusted at all
   int lost_frames = 5;              // consecutive frames below lost_psr before the target is lost
   int unsure_frames = 30;           // consecutive frames not tracked before the target is lost
@@ -75,9 +75,9 @@ class BoxTracker {
 
  private:
   struct Impl;
-  void follow(const cv::Mat& gray, cv::Point2d predicted);
-  void redetect(const cv::Mat& gray, cv::Point2d predicted);
-  void look_elsewhere(const cv::Mat& gray);
+  void follow(const cv::Mat& frame, cv::Point2d predicted);
+  void redetect(const cv::Mat& frame, cv::Point2d predicted);
+  void look_elsewhere(const cv::Mat& frame);
   BoxTrackerConfig config_;
   bool initialised_ = false;
   TrackEstimate last_;

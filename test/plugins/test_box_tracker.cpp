@@ -158,6 +158,13 @@ TEST(BoxTracker, RefusesBoxesItCannotFollowAndSaysWhy) {
   EXPECT_NE(t.init(flat, {100, 100, 40, 40}).find("flat"), std::string::npos);
   EXPECT_FALSE(t.initialised());
   EXPECT_NE(t.init(cv::Mat(), {100, 100, 40, 40}), "");
+  // A refused box leaves a tracker that follows a target as it was.
+  const cv::Point2d c(160, 120);
+  ASSERT_EQ(t.init(frame, scene.box(c)), "");
+  EXPECT_NE(t.init(flat, {100, 100, 40, 40}), "");
+  const TrackEstimate e = t.update(scene.render({60, 60}, c + cv::Point2d(3, 2)));
+  EXPECT_EQ(e.state, TrackState::kTracking);
+  EXPECT_LT(cv::norm(center(e.box) - (c + cv::Point2d(3, 2))), 2.0);
 }
 
 }  // namespace
