@@ -179,18 +179,7 @@ class FoveaNode final : public Node {
     }
     if (Status s = start_box(*retina); !s.ok()) return s;
     auto target = ctx.get(kTarget);
-    if (target && target != last_target_ && track_mode_ && target->size.area() > 0) {
-      // A box from outside (a detection, a click): follow it from this frame.
-      last_target_ = target;
-      const cv::Rect2d box(target->center.x - target->size.width / 2, target->center.y - target->size.height / 2,
-                           target->size.width, target->size.height);
-      const std::string why = retina->source ? controller_->track_box(retina->source->mat, box) : "no frame with the retina";
-      if (!why.empty()) {
-        log().warn("{}: target ignored: {}", ctx.node_name(), why);
-        bad_targets_->fetch_add(1, std::memory_order_relaxed);
-      }
-      target.reset();
-    }
+    if (take_target_box(ctx, *retina, target)) target.reset();
     const Decision d = controller_->step(*retina, dI, target.get());
 
     auto fovea = ctx.make(kFovea);
@@ -232,6 +221,20 @@ class FoveaNode final : public Node {
   }
 
  private:
+  // A new `target` with a size (a detection, a click) is a box to follow from
+  // this frame; true when it was one (taken, or refused: logged and counted).
+  bool take_target_box(const ProcessContext& ctx, const Retina& retina, const std::shared_ptr<const Region>& target) {
+    if (!target || target == last_target_ || !track_mode_ || target->size.area() <= 0) return false;
+    last_target_ = target;
+    const cv::Rect2d box = Box::around(target->center, target->size).rect();
+    const std::string why = retina.source ? controller_->track_box(retina.source->mat, box) : "no frame with the retina";
+    if (!why.empty()) {
+      log().warn("{}: target ignored: {}", ctx.node_name(), why);
+      bad_targets_->fetch_add(1, std::memory_order_relaxed);
+    }
+    return true;
+  }
+
   // The `init` box, until the frame it names arrives.
   Status start_box(const Retina& retina) {
     if (!init_ || (init_->frame >= 0 && retina.frame_id < init_->frame)) return {};
