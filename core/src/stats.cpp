@@ -1,51 +1,32 @@
 #include "saccade/stats.hpp"
 
-#include <bit>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 namespace saccade {
 
-int Histogram::bucket_of(int64_t ns) {
-  if (ns < 1) return 0;
-  auto v = static_cast<uint64_t>(ns);
-  int octave = 63 - std::countl_zero(v);
-  // The kSubBuckets bits below the leading one pick the sub-bucket.
-  int sub = octave >= 3 ? static_cast<int>((v >> (octave - 3)) & (kSubBuckets - 1))
-                        : static_cast<int>((v << (3 - octave)) & (kSubBuckets - 1));
-  int b = octave * kSubBuckets + sub;
-  return b < kBuckets ? b : kBuckets - 1;
-}
-
-int64_t Histogram::upper_edge(int bucket) {
-  int octave = bucket / kSubBuckets;
-  int sub = bucket % kSubBuckets;
-  double edge = std::ldexp(1.0 + (sub + 1) / static_cast<double>(kSubBuckets), octave);
-  return static_cast<int64_t>(std::ceil(edge)) - 1;
-}
-
 void Histogram::record(int64_t ns) {
-  // One writer at a time (see stats.hpp): no locked instructions needed.
-  bump(buckets_[static_cast<std::size_t>(bucket_of(ns))]);
-  bump(count_);
+  // One writer at a time (see above): no locked instructions needed.
+  const uint64_t n = count_.load(std::memory_order_relaxed);
+  recent_[static_cast<std::size_t>(n % kWindow)].store(ns, std::memory_order_relaxed);
+  count_.store(n + 1, std::memory_order_relaxed);
   sum_.store(sum_.load(std::memory_order_relaxed) + ns, std::memory_order_relaxed);
   if (ns > max_.load(std::memory_order_relaxed)) max_.store(ns, std::memory_order_relaxed);
 }
 
 int64_t Histogram::percentile(double q) const {
-  uint64_t total = count();
+  const uint64_t total = count();
   if (total == 0) return 0;
-  auto rank = static_cast<uint64_t>(std::ceil(q * static_cast<double>(total)));
-  if (rank < 1) rank = 1;
-  uint64_t seen = 0;
-  for (int b = 0; b < kBuckets; ++b) {
-    seen += buckets_[static_cast<std::size_t>(b)].load(std::memory_order_relaxed);
-    if (seen >= rank) {
-      int64_t edge = upper_edge(b);
-      return edge < max() ? edge : max();
-    }
-  }
-  return max();
+  const std::size_t n = static_cast<std::size_t>(std::min<uint64_t>(total, kWindow));
+  std::vector<int64_t> samples(n);
+  for (std::size_t i = 0; i < n; ++i) samples[i] = recent_[i].load(std::memory_order_relaxed);
+  // Nearest rank: the ceil(q n)-th smallest (1-based), at least the first.
+  const double wanted = std::ceil(std::clamp(q, 0.0, 1.0) * static_cast<double>(n));
+  const std::size_t rank = std::clamp<std::size_t>(static_cast<std::size_t>(wanted), 1, n) - 1;
+  std::nth_element(samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(rank), samples.end());
+  return samples[rank];
 }
 
 double Histogram::mean() const {

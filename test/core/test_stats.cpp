@@ -1,30 +1,46 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "saccade/node.hpp"
 #include "saccade/stats.hpp"
 
 namespace saccade {
 namespace {
 
-TEST(Histogram, PercentilesWithinABucket) {
+TEST(Histogram, PercentilesAreExactSamples) {
   Histogram h;
-  for (int i = 1; i <= 1000; ++i) h.record(i * 1000);  // 1 us .. 1 ms
+  // 1 us .. 1 ms in a scrambled order (7919 is prime to 1000).
+  for (int i = 0; i < 1000; ++i) h.record((i * 7919 % 1000 + 1) * 1000);
   EXPECT_EQ(h.count(), 1000u);
   EXPECT_EQ(h.max(), 1'000'000);
-  EXPECT_NEAR(static_cast<double>(h.percentile(0.5)), 500'000.0, 500'000.0 * 0.13);
-  EXPECT_NEAR(static_cast<double>(h.percentile(0.99)), 990'000.0, 990'000.0 * 0.13);
-  EXPECT_LE(h.percentile(1.0), h.max());
+  EXPECT_EQ(h.percentile(0.5), 500'000) << "nearest rank: the 500th smallest";
+  EXPECT_EQ(h.percentile(0.99), 990'000);
+  EXPECT_EQ(h.percentile(1.0), 1'000'000);
+  EXPECT_EQ(h.percentile(0.0), 1'000) << "the smallest";
+  EXPECT_EQ(h.percentile(0.0015), 2'000) << "rank ceil(1.5) = 2";
   EXPECT_DOUBLE_EQ(h.mean(), 500'500.0);
 }
 
-TEST(Histogram, BucketsAreMonotonic) {
-  int last = -1;
-  for (int64_t v = 1; v < (int64_t{1} << 40); v = v * 5 / 4 + 1) {
-    int b = Histogram::bucket_of(v);
-    EXPECT_GE(b, last);
-    EXPECT_GE(Histogram::upper_edge(b), v);
-    last = b;
-  }
+TEST(Histogram, OddCountsAndEmpty) {
+  Histogram h;
+  EXPECT_EQ(h.percentile(0.5), 0);
+  for (int64_t v : {7, 3, 5}) h.record(v);
+  EXPECT_EQ(h.percentile(0.5), 5) << "the median of three";
+  EXPECT_EQ(h.percentile(0.99), 7);
+}
+
+TEST(Histogram, PercentilesFollowTheMostRecentWindow) {
+  Histogram h;
+  const auto window = static_cast<int64_t>(Histogram::kWindow);
+  for (int64_t i = 0; i < window; ++i) h.record(1'000'000);  // a slow start, then pushed out
+  for (int64_t i = 1; i <= window; ++i) h.record(i);
+  EXPECT_EQ(h.count(), 2 * Histogram::kWindow);
+  EXPECT_EQ(h.percentile(0.5), window / 2);
+  EXPECT_EQ(h.percentile(0.99), static_cast<int64_t>(std::ceil(0.99 * static_cast<double>(window))));
+  EXPECT_EQ(h.max(), 1'000'000) << "max and mean are over every sample";
+  EXPECT_DOUBLE_EQ(h.mean(), (1e6 * static_cast<double>(window) + static_cast<double>(window) * (window + 1) / 2.0) /
+                                 (2.0 * static_cast<double>(window)));
 }
 
 TEST(Stats, TableAndJsonNameEveryNode) {
