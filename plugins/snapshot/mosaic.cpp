@@ -1,5 +1,11 @@
 #include "mosaic.hpp"
 
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+
 #include <opencv2/imgproc.hpp>
 
 namespace saccade::snapshot {
@@ -53,9 +59,69 @@ cv::Mat disparity_color(const cv::Mat& disparity, double max_disparity) {
 
 cv::Mat disparity_png16(const cv::Mat& disparity) {
   CV_Assert(disparity.type() == CV_32F);
-  cv::Mat out;
-  disparity.convertTo(out, CV_16U, 256.0);
-  out.setTo(0, disparity < 0);
+  cv::Mat out(disparity.size(), CV_16U);
+  for (int y = 0; y < disparity.rows; ++y) {
+    const float* d = disparity.ptr<float>(y);
+    uint16_t* o = out.ptr<uint16_t>(y);
+    for (int x = 0; x < disparity.cols; ++x) {
+      const double v = d[x];
+      o[x] = v >= 0 && std::isfinite(v)
+                 ? static_cast<uint16_t>(std::min(65535.0, std::round(v * kDisparityPng16Scale) + 1))
+                 : uint16_t{0};
+    }
+  }
+  return out;
+}
+
+cv::Mat disparity_from_png16(const cv::Mat& png16) {
+  CV_Assert(png16.type() == CV_16U);
+  cv::Mat out(png16.size(), CV_32F);
+  for (int y = 0; y < png16.rows; ++y) {
+    const uint16_t* v = png16.ptr<uint16_t>(y);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < png16.cols; ++x)
+      o[x] = v[x] == 0 ? -1.0f : static_cast<float>((v[x] - 1) / kDisparityPng16Scale);
+  }
+  return out;
+}
+
+bool write_pfm(const std::string& path, const cv::Mat& disparity) {
+  CV_Assert(disparity.type() == CV_32F);
+  std::ofstream file(path, std::ios::binary);
+  if (!file) return false;
+  static_assert(std::endian::native == std::endian::little, "PFM is written little-endian (scale -1)");
+  file << "Pf\n" << disparity.cols << ' ' << disparity.rows << "\n-1\n";
+  std::vector<float> row(static_cast<std::size_t>(disparity.cols));
+  for (int y = disparity.rows - 1; y >= 0; --y) {
+    const float* d = disparity.ptr<float>(y);
+    for (int x = 0; x < disparity.cols; ++x)
+      row[static_cast<std::size_t>(x)] = d[x] >= 0 && std::isfinite(d[x]) ? d[x] : std::numeric_limits<float>::infinity();
+    file.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size() * sizeof(float)));
+  }
+  return static_cast<bool>(file);
+}
+
+cv::Mat read_pfm(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::string magic;
+  int width = 0, height = 0;
+  double scale = 0;
+  if (!(file >> magic >> width >> height >> scale) || magic != "Pf" || width <= 0 || height <= 0 || scale == 0)
+    return {};
+  file.get();  // the one whitespace character after the scale
+  cv::Mat out(height, width, CV_32F);
+  const bool swap = (scale > 0) != (std::endian::native == std::endian::big);
+  for (int y = height - 1; y >= 0; --y) {
+    float* o = out.ptr<float>(y);
+    if (!file.read(reinterpret_cast<char*>(o), static_cast<std::streamsize>(width * sizeof(float)))) return {};
+    if (swap)
+      for (int x = 0; x < width; ++x) {
+        uint32_t bits;
+        std::memcpy(&bits, o + x, sizeof bits);
+        bits = __builtin_bswap32(bits);
+        std::memcpy(o + x, &bits, sizeof bits);
+      }
+  }
   return out;
 }
 

@@ -17,9 +17,23 @@ cv::Mat to_display(const cv::Mat& image);
 // blue, invalid black. `max_disparity` <= 0 takes the map's own maximum.
 cv::Mat disparity_color(const cv::Mat& disparity, double max_disparity = 0);
 
-// A disparity map as 16-bit integers for outside evaluation: value = disparity
-// x 256, 0 = invalid (the KITTI convention).
+// A disparity map (CV_32F, negative or not finite = invalid) as 16-bit
+// integers for outside evaluation: value = round(disparity x 64) + 1, 0 =
+// invalid, so a valid 0 is 1 and disparities up to 1023.98 px fit (larger
+// ones are clamped to 65535); read back as (value - 1) / 64, to 1/64 px.
+constexpr double kDisparityPng16Scale = 64.0;
 cv::Mat disparity_png16(const cv::Mat& disparity);
+// Its inverse: CV_32F, -1 where the value is 0.
+cv::Mat disparity_from_png16(const cv::Mat& png16);
+
+// PFM (the stereo benchmarks' float format: "Pf", width height, -1 for
+// little-endian floats, rows bottom to top), one channel, exact floats;
+// invalid pixels (negative or not finite) written as +infinity, as the
+// Middlebury benchmark marks unknown disparities. Returns false when the file
+// cannot be written.
+bool write_pfm(const std::string& path, const cv::Mat& disparity);
+// Reads a one-channel PFM (either byte order) as CV_32F, empty on failure.
+cv::Mat read_pfm(const std::string& path);
 
 // The source frame with each level's region drawn (outermost blue to fovea red)
 // and the fovea's centre marked.

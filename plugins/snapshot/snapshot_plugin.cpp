@@ -33,7 +33,8 @@ class Snapshot final : public Node {
         .field("first", {0, 1'000'000'000}, "skip frames before this frame id", &C::first)
         .field("scale", {1, 32}, "enlargement of level images", &C::scale)
         .field("disparity_png16",
-               "also write every disparity* map as a 16-bit PNG per level (disparity x 256, 0 = invalid)",
+               "also write every disparity* map per level as a 16-bit PNG (value = round(disparity x 64) + 1, "
+               "0 = invalid, up to 1023.98 px) and as a PFM beside it (32-bit floats, +infinity = invalid)",
                &C::disparity_png16);
   }
 
@@ -84,8 +85,9 @@ class Snapshot final : public Node {
         if (!config_.disparity_png16 || maps->names[i].rfind("disparity", 0) != 0) continue;
         for (std::size_t k = 0; k < maps->maps[i].size(); ++k) {
           if (maps->maps[i][k].type() != CV_32F) continue;
-          std::string what = maps->names[i] + "_L" + std::to_string(k) + "_16";
-          if (Status s = write(what, msg->frame_id, disparity_png16(maps->maps[i][k])); !s.ok()) return s;
+          const std::string level = maps->names[i] + "_L" + std::to_string(k);
+          if (Status s = write(level + "_16", msg->frame_id, disparity_png16(maps->maps[i][k])); !s.ok()) return s;
+          if (Status s = write_float(level, msg->frame_id, maps->maps[i][k]); !s.ok()) return s;
         }
       }
     }
@@ -94,12 +96,21 @@ class Snapshot final : public Node {
 
  private:
   Status write(const std::string& what, int64_t frame, const cv::Mat& image) {
-    char name[64];
-    std::snprintf(name, sizeof name, "_%06lld_", static_cast<long long>(frame));
-    std::string path = config_.dir + "/" + config_.prefix + name + what + ".png";
+    const std::string path = file_name(what, frame) + ".png";
     if (image.empty() || !cv::imwrite(path, image)) return Status::error("cannot write " + path);
     ++written_;
     return {};
+  }
+  Status write_float(const std::string& what, int64_t frame, const cv::Mat& disparity) {
+    const std::string path = file_name(what, frame) + ".pfm";
+    if (!write_pfm(path, disparity)) return Status::error("cannot write " + path);
+    ++written_;
+    return {};
+  }
+  std::string file_name(const std::string& what, int64_t frame) const {
+    char name[64];
+    std::snprintf(name, sizeof name, "_%06lld_", static_cast<long long>(frame));
+    return config_.dir + "/" + config_.prefix + name + what;
   }
   static constexpr std::size_t kTrackLength = 300;
   InputHandle<Message> in_;

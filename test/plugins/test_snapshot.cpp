@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <limits>
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "mosaic.hpp"
 #include "support.hpp"
 
 namespace saccade {
@@ -61,14 +63,42 @@ TEST(Snapshot, DisparityIsColourMappedAndSavedAs16Bit) {
   auto maps = std::make_shared<FeatureMaps>();
   cv::Mat d(24, 32, CV_32F, cv::Scalar(12.5f));
   d(cv::Rect(0, 0, 4, 4)).setTo(-1);  // invalid
+  d.at<float>(5, 5) = 0.0f;           // a valid 0
+  d.at<float>(6, 6) = 300.25f;        // beyond 256
+  d.at<float>(7, 7) = 2000.0f;        // beyond what 16 bits hold at 1/64 px
+  d.at<float>(8, 8) = std::numeric_limits<float>::quiet_NaN();
+  d.at<float>(9, 9) = 17.3f;          // not a multiple of 1/64
   maps->names = {"disparity_lr"};
   maps->maps = {{d}};
   h->set("in", maps);
   ASSERT_TRUE(h->process().ok());
   cv::Mat png16 = cv::imread((dir / "d_000000_disparity_lr_L0_16.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(png16.type(), CV_16UC1);
-  EXPECT_EQ(png16.at<uint16_t>(10, 10), 12.5 * 256);
-  EXPECT_EQ(png16.at<uint16_t>(1, 1), 0);
+  EXPECT_EQ(png16.at<uint16_t>(10, 10), 12.5 * 64 + 1);
+  EXPECT_EQ(png16.at<uint16_t>(1, 1), 0) << "invalid";
+  EXPECT_EQ(png16.at<uint16_t>(5, 5), 1) << "a valid 0 is not invalid";
+  EXPECT_EQ(png16.at<uint16_t>(6, 6), 300.25 * 64 + 1) << "no saturation at 256";
+  EXPECT_EQ(png16.at<uint16_t>(7, 7), 65535) << "clamped";
+  EXPECT_EQ(png16.at<uint16_t>(8, 8), 0) << "NaN is invalid";
+  const cv::Mat back = snapshot::disparity_from_png16(png16);
+  EXPECT_FLOAT_EQ(back.at<float>(10, 10), 12.5f);
+  EXPECT_FLOAT_EQ(back.at<float>(5, 5), 0.0f);
+  EXPECT_FLOAT_EQ(back.at<float>(1, 1), -1.0f);
+  EXPECT_NEAR(back.at<float>(9, 9), 17.3f, 0.5 / 64);
+  // The PFM beside it: the floats exactly, +infinity where invalid, the rows in their order.
+  const cv::Mat pfm = snapshot::read_pfm((dir / "d_000000_disparity_lr_L0.pfm").string());
+  ASSERT_EQ(pfm.size(), d.size());
+  EXPECT_EQ(pfm.at<float>(10, 10), 12.5f);
+  EXPECT_EQ(pfm.at<float>(9, 9), 17.3f);
+  EXPECT_EQ(pfm.at<float>(6, 6), 300.25f);
+  EXPECT_EQ(pfm.at<float>(5, 5), 0.0f);
+  EXPECT_EQ(pfm.at<float>(1, 1), std::numeric_limits<float>::infinity());
+  EXPECT_EQ(pfm.at<float>(8, 8), std::numeric_limits<float>::infinity());
+  // OpenCV reads it the same (its own PFM reader: the header and byte order are standard).
+  const cv::Mat by_opencv = cv::imread((dir / "d_000000_disparity_lr_L0.pfm").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(by_opencv.type(), CV_32FC1);
+  EXPECT_EQ(by_opencv.at<float>(9, 9), 17.3f);
+  EXPECT_EQ(by_opencv.at<float>(0, 0), std::numeric_limits<float>::infinity());
   cv::Mat color = cv::imread((dir / "d_000000_disparity_lr.png").string());
   ASSERT_FALSE(color.empty());
   // Invalid pixels are black; valid ones are coloured (not gray).
