@@ -113,6 +113,7 @@ std::string retina_fields_to(const Retina& in, P& out) {
   out.fovea_x(in.fovea.x);
   out.fovea_y(in.fovea.y);
   out.sampling(static_cast<uint8_t>(in.sampling));
+  rectification_to_wire(in.rectification, out.rectification());
   if (in.levels.size() > out.levels().size() || in.geometry.size() != in.levels.size())
     return "a retina of " + std::to_string(in.levels.size()) + " levels (" + std::to_string(in.geometry.size()) +
            " geometries) does not fit the shared-memory form (at most " + std::to_string(out.levels().size()) +
@@ -130,6 +131,7 @@ bool retina_fields_from(const P& in, Retina& out, std::size_t& levels) {
   out.source_size = {in.source_width(), in.source_height()};
   out.fovea = {in.fovea_x(), in.fovea_y()};
   out.sampling = in.sampling() == 1 ? Retina::Sampling::kAreaMean : Retina::Sampling::kFivePoint;
+  out.rectification = rectification_from_wire(in.rectification());
   levels = std::min<std::size_t>(in.level_count(), in.levels().size());
   out.levels.resize(levels);
   out.geometry.resize(levels);

@@ -316,6 +316,27 @@ LevelGeometry geometry_from_wire(const wc::LevelGeometry& in) {
   return out;
 }
 
+void rectification_to_wire(const Rectification& in, wc::Rectification& out) {
+  out.enabled(in.enabled);
+  out.reserved().fill(0);
+  std::copy(in.camera.val, in.camera.val + 9, out.camera().begin());
+  std::copy(in.distortion.val, in.distortion.val + 14, out.distortion().begin());
+  std::copy(in.rotation.val, in.rotation.val + 9, out.rotation().begin());
+  std::copy(in.rectified.val, in.rectified.val + 9, out.rectified().begin());
+  out.baseline(in.baseline);
+}
+
+Rectification rectification_from_wire(const wc::Rectification& in) {
+  Rectification out;
+  out.enabled = in.enabled();
+  std::copy(in.camera().begin(), in.camera().end(), out.camera.val);
+  std::copy(in.distortion().begin(), in.distortion().end(), out.distortion.val);
+  std::copy(in.rotation().begin(), in.rotation().end(), out.rotation.val);
+  std::copy(in.rectified().begin(), in.rectified().end(), out.rectified.val);
+  out.baseline = in.baseline();
+  return out;
+}
+
 const Codec* find_codec(std::string_view type) {
   for (const auto& c : codecs())
     if (c.type == type) return &c;
@@ -383,6 +404,7 @@ void to_wire(const Retina& in, w::Retina& out) {
   out.fovea_x(in.fovea.x);
   out.fovea_y(in.fovea.y);
   out.sampling(static_cast<uint8_t>(in.sampling));
+  rectification_to_wire(in.rectification, out.rectification());
 }
 
 void from_wire(const w::Retina& in, Retina& out) {
@@ -395,6 +417,7 @@ void from_wire(const w::Retina& in, Retina& out) {
   out.source_size = {in.source_width(), in.source_height()};
   out.fovea = {in.fovea_x(), in.fovea_y()};
   out.sampling = in.sampling() == 1 ? Retina::Sampling::kAreaMean : Retina::Sampling::kFivePoint;
+  out.rectification = rectification_from_wire(in.rectification());
   out.source.reset();  // the frame itself does not travel
 }
 
@@ -473,6 +496,11 @@ void to_wire(const StereoFixation& in, w::StereoFixation& out) {
   out.disparity(in.disparity);
   out.score(in.score);
   out.depth(in.depth);
+  out.depth_sigma(in.depth_sigma);
+  out.point(vec_to_wire(in.point));
+  out.point_head(vec_to_wire(in.point_head));
+  out.point_head_valid(in.point_head_valid);
+  out.rectified(in.rectified);
   out.camera_id(in.camera_id);
 }
 
@@ -483,6 +511,11 @@ void from_wire(const w::StereoFixation& in, StereoFixation& out) {
   out.disparity = in.disparity();
   out.score = in.score();
   out.depth = in.depth();
+  out.depth_sigma = in.depth_sigma();
+  out.point = vec_from_wire(in.point());
+  out.point_head = vec_from_wire(in.point_head());
+  out.point_head_valid = in.point_head_valid();
+  out.rectified = in.rectified();
   out.camera_id = in.camera_id();
 }
 

@@ -21,6 +21,8 @@ void stamp_to_wire(const Message& in, saccade_idl::common::Stamp& out);
 void stamp_from_wire(const saccade_idl::common::Stamp& in, Message& out);
 void geometry_to_wire(const LevelGeometry& in, saccade_idl::common::LevelGeometry& out);
 LevelGeometry geometry_from_wire(const saccade_idl::common::LevelGeometry& in);
+void rectification_to_wire(const Rectification& in, saccade_idl::common::Rectification& out);
+Rectification rectification_from_wire(const saccade_idl::common::Rectification& in);
 
 void to_wire(const cv::Mat& in, saccade_idl::common::Mat& out);
 // Reuses `out`'s buffer when its size and type already match.

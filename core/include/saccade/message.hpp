@@ -112,6 +112,32 @@ struct LevelGeometry {
   }
 };
 
+// How a retina sampled along rectified geometry maps to its source frame. Its
+// levels' regions and steps, and its fovea, are then in the rectified image's
+// pixels: a source pixel p (undistorted ray r = camera^-1 p with the lens
+// distortion removed) lies at rectified pixel rectified * rotation * r. Both
+// retinas of a rectified pair share `rectified`, so their rows are epipolar
+// lines and depth = rectified(0,0) * baseline / disparity. Matrices row-major.
+struct Rectification {
+  bool enabled = false;
+  cv::Vec<double, 9> camera{1, 0, 0, 0, 1, 0, 0, 0, 1};     // the source camera's matrix
+  cv::Vec<double, 14> distortion;                           // OpenCV's order (k1 k2 p1 p2 k3 ...), unused 0
+  cv::Vec<double, 9> rotation{1, 0, 0, 0, 1, 0, 0, 0, 1};   // source camera frame -> rectified frame
+  cv::Vec<double, 9> rectified{1, 0, 0, 0, 1, 0, 0, 0, 1};  // the rectified camera's matrix
+  double baseline = 0;                                      // metres between the pair's centres (0: unknown)
+
+  bool operator==(const Rectification&) const = default;
+  template <class Self, class Visit>
+  static void fields(Self& self, Visit&& visit) {
+    visit("enabled", self.enabled);
+    visit("camera", self.camera);
+    visit("distortion", self.distortion);
+    visit("rotation", self.rotation);
+    visit("rectified", self.rectified);
+    visit("baseline", self.baseline);
+  }
+};
+
 // The multi-resolution retina: levels[0] is the outermost (whole frame, coarsest),
 // levels.back() the fovea (a direct crop, step 1). All levels have the same size.
 struct Retina final : Message {
@@ -131,6 +157,8 @@ struct Retina final : Message {
   // How the outer levels were sampled, so a consumer can sample another frame
   // the same way (motion resamples the previous frame on this geometry).
   enum class Sampling : uint8_t { kFivePoint, kAreaMean } sampling = Sampling::kFivePoint;
+  // When enabled, geometry and fovea are in rectified pixels (see Rectification).
+  Rectification rectification;
   // The frame the levels were sampled from (shared, not copied), for overlays.
   std::shared_ptr<const Image> source;
 
@@ -140,6 +168,7 @@ struct Retina final : Message {
     visit("source_size", self.source_size);
     visit("fovea", self.fovea);
     visit("sampling", self.sampling);
+    visit("rectification", self.rectification);
     visit("geometry", self.geometry);
     visit("levels", self.levels);
   }
@@ -260,11 +289,16 @@ struct StereoFixation final : Message {
   std::string_view type_name() const override { return kTypeName; }
   ~StereoFixation() override;
 
-  cv::Point2d pixel;        // the left fovea's centre, source pixels
-  cv::Size2d fovea;         // the fovea's size there, source pixels
-  double disparity = -1.0;  // left x minus right x, source pixels; < 0: not found
+  cv::Point2d pixel;        // the left fovea's centre, source pixels (rectified pixels when `rectified`)
+  cv::Size2d fovea;         // the fovea's size there, in the same pixels
+  double disparity = -1.0;  // left x minus right x, in the same pixels; < 0: not found
   double score = -1.0;      // the match's NCC at that disparity
   double depth = -1.0;      // metres along the optical axis (< 0: not calibrated or not found)
+  double depth_sigma = -1.0;  // one standard deviation of depth, metres (< 0: unknown)
+  cv::Vec3d point;          // the fixated point, metres, left camera's optical frame (x right, y down, z ahead)
+  cv::Vec3d point_head;     // the same point in the head's base frame (when point_head_valid)
+  bool point_head_valid = false;
+  bool rectified = false;   // the retinas were sampled along the pair's rectified geometry
   int camera_id = 0;        // of the left retina
 
   template <class Self, class Visit>
@@ -274,6 +308,11 @@ struct StereoFixation final : Message {
     visit("disparity", self.disparity);
     visit("score", self.score);
     visit("depth", self.depth);
+    visit("depth_sigma", self.depth_sigma);
+    visit("point", self.point);
+    visit("point_head", self.point_head);
+    visit("point_head_valid", self.point_head_valid);
+    visit("rectified", self.rectified);
     visit("camera_id", self.camera_id);
   }
 };
