@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "calibrate_command.hpp"
 #include "recognition.hpp"
 #include "saccade/executor.hpp"
 #include "saccade/graph.hpp"
@@ -427,6 +428,7 @@ int main(int argc, char** argv) {
   RunArgs run_args;
   PluginsArgs plugins_args;
   TrainArgs train_args;
+  CalibrateArgs calibrate_args;
   add_global_options(app, common);
   // Added in the order `saccade --help` lists them.
   add_run_command(app, graph, run_args);
@@ -435,12 +437,14 @@ int main(int argc, char** argv) {
   auto* plugins = add_plugins_command(app, plugins_args);
   auto* dot = add_dot_command(app, graph);
   auto* train = add_train_command(app, train_args);
+  auto* calibrate = add_calibrate_command(app, calibrate_args);
 
   CLI11_PARSE(app, argc, argv);
   log().set_level(spdlog::level::from_str(common.log_level));
   // The DDS plugin reads it when it creates the process's participant.
   if (!run_args.security.empty()) setenv("SACCADE_DDS_SECURITY", run_args.security.c_str(), 1);
   if (train->parsed()) return train_command(train_args);
+  if (calibrate->parsed()) return calibrate_command(calibrate_args);
   if (plugins->parsed()) return plugins_command(common, plugins_args);
   if (plan->parsed()) return plan_command(common, graph);
   if (check->parsed()) return check_command(common, graph);
