@@ -288,7 +288,9 @@ std::vector<cv::Point3f> BoardSpec::corners() const {
 bool parse_board_size(const std::string& text, cv::Size& out) {
   const auto x = text.find_first_of("xX");
   if (x == std::string::npos || x == 0 || x + 1 >= text.size()) return false;
-  auto digits = [](const std::string& s) { return !s.empty() && s.size() < 6 && std::all_of(s.begin(), s.end(), ::isdigit); };
+  auto digits = [](const std::string& s) {
+    return !s.empty() && s.size() < 6 && std::all_of(s.begin(), s.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
+  };
   const std::string w = text.substr(0, x), h = text.substr(x + 1);
   if (!digits(w) || !digits(h)) return false;
   out = cv::Size(std::stoi(w), std::stoi(h));
