@@ -84,16 +84,24 @@ struct Clock {
   double period_s = 0.004;
   bool realtime = true;
   int64_t ticks = -1, start_ns = 0, stop_after = 0;
-  // The next tick's time (ns since the start), sleeping until it in realtime; -1 when done.
-  int64_t next(ProcessContext& ctx) {
+  int64_t time_of(int64_t tick) const { return static_cast<int64_t>(static_cast<double>(tick) * period_s * 1e9); }
+  // The steady time the next tick is due (realtime, once started).
+  int64_t next_due() const { return start_ns + time_of(ticks + 1); }
+  // The next tick's time (ns since the start), after `wait(steady_ns)` has
+  // waited for it in realtime (false: stopped); -1 when done.
+  template <class Wait>
+  int64_t next(Wait&& wait) {
     ++ticks;
     if (stop_after > 0 && ticks >= stop_after) return -1;
-    const auto t = static_cast<int64_t>(static_cast<double>(ticks) * period_s * 1e9);
+    const int64_t t = time_of(ticks);
     if (realtime) {
       if (ticks == 0) start_ns = steady_now_ns();
-      if (!ctx.sleep_until(start_ns + t)) return -1;
+      if (!wait(start_ns + t)) return -1;
     }
     return t;
+  }
+  int64_t next(ProcessContext& ctx) {
+    return next([&](int64_t steady_ns) { return ctx.sleep_until(steady_ns); });
   }
 };
 
@@ -145,6 +153,7 @@ JointState::Health health(can::DriveHealth h) {
 // defaults the master's own.
 struct DriverConfig {
   can::MasterConfig master;
+  double watch_ms = 0.1;
   double heartbeat_timeout_ms = static_cast<double>(can::MasterConfig{}.heartbeat_timeout_ns) / 1e6;
   double feedback_timeout_ms = static_cast<double>(can::MasterConfig{}.feedback_timeout_ns) / 1e6;
 };
@@ -169,14 +178,25 @@ class Driver final : public Node {
         .field("heartbeat_timeout_ms", {1.0, 1e6}, "a drive without heartbeat this long is silent",
                &C::heartbeat_timeout_ms)
         .field("feedback_timeout_ms", {1.0, 1e6}, "a drive without position this long is silent",
-               &C::feedback_timeout_ms);
+               &C::feedback_timeout_ms)
+        .field("statusword_on_change", "configure the drives' statusword PDO as event-driven (0x1800 sub 2 = 255), "
+               "so the set-point handshake completes within a period instead of over two SYNCs", &C::master,
+               &M::statusword_on_change)
+        .field("watch_ms", {0.0, 100.0},
+               "realtime: between cycles, look this often at new targets (sent at once to every drive ready for a "
+               "set-point) and at 'wake'; 0: only at each cycle", &C::watch_ms);
   }
 
   static Contract contract() {
     return Contract("The CANopen master of the head's CiA 402 drives: configures them by SDO, enables them, streams "
                     "the targets as profile-position set-points, sends SYNC, supervises heartbeats and process data, "
-                    "and reports the joints. One control cycle per call: the control loop's clock.")
-        .ports(kTargets, kState)
+                    "and reports the joints. One control cycle per call: the control loop's clock. Between cycles "
+                    "(realtime) new targets answering a request go out at once where the drives' set-point handshake "
+                    "allows, and a message on 'wake' makes it report the joints at once (no SYNC).")
+        .ports(kTargets)
+        .side_input<Message>("wake", "any new message (a gaze request) makes the driver emit the joints' latest "
+                                     "state at once, between cycles, so that the head plans from it now")
+        .ports(kState)
         .params(&bind_common)
         .params(&bind);
   }
@@ -191,32 +211,85 @@ class Driver final : public Node {
     c.master.feedback_timeout_ns = static_cast<int64_t>(c.feedback_timeout_ms * 1e6);
     master_ = std::make_unique<can::Master>(*setup_.bus, c.master);
     feedback_.reserve(setup_.nodes.size());
+    wake_ = ctx.input<Message>("wake");
+    watch_ns_ = setup_.clock.realtime ? static_cast<int64_t>(c.watch_ms * 1e6) : 0;
     capture_to_command_ = &ctx.timing("gaze_capture_to_command");
     taken_to_command_ = &ctx.timing("gaze_taken_to_command");
+    between_ = &ctx.counter("set_points_between_cycles");
+    woken_ = &ctx.counter("woken");
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    const int64_t t = setup_.clock.next(ctx);
+    Clock& clock = setup_.clock;
+    if (watch_ns_ > 0 && clock.ticks >= 0) {
+      // Between cycles: new targets and wake-ups are acted on as they come.
+      const int64_t due = clock.next_due();
+      for (bool fresh = false;;) {
+        if (!fresh && !ctx.sleep_until(0)) return Status::end_of_stream();  // the side inputs' newest
+        if (between_cycles(ctx)) return {};
+        const int64_t now = steady_now_ns();
+        if (now >= due) break;
+        if (!ctx.sleep_until(std::min(due, now + watch_ns_))) return Status::end_of_stream();
+        fresh = true;
+      }
+    }
+    const int64_t t = clock.next(ctx);
     if (t < 0) return Status::end_of_stream();
     if (setup_.virtual_bus != nullptr) setup_.virtual_bus->set_time(t);
+    take_targets(ctx);
+    master_->cycle(t, latest_ ? latest_->position.data() : nullptr, latest_ ? latest_->reset : 0, feedback_,
+                   setup_.wait_ns, serial_);
+    check_commanded();
+    emit_state(ctx, t);
+    return {};
+  }
+
+ private:
+  // The newest usable targets, numbered; those answering a new request are
+  // timed until every running drive has been sent them (or later ones).
+  void take_targets(ProcessContext& ctx) {
     auto targets = ctx.get(kTargets);
-    const bool usable = targets && targets->position.size() == setup_.nodes.size();
-    if (targets && !usable && !warned_) {
-      log().warn("{}: targets for {} joints, expected {}: ignored", ctx.node_name(), targets->position.size(),
-                       setup_.nodes.size());
+    if (!targets || targets == seen_) return;
+    seen_ = targets;
+    if (targets->position.size() != setup_.nodes.size()) {
+      if (!warned_)
+        log().warn("{}: targets for {} joints, expected {}: ignored", ctx.node_name(), targets->position.size(),
+                   setup_.nodes.size());
       warned_ = true;
+      return;
     }
-    master_->cycle(t, usable ? targets->position.data() : nullptr, usable ? targets->reset : 0, feedback_,
-                   setup_.wait_ns);
-    if (usable && targets->cause_origin_ns > 0 && targets->cause_origin_ns != last_cause_) {
-      // The first command cycle that carries the targets answering a gaze
-      // request: from that request's camera frame, and from when the head took it.
+    latest_ = targets;
+    ++serial_;
+    if (targets->cause_origin_ns > 0 && targets->cause_origin_ns != last_cause_) {
       last_cause_ = targets->cause_origin_ns;
-      const int64_t now = steady_now_ns();
-      if (now >= targets->cause_origin_ns) capture_to_command_->record(now - targets->cause_origin_ns);
-      if (targets->cause_taken_ns > 0 && now >= targets->cause_taken_ns)
-        taken_to_command_->record(now - targets->cause_taken_ns);
+      pending_ = {targets->cause_origin_ns, targets->cause_taken_ns, serial_};
     }
+  }
+  // From the request's camera frame, and from when the head took it, to the
+  // moment its set-points are on the bus for every running drive.
+  void check_commanded() {
+    if (pending_.serial == 0 || !master_->commanded(pending_.serial)) return;
+    const int64_t now = steady_now_ns();
+    if (now >= pending_.origin_ns) capture_to_command_->record(now - pending_.origin_ns);
+    if (pending_.taken_ns > 0 && now >= pending_.taken_ns) taken_to_command_->record(now - pending_.taken_ns);
+    pending_ = {};
+  }
+  // One look between cycles; true when it emitted the joints (woken).
+  bool between_cycles(ProcessContext& ctx) {
+    const int64_t now = steady_now_ns() - setup_.clock.start_ns;  // control time
+    take_targets(ctx);
+    const bool urgent = pending_.serial != 0 && latest_;
+    if (master_->command(now, urgent ? latest_->position.data() : nullptr, serial_) > 0) bump(*between_);
+    check_commanded();
+    auto wake = ctx.get(wake_);
+    if (!wake || wake == last_wake_) return false;
+    last_wake_ = wake;
+    bump(*woken_);
+    master_->feedback(feedback_);
+    emit_state(ctx, now);
+    return true;
+  }
+  void emit_state(ProcessContext& ctx, int64_t t) {
     auto state = ctx.make(kState);
     const std::size_t n = feedback_.size();
     state->position.resize(n);
@@ -237,17 +310,24 @@ class Driver final : public Node {
     state->origin_ns = steady_now_ns();
     state->frame_id = setup_.clock.ticks;
     ctx.emit(kState, std::move(state));
-    return {};
   }
 
- private:
   Setup setup_;
   std::unique_ptr<can::Master> master_;
   std::vector<can::JointFeedback> feedback_;
+  InputHandle<Message> wake_;
+  int64_t watch_ns_ = 0;
   bool warned_ = false;
+  std::shared_ptr<const JointTargets> seen_, latest_;
+  MessagePtr last_wake_;
+  int64_t serial_ = 0, last_cause_ = 0;
+  struct Pending {
+    int64_t origin_ns = 0, taken_ns = 0, serial = 0;
+  } pending_;
   Histogram* capture_to_command_ = nullptr;
   Histogram* taken_to_command_ = nullptr;
-  int64_t last_cause_ = 0;
+  std::atomic<uint64_t>* between_ = nullptr;
+  std::atomic<uint64_t>* woken_ = nullptr;
 };
 
 // The simulated drives: one motor model for every joint, and the faults to inject.
@@ -316,7 +396,15 @@ class Drives final : public Node {
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    const int64_t t = setup_.clock.next(ctx);
+    // In realtime the drives' communication runs between their control
+    // steps, as on a drive: an RPDO is acted on, an event-driven TPDO sent, on arrival.
+    const int64_t t = setup_.clock.next([&](int64_t steady_ns) {
+      for (int64_t now = steady_now_ns(); now < steady_ns; now = steady_now_ns()) {
+        if (ctx.stop_requested()) return false;
+        rack_->handle_arrived(std::min<int64_t>(steady_ns - now, 1'000'000));
+      }
+      return !ctx.stop_requested();
+    });
     if (t < 0) return Status::end_of_stream();
     const double seconds = static_cast<double>(t) * 1e-9;
     if (fault_at_ >= 0 && seconds >= fault_at_) {

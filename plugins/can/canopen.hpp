@@ -38,6 +38,7 @@ Frame emergency(int node, uint16_t error_code, uint8_t error_register);
 // Objects of the dictionary the head uses.
 namespace object {
 constexpr uint16_t kProducerHeartbeatTime = 0x1017;  // u16, ms
+constexpr uint16_t kTpdo1Communication = 0x1800;     // sub 2: transmission type (u8)
 constexpr uint16_t kControlword = 0x6040, kStatusword = 0x6041;
 constexpr uint16_t kModesOfOperation = 0x6060, kModesOfOperationDisplay = 0x6061;  // i8
 constexpr uint16_t kPositionActual = 0x6064, kVelocityActual = 0x606C;             // i32 counts, counts/s
@@ -48,6 +49,12 @@ constexpr uint16_t kSoftwarePositionLimit = 0x607D;                             
 constexpr uint16_t kProfileVelocity = 0x6081, kProfileAcceleration = 0x6083, kProfileDeceleration = 0x6084;
 }  // namespace object
 constexpr int8_t kProfilePositionMode = 1;
+// A PDO's transmission type (sub-index 2 of its communication parameter):
+// on every SYNC, or event-driven (a TPDO sent when its data change, an RPDO
+// acted on when it arrives).
+namespace transmission {
+constexpr uint8_t kEverySync = 1, kOnChange = 255;
+}
 
 // Emergency error codes the simulated drive raises.
 namespace emcy {

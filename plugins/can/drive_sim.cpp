@@ -28,13 +28,29 @@ uint16_t SimulatedDrive::statusword() const {
   return sw;
 }
 
+void SimulatedDrive::send_status_on_change(Bus& out) {
+  if (config_.tpdo1_transmission != transmission::kOnChange) return;
+  if (nmt_ != NmtState::kOperational || silent_) {
+    status_sent_ = -1;  // entering operational sends it again
+    return;
+  }
+  const uint16_t sw = statusword();
+  if (static_cast<int32_t>(sw) == status_sent_) return;
+  out.send(tpdo1(config_.node, sw, mode_));
+  status_sent_ = sw;
+}
+
 void SimulatedDrive::handle(const Frame& f, Bus& out) {
   if (silent_ || f.error || f.extended || f.rtr) return;
   const int n = config_.node;
   if (f.id == cob::kNmt) {
     if (f.length != 2 || (f.data[1] != 0 && f.data[1] != n)) return;
     switch (static_cast<NmtCommand>(f.data[0])) {
-      case NmtCommand::kStart: nmt_ = NmtState::kOperational; break;
+      case NmtCommand::kStart:
+        nmt_ = NmtState::kOperational;
+        status_sent_ = -1;  // an event-driven PDO is sent on (re)entering operational
+        send_status_on_change(out);
+        break;
       case NmtCommand::kStop: nmt_ = NmtState::kStopped; break;
       case NmtCommand::kPreOperational: nmt_ = NmtState::kPreOperational; break;
       case NmtCommand::kResetNode: {
@@ -54,11 +70,12 @@ void SimulatedDrive::handle(const Frame& f, Bus& out) {
   }
   if (f.id == cob::sdo_request(n)) {
     if (nmt_ == NmtState::kPreOperational || nmt_ == NmtState::kOperational) handle_sdo(f, out);
+    send_status_on_change(out);  // a controlword written by SDO
     return;
   }
   if (nmt_ != NmtState::kOperational) return;
   if (f.id == cob::kSync) {
-    out.send(tpdo1(n, statusword(), mode_));
+    if (config_.tpdo1_transmission != transmission::kOnChange) out.send(tpdo1(n, statusword(), mode_));
     out.send(tpdo2(n, encoder(), static_cast<int32_t>(std::lround(omega_ * config_.counts_per_rad))));
   } else if (f.id == cob::rpdo2(n)) {
     int32_t target = 0;
@@ -69,6 +86,7 @@ void SimulatedDrive::handle(const Frame& f, Bus& out) {
     if (!parse_rpdo1(f, cw, mode)) return;
     mode_ = mode;
     apply_controlword(cw);
+    send_status_on_change(out);
   }
 }
 
@@ -136,6 +154,15 @@ void SimulatedDrive::handle_sdo(const Frame& f, Bus& out) {
 
 bool SimulatedDrive::read_object(uint16_t index, uint8_t sub, uint32_t& value, uint8_t& size, uint32_t& abort) const {
   size = 4;
+  if (index == object::kTpdo1Communication) {
+    size = 1;
+    if (sub == 0 || sub == 2) {
+      value = sub == 0 ? 2 : config_.tpdo1_transmission;  // sub 0: the highest sub-index
+      return true;
+    }
+    abort = sdo_abort::kNoSubindex;
+    return false;
+  }
   if (index == object::kSoftwarePositionLimit) {
     if (sub == 0) {
       value = 2;
@@ -170,6 +197,20 @@ bool SimulatedDrive::read_object(uint16_t index, uint8_t sub, uint32_t& value, u
 }
 
 bool SimulatedDrive::write_object(uint16_t index, uint8_t sub, uint32_t value, uint32_t& abort) {
+  if (index == object::kTpdo1Communication) {
+    // Only the two transmission types simulated: every SYNC, or on change.
+    if (sub != 2) {
+      abort = sub == 0 ? sdo_abort::kReadOnly : sdo_abort::kNoSubindex;
+      return false;
+    }
+    if (value != transmission::kEverySync && value != transmission::kOnChange) {
+      abort = sdo_abort::kValueTooHigh;
+      return false;
+    }
+    config_.tpdo1_transmission = static_cast<uint8_t>(value);
+    status_sent_ = -1;
+    return true;
+  }
   if (sub != 0) {
     abort = index == object::kSoftwarePositionLimit ? sdo_abort::kReadOnly : sdo_abort::kNoSubindex;
     return false;
@@ -252,6 +293,7 @@ void SimulatedDrive::advance(int64_t now_ns, double dt, Bus& out) {
       following_error_since_ns_ = -1;
     }
   }
+  send_status_on_change(out);
 }
 
 void SimulatedDrive::substep(double h) {
@@ -319,6 +361,17 @@ void DriveRack::step(int64_t now_ns, double dt, int64_t wait_ns) {
   }
   for (auto& d : drives_) d.advance(now_ns, dt, *bus_);
   bus_->flush();
+}
+
+bool DriveRack::handle_arrived(int64_t wait_ns) {
+  Frame f;
+  bool any = false;
+  while (bus_->receive(f, any ? 0 : wait_ns)) {
+    any = true;
+    for (auto& d : drives_) d.handle(f, *bus_);
+  }
+  if (any) bus_->flush();
+  return any;
 }
 
 }  // namespace saccade::can

@@ -40,6 +40,8 @@ struct DriveConfig {
   uint32_t following_error_window = 2000;  // counts
   uint16_t following_error_timeout_ms = 20;
   uint16_t heartbeat_ms = 0;               // 0: no heartbeat until the master sets 0x1017
+  // TPDO1 (statusword): on every SYNC, or on change (0x1800 sub 2).
+  uint8_t tpdo1_transmission = transmission::kEverySync;
 };
 
 class SimulatedDrive {
@@ -75,6 +77,8 @@ class SimulatedDrive {
   void apply_controlword(uint16_t cw);
   void enter_fault(uint16_t code, Bus& out);
   void substep(double h);
+  // An event-driven TPDO1: the statusword whenever it differs from the last one sent.
+  void send_status_on_change(Bus& out);
 
   DriveConfig config_;
   NmtState nmt_ = NmtState::kBootUp;
@@ -85,6 +89,7 @@ class SimulatedDrive {
   bool set_point_ack_ = false, following_error_ = false;
   int32_t target_counts_ = 0, pending_target_ = 0;
   int64_t next_heartbeat_ns_ = 0, following_error_since_ns_ = -1;
+  int32_t status_sent_ = -1;  // the statusword last sent by an event-driven TPDO1; -1: none since operational
   // Profile generator (reference), the plant and the loop.
   double reference_ = 0, reference_velocity_ = 0, target_ = 0;
   double theta_ = 0, omega_ = 0, integral_ = 0, disturbance_ = 0;
@@ -99,6 +104,10 @@ class DriveRack {
   // Handles what has arrived (waiting up to `wait_ns` for the first frame, for
   // a tunnel whose packets are still in flight), then advances every drive.
   void step(int64_t now_ns, double dt, int64_t wait_ns = 0);
+  // Between steps: handles frames as they arrive (the first waited for up to
+  // `wait_ns`), as a drive's communication does between its control cycles:
+  // an RPDO is acted on, an event-driven TPDO answers at once. False when none came.
+  bool handle_arrived(int64_t wait_ns);
   SimulatedDrive& drive(std::size_t i) { return drives_[i]; }
   std::size_t size() const { return drives_.size(); }
   Bus& bus() { return *bus_; }

@@ -35,14 +35,16 @@ Master::Master(Bus& bus, MasterConfig config) : bus_(bus), config_(std::move(con
     d.joint = j;
     const double cpr = j.counts_per_rad;
     d.writes = {
-        {object::kModesOfOperation, static_cast<uint8_t>(kProfilePositionMode), 1},
-        {object::kProfileVelocity, counts(config_.profile_velocity, cpr), 4},
-        {object::kProfileAcceleration, counts(config_.profile_acceleration, cpr), 4},
-        {object::kProfileDeceleration, counts(config_.profile_acceleration, cpr), 4},
-        {object::kFollowingErrorWindow, counts(config_.following_error_window, cpr), 4},
-        {object::kFollowingErrorTimeout, config_.following_error_timeout_ms, 2},
-        {object::kProducerHeartbeatTime, config_.heartbeat_ms, 2},
+        {object::kModesOfOperation, 0, static_cast<uint8_t>(kProfilePositionMode), 1},
+        {object::kProfileVelocity, 0, counts(config_.profile_velocity, cpr), 4},
+        {object::kProfileAcceleration, 0, counts(config_.profile_acceleration, cpr), 4},
+        {object::kProfileDeceleration, 0, counts(config_.profile_acceleration, cpr), 4},
+        {object::kFollowingErrorWindow, 0, counts(config_.following_error_window, cpr), 4},
+        {object::kFollowingErrorTimeout, 0, config_.following_error_timeout_ms, 2},
+        {object::kProducerHeartbeatTime, 0, config_.heartbeat_ms, 2},
     };
+    if (config_.statusword_on_change)
+      d.writes.push_back({object::kTpdo1Communication, 2, transmission::kOnChange, 1});
     drives_.push_back(std::move(d));
     for (uint32_t id : {cob::tpdo1(j.node), cob::tpdo2(j.node), cob::sdo_response(j.node), cob::heartbeat(j.node),
                         cob::emergency(j.node)})
@@ -90,7 +92,10 @@ void Master::receive(const Frame& f, int64_t now_ns) {
     }
   } else if (f.id == cob::tpdo1(node)) {
     int8_t mode = 0;
-    if (parse_tpdo1(f, d->statusword, mode)) d->state = decode_statusword(d->statusword);
+    if (parse_tpdo1(f, d->statusword, mode)) {
+      d->state = decode_statusword(d->statusword);
+      if (!d->set_point_high && (d->statusword & pp::kSetPointAcknowledge) == 0) d->ack_low_seen = true;
+    }
   } else if (f.id == cob::tpdo2(node)) {
     if (parse_tpdo2(f, d->position, d->velocity)) d->updated_ns = now_ns;
   } else if (f.id == cob::emergency(node) && f.length == 8) {
@@ -100,7 +105,7 @@ void Master::receive(const Frame& f, int64_t now_ns) {
     Sdo answer;
     if (!parse_sdo(f, answer) || d->step >= d->writes.size()) return;
     const Write& w = d->writes[d->step];
-    if (answer.index != w.index || answer.subindex != 0) return;  // a late answer to an earlier request
+    if (answer.index != w.index || answer.subindex != w.sub) return;  // a late answer to an earlier request
     if (answer.kind == Sdo::Kind::kDownloadResponse) {
       ++d->step;
       d->sdo_sent_ns = -1;
@@ -112,7 +117,7 @@ void Master::receive(const Frame& f, int64_t now_ns) {
   }
 }
 
-void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool reset) {
+void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool reset, int64_t serial) {
   if (reset && (d.phase == Phase::kSilent || d.state == DriveState::kFault)) {
     d.problem.clear();
     d.error_code = 0;
@@ -147,6 +152,7 @@ void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool rese
       Sdo request;
       request.kind = Sdo::Kind::kDownloadRequest;
       request.index = w.index;
+      request.subindex = w.sub;
       request.value = w.value;
       request.size = w.size;
       send(sdo_frame(cob::sdo_request(d.joint.node), request));
@@ -169,6 +175,7 @@ void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool rese
           d.phase = Phase::kRun;
           d.problem.clear();  // whatever it was (a reboot, a reset fault) is over
           d.set_point_high = false;
+          d.ack_low_seen = true;  // enabling clears the acknowledge
           break;
         default: break;  // fault (until reset), or no statusword yet
       }
@@ -178,36 +185,101 @@ void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool rese
         if (d.state != DriveState::kFault) d.phase = Phase::kEnable;  // switched off behind our back
         return;
       }
-      if (target == nullptr) return;
-      const uint16_t run = control::kEnableOperation | pp::kChangeSetImmediately;
-      if (!d.set_point_high) {
-        const double c = std::round(*target * d.joint.counts_per_rad) + d.joint.zero_counts;
-        send(rpdo2(d.joint.node, static_cast<int32_t>(std::clamp(c, -2147483648.0, 2147483647.0))));
-        send(rpdo1(d.joint.node, run | pp::kNewSetPoint));
-        d.set_point_high = true;
-        d.set_point_cycle = stats_.cycles;
-        ++stats_.set_points;
-      } else if ((d.statusword & pp::kSetPointAcknowledge) != 0 || stats_.cycles - d.set_point_cycle > 5) {
-        // Acknowledged (or the acknowledgement is lost): bit 4 low, so the next set-point is a new edge.
-        if ((d.statusword & pp::kSetPointAcknowledge) != 0) ++stats_.acknowledged;
-        send(rpdo1(d.joint.node, run));
-        d.set_point_high = false;
-      }
+      set_point(d, target, serial, true);
       return;
     }
     case Phase::kSilent: return;
   }
 }
 
-void Master::cycle(int64_t now_ns, const double* targets, int64_t reset, std::vector<JointFeedback>& feedback,
-                   int64_t wait_ns) {
-  stats_.bits_last_cycle = 0;
+bool Master::set_point(Drive& d, const double* target, int64_t serial, bool routine) {
+  const uint16_t run = control::kEnableOperation | pp::kChangeSetImmediately;
+  const bool lost = stats_.cycles - d.set_point_cycle > 5;  // no answer for 5 periods: go on without it
+  if (d.set_point_high) {
+    const bool acknowledged = (d.statusword & pp::kSetPointAcknowledge) != 0;
+    if (acknowledged || lost) {
+      // Bit 4 low, so the next set-point is a new edge; the next rises once
+      // the drive shows the acknowledge low again.
+      if (acknowledged) ++stats_.acknowledged;
+      send(rpdo1(d.joint.node, run));
+      d.set_point_high = false;
+      d.ack_low_seen = !acknowledged;
+    }
+    return false;
+  }
+  if (target == nullptr || (!d.ack_low_seen && !lost)) return false;
+  if (stats_.cycles - d.set_point_cycle < (routine ? 2 : 1)) return false;  // one per SYNC period; routine every second
+  if (!routine && d.serial >= serial) return false;  // it has these already
+  const double c = std::round(*target * d.joint.counts_per_rad) + d.joint.zero_counts;
+  send(rpdo2(d.joint.node, static_cast<int32_t>(std::clamp(c, -2147483648.0, 2147483647.0))));
+  send(rpdo1(d.joint.node, run | pp::kNewSetPoint));
+  d.set_point_high = true;
+  d.set_point_cycle = stats_.cycles;
+  d.serial = std::max(d.serial, serial);
+  ++stats_.set_points;
+  return true;
+}
+
+bool Master::running(const Drive& d) const {
+  return d.phase == Phase::kRun && d.state == DriveState::kOperationEnabled;
+}
+
+void Master::drain(int64_t now_ns, int64_t wait_ns) {
   Frame f;
   bool first = true;
   while (bus_.receive(f, first ? wait_ns : 0)) {
     first = false;
     if (!f.error) receive(f, now_ns);
   }
+}
+
+int Master::command(int64_t now_ns, const double* targets, int64_t serial, int64_t wait_ns) {
+  drain(now_ns, wait_ns);
+  int sent = 0;
+  for (std::size_t i = 0; i < drives_.size(); ++i)
+    if (running(drives_[i]) && set_point(drives_[i], targets != nullptr ? &targets[i] : nullptr, serial, false)) ++sent;
+  bus_.flush();
+  return sent;
+}
+
+bool Master::commanded(int64_t serial) const {
+  bool any = false;
+  for (const Drive& d : drives_) {
+    if (!running(d)) continue;
+    if (d.serial < serial) return false;
+    any = true;
+  }
+  return any;
+}
+
+JointFeedback Master::joint_feedback(const Drive& d) const {
+  JointFeedback out;
+  out.position = (d.position - d.joint.zero_counts) / d.joint.counts_per_rad;
+  out.velocity = d.velocity / d.joint.counts_per_rad;
+  out.state = d.state;
+  out.updated_ns = d.updated_ns;
+  out.error_code = d.error_code;
+  if (d.phase == Phase::kSilent) {
+    out.health = DriveHealth::kSilent;
+  } else if (d.state == DriveState::kFault || d.state == DriveState::kFaultReactionActive) {
+    out.health = DriveHealth::kFault;
+  } else if (d.phase == Phase::kRun && d.state == DriveState::kOperationEnabled && d.updated_ns >= 0) {
+    out.health = DriveHealth::kReady;
+  } else {
+    out.health = DriveHealth::kStarting;
+  }
+  return out;
+}
+
+void Master::feedback(std::vector<JointFeedback>& out) const {
+  out.resize(drives_.size());
+  for (std::size_t i = 0; i < drives_.size(); ++i) out[i] = joint_feedback(drives_[i]);
+}
+
+void Master::cycle(int64_t now_ns, const double* targets, int64_t reset, std::vector<JointFeedback>& feedback,
+                   int64_t wait_ns, int64_t serial) {
+  stats_.bits_last_cycle = 0;
+  drain(now_ns, wait_ns);
   if (first_cycle_) {
     // Whatever state the drives were left in: pre-operational, so SDO works and PDOs wait.
     send(nmt(NmtCommand::kPreOperational, 0));
@@ -230,24 +302,11 @@ void Master::cycle(int64_t now_ns, const double* targets, int64_t reset, std::ve
         d.problem = who(d) + ": no position for " + std::to_string((now_ns - d.updated_ns) / 1'000'000) + " ms";
       }
     }
-    run_drive(d, now_ns, targets != nullptr ? &targets[i] : nullptr, do_reset);
+    run_drive(d, now_ns, targets != nullptr ? &targets[i] : nullptr, do_reset, serial);
     JointFeedback& out = feedback[i];
-    out.position = (d.position - d.joint.zero_counts) / d.joint.counts_per_rad;
-    out.velocity = d.velocity / d.joint.counts_per_rad;
-    out.state = d.state;
-    out.updated_ns = d.updated_ns;
-    out.error_code = d.error_code;
-    if (d.phase == Phase::kSilent) {
-      out.health = DriveHealth::kSilent;
-    } else if (d.state == DriveState::kFault || d.state == DriveState::kFaultReactionActive) {
-      out.health = DriveHealth::kFault;
-      if (d.problem.empty())
-        d.problem = who(d) + ": drive fault" + (d.error_code ? ", emergency " + hex(d.error_code, 4) : std::string());
-    } else if (d.phase == Phase::kRun && d.state == DriveState::kOperationEnabled && d.updated_ns >= 0) {
-      out.health = DriveHealth::kReady;
-    } else {
-      out.health = DriveHealth::kStarting;
-    }
+    out = joint_feedback(d);
+    if (out.health == DriveHealth::kFault && d.problem.empty())
+      d.problem = who(d) + ": drive fault" + (d.error_code ? ", emergency " + hex(d.error_code, 4) : std::string());
     if (problem_.empty() && out.health != DriveHealth::kReady && out.health != DriveHealth::kStarting)
       problem_ = d.problem;
   }

@@ -9,6 +9,16 @@
 // data (a drive silent beyond its timeout is reported), reports drive faults
 // (statusword, emergency) and clears them when asked. Non-blocking: nothing
 // waits except the optional first receive of a cycle.
+//
+// Set-points follow the CiA 402 handshake, checked on the statusword: bit 4
+// (new set-point) rises only once a statusword read after its last fall shows
+// the acknowledge (bit 12) low, and falls only once one shows it high; a drive
+// gets at most one set-point per SYNC period, and at the cycle (routine
+// streaming) one every second period. Between cycles (command()) new targets
+// go out at once to every drive whose handshake allows it; SYNC is sent only
+// by cycle(), so the drives' SYNC period stays constant. With the statusword
+// on change (TPDO1 event-driven, the default) the handshake completes within
+// a period and a drive is nearly always ready for a new set-point.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -36,6 +46,9 @@ struct MasterConfig {
   int64_t feedback_timeout_ns = 50'000'000;    // no TPDO2 this long: silent
   int64_t sdo_timeout_ns = 50'000'000;
   int sdo_attempts = 3;
+  // Configure TPDO1 (statusword) as event-driven (0x1800 sub 2 = 255): the
+  // handshake's answers arrive at once instead of on the next SYNC.
+  bool statusword_on_change = true;
 };
 
 enum class DriveHealth : uint8_t { kStarting, kReady, kFault, kSilent };
@@ -57,8 +70,21 @@ class Master {
   // enabling, sends the set-points (`targets` in rad, one per joint; null:
   // none, the drives keep their last), then SYNC. `reset` changes when the
   // head asks for faults to be cleared. Fills `feedback` (one per joint).
+  // `serial` names the targets (any increasing number); commanded() tells
+  // when every running drive has been sent them.
   void cycle(int64_t now_ns, const double* targets, int64_t reset, std::vector<JointFeedback>& feedback,
-             int64_t wait_ns = 0);
+             int64_t wait_ns = 0, int64_t serial = 0);
+
+  // Between cycles, without SYNC: reads what has arrived (waiting up to
+  // `wait_ns` for the first frame), completes handshakes (bit 4 low once
+  // acknowledged) and, when `targets` is given, sends them at once to every
+  // running drive ready for a new set-point that has not had these (`serial`)
+  // yet. Returns how many drives it sent a set-point.
+  int command(int64_t now_ns, const double* targets, int64_t serial, int64_t wait_ns = 0);
+  // True when every running drive (at least one) has been sent targets of `serial` or later.
+  bool commanded(int64_t serial) const;
+  // The joints as last read (as cycle() fills them).
+  void feedback(std::vector<JointFeedback>& out) const;
 
   // The first problem in words ("tilt_left (node 3): drive fault, emergency 0x8611"), empty when all are ready.
   const std::string& problem() const { return problem_; }
@@ -73,6 +99,7 @@ class Master {
   enum class Phase : uint8_t { kConfigure, kEnable, kRun, kSilent };
   struct Write {
     uint16_t index;
+    uint8_t sub;
     uint32_t value;
     uint8_t size;
   };
@@ -88,13 +115,22 @@ class Master {
     int32_t position = 0, velocity = 0;
     int64_t heartbeat_ns = -1, updated_ns = -1;
     bool set_point_high = false, reset_sent = false;
-    int64_t set_point_cycle = 0;
+    bool ack_low_seen = true;  // a statusword read since bit 4 fell shows the acknowledge low
+    int64_t set_point_cycle = -2;  // the SYNC period (cycles sent) of the last set-point
+    int64_t serial = 0;            // the targets it was last sent
     std::string problem;
   };
   void receive(const Frame& f, int64_t now_ns);
+  void drain(int64_t now_ns, int64_t wait_ns);
+  bool running(const Drive& d) const;
+  // The handshake's next step for a running drive: bit 4 low once acknowledged
+  // (or the acknowledge is lost); with `target`, a set-point when allowed
+  // (`routine`: at most one every second SYNC period).
+  bool set_point(Drive& d, const double* target, int64_t serial, bool routine);
+  JointFeedback joint_feedback(const Drive& d) const;
   void restart_configuration(Drive& d);
   void send(const Frame& f);
-  void run_drive(Drive& d, int64_t now_ns, const double* target, bool reset);
+  void run_drive(Drive& d, int64_t now_ns, const double* target, bool reset, int64_t serial);
   std::string who(const Drive& d) const;
 
   Bus& bus_;

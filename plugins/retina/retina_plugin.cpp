@@ -1,5 +1,7 @@
 #include <opencv2/imgproc.hpp>
 
+#include "head_rectification.hpp"
+#include "rectified.hpp"
 #include "retina.hpp"
 #include "saccade/plugin.hpp"
 
@@ -8,24 +10,52 @@ namespace {
 using namespace saccade;
 using namespace saccade::retina;
 
+struct RetinaNodeConfig {
+  RetinaConfig retina;
+  // Rectified sampling for a stereo pair (rectified.hpp): the calibration file,
+  // or without one the head model's ideal cameras of this focal length.
+  bool rectify = false;
+  std::string calibration;
+  double model_focal_px = 277.0;  // capture.sim_head's default
+  kinematics::HeadGeometry geometry;
+};
+
 class RetinaNode final : public Node {
  public:
   static constexpr const char* kName = "";
   static constexpr In<Image> kImage{"image", "8-bit gray or BGR frame"};
   static constexpr SideIn<Region> kFovea{"fovea", "moves the fovea (its centre); the newest value is used"};
+  static constexpr SideIn<JointState> kJoints{
+      "joints", "with rectify: the head's joints (neck, vergence left, tilt left, vergence right, tilt right), "
+                "radians; the newest value is used (none: the joints' zero)"};
   static constexpr Out<Retina> kRetina{"retina", "levels (0 outermost) with their geometry"};
 
-  static void bind(ParamBinder<RetinaConfig>& b) {
-    b.field("levels", {1, 16}, "number of levels", &RetinaConfig::levels)
-        .field("size", "size of every level", &RetinaConfig::size)
+  static void bind(ParamBinder<RetinaNodeConfig>& b) {
+    using C = RetinaNodeConfig;
+    using R = RetinaConfig;
+    using G = kinematics::HeadGeometry;
+    b.field("levels", {1, 16}, "number of levels", &C::retina, &R::levels)
+        .field("size", "size of every level", &C::retina, &R::size)
         .field("mode", {{"five_point", SamplingMode::kFivePoint}, {"area_mean", SamplingMode::kAreaMean}},
-               "the paper's five-point mean, or the exact cell mean", &RetinaConfig::mode);
+               "the paper's five-point mean, or the exact cell mean", &C::retina, &R::mode)
+        .field("rectify",
+               "sample along the stereo pair's rectified geometry for the current joints (the image's camera_id: 0 "
+               "left, 1 right), so that the two retinas' rows are epipolar lines at any vergence",
+               &C::rectify)
+        .field("calibration", "with rectify: the head's calibration file (saccade calibrate); empty: the head model's "
+                              "ideal cameras (model_focal_px)",
+               &C::calibration)
+        .field("model_focal_px", {1, 1e5}, "with rectify and no calibration: the ideal cameras' focal length, pixels",
+               &C::model_focal_px)
+        .field("l1", {0, 10}, "with rectify, m: neck axis to the vergence axis (the paper's L1)", &C::geometry, &G::l1)
+        .field("l2", {0, 10}, "with rectify, m: height of the tilt axis (L2)", &C::geometry, &G::l2)
+        .field("l3", {0, 10}, "with rectify, m: tilt axis to the camera (L3)", &C::geometry, &G::l3);
   }
 
   static Contract contract() {
     return Contract("Multi-resolution retina (Algorithm 1): L levels of WxH, the innermost a crop of the fovea, "
                     "the outer ones five-point means over growing regions up to the whole frame.")
-        .ports(kImage, kFovea, kRetina)
+        .ports(kImage, kFovea, kJoints, kRetina)
         .params(&bind)
         // Unbound: it has no default (the frame's centre), which a struct field cannot express.
         .param_point("fovea", std::nullopt, "initial fovea centre x,y in source pixels (default: the frame's centre)")
@@ -33,9 +63,20 @@ class RetinaNode final : public Node {
   }
   Status open(OpenContext& ctx) override {
     const Params& p = ctx.params();
-    const RetinaConfig config = ctx.config(&bind);
+    config_ = ctx.config(&bind);
+    const RetinaConfig& config = config_.retina;
     if (config.size.width < 3 || config.size.height < 3) return Status::error("size must be at least 3x3");
     sampler_ = std::make_unique<RetinaSampler>(config);
+    if (config_.rectify) {
+      if (config.mode != SamplingMode::kFivePoint) return Status::error("rectify needs mode five_point");
+      if (!config_.calibration.empty()) {
+        if (std::string e = kinematics::read_head_calibration(config_.calibration, calibration_); !e.empty())
+          return Status::error(e);
+        if (calibration_.left_distortion.size() > 14 || calibration_.right_distortion.size() > 14)
+          return Status::error(config_.calibration + ": more than 14 distortion coefficients");
+      }
+    }
+    short_joints_ = &ctx.counter("short_joint_states");
     if (p.has("fovea")) initial_fovea_ = p.get_point("fovea");
     gray_ = p.get_string("channels") == "gray";
     return {};
@@ -56,7 +97,13 @@ class RetinaNode final : public Node {
     if (cv::MatAllocator* ring = ctx.frame_allocator(kRetina))
       create_together(ring, static_cast<std::size_t>(sampler_->config().levels), sampler_->config().size, frame->type(),
                       retina->levels);
-    sampler_->sample(*frame, fovea, *retina);
+    if (config_.rectify) {
+      if (Status st = update_rectification(ctx, frame->size(), image->camera_id); !st.ok()) return st;
+      if (std::string e = sample_rectified(config_.retina, *frame, *map_, fovea, *retina); !e.empty())
+        return Status::error(e);
+    } else {
+      sampler_->sample(*frame, fovea, *retina);
+    }
     retina->camera_id = image->camera_id;
     retina->source = image;
     ctx.emit(kRetina, std::move(retina));
@@ -64,6 +111,46 @@ class RetinaNode final : public Node {
   }
 
  private:
+  // The rectification for the newest joints, made again only when they or the
+  // frame's size change.
+  Status update_rectification(ProcessContext& ctx, cv::Size frame, int camera_id) {
+    kinematics::HeadJoints q;
+    if (auto joints = ctx.get(kJoints)) {
+      const std::vector<double>& p = joints->position;
+      if (p.size() >= 5)
+        q = {p[0], p[1], p[2], p[3], p[4]};
+      else
+        short_joints_->fetch_add(1, std::memory_order_relaxed);
+    }
+    const bool same = map_ && frame == rectified_size_ && camera_id == rectified_camera_ && q.neck == joints_.neck &&
+                      q.vergence_left == joints_.vergence_left && q.tilt_left == joints_.tilt_left &&
+                      q.vergence_right == joints_.vergence_right && q.tilt_right == joints_.tilt_right;
+    if (same) return {};
+    if (config_.calibration.empty()) {
+      calibration_ = model_calibration(frame, config_.model_focal_px, config_.geometry);
+    } else if (std::string e = kinematics::check_frame_size(calibration_, frame); !e.empty()) {
+      return Status::error(e);
+    }
+    if (camera_id != 0 && camera_id != 1)
+      return Status::error("rectify: the image's camera_id is " + std::to_string(camera_id) +
+                           "; a stereo pair's cameras are 0 (left) and 1 (right)");
+    PairRectification pair;
+    if (std::string e = rectify_pair(calibration_, config_.geometry, q, pair); !e.empty()) return Status::error(e);
+    map_.emplace(camera_id == 0 ? pair.left : pair.right);
+    if (!map_->problem().empty()) return Status::error(calibration_.path + ": " + map_->problem());
+    joints_ = q;
+    rectified_size_ = frame;
+    rectified_camera_ = camera_id;
+    return {};
+  }
+
+  RetinaNodeConfig config_;
+  kinematics::HeadCalibration calibration_;
+  std::optional<RectifiedMap> map_;
+  kinematics::HeadJoints joints_;
+  cv::Size rectified_size_;
+  int rectified_camera_ = -1;
+  std::atomic<uint64_t>* short_joints_ = nullptr;
   std::unique_ptr<RetinaSampler> sampler_;
   std::optional<cv::Point2d> initial_fovea_;
   cv::Mat gray_frame_;

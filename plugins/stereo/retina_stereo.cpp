@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "rectified.hpp"
 #include "retina.hpp"
 
 #include <cmath>
@@ -98,14 +99,14 @@ SACCADE_AVX2_CLONE int to_source_pixels(const float* __restrict d, const float* 
 // the frame sampled (the level's rule, padded pixel (0, 0) at `origin`) in
 // columns cols.start .. cols.end - 1 around them; zero in the other columns,
 // where nothing reads.
-void RetinaStereo::sample_around_level(const cv::Mat& frame, const cv::Mat& level, cv::Point2d origin,
+void RetinaStereo::sample_around_level(const cv::Mat& frame, bool right, const cv::Mat& level, cv::Point2d origin,
                                        const LevelGeometry& g, cv::Point at, cv::Size padded, cv::Range cols, bool crop,
                                        cv::Mat& out) const {
   out.create(padded, CV_8UC1);
   const cv::Rect placed(at, level.size());
   const cv::Rect seen = placed & cv::Rect(cv::Point(), padded);
   if (seen.empty()) {
-    retina::sample_level(frame, origin.x, origin.y, g.step_x, g.step_y, padded, crop, out);
+    sample_frame(frame, right, origin.x, origin.y, g.step_x, g.step_y, padded, crop, out);
     return;
   }
   if (cols.start > 0 || cols.end < padded.width) fill(out, 0);
@@ -120,9 +121,37 @@ void RetinaStereo::sample_around_level(const cv::Mat& frame, const cv::Mat& leve
   for (const cv::Rect& strip : strips) {
     if (strip.width <= 0 || strip.height <= 0) continue;
     cv::Mat roi = out(strip);
-    retina::sample_level(frame, origin.x + strip.x * g.step_x, origin.y + strip.y * g.step_y, g.step_x, g.step_y,
-                         strip.size(), crop, roi);
+    sample_frame(frame, right, origin.x + strip.x * g.step_x, origin.y + strip.y * g.step_y, g.step_x, g.step_y,
+                 strip.size(), crop, roi);
   }
+}
+
+void RetinaStereo::sample_frame(const cv::Mat& frame, bool right, double x0, double y0, double step_x, double step_y,
+                                cv::Size size, bool crop, cv::Mat& out) const {
+  const retina::RectifiedMap* map = right ? right_map_.get() : left_map_.get();
+  if (map != nullptr)
+    retina::sample_level(frame, *map, x0, y0, step_x, step_y, size, crop, out);
+  else
+    retina::sample_level(frame, x0, y0, step_x, step_y, size, crop, out);
+}
+
+std::string RetinaStereo::take_rectification(const Retina& left, const Retina& right) {
+  const Rectification& l = left.rectification;
+  const Rectification& r = right.rectification;
+  if (l.enabled != r.enabled)
+    return std::string("the ") + (l.enabled ? "left" : "right") + " retina is rectified and the other is not";
+  if (!l.enabled) {
+    left_map_.reset();
+    right_map_.reset();
+    return {};
+  }
+  if (l.rectified != r.rectified || l.baseline != r.baseline)
+    return "the left and right retinas were rectified for different poses (their rectified cameras differ)";
+  if (!left_map_ || !(left_map_->rectification() == l)) left_map_ = std::make_shared<retina::RectifiedMap>(l);
+  if (!right_map_ || !(right_map_->rectification() == r)) right_map_ = std::make_shared<retina::RectifiedMap>(r);
+  if (!left_map_->problem().empty()) return "left retina: " + left_map_->problem();
+  if (!right_map_->problem().empty()) return "right retina: " + right_map_->problem();
+  return {};
 }
 
 // Search ranges for level k's left pixels: around the disparity the level
@@ -295,8 +324,8 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
     // One strip of the right frame covering every shift: strip column j is the
     // right frame at left window column j - s_hi.
     const double x0 = g.region.x + (wx - s_hi) * g.step_x;
-    retina::sample_level(right_frame, x0, g.region.y + wy * g.step_y, g.step_x, g.step_y,
-                         cv::Size(ww + s_hi - s_lo, wh), k + 1 == n, ls.strip);
+    sample_frame(right_frame, true, x0, g.region.y + wy * g.step_y, g.step_x, g.step_y,
+                 cv::Size(ww + s_hi - s_lo, wh), k + 1 == n, ls.strip);
     const cv::Mat window = level(cv::Rect(wx, wy, ww, wh));
     double wm, ws;
     mean_and_deviation(window, wm, ws);
@@ -323,6 +352,9 @@ struct RetinaStereo::LevelPlan {
   bool innermost = false;  // the fovea: cropped from the frames, not sampled
   bool padded = false;     // matched on the frames sampled with a margin around the level
   int region_shift = 0;    // level pixels the right retina's region lies left of the left one's
+  // The right retina's level lies on the left one's rows (else, on a rectified
+  // pair whose foveae differ in row, the right frame is sampled on the left's).
+  bool right_on_left_rows = true;
   int offset = 0;          // level pixels the right image lies left of the left one's (vergence's or the region's)
   double right_x0 = 0;     // source x of the right image's left edge
   bool around_fixation = false;          // the fovea, verged: searched around the fixation disparity
@@ -348,19 +380,28 @@ const cv::Mat* gray_frame(const Retina& retina, cv::Mat& buffer) {
 }
 
 // "" when level k of the two retinas can be matched, or what is wrong.
-std::string check_level(const Retina& left, const Retina& right, std::size_t k, int& region_shift) {
+std::string check_level(const Retina& left, const Retina& right, std::size_t k, int& region_shift,
+                        bool& right_on_left_rows) {
   const LevelGeometry& gl = left.geometry[k];
   const LevelGeometry& gr = right.geometry[k];
   if (left.levels[k].size() != right.levels[k].size() || left.levels[k].type() != CV_8UC1 ||
       right.levels[k].type() != CV_8UC1)
     return "level " + std::to_string(k) + ": expected 8-bit gray levels of one size";
-  if (std::abs(gl.step_x - gr.step_x) > 1e-9 || gl.region.y != gr.region.y || gl.region.height != gr.region.height)
-    return "level " + std::to_string(k) + ": left and right regions differ in step or rows";
   const double shift = (gl.region.x - gr.region.x) / gl.step_x;
   region_shift = static_cast<int>(std::lround(shift));
-  if (std::abs(shift - region_shift) > 1e-6)
-    return "level " + std::to_string(k) + ": the right region is shifted by a fraction of a level pixel";
-  return {};
+  const bool same_rows =
+      std::abs(gl.step_x - gr.step_x) <= 1e-9 && gl.region.y == gr.region.y && gl.region.height == gr.region.height;
+  right_on_left_rows = same_rows && std::abs(shift - region_shift) <= 1e-6;
+  if (right_on_left_rows) return {};
+  // A rectified pair's retinas may centre their foveae on different rows (each
+  // camera's own fovea, mapped to the rectified image): the right frame is
+  // then sampled on the left level's rows instead.
+  if (left.rectification.enabled && right.source != nullptr) {
+    region_shift = 0;
+    return {};
+  }
+  if (!same_rows) return "level " + std::to_string(k) + ": left and right regions differ in step or rows";
+  return "level " + std::to_string(k) + ": the right region is shifted by a fraction of a level pixel";
 }
 
 // Level pixels of margin on each side of the level in its padded images.
@@ -433,9 +474,9 @@ void RetinaStereo::plan_level(const Retina& left, const Retina& right, const cv:
   plan.right_x0 = gl.region.x - plan.offset * gl.step_x;
   plan.right_level = &right.levels[k];
   // (The padded images sample it themselves, with their margin.)
-  if (verged && !plan.padded) {
-    retina::sample_level(*right_frame, plan.right_x0, gl.region.y, gl.step_x, gl.step_y, left.levels[k].size(),
-                         plan.innermost, right_level_);
+  if ((verged || !plan.right_on_left_rows) && !plan.padded) {
+    sample_frame(*right_frame, true, plan.right_x0, gl.region.y, gl.step_x, gl.step_y, left.levels[k].size(),
+                 plan.innermost, right_level_);
     plan.right_level = &right_level_;
   }
   level.vergence = verged ? plan.offset * gl.step_x : 0;
@@ -544,22 +585,22 @@ void RetinaStereo::sample_padded(const LevelPlan& plan, const Retina& left, cons
   // Around the left level only the windows' half width is read, as left
   // pixels outside the level search nothing.
   if (holds_frame_pixels(left, left_frame))
-    sample_around_level(left_frame, left.levels[plan.k], left_origin, gl, cv::Point(mx0, my0), padded,
+    sample_around_level(left_frame, false, left.levels[plan.k], left_origin, gl, cv::Point(mx0, my0), padded,
                         cv::Range(std::max(0, mx0 - mr), std::min(padded.width, mx0 + w + mr)), crop,
                         ls.left_padded);
   else
-    retina::sample_level(left_frame, left_origin.x, left_origin.y, gl.step_x, gl.step_y, padded, crop,
-                         ls.left_padded);
+    sample_frame(left_frame, false, left_origin.x, left_origin.y, gl.step_x, gl.step_y, padded, crop,
+                 ls.left_padded);
   // The right retina's level serves where the verged level overlaps it
   // (outer levels verge by a few of their pixels): its pixel x lies at
   // padded column mx0 + x + offset - region_shift.
-  if (holds_frame_pixels(right, right_frame))
-    sample_around_level(right_frame, right.levels[plan.k], right_origin, gl,
+  if (plan.right_on_left_rows && holds_frame_pixels(right, right_frame))
+    sample_around_level(right_frame, true, right.levels[plan.k], right_origin, gl,
                         cv::Point(mx0 + plan.offset - plan.region_shift, my0), padded, cv::Range(0, padded.width),
                         crop, ls.right_padded);
   else
-    retina::sample_level(right_frame, right_origin.x, right_origin.y, gl.step_x, gl.step_y, padded, crop,
-                         ls.right_padded);
+    sample_frame(right_frame, true, right_origin.x, right_origin.y, gl.step_x, gl.step_y, padded, crop,
+                 ls.right_padded);
 }
 
 // Both directions in one sweep, checked against each other, back in source
@@ -593,6 +634,7 @@ void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan,
 std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out) {
   if (left.levels.size() != right.levels.size() || left.levels.empty()) return "left and right retinas differ in levels";
   const std::size_t n = left.levels.size();
+  if (std::string error = take_rectification(left, right); !error.empty()) return error;
   out.resize(n);
   const cv::Mat* right_frame = gray_frame(right, right_gray_);
   const cv::Mat* left_frame = config_.pad > 0 ? gray_frame(left, left_gray_) : nullptr;
@@ -606,7 +648,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     plan.k = k;
     plan.innermost = k + 1 == n;
     plan.padded = padded;
-    if (std::string error = check_level(left, right, k, plan.region_shift); !error.empty()) return error;
+    if (std::string error = check_level(left, right, k, plan.region_shift, plan.right_on_left_rows); !error.empty())
+      return error;
     plan_level(left, right, right_frame, plan, out[k]);
     const LevelImages images =
         padded ? padded_images(plan, out, left, right, *left_frame, *right_frame) : level_images(plan, out, left);

@@ -3,12 +3,17 @@
 // the whole range; every inner level searches only around what the level
 // outside it found (mapped through the levels' geometry).
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "ncc.hpp"
 #include "saccade/message.hpp"
+
+namespace saccade::retina {
+class RectifiedMap;
+}
 
 namespace saccade::stereo {
 
@@ -148,8 +153,15 @@ class RetinaStereo {
   void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo, int full_hi,
                int offset, const Span* fixation, cv::Mat& lo, cv::Mat& hi);
   int around_fixation_range(bool around, int full, bool low) const;
-  void sample_around_level(const cv::Mat& frame, const cv::Mat& level, cv::Point2d origin, const LevelGeometry& g,
-                           cv::Point at, cv::Size padded, cv::Range cols, bool crop, cv::Mat& out) const;
+  void sample_around_level(const cv::Mat& frame, bool right, const cv::Mat& level, cv::Point2d origin,
+                           const LevelGeometry& g, cv::Point at, cv::Size padded, cv::Range cols, bool crop,
+                           cv::Mat& out) const;
+  // One level's rule on the left or right frame: the plain grid, or the
+  // rectified one when the retinas were rectified (rectified.hpp).
+  void sample_frame(const cv::Mat& frame, bool right, double x0, double y0, double step_x, double step_y,
+                    cv::Size size, bool crop, cv::Mat& out) const;
+  // "" or why the pair's rectifications do not match; keeps their maps.
+  std::string take_rectification(const Retina& left, const Retina& right);
   int correlate_window(const cv::Mat& window, const cv::Mat& strip, double wm, double ws, int s_lo, int s_hi);
   // Run's steps on one level.
   void plan_level(const Retina& left, const Retina& right, const cv::Mat* right_frame, LevelPlan& plan,
@@ -170,6 +182,9 @@ class RetinaStereo {
   std::vector<int> outer_col_, outer_center_;
   cv::Mat right_level_, right_gray_, left_gray_;
   cv::Mat lo_, hi_;
+  // The retinas' rectified grids (null when they are plain), made again only
+  // when a rectification changes.
+  std::shared_ptr<const retina::RectifiedMap> left_map_, right_map_;
 };
 
 }  // namespace saccade::stereo

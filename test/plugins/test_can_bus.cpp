@@ -11,6 +11,7 @@
 
 #include "bus.hpp"
 #include "cannelloni.hpp"
+#include "drive_sim.hpp"
 #include "socketcan.hpp"
 #include "support.hpp"
 #include "saccade/message.hpp"
@@ -398,12 +399,15 @@ TEST(CanNodes, FramesSentByCanSendComeBackFromCanTap) {
 // for it already), and the driver times, on the cycle that first commands
 // those targets, how long since the camera frame and since the head took it.
 TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
-  const std::string bus = "virtual:trace_test_" + std::to_string(getpid());
+  // The driver node (in the plugin) and the drives (here) meet on a UDP tunnel.
+  const auto [pa, pb] = test::free_udp_ports();
+  const std::string bus = "udp:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb);
   std::string error;
   auto head = testing::NodeHarness::create("<node plugin=\"head\"/>", &error);
   ASSERT_NE(head, nullptr) << error;
   auto driver = testing::NodeHarness::create("<node plugin=\"can.driver\"><param name=\"bus\" value=\"" + bus +
-                                                 "\"/><param name=\"realtime\" value=\"false\"/></node>",
+                                                 "\"/><param name=\"realtime\" value=\"false\"/>"
+                                                 "<param name=\"wait_ms\" value=\"5\"/></node>",
                                              &error);
   ASSERT_NE(driver, nullptr) << error;
 
@@ -434,9 +438,29 @@ TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
   ASSERT_TRUE(head->process().ok());
   EXPECT_EQ(head->last<JointTargets>("targets")->cause_origin_ns, 0) << "once per request";
 
+  // Five drives on the driver's bus, stepped in the driver's time: timed once
+  // every running drive has been sent the answering targets.
+  std::vector<DriveConfig> configs;
+  for (int n = 1; n <= 5; ++n) {
+    DriveConfig c;
+    c.node = n;
+    c.counts_per_rad = 20000.0;
+    configs.push_back(c);
+  }
+  auto drives_end = UdpTunnel::open(std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa), error);
+  ASSERT_TRUE(drives_end) << error;
+  DriveRack rack(std::move(drives_end), configs);
+  auto step = [&](int tick) {
+    ASSERT_TRUE(driver->process().ok());
+    rack.step(tick * 4'000'000LL, 0.004, 5'000'000);
+  };
+  for (int tick = 0; tick < 30; ++tick) step(tick);
+  auto joints = driver->last<JointState>("state");
+  ASSERT_NE(joints, nullptr);
+  for (JointState::Health h : joints->health) ASSERT_EQ(h, JointState::Health::kReady) << joints->detail;
+  ASSERT_EQ(driver->timing("gaze_capture_to_command").count(), 0u);
   driver->set("targets", std::const_pointer_cast<JointTargets>(answering));
-  ASSERT_TRUE(driver->process().ok());
-  ASSERT_TRUE(driver->process().ok());  // the same targets again: not timed twice
+  for (int tick = 30; tick < 40; ++tick) step(tick);  // the same targets again and again: timed once
   const Histogram& from_capture = driver->timing("gaze_capture_to_command");
   const Histogram& from_taken = driver->timing("gaze_taken_to_command");
   ASSERT_EQ(from_capture.count(), 1u);

@@ -1,0 +1,37 @@
+#pragma once
+// The rectified geometry of a verging stereo head for its current joints:
+// the calibration (intrinsics, distortion, the cameras' relative pose at the
+// joints' zero) and the head's kinematics (how each camera has turned since)
+// give the cameras' relative pose now, and OpenCV's stereoRectify the
+// rotations and the shared camera matrix that make the rows epipolar lines.
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "camera_calibration.hpp"
+#include "kinematics.hpp"
+#include "saccade/message.hpp"
+
+namespace saccade::retina {
+
+struct PairRectification {
+  Rectification left, right;  // both enabled
+  cv::Matx33d rotation;       // right camera from left camera now: x_right = rotation * x_left + translation
+  cv::Vec3d translation;
+};
+
+// The left camera is taken to sit exactly on its chain's optical frame; what
+// the calibration's relative pose at zero differs from the model's is put on
+// the right camera's mount, and moves with it:
+//   T(q) = T_calibration(0) * T_model(0)^-1 * T_model(q),
+// with T_model(q) = right(q)^-1 * left(q) from the kinematics. At the joints'
+// zero this is the calibration's own pose. Returns "" or what is wrong.
+std::string rectify_pair(const kinematics::HeadCalibration& calibration, const kinematics::HeadGeometry& geometry,
+                         const kinematics::HeadJoints& joints, PairRectification& out);
+
+// The head's cameras as the model sees them: pinhole cameras of `focal_px`
+// centred on the image, no distortion, their relative pose at zero from the
+// kinematics. What capture.sim_head renders with.
+kinematics::HeadCalibration model_calibration(cv::Size size, double focal_px, const kinematics::HeadGeometry& geometry);
+
+}  // namespace saccade::retina
