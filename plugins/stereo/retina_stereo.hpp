@@ -17,6 +17,9 @@ class RectifiedMap;
 
 namespace saccade::stereo {
 
+// The defaults are the densest configuration measured (semi-global along
+// eight paths, gaps of up to two pixels and half-occluded strips filled, the
+// fovea following the level outside it): make bench-stereo, docs/accuracy.md.
 struct RetinaStereoConfig {
   NccConfig ncc;
   double max_disparity = 256;  // source pixels
@@ -34,7 +37,7 @@ struct RetinaStereoConfig {
   // With vergence, the fovea also searches around what the level outside it
   // found at each pixel (coarse to fine, as the other levels do), so surfaces
   // farther than fovea_radius from the fixation's can be matched.
-  bool fovea_prediction = false;
+  bool fovea_prediction = true;
   // Level pixels sampled around each level from the frames (when the retinas
   // carry them), so that windows and matches at a level's edge see real
   // pixels; 0 matches on the level images alone.
@@ -47,13 +50,13 @@ struct RetinaStereoConfig {
   // their two ends' disparities where those agree within a level pixel (one
   // surface, a gap its windows could not resolve); confidence 0. 0: off.
   // Before `fill`.
-  int fill_gaps = 0;
+  int fill_gaps = 2;
   // Give unmatched pixels that a nearer surface hides from the right camera
   // the farther surface's disparity (confidence 0): on a row, in a run between
   // a far matched pixel (left) and a near one (right) whose disparities differ
   // by D source pixels, the pixels within D / step + `occlusion_slack` level
   // pixels of the near one. After `fill_gaps`, before `fill`.
-  bool fill_occlusions = false;
+  bool fill_occlusions = true;
   int occlusion_slack = 2;
   // Keep, per level, the images actually compared (for comparisons with other
   // matchers on exactly the same pixels).
