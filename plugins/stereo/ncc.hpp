@@ -20,10 +20,11 @@ struct NccConfig {
   // (1 - NCC) are summed with those along four paths through the image,
   // which add p1 for a disparity step of one and p2 for a larger one, so that
   // where a window alone is ambiguous or flat its neighbours decide. The
-  // score floor then does not apply; the left-right check still does.
-  bool semi_global = false;
+  // score floor then does not apply; the left-right check still does. On by
+  // default, along eight paths (make bench-stereo: docs/accuracy.md).
+  bool semi_global = true;
   float p1 = 0.2f, p2 = 0.8f;
-  int paths = 4;  // semi-global: 4 (along rows and columns) or 8 (and along the diagonals)
+  int paths = 8;  // semi-global: 4 (along rows and columns) or 8 (and along the diagonals)
 };
 
 enum class Direction { kLeftToRight, kRightToLeft };

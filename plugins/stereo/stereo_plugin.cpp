@@ -1,6 +1,8 @@
 #include "retina_stereo.hpp"
 #include "saccade/plugin.hpp"
 
+#include "saccade/log.hpp"
+
 namespace {
 
 using namespace saccade;
@@ -23,16 +25,24 @@ class StereoNode final : public Node {
   static constexpr Out<StereoFixation> kFixation{
       "fixation", "the disparity at the left fovea's centre (-1 when not found), its NCC, and its depth when "
                   "calibrated: for the head's vergence"};
-  static constexpr Out<FeatureMaps> kMaps{"maps",
-                                          "per level on the left geometry: disparity (source pixels, -1 invalid), "
-                                          "disparity_rl (right->left, on the right geometry), confidence (NCC)"};
+  static constexpr Out<FeatureMaps> kMaps{
+      "maps",
+      "per level, every map on the left retina's level geometry (the message's retina): disparity (left->right, "
+      "source pixels, -1 invalid), disparity_rl (right->left: at pixel (x, y), the right frame's pixel at the same "
+      "source coordinates as the left level's pixel (x, y), whose scene point lies D source pixels further right "
+      "in the left frame; -1 where invalid or not matched: with vergence a level's right image is sampled where "
+      "the fixated scene is, so the columns it did not cover are -1, on a verged fovea often all), confidence "
+      "(NCC; 0 where filled), depth (metres, when calibrated)"};
 
   static void bind(ParamBinder<StereoNodeConfig>& b) {
     using C = StereoNodeConfig;
     using S = RetinaStereoConfig;
     using N = NccConfig;
     b.field("window", {3, 9}, "NCC window side (odd: 3 or 5 in the paper)", &C::stereo, &S::ncc, &N::window)
-        .field("max_disparity", {1, 4096}, "largest disparity searched, source pixels", &C::stereo, &S::max_disparity)
+        .field("max_disparity", {1, 4096},
+               "largest disparity searched, source pixels (larger than the frame's width: a warning, and the "
+               "width less one is searched)",
+               &C::stereo, &S::max_disparity)
         .field("min_score", {-1, 1}, "matches whose NCC is below this are invalid", &C::stereo, &S::ncc,
                &N::min_score)
         .field("min_texture", {0, 128}, "windows whose standard deviation is below this are not matched", &C::stereo,
@@ -70,7 +80,7 @@ class StereoNode final : public Node {
                "fill_occlusions: level pixels beyond the hidden width (d_near - d_far) / step also filled", &C::stereo,
                &S::occlusion_slack)
         .field("semi_global",
-               "semi-global aggregation of the NCC costs along four paths: denser where windows alone are "
+               "semi-global aggregation of the NCC costs along sgm_paths paths: denser where windows alone are "
                "ambiguous or flat (min_score then does not apply)",
                &C::stereo, &S::ncc, &N::semi_global)
         .field("sgm_p1", {0, 8}, "semi-global: cost of a disparity step of one (NCC units)", &C::stereo, &S::ncc,
@@ -107,12 +117,14 @@ class StereoNode final : public Node {
     } else if ((calibration_.focal_px > 0) != (calibration_.baseline_m > 0)) {
       return Status::error("depth needs both focal and baseline (or a calibration file)");
     }
-    stereo_ = std::make_unique<RetinaStereo>(c.stereo);
+    config_ = c.stereo;
+    name_ = ctx.node_name();
     return {};
   }
   Status process(ProcessContext& ctx) override {
     auto l = ctx.get(kLeft);
     auto r = ctx.get(kRight);
+    fit_to_frame(*l);
     if (std::string e = stereo_->run(*l, *r, levels_); !e.empty()) return Status::error(e);
     auto maps = ctx.make(kMaps);
     maps->retina = l;
@@ -122,7 +134,7 @@ class StereoNode final : public Node {
       maps->set_layout({"disparity", "disparity_rl", "confidence"}, levels_.size());
     for (std::size_t k = 0; k < levels_.size(); ++k) {
       levels_[k].disparity.copyTo(maps->maps[0][k]);
-      levels_[k].reverse.copyTo(maps->maps[1][k]);
+      on_left_geometry(levels_[k].reverse, levels_[k].offset, maps->maps[1][k]);
       levels_[k].score.copyTo(maps->maps[2][k]);
       if (!calibration_.valid()) continue;
       cv::Mat& depth = maps->maps[3][k];
@@ -145,6 +157,47 @@ class StereoNode final : public Node {
   }
 
  private:
+  // The matcher for this frame size: max_disparity beyond the frame's width
+  // is searched up to the width less one (a disparity the frame cannot hold
+  // only finds false matches at its edge), with a warning naming the numbers;
+  // so is a fovea that cannot reach it without vergence. Remade only when the
+  // frame's width changes.
+  void fit_to_frame(const Retina& left) {
+    const int width = left.source_size.width;
+    if (stereo_ && width == fitted_width_) return;
+    fitted_width_ = width;
+    RetinaStereoConfig c = config_;
+    if (width > 1 && c.max_disparity > width - 1) {
+      log().warn("{}: max_disparity {} is larger than the frame ({} px wide): disparities up to {} px are searched",
+                 name_, c.max_disparity, width, width - 1);
+      c.max_disparity = width - 1;
+    }
+    if (!c.vergence && !left.geometry.empty() && !left.levels.empty()) {
+      const double fovea_reach = (left.levels.back().cols - 1) * left.geometry.back().step_x;
+      if (c.max_disparity > fovea_reach)
+        log().warn("{}: max_disparity {} is beyond what the fovea ({} px wide) can match without vergence ({} px); "
+                   "turn vergence on or use a wider retina",
+                   name_, c.max_disparity, left.levels.back().cols, fovea_reach);
+    }
+    stereo_ = std::make_unique<RetinaStereo>(c);
+  }
+  // The matcher's right->left map lies on the right image it matched, which
+  // starts `offset` level pixels left of the left level (vergence's shift):
+  // its column x + offset is the right frame at the left level's column x.
+  static void on_left_geometry(const cv::Mat& reverse, int offset, cv::Mat& out) {
+    out.create(reverse.size(), CV_32F);
+    for (int y = 0; y < reverse.rows; ++y) {
+      const float* in = reverse.ptr<float>(y);
+      float* o = out.ptr<float>(y);
+      for (int x = 0; x < reverse.cols; ++x) {
+        const int from = x + offset;
+        o[x] = from >= 0 && from < reverse.cols ? in[from] : -1.0f;
+      }
+    }
+  }
+  RetinaStereoConfig config_;
+  std::string name_;
+  int fitted_width_ = -1;
   StereoCalibration calibration_;
   std::unique_ptr<RetinaStereo> stereo_;
   std::vector<LevelDisparity> levels_;

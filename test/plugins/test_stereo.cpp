@@ -12,6 +12,19 @@
 namespace saccade::stereo {
 namespace {
 
+// The plain matcher (no semi-global aggregation, nothing filled, the fovea
+// searched around the fixation alone): what these tests were written for,
+// set here rather than taken from the defaults.
+RetinaStereoConfig plain_config() {
+  RetinaStereoConfig c;
+  c.ncc.semi_global = false;
+  c.ncc.paths = 4;
+  c.fill_gaps = 0;
+  c.fill_occlusions = false;
+  c.fovea_prediction = false;
+  return c;
+}
+
 struct Pair {
   std::shared_ptr<const Retina> left, right;
 };
@@ -94,7 +107,7 @@ void run_both(const Pair& p, const RetinaStereoConfig& first, const RetinaStereo
 TEST(RetinaStereo, FindsAKnownDisparityOnEveryLevel) {
   const int d = 12;
   Pair p = make_pair(d, {320, 240});
-  RetinaStereoConfig config;
+  RetinaStereoConfig config = plain_config();
   config.max_disparity = 64;
   config.vergence = false;
   RetinaStereo stereo(config);
@@ -124,7 +137,7 @@ TEST(RetinaStereo, SoftwareVergenceLetsTheFoveaMatchWhatItCouldNotSee) {
   // the same place; with vergence the right frame is sampled where the scene is.
   const int d = 40;
   Pair p = make_pair(d, {320, 240});
-  RetinaStereoConfig plain, verged;
+  RetinaStereoConfig plain = plain_config(), verged = plain_config();
   plain.max_disparity = verged.max_disparity = 96;
   plain.vergence = false;
   verged.vergence = true;
@@ -146,7 +159,7 @@ TEST(RetinaStereo, FoveaPredictionMatchesSurfacesBeyondTheFixationsRadius) {
   // fixation. The level outside found the block, and with fovea_prediction
   // the fovea searches there too.
   const Pair p = make_block_pair(20, 40, cv::Rect(100, 150, 214, 180), {320, 240});
-  RetinaStereoConfig around, predicted;
+  RetinaStereoConfig around = plain_config(), predicted = plain_config();
   around.max_disparity = predicted.max_disparity = 96;
   around.vergence = predicted.vergence = true;
   predicted.fovea_prediction = true;
@@ -175,7 +188,7 @@ TEST(RetinaStereo, FillOcclusionsGivesTheHiddenStripTheFarSurface) {
   // fovea fixates the block's left edge region (its left 20 columns are far,
   // 10 of them hidden).
   const Pair p = make_block_pair(20, 30, cv::Rect(330, 150, 200, 180), {320, 240});
-  RetinaStereoConfig plain, filled;
+  RetinaStereoConfig plain = plain_config(), filled = plain_config();
   plain.max_disparity = filled.max_disparity = 96;
   plain.vergence = filled.vergence = true;
   plain.fovea_prediction = filled.fovea_prediction = true;
@@ -201,7 +214,7 @@ TEST(RetinaStereo, FillOcclusionsGivesTheHiddenStripTheFarSurface) {
 
 TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   Pair p = make_pair(9, {300, 200});
-  RetinaStereoConfig fine, full;
+  RetinaStereoConfig fine = plain_config(), full = plain_config();
   fine.max_disparity = full.max_disparity = 48;
   fine.vergence = full.vergence = false;
   full.coarse_to_fine = false;
@@ -230,7 +243,7 @@ TEST(RetinaStereo, TheRetinasOwnPixelsStandInForSamplingThemAgain) {
   // and with the fovea at the frame's edge.
   for (cv::Point2d fovea : {cv::Point2d(320, 240), cv::Point2d(20, 470)}) {
     Pair p = make_pair(12, fovea);
-    RetinaStereoConfig reused, sampled;
+    RetinaStereoConfig reused = plain_config(), sampled = plain_config();
     reused.vergence = sampled.vergence = true;
     reused.max_disparity = sampled.max_disparity = 48;
     sampled.keep_images = true;
@@ -249,7 +262,7 @@ TEST(RetinaStereo, RefusesMismatchedRetinas) {
   Pair p = make_pair(5, {320, 240});
   Pair q = make_pair(5, {100, 100});  // another fovea: regions differ in rows
   std::vector<LevelDisparity> out;
-  RetinaStereoConfig config;
+  RetinaStereoConfig config = plain_config();
   config.vergence = false;
   EXPECT_NE(RetinaStereo(config).run(*p.left, *q.right, out).find("regions differ"), std::string::npos);
 }
@@ -280,6 +293,55 @@ TEST(StereoNode, EmitsDisparityConfidenceAndBothWays) {
   const cv::Mat& confidence = maps->find("confidence")->back();
   EXPECT_NEAR(fovea.at<float>(12, 20), 12.0, 0.25);
   EXPECT_GT(confidence.at<float>(12, 20), 0.9f);
+}
+
+TEST(StereoNode, TheRightToLeftMapLiesOnTheLeftLevelsGeometry) {
+  // Verged on a pair shifted by 12 px everywhere: the fovea's right image was
+  // sampled 12 px left of the left fovea. On the maps' geometry, right pixel x
+  // (the right frame at the left fovea's column x) sees the scene the left
+  // fovea has at x + 12: matched for x < 20, beyond the left fovea after.
+  Pair p = make_pair(12, {320, 240});
+  auto h = stereo_node_on(p, R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)");
+  ASSERT_NE(h, nullptr);
+  auto maps = h->last<FeatureMaps>("maps");
+  ASSERT_NE(maps, nullptr);
+  const cv::Mat& rl = maps->find("disparity_rl")->back();
+  int matched = 0;
+  for (int y = 3; y < rl.rows - 3; ++y) {
+    for (int x = 3; x < 17; ++x) {
+      if (rl.at<float>(y, x) < 0) continue;
+      ++matched;
+      EXPECT_NEAR(rl.at<float>(y, x), 12.0, 0.25) << x << "," << y;
+    }
+    for (int x = 20; x < rl.cols; ++x) EXPECT_EQ(rl.at<float>(y, x), -1.0f) << "seen by no left fovea pixel: " << x;
+  }
+  EXPECT_GT(matched, 14 * (rl.rows - 6) * 9 / 10);
+  // Without vergence nothing is shifted: the map is the matcher's own.
+  auto plain = stereo_node_on(
+      p, R"(<node plugin="stereo"><param name="max_disparity" value="64"/><param name="vergence" value="false"/></node>)");
+  ASSERT_NE(plain, nullptr);
+  const cv::Mat& outer = plain->last<FeatureMaps>("maps")->find("disparity_rl")->front();
+  int near_truth = 0, given = 0;
+  for (int y = 0; y < outer.rows; ++y)
+    for (int x = 0; x < outer.cols; ++x)
+      if (outer.at<float>(y, x) >= 0) {
+        ++given;
+        near_truth += std::abs(outer.at<float>(y, x) - 12.0f) <= 20.0f;
+      }
+  EXPECT_GT(given, 100);
+  EXPECT_GE(near_truth, given * 9 / 10) << "level 0, step 20: within a level pixel";
+}
+
+TEST(StereoNode, AMaxDisparityBeyondTheFrameIsSearchedToTheFramesWidth) {
+  // A 64 px wide pair whose truth is 6: max_disparity 4096 (the range's top)
+  // runs, searching up to 63 px, and still finds 6 at the fovea.
+  const cv::Mat texture = texture_of({64 + 6, 48}, 5);
+  Pair p = retinas_of(texture(cv::Rect(0, 0, 64, 48)).clone(), texture(cv::Rect(6, 0, 64, 48)).clone(), {32, 24});
+  auto h = stereo_node_on(p, R"(<node plugin="stereo"><param name="max_disparity" value="4096"/></node>)");
+  ASSERT_NE(h, nullptr);
+  auto fixation = h->last<StereoFixation>("fixation");
+  ASSERT_NE(fixation, nullptr);
+  EXPECT_NEAR(fixation->disparity, 6.0, 0.5);
 }
 
 TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
