@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench bench-dds bench-track docs asan tsan clean
+.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-latency docs asan tsan clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -31,6 +31,17 @@ bench-dds: build
 bench-track: build
 	@mkdir -p out
 	$(BUILD)/bin/saccade_track_bench --data /usr/share/doc/opencv-doc/examples/data --markdown out/bench-track.md $(TRACK_ARGS)
+
+# The retina stereo matcher against OpenCV's StereoBM and StereoSGBM, one thread, on
+# Aloe and rendered scenes with exact disparity (add STEREO_ARGS="--variants" for more).
+bench-stereo: build
+	@mkdir -p out
+	$(BUILD)/bin/saccade_stereo_bench --data /usr/share/doc/opencv-doc/examples/data --markdown out/bench-stereo.md $(STEREO_ARGS)
+
+# Capture -> CAN joint command of the head loop, in one process and across two
+# (LATENCY_S seconds each, default 30); figures in out/bench-latency/figures.md.
+bench-latency: build
+	SACCADE_BIN=$(BUILD)/bin sh scripts/bench-latency.sh $(or $(LATENCY_S),30) out/bench-latency
 
 docs: build
 	$(BUILD)/bin/saccade plugins --markdown > docs/plugins.md

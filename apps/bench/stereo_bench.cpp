@@ -1,0 +1,549 @@
+// The stereo benchmark (make bench-stereo): the retina stereo matcher against
+// OpenCV's StereoBM and StereoSGBM on the same pairs, one thread, scored over
+// whole images and over the fovea against exact or published ground truth.
+//
+// Pairs: Middlebury's Aloe from Debian's opencv-doc (at full size and at a
+// third of it), and scenes rendered here with exact per-pixel disparity
+// (textured planes, fronto-parallel and slanted, at several depths over a
+// slanted background, the textures real photographs from opencv-doc; the
+// right view is each plane's exact affine image, so occlusions come out as
+// they would; a little sensor noise, seeded). Each pair is looked at on a grid
+// of 3 x 3 fixations (the fovea centred at a quarter, a half and three
+// quarters of the width and height).
+//
+// Scores (counts summed over the fixations): density = pixels given a
+// disparity / pixels with a known truth; bad-1 and bad-2 = given pixels wrong
+// by more than 1 and 2 pixels / given pixels.
+// - fovea: the fovea's region (step 1), our fovea level against BM's and
+//   SGBM's full-image maps over the same pixels, in source pixels;
+// - whole image: BM and SGBM over every pixel with a known truth, in source
+//   pixels; ours over the same pixels from the finest level that covers each
+//   one (what the retina sees), its error counted in that level's pixels
+//   (|d - truth| / step: an outer level cannot resolve a source pixel).
+// Time: per full pair on one thread (cv::setNumThreads(1)), the median of
+// repeated runs: ours is both retinas sampled from the frames plus the stereo
+// node's work; BM and SGBM are their compute() on the whole pair.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "retina.hpp"
+#include "retina_stereo.hpp"
+
+namespace {
+
+using namespace saccade;
+using Clock = std::chrono::steady_clock;
+bool verbose = false;  // per fixation, on stderr
+
+// A rectified pair, its left ground truth (source pixels, < 0 unknown), and
+// the disparity range OpenCV's matchers are given (a multiple of 16 over the
+// truth's largest): the range is known to them, not guessed.
+struct Pair {
+  std::string name, what;
+  cv::Mat left, right;  // 8-bit gray
+  cv::Mat truth;        // CV_32F
+  int num_disparities = 16;
+};
+
+// ---------------------------------------------------------------- rendering
+
+// A plane in the left camera's image: disparity a + b x + c y over a support
+// (a rectangle or an ellipse; the background covers everything), textured by
+// a photograph placed in the left image's coordinates.
+struct Plane {
+  double a = 0, b = 0, c = 0;
+  enum class Shape { kAll, kRect, kEllipse } shape = Shape::kAll;
+  cv::Rect2d box;  // the rectangle, or the ellipse's bounding box
+  cv::Mat texture;  // CV_32F
+  double texture_scale = 1.0;  // texture pixels per image pixel
+  cv::Point2d texture_origin;
+
+  double disparity(double x, double y) const { return a + b * x + c * y; }
+  bool covers(double x, double y) const {
+    switch (shape) {
+      case Shape::kAll: return true;
+      case Shape::kRect: return x >= box.x && x < box.x + box.width && y >= box.y && y < box.y + box.height;
+      case Shape::kEllipse: {
+        const double u = (x - (box.x + box.width / 2)) / (box.width / 2), v = (y - (box.y + box.height / 2)) / (box.height / 2);
+        return u * u + v * v <= 1.0;
+      }
+    }
+    return false;
+  }
+  // Bilinear, the texture mirrored at its edges.
+  float value(double x, double y) const {
+    const double tx = texture_origin.x + x * texture_scale, ty = texture_origin.y + y * texture_scale;
+    const int x0 = static_cast<int>(std::floor(tx)), y0 = static_cast<int>(std::floor(ty));
+    const double fx = tx - x0, fy = ty - y0;
+    const auto at = [&](int u, int v) {
+      u = cv::borderInterpolate(u, texture.cols, cv::BORDER_REFLECT_101);
+      v = cv::borderInterpolate(v, texture.rows, cv::BORDER_REFLECT_101);
+      return static_cast<double>(texture.at<float>(v, u));
+    };
+    return static_cast<float>((1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) +
+                              fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1)));
+  }
+};
+
+cv::Mat texture(const std::string& data, const std::string& file) {
+  cv::Mat m = cv::imread(data + "/" + file, cv::IMREAD_GRAYSCALE);
+  if (m.empty()) {
+    std::fprintf(stderr, "saccade_stereo_bench: %s/%s is missing: install opencv-doc\n", data.c_str(), file.c_str());
+    std::exit(2);
+  }
+  cv::Mat f;
+  m.convertTo(f, CV_32F);
+  return f;
+}
+
+// Left: at each pixel the nearest plane covering it. Right: at right pixel
+// (xr, y) plane p is seen where its left pixel x satisfies x - d_p(x, y) = xr,
+// i.e. x = (xr + a + c y) / (1 - b), if p covers that point; the nearest such
+// plane wins. The truth is the left's visible plane's disparity. Both views
+// get Gaussian noise (sigma 1.5 gray levels) from a fixed seed.
+Pair render(const std::string& name, const std::string& what, cv::Size size, const std::vector<Plane>& planes,
+            uint64_t seed) {
+  Pair p;
+  p.name = name;
+  p.what = what;
+  cv::Mat left(size, CV_32F), right(size, CV_32F);
+  p.truth.create(size, CV_32F);
+  double largest = 0;
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const Plane* best = nullptr;
+      double best_d = -1e9;
+      for (const Plane& s : planes)
+        if (s.covers(x, y) && s.disparity(x, y) > best_d) best = &s, best_d = s.disparity(x, y);
+      left.at<float>(y, x) = best->value(x, y);
+      p.truth.at<float>(y, x) = static_cast<float>(best_d);
+      largest = std::max(largest, best_d);
+      const Plane* seen = nullptr;
+      double seen_d = -1e9, seen_x = 0;
+      for (const Plane& s : planes) {
+        const double xl = (x + s.a + s.c * y) / (1 - s.b);
+        if (s.covers(xl, y) && s.disparity(xl, y) > seen_d) seen = &s, seen_d = s.disparity(xl, y), seen_x = xl;
+      }
+      right.at<float>(y, x) = seen->value(seen_x, y);
+    }
+  cv::RNG rng(seed);
+  for (cv::Mat* m : {&left, &right}) {
+    cv::Mat noise(size, CV_32F);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.5);
+    *m += noise;
+  }
+  left.convertTo(p.left, CV_8U);
+  right.convertTo(p.right, CV_8U);
+  p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+  return p;
+}
+
+Plane plane(double a, double b, double c, Plane::Shape shape, cv::Rect2d box, const cv::Mat& tex, double scale,
+            cv::Point2d origin) {
+  Plane s;
+  s.a = a, s.b = b, s.c = c, s.shape = shape, s.box = box, s.texture = tex, s.texture_scale = scale;
+  s.texture_origin = origin;
+  return s;
+}
+
+std::vector<Pair> rendered_pairs(const std::string& data) {
+  using S = Plane::Shape;
+  const cv::Mat building = texture(data, "building.jpg"), home = texture(data, "home.jpg"),
+                fruits = texture(data, "fruits.jpg"), baboon = texture(data, "baboon.jpg"),
+                graf = texture(data, "graf1.png"), starry = texture(data, "starry_night.jpg"),
+                board = texture(data, "board.jpg");
+  std::vector<Pair> pairs;
+  // 640x480: a slanted background (12 .. 33 px), two fronto-parallel boxes, a
+  // slanted one and a disc in front of it.
+  pairs.push_back(render("planes_640", "rendered 640x480, 5 planes, disparity 12-98 px", {640, 480},
+                         {plane(12, 0.025, 0.01, S::kAll, {}, building, 0.9, {20, 10}),
+                          plane(48, 0, 0, S::kRect, {80, 60, 200, 160}, fruits, 0.8, {10, 20}),
+                          plane(70, 0.05, 0, S::kRect, {360, 200, 200, 200}, baboon, 0.85, {5, 5}),
+                          plane(96, 0, 0, S::kRect, {200, 300, 120, 120}, graf, 0.75, {100, 80}),
+                          plane(60, 0, -0.02, S::kEllipse, {470, 40, 130, 120}, starry, 0.9, {200, 100})},
+                         24));
+  // 450x375 (the size of small published pairs): a floor-like background
+  // (6 .. 25 px, nearer downwards), a box, a slanted box and an ellipse.
+  pairs.push_back(render("planes_450", "rendered 450x375, 4 planes, disparity 6-55 px", {450, 375},
+                         {plane(6, 0, 0.05, S::kAll, {}, home, 0.85, {30, 40}),
+                          plane(32, 0, 0, S::kRect, {40, 40, 150, 120}, baboon, 0.9, {60, 30}),
+                          plane(40, 0.06, 0, S::kRect, {250, 150, 140, 160}, board, 0.8, {40, 60}),
+                          plane(55, 0, 0, S::kEllipse, {80, 220, 140, 100}, fruits, 0.95, {150, 120})},
+                         45));
+  return pairs;
+}
+
+// Aloe, at `divisor` times smaller (area-averaged images, the truth divided;
+// 0 = unknown becomes -1, and a pixel whose block has an unknown is unknown).
+Pair aloe(const std::string& data, int divisor) {
+  Pair p;
+  cv::Mat l = cv::imread(data + "/aloeL.jpg", cv::IMREAD_GRAYSCALE), r = cv::imread(data + "/aloeR.jpg", cv::IMREAD_GRAYSCALE),
+          t = cv::imread(data + "/aloeGT.png", cv::IMREAD_GRAYSCALE);
+  if (l.empty() || r.empty() || t.empty()) {
+    std::fprintf(stderr, "saccade_stereo_bench: the Aloe pair is missing under %s: install opencv-doc\n", data.c_str());
+    std::exit(2);
+  }
+  cv::Mat truth;
+  t.convertTo(truth, CV_32F);
+  truth.setTo(-1e6, t == 0);
+  if (divisor == 1) {
+    p.left = l, p.right = r, p.truth = truth;
+  } else {
+    const cv::Size size(l.cols / divisor, l.rows / divisor);
+    cv::resize(l, p.left, size, 0, 0, cv::INTER_AREA);
+    cv::resize(r, p.right, size, 0, 0, cv::INTER_AREA);
+    cv::resize(truth(cv::Rect(0, 0, size.width * divisor, size.height * divisor)), p.truth, size, 0, 0, cv::INTER_AREA);
+    p.truth /= divisor;
+  }
+  p.truth.setTo(-1, p.truth < 0);
+  double largest = 0;
+  cv::minMaxLoc(p.truth, nullptr, &largest);
+  p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+  p.name = divisor == 1 ? "aloe" : "aloe_third";
+  char what[128];
+  std::snprintf(what, sizeof what, "Middlebury Aloe%s, %dx%d, truth up to %.0f px (%.1f%% unknown)",
+                divisor == 1 ? "" : " at a third", p.left.cols, p.left.rows, largest,
+                100.0 * cv::countNonZero(p.truth < 0) / static_cast<double>(p.truth.total()));
+  p.what = what;
+  return p;
+}
+
+// ---------------------------------------------------------------- scoring
+
+struct Score {
+  double known = 0, given = 0, bad1 = 0, bad2 = 0;
+  void add(double truth, double d, double step) {
+    if (truth < 0) return;
+    ++known;
+    if (d < 0 || !std::isfinite(d)) return;
+    ++given;
+    const double e = std::abs(d - truth) / step;
+    bad1 += e > 1;
+    bad2 += e > 2;
+  }
+  double density() const { return known > 0 ? given / known : 0; }
+  double bad1_rate() const { return given > 0 ? bad1 / given : 0; }
+  double bad2_rate() const { return given > 0 ? bad2 / given : 0; }
+};
+
+struct Result {
+  std::string matcher;
+  Score fovea, whole;
+  double ms = 0;               // per full pair, median
+  int fixations_right = -1;    // ours: fixation disparity within 2 px of the truth
+  int fixations = 0;
+  std::string note;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+std::vector<cv::Point2d> fixations(cv::Size size) {
+  std::vector<cv::Point2d> out;
+  for (double fy : {0.25, 0.5, 0.75})
+    for (double fx : {0.25, 0.5, 0.75}) out.emplace_back(fx * size.width, fy * size.height);
+  return out;
+}
+
+// OpenCV's matchers: on the whole pair, CV_16S x 16, invalid below 0.
+Result opencv_matcher(const std::string& name, const cv::Ptr<cv::StereoMatcher>& m, const Pair& p,
+                      const std::vector<cv::Rect>& foveas, int reps) {
+  Result r;
+  r.matcher = name;
+  cv::Mat raw;
+  std::vector<double> ms;
+  for (int i = 0; i < reps; ++i) {
+    const auto t0 = Clock::now();
+    m->compute(p.left, p.right, raw);
+    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
+  r.ms = median(ms);
+  cv::Mat d;
+  raw.convertTo(d, CV_32F, 1.0 / 16);
+  d.setTo(-1, raw < 0);
+  for (int y = 0; y < d.rows; ++y)
+    for (int x = 0; x < d.cols; ++x) r.whole.add(p.truth.at<float>(y, x), d.at<float>(y, x), 1.0);
+  for (const cv::Rect& f : foveas)
+    for (int y = f.y; y < f.br().y; ++y)
+      for (int x = f.x; x < f.br().x; ++x) r.fovea.add(p.truth.at<float>(y, x), d.at<float>(y, x), 1.0);
+  r.fixations = static_cast<int>(foveas.size());
+  r.note = "numDisparities " + std::to_string(p.num_disparities) + " (from the truth)";
+  return r;
+}
+
+std::shared_ptr<Retina> make_retina(retina::RetinaSampler& sampler, const std::shared_ptr<Image>& frame,
+                                    cv::Point2d fovea, std::shared_ptr<Retina> r) {
+  if (!r) r = std::make_shared<Retina>();
+  sampler.sample(frame->mat, fovea, *r);
+  r->source = frame;
+  return r;
+}
+
+// Our matcher with one configuration on every fixation of the pair.
+Result ours(const std::string& name, const stereo::RetinaStereoConfig& config, const retina::RetinaConfig& retina_config,
+            const Pair& p, int reps, std::vector<cv::Rect>* foveas_out) {
+  Result r;
+  r.matcher = name;
+  auto left_frame = std::make_shared<Image>(), right_frame = std::make_shared<Image>();
+  left_frame->mat = p.left;
+  right_frame->mat = p.right;
+  retina::RetinaSampler left_sampler(retina_config), right_sampler(retina_config);
+  stereo::RetinaStereo matcher(config);
+  std::vector<stereo::LevelDisparity> out;
+  std::shared_ptr<Retina> left, right;
+  std::vector<double> ms;
+  r.fixations_right = 0;
+  for (const cv::Point2d& f : fixations(p.left.size())) {
+    for (int i = 0; i < reps; ++i) {
+      const auto t0 = Clock::now();
+      left = make_retina(left_sampler, left_frame, f, left);
+      right = make_retina(right_sampler, right_frame, f, right);
+      const std::string error = matcher.run(*left, *right, out);
+      ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      if (!error.empty()) {
+        std::fprintf(stderr, "saccade_stereo_bench: %s on %s: %s\n", name.c_str(), p.name.c_str(), error.c_str());
+        std::exit(1);
+      }
+    }
+    ++r.fixations;
+    const std::size_t n = out.size();
+    const LevelGeometry& fovea = left->geometry.back();
+    if (foveas_out != nullptr) foveas_out->push_back(fovea.region);
+    for (int y = 0; y < fovea.region.height; ++y)
+      for (int x = 0; x < fovea.region.width; ++x)
+        r.fovea.add(p.truth.at<float>(fovea.region.y + y, fovea.region.x + x), out[n - 1].disparity.at<float>(y, x),
+                    1.0);
+    // Whole image: each pixel from the finest level whose region holds it.
+    for (int y = 0; y < p.left.rows; ++y)
+      for (int x = 0; x < p.left.cols; ++x) {
+        for (std::size_t k = n; k-- > 0;) {
+          const LevelGeometry& g = left->geometry[k];
+          if (!g.region.contains(cv::Point(x, y))) continue;
+          const int lx = std::min(out[k].disparity.cols - 1, static_cast<int>((x - g.region.x) / g.step_x));
+          const int ly = std::min(out[k].disparity.rows - 1, static_cast<int>((y - g.region.y) / g.step_y));
+          r.whole.add(p.truth.at<float>(y, x), out[k].disparity.at<float>(ly, lx), g.step_x);
+          break;
+        }
+      }
+    // The fixation disparity against the truth's median over the central 5x5.
+    std::vector<double> around;
+    const cv::Point c(static_cast<int>(fovea.region.x + fovea.region.width / 2),
+                      static_cast<int>(fovea.region.y + fovea.region.height / 2));
+    for (int y = c.y - 2; y <= c.y + 2; ++y)
+      for (int x = c.x - 2; x <= c.x + 2; ++x)
+        if (p.truth.at<float>(y, x) >= 0) around.push_back(p.truth.at<float>(y, x));
+    const double fixation = matcher.fixation().disparity;
+    if (!around.empty() && fixation >= 0 && std::abs(fixation - median(around)) <= 2) ++r.fixations_right;
+    if (verbose)
+      std::fprintf(stderr, "  %-32s (%4.0f, %4.0f): fixation %6.1f truth %6.1f; fovea so far %.3f / %.3f\n",
+                   name.c_str(), f.x, f.y, fixation, around.empty() ? -1.0 : median(around), r.fovea.density(),
+                   r.fovea.bad2_rate());
+  }
+  r.ms = median(ms);
+  char note[96];
+  std::snprintf(note, sizeof note, "max_disparity %s", config.max_disparity > 0
+                                                          ? std::to_string(static_cast<int>(config.max_disparity)).c_str()
+                                                          : "automatic");
+  r.note = note;
+  return r;
+}
+
+// ---------------------------------------------------------------- configurations
+
+// Sets one of the matcher's parameters by its node name; false if unknown.
+bool set_param(stereo::RetinaStereoConfig& c, const std::string& key, const std::string& value) {
+  const bool b = value == "true" || value == "1";
+  double v = b ? 1.0 : 0.0;
+  if (value != "true" && value != "false") {
+    char* end = nullptr;
+    v = std::strtod(value.c_str(), &end);
+    if (end == value.c_str() || *end != '\0') return false;
+  }
+  static const std::map<std::string, std::function<void(stereo::RetinaStereoConfig&, double, bool)>> setters = {
+      {"max_disparity", [](auto& s, double x, bool) { s.max_disparity = x; }},
+      {"window", [](auto& s, double x, bool) { s.ncc.window = static_cast<int>(x); }},
+      {"min_score", [](auto& s, double x, bool) { s.ncc.min_score = static_cast<float>(x); }},
+      {"min_texture", [](auto& s, double x, bool) { s.ncc.min_texture = static_cast<float>(x); }},
+      {"semi_global", [](auto& s, double, bool y) { s.ncc.semi_global = y; }},
+      {"sgm_paths", [](auto& s, double x, bool) { s.ncc.paths = static_cast<int>(x); }},
+      {"sgm_p1", [](auto& s, double x, bool) { s.ncc.p1 = static_cast<float>(x); }},
+      {"sgm_p2", [](auto& s, double x, bool) { s.ncc.p2 = static_cast<float>(x); }},
+      {"fill_gaps", [](auto& s, double x, bool) { s.fill_gaps = static_cast<int>(x); }},
+      {"fill_occlusions", [](auto& s, double, bool y) { s.fill_occlusions = y; }},
+      {"occlusion_slack", [](auto& s, double x, bool) { s.occlusion_slack = static_cast<int>(x); }},
+      {"fovea_prediction", [](auto& s, double, bool y) { s.fovea_prediction = y; }},
+      {"fovea_radius", [](auto& s, double x, bool) { s.fovea_radius = static_cast<int>(x); }},
+      {"search_radius", [](auto& s, double x, bool) { s.search_radius = static_cast<int>(x); }},
+      {"lr_tolerance", [](auto& s, double x, bool) { s.lr_tolerance = static_cast<float>(x); }},
+      {"fill", [](auto& s, double, bool y) { s.fill = y; }},
+      {"pad", [](auto& s, double x, bool) { s.pad = static_cast<int>(x); }},
+  };
+  const auto it = setters.find(key);
+  if (it == setters.end()) return false;
+  it->second(c, v, b);
+  return true;
+}
+
+// The plain matcher (what the defaults were before semi-global became one).
+stereo::RetinaStereoConfig plain() {
+  stereo::RetinaStereoConfig c;
+  c.ncc.semi_global = false;
+  c.ncc.paths = 4;
+  c.fill_gaps = 0;
+  c.fill_occlusions = false;
+  c.fovea_prediction = false;
+  return c;
+}
+
+// docs/accuracy.md's densest configuration, spelled out.
+stereo::RetinaStereoConfig densest() {
+  stereo::RetinaStereoConfig c;
+  c.ncc.semi_global = true;
+  c.ncc.paths = 8;
+  c.fill_gaps = 2;
+  c.fill_occlusions = true;
+  c.fovea_prediction = true;
+  return c;
+}
+
+std::string fmt(const char* f, double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Stereo benchmark: the retina matcher against OpenCV's StereoBM and StereoSGBM, one thread"};
+  std::string data = SACCADE_SAMPLE_DATA, markdown;
+  int reps = 5, cv_reps = 3;
+  std::vector<std::string> sets, only;
+  bool all_variants = false;
+  app.add_option("--data", data, "opencv-doc's examples/data folder");
+  app.add_option("--markdown", markdown, "write the tables to this file");
+  app.add_option("--reps", reps, "runs of our matcher per fixation (the time is their median)");
+  app.add_option("--cv-reps", cv_reps, "runs of BM and SGBM per pair (the time is their median)");
+  app.add_option("--set", sets, "key=value: also run our matcher with the defaults changed so (repeatable; "
+                                "the stereo node's parameter names)");
+  app.add_option("--pair", only, "only these pairs (aloe, aloe_third, planes_640, planes_450)");
+  app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
+  app.add_flag("--variants", all_variants, "also run the plain matcher and docs/accuracy.md's densest configuration");
+  CLI11_PARSE(app, argc, argv);
+  cv::setNumThreads(1);
+
+  stereo::RetinaStereoConfig custom;
+  std::string custom_name;
+  for (const std::string& s : sets) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos || !set_param(custom, s.substr(0, eq), s.substr(eq + 1))) {
+      std::fprintf(stderr, "saccade_stereo_bench: --set %s: not a known key=value\n", s.c_str());
+      return 2;
+    }
+    custom_name += (custom_name.empty() ? "" : ", ") + s;
+  }
+
+  std::vector<Pair> pairs;
+  const auto wanted = [&](const std::string& name) {
+    return only.empty() || std::find(only.begin(), only.end(), name) != only.end();
+  };
+  if (wanted("aloe")) pairs.push_back(aloe(data, 1));
+  if (wanted("aloe_third")) pairs.push_back(aloe(data, 3));
+  for (Pair& p : rendered_pairs(data))
+    if (wanted(p.name)) pairs.push_back(std::move(p));
+
+  const retina::RetinaConfig retina_config;  // the retina's defaults: 5 levels of 32x24
+  std::string report;
+  std::ostringstream md;
+  md << "\nRetina: " << retina_config.levels << " levels of " << retina_config.size.width << "x"
+     << retina_config.size.height << "; fixations: 3 x 3 grid; one thread; times are medians of " << reps
+     << " runs per fixation (ours) and " << cv_reps << " per pair (OpenCV).\n";
+  struct Floor {
+    std::string pair;
+    Result ours, sgbm;
+  };
+  std::vector<Floor> floors;
+  for (const Pair& p : pairs) {
+    std::fprintf(stderr, "%s: %s\n", p.name.c_str(), p.what.c_str());
+    std::vector<Result> results;
+    std::vector<cv::Rect> foveas;
+    results.push_back(ours("saccade, defaults", stereo::RetinaStereoConfig{}, retina_config, p, reps, &foveas));
+    if (all_variants) {
+      results.push_back(ours("saccade, plain NCC", plain(), retina_config, p, reps, nullptr));
+      results.push_back(ours("saccade, densest (accuracy.md)", densest(), retina_config, p, reps, nullptr));
+    }
+    if (!sets.empty()) results.push_back(ours("saccade, " + custom_name, custom, retina_config, p, reps, nullptr));
+    auto bm = cv::StereoBM::create(p.num_disparities, 9);
+    bm->setTextureThreshold(10);
+    bm->setUniquenessRatio(15);
+    bm->setSpeckleWindowSize(100);
+    bm->setSpeckleRange(32);
+    bm->setDisp12MaxDiff(1);
+    results.push_back(opencv_matcher("OpenCV StereoBM (9x9)", bm, p, foveas, cv_reps));
+    // OpenCV's stereo_match sample's settings, gray images, 5x5 blocks.
+    auto sgbm = cv::StereoSGBM::create(0, p.num_disparities, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32,
+                                       cv::StereoSGBM::MODE_SGBM);
+    results.push_back(opencv_matcher("OpenCV StereoSGBM (5x5)", sgbm, p, foveas, cv_reps));
+    floors.push_back({p.name, results.front(), results.back()});
+
+    md << "\n### " << p.name << ": " << p.what << "\n\n"
+       << "| matcher | fovea density | fovea bad-1 | fovea bad-2 | image density | image bad-1 | image bad-2 | ms per pair "
+          "| fixation within 2 px | notes |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const Result& r : results) {
+      md << "| " << r.matcher << " | " << fmt("%.3f", r.fovea.density()) << " | " << fmt("%.3f", r.fovea.bad1_rate())
+         << " | " << fmt("%.3f", r.fovea.bad2_rate()) << " | " << fmt("%.3f", r.whole.density()) << " | "
+         << fmt("%.3f", r.whole.bad1_rate()) << " | " << fmt("%.3f", r.whole.bad2_rate()) << " | "
+         << fmt(r.ms < 10 ? "%.3f" : "%.1f", r.ms) << " | "
+         << (r.fixations_right >= 0 ? std::to_string(r.fixations_right) + "/" + std::to_string(r.fixations) : "")
+         << " | " << r.note << " |\n";
+    }
+    std::fputs(md.str().c_str(), stdout);
+    std::fflush(stdout);
+    report += md.str();
+    md.str("");
+  }
+  // The floor: the defaults' fovea against SGBM's, at <= 1/20 of its time.
+  std::ostringstream summary;
+  summary << "\n### The floor: defaults against StereoSGBM, fovea\n\n"
+          << "| pair | density (ours / SGBM) | bad-2 (ours / SGBM) | time (ours / SGBM) | met |\n|---|---|---|---|---|\n";
+  for (const Floor& f : floors) {
+    const bool dense = f.ours.fovea.density() >= f.sgbm.fovea.density();
+    const bool right = f.ours.fovea.bad2_rate() <= f.sgbm.fovea.bad2_rate();
+    const bool fast = f.ours.ms * 20 <= f.sgbm.ms;
+    summary << "| " << f.pair << " | " << fmt("%.3f", f.ours.fovea.density()) << " / "
+            << fmt("%.3f", f.sgbm.fovea.density()) << " | " << fmt("%.3f", f.ours.fovea.bad2_rate()) << " / "
+            << fmt("%.3f", f.sgbm.fovea.bad2_rate()) << " | 1/" << fmt("%.0f", f.sgbm.ms / std::max(1e-9, f.ours.ms))
+            << " | " << (dense && right && fast ? "yes" : std::string("no:") + (dense ? "" : " density") +
+                                                            (right ? "" : " bad-2") + (fast ? "" : " time"))
+            << " |\n";
+  }
+  std::fputs(summary.str().c_str(), stdout);
+  report += summary.str();
+  if (!markdown.empty()) {
+    std::ofstream file(markdown);
+    file << "# Stereo benchmark (make bench-stereo)\n\nWhat is measured: apps/bench/stereo_bench.cpp.\n" << report;
+    if (!file) {
+      std::fprintf(stderr, "saccade_stereo_bench: cannot write %s\n", markdown.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
