@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
+#include <vector>
 
 #include "canopen.hpp"
 #include "drive_sim.hpp"
@@ -288,13 +290,17 @@ struct Head {
     for (int n = 1; n <= 5; ++n) d.push_back(drive_config(n));
     return d;
   }
-  static MasterConfig config() {
+  static MasterConfig config(bool statusword_on_change) {
     MasterConfig c;
+    c.statusword_on_change = statusword_on_change;
     const char* names[] = {"neck", "vergence_left", "tilt_left", "vergence_right", "tilt_right"};
     for (int n = 1; n <= 5; ++n) c.joints.push_back({names[n - 1], n, 10000.0, 0});
     return c;
   }
-  Head() : rack(bus->attach(), drives()), master(*port, config()) { bus->set_time(0); }
+  explicit Head(bool statusword_on_change = true)
+      : rack(bus->attach(), drives()), master(*port, config(statusword_on_change)) {
+    bus->set_time(0);
+  }
   void cycle(const double* targets, int64_t reset = 0) {
     master.cycle(now, targets, reset, feedback);
     rack.step(now, kPeriod);
@@ -406,6 +412,125 @@ TEST(Master, ADriveRebootedWhileRunningIsConfiguredAgain) {
   }
   EXPECT_TRUE(h.ready()) << h.master.problem();
   EXPECT_EQ(h.rack.drive(3).nmt_state(), NmtState::kOperational);
+}
+
+// Every frame on a bus, in the order the bus carried them.
+std::vector<Frame> drain(Bus& tap) {
+  std::vector<Frame> out;
+  Frame f;
+  while (tap.receive(f, 0)) out.push_back(f);
+  return out;
+}
+
+bool rising(const Frame& f, int node) {
+  uint16_t cw = 0;
+  int8_t mode = 0;
+  return f.id == cob::rpdo1(node) && parse_rpdo1(f, cw, mode) && (cw & pp::kNewSetPoint) != 0;
+}
+
+TEST(Master, NewTargetsBetweenCyclesGoOutAtOnceWhereTheHandshakeAllows) {
+  Head h;
+  auto tap = h.bus->attach();
+  for (int i = 0; i < 40; ++i) h.cycle(nullptr);
+  ASSERT_TRUE(h.ready()) << h.master.problem();
+  drain(*tap);
+
+  const double a[5] = {0.1, 0.05, -0.05, 0.05, -0.05};
+  EXPECT_EQ(h.master.command(h.now, a, 1), 5) << "every drive is ready for a set-point: all at once";
+  EXPECT_TRUE(h.master.commanded(1));
+  std::vector<Frame> frames = drain(*tap);
+  ASSERT_EQ(frames.size(), 10u) << "target position and controlword per drive";
+  for (int n = 1; n <= 5; ++n) {
+    EXPECT_EQ(frames[2 * (n - 1)].id, cob::rpdo2(n));
+    EXPECT_TRUE(rising(frames[2 * (n - 1) + 1], n));
+  }
+  for (const Frame& f : frames) EXPECT_NE(f.id, cob::kSync) << "no SYNC between cycles";
+
+  // The drives act on the set-point as it arrives and say so at once (TPDO1 on change).
+  h.rack.handle_arrived(0);
+  frames = drain(*tap);
+  int acknowledged = 0;
+  for (const Frame& f : frames) {
+    uint16_t sw = 0;
+    int8_t mode = 0;
+    if (parse_tpdo1(f, sw, mode) && (sw & pp::kSetPointAcknowledge) != 0) ++acknowledged;
+  }
+  EXPECT_EQ(acknowledged, 5);
+
+  // Newer targets in the same SYNC period: the handshake completes (bit 4 low),
+  // but a drive gets one set-point per period.
+  const double b[5] = {0.2, 0.1, -0.1, 0.1, -0.1};
+  EXPECT_EQ(h.master.command(h.now, b, 2), 0);
+  h.rack.handle_arrived(0);
+  EXPECT_EQ(h.master.command(h.now, b, 2), 0);
+  EXPECT_FALSE(h.master.commanded(2));
+  h.master.cycle(h.now, nullptr, 0, h.feedback);  // the SYNC; no targets at the cycle
+  h.rack.step(h.now, Head::kPeriod);
+  h.now += static_cast<int64_t>(Head::kPeriod * 1e9);
+  h.bus->set_time(h.now);
+  EXPECT_EQ(h.master.command(h.now, b, 2), 5) << "the next period, between cycles again";
+  EXPECT_TRUE(h.master.commanded(2));
+  for (int i = 0; i < 250; ++i) h.cycle(nullptr);
+  for (int j = 0; j < 5; ++j) EXPECT_NEAR(h.rack.drive(static_cast<std::size_t>(j)).position(), b[j], 2e-4);
+}
+
+// Whatever arrives between cycles, every drive sees the CiA 402 handshake:
+// bit 4 rises only after a statusword with the acknowledge low (read since it
+// last fell), falls only after one with it high, at most once per SYNC period;
+// one SYNC per cycle. With the statusword on every SYNC or on change.
+TEST(Master, TheSetPointHandshakeHoldsWhateverArrivesBetweenCycles) {
+  for (bool on_change : {true, false}) {
+    SCOPED_TRACE(on_change ? "statusword on change" : "statusword on every SYNC");
+    Head h(on_change);
+    auto tap = h.bus->attach();
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> angle(-0.3, 0.3);
+    std::vector<Frame> frames;
+    double targets[5] = {0, 0, 0, 0, 0};
+    int64_t serial = 0, cycles = 0;
+    for (; cycles < 400; ++cycles) {
+      h.cycle(targets);
+      for (const Frame& f : drain(*tap)) frames.push_back(f);
+      for (int k = 0; k < 3; ++k) {  // new targets three times between two cycles
+        for (double& t : targets) t = angle(rng);
+        h.master.command(h.now, targets, ++serial);
+        h.rack.handle_arrived(0);
+        for (const Frame& f : drain(*tap)) frames.push_back(f);
+      }
+    }
+    int syncs = 0, rises = 0;
+    for (int n = 1; n <= 5; ++n) {
+      bool high = false, ack_seen = false, ack_low_seen = true;
+      int rises_this_period = 0;
+      for (const Frame& f : frames) {
+        uint16_t word = 0;
+        int8_t mode = 0;
+        if (f.id == cob::kSync) {
+          rises_this_period = 0;
+          if (n == 1) ++syncs;
+        } else if (f.id == cob::tpdo1(n) && parse_tpdo1(f, word, mode)) {
+          if ((word & pp::kSetPointAcknowledge) != 0) ack_seen = high;
+          else ack_low_seen = ack_low_seen || !high;
+        } else if (f.id == cob::rpdo1(n) && parse_rpdo1(f, word, mode) && (word & control::kEnableOperation) == control::kEnableOperation) {
+          const bool bit4 = (word & pp::kNewSetPoint) != 0;
+          if (bit4 && !high) {
+            EXPECT_TRUE(ack_low_seen) << "node " << n << ": a set-point before the acknowledge was seen low";
+            EXPECT_EQ(rises_this_period, 0) << "node " << n << ": two set-points in one SYNC period";
+            ++rises_this_period;
+            ++rises;
+            high = true;
+            ack_seen = false;
+          } else if (!bit4 && high) {
+            EXPECT_TRUE(ack_seen) << "node " << n << ": bit 4 low before the acknowledge";
+            high = false;
+            ack_low_seen = false;
+          }
+        }
+      }
+    }
+    EXPECT_EQ(syncs, cycles) << "SYNC only at the cycles";
+    EXPECT_GT(rises, 5 * 100) << "set-points flow";
+  }
 }
 
 }  // namespace
