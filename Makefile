@@ -43,11 +43,6 @@ bench-stereo: build
 bench-latency: build
 	SACCADE_BIN=$(BUILD)/bin sh scripts/bench-latency.sh $(or $(LATENCY_S),30) out/bench-latency
 
-# Capture -> CAN joint command of the head loop, in one process and across two
-# (LATENCY_S seconds each, default 30); figures in out/bench-latency/figures.md.
-bench-latency: build
-	SACCADE_BIN=$(BUILD)/bin sh scripts/bench-latency.sh $(or $(LATENCY_S),30) out/bench-latency
-
 docs: build
 	$(BUILD)/bin/saccade plugins --markdown > docs/plugins.md
 
