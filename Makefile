@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-latency docs asan tsan clean
+.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-verge bench-latency docs asan tsan clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -37,6 +37,12 @@ bench-track: build
 bench-stereo: build
 	@mkdir -p out
 	$(BUILD)/bin/saccade_stereo_bench --data /usr/share/doc/opencv-doc/examples/data --markdown out/bench-stereo.md $(STEREO_ARGS)
+
+# The verging head's stereo on capture.sim_head: rectified against plain retinas,
+# and against parallel cameras (fixation depth error, fovea correspondence).
+bench-verge: build
+	@mkdir -p out
+	$(BUILD)/bin/saccade_verge_bench --data /usr/share/doc/opencv-doc/examples/data --markdown out/bench-verge.md
 
 # Capture -> CAN joint command of the head loop, in one process and across two
 # (LATENCY_S seconds each, default 30); figures in out/bench-latency/figures.md.

@@ -13,46 +13,94 @@ cv::Matx33d matrix(const cv::Vec<double, 9>& v) {
 
 int sub_step(double step) { return std::max(1, static_cast<int>(std::ceil(step / 3.0 - 1e-9))); }
 
-// Bilinear value of channel c at source position (u, v) in OpenCV's pixel
-// convention (centres at integers); positions outside take the edge.
+// A frame's pixels for bilinear lookups: positions outside take the edge.
 template <int kChannels>
-double bilinear(const cv::Mat& frame, double u, double v, int c) {
-  u = std::clamp(u, 0.0, frame.cols - 1.0);
-  v = std::clamp(v, 0.0, frame.rows - 1.0);
-  const int x = std::min(static_cast<int>(u), frame.cols - 2 < 0 ? 0 : frame.cols - 2);
-  const int y = std::min(static_cast<int>(v), frame.rows - 2 < 0 ? 0 : frame.rows - 2);
-  const double a = u - x, b = v - y;
-  const int x1 = std::min(x + 1, frame.cols - 1), y1 = std::min(y + 1, frame.rows - 1);
-  const uint8_t* r0 = frame.ptr<uint8_t>(y);
-  const uint8_t* r1 = frame.ptr<uint8_t>(y1);
-  const double top = r0[x * kChannels + c] + a * (r0[x1 * kChannels + c] - r0[x * kChannels + c]);
-  const double bottom = r1[x * kChannels + c] + a * (r1[x1 * kChannels + c] - r1[x * kChannels + c]);
-  return top + b * (bottom - top);
+struct Pixels {
+  explicit Pixels(const cv::Mat& frame)
+      : data(frame.data), step(static_cast<std::ptrdiff_t>(frame.step[0])), max_u(frame.cols - 1.0),
+        max_v(frame.rows - 1.0), last_x(std::max(frame.cols - 2, 0)), last_y(std::max(frame.rows - 2, 0)),
+        dx(frame.cols > 1 ? kChannels : 0), dy(frame.rows > 1 ? step : 0) {}
+  // Channel c at (u, v) in OpenCV's pixel convention (centres at integers).
+  double at(double u, double v, int c) const {
+    u = std::clamp(u, 0.0, max_u);
+    v = std::clamp(v, 0.0, max_v);
+    const int x = std::min(static_cast<int>(u), last_x), y = std::min(static_cast<int>(v), last_y);
+    const double a = u - x, b = v - y;
+    const uint8_t* p = data + y * step + x * kChannels + c;
+    const double top = p[0] + a * (p[dx] - p[0]);
+    const double bottom = p[dy] + a * (p[dy + dx] - p[dy]);
+    return top + b * (bottom - top);
+  }
+  const uint8_t* data;
+  std::ptrdiff_t step;
+  double max_u, max_v;
+  int last_x, last_y;
+  std::ptrdiff_t dx, dy;
+};
+
+// The source positions of the cell centres (OpenCV's convention), a row of
+// the level after another; scratch kept per thread so that sampling allocates
+// nothing in steady state.
+struct Scratch {
+  std::vector<int> cols, rows;
+  std::vector<cv::Point2d> at;
+};
+Scratch& scratch() {
+  thread_local Scratch s;
+  return s;
+}
+
+// Where a cell's neighbours at +-sub-step lie in the source: the map's
+// derivative from the neighbouring cell centres (exact for an affine map, and
+// the map bends little over a cell), so that each cell costs one projection,
+// not five.
+inline cv::Point2d derivative(const cv::Point2d* at, const int* centres, int i, int n, std::ptrdiff_t stride) {
+  const int lo = i > 0 ? i - 1 : i, hi = i + 1 < n ? i + 1 : i;
+  if (hi == lo || centres[hi] == centres[lo]) return {stride == 1 ? 1.0 : 0.0, stride == 1 ? 0.0 : 1.0};
+  return (at[(hi - i) * stride] - at[(lo - i) * stride]) / static_cast<double>(centres[hi] - centres[lo]);
 }
 
 template <int kChannels>
 void sample_level_with(const cv::Mat& frame, const RectifiedMap& map, double x0, double y0, double step_x,
                        double step_y, cv::Size size, bool crop, cv::Mat& out) {
   const int sx = sub_step(step_x), sy = sub_step(step_y);
-  // The five points' offsets (none when cropping), on the rectified grid.
-  const int dx[5] = {0, -sx, sx, 0, 0}, dy[5] = {0, 0, 0, -sy, sy};
-  const int points = crop ? 1 : 5;
-  for (int j = 0; j < size.height; ++j) {
-    const int cy = crop ? static_cast<int>(std::floor(y0)) + j : static_cast<int>(std::floor(y0 + (j + 0.5) * step_y));
-    uint8_t* o = out.ptr<uint8_t>(j);
+  const Pixels<kChannels> pixels(frame);
+  Scratch& t = scratch();
+  t.cols.resize(static_cast<std::size_t>(size.width));
+  t.rows.resize(static_cast<std::size_t>(size.height));
+  t.at.resize(static_cast<std::size_t>(size.area()));
+  for (int i = 0; i < size.width; ++i)
+    t.cols[static_cast<std::size_t>(i)] =
+        crop ? static_cast<int>(std::floor(x0)) + i : static_cast<int>(std::floor(x0 + (i + 0.5) * step_x));
+  for (int j = 0; j < size.height; ++j)
+    t.rows[static_cast<std::size_t>(j)] =
+        crop ? static_cast<int>(std::floor(y0)) + j : static_cast<int>(std::floor(y0 + (j + 0.5) * step_y));
+  for (int j = 0; j < size.height; ++j)
     for (int i = 0; i < size.width; ++i) {
-      const int cx = crop ? static_cast<int>(std::floor(x0)) + i : static_cast<int>(std::floor(x0 + (i + 0.5) * step_x));
-      double sum[kChannels] = {};
-      for (int p = 0; p < points; ++p) {
-        cv::Point2d s;
-        if (!map.to_source({cx + dx[p] + 0.5, cy + dy[p] + 0.5}, s)) s = {-1e9, -1e9};
-        for (int c = 0; c < kChannels; ++c) sum[c] += bilinear<kChannels>(frame, s.x - 0.5, s.y - 0.5, c);
+      cv::Point2d& p = t.at[static_cast<std::size_t>(j * size.width + i)];
+      if (!map.to_source({t.cols[static_cast<std::size_t>(i)] + 0.5, t.rows[static_cast<std::size_t>(j)] + 0.5}, p))
+        p = {-1e9, -1e9};
+      p -= cv::Point2d(0.5, 0.5);
+    }
+  for (int j = 0; j < size.height; ++j) {
+    uint8_t* o = out.ptr<uint8_t>(j);
+    const cv::Point2d* row = t.at.data() + static_cast<std::ptrdiff_t>(j) * size.width;
+    for (int i = 0; i < size.width; ++i) {
+      const cv::Point2d p = row[i];
+      if (crop) {
+        for (int c = 0; c < kChannels; ++c)
+          o[i * kChannels + c] = static_cast<uint8_t>(pixels.at(p.x, p.y, c) + 0.5);  // in 0 .. 255.5: truncation rounds
+        continue;
       }
+      const cv::Point2d dx = derivative(row + i, t.cols.data(), i, size.width, 1) * sx;
+      const cv::Point2d dy = derivative(row + i, t.rows.data(), j, size.height, size.width) * sy;
       for (int c = 0; c < kChannels; ++c) {
-        // The plain rule's rounding: (sum + 2) / 5, i.e. halves up; a little
-        // slack so that sums of exact integers round as the integer rule does.
-        const double mean = sum[c] / points;
-        o[i * kChannels + c] = cv::saturate_cast<uint8_t>(std::floor(mean + 0.5 + 1e-9));
+        const double sum = pixels.at(p.x, p.y, c) + pixels.at(p.x - dx.x, p.y - dx.y, c) +
+                           pixels.at(p.x + dx.x, p.y + dx.y, c) + pixels.at(p.x - dy.x, p.y - dy.y, c) +
+                           pixels.at(p.x + dy.x, p.y + dy.y, c);
+        // The plain rule's rounding, (sum + 2) / 5: halves up; a little slack
+        // so that sums of whole numbers round as the integer rule does.
+        o[i * kChannels + c] = static_cast<uint8_t>(sum / 5 + 0.5 + 1e-9);
       }
     }
   }

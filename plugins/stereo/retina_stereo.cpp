@@ -303,42 +303,73 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
   out.score = -1;
   const cv::Rect fovea = left.geometry.back().region;
   const cv::Point2d center(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
+  const double prior = vergence_prior(left);
   double previous = -1, previous_step = 0;
   for (std::size_t k = 0; k < n; ++k) {
-    LevelScratch& ls = level_scratch_[k];
     const LevelGeometry& g = left.geometry[k];
     const cv::Mat& level = left.levels[k];
     const int ww = std::min(config_.fixation_window.width, level.cols), wh = std::min(config_.fixation_window.height, level.rows);
     const cv::Point2d c = g.from_source(center);
-    const int wx = std::clamp(static_cast<int>(std::lround(c.x - ww / 2.0 + 0.5)), 0, level.cols - ww);
-    const int wy = std::clamp(static_cast<int>(std::lround(c.y - wh / 2.0 + 0.5)), 0, level.rows - wh);
+    const cv::Rect window(std::clamp(static_cast<int>(std::lround(c.x - ww / 2.0 + 0.5)), 0, level.cols - ww),
+                          std::clamp(static_cast<int>(std::lround(c.y - wh / 2.0 + 0.5)), 0, level.rows - wh), ww, wh);
     // Shifts in level pixels: the whole range on the outermost level, then
     // around the outer level's estimate (its uncertainty, a few of its pixels).
-    int s_lo = 0, s_hi = static_cast<int>(std::ceil(config_.max_disparity / g.step_x));
+    const int full = static_cast<int>(std::ceil(config_.max_disparity / g.step_x));
+    Span span{0, full};
     if (previous >= 0 && k + 1 < n) {
       const int center_shift = static_cast<int>(std::lround(previous / g.step_x));
       const int radius = static_cast<int>(std::ceil(2.0 * previous_step / g.step_x));
-      s_lo = std::max(0, center_shift - radius);
-      s_hi = std::min(s_hi, center_shift + radius);
+      span = {std::max(0, center_shift - radius), std::min(full, center_shift + radius)};
     }
-    // One strip of the right frame covering every shift: strip column j is the
-    // right frame at left window column j - s_hi.
-    const double x0 = g.region.x + (wx - s_hi) * g.step_x;
-    sample_frame(right_frame, true, x0, g.region.y + wy * g.step_y, g.step_x, g.step_y,
-                 cv::Size(ww + s_hi - s_lo, wh), k + 1 == n, ls.strip);
-    const cv::Mat window = level(cv::Rect(wx, wy, ww, wh));
-    double wm, ws;
-    mean_and_deviation(window, wm, ws);
-    if (ws < config_.ncc.min_texture) continue;
-    const int best = correlate_window(window, ls.strip, wm, ws, s_lo, s_hi);
-    if (best < 0 || samples_[static_cast<std::size_t>(best)] < 0.3f) continue;
-    const double shift = best + s_lo + peak_offset(samples_, best);
-    out.per_level[k] = shift * g.step_x;
+    WindowMatch best = match_window(left, k, window, right_frame, span);
+    // A verging head fixates with its joints: where its optical axes meet is
+    // a second guess, which wins where the outer levels' wide windows saw
+    // mostly background (a near target smaller than them).
+    if (prior > 0 && previous >= 0 && k + 1 < n) {
+      const int center_shift = static_cast<int>(std::lround(prior / g.step_x));
+      const Span around{std::max(0, center_shift - 2), std::min(full, center_shift + 2)};
+      if (around.hi >= around.lo && (around.hi < span.lo || around.lo > span.hi)) {
+        const WindowMatch other = match_window(left, k, window, right_frame, around);
+        if (other.score > best.score) best = other;
+      }
+    }
+    if (best.score < 0.3) continue;
+    out.per_level[k] = best.shift * g.step_x;
     out.disparity = out.per_level[k];
-    out.score = samples_[static_cast<std::size_t>(best)];
+    out.score = best.score;
     previous = out.per_level[k];
     previous_step = g.step_x;
   }
+}
+
+RetinaStereo::WindowMatch RetinaStereo::match_window(const Retina& left, std::size_t k, cv::Rect window,
+                                                     const cv::Mat& right_frame, Span span) {
+  LevelScratch& ls = level_scratch_[k];
+  const LevelGeometry& g = left.geometry[k];
+  const std::size_t n = left.levels.size();
+  // One strip of the right frame covering every shift: strip column j is the
+  // right frame at left window column j - span.hi.
+  const double x0 = g.region.x + (window.x - span.hi) * g.step_x;
+  sample_frame(right_frame, true, x0, g.region.y + window.y * g.step_y, g.step_x, g.step_y,
+               cv::Size(window.width + span.hi - span.lo, window.height), k + 1 == n, ls.strip);
+  const cv::Mat pixels = left.levels[k](window);
+  double wm, ws;
+  mean_and_deviation(pixels, wm, ws);
+  if (ws < config_.ncc.min_texture) return {};
+  const int best = correlate_window(pixels, ls.strip, wm, ws, span.lo, span.hi);
+  if (best < 0) return {};
+  return {best + span.lo + peak_offset(samples_, best), samples_[static_cast<std::size_t>(best)]};
+}
+
+double RetinaStereo::vergence_prior(const Retina& left) const {
+  if (!left.rectification.enabled || !right_map_) return -1;
+  // Each optical axis's rectified pixel; where the axes meet they share a row
+  // and their columns differ by the fixated point's disparity.
+  const cv::Matx33d k(left.rectification.rectified.val);
+  const cv::Vec3d l = k * cv::Matx33d(left.rectification.rotation.val) * cv::Vec3d(0, 0, 1);
+  const cv::Vec3d r = k * cv::Matx33d(right_map_->rectification().rotation.val) * cv::Vec3d(0, 0, 1);
+  if (l[2] <= 0 || r[2] <= 0) return -1;
+  return l[0] / l[2] - r[0] / r[2];
 }
 
 int RetinaStereo::around_fixation_range(bool around, int full, bool low) const {

@@ -166,6 +166,15 @@ class RetinaStereo {
   // "" or why the pair's rectifications do not match; keeps their maps.
   std::string take_rectification(const Retina& left, const Retina& right);
   int correlate_window(const cv::Mat& window, const cv::Mat& strip, double wm, double ws, int s_lo, int s_hi);
+  // The fixation search's best shift (level pixels, sub-pixel) of the left
+  // level's `window` over the right frame within `span`, and its NCC.
+  struct WindowMatch {
+    double shift = -1;
+    double score = -2;
+  };
+  WindowMatch match_window(const Retina& left, std::size_t k, cv::Rect window, const cv::Mat& right_frame, Span span);
+  // A rectified verging pair: the disparity where the optical axes meet (< 0: none).
+  double vergence_prior(const Retina& left) const;
   // Run's steps on one level.
   void plan_level(const Retina& left, const Retina& right, const cv::Mat* right_frame, LevelPlan& plan,
                   LevelDisparity& level);

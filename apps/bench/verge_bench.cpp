@@ -1,0 +1,316 @@
+// The verging head's stereo benchmark (make bench-verge): capture.sim_head's
+// cameras fixate a target at 0.5-3 m (vergence joints up to +-20 degrees,
+// the neck and tilt following it), and the retina stereo runs on
+//   rectified  retinas sampled along the pair's rectified geometry for the joints,
+//   plain      retinas sampled on the frames as they are (the switch off),
+//   parallel   the same target seen with both vergence joints at zero, rectified
+//              (the reference the verging pair is held to).
+// Scored against the sim's exact geometry: the fixation depth (metres along
+// the rectified left axis) and, per fovea pixel and per outermost-level pixel,
+// the correspondence error: where the matcher put the pixel in the right
+// image against where the right camera truly sees that point (both in the
+// images the matcher compared: rectified or source pixels), so that vertical
+// disparity, which a matcher along rows cannot find, counts as error.
+//
+//   saccade_verge_bench [--data DIR] [--markdown FILE]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "head_rectification.hpp"
+#include "rectified.hpp"
+#include "retina.hpp"
+#include "retina_stereo.hpp"
+#include "sim_head.hpp"
+
+namespace {
+
+using namespace saccade;
+using kinematics::HeadJoints;
+
+enum class Mode { kRectified, kPlain, kParallel };
+const char* name(Mode m) { return m == Mode::kRectified ? "rectified" : m == Mode::kPlain ? "plain" : "parallel"; }
+
+struct Score {
+  int fovea_pixels = 0, fovea_matched = 0, fovea_bad2 = 0;
+  int outer_pixels = 0, outer_matched = 0, outer_bad2 = 0;
+  double depth_error = 0;  // relative; 1 when no fixation was found
+  bool fixation_found = false;
+  double microseconds = 0;  // retinas (both cameras) and stereo
+  void add(const Score& s) {
+    fovea_pixels += s.fovea_pixels, fovea_matched += s.fovea_matched, fovea_bad2 += s.fovea_bad2;
+    outer_pixels += s.outer_pixels, outer_matched += s.outer_matched, outer_bad2 += s.outer_bad2;
+  }
+};
+
+// One view of the scene: the sim's frames and what it knows about them.
+struct Views {
+  capture::SimHeadConfig config;
+  HeadJoints joints;
+  cv::Mat left, right;  // gray
+  capture::TargetView left_target, right_target;
+  Eigen::Vector3d target;
+};
+
+Eigen::Isometry3d camera_pose(const capture::SimHeadConfig& c, int camera, const HeadJoints& q) {
+  return kinematics::optical_frame(camera == 0 ? kinematics::left_camera(c.geometry, q)
+                                               : kinematics::right_camera(c.geometry, q));
+}
+
+// World point -> the sim's source pixel (the retina's convention: pixel k spans [k, k + 1)).
+bool project(const capture::SimHeadConfig& c, const Eigen::Isometry3d& pose, const Eigen::Vector3d& p,
+             cv::Point2d& out) {
+  const Eigen::Vector3d x = pose.inverse() * p;
+  if (x.z() <= 0.05) return false;
+  out = {c.size.width / 2.0 + c.focal_px * x.x() / x.z() + 0.5, c.size.height / 2.0 + c.focal_px * x.y() / x.z() + 0.5};
+  return true;
+}
+
+// Where the right camera truly sees what the left source pixel `pl` shows
+// (source pixels); false where the right camera cannot see it (hidden by the
+// target, off its image) or the pixel is on the target's rim.
+bool true_right(const Views& v, cv::Point2d pl, cv::Point2d& pr) {
+  const capture::SimHeadConfig& c = v.config;
+  const double rim = 1.5;
+  const cv::Point2d lc(v.left_target.center.x + 0.5, v.left_target.center.y + 0.5);
+  const cv::Point2d rc(v.right_target.center.x + 0.5, v.right_target.center.y + 0.5);
+  const double dl = cv::norm(pl - lc);
+  if (std::abs(dl - v.left_target.radius) < rim) return false;
+  if (dl < v.left_target.radius) {
+    // The target is drawn facing each camera at its own scale.
+    pr = rc + (pl - lc) * (v.right_target.radius / v.left_target.radius);
+    return true;
+  }
+  const Eigen::Isometry3d left = camera_pose(c, 0, v.joints);
+  const Eigen::Vector3d ray =
+      left.linear() * Eigen::Vector3d((pl.x - 0.5 - c.size.width / 2.0) / c.focal_px,
+                                      (pl.y - 0.5 - c.size.height / 2.0) / c.focal_px, 1.0);
+  if (ray.y() <= 1e-9) return false;
+  const Eigen::Vector3d wall = left.translation() + ray * ((c.wall_distance - left.translation().y()) / ray.y());
+  if (!project(c, camera_pose(c, 1, v.joints), wall, pr)) return false;
+  if (cv::norm(pr - rc) < v.right_target.radius + rim) return false;
+  return pr.x >= 0 && pr.y >= 0 && pr.x < c.size.width && pr.y < c.size.height;
+}
+
+Retina make_retina(const cv::Mat& frame, int camera, const retina::RectifiedMap* map, cv::Point2d fovea) {
+  Retina out;
+  if (map) {
+    if (std::string e = retina::sample_rectified(retina::RetinaConfig{}, frame, *map, fovea, out); !e.empty())
+      throw std::runtime_error(e);
+  } else {
+    retina::RetinaSampler(retina::RetinaConfig{}).sample(frame, fovea, out);
+  }
+  auto image = std::make_shared<Image>();
+  image->mat = frame;
+  image->camera_id = camera;
+  out.source = image;
+  out.camera_id = camera;
+  return out;
+}
+
+// Counts one level's pixels: matched, and matched more than 2 level pixels
+// from where the right camera truly sees them.
+void score_level(const Views& v, const Retina& left, std::size_t k, const stereo::LevelDisparity& level,
+                 const retina::RectifiedMap* left_map, const retina::RectifiedMap* right_map, int& pixels,
+                 int& matched, int& bad) {
+  const LevelGeometry& g = left.geometry[k];
+  for (int j = 0; j < level.disparity.rows; ++j) {
+    for (int i = 0; i < level.disparity.cols; ++i) {
+      const cv::Point2d at = g.to_source(i, j);  // rectified pixels when rectified
+      cv::Point2d source = at;
+      if (left_map && !left_map->to_source(at, source)) continue;
+      cv::Point2d truth;
+      if (!true_right(v, source, truth)) continue;
+      if (right_map) truth = right_map->to_rectified(truth);
+      ++pixels;
+      const float d = level.disparity.at<float>(j, i);
+      if (d < 0) continue;
+      ++matched;
+      const cv::Point2d found(at.x - d, at.y);
+      if (cv::norm(found - truth) / g.step_x > 2.0) ++bad;
+    }
+  }
+}
+
+Score run(const Views& v, Mode mode, const stereo::RetinaStereoConfig& config) {
+  Score s;
+  const kinematics::HeadCalibration calibration = retina::model_calibration(v.config.size, v.config.focal_px,
+                                                                           v.config.geometry);
+  retina::PairRectification pair;
+  if (std::string e = retina::rectify_pair(calibration, v.config.geometry, v.joints, pair); !e.empty())
+    throw std::runtime_error(e);
+  const cv::Point2d lc(v.left_target.center.x + 0.5, v.left_target.center.y + 0.5);
+  const cv::Point2d rc(v.right_target.center.x + 0.5, v.right_target.center.y + 0.5);
+  const bool rectified = mode != Mode::kPlain;
+  std::optional<retina::RectifiedMap> left_map, right_map;
+  if (rectified) left_map.emplace(pair.left), right_map.emplace(pair.right);
+  // Plain retinas must share their rows (the stereo's rule for unrectified
+  // pairs): the right one takes the left's fovea, as a plain pair does.
+  const cv::Point2d right_fovea = rectified ? rc : lc;
+  Retina left = make_retina(v.left, 0, rectified ? &*left_map : nullptr, lc);
+  Retina right = make_retina(v.right, 1, rectified ? &*right_map : nullptr, right_fovea);
+  stereo::RetinaStereo matcher(config);
+  std::vector<stereo::LevelDisparity> levels;
+  if (std::string e = matcher.run(left, right, levels); !e.empty()) throw std::runtime_error(e);
+  // Time in steady state (buffers made): both retinas sampled again and matched, median of 5.
+  std::vector<double> times;
+  retina::RetinaSampler sampler(retina::RetinaConfig{});
+  for (int i = 0; i < 5; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    if (rectified) {
+      (void)retina::sample_rectified(retina::RetinaConfig{}, v.left, *left_map, lc, left);
+      (void)retina::sample_rectified(retina::RetinaConfig{}, v.right, *right_map, right_fovea, right);
+    } else {
+      sampler.sample(v.left, lc, left);
+      sampler.sample(v.right, right_fovea, right);
+    }
+    (void)matcher.run(left, right, levels);
+    times.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count());
+  }
+  std::nth_element(times.begin(), times.begin() + 2, times.end());
+  s.microseconds = times[2];
+  score_level(v, left, levels.size() - 1, levels.back(), rectified ? &*left_map : nullptr,
+              rectified ? &*right_map : nullptr, s.fovea_pixels, s.fovea_matched, s.fovea_bad2);
+  score_level(v, left, 0, levels.front(), rectified ? &*left_map : nullptr, rectified ? &*right_map : nullptr,
+              s.outer_pixels, s.outer_matched, s.outer_bad2);
+  // The truth: the target's depth along the rectified left axis.
+  const Eigen::Vector3d p = camera_pose(v.config, 0, v.joints).inverse() * v.target;
+  const cv::Vec3d in_rectified = cv::Matx33d(pair.left.rotation.val) * cv::Vec3d(p.x(), p.y(), p.z());
+  const double disparity = matcher.fixation().disparity;
+  s.fixation_found = disparity > 0;
+  // Without rectification the depth is what the parallel-camera formula makes of the disparity.
+  const double depth = disparity > 0 ? pair.left.rectified[0] * pair.left.baseline / disparity : 0;
+  s.depth_error = s.fixation_found ? std::abs(depth - in_rectified[2]) / in_rectified[2] : 1.0;
+  return s;
+}
+
+Views look(const cv::Mat& wall, double distance, double lateral, double height, bool parallel) {
+  Views v;
+  v.config.wall_distance = 4.0;  // behind every target
+  v.config.wall_width = 8.0;
+  v.config.target_distance = distance;
+  v.config.target_start = lateral;
+  v.config.target_height = height;
+  v.config.target_speed = 0;
+  capture::SimHead head(wall, v.config);
+  v.target = head.target_at(0);
+  const kinematics::Gaze gaze = kinematics::gaze_at(v.target, v.config.geometry, kinematics::HeadLimits{});
+  if (!gaze.reachable) throw std::runtime_error("target not reachable: " + gaze.why);
+  v.joints = gaze.joints;
+  if (parallel) v.joints.vergence_left = v.joints.vergence_right = 0;
+  cv::Mat l, r;
+  v.left_target = head.render(0, v.joints, 0, l);
+  v.right_target = head.render(1, v.joints, 0, r);
+  cv::cvtColor(l, v.left, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(r, v.right, cv::COLOR_BGR2GRAY);
+  return v;
+}
+
+std::string ratio(int a, int b) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3f", b > 0 ? static_cast<double>(a) / b : 0.0);
+  return buf;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("The verging head's stereo: rectified against plain retinas, and against parallel cameras");
+  std::string data = SACCADE_SAMPLE_DATA, markdown;
+  app.add_option("--data", data, "opencv-doc's examples/data folder (the walls' images)");
+  app.add_option("--markdown", markdown, "also write the tables to this file");
+  CLI11_PARSE(app, argc, argv);
+  cv::setNumThreads(1);
+
+  const std::vector<std::string> walls = {"aloeL.jpg", "graf1.png", "building.jpg"};
+  const std::vector<double> distances = {0.5, 0.75, 1.0, 1.5, 2.0, 3.0};
+  const std::vector<double> laterals = {-0.3, 0.0, 0.3};  // times the distance: the neck turns about +-17 degrees
+  stereo::RetinaStereoConfig config;
+  config.vergence = true;
+  config.max_disparity = 256;  // a 0.5 m target: ~200 px on the rectified pair
+
+  std::ostringstream out;
+  out << "| distance | vergence (deg) | mode | fixation depth error (mean / max) | fixations found | fovea density "
+         "| fovea bad-2 | outer level density | outer bad-2 | us per pair |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  Score all[3];
+  double all_depth_max[3] = {}, all_depth_sum[3] = {};
+  int all_count[3] = {}, all_found[3] = {};
+  for (double distance : distances) {
+    Score total[3];
+    double depth_sum[3] = {}, depth_max[3] = {}, us[3] = {};
+    int found[3] = {}, count = 0;
+    double vergence = 0;
+    for (const std::string& w : walls) {
+      const cv::Mat wall = cv::imread(data + "/" + w, cv::IMREAD_COLOR);
+      if (wall.empty()) {
+        std::cerr << "saccade_verge_bench: cannot read " << data << "/" << w << " (install opencv-doc)\n";
+        return 1;
+      }
+      for (double lateral : laterals) {
+        for (double height : {0.0, 0.15}) {
+          const Views verged = look(wall, distance, lateral * distance, height * distance, false);
+          const Views parallel = look(wall, distance, lateral * distance, height * distance, true);
+          vergence = std::max(vergence, std::abs(verged.joints.vergence_left) * 180 / CV_PI);
+          ++count;
+          for (Mode m : {Mode::kRectified, Mode::kPlain, Mode::kParallel}) {
+            const int i = static_cast<int>(m);
+            const Score s = run(m == Mode::kParallel ? parallel : verged, m, config);
+            total[i].add(s);
+            depth_sum[i] += s.depth_error;
+            depth_max[i] = std::max(depth_max[i], s.depth_error);
+            found[i] += s.fixation_found;
+            us[i] += s.microseconds;
+          }
+        }
+      }
+    }
+    for (Mode m : {Mode::kRectified, Mode::kPlain, Mode::kParallel}) {
+      const int i = static_cast<int>(m);
+      char line[512];
+      std::snprintf(line, sizeof line, "| %.2f m | %.1f | %s | %.2f%% / %.2f%% | %d / %d | %s | %s | %s | %s | %.0f |\n",
+                    distance, vergence, name(m), 100 * depth_sum[i] / count, 100 * depth_max[i], found[i], count,
+                    ratio(total[i].fovea_matched, total[i].fovea_pixels).c_str(),
+                    ratio(total[i].fovea_bad2, total[i].fovea_matched).c_str(),
+                    ratio(total[i].outer_matched, total[i].outer_pixels).c_str(),
+                    ratio(total[i].outer_bad2, total[i].outer_matched).c_str(), us[i] / count);
+      out << line;
+      all[i].add(total[i]);
+      all_depth_sum[i] += depth_sum[i];
+      all_depth_max[i] = std::max(all_depth_max[i], depth_max[i]);
+      all_count[i] += count;
+      all_found[i] += found[i];
+    }
+  }
+  for (Mode m : {Mode::kRectified, Mode::kPlain, Mode::kParallel}) {
+    const int i = static_cast<int>(m);
+    char line[512];
+    std::snprintf(line, sizeof line, "| **all** | | %s | %.2f%% / %.2f%% | %d / %d | %s | %s | %s | %s | |\n", name(m),
+                  100 * all_depth_sum[i] / all_count[i], 100 * all_depth_max[i], all_found[i], all_count[i],
+                  ratio(all[i].fovea_matched, all[i].fovea_pixels).c_str(),
+                  ratio(all[i].fovea_bad2, all[i].fovea_matched).c_str(),
+                  ratio(all[i].outer_matched, all[i].outer_pixels).c_str(),
+                  ratio(all[i].outer_bad2, all[i].outer_matched).c_str());
+    out << line;
+  }
+  const double rectified_bad = all[0].fovea_matched ? static_cast<double>(all[0].fovea_bad2) / all[0].fovea_matched : 1;
+  const double parallel_bad = all[2].fovea_matched ? static_cast<double>(all[2].fovea_bad2) / all[2].fovea_matched : 1;
+  out << "\nFloors: fixation depth error <= 1% (rectified, max " << 100 * all_depth_max[0] << "%): "
+      << (all_depth_max[0] <= 0.01 ? "met" : "NOT met") << "; fovea bad-2 within 1.2x of parallel cameras ("
+      << rectified_bad << " against " << parallel_bad << "): " << (rectified_bad <= 1.2 * parallel_bad ? "met" : "NOT met")
+      << "\n";
+  std::cout << out.str();
+  if (!markdown.empty()) std::ofstream(markdown) << out.str();
+  return 0;
+}
