@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -18,7 +19,12 @@ namespace saccade::util {
 class JsonLinesWriter {
  public:
   // Empty on success, else why the file cannot be written.
+  // Creates the file's folder when missing, as the snapshot sink does.
   std::string open(const std::string& path) {
+    const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+    std::error_code ec;
+    if (!folder.empty()) std::filesystem::create_directories(folder, ec);
+    if (ec) return "cannot create the folder of '" + path + "': " + ec.message();
     file_.reset(std::fopen(path.c_str(), "w"));
     if (!file_) return "cannot write '" + path + "': " + std::strerror(errno);
     line_.reserve(4096);

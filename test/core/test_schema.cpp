@@ -141,11 +141,29 @@ TEST(JsonLines, TheSinkWritesOneLinePerMessage) {
 }
 
 TEST(JsonLines, AnUnwritablePathIsAnErrorAtOpenNamingIt) {
+  // A folder that cannot be made: its parent is a file.
+  const std::filesystem::path file = std::filesystem::temp_directory_path() / "saccade_jsonl_not_a_folder";
+  std::ofstream(file) << "x";
+  const std::string path = (file / "out.jsonl").string();
   std::string error;
-  auto h = testing::NodeHarness::create(
-      R"(<node plugin="util.jsonl"><param name="path" value="/nonexistent-dir/out.jsonl"/></node>)", &error);
+  auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)",
+                                        &error);
   EXPECT_EQ(h, nullptr);
-  EXPECT_NE(error.find("/nonexistent-dir/out.jsonl"), std::string::npos) << error;
+  EXPECT_NE(error.find(path), std::string::npos) << error;
+  std::filesystem::remove(file);
+}
+
+TEST(JsonLines, TheFilesFolderIsMadeWhenMissing) {
+  const std::filesystem::path folder = std::filesystem::temp_directory_path() / "saccade_jsonl_folder";
+  std::filesystem::remove_all(folder);
+  const std::string path = (folder / "deeper" / "out.jsonl").string();
+  {
+    auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)");
+    ASSERT_NE(h, nullptr);
+    h->node().close();
+  }
+  EXPECT_TRUE(std::filesystem::exists(path));
+  std::filesystem::remove_all(folder);
 }
 
 }  // namespace
