@@ -443,6 +443,8 @@ class SimHeadNode final : public Node {
   static constexpr Out<Region> kTruth{"truth",
                                       "the target in the left image: centre, size, depth; label visible or outside"};
   static constexpr Out<Region> kTruthRight{"truth_right", "the target in the right image"};
+  static constexpr Out<JointState> kJoints{
+      "joints", "the joint state each pair was rendered at (stamped as the frames): for rectified retinas"};
 
   static void bind(ParamBinder<SimHeadParams>& b) {
     using P = SimHeadParams;
@@ -471,7 +473,7 @@ class SimHeadNode final : public Node {
     return Contract("The simulated stereo head's cameras: a wide scene on a wall in front of the head and a textured "
                     "target moving between head and wall, rendered into both cameras for the joint angles the drives "
                     "report, so the active vision loop runs on one machine.")
-        .ports(kState, kLeft, kRight, kTruth, kTruthRight)
+        .ports(kState, kLeft, kRight, kTruth, kTruthRight, kJoints)
         .params(&bind);
   }
   Status open(OpenContext& ctx) override {
@@ -495,6 +497,12 @@ class SimHeadNode final : public Node {
     const kinematics::HeadJoints q{state->position[0], state->position[1], state->position[2], state->position[3],
                                    state->position[4]};
     const double t = static_cast<double>(state->timestamp_ns) * 1e-9;
+    // The joints first: a retina that rectifies with them takes the newest
+    // when its frame arrives.
+    auto joints = ctx.make(kJoints);
+    *joints = *state;
+    joints->frame_id = frame_;
+    ctx.emit(kJoints, std::move(joints));
     const Out<Image>* outs[2] = {&kLeft, &kRight};
     const Out<Region>* truths[2] = {&kTruth, &kTruthRight};
     for (int camera = 0; camera < 2; ++camera) {

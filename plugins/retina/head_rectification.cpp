@@ -34,7 +34,7 @@ cv::Vec<double, 9> row_major(const cv::Matx33d& m) {
 }
 
 std::string fill(Rectification& out, const cv::Matx33d& camera, const std::vector<double>& distortion,
-                 const cv::Mat& rotation, const cv::Mat& projection, double baseline, const char* which,
+                 const cv::Matx33d& rotation, const cv::Matx33d& rectified, double baseline, const char* which,
                  const std::string& path) {
   if (distortion.size() > 14)
     return path + ": the " + which + " camera has " + std::to_string(distortion.size()) +
@@ -43,13 +43,37 @@ std::string fill(Rectification& out, const cv::Matx33d& camera, const std::vecto
   out.camera = row_major(camera);
   out.distortion = {};
   for (std::size_t i = 0; i < distortion.size(); ++i) out.distortion[static_cast<int>(i)] = distortion[i];
-  out.rotation = row_major(cv::Matx33d(rotation));
-  out.rectified = row_major(cv::Matx33d(projection(cv::Rect(0, 0, 3, 3))));
+  out.rotation = row_major(rotation);
+  out.rectified = row_major(rectified);
   out.baseline = baseline;
   return {};
 }
 
+cv::Matx33d rodrigues(const cv::Vec3d& v) {
+  cv::Matx33d m;
+  cv::Rodrigues(v, m);
+  return m;
+}
+
 }  // namespace
+
+std::pair<cv::Matx33d, cv::Matx33d> rectifying_rotations(const cv::Matx33d& rotation, const cv::Vec3d& translation) {
+  // Bouguet's, as cv::stereoRectify: each camera turned by half the relative
+  // rotation, so that both face the same way, then both about the axis that
+  // lays the baseline along x.
+  cv::Vec3d om;
+  cv::Rodrigues(rotation, om);
+  const cv::Matx33d half = rodrigues(om * -0.5);
+  const cv::Vec3d t = half * translation;
+  const int along = std::abs(t[0]) > std::abs(t[1]) ? 0 : 1;
+  cv::Vec3d axis;
+  axis[along] = t[along] > 0 ? 1 : -1;
+  cv::Vec3d w = t.cross(axis);
+  const double nw = cv::norm(w);
+  if (nw > 0) w *= std::acos(std::abs(t[along]) / cv::norm(t)) / nw;
+  const cv::Matx33d turn = rodrigues(w);
+  return {turn * half.t(), turn * half};
+}
 
 std::string rectify_pair(const kinematics::HeadCalibration& calibration, const kinematics::HeadGeometry& geometry,
                          const kinematics::HeadJoints& joints, PairRectification& out) {
@@ -61,16 +85,11 @@ std::string rectify_pair(const kinematics::HeadCalibration& calibration, const k
   out.translation = now.translation;
   const double baseline = cv::norm(now.translation);
   if (baseline <= 0) return calibration.path + ": the cameras' centres coincide (baseline 0)";
-  // OpenCV's rotations (Bouguet's: each camera turned half the relative
-  // rotation, then both to the baseline). Its camera matrix is not used: it
-  // zooms to keep only valid pixels (alpha 0) or shrinks to keep them all,
-  // and a verging head's would zoom by 2-3x at 20 degrees, pushing a near
-  // target's rectified disparity past the frame.
-  cv::Mat r1, r2, p1, p2, q;
-  cv::stereoRectify(cv::Mat(calibration.left_matrix), cv::Mat(calibration.left_distortion),
-                    cv::Mat(calibration.right_matrix), cv::Mat(calibration.right_distortion), calibration.image_size,
-                    cv::Mat(now.rotation), cv::Mat(now.translation), r1, r2, p1, p2, q, cv::CALIB_ZERO_DISPARITY, 0);
-  // Instead: the sources' smallest focal length (the fovea's level pixel
+  const auto [r1, r2] = rectifying_rotations(now.rotation, now.translation);
+  // The camera matrix is not cv::stereoRectify's, which zooms to keep only
+  // valid pixels (alpha 0) or shrinks to keep them all: a verging head's
+  // would zoom by 2-3x at 20 degrees, pushing a near target's rectified
+  // disparity past the frame. Instead: the sources' smallest focal length (the fovea's level pixel
   // stays about one source pixel, never finer than the cameras), and one
   // principal point (zero disparity at infinity) placed so that the mean of
   // the two optical axes lands where the sources' principal points are: each
@@ -78,11 +97,11 @@ std::string rectify_pair(const kinematics::HeadCalibration& calibration, const k
   const cv::Matx33d& kl = calibration.left_matrix;
   const cv::Matx33d& kr = calibration.right_matrix;
   const double f = std::min({kl(0, 0), kl(1, 1), kr(0, 0), kr(1, 1)});
-  const cv::Vec3d axis_left = cv::Matx33d(r1) * cv::Vec3d(0, 0, 1), axis_right = cv::Matx33d(r2) * cv::Vec3d(0, 0, 1);
+  const cv::Vec3d axis_left = r1 * cv::Vec3d(0, 0, 1), axis_right = r2 * cv::Vec3d(0, 0, 1);
   if (axis_left[2] <= 0 || axis_right[2] <= 0) return calibration.path + ": a camera looks backwards once rectified";
   const double cx = (kl(0, 2) + kr(0, 2)) / 2 - f * (axis_left[0] / axis_left[2] + axis_right[0] / axis_right[2]) / 2;
   const double cy = (kl(1, 2) + kr(1, 2)) / 2 - f * (axis_left[1] / axis_left[2] + axis_right[1] / axis_right[2]) / 2;
-  const cv::Mat rectified = (cv::Mat_<double>(3, 3) << f, 0, cx, 0, f, cy, 0, 0, 1);
+  const cv::Matx33d rectified(f, 0, cx, 0, f, cy, 0, 0, 1);
   if (std::string e = fill(out.left, calibration.left_matrix, calibration.left_distortion, r1, rectified, baseline,
                            "left", calibration.path);
       !e.empty())

@@ -2,9 +2,10 @@
 // The rectified geometry of a verging stereo head for its current joints:
 // the calibration (intrinsics, distortion, the cameras' relative pose at the
 // joints' zero) and the head's kinematics (how each camera has turned since)
-// give the cameras' relative pose now, and OpenCV's stereoRectify the
-// rotations and the shared camera matrix that make the rows epipolar lines.
+// give the cameras' relative pose now, and Bouguet's rectification (OpenCV's)
+// the rotations that make the rows epipolar lines.
 #include <string>
+#include <utility>
 
 #include <opencv2/core.hpp>
 
@@ -19,6 +20,12 @@ struct PairRectification {
   cv::Matx33d rotation;       // right camera from left camera now: x_right = rotation * x_left + translation
   cv::Vec3d translation;
 };
+
+// The rotations that rectify a pair (left, right: each camera's frame ->
+// the rectified frame) whose right camera sees x_right = rotation * x_left +
+// translation: Bouguet's, as cv::stereoRectify computes them, without its
+// allocations (the head's joints change every frame).
+std::pair<cv::Matx33d, cv::Matx33d> rectifying_rotations(const cv::Matx33d& rotation, const cv::Vec3d& translation);
 
 // The left camera is taken to sit exactly on its chain's optical frame; what
 // the calibration's relative pose at zero differs from the model's is put on

@@ -178,7 +178,7 @@ std::string sample_rectified(const RetinaConfig& config, const cv::Mat& frame, c
   if (!map.problem().empty()) return "rectified sampling: " + map.problem();
   if (config.mode != SamplingMode::kFivePoint) return "rectified sampling uses the five-point rule (mode five_point)";
   const cv::Point2d at = map.to_rectified(fovea);
-  out.geometry = retina_geometry(config, frame.size(), at);
+  retina_geometry(config, frame.size(), at, out.geometry);
   out.levels.resize(out.geometry.size());
   for (std::size_t k = 0; k < out.geometry.size(); ++k) {
     const LevelGeometry& g = out.geometry[k];

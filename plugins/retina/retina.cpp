@@ -38,8 +38,14 @@ cv::Point clamp_fovea_corner(const RetinaConfig& config, cv::Size frame, cv::Poi
 }
 
 std::vector<LevelGeometry> retina_geometry(const RetinaConfig& config, cv::Size frame, cv::Point2d fovea) {
+  std::vector<LevelGeometry> out;
+  retina_geometry(config, frame, fovea, out);
+  return out;
+}
+
+void retina_geometry(const RetinaConfig& config, cv::Size frame, cv::Point2d fovea, std::vector<LevelGeometry>& out) {
   cv::Point corner = clamp_fovea_corner(config, frame, fovea);
-  std::vector<LevelGeometry> out(static_cast<std::size_t>(config.levels));
+  out.resize(static_cast<std::size_t>(config.levels));
   int m = config.levels - 1;
   for (int k = 0; k <= m; ++k) {
     double t = m == 0 ? 1.0 : static_cast<double>(k) / m;
@@ -52,7 +58,6 @@ std::vector<LevelGeometry> retina_geometry(const RetinaConfig& config, cv::Size 
     g.step_x = static_cast<double>(w) / config.size.width;
     g.step_y = static_cast<double>(h) / config.size.height;
   }
-  return out;
 }
 
 void sample_reference(const RetinaConfig& config, const cv::Mat& frame, const std::vector<LevelGeometry>& geometry,

@@ -36,6 +36,8 @@ cv::Point clamp_fovea_corner(const RetinaConfig& config, cv::Size frame, cv::Poi
 
 // Geometry of every level (index 0 outermost) for a fovea centre.
 std::vector<LevelGeometry> retina_geometry(const RetinaConfig& config, cv::Size frame, cv::Point2d fovea);
+// The same into `out`, reusing its storage.
+void retina_geometry(const RetinaConfig& config, cv::Size frame, cv::Point2d fovea, std::vector<LevelGeometry>& out);
 
 // Plain per-pixel implementation of the sampling rule above: the reference the
 // fast sampler is tested against.

@@ -13,10 +13,10 @@ using namespace saccade::retina;
 struct RetinaNodeConfig {
   RetinaConfig retina;
   // Rectified sampling for a stereo pair (rectified.hpp): the calibration file,
-  // or without one the head model's ideal cameras of this focal length.
+  // or without one the head model's ideal cameras of this field of view.
   bool rectify = false;
   std::string calibration;
-  double model_focal_px = 277.0;  // capture.sim_head's default
+  double model_hfov_deg = 60.0;  // capture.sim_head's default
   kinematics::HeadGeometry geometry;
 };
 
@@ -43,10 +43,12 @@ class RetinaNode final : public Node {
                "left, 1 right), so that the two retinas' rows are epipolar lines at any vergence",
                &C::rectify)
         .field("calibration", "with rectify: the head's calibration file (saccade calibrate); empty: the head model's "
-                              "ideal cameras (model_focal_px)",
+                              "ideal cameras (model_hfov)",
                &C::calibration)
-        .field("model_focal_px", {1, 1e5}, "with rectify and no calibration: the ideal cameras' focal length, pixels",
-               &C::model_focal_px)
+        .field("model_hfov", {1, 170},
+               "with rectify and no calibration: the ideal cameras' horizontal field of view, degrees (as "
+               "capture.sim_head's hfov)",
+               &C::model_hfov_deg)
         .field("l1", {0, 10}, "with rectify, m: neck axis to the vergence axis (the paper's L1)", &C::geometry, &G::l1)
         .field("l2", {0, 10}, "with rectify, m: height of the tilt axis (L2)", &C::geometry, &G::l2)
         .field("l3", {0, 10}, "with rectify, m: tilt axis to the camera (L3)", &C::geometry, &G::l3);
@@ -127,7 +129,8 @@ class RetinaNode final : public Node {
                       q.vergence_right == joints_.vergence_right && q.tilt_right == joints_.tilt_right;
     if (same) return {};
     if (config_.calibration.empty()) {
-      calibration_ = model_calibration(frame, config_.model_focal_px, config_.geometry);
+      const double focal = (frame.width / 2.0) / std::tan(config_.model_hfov_deg * CV_PI / 360.0);
+      calibration_ = model_calibration(frame, focal, config_.geometry);
     } else if (std::string e = kinematics::check_frame_size(calibration_, frame); !e.empty()) {
       return Status::error(e);
     }

@@ -4,14 +4,20 @@
 // true projection of any point is known exactly.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "depth.hpp"
+#include "camera_calibration.hpp"
 #include "head_rectification.hpp"
 #include "rectified.hpp"
 #include "retina.hpp"
 #include "retina_stereo.hpp"
 #include "sim_head.hpp"
+#include "saccade/testing.hpp"
 #include "support.hpp"
 
 namespace saccade::retina {
@@ -226,8 +232,123 @@ TEST(RectifiedStereo, AVergingHeadMeasuresItsTargetsDepthWithinOnePercent) {
         const cv::Point2d rl = RectifiedMap(pair.left).to_rectified(at);
         std::printf("; left fovea %d,%d (target %.1f,%.1f)\n", left.fovea.x, left.fovea.y, rl.x, rl.y);
       }
+      // The fixated point in metres, in the left camera's own frame: the target's centre.
+      const stereo::LocatedPoint point =
+          stereo::locate(stereo::depth_model(left, {}), cv::Point2d(left.geometry.back().region.x + 16.0,
+                                                                     left.geometry.back().region.y + 12.0),
+                         disparity, 0.3);
+      ASSERT_TRUE(point.valid);
+      EXPECT_NEAR(point.depth, depth, 1e-9);
+      EXPECT_LT(cv::norm(point.point - cv::Vec3d(p.x(), p.y(), p.z())), 0.01 * p.z() + 0.003)
+          << point.point << " against " << p.transpose();
+      EXPECT_NEAR(point.depth_sigma, depth * depth / (pair.left.rectified[0] * pair.left.baseline) * 0.3, 1e-12);
       EXPECT_NEAR(depth, in_rectified[2], 0.01 * in_rectified[2])
           << "distance " << distance << " lateral " << lateral << " vergence " << s.joints.vergence_left;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace saccade::retina
+
+namespace saccade::retina {
+namespace {
+
+std::shared_ptr<Image> frame_of(int camera) {
+  auto image = std::make_shared<Image>();
+  image->mat = test::random_image({320, 240}, 5 + camera, CV_8UC1);
+  image->camera_id = camera;
+  return image;
+}
+
+TEST(RectifiedRetinaNode, AtTheJointsZeroTheModelHeadsRetinaIsThePlainOne) {
+  std::string error;
+  auto rectified = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)",
+                                                &error);
+  ASSERT_NE(rectified, nullptr) << error;
+  auto plain = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  const auto image = frame_of(0);
+  rectified->set("image", image);
+  plain->set("image", image);
+  ASSERT_TRUE(rectified->process().ok());
+  ASSERT_TRUE(plain->process().ok());
+  const auto a = rectified->last<Retina>("retina");
+  const auto b = plain->last<Retina>("retina");
+  EXPECT_TRUE(a->rectification.enabled);
+  EXPECT_FALSE(b->rectification.enabled);
+  for (std::size_t k = 0; k < b->levels.size(); ++k)
+    EXPECT_EQ(cv::norm(a->levels[k], b->levels[k], cv::NORM_INF), 0.0) << "level " << k;
+}
+
+TEST(RectifiedRetinaNode, TheJointsTurnTheGridAndBothCamerasShareTheRectifiedCamera) {
+  auto left = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
+  auto right = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
+  ASSERT_TRUE(left && right);
+  auto joints = std::make_shared<JointState>();
+  joints->position = {0.1, 0.2, 0.05, -0.2, 0.05};
+  left->set("joints", joints);
+  right->set("joints", joints);
+  left->set("image", frame_of(0));
+  right->set("image", frame_of(1));
+  ASSERT_TRUE(left->process().ok());
+  ASSERT_TRUE(right->process().ok());
+  const Rectification& l = left->last<Retina>("retina")->rectification;
+  const Rectification& r = right->last<Retina>("retina")->rectification;
+  EXPECT_EQ(l.rectified, r.rectified);
+  EXPECT_GT(l.baseline, 0.1);
+  EXPECT_GT(std::abs(l.rotation[2]), 0.05) << "the left camera turned by its vergence is turned back";
+  EXPECT_NE(l.rotation, r.rotation);
+}
+
+TEST(RectifiedRetinaNode, RefusesACalibrationForAnotherImageSizeAndAThirdCamera) {
+  const std::string path = (std::filesystem::temp_directory_path() / "saccade_rectified_640.yml").string();
+  const capture::SimHeadConfig c;
+  ASSERT_EQ(kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, c.geometry)), "");
+  auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/>)"
+                                        R"(<param name="calibration" value=")" + path + R"("/></node>)");
+  ASSERT_NE(h, nullptr);
+  h->set("image", frame_of(0));
+  Status s = h->process();
+  ASSERT_TRUE(s.is_error());
+  EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("640"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("320"), std::string::npos) << s.message();
+  std::filesystem::remove(path);
+
+  auto model = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
+  model->set("image", frame_of(2));
+  s = model->process();
+  ASSERT_TRUE(s.is_error());
+  EXPECT_NE(s.message().find("camera_id is 2"), std::string::npos) << s.message();
+
+  std::string error;
+  EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/>)"
+                                         R"(<param name="calibration" value="/no/such/head.yml"/></node>)",
+                                         &error),
+            nullptr);
+  EXPECT_NE(error.find("/no/such/head.yml"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace saccade::retina
+
+namespace saccade::retina {
+namespace {
+
+TEST(HeadRectification, TheRotationsAreOpenCVsStereoRectifys) {
+  const capture::SimHeadConfig c;
+  const kinematics::HeadCalibration calibration = model_calibration(c.size, c.focal_px, c.geometry);
+  for (const HeadJoints& q : {HeadJoints{0.1, 0.3, 0.1, -0.25, 0.05}, HeadJoints{-0.2, -0.1, -0.3, 0.2, 0.1},
+                              HeadJoints{0, 0.35, 0, -0.35, 0}}) {
+    PairRectification pair;
+    ASSERT_EQ(rectify_pair(calibration, c.geometry, q, pair), "");
+    cv::Mat r1, r2, p1, p2, reprojection;
+    cv::stereoRectify(cv::Mat(calibration.left_matrix), cv::noArray(), cv::Mat(calibration.right_matrix), cv::noArray(),
+                      c.size, cv::Mat(pair.rotation), cv::Mat(pair.translation), r1, r2, p1, p2, reprojection,
+                      cv::CALIB_ZERO_DISPARITY);
+    for (int i = 0; i < 9; ++i) {
+      EXPECT_NEAR(pair.left.rotation[i], r1.at<double>(i / 3, i % 3), 1e-9);
+      EXPECT_NEAR(pair.right.rotation[i], r2.at<double>(i / 3, i % 3), 1e-9);
     }
   }
 }
