@@ -51,7 +51,7 @@ TEST(TwoPcPlan, EdgesBetweenProcessesBecomeTopicsWithTheirTypesQos) {
   EXPECT_EQ(plan->processes, (std::vector<std::string>{"head_pc", "robot_pc"}));
   int dds = 0;
   for (const auto& pe : plan->edges) dds += pe.route != EdgeRoute::kInProcess;
-  EXPECT_EQ(dds, 3);
+  EXPECT_EQ(dds, 4);  // the joint state, the fovea's gaze requests to the head and to the driver's wake, head.moved
   const PlannedEdge* state = find_edge(*plan, *graph, "driver", "cameras");
   ASSERT_NE(state, nullptr);
   EXPECT_EQ(state->route, EdgeRoute::kSameHost);
@@ -63,6 +63,10 @@ TEST(TwoPcPlan, EdgesBetweenProcessesBecomeTopicsWithTheirTypesQos) {
   ASSERT_NE(gaze, nullptr);
   EXPECT_EQ(gaze->from_process, "head_pc");
   EXPECT_EQ(gaze->to_process, "robot_pc");
+  const PlannedEdge* wake = find_edge(*plan, *graph, "fovea", "driver");
+  ASSERT_NE(wake, nullptr);
+  EXPECT_EQ(wake->type, "GazeRequest");
+  EXPECT_EQ(wake->to_process, "robot_pc");
   // The same process: a pointer hand-off.
   EXPECT_EQ(find_edge(*plan, *graph, "driver", "head")->route, EdgeRoute::kInProcess);
   EXPECT_EQ(find_edge(*plan, *graph, "retina", "fovea")->route, EdgeRoute::kInProcess);
