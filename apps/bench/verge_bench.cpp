@@ -47,6 +47,7 @@ struct Score {
   int fovea_pixels = 0, fovea_matched = 0, fovea_bad2 = 0;
   int outer_pixels = 0, outer_matched = 0, outer_bad2 = 0;
   double depth_error = 0;  // relative; 1 when no fixation was found
+  double disparity_error = 0;  // the fixation's, pixels (when found)
   bool fixation_found = false;
   double microseconds = 0;  // retinas (both cameras) and stereo
   void add(const Score& s) {
@@ -193,6 +194,7 @@ Score run(const Views& v, Mode mode, const stereo::RetinaStereoConfig& config) {
   // Without rectification the depth is what the parallel-camera formula makes of the disparity.
   const double depth = disparity > 0 ? pair.left.rectified[0] * pair.left.baseline / disparity : 0;
   s.depth_error = s.fixation_found ? std::abs(depth - in_rectified[2]) / in_rectified[2] : 1.0;
+  s.disparity_error = s.fixation_found ? disparity - pair.left.rectified[0] * pair.left.baseline / in_rectified[2] : 0;
   return s;
 }
 
@@ -245,7 +247,7 @@ int main(int argc, char** argv) {
   out << "| distance | vergence (deg) | mode | fixation depth error (mean / max) | fixations found | fovea density "
          "| fovea bad-2 | outer level density | outer bad-2 | us per pair |\n|---|---|---|---|---|---|---|---|---|---|\n";
   Score all[3];
-  double all_depth_max[3] = {}, all_depth_sum[3] = {};
+  double all_depth_max[3] = {}, all_depth_sum[3] = {}, all_disparity_sq[3] = {};
   int all_count[3] = {}, all_found[3] = {};
   for (double distance : distances) {
     Score total[3];
@@ -269,6 +271,7 @@ int main(int argc, char** argv) {
             const Score s = run(m == Mode::kParallel ? parallel : verged, m, config);
             total[i].add(s);
             depth_sum[i] += s.depth_error;
+            all_disparity_sq[i] += s.disparity_error * s.disparity_error;
             depth_max[i] = std::max(depth_max[i], s.depth_error);
             found[i] += s.fixation_found;
             us[i] += s.microseconds;
@@ -304,6 +307,10 @@ int main(int argc, char** argv) {
                   ratio(all[i].outer_bad2, all[i].outer_matched).c_str());
     out << line;
   }
+  char rms[160];
+  std::snprintf(rms, sizeof rms, "\nThe rectified fixation disparity's RMS error: %.3f px over %d fixations.\n",
+                std::sqrt(all_disparity_sq[0] / std::max(1, all_found[0])), all_found[0]);
+  out << rms;
   const double rectified_bad = all[0].fovea_matched ? static_cast<double>(all[0].fovea_bad2) / all[0].fovea_matched : 1;
   const double parallel_bad = all[2].fovea_matched ? static_cast<double>(all[2].fovea_bad2) / all[2].fovea_matched : 1;
   out << "\nFloors: fixation depth error <= 1% (rectified, max " << 100 * all_depth_max[0] << "%): "

@@ -1,3 +1,4 @@
+#include "depth.hpp"
 #include "retina_stereo.hpp"
 #include "saccade/plugin.hpp"
 
@@ -14,6 +15,9 @@ struct StereoNodeConfig {
   RetinaStereoConfig stereo;
   StereoCalibration calibration;
   std::string calibration_file;
+  // The fixation disparity's standard deviation for its depth's: the RMS
+  // error make bench-verge measures on the verging sim head (0.27 px).
+  double disparity_sigma = 0.3;
 };
 
 class StereoNode final : public Node {
@@ -25,6 +29,11 @@ class StereoNode final : public Node {
   static constexpr Out<StereoFixation> kFixation{
       "fixation", "the disparity at the left fovea's centre (-1 when not found), its NCC, and its depth when "
                   "calibrated: for the head's vergence"};
+  static constexpr SideIn<HeadPose> kHead{
+      "head", "the cameras' poses (the kinematics node): the fixated point also in the head's frame, and gaze"};
+  static constexpr Out<GazeRequest> kGaze{
+      "gaze", "verge both cameras on the fixated point (kind point, head frame) when its depth and the head's pose "
+              "are known: connect to the head's gaze to close see -> verge -> fixate"};
   static constexpr Out<FeatureMaps> kMaps{
       "maps",
       "per level, every map on the left retina's level geometry (the message's retina): disparity (left->right, "
@@ -96,15 +105,20 @@ class StereoNode final : public Node {
         .field("baseline", {0, 100}, "distance between the cameras, metres", &C::calibration,
                &StereoCalibration::baseline_m)
         .field("calibration",
-               "OpenCV calibration file (Q, or P2, or M1 and T) giving focal length and baseline for depth",
-               &C::calibration_file);
+               "OpenCV calibration file (Q, or P2, or M1 and T; saccade calibrate writes them) giving focal length "
+               "and baseline for depth; rectified retinas carry their own",
+               &C::calibration_file)
+        .field("disparity_sigma", {0, 100},
+               "standard deviation of the fixation disparity, pixels, for its depth's (make bench-verge measures "
+               "0.27 px RMS)",
+               &C::disparity_sigma);
   }
 
   static Contract contract() {
     return Contract("Disparity between a left and a right retina by normalized cross correlation, both ways, with a "
                     "left-right check, sub-pixel peaks and a confidence, coarse to fine across levels. Pair the inputs "
                     "with <sync inputs=\"left,right\"/>.")
-        .ports(kLeft, kRight, kFixation, kMaps)
+        .ports(kLeft, kRight, kHead, kFixation, kGaze, kMaps)
         .params(&bind);
   }
   Status open(OpenContext& ctx) override {
@@ -118,6 +132,7 @@ class StereoNode final : public Node {
       return Status::error("depth needs both focal and baseline (or a calibration file)");
     }
     config_ = c.stereo;
+    disparity_sigma_ = c.disparity_sigma;
     name_ = ctx.node_name();
     return {};
   }
@@ -126,9 +141,10 @@ class StereoNode final : public Node {
     auto r = ctx.get(kRight);
     fit_to_frame(*l);
     if (std::string e = stereo_->run(*l, *r, levels_); !e.empty()) return Status::error(e);
+    const DepthModel model = depth_model(*l, calibration_);
     auto maps = ctx.make(kMaps);
     maps->retina = l;
-    if (calibration_.valid())
+    if (model.valid())
       maps->set_layout({"disparity", "disparity_rl", "confidence", "depth"}, levels_.size());
     else
       maps->set_layout({"disparity", "disparity_rl", "confidence"}, levels_.size());
@@ -136,12 +152,12 @@ class StereoNode final : public Node {
       levels_[k].disparity.copyTo(maps->maps[0][k]);
       on_left_geometry(levels_[k].reverse, levels_[k].offset, maps->maps[1][k]);
       levels_[k].score.copyTo(maps->maps[2][k]);
-      if (!calibration_.valid()) continue;
+      if (!model.valid()) continue;
       cv::Mat& depth = maps->maps[3][k];
       depth.create(levels_[k].disparity.size(), CV_32F);
       for (int y = 0; y < depth.rows; ++y)
         for (int x = 0; x < depth.cols; ++x)
-          depth.at<float>(y, x) = static_cast<float>(calibration_.depth(levels_[k].disparity.at<float>(y, x)));
+          depth.at<float>(y, x) = static_cast<float>(model.depth(levels_[k].disparity.at<float>(y, x)));
     }
     ctx.emit(kMaps, std::move(maps));
     auto fixation = ctx.make(kFixation);
@@ -150,13 +166,39 @@ class StereoNode final : public Node {
     fixation->fovea = cv::Size2d(fovea.size());
     fixation->disparity = stereo_->fixation().disparity;
     fixation->score = stereo_->fixation().score;
-    fixation->depth = calibration_.valid() ? calibration_.depth(stereo_->fixation().disparity) : -1.0;
+    fixation->rectified = l->rectification.enabled;
     fixation->camera_id = l->camera_id;
+    const LocatedPoint at = locate(model, fixation->pixel, fixation->disparity, disparity_sigma_);
+    if (at.valid) {
+      fixation->depth = at.depth;
+      fixation->depth_sigma = at.depth_sigma;
+      fixation->point = at.point;
+      if (auto head = ctx.get(kHead)) {
+        fixation->point_head = in_head_frame(*head, at.point);
+        fixation->point_head_valid = true;
+        auto gaze = ctx.make(kGaze);
+        gaze->stamp_from(*fixation);
+        gaze->kind = GazeRequest::Kind::kPoint;
+        gaze->point = fixation->point_head;
+        gaze->pixel = fixation->pixel;
+        gaze->depth = at.depth;
+        gaze->camera_id = l->camera_id;
+        gaze->reason = "fixation";
+        ctx.emit(kGaze, std::move(gaze));
+      }
+    }
     ctx.emit(kFixation, std::move(fixation));
     return {};
   }
 
  private:
+  // A point in the left camera's optical frame, in the head's base frame.
+  static cv::Vec3d in_head_frame(const HeadPose& head, const cv::Vec3d& p) {
+    const cv::Vec4d& q = head.left_rotation;  // w, x, y, z: optical frame -> base frame
+    const cv::Vec3d u(q[1], q[2], q[3]);
+    const cv::Vec3d t = 2.0 * u.cross(p);
+    return head.left_position + p + q[0] * t + u.cross(t);
+  }
   // The matcher for this frame size: max_disparity beyond the frame's width
   // is searched up to the width less one (a disparity the frame cannot hold
   // only finds false matches at its edge), with a warning naming the numbers;
@@ -196,6 +238,7 @@ class StereoNode final : public Node {
     }
   }
   RetinaStereoConfig config_;
+  double disparity_sigma_ = 0.3;
   std::string name_;
   int fitted_width_ = -1;
   StereoCalibration calibration_;

@@ -355,3 +355,60 @@ TEST(HeadRectification, TheRotationsAreOpenCVsStereoRectifys) {
 
 }  // namespace
 }  // namespace saccade::retina
+
+namespace saccade::retina {
+namespace {
+
+// The stereo node on a verging head's rectified retinas: the fixated point in
+// metres in the left camera's frame and in the head's, and a gaze request to
+// verge on it.
+TEST(RectifiedStereoNode, GivesTheFixatedPointInTheHeadsFrameAndAsksTheHeadToVergeOnIt) {
+  const VergingScene s = verge_on(0.9, 0.15);
+  PairRectification pair;
+  ASSERT_EQ(rectify_pair(model_calibration(s.config.size, s.config.focal_px, s.config.geometry), s.config.geometry,
+                         s.joints, pair),
+            "");
+  auto left = std::make_shared<Retina>(
+      rectified_retina(s.left, 0, pair.left, {s.left_view.center.x + 0.5, s.left_view.center.y + 0.5}));
+  auto right = std::make_shared<Retina>(
+      rectified_retina(s.right, 1, pair.right, {s.right_view.center.x + 0.5, s.right_view.center.y + 0.5}));
+  std::string error;
+  auto h = testing::NodeHarness::create(R"(<node plugin="stereo"/>)", &error);
+  ASSERT_NE(h, nullptr) << error;
+  // The head's pose as the kinematics node gives it.
+  const Eigen::Isometry3d camera = kinematics::optical_frame(kinematics::left_camera(s.config.geometry, s.joints));
+  const Eigen::Quaterniond q(camera.linear());
+  auto pose = std::make_shared<HeadPose>();
+  pose->left_position = {camera.translation().x(), camera.translation().y(), camera.translation().z()};
+  pose->left_rotation = {q.w(), q.x(), q.y(), q.z()};
+  h->set("left", left);
+  h->set("right", right);
+  h->set("head", pose);
+  ASSERT_TRUE(h->process().ok());
+  const auto f = h->last<StereoFixation>("fixation");
+  ASSERT_NE(f, nullptr);
+  EXPECT_TRUE(f->rectified);
+  ASSERT_GT(f->depth, 0);
+  const Eigen::Vector3d in_camera = camera.inverse() * s.target;
+  EXPECT_LT(cv::norm(f->point - cv::Vec3d(in_camera.x(), in_camera.y(), in_camera.z())), 0.01 * in_camera.z())
+      << f->point;
+  ASSERT_TRUE(f->point_head_valid);
+  EXPECT_LT(cv::norm(f->point_head - cv::Vec3d(s.target.x(), s.target.y(), s.target.z())), 0.01 * in_camera.z())
+      << f->point_head << " against " << s.target.transpose();
+  EXPECT_GT(f->depth_sigma, 0);
+  EXPECT_LT(f->depth_sigma, 0.01 * f->depth);
+  const auto gaze = h->last<GazeRequest>("gaze");
+  ASSERT_NE(gaze, nullptr);
+  EXPECT_EQ(gaze->kind, GazeRequest::Kind::kPoint);
+  EXPECT_EQ(gaze->point, f->point_head);
+  // Without the head's pose: the point in the camera's frame, no gaze.
+  auto alone = testing::NodeHarness::create(R"(<node plugin="stereo"/>)");
+  alone->set("left", left);
+  alone->set("right", right);
+  ASSERT_TRUE(alone->process().ok());
+  EXPECT_FALSE(alone->last<StereoFixation>("fixation")->point_head_valid);
+  EXPECT_EQ(alone->last<GazeRequest>("gaze"), nullptr);
+}
+
+}  // namespace
+}  // namespace saccade::retina
