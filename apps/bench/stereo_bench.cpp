@@ -236,6 +236,7 @@ struct Score {
     bad1 += e > 1;
     bad2 += e > 2;
   }
+  void subtract(const Score& o) { known -= o.known, given -= o.given, bad1 -= o.bad1, bad2 -= o.bad2; }
   double density() const { return known > 0 ? given / known : 0; }
   double bad1_rate() const { return given > 0 ? bad1 / given : 0; }
   double bad2_rate() const { return given > 0 ? bad2 / given : 0; }
@@ -327,6 +328,7 @@ Result ours(const std::string& name, const stereo::RetinaStereoConfig& config, c
     const std::size_t n = out.size();
     const LevelGeometry& fovea = left->geometry.back();
     if (foveas_out != nullptr) foveas_out->push_back(fovea.region);
+    const Score fovea_before = r.fovea;
     for (int y = 0; y < fovea.region.height; ++y)
       for (int x = 0; x < fovea.region.width; ++x)
         r.fovea.add(p.truth.at<float>(fovea.region.y + y, fovea.region.x + x), out[n - 1].disparity.at<float>(y, x),
@@ -352,10 +354,16 @@ Result ours(const std::string& name, const stereo::RetinaStereoConfig& config, c
         if (p.truth.at<float>(y, x) >= 0) around.push_back(p.truth.at<float>(y, x));
     const double fixation = matcher.fixation().disparity;
     if (!around.empty() && fixation >= 0 && std::abs(fixation - median(around)) <= 2) ++r.fixations_right;
-    if (verbose)
-      std::fprintf(stderr, "  %-32s (%4.0f, %4.0f): fixation %6.1f truth %6.1f; fovea so far %.3f / %.3f\n",
+    if (verbose) {
+      std::fprintf(stderr, "  %-32s (%4.0f, %4.0f): fixation %6.1f truth %6.1f; fovea so far %.3f / %.3f; per level",
                    name.c_str(), f.x, f.y, fixation, around.empty() ? -1.0 : median(around), r.fovea.density(),
                    r.fovea.bad2_rate());
+      for (double d : matcher.fixation().per_level) std::fprintf(stderr, " %.1f", d);
+      Score mine = r.fovea;
+      mine.subtract(fovea_before);
+      std::fprintf(stderr, "; this fovea %.3f / %.3f", mine.density(), mine.bad2_rate());
+      std::fprintf(stderr, "\n");
+    }
   }
   r.ms = median(ms);
   char note[96];
