@@ -1,8 +1,11 @@
+#include <cmath>
+
 #include <opencv2/imgproc.hpp>
 
 #include "head_rectification.hpp"
 #include "rectified.hpp"
 #include "retina.hpp"
+#include "saccade/log.hpp"
 #include "saccade/plugin.hpp"
 
 namespace {
@@ -123,6 +126,7 @@ class RetinaNode final : public Node {
         q = {p[0], p[1], p[2], p[3], p[4]};
       else
         short_joints_->fetch_add(1, std::memory_order_relaxed);
+      if (std::string e = check_joints(q); !e.empty()) return Status::error(e);
     }
     const bool same = map_ && frame == rectified_size_ && camera_id == rectified_camera_ && q.neck == joints_.neck &&
                       q.vergence_left == joints_.vergence_left && q.tilt_left == joints_.tilt_left &&
@@ -147,7 +151,31 @@ class RetinaNode final : public Node {
     return {};
   }
 
+  // A joint that is not a number cannot be rectified for; one beyond the
+  // head's usual limits is warned about once (the head node has the real ones).
+  std::string check_joints(const kinematics::HeadJoints& q) {
+    const std::pair<const char*, double> joints[] = {{"neck", q.neck},
+                                                     {"vergence_left", q.vergence_left},
+                                                     {"tilt_left", q.tilt_left},
+                                                     {"vergence_right", q.vergence_right},
+                                                     {"tilt_right", q.tilt_right}};
+    const kinematics::HeadLimits limits;
+    const double bound[] = {limits.neck_max, limits.vergence_max, limits.tilt_max, limits.vergence_max,
+                            limits.tilt_max};
+    for (std::size_t i = 0; i < 5; ++i) {
+      const auto& [name, value] = joints[i];
+      if (!std::isfinite(value)) return std::string("rectify: joint ") + name + " is " + std::to_string(value);
+      if (std::abs(value) > bound[i] && !warned_limits_) {
+        warned_limits_ = true;
+        log().warn("retina: rectifying for joint {} at {} rad, beyond the head's usual +-{} rad", name, value,
+                   bound[i]);
+      }
+    }
+    return {};
+  }
+
   RetinaNodeConfig config_;
+  bool warned_limits_ = false;
   kinematics::HeadCalibration calibration_;
   std::optional<RectifiedMap> map_;
   kinematics::HeadJoints joints_;

@@ -783,6 +783,10 @@ std::string read_calibration(const std::string& path, StereoCalibration& out) {
     if (!m.empty()) m.convertTo(m, CV_64F);
     return m;
   };
+  // The images it was made for, when the file says (saccade calibrate's does).
+  if (!fs["image_width"].empty() && !fs["image_height"].empty())
+    out.image_size = {static_cast<int>(fs["image_width"]), static_cast<int>(fs["image_height"])};
+  out.path = path;
   if (cv::Mat q = matrix("Q"); q.rows == 4 && q.cols == 4 && q.at<double>(3, 2) != 0) {
     // Q maps (x, y, d, 1) to (X, Y, Z, W): Z/W = Q(2,3) / (Q(3,2) d + Q(3,3)).
     out.focal_px = q.at<double>(2, 3);

@@ -91,6 +91,8 @@ struct LevelDisparity {
 struct StereoCalibration {
   double focal_px = 0;   // focal length of the rectified images, pixels
   double baseline_m = 0; // distance between the optical centres, metres
+  cv::Size image_size;   // the images the calibration was made for (empty: unknown)
+  std::string path;      // the file it was read from (empty: parameters)
   bool valid() const { return focal_px > 0 && baseline_m > 0; }
   double depth(double disparity) const { return disparity > 0 ? focal_px * baseline_m / disparity : -1.0; }
 };

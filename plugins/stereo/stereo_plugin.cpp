@@ -140,6 +140,11 @@ class StereoNode final : public Node {
     auto l = ctx.get(kLeft);
     auto r = ctx.get(kRight);
     fit_to_frame(*l);
+    // A calibration for other images gives wrong depths: refuse it, once, by name.
+    if (!calibration_.image_size.empty() && !l->rectification.enabled && l->source_size != calibration_.image_size)
+      return Status::error(calibration_.path + " was made for " + std::to_string(calibration_.image_size.width) + "x" +
+                           std::to_string(calibration_.image_size.height) + " images; the left retina's frame is " +
+                           std::to_string(l->source_size.width) + "x" + std::to_string(l->source_size.height));
     if (std::string e = stereo_->run(*l, *r, levels_); !e.empty()) return Status::error(e);
     const DepthModel model = depth_model(*l, calibration_);
     auto maps = ctx.make(kMaps);

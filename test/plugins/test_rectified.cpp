@@ -412,3 +412,42 @@ TEST(RectifiedStereoNode, GivesTheFixatedPointInTheHeadsFrameAndAsksTheHeadToVer
 
 }  // namespace
 }  // namespace saccade::retina
+
+namespace saccade::retina {
+namespace {
+
+TEST(RectifiedBadInput, AJointThatIsNotANumberAndAStereoCalibrationForOtherImagesAreErrors) {
+  auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
+  auto joints = std::make_shared<JointState>();
+  joints->position = {0, std::nan(""), 0, 0, 0};
+  h->set("joints", joints);
+  h->set("image", frame_of(0));
+  Status s = h->process();
+  ASSERT_TRUE(s.is_error());
+  EXPECT_NE(s.message().find("vergence_left"), std::string::npos) << s.message();
+
+  // saccade calibrate's file for 640x480 images; the stereo on 320x240 frames.
+  const std::string path = (std::filesystem::temp_directory_path() / "saccade_stereo_640.yml").string();
+  ASSERT_EQ(kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, capture::SimHeadConfig{}.geometry)),
+            "");
+  std::string error;
+  auto stereo = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="calibration" value=")" + path +
+                                                 R"("/></node>)",
+                                             &error);
+  ASSERT_NE(stereo, nullptr) << error;
+  RetinaSampler sampler(RetinaConfig{});
+  auto left = std::make_shared<Retina>(), right = std::make_shared<Retina>();
+  sampler.sample(frame_of(0)->mat, {160, 120}, *left);
+  sampler.sample(frame_of(1)->mat, {160, 120}, *right);
+  stereo->set("left", left);
+  stereo->set("right", right);
+  s = stereo->process();
+  ASSERT_TRUE(s.is_error());
+  EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("640x480"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("320x240"), std::string::npos) << s.message();
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace saccade::retina
