@@ -144,6 +144,7 @@ struct Executor::Impl {
     NodeSink sink;
     std::vector<InputRt> inputs;
     std::vector<std::vector<Target>> outputs;
+    std::vector<std::vector<Executor::Tap>> taps;  // per output
     std::vector<SyncGroup> groups;
     std::unique_ptr<NodeStats> stats;
     bool source = false;
@@ -209,6 +210,7 @@ struct Executor::Impl {
       n.stats->plugin = rn.decl.plugin;
       n.inputs.resize(rn.contract.inputs().size());
       n.outputs.resize(rn.contract.outputs().size());
+      n.taps.resize(n.outputs.size());
       for (std::size_t k = 0; k < n.inputs.size(); ++k) {
         n.inputs[k].kind = rn.contract.inputs()[k].kind;
         n.inputs[k].queue.configure({});
@@ -437,6 +439,7 @@ struct Executor::Impl {
   void emit(int from, int output, MessagePtr message) {
     NodeRt& n = nodes[static_cast<std::size_t>(from)];
     bump(n.stats->emitted);
+    for (const Executor::Tap& tap : n.taps[static_cast<std::size_t>(output)]) tap(message);
     const auto& targets = n.outputs[static_cast<std::size_t>(output)];
     if (targets.empty()) return;
     int inline_run[8];
@@ -776,5 +779,37 @@ Node* Executor::node(const std::string& name) const {
     if (n.slot.name == name) return n.node.get();
   return nullptr;
 }
+
+std::string Executor::add_tap(const std::string& node, const std::string& port, Tap tap) {
+  for (auto& n : impl_->nodes) {
+    if (n.slot.name != node) continue;
+    const int k = n.resolved->contract.output_index(port);
+    if (k < 0) return "node '" + node + "' (" + n.resolved->decl.plugin + ") has no output '" + port + "'";
+    n.taps[static_cast<std::size_t>(k)].push_back(std::move(tap));
+    return {};
+  }
+  return "no node '" + node + "'";
+}
+
+std::string Executor::inject(const std::string& node, const std::string& input, MessagePtr message) {
+  for (auto& n : impl_->nodes) {
+    if (n.slot.name != node) continue;
+    const int k = n.resolved->contract.input_index(input);
+    if (k < 0) return "node '" + node + "' (" + n.resolved->decl.plugin + ") has no input '" + input + "'";
+    const auto& port = n.resolved->contract.inputs()[static_cast<std::size_t>(k)];
+    if (port.kind != InputKind::kSide)
+      return "input '" + node + "." + input + "' is not a side input: only its edge feeds it";
+    if (message && port.type != "any" && message->type_name() != port.type)
+      return "input '" + node + "." + input + "' takes " + port.type + ", not " + std::string(message->type_name());
+    std::lock_guard lock(impl_->mu);
+    InputRt& in = n.inputs[static_cast<std::size_t>(k)];
+    bump(in.stats->received);
+    in.side_latest = std::move(message);
+    return {};
+  }
+  return "no node '" + node + "'";
+}
+
+const ResolvedGraph& Executor::graph() const { return impl_->graph; }
 
 }  // namespace saccade

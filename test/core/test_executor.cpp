@@ -386,3 +386,47 @@ TEST_F(Executor, StatsCountProcessingAndLatency) {
 
 }  // namespace
 }  // namespace saccade
+
+namespace saccade {
+namespace {
+
+TEST_F(Executor, ATapSeesEveryMessageOfAnOutputConnectedOrNot) {
+  auto g = open_graph("<graph>" + counter("src", 50) + slow_sink("sink", 0) +
+                          "<edge from=\"src.image\" to=\"sink.in\" queue=\"block:4\"/></graph>",
+                      threads(2));
+  std::vector<int64_t> seen;  // taps run on the emitting thread: one source, one thread
+  ASSERT_EQ(g->executor->add_tap("src", "image", [&](const MessagePtr& m) { seen.push_back(m->frame_id); }), "");
+  EXPECT_NE(g->executor->add_tap("src", "nothing", [](const MessagePtr&) {}).find("no output 'nothing'"),
+            std::string::npos);
+  EXPECT_NE(g->executor->add_tap("nobody", "image", [](const MessagePtr&) {}).find("no node 'nobody'"),
+            std::string::npos);
+  ASSERT_TRUE(g->run().ok());
+  ASSERT_EQ(seen.size(), 50u);
+  for (std::size_t i = 0; i < seen.size(); ++i) EXPECT_EQ(seen[i], static_cast<int64_t>(i));
+  EXPECT_EQ(recorded<Image>("sink").size(), 50u) << "the consumers still get everything";
+}
+
+TEST_F(Executor, AnInjectedValueReachesASideInputAndOnlyASideInput) {
+  // The retina's fovea input is a side input nobody feeds here.
+  auto g = open_graph(
+      "<graph>" + counter("src", 3, "<param name=\"size\" value=\"320x240\"/>") +
+          "<node name=\"retina\" plugin=\"retina\"/>" + slow_sink("sink", 0) +
+          "<edge from=\"src.image\" to=\"retina.image\" queue=\"block:4\"/>"
+          "<edge from=\"retina.retina\" to=\"sink.in\" queue=\"block:4\"/></graph>",
+      ExecutorOptions{});
+  auto fovea = std::make_shared<Region>();
+  fovea->center = {20, 15};
+  ASSERT_EQ(g->executor->inject("retina", "fovea", fovea), "");
+  EXPECT_NE(g->executor->inject("retina", "image", std::make_shared<Image>()).find("not a side input"),
+            std::string::npos);
+  EXPECT_NE(g->executor->inject("retina", "fovea", std::make_shared<Image>()).find("takes Region"), std::string::npos);
+  EXPECT_NE(g->executor->inject("retina", "nothing", fovea).find("no input 'nothing'"), std::string::npos);
+  ASSERT_TRUE(g->run().ok());
+  const auto retinas = recorded<Retina>("sink");
+  ASSERT_EQ(retinas.size(), 3u);
+  const cv::Rect inner = retinas.back()->geometry.back().region;
+  EXPECT_EQ(inner.tl(), cv::Point(4, 3)) << "the fovea centred on the injected point";
+}
+
+}  // namespace
+}  // namespace saccade

@@ -49,6 +49,20 @@ class Executor {
   // The node instance, for tests and embedding.
   Node* node(const std::string& name) const;
 
+  // Calls `tap` with every message node `node` emits on output `port`,
+  // connected or not, on the emitting thread before its consumers get it (a
+  // recorder, a live view): keep it short, hand the message off. Before
+  // run(); "" or what is wrong (no such node or output).
+  using Tap = std::function<void(const MessagePtr&)>;
+  std::string add_tap(const std::string& node, const std::string& port, Tap tap);
+  // Gives a node's side input `input` a value as an edge would (the newest
+  // wins; the node sees it at its next process()): a target from a viewer.
+  // Thread-safe, while running. "" or what is wrong (no such node, or not a
+  // side input: a trigger input is fed by its edge alone).
+  std::string inject(const std::string& node, const std::string& input, MessagePtr message);
+  // The graph this executor runs.
+  const ResolvedGraph& graph() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
