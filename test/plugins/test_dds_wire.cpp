@@ -11,6 +11,7 @@
 #include "saccadePubSubTypes.h"
 #include "saccade/schema.hpp"
 #include "support.hpp"
+#include "channel.hpp"
 #include "wire.hpp"
 
 namespace {
@@ -930,3 +931,101 @@ TEST(DdsRos2, OnlyTypesRos2HasCanBeRos2Topics) {
 }
 
 }  // namespace
+
+namespace saccade {
+namespace {
+
+// A message as a log or a live view carries it (channel.hpp): every described
+// field of every type survives its channel's bytes.
+template <class M>
+void expect_channel_round_trip() {
+  M in;
+  in.timestamp_ns = 123456789;
+  in.origin_ns = 42;
+  in.frame_id = 7;
+  M::fields(in, FillEveryField{});
+  if constexpr (std::is_same_v<M, CanFrames>) {
+    for (auto& f : in.frames) {
+      f.length = 8, f.flags = 0;
+      std::fill(f.data.begin() + 8, f.data.end(), 0);
+    }
+  }
+  const dds::ChannelEncoding* e = dds::channel_encoding(M::kTypeName, false);
+  ASSERT_NE(e, nullptr) << M::kTypeName;
+  EXPECT_EQ(e->schema_encoding, "omgidl");
+  EXPECT_EQ(e->schema_name, "saccade_idl::" + std::string(M::kTypeName));
+  EXPECT_NE(e->schema.find("struct " + std::string(M::kTypeName) + " {"), std::string::npos) << M::kTypeName;
+  auto encoder = dds::make_encoder(*e);
+  auto decoder = dds::make_decoder(*e);
+  ASSERT_TRUE(encoder && decoder);
+  std::vector<uint8_t> bytes;
+  ASSERT_EQ(encoder->encode(in, bytes), "");
+  std::string why;
+  MessagePtr out = decoder->decode(bytes.data(), bytes.size(), why);
+  ASSERT_NE(out, nullptr) << why;
+  std::string a, b;
+  append_json(a, in);
+  append_json(b, *out);
+  EXPECT_EQ(a, b) << M::kTypeName;
+  // Truncated bytes are an error, not a crash.
+  EXPECT_EQ(decoder->decode(bytes.data(), bytes.size() / 2, why), nullptr);
+  EXPECT_FALSE(why.empty());
+}
+
+TEST(Channel, EveryDescribedFieldOfEveryTypeSurvivesItsChannel) {
+  expect_channel_round_trip<Image>();
+  expect_channel_round_trip<Retina>();
+  expect_channel_round_trip<FeatureMaps>();
+  expect_channel_round_trip<Motion>();
+  expect_channel_round_trip<Region>();
+  expect_channel_round_trip<StereoFixation>();
+  expect_channel_round_trip<GazeRequest>();
+  expect_channel_round_trip<JointState>();
+  expect_channel_round_trip<JointTargets>();
+  expect_channel_round_trip<HeadPose>();
+  expect_channel_round_trip<FoveaState>();
+  expect_channel_round_trip<Classification>();
+  expect_channel_round_trip<CanFrames>();
+  EXPECT_EQ(dds::channel_types().size(), described_message_types().size());
+  EXPECT_EQ(dds::channel_encoding("NoSuchType"), nullptr);
+}
+
+TEST(Channel, ImagesAndJointStatesTravelAsRos2Messages) {
+  const dds::ChannelEncoding* e = dds::channel_encoding("Image");
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->schema_name, "sensor_msgs/msg/Image");
+  EXPECT_EQ(e->schema_encoding, "ros2msg");
+  EXPECT_EQ(e->schema.rfind("std_msgs/Header header\n", 0), 0u);
+  EXPECT_NE(e->schema.find("MSG: builtin_interfaces/Time"), std::string::npos);
+  Image in;
+  in.mat = test::random_image({64, 48}, 3, CV_8UC3);
+  in.timestamp_ns = 1'500'000'001;
+  std::vector<uint8_t> bytes;
+  ASSERT_EQ(dds::make_encoder(*e)->encode(in, bytes), "");
+  // The CDR a ROS 2 node writes: encapsulation, then the header's stamp.
+  ASSERT_GT(bytes.size(), 12u);
+  EXPECT_EQ(bytes[1], 1) << "CDR little endian";
+  int32_t sec = 0;
+  std::memcpy(&sec, bytes.data() + 4, 4);
+  EXPECT_EQ(sec, 1);
+  std::string why;
+  auto out = std::dynamic_pointer_cast<const Image>(dds::make_decoder(*e)->decode(bytes.data(), bytes.size(), why));
+  ASSERT_NE(out, nullptr) << why;
+  EXPECT_EQ(cv::norm(out->mat, in.mat, cv::NORM_INF), 0.0);
+  EXPECT_EQ(out->timestamp_ns, in.timestamp_ns);
+  std::string mismatch;
+  EXPECT_NE(dds::make_encoder(*e)->encode(Region{}, bytes), "") << "a Region on an image channel";
+
+  const dds::ChannelEncoding* j = dds::channel_encoding("JointState");
+  EXPECT_EQ(j->schema_name, "sensor_msgs/msg/JointState");
+  JointState state;
+  state.position = {0.1, -0.2, 0.3, 0.0, 0.5};
+  state.velocity = {1, 2, 3, 4, 5};
+  ASSERT_EQ(dds::make_encoder(*j)->encode(state, bytes), "");
+  auto back = std::dynamic_pointer_cast<const JointState>(dds::make_decoder(*j)->decode(bytes.data(), bytes.size(), why));
+  ASSERT_NE(back, nullptr) << why;
+  EXPECT_EQ(back->position, state.position);
+}
+
+}  // namespace
+}  // namespace saccade

@@ -1,0 +1,242 @@
+#include "channel.hpp"
+
+#include <fastcdr/Cdr.h>
+#include <fastcdr/FastBuffer.h>
+#include <fastcdr/exceptions/Exception.h>
+
+#include "ros2.hpp"
+#include "wire.hpp"
+
+namespace saccade::dds {
+
+extern const char* const kSaccadeIdlText;
+
+namespace {
+
+namespace w = saccade_idl;
+namespace ros = sensor_msgs::msg::dds_;
+
+// ROS 2's message definitions (ros2msg: the type, then each type it uses
+// after a line of '=' and "MSG: name"), as rosbag2 writes them in MCAP.
+constexpr const char* kRos2Header = R"(================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+)";
+
+std::string ros2_image_schema() {
+  return std::string(R"(std_msgs/Header header
+uint32 height
+uint32 width
+string encoding
+uint8 is_bigendian
+uint32 step
+uint8[] data
+)") + kRos2Header;
+}
+
+std::string ros2_joint_state_schema() {
+  return std::string(R"(std_msgs/Header header
+string[] name
+float64[] position
+float64[] velocity
+float64[] effort
+)") + kRos2Header;
+}
+
+template <class M>
+ChannelEncoding idl_encoding() {
+  return {M::kTypeName, "saccade_idl::" + std::string(M::kTypeName), "omgidl", kSaccadeIdlText, "cdr"};
+}
+
+const std::vector<ChannelEncoding>& idl_encodings() {
+  static const std::vector<ChannelEncoding> all = {
+      idl_encoding<Image>(),        idl_encoding<Retina>(),       idl_encoding<FeatureMaps>(),
+      idl_encoding<Motion>(),       idl_encoding<Region>(),       idl_encoding<StereoFixation>(),
+      idl_encoding<GazeRequest>(),  idl_encoding<JointState>(),   idl_encoding<JointTargets>(),
+      idl_encoding<HeadPose>(),     idl_encoding<FoveaState>(),   idl_encoding<Classification>(),
+      idl_encoding<CanFrames>(),
+  };
+  return all;
+}
+
+const std::vector<ChannelEncoding>& ros2_encodings() {
+  static const std::vector<ChannelEncoding> all = {
+      {Image::kTypeName, "sensor_msgs/msg/Image", "ros2msg", ros2_image_schema(), "cdr"},
+      {JointState::kTypeName, "sensor_msgs/msg/JointState", "ros2msg", ros2_joint_state_schema(), "cdr"},
+  };
+  return all;
+}
+
+// CDR with its encapsulation (little endian), into `out`.
+template <class W>
+void serialise(W& wire, std::vector<uint8_t>& out) {
+  out.resize(W::getCdrSerializedSize(wire) + 4);
+  eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(out.data()), out.size());
+  eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+  cdr.serialize_encapsulation();
+  wire.serialize(cdr);
+  out.resize(cdr.getSerializedDataLength());
+}
+
+template <class W>
+bool deserialise(const uint8_t* data, std::size_t size, W& wire, std::string& why) {
+  try {
+    eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(const_cast<uint8_t*>(data)), size);
+    eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+    cdr.read_encapsulation();
+    wire.deserialize(cdr);
+    return true;
+  } catch (const eprosima::fastcdr::exception::Exception& e) {
+    why = std::string("does not decode as ") + typeid(W).name() + ": " + e.what();
+    return false;
+  }
+}
+
+std::string wrong_type(const Message& m, std::string_view expected) {
+  return "a " + std::string(m.type_name()) + " on a channel of " + std::string(expected);
+}
+
+// saccade's own IDL form.
+template <class M, class W>
+class IdlEncoder final : public MessageEncoder {
+ public:
+  std::string encode(const Message& message, std::vector<uint8_t>& out) override {
+    if (message.type_name() != M::kTypeName) return wrong_type(message, M::kTypeName);
+    to_wire(static_cast<const M&>(message), wire_);
+    serialise(wire_, out);
+    return {};
+  }
+
+ private:
+  W wire_;
+};
+
+template <class M, class W>
+class IdlDecoder final : public MessageDecoder {
+ public:
+  MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) override {
+    if (!deserialise(data, size, wire_, why)) return nullptr;
+    auto out = std::make_shared<M>();
+    from_wire(wire_, *out);
+    return out;
+  }
+
+ private:
+  W wire_;
+};
+
+// ROS 2's sensor_msgs forms.
+template <class M, class R>
+class Ros2Encoder final : public MessageEncoder {
+ public:
+  std::string encode(const Message& message, std::vector<uint8_t>& out) override {
+    if (message.type_name() != M::kTypeName) return wrong_type(message, M::kTypeName);
+    to_ros2(static_cast<const M&>(message), options_, wire_);
+    serialise(wire_, out);
+    return {};
+  }
+
+ private:
+  WireOptions options_;
+  R wire_;
+};
+
+template <class M, class R>
+class Ros2Decoder final : public MessageDecoder {
+ public:
+  MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) override {
+    if (!deserialise(data, size, wire_, why)) return nullptr;
+    auto out = std::make_shared<M>();
+    bool ok = false;
+    if constexpr (std::is_same_v<M, Image>)
+      ok = from_ros2(wire_, *out, &why);
+    else
+      ok = from_ros2(wire_, options_, *out, &why);
+    return ok ? out : nullptr;
+  }
+
+ private:
+  WireOptions options_;
+  R wire_;
+};
+
+// Calls `f` with a null M* and W* for saccade's type named `type`.
+template <class F>
+bool with_idl_type(std::string_view type, F&& f) {
+  auto one = [&](auto* m, auto* wire) {
+    using M = std::remove_pointer_t<decltype(m)>;
+    if (type != M::kTypeName) return false;
+    f(m, wire);
+    return true;
+  };
+  return one(static_cast<Image*>(nullptr), static_cast<w::Image*>(nullptr)) ||
+         one(static_cast<Retina*>(nullptr), static_cast<w::Retina*>(nullptr)) ||
+         one(static_cast<FeatureMaps*>(nullptr), static_cast<w::FeatureMaps*>(nullptr)) ||
+         one(static_cast<Motion*>(nullptr), static_cast<w::Motion*>(nullptr)) ||
+         one(static_cast<Region*>(nullptr), static_cast<w::Region*>(nullptr)) ||
+         one(static_cast<StereoFixation*>(nullptr), static_cast<w::StereoFixation*>(nullptr)) ||
+         one(static_cast<GazeRequest*>(nullptr), static_cast<w::GazeRequest*>(nullptr)) ||
+         one(static_cast<JointState*>(nullptr), static_cast<w::JointState*>(nullptr)) ||
+         one(static_cast<JointTargets*>(nullptr), static_cast<w::JointTargets*>(nullptr)) ||
+         one(static_cast<HeadPose*>(nullptr), static_cast<w::HeadPose*>(nullptr)) ||
+         one(static_cast<FoveaState*>(nullptr), static_cast<w::FoveaState*>(nullptr)) ||
+         one(static_cast<Classification*>(nullptr), static_cast<w::Classification*>(nullptr)) ||
+         one(static_cast<CanFrames*>(nullptr), static_cast<w::CanFrames*>(nullptr));
+}
+
+}  // namespace
+
+MessageEncoder::~MessageEncoder() = default;
+MessageDecoder::~MessageDecoder() = default;
+
+const ChannelEncoding* channel_encoding(std::string_view type, bool ros2) {
+  if (ros2)
+    for (const auto& e : ros2_encodings())
+      if (e.type == type) return &e;
+  for (const auto& e : idl_encodings())
+    if (e.type == type) return &e;
+  return nullptr;
+}
+
+std::vector<std::string_view> channel_types() {
+  std::vector<std::string_view> out;
+  for (const auto& e : idl_encodings()) out.push_back(e.type);
+  return out;
+}
+
+std::unique_ptr<MessageEncoder> make_encoder(const ChannelEncoding& encoding) {
+  if (encoding.schema_encoding == "ros2msg") {
+    if (encoding.type == Image::kTypeName) return std::make_unique<Ros2Encoder<Image, ros::Image_>>();
+    if (encoding.type == JointState::kTypeName) return std::make_unique<Ros2Encoder<JointState, ros::JointState_>>();
+    return nullptr;
+  }
+  std::unique_ptr<MessageEncoder> out;
+  with_idl_type(encoding.type, [&](auto* m, auto* wire) {
+    using M = std::remove_pointer_t<decltype(m)>;
+    using W = std::remove_pointer_t<decltype(wire)>;
+    out = std::make_unique<IdlEncoder<M, W>>();
+  });
+  return out;
+}
+
+std::unique_ptr<MessageDecoder> make_decoder(const ChannelEncoding& encoding) {
+  if (encoding.schema_encoding == "ros2msg") {
+    if (encoding.type == Image::kTypeName) return std::make_unique<Ros2Decoder<Image, ros::Image_>>();
+    if (encoding.type == JointState::kTypeName) return std::make_unique<Ros2Decoder<JointState, ros::JointState_>>();
+    return nullptr;
+  }
+  std::unique_ptr<MessageDecoder> out;
+  with_idl_type(encoding.type, [&](auto* m, auto* wire) {
+    using M = std::remove_pointer_t<decltype(m)>;
+    using W = std::remove_pointer_t<decltype(wire)>;
+    out = std::make_unique<IdlDecoder<M, W>>();
+  });
+  return out;
+}
+
+}  // namespace saccade::dds

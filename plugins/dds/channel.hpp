@@ -1,0 +1,56 @@
+#pragma once
+// One message type as a log channel or a live view carries it (MCAP files,
+// the Foxglove WebSocket protocol): its schema (name, encoding, text) and its
+// messages as CDR bytes. Images and joint states travel as ROS 2's
+// sensor_msgs (so Foxglove, rosbag2 and PlotJuggler show them as they are);
+// every other type as saccade's own IDL type (idl/saccade.idl, the schema
+// text itself), the same bytes a DDS edge sends.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "saccade/message.hpp"
+
+namespace saccade::dds {
+
+struct ChannelEncoding {
+  std::string_view type;          // saccade's type name (Message::type_name())
+  std::string schema_name;        // "sensor_msgs/msg/Image", "saccade_idl::Retina"
+  std::string schema_encoding;    // "ros2msg" or "omgidl"
+  std::string schema;             // the schema's text
+  std::string message_encoding;   // "cdr"
+};
+
+// The encoding of `type`: ROS 2's for Image and JointState when `ros2` (a
+// joint state's joints are then named joint_0, joint_1, ...), else
+// saccade's IDL type. nullptr for a type with no wire form.
+const ChannelEncoding* channel_encoding(std::string_view type, bool ros2 = true);
+
+// The types that have an encoding.
+std::vector<std::string_view> channel_types();
+
+// Writes one type's messages as CDR (with its 4-byte encapsulation header,
+// as MCAP's and Foxglove's "cdr" encoding wants); keeps its buffers, so a
+// channel's steady stream allocates nothing.
+class MessageEncoder {
+ public:
+  virtual ~MessageEncoder();
+  // The message's bytes into `out` (resized). "" or what is wrong (another type).
+  virtual std::string encode(const Message& message, std::vector<uint8_t>& out) = 0;
+};
+std::unique_ptr<MessageEncoder> make_encoder(const ChannelEncoding& encoding);
+
+// Reads one type's messages back.
+class MessageDecoder {
+ public:
+  virtual ~MessageDecoder();
+  // A new message from `size` bytes; nullptr with `why` when they do not
+  // decode (truncated, another type).
+  virtual MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) = 0;
+};
+std::unique_ptr<MessageDecoder> make_decoder(const ChannelEncoding& encoding);
+
+}  // namespace saccade::dds
