@@ -271,9 +271,15 @@ struct Executor::Impl {
       if (!join.inputs.empty()) n.groups.push_back(std::move(join));
     }
     // Topological order over undelayed edges (validation rejected other cycles).
+    // Each node's consumers listed once: linear in the edges, for graphs of
+    // tens of thousands of nodes too.
     std::vector<int> indegree(nodes.size(), 0);
-    for (const auto& e : graph.edges)
-      if (e.delay == 0) ++indegree[static_cast<std::size_t>(e.to_node)];
+    std::vector<std::vector<int>> consumers(nodes.size());
+    for (const auto& e : graph.edges) {
+      if (e.delay != 0) continue;
+      ++indegree[static_cast<std::size_t>(e.to_node)];
+      consumers[static_cast<std::size_t>(e.from_node)].push_back(e.to_node);
+    }
     std::deque<int> q;
     for (std::size_t i = 0; i < nodes.size(); ++i)
       if (indegree[i] == 0) q.push_back(static_cast<int>(i));
@@ -281,8 +287,8 @@ struct Executor::Impl {
       int u = q.front();
       q.pop_front();
       topo.push_back(u);
-      for (const auto& e : graph.edges)
-        if (e.delay == 0 && e.from_node == u && --indegree[static_cast<std::size_t>(e.to_node)] == 0) q.push_back(e.to_node);
+      for (int v : consumers[static_cast<std::size_t>(u)])
+        if (--indegree[static_cast<std::size_t>(v)] == 0) q.push_back(v);
     }
     return {};
   }

@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <set>
 
@@ -178,11 +179,64 @@ bool split_endpoint(const char* text, std::string& node, std::string& port) {
   return true;
 }
 
+// tinyxml2's error in words: "Error=XML_ERROR_PARSING_ATTRIBUTE ErrorID=7 (0x7)
+// Line number=3: XMLElement name=node" becomes "parsing attribute (XMLElement
+// name=node)"; the line number is the diagnostic's own.
+std::string describe_xml_error(const XMLDocument& doc) {
+  std::string name = doc.ErrorName();
+  if (name.rfind("XML_ERROR_", 0) == 0) name = name.substr(10);
+  for (char& c : name) c = c == '_' ? ' ' : static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string full = doc.ErrorStr();
+  const auto detail = full.find(": ", full.find("Line number="));
+  if (detail != std::string::npos) name += " (" + full.substr(detail + 2) + ")";
+  return name;
+}
+
+// Limits on a graph file, checked before tinyxml2 parses it (it finds a
+// repeated attribute by comparing each with every other: 100,000 attributes
+// on one element took 35 s). "" or what is over, with its line.
+std::string over_limits(std::string_view xml, int& line) {
+  line = 1;
+  if (xml.size() > kMaxGraphFileBytes)
+    return "the file is " + std::to_string(xml.size()) + " bytes; a graph file may have at most " +
+           std::to_string(kMaxGraphFileBytes);
+  bool in_tag = false, in_comment = false;
+  char quote = 0;
+  int attributes = 0, tag_line = 1;
+  for (std::size_t i = 0; i < xml.size(); ++i) {
+    const char c = xml[i];
+    if (c == '\n') ++line;
+    if (in_comment) {
+      if (xml.compare(i, 3, "-->") == 0) in_comment = false;
+      continue;
+    }
+    if (quote != 0) {
+      if (c == quote) quote = 0;
+      continue;
+    }
+    if (!in_tag) {
+      if (xml.compare(i, 4, "<!--") == 0) in_comment = true;
+      else if (c == '<') in_tag = true, attributes = 0, tag_line = line;
+      continue;
+    }
+    if (c == '"' || c == '\'') quote = c;
+    else if (c == '=' && ++attributes > kMaxAttributesPerElement) {
+      line = tag_line;
+      return "an element with more than " + std::to_string(kMaxAttributesPerElement) + " attributes";
+    } else if (c == '>') in_tag = false;
+  }
+  return {};
+}
+
 // The <graph> element with its attributes read into `graph`; null when the
 // document has none (the error is reported).
 const XMLElement* parse_root(const XMLDocument& doc, const std::string& file, Diagnostics& diag, GraphDecl& graph) {
+  if (doc.ErrorID() == tinyxml2::XML_ERROR_EMPTY_DOCUMENT) {
+    diag.error(file, 1, "", "", "the file is empty; expected a <graph> root element");
+    return nullptr;
+  }
   if (doc.Error()) {
-    diag.error(file, doc.ErrorLineNum(), "", "", std::string("malformed XML: ") + doc.ErrorStr());
+    diag.error(file, std::max(1, doc.ErrorLineNum()), "", "", "malformed XML: " + describe_xml_error(doc));
     return nullptr;
   }
   const XMLElement* root = doc.RootElement();
@@ -345,18 +399,42 @@ GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics&
 }  // namespace
 
 GraphDecl load_graph_file(const std::string& path, Diagnostics& diag) {
-  XMLDocument doc;
-  if (!std::filesystem::exists(path)) {
+  GraphDecl empty;
+  empty.file = path;
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(status)) {
     diag.error(path, 0, "", "", "no such graph file");
-    GraphDecl g;
-    g.file = path;
-    return g;
+    return empty;
   }
-  doc.LoadFile(path.c_str());
-  return parse_document(doc, path, diag);
+  // A FIFO or a device would block the read, or never end.
+  if (!std::filesystem::is_regular_file(status)) {
+    diag.error(path, 0, "", "", "not a regular file; expected a graph file");
+    return empty;
+  }
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxGraphFileBytes) {
+    diag.error(path, 0, "", "", "the file is " + std::to_string(size) + " bytes; a graph file may have at most " +
+                                    std::to_string(kMaxGraphFileBytes));
+    return empty;
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (!in.good() && !in.eof()) {
+    diag.error(path, 0, "", "", "cannot read the file");
+    return empty;
+  }
+  return load_graph_string(xml, path, diag);
 }
 
 GraphDecl load_graph_string(const std::string& xml, const std::string& file_name, Diagnostics& diag) {
+  int line = 0;
+  if (std::string over = over_limits(xml, line); !over.empty()) {
+    diag.error(file_name, line, "", "", over);
+    GraphDecl g;
+    g.file = file_name;
+    return g;
+  }
   XMLDocument doc;
   doc.Parse(xml.c_str(), xml.size());
   return parse_document(doc, file_name, diag);
@@ -428,6 +506,7 @@ bool resolve_node(const NodeDecl& n, const Registry& registry, const std::string
     std::string lib = n.plugin.substr(0, n.plugin.find('.'));
     for (const auto& e : registry.load_errors())
       if (e.find("saccade_" + lib + ".so") != std::string::npos) msg += "; its library failed to load: " + e;
+    msg += "; " + registry.searched_summary();  // where it was looked for
     diag.error(file, n.line, n.name, "", msg);
   } else {
     rn.contract = info->contract;
@@ -652,41 +731,51 @@ void check_required_inputs(const ResolvedGraph& out, const ProducerLines& produc
 }
 
 // Cycles must pass through a delayed edge; the first one found is reported.
+// Depth first with a stack of its own: a graph of tens of thousands of nodes
+// in a chain would overflow the thread's stack by recursion.
 void check_cycles(const ResolvedGraph& out, Diagnostics& diag) {
   std::vector<std::vector<const ResolvedEdge*>> adj(out.nodes.size());
   for (const auto& e : out.edges)
     if (e.delay == 0) adj[static_cast<std::size_t>(e.from_node)].push_back(&e);
-  std::vector<int> state(out.nodes.size(), 0);  // 0 new, 1 on stack, 2 done
-  std::vector<const ResolvedEdge*> stack;
-  bool cycle_reported = false;
-  std::function<void(int)> dfs = [&](int u) {
-    state[static_cast<std::size_t>(u)] = 1;
-    for (const ResolvedEdge* e : adj[static_cast<std::size_t>(u)]) {
-      if (cycle_reported) return;
-      int v = e->to_node;
+  std::vector<int> state(out.nodes.size(), 0);  // 0 new, 1 on the path, 2 done
+  struct Frame {
+    int node;
+    std::size_t next;  // the next of its edges to follow
+  };
+  std::vector<Frame> path;
+  auto name = [&](int node) -> const std::string& { return out.nodes[static_cast<std::size_t>(node)].decl.name; };
+  for (std::size_t root = 0; root < out.nodes.size(); ++root) {
+    if (state[root] != 0) continue;
+    path.push_back({static_cast<int>(root), 0});
+    state[root] = 1;
+    while (!path.empty()) {
+      Frame& f = path.back();
+      const auto& edges = adj[static_cast<std::size_t>(f.node)];
+      if (f.next == edges.size()) {
+        state[static_cast<std::size_t>(f.node)] = 2;
+        path.pop_back();
+        continue;
+      }
+      const ResolvedEdge* e = edges[f.next++];
+      const int v = e->to_node;
       if (state[static_cast<std::size_t>(v)] == 1) {
-        std::string path = out.nodes[static_cast<std::size_t>(v)].decl.name;
+        std::string cycle = name(v);
         bool on = false;
-        for (const ResolvedEdge* s : stack) {
-          if (s->from_node == v) on = true;
-          if (on) path += " -> " + out.nodes[static_cast<std::size_t>(s->to_node)].decl.name;
+        for (const Frame& step : path) {
+          if (step.node == v) on = true;
+          else if (on) cycle += " -> " + name(step.node);
         }
-        path += " -> " + out.nodes[static_cast<std::size_t>(v)].decl.name;
-        diag.error(out.file, e->line, out.nodes[static_cast<std::size_t>(v)].decl.name, "",
-                   "cycle without a delayed edge: " + path + " (mark the feedback edge delay=\"1\")");
-        cycle_reported = true;
+        cycle += " -> " + name(v);
+        diag.error(out.file, e->line, name(v), "",
+                   "cycle without a delayed edge: " + cycle + " (mark the feedback edge delay=\"1\")");
         return;
       }
       if (state[static_cast<std::size_t>(v)] == 0) {
-        stack.push_back(e);
-        dfs(v);
-        stack.pop_back();
+        state[static_cast<std::size_t>(v)] = 1;
+        path.push_back({v, 0});
       }
     }
-    state[static_cast<std::size_t>(u)] = 2;
-  };
-  for (std::size_t i = 0; i < out.nodes.size() && !cycle_reported; ++i)
-    if (state[i] == 0) dfs(static_cast<int>(i));
+  }
 }
 
 }  // namespace

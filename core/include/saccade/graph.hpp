@@ -106,8 +106,14 @@ struct GraphDecl : GraphAttributes {
   const NodeDecl* find_node(const std::string& name) const;
 };
 
+// What a graph file may hold (docs/reliability.md): more is refused before the
+// XML is parsed, with the line.
+inline constexpr std::size_t kMaxGraphFileBytes = 16u << 20;
+inline constexpr int kMaxAttributesPerElement = 256;
+
 // Reads a graph file. Fills `diag` with every problem of form (malformed XML,
-// unknown elements or attributes, bad endpoints) and returns what it could read.
+// unknown elements or attributes, bad endpoints, limits) and returns what it
+// could read.
 GraphDecl load_graph_file(const std::string& path, Diagnostics& diag);
 GraphDecl load_graph_string(const std::string& xml, const std::string& file_name, Diagnostics& diag);
 
