@@ -3,6 +3,8 @@
 #define BOOST_DLL_USE_STD_FS
 #include <boost/dll/shared_library.hpp>
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
@@ -10,11 +12,13 @@
 #include "saccade/log.hpp"
 #include "saccade/plugin.hpp"
 
+// The build tree's library and plugin folders: a libsaccade loaded from the
+// first uses the second. Anywhere else, its plugins are <its folder>/saccade/plugins.
+#ifndef SACCADE_LIB_BUILD_DIR
+#define SACCADE_LIB_BUILD_DIR ""
+#endif
 #ifndef SACCADE_PLUGIN_BUILD_DIR
 #define SACCADE_PLUGIN_BUILD_DIR ""
-#endif
-#ifndef SACCADE_PLUGIN_INSTALL_DIR
-#define SACCADE_PLUGIN_INSTALL_DIR ""
 #endif
 
 namespace saccade {
@@ -66,27 +70,82 @@ std::vector<std::string> Registry::default_search_path(const std::string& extra)
   std::vector<std::string> out;
   split_path_list(extra, out);
   if (const char* env = std::getenv("SACCADE_PLUGIN_PATH")) split_path_list(env, out);
-  if (*SACCADE_PLUGIN_BUILD_DIR) out.emplace_back(SACCADE_PLUGIN_BUILD_DIR);
-  if (*SACCADE_PLUGIN_INSTALL_DIR) out.emplace_back(SACCADE_PLUGIN_INSTALL_DIR);
+  if (std::string bundled = bundled_plugin_dir(); !bundled.empty()) out.push_back(std::move(bundled));
   return out;
 }
+
+std::string Registry::bundled_plugin_dir() {
+  Dl_info info{};
+  // Any function of this library tells where the library was loaded from.
+  if (dladdr(reinterpret_cast<void*>(&Registry::bundled_plugin_dir), &info) == 0 || info.dli_fname == nullptr)
+    return {};
+  std::error_code ec;
+  const fs::path lib_dir = fs::weakly_canonical(fs::path(info.dli_fname), ec).parent_path();
+  if (ec || lib_dir.empty()) return {};
+  if (*SACCADE_LIB_BUILD_DIR && fs::equivalent(lib_dir, SACCADE_LIB_BUILD_DIR, ec)) return SACCADE_PLUGIN_BUILD_DIR;
+  return (lib_dir / "saccade" / "plugins").string();
+}
+
+std::string Registry::searched_summary() const {
+  if (searched_.empty()) return "no plugin folder was searched";
+  std::string out = "searched ";
+  for (std::size_t i = 0; i < searched_.size(); ++i) out += (i ? ", " : "") + searched_[i];
+  return out;
+}
+
+namespace {
+
+// A file a user may have meant as a plugin: name.so or name.so.N.
+bool looks_like_shared_library(const fs::path& p) {
+  const std::string name = p.filename().string();
+  return p.extension() == ".so" || name.find(".so.") != std::string::npos;
+}
+
+}  // namespace
 
 void Registry::load_folders(const std::vector<std::string>& folders) {
   for (const auto& folder : folders) {
     std::error_code ec;
-    if (!fs::is_directory(folder, ec)) continue;
+    if (!fs::is_directory(folder, ec)) {
+      searched_.push_back(folder + (fs::exists(folder, ec) ? " (not a folder)" : " (no such folder)"));
+      continue;
+    }
+    const std::string canonical = fs::weakly_canonical(folder, ec).string();
+    if (std::find(searched_canonical_.begin(), searched_canonical_.end(), canonical) != searched_canonical_.end())
+      continue;
+    searched_canonical_.push_back(canonical);
     std::vector<fs::path> files;
     for (const auto& entry : fs::directory_iterator(folder, ec)) {
+      std::error_code type_ec;
+      if (entry.is_directory(type_ec) || !looks_like_shared_library(entry.path())) continue;
       auto name = entry.path().filename().string();
-      if (name.rfind("saccade_", 0) == 0 && entry.path().extension() == ".so") files.push_back(entry.path());
+      if (name.rfind("saccade_", 0) == 0 && entry.path().extension() == ".so") {
+        files.push_back(entry.path());
+      } else {
+        warnings_.push_back(entry.path().string() + ": skipped: a plugin library's file name must be saccade_<name>.so");
+        log().warn("{}", warnings_.back());
+      }
     }
     std::sort(files.begin(), files.end());
+    std::size_t loaded = 0, shadowed = 0;
     for (const auto& f : files) {
       // The first folder that has a library of a given name wins.
-      if (libraries_.count(f.filename().string())) continue;
+      if (auto it = libraries_.find(f.filename().string()); it != libraries_.end()) {
+        warnings_.push_back(f.string() + ": skipped: " + f.filename().string() + " was already loaded from " +
+                            it->second->path);
+        log().warn("{}", warnings_.back());
+        ++shadowed;
+        continue;
+      }
       std::string error;
-      if (!load_library(f.string(), &error)) load_errors_.push_back(error);
+      if (load_library(f.string(), &error)) ++loaded;
+      else load_errors_.push_back(error);
     }
+    const std::size_t failed = files.size() - loaded - shadowed;
+    std::string found = std::to_string(loaded) + (loaded == 1 ? " library" : " libraries");
+    if (failed) found += ", " + std::to_string(failed) + " failed";
+    if (shadowed) found += ", " + std::to_string(shadowed) + " skipped";
+    searched_.push_back(folder + " (" + found + ")");
   }
 }
 
@@ -158,7 +217,7 @@ std::vector<std::string> Registry::types() const {
 std::shared_ptr<Node> Registry::create(const std::string& type, std::string* error) const {
   auto it = entries_.find(type);
   if (it == entries_.end()) {
-    if (error) *error = "unknown plugin '" + type + "'";
+    if (error) *error = "unknown plugin '" + type + "' (" + searched_summary() + ")";
     return nullptr;
   }
   std::shared_ptr<Library> lib = it->second.library;

@@ -2,8 +2,11 @@
 #include <gtest/gtest.h>
 
 #include <dlfcn.h>
+#include <stdlib.h>
 
+#include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "saccade/plugin.hpp"
 #include "saccade/testing.hpp"
@@ -180,6 +183,103 @@ TEST(Registry, NodeKeepsItsLibraryLoadedAfterTheRegistryIsGone) {
   EXPECT_EQ(sink.emitted, 1);
   node.reset();
   EXPECT_FALSE(mapped(path)) << "the library should unload with its last node";
+}
+
+// Plugin folders: where they are looked for, what is skipped and why.
+
+namespace fs = std::filesystem;
+
+// A fresh folder under the build tree, removed with the object.
+struct ScratchFolder {
+  explicit ScratchFolder(const std::string& name) : path(std::string(SACCADE_BINARY_DIR) + "/" + name) {
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~ScratchFolder() { fs::remove_all(path); }
+  std::string path;
+};
+
+// The value of an environment variable for one scope.
+struct ScopedEnv {
+  ScopedEnv(const char* name, const char* value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    if (value) setenv(name, value, 1);
+    else unsetenv(name);
+  }
+  ~ScopedEnv() {
+    if (old_) setenv(name_, old_->c_str(), 1);
+    else unsetenv(name_);
+  }
+  const char* name_;
+  std::optional<std::string> old_;
+};
+
+TEST(RegistrySearch, BundledPluginsAreFoundBesideLibsaccadeNotAtAFixedPath) {
+  // Run from the build tree: its plugins/ folder. (Installed, <libdir>/saccade/plugins
+  // beside libsaccade.so: the sdk.out_of_tree_example test runs the installed command.)
+  const std::string bundled = Registry::bundled_plugin_dir();
+  ASSERT_FALSE(bundled.empty());
+  EXPECT_TRUE(fs::equivalent(bundled, std::string(SACCADE_BINARY_DIR) + "/plugins")) << bundled;
+}
+
+TEST(RegistrySearch, PluginPathThenEnvironmentThenTheBundledFolder) {
+  ScopedEnv env("SACCADE_PLUGIN_PATH", "/env/a::/env/b");
+  const std::vector<std::string> expected = {"/cli/x", "/cli/y", "/env/a", "/env/b", Registry::bundled_plugin_dir()};
+  EXPECT_EQ(Registry::default_search_path("/cli/x:/cli/y"), expected);
+  ScopedEnv unset("SACCADE_PLUGIN_PATH", nullptr);
+  EXPECT_EQ(Registry::default_search_path(), std::vector<std::string>{Registry::bundled_plugin_dir()});
+}
+
+TEST(RegistrySearch, ALibraryNotNamedSaccadeIsSkippedWithAWarningSayingWhy) {
+  ScratchFolder dir("registry_search_misnamed");
+  fs::copy_file(test_plugin("saccade_good.so"), dir.path + "/libgood.so");
+  fs::copy_file(test_plugin("saccade_good.so"), dir.path + "/good.so.1");
+  std::ofstream(dir.path + "/README.txt") << "not a library: no warning\n";
+  Registry r;
+  r.load_folders({dir.path});
+  EXPECT_EQ(r.find("good.echo"), nullptr);
+  ASSERT_EQ(r.warnings().size(), 2u);
+  for (const std::string& w : r.warnings())
+    EXPECT_NE(w.find(": skipped: a plugin library's file name must be saccade_<name>.so"), std::string::npos) << w;
+  EXPECT_TRUE(r.warnings()[0].find("libgood.so") != std::string::npos || r.warnings()[1].find("libgood.so") != std::string::npos);
+  EXPECT_TRUE(r.load_errors().empty());
+}
+
+TEST(RegistrySearch, ALibraryShadowedByAnEarlierFolderIsAWarningNamingBoth) {
+  ScratchFolder dir("registry_search_shadow");
+  fs::copy_file(test_plugin("saccade_good.so"), dir.path + "/saccade_good.so");
+  Registry r;
+  r.load_folders({dir.path, SACCADE_TEST_PLUGIN_DIR});
+  ASSERT_NE(r.find("good.echo"), nullptr);
+  EXPECT_EQ(r.find("good.echo")->library, dir.path + "/saccade_good.so");
+  ASSERT_EQ(r.warnings().size(), 1u);
+  EXPECT_NE(r.warnings()[0].find(test_plugin("saccade_good.so") + ": skipped: saccade_good.so was already loaded from " +
+                                 dir.path + "/saccade_good.so"),
+            std::string::npos)
+      << r.warnings()[0];
+}
+
+TEST(RegistrySearch, AFolderNamedTwiceIsReadOnceWithoutWarnings) {
+  Registry r;
+  r.load_folders({SACCADE_TEST_PLUGIN_DIR, std::string(SACCADE_TEST_PLUGIN_DIR) + "/"});
+  EXPECT_NE(r.find("good.echo"), nullptr);
+  EXPECT_TRUE(r.warnings().empty());
+  EXPECT_EQ(r.searched().size(), 1u);
+}
+
+TEST(RegistrySearch, UnknownPluginSaysWhereItLooked) {
+  Registry r;
+  r.load_folders({"/no/such/plugin/folder", SACCADE_TEST_PLUGIN_DIR});
+  const std::string where = "searched /no/such/plugin/folder (no such folder), " + std::string(SACCADE_TEST_PLUGIN_DIR) +
+                            " (2 libraries, 4 failed)";
+  EXPECT_EQ(r.searched_summary(), where);
+  Diagnostics diag;
+  GraphDecl decl = load_graph_string("<graph><node name=\"n\" plugin=\"nothere.x\"/></graph>", "g.xml", diag);
+  resolve_graph(decl, r, diag);
+  EXPECT_NE(diag.format().find("unknown plugin 'nothere.x'; " + where), std::string::npos) << diag.format();
+  std::string error;
+  EXPECT_EQ(r.create("nothere.x", &error), nullptr);
+  EXPECT_NE(error.find(where), std::string::npos) << error;
 }
 
 }  // namespace
