@@ -9,12 +9,17 @@
 #include <fstream>
 #include <iostream>
 
+#include <unistd.h>
+
 #include "calibrate_command.hpp"
+#include "completion.hpp"
+#include "progress.hpp"
 #include "recognition.hpp"
 #include "saccade/executor.hpp"
 #include "saccade/graph.hpp"
 #include "saccade/log.hpp"
 #include "saccade/partition.hpp"
+#include "saccade/plugin.hpp"
 #include "saccade/registry.hpp"
 #include "saccade/schema.hpp"
 
@@ -22,9 +27,15 @@ namespace {
 
 using namespace saccade;
 
-std::atomic<bool> g_stop{false};
+#ifndef SACCADE_VERSION
+#define SACCADE_VERSION "unknown"
+#endif
 
-extern "C" void on_signal(int) {
+std::atomic<bool> g_stop{false};
+std::atomic<int> g_signal{0};  // the signal that stopped the run
+
+extern "C" void on_signal(int sig) {
+  g_signal.store(sig);
   g_stop.store(true);
   // A second Ctrl-C ends the process the hard way.
   std::signal(SIGINT, SIG_DFL);
@@ -158,17 +169,25 @@ struct GraphArgs {
   GraphOverrides overrides;
 };
 
+// run's options: one field here and one line in add_run_command per option.
 struct RunArgs {
   ExecutorOptions options;
   double stats_interval = 0;
   CLI::Option* stats = nullptr;  // given at all: print the table at exit
   std::string stats_json;
   std::string security;
+  bool progress = isatty(STDERR_FILENO) != 0;  // the progress line: on a terminal unless told
 };
 
 struct PluginsArgs {
   std::string name;
   bool markdown = false;
+  bool names = false;
+};
+
+struct CompletionArgs {
+  std::string shell = "bash";
+  std::string out;
 };
 
 struct TrainArgs {
@@ -178,7 +197,10 @@ struct TrainArgs {
   std::string samples;
 };
 
+// Accepted before or after the subcommand (the subcommands fall through to them).
 void add_global_options(CLI::App& app, Common& common) {
+  app.set_version_flag("--version", std::string("saccade ") + SACCADE_VERSION + " (plugin ABI " +
+                                        std::to_string(kAbiVersion) + ")");
   app.add_option("--plugin-path", common.plugin_path, "extra plugin folders, ':'-separated (searched first)");
   app.add_option("--log-level", common.log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
@@ -205,6 +227,8 @@ CLI::App* add_run_command(CLI::App& app, GraphArgs& graph, RunArgs& args) {
   run->add_option("--security", args.security,
                   "DDS Security: this participant's folder made by scripts/make-security.sh (sets SACCADE_DDS_SECURITY)")
       ->check(CLI::ExistingDirectory);
+  run->add_flag("--progress,!--no-progress", args.progress,
+                "a progress line on stderr: frames (of how many), rate, ETA (default: when stderr is a terminal)");
   return run;
 }
 
@@ -229,7 +253,15 @@ CLI::App* add_plugins_command(CLI::App& app, PluginsArgs& args) {
   auto* plugins = app.add_subcommand("plugins", "list plugins with their ports and parameters");
   plugins->add_option("name", args.name, "one plugin type, or a library prefix such as 'capture'");
   plugins->add_flag("--markdown", args.markdown, "print the reference as Markdown");
+  plugins->add_flag("--names", args.names, "print only the plugin types, one a line");
   return plugins;
+}
+
+CLI::App* add_completion_command(CLI::App& app, CompletionArgs& args) {
+  auto* completion = app.add_subcommand("completion", "print a shell completion script: source <(saccade completion bash)");
+  completion->add_option("shell", args.shell, "the shell (bash)")->check(CLI::IsMember({"bash"}));
+  completion->add_option("-o,--output", args.out, "write it to FILE instead");
+  return completion;
 }
 
 CLI::App* add_dot_command(CLI::App& app, GraphArgs& graph) {
@@ -323,12 +355,14 @@ int plugins_command(const Common& common, const PluginsArgs& args) {
   for (const auto& type : registry.types()) {
     if (!args.name.empty() && type != args.name && type.rfind(args.name + ".", 0) != 0) continue;
     const NodeTypeInfo* info = registry.find(type);
-    if (args.markdown) print_plugin_markdown(*info);
+    if (args.names) std::printf("%s\n", type.c_str());
+    else if (args.markdown) print_plugin_markdown(*info);
     else print_plugin_text(*info);
     ++shown;
   }
   if (shown == 0) {
-    std::cerr << "no plugin '" << args.name << "'" << did_you_mean(args.name, registry.types()) << "\n";
+    std::cerr << "no plugin '" << args.name << "'" << did_you_mean(args.name, registry.types()) << " ("
+              << registry.searched_summary() << ")\n";
     return 2;
   }
   if (reference) print_message_schemas_markdown();
@@ -385,6 +419,21 @@ int dot_command(const Common& common, const GraphArgs& args) {
   return 0;
 }
 
+int completion_command(const CLI::App& app, const CompletionArgs& args) {
+  const std::string script = saccade::cli::bash_completion(app);
+  if (args.out.empty()) {
+    std::fputs(script.c_str(), stdout);
+    return 0;
+  }
+  std::ofstream out(args.out);
+  out << script;
+  if (!out.flush()) {
+    std::cerr << "saccade completion: cannot write " << args.out << "\n";
+    return 2;
+  }
+  return 0;
+}
+
 int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args) {
   const bool stats = args.stats->count() > 0;
   Registry registry;
@@ -396,14 +445,25 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   ExecutorOptions& options = args.options;
   options.external_stop = &g_stop;
   options.stats_interval_s = stats ? args.stats_interval : 0;
-  options.on_stats = [](const std::string& table) { std::fprintf(stderr, "%s\n", table.c_str()); };
+  std::unique_ptr<saccade::cli::ProgressLine> progress;  // made after open(), when the sources know their length
+  options.on_stats = [&progress](const std::string& table) {
+    if (progress) progress->print_above(table + "\n");
+    else std::fprintf(stderr, "%s\n", table.c_str());
+  };
   Executor executor(*loaded.graph, registry, options);
   Status status = executor.open();
   if (!status.ok()) {
     std::cerr << graph_args.file << ": error: " << status.message() << "\n";
     return 1;
   }
+  // What watches the run (taps, a viewer, a recorder) attaches here, between open() and run().
+  if (args.progress) {
+    progress = std::make_unique<saccade::cli::ProgressLine>(executor, options.max_frames, options.duration_s, stderr,
+                                                            isatty(STDERR_FILENO) != 0);
+    progress->start();
+  }
   status = executor.run();
+  if (progress) progress->stop();
   if (stats) std::printf("%s", executor.stats_table().c_str());
   if (!args.stats_json.empty()) {
     std::ofstream out(args.stats_json);
@@ -414,7 +474,11 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
     std::cerr << graph_args.file << ": error: " << status.message() << "\n";
     return 1;
   }
-  if (g_stop.load()) std::cerr << "stopped by signal\n";
+  // Stopped cleanly by Ctrl-C (or SIGTERM): 128 + the signal, as a shell reports a killed command.
+  if (const int sig = g_signal.load(); sig != 0) {
+    std::cerr << "stopped by " << (sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal") << "\n";
+    return 128 + sig;
+  }
   return 0;
 }
 
@@ -423,12 +487,15 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
 int main(int argc, char** argv) {
   CLI::App app{"saccade: dataflow graphs for real-time active vision"};
   app.require_subcommand(1);
+  // The global options may follow the subcommand too: `saccade run g.xml --plugin-path X`.
+  app.fallthrough();
   Common common;
   GraphArgs graph;
   RunArgs run_args;
   PluginsArgs plugins_args;
   TrainArgs train_args;
   CalibrateArgs calibrate_args;
+  CompletionArgs completion_args;
   add_global_options(app, common);
   // Added in the order `saccade --help` lists them.
   add_run_command(app, graph, run_args);
@@ -438,11 +505,13 @@ int main(int argc, char** argv) {
   auto* dot = add_dot_command(app, graph);
   auto* train = add_train_command(app, train_args);
   auto* calibrate = add_calibrate_command(app, calibrate_args);
+  auto* completion = add_completion_command(app, completion_args);
 
   CLI11_PARSE(app, argc, argv);
   log().set_level(spdlog::level::from_str(common.log_level));
   // The DDS plugin reads it when it creates the process's participant.
   if (!run_args.security.empty()) setenv("SACCADE_DDS_SECURITY", run_args.security.c_str(), 1);
+  if (completion->parsed()) return completion_command(app, completion_args);
   if (train->parsed()) return train_command(train_args);
   if (calibrate->parsed()) return calibrate_command(calibrate_args);
   if (plugins->parsed()) return plugins_command(common, plugins_args);

@@ -16,6 +16,8 @@ packages=(
   libfastrtps-dev libfastcdr-dev fastddsgen
   gstreamer1.0-tools gstreamer1.0-plugins-base
   openssl iproute2
+  graphviz
+  clang libclang-rt-14-dev
 )
 
 missing=()

@@ -71,9 +71,10 @@ std::string json_escape(const std::string& s) {
 std::string format_stats_table(const std::vector<const NodeStats*>& nodes, double elapsed_s) {
   std::string out;
   char line[512];
-  std::snprintf(line, sizeof line, "stats after %.2f s\n%-18s %-22s %9s %7s %9s %9s %9s %9s %9s  %s\n",
-                elapsed_s, "node", "plugin", "processed", "errors", "rate/s", "p50 us", "p99 us", "max us",
-                "lat p50", "drops per input, the node's own counts");
+  // Every column says its unit: calls, calls per second, microseconds.
+  std::snprintf(line, sizeof line, "stats after %.2f s\n%-18s %-22s %9s %7s %9s %9s %9s %9s %10s  %s\n",
+                elapsed_s, "node", "plugin", "processed", "errors", "rate Hz", "p50 us", "p99 us", "max us",
+                "lat p50 us", "drops per input (messages), the node's own counts");
   out += line;
   for (const NodeStats* n : nodes) {
     std::string drops;
@@ -88,7 +89,7 @@ std::string format_stats_table(const std::vector<const NodeStats*>& nodes, doubl
     for (const auto& t : n->timings)
       drops += t->name + ":" + us(t->histogram.percentile(0.5)) + "/" + us(t->histogram.percentile(0.99)) + "us(n=" +
                std::to_string(t->histogram.count()) + ") ";
-    std::snprintf(line, sizeof line, "%-18s %-22s %9llu %7llu %9.1f %9s %9s %9s %9s  ", n->name.c_str(),
+    std::snprintf(line, sizeof line, "%-18s %-22s %9llu %7llu %9.1f %9s %9s %9s %10s  ", n->name.c_str(),
                   n->plugin.c_str(), static_cast<unsigned long long>(n->processed.load()),
                   static_cast<unsigned long long>(n->errors.load()), n->rate_hz(),
                   us(n->process_time.percentile(0.5)).c_str(), us(n->process_time.percentile(0.99)).c_str(),

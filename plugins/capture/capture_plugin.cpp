@@ -136,6 +136,8 @@ class SingleCapture : public Node {
     std::string error;
     reader_ = static_cast<Derived*>(this)->open_reader(config, ctx.params(), &error);
     if (!reader_) return Status::error(error);
+    // How many frames the stream will have, for a progress line's ETA (saccade run).
+    if (!config.loop && reader_->length() > 0) ctx.counter("frames_total").store(static_cast<uint64_t>(reader_->length()));
     return {};
   }
   Status process(ProcessContext& ctx) override {

@@ -1,5 +1,6 @@
 #include "readers.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <optional>
 
@@ -43,8 +44,10 @@ class VideoReader final : public FrameReader {
       return false;
     }
     fps_ = cap_.get(cv::CAP_PROP_FPS);
+    length_ = std::max<int64_t>(0, static_cast<int64_t>(cap_.get(cv::CAP_PROP_FRAME_COUNT)));
     return true;
   }
+  int64_t length() const override { return length_; }
   bool read(cv::Mat& out, int64_t& media_ns, std::string*) override {
     if (!cap_.read(out) || out.empty()) return false;
     media_ns = frame_time_ns(index_++, fps_);
@@ -58,6 +61,7 @@ class VideoReader final : public FrameReader {
 
  private:
   cv::VideoCapture cap_;
+  int64_t length_ = 0;
   double fps_ = 0;
   int64_t index_ = 0;
 };
@@ -169,6 +173,7 @@ class ImageReader final : public FrameReader {
     fps_ = fps;
     return true;
   }
+  int64_t length() const override { return count_; }
   bool read(cv::Mat& out, int64_t& media_ns, std::string*) override {
     if (count_ > 0 && index_ >= count_) return false;
     out = image_;

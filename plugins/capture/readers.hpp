@@ -23,6 +23,9 @@ class FrameReader {
   virtual double fps() const { return 0.0; }
   // True for live sources whose media time is wall-clock time.
   virtual bool live() const { return false; }
+  // Frames from the first to the end, as far as the source tells (a video's
+  // header may be off by a few); 0 when unknown or endless.
+  virtual int64_t length() const { return 0; }
 };
 
 // What a path names: a printf pattern ("left%02d.jpg") is a sequence, a still
