@@ -3,16 +3,20 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-verge bench-latency docs asan tsan clean
+.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-verge bench-latency docs asan tsan clean configure install
 
 deps:
 	@bash scripts/install-deps.sh
 
-build: deps
+configure: deps
 	@cmake --preset $(PRESET) >/dev/null
+
+build: configure
 	@cmake --build --preset $(PRESET) -j $(JOBS)
 
-demo: build
+# Only what graphs/demo.xml needs: the command and four plugins, not the tests and benchmarks.
+demo: configure
+	@cmake --build --preset $(PRESET) -j $(JOBS) --target saccade_demo
 	@rm -rf out/demo && mkdir -p out/demo
 	$(BUILD)/bin/saccade run graphs/demo.xml --stats
 	@echo "demo: wrote $$(ls out/demo | wc -l) PNGs under out/demo/"
@@ -48,6 +52,13 @@ bench-verge: build
 # (LATENCY_S seconds each, default 30); figures in out/bench-latency/figures.md.
 bench-latency: build
 	SACCADE_BIN=$(BUILD)/bin sh scripts/bench-latency.sh $(or $(LATENCY_S),30) out/bench-latency
+
+# The SDK into PREFIX: the command, libsaccade, its headers and plugins, find_package(saccade)
+# and saccade_add_plugin() (docs/guide.md, "Plugins outside the saccade tree").
+PREFIX ?= /usr/local
+install: configure
+	@cmake --build --preset $(PRESET) -j $(JOBS) --target saccade_sdk
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 docs: build
 	$(BUILD)/bin/saccade plugins --markdown > docs/plugins.md
