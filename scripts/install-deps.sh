@@ -18,6 +18,7 @@ packages=(
   openssl iproute2
   graphviz
   clang libclang-rt-14-dev
+  chromium
 )
 
 missing=()
