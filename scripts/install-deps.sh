@@ -15,7 +15,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   libfastrtps-dev libfastcdr-dev fastddsgen
   gstreamer1.0-tools gstreamer1.0-plugins-base
-  openssl iproute2
+  openssl libssl-dev iproute2
   graphviz
   clang libclang-rt-14-dev
   chromium

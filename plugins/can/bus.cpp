@@ -76,9 +76,14 @@ const char* to_string(BusState s) {
   return "?";
 }
 
-std::unique_ptr<Bus> open_bus(const std::string& spec, std::string& error) {
+std::unique_ptr<Bus> open_bus(const std::string& spec, std::string& error, const BusOptions& options) {
   const auto colon = spec.find(':');
   const std::string kind = spec.substr(0, colon), rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
+  if (!options.key_file.empty() && kind != "udp") {
+    error = "bus '" + spec + "': key_file '" + options.key_file + "' is for a udp bus only (a " + kind +
+            " bus carries no key)";
+    return nullptr;
+  }
   if (kind == "virtual") {
     if (rest.empty()) {
       error = "bus '" + spec + "': expected virtual:NAME";
@@ -86,9 +91,14 @@ std::unique_ptr<Bus> open_bus(const std::string& spec, std::string& error) {
     }
     return VirtualBus::named(rest)->attach();
   }
-  if (kind == "udp") return UdpTunnel::open(rest, error);
+  if (kind == "udp") {
+    if (options.key_file.empty()) return UdpTunnel::open(rest, error);
+    cannelloni::Key key;
+    if (!cannelloni::load_key(options.key_file, key, error)) return nullptr;
+    return UdpTunnel::open(rest, error, &key);
+  }
   if (kind == "socketcan") return SocketCan::open(rest, error);
-  error = "bus '" + spec + "': expected virtual:NAME, udp:LOCAL_PORT:HOST:PORT or socketcan:IFNAME";
+  error = "bus '" + spec + "': expected virtual:NAME, udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT or socketcan:IFNAME";
   return nullptr;
 }
 

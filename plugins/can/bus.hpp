@@ -82,6 +82,27 @@ struct BusCounters {
   uint64_t malformed = 0;     // tunnel packets that did not decode
   uint64_t lost = 0;          // tunnel packets missing in the sequence
   uint64_t dropped = 0;       // frames the fault injection threw away
+  uint64_t foreign = 0;          // tunnel packets from another address or port than the peer's
+  uint64_t unauthenticated = 0;  // keyed tunnel: packets without a valid tag (none, wrong key, altered)
+  uint64_t replayed = 0;         // keyed tunnel: authentic packets seen before, or of an earlier session
+};
+
+// Every counter by name, as the CAN nodes show them in their stats ("bus_" + name).
+inline constexpr struct {
+  const char* name;
+  uint64_t BusCounters::*field;
+} kBusCounterFields[] = {
+    {"sent", &BusCounters::sent},
+    {"received", &BusCounters::received},
+    {"filtered", &BusCounters::filtered},
+    {"send_failed", &BusCounters::send_failed},
+    {"error_frames", &BusCounters::error_frames},
+    {"malformed", &BusCounters::malformed},
+    {"lost", &BusCounters::lost},
+    {"dropped", &BusCounters::dropped},
+    {"foreign", &BusCounters::foreign},
+    {"unauthenticated", &BusCounters::unauthenticated},
+    {"replayed", &BusCounters::replayed},
 };
 
 class Bus {
@@ -101,9 +122,16 @@ class Bus {
   virtual std::string describe() const = 0;
 };
 
+// How a bus is opened besides its spec.
+struct BusOptions {
+  // A udp bus: the file of the link's shared key (64 hex characters, readable
+  // by its owner only); every packet is then authenticated. Empty: none.
+  std::string key_file;
+};
+
 // Opens a bus from a spec: "virtual:NAME" (the process-wide virtual bus of
-// that name), "udp:LOCAL_PORT:HOST:PORT" (the cannelloni tunnel) or
-// "socketcan:IFNAME". Null with `error` set when it cannot.
-std::unique_ptr<Bus> open_bus(const std::string& spec, std::string& error);
+// that name), "udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT" (the cannelloni tunnel)
+// or "socketcan:IFNAME". Null with `error` set when it cannot.
+std::unique_ptr<Bus> open_bus(const std::string& spec, std::string& error, const BusOptions& options = {});
 
 }  // namespace saccade::can

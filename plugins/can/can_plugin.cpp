@@ -5,6 +5,9 @@
 // robot-PC end of a UDP tunnel), and `can.tap` / `can.send`: a bus's frames
 // as CanFrames messages, to watch or bridge a bus from another process or PC.
 #include <algorithm>
+#include <array>
+#include <atomic>
+#include <iterator>
 #include <sstream>
 
 #include "cannelloni.hpp"
@@ -44,7 +47,33 @@ bool parse_list(const std::string& text, std::size_t count, std::vector<double>&
 }
 
 constexpr const char* kBusSpecDoc =
-    "virtual:NAME (in-process), udp:LOCAL_PORT:HOST:PORT (cannelloni tunnel) or socketcan:IFNAME";
+    "virtual:NAME (in-process), udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT (cannelloni tunnel: bound to BIND_ADDR, or "
+    "to loopback for a loopback peer, else to the address that routes to the peer; packets from anyone but "
+    "HOST:PORT are dropped and counted) or socketcan:IFNAME";
+constexpr const char* kKeyFileDoc =
+    "udp bus: a file holding the link's shared key (64 hex characters, e.g. from openssl rand -hex 32; readable "
+    "by its owner only), the same at both ends: every packet then carries an HMAC-SHA256 tag, the sender's "
+    "session and a counter, and packets without a valid tag, replayed or of an earlier session are dropped and "
+    "counted. Empty: not authenticated (as a real cannelloni bridge)";
+
+// Every counter of a bus in the node's stats, as bus_<name>, brought up to
+// date by publish() (each cycle, and at close).
+class BusStats {
+ public:
+  void open(OpenContext& ctx) {
+    for (std::size_t i = 0; i < std::size(can::kBusCounterFields); ++i)
+      counters_[i] = &ctx.counter(std::string("bus_") + can::kBusCounterFields[i].name);
+  }
+  void publish(const can::Bus* bus) {
+    if (bus == nullptr || counters_[0] == nullptr) return;
+    const can::BusCounters& c = bus->counters();
+    for (std::size_t i = 0; i < std::size(can::kBusCounterFields); ++i)
+      counters_[i]->store(c.*can::kBusCounterFields[i].field, std::memory_order_relaxed);
+  }
+
+ private:
+  std::array<std::atomic<uint64_t>*, std::size(can::kBusCounterFields)> counters_{};
+};
 
 // Parameters both nodes share: the bus, the joints' nodes and units, the clock.
 struct CommonConfig {
@@ -58,6 +87,7 @@ struct CommonConfig {
   double wait_ms = 0.0;
   double loss = 0.0;
   double latency_ms = 0.0;
+  std::string key_file;
 };
 
 void bind_common(ParamBinder<CommonConfig>& b) {
@@ -77,7 +107,8 @@ void bind_common(ParamBinder<CommonConfig>& b) {
       .field("loss", {0.0, 1.0}, "fault injection: the probability that a frame (virtual) or packet (udp) is lost",
              &C::loss)
       .field("latency_ms", {0.0, 1000.0}, "fault injection on a virtual bus: every frame arrives this much later",
-             &C::latency_ms);
+             &C::latency_ms)
+      .field("key_file", kKeyFileDoc, &C::key_file);
 }
 
 struct Clock {
@@ -123,7 +154,7 @@ Status setup(const CommonConfig& c, Setup& s) {
     if (n < 1 || n > 127 || n != static_cast<int>(n)) return Status::error("nodes: " + std::to_string(n) + " is not a CANopen node id (1..127)");
   for (double counts : s.counts)
     if (counts == 0) return Status::error("counts_per_rad: 0 counts per radian");
-  s.bus = can::open_bus(c.bus, error);
+  s.bus = can::open_bus(c.bus, error, {c.key_file});
   if (!s.bus) return Status::error(error);
   if (auto* port = dynamic_cast<can::VirtualPort*>(s.bus.get())) {
     s.virtual_bus = &port->bus();
@@ -217,9 +248,18 @@ class Driver final : public Node {
     taken_to_command_ = &ctx.timing("gaze_taken_to_command");
     between_ = &ctx.counter("set_points_between_cycles");
     woken_ = &ctx.counter("woken");
+    bus_stats_.open(ctx);
     return {};
   }
   Status process(ProcessContext& ctx) override {
+    const Status status = step(ctx);
+    bus_stats_.publish(setup_.bus.get());
+    return status;
+  }
+  void close() override { bus_stats_.publish(setup_.bus.get()); }
+
+ private:
+  Status step(ProcessContext& ctx) {
     Clock& clock = setup_.clock;
     if (watch_ns_ > 0 && clock.ticks >= 0) {
       // Between cycles: new targets and wake-ups are acted on as they come.
@@ -244,7 +284,6 @@ class Driver final : public Node {
     return {};
   }
 
- private:
   // The newest usable targets, numbered; those answering a new request are
   // timed until every running drive has been sent them (or later ones).
   void take_targets(ProcessContext& ctx) {
@@ -313,6 +352,7 @@ class Driver final : public Node {
   }
 
   Setup setup_;
+  BusStats bus_stats_;
   std::unique_ptr<can::Master> master_;
   std::vector<can::JointFeedback> feedback_;
   InputHandle<Message> wake_;
@@ -393,9 +433,18 @@ class Drives final : public Node {
       return Status::error("fault_joint " + std::to_string(fault_joint_) + " is beyond the " +
                            std::to_string(drives.size()) + " joints");
     rack_ = std::make_unique<can::DriveRack>(std::move(setup_.bus), std::move(drives));
+    bus_stats_.open(ctx);
     return {};
   }
   Status process(ProcessContext& ctx) override {
+    const Status status = step(ctx);
+    bus_stats_.publish(rack_ ? &rack_->bus() : nullptr);
+    return status;
+  }
+  void close() override { bus_stats_.publish(rack_ ? &rack_->bus() : nullptr); }
+
+ private:
+  Status step(ProcessContext& ctx) {
     // In realtime the drives' communication runs between their control
     // steps, as on a drive: an RPDO is acted on, an event-driven TPDO sent, on arrival.
     const int64_t t = setup_.clock.next([&](int64_t steady_ns) {
@@ -438,8 +487,8 @@ class Drives final : public Node {
     return {};
   }
 
- private:
   Setup setup_;
+  BusStats bus_stats_;
   std::unique_ptr<can::DriveRack> rack_;
   double fault_at_ = -1, silent_at_ = -1;
   std::size_t fault_joint_ = 0;
@@ -475,6 +524,7 @@ struct TapConfig {
   int max_frames = 1000;
   bool errors = false;
   double duration = 0.0;  // s; 0: never ends
+  std::string key_file;
 };
 
 class Tap final : public Node {
@@ -489,7 +539,8 @@ class Tap final : public Node {
         .field("period_ms", {0.1, 60000.0}, "batch period", &C::period_ms)
         .field("max_frames", {1, 1000000}, "a batch ends early when it holds this many frames", &C::max_frames)
         .field("errors", "also deliver error frames (all error classes)", &C::errors)
-        .field("duration", {0.0, 1e7}, "end the stream after this many seconds (0: never)", &C::duration);
+        .field("duration", {0.0, 1e7}, "end the stream after this many seconds (0: never)", &C::duration)
+        .field("key_file", kKeyFileDoc, &C::key_file);
   }
 
   static Contract contract() {
@@ -502,8 +553,9 @@ class Tap final : public Node {
     const TapConfig c = ctx.config(&bind);
     std::string error;
     spec_ = c.bus;
-    bus_ = can::open_bus(spec_, error);
+    bus_ = can::open_bus(spec_, error, {c.key_file});
     if (!bus_) return Status::error(error);
+    bus_stats_.open(ctx);
     if (c.errors) {
       can::FilterSet filters;
       filters.error_mask = can::error_class::kAll;
@@ -515,7 +567,7 @@ class Tap final : public Node {
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    for (;;) {
+    for (;; bus_stats_.publish(bus_.get())) {
       const int64_t start = steady_now_ns();
       if ((end_ns_ > 0 && start >= end_ns_) || ctx.stop_requested()) return Status::end_of_stream();
       const int64_t until = end_ns_ > 0 ? std::min(start + period_ns_, end_ns_) : start + period_ns_;
@@ -530,12 +582,15 @@ class Tap final : public Node {
       batch->origin_ns = start;
       batch->frame_id = batches_++;
       ctx.emit(kFrames, std::move(batch));
+      bus_stats_.publish(bus_.get());
       return {};
     }
   }
+  void close() override { bus_stats_.publish(bus_.get()); }
 
  private:
   std::unique_ptr<can::Bus> bus_;
+  BusStats bus_stats_;
   std::string spec_;
   int64_t period_ns_ = 0, end_ns_ = 0, batches_ = 0;
   std::size_t max_frames_ = 0;
@@ -550,12 +605,14 @@ class Send final : public Node {
     return Contract("Sends every frame of its CanFrames input onto a bus, in order (a sink, like cansend): with "
                     "can.tap at the other end, a bus bridged across processes or PCs. Error frames are not sent.")
         .ports(kFrames)
-        .param_string("bus", "virtual:head", kBusSpecDoc);
+        .param_string("bus", "virtual:head", kBusSpecDoc)
+        .param_string("key_file", "", kKeyFileDoc);
   }
   Status open(OpenContext& ctx) override {
     std::string error;
-    bus_ = can::open_bus(ctx.params().get_string("bus"), error);
+    bus_ = can::open_bus(ctx.params().get_string("bus"), error, {ctx.params().get_string("key_file")});
     if (!bus_) return Status::error(error);
+    bus_stats_.open(ctx);
     sent_ = &ctx.counter("sent");
     failed_ = &ctx.counter("failed");
     skipped_ = &ctx.counter("error_frames_skipped");
@@ -571,9 +628,11 @@ class Send final : public Node {
       bump(bus_->send(f) ? *sent_ : *failed_);
     }
     bus_->flush();
+    bus_stats_.publish(bus_.get());
     return {};
   }
   void close() override {
+    bus_stats_.publish(bus_.get());
     if (failed_ != nullptr && (failed_->load() > 0 || skipped_->load() > 0))
       log().warn("{}: {} frames could not be sent, {} error frames not sent", bus_ ? bus_->describe() : "",
                  failed_->load(), skipped_->load());
@@ -581,6 +640,7 @@ class Send final : public Node {
 
  private:
   std::unique_ptr<can::Bus> bus_;
+  BusStats bus_stats_;
   std::atomic<uint64_t>* sent_ = nullptr;
   std::atomic<uint64_t>* failed_ = nullptr;
   std::atomic<uint64_t>* skipped_ = nullptr;

@@ -4,12 +4,19 @@
 #include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
+#include <openssl/core_names.h>
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <openssl/params.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 
 namespace saccade::can {
@@ -86,6 +93,161 @@ bool decode(const uint8_t* packet, std::size_t size, uint8_t& seq, std::vector<F
   return true;
 }
 
+
+Key::~Key() { OPENSSL_cleanse(bytes.data(), bytes.size()); }
+
+bool load_key(const std::string& path, Key& key, std::string& error) {
+  const std::string what = "key file '" + path + "'";
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
+  if (fd < 0) {
+    error = what + ": " + std::strerror(errno);
+    return false;
+  }
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    error = what + ": not a regular file";
+    return false;
+  }
+  if ((st.st_mode & 077) != 0) {
+    ::close(fd);
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    error = what + " can be read or written by its group or others (mode " + mode +
+            "): the link's key must be its owner's alone; chmod 600 '" + path + "'";
+    return false;
+  }
+  char text[256];
+  ssize_t got = 0;
+  for (;;) {
+    got = ::read(fd, text, sizeof text);
+    if (got >= 0 || errno != EINTR) break;
+  }
+  ::close(fd);
+  if (got < 0) {
+    error = what + ": " + std::strerror(errno);
+    return false;
+  }
+  std::size_t n = static_cast<std::size_t>(got), first = 0;
+  while (first < n && std::isspace(static_cast<unsigned char>(text[first]))) ++first;
+  while (n > first && std::isspace(static_cast<unsigned char>(text[n - 1]))) --n;
+  bool hex = n - first == 2 * key.bytes.size();
+  for (std::size_t i = 0; hex && i < key.bytes.size(); ++i) {
+    unsigned value = 0;
+    for (std::size_t k = 0; k < 2; ++k) {
+      const char c = text[first + 2 * i + k];
+      const int digit = std::isdigit(static_cast<unsigned char>(c)) ? c - '0'
+                        : (c >= 'a' && c <= 'f')                 ? c - 'a' + 10
+                        : (c >= 'A' && c <= 'F')                 ? c - 'A' + 10
+                                                                 : -1;
+      if (digit < 0) hex = false;
+      value = value << 4 | static_cast<unsigned>(digit & 0xF);
+    }
+    key.bytes[i] = static_cast<uint8_t>(value);
+  }
+  OPENSSL_cleanse(text, sizeof text);
+  if (!hex) {
+    OPENSSL_cleanse(key.bytes.data(), key.bytes.size());
+    error = what + ": expected 64 hex characters (a 256-bit key, e.g. from: openssl rand -hex 32)";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+void put_u64(uint8_t* p, uint64_t v) {
+  for (int i = 7; i >= 0; --i, v >>= 8) p[i] = static_cast<uint8_t>(v);
+}
+uint64_t get_u64(const uint8_t* p) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = v << 8 | p[i];
+  return v;
+}
+// What the tag covers before the packet: a label of this format and the two ends.
+constexpr char kLabel[] = "saccade cannelloni hmac-sha256 v1";
+}  // namespace
+
+Authenticator::Authenticator(const Key& key) {
+  EVP_MAC* mac = EVP_MAC_fetch(nullptr, "HMAC", nullptr);
+  if (mac == nullptr) return;
+  ctx_ = EVP_MAC_CTX_new(mac);
+  EVP_MAC_free(mac);
+  if (ctx_ == nullptr) return;
+  char digest[] = "SHA256";
+  const OSSL_PARAM params[] = {OSSL_PARAM_construct_utf8_string(OSSL_MAC_PARAM_DIGEST, digest, 0),
+                               OSSL_PARAM_construct_end()};
+  if (EVP_MAC_init(ctx_, key.bytes.data(), key.bytes.size(), params) != 1) {
+    EVP_MAC_CTX_free(ctx_);
+    ctx_ = nullptr;
+  }
+}
+
+Authenticator::~Authenticator() { EVP_MAC_CTX_free(ctx_); }
+
+bool Authenticator::tag(const uint8_t* data, std::size_t size, const LinkEnds& ends, uint8_t (&out)[32]) {
+  uint8_t link[12];
+  std::memcpy(link, &ends.from_addr, 4);
+  std::memcpy(link + 4, &ends.from_port, 2);
+  std::memcpy(link + 6, &ends.to_addr, 4);
+  std::memcpy(link + 10, &ends.to_port, 2);
+  std::size_t length = 0;
+  // EVP_MAC_init without a key starts a new message with the key already set.
+  return ctx_ != nullptr && EVP_MAC_init(ctx_, nullptr, 0, nullptr) == 1 &&
+         EVP_MAC_update(ctx_, reinterpret_cast<const unsigned char*>(kLabel), sizeof kLabel) == 1 &&
+         EVP_MAC_update(ctx_, link, sizeof link) == 1 && EVP_MAC_update(ctx_, data, size) == 1 &&
+         EVP_MAC_final(ctx_, out, &length, sizeof out) == 1 && length == sizeof out;
+}
+
+void Authenticator::seal(std::vector<uint8_t>& packet, uint64_t epoch, uint64_t counter, const LinkEnds& ends) {
+  const std::size_t at = packet.size();
+  packet.resize(at + kTrailerSize);
+  put_u64(packet.data() + at, epoch);
+  put_u64(packet.data() + at + 8, counter);
+  uint8_t mac[32];
+  if (!tag(packet.data(), at + 16, ends, mac)) std::memset(mac, 0, sizeof mac);  // never authentic
+  std::memcpy(packet.data() + at + 16, mac, kTagSize);
+}
+
+bool Authenticator::open(const uint8_t* packet, std::size_t size, const LinkEnds& ends, std::size_t& payload_size,
+                         uint64_t& epoch, uint64_t& counter) {
+  if (size < kHeaderSize + kTrailerSize) return false;
+  const std::size_t signed_size = size - kTagSize;
+  uint8_t mac[32];
+  if (!tag(packet, signed_size, ends, mac) || CRYPTO_memcmp(mac, packet + signed_size, kTagSize) != 0) return false;
+  payload_size = size - kTrailerSize;
+  epoch = get_u64(packet + payload_size);
+  counter = get_u64(packet + payload_size + 8);
+  return true;
+}
+
+ReplayWindow::Verdict ReplayWindow::accept(uint64_t epoch, uint64_t counter, uint64_t& gap, bool& late) {
+  gap = 0;
+  late = false;
+  if (!started_ || epoch > epoch_) {
+    const bool first = !started_;
+    started_ = true;
+    epoch_ = epoch;
+    highest_ = counter;
+    seen_ = 1;
+    return first ? Verdict::kNew : Verdict::kNewSession;
+  }
+  if (epoch < epoch_) return Verdict::kStaleSession;
+  if (counter > highest_) {
+    const uint64_t ahead = counter - highest_;
+    seen_ = ahead >= kSize ? 1 : seen_ << ahead | 1;
+    gap = ahead - 1;
+    highest_ = counter;
+    return Verdict::kNew;
+  }
+  const uint64_t behind = highest_ - counter;
+  if (behind >= kSize) return Verdict::kReplayed;
+  const uint64_t bit = uint64_t{1} << behind;
+  if ((seen_ & bit) != 0) return Verdict::kReplayed;
+  seen_ |= bit;
+  late = true;
+  return Verdict::kNew;
+}
+
 }  // namespace cannelloni
 
 namespace {
@@ -93,64 +255,151 @@ int64_t steady_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
       .count();
 }
-}  // namespace
 
-std::unique_ptr<UdpTunnel> UdpTunnel::open(const std::string& spec, std::string& error) {
-  Options o;
-  const auto a = spec.find(':'), b = spec.rfind(':');
-  try {
-    if (a == std::string::npos || b == a) throw std::invalid_argument("shape");
-    std::size_t used = 0;
-    o.local_port = std::stoi(spec.substr(0, a), &used);
-    if (used != a) throw std::invalid_argument("local port");
-    o.peer_host = spec.substr(a + 1, b - a - 1);
-    o.peer_port = std::stoi(spec.substr(b + 1), &used);
-    if (used != spec.size() - b - 1) throw std::invalid_argument("peer port");
-  } catch (const std::exception&) {
-    error = "udp bus '" + spec + "': expected LOCAL_PORT:HOST:PORT, e.g. 20000:192.168.1.2:20000";
-    return nullptr;
-  }
-  return open(o, error);
+std::string to_string(const sockaddr_in& a) {
+  char text[INET_ADDRSTRLEN] = "?";
+  ::inet_ntop(AF_INET, &a.sin_addr, text, sizeof text);
+  return std::string(text) + ":" + std::to_string(ntohs(a.sin_port));
 }
 
-std::unique_ptr<UdpTunnel> UdpTunnel::open(const Options& o, std::string& error) {
-  const std::string where = "udp bus " + std::to_string(o.local_port) + ":" + o.peer_host + ":" + std::to_string(o.peer_port);
+bool is_loopback(const in_addr& a) { return (ntohl(a.s_addr) >> 24) == 127; }
+
+// The local address the kernel would send to `peer` from (a connected UDP
+// socket's own address; nothing is sent).
+bool route_source(const sockaddr_in& peer, in_addr& out, std::string& error) {
+  const int probe = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (probe < 0) {
+    error = std::string("socket: ") + std::strerror(errno);
+    return false;
+  }
+  sockaddr_in self{};
+  socklen_t size = sizeof self;
+  const bool ok = ::connect(probe, reinterpret_cast<const sockaddr*>(&peer), sizeof peer) == 0 &&
+                  ::getsockname(probe, reinterpret_cast<sockaddr*>(&self), &size) == 0;
+  if (!ok) error = std::strerror(errno);
+  ::close(probe);
+  if (ok) out = self.sin_addr;
+  return ok;
+}
+
+bool resolve(const std::string& host, int port, sockaddr_in& out, std::string& error) {
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  hints.ai_socktype = SOCK_DGRAM;
+  addrinfo* found = nullptr;
+  if (int rc = getaddrinfo(host.c_str(), std::to_string(port).c_str(), &hints, &found); rc != 0) {
+    error = "cannot resolve '" + host + "': " + gai_strerror(rc);
+    return false;
+  }
+  std::memcpy(&out, found->ai_addr, sizeof out);
+  freeaddrinfo(found);
+  return true;
+}
+}  // namespace
+
+std::unique_ptr<UdpTunnel> UdpTunnel::open(const std::string& spec, std::string& error, const cannelloni::Key* key) {
+  Options o;
+  Link link;
+  link.key = key;
+  std::vector<std::string> parts;
+  for (std::size_t at = 0;;) {
+    const auto colon = spec.find(':', at);
+    parts.push_back(spec.substr(at, colon == std::string::npos ? std::string::npos : colon - at));
+    if (colon == std::string::npos) break;
+    at = colon + 1;
+  }
+  try {
+    if (parts.size() != 3 && parts.size() != 4) throw std::invalid_argument("shape");
+    if (parts.size() == 4) {
+      link.bind_address = parts[0];
+      parts.erase(parts.begin());
+      if (link.bind_address.empty()) throw std::invalid_argument("bind address");
+    }
+    std::size_t used = 0;
+    o.local_port = std::stoi(parts[0], &used);
+    if (used != parts[0].size()) throw std::invalid_argument("local port");
+    o.peer_host = parts[1];
+    if (o.peer_host.empty()) throw std::invalid_argument("host");
+    o.peer_port = std::stoi(parts[2], &used);
+    if (used != parts[2].size()) throw std::invalid_argument("peer port");
+  } catch (const std::exception&) {
+    error = "udp bus '" + spec +
+            "': expected [BIND_ADDR:]LOCAL_PORT:HOST:PORT, e.g. 20000:192.168.1.2:20000 or "
+            "192.168.1.1:20000:192.168.1.2:20000";
+    return nullptr;
+  }
+  return open(o, link, error);
+}
+
+std::unique_ptr<UdpTunnel> UdpTunnel::open(const Options& o, std::string& error) { return open(o, Link{}, error); }
+
+std::unique_ptr<UdpTunnel> UdpTunnel::open(const Options& o, const Link& link, std::string& error) {
+  const std::string where = "udp bus " + (link.bind_address.empty() ? "" : link.bind_address + ":") +
+                            std::to_string(o.local_port) + ":" + o.peer_host + ":" + std::to_string(o.peer_port);
   if (o.local_port < 0 || o.local_port > 65535 || o.peer_port <= 0 || o.peer_port > 65535) {
     error = where + ": ports must be in 1..65535 (local 0: any)";
     return nullptr;
   }
-  addrinfo hints{};
-  hints.ai_family = AF_INET;
-  hints.ai_socktype = SOCK_DGRAM;
-  addrinfo* peer = nullptr;
-  if (int rc = getaddrinfo(o.peer_host.c_str(), std::to_string(o.peer_port).c_str(), &hints, &peer); rc != 0) {
-    error = where + ": cannot resolve '" + o.peer_host + "': " + gai_strerror(rc);
+  sockaddr_in peer{};
+  if (!resolve(o.peer_host, o.peer_port, peer, error)) {
+    error = where + ": " + error;
     return nullptr;
   }
-  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (fd < 0) {
-    freeaddrinfo(peer);
-    error = where + ": socket: " + std::strerror(errno);
+  if (peer.sin_addr.s_addr == htonl(INADDR_ANY) || peer.sin_addr.s_addr == htonl(INADDR_BROADCAST)) {
+    error = where + ": the peer must be one host's address, not " + o.peer_host;
     return nullptr;
   }
   sockaddr_in local{};
   local.sin_family = AF_INET;
   local.sin_port = htons(static_cast<uint16_t>(o.local_port));
-  local.sin_addr.s_addr = htonl(INADDR_ANY);
-  if (::bind(fd, reinterpret_cast<sockaddr*>(&local), sizeof local) != 0) {
-    error = where + ": bind to port " + std::to_string(o.local_port) + ": " + std::strerror(errno);
-    ::close(fd);
-    freeaddrinfo(peer);
+  if (!link.bind_address.empty()) {
+    if (!resolve(link.bind_address, o.local_port, local, error)) {
+      error = where + ": bind address: " + error;
+      return nullptr;
+    }
+    if (link.key != nullptr && local.sin_addr.s_addr == htonl(INADDR_ANY)) {
+      error = where + ": an authenticated tunnel binds one address, not 0.0.0.0 (its tag covers both ends' addresses)";
+      return nullptr;
+    }
+  } else if (is_loopback(peer.sin_addr)) {
+    local.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  } else if (!route_source(peer, local.sin_addr, error)) {
+    error = where + ": no route to " + o.peer_host + " (" + error + "); name the local address: udp:ADDR:" +
+            std::to_string(o.local_port) + ":" + o.peer_host + ":" + std::to_string(o.peer_port);
     return nullptr;
   }
-  std::unique_ptr<UdpTunnel> t(new UdpTunnel(fd, o, peer->ai_addr, peer->ai_addrlen));
-  freeaddrinfo(peer);
+  std::unique_ptr<cannelloni::Authenticator> auth;
+  if (link.key != nullptr) {
+    auth = std::make_unique<cannelloni::Authenticator>(*link.key);
+    if (!auth->ok()) {
+      error = where + ": OpenSSL has no HMAC-SHA256";
+      return nullptr;
+    }
+  }
+  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (fd < 0) {
+    error = where + ": socket: " + std::strerror(errno);
+    return nullptr;
+  }
+  socklen_t size = sizeof local;
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&local), sizeof local) != 0 ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&local), &size) != 0) {
+    error = where + ": bind to " + to_string(local) + ": " + std::strerror(errno);
+    ::close(fd);
+    return nullptr;
+  }
+  std::unique_ptr<UdpTunnel> t(new UdpTunnel(fd, o, local, peer));
+  t->auth_ = std::move(auth);
   return t;
 }
 
-UdpTunnel::UdpTunnel(int fd, Options options, const void* peer, std::size_t peer_size)
-    : fd_(fd), options_(std::move(options)), peer_size_(std::min(peer_size, sizeof peer_)), rng_(options_.seed) {
-  std::memcpy(peer_, peer, peer_size_);
+UdpTunnel::UdpTunnel(int fd, Options options, const sockaddr_in& local, const sockaddr_in& peer)
+    : fd_(fd), options_(std::move(options)), local_(local), peer_(peer), rng_(options_.seed) {
+  // This end's session: its start time on the wall clock, so that a restarted
+  // sender's packets are newer than every packet of its previous run.
+  epoch_ = static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                     std::chrono::system_clock::now().time_since_epoch())
+                                     .count());
   outgoing_.reserve(64);
   incoming_.reserve(256);
   packet_.reserve(cannelloni::kMaxPacket);
@@ -158,9 +407,11 @@ UdpTunnel::UdpTunnel(int fd, Options options, const void* peer, std::size_t peer
 
 UdpTunnel::~UdpTunnel() { ::close(fd_); }
 
+std::string UdpTunnel::local_address() const { return to_string(local_); }
+
 std::string UdpTunnel::describe() const {
-  return "udp tunnel " + std::to_string(options_.local_port) + " -> " + options_.peer_host + ":" +
-         std::to_string(options_.peer_port);
+  return "udp tunnel " + to_string(local_) + " -> " + options_.peer_host + ":" + std::to_string(options_.peer_port) +
+         (auth_ ? " (authenticated)" : "");
 }
 
 bool UdpTunnel::send(const Frame& f) {
@@ -169,7 +420,8 @@ bool UdpTunnel::send(const Frame& f) {
     return false;
   }
   const std::size_t size = cannelloni::encoded_size(f);
-  if (outgoing_bytes_ + size > cannelloni::kMaxPacket) flush();
+  const std::size_t room = cannelloni::kMaxPacket - (auth_ ? cannelloni::kTrailerSize : 0);
+  if (outgoing_bytes_ + size > room) flush();
   outgoing_.push_back(f);
   outgoing_bytes_ += size;
   return true;
@@ -179,6 +431,9 @@ void UdpTunnel::flush() {
   if (outgoing_.empty()) return;
   const std::size_t n = outgoing_.size();
   cannelloni::encode(seq_out_++, outgoing_.data(), n, packet_);
+  if (auth_)
+    auth_->seal(packet_, epoch_, ++counter_out_,
+                {local_.sin_addr.s_addr, peer_.sin_addr.s_addr, local_.sin_port, peer_.sin_port});
   outgoing_.clear();
   outgoing_bytes_ = cannelloni::kHeaderSize;
   ++packets_sent_;
@@ -186,8 +441,8 @@ void UdpTunnel::flush() {
     counters_.dropped += n;
     return;
   }
-  const ssize_t sent = ::sendto(fd_, packet_.data(), packet_.size(), 0, reinterpret_cast<const sockaddr*>(peer_),
-                                static_cast<socklen_t>(peer_size_));
+  const ssize_t sent = ::sendto(fd_, packet_.data(), packet_.size(), 0, reinterpret_cast<const sockaddr*>(&peer_),
+                                sizeof peer_);
   if (sent == static_cast<ssize_t>(packet_.size())) {
     counters_.sent += n;
   } else {
@@ -197,10 +452,34 @@ void UdpTunnel::flush() {
   }
 }
 
+std::size_t UdpTunnel::check_sealed(const uint8_t* packet, std::size_t size) {
+  std::size_t payload = 0;
+  uint64_t epoch = 0, counter = 0;
+  if (!auth_->open(packet, size, {peer_.sin_addr.s_addr, local_.sin_addr.s_addr, peer_.sin_port, local_.sin_port},
+                   payload, epoch, counter)) {
+    ++counters_.unauthenticated;
+    return 0;
+  }
+  uint64_t gap = 0;
+  bool late = false;
+  switch (window_.accept(epoch, counter, gap, late)) {
+    case cannelloni::ReplayWindow::Verdict::kReplayed:
+    case cannelloni::ReplayWindow::Verdict::kStaleSession: ++counters_.replayed; return 0;
+    case cannelloni::ReplayWindow::Verdict::kNewSession:
+    case cannelloni::ReplayWindow::Verdict::kNew: break;
+  }
+  counters_.lost += gap;
+  if (late && counters_.lost > 0) --counters_.lost;  // counted lost when its successor came
+  return payload;
+}
+
 bool UdpTunnel::read_packet(int64_t timeout_ns) {
   uint8_t buffer[2048];
   for (;;) {
-    const ssize_t got = ::recv(fd_, buffer, sizeof buffer, 0);
+    sockaddr_in from{};
+    socklen_t from_size = sizeof from;
+    const ssize_t got =
+        ::recvfrom(fd_, buffer, sizeof buffer, 0, reinterpret_cast<sockaddr*>(&from), &from_size);
     if (got < 0) {
       if (errno == EINTR) continue;
       if (errno != EAGAIN && errno != EWOULDBLOCK) return false;  // e.g. ECONNREFUSED from an earlier send
@@ -213,12 +492,20 @@ bool UdpTunnel::read_packet(int64_t timeout_ns) {
     }
     incoming_.clear();
     incoming_next_ = 0;
-    uint8_t seq = 0;
-    if (!cannelloni::decode(buffer, static_cast<std::size_t>(got), seq, incoming_, last_error_)) {
-      ++counters_.malformed;
+    if (from_size != sizeof from || from.sin_family != AF_INET || from.sin_addr.s_addr != peer_.sin_addr.s_addr ||
+        from.sin_port != peer_.sin_port) {
+      ++counters_.foreign;
       return true;  // read something; the caller looks again
     }
-    if (next_seq_in_ >= 0) counters_.lost += static_cast<uint8_t>(seq - next_seq_in_);
+    std::size_t size = static_cast<std::size_t>(got);
+    if (auth_ && (size = check_sealed(buffer, size)) == 0) return true;
+    uint8_t seq = 0;
+    if (!cannelloni::decode(buffer, size, seq, incoming_, last_error_)) {
+      ++counters_.malformed;
+      return true;
+    }
+    // Keyed, the counter told what was lost; else the 8-bit sequence does.
+    if (!auth_ && next_seq_in_ >= 0) counters_.lost += static_cast<uint8_t>(seq - next_seq_in_);
     next_seq_in_ = static_cast<uint8_t>(seq + 1);
     const int64_t now = steady_ns();
     for (Frame& f : incoming_) f.timestamp_ns = now;

@@ -6,6 +6,14 @@
 // endian u16); then per frame the kernel's can_id (big endian u32, with the
 // EFF/RTR/ERR flags), the length (bit 7 set for CAN FD, then a flags byte) and
 // the data (none for remote frames).
+//
+// Optionally every packet is authenticated with a shared key: a trailer of
+// the sender's epoch (its start time, big endian u64), a packet counter (big
+// endian u64) and a 16-byte HMAC-SHA256 tag follows the frames. A real
+// `cannelloni` does not speak this form: it is for saccade at both ends.
+#include <netinet/in.h>
+
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <random>
@@ -13,6 +21,8 @@
 #include <vector>
 
 #include "bus.hpp"
+
+struct evp_mac_ctx_st;  // OpenSSL's EVP_MAC_CTX
 
 namespace saccade::can {
 
@@ -29,6 +39,70 @@ std::size_t encode(uint8_t seq, const Frame* frames, std::size_t n, std::vector<
 // appended) when the packet is malformed: wrong version or op code, truncated,
 // a classic frame longer than 8 bytes or an FD frame longer than 64.
 bool decode(const uint8_t* packet, std::size_t size, uint8_t& seq, std::vector<Frame>& out, std::string& error);
+
+// A link's shared key: 32 bytes, wiped from memory when destroyed.
+struct Key {
+  std::array<uint8_t, 32> bytes{};
+  Key() = default;
+  Key(const Key&) = default;
+  Key& operator=(const Key&) = default;
+  ~Key();
+};
+inline constexpr std::size_t kTagSize = 16;                  // HMAC-SHA256 truncated to 128 bits
+inline constexpr std::size_t kTrailerSize = 8 + 8 + kTagSize;  // epoch, counter, tag
+
+// Reads a key file: 64 hex characters (surrounding white space allowed). False
+// with `error` naming the file when it cannot be read, is not a regular file,
+// holds anything else, or is readable or writable by its group or others (the
+// error says the chmod that fixes it).
+bool load_key(const std::string& path, Key& key, std::string& error);
+
+// The two ends of a link as the tag covers them (IPv4 address and port of the
+// sender, then of the receiver, network byte order), so that a packet sent
+// back to its sender, or onto another link with the same key, is not
+// authentic there.
+struct LinkEnds {
+  uint32_t from_addr = 0, to_addr = 0;  // network byte order
+  uint16_t from_port = 0, to_port = 0;  // network byte order
+};
+
+// HMAC-SHA256 with one key, prepared once (OpenSSL's EVP_MAC).
+class Authenticator {
+ public:
+  explicit Authenticator(const Key& key);
+  ~Authenticator();
+  Authenticator(const Authenticator&) = delete;
+  Authenticator& operator=(const Authenticator&) = delete;
+  bool ok() const { return ctx_ != nullptr; }
+  // Appends the trailer (epoch, counter, tag) to `packet`.
+  void seal(std::vector<uint8_t>& packet, uint64_t epoch, uint64_t counter, const LinkEnds& ends);
+  // Checks a sealed packet's tag in constant time; on success the frames are
+  // bytes [0, payload_size) and `epoch`, `counter` the trailer's. False when
+  // it is too short to hold a trailer or its tag is not the key's.
+  bool open(const uint8_t* packet, std::size_t size, const LinkEnds& ends, std::size_t& payload_size,
+            uint64_t& epoch, uint64_t& counter);
+
+ private:
+  bool tag(const uint8_t* data, std::size_t size, const LinkEnds& ends, uint8_t (&out)[32]);
+  ::evp_mac_ctx_st* ctx_ = nullptr;
+};
+
+// Authentic packets of one sender: the newest session (epoch) and which of
+// its last 64 counters were seen, so that a replayed packet is refused while
+// packets reordered within 64 are still taken.
+class ReplayWindow {
+ public:
+  static constexpr uint64_t kSize = 64;
+  enum class Verdict { kNew, kNewSession, kReplayed, kStaleSession };
+  // Records the packet when it is new; `gap` is the number of counters
+  // skipped before it (packets lost so far), `late` true when it fills an
+  // earlier gap.
+  Verdict accept(uint64_t epoch, uint64_t counter, uint64_t& gap, bool& late);
+
+ private:
+  bool started_ = false;
+  uint64_t epoch_ = 0, highest_ = 0, seen_ = 0;  // bit i: counter highest_ - i was seen
+};
 }  // namespace cannelloni
 
 class UdpTunnel final : public Bus {
@@ -40,9 +114,21 @@ class UdpTunnel final : public Bus {
     double loss = 0.0;  // fault injection: probability that an outgoing packet is thrown away
     uint64_t seed = 1;
   };
-  // spec "LOCAL_PORT:HOST:PORT".
-  static std::unique_ptr<UdpTunnel> open(const std::string& spec, std::string& error);
+  // Where the tunnel listens and how it trusts its peer.
+  struct Link {
+    // The local address to bind. Empty: 127.0.0.1 when the peer is a loopback
+    // address, else the address the kernel routes to the peer from; never
+    // every interface unless given as 0.0.0.0 (not with a key).
+    std::string bind_address;
+    // With a key every packet sent is sealed and every packet received must
+    // be authentic, new and of the peer's newest session.
+    const cannelloni::Key* key = nullptr;
+  };
+  // spec "[BIND_ADDR:]LOCAL_PORT:HOST:PORT".
+  static std::unique_ptr<UdpTunnel> open(const std::string& spec, std::string& error,
+                                         const cannelloni::Key* key = nullptr);
   static std::unique_ptr<UdpTunnel> open(const Options& options, std::string& error);
+  static std::unique_ptr<UdpTunnel> open(const Options& options, const Link& link, std::string& error);
   ~UdpTunnel() override;
 
   bool send(const Frame& f) override;
@@ -57,15 +143,25 @@ class UdpTunnel final : public Bus {
     rng_.seed(seed);
   }
   uint64_t packets_sent() const { return packets_sent_; }
+  // The address and port the tunnel is bound to, as "ADDR:PORT".
+  std::string local_address() const;
+  bool authenticated() const { return auth_ != nullptr; }
+  // The epoch this end seals its packets with (its start time, ns since 1970).
+  uint64_t epoch() const { return epoch_; }
 
  private:
-  UdpTunnel(int fd, Options options, const void* peer, std::size_t peer_size);
+  UdpTunnel(int fd, Options options, const sockaddr_in& local, const sockaddr_in& peer);
   bool read_packet(int64_t timeout_ns);
+  // An authentic, new packet: its frames' size; 0 when it was dropped (counted).
+  std::size_t check_sealed(const uint8_t* packet, std::size_t size);
 
   int fd_;
   Options options_;
-  unsigned char peer_[32] = {};
-  std::size_t peer_size_;
+  sockaddr_in local_{};  // as bound
+  sockaddr_in peer_{};
+  std::unique_ptr<cannelloni::Authenticator> auth_;
+  cannelloni::ReplayWindow window_;
+  uint64_t epoch_ = 0, counter_out_ = 0;
   std::vector<Frame> outgoing_, incoming_;
   std::size_t outgoing_bytes_ = cannelloni::kHeaderSize;  // the packet outgoing_ would make
   std::size_t incoming_next_ = 0;

@@ -1,13 +1,21 @@
 // CAN frames and filters with the kernel's semantics, the virtual bus with
 // its fault injection, the cannelloni codec against the golden vector from
-// cannelloni's own encoder, the UDP tunnel on 127.0.0.1, and SocketCAN where
-// the kernel has it.
+// cannelloni's own encoder, the UDP tunnel on 127.0.0.1 (its bind address,
+// its peer check and its authenticated form), and SocketCAN where the kernel
+// has it.
 #include <gtest/gtest.h>
 
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
 
 #include "bus.hpp"
 #include "cannelloni.hpp"
@@ -293,27 +301,452 @@ TEST(UdpTunnel, CarriesFramesBothWaysPacksACycleAndCountsLoss) {
   EXPECT_EQ(b->counters().lost, a->counters().dropped) << "each lost packet held one frame";
   EXPECT_NEAR(got / 400.0, 0.75, 0.07);
 
-  // A malformed packet is counted, not delivered.
+  // A packet from another port than the peer's is counted, not delivered.
   const int raw = ::socket(AF_INET, SOCK_DGRAM, 0);
   sockaddr_in to{};
   to.sin_family = AF_INET;
   to.sin_port = htons(static_cast<uint16_t>(pb));
   to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  const uint8_t bad[] = {0x03, 0x00, 0x00, 0x00, 0x00};
-  ::sendto(raw, bad, sizeof bad, 0, reinterpret_cast<sockaddr*>(&to), sizeof to);
+  std::vector<uint8_t> packet;
+  const Frame frame = data_frame(0x181, {1});
+  cannelloni::encode(0, &frame, 1, packet);
+  ::sendto(raw, packet.data(), packet.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to);
   ::close(raw);
   EXPECT_FALSE(b->receive(f, 100'000'000));
-  EXPECT_EQ(b->counters().malformed, 1u);
+  EXPECT_EQ(b->counters().foreign, 1u);
+  EXPECT_EQ(b->counters().malformed, 0u);
 }
 
 TEST(UdpTunnel, BadSpecsSayWhatWasExpected) {
   std::string error;
-  EXPECT_FALSE(UdpTunnel::open("20000", error));
-  EXPECT_NE(error.find("expected LOCAL_PORT:HOST:PORT"), std::string::npos) << error;
+  for (const char* spec : {"20000", "1:2:3:4:5", ":20000:127.0.0.1:20001", "20000::20001", "x:127.0.0.1:20001"}) {
+    EXPECT_FALSE(UdpTunnel::open(spec, error)) << spec;
+    EXPECT_NE(error.find("expected [BIND_ADDR:]LOCAL_PORT:HOST:PORT"), std::string::npos) << spec << ": " << error;
+  }
   EXPECT_FALSE(open_bus("serial:/dev/ttyS0", error));
-  EXPECT_NE(error.find("expected virtual:NAME, udp:LOCAL_PORT:HOST:PORT or socketcan:IFNAME"), std::string::npos);
+  EXPECT_NE(error.find("expected virtual:NAME, udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT or socketcan:IFNAME"),
+            std::string::npos);
   EXPECT_FALSE(UdpTunnel::open("0:no.such.host.invalid:20001", error));
   EXPECT_NE(error.find("cannot resolve"), std::string::npos) << error;
+  EXPECT_FALSE(UdpTunnel::open("no.such.host.invalid:0:127.0.0.1:20001", error));
+  EXPECT_NE(error.find("bind address: cannot resolve"), std::string::npos) << error;
+  EXPECT_FALSE(UdpTunnel::open("0:0.0.0.0:20001", error));
+  EXPECT_NE(error.find("the peer must be one host's address"), std::string::npos) << error;
+}
+
+// A plain UDP socket on a loopback address standing in for the tunnel's peer,
+// or for an intruder.
+struct RawEnd {
+  int fd = -1;
+  sockaddr_in self{};
+  explicit RawEnd(int port, const char* address = "127.0.0.1") {
+    fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    self.sin_family = AF_INET;
+    self.sin_port = htons(static_cast<uint16_t>(port));
+    ::inet_pton(AF_INET, address, &self.sin_addr);
+    socklen_t size = sizeof self;
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&self), sizeof self) != 0 ||
+        ::getsockname(fd, reinterpret_cast<sockaddr*>(&self), &size) != 0)
+      ADD_FAILURE() << "bind " << address << ":" << port << ": " << std::strerror(errno);
+  }
+  ~RawEnd() { ::close(fd); }
+  RawEnd(const RawEnd&) = delete;
+  RawEnd& operator=(const RawEnd&) = delete;
+  int port() const { return ntohs(self.sin_port); }
+  void send_to(int port, const std::vector<uint8_t>& bytes) const {
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(static_cast<uint16_t>(port));
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::sendto(fd, bytes.data(), bytes.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to),
+              static_cast<ssize_t>(bytes.size()));
+  }
+  // One packet, waiting up to 200 ms; empty when none came.
+  std::vector<uint8_t> receive() const {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 200) <= 0) return {};
+    std::vector<uint8_t> bytes(2048);
+    const ssize_t got = ::recv(fd, bytes.data(), bytes.size(), 0);
+    bytes.resize(got > 0 ? static_cast<std::size_t>(got) : 0);
+    return bytes;
+  }
+};
+
+// A cannelloni packet of one frame, id 0x180 + `n`.
+std::vector<uint8_t> plain_packet(uint8_t n) {
+  const Frame f = data_frame(0x180 + n, {n});
+  std::vector<uint8_t> packet;
+  cannelloni::encode(n, &f, 1, packet);
+  return packet;
+}
+
+cannelloni::Key test_key(uint8_t first) {
+  cannelloni::Key key;
+  for (std::size_t i = 0; i < key.bytes.size(); ++i) key.bytes[i] = static_cast<uint8_t>(first + i);
+  return key;
+}
+
+// The tag's view of a link from `from` to the tunnel on 127.0.0.1:`to_port`.
+cannelloni::LinkEnds ends(const RawEnd& from, int to_port) {
+  return {.from_addr = from.self.sin_addr.s_addr, .to_addr = htonl(INADDR_LOOPBACK), .from_port = from.self.sin_port,
+          .to_port = htons(static_cast<uint16_t>(to_port))};
+}
+
+// The id of the next frame `t` delivers within 100 ms; -1 when none.
+int next_id(UdpTunnel& t) {
+  Frame f;
+  return t.receive(f, 100'000'000) ? static_cast<int>(f.id) : -1;
+}
+
+TEST(UdpTunnel, BindsLoopbackForALoopbackPeerOrTheAddressGiven) {
+  const auto [pa, pb] = test::free_udp_ports();
+  std::string error;
+  auto a = UdpTunnel::open(std::to_string(pa) + ":localhost:" + std::to_string(pb), error);
+  ASSERT_TRUE(a) << error;
+  EXPECT_EQ(a->local_address(), "127.0.0.1:" + std::to_string(pa)) << "loopback, not every interface";
+  a.reset();
+  // Any 127.x address is this host's loopback on Linux: the tunnel listens there alone.
+  auto b = UdpTunnel::open("127.0.0.2:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error);
+  ASSERT_TRUE(b) << error;
+  EXPECT_EQ(b->local_address(), "127.0.0.2:" + std::to_string(pa));
+  EXPECT_NE(b->describe().find("127.0.0.2:" + std::to_string(pa)), std::string::npos) << b->describe();
+  // So the same port on 127.0.0.1 is still free.
+  auto c = UdpTunnel::open(std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error);
+  EXPECT_TRUE(c) << error;
+  // An address of no interface of this host cannot be bound.
+  EXPECT_FALSE(UdpTunnel::open("192.0.2.1:" + std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa), error));
+  EXPECT_NE(error.find("bind to 192.0.2.1:" + std::to_string(pb)), std::string::npos) << error;
+}
+
+TEST(UdpTunnel, PacketsFromAnyoneButThePeerAreDroppedAndCounted) {
+  const auto [pt, pr] = test::free_udp_ports();
+  RawEnd peer(pr), intruder(0), other_address(pr, "127.0.0.2");
+  std::string error;
+  auto t = UdpTunnel::open(std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr), error);
+  ASSERT_TRUE(t) << error;
+  intruder.send_to(pt, plain_packet(1));       // another port
+  other_address.send_to(pt, plain_packet(2));  // the peer's port on another address
+  peer.send_to(pt, plain_packet(3));
+  EXPECT_EQ(next_id(*t), 0x183) << "only the peer's frame";
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(t->counters().foreign, 2u);
+  EXPECT_EQ(t->counters().received, 1u);
+  peer.send_to(pt, {0x02, 0x00, 0x00, 0x00, 0x01});  // the peer's, malformed
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(t->counters().malformed, 1u);
+  EXPECT_EQ(t->counters().foreign, 2u);
+}
+
+TEST(UdpTunnel, AKeyedTunnelTakesOnlyAuthenticNewPacketsOfThePeersNewestSession) {
+  const auto [pt, pr] = test::free_udp_ports();
+  RawEnd peer(pr);
+  const cannelloni::Key key = test_key(1);
+  std::string error;
+  auto t = UdpTunnel::open(std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr), error, &key);
+  ASSERT_TRUE(t) << error;
+  EXPECT_TRUE(t->authenticated());
+  EXPECT_NE(t->describe().find("authenticated"), std::string::npos);
+  cannelloni::Authenticator sender(key), wrong(test_key(2));
+  const cannelloni::LinkEnds link = ends(peer, pt);
+  const uint64_t epoch = 1'700'000'000'000'000'000ULL;
+  auto sealed = [&](cannelloni::Authenticator& with, uint8_t n, uint64_t e, uint64_t counter,
+                    const cannelloni::LinkEnds& l) {
+    std::vector<uint8_t> packet = plain_packet(n);
+    with.seal(packet, e, counter, l);
+    return packet;
+  };
+  const BusCounters& c = t->counters();
+
+  const std::vector<uint8_t> good = sealed(sender, 1, epoch, 1, link);
+  EXPECT_EQ(good.size(), plain_packet(1).size() + cannelloni::kTrailerSize);
+  peer.send_to(pt, good);
+  EXPECT_EQ(next_id(*t), 0x181);
+
+  std::vector<uint8_t> tampered = sealed(sender, 2, epoch, 2, link);
+  tampered[10] ^= 0x01;  // the frame's data byte
+  peer.send_to(pt, tampered);
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(c.unauthenticated, 1u) << "tampered";
+  peer.send_to(pt, plain_packet(3));
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(c.unauthenticated, 2u) << "no tag";
+  peer.send_to(pt, sealed(wrong, 4, epoch, 3, link));
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(c.unauthenticated, 3u) << "another key";
+  // Its own packet sent back to it (the tag covers who sent it to whom).
+  const cannelloni::LinkEnds reflected{.from_addr = link.to_addr, .to_addr = link.from_addr,
+                                       .from_port = link.to_port, .to_port = link.from_port};
+  peer.send_to(pt, sealed(sender, 5, epoch, 4, reflected));
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(c.unauthenticated, 4u) << "reflected";
+
+  peer.send_to(pt, good);
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(c.replayed, 1u) << "replayed";
+  EXPECT_EQ(c.received, 1u);
+
+  // Reordered within the window: both taken, once each; nothing counted lost.
+  peer.send_to(pt, sealed(sender, 6, epoch, 3, link));
+  peer.send_to(pt, sealed(sender, 7, epoch, 2, link));
+  EXPECT_EQ(next_id(*t), 0x186);
+  EXPECT_EQ(next_id(*t), 0x187);
+  EXPECT_EQ(c.lost, 0u);
+  peer.send_to(pt, sealed(sender, 8, epoch, 10, link));
+  EXPECT_EQ(next_id(*t), 0x188);
+  EXPECT_EQ(c.lost, 6u) << "counters 4..9 missing";
+  // Beyond the window behind the newest: refused as a replay would be.
+  peer.send_to(pt, sealed(sender, 9, epoch, 100, link));
+  EXPECT_EQ(next_id(*t), 0x189);
+  peer.send_to(pt, sealed(sender, 10, epoch, 100 - cannelloni::ReplayWindow::kSize, link));
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(c.replayed, 2u);
+
+  // The sender restarts: a newer epoch, its counter from 1 again.
+  peer.send_to(pt, sealed(sender, 11, epoch + 1'000'000'000, 1, link));
+  EXPECT_EQ(next_id(*t), 0x18B) << "a restarted sender is taken";
+  peer.send_to(pt, sealed(sender, 12, epoch, 101, link));
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(c.replayed, 3u) << "the old session's packet is not";
+
+  // Authentic but not a cannelloni packet: malformed.
+  std::vector<uint8_t> bad = {0x02, 0x00, 0x00, 0x00, 0x02};
+  sender.seal(bad, epoch + 1'000'000'000, 2, link);
+  peer.send_to(pt, bad);
+  EXPECT_EQ(next_id(*t), -1);
+  EXPECT_EQ(c.malformed, 1u);
+  EXPECT_EQ(c.received, 6u);
+  EXPECT_EQ(c.unauthenticated, 4u);
+  EXPECT_EQ(c.foreign, 0u);
+}
+
+TEST(UdpTunnel, KeyedTunnelsCarryFramesBothWaysAndARestartedEndIsTaken) {
+  const auto [pa, pb] = test::free_udp_ports();
+  const cannelloni::Key key = test_key(7);
+  const std::string a_spec = std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb);
+  std::string error;
+  auto a = UdpTunnel::open(a_spec, error, &key);
+  ASSERT_TRUE(a) << error;
+  auto b = UdpTunnel::open(std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa), error, &key);
+  ASSERT_TRUE(b) << error;
+  for (const Frame& f : golden_frames()) a->send(f);
+  a->flush();
+  Frame f;
+  for (const Frame& want : golden_frames()) {
+    ASSERT_TRUE(b->receive(f, 200'000'000));
+    EXPECT_EQ(f, want);
+  }
+  b->send(data_frame(0x181, {1, 2}));
+  b->flush();
+  ASSERT_TRUE(a->receive(f, 200'000'000));
+  EXPECT_EQ(f, data_frame(0x181, {1, 2}));
+  const uint64_t first_epoch = a->epoch();
+
+  a.reset();  // the robot PC's process restarts
+  a = UdpTunnel::open(a_spec, error, &key);
+  ASSERT_TRUE(a) << error;
+  EXPECT_GT(a->epoch(), first_epoch);
+  a->send(data_frame(0x701, {0x05}));
+  a->flush();
+  ASSERT_TRUE(b->receive(f, 200'000'000));
+  EXPECT_EQ(f, data_frame(0x701, {0x05}));
+  EXPECT_EQ(b->counters().replayed + b->counters().unauthenticated + b->counters().lost, 0u);
+
+  // A key-less end (as a real cannelloni bridge) and a keyed one do not talk.
+  a.reset();
+  auto keyless = UdpTunnel::open(a_spec, error);
+  ASSERT_TRUE(keyless) << error;
+  keyless->send(data_frame(0x181, {9}));
+  keyless->flush();
+  EXPECT_FALSE(b->receive(f, 50'000'000));
+  EXPECT_EQ(b->counters().unauthenticated, 1u);
+  b->send(data_frame(0x181, {9}));
+  b->flush();
+  EXPECT_FALSE(keyless->receive(f, 50'000'000));
+  EXPECT_EQ(keyless->counters().malformed, 1u) << "the trailer is bytes after the last frame to it";
+  // A keyed end refuses to listen on every interface: its tag names its address.
+  EXPECT_FALSE(UdpTunnel::open("0.0.0.0:0:127.0.0.1:" + std::to_string(pa), error, &key));
+  EXPECT_NE(error.find("not 0.0.0.0"), std::string::npos) << error;
+}
+
+// A key file in the test's temporary folder, with `mode`.
+std::string write_key_file(const std::string& name, const std::string& text, mode_t mode) {
+  const std::string path = ::testing::TempDir() + name + "_" + std::to_string(::getpid());
+  std::ofstream(path) << text;
+  ::chmod(path.c_str(), mode);
+  return path;
+}
+
+constexpr const char* kKeyHex = "000102030405060708090a0b0c0d0e0f101112131415161718191A1B1C1D1E1F";
+
+TEST(UdpTunnel, AKeyFileIsTheOwnersAloneAndHoldsSixtyFourHexCharacters) {
+  const std::string good = write_key_file("can_key_good", std::string(kKeyHex) + "\n", 0600);
+  cannelloni::Key key;
+  std::string error;
+  ASSERT_TRUE(cannelloni::load_key(good, key, error)) << error;
+  EXPECT_EQ(key.bytes, test_key(0).bytes);
+
+  for (mode_t mode : {0640, 0604, 0620, 0644}) {
+    const std::string open_to_others = write_key_file("can_key_open", kKeyHex, mode);
+    EXPECT_FALSE(cannelloni::load_key(open_to_others, key, error)) << std::oct << mode;
+    EXPECT_NE(error.find("key file '" + open_to_others + "'"), std::string::npos) << error;
+    EXPECT_NE(error.find("chmod 600 '" + open_to_others + "'"), std::string::npos) << error;
+    ::unlink(open_to_others.c_str());
+  }
+  for (const char* text : {"0011", "zz0102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f", ""}) {
+    const std::string bad = write_key_file("can_key_bad", text, 0600);
+    EXPECT_FALSE(cannelloni::load_key(bad, key, error)) << text;
+    EXPECT_NE(error.find("expected 64 hex characters"), std::string::npos) << error;
+    ::unlink(bad.c_str());
+  }
+  EXPECT_FALSE(cannelloni::load_key(good + ".missing", key, error));
+  EXPECT_NE(error.find("No such file"), std::string::npos) << error;
+  EXPECT_FALSE(cannelloni::load_key(::testing::TempDir(), key, error));
+  EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
+
+  // Through open_bus, as the nodes open it.
+  const auto [pa, pb] = test::free_udp_ports();
+  auto bus = open_bus("udp:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error, {good});
+  ASSERT_TRUE(bus) << error;
+  EXPECT_TRUE(dynamic_cast<UdpTunnel&>(*bus).authenticated());
+  EXPECT_FALSE(open_bus("virtual:keyed", error, {good}));
+  EXPECT_NE(error.find("is for a udp bus only"), std::string::npos) << error;
+  ::unlink(good.c_str());
+}
+
+uint64_t own_counter(const NodeStats& stats, const std::string& name) {
+  for (const auto& c : stats.counters)
+    if (c->name == name) return c->value.load();
+  ADD_FAILURE() << stats.name << " has no counter " << name;
+  return 0;
+}
+
+// can.tap on a keyed tunnel: what it dropped is in its stats and the run's
+// --stats-json, counter by counter.
+TEST(CanNodes, TheTunnelsDropsAreInTheNodesStatsAndStatsJson) {
+  const std::string key_file = write_key_file("can_key_tap", kKeyHex, 0600);
+  const auto [pt, pr] = test::free_udp_ports();
+  RawEnd peer(pr), intruder(0);
+  auto run = test::open_graph(R"(<graph name="keyed_tap">
+    <node name="tap" plugin="can.tap">
+      <param name="bus" value="udp:)" + std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr) + R"("/>
+      <param name="key_file" value=")" + key_file + R"("/>
+      <param name="period_ms" value="20"/>
+      <param name="duration" value="0.3"/>
+    </node>
+    <node name="frames" plugin="util.null"/>
+    <edge from="tap.frames" to="frames.in"/>
+  </graph>)");
+  cannelloni::Authenticator sender(test_key(0));
+  std::vector<uint8_t> good = plain_packet(1);
+  sender.seal(good, 1, 1, ends(peer, pt));
+  peer.send_to(pt, good);
+  peer.send_to(pt, good);             // replayed
+  peer.send_to(pt, plain_packet(2));  // no tag
+  intruder.send_to(pt, good);         // foreign
+  ASSERT_TRUE(run->run().ok());
+  const NodeStats& tap = run->stats("tap");
+  EXPECT_EQ(own_counter(tap, "bus_received"), 1u);
+  EXPECT_EQ(own_counter(tap, "bus_replayed"), 1u);
+  EXPECT_EQ(own_counter(tap, "bus_unauthenticated"), 1u);
+  EXPECT_EQ(own_counter(tap, "bus_foreign"), 1u);
+  EXPECT_EQ(own_counter(tap, "bus_malformed"), 0u);
+  const std::string json = ::testing::TempDir() + "can_stats_" + std::to_string(::getpid()) + ".json";
+  std::ofstream(json) << run->executor->stats_json();
+  for (const auto& field : kBusCounterFields) EXPECT_GE(test::stats_counter(json, "tap", std::string("bus_") + field.name), 0) << field.name;
+  EXPECT_EQ(test::stats_counter(json, "tap", "bus_foreign"), 1);
+  EXPECT_EQ(test::stats_counter(json, "tap", "bus_unauthenticated"), 1);
+  EXPECT_EQ(test::stats_counter(json, "tap", "bus_replayed"), 1);
+  ::unlink(json.c_str());
+  ::unlink(key_file.c_str());
+}
+
+// can.send seals with its key file; what arrives is authentic for the link.
+TEST(CanNodes, CanSendSealsItsPacketsAndCountsThem) {
+  const std::string key_file = write_key_file("can_key_send", kKeyHex, 0600);
+  const auto [ps, pr] = test::free_udp_ports();
+  RawEnd peer(pr);
+  std::string error;
+  auto send = testing::NodeHarness::create("<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:" +
+                                               std::to_string(ps) + ":127.0.0.1:" + std::to_string(pr) +
+                                               "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>",
+                                           &error);
+  ASSERT_NE(send, nullptr) << error;
+  auto out = std::make_shared<CanFrames>();
+  CanFrames::Frame m;
+  m.can_id = 0x601;
+  m.length = 2;
+  m.data = {0x40, 0x41};
+  out->frames = {m, m};
+  send->set("frames", out);
+  ASSERT_TRUE(send->process().ok());
+  EXPECT_EQ(send->counter("bus_sent"), 2u);
+  EXPECT_EQ(send->counter("bus_send_failed"), 0u);
+  const std::vector<uint8_t> packet = peer.receive();
+  ASSERT_FALSE(packet.empty());
+  cannelloni::Authenticator check(test_key(0));
+  std::size_t payload = 0;
+  uint64_t epoch = 0, counter = 0;
+  cannelloni::LinkEnds link{.from_addr = htonl(INADDR_LOOPBACK), .to_addr = peer.self.sin_addr.s_addr,
+                            .from_port = htons(static_cast<uint16_t>(ps)), .to_port = peer.self.sin_port};
+  ASSERT_TRUE(check.open(packet.data(), packet.size(), link, payload, epoch, counter));
+  EXPECT_EQ(counter, 1u);
+  EXPECT_GT(epoch, 0u);
+  std::vector<Frame> frames;
+  uint8_t seq = 0;
+  ASSERT_TRUE(cannelloni::decode(packet.data(), payload, seq, frames, error)) << error;
+  EXPECT_EQ(frames.size(), 2u);
+  // A group-readable key file is refused when the node opens, naming the fix.
+  ::chmod(key_file.c_str(), 0640);
+  EXPECT_EQ(testing::NodeHarness::create("<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:0:127.0.0.1:" +
+                                             std::to_string(pr) + "\"/><param name=\"key_file\" value=\"" + key_file +
+                                             "\"/></node>",
+                                         &error),
+            nullptr);
+  EXPECT_NE(error.find("chmod 600"), std::string::npos) << error;
+  ::unlink(key_file.c_str());
+}
+
+// The master and the drives in one graph on a keyed tunnel: the drives are
+// configured and enabled through it, packets from elsewhere are counted, and
+// both nodes' stats carry every bus counter.
+TEST(CanNodes, TheDriverAndTheDrivesRunOverAKeyedTunnel) {
+  const std::string key_file = write_key_file("can_key_loop", kKeyHex, 0600);
+  const auto [pa, pb] = test::free_udp_ports();
+  RawEnd intruder(0);
+  testing::Recorder::instance().clear();
+  auto run = test::open_graph(R"(<graph name="keyed_loop">
+    <node name="driver" plugin="can.driver">
+      <param name="bus" value="udp:)" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb) + R"("/>
+      <param name="key_file" value=")" + key_file + R"("/>
+      <param name="duration" value="1.5"/>
+      <param name="wait_ms" value="2"/>
+    </node>
+    <node name="drives" plugin="can.drives">
+      <param name="bus" value="udp:)" + std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa) + R"("/>
+      <param name="key_file" value=")" + key_file + R"("/>
+      <param name="duration" value="1.5"/>
+    </node>
+    <node name="state" plugin="util.record"/>
+    <node name="truth" plugin="util.null"/>
+    <edge from="driver.state" to="state.in"/>
+    <edge from="drives.truth" to="truth.in"/>
+  </graph>)");
+  for (int i = 0; i < 3; ++i) intruder.send_to(pa, plain_packet(static_cast<uint8_t>(i)));
+  const Status status = run->run();
+  ASSERT_TRUE(status.ok()) << status.message();
+  const auto states = test::recorded<JointState>("state");
+  ASSERT_FALSE(states.empty());
+  EXPECT_TRUE(states.back()->all_ready()) << states.back()->detail;
+  const NodeStats& driver = run->stats("driver");
+  const NodeStats& drives = run->stats("drives");
+  EXPECT_EQ(own_counter(driver, "bus_foreign"), 3u);
+  EXPECT_GT(own_counter(driver, "bus_received"), 100u);
+  EXPECT_GT(own_counter(drives, "bus_received"), 100u);
+  EXPECT_GT(own_counter(drives, "bus_sent"), 100u);
+  for (const NodeStats* n : {&driver, &drives})
+    for (const char* name : {"bus_unauthenticated", "bus_replayed", "bus_malformed"})
+      EXPECT_EQ(own_counter(*n, name), 0u) << n->name << " " << name;
+  ::unlink(key_file.c_str());
 }
 
 TEST(SocketCan, TalksOnVcan0WhereTheKernelHasCan) {
