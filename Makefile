@@ -22,6 +22,7 @@ demo: configure
 	@echo "demo: wrote $$(ls out/demo | wc -l) PNGs under out/demo/"
 
 test: build
+	@bash scripts/install-test-npm.sh $(BUILD)
 	ctest --preset $(PRESET) -j $(JOBS) $(CTEST_ARGS)
 
 bench: build

@@ -17,6 +17,7 @@ packages=(
   gstreamer1.0-tools gstreamer1.0-plugins-base
   openssl libssl-dev iproute2
   graphviz
+  libzstd-dev liblz4-dev
   clang libclang-rt-14-dev
   chromium
 )

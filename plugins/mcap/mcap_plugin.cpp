@@ -1,0 +1,241 @@
+// mcap.record and mcap.replay: a graph's messages to an MCAP file and back.
+#include <map>
+#include <mutex>
+
+#include "recording.hpp"
+#include "saccade/log.hpp"
+#include "saccade/plugin.hpp"
+
+namespace {
+
+using namespace saccade;
+
+// The files record nodes write, by path: the nodes of one path share one
+// file (one channel each); the last node to close it writes its summary.
+std::shared_ptr<mcap::MessageFile> shared_file(const std::string& path, const mcap::WriterOptions& options,
+                                               std::string& error) {
+  static std::mutex mutex;
+  static std::map<std::string, std::weak_ptr<mcap::MessageFile>> files;
+  std::lock_guard lock(mutex);
+  if (auto existing = files[path].lock()) {
+    if (existing->options().compression != options.compression || existing->options().chunk_size != options.chunk_size)
+      error = "another mcap.record node writes '" + path + "' with compression " +
+              mcap::to_string(existing->options().compression) + " and chunk size " +
+              std::to_string(existing->options().chunk_size) + ": give every node of one file the same";
+    return existing;
+  }
+  auto file = std::make_shared<mcap::MessageFile>();
+  if (std::string why = file->open(path, options); !why.empty()) {
+    error = why;
+    return nullptr;
+  }
+  files[path] = file;
+  return file;
+}
+
+struct RecordConfig {
+  std::string path;
+  std::string topic;
+  std::string compression = "zstd";
+  int64_t chunk_kib = 1024;
+};
+
+class Record final : public Node {
+ public:
+  static constexpr const char* kName = "record";
+  static constexpr In<Message> kIn{"in", "any message: its channel's type is the first message's"};
+
+  static Contract contract() {
+    return Contract(
+               "Writes every message it receives to an MCAP file (Foxglove, rosbag2, PlotJuggler read it): one "
+               "channel, the topic named by 'topic', log time = the message's timestamp. Record nodes with the same "
+               "path share one file, one channel each. Images and joint states as ROS 2 sensor_msgs, other types as "
+               "saccade's IDL type (docs/recording.md). Give its edge queue=\"block:N\" to record every message.")
+        .ports(kIn)
+        .required_string("path", "MCAP file to write (created or truncated; its folder is made)")
+        .param_string("topic", "", "the channel's topic (default: /<node name>); name it after the recorded port, e.g. /retina/retina")
+        .param_enum("compression", "zstd", {"none", "zstd", "lz4"}, "chunk compression")
+        .param_int("chunk_kib", 1024, 0, 1 << 20, "chunk size in KiB before compression (0: no chunks, no index)");
+  }
+  Status open(OpenContext& ctx) override {
+    const Params& p = ctx.params();
+    mcap::WriterOptions options;
+    mcap::parse_compression(p.get_string("compression"), options.compression);
+    options.chunk_size = static_cast<std::size_t>(p.get_int("chunk_kib")) * 1024;
+    std::string error;
+    file_ = shared_file(p.get_string("path"), options, error);
+    if (!error.empty()) return Status::error(error);
+    const std::string topic = p.get_string("topic").empty() ? "/" + ctx.node_name() : p.get_string("topic");
+    topic_ = file_->topic(topic, {{"node", ctx.node_name()}});
+    write_errors_ = &ctx.counter("write_errors");
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    if (std::string why = file_->write(topic_, *ctx.get(kIn)); !why.empty()) {
+      if (write_errors_->fetch_add(1, std::memory_order_relaxed) == 0) log().warn("{}: {}", ctx.node_name(), why);
+    }
+    return {};
+  }
+  void close() override {
+    if (file_.use_count() == 1) {
+      if (std::string why = file_->close(); !why.empty()) log().error("mcap.record: {}", why);
+    }
+    file_.reset();
+  }
+
+ private:
+  std::shared_ptr<mcap::MessageFile> file_;
+  mcap::MessageFile::Topic* topic_ = nullptr;
+  std::atomic<uint64_t>* write_errors_ = nullptr;
+};
+
+// The steady time a file's replay started, shared by the replay nodes of one
+// path while any of them is open, so that their topics keep their recorded
+// spacing to each other.
+struct Anchors {
+  std::mutex mutex;
+  std::map<std::string, std::pair<int, int64_t>> by_path;  // users, start (0: not started)
+  static Anchors& instance() {
+    static Anchors anchors;
+    return anchors;
+  }
+  void join(const std::string& path) {
+    std::lock_guard lock(mutex);
+    ++by_path[path].first;
+  }
+  void leave(const std::string& path) {
+    std::lock_guard lock(mutex);
+    auto it = by_path.find(path);
+    if (it != by_path.end() && --it->second.first <= 0) by_path.erase(it);
+  }
+  int64_t start(const std::string& path) {
+    std::lock_guard lock(mutex);
+    auto& entry = by_path[path];
+    if (entry.second == 0) entry.second = steady_now_ns();
+    return entry.second;
+  }
+};
+
+// The replay's typed outputs: a graph's typed inputs take only their own type,
+// so the topic's messages also leave on the output named after their type.
+template <class... M>
+struct TypedOutputs {
+  static void declare(Contract& c) {
+    (c.output<M>(port_name(M::kTypeName), "the topic's messages when it carries " + std::string(M::kTypeName)), ...);
+  }
+  // The output index for `type`, or -1; errors for outputs of other types that are connected.
+  static int open(OpenContext& ctx, std::string_view type, std::string& error) {
+    int index = -1;
+    (check<M>(ctx, type, index, error), ...);
+    return index;
+  }
+  template <class T>
+  static void check(OpenContext& ctx, std::string_view type, int& index, std::string& error) {
+    const std::string name = port_name(T::kTypeName);
+    auto h = ctx.output<T>(name);
+    if (T::kTypeName == type) {
+      index = h.index;
+    } else if (ctx.connected(h) && error.empty()) {
+      error = "output '" + name + "' is connected, but the topic carries " + std::string(type) + " (its output: '" +
+              port_name(type) + "')";
+    }
+  }
+  // "FeatureMaps" -> "feature_maps"
+  static std::string port_name(std::string_view type) {
+    std::string out;
+    for (char ch : type) {
+      if (ch >= 'A' && ch <= 'Z') {
+        if (!out.empty()) out += '_';
+        out += static_cast<char>(ch - 'A' + 'a');
+      } else {
+        out += ch;
+      }
+    }
+    return out;
+  }
+};
+using ReplayOutputs = TypedOutputs<Image, Retina, FeatureMaps, Motion, Region, StereoFixation, GazeRequest, JointState,
+                                   JointTargets, HeadPose, FoveaState, Classification, CanFrames>;
+
+class Replay final : public Node {
+ public:
+  static constexpr const char* kName = "replay";
+  static constexpr Out<Message> kOut{"out", "the recorded topic's messages, with their recorded timestamps (any type)"};
+
+  static Contract contract() {
+    Contract c(
+               "Plays one topic of an MCAP file into the graph in file order, each message with its recorded "
+               "timestamp and frame id (origin = when it is played): at the recorded pace (realtime, the replay "
+               "nodes of one file keeping their topics' spacing) or as fast as consumers take (fast: give its edges "
+               "queue=\"block:N\" to drop nothing; the same file gives the same messages in the same order). One "
+               "node per topic; its messages leave on 'out' and on the output named after their type (retina, "
+               "feature_maps, ...), which typed inputs take. A truncated or corrupted file is an error naming the "
+               "offset, unless salvage.");
+    c.ports(kOut)
+        .required_string("path", "MCAP file to read")
+        .param_string("topic", "", "the topic to play (default: the file's only topic); an unknown one lists the file's")
+        .param_enum("rate", "fast", {"fast", "realtime"}, "as fast as consumers take, or at the recorded pace")
+        .param_double("speed", 1.0, 0.01, 1000.0, "realtime: this many times the recorded pace")
+        .param_bool("salvage", false, "play the readable part of a truncated or corrupted file (skipped parts counted in 'skipped')");
+    ReplayOutputs::declare(c);
+    return c;
+  }
+  Status open(OpenContext& ctx) override {
+    const Params& p = ctx.params();
+    path_ = p.get_string("path");
+    realtime_ = p.get_string("rate") == "realtime";
+    speed_ = p.get_double("speed");
+    if (std::string why = reader_.open(path_, p.get_string("topic"), p.get_bool("salvage")); !why.empty())
+      return Status::error(why);
+    std::string error;
+    typed_ = ReplayOutputs::open(ctx, reader_.type(), error);
+    if (!error.empty()) return Status::error(reader_.topic() + ": " + error);
+    for (const std::string& w : reader_.reader().warnings()) log().warn("{}: {}", ctx.node_name(), w);
+    skipped_ = &ctx.counter("skipped");
+    Anchors::instance().join(path_);
+    joined_ = true;
+    return {};
+  }
+  Status process(ProcessContext& ctx) override {
+    std::string error;
+    MessagePtr m = reader_.next(error);
+    const uint64_t skipped = reader_.reader().skipped();
+    if (skipped > skipped_seen_) {
+      skipped_->fetch_add(skipped - skipped_seen_, std::memory_order_relaxed);
+      skipped_seen_ = skipped;
+      log().warn("{}: skipped a damaged part: {}", ctx.node_name(), reader_.reader().warnings().back());
+    }
+    if (m == nullptr) {
+      if (!error.empty()) return Status::error(error);
+      return Status::end_of_stream();
+    }
+    if (realtime_) {
+      if (anchor_ == 0) anchor_ = Anchors::instance().start(path_);
+      const double since = static_cast<double>(m->timestamp_ns - static_cast<int64_t>(reader_.start_time())) / speed_;
+      if (!ctx.sleep_until(anchor_ + static_cast<int64_t>(since))) return Status::end_of_stream();
+    }
+    const_cast<Message&>(*m).origin_ns = steady_now_ns();
+    if (typed_ >= 0) ctx.emit(OutputHandle<Message>{typed_}, m);
+    ctx.emit(kOut, std::move(m));
+    return {};
+  }
+  void close() override {
+    if (joined_) Anchors::instance().leave(path_);
+    joined_ = false;
+  }
+
+ private:
+  mcap::TopicReader reader_;
+  bool joined_ = false;
+  std::string path_;
+  bool realtime_ = false;
+  double speed_ = 1.0;
+  int64_t anchor_ = 0;
+  int typed_ = -1;
+  std::atomic<uint64_t>* skipped_ = nullptr;
+  uint64_t skipped_seen_ = 0;
+};
+
+}  // namespace
+
+SACCADE_PLUGIN("mcap", Record, Replay)

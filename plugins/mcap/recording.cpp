@@ -1,0 +1,332 @@
+#include "recording.hpp"
+
+#include <cstdio>
+#include <set>
+
+#include "channel.hpp"
+#include "saccade/executor.hpp"
+
+namespace saccade::mcap {
+
+struct MessageFile::Topic {
+  std::string name;
+  std::map<std::string, std::string> metadata;
+  struct Typed {
+    std::string_view type;  // Message::type_name()
+    uint16_t channel = 0;
+    std::unique_ptr<dds::MessageEncoder> encoder;
+  };
+  std::vector<Typed> channels;  // one per message type seen (usually one)
+  std::vector<uint8_t> bytes;   // the encoder's output, kept between messages
+};
+
+MessageFile::MessageFile() = default;
+MessageFile::~MessageFile() { close(); }
+
+std::string MessageFile::open(const std::string& path, const WriterOptions& options) {
+  std::lock_guard lock(mutex_);
+  path_ = path;
+  options_ = options;
+  return writer_.open(path, options);
+}
+
+MessageFile::Topic* MessageFile::topic(const std::string& name, const std::map<std::string, std::string>& metadata) {
+  std::lock_guard lock(mutex_);
+  topics_.push_back(std::make_unique<Topic>());
+  topics_.back()->name = name;
+  topics_.back()->metadata = metadata;
+  return topics_.back().get();
+}
+
+std::string MessageFile::write(Topic* topic, const Message& message) {
+  std::lock_guard lock(mutex_);
+  if (!writer_.is_open()) return "'" + path_ + "' is closed";
+  const std::string_view type = message.type_name();
+  Topic::Typed* typed = nullptr;
+  for (auto& t : topic->channels)
+    if (t.type == type) typed = &t;
+  if (typed == nullptr) {
+    const dds::ChannelEncoding* e = dds::channel_encoding(type);
+    if (e == nullptr) return "topic " + topic->name + ": " + std::string(type) + " has no channel encoding";
+    uint16_t schema = 0;
+    for (const auto& [name, id] : schemas_)
+      if (name == e->schema_name) schema = id;
+    if (schema == 0) {
+      schema = writer_.add_schema(e->schema_name, e->schema_encoding, e->schema.data(), e->schema.size());
+      schemas_.emplace_back(e->schema_name, schema);
+    }
+    auto metadata = topic->metadata;
+    metadata["saccade_type"] = std::string(type);
+    Topic::Typed t;
+    t.type = e->type;
+    t.channel = writer_.add_channel(schema, topic->name, e->message_encoding, metadata);
+    t.encoder = dds::make_encoder(*e);
+    topic->channels.push_back(std::move(t));
+    typed = &topic->channels.back();
+  }
+  if (std::string why = typed->encoder->encode(message, topic->bytes); !why.empty()) return "topic " + topic->name + ": " + why;
+  return writer_.write(typed->channel, static_cast<uint32_t>(message.frame_id), static_cast<uint64_t>(message.timestamp_ns),
+                       static_cast<uint64_t>(message.timestamp_ns), topic->bytes.data(), topic->bytes.size());
+}
+
+std::string MessageFile::close() {
+  std::lock_guard lock(mutex_);
+  if (!writer_.is_open()) return {};
+  return writer_.close();
+}
+
+uint64_t MessageFile::messages() const {
+  std::lock_guard lock(mutex_);
+  return writer_.messages();
+}
+
+uint64_t MessageFile::bytes() const {
+  std::lock_guard lock(mutex_);
+  return writer_.bytes_written();
+}
+
+// ---------------------------------------------------------------- GraphRecorder
+
+std::unique_ptr<GraphRecorder> attach_recorder(Executor& executor, const std::string& path,
+                                               const RecorderOptions& options, std::string& error) {
+  std::unique_ptr<GraphRecorder> r(new GraphRecorder());
+  r->options_ = options;
+  if (r->options_.queue == 0) r->options_.queue = 1;
+  const ResolvedGraph& graph = executor.graph();
+  // The outputs to record: named ones, or every connected one (in graph order).
+  std::vector<std::pair<int, int>> ports;
+  if (options.ports.empty()) {
+    std::set<std::pair<int, int>> seen;
+    for (const ResolvedEdge& e : graph.edges)
+      if (seen.insert({e.from_node, e.from_port}).second) ports.emplace_back(e.from_node, e.from_port);
+  } else {
+    for (const std::string& name : options.ports) {
+      const auto dot = name.rfind('.');
+      bool found = false;
+      for (std::size_t n = 0; n < graph.nodes.size() && !found && dot != std::string::npos; ++n) {
+        if (graph.nodes[n].decl.name != name.substr(0, dot)) continue;
+        const int port = graph.nodes[n].contract.output_index(name.substr(dot + 1));
+        if (port >= 0) {
+          ports.emplace_back(static_cast<int>(n), port);
+          found = true;
+        }
+      }
+      if (!found) {
+        error = "--record: no output '" + name + "' in the graph (node.port)";
+        return nullptr;
+      }
+    }
+  }
+  if (std::string why = r->file_.open(path, options.writer); !why.empty()) {
+    error = why;
+    return nullptr;
+  }
+  r->ring_.resize(r->options_.queue);
+  GraphRecorder* self = r.get();
+  for (const auto& [n, p] : ports) {
+    const ResolvedNode& node = graph.nodes[static_cast<std::size_t>(n)];
+    const PortSpec& port = node.contract.outputs()[static_cast<std::size_t>(p)];
+    MessageFile::Topic* topic = r->file_.topic("/" + node.decl.name + "/" + port.name,
+                                               {{"node", node.decl.name}, {"port", port.name}});
+    r->topics_.push_back(topic);
+    if (std::string why = executor.add_tap(node.decl.name, port.name,
+                                           [self, topic](const MessagePtr& m) { self->push(topic, m); });
+        !why.empty()) {
+      error = "--record: " + why;
+      return nullptr;
+    }
+  }
+  r->writer_ = std::thread([self] { self->run_writer(); });
+  return r;
+}
+
+void GraphRecorder::push(MessageFile::Topic* topic, const MessagePtr& message) {
+  std::unique_lock lock(mutex_);
+  if (count_ == ring_.size()) {
+    if (!options_.lossless || stopping_) {
+      dropped_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    has_room_.wait(lock, [&] { return count_ < ring_.size() || stopping_; });
+    if (stopping_) {
+      dropped_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+  }
+  Item& slot = ring_[(head_ + count_) % ring_.size()];
+  slot.topic = topic;
+  slot.message = message;
+  ++count_;
+  lock.unlock();
+  has_items_.notify_one();
+}
+
+void GraphRecorder::run_writer() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    has_items_.wait(lock, [&] { return count_ > 0 || stopping_; });
+    if (count_ == 0 && stopping_) return;
+    Item& slot = ring_[head_];
+    MessageFile::Topic* topic = slot.topic;
+    MessagePtr message = std::move(slot.message);
+    head_ = (head_ + 1) % ring_.size();
+    --count_;
+    lock.unlock();
+    has_room_.notify_one();
+    const std::string why = file_.write(topic, *message);
+    message.reset();  // back to its pool, off the lock
+    lock.lock();
+    if (why.empty()) {
+      recorded_.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      failed_.fetch_add(1, std::memory_order_relaxed);
+      if (first_error_.empty()) first_error_ = why;
+    }
+  }
+}
+
+std::string GraphRecorder::finish() {
+  {
+    std::lock_guard lock(mutex_);
+    if (finished_) return first_error_;
+    finished_ = true;
+    stopping_ = true;
+  }
+  has_items_.notify_all();
+  has_room_.notify_all();
+  if (writer_.joinable()) writer_.join();
+  const std::string why = file_.close();
+  if (first_error_.empty()) first_error_ = why;
+  return first_error_;
+}
+
+GraphRecorder::~GraphRecorder() { finish(); }
+
+uint64_t GraphRecorder::bytes() const { return file_.bytes(); }
+
+std::string GraphRecorder::report() const {
+  char size[32];
+  const double b = static_cast<double>(bytes());
+  if (b >= 1e6) {
+    std::snprintf(size, sizeof size, "%.1f MB", b / 1e6);
+  } else {
+    std::snprintf(size, sizeof size, "%.1f kB", b / 1e3);
+  }
+  std::string line = "recorded " + std::to_string(recorded()) + " messages on " + std::to_string(topics_.size()) +
+                     " channels to " + file_.path() + " (" + size + ", " + to_string(file_.options().compression) +
+                     "): " + std::to_string(dropped()) + " dropped";
+  if (failed() > 0) line += ", " + std::to_string(failed()) + " not written (" + first_error_ + ")";
+  return line;
+}
+
+// ---------------------------------------------------------------- reading
+
+const dds::ChannelEncoding* encoding_of(const Channel& channel, const Schema* schema, std::string& why) {
+  if (schema == nullptr) {
+    why = "topic " + channel.topic + ": its channel names schema " + std::to_string(channel.schema_id) +
+          ", which the file does not have";
+    return nullptr;
+  }
+  if (channel.message_encoding != "cdr") {
+    why = "topic " + channel.topic + ": message encoding '" + channel.message_encoding + "' (saccade reads cdr)";
+    return nullptr;
+  }
+  const bool ros2 = schema->encoding == "ros2msg";
+  if (auto it = channel.metadata.find("saccade_type"); it != channel.metadata.end()) {
+    const dds::ChannelEncoding* e = dds::channel_encoding(it->second, ros2);
+    if (e != nullptr && e->schema_name == schema->name) return e;
+  }
+  for (std::string_view type : dds::channel_types()) {
+    for (bool r : {true, false}) {
+      const dds::ChannelEncoding* e = dds::channel_encoding(type, r);
+      if (e != nullptr && e->schema_name == schema->name && e->schema_encoding == schema->encoding) return e;
+    }
+  }
+  std::string known;
+  for (std::string_view type : dds::channel_types()) {
+    for (bool r : {true, false}) {
+      const dds::ChannelEncoding* e = dds::channel_encoding(type, r);
+      if (e == nullptr || known.find(e->schema_name) != std::string::npos) continue;
+      known += (known.empty() ? "" : ", ") + e->schema_name;
+    }
+  }
+  why = "topic " + channel.topic + ": schema '" + schema->name + "' (" + schema->encoding +
+        ") is not one saccade reads (it reads " + known + ")";
+  return nullptr;
+}
+
+TopicReader::TopicReader() = default;
+TopicReader::~TopicReader() = default;
+
+std::string_view TopicReader::type() const { return encoding_ != nullptr ? encoding_->type : std::string_view(); }
+
+std::string TopicReader::open(const std::string& path, const std::string& topic, bool salvage) {
+  salvage_ = salvage;
+  if (std::string why = reader_.open(path, salvage); !why.empty()) return why;
+  const Channel* channel = nullptr;
+  if (topic.empty() && reader_.channels().size() == 1) {
+    channel = &reader_.channels().begin()->second;
+  } else if (!topic.empty()) {
+    channel = reader_.find_channel(topic);
+  }
+  if (channel == nullptr) {
+    std::string topics;
+    for (const auto& [id, c] : reader_.channels()) {
+      const Schema* s = reader_.schema_of(c);
+      topics += (topics.empty() ? "" : ", ") + c.topic + " (" + (s != nullptr ? s->name : std::string("no schema")) + ")";
+    }
+    if (topics.empty()) topics = "none";
+    return path + ": " + (topic.empty() ? "which topic? the file has several" : "no topic '" + topic + "'") +
+           "; its topics: " + topics;
+  }
+  std::string why;
+  encoding_ = encoding_of(*channel, reader_.schema_of(*channel), why);
+  if (encoding_ == nullptr) return path + ": " + why;
+  decoder_ = dds::make_decoder(*encoding_);
+  ros2_ = encoding_->schema_encoding == "ros2msg";
+  topic_ = channel->topic;
+  channel_ = channel->id;
+  start_time_ = reader_.statistics() != nullptr ? reader_.statistics()->message_start_time : 0;
+  rewind();
+  if (reader_.statistics() == nullptr) {
+    // No summary (salvaged): the first message of the file gives the start.
+    Reader probe;
+    if (probe.open(path, true).empty()) {
+      probe.rewind({});
+      MessageView v;
+      std::string ignored;
+      if (probe.next(v, ignored) == 1) start_time_ = v.log_time;
+    }
+  }
+  return {};
+}
+
+void TopicReader::rewind() {
+  ReadOptions options;
+  options.salvage = salvage_;
+  options.channels = {channel_};
+  reader_.rewind(options);
+}
+
+MessagePtr TopicReader::next(std::string& error) {
+  MessageView view;
+  for (;;) {
+    const int r = reader_.next(view, error);
+    if (r <= 0) return nullptr;
+    std::string why;
+    MessagePtr m = decoder_->decode(view.data, view.size, why);
+    if (m == nullptr) {
+      error = reader_.file_size() > 0 ? "topic " + topic_ + ": the message at offset " + std::to_string(view.offset) +
+                                            " does not decode: " + why
+                                      : why;
+      if (salvage_) continue;
+      return nullptr;
+    }
+    auto& mutable_message = const_cast<Message&>(*m);  // new, not shared yet
+    mutable_message.timestamp_ns = static_cast<int64_t>(view.log_time);
+    if (ros2_) mutable_message.frame_id = view.sequence;
+    return m;
+  }
+}
+
+}  // namespace saccade::mcap

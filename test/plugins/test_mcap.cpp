@@ -1,0 +1,749 @@
+// MCAP record and replay (issue 26): the format library against its own
+// reader and the reference TypeScript reader (@mcap/core), every message type
+// through a file, damaged files, and the demo recorded and replayed bit for bit.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "channel.hpp"
+#include "mcap.hpp"
+#include "recording.hpp"
+#include "saccade/executor.hpp"
+#include "saccade/schema.hpp"
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+namespace fs = std::filesystem;
+using mcap::Compression;
+
+std::string out_path(const std::string& name) {
+  const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "mcap";
+  fs::create_directories(dir);
+  return (dir / name).string();
+}
+
+std::vector<uint8_t> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+}
+
+// Every field of a message, each a different value (as test_dds_wire's).
+struct FillEveryField {
+  int next = 1;
+  void operator()(const char*, std::string& s) { s = "s" + std::to_string(next++); }
+  void operator()(const char*, bool& b) { b = (next++ % 2) == 1; }
+  template <class V>
+    requires std::is_arithmetic_v<V>
+  void operator()(const char*, V& v) { v = static_cast<V>(next++ % 100) + static_cast<V>(std::is_floating_point_v<V> ? 0.25 : 0); }
+  template <class V>
+    requires std::is_enum_v<V>
+  void operator()(const char*, V& v) { v = static_cast<V>(1); }
+  template <class T>
+  void operator()(const char* n, cv::Point_<T>& p) { (*this)(n, p.x), (*this)(n, p.y); }
+  template <class T>
+  void operator()(const char* n, cv::Size_<T>& s) { (*this)(n, s.width), (*this)(n, s.height); }
+  template <class T>
+  void operator()(const char* n, cv::Rect_<T>& r) { (*this)(n, r.x), (*this)(n, r.y), (*this)(n, r.width), (*this)(n, r.height); }
+  template <class T, int N>
+  void operator()(const char* n, cv::Vec<T, N>& v) { for (T& x : v.val) (*this)(n, x); }
+  void operator()(const char*, cv::Mat& m) { m = test::random_image({5, 4}, next++); }
+  template <class T>
+  void operator()(const char* n, std::vector<T>& v) {
+    v.resize(2);
+    for (T& x : v) (*this)(n, x);
+  }
+  template <class T, std::size_t N>
+  void operator()(const char* n, std::array<T, N>& v) { for (T& x : v) (*this)(n, x); }
+  void operator()(const char* n, std::shared_ptr<const std::vector<std::string>>& p) {
+    auto v = std::make_shared<std::vector<std::string>>();
+    (*this)(n, *v);
+    p = v;
+  }
+  template <class V>
+    requires requires(V& v) { V::fields(v, [](const char*, auto&) {}); }
+  void operator()(const char*, V& v) { V::fields(v, *this); }
+};
+
+template <class M>
+std::shared_ptr<M> filled(int k) {
+  auto m = std::make_shared<M>();
+  M::fields(*m, FillEveryField{k * 7 + 1});
+  if constexpr (std::is_same_v<M, CanFrames>) {
+    for (auto& f : m->frames) {
+      f.length = 8, f.flags = 0;
+      std::fill(f.data.begin() + 8, f.data.end(), 0);
+    }
+  }
+  m->timestamp_ns = 1'000'000'000 + k * 33'000'000;
+  m->frame_id = k;
+  m->origin_ns = 5;
+  return m;
+}
+
+// One message of each type per frame, `frames` frames.
+std::vector<MessagePtr> every_type(int frames) {
+  std::vector<MessagePtr> all;
+  for (int k = 0; k < frames; ++k) {
+    all.push_back(filled<Image>(k));
+    all.push_back(filled<Retina>(k));
+    all.push_back(filled<FeatureMaps>(k));
+    all.push_back(filled<Motion>(k));
+    all.push_back(filled<Region>(k));
+    all.push_back(filled<StereoFixation>(k));
+    all.push_back(filled<GazeRequest>(k));
+    all.push_back(filled<JointState>(k));
+    all.push_back(filled<JointTargets>(k));
+    all.push_back(filled<HeadPose>(k));
+    all.push_back(filled<FoveaState>(k));
+    all.push_back(filled<Classification>(k));
+    all.push_back(filled<CanFrames>(k));
+  }
+  return all;
+}
+
+std::string topic_of(const Message& m) { return "/test/" + std::string(m.type_name()); }
+
+// Writes `messages` to `path`, one topic per type.
+void write_file(const std::string& path, const std::vector<MessagePtr>& messages, const mcap::WriterOptions& options) {
+  mcap::MessageFile file;
+  ASSERT_EQ(file.open(path, options), "");
+  std::map<std::string, mcap::MessageFile::Topic*> topics;
+  for (const auto& m : messages) {
+    auto& t = topics[topic_of(*m)];
+    if (t == nullptr) t = file.topic(topic_of(*m));
+    ASSERT_EQ(file.write(t, *m), "");
+  }
+  ASSERT_EQ(file.close(), "");
+}
+
+// The pixels of every matrix a message carries, in order.
+std::vector<cv::Mat> mats_of(const Message& m) {
+  std::vector<cv::Mat> out;
+  if (auto* i = dynamic_cast<const Image*>(&m)) out.push_back(i->mat);
+  if (auto* r = dynamic_cast<const Retina*>(&m))
+    for (const auto& l : r->levels) out.push_back(l);
+  if (auto* f = dynamic_cast<const FeatureMaps*>(&m))
+    for (const auto& feature : f->maps)
+      for (const auto& l : feature) out.push_back(l);
+  return out;
+}
+
+void expect_same_pixels(const Message& a, const Message& b, const std::string& what) {
+  const auto x = mats_of(a), y = mats_of(b);
+  ASSERT_EQ(x.size(), y.size()) << what;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    ASSERT_EQ(x[i].size(), y[i].size()) << what << " mat " << i;
+    ASSERT_EQ(x[i].type(), y[i].type()) << what << " mat " << i;
+    EXPECT_EQ(cv::norm(x[i], y[i], cv::NORM_INF), 0.0) << what << " mat " << i;
+  }
+}
+
+// What saccade keeps of a message through its channel: every described field
+// for IDL types; for ROS 2's Image and JointState what those messages have.
+void expect_same_message(const Message& in, const Message& out) {
+  ASSERT_EQ(in.type_name(), out.type_name());
+  EXPECT_EQ(in.timestamp_ns, out.timestamp_ns) << in.type_name();
+  EXPECT_EQ(in.frame_id, out.frame_id) << in.type_name();
+  expect_same_pixels(in, out, std::string(in.type_name()));
+  if (auto* j = dynamic_cast<const JointState*>(&in)) {
+    EXPECT_EQ(j->position, dynamic_cast<const JointState&>(out).position);
+    EXPECT_EQ(j->velocity, dynamic_cast<const JointState&>(out).velocity);
+    return;
+  }
+  if (auto* i = dynamic_cast<const Image*>(&in)) {
+    EXPECT_EQ(i->camera_id, dynamic_cast<const Image&>(out).camera_id);
+    return;
+  }
+  std::string a, b;
+  append_json(a, in);
+  append_json(b, out);
+  EXPECT_EQ(a, b);
+}
+
+// Every message of every topic of `path`, in file order, through TopicReader.
+std::map<std::string, std::vector<MessagePtr>> read_topics(const std::string& path, bool salvage = false,
+                                                           std::string* error = nullptr) {
+  std::map<std::string, std::vector<MessagePtr>> out;
+  mcap::Reader probe;
+  const std::string why = probe.open(path, salvage);
+  if (!why.empty()) {
+    if (error) *error = why;
+    return out;
+  }
+  for (const auto& [id, channel] : probe.channels()) {
+    mcap::TopicReader reader;
+    const std::string w = reader.open(path, channel.topic, salvage);
+    EXPECT_EQ(w, "");
+    std::string e;
+    while (MessagePtr m = reader.next(e)) out[channel.topic].push_back(m);
+    if (!e.empty() && error) *error = e;
+  }
+  return out;
+}
+
+class McapRoundTrip : public ::testing::TestWithParam<Compression> {};
+
+TEST_P(McapRoundTrip, EveryMessageTypeSurvivesAFile) {
+  const auto messages = every_type(20);
+  const std::string path = out_path(std::string("every_type_") + mcap::to_string(GetParam()) + ".mcap");
+  mcap::WriterOptions options;
+  options.compression = GetParam();
+  options.chunk_size = 8 * 1024;  // several chunks
+  write_file(path, messages, options);
+
+  mcap::Reader reader;
+  ASSERT_EQ(reader.open(path), "");
+  EXPECT_TRUE(reader.has_summary());
+  EXPECT_EQ(reader.header_library(), "saccade");
+  ASSERT_NE(reader.statistics(), nullptr);
+  EXPECT_EQ(reader.statistics()->message_count, messages.size());
+  EXPECT_EQ(reader.statistics()->channel_count, 13u);
+  EXPECT_EQ(reader.statistics()->schema_count, 13u) << "one schema per type, described once";
+  EXPECT_GT(reader.statistics()->chunk_count, 3u);
+  EXPECT_EQ(reader.statistics()->message_start_time, 1'000'000'000u);
+  for (const auto& [id, count] : reader.statistics()->channel_message_counts) EXPECT_EQ(count, 20u) << id;
+  // The summary's definitions are the types' encodings.
+  const mcap::Channel* image = reader.find_channel("/test/Image");
+  ASSERT_NE(image, nullptr);
+  EXPECT_EQ(reader.schema_of(*image)->name, "sensor_msgs/msg/Image");
+  EXPECT_EQ(reader.schema_of(*image)->encoding, "ros2msg");
+  EXPECT_EQ(image->message_encoding, "cdr");
+  EXPECT_EQ(reader.schema_of(*reader.find_channel("/test/Retina"))->encoding, "omgidl");
+
+  // Every message back, in order, equal to what was written.
+  auto topics = read_topics(path);
+  ASSERT_EQ(topics.size(), 13u);
+  std::map<std::string, std::size_t> at;
+  for (const auto& m : messages) {
+    const auto& list = topics[topic_of(*m)];
+    const std::size_t k = at[topic_of(*m)]++;
+    ASSERT_LT(k, list.size()) << topic_of(*m);
+    expect_same_message(*m, *list[k]);
+  }
+
+  // The linear scan and the summary-driven read see the same messages.
+  std::size_t linear = 0, indexed = 0;
+  mcap::MessageView view;
+  std::string error;
+  reader.rewind();
+  while (reader.next(view, error) == 1) ++linear;
+  reader.rewind({false, {image->id}});
+  while (reader.next(view, error) == 1) {
+    EXPECT_EQ(view.channel_id, image->id);
+    ++indexed;
+  }
+  EXPECT_EQ(error, "");
+  EXPECT_EQ(linear, messages.size());
+  EXPECT_EQ(indexed, 20u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Compressions, McapRoundTrip,
+                         ::testing::Values(Compression::kNone, Compression::kZstd, Compression::kLz4),
+                         [](const ::testing::TestParamInfo<Compression>& p) { return std::string(mcap::to_string(p.param)); });
+
+TEST(Mcap, AnUnchunkedFileIsReadByItsLinearScan) {
+  const auto messages = every_type(3);
+  const std::string path = out_path("unchunked.mcap");
+  mcap::WriterOptions options;
+  options.chunk_size = 0;
+  write_file(path, messages, options);
+  mcap::Reader reader;
+  ASSERT_EQ(reader.open(path), "");
+  EXPECT_EQ(reader.statistics()->chunk_count, 0u);
+  auto topics = read_topics(path);
+  std::size_t n = 0;
+  for (const auto& [t, list] : topics) n += list.size();
+  EXPECT_EQ(n, messages.size());
+}
+
+TEST(Mcap, Crc32IsZlibs) {
+  EXPECT_EQ(mcap::crc32(0, "123456789", 9), 0xCBF43926U);
+  EXPECT_EQ(mcap::crc32(mcap::crc32(0, "1234", 4), "56789", 5), 0xCBF43926U);
+}
+
+// A file of `frames` frames of images (large, so chunks are many) for the damage tests.
+std::string image_file(const std::string& name, Compression compression, int frames = 60) {
+  std::vector<MessagePtr> messages;
+  for (int k = 0; k < frames; ++k) {
+    auto img = std::make_shared<Image>();
+    img->mat = test::random_image({64, 48}, k);
+    img->timestamp_ns = 1000 + k;
+    img->frame_id = k;
+    messages.push_back(img);
+  }
+  const std::string path = out_path(name);
+  mcap::WriterOptions options;
+  options.compression = compression;
+  options.chunk_size = 10 * 1024;  // three images a chunk
+  write_file(path, messages, options);
+  return path;
+}
+
+// The offset a "... at offset N: ..." error names.
+int64_t offset_in(const std::string& error) {
+  const auto at = error.find("at offset ");
+  if (at == std::string::npos) return -1;
+  return std::atoll(error.c_str() + at + 10);
+}
+
+TEST(McapDamage, ATruncatedFileIsAnErrorWithTheOffsetAndSalvageReadsWhatPrecedesIt) {
+  for (Compression c : {Compression::kZstd, Compression::kNone}) {
+    const std::string full = image_file(std::string("whole_") + mcap::to_string(c) + ".mcap", c);
+    const auto bytes = read_bytes(full);
+    for (double fraction : {0.5, 0.9}) {
+      const std::string cut = out_path(std::string("cut_") + mcap::to_string(c) + ".mcap");
+      write_bytes(cut, {bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(bytes.size() * fraction)});
+      mcap::TopicReader strict;
+      const std::string error = strict.open(cut, "/test/Image", false);
+      EXPECT_NE(error.find("truncated"), std::string::npos) << error;
+      EXPECT_NE(error.find("salvage"), std::string::npos) << error;
+      const int64_t offset = offset_in(error);
+      EXPECT_GT(offset, 0) << error;
+      EXPECT_LE(offset, static_cast<int64_t>(bytes.size() * fraction)) << error;
+
+      std::string why;
+      auto topics = read_topics(cut, true, &why);
+      const auto& images = topics["/test/Image"];
+      // Whole chunks before the cut are read; an uncompressed cut chunk gives its whole messages too.
+      EXPECT_GT(images.size(), static_cast<std::size_t>(60 * fraction) - 4) << mcap::to_string(c) << " " << fraction;
+      EXPECT_LT(images.size(), 60u);
+      for (std::size_t k = 0; k < images.size(); ++k) {
+        ASSERT_EQ(images[k]->frame_id, static_cast<int64_t>(k));
+        EXPECT_EQ(cv::norm(std::static_pointer_cast<const Image>(images[k])->mat, test::random_image({64, 48}, static_cast<int>(k)), cv::NORM_INF), 0);
+      }
+    }
+  }
+}
+
+TEST(McapDamage, ACorruptedChunkIsAnErrorWithItsOffsetAndSalvageSkipsOnlyIt) {
+  for (Compression c : {Compression::kZstd, Compression::kLz4, Compression::kNone}) {
+    const std::string full = image_file(std::string("whole2_") + mcap::to_string(c) + ".mcap", c);
+    mcap::Reader reader;
+    ASSERT_EQ(reader.open(full), "");
+    // The third chunk: its offset and frames from the reader's own walk.
+    std::vector<uint64_t> chunk_offsets;
+    std::vector<std::vector<int64_t>> chunk_frames;
+    mcap::MessageView v;
+    std::string error;
+    reader.rewind();
+    while (reader.next(v, error) == 1) {
+      if (chunk_offsets.empty() || chunk_offsets.back() != v.offset) {
+        chunk_offsets.push_back(v.offset);
+        chunk_frames.emplace_back();
+      }
+      chunk_frames.back().push_back(v.sequence);
+    }
+    ASSERT_GT(chunk_offsets.size(), 5u);
+    auto bytes = read_bytes(full);
+    const uint64_t target = chunk_offsets[2];
+    bytes[target + 200] ^= 0x5A;  // inside its records
+    const std::string bad = out_path(std::string("corrupt_") + mcap::to_string(c) + ".mcap");
+    write_bytes(bad, bytes);
+
+    mcap::TopicReader strict;
+    ASSERT_EQ(strict.open(bad, "/test/Image", false), "") << "the summary is intact";
+    std::string why;
+    std::size_t n = 0;
+    while (strict.next(why)) ++n;
+    EXPECT_EQ(offset_in(why), static_cast<int64_t>(target)) << why;
+    EXPECT_NE(why.find("Chunk"), std::string::npos) << why;
+    EXPECT_EQ(n, chunk_frames[0].size() + chunk_frames[1].size()) << "the two chunks before it";
+
+    mcap::TopicReader salvage;
+    ASSERT_EQ(salvage.open(bad, "/test/Image", true), "");
+    std::vector<int64_t> frames;
+    while (MessagePtr m = salvage.next(why)) frames.push_back(m->frame_id);
+    EXPECT_EQ(frames.size(), 60u - chunk_frames[2].size()) << mcap::to_string(c);
+    EXPECT_EQ(salvage.reader().skipped(), 1u);
+    for (int64_t k : chunk_frames[2]) EXPECT_EQ(std::count(frames.begin(), frames.end(), k), 0) << k;
+  }
+}
+
+TEST(McapDamage, ACorruptedSummaryIsAnErrorAndSalvageReadsTheDataSection) {
+  const std::string full = image_file("whole3.mcap", Compression::kZstd);
+  auto bytes = read_bytes(full);
+  bytes[bytes.size() - 60] ^= 0xFF;  // inside the summary (the chunk indexes, before the footer)
+  const std::string bad = out_path("corrupt_summary.mcap");
+  write_bytes(bad, bytes);
+  mcap::Reader strict;
+  const std::string error = strict.open(bad);
+  EXPECT_NE(error.find("summary"), std::string::npos) << error;
+  EXPECT_GT(offset_in(error), 0) << error;
+  std::string why;
+  auto topics = read_topics(bad, true, &why);
+  EXPECT_EQ(topics["/test/Image"].size(), 60u);
+}
+
+TEST(McapDamage, NotAnMcapFileAndAFlippedRecordLengthAreErrorsWithOffsets) {
+  const std::string text = out_path("not_mcap.mcap");
+  write_bytes(text, {'h', 'e', 'l', 'l', 'o', ' ', 'w', 'o', 'r', 'l', 'd'});
+  mcap::Reader reader;
+  const std::string error = reader.open(text);
+  EXPECT_NE(error.find("not an MCAP file"), std::string::npos) << error;
+  EXPECT_EQ(offset_in(error), 0);
+  mcap::Reader missing;
+  EXPECT_NE(missing.open(out_path("no_such_file.mcap")).find("cannot read"), std::string::npos);
+
+  // A length field gone wild in an unindexed (unchunked) file: the scan stops there.
+  std::vector<MessagePtr> messages = every_type(4);
+  const std::string path = out_path("flipped_length.mcap");
+  mcap::WriterOptions options;
+  options.chunk_size = 0;
+  write_file(path, messages, options);
+  auto bytes = read_bytes(path);
+  mcap::Reader good;
+  ASSERT_EQ(good.open(path), "");
+  mcap::MessageView v;
+  std::string e;
+  good.rewind();
+  for (int i = 0; i < 20; ++i) ASSERT_EQ(good.next(v, e), 1);
+  const uint64_t record = v.offset;  // the 20th message's record
+  bytes[record + 8] = 0x7F;          // its length's top byte
+  // Drop the summary too, as a crashed recording would have none.
+  bytes.resize(bytes.size() - 200);
+  write_bytes(path, bytes);
+  mcap::Reader broken;
+  const std::string why = broken.open(path);
+  EXPECT_EQ(offset_in(why), static_cast<int64_t>(record)) << why;
+  mcap::Reader salvage;
+  ASSERT_EQ(salvage.open(path, true), "");
+  ASSERT_FALSE(salvage.warnings().empty());
+  salvage.rewind();
+  int n = 0;
+  while (salvage.next(v, e) == 1) ++n;
+  EXPECT_EQ(n, 19);
+}
+
+TEST(McapErrors, AnUnknownSchemaAndAMissingChannelNameWhatIsThere) {
+  const std::string path = out_path("foreign.mcap");
+  {
+    mcap::Writer w;
+    ASSERT_EQ(w.open(path), "");
+    const std::string text = "float64 x\n";
+    const uint16_t s = w.add_schema("geometry_msgs/msg/Vector3", "ros2msg", text.data(), text.size());
+    const uint16_t c = w.add_channel(s, "/vector", "cdr");
+    const uint16_t j = w.add_channel(0, "/json", "json");
+    const uint8_t bytes[] = {0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    ASSERT_EQ(w.write(c, 0, 1, 1, bytes, sizeof bytes), "");
+    ASSERT_EQ(w.write(j, 0, 2, 2, "{}", 2), "");
+    EXPECT_NE(w.write(9, 0, 1, 1, bytes, sizeof bytes), "") << "no channel 9";
+    ASSERT_EQ(w.close(), "");
+  }
+  mcap::TopicReader reader;
+  std::string error = reader.open(path, "/vector", false);
+  EXPECT_NE(error.find("schema 'geometry_msgs/msg/Vector3'"), std::string::npos) << error;
+  EXPECT_NE(error.find("not one saccade reads"), std::string::npos) << error;
+  EXPECT_NE(error.find("saccade_idl::Retina"), std::string::npos) << "lists what it reads: " << error;
+  error = reader.open(path, "/json", false);
+  EXPECT_NE(error.find("json"), std::string::npos) << error;
+  error = reader.open(path, "/nope", false);
+  EXPECT_NE(error.find("no topic '/nope'"), std::string::npos) << error;
+  EXPECT_NE(error.find("/vector (geometry_msgs/msg/Vector3)"), std::string::npos) << error;
+  error = reader.open(path, "", false);
+  EXPECT_NE(error.find("several"), std::string::npos) << error;
+}
+
+// ---------------------------------------------------------------- nodes and graphs
+
+TEST(McapNodes, RecordNodesShareAFileAndReplayPlaysItBackInOrder) {
+  const std::string path = out_path("nodes.mcap");
+  auto run = test::open_graph(R"(<graph name="rec">
+      <node name="counter" plugin="util.counter"><param name="count" value="40"/><param name="size" value="16x12"/></node>
+      <node name="retina" plugin="retina"><param name="levels" value="3"/><param name="size" value="8x6"/></node>
+      <node name="rec_image" plugin="mcap.record"><param name="path" value=")" + path + R"("/>
+        <param name="topic" value="/counter/image"/><param name="compression" value="lz4"/></node>
+      <node name="rec_retina" plugin="mcap.record"><param name="path" value=")" + path + R"("/>
+        <param name="topic" value="/retina/retina"/><param name="compression" value="lz4"/></node>
+      <edge from="counter.image" to="retina.image" queue="block:4"/>
+      <edge from="counter.image" to="rec_image.in" queue="block:4"/>
+      <edge from="retina.retina" to="rec_retina.in" queue="block:4"/>
+    </graph>)");
+  ASSERT_TRUE(run->run().ok());
+  run.reset();  // closes the file
+
+  mcap::Reader reader;
+  ASSERT_EQ(reader.open(path), "");
+  EXPECT_EQ(reader.statistics()->message_count, 80u);
+  EXPECT_EQ(reader.channels().size(), 2u);
+
+  testing::Recorder::instance().clear();
+  auto replay = test::open_graph(R"(<graph name="play">
+      <node name="image" plugin="mcap.replay"><param name="path" value=")" + path + R"("/>
+        <param name="topic" value="/counter/image"/></node>
+      <node name="retina" plugin="mcap.replay"><param name="path" value=")" + path + R"("/>
+        <param name="topic" value="/retina/retina"/><param name="rate" value="realtime"/><param name="speed" value="100"/></node>
+      <node name="images" plugin="util.record"/>
+      <node name="retinas" plugin="util.record"/>
+      <edge from="image.out" to="images.in" queue="block:4"/>
+      <edge from="retina.out" to="retinas.in" queue="block:4"/>
+    </graph>)");
+  ASSERT_TRUE(replay->run().ok());
+  auto images = test::recorded<Image>("images");
+  auto retinas = test::recorded<Retina>("retinas");
+  ASSERT_EQ(images.size(), 40u);
+  ASSERT_EQ(retinas.size(), 40u);
+  for (int k = 0; k < 40; ++k) {
+    EXPECT_EQ(images[k]->frame_id, k);
+    EXPECT_EQ(images[k]->timestamp_ns, k * 10'000'000);
+    EXPECT_EQ(images[k]->mat.at<uint8_t>(3, 3), k);
+    EXPECT_EQ(retinas[k]->timestamp_ns, k * 10'000'000);
+    EXPECT_EQ(retinas[k]->levels.size(), 3u);
+  }
+}
+
+TEST(McapNodes, ReplayRefusesDamagedFilesUnlessSalvagingAndNamesMissingTopics) {
+  const std::string full = image_file("for_replay.mcap", Compression::kZstd);
+  const auto bytes = read_bytes(full);
+  const std::string cut = out_path("for_replay_cut.mcap");
+  write_bytes(cut, {bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(bytes.size() / 2)});
+  auto xml = [](const std::string& path, const std::string& topic, bool salvage) {
+    return R"(<graph name="play"><node name="play" plugin="mcap.replay"><param name="path" value=")" + path +
+           R"("/><param name="topic" value=")" + topic + R"("/><param name="salvage" value=")" + (salvage ? "true" : "false") +
+           R"("/></node><node name="sink" plugin="util.record"/><edge from="play.out" to="sink.in" queue="block:4"/></graph>)";
+  };
+  {
+    test::GraphRun run;
+    run.graph = test::resolve_xml(xml(cut, "/test/Image", false));
+    run.executor = std::make_unique<Executor>(run.graph, testing::default_registry());
+    const Status s = run.executor->open();
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.message().find("truncated"), std::string::npos) << s.message();
+    EXPECT_GT(offset_in(s.message()), 0) << s.message();
+  }
+  {
+    test::GraphRun run;
+    run.graph = test::resolve_xml(xml(full, "/camera", false));
+    run.executor = std::make_unique<Executor>(run.graph, testing::default_registry());
+    const Status s = run.executor->open();
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.message().find("no topic '/camera'"), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("/test/Image"), std::string::npos) << s.message();
+  }
+  testing::Recorder::instance().clear();
+  auto run = test::open_graph(xml(cut, "/test/Image", true));
+  ASSERT_TRUE(run->run().ok());
+  const auto played = test::recorded<Image>("sink");
+  EXPECT_GT(played.size(), 20u);
+  EXPECT_LT(played.size(), 60u);
+}
+
+TEST(McapRecorder, AttachRecorderRecordsEveryConnectedOutput) {
+  auto run = test::open_graph(R"(<graph name="tap">
+      <node name="counter" plugin="util.counter"><param name="count" value="200"/></node>
+      <node name="pass" plugin="util.passthrough"/>
+      <node name="sink" plugin="util.null"/>
+      <edge from="counter.image" to="pass.in" queue="block:2"/>
+      <edge from="pass.out" to="sink.in" queue="block:2"/>
+    </graph>)");
+  const std::string path = out_path("attached.mcap");
+  mcap::RecorderOptions options;
+  options.lossless = true;
+  options.queue = 8;
+  std::string error;
+  auto recorder = mcap::attach_recorder(*run->executor, path, options, error);
+  ASSERT_NE(recorder, nullptr) << error;
+  ASSERT_TRUE(run->run().ok());
+  EXPECT_EQ(recorder->finish(), "");
+  EXPECT_EQ(recorder->recorded(), 400u);
+  EXPECT_EQ(recorder->dropped(), 0u);
+  EXPECT_EQ(recorder->channels(), 2u);
+  EXPECT_NE(recorder->report().find("recorded 400 messages on 2 channels"), std::string::npos) << recorder->report();
+  auto topics = read_topics(path);
+  EXPECT_EQ(topics["/counter/image"].size(), 200u);
+  EXPECT_EQ(topics["/pass/out"].size(), 200u);
+
+  // A named port that is not there is an error naming it.
+  auto other = test::open_graph(R"(<graph name="tap2">
+      <node name="counter" plugin="util.counter"><param name="count" value="2"/></node>
+      <node name="sink" plugin="util.null"/>
+      <edge from="counter.image" to="sink.in"/>
+    </graph>)");
+  options.ports = {"counter.nope"};
+  EXPECT_EQ(mcap::attach_recorder(*other->executor, out_path("x.mcap"), options, error), nullptr);
+  EXPECT_NE(error.find("counter.nope"), std::string::npos) << error;
+}
+
+TEST(McapRecorder, AFullQueueDropsAndCountsWithoutBlockingTheGraph) {
+  auto run = test::open_graph(R"(<graph name="tap">
+      <node name="counter" plugin="util.counter"><param name="count" value="3000"/><param name="size" value="64x48"/></node>
+      <node name="sink" plugin="util.null"/>
+      <edge from="counter.image" to="sink.in" queue="block:2"/>
+    </graph>)");
+  mcap::RecorderOptions options;
+  options.queue = 1;  // as small as it gets: some are dropped, which must be counted
+  std::string error;
+  auto recorder = mcap::attach_recorder(*run->executor, out_path("drops.mcap"), options, error);
+  ASSERT_NE(recorder, nullptr) << error;
+  ASSERT_TRUE(run->run().ok());
+  EXPECT_EQ(recorder->finish(), "");
+  EXPECT_EQ(recorder->recorded() + recorder->dropped(), 3000u) << "every message written or counted";
+  EXPECT_NE(recorder->report().find(std::to_string(recorder->dropped()) + " dropped"), std::string::npos);
+}
+
+// The issue's floor: the demo's retina and features recorded at full rate with
+// nothing dropped, and the retina replayed through the same filter bank gives
+// the recorded features bit for bit.
+TEST(McapDemo, RecordedRetinaReplayedThroughTheFilterBankGivesTheRecordedFeaturesBitForBit) {
+  test::sample_path("vtest.avi");
+  const std::string path = out_path("demo.mcap");
+  const std::string out = (fs::path(SACCADE_BINARY_DIR) / "test_out" / "mcap_demo").string();
+  std::string error;
+  uint64_t retinas = 0;
+  {
+    Diagnostics diag;
+    GraphDecl decl = load_graph_file(std::string(SACCADE_SOURCE_DIR) + "/graphs/demo.xml", diag);
+    apply_overrides(decl, {"snapshot.dir=" + out}, diag);
+    auto graph = resolve_graph(decl, testing::default_registry(), diag);
+    ASSERT_TRUE(graph) << diag.format();
+    ExecutorOptions o;
+    o.max_frames = 300;
+    Executor executor(*graph, testing::default_registry(), o);
+    ASSERT_TRUE(executor.open().ok());
+    mcap::RecorderOptions options;
+    options.ports = {"retina.retina", "filters.maps"};
+    options.lossless = true;
+    auto recorder = mcap::attach_recorder(executor, path, options, error);
+    ASSERT_NE(recorder, nullptr) << error;
+    ASSERT_TRUE(executor.run().ok());
+    ASSERT_EQ(recorder->finish(), "");
+    retinas = executor.stats("retina")->emitted.load();
+    EXPECT_EQ(retinas, 300u);
+    EXPECT_EQ(recorder->dropped(), 0u);
+    EXPECT_EQ(recorder->recorded(), retinas + executor.stats("filters")->emitted.load());
+  }
+  std::string features;
+  {
+    Diagnostics diag;
+    GraphDecl decl = load_graph_file(std::string(SACCADE_SOURCE_DIR) + "/graphs/demo.xml", diag);
+    for (const auto& p : decl.find_node("filters")->params)
+      if (p.name == "features") features = p.value;
+  }
+  testing::Recorder::instance().clear();
+  auto replay = test::open_graph(R"(<graph name="replay">
+      <node name="retina" plugin="mcap.replay"><param name="path" value=")" + path + R"("/>
+        <param name="topic" value="/retina/retina"/></node>
+      <node name="filters" plugin="filters.bank"><param name="features" value=")" + features + R"("/></node>
+      <node name="maps" plugin="util.record"/>
+      <edge from="retina.retina" to="filters.retina" queue="block:4"/>
+      <edge from="filters.maps" to="maps.in" queue="block:4"/>
+    </graph>)");
+  ASSERT_TRUE(replay->run().ok());
+  const auto replayed = test::recorded<FeatureMaps>("maps");
+  mcap::TopicReader recorded;
+  ASSERT_EQ(recorded.open(path, "/filters/maps", false), "");
+  std::size_t k = 0;
+  while (MessagePtr m = recorded.next(error)) {
+    ASSERT_LT(k, replayed.size());
+    const auto& a = dynamic_cast<const FeatureMaps&>(*m);
+    const auto& b = *replayed[k];
+    EXPECT_EQ(a.timestamp_ns, b.timestamp_ns) << k;
+    EXPECT_EQ(a.frame_id, b.frame_id) << k;
+    EXPECT_EQ(a.names, b.names);
+    expect_same_pixels(a, b, "frame " + std::to_string(k));
+    ++k;
+  }
+  EXPECT_EQ(error, "");
+  EXPECT_EQ(k, retinas);
+  EXPECT_EQ(replayed.size(), retinas);
+}
+
+// ---------------------------------------------------------------- the reference reader
+
+// Runs test/mcap/read_mcap.mjs (the npm package @mcap/core) on `path`; its
+// JSON, or nothing when node or the packages are missing (a failure under CI,
+// which installs them through scripts/install-test-npm.sh).
+std::optional<nlohmann::json> reference_read(const std::string& path) {
+  const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "npm" / "mcap";
+  if (!fs::exists(dir / "node_modules" / "@mcap" / "core") || std::system("node --version > /dev/null 2>&1") != 0) {
+    if (std::getenv("CI") != nullptr)
+      ADD_FAILURE() << "@mcap/core is not installed under " << dir << ": scripts/install-test-npm.sh installs it";
+    return std::nullopt;
+  }
+  fs::copy_file(fs::path(SACCADE_SOURCE_DIR) / "test" / "mcap" / "read_mcap.mjs", dir / "read_mcap.mjs",
+                fs::copy_options::overwrite_existing);
+  const std::string command = "node '" + (dir / "read_mcap.mjs").string() + "' '" + path + "' 2>&1";
+  std::FILE* pipe = popen(command.c_str(), "r");
+  std::string text;
+  char buffer[4096];
+  while (std::size_t n = std::fread(buffer, 1, sizeof buffer, pipe)) text.append(buffer, n);
+  const int status = pclose(pipe);
+  EXPECT_EQ(status, 0) << text;
+  if (status != 0) return nlohmann::json();
+  return nlohmann::json::parse(text);
+}
+
+TEST(McapReference, TheTypeScriptReaderReadsEveryTypeInEveryCompression) {
+  for (Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {
+    const auto messages = every_type(10);
+    const std::string path = out_path(std::string("reference_") + mcap::to_string(c) + ".mcap");
+    mcap::WriterOptions options;
+    options.compression = c;
+    options.chunk_size = 16 * 1024;
+    write_file(path, messages, options);
+    auto json = reference_read(path);
+    if (!json) {
+      GTEST_SKIP() << "node and @mcap/core are not installed (scripts/install-test-npm.sh)";
+    }
+    ASSERT_TRUE(json->is_object());
+    const auto& j = *json;
+    EXPECT_EQ(j["library"], "saccade");
+    EXPECT_EQ(j["schemas"].size(), 13u);
+    EXPECT_EQ(j["channels"].size(), 13u);
+    EXPECT_EQ(j["statistics"]["messageCount"], 130);
+    EXPECT_GT(j["chunks"].get<int>(), 1);
+    EXPECT_EQ(j["compression"][0], c == Compression::kNone ? "" : mcap::to_string(c));
+    EXPECT_EQ(j["stream"]["messages"], 130) << "the stream reader validated every CRC";
+    EXPECT_TRUE(j["stream"]["dataEnd"].get<bool>());
+    EXPECT_TRUE(j["stream"]["footer"].get<bool>());
+    for (const auto& [topic, count] : j["counts"].items()) EXPECT_EQ(count, 10) << topic;
+    EXPECT_EQ(j["counts"].size(), 13u);
+    bool image = false;
+    for (const auto& s : j["schemas"]) {
+      if (s["name"] == "sensor_msgs/msg/Image") image = s["encoding"] == "ros2msg";
+      if (s["name"] == "saccade_idl::Retina") {
+        EXPECT_EQ(s["encoding"], "omgidl");
+      }
+    }
+    EXPECT_TRUE(image);
+    EXPECT_EQ(j["firstLogTime"]["/test/Image"], "1000000000");
+  }
+}
+
+TEST(McapReference, TheTypeScriptReaderReadsARecordedGraph) {
+  auto run = test::open_graph(R"(<graph name="tap">
+      <node name="counter" plugin="util.counter"><param name="count" value="50"/></node>
+      <node name="retina" plugin="retina"><param name="levels" value="3"/><param name="size" value="8x6"/></node>
+      <node name="sink" plugin="util.null"/>
+      <edge from="counter.image" to="retina.image" queue="block:2"/>
+      <edge from="retina.retina" to="sink.in" queue="block:2"/>
+    </graph>)");
+  const std::string path = out_path("reference_graph.mcap");
+  mcap::RecorderOptions options;
+  options.lossless = true;
+  std::string error;
+  auto recorder = mcap::attach_recorder(*run->executor, path, options, error);
+  ASSERT_NE(recorder, nullptr) << error;
+  ASSERT_TRUE(run->run().ok());
+  ASSERT_EQ(recorder->finish(), "");
+  auto json = reference_read(path);
+  if (!json) {
+    GTEST_SKIP() << "node and @mcap/core are not installed (scripts/install-test-npm.sh)";
+  }
+  EXPECT_EQ((*json)["counts"]["/counter/image"], 50);
+  EXPECT_EQ((*json)["counts"]["/retina/retina"], 50);
+  for (const auto& c : (*json)["channels"]) EXPECT_EQ(c["messageEncoding"], "cdr");
+}
+
+}  // namespace
+}  // namespace saccade
