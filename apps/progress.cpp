@@ -44,7 +44,7 @@ std::string format_progress(const std::string& name, uint64_t frames, int64_t to
 
 ProgressLine::ProgressLine(const Executor& executor, int64_t max_frames, double time_limit_s, std::FILE* out,
                            bool terminal)
-    : executor_(executor), time_limit_s_(time_limit_s), out_(out), terminal_(terminal) {
+    : time_limit_s_(time_limit_s), out_(out), terminal_(terminal) {
   for (const ResolvedNode& node : executor.graph().nodes) {
     if (!node.contract.is_source()) continue;
     ProgressSource s;
@@ -62,6 +62,7 @@ ProgressLine::~ProgressLine() { stop(); }
 
 void ProgressLine::start() {
   if (sources_.empty() || thread_.joinable()) return;
+  start_ = std::chrono::steady_clock::now();
   thread_ = std::thread([this] {
     const auto period = terminal_ ? std::chrono::milliseconds(250) : std::chrono::milliseconds(1000);
     std::unique_lock lock(mutex_);
@@ -99,7 +100,7 @@ std::string ProgressLine::text() const {
     if (done < least) least = done, shown = &s;
   }
   return format_progress(sources_.size() > 1 ? shown->name : "", shown->stats->processed.load(), shown->total,
-                         executor_.elapsed_s(), time_limit_s_);
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(), time_limit_s_);
 }
 
 void ProgressLine::draw(bool final) {

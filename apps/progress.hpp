@@ -1,6 +1,7 @@
 #pragma once
 // saccade run's progress line on a terminal: the sources' frames (of how many,
 // for finite ones), their rate, the time so far and the time left.
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <cstdio>
@@ -47,8 +48,10 @@ class ProgressLine {
   std::string text() const;
   void draw(bool final);
 
-  const Executor& executor_;
   std::vector<ProgressSource> sources_;
+  // Its own clock, started with run(): the executor's elapsed time is not for
+  // other threads to read while it starts.
+  std::chrono::steady_clock::time_point start_;
   double time_limit_s_;
   std::FILE* out_;
   bool terminal_;
