@@ -718,13 +718,13 @@ TEST(CanNodes, TheDriverAndTheDrivesRunOverAKeyedTunnel) {
     <node name="driver" plugin="can.driver">
       <param name="bus" value="udp:)" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb) + R"("/>
       <param name="key_file" value=")" + key_file + R"("/>
-      <param name="duration" value="1.5"/>
+      <param name="duration" value="2.5"/>
       <param name="wait_ms" value="2"/>
     </node>
     <node name="drives" plugin="can.drives">
       <param name="bus" value="udp:)" + std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa) + R"("/>
       <param name="key_file" value=")" + key_file + R"("/>
-      <param name="duration" value="1.5"/>
+      <param name="duration" value="2.5"/>
     </node>
     <node name="state" plugin="util.record"/>
     <node name="truth" plugin="util.null"/>
