@@ -1,0 +1,154 @@
+// saccade_mcap: looks into MCAP files and records graphs into them.
+//   saccade_mcap info FILE [--salvage]
+//       the file's topics, types, schemas, message counts and time span; with
+//       --salvage, what a damaged file still holds and where the damage is
+//   saccade_mcap record GRAPH FILE [--compression none|zstd|lz4] [--chunk-kib N]
+//                [--ports node.port,...] [--queue N] [--lossless] [--frames N] [--set node.param=value]...
+//       runs GRAPH with every connected output (or the named ones) recorded
+//       to FILE, as `saccade run GRAPH --record FILE` does, and prints the
+//       recorder's report and the graph's rate
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "channel.hpp"
+#include "recording.hpp"
+#include "saccade/executor.hpp"
+#include "saccade/graph.hpp"
+#include "saccade/registry.hpp"
+
+namespace {
+
+using namespace saccade;
+
+int usage() {
+  std::cerr << "usage: saccade_mcap info FILE [--salvage]\n"
+               "       saccade_mcap record GRAPH FILE [--compression none|zstd|lz4] [--chunk-kib N]\n"
+               "                    [--ports node.port,...] [--queue N] [--lossless] [--frames N] [--set node.param=value]...\n";
+  return 2;
+}
+
+int info(const std::string& path, bool salvage) {
+  mcap::Reader reader;
+  if (std::string why = reader.open(path, salvage); !why.empty()) {
+    std::cerr << "error: " << why << "\n";
+    return 1;
+  }
+  for (const std::string& w : reader.warnings()) std::cerr << "warning: " << w << "\n";
+  // Counts from a full read (the statistics may be missing in a damaged file).
+  std::map<uint16_t, uint64_t> counts;
+  uint64_t first = 0, last = 0, total = 0;
+  mcap::MessageView v;
+  std::string error;
+  reader.rewind({salvage, {}});
+  int r;
+  while ((r = reader.next(v, error)) == 1) {
+    ++counts[v.channel_id];
+    if (total == 0 || v.log_time < first) first = v.log_time;
+    if (total == 0 || v.log_time > last) last = v.log_time;
+    ++total;
+  }
+  std::printf("file:     %s (%llu bytes, library '%s', %s)\n", path.c_str(),
+              static_cast<unsigned long long>(reader.file_size()), reader.header_library().c_str(),
+              reader.has_summary() ? "with its summary" : "no summary: scanned");
+  if (const auto* s = reader.statistics())
+    std::printf("chunks:   %u\n", s->chunk_count);
+  std::printf("messages: %llu over %.3f s\n", static_cast<unsigned long long>(total),
+              total > 0 ? static_cast<double>(last - first) / 1e9 : 0.0);
+  for (const auto& [id, c] : reader.channels()) {
+    const mcap::Schema* s = reader.schema_of(c);
+    std::string why;
+    const auto* e = mcap::encoding_of(c, s, why);
+    std::printf("  %-28s %8llu  %-14s %s (%s)\n", c.topic.c_str(), static_cast<unsigned long long>(counts[id]),
+                e != nullptr ? std::string(e->type).c_str() : "(not saccade's)", s != nullptr ? s->name.c_str() : "-",
+                s != nullptr ? s->encoding.c_str() : "-");
+  }
+  if (r < 0) {
+    std::cerr << "error: " << error << "\n";
+    return 1;
+  }
+  if (reader.skipped() > 0)
+    std::printf("skipped:  %llu damaged parts\n", static_cast<unsigned long long>(reader.skipped()));
+  return 0;
+}
+
+int record(const std::vector<std::string>& args) {
+  if (args.size() < 2) return usage();
+  const std::string graph_file = args[0], path = args[1];
+  mcap::RecorderOptions options;
+  ExecutorOptions exec;
+  std::vector<std::string> overrides;
+  for (std::size_t i = 2; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> std::string { return i + 1 < args.size() ? args[++i] : std::string(); };
+    if (a == "--compression") {
+      if (!mcap::parse_compression(value(), options.writer.compression)) return usage();
+    } else if (a == "--chunk-kib") {
+      options.writer.chunk_size = static_cast<std::size_t>(std::atoll(value().c_str())) * 1024;
+    } else if (a == "--queue") {
+      options.queue = static_cast<std::size_t>(std::atoll(value().c_str()));
+    } else if (a == "--lossless") {
+      options.lossless = true;
+    } else if (a == "--frames") {
+      exec.max_frames = std::atoll(value().c_str());
+    } else if (a == "--set") {
+      overrides.push_back(value());
+    } else if (a == "--ports") {
+      std::stringstream list(value());
+      for (std::string p; std::getline(list, p, ',');) options.ports.push_back(p);
+    } else {
+      return usage();
+    }
+  }
+  Registry registry;
+  registry.load_folders(Registry::default_search_path());
+  Diagnostics diag;
+  GraphDecl decl = load_graph_file(graph_file, diag);
+  apply_overrides(decl, overrides, diag);
+  auto graph = diag.has_errors() ? std::nullopt : resolve_graph(decl, registry, diag);
+  if (!graph) {
+    std::cerr << diag.format();
+    return 2;
+  }
+  Executor executor(*graph, registry, exec);
+  if (Status s = executor.open(); !s.ok()) {
+    std::cerr << "error: " << s.message() << "\n";
+    return 1;
+  }
+  std::string error;
+  auto recorder = mcap::attach_recorder(executor, path, options, error);
+  if (!recorder) {
+    std::cerr << "error: " << error << "\n";
+    return 1;
+  }
+  const Status s = executor.run();
+  const std::string why = recorder->finish();
+  const double seconds = executor.elapsed_s();
+  uint64_t frames = 0;
+  for (const NodeStats* n : executor.stats()) frames = std::max<uint64_t>(frames, n->emitted.load());
+  std::printf("%s\n", recorder->report().c_str());
+  std::printf("graph: %.2f s, %.0f messages/s recorded, %.1f MB/s written\n", seconds,
+              static_cast<double>(recorder->recorded()) / seconds, static_cast<double>(recorder->bytes()) / 1e6 / seconds);
+  if (!s.ok()) {
+    std::cerr << "error: " << s.message() << "\n";
+    return 1;
+  }
+  if (!why.empty()) {
+    std::cerr << "error: " << why << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.size() >= 2 && args[0] == "info") return info(args[1], args.size() > 2 && args[2] == "--salvage");
+  if (!args.empty() && args[0] == "record") return record({args.begin() + 1, args.end()});
+  return usage();
+}
