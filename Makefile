@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-verge bench-latency docs asan tsan clean configure install
+.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-verge bench-latency fuzz docs asan tsan clean configure install
 
 deps:
 	@bash scripts/install-deps.sh
@@ -53,6 +53,16 @@ bench-verge: build
 # (LATENCY_S seconds each, default 30); figures in out/bench-latency/figures.md.
 bench-latency: build
 	SACCADE_BIN=$(BUILD)/bin sh scripts/bench-latency.sh $(or $(LATENCY_S),30) out/bench-latency
+
+# libFuzzer on the graph loader, the channel (DDS/MCAP) decoders, the CAN tunnel
+# and CiA 402 frames, and image-sequence patterns: a clang build with ASan and
+# UBSan under build/fuzz, FUZZ_SECONDS each (default 60; CI runs them briefly).
+FUZZ_SECONDS ?= 60
+fuzz: deps
+	@cmake -S . -B build/fuzz -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSACCADE_FUZZ=ON -DSACCADE_BUILD_TESTS=OFF -DSACCADE_BUILD_BENCHMARKS=OFF >/dev/null
+	@cmake --build build/fuzz -j $(JOBS) --target saccade_fuzzers
+	sh scripts/fuzz.sh build/fuzz $(FUZZ_SECONDS)
 
 # The SDK into PREFIX: the command, libsaccade, its headers and plugins, find_package(saccade)
 # and saccade_add_plugin() (docs/guide.md, "Plugins outside the saccade tree").

@@ -351,6 +351,9 @@ std::vector<std::string_view> codec_types() {
 
 // --- cv::Mat: rows packed without padding ---
 
+// The longest side a Mat read from the wire may have.
+constexpr int kMaxMatSide = 1 << 16;
+
 void to_wire(const cv::Mat& in, wc::Mat& out) {
   out.rows(in.rows);
   out.cols(in.cols);
@@ -367,16 +370,27 @@ void to_wire(const cv::Mat& in, wc::Mat& out) {
 }
 
 void from_wire(const wc::Mat& in, cv::Mat& out) {
-  if (in.rows() <= 0 || in.cols() <= 0) {
+  // A header no Mat can have (an element type OpenCV does not know, sides
+  // past a limit) reads as no image: a malformed or hostile sample must not
+  // make OpenCV throw or allocate without bound.
+  const int type = in.cv_type();
+  if (in.rows() <= 0 || in.cols() <= 0 || in.rows() > kMaxMatSide || in.cols() > kMaxMatSide || type < 0 ||
+      CV_MAT_DEPTH(type) > CV_16F || type != CV_MAKETYPE(CV_MAT_DEPTH(type), CV_MAT_CN(type))) {
+    out.release();
+    return;
+  }
+  const std::size_t bytes = static_cast<std::size_t>(in.rows()) * static_cast<std::size_t>(in.cols()) *
+                            CV_ELEM_SIZE(type);
+  // Data shorter than its header says: only a little (a truncated sample)
+  // leaves zeros; a header claiming far more than it carries is no image.
+  if (bytes > in.data().size() + (std::size_t{1} << 20)) {
     out.release();
     return;
   }
   make_exclusive(out);
-  out.create(in.rows(), in.cols(), in.cv_type());
-  const std::size_t bytes = out.total() * out.elemSize();
-  // A malformed sample (data shorter than its header says) leaves zeros, not garbage.
-  std::size_t n = std::min(bytes, in.data().size());
-  std::memcpy(out.data, in.data().data(), n);
+  out.create(in.rows(), in.cols(), type);
+  const std::size_t n = std::min(bytes, in.data().size());
+  if (n > 0) std::memcpy(out.data, in.data().data(), n);
   if (n < bytes) std::memset(out.data + n, 0, bytes - n);
 }
 

@@ -1029,3 +1029,35 @@ TEST(Channel, ImagesAndJointStatesTravelAsRos2Messages) {
 
 }  // namespace
 }  // namespace saccade
+
+namespace saccade {
+namespace {
+
+// Found by fuzz_channel: a Mat header with no data passed a null pointer to
+// memcpy; headers no Mat can have made OpenCV throw or allocate gigabytes.
+TEST(DdsWire, AMalformedMatHeaderReadsAsNoImage) {
+  saccade_idl::common::Mat wire;
+  cv::Mat out;
+  wire.rows(2);
+  wire.cols(3);
+  wire.cv_type(CV_8UC1);
+  dds::from_wire(wire, out);  // data empty: six zeros, no memcpy from null
+  ASSERT_EQ(out.size(), cv::Size(3, 2));
+  EXPECT_EQ(cv::countNonZero(out), 0);
+  for (int type : {-1, 1 << 20, CV_MAKETYPE(CV_8U, 600)}) {
+    wire.cv_type(type);
+    dds::from_wire(wire, out);
+    EXPECT_TRUE(out.empty()) << "type " << type;
+  }
+  wire.cv_type(CV_8UC1);
+  wire.rows(1 << 20);
+  dds::from_wire(wire, out);
+  EXPECT_TRUE(out.empty()) << "a side past the limit";
+  wire.rows(60000);
+  wire.cols(60000);
+  dds::from_wire(wire, out);
+  EXPECT_TRUE(out.empty()) << "3.6 GB claimed, nothing carried";
+}
+
+}  // namespace
+}  // namespace saccade
