@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-verge bench-latency fuzz docs asan tsan clean configure install
+.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-verge bench-latency bench-view fuzz docs asan tsan clean configure install
 
 deps:
 	@bash scripts/install-deps.sh
@@ -54,6 +54,11 @@ bench-verge: build
 bench-latency: build
 	SACCADE_BIN=$(BUILD)/bin sh scripts/bench-latency.sh $(or $(LATENCY_S),30) out/bench-latency
 
+# What the live view costs the demo: no server, a server nobody watches, the page's viewer
+# and one on every picture channel, in turns (VIEW_ARGS="--rounds 9 --frames 8000" for more).
+bench-view: build
+	$(BUILD)/bin/saccade_view_bench --graph graphs/demo.xml $(VIEW_ARGS)
+
 # libFuzzer on the graph loader, the channel (DDS/MCAP) decoders, the CAN tunnel
 # and CiA 402 frames, and image-sequence patterns: a clang build with ASan and
 # UBSan under build/fuzz, FUZZ_SECONDS each (default 60; CI runs them briefly).
@@ -62,7 +67,7 @@ fuzz: deps
 	@cmake -S . -B build/fuzz -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
 	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSACCADE_FUZZ=ON -DSACCADE_BUILD_TESTS=OFF -DSACCADE_BUILD_BENCHMARKS=OFF >/dev/null
 	@cmake --build build/fuzz -j $(JOBS) --target saccade_fuzzers
-	sh scripts/fuzz.sh build/fuzz $(FUZZ_SECONDS)
+	FUZZ_FLAGS="$(FUZZ_FLAGS)" sh scripts/fuzz.sh build/fuzz $(FUZZ_SECONDS)
 
 # The SDK into PREFIX: the command, libsaccade, its headers and plugins, find_package(saccade)
 # and saccade_add_plugin() (docs/guide.md, "Plugins outside the saccade tree").

@@ -4,7 +4,8 @@
 # in BUILD/corpus/NAME. Fails at the first crash, leak, timeout or sanitizer
 # report (libFuzzer writes the input as BUILD/crash-* and so on: it becomes a
 # regression test), printing each harness's executions.
-#   scripts/fuzz.sh BUILD_DIR [SECONDS]        (default 60)
+#   scripts/fuzz.sh BUILD_DIR [SECONDS]        (default 60; FUZZ_FLAGS adds libFuzzer flags,
+#                                               e.g. -seed=1 for CI's repeatable runs)
 set -eu
 BUILD=$1
 SECONDS_EACH=${2:-60}
@@ -17,7 +18,8 @@ for fuzzer in fuzz_graph fuzz_channel fuzz_can fuzz_pattern; do
   mkdir -p "$BUILD/corpus/$name"
   log="$BUILD/$fuzzer.log"
   if "$BUILD/bin/$fuzzer" -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
-       -print_final_stats=1 -artifact_prefix="$BUILD/$fuzzer-" "$BUILD/corpus/$name" "test/fuzz/corpus/$name" \
+       -print_final_stats=1 -artifact_prefix="$BUILD/$fuzzer-" ${FUZZ_FLAGS:-} \
+       "$BUILD/corpus/$name" "test/fuzz/corpus/$name" \
        > "$log" 2>&1; then
     runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
     rss=$(sed -n 's/^stat::peak_rss_mb: *//p' "$log")
