@@ -1,0 +1,256 @@
+// What the live view costs a graph (issue 26's floor: a viewer attached at
+// 30 Hz costs the demo <= 5% throughput). Runs a graph (graphs/demo.xml, the
+// video looped, `--frames` frames) in turns: without a view server, with one
+// nobody watches, and with one a viewer watches: a WebSocket client in this
+// process subscribed to what the page shows (the first camera's frames as
+// JPEG, the stats, every JSON channel), and one subscribed to every picture
+// channel raw and as JPEG (a Foxglove layout showing them all), read as they
+// come. Prints each run's frames per second and CPU time per frame (the whole
+// process's: graph, server and viewer), the medians and the cost against no
+// server.
+//   saccade_view_bench [--graph FILE] [--frames N] [--rounds R] [--rate HZ] [--set node.param=value]...
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <nlohmann/json.hpp>
+
+#include "saccade/executor.hpp"
+#include "saccade/graph.hpp"
+#include "saccade/registry.hpp"
+#include "view_server.hpp"
+
+namespace {
+
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using json = nlohmann::json;
+using namespace saccade;
+
+enum class Mode { kNone, kIdle, kViewer, kAll };
+const char* name(Mode m) {
+  return m == Mode::kNone ? "no server" : m == Mode::kIdle ? "server, no viewer" : m == Mode::kViewer ? "page's viewer" : "every picture";
+}
+
+struct Viewer {
+  std::atomic<bool> stop{false};
+  std::atomic<uint64_t> messages{0};
+  std::map<std::string, uint64_t> per_topic;  // after the thread joined
+  std::thread thread;
+  std::string error;
+
+  void start(int port, const std::vector<std::string>& topics) {
+    thread = std::thread([this, port, topics] {
+      try {
+        net::io_context ioc;
+        websocket::stream<tcp::socket> ws(ioc);
+        ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port)));
+        ws.set_option(websocket::stream_base::decorator([](websocket::request_type& req) {
+          req.set(beast::http::field::sec_websocket_protocol, "foxglove.websocket.v1");
+        }));
+        ws.handshake("127.0.0.1", "/");
+        beast::flat_buffer buffer;
+        std::map<uint32_t, std::string> subscribed;
+        while (!stop) {
+          buffer.consume(buffer.size());
+          ws.read(buffer);
+          if (ws.got_text()) {
+            const json m = json::parse(beast::buffers_to_string(buffer.cdata()));
+            if (m["op"] != "advertise") continue;
+            json subs = json::array();
+            for (const json& c : m["channels"]) {
+              const std::string topic = c["topic"];
+              if (std::find(topics.begin(), topics.end(), topic) == topics.end()) continue;
+              const auto id = static_cast<uint32_t>(subscribed.size());
+              subscribed[id] = topic;
+              subs.push_back({{"id", id}, {"channelId", c["id"]}});
+            }
+            ws.text(true);
+            ws.write(net::buffer(json{{"op", "subscribe"}, {"subscriptions", subs}}.dump()));
+            continue;
+          }
+          const std::string data = beast::buffers_to_string(buffer.cdata());
+          if (data.size() < 13) continue;
+          uint32_t id = 0;
+          std::memcpy(&id, data.data() + 1, 4);
+          ++per_topic[subscribed[id]];
+          ++messages;
+        }
+        beast::error_code ec;
+        ws.next_layer().close(ec);
+      } catch (const std::exception& e) {
+        if (!stop) error = e.what();
+      }
+    });
+  }
+  void end() {
+    stop = true;
+    if (thread.joinable()) thread.join();
+  }
+};
+
+struct Result {
+  double fps = 0;
+  double viewer_hz = 0;
+  std::map<std::string, uint64_t> per_topic;
+  double seconds = 0;
+  double cpu_us_per_frame = 0;  // the whole process's CPU time (graph, server, viewer) per frame
+};
+
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-6;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"What the live view costs a graph's throughput"};
+  std::string graph_file = "graphs/demo.xml";
+  int64_t frames = 4000;
+  int rounds = 5;
+  double rate = 30;
+  int threads = 0;
+  std::vector<std::string> sets;
+  app.add_option("--graph", graph_file, "the graph (its sources run as fast as the graph allows)");
+  app.add_option("--frames", frames, "frames per run");
+  app.add_option("--rounds", rounds, "runs of each kind, taken in turns");
+  app.add_option("--rate", rate, "the view's rate per channel, Hz");
+  app.add_option("--threads", threads, "executor workers (0: one per core)");
+  app.add_option("--set", sets, "node.param=value");
+  CLI11_PARSE(app, argc, argv);
+
+  const std::string out_dir = (std::filesystem::temp_directory_path() / "saccade_view_bench").string();
+  sets.push_back("snapshot.dir=" + out_dir);
+  sets.push_back("camera.loop=true");
+  Registry registry;
+  registry.load_folders(Registry::default_search_path());
+  Diagnostics diag;
+  GraphDecl decl = load_graph_file(graph_file, diag);
+  // --set names nodes the graph may not have (the demo's camera and snapshot): only those it has.
+  std::vector<std::string> present;
+  for (const std::string& s : sets)
+    if (decl.find_node(s.substr(0, s.find('.')))) present.push_back(s);
+  apply_overrides(decl, present, diag);
+  std::optional<ResolvedGraph> graph;
+  if (!diag.has_errors()) graph = resolve_graph(decl, registry, diag);
+  if (!graph) {
+    std::fprintf(stderr, "%s", diag.format().c_str());
+    return 2;
+  }
+  // The page: the first image as JPEG, the stats, the JSON channels. Every
+  // picture: each image raw and as JPEG, each retina and feature maps as JPEG.
+  std::vector<std::string> page_topics = {"/saccade/stats"}, all_topics = {"/saccade/stats"};
+  for (const ResolvedNode& n : graph->nodes)
+    for (const PortSpec& out : n.contract.outputs()) {
+      const std::string base = "/" + n.decl.name + "/" + out.name;
+      const bool picture = out.type == "Image" || out.type == "Retina" || out.type == "FeatureMaps";
+      if (out.type == "Image") all_topics.push_back(base);
+      if (picture) all_topics.push_back(base + "/jpeg");
+      if (out.type == "Image" && page_topics.size() == 1) page_topics.push_back(base + "/jpeg");
+      if (!picture) page_topics.push_back(base + "/json");
+    }
+  // The node whose processed count is the graph's throughput: the last one.
+  const std::string last = graph->nodes.back().decl.name;
+
+  auto run = [&](Mode mode) {
+    ExecutorOptions options;
+    options.threads = threads;
+    options.max_frames = frames;
+    Executor executor(*graph, registry, options);
+    if (Status s = executor.open(); !s.ok()) throw std::runtime_error(s.message());
+    std::unique_ptr<view::ViewServer> server;
+    Viewer viewer;
+    if (mode != Mode::kNone) {
+      view::ViewOptions vo;
+      vo.port = 0;
+      vo.max_rate_hz = rate;
+      std::string error;
+      server = view::start_view(executor, vo, error);
+      if (!server) throw std::runtime_error(error);
+      if (mode == Mode::kViewer || mode == Mode::kAll) {
+        viewer.start(server->port(), mode == Mode::kAll ? all_topics : page_topics);
+        for (int i = 0; i < 500 && server->counters().clients == 0; ++i)
+          std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));  // its subscriptions arrive
+      }
+    }
+    const double cpu0 = cpu_seconds();
+    const auto t0 = std::chrono::steady_clock::now();
+    const uint64_t m0 = viewer.messages.load();
+    if (Status s = executor.run(); !s.ok() && !s.is_end_of_stream()) throw std::runtime_error(s.message());
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const uint64_t m1 = viewer.messages.load();
+    const double cpu = cpu_seconds() - cpu0;
+    viewer.end();
+    if (server) server->stop();
+    if (!viewer.error.empty()) throw std::runtime_error("viewer: " + viewer.error);
+    Result r;
+    r.fps = static_cast<double>(executor.stats(last)->processed.load()) / seconds;
+    r.viewer_hz = static_cast<double>(m1 - m0) / seconds;
+    r.per_topic = viewer.per_topic;
+    r.seconds = seconds;
+    r.cpu_us_per_frame = 1e6 * cpu / static_cast<double>(std::max<uint64_t>(1, executor.stats(last)->processed.load()));
+    return r;
+  };
+
+  std::map<Mode, std::vector<double>> fps;
+  std::map<Mode, std::vector<double>> viewer_hz;
+  std::map<Mode, std::vector<double>> cpu;
+  try {
+    run(Mode::kNone);  // warm-up: caches, the video file, the plugins
+    for (int r = 0; r < rounds; ++r)
+      for (Mode m : {Mode::kNone, Mode::kIdle, Mode::kViewer, Mode::kAll}) {
+        const Result res = run(m);
+        fps[m].push_back(res.fps);
+        viewer_hz[m].push_back(res.viewer_hz);
+        cpu[m].push_back(res.cpu_us_per_frame);
+        std::printf("round %d  %-18s %8.1f frames/s %7.1f CPU us/frame", r + 1, name(m), res.fps, res.cpu_us_per_frame);
+        if (m == Mode::kViewer || m == Mode::kAll) {
+          std::printf("  viewer got (Hz):");
+          for (const auto& [topic, n] : res.per_topic)
+            std::printf(" %s %.1f", topic.c_str(), static_cast<double>(n) / res.seconds);
+        }
+        std::printf("\n");
+        std::fflush(stdout);
+      }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "view_bench: %s\n", e.what());
+    return 1;
+  }
+  const double base = median(fps[Mode::kNone]);
+  std::printf("\n%s, %lld frames a run, %d rounds, view rate %.0f Hz per channel; median frames/s:\n",
+              graph_file.c_str(), static_cast<long long>(frames), rounds, rate);
+  for (Mode m : {Mode::kNone, Mode::kIdle, Mode::kViewer, Mode::kAll})
+    std::printf("  %-18s %8.1f  (%+.1f%%)   CPU %.1f us/frame (%+.1f%%)\n", name(m), median(fps[m]),
+                100.0 * (median(fps[m]) / base - 1.0), median(cpu[m]),
+                100.0 * (median(cpu[m]) / median(cpu[Mode::kNone]) - 1.0));
+  std::printf("  page's viewer: %.1f messages/s over %zu channels; every picture: %.1f messages/s over %zu channels\n",
+              median(viewer_hz[Mode::kViewer]), page_topics.size(), median(viewer_hz[Mode::kAll]), all_topics.size());
+  const double cost = 100.0 * (1.0 - median(fps[Mode::kViewer]) / base);
+  const double cpu_cost = 100.0 * (median(cpu[Mode::kViewer]) / median(cpu[Mode::kNone]) - 1.0);
+  std::printf("floor (the page's viewer costs <= 5%% throughput): %s (%.1f%% throughput, %.1f%% CPU per frame)\n",
+              cost <= 5.0 ? "met" : "NOT met", cost, cpu_cost);
+  return 0;
+}
