@@ -324,8 +324,10 @@ TEST(View, MalformedAndOversizeMessagesAreDroppedAndCounted) {
     const uint64_t before = run.processed("fovea");
     EXPECT_TRUE(eventually([&] { return run.processed("fovea") > before + 3; })) << "the graph goes on";
 
-    // An oversize frame closes this client.
-    client.send_text(std::string(64 * 1024, ' '));
+    // An oversize frame closes this client (which may see its own write fail).
+    beast::error_code ignored;
+    client.ws.text(true);
+    client.ws.write(net::buffer(std::string(64 * 1024, ' ')), ignored);
     ASSERT_TRUE(eventually([&] { return run.server->counters().oversize == 1; }));
     EXPECT_TRUE(eventually([&] { return run.server->counters().clients == 0; }));
   }
@@ -341,12 +343,18 @@ TEST(View, MalformedAndOversizeMessagesAreDroppedAndCounted) {
     http::request<http::string_body> req(http::verb::post, "/", 11);
     req.body() = std::string(16 * 1024, 'x');
     req.prepare_payload();
-    http::write(stream, req);
+    // The server answers 413 and closes as soon as it sees the length: the
+    // client's write or read may then fail; the count is what must hold.
+    beast::error_code ec;
+    http::write(stream, req, ec);
     beast::flat_buffer buffer;
     http::response<http::string_body> res;
-    http::read(stream, buffer, res);
-    EXPECT_EQ(res.result(), http::status::payload_too_large);
+    http::read(stream, buffer, res, ec);
+    if (!ec) {
+      EXPECT_EQ(res.result(), http::status::payload_too_large);
+    }
   }
+  ASSERT_TRUE(eventually([&] { return run.server->counters().oversize == 2; }));
   EXPECT_EQ(run.server->counters().oversize, 2u);
   const uint64_t before = run.processed("fovea");
   EXPECT_TRUE(eventually([&] { return run.processed("fovea") > before + 3; }));
