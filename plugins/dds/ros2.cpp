@@ -208,6 +208,10 @@ bool from_ros2(const ros::Image_& in, Image& out, std::string* error) {
   out.origin_ns = 0;
   out.frame_id = 0;
   out.camera_id = camera_of_frame(in.header().frame_id());
+  if (rows == 0 || cols == 0) {  // no pixels (fuzz_channel found memcpy into the null data of such a Mat)
+    out.mat.release();
+    return true;
+  }
   out.mat.create(static_cast<int>(rows), static_cast<int>(cols), cv_type);
   for (std::size_t r = 0; r < rows; ++r) std::memcpy(out.mat.ptr(static_cast<int>(r)), in.data().data() + r * step, row_bytes);
   if (in.is_bigendian() != 0) swap_bytes(out.mat);

@@ -1061,3 +1061,29 @@ TEST(DdsWire, AMalformedMatHeaderReadsAsNoImage) {
 
 }  // namespace
 }  // namespace saccade
+
+namespace saccade {
+namespace {
+
+// Found by fuzz_channel: a ROS 2 image of some rows and no columns copied its
+// rows into a Mat without data.
+TEST(DdsRos2, AnImageWithoutColumnsOrRowsIsAnEmptyImage) {
+  sensor_msgs::msg::dds_::Image_ wire;
+  wire.encoding("mono8");
+  wire.height(5);
+  wire.width(0);
+  wire.step(0);
+  Image out;
+  out.mat = cv::Mat(2, 2, CV_8UC1, cv::Scalar(7));
+  std::string error;
+  EXPECT_TRUE(dds::from_ros2(wire, out, &error)) << error;
+  EXPECT_TRUE(out.mat.empty());
+  wire.height(0);
+  wire.width(4);
+  wire.step(4);
+  EXPECT_TRUE(dds::from_ros2(wire, out, &error)) << error;
+  EXPECT_TRUE(out.mat.empty());
+}
+
+}  // namespace
+}  // namespace saccade
