@@ -22,6 +22,13 @@ packages=(
   chromium
 )
 
+# Node.js and npm run the tests' real clients (an MCAP reader, a Foxglove
+# WebSocket client, a headless-browser driver): Debian's, unless a Node.js
+# with its own npm is already there.
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  packages+=(nodejs npm)
+fi
+
 missing=()
 for p in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
