@@ -15,6 +15,7 @@
 #include "completion.hpp"
 #include "progress.hpp"
 #include "recognition.hpp"
+#include "recording.hpp"
 #include "saccade/executor.hpp"
 #include "saccade/graph.hpp"
 #include "saccade/log.hpp"
@@ -22,6 +23,7 @@
 #include "saccade/plugin.hpp"
 #include "saccade/registry.hpp"
 #include "saccade/schema.hpp"
+#include "view_server.hpp"
 
 namespace {
 
@@ -177,6 +179,10 @@ struct RunArgs {
   std::string stats_json;
   std::string security;
   bool progress = isatty(STDERR_FILENO) != 0;  // the progress line: on a terminal unless told
+  std::string record;                          // an MCAP file of every edge
+  std::string record_compression = "zstd";
+  bool record_lossless = false;
+  std::string view;                            // [ADDR:]PORT of the live view
 };
 
 struct PluginsArgs {
@@ -217,6 +223,14 @@ CLI::App* add_run_command(CLI::App& app, GraphArgs& graph, RunArgs& args) {
                    ->expected(0, 1)
                    ->default_val(0);
   run->add_option("--stats-json", args.stats_json, "write the final stats as JSON to FILE");
+  run->add_option("--record", args.record, "record every edge to FILE (MCAP; docs/recording.md)");
+  run->add_option("--record-compression", args.record_compression, "the recording's chunks: zstd, lz4 or none")
+      ->check(CLI::IsMember({"zstd", "lz4", "none"}));
+  run->add_flag("--record-lossless", args.record_lossless,
+                "the recorder never drops: a full queue makes the graph wait (default: drop and count)");
+  run->add_option("--view", args.view,
+                  "[ADDR:]PORT: a live view, Foxglove's WebSocket protocol and a page (loopback unless ADDR; "
+                  "docs/view.md)");
   run->add_option("--set", graph.sets, "override a parameter: node.param=value (repeatable)");
   run->add_option("--process", graph.process,
                   "run only this process's part of the graph; its edges to other processes become DDS topics");
@@ -457,6 +471,34 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
     return 1;
   }
   // What watches the run (taps, a viewer, a recorder) attaches here, between open() and run().
+  std::unique_ptr<saccade::mcap::GraphRecorder> recorder;
+  if (!args.record.empty()) {
+    saccade::mcap::RecorderOptions ro;
+    saccade::mcap::parse_compression(args.record_compression, ro.writer.compression);
+    ro.lossless = args.record_lossless;
+    std::string error;
+    recorder = saccade::mcap::attach_recorder(executor, args.record, ro, error);
+    if (!recorder) {
+      std::cerr << "saccade run: --record: " << error << "\n";
+      return 1;
+    }
+  }
+  std::unique_ptr<saccade::view::ViewServer> view_server;  // stopped before the executor goes
+  if (!args.view.empty()) {
+    saccade::view::ViewOptions vo;
+    std::string error;
+    if (!saccade::view::parse_view_address(args.view, vo, error)) {
+      std::cerr << "saccade run: " << error << "\n";
+      return 2;
+    }
+    view_server = saccade::view::start_view(executor, vo, error);
+    if (!view_server) {
+      std::cerr << "saccade run: " << error << "\n";
+      return 1;
+    }
+    std::cerr << "view: " << view_server->url() << " (Foxglove: ws://" << vo.address << ":" << view_server->port()
+              << ")\n";
+  }
   if (args.progress) {
     progress = std::make_unique<saccade::cli::ProgressLine>(executor, options.max_frames, options.duration_s, stderr,
                                                             isatty(STDERR_FILENO) != 0);
@@ -464,6 +506,14 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   }
   status = executor.run();
   if (progress) progress->stop();
+  if (view_server) view_server->stop();
+  if (recorder) {
+    if (std::string why = recorder->finish(); !why.empty()) {
+      std::cerr << "saccade run: --record: " << why << "\n";
+      if (status.ok()) status = Status::error("the recording is incomplete");
+    }
+    std::cerr << recorder->report() << "\n";
+  }
   if (stats) std::printf("%s", executor.stats_table().c_str());
   if (!args.stats_json.empty()) {
     std::ofstream out(args.stats_json);
