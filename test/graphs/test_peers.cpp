@@ -83,8 +83,8 @@ void rejoin_a_writer_killed_and_started_again(bool zero_copy) {
   pid_t second = start_peer(topic, {"--set", "camera.camera_id=2", "--set", zero_copy_set});
   ASSERT_GT(second, 0);
   EXPECT_TRUE(test::wait_for([&] { return received() >= before_restart + 20; }, 60)) << "the second writer's frames";
-  kill(second, SIGTERM);  // a clean stop: its end of stream ends the reader's graph too
-  EXPECT_EQ(test::wait_child(second, 30), 0);
+  kill(second, SIGTERM);  // a clean stop (exit 128 + the signal): its end of stream ends the reader's graph too
+  EXPECT_EQ(test::wait_child(second, 30), 128 + SIGTERM);
   reader.join();
   saccade::log().sinks().pop_back();
   ASSERT_TRUE(status.ok()) << status.message();
@@ -148,8 +148,8 @@ TEST(DdsPeers, FramesThroughTheFrameRingArriveIntactAndAreReadInPlace) {
   ASSERT_GT(writer, 0);
   EXPECT_TRUE(test::wait_for([&] { return received() >= 40; }, 60));
   const auto rings = frame_ring_mappings();
-  kill(writer, SIGTERM);
-  EXPECT_EQ(test::wait_child(writer, 30), 0);
+  kill(writer, SIGTERM);  // a clean stop: the command exits 128 + the signal
+  EXPECT_EQ(test::wait_child(writer, 30), 128 + SIGTERM);
   reader.join();
   ASSERT_TRUE(status.ok()) << status.message();
 
@@ -223,7 +223,7 @@ TEST(DdsSharedMemory, ACleanStopBySigtermLeavesNothingBehind) {
   std::set<std::string> files = start_lone_peer(pid);
   ASSERT_GE(files.size(), 3u) << "a participant segment, a data-sharing pool and a frame ring";
   kill(pid, SIGTERM);
-  ASSERT_EQ(test::wait_child(pid, 30), 0);
+  ASSERT_EQ(test::wait_child(pid, 30), 128 + SIGTERM) << "a clean stop: 128 + the signal";
   for (const auto& f : files) EXPECT_FALSE(exists_in_shm(f)) << f;
 }
 
@@ -247,7 +247,7 @@ TEST(DdsSharedMemory, WhatAKilledProcessLeftIsRemovedAsStale) {
   for (const auto& f : live_files) EXPECT_TRUE(exists_in_shm(f)) << f << " belongs to a live process";
   EXPECT_GT(stale.bytes, 0u);
   kill(live, SIGTERM);
-  EXPECT_EQ(test::wait_child(live, 30), 0);
+  EXPECT_EQ(test::wait_child(live, 30), 128 + SIGTERM);
 }
 
 // Steady clocks are per host: a reader on another host (same_clock=false, as
