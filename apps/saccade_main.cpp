@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -212,16 +213,33 @@ void add_global_options(CLI::App& app, Common& common) {
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
 }
 
+// A number that must be finite and above `min` (or at least it): NaN passes
+// CLI11's own range checks, and their messages print DBL_MAX in full.
+CLI::Validator finite_above(double min, bool or_equal, const std::string& what) {
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        const bool ok = end != text.c_str() && *end == '\0' && std::isfinite(v) && (or_equal ? v >= min : v > min);
+        return ok ? std::string() : "expected " + what + ", got '" + text + "'";
+      },
+      what);
+}
+
 CLI::App* add_run_command(CLI::App& app, GraphArgs& graph, RunArgs& args) {
   auto* run = app.add_subcommand("run", "run a graph");
   run->add_option("graph", graph.file, "graph file (XML)")->required();
-  run->add_option("--frames", args.options.max_frames, "stop each source after N frames");
-  run->add_option("--duration", args.options.duration_s, "stop after S seconds");
+  run->add_option("--frames", args.options.max_frames, "stop each source after N frames")
+      ->check(finite_above(0, false, "a positive number of frames"));
+  // NaN and -1 ran forever.
+  run->add_option("--duration", args.options.duration_s, "stop after S seconds")
+      ->check(finite_above(0, false, "a positive number of seconds"));
   run->add_option("--threads", args.options.threads, "worker threads (default: one per core)")->check(CLI::Range(0, 256));
   run->add_flag("--deterministic", args.options.deterministic, "one thread, fixed order: same input, bit-identical output");
   args.stats = run->add_option("--stats", args.stats_interval, "print per-node stats at exit, and every INTERVAL seconds if given")
                    ->expected(0, 1)
-                   ->default_val(0);
+                   ->default_val(0)
+                   ->check(finite_above(0, true, "an interval of 0 or more seconds"));
   run->add_option("--stats-json", args.stats_json, "write the final stats as JSON to FILE");
   run->add_option("--record", args.record, "record every edge to FILE (MCAP; docs/recording.md)");
   run->add_option("--record-compression", args.record_compression, "the recording's chunks: zstd, lz4 or none")
@@ -464,6 +482,11 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
     if (progress) progress->print_above(table + "\n");
     else std::fprintf(stderr, "%s\n", table.c_str());
   };
+  // A stats file that cannot be written is said now, not after the run.
+  if (!args.stats_json.empty() && !std::ofstream(args.stats_json, std::ios::app)) {
+    std::cerr << "saccade run: --stats-json: cannot write " << args.stats_json << "\n";
+    return 2;
+  }
   Executor executor(*loaded.graph, registry, options);
   Status status = executor.open();
   if (!status.ok()) {
@@ -518,7 +541,10 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   if (!args.stats_json.empty()) {
     std::ofstream out(args.stats_json);
     out << executor.stats_json();
-    if (!out) std::cerr << "error: cannot write " << args.stats_json << "\n";
+    if (!out.flush()) {
+      std::cerr << "saccade run: --stats-json: cannot write " << args.stats_json << "\n";
+      if (status.ok()) status = Status::error("the stats were not written");
+    }
   }
   if (!status.ok()) {
     std::cerr << graph_args.file << ": error: " << status.message() << "\n";
