@@ -493,6 +493,11 @@ class SimHeadNode final : public Node {
   Status process(ProcessContext& ctx) override {
     auto state = ctx.get(kState);
     if (state->position.size() != 5) return Status::error("joint state for " + std::to_string(state->position.size()) + " joints, expected 5");
+    // The joints' clock went back: the drives' side restarted (its clock starts
+    // at 0 again). Render from the new clock at once instead of waiting as long
+    // as the old one had run (issue 25).
+    if (state->timestamp_ns < last_state_ns_) next_ns_ = state->timestamp_ns;
+    last_state_ns_ = state->timestamp_ns;
     if (state->timestamp_ns < next_ns_) return {};
     next_ns_ += period_ns_;
     if (next_ns_ <= state->timestamp_ns) next_ns_ = state->timestamp_ns + period_ns_;  // joint states came late
@@ -531,6 +536,7 @@ class SimHeadNode final : public Node {
  private:
   std::unique_ptr<capture::SimHead> head_;
   int64_t period_ns_ = 40'000'000, next_ns_ = 0, frame_ = 0;
+  int64_t last_state_ns_ = 0;
 };
 
 }  // namespace

@@ -196,6 +196,10 @@ class CameraReader final : public FrameReader {
  public:
   bool open(const std::string& device, cv::Size size, double fps, std::string* error) {
     bool numeric = !device.empty() && device.find_first_not_of("0123456789") == std::string::npos;
+    if (numeric && (device.size() > 4 || std::stoi(device) > 9999)) {  // stoi would throw past INT_MAX
+      if (error) *error = "camera '" + device + "': a V4L2 index is 0..9999 (/dev/videoN)";
+      return false;
+    }
     bool ok = numeric ? cap_.open(std::stoi(device), cv::CAP_V4L2) : cap_.open(device, cv::CAP_V4L2);
     if (!ok || !cap_.isOpened()) {
       if (error)

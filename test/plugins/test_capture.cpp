@@ -133,6 +133,40 @@ TEST(CaptureCamera, AbsentDeviceIsAClearError) {
   EXPECT_NE(error.find("camera '/dev/video97' cannot be opened"), std::string::npos) << error;
 }
 
+TEST(CaptureCamera, AnIndexPastAnyDeviceIsAClearErrorNotAThrow) {
+  std::string error;
+  auto h = testing::NodeHarness::create(R"(<node plugin="capture.camera"><param name="device" value="99999999999"/></node>)",
+                                        &error);
+  EXPECT_EQ(h, nullptr);
+  EXPECT_NE(error.find("camera '99999999999': a V4L2 index is 0..9999"), std::string::npos) << error;
+}
+
+// Issue 25: after the drives' side restarted, its joint states' clock starts
+// at 0 again; the sim's cameras rendered nothing until the new clock passed
+// the old one.
+TEST(CaptureSimHead, RendersAtOnceWhenTheJointsClockRestarts) {
+  auto h = harness(R"(<node plugin="capture.sim_head"><param name="fps" value="25"/></node>)");
+  auto state_at = [](int64_t ns) {
+    auto s = std::make_shared<JointState>();
+    s->position.assign(5, 0.0);
+    s->timestamp_ns = ns;
+    return s;
+  };
+  int frames = 0;
+  for (int64_t t = 0; t <= 2'000'000'000; t += 40'000'000) {
+    h->set("state", state_at(t));
+    ASSERT_TRUE(h->process().ok());
+  }
+  const std::size_t before = h->outputs("left").size();
+  ASSERT_GT(before, 40u);
+  for (int64_t t = 0; t < 200'000'000; t += 40'000'000) {  // the restarted clock's first 0.2 s
+    h->set("state", state_at(t));
+    ASSERT_TRUE(h->process().ok());
+    ++frames;
+  }
+  EXPECT_EQ(h->outputs("left").size(), before + frames) << "a frame per period from the restart on";
+}
+
 TEST(CaptureSynthetic, TruthIsWhereTheTargetIsDrawnAndTheRightViewIsShifted) {
   // Synthetic data: a textured square over vtest.avi's first frame.
   auto h = harness("<node plugin=\"capture.synthetic\"><param name=\"background\" value=\"" + sample_path("vtest.avi") +
