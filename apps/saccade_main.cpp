@@ -43,6 +43,7 @@ extern "C" void on_signal(int sig) {
   // A second Ctrl-C ends the process the hard way.
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
+  std::signal(SIGHUP, SIG_DFL);
 }
 
 struct Common {
@@ -474,6 +475,10 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   if (!load_graph(graph_args, registry, false, loaded)) return 2;
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  // A closed terminal stops the run cleanly too (its shared memory removed,
+  // its stats written); a reader gone from a pipe is a write error, not death.
+  std::signal(SIGHUP, on_signal);
+  std::signal(SIGPIPE, SIG_IGN);
   ExecutorOptions& options = args.options;
   options.external_stop = &g_stop;
   options.stats_interval_s = stats ? args.stats_interval : 0;
@@ -552,7 +557,8 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   }
   // Stopped cleanly by Ctrl-C (or SIGTERM): 128 + the signal, as a shell reports a killed command.
   if (const int sig = g_signal.load(); sig != 0) {
-    std::cerr << "stopped by " << (sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal") << "\n";
+    std::cerr << "stopped by "
+              << (sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "a signal") << "\n";
     return 128 + sig;
   }
   return 0;
