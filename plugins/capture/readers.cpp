@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <filesystem>
 
 #include <opencv2/imgcodecs.hpp>
@@ -32,11 +34,65 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
+// A path that exists but is no regular file (a FIFO, a device) would block the
+// read or never end: "" or the error naming it.
+std::string not_a_regular_file(const std::string& path) {
+  std::error_code ec;
+  const auto status = fs::status(path, ec);
+  if (!fs::exists(status) || fs::is_regular_file(status)) return {};
+  return path + ": not a regular file (a FIFO or a device); expected an image or video file";
+}
+
+// An image's size from its file's header, for PNG, JPEG and BMP (the formats
+// whose decoders would allocate first); empty when the format is another or
+// the header unreadable (OpenCV's own checks then apply). OpenCV's limit,
+// OPENCV_IO_MAX_IMAGE_PIXELS, is read once when the library loads, too late
+// for a plugin to lower it.
+cv::Size header_size(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char h[32] = {};
+  if (!in.read(reinterpret_cast<char*>(h), sizeof h)) return {};
+  auto be32 = [&](int at) { return (h[at] << 24) | (h[at + 1] << 16) | (h[at + 2] << 8) | h[at + 3]; };
+  if (h[0] == 0x89 && h[1] == 'P' && h[2] == 'N' && h[3] == 'G') return {be32(16), be32(20)};
+  if (h[0] == 'B' && h[1] == 'M') {
+    auto le32 = [&](int at) { return h[at] | (h[at + 1] << 8) | (h[at + 2] << 16) | (h[at + 3] << 24); };
+    return {std::abs(le32(18)), std::abs(le32(22))};
+  }
+  if (h[0] != 0xff || h[1] != 0xd8) return {};
+  // JPEG: walk the markers to the first start of frame (SOF0..SOF15 but DHT, JPG and DAC).
+  in.seekg(2);
+  for (int markers = 0; markers < 1000; ++markers) {
+    unsigned char m[4];
+    if (!in.read(reinterpret_cast<char*>(m), 4) || m[0] != 0xff) return {};
+    const int length = (m[2] << 8) | m[3];
+    if (m[1] >= 0xc0 && m[1] <= 0xcf && m[1] != 0xc4 && m[1] != 0xc8 && m[1] != 0xcc) {
+      unsigned char f[5];
+      if (!in.read(reinterpret_cast<char*>(f), 5)) return {};
+      return {(f[3] << 8) | f[4], (f[1] << 8) | f[2]};
+    }
+    if (length < 2) return {};
+    in.seekg(length - 2, std::ios::cur);
+  }
+  return {};
+}
+
+// "" or why the image at `path` is larger than a reader decodes.
+std::string too_large(const std::string& path) {
+  const cv::Size size = header_size(path);
+  if (static_cast<long long>(size.width) * size.height <= kMaxImagePixels) return {};
+  return path + ": a " + std::to_string(size.width) + "x" + std::to_string(size.height) + " image; at most " +
+         std::to_string(kMaxImagePixels) + " pixels are read";
+}
+
 class VideoReader final : public FrameReader {
  public:
   bool open(const std::string& path, std::string* error) {
     if (!fs::exists(path)) {
       if (error) *error = path + ": no such video file";
+      return false;
+    }
+    if (std::string e = not_a_regular_file(path); !e.empty()) {
+      if (error) *error = e;
       return false;
     }
     if (!cap_.open(path, cv::CAP_ANY) || !cap_.isOpened()) {
@@ -138,6 +194,14 @@ class SequenceReader final : public FrameReader {
   bool read(cv::Mat& out, int64_t& media_ns, std::string* error) override {
     std::string file = name(next_);
     if (!fs::exists(file)) return false;
+    if (std::string e = not_a_regular_file(file); !e.empty()) {
+      if (error) *error = e;
+      return false;
+    }
+    if (std::string e = too_large(file); !e.empty()) {
+      if (error) *error = e;
+      return false;
+    }
     out = cv::imread(file, cv::IMREAD_UNCHANGED);
     if (out.empty()) {
       if (error) *error = file + ": cannot decode image";
@@ -164,6 +228,14 @@ class SequenceReader final : public FrameReader {
 class ImageReader final : public FrameReader {
  public:
   bool open(const std::string& path, int64_t count, double fps, std::string* error) {
+    if (std::string e = not_a_regular_file(path); !e.empty()) {
+      if (error) *error = e;
+      return false;
+    }
+    if (std::string e = too_large(path); !e.empty()) {
+      if (error) *error = e;
+      return false;
+    }
     image_ = cv::imread(path, cv::IMREAD_UNCHANGED);
     if (image_.empty()) {
       if (error) *error = path + (fs::exists(path) ? ": cannot decode image" : ": no such image file");

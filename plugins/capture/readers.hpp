@@ -37,6 +37,9 @@ SourceKind classify_source(const std::string& path);
 std::unique_ptr<FrameReader> open_video(const std::string& path, std::string* error);
 // An image sequence's file pattern: the file of frame i is the pattern with its
 // one %d (optionally %0Nd) replaced by i, as printf would, without printf.
+// The largest image a reader decodes, in pixels (docs/reliability.md).
+inline constexpr long long kMaxImagePixels = 64LL << 20;
+
 class NumberedPattern {
  public:
   // The pattern, or nullopt and `why` (naming it) when it is not one %d.

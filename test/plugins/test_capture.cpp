@@ -1,4 +1,7 @@
 #include <gtest/gtest.h>
+#include <fstream>
+#include <filesystem>
+#include <sys/stat.h>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -165,6 +168,49 @@ TEST(CaptureSimHead, RendersAtOnceWhenTheJointsClockRestarts) {
     ++frames;
   }
   EXPECT_EQ(h->outputs("left").size(), before + frames) << "a frame per period from the restart on";
+}
+
+// Issue 25: a FIFO as an image path blocked forever; a huge image was
+// decoded (2.8 GB for 20000 x 20000) before anything said no.
+TEST(CaptureImage, AFifoAndAnImageLargerThanTheLimitAreErrors) {
+  const std::string fifo = (std::filesystem::temp_directory_path() / "saccade_capture_fifo.png").string();
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::string error;
+  EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="capture.image"><param name="path" value=")" + fifo +
+                                             R"("/></node>)",
+                                         &error),
+            nullptr);
+  EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
+  std::filesystem::remove(fifo);
+
+  // A PNG whose header says 20000 x 20000 (its pixels need not be there: the
+  // size is refused from the header).
+  auto crc32 = [](const std::string& bytes) {
+    uint32_t c = 0xffffffffu;
+    for (unsigned char b : bytes) {
+      c ^= b;
+      for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xffffffffu;
+  };
+  auto be32 = [](uint32_t v) {
+    return std::string{static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8),
+                       static_cast<char>(v)};
+  };
+  auto chunk = [&](const std::string& type, const std::string& data) {
+    return be32(static_cast<uint32_t>(data.size())) + type + data + be32(crc32(type + data));
+  };
+  const std::string ihdr = be32(20000) + be32(20000) + std::string("\x08\x00\x00\x00\x00", 5);
+  const std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) + chunk("IEND", "");
+  const std::string huge = (std::filesystem::temp_directory_path() / "saccade_capture_huge.png").string();
+  std::ofstream(huge, std::ios::binary) << png;
+  EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="capture.image"><param name="path" value=")" + huge +
+                                             R"("/></node>)",
+                                         &error),
+            nullptr);
+  EXPECT_NE(error.find("a 20000x20000 image; at most 67108864 pixels are read"), std::string::npos) << error;
+  std::filesystem::remove(huge);
 }
 
 TEST(CaptureSynthetic, TruthIsWhereTheTargetIsDrawnAndTheRightViewIsShifted) {
