@@ -172,7 +172,8 @@ struct Executor::Impl {
   bool aborted = false;
   Status failure;
   std::atomic<bool> stop_{false};
-  int64_t start_ns = 0;
+  // Read by stats_json()/elapsed_s() from other threads (a live view, a progress line) while run() writes it.
+  std::atomic<int64_t> start_ns{0};
   std::atomic<int64_t> end_ns{0};
 
   Impl(const ResolvedGraph& g, const Registry& r, ExecutorOptions o) : graph(g), registry(r), options(std::move(o)) {}
@@ -652,7 +653,7 @@ struct Executor::Impl {
   }
 
   Status run() {
-    start_ns = steady_now_ns();
+    start_ns.store(steady_now_ns());
     std::vector<std::thread> threads;
     {
       std::lock_guard lock(mu);
@@ -688,7 +689,7 @@ struct Executor::Impl {
         if (all_done || aborted || (options.deterministic && end_ns.load() != 0)) break;
         done_cv.wait_for(lock, std::chrono::milliseconds(20));
         bool external = options.external_stop && options.external_stop->load();
-        bool timed_out = options.duration_s >= 0 && (steady_now_ns() - start_ns) >= options.duration_s * 1e9;
+        bool timed_out = options.duration_s >= 0 && (steady_now_ns() - start_ns.load()) >= options.duration_s * 1e9;
         if ((external || timed_out) && !stop_.load()) {
           stop_.store(true);
           room_cv.notify_all();
@@ -740,8 +741,9 @@ struct Executor::Impl {
 
   double elapsed() const {
     int64_t end = end_ns.load();
-    if (start_ns == 0) return 0.0;
-    return static_cast<double>((end ? end : steady_now_ns()) - start_ns) / 1e9;
+    const int64_t start = start_ns.load();
+    if (start == 0) return 0.0;
+    return static_cast<double>((end ? end : steady_now_ns()) - start) / 1e9;
   }
 };
 
