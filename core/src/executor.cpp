@@ -294,6 +294,13 @@ struct Executor::Impl {
     return {};
   }
 
+  // "node 'name' (plugin, line N)": which node of the file, for errors at open and at run.
+  static std::string where(const NodeRt& n) {
+    std::string out = "node '" + n.slot.name + "' (" + n.resolved->decl.plugin;
+    if (n.resolved->decl.line > 0) out += ", line " + std::to_string(n.resolved->decl.line);
+    return out + ")";
+  }
+
   Status open_nodes() {
     for (int i : topo) {
       NodeRt& n = nodes[static_cast<std::size_t>(i)];
@@ -302,7 +309,7 @@ struct Executor::Impl {
       if (!n.node) return Status::error("node '" + n.slot.name + "': " + error);
       OpenContext ctx(n.slot);
       Status s = n.node->open(ctx);
-      if (!s.ok()) return Status::error("node '" + n.slot.name + "' (" + n.resolved->decl.plugin + ") failed to open: " + s.message());
+      if (!s.ok()) return Status::error(where(n) + " failed to open: " + s.message());
       n.opened = true;
     }
     // A consumer's frame allocator reaches its producers (the first offer
@@ -518,7 +525,7 @@ struct Executor::Impl {
       return;
     }
     if (failure.ok())
-      failure = Status::error("node '" + n.slot.name + "' (" + n.resolved->decl.plugin + "): " + s.message());
+      failure = Status::error(where(n) + ": " + s.message());
     aborted = true;
     stop_.store(true);
     room_cv.notify_all();

@@ -264,7 +264,8 @@ TEST_F(Executor, NodeErrorStopsTheGraphAndNamesTheNode) {
                       threads(2));
   Status s = g->run();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("node 'bad' (util.fail): injected failure at call 5"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("node 'bad' (util.fail, line 1): injected failure at call 5"), std::string::npos)
+      << s.message();
   EXPECT_LT(g->stats("n").processed.load(), 100u);
 }
 
@@ -295,7 +296,7 @@ TEST_F(Executor, OpenFailureNamesTheNode) {
   saccade::Executor e(graph, testing::default_registry());
   Status s = e.open();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("node 'cam' (capture.video) failed to open: /nonexistent/x.avi: no such video file"),
+  EXPECT_NE(s.message().find("node 'cam' (capture.video, line 1) failed to open: /nonexistent/x.avi: no such video file"),
             std::string::npos)
       << s.message();
 }
