@@ -171,6 +171,7 @@ struct GraphArgs {
   std::vector<std::string> sets;
   std::string process;
   GraphOverrides overrides;
+  bool open = false;  // check: also open every node, as run would
 };
 
 // run's options: one field here and one line in add_run_command per option.
@@ -279,6 +280,9 @@ CLI::App* add_check_command(CLI::App& app, GraphArgs& graph) {
   auto* check = app.add_subcommand("check", "validate a graph without running it");
   check->add_option("graph", graph.file, "graph file (XML)")->required();
   check->add_option("--set", graph.sets, "override a parameter: node.param=value (repeatable)");
+  check->add_flag("--open", graph.open,
+                  "also open every node as run would (files, models, calibrations; and devices, DDS participants "
+                  "and sockets, which must then be there), then close them");
   return check;
 }
 
@@ -438,8 +442,16 @@ int check_command(const Common& common, const GraphArgs& args) {
   load_registry(registry, common, false);
   LoadedGraph loaded;
   if (!load_graph(args, registry, false, loaded)) return 2;
-  std::printf("%s: ok (%zu nodes, %zu edges)\n", args.file.c_str(), loaded.graph->nodes.size(),
-              loaded.graph->edges.size());
+  if (args.open) {
+    // What run would refuse at open: a missing file, a bad model, a calibration for other images.
+    Executor executor(*loaded.graph, registry, {});
+    if (Status status = executor.open(); !status.ok()) {
+      std::cerr << args.file << ": error: " << status.message() << "\n";
+      return 1;
+    }
+  }
+  std::printf("%s: ok (%zu nodes, %zu edges%s)\n", args.file.c_str(), loaded.graph->nodes.size(),
+              loaded.graph->edges.size(), args.open ? ", every node opened" : "");
   return 0;
 }
 
