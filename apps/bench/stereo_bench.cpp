@@ -410,17 +410,6 @@ bool set_param(stereo::RetinaStereoConfig& c, const std::string& key, const std:
   return true;
 }
 
-// The plain matcher (what the defaults were before semi-global became one).
-stereo::RetinaStereoConfig plain() {
-  stereo::RetinaStereoConfig c;
-  c.ncc.semi_global = false;
-  c.ncc.paths = 4;
-  c.fill_gaps = 0;
-  c.fill_occlusions = false;
-  c.fovea_prediction = false;
-  return c;
-}
-
 // docs/accuracy.md's densest configuration, spelled out.
 stereo::RetinaStereoConfig densest() {
   stereo::RetinaStereoConfig c;
@@ -495,7 +484,7 @@ int main(int argc, char** argv) {
     std::vector<cv::Rect> foveas;
     results.push_back(ours("saccade, defaults", stereo::RetinaStereoConfig{}, retina_config, p, reps, &foveas));
     if (all_variants) {
-      results.push_back(ours("saccade, plain NCC", plain(), retina_config, p, reps, nullptr));
+      results.push_back(ours("saccade, plain NCC", stereo::plain_matcher_config(), retina_config, p, reps, nullptr));
       results.push_back(ours("saccade, densest (accuracy.md)", densest(), retina_config, p, reps, nullptr));
     }
     if (!sets.empty()) results.push_back(ours("saccade, " + custom_name, custom, retina_config, p, reps, nullptr));

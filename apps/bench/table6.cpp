@@ -71,12 +71,7 @@ filters::BankConfig bank_of(std::initializer_list<int> features) {
 
 // The plain matcher (the paper's NCC); the variants below add to it.
 stereo::RetinaStereoConfig stereo_config(int window, int max_disparity) {
-  stereo::RetinaStereoConfig c;
-  c.ncc.semi_global = false;
-  c.ncc.paths = 4;
-  c.fill_gaps = 0;
-  c.fill_occlusions = false;
-  c.fovea_prediction = false;
+  stereo::RetinaStereoConfig c = stereo::plain_matcher_config();
   c.ncc.window = window;
   c.max_disparity = max_disparity;
   c.vergence = true;

@@ -27,6 +27,15 @@ struct NccConfig {
   int paths = 8;  // semi-global: 4 (along rows and columns) or 8 (and along the diagonals)
 };
 
+// The paper's matcher: the best window correlation per pixel, without
+// semi-global aggregation (the defaults aggregate along eight paths).
+inline NccConfig plain_ncc_config() {
+  NccConfig c;
+  c.semi_global = false;
+  c.paths = 4;
+  return c;
+}
+
 enum class Direction { kLeftToRight, kRightToLeft };
 
 // Buffers ncc_match reuses between calls, so a caller that keeps one allocates

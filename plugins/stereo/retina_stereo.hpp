@@ -63,6 +63,19 @@ struct RetinaStereoConfig {
   bool keep_images = false;
 };
 
+// The plain matcher (the paper's NCC, coarse to fine, checked both ways: no
+// semi-global aggregation, nothing filled, the fovea searched around the
+// fixation alone): the defaults before the densest configuration became them,
+// for the tests and comparisons that mean it.
+inline RetinaStereoConfig plain_matcher_config() {
+  RetinaStereoConfig c;
+  c.ncc = plain_ncc_config();
+  c.fill_gaps = 0;
+  c.fill_occlusions = false;
+  c.fovea_prediction = false;
+  return c;
+}
+
 // The disparity at the point both retinas fixate, as found on each level.
 struct Fixation {
   std::vector<double> per_level;  // source pixels; < 0 where not found

@@ -12,19 +12,6 @@
 namespace saccade::stereo {
 namespace {
 
-// The plain matcher (no semi-global aggregation, nothing filled, the fovea
-// searched around the fixation alone): what these tests were written for,
-// set here rather than taken from the defaults.
-RetinaStereoConfig plain_config() {
-  RetinaStereoConfig c;
-  c.ncc.semi_global = false;
-  c.ncc.paths = 4;
-  c.fill_gaps = 0;
-  c.fill_occlusions = false;
-  c.fovea_prediction = false;
-  return c;
-}
-
 struct Pair {
   std::shared_ptr<const Retina> left, right;
 };
@@ -107,7 +94,7 @@ void run_both(const Pair& p, const RetinaStereoConfig& first, const RetinaStereo
 TEST(RetinaStereo, FindsAKnownDisparityOnEveryLevel) {
   const int d = 12;
   Pair p = make_pair(d, {320, 240});
-  RetinaStereoConfig config = plain_config();
+  RetinaStereoConfig config = plain_matcher_config();
   config.max_disparity = 64;
   config.vergence = false;
   RetinaStereo stereo(config);
@@ -137,7 +124,7 @@ TEST(RetinaStereo, SoftwareVergenceLetsTheFoveaMatchWhatItCouldNotSee) {
   // the same place; with vergence the right frame is sampled where the scene is.
   const int d = 40;
   Pair p = make_pair(d, {320, 240});
-  RetinaStereoConfig plain = plain_config(), verged = plain_config();
+  RetinaStereoConfig plain = plain_matcher_config(), verged = plain_matcher_config();
   plain.max_disparity = verged.max_disparity = 96;
   plain.vergence = false;
   verged.vergence = true;
@@ -159,7 +146,7 @@ TEST(RetinaStereo, FoveaPredictionMatchesSurfacesBeyondTheFixationsRadius) {
   // fixation. The level outside found the block, and with fovea_prediction
   // the fovea searches there too.
   const Pair p = make_block_pair(20, 40, cv::Rect(100, 150, 214, 180), {320, 240});
-  RetinaStereoConfig around = plain_config(), predicted = plain_config();
+  RetinaStereoConfig around = plain_matcher_config(), predicted = plain_matcher_config();
   around.max_disparity = predicted.max_disparity = 96;
   around.vergence = predicted.vergence = true;
   predicted.fovea_prediction = true;
@@ -188,7 +175,7 @@ TEST(RetinaStereo, FillOcclusionsGivesTheHiddenStripTheFarSurface) {
   // fovea fixates the block's left edge region (its left 20 columns are far,
   // 10 of them hidden).
   const Pair p = make_block_pair(20, 30, cv::Rect(330, 150, 200, 180), {320, 240});
-  RetinaStereoConfig plain = plain_config(), filled = plain_config();
+  RetinaStereoConfig plain = plain_matcher_config(), filled = plain_matcher_config();
   plain.max_disparity = filled.max_disparity = 96;
   plain.vergence = filled.vergence = true;
   plain.fovea_prediction = filled.fovea_prediction = true;
@@ -214,7 +201,7 @@ TEST(RetinaStereo, FillOcclusionsGivesTheHiddenStripTheFarSurface) {
 
 TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   Pair p = make_pair(9, {300, 200});
-  RetinaStereoConfig fine = plain_config(), full = plain_config();
+  RetinaStereoConfig fine = plain_matcher_config(), full = plain_matcher_config();
   fine.max_disparity = full.max_disparity = 48;
   fine.vergence = full.vergence = false;
   full.coarse_to_fine = false;
@@ -243,7 +230,7 @@ TEST(RetinaStereo, TheRetinasOwnPixelsStandInForSamplingThemAgain) {
   // and with the fovea at the frame's edge.
   for (cv::Point2d fovea : {cv::Point2d(320, 240), cv::Point2d(20, 470)}) {
     Pair p = make_pair(12, fovea);
-    RetinaStereoConfig reused = plain_config(), sampled = plain_config();
+    RetinaStereoConfig reused = plain_matcher_config(), sampled = plain_matcher_config();
     reused.vergence = sampled.vergence = true;
     reused.max_disparity = sampled.max_disparity = 48;
     sampled.keep_images = true;
@@ -262,7 +249,7 @@ TEST(RetinaStereo, RefusesMismatchedRetinas) {
   Pair p = make_pair(5, {320, 240});
   Pair q = make_pair(5, {100, 100});  // another fovea: regions differ in rows
   std::vector<LevelDisparity> out;
-  RetinaStereoConfig config = plain_config();
+  RetinaStereoConfig config = plain_matcher_config();
   config.vergence = false;
   EXPECT_NE(RetinaStereo(config).run(*p.left, *q.right, out).find("regions differ"), std::string::npos);
 }

@@ -12,15 +12,6 @@
 namespace saccade::stereo {
 namespace {
 
-// The plain matcher (no semi-global aggregation), which these tests were
-// written for, set here rather than taken from the defaults.
-NccConfig plain_ncc() {
-  NccConfig c;
-  c.semi_global = false;
-  c.paths = 4;
-  return c;
-}
-
 // right(x) = left(x + d): a left pixel x is seen in the right image at x - d.
 cv::Mat shifted_right(const cv::Mat& left, int d) {
   cv::Mat right(left.size(), left.type(), cv::Scalar(0));
@@ -64,7 +55,7 @@ TEST(NccMatch, FindsAKnownDisparityBothWays) {
   const int d = 5;
   cv::Mat left = test::random_image({48, 36}, 2);
   cv::Mat right = shifted_right(left, d);
-  NccConfig config = plain_ncc();
+  NccConfig config = plain_ncc_config();
   cv::Mat lr, lr_score, rl, rl_score;
   ncc_match(left, right, Direction::kLeftToRight, 0, 12, config, lr, lr_score);
   ncc_match(left, right, Direction::kRightToLeft, 0, 12, config, rl, rl_score);
@@ -81,7 +72,7 @@ TEST(NccMatchCross, RightPixelsTakeThePairsTheLeftPixelsSearch) {
   cv::Mat left = test::random_image({48, 36}, 7);
   cv::Mat right = shifted_right(left, d);
   cv::Mat lo(left.size(), CV_32S, cv::Scalar(0)), hi(left.size(), CV_32S, cv::Scalar(8));
-  NccConfig config = plain_ncc();
+  NccConfig config = plain_ncc_config();
   NccScratch scratch;
   cv::Mat lr, lr_score, rl, rl_score;
   ncc_match_cross(left, right, lo, hi, config, lr, lr_score, rl, rl_score, scratch);
@@ -99,7 +90,7 @@ TEST(NccMatchCross, SemiGlobalCarriesTheNeighboursDisparityAcrossAFlatBand) {
   cv::Mat right = shifted_right(left, d);
   cv::Mat lo(left.size(), CV_32S, cv::Scalar(0)), hi(left.size(), CV_32S, cv::Scalar(7));
   const cv::Rect band(26, 4, 4, 24);  // windows wholly inside the flat band
-  NccConfig plain = plain_ncc();
+  NccConfig plain = plain_ncc_config();
   NccScratch scratch;
   cv::Mat lr, lr_score, rl, rl_score;
   ncc_match_cross(left, right, lo, hi, plain, lr, lr_score, rl, rl_score, scratch);
@@ -133,7 +124,7 @@ TEST(NccMatchCross, EightSemiGlobalPathsCarryDisparityAlongTheDiagonals) {
   NccScratch scratch;
   double right_share[2];
   for (int i = 0; i < 2; ++i) {
-    NccConfig config = plain_ncc();
+    NccConfig config = plain_ncc_config();
     config.semi_global = true;
     config.paths = i == 0 ? 4 : 8;
     cv::Mat disparity, score, rl, rl_score;
@@ -175,7 +166,7 @@ TEST(NccMatchCross, RightPixelsTakeTheBestOfTheLeftPixelsPairsWithTheirParabola)
     cv::Mat lo, hi;
     random_ranges(left.size(), 8, rng, lo, hi);
     for (int window : {3, 5}) {
-      NccConfig config = plain_ncc();
+      NccConfig config = plain_ncc_config();
       config.window = window;
       const int r = window / 2, w = left.cols;
       NccScratch scratch;
@@ -280,7 +271,7 @@ TEST(NccMatch, TheSweepAgreesWithThePlainReferenceEverywhere) {
     random_ranges(left.size(), 9, rng, lo, hi);
     for (Direction direction : {Direction::kLeftToRight, Direction::kRightToLeft})
       for (int window : {3, 5}) {
-        NccConfig config = plain_ncc();
+        NccConfig config = plain_ncc_config();
         config.window = window;
         NccScratch a, b;
         cv::Mat d_fast, s_fast, d_ref, s_ref;
@@ -323,7 +314,7 @@ TEST(NccMatch, AvxTwoAndAvx512AreTheSameToTheBit) {
     for (int y = 0; y < size.height; ++y)
       for (int x = 0; x < size.width; ++x)
         if (rng.uniform(0, 10) == 0) lo.at<int>(y, x) = hi.at<int>(y, x) + 1;  // searches nothing
-    NccConfig config = plain_ncc();
+    NccConfig config = plain_ncc_config();
     config.window = trial % 2 == 0 ? 5 : 3;
     config.subpixel = trial % 5 != 0;
     config.min_score = trial % 4 == 0 ? -1.0f : 0.3f;
