@@ -167,6 +167,19 @@ class Cursor {
   bool ok_ = true;
 };
 
+// A Message record's fields from its body of `len` bytes (at least
+// kMessageFields): channel, sequence, log and publish times, then the data.
+constexpr uint64_t kMessageFields = 22;
+void read_message(const uint8_t* body, uint64_t len, uint64_t offset, MessageView& out) {
+  std::memcpy(&out.channel_id, body, 2);
+  std::memcpy(&out.sequence, body + 2, 4);
+  std::memcpy(&out.log_time, body + 6, 8);
+  std::memcpy(&out.publish_time, body + 14, 8);
+  out.data = body + kMessageFields;
+  out.size = len - kMessageFields;
+  out.offset = offset;
+}
+
 }  // namespace
 
 bool parse_compression(std::string_view text, Compression& out) {
@@ -844,19 +857,12 @@ int Reader::next_in_chunk(MessageView& out, std::string& error) {
     }
     chunk_pos_ = at + kRecordHeader + len;
     if (op != kMessage) continue;
-    if (len < 22) {
+    if (len < kMessageFields) {
       error = fail(chunk_offset_, "a Message record inside the Chunk is shorter than its fields");
       return -1;
     }
-    const uint8_t* p = chunk_data_ + at + kRecordHeader;
-    std::memcpy(&out.channel_id, p, 2);
+    read_message(chunk_data_ + at + kRecordHeader, len, chunk_offset_, out);
     if (!wanted(out.channel_id)) continue;
-    std::memcpy(&out.sequence, p + 2, 4);
-    std::memcpy(&out.log_time, p + 6, 8);
-    std::memcpy(&out.publish_time, p + 14, 8);
-    out.data = p + 22;
-    out.size = len - 22;
-    out.offset = chunk_offset_;
     return 1;
   }
   in_chunk_ = false;
@@ -890,19 +896,12 @@ int Reader::next_linear(MessageView& out, std::string& error) {
     }
     pos_ = at + kRecordHeader + len;
     if (op == kMessage) {
-      if (len < 22) {
+      if (len < kMessageFields) {
         error = fail(at, "a Message record is shorter than its fields");
         return -1;
       }
-      const uint8_t* p = data_ + at + kRecordHeader;
-      std::memcpy(&out.channel_id, p, 2);
+      read_message(data_ + at + kRecordHeader, len, at, out);
       if (!wanted(out.channel_id)) continue;
-      std::memcpy(&out.sequence, p + 2, 4);
-      std::memcpy(&out.log_time, p + 6, 8);
-      std::memcpy(&out.publish_time, p + 14, 8);
-      out.data = p + 22;
-      out.size = len - 22;
-      out.offset = at;
       return 1;
     }
     if (op == kChunk) {
