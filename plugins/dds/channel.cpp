@@ -16,36 +16,24 @@ namespace {
 namespace w = saccade_idl;
 namespace ros = sensor_msgs::msg::dds_;
 
-// ROS 2's message definitions (ros2msg: the type, then each type it uses
-// after a line of '=' and "MSG: name"), as rosbag2 writes them in MCAP.
-constexpr const char* kRos2Header = R"(================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-)";
-
 std::string ros2_image_schema() {
-  return std::string(R"(std_msgs/Header header
+  return ros2_schema_with_header(R"(std_msgs/Header header
 uint32 height
 uint32 width
 string encoding
 uint8 is_bigendian
 uint32 step
 uint8[] data
-)") + kRos2Header;
+)");
 }
 
 std::string ros2_joint_state_schema() {
-  return std::string(R"(std_msgs/Header header
+  return ros2_schema_with_header(R"(std_msgs/Header header
 string[] name
 float64[] position
 float64[] velocity
 float64[] effort
-)") + kRos2Header;
+)");
 }
 
 template <class M>
@@ -190,6 +178,19 @@ bool with_idl_type(std::string_view type, F&& f) {
 }
 
 }  // namespace
+
+std::string ros2_schema_with_header(std::string_view fields) {
+  // ros2msg: the type, then each type it uses after a line of '=' and "MSG: name".
+  return std::string(fields) + R"(================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+)";
+}
 
 MessageEncoder::~MessageEncoder() = default;
 MessageDecoder::~MessageDecoder() = default;

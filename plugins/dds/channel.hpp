@@ -32,6 +32,11 @@ const ChannelEncoding* channel_encoding(std::string_view type, bool ros2 = true)
 // The types that have an encoding.
 std::vector<std::string_view> channel_types();
 
+// A ROS 2 message definition (ros2msg) whose fields start with
+// `std_msgs/Header header`: `fields`, then the Header's and Time's own
+// definitions after their separators, as rosbag2 writes them.
+std::string ros2_schema_with_header(std::string_view fields);
+
 // Writes one type's messages as CDR (with its 4-byte encapsulation header,
 // as MCAP's and Foxglove's "cdr" encoding wants); keeps its buffers, so a
 // channel's steady stream allocates nothing.

@@ -5,6 +5,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "channel.hpp"
+
 namespace saccade::view {
 
 namespace {
@@ -131,18 +133,10 @@ void render_picture(const Message& message, cv::Mat& out) {
 }
 
 const std::string& compressed_image_schema() {
-  static const std::string schema = R"(std_msgs/Header header
+  static const std::string schema = dds::ros2_schema_with_header(R"(std_msgs/Header header
 string format
 uint8[] data
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-)";
+)");
   return schema;
 }
 
