@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "edge_codec.hpp"
+#include "fill_every_field.hpp"
 #include "plain.hpp"
 #include "ros2.hpp"
 #include "ros2PubSubTypes.h"
@@ -349,58 +350,11 @@ TEST(DdsWire, CanFramesRoundTripWithIdsFlagsAndBytes) {
   EXPECT_EQ(out.frames, in.frames);
 }
 
-// Gives every described field of a message a value of its own (no field keeps
-// its default), so a round trip that loses or swaps a field shows.
-struct FillEveryField {
-  int next = 1;
-  void operator()(const char*, bool& v) { v = !v; }
-  void operator()(const char*, std::string& v) { v = "s" + std::to_string(next++); }
-  template <class V>
-    requires std::is_arithmetic_v<V>
-  void operator()(const char*, V& v) { v = static_cast<V>(next++ % 100) + static_cast<V>(std::is_floating_point_v<V> ? 0.25 : 0); }
-  template <class V>
-    requires std::is_enum_v<V>
-  void operator()(const char*, V& v) { v = static_cast<V>(1); }
-  template <class T>
-  void operator()(const char* n, cv::Point_<T>& p) { (*this)(n, p.x), (*this)(n, p.y); }
-  template <class T>
-  void operator()(const char* n, cv::Size_<T>& s) { (*this)(n, s.width), (*this)(n, s.height); }
-  template <class T>
-  void operator()(const char* n, cv::Rect_<T>& r) { (*this)(n, r.x), (*this)(n, r.y), (*this)(n, r.width), (*this)(n, r.height); }
-  template <class T, int N>
-  void operator()(const char* n, cv::Vec<T, N>& v) { for (T& x : v.val) (*this)(n, x); }
-  void operator()(const char*, cv::Mat& m) {
-    m.create(3, 4, CV_8U);
-    m.setTo(next++);
-  }
-  template <class T>
-  void operator()(const char* n, std::vector<T>& v) {
-    v.resize(2);
-    for (T& x : v) (*this)(n, x);
-  }
-  template <class T, std::size_t N>
-  void operator()(const char* n, std::array<T, N>& v) { for (T& x : v) (*this)(n, x); }
-  void operator()(const char* n, std::shared_ptr<const std::vector<std::string>>& p) {
-    auto v = std::make_shared<std::vector<std::string>>();
-    (*this)(n, *v);
-    p = v;
-  }
-  template <class V>
-    requires requires(V& v) { V::fields(v, [](const char*, auto&) {}); }
-  void operator()(const char*, V& v) { V::fields(v, *this); }
-};
-
 template <class M, class W, class P>
 void expect_every_field_round_trips() {
   M in, out;
   stamp(in, 7);
-  M::fields(in, FillEveryField{});
-  if constexpr (std::is_same_v<M, CanFrames>) {
-    for (auto& f : in.frames) {  // a classic frame carries `length` bytes and no FD flags
-      f.length = 8, f.flags = 0;
-      std::fill(f.data.begin() + 8, f.data.end(), 0);
-    }
-  }
+  test::fill_every_field(in);
   round_trip<M, W, P>(in, out);
   std::string a, b;
   append_json(a, in);
@@ -943,13 +897,7 @@ void expect_channel_round_trip() {
   in.timestamp_ns = 123456789;
   in.origin_ns = 42;
   in.frame_id = 7;
-  M::fields(in, FillEveryField{});
-  if constexpr (std::is_same_v<M, CanFrames>) {
-    for (auto& f : in.frames) {
-      f.length = 8, f.flags = 0;
-      std::fill(f.data.begin() + 8, f.data.end(), 0);
-    }
-  }
+  test::fill_every_field(in);
   const dds::ChannelEncoding* e = dds::channel_encoding(M::kTypeName, false);
   ASSERT_NE(e, nullptr) << M::kTypeName;
   EXPECT_EQ(e->schema_encoding, "omgidl");

@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "channel.hpp"
+#include "fill_every_field.hpp"
 #include "mcap.hpp"
 #include "recording.hpp"
 #include "saccade/executor.hpp"
@@ -38,53 +39,10 @@ void write_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
   out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
 }
 
-// Every field of a message, each a different value (as test_dds_wire's).
-struct FillEveryField {
-  int next = 1;
-  void operator()(const char*, std::string& s) { s = "s" + std::to_string(next++); }
-  void operator()(const char*, bool& b) { b = (next++ % 2) == 1; }
-  template <class V>
-    requires std::is_arithmetic_v<V>
-  void operator()(const char*, V& v) { v = static_cast<V>(next++ % 100) + static_cast<V>(std::is_floating_point_v<V> ? 0.25 : 0); }
-  template <class V>
-    requires std::is_enum_v<V>
-  void operator()(const char*, V& v) { v = static_cast<V>(1); }
-  template <class T>
-  void operator()(const char* n, cv::Point_<T>& p) { (*this)(n, p.x), (*this)(n, p.y); }
-  template <class T>
-  void operator()(const char* n, cv::Size_<T>& s) { (*this)(n, s.width), (*this)(n, s.height); }
-  template <class T>
-  void operator()(const char* n, cv::Rect_<T>& r) { (*this)(n, r.x), (*this)(n, r.y), (*this)(n, r.width), (*this)(n, r.height); }
-  template <class T, int N>
-  void operator()(const char* n, cv::Vec<T, N>& v) { for (T& x : v.val) (*this)(n, x); }
-  void operator()(const char*, cv::Mat& m) { m = test::random_image({5, 4}, next++); }
-  template <class T>
-  void operator()(const char* n, std::vector<T>& v) {
-    v.resize(2);
-    for (T& x : v) (*this)(n, x);
-  }
-  template <class T, std::size_t N>
-  void operator()(const char* n, std::array<T, N>& v) { for (T& x : v) (*this)(n, x); }
-  void operator()(const char* n, std::shared_ptr<const std::vector<std::string>>& p) {
-    auto v = std::make_shared<std::vector<std::string>>();
-    (*this)(n, *v);
-    p = v;
-  }
-  template <class V>
-    requires requires(V& v) { V::fields(v, [](const char*, auto&) {}); }
-  void operator()(const char*, V& v) { V::fields(v, *this); }
-};
-
 template <class M>
 std::shared_ptr<M> filled(int k) {
   auto m = std::make_shared<M>();
-  M::fields(*m, FillEveryField{k * 7 + 1});
-  if constexpr (std::is_same_v<M, CanFrames>) {
-    for (auto& f : m->frames) {
-      f.length = 8, f.flags = 0;
-      std::fill(f.data.begin() + 8, f.data.end(), 0);
-    }
-  }
+  test::fill_every_field(*m, k * 7 + 1);
   m->timestamp_ns = 1'000'000'000 + k * 33'000'000;
   m->frame_id = k;
   m->origin_ns = 5;
