@@ -23,6 +23,8 @@ std::string_view to_string(ParamType type) {
   return "?";
 }
 
+std::vector<std::string> comma_list(std::string_view text) { return text::split_list(text, ','); }
+
 namespace {
 
 using text::format_exact;

@@ -453,13 +453,17 @@ struct Executor::Impl {
   void emit(int from, int output, MessagePtr message) {
     NodeRt& n = nodes[static_cast<std::size_t>(from)];
     bump(n.stats->emitted);
-    for (const Executor::Tap& tap : n.taps[static_cast<std::size_t>(output)]) tap(message);
+    const auto& taps = n.taps[static_cast<std::size_t>(output)];
     const auto& targets = n.outputs[static_cast<std::size_t>(output)];
-    if (targets.empty()) return;
+    if (targets.empty() && taps.empty()) return;
     int inline_run[8];
     int inline_count = 0;
     {
       std::lock_guard lock(mu);
+      // Under the lock that delivers it: the taps see the graph's messages in
+      // the order its nodes take them (a recording replays a side input's
+      // value at the same place among the triggers it was read with).
+      for (const Executor::Tap& tap : taps) tap(message);
       for (const Target& t : targets) {
         NodeRt& to = nodes[static_cast<std::size_t>(t.node)];
         InputRt& in = to.inputs[static_cast<std::size_t>(t.input)];

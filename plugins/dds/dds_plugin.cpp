@@ -100,20 +100,6 @@ Contract with_bridge_params(Contract c) {
       .params(&bind_bridge);
 }
 
-// "a, b,c" -> {"a", "b", "c"}; empty names are dropped.
-std::vector<std::string> split_names(const std::string& names) {
-  std::vector<std::string> out;
-  for (std::size_t begin = 0; begin < names.size();) {
-    std::size_t end = std::min(names.find(',', begin), names.size());
-    std::string name = names.substr(begin, end - begin);
-    name.erase(0, name.find_first_not_of(' '));
-    name.erase(name.find_last_not_of(' ') + 1);
-    if (!name.empty()) out.push_back(name);
-    begin = end + 1;
-  }
-  return out;
-}
-
 const char* policy_name(fdds::QosPolicyId_t id) {
   switch (id) {
     case fdds::RELIABILITY_QOS_POLICY_ID: return "reliability";
@@ -165,7 +151,7 @@ struct TopicEnd {
     if (topic == nullptr) return Status::error(error);
     sd::WireOptions& options = c.wire;
     options.capacity = request.capacity;
-    options.joint_names = split_names(c.joint_names);
+    options.joint_names = comma_list(c.joint_names);
     sd::set_mailbox(request, *codec, edge.depth, options);
     sample = codec->make_sample(options);
     doorbell = codec->form == sd::Codec::Form::kRing || options.mailbox;

@@ -123,21 +123,29 @@ struct TypedOutputs {
   static void declare(Contract& c) {
     (c.output<M>(port_name(M::kTypeName), "the topic's messages when it carries " + std::string(M::kTypeName)), ...);
   }
-  // The output index for `type`, or -1; errors for outputs of other types that are connected.
-  static int open(OpenContext& ctx, std::string_view type, std::string& error) {
-    int index = -1;
-    (check<M>(ctx, type, index, error), ...);
+  // The output index for each of `types` (-1 for a type without one); an
+  // error for a connected output that no type played takes.
+  static std::vector<int> open(OpenContext& ctx, const std::vector<std::string_view>& types, std::string& error) {
+    std::vector<int> index(types.size(), -1);
+    (check<M>(ctx, types, index, error), ...);
     return index;
   }
   template <class T>
-  static void check(OpenContext& ctx, std::string_view type, int& index, std::string& error) {
+  static void check(OpenContext& ctx, const std::vector<std::string_view>& types, std::vector<int>& index,
+                    std::string& error) {
     const std::string name = port_name(T::kTypeName);
     auto h = ctx.output<T>(name);
-    if (T::kTypeName == type) {
-      index = h.index;
-    } else if (ctx.connected(h) && error.empty()) {
-      error = "output '" + name + "' is connected, but the topic carries " + std::string(type) + " (its output: '" +
-              port_name(type) + "')";
+    bool played = false;
+    for (std::size_t i = 0; i < types.size(); ++i) {
+      if (T::kTypeName != types[i]) continue;
+      index[i] = h.index;
+      played = true;
+    }
+    if (!played && ctx.connected(h) && error.empty()) {
+      std::string carried;
+      for (std::string_view t : types) carried += (carried.empty() ? "" : ", ") + std::string(t);
+      error = "output '" + name + "' is connected, but the played topics carry " + carried + " (output '" +
+              port_name(types.front()) + "'" + (types.size() > 1 ? ", ..." : "") + ")";
     }
   }
   // "FeatureMaps" -> "feature_maps"
@@ -160,20 +168,24 @@ using ReplayOutputs = TypedOutputs<Image, Retina, FeatureMaps, Motion, Region, S
 class Replay final : public Node {
  public:
   static constexpr const char* kName = "replay";
-  static constexpr Out<Message> kOut{"out", "the recorded topic's messages, with their recorded timestamps (any type)"};
+  static constexpr Out<Message> kOut{"out", "the recorded topics' messages, with their recorded timestamps (any type)"};
 
   static Contract contract() {
     Contract c(
-               "Plays one topic of an MCAP file into the graph in file order, each message with its recorded "
+               "Plays recorded topics of an MCAP file into the graph in file order, each message with its recorded "
                "timestamp and frame id (origin = when it is played): at the recorded pace (realtime, the replay "
                "nodes of one file keeping their topics' spacing) or as fast as consumers take (fast: give its edges "
-               "queue=\"block:N\" to drop nothing; the same file gives the same messages in the same order). One "
-               "node per topic; its messages leave on 'out' and on the output named after their type (retina, "
-               "feature_maps, ...), which typed inputs take. A truncated or corrupted file is an error naming the "
-               "offset, unless salvage.");
+               "queue=\"block:N\" to drop nothing; the same file gives the same messages in the same order). "
+               "Several topics (comma-separated) play interleaved as they were recorded, on one thread: a node's "
+               "trigger and side inputs replayed by one node see each other as they did when recorded "
+               "(docs/recording.md). Messages leave on 'out' and on the output named after their type (retina, "
+               "feature_maps, ...), which typed inputs take; topics played by one node carry different types. A "
+               "truncated or corrupted file is an error naming the offset, unless salvage.");
     c.ports(kOut)
         .required_string("path", "MCAP file to read")
-        .param_string("topic", "", "the topic to play (default: the file's only topic); an unknown one lists the file's")
+        .param_string("topic", "",
+                      "the topic to play, or several comma-separated (default: the file's only topic); an unknown one "
+                      "lists the file's")
         .param_enum("rate", "fast", {"fast", "realtime"}, "as fast as consumers take, or at the recorded pace")
         .param_double("speed", 1.0, 0.01, 1000.0, "realtime: this many times the recorded pace")
         .param_bool("salvage", false, "play the readable part of a truncated or corrupted file (skipped parts counted in 'skipped')");
@@ -185,10 +197,18 @@ class Replay final : public Node {
     path_ = p.get_string("path");
     realtime_ = p.get_string("rate") == "realtime";
     speed_ = p.get_double("speed");
-    if (std::string why = reader_.open(path_, p.get_string("topic"), p.get_bool("salvage")); !why.empty())
+    if (std::string why = reader_.open(path_, comma_list(p.get_string("topic")), p.get_bool("salvage")); !why.empty())
       return Status::error(why);
+    std::vector<std::string_view> types;
+    for (std::size_t i = 0; i < reader_.topic_count(); ++i) {
+      for (std::size_t k = 0; k < i; ++k)
+        if (reader_.type(k) == reader_.type(i))
+          return Status::error(reader_.topic(k) + " and " + reader_.topic(i) + " both carry " +
+                               std::string(reader_.type(i)) + ": play them with a replay node each");
+      types.push_back(reader_.type(i));
+    }
     std::string error;
-    typed_ = ReplayOutputs::open(ctx, reader_.type(), error);
+    typed_ = ReplayOutputs::open(ctx, types, error);
     if (!error.empty()) return Status::error(reader_.topic() + ": " + error);
     for (const std::string& w : reader_.reader().warnings()) log().warn("{}: {}", ctx.node_name(), w);
     skipped_ = &ctx.counter("skipped");
@@ -198,7 +218,8 @@ class Replay final : public Node {
   }
   Status process(ProcessContext& ctx) override {
     std::string error;
-    MessagePtr m = reader_.next(error);
+    std::size_t topic = 0;
+    MessagePtr m = reader_.next(error, &topic);
     const uint64_t skipped = reader_.reader().skipped();
     if (skipped > skipped_seen_) {
       skipped_->fetch_add(skipped - skipped_seen_, std::memory_order_relaxed);
@@ -215,7 +236,7 @@ class Replay final : public Node {
       if (!ctx.sleep_until(anchor_ + static_cast<int64_t>(since))) return Status::end_of_stream();
     }
     const_cast<Message&>(*m).origin_ns = steady_now_ns();
-    if (typed_ >= 0) ctx.emit(OutputHandle<Message>{typed_}, m);
+    if (typed_[topic] >= 0) ctx.emit(OutputHandle<Message>{typed_[topic]}, m);
     ctx.emit(kOut, std::move(m));
     return {};
   }
@@ -231,7 +252,7 @@ class Replay final : public Node {
   bool realtime_ = false;
   double speed_ = 1.0;
   int64_t anchor_ = 0;
-  int typed_ = -1;
+  std::vector<int> typed_;
   std::atomic<uint64_t>* skipped_ = nullptr;
   uint64_t skipped_seen_ = 0;
 };

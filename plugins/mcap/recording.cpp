@@ -258,34 +258,53 @@ const dds::ChannelEncoding* encoding_of(const Channel& channel, const Schema* sc
 TopicReader::TopicReader() = default;
 TopicReader::~TopicReader() = default;
 
-std::string_view TopicReader::type() const { return encoding_ != nullptr ? encoding_->type : std::string_view(); }
+std::string_view TopicReader::type(std::size_t index) const {
+  return index < topics_.size() ? topics_[index].encoding->type : std::string_view();
+}
 
-std::string TopicReader::open(const std::string& path, const std::string& topic, bool salvage) {
-  salvage_ = salvage;
-  if (std::string why = reader_.open(path, salvage); !why.empty()) return why;
-  const Channel* channel = nullptr;
-  if (topic.empty() && reader_.channels().size() == 1) {
-    channel = &reader_.channels().begin()->second;
-  } else if (!topic.empty()) {
-    channel = reader_.find_channel(topic);
+namespace {
+
+std::string list_topics(const Reader& reader) {
+  std::string topics;
+  for (const auto& [id, c] : reader.channels()) {
+    const Schema* s = reader.schema_of(c);
+    topics += (topics.empty() ? "" : ", ") + c.topic + " (" + (s != nullptr ? s->name : std::string("no schema")) + ")";
   }
-  if (channel == nullptr) {
-    std::string topics;
-    for (const auto& [id, c] : reader_.channels()) {
-      const Schema* s = reader_.schema_of(c);
-      topics += (topics.empty() ? "" : ", ") + c.topic + " (" + (s != nullptr ? s->name : std::string("no schema")) + ")";
-    }
-    if (topics.empty()) topics = "none";
-    return path + ": " + (topic.empty() ? "which topic? the file has several" : "no topic '" + topic + "'") +
-           "; its topics: " + topics;
-  }
+  return topics.empty() ? "none" : topics;
+}
+
+}  // namespace
+
+std::string TopicReader::add_topic(const std::string& path, const Channel& channel) {
+  for (const Played& t : topics_)
+    if (t.channel == channel.id) return path + ": topic '" + channel.topic + "' named twice";
   std::string why;
-  encoding_ = encoding_of(*channel, reader_.schema_of(*channel), why);
-  if (encoding_ == nullptr) return path + ": " + why;
-  decoder_ = dds::make_decoder(*encoding_);
-  ros2_ = encoding_->schema_encoding == "ros2msg";
-  topic_ = channel->topic;
-  channel_ = channel->id;
+  Played played;
+  played.encoding = encoding_of(channel, reader_.schema_of(channel), why);
+  if (played.encoding == nullptr) return path + ": " + why;
+  played.decoder = dds::make_decoder(*played.encoding);
+  played.ros2 = played.encoding->schema_encoding == "ros2msg";
+  played.name = channel.topic;
+  played.channel = channel.id;
+  topics_.push_back(std::move(played));
+  return {};
+}
+
+std::string TopicReader::open(const std::string& path, const std::vector<std::string>& topics, bool salvage) {
+  salvage_ = salvage;
+  topics_.clear();
+  if (std::string why = reader_.open(path, salvage); !why.empty()) return why;
+  if (topics.empty()) {
+    if (reader_.channels().size() != 1)
+      return path + ": which topic? the file has " + (reader_.channels().empty() ? "none" : "several") +
+             "; its topics: " + list_topics(reader_);
+    if (std::string why = add_topic(path, reader_.channels().begin()->second); !why.empty()) return why;
+  }
+  for (const std::string& name : topics) {
+    const Channel* channel = reader_.find_channel(name);
+    if (channel == nullptr) return path + ": no topic '" + name + "'; its topics: " + list_topics(reader_);
+    if (std::string why = add_topic(path, *channel); !why.empty()) return why;
+  }
   start_time_ = reader_.statistics() != nullptr ? reader_.statistics()->message_start_time : 0;
   rewind();
   if (reader_.statistics() == nullptr) {
@@ -304,27 +323,32 @@ std::string TopicReader::open(const std::string& path, const std::string& topic,
 void TopicReader::rewind() {
   ReadOptions options;
   options.salvage = salvage_;
-  options.channels = {channel_};
+  for (const Played& t : topics_) options.channels.push_back(t.channel);
   reader_.rewind(options);
 }
 
-MessagePtr TopicReader::next(std::string& error) {
+MessagePtr TopicReader::next(std::string& error, std::size_t* topic_index) {
   MessageView view;
   for (;;) {
     const int r = reader_.next(view, error);
     if (r <= 0) return nullptr;
+    std::size_t index = 0;
+    while (index < topics_.size() && topics_[index].channel != view.channel_id) ++index;
+    if (index == topics_.size()) continue;  // a channel not asked for (the reader filters them already)
+    Played& played = topics_[index];
     std::string why;
-    MessagePtr m = decoder_->decode(view.data, view.size, why);
+    MessagePtr m = played.decoder->decode(view.data, view.size, why);
     if (m == nullptr) {
-      error = reader_.file_size() > 0 ? "topic " + topic_ + ": the message at offset " + std::to_string(view.offset) +
-                                            " does not decode: " + why
+      error = reader_.file_size() > 0 ? "topic " + played.name + ": the message at offset " +
+                                            std::to_string(view.offset) + " does not decode: " + why
                                       : why;
       if (salvage_) continue;
       return nullptr;
     }
     auto& mutable_message = const_cast<Message&>(*m);  // new, not shared yet
     mutable_message.timestamp_ns = static_cast<int64_t>(view.log_time);
-    if (ros2_) mutable_message.frame_id = view.sequence;
+    if (played.ros2) mutable_message.frame_id = view.sequence;
+    if (topic_index != nullptr) *topic_index = index;
     return m;
   }
 }

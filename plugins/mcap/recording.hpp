@@ -133,31 +133,43 @@ std::unique_ptr<GraphRecorder> attach_recorder(Executor& executor, const std::st
 // not read (it names the schema and what saccade reads).
 const dds::ChannelEncoding* encoding_of(const Channel& channel, const Schema* schema, std::string& why);
 
-// Plays one recorded topic back as messages, in file order.
+// Reads recorded topics back as messages, in file order: one topic, or
+// several interleaved as they were written (a recorder writes in the order
+// the graph's consumers took them).
 class TopicReader {
  public:
   TopicReader();
   ~TopicReader();
   // "" or what is wrong: the file (with the offset of the damage), no such
   // topic (the error lists the file's topics), a schema saccade does not
-  // read. An empty `topic` takes the file's only topic.
-  std::string open(const std::string& path, const std::string& topic, bool salvage);
+  // read, a topic named twice. No topics: the file's only topic.
+  std::string open(const std::string& path, const std::vector<std::string>& topics, bool salvage);
+  std::string open(const std::string& path, const std::string& topic, bool salvage) {
+    return open(path, topic.empty() ? std::vector<std::string>{} : std::vector<std::string>{topic}, salvage);
+  }
   // The next message (timestamp = the log time), nullptr at the end or on an
   // error (`error` set; with salvage, damaged parts are skipped instead).
-  MessagePtr next(std::string& error);
+  // `topic_index`, when given, is set to the index of the message's topic.
+  MessagePtr next(std::string& error, std::size_t* topic_index = nullptr);
   void rewind();
-  const std::string& topic() const { return topic_; }
-  std::string_view type() const;
+  std::size_t topic_count() const { return topics_.size(); }
+  const std::string& topic(std::size_t index = 0) const { return topics_[index].name; }
+  std::string_view type(std::size_t index = 0) const;
   uint64_t start_time() const { return start_time_; }  // the file's first log time (of any topic)
   const Reader& reader() const { return reader_; }
 
  private:
+  struct Played {
+    std::string name;
+    uint16_t channel = 0;
+    bool ros2 = false;
+    const dds::ChannelEncoding* encoding = nullptr;
+    std::unique_ptr<dds::MessageDecoder> decoder;
+  };
+  std::string add_topic(const std::string& path, const Channel& channel);
   Reader reader_;
-  std::string topic_;
-  uint16_t channel_ = 0;
-  bool salvage_ = false, ros2_ = false;
-  const dds::ChannelEncoding* encoding_ = nullptr;
-  std::unique_ptr<dds::MessageDecoder> decoder_;
+  std::vector<Played> topics_;
+  bool salvage_ = false;
   uint64_t start_time_ = 0;
 };
 

@@ -87,6 +87,10 @@ using ParamValue =
 // reason when it does not fit.
 std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out);
 
+// "a, b,,c" -> {"a", "b", "c"}: a parameter that names several things (topics,
+// joints), items trimmed, empty ones dropped.
+std::vector<std::string> comma_list(std::string_view text);
+
 // A node's parameters after validation: every declared one is present.
 class Params {
  public:

@@ -51,8 +51,11 @@ class Executor {
 
   // Calls `tap` with every message node `node` emits on output `port`,
   // connected or not, on the emitting thread before its consumers get it (a
-  // recorder, a live view): keep it short, hand the message off. Before
-  // run(); "" or what is wrong (no such node or output).
+  // recorder, a live view). Taps run under the lock that delivers messages,
+  // so all taps together see messages in the order consumers take them (a
+  // side input's newest value among its node's triggers): keep a tap short,
+  // hand the message off, never call back into the executor. Before run();
+  // "" or what is wrong (no such node or output).
   using Tap = std::function<void(const MessagePtr&)>;
   std::string add_tap(const std::string& node, const std::string& port, Tap tap);
   // Gives a node's side input `input` a value as an edge would (the newest
