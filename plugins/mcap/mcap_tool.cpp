@@ -7,12 +7,18 @@
 //       runs GRAPH with every connected output (or the named ones) recorded
 //       to FILE, as `saccade run GRAPH --record FILE` does, and prints the
 //       recorder's report and the graph's rate
+//   saccade_mcap compare A B [--topic T]... [--ignore field,...]
+//       the messages of each topic (default: the topics both files have) of
+//       A and B, in file order, field by field (origin_ns, the time a message
+//       was made or replayed, is never compared); exit 1 at the first
+//       difference, which it names (message index, frame, field, both values)
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "channel.hpp"
@@ -20,6 +26,7 @@
 #include "saccade/executor.hpp"
 #include "saccade/graph.hpp"
 #include "saccade/registry.hpp"
+#include "saccade/schema.hpp"
 
 namespace {
 
@@ -28,7 +35,8 @@ using namespace saccade;
 int usage() {
   std::cerr << "usage: saccade_mcap info FILE [--salvage]\n"
                "       saccade_mcap record GRAPH FILE [--compression none|zstd|lz4] [--chunk-kib N]\n"
-               "                    [--ports node.port,...] [--queue N] [--lossless] [--frames N] [--set node.param=value]...\n";
+               "                    [--ports node.port,...] [--queue N] [--lossless] [--frames N] [--set node.param=value]...\n"
+               "       saccade_mcap compare A B [--topic T]... [--ignore field,...]\n";
   return 2;
 }
 
@@ -144,11 +152,126 @@ int record(const std::vector<std::string>& args) {
   return 0;
 }
 
+
+// The top-level "key":value pairs of one JSON object as append_json writes it
+// (no whitespace), values as text.
+std::vector<std::pair<std::string, std::string>> json_fields(const std::string& object) {
+  std::vector<std::pair<std::string, std::string>> out;
+  std::size_t i = 1;  // past '{'
+  while (i < object.size() && object[i] == '"') {
+    const std::size_t key_end = object.find('"', i + 1);
+    std::string key = object.substr(i + 1, key_end - i - 1);
+    const std::size_t value_start = key_end + 2;  // past '":'
+    int depth = 0;
+    bool in_string = false;
+    std::size_t j = value_start;
+    for (; j < object.size(); ++j) {
+      const char c = object[j];
+      if (in_string) {
+        if (c == '\\') ++j;
+        else if (c == '"') in_string = false;
+      } else if (c == '"') {
+        in_string = true;
+      } else if (c == '{' || c == '[') {
+        ++depth;
+      } else if (c == '}' || c == ']') {
+        if (depth == 0) break;
+        --depth;
+      } else if (c == ',' && depth == 0) {
+        break;
+      }
+    }
+    out.emplace_back(std::move(key), object.substr(value_start, j - value_start));
+    i = j + 1;
+  }
+  return out;
+}
+
+std::string shorten(const std::string& value) { return value.size() > 160 ? value.substr(0, 157) + "..." : value; }
+
+// "" when the topic's messages are equal in both files, else the first difference.
+std::string compare_topic(const std::string& a, const std::string& b, const std::string& topic,
+                          const std::set<std::string>& ignored, uint64_t& compared) {
+  mcap::TopicReader readers[2];
+  const std::string* paths[2] = {&a, &b};
+  for (int k = 0; k < 2; ++k)
+    if (std::string why = readers[k].open(*paths[k], topic, false); !why.empty()) return why;
+  std::string json[2], error;
+  for (compared = 0;; ++compared) {
+    MessagePtr m[2];
+    for (int k = 0; k < 2; ++k) {
+      m[k] = readers[k].next(error);
+      if (!error.empty()) return error;
+    }
+    if (m[0] == nullptr && m[1] == nullptr) return {};
+    const std::string where = topic + ": message " + std::to_string(compared);
+    if (m[0] == nullptr || m[1] == nullptr)
+      return where + ": " + (m[0] == nullptr ? a : b) + " ends here, the other goes on";
+    for (int k = 0; k < 2; ++k) {
+      json[k].clear();
+      append_json(json[k], *m[k]);
+    }
+    const auto fa = json_fields(json[0]), fb = json_fields(json[1]);
+    for (std::size_t f = 0; f < std::max(fa.size(), fb.size()); ++f) {
+      if (f >= fa.size() || f >= fb.size() || fa[f].first != fb[f].first)
+        return where + ": the messages have different fields";
+      if (ignored.count(fa[f].first) != 0 || fa[f].second == fb[f].second) continue;
+      return where + " (frame " + std::to_string(m[0]->frame_id) + "): " + fa[f].first + " is " +
+             shorten(fa[f].second) + " in " + a + ", " + shorten(fb[f].second) + " in " + b;
+    }
+  }
+}
+
+int compare(const std::vector<std::string>& args) {
+  if (args.size() < 2) return usage();
+  const std::string a = args[0], b = args[1];
+  std::vector<std::string> topics;
+  std::set<std::string> ignored = {"origin_ns"};
+  for (std::size_t i = 2; i < args.size(); ++i) {
+    if (i + 1 >= args.size()) return usage();
+    if (args[i] == "--topic") {
+      topics.push_back(args[++i]);
+    } else if (args[i] == "--ignore") {
+      for (const std::string& field : comma_list(args[++i])) ignored.insert(field);
+    } else {
+      return usage();
+    }
+  }
+  if (topics.empty()) {
+    mcap::Reader ra, rb;
+    for (auto [reader, path] : {std::pair{&ra, &a}, std::pair{&rb, &b}}) {
+      if (std::string why = reader->open(*path); !why.empty()) {
+        std::cerr << "error: " << why << "\n";
+        return 1;
+      }
+    }
+    for (const auto& [id, channel] : ra.channels())
+      if (rb.find_channel(channel.topic) != nullptr) topics.push_back(channel.topic);
+    if (topics.empty()) {
+      std::cerr << "error: " << a << " and " << b << " have no topic in common\n";
+      return 1;
+    }
+  }
+  int status = 0;
+  for (const std::string& topic : topics) {
+    uint64_t compared = 0;
+    const std::string why = compare_topic(a, b, topic, ignored, compared);
+    if (why.empty()) {
+      std::printf("%-28s %8llu messages, all equal\n", topic.c_str(), static_cast<unsigned long long>(compared));
+    } else {
+      std::printf("%-28s differs: %s\n", topic.c_str(), why.c_str());
+      status = 1;
+    }
+  }
+  return status;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.size() >= 2 && args[0] == "info") return info(args[1], args.size() > 2 && args[2] == "--salvage");
   if (!args.empty() && args[0] == "record") return record({args.begin() + 1, args.end()});
+  if (!args.empty() && args[0] == "compare") return compare({args.begin() + 1, args.end()});
   return usage();
 }
