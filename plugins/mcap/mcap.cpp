@@ -44,6 +44,38 @@ constexpr uint64_t kFooterRecord = kRecordHeader + 20;
 // than allocated (the writer's chunks are a few MiB).
 constexpr uint64_t kMaxChunk = uint64_t{1} << 32;
 
+// What a compressed chunk is first decompressed into: its claimed size, or
+// less when that is far more than its compressed bytes could make (grown as
+// they really make more), so that a few bytes claiming gigabytes cost a few bytes.
+std::size_t first_output_size(uint64_t claimed, std::size_t compressed) {
+  return static_cast<std::size_t>(std::min<uint64_t>(claimed, std::max<uint64_t>(uint64_t{1} << 20, uint64_t{16} * compressed)));
+}
+
+// Decompresses zstd frames into `out`, at most `claimed` bytes; "" or what is wrong.
+std::string decompress_zstd(const uint8_t* in, std::size_t in_size, uint64_t claimed, std::vector<uint8_t>& out) {
+  std::unique_ptr<ZSTD_DCtx, std::size_t (*)(ZSTD_DCtx*)> dctx(ZSTD_createDCtx(), ZSTD_freeDCtx);
+  if (!dctx) return "no zstd decompression context";
+  out.resize(first_output_size(claimed, in_size));
+  ZSTD_inBuffer src{in, in_size, 0};
+  std::size_t produced = 0, left = 1;  // left: 0 once a frame is whole
+  while (src.pos < src.size || left != 0) {
+    if (produced == out.size() && out.size() < claimed)
+      out.resize(static_cast<std::size_t>(std::min<uint64_t>(claimed, uint64_t{2} * out.size())));
+    ZSTD_outBuffer dst{out.data(), out.size(), produced};
+    const std::size_t read_before = src.pos;
+    left = ZSTD_decompressStream(dctx.get(), &dst, &src);
+    if (ZSTD_isError(left)) return std::string("does not decompress: ") + ZSTD_getErrorName(left);
+    const bool moved = dst.pos != produced || src.pos != read_before;
+    produced = dst.pos;
+    if (!moved) {
+      return produced == out.size() ? "decompresses to more than " + std::to_string(claimed) + " bytes"
+                                 : "does not decompress: its last frame is cut";
+    }
+  }
+  out.resize(produced);
+  return {};
+}
+
 const char* op_name(uint8_t op) {
   switch (op) {
     case kHeader: return "Header";
@@ -790,12 +822,17 @@ std::string Reader::load_chunk(uint64_t offset, uint64_t length, bool allow_cut)
     chunk_size_ = records_size;
   } else {
     if (uncompressed_size > kMaxChunk) return fail(offset, "a Chunk claims " + std::to_string(uncompressed_size) + " bytes uncompressed");
-    chunk_.resize(uncompressed_size);
     if (compression == "zstd") {
-      const std::size_t n = ZSTD_decompress(chunk_.data(), chunk_.size(), records, records_size);
-      if (ZSTD_isError(n)) return fail(offset, std::string("a zstd Chunk does not decompress: ") + ZSTD_getErrorName(n));
-      if (n != uncompressed_size) return fail(offset, "a zstd Chunk decompresses to " + std::to_string(n) + " bytes, not " + std::to_string(uncompressed_size));
+      if (std::string why = decompress_zstd(records, records_size, uncompressed_size, chunk_); !why.empty())
+        return fail(offset, "a zstd Chunk " + why);
+      if (chunk_.size() != uncompressed_size) return fail(offset, "a zstd Chunk decompresses to " + std::to_string(chunk_.size()) + " bytes, not " + std::to_string(uncompressed_size));
     } else if (compression == "lz4") {
+      // LZ4 makes at most 255 bytes of one (a match's length byte), so the
+      // claim is checked before it is allocated.
+      if (uncompressed_size / 256 > records_size)
+        return fail(offset, "an lz4 Chunk of " + std::to_string(records_size) + " bytes cannot hold " +
+                                std::to_string(uncompressed_size) + " bytes uncompressed");
+      chunk_.resize(uncompressed_size);
       LZ4F_dctx* dctx = nullptr;
       if (LZ4F_isError(LZ4F_createDecompressionContext(&dctx, LZ4F_VERSION))) return fail(offset, "no lz4 decompression context");
       std::size_t out_at = 0, in_at = 0;
