@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "channel.hpp"
+#include "client_protocol.hpp"
 #include "render.hpp"
 #include "saccade/executor.hpp"
 #include "saccade/schema.hpp"
@@ -300,96 +301,53 @@ void WsSession::drop_subscription(uint32_t id) {
   pending_.erase(id);
 }
 
-namespace {
-bool as_u32(const json& j, const char* key, uint32_t& out) {
-  auto it = j.find(key);
-  if (it == j.end() || !it->is_number_unsigned() || it->get<uint64_t>() > 0xffffffffu) return false;
-  out = static_cast<uint32_t>(it->get<uint64_t>());
-  return true;
-}
-}  // namespace
-
 void WsSession::on_text(const std::string& text) {
-  const json m = json::parse(text, nullptr, false);
-  if (m.is_discarded() || !m.is_object()) return malformed("not a JSON object");
-  auto op_it = m.find("op");
-  if (op_it == m.end() || !op_it->is_string()) return malformed("no 'op'");
-  const std::string op = op_it->get<std::string>();
-  if (op == "subscribe") {
-    auto subs = m.find("subscriptions");
-    if (subs == m.end() || !subs->is_array()) return malformed("subscribe without 'subscriptions'");
-    for (const json& s : *subs) {
-      uint32_t id = 0, channel_id = 0;
-      if (!s.is_object() || !as_u32(s, "id", id) || !as_u32(s, "channelId", channel_id))
-        return malformed("subscribe: each subscription needs an 'id' and a 'channelId'");
-      Channel* c = server_.channel(channel_id);
-      if (!c) return malformed("subscribe: no channel " + std::to_string(channel_id));
-      if (subscriptions_.count(id)) return malformed("subscribe: subscription " + std::to_string(id) + " exists");
-      subscriptions_[id] = channel_id;
-      server_.subscribed(*c, 1);
-    }
-  } else if (op == "unsubscribe") {
-    auto ids = m.find("subscriptionIds");
-    if (ids == m.end() || !ids->is_array()) return malformed("unsubscribe without 'subscriptionIds'");
-    for (const json& id : *ids) {
-      if (!id.is_number_unsigned()) return malformed("unsubscribe: an id is not a number");
-      drop_subscription(static_cast<uint32_t>(id.get<uint64_t>()));
-    }
-  } else if (op == "advertise") {
-    auto channels = m.find("channels");
-    if (channels == m.end() || !channels->is_array()) return malformed("advertise without 'channels'");
-    for (const json& c : *channels) {
-      uint32_t id = 0;
-      if (!c.is_object() || !as_u32(c, "id", id) || !c.contains("topic") || !c["topic"].is_string() ||
-          !c.contains("encoding") || !c["encoding"].is_string())
-        return malformed("advertise: each channel needs 'id', 'topic' and 'encoding'");
-      std::optional<Target> target = server_.target_of(c["topic"].get<std::string>());
-      if (target && c["encoding"].get<std::string>() != "json") {
-        send_text(json{{"op", "status"}, {"level", 1}, {"message", "only json is taken on " + c["topic"].get<std::string>()}}.dump());
-        target.reset();
+  const ClientRequest r = parse_client_text(text);
+  switch (r.op) {
+    case ClientRequest::Op::kMalformed:
+      return malformed(r.malformed);
+    case ClientRequest::Op::kSubscribe:
+      for (const ClientRequest::Subscription& s : r.subscriptions) {
+        Channel* c = server_.channel(s.channel_id);
+        if (!c) return malformed("subscribe: no channel " + std::to_string(s.channel_id));
+        if (subscriptions_.count(s.id)) return malformed("subscribe: subscription " + std::to_string(s.id) + " exists");
+        subscriptions_[s.id] = s.channel_id;
+        server_.subscribed(*c, 1);
       }
-      advertised_[id] = target;
-    }
-  } else if (op == "unadvertise") {
-    auto ids = m.find("channelIds");
-    if (ids == m.end() || !ids->is_array()) return malformed("unadvertise without 'channelIds'");
-    for (const json& id : *ids)
-      if (id.is_number_unsigned()) advertised_.erase(static_cast<uint32_t>(id.get<uint64_t>()));
-  } else {
-    malformed("unknown op '" + op + "'");
+      break;
+    case ClientRequest::Op::kUnsubscribe:
+      for (uint32_t id : r.ids) drop_subscription(id);
+      break;
+    case ClientRequest::Op::kAdvertise:
+      for (const ClientRequest::AdvertisedChannel& c : r.channels) {
+        std::optional<Target> target = server_.target_of(c.topic);
+        if (target && c.encoding != "json") {
+          send_text(json{{"op", "status"}, {"level", 1}, {"message", "only json is taken on " + c.topic}}.dump());
+          target.reset();
+        }
+        advertised_[c.id] = target;
+      }
+      break;
+    case ClientRequest::Op::kUnadvertise:
+      for (uint32_t id : r.ids) advertised_.erase(id);
+      break;
   }
+  // An entry that is not whole ends the request; those before it were taken.
+  if (!r.malformed.empty()) malformed(r.malformed);
 }
 
 void WsSession::on_binary(const uint8_t* data, std::size_t size) {
-  if (size < 5 || data[0] != 0x01) return malformed("binary message is not messageData (opcode 1, channel id)");
   uint32_t channel_id = 0;
-  std::memcpy(&channel_id, data + 1, 4);
+  if (!parse_message_data(data, size, channel_id))
+    return malformed("binary message is not messageData (opcode 1, channel id)");
   auto it = advertised_.find(channel_id);
   if (it == advertised_.end()) return malformed("message on a channel the client did not advertise");
   if (!it->second) {
     server_.stats().inject_refused.fetch_add(1);
     return;
   }
-  const json m = json::parse(data + 5, data + size, nullptr, false);
-  auto number = [](const json& j, const char* key, double& out) {
-    auto k = j.find(key);
-    if (k == j.end() || !k->is_number()) return false;
-    out = k->get<double>();
-    return true;
-  };
   auto region = std::make_shared<Region>();
-  if (m.is_discarded() || !m.is_object() || !m.contains("center") || !m["center"].is_object() ||
-      !number(m["center"], "x", region->center.x) || !number(m["center"], "y", region->center.y))
-    return malformed("a Region needs 'center': {'x', 'y'}");
-  if (m.contains("size")) {
-    const json& s = m["size"];
-    if (!s.is_object() || !number(s, "width", region->size.width) || !number(s, "height", region->size.height) ||
-        region->size.width < 0 || region->size.height < 0)
-      return malformed("a Region's 'size' needs 'width' and 'height' >= 0");
-  }
-  if (m.contains("label") && m["label"].is_string()) region->label = m["label"].get<std::string>();
-  if (m.contains("camera_id") && m["camera_id"].is_number_integer()) region->camera_id = m["camera_id"].get<int>();
-  region->score = 1.0;
+  if (std::string why = parse_region_json(data + 5, size - 5, *region); !why.empty()) return malformed(why);
   const std::string why = server_.inject(*it->second, region);
   if (why.empty()) {
     server_.stats().injected.fetch_add(1);

@@ -19,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "channel.hpp"
+#include "client_protocol.hpp"
 #include "support.hpp"
 #include "view_server.hpp"
 
@@ -399,6 +400,63 @@ TEST(View, APortInUseIsAClearError) {
   auto server = view::start_view(*graph->executor, options, error);
   EXPECT_FALSE(server);
   EXPECT_EQ(error, "view: cannot listen on 127.0.0.1:" + std::to_string(port) + ": the port is in use");
+}
+
+
+// The client's messages as the server parses them (client_protocol.hpp, what
+// fuzz_view feeds any bytes): what each request asks, and an entry that is not
+// whole ends it after the entries before it.
+TEST(ViewProtocol, ParsesEachRequestAndKeepsTheEntriesBeforeABadOne) {
+  using view::ClientRequest;
+  ClientRequest r = view::parse_client_text(
+      R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":3},{"id":2,"channelId":4},{"id":-1,"channelId":5}]})");
+  EXPECT_EQ(r.op, ClientRequest::Op::kSubscribe);
+  ASSERT_EQ(r.subscriptions.size(), 2u);
+  EXPECT_EQ(r.subscriptions[1].id, 2u);
+  EXPECT_EQ(r.subscriptions[1].channel_id, 4u);
+  EXPECT_EQ(r.malformed, "subscribe: each subscription needs an 'id' and a 'channelId'");
+
+  r = view::parse_client_text(R"({"op":"unsubscribe","subscriptionIds":[7,8]})");
+  EXPECT_EQ(r.op, ClientRequest::Op::kUnsubscribe);
+  EXPECT_EQ(r.ids, (std::vector<uint32_t>{7, 8}));
+  EXPECT_EQ(r.malformed, "");
+
+  r = view::parse_client_text(R"({"op":"advertise","channels":[{"id":4,"topic":"/fovea/target","encoding":"json"},{"id":5}]})");
+  EXPECT_EQ(r.op, ClientRequest::Op::kAdvertise);
+  ASSERT_EQ(r.channels.size(), 1u);
+  EXPECT_EQ(r.channels[0].topic, "/fovea/target");
+  EXPECT_EQ(r.channels[0].encoding, "json");
+  EXPECT_EQ(r.malformed, "advertise: each channel needs 'id', 'topic' and 'encoding'");
+
+  r = view::parse_client_text(R"({"op":"unadvertise","channelIds":[4,"x",5]})");
+  EXPECT_EQ(r.op, ClientRequest::Op::kUnadvertise);
+  EXPECT_EQ(r.ids, (std::vector<uint32_t>{4, 5}));  // what is not an id is passed over
+
+  for (const char* bad : {"this is not JSON", "[1,2,3]", R"({"op":3})", R"({"op":"launch"})", R"({"op":"subscribe"})",
+                          R"({"op":"subscribe","subscriptions":[{"id":4294967296,"channelId":1}]})"}) {
+    r = view::parse_client_text(bad);
+    EXPECT_NE(r.malformed, "") << bad;
+    EXPECT_TRUE(r.subscriptions.empty()) << bad;
+  }
+
+  uint32_t channel = 0;
+  const std::string frame = std::string("\x01\x04\x00\x00\x00", 5) +
+                            R"({"center":{"x":1.5,"y":2},"size":{"width":3,"height":4},"label":"cup"})";
+  ASSERT_TRUE(view::parse_message_data(reinterpret_cast<const uint8_t*>(frame.data()), frame.size(), channel));
+  EXPECT_EQ(channel, 4u);
+  EXPECT_FALSE(view::parse_message_data(reinterpret_cast<const uint8_t*>("\x02\x00"), 2, channel));
+  EXPECT_FALSE(view::parse_message_data(reinterpret_cast<const uint8_t*>("\x01\x04\x00"), 3, channel));
+  Region region;
+  EXPECT_EQ(view::parse_region_json(reinterpret_cast<const uint8_t*>(frame.data()) + 5, frame.size() - 5, region), "");
+  EXPECT_EQ(region.center, cv::Point2d(1.5, 2));
+  EXPECT_EQ(region.size, cv::Size2d(3, 4));
+  EXPECT_EQ(region.label, "cup");
+  const std::string negative = R"({"center":{"x":1,"y":2},"size":{"width":-3,"height":4}})";
+  EXPECT_EQ(view::parse_region_json(reinterpret_cast<const uint8_t*>(negative.data()), negative.size(), region),
+            "a Region's 'size' needs 'width' and 'height' >= 0");
+  const std::string no_center = R"({"centre":{"x":1,"y":2}})";
+  EXPECT_EQ(view::parse_region_json(reinterpret_cast<const uint8_t*>(no_center.data()), no_center.size(), region),
+            "a Region needs 'center': {'x', 'y'}");
 }
 
 }  // namespace
