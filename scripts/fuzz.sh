@@ -13,7 +13,7 @@ SECONDS_EACH=${2:-60}
 # loading order is then the dynamic loader's, which ASan would refuse.
 export ASAN_OPTIONS="${ASAN_OPTIONS:-}:verify_asan_link_order=0"
 status=0
-for fuzzer in fuzz_graph fuzz_channel fuzz_can fuzz_pattern; do
+for fuzzer in fuzz_graph fuzz_channel fuzz_can fuzz_pattern fuzz_cli fuzz_mcap fuzz_view; do
   name=${fuzzer#fuzz_}
   mkdir -p "$BUILD/corpus/$name"
   log="$BUILD/$fuzzer.log"
