@@ -82,6 +82,9 @@ struct BusCounters {
   uint64_t malformed = 0;     // tunnel packets that did not decode
   uint64_t lost = 0;          // tunnel packets missing in the sequence
   uint64_t dropped = 0;       // frames the fault injection threw away
+  uint64_t duplicated = 0;    // frames the fault injection sent twice (udp: their packet)
+  uint64_t reordered = 0;     // frames the fault injection held back behind the next packet (udp)
+  uint64_t corrupted = 0;     // frames in packets the fault injection altered a byte of (udp)
   uint64_t foreign = 0;          // tunnel packets from another address or port than the peer's
   uint64_t unauthenticated = 0;  // keyed tunnel: packets without a valid tag (none, wrong key, altered)
   uint64_t replayed = 0;         // keyed tunnel: authentic packets seen before, or of an earlier session
@@ -100,6 +103,9 @@ inline constexpr struct {
     {"malformed", &BusCounters::malformed},
     {"lost", &BusCounters::lost},
     {"dropped", &BusCounters::dropped},
+    {"duplicated", &BusCounters::duplicated},
+    {"reordered", &BusCounters::reordered},
+    {"corrupted", &BusCounters::corrupted},
     {"foreign", &BusCounters::foreign},
     {"unauthenticated", &BusCounters::unauthenticated},
     {"replayed", &BusCounters::replayed},

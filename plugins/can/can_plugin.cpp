@@ -87,6 +87,8 @@ struct CommonConfig {
   double wait_ms = 0.0;
   double loss = 0.0;
   double latency_ms = 0.0;
+  double duplicate = 0.0, reorder = 0.0, corrupt = 0.0;
+  int fault_seed = 1;
   std::string key_file;
 };
 
@@ -108,6 +110,14 @@ void bind_common(ParamBinder<CommonConfig>& b) {
              &C::loss)
       .field("latency_ms", {0.0, 1000.0}, "fault injection on a virtual bus: every frame arrives this much later",
              &C::latency_ms)
+      .field("duplicate", {0.0, 1.0}, "fault injection on a udp bus: the probability that a packet sent goes twice "
+             "(counted in bus_duplicated)", &C::duplicate)
+      .field("reorder", {0.0, 1.0}, "fault injection on a udp bus: the probability that a packet sent is held back "
+             "to go after the next one (bus_reordered)", &C::reorder)
+      .field("corrupt", {0.0, 1.0}, "fault injection on a udp bus: the probability that a packet sent has one byte "
+             "altered (bus_corrupted; with a key_file the receiver drops it as unauthenticated)", &C::corrupt)
+      .field("fault_seed", {0, 1000000000}, "fault injection: the seed of the loss, duplicate, reorder and corrupt "
+             "draws", &C::fault_seed)
       .field("key_file", kKeyFileDoc, &C::key_file);
 }
 
@@ -156,12 +166,17 @@ Status setup(const CommonConfig& c, Setup& s) {
     if (counts == 0) return Status::error("counts_per_rad: 0 counts per radian");
   s.bus = can::open_bus(c.bus, error, {c.key_file});
   if (!s.bus) return Status::error(error);
+  const auto seed = static_cast<uint64_t>(c.fault_seed);
+  auto* tunnel = dynamic_cast<can::UdpTunnel*>(s.bus.get());
+  if (tunnel != nullptr) {
+    tunnel->set_faults({c.loss, c.duplicate, c.reorder, c.corrupt, seed});
+  } else if (c.duplicate > 0 || c.reorder > 0 || c.corrupt > 0) {
+    return Status::error("duplicate, reorder and corrupt act on a udp bus's packets, not on " + c.bus);
+  }
   if (auto* port = dynamic_cast<can::VirtualPort*>(s.bus.get())) {
     s.virtual_bus = &port->bus();
     if (c.loss > 0 || c.latency_ms > 0)
-      s.virtual_bus->set_faults({c.loss, static_cast<int64_t>(c.latency_ms * 1e6), 1});
-  } else if (auto* tunnel = dynamic_cast<can::UdpTunnel*>(s.bus.get())) {
-    tunnel->set_loss(c.loss, 1);
+      s.virtual_bus->set_faults({c.loss, static_cast<int64_t>(c.latency_ms * 1e6), seed});
   }
   s.clock.period_s = 1.0 / c.rate;
   s.clock.realtime = c.realtime;
@@ -206,6 +221,8 @@ class Driver final : public Node {
                &M::following_error_window)
         .field("heartbeat_ms", {0, 65535}, "heartbeat time written to the drives (0x1017); 0: none", &C::master,
                &M::heartbeat_ms)
+        .field("sdo_attempts", {1, 1000}, "tries of each SDO configuration write (50 ms apart) before the drive is "
+               "reported silent", &C::master, &M::sdo_attempts)
         .field("heartbeat_timeout_ms", {1.0, 1e6}, "a drive without heartbeat this long is silent",
                &C::heartbeat_timeout_ms)
         .field("feedback_timeout_ms", {1.0, 1e6}, "a drive without position this long is silent",
@@ -375,6 +392,7 @@ struct DrivesConfig {
   std::string initial = "0";  // rad, one value or one per joint
   can::MotorModel motor;
   double fault_at = -1.0, silent_at = -1.0;  // s; -1: never
+  double silent_for = 0.0;                    // s; 0: for good
   int fault_joint = 0;
 };
 
@@ -395,6 +413,10 @@ class Drives final : public Node {
                &C::fault_at)
         .field("silent_at", {-1.0, 1e9},
                "fault injection: this joint's drive falls silent at this time, s (-1: never)", &C::silent_at)
+        .field("silent_for", {0.0, 1e9},
+               "fault injection: the silent drive's controller restarts after this many seconds (it boots, announces "
+               "it, and the master configures it again; its shaft stays where it is); 0: silent for good",
+               &C::silent_for)
         .field("fault_joint", {0, 126}, "the joint (index) that faults or falls silent", &C::fault_joint);
   }
 
@@ -428,6 +450,7 @@ class Drives final : public Node {
     }
     fault_at_ = c.fault_at;
     silent_at_ = c.silent_at;
+    silent_for_ = c.silent_for;
     fault_joint_ = static_cast<std::size_t>(c.fault_joint);
     if ((fault_at_ >= 0 || silent_at_ >= 0) && fault_joint_ >= drives.size())
       return Status::error("fault_joint " + std::to_string(fault_joint_) + " is beyond the " +
@@ -462,7 +485,12 @@ class Drives final : public Node {
     }
     if (silent_at_ >= 0 && seconds >= silent_at_) {
       rack_->drive(fault_joint_).set_silent(true);
+      if (silent_for_ > 0) back_at_ = silent_at_ + silent_for_;
       silent_at_ = -1;
+    }
+    if (back_at_ >= 0 && seconds >= back_at_) {
+      rack_->drive(fault_joint_).reboot();
+      back_at_ = -1;
     }
     rack_->step(t, setup_.clock.period_s, setup_.wait_ns);
     auto truth = ctx.make(kTruth);
@@ -490,7 +518,7 @@ class Drives final : public Node {
   Setup setup_;
   BusStats bus_stats_;
   std::unique_ptr<can::DriveRack> rack_;
-  double fault_at_ = -1, silent_at_ = -1;
+  double fault_at_ = -1, silent_at_ = -1, silent_for_ = 0, back_at_ = -1;
   std::size_t fault_joint_ = 0;
 };
 

@@ -394,7 +394,8 @@ std::unique_ptr<UdpTunnel> UdpTunnel::open(const Options& o, const Link& link, s
 }
 
 UdpTunnel::UdpTunnel(int fd, Options options, const sockaddr_in& local, const sockaddr_in& peer)
-    : fd_(fd), options_(std::move(options)), local_(local), peer_(peer), rng_(options_.seed) {
+    : fd_(fd), options_(std::move(options)), local_(local), peer_(peer),
+      faults_(cannelloni::Faults{options_.loss, 0, 0, 0, options_.seed}) {
   // This end's session: its start time on the wall clock, so that a restarted
   // sender's packets are newer than every packet of its previous run.
   epoch_ = static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -437,19 +438,17 @@ void UdpTunnel::flush() {
   outgoing_.clear();
   outgoing_bytes_ = cannelloni::kHeaderSize;
   ++packets_sent_;
-  if (options_.loss > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < options_.loss) {
-    counters_.dropped += n;
-    return;
-  }
-  const ssize_t sent = ::sendto(fd_, packet_.data(), packet_.size(), 0, reinterpret_cast<const sockaddr*>(&peer_),
-                                sizeof peer_);
-  if (sent == static_cast<ssize_t>(packet_.size())) {
-    counters_.sent += n;
-  } else {
-    // ENOBUFS / EAGAIN / ECONNREFUSED (nobody listening yet): the cycle's
-    // frames are gone; the next cycle sends fresh ones.
-    counters_.send_failed += n;
-  }
+  faults_.pass(packet_, n, counters_, [&](const std::vector<uint8_t>& bytes, std::size_t frames) {
+    const ssize_t sent =
+        ::sendto(fd_, bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&peer_), sizeof peer_);
+    if (sent == static_cast<ssize_t>(bytes.size())) {
+      counters_.sent += frames;
+    } else {
+      // ENOBUFS / EAGAIN / ECONNREFUSED (nobody listening yet): the cycle's
+      // frames are gone; the next cycle sends fresh ones.
+      counters_.send_failed += frames;
+    }
+  });
 }
 
 std::size_t UdpTunnel::check_sealed(const uint8_t* packet, std::size_t size) {
@@ -504,9 +503,15 @@ bool UdpTunnel::read_packet(int64_t timeout_ns) {
       ++counters_.malformed;
       return true;
     }
-    // Keyed, the counter told what was lost; else the 8-bit sequence does.
-    if (!auth_ && next_seq_in_ >= 0) counters_.lost += static_cast<uint8_t>(seq - next_seq_in_);
-    next_seq_in_ = static_cast<uint8_t>(seq + 1);
+    // Keyed, the counter told what was lost; else the 8-bit sequence does. A
+    // packet behind the newest (a duplicate, or one overtaken) is no gap: its
+    // frames are delivered as they are (cannelloni has no duplicate check).
+    if (auth_ || next_seq_in_ < 0) {
+      next_seq_in_ = static_cast<uint8_t>(seq + 1);
+    } else if (const auto ahead = static_cast<uint8_t>(seq - next_seq_in_); ahead < 128) {
+      counters_.lost += ahead;
+      next_seq_in_ = static_cast<uint8_t>(seq + 1);
+    }
     const int64_t now = steady_ns();
     for (Frame& f : incoming_) f.timestamp_ns = now;
     return true;

@@ -16,6 +16,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -103,6 +104,62 @@ class ReplayWindow {
   bool started_ = false;
   uint64_t epoch_ = 0, highest_ = 0, seen_ = 0;  // bit i: counter highest_ - i was seen
 };
+
+// Fault injection on a link's packets (for tests of what the loop survives):
+// each packet is dropped, altered in one byte, held back to go after the next
+// one, or sent twice, each with its own probability, from a seed. A
+// probability of 0 draws nothing, so the other faults' draws stay the same.
+struct Faults {
+  double drop = 0, duplicate = 0, reorder = 0, corrupt = 0;
+  uint64_t seed = 1;
+};
+class FaultyLink {
+ public:
+  explicit FaultyLink(Faults faults = {}) : faults_(faults), rng_(faults.seed) {}
+  // Puts `packet` (of `frames` frames) on the wire through `send(bytes, frames)`:
+  // nothing (dropped), or it, altered or not, then again (duplicated), then a
+  // packet held back earlier; or holds it back for after the next one
+  // (reordered). Counted in frames: dropped, corrupted, reordered, duplicated.
+  template <class Send>
+  void pass(const std::vector<uint8_t>& packet, std::size_t frames, BusCounters& counters, Send&& send) {
+    if (chance(faults_.drop)) {
+      counters.dropped += frames;
+      return;
+    }
+    const std::vector<uint8_t>* out = &packet;
+    if (chance(faults_.corrupt) && !packet.empty()) {
+      altered_ = packet;
+      const std::size_t at = std::uniform_int_distribution<std::size_t>(0, packet.size() - 1)(rng_);
+      altered_[at] ^= static_cast<uint8_t>(std::uniform_int_distribution<int>(1, 255)(rng_));
+      counters.corrupted += frames;
+      out = &altered_;
+    }
+    if (chance(faults_.reorder) && !held_) {
+      held_ = *out;
+      held_frames_ = frames;
+      counters.reordered += frames;
+      return;
+    }
+    send(*out, frames);
+    if (chance(faults_.duplicate)) {
+      send(*out, frames);
+      counters.duplicated += frames;
+    }
+    if (held_) {
+      send(*held_, held_frames_);
+      held_.reset();
+    }
+  }
+  const Faults& faults() const { return faults_; }
+
+ private:
+  bool chance(double p) { return p > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < p; }
+  Faults faults_;
+  std::mt19937_64 rng_;
+  std::vector<uint8_t> altered_;
+  std::optional<std::vector<uint8_t>> held_;
+  std::size_t held_frames_ = 0;
+};
 }  // namespace cannelloni
 
 class UdpTunnel final : public Bus {
@@ -140,7 +197,12 @@ class UdpTunnel final : public Bus {
   std::string describe() const override;
   void set_loss(double loss, uint64_t seed) {
     options_.loss = loss;
-    rng_.seed(seed);
+    faults_ = cannelloni::FaultyLink({loss, 0, 0, 0, seed});
+  }
+  // Fault injection on the packets this end sends (drop is set_loss's loss).
+  void set_faults(const cannelloni::Faults& faults) {
+    options_.loss = faults.drop;
+    faults_ = cannelloni::FaultyLink(faults);
   }
   uint64_t packets_sent() const { return packets_sent_; }
   // The address and port the tunnel is bound to, as "ADDR:PORT".
@@ -171,7 +233,7 @@ class UdpTunnel final : public Bus {
   uint64_t packets_sent_ = 0;
   BusCounters counters_;
   FilterSet filters_;
-  std::mt19937_64 rng_;
+  cannelloni::FaultyLink faults_;
   std::string last_error_;
 };
 

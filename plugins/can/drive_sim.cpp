@@ -14,6 +14,14 @@ SimulatedDrive::SimulatedDrive(DriveConfig config) : config_(std::move(config)) 
   target_counts_ = pending_target_ = encoder();
 }
 
+void SimulatedDrive::reboot() {
+  const DriveConfig config = config_;
+  const double theta = theta_, omega = omega_;
+  *this = SimulatedDrive(config);
+  theta_ = reference_ = target_ = theta;  // the shaft does not jump back
+  omega_ = omega;
+}
+
 int32_t SimulatedDrive::encoder() const {
   return static_cast<int32_t>(std::lround(theta_ * config_.counts_per_rad));
 }
@@ -53,14 +61,7 @@ void SimulatedDrive::handle(const Frame& f, Bus& out) {
         break;
       case NmtCommand::kStop: nmt_ = NmtState::kStopped; break;
       case NmtCommand::kPreOperational: nmt_ = NmtState::kPreOperational; break;
-      case NmtCommand::kResetNode: {
-        const DriveConfig config = config_;
-        const double theta = theta_, omega = omega_;
-        *this = SimulatedDrive(config);
-        theta_ = reference_ = target_ = theta;  // the shaft does not jump back
-        omega_ = omega;
-        break;
-      }
+      case NmtCommand::kResetNode: reboot(); break;
       case NmtCommand::kResetCommunication:
         booted_ = false;
         nmt_ = NmtState::kBootUp;

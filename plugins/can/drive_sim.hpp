@@ -59,6 +59,9 @@ class SimulatedDrive {
   void set_silent(bool silent) { silent_ = silent; }
   // Off and on again: everything as at construction, so it boots and announces it.
   void power_cycle() { *this = SimulatedDrive(config_); }
+  // Its controller restarts (a watchdog, NMT reset node): everything as at
+  // power-on but the shaft, which stays where it is; it boots and announces it.
+  void reboot();
   void push(double torque) { disturbance_ = torque; }  // an external torque, N m (a hand on the head)
 
   int node() const { return config_.node; }

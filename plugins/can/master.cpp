@@ -93,6 +93,7 @@ void Master::receive(const Frame& f, int64_t now_ns) {
   } else if (f.id == cob::tpdo1(node)) {
     int8_t mode = 0;
     if (parse_tpdo1(f, d->statusword, mode)) {
+      d->status_ns = now_ns;
       d->state = decode_statusword(d->statusword);
       if (!d->set_point_high && (d->statusword & pp::kSetPointAcknowledge) == 0) d->ack_low_seen = true;
     }
@@ -161,6 +162,16 @@ void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool rese
       return;
     }
     case Phase::kEnable:
+      // An event-driven statusword that was lost (or the NMT start itself) is
+      // not sent again by itself: with no statusword for an SDO timeout, start
+      // the drive again, which makes it report its statusword (harmless when
+      // it is operational already).
+      if (d.state != DriveState::kFault &&
+          now_ns - std::max({d.status_ns, d.configured_ns, d.restarted_ns}) > config_.sdo_timeout_ns) {
+        send(nmt(NmtCommand::kStart, d.joint.node));
+        d.restarted_ns = now_ns;
+        return;
+      }
       if (d.reset_sent) {
         send(rpdo1(d.joint.node, control::kDisableVoltage));  // fault reset back to 0 for the next edge
         d.reset_sent = false;

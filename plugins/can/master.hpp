@@ -114,6 +114,7 @@ class Master {
     uint16_t statusword = 0, error_code = 0;
     int32_t position = 0, velocity = 0;
     int64_t heartbeat_ns = -1, updated_ns = -1;
+    int64_t status_ns = -1, restarted_ns = -1;  // the last statusword; the last NMT start sent again
     bool set_point_high = false, reset_sent = false;
     bool ack_low_seen = true;  // a statusword read since bit 4 fell shows the acknowledge low
     int64_t set_point_cycle = -2;  // the SYNC period (cycles sent) of the last set-point

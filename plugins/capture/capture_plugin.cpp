@@ -6,6 +6,7 @@
 #include "readers.hpp"
 #include "sim_head.hpp"
 #include "saccade/plugin.hpp"
+#include "saccade/stats.hpp"
 
 namespace {
 
@@ -433,6 +434,7 @@ struct SimHeadParams {
   capture::SimHeadConfig head;  // its focal_px comes from hfov_deg
   double hfov_deg = 60.0;
   double fps = 25.0;
+  double stop_at = -1.0, stop_for = 0.0;  // fault injection: s of the joints' time; -1: never
 };
 
 class SimHeadNode final : public Node {
@@ -468,7 +470,11 @@ class SimHeadNode final : public Node {
         .field("target_speed", {0, 100}, "m/s sideways, back and forth", &P::head, &H::target_speed)
         .field("target_range", {0, 1000}, "m: it turns at +-range", &P::head, &H::target_range)
         .field("target_start", {-1000, 1000}, "m: sideways position at time 0", &P::head, &H::target_start)
-        .field("target_height", {-1000, 1000}, "m above the cameras", &P::head, &H::target_height);
+        .field("target_height", {-1000, 1000}, "m above the cameras", &P::head, &H::target_height)
+        .field("stop_at", {-1, 1e9}, "fault injection: the cameras stop at this time of the joints' clock, s (-1: "
+               "never); the frames they miss are counted in stopped_frames", &P::stop_at)
+        .field("stop_for", {0, 1e9}, "fault injection: and come back after this many seconds (0: never)",
+               &P::stop_for);
   }
 
   static Contract contract() {
@@ -488,6 +494,8 @@ class SimHeadNode final : public Node {
     if (c.target_distance >= c.wall_distance) return Status::error("target_distance must be less than wall_distance");
     head_ = std::make_unique<capture::SimHead>(std::move(scene), c);
     period_ns_ = static_cast<int64_t>(1e9 / p.fps);
+    stop_ = {p.stop_at, p.stop_for};
+    stopped_frames_ = &ctx.counter("stopped_frames");
     return {};
   }
   Status process(ProcessContext& ctx) override {
@@ -504,6 +512,10 @@ class SimHeadNode final : public Node {
     const kinematics::HeadJoints q{state->position[0], state->position[1], state->position[2], state->position[3],
                                    state->position[4]};
     const double t = static_cast<double>(state->timestamp_ns) * 1e-9;
+    if (stop_.covers(t)) {
+      bump(*stopped_frames_);
+      return {};
+    }
     // The joints first: a retina that rectifies with them takes the newest
     // when its frame arrives.
     auto joints = ctx.make(kJoints);
@@ -537,6 +549,8 @@ class SimHeadNode final : public Node {
   std::unique_ptr<capture::SimHead> head_;
   int64_t period_ns_ = 40'000'000, next_ns_ = 0, frame_ = 0;
   int64_t last_state_ns_ = 0;
+  capture::CameraOutage stop_;
+  std::atomic<uint64_t>* stopped_frames_ = nullptr;
 };
 
 }  // namespace

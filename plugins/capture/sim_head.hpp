@@ -27,6 +27,13 @@ struct SimHeadConfig {
   double target_height = 0.0;    // m above the cameras' height
 };
 
+// A camera that stops at `at` (s) and comes back `duration` s later (0:
+// never): fault injection for the loop's tests.
+struct CameraOutage {
+  double at = -1, duration = 0;
+  bool covers(double t) const { return at >= 0 && t >= at && (duration <= 0 || t < at + duration); }
+};
+
 struct TargetView {
   cv::Point2d center;  // pixels (may be outside the image)
   double radius = 0;   // pixels
