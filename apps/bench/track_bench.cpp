@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -89,7 +90,7 @@ class OpenCvTracker final : public Tracker {
     }
     // On failure the box is not always set: keep the last one.
     if (found && box.area() > 0) last_ = box;
-    return {cv::Rect2d(last_), found, 0};
+    return {cv::Rect2d(last_), found, 0, found ? "found" : "not found"};
   }
 
  private:
@@ -113,7 +114,7 @@ class FoveaTracker final : public Tracker {
     const saccade::fovea::TrackEstimate e = tracker_.update(frame);
     const cv::Point2d center = (e.box.tl() + e.box.br()) * 0.5;
     if (std::isfinite(center.x) && std::isfinite(center.y)) fovea_ = center;
-    return {e.box, e.state == saccade::fovea::TrackState::kTracking, 0};
+    return {e.box, e.state == saccade::fovea::TrackState::kTracking, 0, saccade::fovea::to_string(e.state), e.confidence};
   }
 
  private:
@@ -147,6 +148,7 @@ struct Options {
   std::string markdown;
   std::string sequences;  // names to keep, all when empty
   int frames = 0;
+  std::string trace;  // a folder for per-frame CSV files, one per sequence and tracker
 };
 
 std::vector<std::string> split_list(const std::string& list) {
@@ -172,8 +174,27 @@ struct SequenceResults {
   std::vector<Result> results;
 };
 
+// One line per frame: what was true, what the tracker said, how well that fits.
+void write_trace(const std::string& folder, const Sequence& sequence, const std::string& tracker,
+                 const std::vector<TrackedFrame>& track) {
+  std::filesystem::create_directories(folder);
+  const std::string path = folder + "/" + sequence.name + "_" + tracker + ".csv";
+  std::ofstream out(path);
+  out << "frame,visible,truth_x,truth_y,truth_w,truth_h,x,y,w,h,tracking,state,confidence,iou,centre_error,ms\n";
+  for (std::size_t i = 0; i < track.size(); ++i) {
+    const cv::Rect2d& t = sequence.truth[i];
+    const TrackedFrame& f = track[i];
+    out << i << ',' << (sequence.visible[i] ? 1 : 0) << ',' << t.x << ',' << t.y << ',' << t.width << ',' << t.height
+        << ',' << f.box.x << ',' << f.box.y << ',' << f.box.width << ',' << f.box.height << ',' << (f.tracking ? 1 : 0)
+        << ',' << f.state << ',' << f.confidence << ',' << iou(t, f.box) << ',' << center_error(t, f.box) << ','
+        << f.ms << '\n';
+  }
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
 // Runs all trackers frame by frame (each frame is read or rendered once).
-SequenceResults run_sequence(const Sequence& sequence, const std::vector<std::string>& names) {
+SequenceResults run_sequence(const Sequence& sequence, const std::vector<std::string>& names,
+                             const std::string& trace) {
   SequenceResults out{sequence.name, sequence.size(),
                       static_cast<int>(std::count(sequence.visible.begin(), sequence.visible.end(), false)),
                       sequence.frame_size, {}};
@@ -204,6 +225,9 @@ SequenceResults run_sequence(const Sequence& sequence, const std::vector<std::st
   }
   for (std::size_t k = 0; k < trackers.size(); ++k)
     if (out.results[k].error.empty()) out.results[k].score = score_track(sequence.truth, sequence.visible, tracks[k]);
+  if (!trace.empty())
+    for (std::size_t k = 0; k < trackers.size(); ++k)
+      if (out.results[k].error.empty()) write_trace(trace, sequence, names[k], tracks[k]);
   return out;
 }
 
@@ -346,7 +370,7 @@ int run(const Options& options) {
   std::vector<SequenceResults> results;
   for (const Sequence& sequence : sequences) {
     std::cerr << "running " << sequence.name << " (" << sequence.size() << " frames)\n";
-    results.push_back(run_sequence(sequence, trackers));
+    results.push_back(run_sequence(sequence, trackers, options.trace));
   }
   const std::string text = report(results, trackers);
   std::cout << text;
@@ -373,6 +397,8 @@ int main(int argc, char** argv) {
   app.add_option("--sequences", options.sequences, "comma-separated sequence names to keep (default all)");
   app.add_option("--frames", options.frames, "at most this many frames per sequence (quick runs)");
   app.add_option("--markdown", options.markdown, "also write the tables to this Markdown file");
+  app.add_option("--trace", options.trace,
+                 "write each tracker's frames to FOLDER/<sequence>_<tracker>.csv (truth, box, state, confidence, IoU)");
   CLI11_PARSE(app, argc, argv);
   // One thread for everything: the times compare the algorithms, not how
   // well each spreads over cores.

@@ -9,6 +9,7 @@
 //
 // Box convention everywhere: cv::Rect2d in pixel-edge coordinates (a box
 // covering pixels 0..w-1 is x = 0, width = w), as OTB and VOT files give them.
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -115,6 +116,8 @@ struct TrackedFrame {
   cv::Rect2d box;
   bool tracking = true;  // the tracker claims to follow the target
   double ms = 0;         // wall clock of this frame's update
+  const char* state = "";        // the tracker's own word for it, where it has one
+  double confidence = std::nan("");  // likewise
 };
 
 // OTB/VOT measures of one track. Frame 0 (the initialisation, given to the
