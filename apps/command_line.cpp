@@ -169,8 +169,8 @@ std::optional<int> parse_command_line(CommandLine& line, int argc, const char* c
   std::vector<const char*> args(argv, argv + argc);
   const std::string flag = "--no-progress=";
   for (int i = 1; i < argc; ++i) {
+    // Every one, even after "--": CLI11 reads options after it again once a subcommand follows.
     const std::string_view arg = argv[i];
-    if (arg == "--") break;
     if (arg.substr(0, flag.size()) != flag || arg.size() <= flag.size() + 1) continue;
     const std::string value(arg.substr(flag.size()));
     bool huge = false;
