@@ -202,38 +202,50 @@ struct Executor::Impl {
     nodes.resize(graph.nodes.size());
     ended.reserve(graph.nodes.size());
     ready.reset(std::max<std::size_t>(1, graph.nodes.size()));
-    for (std::size_t i = 0; i < graph.nodes.size(); ++i) {
-      const ResolvedNode& rn = graph.nodes[i];
-      NodeRt& n = nodes[i];
-      n.resolved = &rn;
-      n.stats = std::make_unique<NodeStats>();
-      n.stats->name = rn.decl.name;
-      n.stats->plugin = rn.decl.plugin;
-      n.inputs.resize(rn.contract.inputs().size());
-      n.outputs.resize(rn.contract.outputs().size());
-      n.taps.resize(n.outputs.size());
-      for (std::size_t k = 0; k < n.inputs.size(); ++k) {
-        n.inputs[k].kind = rn.contract.inputs()[k].kind;
-        n.inputs[k].queue.configure({});
-        auto s = std::make_unique<InputStats>();
-        s->name = rn.contract.inputs()[k].name;
-        n.inputs[k].stats = s.get();
-        n.stats->inputs.push_back(std::move(s));
-      }
-      n.slot.name = rn.decl.name;
-      n.slot.contract = &rn.contract;
-      n.slot.params = &rn.params;
-      n.slot.current.resize(n.inputs.size());
-      n.slot.pools.resize(n.outputs.size());
-      n.slot.input_connected.assign(n.inputs.size(), false);
-      n.slot.output_connected.assign(n.outputs.size(), false);
-      n.slot.input_allocators.assign(n.inputs.size(), nullptr);
-      n.slot.output_allocators.assign(n.outputs.size(), nullptr);
-      n.sink.impl = this;
-      n.sink.node = static_cast<int>(i);
-      n.slot.sink = &n.sink;
-      n.slot.stats = n.stats.get();
+    for (std::size_t i = 0; i < graph.nodes.size(); ++i) init_node(i);
+    connect_edges();
+    // After the edges: whether an input triggers depends on its edge's delay.
+    for (NodeRt& n : nodes) build_sync_groups(n);
+    order_topologically();
+    return {};
+  }
+
+  // A node's runtime state and the slot its plugin sees, sized from its contract
+  // and not yet connected to anything.
+  void init_node(std::size_t i) {
+    const ResolvedNode& rn = graph.nodes[i];
+    NodeRt& n = nodes[i];
+    n.resolved = &rn;
+    n.stats = std::make_unique<NodeStats>();
+    n.stats->name = rn.decl.name;
+    n.stats->plugin = rn.decl.plugin;
+    n.inputs.resize(rn.contract.inputs().size());
+    n.outputs.resize(rn.contract.outputs().size());
+    n.taps.resize(n.outputs.size());
+    for (std::size_t k = 0; k < n.inputs.size(); ++k) {
+      n.inputs[k].kind = rn.contract.inputs()[k].kind;
+      n.inputs[k].queue.configure({});
+      auto s = std::make_unique<InputStats>();
+      s->name = rn.contract.inputs()[k].name;
+      n.inputs[k].stats = s.get();
+      n.stats->inputs.push_back(std::move(s));
     }
+    n.slot.name = rn.decl.name;
+    n.slot.contract = &rn.contract;
+    n.slot.params = &rn.params;
+    n.slot.current.resize(n.inputs.size());
+    n.slot.pools.resize(n.outputs.size());
+    n.slot.input_connected.assign(n.inputs.size(), false);
+    n.slot.output_connected.assign(n.outputs.size(), false);
+    n.slot.input_allocators.assign(n.inputs.size(), nullptr);
+    n.slot.output_allocators.assign(n.outputs.size(), nullptr);
+    n.sink.impl = this;
+    n.sink.node = static_cast<int>(i);
+    n.slot.sink = &n.sink;
+    n.slot.stats = n.stats.get();
+  }
+
+  void connect_edges() {
     for (const auto& e : graph.edges) {
       NodeRt& from = nodes[static_cast<std::size_t>(e.from_node)];
       NodeRt& to = nodes[static_cast<std::size_t>(e.to_node)];
@@ -246,34 +258,40 @@ struct Executor::Impl {
       in.queue.configure(e.queue);
       to.slot.input_connected[static_cast<std::size_t>(e.to_port)] = true;
     }
-    for (std::size_t i = 0; i < nodes.size(); ++i) {
-      NodeRt& n = nodes[i];
-      const NodeDecl& decl = n.resolved->decl;
-      n.source = n.resolved->contract.is_source();
-      for (const auto& s : decl.syncs) {
-        SyncGroup g;
-        g.tolerance_ns = static_cast<int64_t>(s.tolerance_ms * 1e6);
-        for (const auto& name : s.inputs) {
-          int k = n.resolved->contract.input_index(name);
-          if (k >= 0 && n.inputs[static_cast<std::size_t>(k)].triggers()) {
-            g.inputs.push_back(k);
-            n.inputs[static_cast<std::size_t>(k)].group = static_cast<int>(n.groups.size());
-          }
-        }
-        if (!g.inputs.empty()) n.groups.push_back(std::move(g));
-      }
-      SyncGroup join;
-      for (std::size_t k = 0; k < n.inputs.size(); ++k) {
-        if (n.inputs[k].triggers() && n.inputs[k].group < 0) {
-          n.inputs[k].group = static_cast<int>(n.groups.size());
-          join.inputs.push_back(static_cast<int>(k));
+  }
+
+  // The declared sync groups first, in file order; every triggering input no
+  // group names then joins one last implicit group, so a node with several
+  // triggers waits for all of them unless told otherwise.
+  void build_sync_groups(NodeRt& n) {
+    const NodeDecl& decl = n.resolved->decl;
+    n.source = n.resolved->contract.is_source();
+    for (const auto& s : decl.syncs) {
+      SyncGroup g;
+      g.tolerance_ns = static_cast<int64_t>(s.tolerance_ms * 1e6);
+      for (const auto& name : s.inputs) {
+        int k = n.resolved->contract.input_index(name);
+        if (k >= 0 && n.inputs[static_cast<std::size_t>(k)].triggers()) {
+          g.inputs.push_back(k);
+          n.inputs[static_cast<std::size_t>(k)].group = static_cast<int>(n.groups.size());
         }
       }
-      if (!join.inputs.empty()) n.groups.push_back(std::move(join));
+      if (!g.inputs.empty()) n.groups.push_back(std::move(g));
     }
-    // Topological order over undelayed edges (validation rejected other cycles).
-    // Each node's consumers listed once: linear in the edges, for graphs of
-    // tens of thousands of nodes too.
+    SyncGroup join;
+    for (std::size_t k = 0; k < n.inputs.size(); ++k) {
+      if (n.inputs[k].triggers() && n.inputs[k].group < 0) {
+        n.inputs[k].group = static_cast<int>(n.groups.size());
+        join.inputs.push_back(static_cast<int>(k));
+      }
+    }
+    if (!join.inputs.empty()) n.groups.push_back(std::move(join));
+  }
+
+  // Topological order over undelayed edges (validation rejected other cycles).
+  // Each node's consumers listed once: linear in the edges, for graphs of
+  // tens of thousands of nodes too.
+  void order_topologically() {
     std::vector<int> indegree(nodes.size(), 0);
     std::vector<std::vector<int>> consumers(nodes.size());
     for (const auto& e : graph.edges) {
@@ -291,7 +309,6 @@ struct Executor::Impl {
       for (int v : consumers[static_cast<std::size_t>(u)])
         if (--indegree[static_cast<std::size_t>(v)] == 0) q.push_back(v);
     }
-    return {};
   }
 
   // "node 'name' (plugin, line N)": which node of the file, for errors at open and at run.
