@@ -29,6 +29,37 @@ std::string host_of(const ResolvedGraph& g, const std::string& process) {
   return "localhost";
 }
 
+// The DDS node standing in for the far end of an edge that leaves `process`:
+// a publisher its output feeds, or a subscriber that feeds its input. Its
+// parameters carry the edge's QoS, so both processes agree on the topic.
+NodeDecl bridge_decl(const ResolvedGraph& graph, const PlannedEdge& pe, bool publish, const std::string& process) {
+  const ResolvedEdge& e = *pe.edge;
+  const auto& from = graph.nodes[static_cast<std::size_t>(e.from_node)];
+  const std::string& port = from.contract.outputs()[static_cast<std::size_t>(e.from_port)].name;
+  NodeDecl decl;
+  decl.name = std::string(publish ? "dds_pub_" : "dds_sub_") + from.decl.name + "_" + port;
+  decl.plugin = publish ? "dds.publish" : "dds.subscribe";
+  decl.process = process;
+  decl.line = e.line;
+  decl.params = {{"topic", pe.topic, e.line},
+                 {"type", pe.type, e.line},
+                 {"domain", std::to_string(graph.domain), e.line},
+                 {"reliable", pe.qos.reliable ? "true" : "false", e.line},
+                 {"depth", std::to_string(pe.qos.depth), e.line},
+                 {"deadline_ms", text::format_number(pe.qos.deadline_ms), e.line}};
+  if (publish) decl.params.push_back({"wait_ms", text::format_number(pe.qos.wait_ms), e.line});
+  // Steady clocks are per host: across hosts, latency counts from arrival.
+  if (!publish && pe.route == EdgeRoute::kOtherHost) decl.params.push_back({"same_clock", "false", e.line});
+  if (!publish && pe.qos.spin) decl.params.push_back({"spin", "true", e.line});
+  if (pe.qos.ros2) {
+    decl.params.push_back({"ros2", "true", e.line});
+  } else if (pe.zero_copy) {
+    decl.params.push_back({"zero_copy", "true", e.line});
+    decl.params.push_back({"capacity", std::to_string(pe.qos.capacity), e.line});
+  }
+  return decl;
+}
+
 }  // namespace
 
 std::optional<GraphPlan> plan_graph(const ResolvedGraph& graph, Diagnostics& diag) {
@@ -155,34 +186,10 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
 
   std::map<std::pair<int, int>, int> bridge_of_output;  // (node, port) in `graph` -> bridge node in `out`
   auto bridge = [&](const PlannedEdge& pe, bool publish) -> int {
-    const ResolvedEdge& e = *pe.edge;
-    auto key = std::make_pair(e.from_node, e.from_port);
+    auto key = std::make_pair(pe.edge->from_node, pe.edge->from_port);
     if (auto it = bridge_of_output.find(key); it != bridge_of_output.end()) return it->second;
-    const auto& from = graph.nodes[static_cast<std::size_t>(e.from_node)];
-    const std::string& port = from.contract.outputs()[static_cast<std::size_t>(e.from_port)].name;
-    NodeDecl decl;
-    decl.name = std::string(publish ? "dds_pub_" : "dds_sub_") + from.decl.name + "_" + port;
-    decl.plugin = publish ? "dds.publish" : "dds.subscribe";
-    decl.process = process;
-    decl.line = e.line;
-    decl.params = {{"topic", pe.topic, e.line},
-                   {"type", pe.type, e.line},
-                   {"domain", std::to_string(graph.domain), e.line},
-                   {"reliable", pe.qos.reliable ? "true" : "false", e.line},
-                   {"depth", std::to_string(pe.qos.depth), e.line},
-                   {"deadline_ms", text::format_number(pe.qos.deadline_ms), e.line}};
-    if (publish) decl.params.push_back({"wait_ms", text::format_number(pe.qos.wait_ms), e.line});
-    // Steady clocks are per host: across hosts, latency counts from arrival.
-    if (!publish && pe.route == EdgeRoute::kOtherHost) decl.params.push_back({"same_clock", "false", e.line});
-    if (!publish && pe.qos.spin) decl.params.push_back({"spin", "true", e.line});
-    if (pe.qos.ros2) {
-      decl.params.push_back({"ros2", "true", e.line});
-    } else if (pe.zero_copy) {
-      decl.params.push_back({"zero_copy", "true", e.line});
-      decl.params.push_back({"capacity", std::to_string(pe.qos.capacity), e.line});
-    }
     ResolvedNode rn;
-    if (!resolve_node(decl, registry, graph.file, diag, rn)) return -1;
+    if (!resolve_node(bridge_decl(graph, pe, publish, process), registry, graph.file, diag, rn)) return -1;
     int index = static_cast<int>(out.nodes.size());
     out.nodes.push_back(std::move(rn));
     bridge_of_output.emplace(key, index);
