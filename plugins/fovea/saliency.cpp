@@ -97,38 +97,49 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
   const bool use_motion = motion_dI != nullptr && motion_dI->size() == n && config_.motion_weight > 0;
   has_motion_ = use_motion;
   const bool use_color = color && config_.color && config_.color_weight > 0;
-  for (std::size_t k = 0; k < n; ++k) {
-    const cv::Mat& level = retina.levels[k];
-    if (color) cv::cvtColor(level, gray_[k], cv::COLOR_BGR2GRAY);
-    else level.copyTo(gray_[k]);
-    gray_[k].convertTo(surround_, CV_32F);
-    cv::GaussianBlur(surround_, blurred_[k], cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REFLECT_101);
-    edges_.run(gray_[k], bank_out_);
-    bank_out_[filters::kGradMag].copyTo(edge_[k]);
-    if (use_motion) {
-      const cv::Mat& dI = (*motion_dI)[k];
-      for (int y = 0; y < dI.rows; ++y) {
-        const float* s = dI.ptr<float>(y);
-        float* d = motion_[k].ptr<float>(y);
-        for (int x = 0; x < dI.cols; ++x) d[x] = std::abs(s[x]);
-      }
+  for (std::size_t k = 0; k < n; ++k)
+    level_features(k, retina.levels[k], color, use_motion ? &(*motion_dI)[k] : nullptr, use_color);
+  centre_surround();
+  combine(use_motion, use_color);
+}
+
+// Gray, blurred and edge maps of level k (BGR when `color`: the retina's first
+// level decides for all), and where asked the magnitude of its temporal
+// derivative and its closeness to the wanted colour.
+void Saliency::level_features(std::size_t k, const cv::Mat& level, bool color, const cv::Mat* motion_dI,
+                              bool use_color) {
+  if (color) cv::cvtColor(level, gray_[k], cv::COLOR_BGR2GRAY);
+  else level.copyTo(gray_[k]);
+  gray_[k].convertTo(surround_, CV_32F);
+  cv::GaussianBlur(surround_, blurred_[k], cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REFLECT_101);
+  edges_.run(gray_[k], bank_out_);
+  bank_out_[filters::kGradMag].copyTo(edge_[k]);
+  if (motion_dI != nullptr) {
+    const cv::Mat& dI = *motion_dI;
+    for (int y = 0; y < dI.rows; ++y) {
+      const float* s = dI.ptr<float>(y);
+      float* d = motion_[k].ptr<float>(y);
+      for (int x = 0; x < dI.cols; ++x) d[x] = std::abs(s[x]);
     }
-    if (use_color) {
-      const cv::Vec3d want = *config_.color;
-      const double inv = 1.0 / (2.0 * config_.color_tolerance * config_.color_tolerance);
-      for (int y = 0; y < level.rows; ++y) {
-        const cv::Vec3b* s = level.ptr<cv::Vec3b>(y);
-        float* d = color_[k].ptr<float>(y);
-        for (int x = 0; x < level.cols; ++x) {
-          const cv::Vec3d diff = cv::Vec3d(s[x][0], s[x][1], s[x][2]) - want;
-          d[x] = static_cast<float>(std::exp(-diff.dot(diff) * inv));
-        }
+  }
+  if (use_color) {
+    const cv::Vec3d want = *config_.color;
+    const double inv = 1.0 / (2.0 * config_.color_tolerance * config_.color_tolerance);
+    for (int y = 0; y < level.rows; ++y) {
+      const cv::Vec3b* s = level.ptr<cv::Vec3b>(y);
+      float* d = color_[k].ptr<float>(y);
+      for (int x = 0; x < level.cols; ++x) {
+        const cv::Vec3d diff = cv::Vec3d(s[x][0], s[x][1], s[x][2]) - want;
+        d[x] = static_cast<float>(std::exp(-diff.dot(diff) * inv));
       }
     }
   }
-  // Centre-surround across levels: each level against the next coarser one,
-  // sampled at the same scene points; the outermost against a wide blur of itself.
-  for (std::size_t k = 0; k < n; ++k) {
+}
+
+// Centre-surround across levels: each level against the next coarser one,
+// sampled at the same scene points; the outermost against a wide blur of itself.
+void Saliency::centre_surround() {
+  for (std::size_t k = 0; k < blurred_.size(); ++k) {
     const cv::Mat& center = blurred_[k];
     if (k == 0) {
       cv::GaussianBlur(center, surround_, cv::Size(0, 0), 4.0, 4.0, cv::BORDER_REFLECT_101);
@@ -147,10 +158,13 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
       }
     }
   }
-  // Each conspicuity map is scaled by its largest value over all levels (or
-  // its floor), or with `level_boost` b > 0 by at most 1 - b of that on a level
-  // whose own largest value is smaller: an object seen only on an outer level,
-  // where it is small and blurred, is then not drowned by the fovea's detail.
+}
+
+// Each conspicuity map is scaled by its largest value over all levels (or
+// its floor), or with `level_boost` b > 0 by at most 1 - b of that on a level
+// whose own largest value is smaller: an object seen only on an outer level,
+// where it is small and blurred, is then not drowned by the fovea's detail.
+void Saliency::combine(bool use_motion, bool use_color) {
   const double contrast_max = std::max<double>(max_of(contrast_), config_.contrast_floor);
   const double edge_max = std::max<double>(max_of(edge_), config_.edge_floor);
   const double motion_max = use_motion ? std::max<double>(max_of(motion_), config_.motion_floor) : 1.0;
@@ -162,7 +176,7 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
     cv::minMaxLoc(m, nullptr, &hi);
     return static_cast<float>(1.0 / std::max(hi, global * (1.0 - config_.level_boost)));
   };
-  for (std::size_t k = 0; k < n; ++k) {
+  for (std::size_t k = 0; k < maps_.size(); ++k) {
     const float wc = static_cast<float>(config_.contrast_weight / total) * scale(contrast_[k], contrast_max);
     const float we = static_cast<float>(config_.edge_weight / total) * scale(edge_[k], edge_max);
     const float wm = use_motion ? static_cast<float>(config_.motion_weight / total) * scale(motion_[k], motion_max) : 0.0f;

@@ -95,6 +95,11 @@ class Saliency {
 
  private:
   void bind(const Retina& retina);
+  // compute()'s steps, in order: each level's own features, the contrast
+  // between levels, and their weighted sum.
+  void level_features(std::size_t k, const cv::Mat& level, bool color, const cv::Mat* motion_dI, bool use_color);
+  void centre_surround();
+  void combine(bool use_motion, bool use_color);
   SaliencyConfig config_;
   filters::FilterBank edges_;
   std::array<cv::Mat, filters::kFeatureCount> bank_out_;
