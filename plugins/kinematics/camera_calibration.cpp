@@ -368,128 +368,145 @@ double epipolar_error(const HeadCalibration& c, const std::vector<std::vector<cv
   return count ? sum / static_cast<double>(count) : 0.0;
 }
 
-CalibrationResult calibrate_head(const std::vector<ImagePair>& pairs, const CalibrationOptions& options) {
-  CalibrationResult result;
-  const BoardSpec& board = options.board;
-  if (std::string e = board.check(); !e.empty()) {
-    result.error = e;
-    return result;
-  }
-  const std::vector<cv::Point3f> board_corners = board.corners();
-  const bool charuco = board.kind == BoardSpec::Kind::kCharuco;
-  std::vector<std::string> errors;
-  cv::Size size;
-  std::string size_from;
+namespace {
+
+// What the pairs gave calibrate_head: the corners seen in both images of each
+// usable pair, and the problems that stop it before any solving.
+struct Observations {
   std::vector<std::vector<cv::Point3f>> object;
   std::vector<std::vector<cv::Point2f>> left_points, right_points;
-  std::vector<std::size_t> used_reports;
-  for (const ImagePair& pair : pairs) {
-    PairReport report;
-    report.left = pair.left;
-    report.right = pair.right;
-    auto load = [&](const cv::Mat& given, const std::string& file) {
-      cv::Mat image;
-      std::error_code ec;
-      if (!given.empty()) image = gray_of(given);
-      else if (std::filesystem::is_regular_file(file, ec)) image = cv::imread(file, cv::IMREAD_GRAYSCALE);
-      if (image.empty()) errors.push_back("cannot read image '" + file + "'");
-      return image;
-    };
-    const cv::Mat left = load(pair.left_image, pair.left), right = load(pair.right_image, pair.right);
-    if (left.empty() || right.empty()) {
-      report.problem = "cannot read " + std::string(left.empty() ? pair.left : pair.right);
-    } else if (left.size() != right.size()) {
-      report.problem = "the images differ in size";
-      errors.push_back("pair '" + pair.left + "' (" + size_text(left.size()) + ") and '" + pair.right + "' (" +
-                       size_text(right.size()) + "): the two images differ in size");
-    } else if (size.empty()) {
-      size = left.size();
-      size_from = pair.left;
-    } else if (left.size() != size) {
-      report.problem = "another image size";
-      errors.push_back("'" + pair.left + "' is " + size_text(left.size()) + " but '" + size_from + "' is " +
-                       size_text(size) + ": every image must have one size");
-    }
-    if (!report.problem.empty()) {
-      result.pairs.push_back(report);
-      continue;
-    }
-    BoardView lv = find_board(left, board), rv = find_board(right, board);
-    report.left_found = lv.found();
-    report.right_found = rv.found();
-    std::vector<cv::Point3f> obj;
-    std::vector<cv::Point2f> lp, rp;
-    if (report.left_found && report.right_found) {
-      if (!charuco) {
-        obj = board_corners;
-        lp = lv.points;
-        rp = rv.points;
-      } else {
-        std::map<int, cv::Point2f> right_by_id;
-        for (std::size_t i = 0; i < rv.ids.size(); ++i) right_by_id[rv.ids[i]] = rv.points[i];
-        for (std::size_t i = 0; i < lv.ids.size(); ++i) {
-          auto it = right_by_id.find(lv.ids[i]);
-          if (it == right_by_id.end()) continue;
-          obj.push_back(board_corners[static_cast<std::size_t>(lv.ids[i])]);
-          lp.push_back(lv.points[i]);
-          rp.push_back(it->second);
-        }
-      }
-    }
-    report.corners = static_cast<int>(obj.size());
-    if (!report.left_found || !report.right_found)
-      report.problem = !report.left_found && !report.right_found ? "no board in either image"
-                       : !report.left_found                      ? "no board in the left image"
-                                                                 : "no board in the right image";
-    else if (obj.size() < 6)
-      report.problem = "only " + std::to_string(obj.size()) + " corners seen in both images";
-    if (report.problem.empty()) {
-      report.used = true;
-      used_reports.push_back(result.pairs.size());
-      object.push_back(std::move(obj));
-      left_points.push_back(std::move(lp));
-      right_points.push_back(std::move(rp));
-    }
+  std::vector<std::size_t> used_reports;  // each usable pair's index in CalibrationResult::pairs
+  std::vector<std::string> errors;        // unreadable images, sizes that disagree
+  cv::Size size;                          // the first readable pair's, which every other must have
+  std::string size_from;
+};
+
+cv::Mat load_gray(const cv::Mat& given, const std::string& file, std::vector<std::string>& errors) {
+  cv::Mat image;
+  std::error_code ec;
+  if (!given.empty()) image = gray_of(given);
+  else if (std::filesystem::is_regular_file(file, ec)) image = cv::imread(file, cv::IMREAD_GRAYSCALE);
+  if (image.empty()) errors.push_back("cannot read image '" + file + "'");
+  return image;
+}
+
+// Why a pair's images cannot be used ("" when they can). Unlike a board not
+// found, a size that disagrees is an error: the pairs are not of one camera set-up.
+std::string image_problem(const ImagePair& pair, const cv::Mat& left, const cv::Mat& right, Observations& obs) {
+  if (left.empty() || right.empty()) return "cannot read " + std::string(left.empty() ? pair.left : pair.right);
+  if (left.size() != right.size()) {
+    obs.errors.push_back("pair '" + pair.left + "' (" + size_text(left.size()) + ") and '" + pair.right + "' (" +
+                         size_text(right.size()) + "): the two images differ in size");
+    return "the images differ in size";
+  }
+  if (obs.size.empty()) {
+    obs.size = left.size();
+    obs.size_from = pair.left;
+  } else if (left.size() != obs.size) {
+    obs.errors.push_back("'" + pair.left + "' is " + size_text(left.size()) + " but '" + obs.size_from + "' is " +
+                         size_text(obs.size) + ": every image must have one size");
+    return "another image size";
+  }
+  return "";
+}
+
+// The board corners seen in both images: every corner of a chessboard, the
+// ChArUco corners whose id both images found (each sees a different subset).
+void common_corners(const BoardView& lv, const BoardView& rv, bool charuco,
+                    const std::vector<cv::Point3f>& board_corners, std::vector<cv::Point3f>& obj,
+                    std::vector<cv::Point2f>& lp, std::vector<cv::Point2f>& rp) {
+  if (!charuco) {
+    obj = board_corners;
+    lp = lv.points;
+    rp = rv.points;
+    return;
+  }
+  std::map<int, cv::Point2f> right_by_id;
+  for (std::size_t i = 0; i < rv.ids.size(); ++i) right_by_id[rv.ids[i]] = rv.points[i];
+  for (std::size_t i = 0; i < lv.ids.size(); ++i) {
+    auto it = right_by_id.find(lv.ids[i]);
+    if (it == right_by_id.end()) continue;
+    obj.push_back(board_corners[static_cast<std::size_t>(lv.ids[i])]);
+    lp.push_back(lv.points[i]);
+    rp.push_back(it->second);
+  }
+}
+
+// One pair's report, and its corners in `obs` when it is usable.
+void observe_pair(const ImagePair& pair, const BoardSpec& board, const std::vector<cv::Point3f>& board_corners,
+                  Observations& obs, CalibrationResult& result) {
+  PairReport report;
+  report.left = pair.left;
+  report.right = pair.right;
+  const cv::Mat left = load_gray(pair.left_image, pair.left, obs.errors);
+  const cv::Mat right = load_gray(pair.right_image, pair.right, obs.errors);
+  report.problem = image_problem(pair, left, right, obs);
+  if (!report.problem.empty()) {
     result.pairs.push_back(report);
+    return;
   }
-  if (!errors.empty()) {
-    for (std::size_t i = 0; i < errors.size(); ++i) result.error += (i ? "\n" : "") + errors[i];
-    return result;
+  BoardView lv = find_board(left, board), rv = find_board(right, board);
+  report.left_found = lv.found();
+  report.right_found = rv.found();
+  std::vector<cv::Point3f> obj;
+  std::vector<cv::Point2f> lp, rp;
+  if (report.left_found && report.right_found)
+    common_corners(lv, rv, board.kind == BoardSpec::Kind::kCharuco, board_corners, obj, lp, rp);
+  report.corners = static_cast<int>(obj.size());
+  if (!report.left_found || !report.right_found)
+    report.problem = !report.left_found && !report.right_found ? "no board in either image"
+                     : !report.left_found                      ? "no board in the left image"
+                                                               : "no board in the right image";
+  else if (obj.size() < 6)
+    report.problem = "only " + std::to_string(obj.size()) + " corners seen in both images";
+  if (report.problem.empty()) {
+    report.used = true;
+    obs.used_reports.push_back(result.pairs.size());
+    obs.object.push_back(std::move(obj));
+    obs.left_points.push_back(std::move(lp));
+    obs.right_points.push_back(std::move(rp));
   }
-  result.used_pairs = static_cast<int>(object.size());
-  if (result.used_pairs < std::max(options.min_pairs, 1)) {
-    result.error = "the board (" + board.describe() + ") was found in both images of " +
-                   std::to_string(result.used_pairs) + " of " + std::to_string(pairs.size()) + " pairs; at least " +
-                   std::to_string(std::max(options.min_pairs, 1)) + " are needed";
-    return result;
+  result.pairs.push_back(report);
+}
+
+// The camera matrices (and with per_camera_first, distortions) the stereo step
+// refines when its flags include CALIB_USE_INTRINSIC_GUESS, as the sample's do.
+void initial_intrinsics(const Observations& obs, const CalibrationOptions& options, int flags, cv::Mat& k1,
+                        cv::Mat& d1, cv::Mat& k2, cv::Mat& d2, CalibrationResult& result) {
+  if (options.per_camera_first) {
+    // Each camera alone with the distortion model of the stereo step.
+    const int mono = flags & (cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_RATIONAL_MODEL |
+                              cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 |
+                              cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6 | cv::CALIB_FIX_PRINCIPAL_POINT);
+    k1 = cv::Mat::eye(3, 3, CV_64F);
+    k2 = cv::Mat::eye(3, 3, CV_64F);
+    std::vector<cv::Mat> rv, tv;
+    result.left_rms = cv::calibrateCamera(obs.object, obs.left_points, obs.size, k1, d1, rv, tv, mono);
+    result.right_rms = cv::calibrateCamera(obs.object, obs.right_points, obs.size, k2, d2, rv, tv, mono);
+  } else {
+    k1 = cv::initCameraMatrix2D(obs.object, obs.left_points, obs.size, 0);
+    k2 = cv::initCameraMatrix2D(obs.object, obs.right_points, obs.size, 0);
   }
+}
+
+// Both cameras together from the usable pairs, into result.calibration, with
+// each used pair's own error; result.error when OpenCV fails or diverges.
+void solve_stereo(const Observations& obs, const CalibrationOptions& options, CalibrationResult& result) {
   const int flags = options.stereo_flags >= 0 ? options.stereo_flags : CalibrationOptions::sample_stereo_flags();
   HeadCalibration& c = result.calibration;
-  c.image_size = size;
-  c.board = board.describe();
+  c.image_size = obs.size;
+  c.board = options.board.describe();
   try {
     cv::Mat k1, d1, k2, d2;
-    if (options.per_camera_first) {
-      // Each camera alone with the distortion model of the stereo step.
-      const int mono = flags & (cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_RATIONAL_MODEL |
-                                cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 |
-                                cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6 | cv::CALIB_FIX_PRINCIPAL_POINT);
-      k1 = cv::Mat::eye(3, 3, CV_64F);
-      k2 = cv::Mat::eye(3, 3, CV_64F);
-      std::vector<cv::Mat> rv, tv;
-      result.left_rms = cv::calibrateCamera(object, left_points, size, k1, d1, rv, tv, mono);
-      result.right_rms = cv::calibrateCamera(object, right_points, size, k2, d2, rv, tv, mono);
-    } else {
-      k1 = cv::initCameraMatrix2D(object, left_points, size, 0);
-      k2 = cv::initCameraMatrix2D(object, right_points, size, 0);
-    }
+    initial_intrinsics(obs, options, flags, k1, d1, k2, d2, result);
     cv::Mat r, t, e, f, per_view;
-    c.rms = cv::stereoCalibrate(object, left_points, right_points, k1, d1, k2, d2, size, r, t, e, f, per_view, flags,
+    c.rms = cv::stereoCalibrate(obs.object, obs.left_points, obs.right_points, k1, d1, k2, d2, obs.size, r, t, e, f,
+                                per_view, flags,
                                 cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5));
     if (!std::isfinite(c.rms) || !finite(k1) || !finite(k2) || !finite(d1) || !finite(d2) || !finite(r) ||
         !finite(t)) {
       result.error = "the stereo calibration did not converge (RMS " + number_text(c.rms) + ")";
-      return result;
+      return;
     }
     c.left_matrix = cv::Matx33d(k1);
     c.right_matrix = cv::Matx33d(k2);
@@ -499,16 +516,42 @@ CalibrationResult calibrate_head(const std::vector<ImagePair>& pairs, const Cali
     c.right_distortion.assign(d2.begin<double>(), d2.end<double>());
     c.rotation = cv::Matx33d(r);
     c.translation = cv::Vec3d(t.reshape(1, 3));
-    for (std::size_t i = 0; i < used_reports.size(); ++i) {
+    for (std::size_t i = 0; i < obs.used_reports.size(); ++i) {
       const double a = per_view.at<double>(static_cast<int>(i), 0), b = per_view.at<double>(static_cast<int>(i), 1);
-      PairReport& report = result.pairs[used_reports[i]];
+      PairReport& report = result.pairs[obs.used_reports[i]];
       report.rms = std::sqrt((a * a + b * b) / 2);
       c.pairs.push_back({report.left, report.right, report.rms});
     }
-    c.epipolar_error = epipolar_error(c, left_points, right_points);
+    c.epipolar_error = epipolar_error(c, obs.left_points, obs.right_points);
   } catch (const cv::Exception& e) {
     result.error = "calibration failed: " + e.err;
   }
+}
+
+}  // namespace
+
+CalibrationResult calibrate_head(const std::vector<ImagePair>& pairs, const CalibrationOptions& options) {
+  CalibrationResult result;
+  const BoardSpec& board = options.board;
+  if (std::string e = board.check(); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  const std::vector<cv::Point3f> board_corners = board.corners();
+  Observations obs;
+  for (const ImagePair& pair : pairs) observe_pair(pair, board, board_corners, obs, result);
+  if (!obs.errors.empty()) {
+    for (std::size_t i = 0; i < obs.errors.size(); ++i) result.error += (i ? "\n" : "") + obs.errors[i];
+    return result;
+  }
+  result.used_pairs = static_cast<int>(obs.object.size());
+  if (result.used_pairs < std::max(options.min_pairs, 1)) {
+    result.error = "the board (" + board.describe() + ") was found in both images of " +
+                   std::to_string(result.used_pairs) + " of " + std::to_string(pairs.size()) + " pairs; at least " +
+                   std::to_string(std::max(options.min_pairs, 1)) + " are needed";
+    return result;
+  }
+  solve_stereo(obs, options, result);
   return result;
 }
 
