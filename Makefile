@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test bench bench-dds bench-track bench-stereo bench-verge bench-latency bench-view fuzz docs asan tsan clean configure install
+.PHONY: deps build demo test faults bench bench-dds bench-track bench-stereo bench-verge bench-latency bench-view fuzz docs asan tsan clean configure install
 
 deps:
 	@bash scripts/install-deps.sh
@@ -24,6 +24,17 @@ demo: configure
 test: build
 	@bash scripts/install-test-npm.sh $(BUILD)
 	ctest --preset $(PRESET) -j $(JOBS) $(CTEST_ARGS)
+
+# The fault suite (docs/reliability.md): either process of graphs/two_pc.xml killed and restarted,
+# its DDS link cut for 5 s, CAN packets dropped/duplicated/reordered/corrupted, a drive silent and
+# the cameras stopped, FAULT_ROUNDS rounds of each in a row (default 10; make test runs 1 or 2);
+# each round's recovery time and losses, and min/median/max, in out/faults.log and printed.
+FAULT_ROUNDS ?= 10
+faults: configure
+	@cmake --build --preset $(PRESET) -j $(JOBS) --target test_faults_loop test_faults_processes
+	@mkdir -p out
+	@SACCADE_FAULT_ROUNDS=$(FAULT_ROUNDS) ctest --preset $(PRESET) -L faults -V > out/faults.log 2>&1; rc=$$?; \
+	  grep -E '\[ fault \]|tests passed|\(Failed\)|\(Timeout\)|Skipped' out/faults.log; exit $$rc
 
 bench: build
 	$(BUILD)/bin/saccade_bench --benchmark_min_time=0.5 --benchmark_repetitions=5 --benchmark_report_aggregates_only=true

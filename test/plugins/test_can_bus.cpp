@@ -317,6 +317,44 @@ TEST(UdpTunnel, CarriesFramesBothWaysPacksACycleAndCountsLoss) {
   EXPECT_EQ(b->counters().malformed, 0u);
 }
 
+// The fault suite's packet faults (cannelloni::FaultyLink): each fault at its
+// rate, counted in frames, a held-back packet sent after the next one, the
+// same seed the same wire.
+TEST(UdpTunnel, FaultInjectionDropsDuplicatesReordersAndCorruptsPackets) {
+  auto wire_of = [](uint64_t seed, BusCounters& c) {
+    cannelloni::FaultyLink link({0.1, 0.1, 0.1, 0.1, seed});
+    std::vector<std::vector<uint8_t>> wire;
+    for (int i = 0; i < 2000; ++i)
+      link.pass({static_cast<uint8_t>(i & 0xFF), static_cast<uint8_t>(i >> 8), 0x55}, 2, c,
+                [&](const std::vector<uint8_t>& p, std::size_t frames) {
+                  EXPECT_EQ(frames, 2u);
+                  wire.push_back(p);
+                });
+    return wire;
+  };
+  BusCounters c;
+  const auto wire = wire_of(7, c);
+  for (uint64_t n : {c.dropped, c.duplicated, c.reordered, c.corrupted}) {
+    EXPECT_GT(n, 2u * 120) << "about 10% of 2000 packets, 2 frames each";
+    EXPECT_LT(n, 2u * 280);
+  }
+  // A held packet goes after the next one; the last may stay held.
+  const std::size_t sent = 2000 - c.dropped / 2 + c.duplicated / 2;
+  EXPECT_TRUE(wire.size() == sent || wire.size() == sent - 1) << wire.size() << " packets, expected " << sent;
+  int late = 0, twice = 0, altered = 0;
+  for (std::size_t i = 1; i < wire.size(); ++i) {
+    const int a = wire[i - 1][0] | wire[i - 1][1] << 8, b = wire[i][0] | wire[i][1] << 8;
+    late += b < a;
+    twice += wire[i] == wire[i - 1];
+  }
+  for (const auto& p : wire) altered += p[2] != 0x55;
+  EXPECT_GT(late, 100);
+  EXPECT_GT(twice, 100);
+  EXPECT_GT(altered, 50) << "a third of the corruptions hit the third byte";
+  BusCounters again;
+  EXPECT_EQ(wire_of(7, again), wire) << "the same seed, the same wire";
+}
+
 TEST(UdpTunnel, BadSpecsSayWhatWasExpected) {
   std::string error;
   for (const char* spec : {"20000", "1:2:3:4:5", ":20000:127.0.0.1:20001", "20000::20001", "x:127.0.0.1:20001"}) {
