@@ -3,7 +3,8 @@
 # folder, check the installed command finds its own plugins, then configure,
 # build and test examples/ against the installed package only.
 #
-# cmake -DBUILD_DIR=... -DSOURCE_DIR=... [-DLAUNCHER=ccache] [-DWERROR=ON] -P TestSdk.cmake
+# cmake -DBUILD_DIR=... -DSOURCE_DIR=... [-DLAUNCHER=ccache] [-DWERROR=ON]
+#       [-DBUILD_CXX_FLAGS=...] [-DBUILD_LINKER_FLAGS=...] -P TestSdk.cmake
 foreach(var BUILD_DIR SOURCE_DIR)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "TestSdk.cmake: -D${var}=... is required")
@@ -36,8 +37,13 @@ set(flags "-Wall -Wextra -Wpedantic")
 if(WERROR)
   string(APPEND flags " -Werror")
 endif()
+# The build's own compile and link flags: an SDK built with a sanitizer (the
+# asan and tsan presets) links only into programs built with it too (an
+# uninstrumented test loading an instrumented libsaccade crashed).
+string(APPEND flags " ${BUILD_CXX_FLAGS}")
 set(configure ${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples -B ${example} -G Ninja -DCMAKE_BUILD_TYPE=Release
-  -DCMAKE_PREFIX_PATH=${prefix} "-DCMAKE_CXX_FLAGS=${flags}")
+  -DCMAKE_PREFIX_PATH=${prefix} "-DCMAKE_CXX_FLAGS=${flags}" "-DCMAKE_EXE_LINKER_FLAGS=${BUILD_LINKER_FLAGS}"
+  "-DCMAKE_SHARED_LINKER_FLAGS=${BUILD_LINKER_FLAGS}" "-DCMAKE_MODULE_LINKER_FLAGS=${BUILD_LINKER_FLAGS}")
 if(LAUNCHER)
   list(APPEND configure -DCMAKE_CXX_COMPILER_LAUNCHER=${LAUNCHER})
 endif()
