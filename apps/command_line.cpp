@@ -62,6 +62,11 @@ CLI::App* add_run_command(CLI::App& app, GraphArgs& graph, RunArgs& args) {
   run->add_option("--view", args.view,
                   "[ADDR:]PORT: a live view, Foxglove's WebSocket protocol and a page (loopback unless ADDR; "
                   "docs/view.md)");
+  run->add_option("--view-cpu", args.view_cpu,
+                  "the share of one core the live view's encoding and sending may take; past it pictures come less "
+                  "often, the graph is not slowed (0: no limit)")
+      ->capture_default_str()
+      ->check(finite_above(0, true, "a share of 0 or more"));
   run->add_option("--set", graph.sets, "override a parameter: node.param=value (repeatable)");
   run->add_option("--process", graph.process,
                   "run only this process's part of the graph; its edges to other processes become DDS topics");

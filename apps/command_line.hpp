@@ -49,6 +49,7 @@ struct RunArgs {
   std::string record_compression = "zstd";
   bool record_lossless = false;
   std::string view;                            // [ADDR:]PORT of the live view
+  double view_cpu = 0.04;                      // the share of a core the live view may take
 };
 
 struct PluginsArgs {

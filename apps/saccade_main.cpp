@@ -332,6 +332,7 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   std::unique_ptr<saccade::view::ViewServer> view_server;  // stopped before the executor goes
   if (!args.view.empty()) {
     saccade::view::ViewOptions vo;
+    vo.cpu_share = args.view_cpu;
     std::string error;
     if (!saccade::view::parse_view_address(args.view, vo, error)) {
       std::cerr << "saccade run: " << error << "\n";

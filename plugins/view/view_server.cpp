@@ -1,5 +1,7 @@
 #include "view_server.hpp"
 
+#include "cpu_budget.hpp"
+
 #include <array>
 #include <chrono>
 #include <condition_variable>
@@ -81,7 +83,7 @@ struct Target {
 
 struct Counters {
   std::atomic<uint64_t> clients{0}, connections{0}, http_requests{0}, messages_sent{0}, malformed{0}, oversize{0},
-      injected{0}, inject_refused{0};
+      injected{0}, inject_refused{0}, budget_waits{0};
 };
 
 uint64_t wall_ns() {
@@ -153,6 +155,7 @@ class Server final : public ViewServer {
     c.oversize = counters_.oversize.load();
     c.injected = counters_.injected.load();
     c.inject_refused = counters_.inject_refused.load();
+    c.budget_waits = counters_.budget_waits.load();
     return c;
   }
   void stop() override {
@@ -646,7 +649,7 @@ std::string Server::view_json() const {
   const ViewCounters c = counters();
   return json{{"clients", c.clients},         {"connections", c.connections}, {"http_requests", c.http_requests},
               {"messages_sent", c.messages_sent}, {"malformed", c.malformed},     {"oversize", c.oversize},
-              {"injected", c.injected},       {"inject_refused", c.inject_refused}}
+              {"injected", c.injected},       {"inject_refused", c.inject_refused}, {"budget_waits", c.budget_waits}}
       .dump();
 }
 
@@ -696,9 +699,15 @@ void Server::send_loop() {
       std::chrono::duration<double>(std::max(0.05, options_.stats_interval_s)));
   std::vector<uint8_t> jpeg;
   cv::Mat picture;
+  CpuBudget budget(options_.cpu_share);
+  const pthread_t io_thread = io_thread_.native_handle(), sender = pthread_self();
   for (;;) {
     bool any = false;
     const Clock::time_point now = Clock::now();
+    const int64_t now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch()).count();
+    // Checked once a round: the pictures of a round go out together or wait together.
+    const bool room = budget.has_room(thread_cpu_ns(sender) + thread_cpu_ns(io_thread), now_ns);
+    bool waited = false;
     for (auto& cp : channels_) {
       Channel& c = *cp;
       if (c.subscribers.load() <= 0) continue;
@@ -710,6 +719,10 @@ void Server::send_loop() {
         payload->bytes.assign(text.begin(), text.end());
       } else {
         if (now - c.last_sent < min_gap) continue;
+        if (!room) {
+          waited = true;
+          continue;
+        }
         MessagePtr m;
         uint64_t seq = 0;
         {
@@ -728,6 +741,7 @@ void Server::send_loop() {
           if (auto s = w.lock()) s->offer(id, p);
       });
     }
+    if (waited) counters_.budget_waits.fetch_add(1, std::memory_order_relaxed);
     // Sources nobody listens to any more let their message go.
     for (auto& s : sources_) {
       if (s->interest.load() > 0) continue;

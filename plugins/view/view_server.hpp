@@ -38,6 +38,10 @@ struct ViewOptions {
   std::string address = "127.0.0.1";  // loopback unless told
   int port = 8765;                     // 0: a free port the kernel picks
   double max_rate_hz = 30.0;           // messages per second per channel, at most
+  // The share of one core the view's own threads (encoding, sending) may
+  // use; past it, pictures wait (every channel's rate falls) instead of the
+  // graph slowing down. <= 0: no limit.
+  double cpu_share = 0.04;
   int jpeg_quality = 80;
   // A WebSocket message from a client larger than this closes that client
   // (counted as oversize); an HTTP request larger than this is refused.
@@ -59,6 +63,7 @@ struct ViewCounters {
   uint64_t oversize = 0;        // client messages or requests over max_client_message (connection closed)
   uint64_t injected = 0;        // client-published Regions given to a side input
   uint64_t inject_refused = 0;  // client-published messages the executor refused
+  uint64_t budget_waits = 0;    // rounds pictures waited for the view's CPU allowance (cpu_share)
 };
 
 class ViewServer {

@@ -20,6 +20,7 @@
 
 #include "channel.hpp"
 #include "client_protocol.hpp"
+#include "cpu_budget.hpp"
 #include "support.hpp"
 #include "view_server.hpp"
 
@@ -387,6 +388,66 @@ TEST(View, AClientThatNeverReadsDoesNotHoldTheGraph) {
   ASSERT_TRUE(graph->run().ok());
   EXPECT_EQ(graph->stats("sink").processed.load(), 300u);
   server->stop();
+}
+
+TEST(View, ATightCpuShareSlowsThePicturesNotTheGraph) {
+  // The view may take 0.1% of a core: the first pictures go out, then the
+  // rest wait for the allowance (counted) while the graph runs on at full speed.
+  auto graph = test::open_graph(
+      "<graph name=\"fast\"><node name=\"scene\" plugin=\"capture.synthetic\"><param name=\"size\" value=\"640x480\"/>"
+      "<param name=\"count\" value=\"400\"/></node><node name=\"sink\" plugin=\"util.null\"/>"
+      "<edge from=\"scene.image\" to=\"sink.in\" queue=\"block:2\"/></graph>",
+      two_threads());
+  view::ViewOptions options;
+  options.port = 0;
+  options.max_rate_hz = 1000;
+  options.cpu_share = 0.001;
+  std::string error;
+  auto server = view::start_view(*graph->executor, options, error);
+  ASSERT_TRUE(server) << error;
+  Client client(server->port());
+  auto channels = channels_of((client.next_json(), client.next_json()));
+  ASSERT_TRUE(channels.count("/scene/image/jpeg"));
+  client.send_text(json{{"op", "subscribe"}, {"subscriptions", {{{"id", 1}, {"channelId", channels["/scene/image/jpeg"]["id"]}}}}}.dump());
+  ASSERT_TRUE(eventually([&] { return server->counters().clients == 1; }));
+  ASSERT_TRUE(graph->run().ok());
+  EXPECT_EQ(graph->stats("sink").processed.load(), 400u);
+  EXPECT_TRUE(eventually([&] { return server->counters().messages_sent > 0; }));
+  EXPECT_TRUE(eventually([&] { return server->counters().budget_waits > 0; }));
+  EXPECT_LT(server->counters().messages_sent, 100u);
+  server->stop();
+}
+
+TEST(CpuBudget, LetsWorkThroughWhileItsShareLastsThenWaitsForMore) {
+  const int64_t ms = 1'000'000;
+  view::CpuBudget budget(0.1, 0.05);  // a tenth of a core, 5 ms saved up at most
+  int64_t wall = 1000 * ms, cpu = 0;
+  EXPECT_TRUE(budget.has_room(cpu, wall));
+  // Working flat out (as much CPU as wall time): the 5 ms saved up last about 5 ms.
+  int worked = 0;
+  while (budget.has_room(cpu, wall) && worked < 100) {
+    wall += ms;
+    cpu += ms;
+    ++worked;
+  }
+  EXPECT_GE(worked, 4);
+  EXPECT_LE(worked, 7);
+  EXPECT_EQ(budget.refusals(), 1u);
+  // Idle: the allowance comes back at a tenth of the wall time.
+  wall += 20 * ms;
+  EXPECT_TRUE(budget.has_room(cpu, wall));
+  // Over a long run of working whenever allowed, the share is what was given.
+  const int64_t start_wall = wall, start_cpu = cpu;
+  for (int i = 0; i < 100000; ++i) {
+    wall += ms / 10;
+    if (budget.has_room(cpu, wall)) cpu += ms / 10;
+  }
+  const double share = static_cast<double>(cpu - start_cpu) / static_cast<double>(wall - start_wall);
+  EXPECT_NEAR(share, 0.1, 0.01);
+  // No limit.
+  view::CpuBudget unlimited(0);
+  EXPECT_TRUE(unlimited.has_room(0, 1));
+  EXPECT_TRUE(unlimited.has_room(1'000'000 * ms, 2));
 }
 
 TEST(View, APortInUseIsAClearError) {
