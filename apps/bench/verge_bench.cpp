@@ -226,6 +226,104 @@ std::string ratio(int a, int b) {
   return buf;
 }
 
+constexpr Mode kModes[] = {Mode::kRectified, Mode::kPlain, Mode::kParallel};
+
+// One mode's results over a distance's views, or over every distance.
+struct Tally {
+  Score score;
+  double depth_sum = 0, depth_max = 0;
+  double us = 0;     // a distance's only
+  int found = 0, count = 0;
+};
+
+// Every view of the target at one distance (each wall, lateral offset and
+// height) in every mode, into `tally` per mode; the squared fixation
+// disparity errors straight into the all-distance sums, view by view. False
+// when a wall's image cannot be read.
+bool measure_distance(const std::string& data, double distance, const stereo::RetinaStereoConfig& config,
+                      Tally (&tally)[3], double (&all_disparity_sq)[3], double& vergence) {
+  const std::vector<std::string> walls = {"aloeL.jpg", "graf1.png", "building.jpg"};
+  const std::vector<double> laterals = {-0.3, 0.0, 0.3};  // times the distance: the neck turns about +-17 degrees
+  int count = 0;
+  for (const std::string& w : walls) {
+    const cv::Mat wall = cv::imread(data + "/" + w, cv::IMREAD_COLOR);
+    if (wall.empty()) {
+      std::cerr << "saccade_verge_bench: cannot read " << data << "/" << w << " (install opencv-doc)\n";
+      return false;
+    }
+    for (double lateral : laterals) {
+      for (double height : {0.0, 0.15}) {
+        const Views verged = look(wall, distance, lateral * distance, height * distance, false);
+        const Views parallel = look(wall, distance, lateral * distance, height * distance, true);
+        vergence = std::max(vergence, std::abs(verged.joints.vergence_left) * 180 / CV_PI);
+        ++count;
+        for (Mode m : kModes) {
+          const int i = static_cast<int>(m);
+          const Score s = run(m == Mode::kParallel ? parallel : verged, m, config);
+          tally[i].score.add(s);
+          tally[i].depth_sum += s.depth_error;
+          all_disparity_sq[i] += s.disparity_error * s.disparity_error;
+          tally[i].depth_max = std::max(tally[i].depth_max, s.depth_error);
+          tally[i].found += s.fixation_found;
+          tally[i].us += s.microseconds;
+        }
+      }
+    }
+  }
+  for (Tally& t : tally) t.count = count;
+  return true;
+}
+
+std::string distance_row(double distance, double vergence, Mode m, const Tally& t) {
+  char line[512];
+  std::snprintf(line, sizeof line, "| %.2f m | %.1f | %s | %.2f%% / %.2f%% | %d / %d | %s | %s | %s | %s | %.0f |\n",
+                distance, vergence, name(m), 100 * t.depth_sum / t.count, 100 * t.depth_max, t.found, t.count,
+                ratio(t.score.fovea_matched, t.score.fovea_pixels).c_str(),
+                ratio(t.score.fovea_bad2, t.score.fovea_matched).c_str(),
+                ratio(t.score.outer_matched, t.score.outer_pixels).c_str(),
+                ratio(t.score.outer_bad2, t.score.outer_matched).c_str(), t.us / t.count);
+  return line;
+}
+
+void add_distance(Tally& all, const Tally& t) {
+  all.score.add(t.score);
+  all.depth_sum += t.depth_sum;
+  all.depth_max = std::max(all.depth_max, t.depth_max);
+  all.count += t.count;
+  all.found += t.found;
+}
+
+std::string all_row(Mode m, const Tally& t) {
+  char line[512];
+  std::snprintf(line, sizeof line, "| **all** | | %s | %.2f%% / %.2f%% | %d / %d | %s | %s | %s | %s | |\n", name(m),
+                100 * t.depth_sum / t.count, 100 * t.depth_max, t.found, t.count,
+                ratio(t.score.fovea_matched, t.score.fovea_pixels).c_str(),
+                ratio(t.score.fovea_bad2, t.score.fovea_matched).c_str(),
+                ratio(t.score.outer_matched, t.score.outer_pixels).c_str(),
+                ratio(t.score.outer_bad2, t.score.outer_matched).c_str());
+  return line;
+}
+
+// The fixation disparity's RMS, and whether the floors are met: depth within
+// 1% with rectification, fovea bad-2 within 1.2x of parallel cameras'.
+std::string floors(const Tally (&all)[3], const double (&all_disparity_sq)[3]) {
+  std::ostringstream out;
+  char rms[160];
+  std::snprintf(rms, sizeof rms, "\nThe rectified fixation disparity's RMS error: %.3f px over %d fixations.\n",
+                std::sqrt(all_disparity_sq[0] / std::max(1, all[0].found)), all[0].found);
+  out << rms;
+  const Score& rectified = all[0].score;
+  const Score& parallel = all[2].score;
+  const double rectified_bad =
+      rectified.fovea_matched ? static_cast<double>(rectified.fovea_bad2) / rectified.fovea_matched : 1;
+  const double parallel_bad = parallel.fovea_matched ? static_cast<double>(parallel.fovea_bad2) / parallel.fovea_matched : 1;
+  out << "\nFloors: fixation depth error <= 1% (rectified, max " << 100 * all[0].depth_max << "%): "
+      << (all[0].depth_max <= 0.01 ? "met" : "NOT met") << "; fovea bad-2 within 1.2x of parallel cameras ("
+      << rectified_bad << " against " << parallel_bad << "): " << (rectified_bad <= 1.2 * parallel_bad ? "met" : "NOT met")
+      << "\n";
+  return out.str();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -236,9 +334,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(1);
 
-  const std::vector<std::string> walls = {"aloeL.jpg", "graf1.png", "building.jpg"};
   const std::vector<double> distances = {0.5, 0.75, 1.0, 1.5, 2.0, 3.0};
-  const std::vector<double> laterals = {-0.3, 0.0, 0.3};  // times the distance: the neck turns about +-17 degrees
   stereo::RetinaStereoConfig config;
   config.vergence = true;
   config.max_disparity = 256;  // a 0.5 m target: ~200 px on the rectified pair
@@ -246,77 +342,20 @@ int main(int argc, char** argv) {
   std::ostringstream out;
   out << "| distance | vergence (deg) | mode | fixation depth error (mean / max) | fixations found | fovea density "
          "| fovea bad-2 | outer level density | outer bad-2 | us per pair |\n|---|---|---|---|---|---|---|---|---|---|\n";
-  Score all[3];
-  double all_depth_max[3] = {}, all_depth_sum[3] = {}, all_disparity_sq[3] = {};
-  int all_count[3] = {}, all_found[3] = {};
+  Tally all[3];
+  double all_disparity_sq[3] = {};
   for (double distance : distances) {
-    Score total[3];
-    double depth_sum[3] = {}, depth_max[3] = {}, us[3] = {};
-    int found[3] = {}, count = 0;
+    Tally tally[3];
     double vergence = 0;
-    for (const std::string& w : walls) {
-      const cv::Mat wall = cv::imread(data + "/" + w, cv::IMREAD_COLOR);
-      if (wall.empty()) {
-        std::cerr << "saccade_verge_bench: cannot read " << data << "/" << w << " (install opencv-doc)\n";
-        return 1;
-      }
-      for (double lateral : laterals) {
-        for (double height : {0.0, 0.15}) {
-          const Views verged = look(wall, distance, lateral * distance, height * distance, false);
-          const Views parallel = look(wall, distance, lateral * distance, height * distance, true);
-          vergence = std::max(vergence, std::abs(verged.joints.vergence_left) * 180 / CV_PI);
-          ++count;
-          for (Mode m : {Mode::kRectified, Mode::kPlain, Mode::kParallel}) {
-            const int i = static_cast<int>(m);
-            const Score s = run(m == Mode::kParallel ? parallel : verged, m, config);
-            total[i].add(s);
-            depth_sum[i] += s.depth_error;
-            all_disparity_sq[i] += s.disparity_error * s.disparity_error;
-            depth_max[i] = std::max(depth_max[i], s.depth_error);
-            found[i] += s.fixation_found;
-            us[i] += s.microseconds;
-          }
-        }
-      }
-    }
-    for (Mode m : {Mode::kRectified, Mode::kPlain, Mode::kParallel}) {
+    if (!measure_distance(data, distance, config, tally, all_disparity_sq, vergence)) return 1;
+    for (Mode m : kModes) {
       const int i = static_cast<int>(m);
-      char line[512];
-      std::snprintf(line, sizeof line, "| %.2f m | %.1f | %s | %.2f%% / %.2f%% | %d / %d | %s | %s | %s | %s | %.0f |\n",
-                    distance, vergence, name(m), 100 * depth_sum[i] / count, 100 * depth_max[i], found[i], count,
-                    ratio(total[i].fovea_matched, total[i].fovea_pixels).c_str(),
-                    ratio(total[i].fovea_bad2, total[i].fovea_matched).c_str(),
-                    ratio(total[i].outer_matched, total[i].outer_pixels).c_str(),
-                    ratio(total[i].outer_bad2, total[i].outer_matched).c_str(), us[i] / count);
-      out << line;
-      all[i].add(total[i]);
-      all_depth_sum[i] += depth_sum[i];
-      all_depth_max[i] = std::max(all_depth_max[i], depth_max[i]);
-      all_count[i] += count;
-      all_found[i] += found[i];
+      out << distance_row(distance, vergence, m, tally[i]);
+      add_distance(all[i], tally[i]);
     }
   }
-  for (Mode m : {Mode::kRectified, Mode::kPlain, Mode::kParallel}) {
-    const int i = static_cast<int>(m);
-    char line[512];
-    std::snprintf(line, sizeof line, "| **all** | | %s | %.2f%% / %.2f%% | %d / %d | %s | %s | %s | %s | |\n", name(m),
-                  100 * all_depth_sum[i] / all_count[i], 100 * all_depth_max[i], all_found[i], all_count[i],
-                  ratio(all[i].fovea_matched, all[i].fovea_pixels).c_str(),
-                  ratio(all[i].fovea_bad2, all[i].fovea_matched).c_str(),
-                  ratio(all[i].outer_matched, all[i].outer_pixels).c_str(),
-                  ratio(all[i].outer_bad2, all[i].outer_matched).c_str());
-    out << line;
-  }
-  char rms[160];
-  std::snprintf(rms, sizeof rms, "\nThe rectified fixation disparity's RMS error: %.3f px over %d fixations.\n",
-                std::sqrt(all_disparity_sq[0] / std::max(1, all_found[0])), all_found[0]);
-  out << rms;
-  const double rectified_bad = all[0].fovea_matched ? static_cast<double>(all[0].fovea_bad2) / all[0].fovea_matched : 1;
-  const double parallel_bad = all[2].fovea_matched ? static_cast<double>(all[2].fovea_bad2) / all[2].fovea_matched : 1;
-  out << "\nFloors: fixation depth error <= 1% (rectified, max " << 100 * all_depth_max[0] << "%): "
-      << (all_depth_max[0] <= 0.01 ? "met" : "NOT met") << "; fovea bad-2 within 1.2x of parallel cameras ("
-      << rectified_bad << " against " << parallel_bad << "): " << (rectified_bad <= 1.2 * parallel_bad ? "met" : "NOT met")
-      << "\n";
+  for (Mode m : kModes) out << all_row(m, all[static_cast<int>(m)]);
+  out << floors(all, all_disparity_sq);
   std::cout << out.str();
   if (!markdown.empty()) std::ofstream(markdown) << out.str();
   return 0;
