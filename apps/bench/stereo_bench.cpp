@@ -427,37 +427,31 @@ std::string fmt(const char* f, double v) {
   return b;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"Stereo benchmark: the retina matcher against OpenCV's StereoBM and StereoSGBM, one thread"};
-  std::string data = SACCADE_SAMPLE_DATA, markdown;
+// Which of our matcher's configurations run, beside the defaults, and how often.
+struct Matchers {
   int reps = 5, cv_reps = 3;
-  std::vector<std::string> sets, only;
   bool all_variants = false;
-  app.add_option("--data", data, "opencv-doc's examples/data folder");
-  app.add_option("--markdown", markdown, "write the tables to this file");
-  app.add_option("--reps", reps, "runs of our matcher per fixation (the time is their median)");
-  app.add_option("--cv-reps", cv_reps, "runs of BM and SGBM per pair (the time is their median)");
-  app.add_option("--set", sets, "key=value: also run our matcher with the defaults changed so (repeatable; "
-                                "the stereo node's parameter names)");
-  app.add_option("--pair", only, "only these pairs (aloe, aloe_third, planes_640, planes_450)");
-  app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
-  app.add_flag("--variants", all_variants, "also run the plain matcher and docs/accuracy.md's densest configuration");
-  CLI11_PARSE(app, argc, argv);
-  cv::setNumThreads(1);
-
+  bool custom_set = false;  // --set given: `custom` runs too
   stereo::RetinaStereoConfig custom;
   std::string custom_name;
+};
+
+// The defaults changed by --set key=value; false (with the message printed) on a key or value not known.
+bool parse_sets(const std::vector<std::string>& sets, Matchers& m) {
+  m.custom_set = !sets.empty();
   for (const std::string& s : sets) {
     const auto eq = s.find('=');
-    if (eq == std::string::npos || !set_param(custom, s.substr(0, eq), s.substr(eq + 1))) {
+    if (eq == std::string::npos || !set_param(m.custom, s.substr(0, eq), s.substr(eq + 1))) {
       std::fprintf(stderr, "saccade_stereo_bench: --set %s: not a known key=value\n", s.c_str());
-      return 2;
+      return false;
     }
-    custom_name += (custom_name.empty() ? "" : ", ") + s;
+    m.custom_name += (m.custom_name.empty() ? "" : ", ") + s;
   }
+  return true;
+}
 
+// The pairs --pair names (all of them without it), in the tables' order.
+std::vector<Pair> select_pairs(const std::string& data, const std::vector<std::string>& only) {
   std::vector<Pair> pairs;
   const auto wanted = [&](const std::string& name) {
     return only.empty() || std::find(only.begin(), only.end(), name) != only.end();
@@ -466,58 +460,56 @@ int main(int argc, char** argv) {
   if (wanted("aloe_third")) pairs.push_back(aloe(data, 3));
   for (Pair& p : rendered_pairs(data))
     if (wanted(p.name)) pairs.push_back(std::move(p));
+  return pairs;
+}
 
-  const retina::RetinaConfig retina_config;  // the retina's defaults: 5 levels of 32x24
-  std::string report;
-  std::ostringstream md;
-  md << "\nRetina: " << retina_config.levels << " levels of " << retina_config.size.width << "x"
-     << retina_config.size.height << "; fixations: 3 x 3 grid; one thread; times are medians of " << reps
-     << " runs per fixation (ours) and " << cv_reps << " per pair (OpenCV).\n";
-  struct Floor {
-    std::string pair;
-    Result ours, sgbm;
-  };
-  std::vector<Floor> floors;
-  for (const Pair& p : pairs) {
-    std::fprintf(stderr, "%s: %s\n", p.name.c_str(), p.what.c_str());
-    std::vector<Result> results;
-    std::vector<cv::Rect> foveas;
-    results.push_back(ours("saccade, defaults", stereo::RetinaStereoConfig{}, retina_config, p, reps, &foveas));
-    if (all_variants) {
-      results.push_back(ours("saccade, plain NCC", stereo::plain_matcher_config(), retina_config, p, reps, nullptr));
-      results.push_back(ours("saccade, densest (accuracy.md)", densest(), retina_config, p, reps, nullptr));
-    }
-    if (!sets.empty()) results.push_back(ours("saccade, " + custom_name, custom, retina_config, p, reps, nullptr));
-    auto bm = cv::StereoBM::create(p.num_disparities, 9);
-    bm->setTextureThreshold(10);
-    bm->setUniquenessRatio(15);
-    bm->setSpeckleWindowSize(100);
-    bm->setSpeckleRange(32);
-    bm->setDisp12MaxDiff(1);
-    results.push_back(opencv_matcher("OpenCV StereoBM (9x9)", bm, p, foveas, cv_reps));
-    // OpenCV's stereo_match sample's settings, gray images, 5x5 blocks.
-    auto sgbm = cv::StereoSGBM::create(0, p.num_disparities, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32,
-                                       cv::StereoSGBM::MODE_SGBM);
-    results.push_back(opencv_matcher("OpenCV StereoSGBM (5x5)", sgbm, p, foveas, cv_reps));
-    floors.push_back({p.name, results.front(), results.back()});
-
-    md << "\n### " << p.name << ": " << p.what << "\n\n"
-       << "| matcher | fovea density | fovea bad-1 | fovea bad-2 | image density | image bad-1 | image bad-2 | ms per pair "
-          "| fixation within 2 px | notes |\n|---|---|---|---|---|---|---|---|---|---|\n";
-    for (const Result& r : results) {
-      md << "| " << r.matcher << " | " << fmt("%.3f", r.fovea.density()) << " | " << fmt("%.3f", r.fovea.bad1_rate())
-         << " | " << fmt("%.3f", r.fovea.bad2_rate()) << " | " << fmt("%.3f", r.whole.density()) << " | "
-         << fmt("%.3f", r.whole.bad1_rate()) << " | " << fmt("%.3f", r.whole.bad2_rate()) << " | "
-         << fmt(r.ms < 10 ? "%.3f" : "%.1f", r.ms) << " | "
-         << (r.fixations_right >= 0 ? std::to_string(r.fixations_right) + "/" + std::to_string(r.fixations) : "")
-         << " | " << r.note << " |\n";
-    }
-    std::fputs(md.str().c_str(), stdout);
-    std::fflush(stdout);
-    report += md.str();
-    md.str("");
+// Every matcher on one pair: ours with the defaults first (its foveas are where
+// the others' fovea scores are taken), then the variants asked for, then BM and
+// SGBM last (the floor compares the first with the last).
+std::vector<Result> run_matchers(const Pair& p, const retina::RetinaConfig& retina_config, const Matchers& m) {
+  std::vector<Result> results;
+  std::vector<cv::Rect> foveas;
+  results.push_back(ours("saccade, defaults", stereo::RetinaStereoConfig{}, retina_config, p, m.reps, &foveas));
+  if (m.all_variants) {
+    results.push_back(ours("saccade, plain NCC", stereo::plain_matcher_config(), retina_config, p, m.reps, nullptr));
+    results.push_back(ours("saccade, densest (accuracy.md)", densest(), retina_config, p, m.reps, nullptr));
   }
-  // The floor: the defaults' fovea against SGBM's, at <= 1/20 of its time.
+  if (m.custom_set) results.push_back(ours("saccade, " + m.custom_name, m.custom, retina_config, p, m.reps, nullptr));
+  auto bm = cv::StereoBM::create(p.num_disparities, 9);
+  bm->setTextureThreshold(10);
+  bm->setUniquenessRatio(15);
+  bm->setSpeckleWindowSize(100);
+  bm->setSpeckleRange(32);
+  bm->setDisp12MaxDiff(1);
+  results.push_back(opencv_matcher("OpenCV StereoBM (9x9)", bm, p, foveas, m.cv_reps));
+  // OpenCV's stereo_match sample's settings, gray images, 5x5 blocks.
+  auto sgbm = cv::StereoSGBM::create(0, p.num_disparities, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32,
+                                     cv::StereoSGBM::MODE_SGBM);
+  results.push_back(opencv_matcher("OpenCV StereoSGBM (5x5)", sgbm, p, foveas, m.cv_reps));
+  return results;
+}
+
+void write_results_table(std::ostringstream& md, const Pair& p, const std::vector<Result>& results) {
+  md << "\n### " << p.name << ": " << p.what << "\n\n"
+     << "| matcher | fovea density | fovea bad-1 | fovea bad-2 | image density | image bad-1 | image bad-2 | ms per pair "
+        "| fixation within 2 px | notes |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Result& r : results) {
+    md << "| " << r.matcher << " | " << fmt("%.3f", r.fovea.density()) << " | " << fmt("%.3f", r.fovea.bad1_rate())
+       << " | " << fmt("%.3f", r.fovea.bad2_rate()) << " | " << fmt("%.3f", r.whole.density()) << " | "
+       << fmt("%.3f", r.whole.bad1_rate()) << " | " << fmt("%.3f", r.whole.bad2_rate()) << " | "
+       << fmt(r.ms < 10 ? "%.3f" : "%.1f", r.ms) << " | "
+       << (r.fixations_right >= 0 ? std::to_string(r.fixations_right) + "/" + std::to_string(r.fixations) : "")
+       << " | " << r.note << " |\n";
+  }
+}
+
+struct Floor {
+  std::string pair;
+  Result ours, sgbm;
+};
+
+// The floor: the defaults' fovea against SGBM's, at <= 1/20 of its time.
+std::string floor_table(const std::vector<Floor>& floors) {
   std::ostringstream summary;
   summary << "\n### The floor: defaults against StereoSGBM, fovea\n\n"
           << "| pair | density (ours / SGBM) | bad-2 (ours / SGBM) | time (ours / SGBM) | met |\n|---|---|---|---|---|\n";
@@ -532,8 +524,52 @@ int main(int argc, char** argv) {
                                                             (right ? "" : " bad-2") + (fast ? "" : " time"))
             << " |\n";
   }
-  std::fputs(summary.str().c_str(), stdout);
-  report += summary.str();
+  return summary.str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Stereo benchmark: the retina matcher against OpenCV's StereoBM and StereoSGBM, one thread"};
+  std::string data = SACCADE_SAMPLE_DATA, markdown;
+  Matchers matchers;
+  std::vector<std::string> sets, only;
+  app.add_option("--data", data, "opencv-doc's examples/data folder");
+  app.add_option("--markdown", markdown, "write the tables to this file");
+  app.add_option("--reps", matchers.reps, "runs of our matcher per fixation (the time is their median)");
+  app.add_option("--cv-reps", matchers.cv_reps, "runs of BM and SGBM per pair (the time is their median)");
+  app.add_option("--set", sets, "key=value: also run our matcher with the defaults changed so (repeatable; "
+                                "the stereo node's parameter names)");
+  app.add_option("--pair", only, "only these pairs (aloe, aloe_third, planes_640, planes_450)");
+  app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
+  app.add_flag("--variants", matchers.all_variants,
+               "also run the plain matcher and docs/accuracy.md's densest configuration");
+  CLI11_PARSE(app, argc, argv);
+  cv::setNumThreads(1);
+  if (!parse_sets(sets, matchers)) return 2;
+  const std::vector<Pair> pairs = select_pairs(data, only);
+
+  const retina::RetinaConfig retina_config;  // the retina's defaults: 5 levels of 32x24
+  std::string report;
+  std::ostringstream md;
+  md << "\nRetina: " << retina_config.levels << " levels of " << retina_config.size.width << "x"
+     << retina_config.size.height << "; fixations: 3 x 3 grid; one thread; times are medians of " << matchers.reps
+     << " runs per fixation (ours) and " << matchers.cv_reps << " per pair (OpenCV).\n";
+  std::vector<Floor> floors;
+  for (const Pair& p : pairs) {
+    std::fprintf(stderr, "%s: %s\n", p.name.c_str(), p.what.c_str());
+    const std::vector<Result> results = run_matchers(p, retina_config, matchers);
+    floors.push_back({p.name, results.front(), results.back()});
+    write_results_table(md, p, results);
+    // Each pair's table as soon as it is measured: a full run takes minutes.
+    std::fputs(md.str().c_str(), stdout);
+    std::fflush(stdout);
+    report += md.str();
+    md.str("");
+  }
+  const std::string summary = floor_table(floors);
+  std::fputs(summary.c_str(), stdout);
+  report += summary;
   if (!markdown.empty()) {
     std::ofstream file(markdown);
     file << "# Stereo benchmark (make bench-stereo)\n\nWhat is measured: apps/bench/stereo_bench.cpp.\n" << report;
