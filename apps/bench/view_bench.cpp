@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -123,6 +124,143 @@ double median(std::vector<double> v) {
   return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
 }
 
+constexpr Mode kModes[] = {Mode::kNone, Mode::kIdle, Mode::kViewer, Mode::kAll};
+
+// The graph with the --set overrides it has nodes for; nullopt (the problems
+// printed) when it does not load or resolve.
+std::optional<ResolvedGraph> load_bench_graph(const std::string& graph_file, const std::vector<std::string>& sets,
+                                              const Registry& registry) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_file(graph_file, diag);
+  // --set names nodes the graph may not have (the demo's camera and snapshot): only those it has.
+  std::vector<std::string> present;
+  for (const std::string& s : sets)
+    if (decl.find_node(s.substr(0, s.find('.')))) present.push_back(s);
+  apply_overrides(decl, present, diag);
+  std::optional<ResolvedGraph> graph;
+  if (!diag.has_errors()) graph = resolve_graph(decl, registry, diag);
+  if (!graph) std::fprintf(stderr, "%s", diag.format().c_str());
+  return graph;
+}
+
+// What each kind of viewer subscribes to. The page: the first image as JPEG,
+// the stats, the JSON channels. Every picture: each image raw and as JPEG,
+// each retina and feature maps as JPEG.
+struct Topics {
+  std::vector<std::string> page = {"/saccade/stats"}, all = {"/saccade/stats"};
+};
+
+Topics viewer_topics(const ResolvedGraph& graph) {
+  Topics topics;
+  for (const ResolvedNode& n : graph.nodes)
+    for (const PortSpec& out : n.contract.outputs()) {
+      const std::string base = "/" + n.decl.name + "/" + out.name;
+      const bool picture = out.type == "Image" || out.type == "Retina" || out.type == "FeatureMaps";
+      if (out.type == "Image") topics.all.push_back(base);
+      if (picture) topics.all.push_back(base + "/jpeg");
+      if (out.type == "Image" && topics.page.size() == 1) topics.page.push_back(base + "/jpeg");
+      if (!picture) topics.page.push_back(base + "/json");
+    }
+  return topics;
+}
+
+struct Bench {
+  const ResolvedGraph& graph;
+  const Registry& registry;
+  int threads = 0;
+  int64_t frames = 0;
+  double rate = 0;
+  Topics topics;
+  // The node whose processed count is the graph's throughput: the last one.
+  std::string last;
+
+  // One run of the graph in `mode`, its viewer (if any) connected and
+  // subscribed before the first frame, so the whole run carries its load.
+  Result run(Mode mode) const {
+    ExecutorOptions options;
+    options.threads = threads;
+    options.max_frames = frames;
+    Executor executor(graph, registry, options);
+    if (Status s = executor.open(); !s.ok()) throw std::runtime_error(s.message());
+    std::unique_ptr<view::ViewServer> server;
+    Viewer viewer;
+    if (mode != Mode::kNone) server = serve(executor, mode, viewer);
+    const double cpu0 = cpu_seconds();
+    const auto t0 = std::chrono::steady_clock::now();
+    const uint64_t m0 = viewer.messages.load();
+    if (Status s = executor.run(); !s.ok() && !s.is_end_of_stream()) throw std::runtime_error(s.message());
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const uint64_t m1 = viewer.messages.load();
+    const double cpu = cpu_seconds() - cpu0;
+    viewer.end();
+    if (server) server->stop();
+    if (!viewer.error.empty()) throw std::runtime_error("viewer: " + viewer.error);
+    Result r;
+    r.fps = static_cast<double>(executor.stats(last)->processed.load()) / seconds;
+    r.viewer_hz = static_cast<double>(m1 - m0) / seconds;
+    r.per_topic = viewer.per_topic;
+    r.seconds = seconds;
+    r.cpu_us_per_frame = 1e6 * cpu / static_cast<double>(std::max<uint64_t>(1, executor.stats(last)->processed.load()));
+    return r;
+  }
+
+  std::unique_ptr<view::ViewServer> serve(Executor& executor, Mode mode, Viewer& viewer) const {
+    view::ViewOptions vo;
+    vo.port = 0;
+    vo.max_rate_hz = rate;
+    std::string error;
+    std::unique_ptr<view::ViewServer> server = view::start_view(executor, vo, error);
+    if (!server) throw std::runtime_error(error);
+    if (mode == Mode::kViewer || mode == Mode::kAll) {
+      viewer.start(server->port(), mode == Mode::kAll ? topics.all : topics.page);
+      for (int i = 0; i < 500 && server->counters().clients == 0; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));  // its subscriptions arrive
+    }
+    return server;
+  }
+};
+
+void print_round(int round, Mode m, const Result& res) {
+  std::printf("round %d  %-18s %8.1f frames/s %7.1f CPU us/frame", round, name(m), res.fps, res.cpu_us_per_frame);
+  if (m == Mode::kViewer || m == Mode::kAll) {
+    std::printf("  viewer got (Hz):");
+    for (const auto& [topic, n] : res.per_topic)
+      std::printf(" %s %.1f", topic.c_str(), static_cast<double>(n) / res.seconds);
+  }
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
+// Every run's figures per mode, in round order.
+struct Runs {
+  std::map<Mode, std::vector<double>> fps, viewer_hz, cpu;
+};
+
+// The median of a mode's runs (0 with no runs, --rounds 0).
+double median_of(const std::map<Mode, std::vector<double>>& runs, Mode m) {
+  const auto it = runs.find(m);
+  return it == runs.end() ? median({}) : median(it->second);
+}
+
+void print_summary(const std::string& graph_file, const Bench& bench, int rounds, const Runs& runs) {
+  auto fps = [&](Mode m) { return median_of(runs.fps, m); };
+  auto cpu = [&](Mode m) { return median_of(runs.cpu, m); };
+  const double base = fps(Mode::kNone);
+  std::printf("\n%s, %lld frames a run, %d rounds, view rate %.0f Hz per channel; median frames/s:\n",
+              graph_file.c_str(), static_cast<long long>(bench.frames), rounds, bench.rate);
+  for (Mode m : kModes)
+    std::printf("  %-18s %8.1f  (%+.1f%%)   CPU %.1f us/frame (%+.1f%%)\n", name(m), fps(m),
+                100.0 * (fps(m) / base - 1.0), cpu(m), 100.0 * (cpu(m) / cpu(Mode::kNone) - 1.0));
+  std::printf("  page's viewer: %.1f messages/s over %zu channels; every picture: %.1f messages/s over %zu channels\n",
+              median_of(runs.viewer_hz, Mode::kViewer), bench.topics.page.size(), median_of(runs.viewer_hz, Mode::kAll),
+              bench.topics.all.size());
+  const double cost = 100.0 * (1.0 - fps(Mode::kViewer) / base);
+  const double cpu_cost = 100.0 * (cpu(Mode::kViewer) / cpu(Mode::kNone) - 1.0);
+  std::printf("floor (the page's viewer costs <= 5%% throughput): %s (%.1f%% throughput, %.1f%% CPU per frame)\n",
+              cost <= 5.0 ? "met" : "NOT met", cost, cpu_cost);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -146,111 +284,25 @@ int main(int argc, char** argv) {
   sets.push_back("camera.loop=true");
   Registry registry;
   registry.load_folders(Registry::default_search_path());
-  Diagnostics diag;
-  GraphDecl decl = load_graph_file(graph_file, diag);
-  // --set names nodes the graph may not have (the demo's camera and snapshot): only those it has.
-  std::vector<std::string> present;
-  for (const std::string& s : sets)
-    if (decl.find_node(s.substr(0, s.find('.')))) present.push_back(s);
-  apply_overrides(decl, present, diag);
-  std::optional<ResolvedGraph> graph;
-  if (!diag.has_errors()) graph = resolve_graph(decl, registry, diag);
-  if (!graph) {
-    std::fprintf(stderr, "%s", diag.format().c_str());
-    return 2;
-  }
-  // The page: the first image as JPEG, the stats, the JSON channels. Every
-  // picture: each image raw and as JPEG, each retina and feature maps as JPEG.
-  std::vector<std::string> page_topics = {"/saccade/stats"}, all_topics = {"/saccade/stats"};
-  for (const ResolvedNode& n : graph->nodes)
-    for (const PortSpec& out : n.contract.outputs()) {
-      const std::string base = "/" + n.decl.name + "/" + out.name;
-      const bool picture = out.type == "Image" || out.type == "Retina" || out.type == "FeatureMaps";
-      if (out.type == "Image") all_topics.push_back(base);
-      if (picture) all_topics.push_back(base + "/jpeg");
-      if (out.type == "Image" && page_topics.size() == 1) page_topics.push_back(base + "/jpeg");
-      if (!picture) page_topics.push_back(base + "/json");
-    }
-  // The node whose processed count is the graph's throughput: the last one.
-  const std::string last = graph->nodes.back().decl.name;
+  const std::optional<ResolvedGraph> graph = load_bench_graph(graph_file, sets, registry);
+  if (!graph) return 2;
+  const Bench bench{*graph, registry, threads, frames, rate, viewer_topics(*graph), graph->nodes.back().decl.name};
 
-  auto run = [&](Mode mode) {
-    ExecutorOptions options;
-    options.threads = threads;
-    options.max_frames = frames;
-    Executor executor(*graph, registry, options);
-    if (Status s = executor.open(); !s.ok()) throw std::runtime_error(s.message());
-    std::unique_ptr<view::ViewServer> server;
-    Viewer viewer;
-    if (mode != Mode::kNone) {
-      view::ViewOptions vo;
-      vo.port = 0;
-      vo.max_rate_hz = rate;
-      std::string error;
-      server = view::start_view(executor, vo, error);
-      if (!server) throw std::runtime_error(error);
-      if (mode == Mode::kViewer || mode == Mode::kAll) {
-        viewer.start(server->port(), mode == Mode::kAll ? all_topics : page_topics);
-        for (int i = 0; i < 500 && server->counters().clients == 0; ++i)
-          std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));  // its subscriptions arrive
-      }
-    }
-    const double cpu0 = cpu_seconds();
-    const auto t0 = std::chrono::steady_clock::now();
-    const uint64_t m0 = viewer.messages.load();
-    if (Status s = executor.run(); !s.ok() && !s.is_end_of_stream()) throw std::runtime_error(s.message());
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const uint64_t m1 = viewer.messages.load();
-    const double cpu = cpu_seconds() - cpu0;
-    viewer.end();
-    if (server) server->stop();
-    if (!viewer.error.empty()) throw std::runtime_error("viewer: " + viewer.error);
-    Result r;
-    r.fps = static_cast<double>(executor.stats(last)->processed.load()) / seconds;
-    r.viewer_hz = static_cast<double>(m1 - m0) / seconds;
-    r.per_topic = viewer.per_topic;
-    r.seconds = seconds;
-    r.cpu_us_per_frame = 1e6 * cpu / static_cast<double>(std::max<uint64_t>(1, executor.stats(last)->processed.load()));
-    return r;
-  };
-
-  std::map<Mode, std::vector<double>> fps;
-  std::map<Mode, std::vector<double>> viewer_hz;
-  std::map<Mode, std::vector<double>> cpu;
+  Runs runs;
   try {
-    run(Mode::kNone);  // warm-up: caches, the video file, the plugins
+    bench.run(Mode::kNone);  // warm-up: caches, the video file, the plugins
     for (int r = 0; r < rounds; ++r)
-      for (Mode m : {Mode::kNone, Mode::kIdle, Mode::kViewer, Mode::kAll}) {
-        const Result res = run(m);
-        fps[m].push_back(res.fps);
-        viewer_hz[m].push_back(res.viewer_hz);
-        cpu[m].push_back(res.cpu_us_per_frame);
-        std::printf("round %d  %-18s %8.1f frames/s %7.1f CPU us/frame", r + 1, name(m), res.fps, res.cpu_us_per_frame);
-        if (m == Mode::kViewer || m == Mode::kAll) {
-          std::printf("  viewer got (Hz):");
-          for (const auto& [topic, n] : res.per_topic)
-            std::printf(" %s %.1f", topic.c_str(), static_cast<double>(n) / res.seconds);
-        }
-        std::printf("\n");
-        std::fflush(stdout);
+      for (Mode m : kModes) {
+        const Result res = bench.run(m);
+        runs.fps[m].push_back(res.fps);
+        runs.viewer_hz[m].push_back(res.viewer_hz);
+        runs.cpu[m].push_back(res.cpu_us_per_frame);
+        print_round(r + 1, m, res);
       }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "view_bench: %s\n", e.what());
     return 1;
   }
-  const double base = median(fps[Mode::kNone]);
-  std::printf("\n%s, %lld frames a run, %d rounds, view rate %.0f Hz per channel; median frames/s:\n",
-              graph_file.c_str(), static_cast<long long>(frames), rounds, rate);
-  for (Mode m : {Mode::kNone, Mode::kIdle, Mode::kViewer, Mode::kAll})
-    std::printf("  %-18s %8.1f  (%+.1f%%)   CPU %.1f us/frame (%+.1f%%)\n", name(m), median(fps[m]),
-                100.0 * (median(fps[m]) / base - 1.0), median(cpu[m]),
-                100.0 * (median(cpu[m]) / median(cpu[Mode::kNone]) - 1.0));
-  std::printf("  page's viewer: %.1f messages/s over %zu channels; every picture: %.1f messages/s over %zu channels\n",
-              median(viewer_hz[Mode::kViewer]), page_topics.size(), median(viewer_hz[Mode::kAll]), all_topics.size());
-  const double cost = 100.0 * (1.0 - median(fps[Mode::kViewer]) / base);
-  const double cpu_cost = 100.0 * (median(cpu[Mode::kViewer]) / median(cpu[Mode::kNone]) - 1.0);
-  std::printf("floor (the page's viewer costs <= 5%% throughput): %s (%.1f%% throughput, %.1f%% CPU per frame)\n",
-              cost <= 5.0 ? "met" : "NOT met", cost, cpu_cost);
+  print_summary(graph_file, bench, rounds, runs);
   return 0;
 }
