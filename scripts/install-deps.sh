@@ -19,6 +19,7 @@ packages=(
   graphviz
   libzstd-dev liblz4-dev
   clang libclang-rt-14-dev
+  clang-tidy
   chromium
 )
 
