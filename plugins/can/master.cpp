@@ -118,6 +118,38 @@ void Master::receive(const Frame& f, int64_t now_ns) {
   }
 }
 
+// Walks a configured drive's CiA 402 state machine to operation enabled.
+void Master::enable(Drive& d, int64_t now_ns) {
+  // An event-driven statusword that was lost (or the NMT start itself) is
+  // not sent again by itself: with no statusword for an SDO timeout, start
+  // the drive again, which makes it report its statusword (harmless when
+  // it is operational already).
+  if (d.state != DriveState::kFault &&
+      now_ns - std::max({d.status_ns, d.configured_ns, d.restarted_ns}) > config_.sdo_timeout_ns) {
+    send(nmt(NmtCommand::kStart, d.joint.node));
+    d.restarted_ns = now_ns;
+    return;
+  }
+  if (d.reset_sent) {
+    send(rpdo1(d.joint.node, control::kDisableVoltage));  // fault reset back to 0 for the next edge
+    d.reset_sent = false;
+    return;
+  }
+  switch (d.state) {
+    case DriveState::kSwitchOnDisabled: send(rpdo1(d.joint.node, control::kShutdown)); break;
+    case DriveState::kReadyToSwitchOn: send(rpdo1(d.joint.node, control::kSwitchOn)); break;
+    case DriveState::kSwitchedOn:
+    case DriveState::kQuickStopActive: send(rpdo1(d.joint.node, control::kEnableOperation)); break;
+    case DriveState::kOperationEnabled:
+      d.phase = Phase::kRun;
+      d.problem.clear();  // whatever it was (a reboot, a reset fault) is over
+      d.set_point_high = false;
+      d.ack_low_seen = true;  // enabling clears the acknowledge
+      break;
+    default: break;  // fault (until reset), or no statusword yet
+  }
+}
+
 void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool reset, int64_t serial) {
   if (reset && (d.phase == Phase::kSilent || d.state == DriveState::kFault)) {
     d.problem.clear();
@@ -161,36 +193,7 @@ void Master::run_drive(Drive& d, int64_t now_ns, const double* target, bool rese
       ++d.attempts;
       return;
     }
-    case Phase::kEnable:
-      // An event-driven statusword that was lost (or the NMT start itself) is
-      // not sent again by itself: with no statusword for an SDO timeout, start
-      // the drive again, which makes it report its statusword (harmless when
-      // it is operational already).
-      if (d.state != DriveState::kFault &&
-          now_ns - std::max({d.status_ns, d.configured_ns, d.restarted_ns}) > config_.sdo_timeout_ns) {
-        send(nmt(NmtCommand::kStart, d.joint.node));
-        d.restarted_ns = now_ns;
-        return;
-      }
-      if (d.reset_sent) {
-        send(rpdo1(d.joint.node, control::kDisableVoltage));  // fault reset back to 0 for the next edge
-        d.reset_sent = false;
-        return;
-      }
-      switch (d.state) {
-        case DriveState::kSwitchOnDisabled: send(rpdo1(d.joint.node, control::kShutdown)); break;
-        case DriveState::kReadyToSwitchOn: send(rpdo1(d.joint.node, control::kSwitchOn)); break;
-        case DriveState::kSwitchedOn:
-        case DriveState::kQuickStopActive: send(rpdo1(d.joint.node, control::kEnableOperation)); break;
-        case DriveState::kOperationEnabled:
-          d.phase = Phase::kRun;
-          d.problem.clear();  // whatever it was (a reboot, a reset fault) is over
-          d.set_point_high = false;
-          d.ack_low_seen = true;  // enabling clears the acknowledge
-          break;
-        default: break;  // fault (until reset), or no statusword yet
-      }
-      return;
+    case Phase::kEnable: enable(d, now_ns); return;
     case Phase::kRun: {
       if (d.state != DriveState::kOperationEnabled) {
         if (d.state != DriveState::kFault) d.phase = Phase::kEnable;  // switched off behind our back

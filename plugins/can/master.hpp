@@ -132,6 +132,7 @@ class Master {
   void restart_configuration(Drive& d);
   void send(const Frame& f);
   void run_drive(Drive& d, int64_t now_ns, const double* target, bool reset, int64_t serial);
+  void enable(Drive& d, int64_t now_ns);
   std::string who(const Drive& d) const;
 
   Bus& bus_;
