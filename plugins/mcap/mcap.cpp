@@ -455,6 +455,44 @@ void Writer::close_chunk() {
   chunk_messages_ = 0;
 }
 
+void Writer::append_statistics(std::vector<uint8_t>& out) const {
+  const auto at = begin_record(out, kStatistics);
+  put_le<uint64_t>(out, message_count_);
+  put_le<uint16_t>(out, static_cast<uint16_t>(schemas_.size()));
+  put_le<uint32_t>(out, static_cast<uint32_t>(channels_.size()));
+  put_le<uint32_t>(out, 0);  // attachments
+  put_le<uint32_t>(out, 0);  // metadata
+  put_le<uint32_t>(out, static_cast<uint32_t>(chunk_indexes_.size()));
+  put_le<uint64_t>(out, message_count_ > 0 ? start_time_ : 0);
+  put_le<uint64_t>(out, message_count_ > 0 ? end_time_ : 0);
+  put_le<uint32_t>(out, static_cast<uint32_t>(channels_.size() * 10));
+  for (std::size_t i = 0; i < channels_.size(); ++i) {
+    put_le<uint16_t>(out, static_cast<uint16_t>(i + 1));
+    put_le<uint64_t>(out, channels_[i].count);
+  }
+  end_record(out, at);
+}
+
+void Writer::append_chunk_indexes(std::vector<uint8_t>& out) const {
+  for (const ChunkIndex& c : chunk_indexes_) {
+    const auto at = begin_record(out, kChunkIndex);
+    put_le<uint64_t>(out, c.start_time);
+    put_le<uint64_t>(out, c.end_time);
+    put_le<uint64_t>(out, c.offset);
+    put_le<uint64_t>(out, c.length);
+    put_le<uint32_t>(out, static_cast<uint32_t>(c.index_offsets.size() * 10));
+    for (const auto& [channel, offset] : c.index_offsets) {
+      put_le<uint16_t>(out, channel);
+      put_le<uint64_t>(out, offset);
+    }
+    put_le<uint64_t>(out, c.index_length);
+    put_string(out, c.compression);
+    put_le<uint64_t>(out, c.compressed_size);
+    put_le<uint64_t>(out, c.uncompressed_size);
+    end_record(out, at);
+  }
+}
+
 std::string Writer::close() {
   if (file_ == nullptr) return error_;
   if (options_.chunk_size > 0) close_chunk();
@@ -483,40 +521,10 @@ std::string Writer::close() {
   for (std::size_t i = 0; i < channels_.size(); ++i) append_channel(summary, static_cast<uint16_t>(i + 1), channels_[i]);
   group(kChannel, from);
   from = summary.size();
-  at = begin_record(summary, kStatistics);
-  put_le<uint64_t>(summary, message_count_);
-  put_le<uint16_t>(summary, static_cast<uint16_t>(schemas_.size()));
-  put_le<uint32_t>(summary, static_cast<uint32_t>(channels_.size()));
-  put_le<uint32_t>(summary, 0);  // attachments
-  put_le<uint32_t>(summary, 0);  // metadata
-  put_le<uint32_t>(summary, static_cast<uint32_t>(chunk_indexes_.size()));
-  put_le<uint64_t>(summary, message_count_ > 0 ? start_time_ : 0);
-  put_le<uint64_t>(summary, message_count_ > 0 ? end_time_ : 0);
-  put_le<uint32_t>(summary, static_cast<uint32_t>(channels_.size() * 10));
-  for (std::size_t i = 0; i < channels_.size(); ++i) {
-    put_le<uint16_t>(summary, static_cast<uint16_t>(i + 1));
-    put_le<uint64_t>(summary, channels_[i].count);
-  }
-  end_record(summary, at);
+  append_statistics(summary);
   group(kStatistics, from);
   from = summary.size();
-  for (const ChunkIndex& c : chunk_indexes_) {
-    at = begin_record(summary, kChunkIndex);
-    put_le<uint64_t>(summary, c.start_time);
-    put_le<uint64_t>(summary, c.end_time);
-    put_le<uint64_t>(summary, c.offset);
-    put_le<uint64_t>(summary, c.length);
-    put_le<uint32_t>(summary, static_cast<uint32_t>(c.index_offsets.size() * 10));
-    for (const auto& [channel, offset] : c.index_offsets) {
-      put_le<uint16_t>(summary, channel);
-      put_le<uint64_t>(summary, offset);
-    }
-    put_le<uint64_t>(summary, c.index_length);
-    put_string(summary, c.compression);
-    put_le<uint64_t>(summary, c.compressed_size);
-    put_le<uint64_t>(summary, c.uncompressed_size);
-    end_record(summary, at);
-  }
+  append_chunk_indexes(summary);
   group(kChunkIndex, from);
   const uint64_t summary_offset_start = summary_start + summary.size();
   for (const Group& g : groups) {

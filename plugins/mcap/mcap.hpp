@@ -77,6 +77,9 @@ class Writer {
     uint64_t count = 0;
     std::vector<std::pair<uint64_t, uint64_t>> index;  // (log time, offset in the open chunk)
   };
+  // The summary's Statistics record and its Chunk Index records.
+  void append_statistics(std::vector<uint8_t>& out) const;
+  void append_chunk_indexes(std::vector<uint8_t>& out) const;
   struct SchemaState {
     std::string name, encoding;
     std::vector<uint8_t> data;
