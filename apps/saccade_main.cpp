@@ -285,6 +285,61 @@ int completion_command(const CLI::App& app, const CompletionArgs& args) {
   return 0;
 }
 
+// --record: every edge recorded from here on; 0 or the command's exit status.
+int attach_recording(const RunArgs& args, Executor& executor, std::unique_ptr<saccade::mcap::GraphRecorder>& recorder) {
+  if (args.record.empty()) return 0;
+  saccade::mcap::RecorderOptions ro;
+  saccade::mcap::parse_compression(args.record_compression, ro.writer.compression);
+  ro.lossless = args.record_lossless;
+  std::string error;
+  recorder = saccade::mcap::attach_recorder(executor, args.record, ro, error);
+  if (recorder) return 0;
+  std::cerr << "saccade run: --record: " << error << "\n";
+  return 1;
+}
+
+// --view: the live view's server started; 0 or the command's exit status.
+int attach_view(const RunArgs& args, Executor& executor, std::unique_ptr<saccade::view::ViewServer>& server) {
+  if (args.view.empty()) return 0;
+  saccade::view::ViewOptions vo;
+  vo.cpu_share = args.view_cpu;
+  std::string error;
+  if (!saccade::view::parse_view_address(args.view, vo, error)) {
+    std::cerr << "saccade run: " << error << "\n";
+    return 2;
+  }
+  server = saccade::view::start_view(executor, vo, error);
+  if (!server) {
+    std::cerr << "saccade run: " << error << "\n";
+    return 1;
+  }
+  std::cerr << "view: " << server->url() << " (Foxglove: ws://" << vo.address << ":" << server->port() << ")\n";
+  return 0;
+}
+
+// After the run: the recording closed and reported, the stats printed and
+// written; the run's status, or what of those failed when the run did not.
+Status report_run(const RunArgs& args, bool stats, Executor& executor, saccade::mcap::GraphRecorder* recorder,
+                  Status status) {
+  if (recorder != nullptr) {
+    if (std::string why = recorder->finish(); !why.empty()) {
+      std::cerr << "saccade run: --record: " << why << "\n";
+      if (status.ok()) status = Status::error("the recording is incomplete");
+    }
+    std::cerr << recorder->report() << "\n";
+  }
+  if (stats) std::printf("%s", executor.stats_table().c_str());
+  if (!args.stats_json.empty()) {
+    std::ofstream out(args.stats_json);
+    out << executor.stats_json();
+    if (!out.flush()) {
+      std::cerr << "saccade run: --stats-json: cannot write " << args.stats_json << "\n";
+      if (status.ok()) status = Status::error("the stats were not written");
+    }
+  }
+  return status;
+}
+
 int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args) {
   const bool stats = args.stats->count() > 0;
   Registry registry;
@@ -318,34 +373,9 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   }
   // What watches the run (taps, a viewer, a recorder) attaches here, between open() and run().
   std::unique_ptr<saccade::mcap::GraphRecorder> recorder;
-  if (!args.record.empty()) {
-    saccade::mcap::RecorderOptions ro;
-    saccade::mcap::parse_compression(args.record_compression, ro.writer.compression);
-    ro.lossless = args.record_lossless;
-    std::string error;
-    recorder = saccade::mcap::attach_recorder(executor, args.record, ro, error);
-    if (!recorder) {
-      std::cerr << "saccade run: --record: " << error << "\n";
-      return 1;
-    }
-  }
+  if (const int exit = attach_recording(args, executor, recorder); exit != 0) return exit;
   std::unique_ptr<saccade::view::ViewServer> view_server;  // stopped before the executor goes
-  if (!args.view.empty()) {
-    saccade::view::ViewOptions vo;
-    vo.cpu_share = args.view_cpu;
-    std::string error;
-    if (!saccade::view::parse_view_address(args.view, vo, error)) {
-      std::cerr << "saccade run: " << error << "\n";
-      return 2;
-    }
-    view_server = saccade::view::start_view(executor, vo, error);
-    if (!view_server) {
-      std::cerr << "saccade run: " << error << "\n";
-      return 1;
-    }
-    std::cerr << "view: " << view_server->url() << " (Foxglove: ws://" << vo.address << ":" << view_server->port()
-              << ")\n";
-  }
+  if (const int exit = attach_view(args, executor, view_server); exit != 0) return exit;
   if (args.progress) {
     progress = std::make_unique<saccade::cli::ProgressLine>(executor, options.max_frames, options.duration_s, stderr,
                                                             isatty(STDERR_FILENO) != 0);
@@ -354,22 +384,7 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   status = executor.run();
   if (progress) progress->stop();
   if (view_server) view_server->stop();
-  if (recorder) {
-    if (std::string why = recorder->finish(); !why.empty()) {
-      std::cerr << "saccade run: --record: " << why << "\n";
-      if (status.ok()) status = Status::error("the recording is incomplete");
-    }
-    std::cerr << recorder->report() << "\n";
-  }
-  if (stats) std::printf("%s", executor.stats_table().c_str());
-  if (!args.stats_json.empty()) {
-    std::ofstream out(args.stats_json);
-    out << executor.stats_json();
-    if (!out.flush()) {
-      std::cerr << "saccade run: --stats-json: cannot write " << args.stats_json << "\n";
-      if (status.ok()) status = Status::error("the stats were not written");
-    }
-  }
+  status = report_run(args, stats, executor, recorder.get(), status);
   if (!status.ok()) {
     std::cerr << graph_args.file << ": error: " << status.message() << "\n";
     return 1;
