@@ -203,6 +203,9 @@ class Server final : public ViewServer {
  private:
   void accept();
   void build_channels();
+  void add_channel(std::unique_ptr<Channel> c, json& advertised);
+  json input_ports(const ResolvedNode& n, json& targets);
+  json output_channels(const std::string& node, const PortSpec& out, json& advertised);
   void send_loop();
   bool encode(Channel& c, const Message& m, Payload& p, std::vector<uint8_t>& jpeg, cv::Mat& picture);
 
@@ -529,99 +532,23 @@ void Server::accept() {
   });
 }
 
-void Server::build_channels() {
-  const ResolvedGraph& graph = executor_.graph();
-  json channels = json::array();
-  json nodes = json::array();
-  json targets = json::array();
-  auto add = [&](std::unique_ptr<Channel> c) {
-    c->id = static_cast<uint32_t>(channels_.size());
-    channels.push_back({{"id", c->id},
-                        {"topic", c->topic},
-                        {"encoding", c->encoding},
-                        {"schemaName", c->schema_name},
-                        {"schema", c->schema},
-                        {"schemaEncoding", c->schema_encoding}});
-    channels_.push_back(std::move(c));
-  };
-  for (const ResolvedNode& n : graph.nodes) {
-    json inputs = json::array(), outputs = json::array();
-    for (const PortSpec& in : n.contract.inputs()) {
-      const char* kind = in.kind == InputKind::kSide ? "side" : in.kind == InputKind::kOptional ? "optional" : "trigger";
-      json j = {{"name", in.name}, {"type", in.type}, {"kind", kind}};
-      if (in.kind == InputKind::kSide && (in.type == Region::kTypeName)) {
-        const std::string topic = "/" + n.decl.name + "/" + in.name;
-        targets_[topic] = Target{n.decl.name, in.name};
-        j["topic"] = topic;
-        targets.push_back({{"node", n.decl.name}, {"input", in.name}, {"topic", topic}});
-      }
-      inputs.push_back(std::move(j));
-    }
-    for (const PortSpec& out : n.contract.outputs()) {
-      json topics = json::array();
-      const dds::ChannelEncoding* cdr = dds::channel_encoding(out.type);
-      const bool described = !json_schema(out.type).empty();
-      if (cdr || described) {
-        auto source = std::make_unique<Source>();
-        source->node = n.decl.name;
-        source->port = out.name;
-        source->type = out.type;
-        const std::string base = "/" + n.decl.name + "/" + out.name;
-        if (cdr) {
-          auto c = std::make_unique<Channel>();
-          c->topic = base;
-          c->kind = Kind::kCdr;
-          c->encoding = cdr->message_encoding;
-          c->schema_name = cdr->schema_name;
-          c->schema_encoding = cdr->schema_encoding;
-          c->schema = cdr->schema;
-          c->cdr = cdr;
-          c->source = source.get();
-          topics.push_back(c->topic);
-          add(std::move(c));
-        }
-        if (has_picture(out.type)) {
-          auto c = std::make_unique<Channel>();
-          c->topic = base + "/jpeg";
-          c->kind = Kind::kJpeg;
-          c->encoding = "cdr";
-          c->schema_name = "sensor_msgs/msg/CompressedImage";
-          c->schema_encoding = "ros2msg";
-          c->schema = compressed_image_schema();
-          c->source = source.get();
-          topics.push_back(c->topic);
-          add(std::move(c));
-        } else if (described) {
-          auto c = std::make_unique<Channel>();
-          c->topic = base + "/json";
-          c->kind = Kind::kJson;
-          c->encoding = "json";
-          c->schema_name = out.type;
-          c->schema_encoding = "jsonschema";
-          c->schema = json_schema(out.type);
-          c->source = source.get();
-          topics.push_back(c->topic);
-          add(std::move(c));
-        }
-        sources_.push_back(std::move(source));
-      }
-      outputs.push_back({{"name", out.name}, {"type", out.type}, {"topics", std::move(topics)}});
-    }
-    nodes.push_back({{"name", n.decl.name},
-                     {"plugin", n.decl.plugin},
-                     {"inputs", std::move(inputs)},
-                     {"outputs", std::move(outputs)}});
-  }
-  {
-    auto c = std::make_unique<Channel>();
-    c->topic = "/saccade/stats";
-    c->kind = Kind::kStats;
-    c->encoding = "json";
-    c->schema_name = "saccade.Stats";
-    c->schema_encoding = "jsonschema";
-    c->schema = R"({"type":"object","properties":{"view":{"type":"object"},"stats":{"type":"object"}}})";
-    add(std::move(c));
-  }
+namespace {
+
+std::unique_ptr<Channel> make_channel(std::string topic, Kind kind, std::string encoding, std::string schema_name,
+                                      std::string schema_encoding, std::string schema, Source* source) {
+  auto c = std::make_unique<Channel>();
+  c->topic = std::move(topic);
+  c->kind = kind;
+  c->encoding = std::move(encoding);
+  c->schema_name = std::move(schema_name);
+  c->schema_encoding = std::move(schema_encoding);
+  c->schema = std::move(schema);
+  c->source = source;
+  return c;
+}
+
+// The graph's edges as /api/graph gives them.
+json edges_json(const ResolvedGraph& graph) {
   json edges = json::array();
   for (const ResolvedEdge& e : graph.edges) {
     const ResolvedNode& from = graph.nodes[static_cast<std::size_t>(e.from_node)];
@@ -632,6 +559,93 @@ void Server::build_channels() {
                      {"to_port", to.contract.inputs()[static_cast<std::size_t>(e.to_port)].name},
                      {"delay", e.delay}});
   }
+  return edges;
+}
+
+}  // namespace
+
+void Server::add_channel(std::unique_ptr<Channel> c, json& advertised) {
+  c->id = static_cast<uint32_t>(channels_.size());
+  advertised.push_back({{"id", c->id},
+                        {"topic", c->topic},
+                        {"encoding", c->encoding},
+                        {"schemaName", c->schema_name},
+                        {"schema", c->schema},
+                        {"schemaEncoding", c->schema_encoding}});
+  channels_.push_back(std::move(c));
+}
+
+// A node's inputs for /api/graph; a side input that takes a Region becomes a
+// topic clients may publish to (a box dragged on the page, for the fovea).
+json Server::input_ports(const ResolvedNode& n, json& targets) {
+  json inputs = json::array();
+  for (const PortSpec& in : n.contract.inputs()) {
+    const char* kind = in.kind == InputKind::kSide ? "side" : in.kind == InputKind::kOptional ? "optional" : "trigger";
+    json j = {{"name", in.name}, {"type", in.type}, {"kind", kind}};
+    if (in.kind == InputKind::kSide && (in.type == Region::kTypeName)) {
+      const std::string topic = "/" + n.decl.name + "/" + in.name;
+      targets_[topic] = Target{n.decl.name, in.name};
+      j["topic"] = topic;
+      targets.push_back({{"node", n.decl.name}, {"input", in.name}, {"topic", topic}});
+    }
+    inputs.push_back(std::move(j));
+  }
+  return inputs;
+}
+
+// An output's channels: its CDR form where it has one, and a picture of it
+// (JPEG) or its JSON; their topics.
+json Server::output_channels(const std::string& node, const PortSpec& out, json& advertised) {
+  json topics = json::array();
+  const dds::ChannelEncoding* cdr = dds::channel_encoding(out.type);
+  const bool described = !json_schema(out.type).empty();
+  if (!cdr && !described) return topics;
+  auto source = std::make_unique<Source>();
+  source->node = node;
+  source->port = out.name;
+  source->type = out.type;
+  const std::string base = "/" + node + "/" + out.name;
+  if (cdr) {
+    auto c = make_channel(base, Kind::kCdr, cdr->message_encoding, cdr->schema_name, cdr->schema_encoding,
+                          cdr->schema, source.get());
+    c->cdr = cdr;
+    topics.push_back(c->topic);
+    add_channel(std::move(c), advertised);
+  }
+  if (has_picture(out.type)) {
+    auto c = make_channel(base + "/jpeg", Kind::kJpeg, "cdr", "sensor_msgs/msg/CompressedImage", "ros2msg",
+                          compressed_image_schema(), source.get());
+    topics.push_back(c->topic);
+    add_channel(std::move(c), advertised);
+  } else if (described) {
+    auto c = make_channel(base + "/json", Kind::kJson, "json", out.type, "jsonschema", json_schema(out.type),
+                          source.get());
+    topics.push_back(c->topic);
+    add_channel(std::move(c), advertised);
+  }
+  sources_.push_back(std::move(source));
+  return topics;
+}
+
+void Server::build_channels() {
+  const ResolvedGraph& graph = executor_.graph();
+  json channels = json::array();
+  json nodes = json::array();
+  json targets = json::array();
+  for (const ResolvedNode& n : graph.nodes) {
+    json outputs = json::array();
+    for (const PortSpec& out : n.contract.outputs())
+      outputs.push_back(
+          {{"name", out.name}, {"type", out.type}, {"topics", output_channels(n.decl.name, out, channels)}});
+    nodes.push_back({{"name", n.decl.name},
+                     {"plugin", n.decl.plugin},
+                     {"inputs", input_ports(n, targets)},
+                     {"outputs", std::move(outputs)}});
+  }
+  add_channel(make_channel("/saccade/stats", Kind::kStats, "json", "saccade.Stats", "jsonschema",
+                           R"({"type":"object","properties":{"view":{"type":"object"},"stats":{"type":"object"}}})",
+                           nullptr),
+              channels);
   server_info_ = json{{"op", "serverInfo"},
                       {"name", "saccade " + graph.name},
                       {"capabilities", json::array({"clientPublish"})},
@@ -640,7 +654,7 @@ void Server::build_channels() {
                       {"sessionId", std::to_string(wall_ns())}}
                      .dump();
   advertise_ = json{{"op", "advertise"}, {"channels", std::move(channels)}}.dump();
-  graph_json_ = json{{"name", graph.name}, {"nodes", std::move(nodes)}, {"edges", std::move(edges)},
+  graph_json_ = json{{"name", graph.name}, {"nodes", std::move(nodes)}, {"edges", edges_json(graph)},
                      {"targets", std::move(targets)}}
                     .dump();
 }
