@@ -71,8 +71,9 @@ bench-view: build
 	$(BUILD)/bin/saccade_view_bench --graph graphs/demo.xml $(VIEW_ARGS)
 
 # libFuzzer on the graph loader, the channel (DDS/MCAP) decoders, the CAN tunnel
-# and CiA 402 frames, and image-sequence patterns: a clang build with ASan and
-# UBSan under build/fuzz, FUZZ_SECONDS each (default 60; CI runs them briefly).
+# and CiA 402 frames, image-sequence patterns, the command line, MCAP files and
+# the live view's client messages: a clang build with ASan and UBSan under
+# build/fuzz, FUZZ_SECONDS each (default 60; CI runs them briefly).
 FUZZ_SECONDS ?= 60
 fuzz: deps
 	@cmake -S . -B build/fuzz -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \

@@ -159,28 +159,17 @@ TEST(FaultsHeadLoop, CanPacketsDroppedDuplicatedReorderedAndCorrupted) {
     const LoopRun run = run_loop(o, false);
     ASSERT_GT(run.state.size(), 1000u);
     // What the faults did, on each side's sender and receiver.
-    std::printf("[ fault ] CAN faults round %d (seed %u): master sent %llu frames: dropped %llu, duplicated %llu, "
-                "reordered %llu, corrupted %llu; the drives got %llu (packets unauthenticated %llu, replayed %llu, lost %llu)\n",
-                round, seed, static_cast<unsigned long long>(run.counter("driver.bus_sent")),
-                static_cast<unsigned long long>(run.counter("driver.bus_dropped")),
-                static_cast<unsigned long long>(run.counter("driver.bus_duplicated")),
-                static_cast<unsigned long long>(run.counter("driver.bus_reordered")),
-                static_cast<unsigned long long>(run.counter("driver.bus_corrupted")),
-                static_cast<unsigned long long>(run.counter("drives.bus_received")),
-                static_cast<unsigned long long>(run.counter("drives.bus_unauthenticated")),
-                static_cast<unsigned long long>(run.counter("drives.bus_replayed")),
-                static_cast<unsigned long long>(run.counter("drives.bus_lost")));
-    std::printf("[ fault ]   drives sent %llu: dropped %llu, duplicated %llu, reordered %llu, corrupted %llu; the "
-                "master got %llu (packets unauthenticated %llu, replayed %llu, lost %llu)\n",
-                static_cast<unsigned long long>(run.counter("drives.bus_sent")),
-                static_cast<unsigned long long>(run.counter("drives.bus_dropped")),
-                static_cast<unsigned long long>(run.counter("drives.bus_duplicated")),
-                static_cast<unsigned long long>(run.counter("drives.bus_reordered")),
-                static_cast<unsigned long long>(run.counter("drives.bus_corrupted")),
-                static_cast<unsigned long long>(run.counter("driver.bus_received")),
-                static_cast<unsigned long long>(run.counter("driver.bus_unauthenticated")),
-                static_cast<unsigned long long>(run.counter("driver.bus_replayed")),
-                static_cast<unsigned long long>(run.counter("driver.bus_lost")));
+    auto print_link = [&](const std::string& sender, const std::string& receiver) {
+      auto n = [&](const std::string& counter) { return static_cast<unsigned long long>(run.counter(counter)); };
+      std::printf("[ fault ] CAN faults round %d (seed %u): %s sent %llu frames: dropped %llu, duplicated %llu, "
+                  "reordered %llu, corrupted %llu; %s got %llu (packets unauthenticated %llu, replayed %llu, lost %llu)\n",
+                  round, seed, sender.c_str(), n(sender + ".bus_sent"), n(sender + ".bus_dropped"),
+                  n(sender + ".bus_duplicated"), n(sender + ".bus_reordered"), n(sender + ".bus_corrupted"),
+                  receiver.c_str(), n(receiver + ".bus_received"), n(receiver + ".bus_unauthenticated"),
+                  n(receiver + ".bus_replayed"), n(receiver + ".bus_lost"));
+    };
+    print_link("driver", "drives");
+    print_link("drives", "driver");
     for (const std::string node : {"driver", "drives"}) {
       for (const std::string c : {"dropped", "duplicated", "reordered", "corrupted"})
         EXPECT_GT(run.counter(node + ".bus_" + c), 0u) << node << " " << c;
