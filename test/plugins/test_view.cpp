@@ -362,11 +362,14 @@ TEST(View, MalformedAndOversizeMessagesAreDroppedAndCounted) {
   EXPECT_TRUE(eventually([&] { return run.processed("fovea") > before + 3; }));
 }
 
-// `count` 640x480 frames as fast as the graph goes, through a retina or
-// straight, to a sink; a view on any free port that would send them all.
-std::string fast_graph(int count, bool with_retina) {
+// `count` 640x480 frames as fast as the graph goes (or at `fps`), through a
+// retina or straight, to a sink; a view on any free port that would send them all.
+std::string fast_graph(int count, bool with_retina, double fps = 0) {
+  const std::string pace = fps > 0 ? "<param name=\"rate\" value=\"realtime\"/><param name=\"fps\" value=\"" +
+                                         std::to_string(fps) + "\"/>"
+                                   : "";
   const std::string scene = "<node name=\"scene\" plugin=\"capture.synthetic\"><param name=\"size\" value=\"640x480\"/>"
-                            "<param name=\"count\" value=\"" + std::to_string(count) + "\"/></node>"
+                            "<param name=\"count\" value=\"" + std::to_string(count) + "\"/>" + pace + "</node>"
                             "<node name=\"sink\" plugin=\"util.null\"/>";
   const std::string path = with_retina ? "<node name=\"retina\" plugin=\"retina\"/>"
                                          "<edge from=\"scene.image\" to=\"retina.image\" queue=\"block:2\"/>"
@@ -402,11 +405,12 @@ TEST(View, AClientThatNeverReadsDoesNotHoldTheGraph) {
 }
 
 TEST(View, ATightCpuShareSlowsThePicturesNotTheGraph) {
-  // The view may take 0.1% of a core: the first pictures go out, then the
-  // rest wait for the allowance (counted) while the graph runs on at full speed.
-  auto graph = test::open_graph(fast_graph(400, false), two_threads());
+  // 400 frames at 200 Hz for 2 s; the view may take 1% of a core (10 ms a
+  // second, a few 640x480 JPEGs): pictures still go out, most wait for the
+  // allowance (counted), and the graph gets every frame.
+  auto graph = test::open_graph(fast_graph(400, false, 200), two_threads());
   view::ViewOptions options = fast_view();
-  options.cpu_share = 0.001;
+  options.cpu_share = 0.01;
   std::string error;
   auto server = view::start_view(*graph->executor, options, error);
   ASSERT_TRUE(server) << error;
