@@ -745,6 +745,18 @@ bool Reader::parse_definition(uint8_t op, const uint8_t* p, uint64_t len, uint64
   return true;
 }
 
+void Reader::read_chunk_definitions(uint64_t offset, std::string& error) {
+  Cursor inner(chunk_data_, chunk_size_);
+  while (inner.left() >= kRecordHeader) {
+    const uint8_t op = *inner.here();
+    uint64_t len = 0;
+    std::memcpy(&len, inner.here() + 1, 8);
+    if (len > inner.left() - kRecordHeader) break;
+    if (op == kSchema || op == kChannel) parse_definition(op, inner.here() + kRecordHeader, len, offset, error);
+    inner.skip(kRecordHeader + len);
+  }
+}
+
 std::string Reader::scan_definitions() {
   uint64_t pos = data_start_;
   const uint64_t end = data_end_;
@@ -764,17 +776,7 @@ std::string Reader::scan_definitions() {
     if (len > end - pos - kRecordHeader) {
       data_end_ = pos;
       // A cut chunk may still hold whole records (uncompressed chunks).
-      if (op == kChunk && load_chunk(pos, end - pos, true).empty()) {
-        Cursor inner(chunk_data_, chunk_size_);
-        while (inner.left() >= kRecordHeader) {
-          const uint8_t iop = *inner.here();
-          uint64_t ilen = 0;
-          std::memcpy(&ilen, inner.here() + 1, 8);
-          if (ilen > inner.left() - kRecordHeader) break;
-          if (iop == kSchema || iop == kChannel) parse_definition(iop, inner.here() + kRecordHeader, ilen, pos, error);
-          inner.skip(kRecordHeader + ilen);
-        }
-      }
+      if (op == kChunk && load_chunk(pos, end - pos, true).empty()) read_chunk_definitions(pos, error);
       return fail(pos, std::string("truncated: a ") + op_name(op) + " record of " + std::to_string(len) +
                            " bytes runs past the end of the file (" + std::to_string(size_) + " bytes)");
     }
@@ -786,17 +788,7 @@ std::string Reader::scan_definitions() {
       }
     } else if (op == kChunk) {
       const std::string why = load_chunk(pos, kRecordHeader + len, false);
-      if (why.empty()) {
-        Cursor inner(chunk_data_, chunk_size_);
-        while (inner.left() >= kRecordHeader) {
-          const uint8_t iop = *inner.here();
-          uint64_t ilen = 0;
-          std::memcpy(&ilen, inner.here() + 1, 8);
-          if (ilen > inner.left() - kRecordHeader) break;
-          if (iop == kSchema || iop == kChannel) parse_definition(iop, inner.here() + kRecordHeader, ilen, pos, error);
-          inner.skip(kRecordHeader + ilen);
-        }
-      }
+      if (why.empty()) read_chunk_definitions(pos, error);
     } else if (op < kHeader || op > kDataEnd) {
       data_end_ = pos;
       return fail(pos, "corrupted: a record with opcode " + std::to_string(op) + ", which MCAP does not have");

@@ -190,6 +190,8 @@ class Reader {
   std::string read_summary();
   std::string scan_definitions();  // schemas and channels from the data section
   bool parse_definition(uint8_t op, const uint8_t* p, uint64_t len, uint64_t offset, std::string& error);
+  // The schemas and channels inside the loaded chunk (at `offset`), up to its first cut record.
+  void read_chunk_definitions(uint64_t offset, std::string& error);
   // Decompresses the chunk record at `offset` into chunk_; "" or the error.
   std::string load_chunk(uint64_t offset, uint64_t length, bool allow_cut);
   bool wanted(uint16_t channel) const;
