@@ -21,6 +21,8 @@
 #include <set>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "channel.hpp"
 #include "recording.hpp"
 #include "saccade/executor.hpp"
@@ -153,40 +155,6 @@ int record(const std::vector<std::string>& args) {
 }
 
 
-// The top-level "key":value pairs of one JSON object as append_json writes it
-// (no whitespace), values as text.
-std::vector<std::pair<std::string, std::string>> json_fields(const std::string& object) {
-  std::vector<std::pair<std::string, std::string>> out;
-  std::size_t i = 1;  // past '{'
-  while (i < object.size() && object[i] == '"') {
-    const std::size_t key_end = object.find('"', i + 1);
-    std::string key = object.substr(i + 1, key_end - i - 1);
-    const std::size_t value_start = key_end + 2;  // past '":'
-    int depth = 0;
-    bool in_string = false;
-    std::size_t j = value_start;
-    for (; j < object.size(); ++j) {
-      const char c = object[j];
-      if (in_string) {
-        if (c == '\\') ++j;
-        else if (c == '"') in_string = false;
-      } else if (c == '"') {
-        in_string = true;
-      } else if (c == '{' || c == '[') {
-        ++depth;
-      } else if (c == '}' || c == ']') {
-        if (depth == 0) break;
-        --depth;
-      } else if (c == ',' && depth == 0) {
-        break;
-      }
-    }
-    out.emplace_back(std::move(key), object.substr(value_start, j - value_start));
-    i = j + 1;
-  }
-  return out;
-}
-
 std::string shorten(const std::string& value) { return value.size() > 160 ? value.substr(0, 157) + "..." : value; }
 
 // "" when the topic's messages are equal in both files, else the first difference.
@@ -211,13 +179,15 @@ std::string compare_topic(const std::string& a, const std::string& b, const std:
       json[k].clear();
       append_json(json[k], *m[k]);
     }
-    const auto fa = json_fields(json[0]), fb = json_fields(json[1]);
-    for (std::size_t f = 0; f < std::max(fa.size(), fb.size()); ++f) {
-      if (f >= fa.size() || f >= fb.size() || fa[f].first != fb[f].first)
-        return where + ": the messages have different fields";
-      if (ignored.count(fa[f].first) != 0 || fa[f].second == fb[f].second) continue;
-      return where + " (frame " + std::to_string(m[0]->frame_id) + "): " + fa[f].first + " is " +
-             shorten(fa[f].second) + " in " + a + ", " + shorten(fb[f].second) + " in " + b;
+    // In the order the type names its fields, so the first difference is the first field that differs.
+    const auto fa = nlohmann::ordered_json::parse(json[0]), fb = nlohmann::ordered_json::parse(json[1]);
+    if (fa.size() != fb.size()) return where + ": the messages have different fields";
+    for (auto field = fa.begin(); field != fa.end(); ++field) {
+      const auto other = fb.find(field.key());
+      if (other == fb.end()) return where + ": the messages have different fields";
+      if (ignored.count(field.key()) != 0 || *field == *other) continue;
+      return where + " (frame " + std::to_string(m[0]->frame_id) + "): " + field.key() + " is " +
+             shorten(field->dump()) + " in " + a + ", " + shorten(other->dump()) + " in " + b;
     }
   }
 }

@@ -832,15 +832,19 @@ TEST(McapHeadLoop, ALiveHeadLoopRecordingReplaysWithTheSameJointTargets) {
   EXPECT_GT(differ, 0u);
 }
 
-// `saccade_mcap compare`: equal files, a changed field, a shorter file.
-std::pair<int, std::string> run_tool(const std::string& args) {
-  const std::string command = std::string(SACCADE_BINARY_DIR) + "/bin/saccade_mcap compare " + args + " 2>&1";
-  std::FILE* pipe = popen(command.c_str(), "r");
+// A shell command's exit status (-1 when it did not exit) and what it printed, stderr included.
+std::pair<int, std::string> run_shell(const std::string& command) {
+  std::FILE* pipe = popen((command + " 2>&1").c_str(), "r");
   std::string text;
   char buffer[4096];
   while (std::size_t n = std::fread(buffer, 1, sizeof buffer, pipe)) text.append(buffer, n);
   const int status = pclose(pipe);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text};
+}
+
+// `saccade_mcap compare`: equal files, a changed field, a shorter file.
+std::pair<int, std::string> run_tool(const std::string& args) {
+  return run_shell(std::string(SACCADE_BINARY_DIR) + "/bin/saccade_mcap compare " + args);
 }
 
 TEST(McapTool, CompareNamesTheFirstDifferenceAndExitsOneWhenTopicsDiffer) {
@@ -887,12 +891,7 @@ std::optional<nlohmann::json> reference_read(const std::string& path) {
   }
   fs::copy_file(fs::path(SACCADE_SOURCE_DIR) / "test" / "mcap" / "read_mcap.mjs", dir / "read_mcap.mjs",
                 fs::copy_options::overwrite_existing);
-  const std::string command = "node '" + (dir / "read_mcap.mjs").string() + "' '" + path + "' 2>&1";
-  std::FILE* pipe = popen(command.c_str(), "r");
-  std::string text;
-  char buffer[4096];
-  while (std::size_t n = std::fread(buffer, 1, sizeof buffer, pipe)) text.append(buffer, n);
-  const int status = pclose(pipe);
+  const auto [status, text] = run_shell("node '" + (dir / "read_mcap.mjs").string() + "' '" + path + "'");
   EXPECT_EQ(status, 0) << text;
   if (status != 0) return nlohmann::json();
   return nlohmann::json::parse(text);
