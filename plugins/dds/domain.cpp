@@ -108,6 +108,7 @@ std::shared_ptr<Domain> Domain::get(int domain_id, std::string* error) {
     auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
     shm->segment_size(settings.shm_segment_bytes);
     shm->max_message_size(settings.shm_segment_bytes / 2);
+    shm->healthy_check_timeout_ms(settings.shm_health_check_ms);
     qos.transport().user_transports.push_back(shm);
     auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
     udp->sendBufferSize = settings.udp_buffer_bytes;

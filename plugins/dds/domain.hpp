@@ -24,6 +24,13 @@ struct TransportSettings {
   uint32_t shm_segment_bytes = 16u << 20;
   // UDP socket buffers; the kernel caps them at net.core.rmem_max / wmem_max.
   uint32_t udp_buffer_bytes = 4u << 20;
+  // How long a process opening a shared-memory port waits for the port's
+  // listeners to show they are alive. A process killed while listening leaves
+  // its listener in the port (the discovery port every participant shares);
+  // each new participant then waits the whole timeout before it rebuilds the
+  // port. Fast DDS' 1000 ms made a restarted process meet its peer 1-3 s late
+  // (one wait per port); live listeners answer every third of it.
+  uint32_t shm_health_check_ms = 250;
 };
 
 // The QoS of one edge's topic, from the bridges' parameters (or a benchmark).
