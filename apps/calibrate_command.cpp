@@ -54,14 +54,15 @@ void print_pairs(const kinematics::CalibrationResult& result) {
 }  // namespace
 
 CLI::App* add_calibrate_command(CLI::App& app, CalibrateArgs& args) {
-  auto* cmd = app.add_subcommand("calibrate",
-                                 "stereo calibration of the head's cameras (at the joints' zero) from board image pairs");
+  auto* cmd = app.add_subcommand(
+      "calibrate", "stereo calibration of the head's cameras (at the joints' zero) from board image pairs");
   cmd->add_option("--list", args.lists,
                   "OpenCV image-list file (as stereo_calib.xml): left, right, left, right ...; names relative to it")
       ->expected(1);
   cmd->add_option("--left", args.left, "left images, in pair order (e.g. left*.jpg)");
   cmd->add_option("--right", args.right, "right images, in the same order");
-  cmd->add_option("--board", args.board, "board size WxH: a chessboard's inner corners (9x6), a ChArUco board's squares")
+  cmd->add_option("--board", args.board,
+                  "board size WxH: a chessboard's inner corners (9x6), a ChArUco board's squares")
       ->required();
   cmd->add_option("--square", args.square, "side of a square, metres (sets the unit of the baseline)")->required();
   cmd->add_option("--charuco", args.charuco, "a ChArUco board with markers of this dictionary (e.g. DICT_4X4_50)");
@@ -89,9 +90,7 @@ int calibrate_command(const CalibrateArgs& args) {
     bool written = false;
     try {
       written = cv::imwrite(args.draw_board, kinematics::draw_charuco_board(board, args.draw_pixels));
-    } catch (const cv::Exception& e) {
-      return fail("cannot write '" + args.draw_board + "': " + e.err);
-    }
+    } catch (const cv::Exception& e) { return fail("cannot write '" + args.draw_board + "': " + e.err); }
     if (!written) return fail("cannot write '" + args.draw_board + "'");
     std::printf("wrote %s: %s\n", args.draw_board.c_str(), board.describe().c_str());
     return 0;
@@ -125,8 +124,9 @@ int calibrate_command(const CalibrateArgs& args) {
     std::printf("each camera alone: RMS %.4f px (left), %.4f px (right)\n", result.left_rms, result.right_rms);
   std::printf("stereo calibration: RMS %.4f px, average epipolar error %.4f px\n", c.rms, c.epipolar_error);
   if (c.rms > 1.0)
-    std::printf("warning: an RMS over 1 px is poor: are the left and right images in the same order, and the board "
-                "still during each pair?\n");
+    std::printf(
+        "warning: an RMS over 1 px is poor: are the left and right images in the same order, and the board "
+        "still during each pair?\n");
   std::printf("left:  fx %.2f fy %.2f cx %.2f cy %.2f  distortion %s\n", c.left_matrix(0, 0), c.left_matrix(1, 1),
               c.left_matrix(0, 2), c.left_matrix(1, 2), join(c.left_distortion).c_str());
   std::printf("right: fx %.2f fy %.2f cx %.2f cy %.2f  distortion %s\n", c.right_matrix(0, 0), c.right_matrix(1, 1),

@@ -11,7 +11,7 @@ namespace saccade {
 struct CalibrateArgs {
   std::vector<std::string> lists;        // OpenCV image-list files: left, right, left, right ...
   std::vector<std::string> left, right;  // or the images, in pair order
-  std::string board;  // WxH
+  std::string board;                     // WxH
   double square = 0;
   std::string charuco;  // dictionary name: a ChArUco board
   double marker = 0;

@@ -19,8 +19,8 @@ namespace {
 
 // Accepted before or after the subcommand (the subcommands fall through to them).
 void add_global_options(CLI::App& app, Common& common) {
-  app.set_version_flag("--version", std::string("saccade ") + SACCADE_VERSION + " (plugin ABI " +
-                                        std::to_string(kAbiVersion) + ")");
+  app.set_version_flag("--version",
+                       std::string("saccade ") + SACCADE_VERSION + " (plugin ABI " + std::to_string(kAbiVersion) + ")");
   app.add_option("--plugin-path", common.plugin_path, "extra plugin folders, ':'-separated (searched first)");
   app.add_option("--log-level", common.log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
@@ -47,9 +47,12 @@ CLI::App* add_run_command(CLI::App& app, GraphArgs& graph, RunArgs& args) {
   // NaN and -1 ran forever.
   run->add_option("--duration", args.options.duration_s, "stop after S seconds")
       ->check(finite_above(0, false, "a positive number of seconds"));
-  run->add_option("--threads", args.options.threads, "worker threads (default: one per core)")->check(CLI::Range(0, 256));
-  run->add_flag("--deterministic", args.options.deterministic, "one thread, fixed order: same input, bit-identical output");
-  args.stats = run->add_option("--stats", args.stats_interval, "print per-node stats at exit, and every INTERVAL seconds if given")
+  run->add_option("--threads", args.options.threads, "worker threads (default: one per core)")
+      ->check(CLI::Range(0, 256));
+  run->add_flag("--deterministic", args.options.deterministic,
+                "one thread, fixed order: same input, bit-identical output");
+  args.stats = run->add_option("--stats", args.stats_interval,
+                               "print per-node stats at exit, and every INTERVAL seconds if given")
                    ->expected(0, 1)
                    ->default_val(0)
                    ->check(finite_above(0, true, "an interval of 0 or more seconds"));
@@ -70,12 +73,14 @@ CLI::App* add_run_command(CLI::App& app, GraphArgs& graph, RunArgs& args) {
   run->add_option("--set", graph.sets, "override a parameter: node.param=value (repeatable)");
   run->add_option("--process", graph.process,
                   "run only this process's part of the graph; its edges to other processes become DDS topics");
-  run->add_option("--domain", graph.overrides.domain, "DDS domain of the edges between processes (default: the graph's)")
+  run->add_option("--domain", graph.overrides.domain,
+                  "DDS domain of the edges between processes (default: the graph's)")
       ->check(CLI::Range(0, 232));
   run->add_option("--topic-prefix", graph.overrides.topic_prefix,
                   "prefix of their DDS topics (default: the graph's topic_prefix, else its name)");
-  run->add_option("--security", args.security,
-                  "DDS Security: this participant's folder made by scripts/make-security.sh (sets SACCADE_DDS_SECURITY)")
+  run->add_option(
+         "--security", args.security,
+         "DDS Security: this participant's folder made by scripts/make-security.sh (sets SACCADE_DDS_SECURITY)")
       ->check(CLI::ExistingDirectory);
   run->add_flag("--progress,!--no-progress", args.progress,
                 "a progress line on stderr: frames (of how many), rate, ETA (default: when stderr is a terminal)");
@@ -111,7 +116,8 @@ CLI::App* add_plugins_command(CLI::App& app, PluginsArgs& args) {
 }
 
 CLI::App* add_completion_command(CLI::App& app, CompletionArgs& args) {
-  auto* completion = app.add_subcommand("completion", "print a shell completion script: source <(saccade completion bash)");
+  auto* completion =
+      app.add_subcommand("completion", "print a shell completion script: source <(saccade completion bash)");
   completion->add_option("shell", args.shell, "the shell (bash)")->check(CLI::IsMember({"bash"}));
   completion->add_option("-o,--output", args.out, "write it to FILE instead");
   return completion;
@@ -135,14 +141,18 @@ CLI::App* add_train_command(CLI::App& app, TrainArgs& args) {
   train->add_option("--size", args.size, "each map reduced to WxH (grad_hist: its cell grid)");
   train->add_option("--hidden", args.hidden, "hidden layer sizes, e.g. 64 or 128,32");
   train->add_option("--epochs", training.train.epochs, "training epochs")->check(CLI::Range(1, 1000000));
-  train->add_option("--method", args.method, "backprop (online; the default) or rprop (batch; each epoch restarts its steps)")->check(CLI::IsMember({"rprop", "backprop"}));
+  train
+      ->add_option("--method", args.method,
+                   "backprop (online; the default) or rprop (batch; each epoch restarts its steps)")
+      ->check(CLI::IsMember({"rprop", "backprop"}));
   train->add_option("--learning-rate", training.train.learning_rate, "backprop: learning rate");
   train->add_option("--validation", training.validation, "share of each class kept for validation (the last files)")
       ->check(CLI::Range(0.0, 0.9));
   train->add_option("--seed", training.train.seed,
                     "seed of the order samples are presented in (OpenCV fixes the initial weights itself)");
   train->add_option("--video-step", training.video_step, "videos: use every Nth frame")->check(CLI::Range(1, 100000));
-  train->add_option("--report-every", training.report_every, "epochs between progress lines")->check(CLI::Range(1, 100000));
+  train->add_option("--report-every", training.report_every, "epochs between progress lines")
+      ->check(CLI::Range(1, 100000));
   return train;
 }
 
@@ -181,9 +191,7 @@ std::optional<int> parse_command_line(CommandLine& line, int argc, const char* c
     bool huge = false;
     try {
       huge = std::stoll(value) == std::numeric_limits<long long>::min();
-    } catch (const std::out_of_range&) {
-      huge = true;
-    } catch (const std::invalid_argument&) {
+    } catch (const std::out_of_range&) { huge = true; } catch (const std::invalid_argument&) {
       // not a number: CLI11's own error
     }
     if (huge) {
@@ -193,9 +201,7 @@ std::optional<int> parse_command_line(CommandLine& line, int argc, const char* c
   }
   try {
     line.app.parse(argc, args.data());
-  } catch (const CLI::ParseError& e) {
-    return line.app.exit(e, out, err);
-  }
+  } catch (const CLI::ParseError& e) { return line.app.exit(e, out, err); }
   return std::nullopt;
 }
 
@@ -216,8 +222,8 @@ std::string parse_training_options(TrainArgs& args) {
   training.recipe.features = *features;
   training.recipe.size = cv::Size(w, h);
   training.train.hidden = *hidden;
-  training.train.method = args.method == "backprop" ? classifier::TrainConfig::Method::kBackprop
-                                                    : classifier::TrainConfig::Method::kRprop;
+  training.train.method =
+      args.method == "backprop" ? classifier::TrainConfig::Method::kBackprop : classifier::TrainConfig::Method::kRprop;
   return {};
 }
 

@@ -48,8 +48,8 @@ struct RunArgs {
   std::string record;                          // an MCAP file of every edge
   std::string record_compression = "zstd";
   bool record_lossless = false;
-  std::string view;                            // [ADDR:]PORT of the live view
-  double view_cpu = 0.04;                      // the share of a core the live view may take
+  std::string view;        // [ADDR:]PORT of the live view
+  double view_cpu = 0.04;  // the share of a core the live view may take
 };
 
 struct PluginsArgs {

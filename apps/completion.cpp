@@ -50,17 +50,20 @@ std::string bash_completion(const CLI::App& app) {
   // Options whose value is a folder; the other values are files, or free text
   // (no completion) for these.
   const std::set<std::string> folders = {"--plugin-path", "--security"};
-  const std::set<std::string> free_text = {"--frames", "--duration", "--threads", "--set", "--process", "--domain",
-                                           "--topic-prefix", "--levels", "--features", "--size", "--hidden",
-                                           "--epochs", "--learning-rate", "--validation", "--seed", "--video-step",
-                                           "--report-every", "--board", "--square", "--charuco", "--marker", "--min-pairs",
-                                           "--pixels"};
+  const std::set<std::string> free_text = {
+      "--frames",        "--duration",   "--threads",  "--set",        "--process",      "--domain",
+      "--topic-prefix",  "--levels",     "--features", "--size",       "--hidden",       "--epochs",
+      "--learning-rate", "--validation", "--seed",     "--video-step", "--report-every", "--board",
+      "--square",        "--charuco",    "--marker",   "--min-pairs",  "--pixels"};
   std::set<std::string> folder_values, free_values, file_values;
   for (const std::string& o : takes_value) {
     if (o == "--log-level" || o == "--method") continue;
-    if (folders.count(o)) folder_values.insert(o);
-    else if (free_text.count(o)) free_values.insert(o);
-    else file_values.insert(o);
+    if (folders.count(o))
+      folder_values.insert(o);
+    else if (free_text.count(o))
+      free_values.insert(o);
+    else
+      file_values.insert(o);
   }
   std::string s;
   s += "# bash completion for saccade (made by `saccade completion bash`)\n";
@@ -80,9 +83,11 @@ std::string bash_completion(const CLI::App& app) {
   s += "  case \"$prev\" in\n";
   s += "    --log-level) COMPREPLY=($(compgen -W \"trace debug info warn error off\" -- \"$cur\")); return ;;\n";
   s += "    --method) COMPREPLY=($(compgen -W \"backprop rprop\" -- \"$cur\")); return ;;\n";
-  if (!folder_values.empty()) s += "    " + join(folder_values, "|") + ") COMPREPLY=($(compgen -d -- \"$cur\")); return ;;\n";
+  if (!folder_values.empty())
+    s += "    " + join(folder_values, "|") + ") COMPREPLY=($(compgen -d -- \"$cur\")); return ;;\n";
   if (!free_values.empty()) s += "    " + join(free_values, "|") + ") return ;;\n";
-  if (!file_values.empty()) s += "    " + join(file_values, "|") + ") COMPREPLY=($(compgen -f -- \"$cur\")); return ;;\n";
+  if (!file_values.empty())
+    s += "    " + join(file_values, "|") + ") COMPREPLY=($(compgen -f -- \"$cur\")); return ;;\n";
   s += "  esac\n";
   s += "  if [[ -z \"$cmd\" ]]; then\n";
   s += "    if [[ \"$cur\" == -* ]]; then COMPREPLY=($(compgen -W \"" + option_words(app) + "\" -- \"$cur\"));\n";
@@ -94,7 +99,8 @@ std::string bash_completion(const CLI::App& app) {
   s += "    return\n  fi\n";
   s += "  case \"$cmd\" in\n";
   s += "    run|check|plan|dot) COMPREPLY=($(compgen -f -X '!*.xml' -- \"$cur\") $(compgen -d -- \"$cur\")) ;;\n";
-  s += "    plugins) COMPREPLY=($(compgen -W \"$(\"${COMP_WORDS[0]}\" plugins --names 2>/dev/null)\" -- \"$cur\")) ;;\n";
+  s +=
+      "    plugins) COMPREPLY=($(compgen -W \"$(\"${COMP_WORDS[0]}\" plugins --names 2>/dev/null)\" -- \"$cur\")) ;;\n";
   s += "    completion) COMPREPLY=($(compgen -W \"bash\" -- \"$cur\")) ;;\n";
   s += "    *) COMPREPLY=($(compgen -f -- \"$cur\")) ;;\n";
   s += "  esac\n";

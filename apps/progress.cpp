@@ -9,9 +9,12 @@ namespace {
 
 std::string seconds(double s) {
   char buf[32];
-  if (s < 60) std::snprintf(buf, sizeof buf, "%.1f s", s);
-  else if (s < 3600) std::snprintf(buf, sizeof buf, "%d min %02d s", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
-  else std::snprintf(buf, sizeof buf, "%d h %02d min", static_cast<int>(s) / 3600, static_cast<int>(s) / 60 % 60);
+  if (s < 60)
+    std::snprintf(buf, sizeof buf, "%.1f s", s);
+  else if (s < 3600)
+    std::snprintf(buf, sizeof buf, "%d min %02d s", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%d h %02d min", static_cast<int>(s) / 3600, static_cast<int>(s) / 60 % 60);
   return buf;
 }
 
@@ -24,7 +27,8 @@ std::string format_progress(const std::string& name, uint64_t frames, int64_t to
   std::string out = name.empty() ? "" : name + " ";
   if (total > 0) {
     std::snprintf(buf, sizeof buf, "%llu/%lld frames  %3.0f%%", static_cast<unsigned long long>(frames),
-                  static_cast<long long>(total), 100.0 * std::min(1.0, static_cast<double>(frames) / static_cast<double>(total)));
+                  static_cast<long long>(total),
+                  100.0 * std::min(1.0, static_cast<double>(frames) / static_cast<double>(total)));
   } else {
     std::snprintf(buf, sizeof buf, "%llu frames", static_cast<unsigned long long>(frames));
   }
@@ -33,7 +37,8 @@ std::string format_progress(const std::string& name, uint64_t frames, int64_t to
   out += buf;
   // Time left: the frames left at the rate so far, or the time limit's rest, whichever ends first.
   double left = -1;
-  if (total > 0 && rate > 0) left = static_cast<double>(std::max<int64_t>(0, total - static_cast<int64_t>(frames))) / rate;
+  if (total > 0 && rate > 0)
+    left = static_cast<double>(std::max<int64_t>(0, total - static_cast<int64_t>(frames))) / rate;
   if (time_limit_s >= 0) {
     const double rest = std::max(0.0, time_limit_s - elapsed_s);
     left = left < 0 ? rest : std::min(left, rest);
@@ -100,13 +105,16 @@ std::string ProgressLine::text() const {
     if (done < least) least = done, shown = &s;
   }
   return format_progress(sources_.size() > 1 ? shown->name : "", shown->stats->processed.load(), shown->total,
-                         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(), time_limit_s_);
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(),
+                         time_limit_s_);
 }
 
 void ProgressLine::draw(bool final) {
   const std::string line = text();
-  if (terminal_) std::fprintf(out_, "\r%s\033[K%s", line.c_str(), final ? "\n" : "");
-  else std::fprintf(out_, "%s\n", line.c_str());
+  if (terminal_)
+    std::fprintf(out_, "\r%s\033[K%s", line.c_str(), final ? "\n" : "");
+  else
+    std::fprintf(out_, "%s\n", line.c_str());
   std::fflush(out_);
   drawn_ = !final;
 }

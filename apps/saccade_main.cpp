@@ -127,10 +127,11 @@ std::string md_cell(std::string text) {
 // The JSON every message type is written as (util.jsonl), from the fields
 // each type names once (saccade/schema.hpp).
 void print_message_schemas_markdown() {
-  std::printf("# Messages as JSON\n\nWhat `util.jsonl` writes: one object per message, `type`, `frame` (the frame id), "
-              "`stamp_ns` (capture time), `origin_ns`, then the type's fields in order. Matrices appear by shape "
-              "(`rows`, `cols`, `depth` as OpenCV's CV_8U = 0 ... CV_64F = 6, `channels`), not by pixels; "
-              "non-finite numbers are `null`. The JSON Schema of each type:\n\n");
+  std::printf(
+      "# Messages as JSON\n\nWhat `util.jsonl` writes: one object per message, `type`, `frame` (the frame id), "
+      "`stamp_ns` (capture time), `origin_ns`, then the type's fields in order. Matrices appear by shape "
+      "(`rows`, `cols`, `depth` as OpenCV's CV_8U = 0 ... CV_64F = 6, `channels`), not by pixels; "
+      "non-finite numbers are `null`. The JSON Schema of each type:\n\n");
   for (std::string_view type : saccade::described_message_types())
     std::printf("## %.*s\n\n```json\n%s\n```\n\n", static_cast<int>(type.size()), type.data(),
                 saccade::json_schema(type).c_str());
@@ -142,12 +143,14 @@ void print_plugin_markdown(const NodeTypeInfo& info) {
   if (!c.inputs().empty()) {
     std::printf("| input | type | kind | doc |\n|---|---|---|---|\n");
     for (const auto& p : c.inputs())
-      std::printf("| `%s` | %s | %s | %s |\n", p.name.c_str(), p.type.c_str(), kind_name(p.kind).c_str(), p.doc.c_str());
+      std::printf("| `%s` | %s | %s | %s |\n", p.name.c_str(), p.type.c_str(), kind_name(p.kind).c_str(),
+                  p.doc.c_str());
     std::printf("\n");
   }
   if (!c.outputs().empty()) {
     std::printf("| output | type | doc |\n|---|---|---|\n");
-    for (const auto& p : c.outputs()) std::printf("| `%s` | %s | %s |\n", p.name.c_str(), p.type.c_str(), p.doc.c_str());
+    for (const auto& p : c.outputs())
+      std::printf("| `%s` | %s | %s |\n", p.name.c_str(), p.type.c_str(), p.doc.c_str());
     std::printf("\n");
   }
   if (!c.params().empty()) {
@@ -192,15 +195,19 @@ int plugins_command(const Common& common, const PluginsArgs& args) {
   load_registry(registry, common, true);
   const bool reference = args.markdown && args.name.empty();
   if (reference)
-    std::printf("# Plugin reference\n\nGenerated from the plugins' own contracts by `saccade plugins --markdown`; a test "
-                "fails when\nthis file and the built plugins disagree (regenerate with `make docs`).\n\n");
+    std::printf(
+        "# Plugin reference\n\nGenerated from the plugins' own contracts by `saccade plugins --markdown`; a test "
+        "fails when\nthis file and the built plugins disagree (regenerate with `make docs`).\n\n");
   int shown = 0;
   for (const auto& type : registry.types()) {
     if (!args.name.empty() && type != args.name && type.rfind(args.name + ".", 0) != 0) continue;
     const NodeTypeInfo* info = registry.find(type);
-    if (args.names) std::printf("%s\n", type.c_str());
-    else if (args.markdown) print_plugin_markdown(*info);
-    else print_plugin_text(*info);
+    if (args.names)
+      std::printf("%s\n", type.c_str());
+    else if (args.markdown)
+      print_plugin_markdown(*info);
+    else
+      print_plugin_text(*info);
     ++shown;
   }
   if (shown == 0) {
@@ -357,8 +364,10 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   options.stats_interval_s = stats ? args.stats_interval : 0;
   std::unique_ptr<saccade::cli::ProgressLine> progress;  // made after open(), when the sources know their length
   options.on_stats = [&progress](const std::string& table) {
-    if (progress) progress->print_above(table + "\n");
-    else std::fprintf(stderr, "%s\n", table.c_str());
+    if (progress)
+      progress->print_above(table + "\n");
+    else
+      std::fprintf(stderr, "%s\n", table.c_str());
   };
   // A stats file that cannot be written is said now, not after the run.
   if (!args.stats_json.empty() && !std::ofstream(args.stats_json, std::ios::app)) {
@@ -392,7 +401,11 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
   // Stopped cleanly by Ctrl-C (or SIGTERM): 128 + the signal, as a shell reports a killed command.
   if (const int sig = g_signal.load(); sig != 0) {
     std::cerr << "stopped by "
-              << (sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "a signal") << "\n";
+              << (sig == SIGINT    ? "SIGINT"
+                  : sig == SIGTERM ? "SIGTERM"
+                  : sig == SIGHUP  ? "SIGHUP"
+                                   : "a signal")
+              << "\n";
     return 128 + sig;
   }
   return 0;
@@ -402,7 +415,8 @@ int run_command(const Common& common, const GraphArgs& graph_args, RunArgs& args
 
 int main(int argc, char** argv) {
   saccade::cli::CommandLine line;
-  if (std::optional<int> status = saccade::cli::parse_command_line(line, argc, argv, std::cout, std::cerr)) return *status;
+  if (std::optional<int> status = saccade::cli::parse_command_line(line, argc, argv, std::cout, std::cerr))
+    return *status;
   log().set_level(spdlog::level::from_str(line.common.log_level));
   // The DDS plugin reads it when it creates the process's participant.
   if (!line.run_args.security.empty()) setenv("SACCADE_DDS_SECURITY", line.run_args.security.c_str(), 1);

@@ -23,7 +23,8 @@ TEST(HelloInvert, TurnsAFrameIntoItsNegative) {
 }
 
 TEST(HelloInvert, LevelSetsWhatBlackBecomesAndSaturates) {
-  auto h = saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"><param name="level" value="100"/></node>)");
+  auto h =
+      saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"><param name="level" value="100"/></node>)");
   ASSERT_NE(h, nullptr);
   h->set("image", gray(150));
   ASSERT_TRUE(h->process().ok());
@@ -43,7 +44,8 @@ TEST(HelloInvert, CountsWhatItSkips) {
 
 TEST(HelloInvert, ALevelOutOfRangeIsRefusedBeforeItRuns) {
   std::string error;
-  EXPECT_EQ(saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"><param name="level" value="300"/></node>)", &error),
+  EXPECT_EQ(saccade::testing::NodeHarness::create(
+                R"(<node plugin="hello.invert"><param name="level" value="300"/></node>)", &error),
             nullptr);
   EXPECT_NE(error.find("level"), std::string::npos) << error;
 }

@@ -19,7 +19,7 @@ packages=(
   graphviz
   libzstd-dev liblz4-dev
   clang libclang-rt-14-dev
-  clang-tidy
+  clang-tidy clang-format
   chromium
 )
 

@@ -48,7 +48,8 @@ using namespace saccade;
 namespace sd = saccade::dds;
 
 int64_t now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
 }
 
 int64_t process_cpu_ns() {
@@ -79,8 +80,9 @@ const PayloadKind kPayloads[] = {
 // *_spin: the reader spins instead of sleeping between messages (a whole
 // core): saccade's on its writer's doorbell (the edge's `spin`), the plain
 // peer by polling take() (what a plain Fast DDS reader can do).
-const char* const kVariants[] = {"saccade_in_place", "saccade", "best_in_place", "best", "best_copy", "defaults",
-                                 "defaults_rel", "saccade_in_place_spin", "best_in_place_spin"};
+const char* const kVariants[] = {"saccade_in_place",  "saccade",  "best_in_place", "best",
+                                 "best_copy",         "defaults", "defaults_rel",  "saccade_in_place_spin",
+                                 "best_in_place_spin"};
 bool spins(const std::string& variant) { return variant.ends_with("_spin"); }
 std::string without_spin(const std::string& variant) {
   return spins(variant) ? variant.substr(0, variant.size() - 5) : variant;
@@ -95,7 +97,8 @@ std::shared_ptr<Message> make_message(const PayloadKind& p) {
   std::string type = p.saccade_type;
   if (type == "JointTargets") {
     auto m = std::make_shared<JointTargets>();
-    m->position = {0.1, -0.2, 0.3, -0.1, 0.2};  // 5 joints: 2 x 40 B of doubles, the stamp and flags: ~130 B on the wire
+    m->position = {0.1, -0.2, 0.3, -0.1,
+                   0.2};  // 5 joints: 2 x 40 B of doubles, the stamp and flags: ~130 B on the wire
     m->velocity = {0, 0, 0, 0, 0};
     return m;
   }
@@ -174,7 +177,8 @@ struct SaccadeWriter final : Writer {
   cv::Mat frame;
   SaccadeWriter(const Options& o, const PayloadKind& p, const std::string& topic, bool in_place_fill) {
     end.open(o, p, topic);
-    writer = end.domain->publisher()->create_datawriter(end.topic, sd::writer_qos(*end.domain->publisher(), end.settings));
+    writer =
+        end.domain->publisher()->create_datawriter(end.topic, sd::writer_qos(*end.domain->publisher(), end.settings));
     message = make_message(p);
     if (in_place_fill) {
       in_place = end.sample->frame_allocator();
@@ -207,7 +211,8 @@ struct SaccadeReader final : Reader {
   uint64_t checksum = 0;
   SaccadeReader(const Options& o, const PayloadKind& p, const std::string& topic, bool spin) {
     end.open(o, p, topic, spin);
-    reader = end.domain->subscriber()->create_datareader(end.topic, sd::reader_qos(*end.domain->subscriber(), end.settings));
+    reader =
+        end.domain->subscriber()->create_datareader(end.topic, sd::reader_qos(*end.domain->subscriber(), end.settings));
   }
   ~SaccadeReader() override { end.domain->subscriber()->delete_datareader(reader); }
   bool take(uint64_t& seq, int64_t& latency_ns) override {
@@ -228,7 +233,8 @@ struct PlainParticipant {
   fdds::Subscriber* subscriber = nullptr;
   fdds::Topic* topic = nullptr;
   PlainParticipant(int domain, fdds::TypeSupport type, const std::string& topic_name) {
-    participant = fdds::DomainParticipantFactory::get_instance()->create_participant(domain, fdds::PARTICIPANT_QOS_DEFAULT);
+    participant =
+        fdds::DomainParticipantFactory::get_instance()->create_participant(domain, fdds::PARTICIPANT_QOS_DEFAULT);
     type.register_type(participant);
     topic = participant->create_topic(topic_name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
     publisher = participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
@@ -375,7 +381,8 @@ std::unique_ptr<Base> make_best(std::size_t bytes, Args&&... args) {
   }
 }
 
-std::unique_ptr<Writer> make_writer(const Options& o, const PayloadKind& k, const std::string& spun, const std::string& topic) {
+std::unique_ptr<Writer> make_writer(const Options& o, const PayloadKind& k, const std::string& spun,
+                                    const std::string& topic) {
   const std::string variant = without_spin(spun);  // the writer is the same
   if (variant == "saccade" || variant == "saccade_in_place")
     return std::make_unique<SaccadeWriter>(o, k, topic, variant == "saccade_in_place");
@@ -384,7 +391,8 @@ std::unique_ptr<Writer> make_writer(const Options& o, const PayloadKind& k, cons
   return std::make_unique<DefaultWriter>(o, k, topic);
 }
 
-std::unique_ptr<Reader> make_reader(const Options& o, const PayloadKind& k, const std::string& spun, const std::string& topic) {
+std::unique_ptr<Reader> make_reader(const Options& o, const PayloadKind& k, const std::string& spun,
+                                    const std::string& topic) {
   const std::string variant = without_spin(spun);
   if (variant == "saccade" || variant == "saccade_in_place")
     return std::make_unique<SaccadeReader>(o, k, topic, spins(spun));
@@ -409,7 +417,8 @@ void print_latency(const char* what, std::vector<int64_t> latency, int64_t cpu0,
                    int64_t wall1, double per_s = 0.0) {
   std::sort(latency.begin(), latency.end());
   auto pct = [&](double q) {
-    return latency.empty() ? 0.0 : latency[std::min(latency.size() - 1, static_cast<std::size_t>(q * latency.size()))] / 1e3;
+    return latency.empty() ? 0.0
+                           : latency[std::min(latency.size() - 1, static_cast<std::size_t>(q * latency.size()))] / 1e3;
   };
   const double cpu = wall1 > wall0 ? 100.0 * (cpu1 - cpu0) / (wall1 - wall0) : 0.0;
   std::printf("%s %zu %.1f %.1f %.1f %.1f %.1f\n", what, latency.size(), pct(0.5), pct(0.99),
@@ -468,17 +477,26 @@ int run_reader(const Options& o) {
 struct Result {
   std::size_t received = 0;
   double p50 = 0, p99 = 0, max = 0, per_s = 0, cpu = 0;
-  bool ok = false;      // the whole run's line came
-  bool paced = false;   // the latency phase's line came
-  int status = 0;  // the reader's wait status
+  bool ok = false;     // the whole run's line came
+  bool paced = false;  // the latency phase's line came
+  int status = 0;      // the reader's wait status
 };
 
 Result run_case(const Options& o, const char* self, const PayloadKind& k, const std::string& variant) {
   Options child = o;
   child.payload = k.name;
   child.variant = variant;
-  std::vector<std::string> args = {self, "--role", "reader", "--payload", k.name, "--variant", variant, "--messages",
-                                   std::to_string(o.messages), "--domain", std::to_string(o.domain)};
+  std::vector<std::string> args = {self,
+                                   "--role",
+                                   "reader",
+                                   "--payload",
+                                   k.name,
+                                   "--variant",
+                                   variant,
+                                   "--messages",
+                                   std::to_string(o.messages),
+                                   "--domain",
+                                   std::to_string(o.domain)};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -514,9 +532,11 @@ Result run_case(const Options& o, const char* self, const PayloadKind& k, const 
     const int64_t stop = now_ns() + static_cast<int64_t>(o.throughput_s * 1e9);
     for (uint64_t seq = static_cast<uint64_t>(o.messages); now_ns() < stop; ++seq) writer->write(seq);
     while (std::fgets(line, sizeof line, from_child) != nullptr) {
-      if (std::sscanf(line, "result %zu %lf %lf %lf %lf %lf", &r.received, &r.p50, &r.p99, &r.max, &r.per_s, &r.cpu) == 6)
+      if (std::sscanf(line, "result %zu %lf %lf %lf %lf %lf", &r.received, &r.p50, &r.p99, &r.max, &r.per_s, &r.cpu) ==
+          6)
         r.ok = true;
-      else if (std::sscanf(line, "paced %zu %lf %lf %lf %lf %lf", &r.received, &r.p50, &r.p99, &r.max, &r.per_s, &r.cpu) == 6)
+      else if (std::sscanf(line, "paced %zu %lf %lf %lf %lf %lf", &r.received, &r.p50, &r.p99, &r.max, &r.per_s,
+                           &r.cpu) == 6)
         r.paced = true;
     }
   }
@@ -531,13 +551,20 @@ int main(int argc, char** argv) {
   Options o;
   for (int i = 1; i + 1 < argc; i += 2) {
     std::string a = argv[i], v = argv[i + 1];
-    if (a == "--role") o.role = v;
-    else if (a == "--payload") o.payload = v;
-    else if (a == "--variant") o.variant = v;
-    else if (a == "--messages") o.messages = std::stoi(v);
-    else if (a == "--period-us") o.period_us = std::stoi(v);
-    else if (a == "--throughput-s") o.throughput_s = std::stod(v);
-    else if (a == "--domain") o.domain = std::stoi(v);
+    if (a == "--role")
+      o.role = v;
+    else if (a == "--payload")
+      o.payload = v;
+    else if (a == "--variant")
+      o.variant = v;
+    else if (a == "--messages")
+      o.messages = std::stoi(v);
+    else if (a == "--period-us")
+      o.period_us = std::stoi(v);
+    else if (a == "--throughput-s")
+      o.throughput_s = std::stod(v);
+    else if (a == "--domain")
+      o.domain = std::stoi(v);
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -545,8 +572,8 @@ int main(int argc, char** argv) {
   }
   try {
     if (o.role == "reader") return run_reader(o);
-    std::printf("%-8s %-21s %9s %10s %10s %10s %12s %10s %8s\n", "payload", "edge", "received", "p50_us", "p99_us", "max_us",
-                "msgs_per_s", "MB_per_s", "cpu_%");
+    std::printf("%-8s %-21s %9s %10s %10s %10s %12s %10s %8s\n", "payload", "edge", "received", "p50_us", "p99_us",
+                "max_us", "msgs_per_s", "MB_per_s", "cpu_%");
     for (const auto& k : kPayloads) {
       if (o.payload != "all" && o.payload != k.name) continue;
       for (const char* variant : kVariants) {
@@ -559,13 +586,14 @@ int main(int argc, char** argv) {
           continue;
         }
         if (!r.ok) {
-          std::printf("%-8s %-21s %5zu/%-4d %10.1f %10.1f %10.1f %12s %10s %8.1f  (the reader died back to back: %s %d)\n",
-                      k.name, variant, r.received, o.messages, r.p50, r.p99, r.max, "-", "-", r.cpu, ended, code);
+          std::printf(
+              "%-8s %-21s %5zu/%-4d %10.1f %10.1f %10.1f %12s %10s %8.1f  (the reader died back to back: %s %d)\n",
+              k.name, variant, r.received, o.messages, r.p50, r.p99, r.max, "-", "-", r.cpu, ended, code);
           std::fflush(stdout);
           continue;
         }
-        std::printf("%-8s %-21s %5zu/%-4d %10.1f %10.1f %10.1f %12.0f %10.1f %8.1f\n", k.name, variant, r.received, o.messages,
-                    r.p50, r.p99, r.max, r.per_s, r.per_s * static_cast<double>(k.bytes) / 1e6, r.cpu);
+        std::printf("%-8s %-21s %5zu/%-4d %10.1f %10.1f %10.1f %12.0f %10.1f %8.1f\n", k.name, variant, r.received,
+                    o.messages, r.p50, r.p99, r.max, r.per_s, r.per_s * static_cast<double>(k.bytes) / 1e6, r.cpu);
         std::fflush(stdout);
       }
     }

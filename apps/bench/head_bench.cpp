@@ -55,7 +55,7 @@ void BM_Head_ControlCycle(benchmark::State& state) {
       for (std::size_t j = 0; j < feedback.size(); ++j)
         readings[j] = {feedback[j].position, feedback[j].velocity,
                        feedback[j].health == can::DriveHealth::kReady ? head::JointReading::Health::kReady
-                                                                     : head::JointReading::Health::kStarting,
+                                                                      : head::JointReading::Health::kStarting,
                        feedback[j].updated_ns};
       const head::HeadCommand& c = controller.cycle(now, readings);
       t = c.position.data();
@@ -78,7 +78,8 @@ void BM_Head_ControlCycle(benchmark::State& state) {
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     step();
-    ns.push_back(static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count()));
+    ns.push_back(static_cast<double>(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count()));
     bits += master.stats().bits_last_cycle;
   }
   // Set-point cycles (RPDO2 + RPDO1) and acknowledge cycles (RPDO1) alternate: the mean.

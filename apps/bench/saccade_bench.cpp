@@ -271,8 +271,8 @@ std::string chain_xml(int count, int frames, bool inline_nodes, double paced_fps
   std::string pace = paced_fps > 0 ? "<param name=\"rate\" value=\"realtime\"/><param name=\"fps\" value=\"" +
                                          std::to_string(paced_fps) + "\"/>"
                                    : "<param name=\"rate\" value=\"fast\"/>";
-  std::string xml = "<graph><node name=\"src\" plugin=\"capture.image\"><param name=\"path\" value=\"" + bench_frame_file() +
-                    "\"/><param name=\"count\" value=\"" + std::to_string(frames) + "\"/>" + pace +
+  std::string xml = "<graph><node name=\"src\" plugin=\"capture.image\"><param name=\"path\" value=\"" +
+                    bench_frame_file() + "\"/><param name=\"count\" value=\"" + std::to_string(frames) + "\"/>" + pace +
                     "<param name=\"color\" value=\"unchanged\"/></node>";
   std::string attr = inline_nodes ? " inline=\"true\"" : "";
   std::string prev = "src.image";
@@ -282,7 +282,8 @@ std::string chain_xml(int count, int frames, bool inline_nodes, double paced_fps
     xml += "<edge from=\"" + prev + "\" to=\"" + n + ".in\" queue=\"block:4\"/>";
     prev = n + ".out";
   }
-  xml += "<node name=\"sink\" plugin=\"util.null\"" + attr + "/><edge from=\"" + prev + "\" to=\"sink.in\" queue=\"block:4\"/></graph>";
+  xml += "<node name=\"sink\" plugin=\"util.null\"" + attr + "/><edge from=\"" + prev +
+         "\" to=\"sink.in\" queue=\"block:4\"/></graph>";
   return xml;
 }
 
@@ -361,12 +362,18 @@ void BM_Pipeline_MemoryRetinaFilters(benchmark::State& state) {
   const int frames = 5000;
   const bool inline_nodes = state.range(0) != 0;
   std::string attr = inline_nodes ? " inline=\"true\"" : "";
-  std::string xml = "<graph><node name=\"src\" plugin=\"capture.image\"><param name=\"path\" value=\"" + bench_frame_file() +
-                    "\"/><param name=\"count\" value=\"" + std::to_string(frames) +
+  std::string xml = "<graph><node name=\"src\" plugin=\"capture.image\"><param name=\"path\" value=\"" +
+                    bench_frame_file() + "\"/><param name=\"count\" value=\"" + std::to_string(frames) +
                     "\"/><param name=\"rate\" value=\"fast\"/><param name=\"color\" value=\"unchanged\"/></node>"
-                    "<node name=\"retina\" plugin=\"retina\"" + attr + "/>"
-                    "<node name=\"filters\" plugin=\"filters.bank\"" + attr + "/>"
-                    "<node name=\"sink\" plugin=\"util.null\"" + attr + "/>"
+                    "<node name=\"retina\" plugin=\"retina\"" +
+                    attr +
+                    "/>"
+                    "<node name=\"filters\" plugin=\"filters.bank\"" +
+                    attr +
+                    "/>"
+                    "<node name=\"sink\" plugin=\"util.null\"" +
+                    attr +
+                    "/>"
                     "<edge from=\"src.image\" to=\"retina.image\" queue=\"block:2\"/>"
                     "<edge from=\"retina.retina\" to=\"filters.retina\" queue=\"block:2\"/>"
                     "<edge from=\"filters.maps\" to=\"sink.in\" queue=\"block:2\"/></graph>";
@@ -385,7 +392,12 @@ void BM_Pipeline_MemoryRetinaFilters(benchmark::State& state) {
     state.counters["filters_p50_us"] = static_cast<double>(f->process_time.percentile(0.5)) / 1e3;
   }
 }
-BENCHMARK(BM_Pipeline_MemoryRetinaFilters)->Arg(1)->Arg(0)->UseManualTime()->Iterations(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Pipeline_MemoryRetinaFilters)
+    ->Arg(1)
+    ->Arg(0)
+    ->UseManualTime()
+    ->Iterations(1)
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

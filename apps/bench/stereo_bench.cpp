@@ -68,8 +68,8 @@ struct Pair {
 struct Plane {
   double a = 0, b = 0, c = 0;
   enum class Shape { kAll, kRect, kEllipse } shape = Shape::kAll;
-  cv::Rect2d box;  // the rectangle, or the ellipse's bounding box
-  cv::Mat texture;  // CV_32F
+  cv::Rect2d box;              // the rectangle, or the ellipse's bounding box
+  cv::Mat texture;             // CV_32F
   double texture_scale = 1.0;  // texture pixels per image pixel
   cv::Point2d texture_origin;
 
@@ -79,7 +79,8 @@ struct Plane {
       case Shape::kAll: return true;
       case Shape::kRect: return x >= box.x && x < box.x + box.width && y >= box.y && y < box.y + box.height;
       case Shape::kEllipse: {
-        const double u = (x - (box.x + box.width / 2)) / (box.width / 2), v = (y - (box.y + box.height / 2)) / (box.height / 2);
+        const double u = (x - (box.x + box.width / 2)) / (box.width / 2),
+                     v = (y - (box.y + box.height / 2)) / (box.height / 2);
         return u * u + v * v <= 1.0;
       }
     }
@@ -192,7 +193,8 @@ std::vector<Pair> rendered_pairs(const std::string& data) {
 // 0 = unknown becomes -1, and a pixel whose block has an unknown is unknown).
 Pair aloe(const std::string& data, int divisor) {
   Pair p;
-  cv::Mat l = cv::imread(data + "/aloeL.jpg", cv::IMREAD_GRAYSCALE), r = cv::imread(data + "/aloeR.jpg", cv::IMREAD_GRAYSCALE),
+  cv::Mat l = cv::imread(data + "/aloeL.jpg", cv::IMREAD_GRAYSCALE),
+          r = cv::imread(data + "/aloeR.jpg", cv::IMREAD_GRAYSCALE),
           t = cv::imread(data + "/aloeGT.png", cv::IMREAD_GRAYSCALE);
   if (l.empty() || r.empty() || t.empty()) {
     std::fprintf(stderr, "saccade_stereo_bench: the Aloe pair is missing under %s: install opencv-doc\n", data.c_str());
@@ -245,8 +247,8 @@ struct Score {
 struct Result {
   std::string matcher;
   Score fovea, whole;
-  double ms = 0;               // per full pair, median
-  int fixations_right = -1;    // ours: fixation disparity within 2 px of the truth
+  double ms = 0;             // per full pair, median
+  int fixations_right = -1;  // ours: fixation disparity within 2 px of the truth
   int fixations = 0;
   std::string note;
 };
@@ -299,8 +301,8 @@ std::shared_ptr<Retina> make_retina(retina::RetinaSampler& sampler, const std::s
 }
 
 // Our matcher with one configuration on every fixation of the pair.
-Result ours(const std::string& name, const stereo::RetinaStereoConfig& config, const retina::RetinaConfig& retina_config,
-            const Pair& p, int reps, std::vector<cv::Rect>* foveas_out) {
+Result ours(const std::string& name, const stereo::RetinaStereoConfig& config,
+            const retina::RetinaConfig& retina_config, const Pair& p, int reps, std::vector<cv::Rect>* foveas_out) {
   Result r;
   r.matcher = name;
   auto left_frame = std::make_shared<Image>(), right_frame = std::make_shared<Image>();
@@ -367,9 +369,9 @@ Result ours(const std::string& name, const stereo::RetinaStereoConfig& config, c
   }
   r.ms = median(ms);
   char note[96];
-  std::snprintf(note, sizeof note, "max_disparity %s", config.max_disparity > 0
-                                                          ? std::to_string(static_cast<int>(config.max_disparity)).c_str()
-                                                          : "automatic");
+  std::snprintf(
+      note, sizeof note, "max_disparity %s",
+      config.max_disparity > 0 ? std::to_string(static_cast<int>(config.max_disparity)).c_str() : "automatic");
   r.note = note;
   return r;
 }
@@ -483,23 +485,24 @@ std::vector<Result> run_matchers(const Pair& p, const retina::RetinaConfig& reti
   bm->setDisp12MaxDiff(1);
   results.push_back(opencv_matcher("OpenCV StereoBM (9x9)", bm, p, foveas, m.cv_reps));
   // OpenCV's stereo_match sample's settings, gray images, 5x5 blocks.
-  auto sgbm = cv::StereoSGBM::create(0, p.num_disparities, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32,
-                                     cv::StereoSGBM::MODE_SGBM);
+  auto sgbm =
+      cv::StereoSGBM::create(0, p.num_disparities, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32, cv::StereoSGBM::MODE_SGBM);
   results.push_back(opencv_matcher("OpenCV StereoSGBM (5x5)", sgbm, p, foveas, m.cv_reps));
   return results;
 }
 
 void write_results_table(std::ostringstream& md, const Pair& p, const std::vector<Result>& results) {
   md << "\n### " << p.name << ": " << p.what << "\n\n"
-     << "| matcher | fovea density | fovea bad-1 | fovea bad-2 | image density | image bad-1 | image bad-2 | ms per pair "
+     << "| matcher | fovea density | fovea bad-1 | fovea bad-2 | image density | image bad-1 | image bad-2 | ms per "
+        "pair "
         "| fixation within 2 px | notes |\n|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Result& r : results) {
     md << "| " << r.matcher << " | " << fmt("%.3f", r.fovea.density()) << " | " << fmt("%.3f", r.fovea.bad1_rate())
        << " | " << fmt("%.3f", r.fovea.bad2_rate()) << " | " << fmt("%.3f", r.whole.density()) << " | "
        << fmt("%.3f", r.whole.bad1_rate()) << " | " << fmt("%.3f", r.whole.bad2_rate()) << " | "
        << fmt(r.ms < 10 ? "%.3f" : "%.1f", r.ms) << " | "
-       << (r.fixations_right >= 0 ? std::to_string(r.fixations_right) + "/" + std::to_string(r.fixations) : "")
-       << " | " << r.note << " |\n";
+       << (r.fixations_right >= 0 ? std::to_string(r.fixations_right) + "/" + std::to_string(r.fixations) : "") << " | "
+       << r.note << " |\n";
   }
 }
 
@@ -511,8 +514,9 @@ struct Floor {
 // The floor: the defaults' fovea against SGBM's, at <= 1/20 of its time.
 std::string floor_table(const std::vector<Floor>& floors) {
   std::ostringstream summary;
-  summary << "\n### The floor: defaults against StereoSGBM, fovea\n\n"
-          << "| pair | density (ours / SGBM) | bad-2 (ours / SGBM) | time (ours / SGBM) | met |\n|---|---|---|---|---|\n";
+  summary
+      << "\n### The floor: defaults against StereoSGBM, fovea\n\n"
+      << "| pair | density (ours / SGBM) | bad-2 (ours / SGBM) | time (ours / SGBM) | met |\n|---|---|---|---|---|\n";
   for (const Floor& f : floors) {
     const bool dense = f.ours.fovea.density() >= f.sgbm.fovea.density();
     const bool right = f.ours.fovea.bad2_rate() <= f.sgbm.fovea.bad2_rate();
@@ -520,8 +524,10 @@ std::string floor_table(const std::vector<Floor>& floors) {
     summary << "| " << f.pair << " | " << fmt("%.3f", f.ours.fovea.density()) << " / "
             << fmt("%.3f", f.sgbm.fovea.density()) << " | " << fmt("%.3f", f.ours.fovea.bad2_rate()) << " / "
             << fmt("%.3f", f.sgbm.fovea.bad2_rate()) << " | 1/" << fmt("%.0f", f.sgbm.ms / std::max(1e-9, f.ours.ms))
-            << " | " << (dense && right && fast ? "yes" : std::string("no:") + (dense ? "" : " density") +
-                                                            (right ? "" : " bad-2") + (fast ? "" : " time"))
+            << " | "
+            << (dense && right && fast
+                    ? "yes"
+                    : std::string("no:") + (dense ? "" : " density") + (right ? "" : " bad-2") + (fast ? "" : " time"))
             << " |\n";
   }
   return summary.str();
@@ -538,8 +544,9 @@ int main(int argc, char** argv) {
   app.add_option("--markdown", markdown, "write the tables to this file");
   app.add_option("--reps", matchers.reps, "runs of our matcher per fixation (the time is their median)");
   app.add_option("--cv-reps", matchers.cv_reps, "runs of BM and SGBM per pair (the time is their median)");
-  app.add_option("--set", sets, "key=value: also run our matcher with the defaults changed so (repeatable; "
-                                "the stereo node's parameter names)");
+  app.add_option("--set", sets,
+                 "key=value: also run our matcher with the defaults changed so (repeatable; "
+                 "the stereo node's parameter names)");
   app.add_option("--pair", only, "only these pairs (aloe, aloe_third, planes_640, planes_450)");
   app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
   app.add_flag("--variants", matchers.all_variants,

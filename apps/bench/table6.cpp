@@ -38,7 +38,8 @@ const Scene& scene(cv::Size size) {
   Scene& s = scenes[size.width];
   if (!s.left.empty()) return s;
   const std::string data = SACCADE_SAMPLE_DATA;
-  cv::Mat l = cv::imread(data + "/aloeL.jpg", cv::IMREAD_GRAYSCALE), r = cv::imread(data + "/aloeR.jpg", cv::IMREAD_GRAYSCALE);
+  cv::Mat l = cv::imread(data + "/aloeL.jpg", cv::IMREAD_GRAYSCALE),
+          r = cv::imread(data + "/aloeR.jpg", cv::IMREAD_GRAYSCALE);
   if (l.empty() || r.empty()) {
     std::fprintf(stderr, "saccade_bench: the Aloe pair is missing under %s: install opencv-doc\n", data.c_str());
     std::exit(2);
@@ -81,7 +82,8 @@ stereo::RetinaStereoConfig stereo_config(int window, int max_disparity) {
 // Everything the retina column needs for one frame of the pair, reused.
 struct RetinaPipeline {
   retina::RetinaSampler left_sampler{{}}, right_sampler{{}}, before_sampler{{}};
-  filters::FilterBank bank{bank_of({filters::kGauss, filters::kSobelX, filters::kSobelY, filters::kGradMag, filters::kLaplacian})};
+  filters::FilterBank bank{
+      bank_of({filters::kGauss, filters::kSobelX, filters::kSobelY, filters::kGradMag, filters::kLaplacian})};
   std::array<cv::Mat, filters::kFeatureCount> maps;
   motion::LevelMotionEstimator motion{{}};
   motion::LevelMotion level_motion;
@@ -96,7 +98,8 @@ struct RetinaPipeline {
   std::shared_ptr<Retina> left, right, before;
   const Scene& s;
   explicit RetinaPipeline(cv::Size size)
-      : stereo5(stereo_config(5, scene(size).max_disparity)), stereo3(stereo_config(3, scene(size).max_disparity)),
+      : stereo5(stereo_config(5, scene(size).max_disparity)),
+        stereo3(stereo_config(3, scene(size).max_disparity)),
         stereo5_sgm([&] {
           stereo::RetinaStereoConfig c = stereo_config(5, scene(size).max_disparity);
           c.ncc.semi_global = true;
@@ -200,7 +203,8 @@ void BM_Table6_Retina(benchmark::State& state, const char* row) {
     std::vector<cv::Mat> flipped_left, flipped_right;
     for (const auto& level : p.disparity) {
       const int count = ((level.range_hi - level.range_lo + 1 + 15) / 16) * 16;
-      lr.push_back(cv::StereoSGBM::create(level.range_lo, count, 5, 200, 800, 1, 0, 10, 0, 0, cv::StereoSGBM::MODE_SGBM_3WAY));
+      lr.push_back(
+          cv::StereoSGBM::create(level.range_lo, count, 5, 200, 800, 1, 0, 10, 0, 0, cv::StereoSGBM::MODE_SGBM_3WAY));
       cv::Mat fl, fr;
       cv::flip(level.left_image, fl, 1);
       cv::flip(level.right_image, fr, 1);
@@ -250,13 +254,20 @@ struct FullFrame {
 void BM_Table6_FullFrame(benchmark::State& state, const char* row) {
   FullFrame f(size_arg(state));
   const std::string r = row;
-  if (r == "gauss") timed(state, [&] { f.gauss(); });
-  else if (r == "gradient") timed(state, [&] { f.gradient(); });
-  else if (r == "laplacian") timed(state, [&] { f.laplacian(); });
-  else if (r == "motion") timed(state, [&] { f.motion(); });
-  else if (r == "stereo_bm") timed(state, [&] { f.stereo(f.bm); });
-  else if (r == "stereo_sgbm3") timed(state, [&] { f.stereo(f.sgbm3); });
-  else if (r == "stereo_sgbm5") timed(state, [&] { f.stereo(f.sgbm5); });
+  if (r == "gauss")
+    timed(state, [&] { f.gauss(); });
+  else if (r == "gradient")
+    timed(state, [&] { f.gradient(); });
+  else if (r == "laplacian")
+    timed(state, [&] { f.laplacian(); });
+  else if (r == "motion")
+    timed(state, [&] { f.motion(); });
+  else if (r == "stereo_bm")
+    timed(state, [&] { f.stereo(f.bm); });
+  else if (r == "stereo_sgbm3")
+    timed(state, [&] { f.stereo(f.sgbm3); });
+  else if (r == "stereo_sgbm5")
+    timed(state, [&] { f.stereo(f.sgbm5); });
   else if (r == "total_bm")
     timed(state, [&] {
       f.gauss();

@@ -74,9 +74,7 @@ class OpenCvTracker final : public Tracker {
     const OwnRandomStream stream(random_);
     try {
       tracker_->init(frame, last_);
-    } catch (const cv::Exception& e) {
-      return e.what();
-    }
+    } catch (const cv::Exception& e) { return e.what(); }
     return "";
   }
   TrackedFrame update(const cv::Mat& frame) override {
@@ -114,7 +112,8 @@ class FoveaTracker final : public Tracker {
     const saccade::fovea::TrackEstimate e = tracker_.update(frame);
     const cv::Point2d center = (e.box.tl() + e.box.br()) * 0.5;
     if (std::isfinite(center.x) && std::isfinite(center.y)) fovea_ = center;
-    return {e.box, e.state == saccade::fovea::TrackState::kTracking, 0, saccade::fovea::to_string(e.state), e.confidence};
+    return {e.box, e.state == saccade::fovea::TrackState::kTracking, 0, saccade::fovea::to_string(e.state),
+            e.confidence};
   }
 
  private:
@@ -186,8 +185,8 @@ void write_trace(const std::string& folder, const Sequence& sequence, const std:
     const TrackedFrame& f = track[i];
     out << i << ',' << (sequence.visible[i] ? 1 : 0) << ',' << t.x << ',' << t.y << ',' << t.width << ',' << t.height
         << ',' << f.box.x << ',' << f.box.y << ',' << f.box.width << ',' << f.box.height << ',' << (f.tracking ? 1 : 0)
-        << ',' << f.state << ',' << f.confidence << ',' << iou(t, f.box) << ',' << center_error(t, f.box) << ','
-        << f.ms << '\n';
+        << ',' << f.state << ',' << f.confidence << ',' << iou(t, f.box) << ',' << center_error(t, f.box) << ',' << f.ms
+        << '\n';
   }
   if (!out) throw std::runtime_error("cannot write " + path);
 }
@@ -195,17 +194,21 @@ void write_trace(const std::string& folder, const Sequence& sequence, const std:
 // Runs all trackers frame by frame (each frame is read or rendered once).
 SequenceResults run_sequence(const Sequence& sequence, const std::vector<std::string>& names,
                              const std::string& trace) {
-  SequenceResults out{sequence.name, sequence.size(),
+  SequenceResults out{sequence.name,
+                      sequence.size(),
                       static_cast<int>(std::count(sequence.visible.begin(), sequence.visible.end(), false)),
-                      sequence.frame_size, {}};
+                      sequence.frame_size,
+                      {}};
   const cv::Mat first = sequence.frame(0);
   std::vector<std::unique_ptr<Tracker>> trackers;
   std::vector<std::vector<TrackedFrame>> tracks;
   for (const std::string& name : names) {
     out.results.push_back({name, "", {}});
     trackers.push_back(make_tracker(name));
-    if (!sequence.visible.front()) out.results.back().error = "the target is not visible in frame 1";
-    else out.results.back().error = trackers.back()->init(first, sequence.truth.front());
+    if (!sequence.visible.front())
+      out.results.back().error = "the target is not visible in frame 1";
+    else
+      out.results.back().error = trackers.back()->init(first, sequence.truth.front());
     tracks.emplace_back(static_cast<std::size_t>(sequence.size()));
     tracks.back()[0] = {sequence.truth.front(), true, 0};
   }
@@ -217,8 +220,8 @@ SequenceResults run_sequence(const Sequence& sequence, const std::vector<std::st
       TrackedFrame f = trackers[k]->update(frame);
       f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       // A tracker that gives no usable box keeps its last one (scores stay finite).
-      const bool usable = std::isfinite(f.box.x) && std::isfinite(f.box.y) && std::isfinite(f.box.width) &&
-                          std::isfinite(f.box.height);
+      const bool usable =
+          std::isfinite(f.box.x) && std::isfinite(f.box.y) && std::isfinite(f.box.width) && std::isfinite(f.box.height);
       if (!usable) f.box = tracks[k][static_cast<std::size_t>(i - 1)].box;
       tracks[k][static_cast<std::size_t>(i)] = f;
     }
@@ -257,8 +260,9 @@ std::string table(const std::vector<std::vector<std::string>>& rows) {
   return out;
 }
 
-const std::vector<std::string> kHeader = {"tracker", "centre error (px)", "precision@20", "success AUC", "success@0.5",
-                                          "frames lost", "honest lost", "max re-acquisition (frames)", "ms/frame"};
+const std::vector<std::string> kHeader = {
+    "tracker",     "centre error (px)",           "precision@20", "success AUC", "success@0.5", "frames lost",
+    "honest lost", "max re-acquisition (frames)", "ms/frame"};
 
 std::string reacquisition_cell(const TrackScore& s) {
   if (s.reappearances == 0) return "-";
@@ -318,20 +322,21 @@ std::vector<std::string> average_row(const std::string& tracker, const std::vect
     }
   std::string reacquire_cell = reacquire.count > 0 || misses == 0 ? reacquire.cell(1) : "";
   if (misses > 0)
-    reacquire_cell += (reacquire_cell.empty() ? "never " : ", never ") + std::to_string(misses) + "/" +
-                      std::to_string(reappearances);
+    reacquire_cell +=
+        (reacquire_cell.empty() ? "never " : ", never ") + std::to_string(misses) + "/" + std::to_string(reappearances);
   const std::string name = failed > 0 ? tracker + " (failed on " + std::to_string(failed) + ")" : tracker;
-  return {name, error.cell(1), precision.cell(3), auc.cell(3), success.cell(3),
-          lost.cell(1), honest.cell(2), reacquire_cell, ms.cell(2)};
+  return {name,         error.cell(1),  precision.cell(3), auc.cell(3), success.cell(3),
+          lost.cell(1), honest.cell(2), reacquire_cell,    ms.cell(2)};
 }
 
 std::string report(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers) {
-  std::string out = "# Tracking benchmark\n\n"
-                    "Centre error, precision and success over the frames after the first where the target is visible; "
-                    "success AUC over IoU thresholds 0, 0.05, ..., 1 (OTB); frames lost: the tracker did not claim "
-                    "tracking; honest lost: share of the frames without the target where it did not claim tracking; "
-                    "max re-acquisition: frames after a reappearance until it claims tracking with IoU >= 0.3; "
-                    "ms/frame: its update alone (fovea: retina + update), one thread.\n\n";
+  std::string out =
+      "# Tracking benchmark\n\n"
+      "Centre error, precision and success over the frames after the first where the target is visible; "
+      "success AUC over IoU thresholds 0, 0.05, ..., 1 (OTB); frames lost: the tracker did not claim "
+      "tracking; honest lost: share of the frames without the target where it did not claim tracking; "
+      "max re-acquisition: frames after a reappearance until it claims tracking with IoU >= 0.3; "
+      "ms/frame: its update alone (fovea: retina + update), one thread.\n\n";
   for (const SequenceResults& sequence : all) out += sequence_section(sequence);
   std::vector<std::vector<std::string>> rows{kHeader};
   for (const std::string& tracker : trackers) rows.push_back(average_row(tracker, all));
@@ -349,7 +354,8 @@ std::vector<Sequence> load_sequences(const Options& options) {
   for (const std::string& dir : options.vot) sequences.push_back(read_vot(dir));
   const std::vector<std::string> keep = split_list(options.sequences);
   if (!keep.empty())
-    std::erase_if(sequences, [&](const Sequence& s) { return std::find(keep.begin(), keep.end(), s.name) == keep.end(); });
+    std::erase_if(sequences,
+                  [&](const Sequence& s) { return std::find(keep.begin(), keep.end(), s.name) == keep.end(); });
   for (Sequence& s : sequences) truncate(s, options.frames);
   return sequences;
 }

@@ -42,14 +42,14 @@ void truncate(Sequence& sequence, int frames) {
 cv::Rect2d parse_truth_row(const std::string& row, const std::string& where, bool& visible) {
   std::string text = row;
   // Commas, tabs and a CR left by CRLF line ends are all separators.
-  std::replace_if(text.begin(), text.end(), [](char c) { return c == ',' || c == '\t' || c == '\r'; }, ' ');
+  std::replace_if(
+      text.begin(), text.end(), [](char c) { return c == ',' || c == '\t' || c == '\r'; }, ' ');
   std::istringstream tokens(text);
   std::vector<double> v;
   for (std::string token; tokens >> token;) {
     char* end = nullptr;
     const double number = std::strtod(token.c_str(), &end);
-    if (end == token.c_str() || *end != '\0')
-      throw std::runtime_error(where + ": '" + token + "' is not a number");
+    if (end == token.c_str() || *end != '\0') throw std::runtime_error(where + ": '" + token + "' is not a number");
     v.push_back(number);
   }
   if (v.size() != 4 && v.size() != 8)
@@ -204,8 +204,10 @@ Wobble make_shake(Random& random, double amplitude, double shortest) {
   Wobble shake;
   const double weights[] = {0.5, 0.3, 0.2}, stretch[] = {1.0, 1.9, 3.3};
   for (int k = 0; k < 3; ++k) {
-    shake.x.push_back({amplitude * weights[k], shortest * stretch[k] * random.uniform(0.9, 1.1), random.uniform(0, 2 * kPi)});
-    shake.y.push_back({amplitude * weights[k], shortest * stretch[k] * random.uniform(0.9, 1.1), random.uniform(0, 2 * kPi)});
+    shake.x.push_back(
+        {amplitude * weights[k], shortest * stretch[k] * random.uniform(0.9, 1.1), random.uniform(0, 2 * kPi)});
+    shake.y.push_back(
+        {amplitude * weights[k], shortest * stretch[k] * random.uniform(0.9, 1.1), random.uniform(0, 2 * kPi)});
   }
   return shake;
 }
@@ -213,14 +215,14 @@ Wobble make_shake(Random& random, double amplitude, double shortest) {
 // Everything that differs between frames, planned before any is rendered so
 // that frames can be rendered in any order.
 struct FramePlan {
-  cv::Point2d view;        // the view's top-left corner in the (scaled) background
-  cv::Point2d center;      // the target's centre, frame pixels (edge coordinates)
+  cv::Point2d view;    // the view's top-left corner in the (scaled) background
+  cv::Point2d center;  // the target's centre, frame pixels (edge coordinates)
   double scale = 1;
   double angle_deg = 0;
-  cv::Point2d smear;       // image motion during the exposure, pixels
+  cv::Point2d smear;  // image motion during the exposure, pixels
   double gain = 1, offset = 0;
-  int occlusion = -1;      // index of the occluder in front, -1 when none
-  cv::Rect occluder;       // frame pixels
+  int occlusion = -1;  // index of the occluder in front, -1 when none
+  cv::Rect occluder;   // frame pixels
   bool distractor = false;
   cv::Point2d distractor_center;
 };
@@ -228,8 +230,8 @@ struct FramePlan {
 // An image drawn at many scales: a pyramid, so that drawing shrinks by at
 // most 2 (no aliasing) and rarely magnifies.
 struct Sprite {
-  cv::Size2d base;               // frame pixels at scale 1
-  std::vector<cv::Mat> levels;   // largest first
+  cv::Size2d base;              // frame pixels at scale 1
+  std::vector<cv::Mat> levels;  // largest first
 };
 
 struct Scene {
@@ -342,8 +344,8 @@ void plan_occlusion(const SyntheticScript& s, const Motion& m, const cv::Size2d&
     const double u = o.end - o.start > 1 ? (t - o.start) / double(o.end - o.start - 1) : 0.5;
     const double cx = p.center.x - reach + 2 * reach * u, cy = p.center.y + o.offset_y * target_size.height;
     p.occlusion = static_cast<int>(k);
-    p.occluder = cv::Rect(static_cast<int>(std::lround(cx - side / 2.0)), static_cast<int>(std::lround(cy - side / 2.0)),
-                          side, side);
+    p.occluder = cv::Rect(static_cast<int>(std::lround(cx - side / 2.0)),
+                          static_cast<int>(std::lround(cy - side / 2.0)), side, side);
   }
 }
 
@@ -383,7 +385,8 @@ std::vector<FramePlan> plan_frames(const SyntheticScript& s, const cv::Size2d& b
 // Invisible: nothing of the target inside the frame, or what is inside lies
 // under the occluder (with a pixel to spare for interpolation's blur).
 bool target_visible(const FramePlan& p, cv::Size2d target_size, cv::Size frame) {
-  const cv::Rect2d inside = rotated_bounds(p.center, target_size, p.angle_deg) & cv::Rect2d(0, 0, frame.width, frame.height);
+  const cv::Rect2d inside =
+      rotated_bounds(p.center, target_size, p.angle_deg) & cv::Rect2d(0, 0, frame.width, frame.height);
   if (inside.width < 1 || inside.height < 1) return false;
   if (p.occlusion < 0) return true;
   const cv::Rect2d padded(inside.x - 1, inside.y - 1, inside.width + 2, inside.height + 2);
@@ -404,8 +407,10 @@ cv::Mat fit_background(const cv::Mat& image, cv::Size frame, std::vector<FramePl
   const double margin = 4, need_w = x1 - x0 + frame.width + 2 * margin, need_h = y1 - y0 + frame.height + 2 * margin;
   const double k = std::max({1.0, need_w / image.cols, need_h / image.rows});
   cv::Mat background;
-  if (k > 1) cv::resize(image, background, cv::Size(), k, k, cv::INTER_CUBIC);
-  else background = image;
+  if (k > 1)
+    cv::resize(image, background, cv::Size(), k, k, cv::INTER_CUBIC);
+  else
+    background = image;
   // Centre the views' span in the background.
   const cv::Point2d origin((background.cols - (x1 - x0 + frame.width)) / 2 - x0,
                            (background.rows - (y1 - y0 + frame.height)) / 2 - y0);
@@ -431,9 +436,10 @@ std::vector<cv::Mat> make_occluders(const SyntheticScript& s, const std::string&
     if (p.occlusion < 0 || !patches[static_cast<std::size_t>(p.occlusion)].empty()) continue;
     // A random square of the occluder image, a third of its smaller side.
     const int side = std::min(source.cols, source.rows) / 3;
-    const int x = static_cast<int>(random.uniform(0, source.cols - side)), y = static_cast<int>(random.uniform(0, source.rows - side));
-    cv::resize(source(cv::Rect(x, y, side, side)), patches[static_cast<std::size_t>(p.occlusion)], p.occluder.size(), 0, 0,
-               cv::INTER_AREA);
+    const int x = static_cast<int>(random.uniform(0, source.cols - side)),
+              y = static_cast<int>(random.uniform(0, source.rows - side));
+    cv::resize(source(cv::Rect(x, y, side, side)), patches[static_cast<std::size_t>(p.occlusion)], p.occluder.size(), 0,
+               0, cv::INTER_AREA);
   }
   return patches;
 }
@@ -473,7 +479,8 @@ void draw_sprite(cv::Mat& frame, const Sprite& sprite, cv::Point2d center, doubl
   // coordinates around centre - 0.5 (pixel centres sit at edge + 0.5).
   const double ix = (image.cols - 1) / 2.0, iy = (image.rows - 1) / 2.0;
   const double tx = center.x - 0.5 - roi.x, ty = center.y - 0.5 - roi.y;
-  const cv::Matx23d m(c * fx, -s * fy, tx - (c * fx * ix - s * fy * iy), s * fx, c * fy, ty - (s * fx * ix + c * fy * iy));
+  const cv::Matx23d m(c * fx, -s * fy, tx - (c * fx * ix - s * fy * iy), s * fx, c * fy,
+                      ty - (s * fx * ix + c * fy * iy));
   cv::Mat dst = frame(roi);
   // Transparent border: only pixels the sprite covers are written.
   cv::warpAffine(image, dst, m, roi.size(), cv::INTER_LINEAR, cv::BORDER_TRANSPARENT);
@@ -487,7 +494,8 @@ void motion_blur(cv::Mat& frame, cv::Point2d smear) {
   constexpr int kShift = 4;  // sub-pixel bits of cv::line's coordinates
   const cv::Point2d mid(half, half);
   auto fixed = [](cv::Point2d p) {
-    return cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))), static_cast<int>(std::lround(p.y * (1 << kShift))));
+    return cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))),
+                     static_cast<int>(std::lround(p.y * (1 << kShift))));
   };
   cv::line(kernel, fixed(mid - smear / 2), fixed(mid + smear / 2), cv::Scalar(1), 1, cv::LINE_AA, kShift);
   kernel /= cv::sum(kernel)[0];
@@ -537,11 +545,13 @@ Sequence generate_sequence(const SyntheticScript& script, const std::string& dat
 }
 
 cv::Mat target_appearance(const SyntheticScript& script, const std::string& data_dir) {
-  const cv::Mat target = crop_of(read_image(data_dir + "/" + script.target_image), script.target_crop, script.target_image);
+  const cv::Mat target =
+      crop_of(read_image(data_dir + "/" + script.target_image), script.target_crop, script.target_image);
   const cv::Size2d base = target_base_size(script);
   cv::Mat out;
-  cv::resize(target, out, cv::Size(static_cast<int>(std::lround(base.width)), static_cast<int>(std::lround(base.height))),
-             0, 0, cv::INTER_AREA);
+  cv::resize(target, out,
+             cv::Size(static_cast<int>(std::lround(base.width)), static_cast<int>(std::lround(base.height))), 0, 0,
+             cv::INTER_AREA);
   return out;
 }
 
@@ -564,7 +574,8 @@ const cv::Rect kBox(0, 0, 324, 223);           // box.png
 const cv::Rect kFace(204, 58, 62, 64);         // messi5.jpg
 const cv::Rect kSquirrel(140, 100, 210, 250);  // squirrel_cls.jpg
 
-SyntheticScript make_script(std::string name, std::string background, std::string target, cv::Rect crop, uint32_t seed) {
+SyntheticScript make_script(std::string name, std::string background, std::string target, cv::Rect crop,
+                            uint32_t seed) {
   SyntheticScript s;
   s.name = std::move(name);
   s.background = std::move(background);
@@ -709,7 +720,8 @@ TrackScore score_track(const std::vector<cv::Rect2d>& truth, const std::vector<b
     for (int k = 0; k <= 20; ++k) {
       const double threshold = k / 20.0;
       const double share = static_cast<double>(std::count_if(overlaps.begin(), overlaps.end(),
-                                                             [&](double o) { return o > threshold; })) / n;
+                                                             [&](double o) { return o > threshold; })) /
+                           n;
       score.success_auc += share / 21;
       if (k == 10) score.success50 = share;
     }

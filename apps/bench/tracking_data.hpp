@@ -79,20 +79,20 @@ struct SyntheticScript {
   std::string target_image;  // image file the target is cut from ...
   cv::Rect target_crop;      // ... this rectangle of it (pixels)
   std::string occluder_image;
-  double target_side = 60;    // the target's larger side at scale 1, frame pixels
-  double wander = 0.3;        // the target's motion in the frame, share of half the frame
-  double wander_period = 160; // frames
-  double pan = 40;            // the camera's slow pan (following the target), background pixels
-  double shake = 1.5;         // hand-held shake amplitude, pixels
-  double shake_period = 12;   // shortest shake period, frames
-  double blur = 0;            // exposure as a share of the frame interval (motion blur along the camera's motion)
+  double target_side = 60;     // the target's larger side at scale 1, frame pixels
+  double wander = 0.3;         // the target's motion in the frame, share of half the frame
+  double wander_period = 160;  // frames
+  double pan = 40;             // the camera's slow pan (following the target), background pixels
+  double shake = 1.5;          // hand-held shake amplitude, pixels
+  double shake_period = 12;    // shortest shake period, frames
+  double blur = 0;             // exposure as a share of the frame interval (motion blur along the camera's motion)
   double scale_min = 1, scale_max = 1;
-  double rotation_deg = 0;    // in-plane rotation amplitude
-  double light = 0;           // lighting ramps: gain within 1 +- light, offset within +-40 light
+  double rotation_deg = 0;  // in-plane rotation amplitude
+  double light = 0;         // lighting ramps: gain within 1 +- light, offset within +-40 light
   std::vector<Occlusion> occlusions;
-  bool distractor = false;    // a dimmer, tinted copy of the target circling it (passing behind it)
+  bool distractor = false;  // a dimmer, tinted copy of the target circling it (passing behind it)
   std::vector<Excursion> excursions;
-  double noise = 2.0;         // sensor noise, grey levels (standard deviation)
+  double noise = 2.0;  // sensor noise, grey levels (standard deviation)
 };
 
 // The benchmark's standard set: 8 sequences at 320x240 and 2 at 640x480, 300+
@@ -114,9 +114,9 @@ cv::Mat target_appearance(const SyntheticScript& script, const std::string& data
 // What a tracker reported for one frame.
 struct TrackedFrame {
   cv::Rect2d box;
-  bool tracking = true;  // the tracker claims to follow the target
-  double ms = 0;         // wall clock of this frame's update
-  const char* state = "";        // the tracker's own word for it, where it has one
+  bool tracking = true;              // the tracker claims to follow the target
+  double ms = 0;                     // wall clock of this frame's update
+  const char* state = "";            // the tracker's own word for it, where it has one
   double confidence = std::nan("");  // likewise
 };
 

@@ -46,7 +46,7 @@ const char* name(Mode m) { return m == Mode::kRectified ? "rectified" : m == Mod
 struct Score {
   int fovea_pixels = 0, fovea_matched = 0, fovea_bad2 = 0;
   int outer_pixels = 0, outer_matched = 0, outer_bad2 = 0;
-  double depth_error = 0;  // relative; 1 when no fixation was found
+  double depth_error = 0;      // relative; 1 when no fixation was found
   double disparity_error = 0;  // the fixation's, pixels (when found)
   bool fixation_found = false;
   double microseconds = 0;  // retinas (both cameras) and stereo
@@ -95,9 +95,8 @@ bool true_right(const Views& v, cv::Point2d pl, cv::Point2d& pr) {
     return true;
   }
   const Eigen::Isometry3d left = camera_pose(c, 0, v.joints);
-  const Eigen::Vector3d ray =
-      left.linear() * Eigen::Vector3d((pl.x - 0.5 - c.size.width / 2.0) / c.focal_px,
-                                      (pl.y - 0.5 - c.size.height / 2.0) / c.focal_px, 1.0);
+  const Eigen::Vector3d ray = left.linear() * Eigen::Vector3d((pl.x - 0.5 - c.size.width / 2.0) / c.focal_px,
+                                                              (pl.y - 0.5 - c.size.height / 2.0) / c.focal_px, 1.0);
   if (ray.y() <= 1e-9) return false;
   const Eigen::Vector3d wall = left.translation() + ray * ((c.wall_distance - left.translation().y()) / ray.y());
   if (!project(c, camera_pose(c, 1, v.joints), wall, pr)) return false;
@@ -124,8 +123,8 @@ Retina make_retina(const cv::Mat& frame, int camera, const retina::RectifiedMap*
 // Counts one level's pixels: matched, and matched more than 2 level pixels
 // from where the right camera truly sees them.
 void score_level(const Views& v, const Retina& left, std::size_t k, const stereo::LevelDisparity& level,
-                 const retina::RectifiedMap* left_map, const retina::RectifiedMap* right_map, int& pixels,
-                 int& matched, int& bad) {
+                 const retina::RectifiedMap* left_map, const retina::RectifiedMap* right_map, int& pixels, int& matched,
+                 int& bad) {
   const LevelGeometry& g = left.geometry[k];
   for (int j = 0; j < level.disparity.rows; ++j) {
     for (int i = 0; i < level.disparity.cols; ++i) {
@@ -147,8 +146,8 @@ void score_level(const Views& v, const Retina& left, std::size_t k, const stereo
 
 Score run(const Views& v, Mode mode, const stereo::RetinaStereoConfig& config) {
   Score s;
-  const kinematics::HeadCalibration calibration = retina::model_calibration(v.config.size, v.config.focal_px,
-                                                                           v.config.geometry);
+  const kinematics::HeadCalibration calibration =
+      retina::model_calibration(v.config.size, v.config.focal_px, v.config.geometry);
   retina::PairRectification pair;
   if (std::string e = retina::rectify_pair(calibration, v.config.geometry, v.joints, pair); !e.empty())
     throw std::runtime_error(e);
@@ -232,7 +231,7 @@ constexpr Mode kModes[] = {Mode::kRectified, Mode::kPlain, Mode::kParallel};
 struct Tally {
   Score score;
   double depth_sum = 0, depth_max = 0;
-  double us = 0;     // a distance's only
+  double us = 0;  // a distance's only
   int found = 0, count = 0;
 };
 
@@ -316,11 +315,12 @@ std::string floors(const Tally (&all)[3], const double (&all_disparity_sq)[3]) {
   const Score& parallel = all[2].score;
   const double rectified_bad =
       rectified.fovea_matched ? static_cast<double>(rectified.fovea_bad2) / rectified.fovea_matched : 1;
-  const double parallel_bad = parallel.fovea_matched ? static_cast<double>(parallel.fovea_bad2) / parallel.fovea_matched : 1;
-  out << "\nFloors: fixation depth error <= 1% (rectified, max " << 100 * all[0].depth_max << "%): "
-      << (all[0].depth_max <= 0.01 ? "met" : "NOT met") << "; fovea bad-2 within 1.2x of parallel cameras ("
-      << rectified_bad << " against " << parallel_bad << "): " << (rectified_bad <= 1.2 * parallel_bad ? "met" : "NOT met")
-      << "\n";
+  const double parallel_bad =
+      parallel.fovea_matched ? static_cast<double>(parallel.fovea_bad2) / parallel.fovea_matched : 1;
+  out << "\nFloors: fixation depth error <= 1% (rectified, max " << 100 * all[0].depth_max
+      << "%): " << (all[0].depth_max <= 0.01 ? "met" : "NOT met") << "; fovea bad-2 within 1.2x of parallel cameras ("
+      << rectified_bad << " against " << parallel_bad
+      << "): " << (rectified_bad <= 1.2 * parallel_bad ? "met" : "NOT met") << "\n";
   return out.str();
 }
 
@@ -341,7 +341,8 @@ int main(int argc, char** argv) {
 
   std::ostringstream out;
   out << "| distance | vergence (deg) | mode | fixation depth error (mean / max) | fixations found | fovea density "
-         "| fovea bad-2 | outer level density | outer bad-2 | us per pair |\n|---|---|---|---|---|---|---|---|---|---|\n";
+         "| fovea bad-2 | outer level density | outer bad-2 | us per pair "
+         "|\n|---|---|---|---|---|---|---|---|---|---|\n";
   Tally all[3];
   double all_disparity_sq[3] = {};
   for (double distance : distances) {

@@ -44,7 +44,10 @@ using namespace saccade;
 
 enum class Mode { kNone, kIdle, kViewer, kAll };
 const char* name(Mode m) {
-  return m == Mode::kNone ? "no server" : m == Mode::kIdle ? "server, no viewer" : m == Mode::kViewer ? "page's viewer" : "every picture";
+  return m == Mode::kNone     ? "no server"
+         : m == Mode::kIdle   ? "server, no viewer"
+         : m == Mode::kViewer ? "page's viewer"
+                              : "every picture";
 }
 
 struct Viewer {

@@ -36,8 +36,8 @@ using text::trim;
 
 std::optional<std::string> check_range(const ParamSpec& spec, double v) {
   if ((spec.min && v < *spec.min) || (spec.max && v > *spec.max)) {
-    return "value " + format_number(v) + " is out of range [" + format_number(spec.min.value_or(-INFINITY)) +
-           ", " + format_number(spec.max.value_or(INFINITY)) + "]";
+    return "value " + format_number(v) + " is out of range [" + format_number(spec.min.value_or(-INFINITY)) + ", " +
+           format_number(spec.max.value_or(INFINITY)) + "]";
   }
   return std::nullopt;
 }
@@ -55,8 +55,7 @@ std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view t
     }
     case ParamType::kDouble: {
       double v = 0;
-      if (!parse_number(text, v) || !std::isfinite(v))
-        return "expected a number, got '" + std::string(text) + "'";
+      if (!parse_number(text, v) || !std::isfinite(v)) return "expected a number, got '" + std::string(text) + "'";
       if (auto e = check_range(spec, v)) return e;
       out = v;
       return std::nullopt;
@@ -72,9 +71,7 @@ std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view t
       }
       return std::nullopt;
     }
-    case ParamType::kString:
-      out = std::string(text);
-      return std::nullopt;
+    case ParamType::kString: out = std::string(text); return std::nullopt;
     case ParamType::kSize: {
       auto t = trim(text);
       auto x = t.find('x');
@@ -112,7 +109,8 @@ std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view t
         }
         bool known = false;
         for (const auto& c : spec.choices) known = known || c == item;
-        if (!known) return "unknown flag '" + item + "'; expected a comma list of " + join(spec.choices, ", ") + " (or all)";
+        if (!known)
+          return "unknown flag '" + item + "'; expected a comma list of " + join(spec.choices, ", ") + " (or all)";
         bool present = false;
         for (const auto& f : flags) present = present || f == item;
         if (!present) flags.push_back(item);
@@ -157,8 +155,13 @@ Contract& Contract::add_param(ParamSpec spec) {
 }
 
 Contract& Contract::param_int(std::string name, int64_t def, int64_t min, int64_t max, std::string doc) {
-  return add_param({std::move(name), ParamType::kInt, std::to_string(def), static_cast<double>(min),
-                    static_cast<double>(max), {}, std::move(doc)});
+  return add_param({std::move(name),
+                    ParamType::kInt,
+                    std::to_string(def),
+                    static_cast<double>(min),
+                    static_cast<double>(max),
+                    {},
+                    std::move(doc)});
 }
 Contract& Contract::param_double(std::string name, double def, double min, double max, std::string doc) {
   return add_param({std::move(name), ParamType::kDouble, format_exact(def), min, max, {}, std::move(doc)});
@@ -175,20 +178,23 @@ Contract& Contract::required_string(std::string name, std::string doc) {
   return add_param(std::move(spec));
 }
 Contract& Contract::param_size(std::string name, cv::Size def, std::string doc) {
-  return add_param({std::move(name), ParamType::kSize, std::to_string(def.width) + "x" + std::to_string(def.height),
-                    0.0, 1e6, {}, std::move(doc)});
+  return add_param({std::move(name),
+                    ParamType::kSize,
+                    std::to_string(def.width) + "x" + std::to_string(def.height),
+                    0.0,
+                    1e6,
+                    {},
+                    std::move(doc)});
 }
 Contract& Contract::param_point(std::string name, std::optional<cv::Point2d> def, std::string doc) {
   std::string text = def ? format_number(def->x) + "," + format_number(def->y) : "";
   ParamSpec spec{std::move(name), ParamType::kPoint, text, {}, {}, {}, std::move(doc)};
   return add_param(std::move(spec));
 }
-Contract& Contract::param_enum(std::string name, std::string def, std::vector<std::string> choices,
-                               std::string doc) {
+Contract& Contract::param_enum(std::string name, std::string def, std::vector<std::string> choices, std::string doc) {
   return add_param({std::move(name), ParamType::kEnum, std::move(def), {}, {}, std::move(choices), std::move(doc)});
 }
-Contract& Contract::param_flags(std::string name, std::string def, std::vector<std::string> choices,
-                                std::string doc) {
+Contract& Contract::param_flags(std::string name, std::string def, std::vector<std::string> choices, std::string doc) {
   return add_param({std::move(name), ParamType::kFlags, std::move(def), {}, {}, std::move(choices), std::move(doc)});
 }
 

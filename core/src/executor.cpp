@@ -162,9 +162,9 @@ struct Executor::Impl {
   std::vector<int> topo;  // node indices in topological order (delayed edges ignored)
 
   mutable std::mutex mu;
-  std::condition_variable work_cv;   // workers wait for ready nodes
-  std::condition_variable room_cv;   // sources wait for room downstream, or a stop
-  std::condition_variable done_cv;   // run() waits for the end
+  std::condition_variable work_cv;  // workers wait for ready nodes
+  std::condition_variable room_cv;  // sources wait for room downstream, or a stop
+  std::condition_variable done_cv;  // run() waits for the end
   ReadyRing ready;
   std::vector<int> ended;  // finished nodes not yet told (inputs_ended); reserved, never reallocates
   int sleeping_workers = 0;
@@ -332,8 +332,10 @@ struct Executor::Impl {
     // A consumer's frame allocator reaches its producers (the first offer
     // wins where an output feeds several): consumers open after producers.
     for (const auto& e : graph.edges) {
-      cv::MatAllocator* offered = nodes[static_cast<std::size_t>(e.to_node)].slot.input_allocators[static_cast<std::size_t>(e.to_port)];
-      cv::MatAllocator*& used = nodes[static_cast<std::size_t>(e.from_node)].slot.output_allocators[static_cast<std::size_t>(e.from_port)];
+      cv::MatAllocator* offered =
+          nodes[static_cast<std::size_t>(e.to_node)].slot.input_allocators[static_cast<std::size_t>(e.to_port)];
+      cv::MatAllocator*& used =
+          nodes[static_cast<std::size_t>(e.from_node)].slot.output_allocators[static_cast<std::size_t>(e.from_port)];
       if (offered != nullptr && used == nullptr) used = offered;
     }
     return {};
@@ -421,8 +423,10 @@ struct Executor::Impl {
   void wake_producer(const InputRt& in) {
     if (in.queue.spec().policy != QueuePolicy::kBlock || in.producer < 0) return;
     NodeRt& p = nodes[static_cast<std::size_t>(in.producer)];
-    if (p.source) room_cv.notify_all();
-    else schedule(in.producer);
+    if (p.source)
+      room_cv.notify_all();
+    else
+      schedule(in.producer);
   }
 
   // Puts the node on the ready queue, or finishes it, as its inputs say.
@@ -519,8 +523,10 @@ struct Executor::Impl {
     n.running = false;
     n.slot.trigger = nullptr;
     if (s.is_error()) on_error(n, s);
-    if (s.is_end_of_stream()) finish(index);
-    else schedule(index);
+    if (s.is_end_of_stream())
+      finish(index);
+    else
+      schedule(index);
   }
 
   // Calls process() and records its stats.
@@ -545,8 +551,7 @@ struct Executor::Impl {
       log().warn("node '{}' ({}): {} (frame skipped)", n.slot.name, n.resolved->decl.plugin, s.message());
       return;
     }
-    if (failure.ok())
-      failure = Status::error(where(n) + ": " + s.message());
+    if (failure.ok()) failure = Status::error(where(n) + ": " + s.message());
     aborted = true;
     stop_.store(true);
     room_cv.notify_all();
@@ -581,9 +586,7 @@ struct Executor::Impl {
     }
   }
 
-  bool source_may_continue(NodeRt& n) {
-    return options.max_frames < 0 || n.frames < options.max_frames;
-  }
+  bool source_may_continue(NodeRt& n) { return options.max_frames < 0 || n.frames < options.max_frames; }
 
   void source_loop(int index) {
     NodeRt& n = nodes[static_cast<std::size_t>(index)];
@@ -702,7 +705,8 @@ struct Executor::Impl {
         for (std::size_t i = 0; i < nodes.size(); ++i)
           if (nodes[i].opened && !nodes[i].source) schedule(static_cast<int>(i));
       }
-      int workers = options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+      int workers =
+          options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
       for (int w = 0; w < workers; ++w) threads.emplace_back([this] { worker_loop(); });
       for (std::size_t i = 0; i < nodes.size(); ++i)
         if (nodes[i].opened && nodes[i].source) threads.emplace_back([this, i] { source_loop(static_cast<int>(i)); });
@@ -762,8 +766,7 @@ struct Executor::Impl {
   std::vector<const NodeStats*> collect() const {
     std::vector<const NodeStats*> out;
     for (int i : topo)
-      if (nodes[static_cast<std::size_t>(i)].node)
-        out.push_back(nodes[static_cast<std::size_t>(i)].stats.get());
+      if (nodes[static_cast<std::size_t>(i)].node) out.push_back(nodes[static_cast<std::size_t>(i)].stats.get());
     return out;
   }
 
@@ -780,9 +783,7 @@ Executor::Executor(const ResolvedGraph& graph, const Registry& registry, Executo
   impl_->build();
 }
 
-Executor::~Executor() {
-  impl_->close_nodes();
-}
+Executor::~Executor() { impl_->close_nodes(); }
 
 Status Executor::open() {
   Status s = impl_->open_nodes();

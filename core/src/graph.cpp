@@ -70,7 +70,8 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
   for (const auto& c : candidates) {
     std::size_t d = edit_distance(word, c);
     // A suffix match ("bank" for "filters.bank") counts as close too.
-    if (c.size() > word.size() && c.compare(c.size() - word.size(), word.size(), word) == 0) d = std::min<std::size_t>(d, 1);
+    if (c.size() > word.size() && c.compare(c.size() - word.size(), word.size(), word) == 0)
+      d = std::min<std::size_t>(d, 1);
     if (d < best_d) {
       best_d = d;
       best = c;
@@ -131,15 +132,24 @@ std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std
              value >= lo && value <= hi;
     };
     double v = 0;
-    if (item == "best_effort") base.reliable = false;
-    else if (item == "reliable") base.reliable = true;
-    else if (item == "keep_all") base.depth = 0;
-    else if (value_after("depth=", 1, 100000, v) && v == static_cast<int>(v)) base.depth = static_cast<int>(v);
-    else if (value_after("deadline_ms=", 0, 3.6e6, v)) base.deadline_ms = v;
-    else if (value_after("wait_ms=", 0, 3.6e6, v)) base.wait_ms = v;
-    else if (auto bytes = parse_capacity(item)) base.capacity = *bytes;
-    else if (item == "ros2") base.ros2 = true;
-    else if (item == "spin") base.spin = true;
+    if (item == "best_effort")
+      base.reliable = false;
+    else if (item == "reliable")
+      base.reliable = true;
+    else if (item == "keep_all")
+      base.depth = 0;
+    else if (value_after("depth=", 1, 100000, v) && v == static_cast<int>(v))
+      base.depth = static_cast<int>(v);
+    else if (value_after("deadline_ms=", 0, 3.6e6, v))
+      base.deadline_ms = v;
+    else if (value_after("wait_ms=", 0, 3.6e6, v))
+      base.wait_ms = v;
+    else if (auto bytes = parse_capacity(item))
+      base.capacity = *bytes;
+    else if (item == "ros2")
+      base.ros2 = true;
+    else if (item == "spin")
+      base.spin = true;
     else {
       if (error)
         *error = "qos: unknown item '" + item +
@@ -162,9 +172,9 @@ void check_attributes(const XMLElement* e, const std::set<std::string>& allowed,
   for (const XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
     if (!allowed.count(a->Name())) {
       std::vector<std::string> list(allowed.begin(), allowed.end());
-      diag.error(file, a->GetLineNum(), node, "",
-                 std::string("unknown attribute '") + a->Name() + "' on <" + e->Name() + ">" +
-                     did_you_mean(a->Name(), list));
+      diag.error(
+          file, a->GetLineNum(), node, "",
+          std::string("unknown attribute '") + a->Name() + "' on <" + e->Name() + ">" + did_you_mean(a->Name(), list));
     }
   }
 }
@@ -215,15 +225,19 @@ std::string over_limits(std::string_view xml, int& line) {
       continue;
     }
     if (!in_tag) {
-      if (xml.compare(i, 4, "<!--") == 0) in_comment = true;
-      else if (c == '<') in_tag = true, attributes = 0, tag_line = line;
+      if (xml.compare(i, 4, "<!--") == 0)
+        in_comment = true;
+      else if (c == '<')
+        in_tag = true, attributes = 0, tag_line = line;
       continue;
     }
-    if (c == '"' || c == '\'') quote = c;
+    if (c == '"' || c == '\'')
+      quote = c;
     else if (c == '=' && ++attributes > kMaxAttributesPerElement) {
       line = tag_line;
       return "an element with more than " + std::to_string(kMaxAttributesPerElement) + " attributes";
-    } else if (c == '>') in_tag = false;
+    } else if (c == '>')
+      in_tag = false;
   }
   return {};
 }
@@ -317,14 +331,19 @@ NodeDecl parse_node(const XMLElement* e, const std::string& file, Diagnostics& d
   if (const char* p = e->Attribute("process")) node.process = p;
   if (const char* oe = e->Attribute("on_error")) {
     std::string v = oe;
-    if (v == "stop") node.on_error = OnError::kStop;
-    else if (v == "skip") node.on_error = OnError::kSkip;
-    else diag.error(file, line, node.name, "", "on_error must be 'stop' or 'skip', got '" + v + "'");
+    if (v == "stop")
+      node.on_error = OnError::kStop;
+    else if (v == "skip")
+      node.on_error = OnError::kSkip;
+    else
+      diag.error(file, line, node.name, "", "on_error must be 'stop' or 'skip', got '" + v + "'");
   }
   if (const char* in = e->Attribute("inline")) {
     std::string v = in;
-    if (v == "true") node.run_inline = true;
-    else if (v != "false") diag.error(file, line, node.name, "", "inline must be 'true' or 'false', got '" + v + "'");
+    if (v == "true")
+      node.run_inline = true;
+    else if (v != "false")
+      diag.error(file, line, node.name, "", "inline must be 'true' or 'false', got '" + v + "'");
   }
   for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
     std::string ctag = c->Name();
@@ -346,22 +365,26 @@ void parse_edge(const XMLElement* e, const std::string& file, Diagnostics& diag,
   edge.line = line;
   bool ok = true;
   if (!split_endpoint(e->Attribute("from"), edge.from_node, edge.from_port)) {
-    diag.error(file, line, "", "", "edge 'from' must be node.port, got '" +
-                                      std::string(e->Attribute("from") ? e->Attribute("from") : "") + "'");
+    diag.error(
+        file, line, "", "",
+        "edge 'from' must be node.port, got '" + std::string(e->Attribute("from") ? e->Attribute("from") : "") + "'");
     ok = false;
   }
   if (!split_endpoint(e->Attribute("to"), edge.to_node, edge.to_port)) {
-    diag.error(file, line, "", "", "edge 'to' must be node.port, got '" +
-                                      std::string(e->Attribute("to") ? e->Attribute("to") : "") + "'");
+    diag.error(file, line, "", "",
+               "edge 'to' must be node.port, got '" + std::string(e->Attribute("to") ? e->Attribute("to") : "") + "'");
     ok = false;
   }
   if (const char* q = e->Attribute("queue")) edge.queue = q;
   if (const char* q = e->Attribute("qos")) edge.qos = q;
   if (const char* d = e->Attribute("delay")) {
     std::string v = d;
-    if (v == "0") edge.delay = 0;
-    else if (v == "1") edge.delay = 1;
-    else diag.error(file, line, edge.to_node, edge.to_port, "delay must be 0 or 1, got '" + v + "'");
+    if (v == "0")
+      edge.delay = 0;
+    else if (v == "1")
+      edge.delay = 1;
+    else
+      diag.error(file, line, edge.to_node, edge.to_port, "delay must be 0 or 1, got '" + v + "'");
   }
   if (ok) graph.edges.push_back(std::move(edge));
 }
@@ -373,8 +396,10 @@ void parse_process(const XMLElement* e, const std::string& file, Diagnostics& di
   process.line = line;
   if (const char* n = e->Attribute("name")) process.name = n;
   if (const char* h = e->Attribute("host")) process.host = h;
-  if (process.name.empty()) diag.error(file, line, "", "", "<process> needs a name attribute");
-  else graph.processes.push_back(std::move(process));
+  if (process.name.empty())
+    diag.error(file, line, "", "", "<process> needs a name attribute");
+  else
+    graph.processes.push_back(std::move(process));
 }
 
 GraphDecl parse_document(XMLDocument& doc, const std::string& file, Diagnostics& diag) {
@@ -414,8 +439,9 @@ GraphDecl load_graph_file(const std::string& path, Diagnostics& diag) {
   }
   const auto size = std::filesystem::file_size(path, ec);
   if (!ec && size > kMaxGraphFileBytes) {
-    diag.error(path, 0, "", "", "the file is " + std::to_string(size) + " bytes; a graph file may have at most " +
-                                    std::to_string(kMaxGraphFileBytes));
+    diag.error(path, 0, "", "",
+               "the file is " + std::to_string(size) + " bytes; a graph file may have at most " +
+                   std::to_string(kMaxGraphFileBytes));
     return empty;
   }
   std::ifstream in(path, std::ios::binary);
@@ -518,8 +544,8 @@ bool resolve_node(const NodeDecl& n, const Registry& registry, const std::string
       int line = p.line > 0 ? p.line : n.line;
       const ParamSpec* spec = rn.contract.find_param(p.name);
       if (spec == nullptr) {
-        diag.error(file, line, n.name, "", "unknown parameter '" + p.name + "' for plugin '" + n.plugin + "'" +
-                                              did_you_mean(p.name, known));
+        diag.error(file, line, n.name, "",
+                   "unknown parameter '" + p.name + "' for plugin '" + n.plugin + "'" + did_you_mean(p.name, known));
         continue;
       }
       if (!given.insert(p.name).second) {
@@ -589,8 +615,7 @@ NodeIndex resolve_nodes(const GraphDecl& graph, const Registry& registry, Diagno
   const std::string& file = graph.file;
   NodeIndex nodes;
   for (const auto& n : graph.nodes) {
-    if (n.name.find('.') != std::string::npos)
-      diag.error(file, n.line, n.name, "", "node names may not contain '.'");
+    if (n.name.find('.') != std::string::npos) diag.error(file, n.line, n.name, "", "node names may not contain '.'");
     if (nodes.index.count(n.name)) {
       const NodeDecl* first = graph.find_node(n.name);
       diag.error(file, n.line, n.name, "",
@@ -618,8 +643,9 @@ void check_processes(const GraphDecl& graph, Diagnostics& diag) {
   if (!process_names.empty())
     for (const auto& n : graph.nodes)
       if (!n.process.empty() && std::find(process_names.begin(), process_names.end(), n.process) == process_names.end())
-        diag.error(file, n.line, n.name, "",
-                   "process '" + n.process + "' is not declared by a <process>" + did_you_mean(n.process, process_names));
+        diag.error(
+            file, n.line, n.name, "",
+            "process '" + n.process + "' is not declared by a <process>" + did_you_mean(n.process, process_names));
 }
 
 // An edge's own attributes and its endpoint nodes; false when any is wrong.
@@ -675,14 +701,17 @@ bool resolve_edge_ports(const EdgeDecl& e, const ResolvedGraph& out, const std::
   if (re.from_port < 0) {
     std::vector<std::string> outs;
     for (const auto& p : fn.contract.outputs()) outs.push_back(p.name);
-    std::string hint = fn.contract.find_input(e.from_port) ? " ('" + e.from_port + "' is an input)" : did_you_mean(e.from_port, outs);
+    std::string hint =
+        fn.contract.find_input(e.from_port) ? " ('" + e.from_port + "' is an input)" : did_you_mean(e.from_port, outs);
     diag.error(file, e.line, e.from_node, e.from_port, "unknown output port of plugin '" + fn.decl.plugin + "'" + hint);
     ok = false;
   }
-  if (re.to_port < 0 && !(tn.contract.outputs().empty() && tn.contract.inputs().empty() && tn.contract.params().empty())) {
+  if (re.to_port < 0 &&
+      !(tn.contract.outputs().empty() && tn.contract.inputs().empty() && tn.contract.params().empty())) {
     std::vector<std::string> ins;
     for (const auto& p : tn.contract.inputs()) ins.push_back(p.name);
-    std::string hint = tn.contract.find_output(e.to_port) ? " ('" + e.to_port + "' is an output)" : did_you_mean(e.to_port, ins);
+    std::string hint =
+        tn.contract.find_output(e.to_port) ? " ('" + e.to_port + "' is an output)" : did_you_mean(e.to_port, ins);
     diag.error(file, e.line, e.to_node, e.to_port, "unknown input port of plugin '" + tn.decl.plugin + "'" + hint);
     ok = false;
   }
@@ -690,8 +719,9 @@ bool resolve_edge_ports(const EdgeDecl& e, const ResolvedGraph& out, const std::
   const PortSpec& op = fn.contract.outputs()[static_cast<std::size_t>(re.from_port)];
   const PortSpec& ip = tn.contract.inputs()[static_cast<std::size_t>(re.to_port)];
   if (!port_types_match(op.type, ip.type)) {
-    diag.error(file, e.line, e.to_node, e.to_port,
-               "type mismatch: " + e.from_node + "." + e.from_port + " produces " + op.type + ", input expects " + ip.type);
+    diag.error(
+        file, e.line, e.to_node, e.to_port,
+        "type mismatch: " + e.from_node + "." + e.from_port + " produces " + op.type + ", input expects " + ip.type);
     return false;
   }
   return true;
@@ -708,8 +738,9 @@ ProducerLines resolve_edges(const GraphDecl& graph, const NodeIndex& nodes, Diag
     if (!resolve_edge_decl(e, nodes, file, diag, re) || !resolve_edge_ports(e, out, file, diag, re)) continue;
     auto key = std::make_pair(re.to_node, re.to_port);
     if (auto it = producer_line.find(key); it != producer_line.end()) {
-      diag.error(file, e.line, e.to_node, e.to_port,
-                 "input already has a producer (edge at line " + std::to_string(it->second) + "); one producer per input");
+      diag.error(
+          file, e.line, e.to_node, e.to_port,
+          "input already has a producer (edge at line " + std::to_string(it->second) + "); one producer per input");
       continue;
     }
     producer_line[key] = e.line;
@@ -762,8 +793,10 @@ void check_cycles(const ResolvedGraph& out, Diagnostics& diag) {
         std::string cycle = name(v);
         bool on = false;
         for (const Frame& step : path) {
-          if (step.node == v) on = true;
-          else if (on) cycle += " -> " + name(step.node);
+          if (step.node == v)
+            on = true;
+          else if (on)
+            cycle += " -> " + name(step.node);
         }
         cycle += " -> " + name(v);
         diag.error(out.file, e->line, name(v), "",
@@ -800,14 +833,15 @@ std::string to_dot(const ResolvedGraph& graph) {
     std::string ins, outs;
     for (const auto& p : n.contract.inputs()) ins += (ins.empty() ? "" : "|") + ("<i_" + p.name + "> " + p.name);
     for (const auto& p : n.contract.outputs()) outs += (outs.empty() ? "" : "|") + ("<o_" + p.name + "> " + p.name);
-    out += "  \"" + n.decl.name + "\" [label=\"{{" + ins + "}|" + n.decl.name + "\\n(" + n.decl.plugin + ")|{" + outs + "}}\"];\n";
+    out += "  \"" + n.decl.name + "\" [label=\"{{" + ins + "}|" + n.decl.name + "\\n(" + n.decl.plugin + ")|{" + outs +
+           "}}\"];\n";
   }
   for (const auto& e : graph.edges) {
     const auto& f = graph.nodes[static_cast<std::size_t>(e.from_node)];
     const auto& t = graph.nodes[static_cast<std::size_t>(e.to_node)];
-    out += "  \"" + f.decl.name + "\":\"o_" + f.contract.outputs()[static_cast<std::size_t>(e.from_port)].name + "\" -> \"" +
-           t.decl.name + "\":\"i_" + t.contract.inputs()[static_cast<std::size_t>(e.to_port)].name + "\" [label=\"" +
-           e.queue.text() + "\"" + (e.delay ? ", style=dashed, constraint=false" : "") + "];\n";
+    out += "  \"" + f.decl.name + "\":\"o_" + f.contract.outputs()[static_cast<std::size_t>(e.from_port)].name +
+           "\" -> \"" + t.decl.name + "\":\"i_" + t.contract.inputs()[static_cast<std::size_t>(e.to_port)].name +
+           "\" [label=\"" + e.queue.text() + "\"" + (e.delay ? ", style=dashed, constraint=false" : "") + "];\n";
   }
   return out + "}\n";
 }

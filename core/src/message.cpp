@@ -89,7 +89,8 @@ void make_exclusive(cv::Mat& mat) {
     mat.release();
 }
 
-void create_together(cv::MatAllocator* allocator, std::size_t count, cv::Size size, int type, std::vector<cv::Mat>& mats) {
+void create_together(cv::MatAllocator* allocator, std::size_t count, cv::Size size, int type,
+                     std::vector<cv::Mat>& mats) {
   const std::size_t bytes = static_cast<std::size_t>(size.area()) * CV_ELEM_SIZE(type);
   const std::size_t stride = (bytes + 63) / 64 * 64;
   cv::Mat buffer;

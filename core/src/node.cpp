@@ -11,8 +11,7 @@ EmitSink::~EmitSink() = default;
 Node::~Node() = default;
 
 int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
       .count();
 }
 
@@ -58,13 +57,17 @@ Histogram& OpenContext::timing(std::string_view name) const {
 
 std::size_t input_port_index(const NodeSlot& slot, const void* key, std::string_view name) {
   const int i = slot.contract->input_index(key);
-  if (i < 0) throw std::logic_error("node '" + slot.name + "': input constant '" + std::string(name) + "' is not in its contract");
+  if (i < 0)
+    throw std::logic_error("node '" + slot.name + "': input constant '" + std::string(name) +
+                           "' is not in its contract");
   return static_cast<std::size_t>(i);
 }
 
 std::size_t output_port_index(const NodeSlot& slot, const void* key, std::string_view name) {
   const int i = slot.contract->output_index(key);
-  if (i < 0) throw std::logic_error("node '" + slot.name + "': output constant '" + std::string(name) + "' is not in its contract");
+  if (i < 0)
+    throw std::logic_error("node '" + slot.name + "': output constant '" + std::string(name) +
+                           "' is not in its contract");
   return static_cast<std::size_t>(i);
 }
 

@@ -91,7 +91,7 @@ std::optional<GraphPlan> plan_graph(const ResolvedGraph& graph, Diagnostics& dia
     bool crosses = !pe.from_process.empty() && !pe.to_process.empty() && pe.from_process != pe.to_process;
     if (crosses) {
       pe.route = host_of(graph, pe.from_process) == host_of(graph, pe.to_process) ? EdgeRoute::kSameHost
-                                                                                 : EdgeRoute::kOtherHost;
+                                                                                  : EdgeRoute::kOtherHost;
       pe.topic = prefix + "/" + from.decl.name + "/" + port.name;
       std::string error;
       auto qos = parse_edge_qos(e.qos, default_qos(pe.type), &error);
@@ -164,8 +164,7 @@ std::string format_plan(const ResolvedGraph& graph, const GraphPlan& plan) {
 }
 
 std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const GraphPlan& plan,
-                                             const std::string& process, const Registry& registry,
-                                             Diagnostics& diag) {
+                                             const std::string& process, const Registry& registry, Diagnostics& diag) {
   std::size_t errors_before = diag.error_count();
   if (std::find(plan.processes.begin(), plan.processes.end(), process) == plan.processes.end()) {
     std::string known = text::join(plan.processes, ", ");
@@ -212,7 +211,8 @@ std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const G
       // Its queue drops nothing a DDS writer would keep (keep-all edges block).
       int pub = bridge(pe, true);
       if (pub < 0) continue;
-      bool already = std::any_of(out.edges.begin(), out.edges.end(), [&](const ResolvedEdge& x) { return x.to_node == pub; });
+      bool already =
+          std::any_of(out.edges.begin(), out.edges.end(), [&](const ResolvedEdge& x) { return x.to_node == pub; });
       if (already) continue;
       re.from_node = from;
       re.to_node = pub;

@@ -52,7 +52,8 @@ std::string dl_reason(const std::exception& e) {
   auto colon = what.rfind(": ");
   if (colon != std::string::npos) {
     std::string tail = what.substr(colon + 2);
-    if (tail == "Bad file descriptor" || tail == "Illegal seek" || tail == "Success" || tail == "No such file or directory")
+    if (tail == "Bad file descriptor" || tail == "Illegal seek" || tail == "Success" ||
+        tail == "No such file or directory")
       what = what.substr(0, colon);
   }
   return what;
@@ -122,7 +123,8 @@ void Registry::load_folders(const std::vector<std::string>& folders) {
       if (name.rfind("saccade_", 0) == 0 && entry.path().extension() == ".so") {
         files.push_back(entry.path());
       } else {
-        warnings_.push_back(entry.path().string() + ": skipped: a plugin library's file name must be saccade_<name>.so");
+        warnings_.push_back(entry.path().string() +
+                            ": skipped: a plugin library's file name must be saccade_<name>.so");
         log().warn("{}", warnings_.back());
       }
     }
@@ -138,8 +140,10 @@ void Registry::load_folders(const std::vector<std::string>& folders) {
         continue;
       }
       std::string error;
-      if (load_library(f.string(), &error)) ++loaded;
-      else load_errors_.push_back(error);
+      if (load_library(f.string(), &error))
+        ++loaded;
+      else
+        load_errors_.push_back(error);
     }
     const std::size_t failed = files.size() - loaded - shadowed;
     std::string found = std::to_string(loaded) + (loaded == 1 ? " library" : " libraries");
@@ -161,17 +165,14 @@ bool Registry::load_library(const std::string& path, std::string* error) {
     // RTLD_NOW: a symbol the library needs but nobody provides is an error here,
     // not a crash at its first call.
     lib->handle.load(fs::path(path), boost::dll::load_mode::rtld_now | boost::dll::load_mode::rtld_local);
-  } catch (const std::exception& e) {
-    return fail(path + ": cannot load: " + dl_reason(e));
-  }
+  } catch (const std::exception& e) { return fail(path + ": cannot load: " + dl_reason(e)); }
   if (!lib->handle.has("saccade_plugin_entry"))
-    return fail(path + ": no symbol 'saccade_plugin_entry' (not a saccade plugin? its source needs SACCADE_PLUGIN(...))");
+    return fail(path +
+                ": no symbol 'saccade_plugin_entry' (not a saccade plugin? its source needs SACCADE_PLUGIN(...))");
   try {
     auto& entry = lib->handle.get_alias<const PluginDescriptor*()>("saccade_plugin_entry");
     lib->descriptor = entry();
-  } catch (const std::exception& e) {
-    return fail(path + ": symbol 'saccade_plugin_entry' unusable: " + dl_reason(e));
-  }
+  } catch (const std::exception& e) { return fail(path + ": symbol 'saccade_plugin_entry' unusable: " + dl_reason(e)); }
   if (lib->descriptor == nullptr) return fail(path + ": 'saccade_plugin_entry' returned no descriptor");
   const AbiStamp host = current_abi_stamp();
   if (!(lib->descriptor->abi == host))
@@ -183,7 +184,8 @@ bool Registry::load_library(const std::string& path, std::string* error) {
     std::string short_name = f.name ? f.name : "";
     std::string type = short_name.empty() ? library_name : library_name + "." + short_name;
     if (entries_.count(type)) {
-      log().warn("{}: node type '{}' already provided by {}; keeping the first", path, type, entries_[type].info.library);
+      log().warn("{}: node type '{}' already provided by {}; keeping the first", path, type,
+                 entries_[type].info.library);
       continue;
     }
     Entry e;

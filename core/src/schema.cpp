@@ -10,9 +10,13 @@ namespace saccade {
 namespace {
 
 template <class V>
-concept Described = requires(const V& v) { V::fields(v, [](const char*, const auto&) {}); };
+concept Described = requires(const V& v) {
+  V::fields(v, [](const char*, const auto&) {});
+};
 template <class V>
-concept Named = std::is_enum_v<V> && requires(V v) { to_string(v); };
+concept Named = std::is_enum_v<V> && requires(V v) {
+  to_string(v);
+};
 
 void append_string(std::string& out, std::string_view text) {
   out += '"';
@@ -71,7 +75,7 @@ struct JsonValue {
   void operator()(bool v) const { out += v ? "true" : "false"; }
   void operator()(const std::string& v) const { append_string(out, v); }
   template <class V>
-    requires std::is_arithmetic_v<V>
+  requires std::is_arithmetic_v<V>
   void operator()(V v) const {
     if constexpr (sizeof(V) == 1 && std::is_integral_v<V>)
       append_number(out, static_cast<int>(v));  // uint8_t as a number, not a character
@@ -79,7 +83,7 @@ struct JsonValue {
       append_number(out, v);
   }
   template <class V>
-    requires std::is_enum_v<V>
+  requires std::is_enum_v<V>
   void operator()(V v) const {
     if constexpr (Named<V>)
       append_string(out, to_string(v));
@@ -129,7 +133,7 @@ struct JsonValue {
       out += "null";
   }
   template <class V>
-    requires Described<V>
+  requires Described<V>
   void operator()(const V& v) const {
     out += '{';
     append_members(out, v, false, *this);
@@ -179,15 +183,13 @@ struct SchemaOf {
   void operator()(const bool&) const { out += R"({"type":"boolean"})"; }
   void operator()(const std::string&) const { out += R"({"type":"string"})"; }
   template <class V>
-    requires std::is_arithmetic_v<V>
+  requires std::is_arithmetic_v<V>
   void operator()(const V&) const {
     out += std::is_integral_v<V> ? R"({"type":"integer"})" : R"({"type":["number","null"]})";
   }
   template <class V>
-    requires std::is_enum_v<V>
-  void operator()(const V&) const {
-    out += Named<V> ? R"({"type":"string"})" : R"({"type":"integer"})";
-  }
+  requires std::is_enum_v<V>
+  void operator()(const V&) const { out += Named<V> ? R"({"type":"string"})" : R"({"type":"integer"})"; }
   template <class T>
   void operator()(const cv::Point_<T>&) const {
     out += object_of({"x", "y"}, std::is_integral_v<T> ? "integer" : "number");
@@ -224,7 +226,7 @@ struct SchemaOf {
     out += "]}";
   }
   template <class V>
-    requires Described<V>
+  requires Described<V>
   void operator()(const V& v) const {
     out += R"({"type":"object","properties":{)";
     append_members(out, v, false, *this);
@@ -271,9 +273,7 @@ std::vector<std::string_view> described_message_types() { return type_names(Mess
 
 void append_json(std::string& out, const Message& message) {
   append_stamp(out, message);
-  visit_message(message, [&](const auto& m) {
-    append_members(out, m, true, JsonValue{out});
-  });
+  visit_message(message, [&](const auto& m) { append_members(out, m, true, JsonValue{out}); });
   out += '}';
 }
 

@@ -72,9 +72,9 @@ std::string format_stats_table(const std::vector<const NodeStats*>& nodes, doubl
   std::string out;
   char line[512];
   // Every column says its unit: calls, calls per second, microseconds.
-  std::snprintf(line, sizeof line, "stats after %.2f s\n%-18s %-22s %9s %7s %9s %9s %9s %9s %10s  %s\n",
-                elapsed_s, "node", "plugin", "processed", "errors", "rate Hz", "p50 us", "p99 us", "max us",
-                "lat p50 us", "drops per input (messages), the node's own counts");
+  std::snprintf(line, sizeof line, "stats after %.2f s\n%-18s %-22s %9s %7s %9s %9s %9s %9s %10s  %s\n", elapsed_s,
+                "node", "plugin", "processed", "errors", "rate Hz", "p50 us", "p99 us", "max us", "lat p50 us",
+                "drops per input (messages), the node's own counts");
   out += line;
   for (const NodeStats* n : nodes) {
     std::string drops;
@@ -87,8 +87,8 @@ std::string format_stats_table(const std::vector<const NodeStats*>& nodes, doubl
     }
     for (const auto& c : n->counters) drops += c->name + ":" + std::to_string(c->value.load()) + " ";
     for (const auto& t : n->timings)
-      drops += t->name + ":" + us(t->histogram.percentile(0.5)) + "/" + us(t->histogram.percentile(0.99)) + "us(n=" +
-               std::to_string(t->histogram.count()) + ") ";
+      drops += t->name + ":" + us(t->histogram.percentile(0.5)) + "/" + us(t->histogram.percentile(0.99)) +
+               "us(n=" + std::to_string(t->histogram.count()) + ") ";
     std::snprintf(line, sizeof line, "%-18s %-22s %9llu %7llu %9.1f %9s %9s %9s %10s  ", n->name.c_str(),
                   n->plugin.c_str(), static_cast<unsigned long long>(n->processed.load()),
                   static_cast<unsigned long long>(n->errors.load()), n->rate_hz(),
@@ -129,7 +129,8 @@ std::string format_stats_json(const std::vector<const NodeStats*>& nodes, double
     }
     out += "], \"counters\": {";
     for (std::size_t k = 0; k < n->counters.size(); ++k)
-      out += (k ? ", \"" : "\"") + json_escape(n->counters[k]->name) + "\": " + std::to_string(n->counters[k]->value.load());
+      out += (k ? ", \"" : "\"") + json_escape(n->counters[k]->name) +
+             "\": " + std::to_string(n->counters[k]->value.load());
     out += "}, \"timings_ns\": {";
     for (std::size_t k = 0; k < n->timings.size(); ++k) {
       const Histogram& h = n->timings[k]->histogram;

@@ -67,8 +67,10 @@ class FrameDifference final : public Node {
     if (Status s = require_gray(*image); !s.ok()) return s;
     auto maps = ctx.make(kMaps);
     maps->set_layout({"absdiff", "mask"}, 1);
-    if (prev_ && prev_->mat.size() == image->mat.size()) cv::absdiff(image->mat, prev_->mat, maps->maps[0][0]);
-    else maps->maps[0][0] = cv::Mat::zeros(image->mat.size(), CV_8U);
+    if (prev_ && prev_->mat.size() == image->mat.size())
+      cv::absdiff(image->mat, prev_->mat, maps->maps[0][0]);
+    else
+      maps->maps[0][0] = cv::Mat::zeros(image->mat.size(), CV_8U);
     cv::threshold(maps->maps[0][0], maps->maps[1][0], threshold_, 255, cv::THRESH_BINARY);
     prev_ = image;
     ctx.emit(kMaps, std::move(maps));
@@ -96,8 +98,9 @@ class Stereo final : public Node {
   }
 
   static Contract contract() {
-    return Contract("OpenCV's StereoBM or StereoSGBM (3-way) on full frames, left->right and right->left; "
-                    "disparity in pixels, -1 where invalid.")
+    return Contract(
+               "OpenCV's StereoBM or StereoSGBM (3-way) on full frames, left->right and right->left; "
+               "disparity in pixels, -1 where invalid.")
         .ports(kLeft, kRight, kMaps)
         .params(&bind)
         .param_enum("direction", "both", {"left_to_right", "right_to_left", "both"}, "which disparity maps");
@@ -121,8 +124,10 @@ class Stereo final : public Node {
     auto maps = ctx.make(kMaps);
     maps->set_layout(names_, 1);
     for (std::size_t i = 0; i < names_.size(); ++i) {
-      if (names_[i] == "disparity_lr") stereo_->left_to_right(l->mat, r->mat, maps->maps[i][0]);
-      else stereo_->right_to_left(l->mat, r->mat, maps->maps[i][0]);
+      if (names_[i] == "disparity_lr")
+        stereo_->left_to_right(l->mat, r->mat, maps->maps[i][0]);
+      else
+        stereo_->right_to_left(l->mat, r->mat, maps->maps[i][0]);
     }
     ctx.emit(kMaps, std::move(maps));
     return {};

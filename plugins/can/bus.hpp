@@ -23,8 +23,8 @@ inline constexpr uint32_t kInvFilter = 0x20000000U;  // in a filter's id: match 
 // controller-status byte (data[1]) for CAN_ERR_CRTL.
 namespace error_class {
 inline constexpr uint32_t kTxTimeout = 0x001, kLostArbitration = 0x002, kController = 0x004, kProtocol = 0x008,
-                          kTransceiver = 0x010, kNoAck = 0x020, kBusOff = 0x040, kBusError = 0x080,
-                          kRestarted = 0x100, kAll = 0x1FFFFFFF;
+                          kTransceiver = 0x010, kNoAck = 0x020, kBusOff = 0x040, kBusError = 0x080, kRestarted = 0x100,
+                          kAll = 0x1FFFFFFF;
 }
 namespace controller_status {
 inline constexpr uint8_t kRxWarning = 0x04, kTxWarning = 0x08, kRxPassive = 0x10, kTxPassive = 0x20, kActive = 0x40;
@@ -33,9 +33,9 @@ inline constexpr uint8_t kRxWarning = 0x04, kTxWarning = 0x08, kRxPassive = 0x10
 struct Frame {
   uint32_t id = 0;  // 11 or 29 bits; an error frame: its error classes
   bool extended = false, rtr = false, error = false;
-  bool fd = false;        // CAN FD: up to 64 bytes
-  uint8_t fd_flags = 0;   // CANFD_BRS 0x01, CANFD_ESI 0x02
-  uint8_t length = 0;     // 0..8 (classic), 0..64 (FD)
+  bool fd = false;       // CAN FD: up to 64 bytes
+  uint8_t fd_flags = 0;  // CANFD_BRS 0x01, CANFD_ESI 0x02
+  uint8_t length = 0;    // 0..8 (classic), 0..64 (FD)
   std::array<uint8_t, 64> data{};
   int64_t timestamp_ns = 0;  // reception time (kernel timestamp, bus time)
 
@@ -76,15 +76,15 @@ const char* to_string(BusState s);
 
 struct BusCounters {
   uint64_t sent = 0, received = 0;
-  uint64_t filtered = 0;      // arrived but stopped by the filters
-  uint64_t send_failed = 0;   // not sent: bus off, buffer full (ENOBUFS), socket error
-  uint64_t error_frames = 0;  // error frames delivered
-  uint64_t malformed = 0;     // tunnel packets that did not decode
-  uint64_t lost = 0;          // tunnel packets missing in the sequence
-  uint64_t dropped = 0;       // frames the fault injection threw away
-  uint64_t duplicated = 0;    // frames the fault injection sent twice (udp: their packet)
-  uint64_t reordered = 0;     // frames the fault injection held back behind the next packet (udp)
-  uint64_t corrupted = 0;     // frames in packets the fault injection altered a byte of (udp)
+  uint64_t filtered = 0;         // arrived but stopped by the filters
+  uint64_t send_failed = 0;      // not sent: bus off, buffer full (ENOBUFS), socket error
+  uint64_t error_frames = 0;     // error frames delivered
+  uint64_t malformed = 0;        // tunnel packets that did not decode
+  uint64_t lost = 0;             // tunnel packets missing in the sequence
+  uint64_t dropped = 0;          // frames the fault injection threw away
+  uint64_t duplicated = 0;       // frames the fault injection sent twice (udp: their packet)
+  uint64_t reordered = 0;        // frames the fault injection held back behind the next packet (udp)
+  uint64_t corrupted = 0;        // frames in packets the fault injection altered a byte of (udp)
   uint64_t foreign = 0;          // tunnel packets from another address or port than the peer's
   uint64_t unauthenticated = 0;  // keyed tunnel: packets without a valid tag (none, wrong key, altered)
   uint64_t replayed = 0;         // keyed tunnel: authentic packets seen before, or of an earlier session

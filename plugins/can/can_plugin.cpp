@@ -40,7 +40,8 @@ bool parse_list(const std::string& text, std::size_t count, std::vector<double>&
   }
   if (out.size() == 1 && count > 1) out.assign(count, out[0]);
   if (count > 0 && out.size() != count) {
-    error = name + ": " + std::to_string(out.size()) + " values, expected " + std::to_string(count) + " (or one for all)";
+    error =
+        name + ": " + std::to_string(out.size()) + " values, expected " + std::to_string(count) + " (or one for all)";
     return false;
   }
   return true;
@@ -110,14 +111,22 @@ void bind_common(ParamBinder<CommonConfig>& b) {
              &C::loss)
       .field("latency_ms", {0.0, 1000.0}, "fault injection on a virtual bus: every frame arrives this much later",
              &C::latency_ms)
-      .field("duplicate", {0.0, 1.0}, "fault injection on a udp bus: the probability that a packet sent goes twice "
-             "(counted in bus_duplicated)", &C::duplicate)
-      .field("reorder", {0.0, 1.0}, "fault injection on a udp bus: the probability that a packet sent is held back "
-             "to go after the next one (bus_reordered)", &C::reorder)
-      .field("corrupt", {0.0, 1.0}, "fault injection on a udp bus: the probability that a packet sent has one byte "
-             "altered (bus_corrupted; with a key_file the receiver drops it as unauthenticated)", &C::corrupt)
-      .field("fault_seed", {0, 1000000000}, "fault injection: the seed of the loss, duplicate, reorder and corrupt "
-             "draws", &C::fault_seed)
+      .field("duplicate", {0.0, 1.0},
+             "fault injection on a udp bus: the probability that a packet sent goes twice "
+             "(counted in bus_duplicated)",
+             &C::duplicate)
+      .field("reorder", {0.0, 1.0},
+             "fault injection on a udp bus: the probability that a packet sent is held back "
+             "to go after the next one (bus_reordered)",
+             &C::reorder)
+      .field("corrupt", {0.0, 1.0},
+             "fault injection on a udp bus: the probability that a packet sent has one byte "
+             "altered (bus_corrupted; with a key_file the receiver drops it as unauthenticated)",
+             &C::corrupt)
+      .field("fault_seed", {0, 1000000000},
+             "fault injection: the seed of the loss, duplicate, reorder and corrupt "
+             "draws",
+             &C::fault_seed)
       .field("key_file", kKeyFileDoc, &C::key_file);
 }
 
@@ -161,7 +170,8 @@ Status setup(const CommonConfig& c, Setup& s) {
       !parse_list(c.zero_counts, s.nodes.size(), s.zero, error, "zero_counts"))
     return Status::error(error);
   for (double n : s.nodes)
-    if (n < 1 || n > 127 || n != static_cast<int>(n)) return Status::error("nodes: " + std::to_string(n) + " is not a CANopen node id (1..127)");
+    if (n < 1 || n > 127 || n != static_cast<int>(n))
+      return Status::error("nodes: " + std::to_string(n) + " is not a CANopen node id (1..127)");
   for (double counts : s.counts)
     if (counts == 0) return Status::error("counts_per_rad: 0 counts per radian");
   s.bus = can::open_bus(c.bus, error, {c.key_file});
@@ -221,29 +231,35 @@ class Driver final : public Node {
                &M::following_error_window)
         .field("heartbeat_ms", {0, 65535}, "heartbeat time written to the drives (0x1017); 0: none", &C::master,
                &M::heartbeat_ms)
-        .field("sdo_attempts", {1, 1000}, "tries of each SDO configuration write (50 ms apart) before the drive is "
-               "reported silent", &C::master, &M::sdo_attempts)
+        .field("sdo_attempts", {1, 1000},
+               "tries of each SDO configuration write (50 ms apart) before the drive is "
+               "reported silent",
+               &C::master, &M::sdo_attempts)
         .field("heartbeat_timeout_ms", {1.0, 1e6}, "a drive without heartbeat this long is silent",
                &C::heartbeat_timeout_ms)
         .field("feedback_timeout_ms", {1.0, 1e6}, "a drive without position this long is silent",
                &C::feedback_timeout_ms)
-        .field("statusword_on_change", "configure the drives' statusword PDO as event-driven (0x1800 sub 2 = 255), "
-               "so the set-point handshake completes within a period instead of over two SYNCs", &C::master,
-               &M::statusword_on_change)
+        .field("statusword_on_change",
+               "configure the drives' statusword PDO as event-driven (0x1800 sub 2 = 255), "
+               "so the set-point handshake completes within a period instead of over two SYNCs",
+               &C::master, &M::statusword_on_change)
         .field("watch_ms", {0.0, 100.0},
                "realtime: between cycles, look this often at new targets (sent at once to every drive ready for a "
-               "set-point) and at 'wake'; 0: only at each cycle", &C::watch_ms);
+               "set-point) and at 'wake'; 0: only at each cycle",
+               &C::watch_ms);
   }
 
   static Contract contract() {
-    return Contract("The CANopen master of the head's CiA 402 drives: configures them by SDO, enables them, streams "
-                    "the targets as profile-position set-points, sends SYNC, supervises heartbeats and process data, "
-                    "and reports the joints. One control cycle per call: the control loop's clock. Between cycles "
-                    "(realtime) new targets answering a request go out at once where the drives' set-point handshake "
-                    "allows, and a message on 'wake' makes it report the joints at once (no SYNC).")
+    return Contract(
+               "The CANopen master of the head's CiA 402 drives: configures them by SDO, enables them, streams "
+               "the targets as profile-position set-points, sends SYNC, supervises heartbeats and process data, "
+               "and reports the joints. One control cycle per call: the control loop's clock. Between cycles "
+               "(realtime) new targets answering a request go out at once where the drives' set-point handshake "
+               "allows, and a message on 'wake' makes it report the joints at once (no SYNC).")
         .ports(kTargets)
-        .side_input<Message>("wake", "any new message (a gaze request) makes the driver emit the joints' latest "
-                                     "state at once, between cycles, so that the head plans from it now")
+        .side_input<Message>("wake",
+                             "any new message (a gaze request) makes the driver emit the joints' latest "
+                             "state at once, between cycles, so that the head plans from it now")
         .ports(kState)
         .params(&bind_common)
         .params(&bind);
@@ -392,7 +408,7 @@ struct DrivesConfig {
   std::string initial = "0";  // rad, one value or one per joint
   can::MotorModel motor;
   double fault_at = -1.0, silent_at = -1.0;  // s; -1: never
-  double silent_for = 0.0;                    // s; 0: for good
+  double silent_for = 0.0;                   // s; 0: for good
   int fault_joint = 0;
 };
 
@@ -411,8 +427,8 @@ class Drives final : public Node {
         .field("torque_limit", {0.001, 1000.0}, "N m", &C::motor, &M::torque_limit)
         .field("fault_at", {-1.0, 1e9}, "fault injection: this joint's drive faults at this time, s (-1: never)",
                &C::fault_at)
-        .field("silent_at", {-1.0, 1e9},
-               "fault injection: this joint's drive falls silent at this time, s (-1: never)", &C::silent_at)
+        .field("silent_at", {-1.0, 1e9}, "fault injection: this joint's drive falls silent at this time, s (-1: never)",
+               &C::silent_at)
         .field("silent_for", {0.0, 1e9},
                "fault injection: the silent drive's controller restarts after this many seconds (it boots, announces "
                "it, and the master configures it again; its shaft stays where it is); 0: silent for good",
@@ -421,9 +437,10 @@ class Drives final : public Node {
   }
 
   static Contract contract() {
-    return Contract("Simulated CiA 402 drives, one per joint, on a bus: NMT, heartbeat, SDO, PDOs, the 402 state "
-                    "machine and profile position mode over a PID position loop on a plant with inertia and "
-                    "friction. Alone in a graph on a UDP tunnel they stand in for the robot PC's motors.")
+    return Contract(
+               "Simulated CiA 402 drives, one per joint, on a bus: NMT, heartbeat, SDO, PDOs, the 402 state "
+               "machine and profile position mode over a PID position loop on a plant with inertia and "
+               "friction. Alone in a graph on a UDP tunnel they stand in for the robot PC's motors.")
         .ports(kTruth)
         .params(&bind_common)
         .params(&bind);
@@ -572,8 +589,9 @@ class Tap final : public Node {
   }
 
   static Contract contract() {
-    return Contract("Every frame a bus delivers, as CanFrames messages of one batch per period (a source, like "
-                    "candump): to watch the head's bus from another process or PC, or to bridge it (with can.send).")
+    return Contract(
+               "Every frame a bus delivers, as CanFrames messages of one batch per period (a source, like "
+               "candump): to watch the head's bus from another process or PC, or to bridge it (with can.send).")
         .ports(kFrames)
         .params(&bind);
   }
@@ -630,8 +648,9 @@ class Send final : public Node {
   static constexpr In<CanFrames> kFrames{"frames", "the frames to send"};
 
   static Contract contract() {
-    return Contract("Sends every frame of its CanFrames input onto a bus, in order (a sink, like cansend): with "
-                    "can.tap at the other end, a bus bridged across processes or PCs. Error frames are not sent.")
+    return Contract(
+               "Sends every frame of its CanFrames input onto a bus, in order (a sink, like cansend): with "
+               "can.tap at the other end, a bus bridged across processes or PCs. Error frames are not sent.")
         .ports(kFrames)
         .param_string("bus", "virtual:head", kBusSpecDoc)
         .param_string("key_file", "", kKeyFileDoc);

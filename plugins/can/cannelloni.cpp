@@ -93,7 +93,6 @@ bool decode(const uint8_t* packet, std::size_t size, uint8_t& seq, std::vector<F
   return true;
 }
 
-
 Key::~Key() { OPENSSL_cleanse(bytes.data(), bytes.size()); }
 
 bool load_key(const std::string& path, Key& key, std::string& error) {
@@ -137,9 +136,9 @@ bool load_key(const std::string& path, Key& key, std::string& error) {
     for (std::size_t k = 0; k < 2; ++k) {
       const char c = text[first + 2 * i + k];
       const int digit = std::isdigit(static_cast<unsigned char>(c)) ? c - '0'
-                        : (c >= 'a' && c <= 'f')                 ? c - 'a' + 10
-                        : (c >= 'A' && c <= 'F')                 ? c - 'A' + 10
-                                                                 : -1;
+                        : (c >= 'a' && c <= 'f')                    ? c - 'a' + 10
+                        : (c >= 'A' && c <= 'F')                    ? c - 'A' + 10
+                                                                    : -1;
       if (digit < 0) hex = false;
       value = value << 4 | static_cast<unsigned>(digit & 0xF);
     }
@@ -364,8 +363,9 @@ std::unique_ptr<UdpTunnel> UdpTunnel::open(const Options& o, const Link& link, s
   } else if (is_loopback(peer.sin_addr)) {
     local.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   } else if (!route_source(peer, local.sin_addr, error)) {
-    error = where + ": no route to " + o.peer_host + " (" + error + "); name the local address: udp:ADDR:" +
-            std::to_string(o.local_port) + ":" + o.peer_host + ":" + std::to_string(o.peer_port);
+    error = where + ": no route to " + o.peer_host + " (" + error +
+            "); name the local address: udp:ADDR:" + std::to_string(o.local_port) + ":" + o.peer_host + ":" +
+            std::to_string(o.peer_port);
     return nullptr;
   }
   std::unique_ptr<cannelloni::Authenticator> auth;
@@ -394,13 +394,16 @@ std::unique_ptr<UdpTunnel> UdpTunnel::open(const Options& o, const Link& link, s
 }
 
 UdpTunnel::UdpTunnel(int fd, Options options, const sockaddr_in& local, const sockaddr_in& peer)
-    : fd_(fd), options_(std::move(options)), local_(local), peer_(peer),
+    : fd_(fd),
+      options_(std::move(options)),
+      local_(local),
+      peer_(peer),
       faults_(cannelloni::Faults{options_.loss, 0, 0, 0, options_.seed}) {
   // This end's session: its start time on the wall clock, so that a restarted
   // sender's packets are newer than every packet of its previous run.
-  epoch_ = static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                     std::chrono::system_clock::now().time_since_epoch())
-                                     .count());
+  epoch_ = static_cast<uint64_t>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count());
   outgoing_.reserve(64);
   incoming_.reserve(256);
   packet_.reserve(cannelloni::kMaxPacket);
@@ -477,8 +480,7 @@ bool UdpTunnel::read_packet(int64_t timeout_ns) {
   for (;;) {
     sockaddr_in from{};
     socklen_t from_size = sizeof from;
-    const ssize_t got =
-        ::recvfrom(fd_, buffer, sizeof buffer, 0, reinterpret_cast<sockaddr*>(&from), &from_size);
+    const ssize_t got = ::recvfrom(fd_, buffer, sizeof buffer, 0, reinterpret_cast<sockaddr*>(&from), &from_size);
     if (got < 0) {
       if (errno == EINTR) continue;
       if (errno != EAGAIN && errno != EWOULDBLOCK) return false;  // e.g. ECONNREFUSED from an earlier send

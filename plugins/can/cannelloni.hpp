@@ -49,7 +49,7 @@ struct Key {
   Key& operator=(const Key&) = default;
   ~Key();
 };
-inline constexpr std::size_t kTagSize = 16;                  // HMAC-SHA256 truncated to 128 bits
+inline constexpr std::size_t kTagSize = 16;                    // HMAC-SHA256 truncated to 128 bits
 inline constexpr std::size_t kTrailerSize = 8 + 8 + kTagSize;  // epoch, counter, tag
 
 // Reads a key file: 64 hex characters (surrounding white space allowed). False
@@ -80,8 +80,8 @@ class Authenticator {
   // Checks a sealed packet's tag in constant time; on success the frames are
   // bytes [0, payload_size) and `epoch`, `counter` the trailer's. False when
   // it is too short to hold a trailer or its tag is not the key's.
-  bool open(const uint8_t* packet, std::size_t size, const LinkEnds& ends, std::size_t& payload_size,
-            uint64_t& epoch, uint64_t& counter);
+  bool open(const uint8_t* packet, std::size_t size, const LinkEnds& ends, std::size_t& payload_size, uint64_t& epoch,
+            uint64_t& counter);
 
  private:
   bool tag(const uint8_t* data, std::size_t size, const LinkEnds& ends, uint8_t (&out)[32]);

@@ -57,10 +57,8 @@ DriveState next_state(DriveState s, uint16_t cw) {
   const bool switch_on = (cw & 0x8F) == 0x07;
   const bool enable = (cw & 0x8F) == 0x0F;
   switch (s) {
-    case DriveState::kFault:
-      return fault_reset ? DriveState::kSwitchOnDisabled : s;
-    case DriveState::kSwitchOnDisabled:
-      return shutdown ? DriveState::kReadyToSwitchOn : s;
+    case DriveState::kFault: return fault_reset ? DriveState::kSwitchOnDisabled : s;
+    case DriveState::kSwitchOnDisabled: return shutdown ? DriveState::kReadyToSwitchOn : s;
     case DriveState::kReadyToSwitchOn:
       if (disable_voltage || quick_stop) return DriveState::kSwitchOnDisabled;
       if (switch_on) return DriveState::kSwitchedOn;
@@ -81,8 +79,7 @@ DriveState next_state(DriveState s, uint16_t cw) {
       if (disable_voltage) return DriveState::kSwitchOnDisabled;
       if (enable) return DriveState::kOperationEnabled;
       return s;
-    default:
-      return s;
+    default: return s;
   }
 }
 
@@ -156,8 +153,8 @@ Frame sdo_frame(uint32_t cob_id, const Sdo& sdo) {
   f.data[3] = sdo.subindex;
   if (sdo.kind == Sdo::Kind::kDownloadRequest || sdo.kind == Sdo::Kind::kUploadResponse ||
       sdo.kind == Sdo::Kind::kAbort) {
-    const uint32_t v = sdo.kind == Sdo::Kind::kAbort || sdo.size == 4 ? sdo.value
-                                                                       : sdo.value & ((1u << (8 * sdo.size)) - 1);
+    const uint32_t v =
+        sdo.kind == Sdo::Kind::kAbort || sdo.size == 4 ? sdo.value : sdo.value & ((1u << (8 * sdo.size)) - 1);
     put_u32(&f.data[4], v);
   }
   return f;
@@ -177,8 +174,8 @@ bool parse_sdo(const Frame& f, Sdo& out) {
       out.kind = expedited ? Sdo::Kind::kDownloadRequest : Sdo::Kind::kUnsupported;
       break;
     case 2:  // ccs 2: initiate upload request (client) or scs 2: upload response (server)
-      out.kind = cmd == 0x40 ? Sdo::Kind::kUploadRequest
-                             : (expedited ? Sdo::Kind::kUploadResponse : Sdo::Kind::kUnsupported);
+      out.kind =
+          cmd == 0x40 ? Sdo::Kind::kUploadRequest : (expedited ? Sdo::Kind::kUploadResponse : Sdo::Kind::kUnsupported);
       break;
     case 3: out.kind = Sdo::Kind::kDownloadResponse; break;  // scs 3
     case 4: out.kind = Sdo::Kind::kAbort; break;

@@ -27,7 +27,13 @@ constexpr uint32_t function_of(uint32_t id) { return id & 0x780; }
 }  // namespace cob
 
 // NMT commands (byte 0 of an NMT frame) and the states a heartbeat reports.
-enum class NmtCommand : uint8_t { kStart = 0x01, kStop = 0x02, kPreOperational = 0x80, kResetNode = 0x81, kResetCommunication = 0x82 };
+enum class NmtCommand : uint8_t {
+  kStart = 0x01,
+  kStop = 0x02,
+  kPreOperational = 0x80,
+  kResetNode = 0x81,
+  kResetCommunication = 0x82
+};
 enum class NmtState : uint8_t { kBootUp = 0x00, kStopped = 0x04, kOperational = 0x05, kPreOperational = 0x7F };
 const char* to_string(NmtState s);
 Frame nmt(NmtCommand command, int node);  // node 0: every node
@@ -79,10 +85,9 @@ struct Sdo {
   uint8_t size = 4;  // bytes of `value` that count (1, 2 or 4)
 };
 namespace sdo_abort {
-constexpr uint32_t kToggle = 0x05030000, kTimeout = 0x05040000, kUnknownCommand = 0x05040001,
-                   kReadOnly = 0x06010002, kNoObject = 0x06020000, kLengthMismatch = 0x06070010,
-                   kNoSubindex = 0x06090011, kValueTooHigh = 0x06090031, kValueTooLow = 0x06090032,
-                   kGeneral = 0x08000000;
+constexpr uint32_t kToggle = 0x05030000, kTimeout = 0x05040000, kUnknownCommand = 0x05040001, kReadOnly = 0x06010002,
+                   kNoObject = 0x06020000, kLengthMismatch = 0x06070010, kNoSubindex = 0x06090011,
+                   kValueTooHigh = 0x06090031, kValueTooLow = 0x06090032, kGeneral = 0x08000000;
 }
 Frame sdo_frame(uint32_t cob_id, const Sdo& sdo);
 // False when the frame is not 8 bytes long.
@@ -91,8 +96,15 @@ std::string sdo_abort_text(uint32_t code);
 
 // CiA 402 power states, decoded from the statusword.
 enum class DriveState {
-  kNotReadyToSwitchOn, kSwitchOnDisabled, kReadyToSwitchOn, kSwitchedOn, kOperationEnabled, kQuickStopActive,
-  kFaultReactionActive, kFault, kUnknown
+  kNotReadyToSwitchOn,
+  kSwitchOnDisabled,
+  kReadyToSwitchOn,
+  kSwitchedOn,
+  kOperationEnabled,
+  kQuickStopActive,
+  kFaultReactionActive,
+  kFault,
+  kUnknown
 };
 const char* to_string(DriveState s);
 DriveState decode_statusword(uint16_t statusword);

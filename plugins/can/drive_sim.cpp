@@ -22,9 +22,7 @@ void SimulatedDrive::reboot() {
   omega_ = omega;
 }
 
-int32_t SimulatedDrive::encoder() const {
-  return static_cast<int32_t>(std::lround(theta_ * config_.counts_per_rad));
-}
+int32_t SimulatedDrive::encoder() const { return static_cast<int32_t>(std::lround(theta_ * config_.counts_per_rad)); }
 
 uint16_t SimulatedDrive::statusword() const {
   uint16_t sw = encode_statusword(state_) | pp::kRemote;
@@ -178,17 +176,32 @@ bool SimulatedDrive::read_object(uint16_t index, uint8_t sub, uint32_t& value, u
     return false;
   }
   switch (index) {
-    case object::kProducerHeartbeatTime: value = config_.heartbeat_ms; size = 2; return true;
-    case object::kControlword: value = controlword_; size = 2; return true;
-    case object::kStatusword: value = statusword(); size = 2; return true;
+    case object::kProducerHeartbeatTime:
+      value = config_.heartbeat_ms;
+      size = 2;
+      return true;
+    case object::kControlword:
+      value = controlword_;
+      size = 2;
+      return true;
+    case object::kStatusword:
+      value = statusword();
+      size = 2;
+      return true;
     case object::kModesOfOperation:
-    case object::kModesOfOperationDisplay: value = static_cast<uint8_t>(mode_); size = 1; return true;
+    case object::kModesOfOperationDisplay:
+      value = static_cast<uint8_t>(mode_);
+      size = 1;
+      return true;
     case object::kPositionActual: value = static_cast<uint32_t>(encoder()); return true;
     case object::kVelocityActual:
       value = static_cast<uint32_t>(static_cast<int32_t>(std::lround(omega_ * config_.counts_per_rad)));
       return true;
     case object::kFollowingErrorWindow: value = config_.following_error_window; return true;
-    case object::kFollowingErrorTimeout: value = config_.following_error_timeout_ms; size = 2; return true;
+    case object::kFollowingErrorTimeout:
+      value = config_.following_error_timeout_ms;
+      size = 2;
+      return true;
     case object::kTargetPosition: value = static_cast<uint32_t>(target_counts_); return true;
     case object::kProfileVelocity: value = config_.profile_velocity; return true;
     case object::kProfileAcceleration:
@@ -273,7 +286,8 @@ void SimulatedDrive::advance(int64_t now_ns, double dt, Bus& out) {
     if (now_ns >= next_heartbeat_ns_) {
       out.send(heartbeat(config_.node, nmt_));
       next_heartbeat_ns_ += static_cast<int64_t>(config_.heartbeat_ms) * 1'000'000;
-      if (next_heartbeat_ns_ <= now_ns) next_heartbeat_ns_ = now_ns + static_cast<int64_t>(config_.heartbeat_ms) * 1'000'000;
+      if (next_heartbeat_ns_ <= now_ns)
+        next_heartbeat_ns_ = now_ns + static_cast<int64_t>(config_.heartbeat_ms) * 1'000'000;
     }
   }
   if (injected_fault_ != 0 && state_ != DriveState::kFault) {
@@ -289,7 +303,8 @@ void SimulatedDrive::advance(int64_t now_ns, double dt, Bus& out) {
       following_error_since_ns_ = -1;
     } else if (following_error_since_ns_ < 0) {
       following_error_since_ns_ = now_ns;
-    } else if (now_ns - following_error_since_ns_ >= static_cast<int64_t>(config_.following_error_timeout_ms) * 1'000'000) {
+    } else if (now_ns - following_error_since_ns_ >=
+               static_cast<int64_t>(config_.following_error_timeout_ms) * 1'000'000) {
       enter_fault(emcy::kFollowingError, out);
       following_error_since_ns_ = -1;
     }
@@ -324,8 +339,7 @@ void SimulatedDrive::substep(double h) {
     const double error = reference_ - theta_;
     const double feed_forward =
         m.inertia * dv / h + m.viscous * reference_velocity_ + m.coulomb * sign(reference_velocity_);
-    const double unsaturated =
-        feed_forward + m.kp * error + m.ki * integral_ + m.kd * (reference_velocity_ - omega_);
+    const double unsaturated = feed_forward + m.kp * error + m.ki * integral_ + m.kd * (reference_velocity_ - omega_);
     torque = std::clamp(unsaturated, -m.torque_limit, m.torque_limit);
     if (torque == unsaturated || sign(error) != sign(unsaturated)) integral_ += error * h;
   } else {

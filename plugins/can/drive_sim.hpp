@@ -20,13 +20,13 @@
 namespace saccade::can {
 
 struct MotorModel {
-  double inertia = 0.002;        // kg m^2, at the joint
-  double viscous = 0.01;         // N m s / rad
-  double coulomb = 0.02;         // N m
-  double torque_limit = 1.5;     // N m
-  double velocity_limit = 8.0;   // rad/s: the amplifier's
+  double inertia = 0.002;                  // kg m^2, at the joint
+  double viscous = 0.01;                   // N m s / rad
+  double coulomb = 0.02;                   // N m
+  double torque_limit = 1.5;               // N m
+  double velocity_limit = 8.0;             // rad/s: the amplifier's
   double kp = 50.0, ki = 400.0, kd = 0.5;  // position PID: N m/rad, N m/(rad s), N m s/rad
-  double loop_hz = 4000.0;       // the drive's own position loop rate
+  double loop_hz = 4000.0;                 // the drive's own position loop rate
 };
 
 struct DriveConfig {
@@ -35,11 +35,11 @@ struct DriveConfig {
   double initial_position = 0.0;    // rad
   MotorModel motor;
   // Object dictionary defaults (the master usually writes its own by SDO).
-  uint32_t profile_velocity = 60000;       // counts/s
+  uint32_t profile_velocity = 60000;        // counts/s
   uint32_t profile_acceleration = 2000000;  // counts/s^2
-  uint32_t following_error_window = 2000;  // counts
+  uint32_t following_error_window = 2000;   // counts
   uint16_t following_error_timeout_ms = 20;
-  uint16_t heartbeat_ms = 0;               // 0: no heartbeat until the master sets 0x1017
+  uint16_t heartbeat_ms = 0;  // 0: no heartbeat until the master sets 0x1017
   // TPDO1 (statusword): on every SYNC, or on change (0x1800 sub 2).
   uint8_t tpdo1_transmission = transmission::kEverySync;
 };

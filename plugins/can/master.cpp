@@ -43,8 +43,7 @@ Master::Master(Bus& bus, MasterConfig config) : bus_(bus), config_(std::move(con
         {object::kFollowingErrorTimeout, 0, config_.following_error_timeout_ms, 2},
         {object::kProducerHeartbeatTime, 0, config_.heartbeat_ms, 2},
     };
-    if (config_.statusword_on_change)
-      d.writes.push_back({object::kTpdo1Communication, 2, transmission::kOnChange, 1});
+    if (config_.statusword_on_change) d.writes.push_back({object::kTpdo1Communication, 2, transmission::kOnChange, 1});
     drives_.push_back(std::move(d));
     for (uint32_t id : {cob::tpdo1(j.node), cob::tpdo2(j.node), cob::sdo_response(j.node), cob::heartbeat(j.node),
                         cob::emergency(j.node)})
@@ -223,7 +222,7 @@ bool Master::set_point(Drive& d, const double* target, int64_t serial, bool rout
   }
   if (target == nullptr || (!d.ack_low_seen && !lost)) return false;
   if (stats_.cycles - d.set_point_cycle < (routine ? 2 : 1)) return false;  // one per SYNC period; routine every second
-  if (!routine && d.serial >= serial) return false;  // it has these already
+  if (!routine && d.serial >= serial) return false;                         // it has these already
   const double c = std::round(*target * d.joint.counts_per_rad) + d.joint.zero_counts;
   send(rpdo2(d.joint.node, static_cast<int32_t>(std::clamp(c, -2147483648.0, 2147483647.0))));
   send(rpdo1(d.joint.node, run | pp::kNewSetPoint));

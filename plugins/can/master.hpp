@@ -37,11 +37,11 @@ struct JointDrive {
 
 struct MasterConfig {
   std::vector<JointDrive> joints;
-  double profile_velocity = 8.0;         // rad/s, written to 0x6081
-  double profile_acceleration = 400.0;   // rad/s^2, 0x6083 / 0x6084
+  double profile_velocity = 8.0;        // rad/s, written to 0x6081
+  double profile_acceleration = 400.0;  // rad/s^2, 0x6083 / 0x6084
   double following_error_window = 0.1;  // rad, 0x6065 (the drive's own check)
   uint16_t following_error_timeout_ms = 50;
-  uint16_t heartbeat_ms = 20;            // producer time written to 0x1017
+  uint16_t heartbeat_ms = 20;                  // producer time written to 0x1017
   int64_t heartbeat_timeout_ns = 100'000'000;  // no heartbeat this long: silent
   int64_t feedback_timeout_ns = 50'000'000;    // no TPDO2 this long: silent
   int64_t sdo_timeout_ns = 50'000'000;
@@ -116,7 +116,7 @@ class Master {
     int64_t heartbeat_ns = -1, updated_ns = -1;
     int64_t status_ns = -1, restarted_ns = -1;  // the last statusword; the last NMT start sent again
     bool set_point_high = false, reset_sent = false;
-    bool ack_low_seen = true;  // a statusword read since bit 4 fell shows the acknowledge low
+    bool ack_low_seen = true;      // a statusword read since bit 4 fell shows the acknowledge low
     int64_t set_point_cycle = -2;  // the SYNC period (cycles sent) of the last set-point
     int64_t serial = 0;            // the targets it was last sent
     std::string problem;

@@ -23,7 +23,8 @@ static_assert(controller_status::kRxPassive == CAN_ERR_CRTL_RX_PASSIVE);
 std::unique_ptr<SocketCan> SocketCan::open(const std::string& interface, std::string& error) {
   const std::string where = "socketcan '" + interface + "'";
   if (interface.empty() || interface.size() >= IFNAMSIZ) {
-    error = where + ": expected an interface name such as can0 (at most " + std::to_string(IFNAMSIZ - 1) + " characters)";
+    error =
+        where + ": expected an interface name such as can0 (at most " + std::to_string(IFNAMSIZ - 1) + " characters)";
     return nullptr;
   }
   const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
@@ -132,9 +133,12 @@ void SocketCan::track_state(const Frame& e) {
     state_ = BusState::kErrorActive;
   } else if (e.id & CAN_ERR_CRTL) {
     const uint8_t s = e.data[1];
-    if (s & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE)) state_ = BusState::kErrorPassive;
-    else if (s & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING)) state_ = BusState::kErrorWarning;
-    else if (s & CAN_ERR_CRTL_ACTIVE) state_ = BusState::kErrorActive;
+    if (s & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE))
+      state_ = BusState::kErrorPassive;
+    else if (s & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING))
+      state_ = BusState::kErrorWarning;
+    else if (s & CAN_ERR_CRTL_ACTIVE)
+      state_ = BusState::kErrorActive;
   }
 }
 

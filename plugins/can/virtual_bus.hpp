@@ -22,8 +22,8 @@ class VirtualPort;
 class VirtualBus : public std::enable_shared_from_this<VirtualBus> {
  public:
   struct Faults {
-    double drop = 0.0;       // probability that a frame is lost for everyone
-    int64_t delay_ns = 0;    // every frame arrives this much later (bus clock)
+    double drop = 0.0;     // probability that a frame is lost for everyone
+    int64_t delay_ns = 0;  // every frame arrives this much later (bus clock)
     uint64_t seed = 1;
   };
 

@@ -28,8 +28,8 @@ struct DeliveryConfig {
 // The delivery parameters of a node whose Config derives from DeliveryConfig.
 template <class Config>
 void bind_delivery(ParamBinder<Config>& b) {
-  b.field("rate", {{"realtime", true}, {"fast", false}}, "pace frames at their media time, or as fast as consumers allow",
-          &Config::realtime)
+  b.field("rate", {{"realtime", true}, {"fast", false}},
+          "pace frames at their media time, or as fast as consumers allow", &Config::realtime)
       .field("fps", {0, 10000}, "frame rate for timestamps and pacing (0: the source's own, else 30)", &Config::fps)
       .field("loop", "start again at the end instead of ending the stream", &Config::loop)
       .field("color", {{"gray", ColorMode::kGray}, {"color", ColorMode::kColor}, {"unchanged", ColorMode::kUnchanged}},
@@ -138,7 +138,8 @@ class SingleCapture : public Node {
     reader_ = static_cast<Derived*>(this)->open_reader(config, ctx.params(), &error);
     if (!reader_) return Status::error(error);
     // How many frames the stream will have, for a progress line's ETA (saccade run).
-    if (!config.loop && reader_->length() > 0) ctx.counter("frames_total").store(static_cast<uint64_t>(reader_->length()));
+    if (!config.loop && reader_->length() > 0)
+      ctx.counter("frames_total").store(static_cast<uint64_t>(reader_->length()));
     return {};
   }
   Status process(ProcessContext& ctx) override {
@@ -257,8 +258,9 @@ class Stereo final : public Node {
     bind_delivery(b);
   }
   static Contract contract() {
-    return Contract("Two sources read in lockstep as a stereo pair: both images of a pair carry the same timestamp "
-                    "and frame id.")
+    return Contract(
+               "Two sources read in lockstep as a stereo pair: both images of a pair carry the same timestamp "
+               "and frame id.")
         .ports(kLeft, kRight)
         .required_string("left_path", "left video, image, pattern (%d) or camera")
         .required_string("right_path", "right video, image, pattern (%d) or camera")
@@ -270,7 +272,8 @@ class Stereo final : public Node {
     right_.configure(c);
     std::string error;
     auto make = [&](const std::string& path) -> std::unique_ptr<FrameReader> {
-      if (classify_source(path) == SourceKind::kImage) return open_image(path, c.count > 0 ? c.count : 1, c.fps, &error);
+      if (classify_source(path) == SourceKind::kImage)
+        return open_image(path, c.count > 0 ? c.count : 1, c.fps, &error);
       return open_any(path, c.fps, &error);
     };
     left_reader_ = make(ctx.params().get_string("left_path"));
@@ -318,11 +321,12 @@ class Synthetic final : public Node {
  public:
   static constexpr const char* kName = "synthetic";
   static constexpr Out<Image> kImage{"image", "left view"};
-  static constexpr Out<Image> kRight{"right",
-                                     "right view: target shifted left by 'disparity', background by 'background_disparity'"};
-  static constexpr Out<Region> kTruth{"truth", "the target's exact centre and size in the left view (the centre may be "
-                                               "outside the frame); score = its disparity; label: visible, partial or "
-                                               "outside"};
+  static constexpr Out<Image> kRight{
+      "right", "right view: target shifted left by 'disparity', background by 'background_disparity'"};
+  static constexpr Out<Region> kTruth{"truth",
+                                      "the target's exact centre and size in the left view (the centre may be "
+                                      "outside the frame); score = its disparity; label: visible, partial or "
+                                      "outside"};
 
   static void bind(ParamBinder<SyntheticConfig>& b) {
     using C = SyntheticConfig;
@@ -345,14 +349,16 @@ class Synthetic final : public Node {
                &S::background_disparity)
         .field("count", {0, 1'000'000'000}, "frames before end of stream (0: endless)", &C::count)
         .field("seed", {0, 1'000'000'000}, "texture seed", &C::scene, &S::seed)
-        .field("rate", {{"realtime", true}, {"fast", false}}, "pace at fps, or as fast as consumers allow", &C::realtime)
+        .field("rate", {{"realtime", true}, {"fast", false}}, "pace at fps, or as fast as consumers allow",
+               &C::realtime)
         .field("fps", {0.1, 10000}, "frame rate of the timestamps", &C::fps)
         .field("color", {{"gray", true}, {"color", false}}, "emit gray or BGR images", &C::gray);
   }
 
   static Contract contract() {
-    return Contract("A textured square moving on a known path over a real background frame, with exact ground truth "
-                    "(synthetic data); optionally a right view with known disparities.")
+    return Contract(
+               "A textured square moving on a known path over a real background frame, with exact ground truth "
+               "(synthetic data); optionally a right view with known disparities.")
         .ports(kImage, kRight, kTruth)
         .params(&bind);
   }
@@ -384,8 +390,10 @@ class Synthetic final : public Node {
       if (k == 0) start_ns_ = steady_now_ns();
       if (!ctx.sleep_until(start_ns_ + ts)) return Status::end_of_stream();
     }
-    if (!right_wanted_) right_bgr_.release();
-    else if (right_bgr_.empty()) right_bgr_.create(renderer_->scene().background.size(), CV_8UC3);
+    if (!right_wanted_)
+      right_bgr_.release();
+    else if (right_bgr_.empty())
+      right_bgr_.create(renderer_->scene().background.size(), CV_8UC3);
     renderer_->render(k, left_bgr_, right_bgr_);
     int64_t origin = steady_now_ns();
     auto stamp = [&](Message& m) {
@@ -418,8 +426,10 @@ class Synthetic final : public Node {
 
  private:
   void to_output(const cv::Mat& bgr, cv::Mat& out) const {
-    if (gray_) cv::cvtColor(bgr, out, cv::COLOR_BGR2GRAY);
-    else bgr.copyTo(out);
+    if (gray_)
+      cv::cvtColor(bgr, out, cv::COLOR_BGR2GRAY);
+    else
+      bgr.copyTo(out);
   }
   std::unique_ptr<SyntheticRenderer> renderer_;
   cv::Mat left_bgr_, right_bgr_;
@@ -471,16 +481,18 @@ class SimHeadNode final : public Node {
         .field("target_range", {0, 1000}, "m: it turns at +-range", &P::head, &H::target_range)
         .field("target_start", {-1000, 1000}, "m: sideways position at time 0", &P::head, &H::target_start)
         .field("target_height", {-1000, 1000}, "m above the cameras", &P::head, &H::target_height)
-        .field("stop_at", {-1, 1e9}, "fault injection: the cameras stop at this time of the joints' clock, s (-1: "
-               "never); the frames they miss are counted in stopped_frames", &P::stop_at)
-        .field("stop_for", {0, 1e9}, "fault injection: and come back after this many seconds (0: never)",
-               &P::stop_for);
+        .field("stop_at", {-1, 1e9},
+               "fault injection: the cameras stop at this time of the joints' clock, s (-1: "
+               "never); the frames they miss are counted in stopped_frames",
+               &P::stop_at)
+        .field("stop_for", {0, 1e9}, "fault injection: and come back after this many seconds (0: never)", &P::stop_for);
   }
 
   static Contract contract() {
-    return Contract("The simulated stereo head's cameras: a wide scene on a wall in front of the head and a textured "
-                    "target moving between head and wall, rendered into both cameras for the joint angles the drives "
-                    "report, so the active vision loop runs on one machine.")
+    return Contract(
+               "The simulated stereo head's cameras: a wide scene on a wall in front of the head and a textured "
+               "target moving between head and wall, rendered into both cameras for the joint angles the drives "
+               "report, so the active vision loop runs on one machine.")
         .ports(kState, kLeft, kRight, kTruth, kTruthRight, kJoints)
         .params(&bind);
   }
@@ -500,7 +512,8 @@ class SimHeadNode final : public Node {
   }
   Status process(ProcessContext& ctx) override {
     auto state = ctx.get(kState);
-    if (state->position.size() != 5) return Status::error("joint state for " + std::to_string(state->position.size()) + " joints, expected 5");
+    if (state->position.size() != 5)
+      return Status::error("joint state for " + std::to_string(state->position.size()) + " joints, expected 5");
     // The joints' clock went back: the drives' side restarted (its clock starts
     // at 0 again). Render from the new clock at once instead of waiting as long
     // as the old one had run (issue 25).

@@ -21,7 +21,8 @@ namespace fs = std::filesystem;
 namespace {
 
 int64_t now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
 }
 
 int64_t frame_time_ns(int64_t index, double fps) {
@@ -148,8 +149,10 @@ std::optional<NumberedPattern> NumberedPattern::parse(const std::string& pattern
     while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])) && width < 64)
       width = width * 10 + (pattern[j++] - '0');
     if (j >= pattern.size() || pattern[j] != 'd' || numbered) {
-      *why = "pattern '" + pattern + "': expected one %d for the frame number (such as img_%04d.png; %% for a percent sign), " +
-             (numbered && j < pattern.size() && pattern[j] == 'd' ? "found a second" : "found '" + pattern.substr(k, j - k + 1) + "'");
+      *why = "pattern '" + pattern +
+             "': expected one %d for the frame number (such as img_%04d.png; %% for a percent sign), " +
+             (numbered && j < pattern.size() && pattern[j] == 'd' ? "found a second"
+                                                                  : "found '" + pattern.substr(k, j - k + 1) + "'");
       return std::nullopt;
     }
     numbered = true;

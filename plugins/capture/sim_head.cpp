@@ -11,7 +11,8 @@ SimHead::SimHead(cv::Mat scene, SimHeadConfig config) : scene_(std::move(scene))
   target_texture_.create(64, 64, CV_8UC3);
   target_texture_.setTo(cv::Scalar(30, 30, 220));
   for (int y = 0; y < 64; y += 16)
-    for (int x = (y / 16) % 2 * 16; x < 64; x += 32) cv::rectangle(target_texture_, {x, y, 16, 16}, cv::Scalar(235, 235, 255), cv::FILLED);
+    for (int x = (y / 16) % 2 * 16; x < 64; x += 32)
+      cv::rectangle(target_texture_, {x, y, 16, 16}, cv::Scalar(235, 235, 255), cv::FILLED);
   cv::circle(target_texture_, {32, 32}, 8, cv::Scalar(20, 20, 120), cv::FILLED);
 }
 
@@ -27,7 +28,7 @@ Eigen::Vector3d SimHead::target_at(double t) const {
 TargetView SimHead::render(int camera, const kinematics::HeadJoints& q, double t, cv::Mat& out) {
   const cv::Size size = config_.size;
   const Eigen::Isometry3d pose = kinematics::optical_frame(camera == 0 ? kinematics::left_camera(config_.geometry, q)
-                                                                        : kinematics::right_camera(config_.geometry, q));
+                                                                       : kinematics::right_camera(config_.geometry, q));
   const Eigen::Matrix3d r = pose.linear();
   const Eigen::Vector3d o = pose.translation();
   const double f = config_.focal_px, cx = size.width / 2.0, cy = size.height / 2.0;

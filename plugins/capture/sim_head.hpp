@@ -14,9 +14,9 @@ namespace saccade::capture {
 
 struct SimHeadConfig {
   cv::Size size{320, 240};
-  double focal_px = 277.0;       // pixels (60 degrees across 320)
-  double wall_distance = 2.0;    // m, the scene's plane y = wall_distance
-  double wall_width = 4.0;       // m the scene image spans (its height follows its aspect)
+  double focal_px = 277.0;     // pixels (60 degrees across 320)
+  double wall_distance = 2.0;  // m, the scene's plane y = wall_distance
+  double wall_width = 4.0;     // m the scene image spans (its height follows its aspect)
   kinematics::HeadGeometry geometry;
   bool target = true;
   double target_radius = 0.08;   // m

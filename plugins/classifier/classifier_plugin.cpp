@@ -24,8 +24,9 @@ class ClassifierNode final : public Node {
   static constexpr In<Retina> kRetina{"retina", "the retina whose fovea is classified"};
   static constexpr Out<Classification> kResult{"result",
                                                "class scores, the best class, the outcome and the region looked at"};
-  static constexpr Out<Region> kTarget{"target", "when classified (or probable, with target_when=probable): the "
-                                                 "fovea's region and the class, for the fovea's top-down target"};
+  static constexpr Out<Region> kTarget{"target",
+                                       "when classified (or probable, with target_when=probable): the "
+                                       "fovea's region and the class, for the fovea's top-down target"};
 
   static void bind(ParamBinder<ClassifierConfig>& b) {
     using C = ClassifierConfig;
@@ -46,9 +47,10 @@ class ClassifierNode final : public Node {
   }
 
   static Contract contract() {
-    return Contract("Recognises what the fovea sees: a feature vector from the retina (the model's recipe: levels, "
-                    "features, size), a multilayer perceptron trained by backpropagation (OpenCV ANN_MLP, made by "
-                    "'saccade train'), and the paper's three outcomes from thresholds.")
+    return Contract(
+               "Recognises what the fovea sees: a feature vector from the retina (the model's recipe: levels, "
+               "features, size), a multilayer perceptron trained by backpropagation (OpenCV ANN_MLP, made by "
+               "'saccade train'), and the paper's three outcomes from thresholds.")
         .ports(kRetina, kResult, kTarget)
         .required_string("model", "model file written by 'saccade train' (network, feature recipe, class names)")
         .params(&bind);
@@ -79,8 +81,7 @@ class ClassifierNode final : public Node {
       std::string name;
       while (std::getline(in, name, ',')) {
         auto it = std::find(model_->classes->begin(), model_->classes->end(), name);
-        if (it == model_->classes->end())
-          return Status::error("target_classes: the model has no class '" + name + "'");
+        if (it == model_->classes->end()) return Status::error("target_classes: the model has no class '" + name + "'");
         target_classes_.push_back(static_cast<int>(it - model_->classes->begin()));
       }
     }
@@ -149,8 +150,9 @@ class TruthLabel final : public Node {
         .field("outside", "label otherwise ('-': emit no label)", &TruthLabelConfig::outside);
   }
   static Contract contract() {
-    return Contract("Says what the fovea sees from a ground-truth region: 'inside' when the truth's centre lies in "
-                    "the fovea's region, else 'outside'. The label source of a training graph (classifier.collect).")
+    return Contract(
+               "Says what the fovea sees from a ground-truth region: 'inside' when the truth's centre lies in "
+               "the fovea's region, else 'outside'. The label source of a training graph (classifier.collect).")
         .ports(kRetina, kTruth, kLabel)
         .params(&bind);
   }
@@ -200,8 +202,9 @@ class Collect final : public Node {
         .field("every", {1, 1000000}, "keep one frame in N", &C::every);
   }
   static Contract contract() {
-    return Contract("Collects training samples from a graph run: the fovea's feature vector (by the recipe) with the "
-                    "label a label source gives for the same frame; written at the end for 'saccade train --samples'.")
+    return Contract(
+               "Collects training samples from a graph run: the fovea's feature vector (by the recipe) with the "
+               "label a label source gives for the same frame; written at the end for 'saccade train --samples'.")
         .ports(kRetina, kLabel)
         .required_string("out", "samples file to write (OpenCV FileStorage)")
         .params(&bind);

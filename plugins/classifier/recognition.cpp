@@ -154,9 +154,7 @@ std::optional<std::vector<int>> parse_int_list(const std::string& text, const st
     int v = -1;
     try {
       v = std::stoi(item, &used);
-    } catch (...) {
-      used = 0;
-    }
+    } catch (...) { used = 0; }
     if (used != item.size() || v < 0) {
       *error = what + ": expected numbers like 0,1, got '" + text + "'";
       return std::nullopt;
@@ -219,7 +217,8 @@ std::string FeatureExtractor::extract(const Retina& retina, cv::Mat& row) {
       const cv::Mat& map = f == "gray" ? *gray : maps_[static_cast<std::size_t>(filters::feature_index(f))];
       cv::resize(map, reduced_, recipe_.size, 0, 0, cv::INTER_AREA);
       reduced_.convertTo(reduced_, CV_32F);
-      for (int y = 0; y < reduced_.rows; ++y) std::copy_n(reduced_.ptr<float>(y), reduced_.cols, out + y * reduced_.cols);
+      for (int y = 0; y < reduced_.rows; ++y)
+        std::copy_n(reduced_.ptr<float>(y), reduced_.cols, out + y * reduced_.cols);
       out += area;
     }
   }
@@ -235,7 +234,8 @@ void retina_of_view(const cv::Mat& image, retina::RetinaSampler& sampler, Retina
   const cv::Size fovea = sampler.config().size;
   cv::Mat gray = image;
   if (image.channels() == 3) cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  const double scale = std::min(static_cast<double>(fovea.width) / gray.cols, static_cast<double>(fovea.height) / gray.rows);
+  const double scale =
+      std::min(static_cast<double>(fovea.width) / gray.cols, static_cast<double>(fovea.height) / gray.rows);
   cv::Mat scaled;
   const cv::Size fitted(std::max(1, static_cast<int>(std::lround(gray.cols * scale))),
                         std::max(1, static_cast<int>(std::lround(gray.rows * scale))));
@@ -264,13 +264,12 @@ std::string Model::save(const std::string& path) const {
     fs << net->getDefaultName() << "{";
     net->write(fs);
     fs << "}";
-    fs << "saccade_recipe" << "{";
+    fs << "saccade_recipe"
+       << "{";
     recipe.write(fs);
     fs << "}";
     fs << "saccade_classes" << *classes;
-  } catch (const cv::Exception& e) {
-    return "cannot write model file '" + path + "': " + e.what();
-  }
+  } catch (const cv::Exception& e) { return "cannot write model file '" + path + "': " + e.what(); }
   return {};
 }
 
@@ -298,7 +297,8 @@ std::unique_ptr<Model> Model::load(const std::string& path, std::string* error) 
     std::vector<std::string> classes;
     fs["saccade_classes"] >> classes;
     const cv::Mat layers = model->net->getLayerSizes();
-    if (layers.total() < 2 || classes.size() != static_cast<std::size_t>(layers.at<int>(static_cast<int>(layers.total()) - 1)) ||
+    if (layers.total() < 2 ||
+        classes.size() != static_cast<std::size_t>(layers.at<int>(static_cast<int>(layers.total()) - 1)) ||
         layers.at<int>(0) != model->recipe.length()) {
       *error = "model file '" + path + "': the network's layers do not fit its recipe (" + model->recipe.describe() +
                ") and " + std::to_string(classes.size()) + " classes";
@@ -340,7 +340,8 @@ Model train(const cv::Mat& x, const std::vector<int>& y, std::vector<std::string
   std::vector<int> order(static_cast<std::size_t>(x.rows));
   for (int i = 0; i < x.rows; ++i) order[static_cast<std::size_t>(i)] = i;
   cv::RNG rng(config.seed);
-  for (int i = x.rows - 1; i > 0; --i) std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(rng.uniform(0, i + 1))]);
+  for (int i = x.rows - 1; i > 0; --i)
+    std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(rng.uniform(0, i + 1))]);
   cv::Mat shuffled_x(x.size(), x.type()), shuffled_t(targets.size(), targets.type());
   for (int i = 0; i < x.rows; ++i) {
     x.row(order[static_cast<std::size_t>(i)]).copyTo(shuffled_x.row(i));
@@ -503,13 +504,12 @@ std::string SampleSet::save(const std::string& path) const {
   try {
     cv::FileStorage fs(path, cv::FileStorage::WRITE);
     if (!fs.isOpened()) return "cannot write samples file '" + path + "'";
-    fs << "saccade_recipe" << "{";
+    fs << "saccade_recipe"
+       << "{";
     recipe.write(fs);
     fs << "}";
     fs << "saccade_classes" << classes << "x" << x << "y" << y;
-  } catch (const cv::Exception& e) {
-    return "cannot write samples file '" + path + "': " + e.what();
-  }
+  } catch (const cv::Exception& e) { return "cannot write samples file '" + path + "': " + e.what(); }
   return {};
 }
 
@@ -529,9 +529,7 @@ std::string SampleSet::load(const std::string& path) {
     for (int label : y)
       if (label < 0 || label >= static_cast<int>(classes.size()))
         return "samples file '" + path + "': a label outside its classes";
-  } catch (const cv::Exception& e) {
-    return "cannot read samples file '" + path + "': " + e.what();
-  }
+  } catch (const cv::Exception& e) { return "cannot read samples file '" + path + "': " + e.what(); }
   return {};
 }
 
@@ -545,7 +543,8 @@ void split(const std::vector<int>& y, int classes, double validation, std::vecto
     for (std::size_t i = 0; i < y.size(); ++i)
       if (y[i] == c) members.push_back(static_cast<int>(i));
     const std::size_t n_val = static_cast<std::size_t>(std::lround(validation * static_cast<double>(members.size())));
-    for (std::size_t k = 0; k < members.size(); ++k) (k >= members.size() - n_val ? val_rows : train_rows).push_back(members[k]);
+    for (std::size_t k = 0; k < members.size(); ++k)
+      (k >= members.size() - n_val ? val_rows : train_rows).push_back(members[k]);
   }
 }
 
@@ -573,11 +572,12 @@ TrainingResult train_rows(const SampleSet& samples, const FolderTraining& job, s
     result.error = "no training samples";
     return result;
   }
-  Model model = train(train_x, train_y, samples.classes, samples.recipe, job.train, val_x, val_y, [&](const EpochReport& r) {
-    if (r.epoch % std::max(1, job.report_every) == 0 || r.epoch == job.train.epochs)
-      log << "epoch " << r.epoch << "/" << job.train.epochs << ": training accuracy " << r.train_accuracy
-          << ", validation accuracy " << r.validation_accuracy << "\n";
-  });
+  Model model =
+      train(train_x, train_y, samples.classes, samples.recipe, job.train, val_x, val_y, [&](const EpochReport& r) {
+        if (r.epoch % std::max(1, job.report_every) == 0 || r.epoch == job.train.epochs)
+          log << "epoch " << r.epoch << "/" << job.train.epochs << ": training accuracy " << r.train_accuracy
+              << ", validation accuracy " << r.validation_accuracy << "\n";
+      });
   result.classes = *model.classes;
   if (!val_y.empty()) {
     result.validation_accuracy = accuracy(model, val_x, val_y);

@@ -82,7 +82,7 @@ struct TrainConfig {
   enum class Method { kBackprop, kRprop } method = Method::kBackprop;
   double learning_rate = 0.01;  // backprop
   double momentum = 0.1;        // backprop
-  uint64_t seed = 1;  // the order samples are presented in (ANN_MLP's initial weights are its own, fixed)
+  uint64_t seed = 1;            // the order samples are presented in (ANN_MLP's initial weights are its own, fixed)
 };
 
 struct EpochReport {

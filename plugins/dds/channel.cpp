@@ -43,10 +43,10 @@ ChannelEncoding idl_encoding() {
 
 const std::vector<ChannelEncoding>& idl_encodings() {
   static const std::vector<ChannelEncoding> all = {
-      idl_encoding<Image>(),        idl_encoding<Retina>(),       idl_encoding<FeatureMaps>(),
-      idl_encoding<Motion>(),       idl_encoding<Region>(),       idl_encoding<StereoFixation>(),
-      idl_encoding<GazeRequest>(),  idl_encoding<JointState>(),   idl_encoding<JointTargets>(),
-      idl_encoding<HeadPose>(),     idl_encoding<FoveaState>(),   idl_encoding<Classification>(),
+      idl_encoding<Image>(),       idl_encoding<Retina>(),     idl_encoding<FeatureMaps>(),
+      idl_encoding<Motion>(),      idl_encoding<Region>(),     idl_encoding<StereoFixation>(),
+      idl_encoding<GazeRequest>(), idl_encoding<JointState>(), idl_encoding<JointTargets>(),
+      idl_encoding<HeadPose>(),    idl_encoding<FoveaState>(), idl_encoding<Classification>(),
       idl_encoding<CanFrames>(),
   };
   return all;
@@ -62,7 +62,7 @@ const std::vector<ChannelEncoding>& ros2_encodings() {
 
 // CDR with its encapsulation (little endian), into `out`.
 template <class W>
-void serialise(W& wire, std::vector<uint8_t>& out) {
+void serialize(W& wire, std::vector<uint8_t>& out) {
   out.resize(W::getCdrSerializedSize(wire) + 4);
   eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(out.data()), out.size());
   eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
@@ -72,7 +72,7 @@ void serialise(W& wire, std::vector<uint8_t>& out) {
 }
 
 template <class W>
-bool deserialise(const uint8_t* data, std::size_t size, W& wire, std::string& why) {
+bool deserialize(const uint8_t* data, std::size_t size, W& wire, std::string& why) {
   try {
     eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(const_cast<uint8_t*>(data)), size);
     eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
@@ -96,7 +96,7 @@ class IdlEncoder final : public MessageEncoder {
   std::string encode(const Message& message, std::vector<uint8_t>& out) override {
     if (message.type_name() != M::kTypeName) return wrong_type(message, M::kTypeName);
     to_wire(static_cast<const M&>(message), wire_);
-    serialise(wire_, out);
+    serialize(wire_, out);
     return {};
   }
 
@@ -108,7 +108,7 @@ template <class M, class W>
 class IdlDecoder final : public MessageDecoder {
  public:
   MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) override {
-    if (!deserialise(data, size, wire_, why)) return nullptr;
+    if (!deserialize(data, size, wire_, why)) return nullptr;
     auto out = std::make_shared<M>();
     from_wire(wire_, *out);
     return out;
@@ -125,7 +125,7 @@ class Ros2Encoder final : public MessageEncoder {
   std::string encode(const Message& message, std::vector<uint8_t>& out) override {
     if (message.type_name() != M::kTypeName) return wrong_type(message, M::kTypeName);
     to_ros2(static_cast<const M&>(message), options_, wire_);
-    serialise(wire_, out);
+    serialize(wire_, out);
     return {};
   }
 
@@ -138,7 +138,7 @@ template <class M, class R>
 class Ros2Decoder final : public MessageDecoder {
  public:
   MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) override {
-    if (!deserialise(data, size, wire_, why)) return nullptr;
+    if (!deserialize(data, size, wire_, why)) return nullptr;
     auto out = std::make_shared<M>();
     bool ok = false;
     if constexpr (std::is_same_v<M, Image>)

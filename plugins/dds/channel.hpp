@@ -17,11 +17,11 @@
 namespace saccade::dds {
 
 struct ChannelEncoding {
-  std::string_view type;          // saccade's type name (Message::type_name())
-  std::string schema_name;        // "sensor_msgs/msg/Image", "saccade_idl::Retina"
-  std::string schema_encoding;    // "ros2msg" or "omgidl"
-  std::string schema;             // the schema's text
-  std::string message_encoding;   // "cdr"
+  std::string_view type;         // saccade's type name (Message::type_name())
+  std::string schema_name;       // "sensor_msgs/msg/Image", "saccade_idl::Retina"
+  std::string schema_encoding;   // "ros2msg" or "omgidl"
+  std::string schema;            // the schema's text
+  std::string message_encoding;  // "cdr"
 };
 
 // The encoding of `type`: ROS 2's for Image and JointState when `ros2` (a

@@ -104,13 +104,13 @@ struct WireOptions {
 
 struct Codec {
   enum class Form {
-    kSerialised,  // saccade's IDL type (any size, any host)
+    kSerialized,  // saccade's IDL type (any size, any host)
     kPlain,       // a plain fixed-capacity type (one host: data sharing and loans)
     kRing,        // a plain type saying where the frame is in the writer's frame ring (one host, no copy)
     kRos2,        // the ROS 2 message (sensor_msgs), on an rt/ topic
   };
   std::string_view type;  // the message's type name
-  Form form = Form::kSerialised;
+  Form form = Form::kSerialized;
   std::size_t capacity = 0;  // kPlain: bytes of data a sample holds
   std::unique_ptr<eprosima::fastdds::dds::TopicDataType> (*make_type)();
   std::unique_ptr<WireSample> (*make_sample)(const WireOptions&);

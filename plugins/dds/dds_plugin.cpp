@@ -86,8 +86,7 @@ void bind_bridge(ParamBinder<BridgeConfig>& b) {
              "a ROS 2 topic: the DDS topic is rt/<topic> and the type ROS 2's (Image: sensor_msgs/msg/Image, "
              "JointState: sensor_msgs/msg/JointState), so ROS 2 tools read it, or this node reads theirs",
              &C::request, &R::ros2)
-      .field("frame_id", "ros2: the header's frame_id (empty: camera_<camera id> for images)", &C::wire,
-             &W::frame_id)
+      .field("frame_id", "ros2: the header's frame_id (empty: camera_<camera id> for images)", &C::wire, &W::frame_id)
       .field("joint_names",
              "ros2, JointState: the joints' names in saccade's order, comma-separated (reading: joints are matched "
              "by name; empty: in the message's order)",
@@ -158,8 +157,8 @@ struct TopicEnd {
     log().debug("{}: topic {} of type {}{}", node, topic_name, topic->get_type_name(),
                 codec->form == sd::Codec::Form::kPlain  ? " (zero copy: data sharing, loaned samples)"
                 : codec->form == sd::Codec::Form::kRing ? " (zero copy: the pixels stay in the writer's frame ring)"
-                : options.mailbox                        ? " (serialised, and through a same-host mailbox)"
-                                                         : "");
+                : options.mailbox                       ? " (serialised, and through a same-host mailbox)"
+                                                        : "");
     return {};
   }
 };
@@ -169,10 +168,11 @@ class Publish final : public Node {
   static constexpr const char* kName = "publish";
   static Contract contract() {
     return with_bridge_params(
-        Contract("Publishes every message of its input on a DDS topic (the producer's end of an edge between "
-                 "processes). At the end of the stream it tells the readers (an end-of-stream sample).")
-            .input<Message>("in", "messages of the topic's type"))
-        .param_double("wait_ms", 0, 0, 3.6e6, "at open, wait up to this long for a first reader (nothing is lost to a late start)");
+               Contract("Publishes every message of its input on a DDS topic (the producer's end of an edge between "
+                        "processes). At the end of the stream it tells the readers (an end-of-stream sample).")
+                   .input<Message>("in", "messages of the topic's type"))
+        .param_double("wait_ms", 0, 0, 3.6e6,
+                      "at open, wait up to this long for a first reader (nothing is lost to a late start)");
   }
 
   Status open(OpenContext& ctx) override {
@@ -231,7 +231,8 @@ class Publish final : public Node {
       const uint64_t written = written_->load(), failed = failed_->load();
       log().debug("{}: {} written to {}, {} failed, {} deadlines missed", end_.node, written, end_.topic_name, failed,
                   listener_.events.deadlines_missed->load());
-      if (failed > 0) log().warn("{}: {} of {} writes to {} failed", end_.node, failed, failed + written, end_.topic_name);
+      if (failed > 0)
+        log().warn("{}: {} of {} writes to {} failed", end_.node, failed, failed + written, end_.topic_name);
     }
     end_.domain.reset();
   }
@@ -312,10 +313,11 @@ class Subscribe final : public Node {
 
   static Contract contract() {
     return with_bridge_params(
-        Contract("Emits every message that arrives on a DDS topic (the consumer's end of an edge between processes); "
-                 "a source. Ends when the writer sends its end of stream; a writer that vanishes without one (a "
-                 "crash) is waited for and rejoined when it comes back.")
-            .output<Message>("out", "messages of the topic's type"))
+               Contract(
+                   "Emits every message that arrives on a DDS topic (the consumer's end of an edge between processes); "
+                   "a source. Ends when the writer sends its end of stream; a writer that vanishes without one (a "
+                   "crash) is waited for and rejoined when it comes back.")
+                   .output<Message>("out", "messages of the topic's type"))
         .params(&bind);
   }
 
@@ -367,10 +369,11 @@ class Subscribe final : public Node {
       if (missing_peer_at_ > 0 && steady_now_ns() > missing_peer_at_) {
         missing_peer_at_ = 0;
         if (!listener_.ever_matched.load())
-          log().warn("{}: no writer of {} has joined yet (is the other process running, on domain {}, with the same "
-                     "topic prefix? A writer of another type does not match: this end reads {}, which both ends' "
-                     "zero_copy, shared_memory and reliable settings decide)",
-                     end_.node, end_.topic_name, domain_id_, end_.topic->get_type_name());
+          log().warn(
+              "{}: no writer of {} has joined yet (is the other process running, on domain {}, with the same "
+              "topic prefix? A writer of another type does not match: this end reads {}, which both ends' "
+              "zero_copy, shared_memory and reliable settings decide)",
+              end_.node, end_.topic_name, domain_id_, end_.topic->get_type_name());
       }
       end_.sample->wait(*reader_, 50);
     }
@@ -409,7 +412,8 @@ class Subscribe final : public Node {
       uint64_t p = 1;
       while (p < n) p *= 10;
       if (p == n)
-        log().warn("{}: nothing on {} within its deadline ({} times)", owner->end_.node, owner->end_.topic_name, s.total_count);
+        log().warn("{}: nothing on {} within its deadline ({} times)", owner->end_.node, owner->end_.topic_name,
+                   s.total_count);
     }
     void on_sample_lost(fdds::DataReader*, const fdds::SampleLostStatus& s) override {
       events.lost->store(static_cast<uint64_t>(s.total_count));

@@ -54,7 +54,8 @@ bool add_security(fdds::DomainParticipantQos& qos, const std::string& folder, st
     const fs::path path = fs::absolute(fs::path(folder) / file);
     if (!fs::is_regular_file(path)) {
       if (error)
-        *error = "DDS security: " + path.string() + " is missing (make the folder with scripts/make-security.sh DIR NAME)";
+        *error =
+            "DDS security: " + path.string() + " is missing (make the folder with scripts/make-security.sh DIR NAME)";
       return false;
     }
     props.emplace_back(property, "file://" + path.string());

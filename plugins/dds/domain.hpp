@@ -40,8 +40,10 @@ struct EdgeSettings {
   double deadline_ms = 0;
   bool zero_copy = false;  // a plain type: spare samples in the writer's shared-memory ring
 };
-eprosima::fastdds::dds::DataWriterQos writer_qos(const eprosima::fastdds::dds::Publisher& publisher, const EdgeSettings& s);
-eprosima::fastdds::dds::DataReaderQos reader_qos(const eprosima::fastdds::dds::Subscriber& subscriber, const EdgeSettings& s);
+eprosima::fastdds::dds::DataWriterQos writer_qos(const eprosima::fastdds::dds::Publisher& publisher,
+                                                 const EdgeSettings& s);
+eprosima::fastdds::dds::DataReaderQos reader_qos(const eprosima::fastdds::dds::Subscriber& subscriber,
+                                                 const EdgeSettings& s);
 
 class Domain {
  public:

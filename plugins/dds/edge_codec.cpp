@@ -10,8 +10,8 @@
 namespace saccade::dds {
 
 const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error) {
-  const Codec* serialised = find_codec(type);
-  if (serialised == nullptr) {
+  const Codec* serialized = find_codec(type);
+  if (serialized == nullptr) {
     if (error) *error = "no IDL type for '" + std::string(type) + "'";
     return nullptr;
   }
@@ -22,11 +22,11 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
     if (error) *error = "ROS 2 has no message for " + std::string(type) + " (it has for " + have + ")";
     return nullptr;
   }
-  if (!request.zero_copy) return serialised;
+  if (!request.zero_copy) return serialized;
   using SharedMemory = CodecRequest::SharedMemory;
   const bool is_image = type == Image::kTypeName;
   if (request.shared_memory == SharedMemory::kMailbox || (request.shared_memory == SharedMemory::kAuto && !is_image))
-    return serialised;
+    return serialized;
   const bool ring = !request.reliable && (request.shared_memory == SharedMemory::kRing ||
                                           (request.shared_memory == SharedMemory::kAuto && is_image));
   if (ring)
@@ -35,7 +35,7 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
   std::size_t largest = 0;
   for (const auto& c : plain_codecs())
     if (c.type == type) largest = std::max(largest, c.capacity);
-  if (largest == 0) return serialised;  // no plain form: small types travel serialised
+  if (largest == 0) return serialized;  // no plain form: small types travel serialised
   if (error)
     *error = "no shared-memory form of " + std::string(type) + " holds " + std::to_string(request.capacity) +
              " bytes (the largest holds " + std::to_string(largest) + ")";
@@ -44,7 +44,7 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
 
 void set_mailbox(const CodecRequest& request, const Codec& codec, int depth, WireOptions& options) {
   using SharedMemory = CodecRequest::SharedMemory;
-  options.mailbox = request.zero_copy && !request.ros2 && codec.form == Codec::Form::kSerialised &&
+  options.mailbox = request.zero_copy && !request.ros2 && codec.form == Codec::Form::kSerialized &&
                     (request.shared_memory == SharedMemory::kAuto || request.shared_memory == SharedMemory::kMailbox);
   options.in_order = request.reliable;
   options.mailbox_slots = static_cast<uint32_t>(std::max(16, depth));

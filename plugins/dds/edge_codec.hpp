@@ -11,7 +11,7 @@ namespace saccade::dds {
 
 // How an edge asks its type to travel.
 struct CodecRequest {
-  bool zero_copy = false;     // one host: the frame ring, the plain form or the mailbox (shared_memory)
+  bool zero_copy = false;  // one host: the frame ring, the plain form or the mailbox (shared_memory)
   // zero_copy: kAuto is the frame ring for Image (loans when reliable) and
   // the serialised form through the same-host mailbox for every other type,
   // whose few kilobytes it carries faster than a loaned sample
@@ -19,8 +19,8 @@ struct CodecRequest {
   // reused buffers cannot promise every frame to a slow reader.
   enum class SharedMemory { kAuto, kRing, kLoans, kMailbox } shared_memory = SharedMemory::kAuto;
   bool reliable = false;
-  std::size_t capacity = 0;   // zero_copy: bytes the plain form must hold (0: the type's default)
-  bool ros2 = false;          // the ROS 2 form (wins over zero_copy: ROS 2 cannot read plain types)
+  std::size_t capacity = 0;  // zero_copy: bytes the plain form must hold (0: the type's default)
+  bool ros2 = false;         // the ROS 2 form (wins over zero_copy: ROS 2 cannot read plain types)
 };
 
 // The codec an edge uses: the ROS 2 form when asked (an error when the type has

@@ -21,7 +21,7 @@ namespace saccade::dds {
 namespace {
 
 constexpr uint64_t kMagic = 0x676e6972'63636173ull;  // "saccring"
-constexpr uint32_t kVersion = 3;  // 2: the mailbox; 3: its readers say what they took
+constexpr uint32_t kVersion = 3;                     // 2: the mailbox; 3: its readers say what they took
 constexpr uint64_t kWriterBit = 1ull << 31;
 constexpr uint64_t kReaderBits = (1ull << FrameRing::kMaxReaders) - 1;
 constexpr uint64_t kHoldBits = kWriterBit | kReaderBits;
@@ -273,9 +273,7 @@ bool FrameRing::locate(const cv::Mat& mat, RingAddress& at, std::size_t& offset)
   return true;
 }
 
-uint64_t FrameRing::next_post() const {
-  return mailbox_of(*segment_).sequence.load(std::memory_order_relaxed) / 2 + 1;
-}
+uint64_t FrameRing::next_post() const { return mailbox_of(*segment_).sequence.load(std::memory_order_relaxed) / 2 + 1; }
 
 bool FrameRing::post(const void* sample, std::size_t bytes) {
   RingMailbox& mail = mailbox_of(*segment_);
@@ -300,9 +298,7 @@ bool FrameRing::post(const void* sample, std::size_t bytes) {
   return woke;
 }
 
-uint32_t FrameRing::sleeping_readers() const {
-  return mailbox_of(*segment_).waiters.load(std::memory_order_seq_cst);
-}
+uint32_t FrameRing::sleeping_readers() const { return mailbox_of(*segment_).waiters.load(std::memory_order_seq_cst); }
 
 bool FrameRing::wait_until_taken(uint64_t post, int64_t timeout_ns) const {
   return spin_until_taken(mailbox_of(*segment_).taken, post, timeout_ns);
@@ -342,7 +338,8 @@ class RingMapping final : public cv::MatAllocator {
  public:
   static RingMapping* open(const RingAddress& at, std::string& why) {
     const std::string name = ring_segment_name(at.writer_pid, at.ring_id);
-    std::unique_ptr<SharedSegment> segment = SharedSegment::open(name, sizeof(RingHeader), "the writer's frame ring", &why);
+    std::unique_ptr<SharedSegment> segment =
+        SharedSegment::open(name, sizeof(RingHeader), "the writer's frame ring", &why);
     if (!segment) return nullptr;
     RingHeader& h = header_of(*segment);
     if (h.magic != kMagic || h.version != kVersion || h.ring_id != at.ring_id || h.slots == 0 ||
@@ -384,7 +381,8 @@ class RingMapping final : public cv::MatAllocator {
     const std::size_t bytes = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type);
     if (at.slot >= h.slots || offset > h.slot_bytes || bytes > h.slot_bytes - offset) {
       why = "a frame outside the writer's ring (buffer " + std::to_string(at.slot) + ", bytes " +
-            std::to_string(offset) + ".." + std::to_string(offset + bytes) + " of " + std::to_string(h.slot_bytes) + ")";
+            std::to_string(offset) + ".." + std::to_string(offset + bytes) + " of " + std::to_string(h.slot_bytes) +
+            ")";
       return false;
     }
     out.release();  // before the lock: it may be a Mat of this ring, whose release locks it
@@ -462,9 +460,7 @@ class RingMapping final : public cv::MatAllocator {
     if (last) delete this;
   }
 
-  ~RingMapping() override {
-    header_of(*segment_).reader_pid[index_].store(0, std::memory_order_release);
-  }
+  ~RingMapping() override { header_of(*segment_).reader_pid[index_].store(0, std::memory_order_release); }
 
  private:
   RingMapping() = default;
@@ -532,8 +528,10 @@ bool RingReader::mail(uint64_t after, void* out, std::size_t bytes, uint64_t& po
     const uint64_t sequence = mail.sequence.load(std::memory_order_acquire);
     if (sequence / 2 <= after) return false;
     if (sequence & 1) {
-      if (attempt >= 1000) sched_yield();
-      else cpu_relax();
+      if (attempt >= 1000)
+        sched_yield();
+      else
+        cpu_relax();
       continue;
     }
     // Acquire loads: the sequence is read again only after them.

@@ -203,8 +203,10 @@ MailboxReader::Read MailboxReader::read(uint64_t post, std::vector<uint8_t>& out
   for (int attempt = 0; attempt < 20000; ++attempt) {
     const uint64_t sequence = head.sequence.load(std::memory_order_acquire);
     if (sequence == 2 * post - 1) {
-      if (attempt >= 1000) sched_yield();
-      else cpu_relax();
+      if (attempt >= 1000)
+        sched_yield();
+      else
+        cpu_relax();
       continue;
     }
     if (sequence < 2 * post - 1) return Read::kNotYet;

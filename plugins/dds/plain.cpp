@@ -49,7 +49,9 @@ bool pack(const cv::Mat& in, std::array<uint8_t, N>& data, uint32_t offset, wp::
   return true;
 }
 
-bool is_cv_type(int type) { return type >= 0 && CV_MAT_DEPTH(type) <= CV_16F && CV_MAT_CN(type) <= 4 && CV_MAT_TYPE(type) == type; }
+bool is_cv_type(int type) {
+  return type >= 0 && CV_MAT_DEPTH(type) <= CV_16F && CV_MAT_CN(type) <= 4 && CV_MAT_TYPE(type) == type;
+}
 
 // Unpacks a header's rows into `out` (its buffer reused when the size and type
 // match). A header that points outside the used bytes, or names no OpenCV
@@ -86,8 +88,9 @@ std::string to_plain(const Image& in, P& out) {
   uint32_t end = 0;
   if (!pack(in.mat, out.data(), 0, out.mat(), end)) {
     return "a " + std::to_string(in.mat.cols) + "x" + std::to_string(in.mat.rows) + " image of " +
-           std::to_string(in.mat.total() * in.mat.elemSize()) + " bytes does not fit the edge's shared-memory capacity (" +
-           mib(out.data().size()) + "); give the edge a larger one (qos=\"capacity=16M\")";
+           std::to_string(in.mat.total() * in.mat.elemSize()) +
+           " bytes does not fit the edge's shared-memory capacity (" + mib(out.data().size()) +
+           "); give the edge a larger one (qos=\"capacity=16M\")";
   }
   out.size(end);
   return {};
@@ -148,8 +151,8 @@ std::string to_plain(const Retina& in, P& out) {
   uint32_t end = 0;
   for (std::size_t i = 0; i < in.levels.size(); ++i) {
     if (!pack(in.levels[i], out.data(), end, out.levels()[i], end))
-      return "a retina of " + std::to_string(in.levels.size()) + " levels does not fit the edge's shared-memory capacity (" +
-             mib(out.data().size()) + ")";
+      return "a retina of " + std::to_string(in.levels.size()) +
+             " levels does not fit the edge's shared-memory capacity (" + mib(out.data().size()) + ")";
   }
   out.size(end);
   return {};
@@ -332,8 +335,8 @@ bool already_in_ring(const cv::Mat* const* mats, std::size_t n, const FrameRing&
 }
 
 template <std::size_t N>
-std::string mats_to_ring(const cv::Mat* const* mats, std::size_t n, FrameRing& ring, cv::Mat& hold,
-                         RingAddress& at, std::array<std::size_t, N>& offsets) {
+std::string mats_to_ring(const cv::Mat* const* mats, std::size_t n, FrameRing& ring, cv::Mat& hold, RingAddress& at,
+                         std::array<std::size_t, N>& offsets) {
   if (already_in_ring(mats, n, ring, at, offsets)) return {};  // the producer wrote into the ring: no copy
   if (std::string why = copy_into_ring(mats, n, ring, hold, offsets); !why.empty()) return why;
   std::size_t base = 0;
@@ -392,7 +395,8 @@ bool from_ring(const wp::ImageRef& in, RingReader& reader, Image& out, std::stri
 bool from_ring(const wp::RetinaRef& in, RingReader& reader, Retina& out, std::string& why) {
   std::size_t n = 0;
   if (!retina_fields_from(in, out, n)) {
-    why = "a retina of " + std::to_string(in.level_count()) + " levels (at most " + std::to_string(in.levels().size()) + ")";
+    why = "a retina of " + std::to_string(in.level_count()) + " levels (at most " + std::to_string(in.levels().size()) +
+          ")";
     return false;
   }
   const RingAddress at = ring_from_wire(in.ring());
@@ -545,9 +549,10 @@ Codec ring_codec() {
 
 template <class M, class P, class T>
 Codec plain_codec(std::size_t capacity) {
-  return Codec{M::kTypeName, Codec::Form::kPlain, capacity,
-               +[]() -> std::unique_ptr<fdds::TopicDataType> { return std::make_unique<T>(); },
-               +[](const WireOptions&) -> std::unique_ptr<WireSample> { return std::make_unique<PlainSample<M, P>>(); }};
+  return Codec{
+      M::kTypeName, Codec::Form::kPlain, capacity,
+      +[]() -> std::unique_ptr<fdds::TopicDataType> { return std::make_unique<T>(); },
+      +[](const WireOptions&) -> std::unique_ptr<WireSample> { return std::make_unique<PlainSample<M, P>>(); }};
 }
 
 }  // namespace

@@ -50,11 +50,11 @@ struct NamedEncoding {
   bool rgb;  // channels in RGB(A) order: swapped to saccade's BGR(A)
 };
 constexpr std::array kNamedEncodings = {
-    NamedEncoding{"mono8", CV_8UC1, false},   NamedEncoding{"bgr8", CV_8UC3, false},
-    NamedEncoding{"bgra8", CV_8UC4, false},   NamedEncoding{"mono16", CV_16UC1, false},
-    NamedEncoding{"bgr16", CV_16UC3, false},  NamedEncoding{"bgra16", CV_16UC4, false},
-    NamedEncoding{"rgb8", CV_8UC3, true},     NamedEncoding{"rgba8", CV_8UC4, true},
-    NamedEncoding{"rgb16", CV_16UC3, true},   NamedEncoding{"rgba16", CV_16UC4, true},
+    NamedEncoding{"mono8", CV_8UC1, false},  NamedEncoding{"bgr8", CV_8UC3, false},
+    NamedEncoding{"bgra8", CV_8UC4, false},  NamedEncoding{"mono16", CV_16UC1, false},
+    NamedEncoding{"bgr16", CV_16UC3, false}, NamedEncoding{"bgra16", CV_16UC4, false},
+    NamedEncoding{"rgb8", CV_8UC3, true},    NamedEncoding{"rgba8", CV_8UC4, true},
+    NamedEncoding{"rgb16", CV_16UC3, true},  NamedEncoding{"rgba16", CV_16UC4, true},
 };
 constexpr std::array<std::string_view, 7> kDepthNames = {"8U", "8S", "16U", "16S", "32S", "32F", "64F"};
 
@@ -123,8 +123,10 @@ class Ros2Sample final : public WireSample {
 
  private:
   bool read(M& out) {
-    if constexpr (std::is_same_v<M, Image>) return from_ros2(wire_, out, &why_);
-    else return from_ros2(wire_, options_, out, &why_);
+    if constexpr (std::is_same_v<M, Image>)
+      return from_ros2(wire_, out, &why_);
+    else
+      return from_ros2(wire_, options_, out, &why_);
   }
 
   WireOptions options_;
@@ -134,9 +136,10 @@ class Ros2Sample final : public WireSample {
 
 template <class M, class W, class P>
 Codec ros2_codec() {
-  return Codec{M::kTypeName, Codec::Form::kRos2, 0,
-               +[]() -> std::unique_ptr<eprosima::fastdds::dds::TopicDataType> { return std::make_unique<P>(); },
-               +[](const WireOptions& o) -> std::unique_ptr<WireSample> { return std::make_unique<Ros2Sample<M, W>>(o); }};
+  return Codec{
+      M::kTypeName, Codec::Form::kRos2, 0,
+      +[]() -> std::unique_ptr<eprosima::fastdds::dds::TopicDataType> { return std::make_unique<P>(); },
+      +[](const WireOptions& o) -> std::unique_ptr<WireSample> { return std::make_unique<Ros2Sample<M, W>>(o); }};
 }
 
 }  // namespace
@@ -192,7 +195,8 @@ bool from_ros2(const ros::Image_& in, Image& out, std::string* error) {
       rgb = e.rgb;
     }
   if (cv_type < 0) {
-    if (error) *error = "image encoding '" + encoding + "' is not one saccade reads (mono8, bgr8, rgb8, mono16, 32FC1, ...)";
+    if (error)
+      *error = "image encoding '" + encoding + "' is not one saccade reads (mono8, bgr8, rgb8, mono16, 32FC1, ...)";
     return false;
   }
   const std::size_t rows = in.height(), cols = in.width(), step = in.step();
@@ -213,7 +217,8 @@ bool from_ros2(const ros::Image_& in, Image& out, std::string* error) {
     return true;
   }
   out.mat.create(static_cast<int>(rows), static_cast<int>(cols), cv_type);
-  for (std::size_t r = 0; r < rows; ++r) std::memcpy(out.mat.ptr(static_cast<int>(r)), in.data().data() + r * step, row_bytes);
+  for (std::size_t r = 0; r < rows; ++r)
+    std::memcpy(out.mat.ptr(static_cast<int>(r)), in.data().data() + r * step, row_bytes);
   if (in.is_bigendian() != 0) swap_bytes(out.mat);
   if (rgb) cv::cvtColor(out.mat, out.mat, out.mat.channels() == 3 ? cv::COLOR_RGB2BGR : cv::COLOR_RGBA2BGRA);
   return true;

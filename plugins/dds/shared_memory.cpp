@@ -69,7 +69,7 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
     const std::string name = entry.path().filename().string();
     const bool segment = std::regex_match(name, participant_segment);
     const bool pool = !segment && (std::regex_match(name, data_sharing_pool) || std::regex_match(name, frame_ring) ||
-                                        std::regex_match(name, mailbox));
+                                   std::regex_match(name, mailbox));
     if (!segment && !pool) continue;
     struct stat st {};
     // Only this user's files, and none so young that its owner may still be setting it up.

@@ -47,8 +47,10 @@ std::unique_ptr<SharedSegment> SharedSegment::create(const std::string& name, st
     return fail("cannot size shared memory " + name + " to " + std::to_string(bytes) + " bytes", error);
   }
   auto s = map(fd, name, bytes, error);
-  if (s) s->linked_ = true;
-  else ::shm_unlink(name.c_str());
+  if (s)
+    s->linked_ = true;
+  else
+    ::shm_unlink(name.c_str());
   return s;
 }
 
@@ -123,8 +125,7 @@ void futex_wake_all(std::atomic<uint32_t>& word) {
 
 void mark_taken(std::atomic<uint64_t>& taken, uint64_t post) {
   uint64_t seen = taken.load(std::memory_order_relaxed);
-  while (seen < post && !taken.compare_exchange_weak(seen, post, std::memory_order_release)) {
-  }
+  while (seen < post && !taken.compare_exchange_weak(seen, post, std::memory_order_release)) {}
 }
 
 bool ReaderFirst::wait_for(bool woke, int64_t now_ns) {

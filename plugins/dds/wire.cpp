@@ -90,8 +90,10 @@ void retina_to_wire(const std::shared_ptr<const Retina>& in, std::vector<w::Reti
 std::shared_ptr<const Retina> retina_from_wire(const std::vector<w::Retina>& in, std::shared_ptr<Retina>* spare) {
   if (in.empty()) return nullptr;
   std::shared_ptr<Retina> retina;
-  if (spare != nullptr && *spare && spare->use_count() == 1) retina = *spare;
-  else retina = std::make_shared<Retina>();
+  if (spare != nullptr && *spare && spare->use_count() == 1)
+    retina = *spare;
+  else
+    retina = std::make_shared<Retina>();
   if (spare != nullptr) *spare = retina;
   from_wire(in[0], *retina);
   return retina;
@@ -105,9 +107,7 @@ std::shared_ptr<const Retina> retina_from_wire(const std::vector<w::Retina>& in,
 template <class M, class W>
 class Sample final : public WireSample {
  public:
-  explicit Sample(const WireOptions& options) : options_(options) {
-    mail_.set_wait(options.reader_wait);
-  }
+  explicit Sample(const WireOptions& options) : options_(options) { mail_.set_wait(options.reader_wait); }
 
   Status write(eprosima::fastdds::dds::DataWriter& writer, const Message* message, bool& written) override {
     if (message != nullptr) {
@@ -135,7 +135,7 @@ class Sample final : public WireSample {
         if (r == MailboxReader::Read::kMessage) {
           last_ = post;
           ++mailed_;
-          if (!deserialise()) return Taken::kUnreadable;
+          if (!deserialize()) return Taken::kUnreadable;
           return deliver(ctx, output, slot);
         }
         // Too large for the slots, or gone past (this reader fell a ring
@@ -165,8 +165,10 @@ class Sample final : public WireSample {
   Taken deliver(ProcessContext* ctx, int output, MessagePtr& slot) {
     if (wire_.stamp().flags() & kEndOfStream) return Taken::kEnd;
     std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
-    if constexpr (requires { from_wire(wire_, *m, &spare_retina_); }) from_wire(wire_, *m, &spare_retina_);
-    else from_wire(wire_, *m);
+    if constexpr (requires { from_wire(wire_, *m, &spare_retina_); })
+      from_wire(wire_, *m, &spare_retina_);
+    else
+      from_wire(wire_, *m);
     slot = std::move(m);
     return Taken::kMessage;
   }
@@ -181,7 +183,8 @@ class Sample final : public WireSample {
     if (!box_ || (bytes > box_->slot_bytes() && box_->slot_bytes() < kMaxSlotBytes)) {
       box_.reset();
       std::string error;
-      const std::size_t slot_bytes = std::clamp<std::size_t>((2 * bytes + 4095) / 4096 * 4096, kMinSlotBytes, kMaxSlotBytes);
+      const std::size_t slot_bytes =
+          std::clamp<std::size_t>((2 * bytes + 4095) / 4096 * 4096, kMinSlotBytes, kMaxSlotBytes);
       box_ = Mailbox::create(slot_bytes, options_.mailbox_slots, &error);
       if (!box_) {
         log().warn("no same-host mailbox ({}): messages go through DDS alone", error);
@@ -203,7 +206,7 @@ class Sample final : public WireSample {
     box_->post(bytes_.data(), cdr.getSerializedDataLength());
   }
 
-  bool deserialise() {
+  bool deserialize() {
     try {
       eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(bytes_.data()), bytes_.size());
       eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
@@ -249,19 +252,19 @@ class Sample final : public WireSample {
   WireOptions options_;
   W wire_;
   std::shared_ptr<Retina> spare_retina_;
-  std::vector<uint8_t> bytes_;   // a message's serialised bytes, to or from the mailbox
-  std::unique_ptr<Mailbox> box_;  // the writer's
-  MailboxReader mail_;            // the reader's
-  uint64_t last_ = 0;             // the newest post of the followed mailbox this reader had
+  std::vector<uint8_t> bytes_;                    // a message's serialised bytes, to or from the mailbox
+  std::unique_ptr<Mailbox> box_;                  // the writer's
+  MailboxReader mail_;                            // the reader's
+  uint64_t last_ = 0;                             // the newest post of the followed mailbox this reader had
   uint64_t previous_id_ = 0, previous_last_ = 0;  // the mailbox followed before, and its newest post had
-  uint64_t unreachable_id_ = 0;   // a mailbox that could not be opened (another host's)
-  bool dds_turn_ = false;         // the next post is DDS' to bring
+  uint64_t unreachable_id_ = 0;                   // a mailbox that could not be opened (another host's)
+  bool dds_turn_ = false;                         // the next post is DDS' to bring
   uint64_t mailed_ = 0;
 };
 
 template <class M, class W, class P>
 Codec codec() {
-  return Codec{M::kTypeName, Codec::Form::kSerialised, 0,
+  return Codec{M::kTypeName, Codec::Form::kSerialized, 0,
                +[]() -> std::unique_ptr<eprosima::fastdds::dds::TopicDataType> { return std::make_unique<P>(); },
                +[](const WireOptions& o) -> std::unique_ptr<WireSample> { return std::make_unique<Sample<M, W>>(o); }};
 }
@@ -365,7 +368,8 @@ void to_wire(const cv::Mat& in, wc::Mat& out) {
   if (in.isContinuous()) {
     std::memcpy(data.data(), in.data, data.size());
   } else {
-    for (int r = 0; r < in.rows; ++r) std::memcpy(data.data() + row_bytes * static_cast<std::size_t>(r), in.ptr(r), row_bytes);
+    for (int r = 0; r < in.rows; ++r)
+      std::memcpy(data.data() + row_bytes * static_cast<std::size_t>(r), in.ptr(r), row_bytes);
   }
 }
 
@@ -379,8 +383,8 @@ void from_wire(const wc::Mat& in, cv::Mat& out) {
     out.release();
     return;
   }
-  const std::size_t bytes = static_cast<std::size_t>(in.rows()) * static_cast<std::size_t>(in.cols()) *
-                            CV_ELEM_SIZE(type);
+  const std::size_t bytes =
+      static_cast<std::size_t>(in.rows()) * static_cast<std::size_t>(in.cols()) * CV_ELEM_SIZE(type);
   // Data shorter than its header says: only a little (a truncated sample)
   // leaves zeros; a header claiming far more than it carries is no image.
   if (bytes > in.data().size() + (std::size_t{1} << 20)) {
@@ -553,7 +557,7 @@ void to_wire(const GazeRequest& in, w::GazeRequest& out) {
 void from_wire(const w::GazeRequest& in, GazeRequest& out) {
   stamp_from_wire(in.stamp(), out);
   out.kind = in.kind() <= static_cast<uint8_t>(GazeRequest::Kind::kRelative) ? static_cast<GazeRequest::Kind>(in.kind())
-                                                                               : GazeRequest::Kind::kDirection;
+                                                                             : GazeRequest::Kind::kDirection;
   out.pixel = point_from_wire(in.pixel());
   out.direction = vec_from_wire(in.direction());
   out.image_size = {in.image_width(), in.image_height()};
@@ -681,8 +685,10 @@ void to_wire(const Classification& in, w::Classification& out) {
   out.best(in.best);
   out.score(in.score);
   out.scores() = in.scores;
-  if (in.classes) out.classes() = *in.classes;
-  else out.classes().clear();
+  if (in.classes)
+    out.classes() = *in.classes;
+  else
+    out.classes().clear();
   out.area(rect_to_wire(in.region));
   out.camera_id(in.camera_id);
 }

@@ -24,8 +24,9 @@ class Bank final : public Node {
   }
 
   static Contract contract() {
-    return Contract("The filter bank on every level of a retina, computed in fused passes: Gaussian 3x3, Sobel x/y, "
-                    "gradient magnitude/mask/direction, 4-neighbour Laplacian, LoG, Gaussian gradient x/y/magnitude/mask.")
+    return Contract(
+               "The filter bank on every level of a retina, computed in fused passes: Gaussian 3x3, Sobel x/y, "
+               "gradient magnitude/mask/direction, 4-neighbour Laplacian, LoG, Gaussian gradient x/y/magnitude/mask.")
         .ports(kRetina, kMaps)
         .param_flags("features", "gauss,sobel_x,sobel_y,grad_mag,grad_mask,grad_dir,laplacian,log", feature_choices(),
                      "features to compute (comma list, or all)")

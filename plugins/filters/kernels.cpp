@@ -8,9 +8,9 @@
 
 namespace saccade::filters {
 
-const std::array<const char*, kFeatureCount> kFeatureNames = {
-    "gauss", "sobel_x", "sobel_y", "grad_mag", "grad_mask", "grad_dir",
-    "laplacian", "log", "ggrad_x", "ggrad_y", "ggrad_mag", "ggrad_mask"};
+const std::array<const char*, kFeatureCount> kFeatureNames = {"gauss",     "sobel_x",  "sobel_y",   "grad_mag",
+                                                              "grad_mask", "grad_dir", "laplacian", "log",
+                                                              "ggrad_x",   "ggrad_y",  "ggrad_mag", "ggrad_mask"};
 
 int feature_index(const std::string& name) {
   for (int i = 0; i < kFeatureCount; ++i)
@@ -18,9 +18,7 @@ int feature_index(const std::string& name) {
   return -1;
 }
 
-int to_cv_border(Border border) {
-  return border == Border::kReplicate ? cv::BORDER_REPLICATE : cv::BORDER_REFLECT_101;
-}
+int to_cv_border(Border border) { return border == Border::kReplicate ? cv::BORDER_REPLICATE : cv::BORDER_REFLECT_101; }
 
 cv::Mat gaussian3_kernel() { return (cv::Mat_<float>(3, 3) << 1, 2, 1, 2, 4, 2, 1, 2, 1) / 16.0f; }
 cv::Mat sobel_x_kernel() { return (cv::Mat_<float>(3, 3) << -1, 0, 1, -2, 0, 2, -1, 0, 1); }
@@ -119,14 +117,22 @@ void bank_reference(const cv::Mat& level, const BankConfig& config, std::array<c
       gmag.at<float>(y, x) = std::sqrt(a * a + b * b);
       gmask.at<uint8_t>(y, x) = gmag.at<float>(y, x) > config.ggrad_threshold ? 255 : 0;
     }
-  std::array<cv::Mat, kFeatureCount> all = {gauss, sx, sy, mag, mask, dir,
+  std::array<cv::Mat, kFeatureCount> all = {gauss,
+                                            sx,
+                                            sy,
+                                            mag,
+                                            mask,
+                                            dir,
                                             correlate_reference(level, laplacian4_kernel(), config.border),
                                             correlate_reference(gauss, laplacian4_kernel(), config.border),
-                                            ggx, ggy, gmag, gmask};
+                                            ggx,
+                                            ggy,
+                                            gmag,
+                                            gmask};
   for (int f = 0; f < kFeatureCount; ++f)
-    if (config.wanted[static_cast<std::size_t>(f)]) outs[static_cast<std::size_t>(f)] = all[static_cast<std::size_t>(f)];
+    if (config.wanted[static_cast<std::size_t>(f)])
+      outs[static_cast<std::size_t>(f)] = all[static_cast<std::size_t>(f)];
 }
-
 
 namespace {
 
@@ -150,8 +156,10 @@ void pad_level(const cv::Mat& level, int pad, Border border, std::vector<int>& m
   out.create(h + 2 * pad, w + 2 * pad, CV_32F);
   map_x.resize(static_cast<std::size_t>(w + 2 * pad));
   for (int x = 0; x < w + 2 * pad; ++x) map_x[static_cast<std::size_t>(x)] = border_index(x - pad, w, border);
-  if (level.depth() == CV_8U) pad_rows<uint8_t>(level, pad, border, map_x, out);
-  else pad_rows<float>(level, pad, border, map_x, out);
+  if (level.depth() == CV_8U)
+    pad_rows<uint8_t>(level, pad, border, map_x, out);
+  else
+    pad_rows<float>(level, pad, border, map_x, out);
 }
 
 // One output row of the 3x3 masks. Rows start one pixel left of the output's
@@ -189,7 +197,8 @@ SACCADE_AVX2_CLONE void row_threshold(const float* __restrict v, float thr, uint
 
 // AVX2 where the CPU has it: the polynomial is a large share of the bank's
 // arithmetic.
-SACCADE_AVX2_CLONE void row_direction(const float* __restrict gx, const float* __restrict gy, float* __restrict dir, int w) {
+SACCADE_AVX2_CLONE void row_direction(const float* __restrict gx, const float* __restrict gy, float* __restrict dir,
+                                      int w) {
   for (int x = 0; x < w; ++x) dir[x] = fast_atan2_inline(gy[x], gx[x]);
 }
 
@@ -295,14 +304,17 @@ SACCADE_AVX2_CLONE void gradient_passes(int n, const cv::Mat& padded, int pad, i
                                         const float* dg, cv::Mat& row_g, cv::Mat& row_dg, const float** rows_g,
                                         const float** rows_dg, cv::Mat& gx, cv::Mat& gy) {
   // sigma in [0.3, 3] gives radius 1..9.
+  // One case per kernel size, made by a macro clang-format cannot lay out.
+  // clang-format off
   switch (n) {
 #define SACCADE_TAPS(N) \
   case N: separable_gradient<N>(padded, pad, w, h, g, dg, row_g, row_dg, rows_g, rows_dg, gx, gy); break;
-    SACCADE_TAPS(3) SACCADE_TAPS(5) SACCADE_TAPS(7) SACCADE_TAPS(9) SACCADE_TAPS(11) SACCADE_TAPS(13)
-    SACCADE_TAPS(15) SACCADE_TAPS(17) SACCADE_TAPS(19)
+    SACCADE_TAPS(3) SACCADE_TAPS(5) SACCADE_TAPS(7) SACCADE_TAPS(9) SACCADE_TAPS(11)
+    SACCADE_TAPS(13) SACCADE_TAPS(15) SACCADE_TAPS(17) SACCADE_TAPS(19)
 #undef SACCADE_TAPS
     default: CV_Error(cv::Error::StsOutOfRange, "Gaussian gradient radius above 9 (sigma above 3)");
   }
+  // clang-format on
 }
 
 }  // namespace
@@ -346,7 +358,8 @@ void FilterBank::run(const cv::Mat& level, std::array<cv::Mat, kFeatureCount>& o
   pad_level(level, pad, config_.border, map_x_, padded_f_);
 
   auto target = [&](int f, int type) -> cv::Mat& {
-    cv::Mat& m = want[static_cast<std::size_t>(f)] ? outs[static_cast<std::size_t>(f)] : scratch_[static_cast<std::size_t>(f)];
+    cv::Mat& m =
+        want[static_cast<std::size_t>(f)] ? outs[static_cast<std::size_t>(f)] : scratch_[static_cast<std::size_t>(f)];
     m.create(h, w, type);
     return m;
   };

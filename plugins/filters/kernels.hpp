@@ -25,8 +25,19 @@ enum class Border { kReflect101, kReplicate };
 int to_cv_border(Border border);
 
 enum Feature : int {
-  kGauss, kSobelX, kSobelY, kGradMag, kGradMask, kGradDir, kLaplacian, kLoG,
-  kGGradX, kGGradY, kGGradMag, kGGradMask, kFeatureCount
+  kGauss,
+  kSobelX,
+  kSobelY,
+  kGradMag,
+  kGradMask,
+  kGradDir,
+  kLaplacian,
+  kLoG,
+  kGGradX,
+  kGGradY,
+  kGGradMag,
+  kGGradMask,
+  kFeatureCount
 };
 extern const std::array<const char*, kFeatureCount> kFeatureNames;
 int feature_index(const std::string& name);  // -1 when unknown

@@ -157,7 +157,7 @@ void sample_area(const cv::Mat& frame, cv::Point2d center, double step_x, double
   for (int j = 0; j < size.height; ++j)
     for (int i = 0; i < size.width; ++i) {
       const double x = center.x + (i - half_x) * step_x, y = center.y + (j - half_y) * step_y;
-      out[j * size.width + i] = frame.channels() == 1 ? cell_mean<1>(frame, x, y, step_x, step_y)
+      out[j * size.width + i] = frame.channels() == 1   ? cell_mean<1>(frame, x, y, step_x, step_y)
                                 : frame.channels() == 3 ? cell_mean<3>(frame, x, y, step_x, step_y)
                                                         : cell_mean<4>(frame, x, y, step_x, step_y);
     }
@@ -179,15 +179,19 @@ class ScaleFilter {
       const double i = k - (count - 1) / 2.0;
       factors_[static_cast<std::size_t>(k)] = std::pow(step, -i);
       g[static_cast<std::size_t>(k)] = std::exp(-0.5 * i * i / (sigma * sigma));
-      window_[static_cast<std::size_t>(k)] = static_cast<float>(0.5 * (1 - std::cos(2 * CV_PI * (k + 1) / (count + 1))));
+      window_[static_cast<std::size_t>(k)] =
+          static_cast<float>(0.5 * (1 - std::cos(2 * CV_PI * (k + 1) / (count + 1))));
     }
     twiddle_.resize(n * n);
     for (int a = 0; a < count; ++a)
       for (int b = 0; b < count; ++b)
-        twiddle_[static_cast<std::size_t>(a * count + b)] = std::polar(1.0f, static_cast<float>(-2 * CV_PI * a * b / count));
+        twiddle_[static_cast<std::size_t>(a * count + b)] =
+            std::polar(1.0f, static_cast<float>(-2 * CV_PI * a * b / count));
     target_.assign(n, {});
     for (int k = 0; k < count; ++k)
-      for (int s = 0; s < count; ++s) target_[static_cast<std::size_t>(k)] += static_cast<float>(g[static_cast<std::size_t>(s)]) * twiddle_[static_cast<std::size_t>(s * count + k)];
+      for (int s = 0; s < count; ++s)
+        target_[static_cast<std::size_t>(k)] +=
+            static_cast<float>(g[static_cast<std::size_t>(s)]) * twiddle_[static_cast<std::size_t>(s * count + k)];
     samples_.resize(n * static_cast<std::size_t>(dims_));
     spectra_.resize(n * static_cast<std::size_t>(dims_));
     sample_.resize(static_cast<std::size_t>(side * side));
@@ -212,7 +216,9 @@ class ScaleFilter {
     float best_value = -INFINITY;
     for (int s = 0; s < count_; ++s) {
       float value = 0;  // the real part of the inverse transform at s
-      for (int k = 0; k < count_; ++k) value += (r[static_cast<std::size_t>(k)] * std::conj(twiddle_[static_cast<std::size_t>(s * count_ + k)])).real();
+      for (int k = 0; k < count_; ++k)
+        value +=
+            (r[static_cast<std::size_t>(k)] * std::conj(twiddle_[static_cast<std::size_t>(s * count_ + k)])).real();
       if (value > best_value) best_value = value, best = s;
     }
     return factors_[static_cast<std::size_t>(best)];
@@ -253,7 +259,8 @@ class ScaleFilter {
     const int pixels = side_ * side_;
     for (int k = 0; k < count_; ++k) {
       const double f = factors_[static_cast<std::size_t>(k)];
-      sample_area(frame, center, size.width * f / side_, size.height * f / side_, cv::Size(side_, side_), sample_.data());
+      sample_area(frame, center, size.width * f / side_, size.height * f / side_, cv::Size(side_, side_),
+                  sample_.data());
       double sum = 0, sq = 0;
       for (float v : sample_) sum += v, sq += static_cast<double>(v) * v;
       const double mean = sum / pixels;
@@ -340,7 +347,8 @@ struct BoxTracker::Impl {
       }
     }
     out.resize(kChannels);
-    for (int k = 0; k < kChannels; ++k) cv::dft(channels[static_cast<std::size_t>(k)], out[static_cast<std::size_t>(k)], cv::DFT_COMPLEX_OUTPUT);
+    for (int k = 0; k < kChannels; ++k)
+      cv::dft(channels[static_cast<std::size_t>(k)], out[static_cast<std::size_t>(k)], cv::DFT_COMPLEX_OUTPUT);
   }
 
   // Model <- (1 - rate) model + rate (this patch's filter): per channel
@@ -433,7 +441,6 @@ struct BoxTracker::Impl {
     return {sub - cv::Point2d(c, c), value, psr, rival};
   }
 
-
   // The target's look at a coarse step (its larger side kCoarseSide pixels),
   // learnt as the filter is: what the lost target is looked for with over
   // the whole frame, at a cost that does not grow with the target.
@@ -484,7 +491,8 @@ struct BoxTracker::Impl {
         if (value <= 0) break;
         const cv::Point2d middle(at.x + t.width / 2.0, at.y + t.height / 2.0);
         out.push_back({{middle.x * frame.cols / coarse_size.width, middle.y * frame.rows / coarse_size.height},
-                       step * factor, angle});
+                       step * factor,
+                       angle});
         cv::rectangle(match, cv::Rect(at - cv::Point(t.width, t.height), t * 2), -1.0, cv::FILLED);
       }
     }
@@ -509,9 +517,9 @@ struct BoxTracker::Impl {
   double psr_mean = 0;  // over the frames the model learnt from
   int tracked_frames = 0;
   int search_tick = 0;
-  int low_frames = 0;   // consecutive frames below lost_psr
+  int low_frames = 0;     // consecutive frames below lost_psr
   int unsure_frames = 0;  // consecutive frames not confident enough to learn from
-  cv::Mat appearance;  // CV_32F, the target at the coarse step
+  cv::Mat appearance;     // CV_32F, the target at the coarse step
   std::vector<float> coarse_sample;
   cv::Mat coarse_f, resized, match;
   cv::Point2d candidate{-1, -1};  // lost: a re-detection waiting for confirmation, and its step
@@ -556,7 +564,8 @@ std::string BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   cv::Mat scratch;
   cv::Scalar mean, sd;
   cv::meanStdDev(to_gray(frame(cv::Rect(inside)), scratch), mean, sd);  // the box alone: is it flat?
-  if (sd[0] < 2) return "box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) + "): nothing to follow";
+  if (sd[0] < 2)
+    return "box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) + "): nothing to follow";
   // Only a box that will be followed replaces what the tracker had.
   Impl& m = *impl_;
   m = Impl(config_);
@@ -572,13 +581,13 @@ std::string BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   m.learn_appearance(frame, 1.0);
   m.scale_filter.learn(frame, m.center, m.size, 1.0, true);
   camera_shift_ = {};
-  initialised_ = true;
+  initialized_ = true;
   last_ = {box, 0, TrackState::kTracking};
   return {};
 }
 
 TrackEstimate BoxTracker::update(const cv::Mat& frame) {
-  if (!initialised_ || frame.empty()) return last_;
+  if (!initialized_ || frame.empty()) return last_;
   Impl& m = *impl_;
   const cv::Point2d predicted = m.center + m.velocity + camera_shift_;
   camera_shift_ = {};

@@ -27,34 +27,34 @@ enum class TrackState { kTracking, kUncertain, kLost };
 const char* to_string(TrackState state);
 
 struct BoxTrackerConfig {
-  int patch = 64;                   // patch side, pixels (a power of two keeps the DFT fast)
-  double padding = 2.0;             // patch side / the target's larger side (more for targets under patch / padding pixels)
-  double learning_rate = 0.02;      // model <- (1 - a) model + a frame, on confident frames
-  double lambda = 1e-3;             // regularisation of the filter
-  double sigma = 0.1;               // the desired response's width, times the target's larger side
-  double angle_step = 5;            // degrees: the target's turn searched either side (0: never) ...
-  double turn_psr = 0.8;            // ... when the peak-to-sidelobe ratio falls below this share of its mean ...
-  int turn_search_every = 4;        // ... and at least every this many frames
-  double scale_step = 1.02;         // ratio between the scale filter's neighbouring scales
-  int scales = 17;                  // scales the scale filter compares (odd)
-  double min_target = 8;            // smallest target side accepted, source pixels
-  double tracking_psr = 6.0;        // peak-to-sidelobe ratio at or above which the target is tracked ...
-  double relative_psr = 0.5;        // ... and at or above this share of its mean over tracked frames
-  int warmup_frames = 10;           // tracked frames that make that mean before it is used
-  double rival_ratio = 0.7;         // a second peak above this share of the first: not sure (1: never)
-  double lost_psr = 5.0;            // below this the peak is not trusted at all
-  int lost_frames = 5;              // consecutive frames below lost_psr before the target is lost
-  int unsure_frames = 30;           // consecutive frames not tracked before the target is lost
-  int redetect_after = 3;           // consecutive frames not tracked before the whole frame is searched too
-  double redetect_psr = 9.0;        // a re-detection must reach this ...
-  int redetect_frames = 2;          // ... on this many consecutive frames, at a consistent place
-  int proposals = 3;                // lost: places per frame the whole-frame search proposes to the filter
-  double velocity_gain = 0.5;       // weight of the newest velocity measurement
+  int patch = 64;               // patch side, pixels (a power of two keeps the DFT fast)
+  double padding = 2.0;         // patch side / the target's larger side (more for targets under patch / padding pixels)
+  double learning_rate = 0.02;  // model <- (1 - a) model + a frame, on confident frames
+  double lambda = 1e-3;         // regularisation of the filter
+  double sigma = 0.1;           // the desired response's width, times the target's larger side
+  double angle_step = 5;        // degrees: the target's turn searched either side (0: never) ...
+  double turn_psr = 0.8;        // ... when the peak-to-sidelobe ratio falls below this share of its mean ...
+  int turn_search_every = 4;    // ... and at least every this many frames
+  double scale_step = 1.02;     // ratio between the scale filter's neighbouring scales
+  int scales = 17;              // scales the scale filter compares (odd)
+  double min_target = 8;        // smallest target side accepted, source pixels
+  double tracking_psr = 6.0;    // peak-to-sidelobe ratio at or above which the target is tracked ...
+  double relative_psr = 0.5;    // ... and at or above this share of its mean over tracked frames
+  int warmup_frames = 10;       // tracked frames that make that mean before it is used
+  double rival_ratio = 0.7;     // a second peak above this share of the first: not sure (1: never)
+  double lost_psr = 5.0;        // below this the peak is not trusted at all
+  int lost_frames = 5;          // consecutive frames below lost_psr before the target is lost
+  int unsure_frames = 30;       // consecutive frames not tracked before the target is lost
+  int redetect_after = 3;       // consecutive frames not tracked before the whole frame is searched too
+  double redetect_psr = 9.0;    // a re-detection must reach this ...
+  int redetect_frames = 2;      // ... on this many consecutive frames, at a consistent place
+  int proposals = 3;            // lost: places per frame the whole-frame search proposes to the filter
+  double velocity_gain = 0.5;   // weight of the newest velocity measurement
 };
 
 struct TrackEstimate {
-  cv::Rect2d box;            // the target, source pixels
-  double confidence = 0;     // peak-to-sidelobe ratio of the best response
+  cv::Rect2d box;         // the target, source pixels
+  double confidence = 0;  // peak-to-sidelobe ratio of the best response
   TrackState state = TrackState::kLost;
 };
 
@@ -64,7 +64,7 @@ class BoxTracker {
   // Learns the target inside `box` (source pixels) of `frame` (8-bit, gray or
   // BGR). Empty on success, else why not (a box outside the frame, too small).
   std::string init(const cv::Mat& frame, cv::Rect2d box);
-  bool initialised() const { return initialised_; }
+  bool initialized() const { return initialized_; }
   // Follows the target into `frame`.
   TrackEstimate update(const cv::Mat& frame);
   // The camera (a head turn, the fovea's own move) shifted the image content
@@ -79,7 +79,7 @@ class BoxTracker {
   void redetect(const cv::Mat& frame, cv::Point2d predicted);
   void look_elsewhere(const cv::Mat& frame);
   BoxTrackerConfig config_;
-  bool initialised_ = false;
+  bool initialized_ = false;
   TrackEstimate last_;
   cv::Point2d camera_shift_;
   std::shared_ptr<Impl> impl_;

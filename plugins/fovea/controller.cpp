@@ -102,8 +102,7 @@ void FoveaController::track(const Retina& retina, const std::vector<cv::Mat>* mo
     --centering_;
     saliency_.compute(retina, motion_dI);
     bool cut = false;
-    const cv::Point2d center =
-        saliency_.blob_center(static_cast<int>(retina.levels.size()) - 1, target_, 0.5, &cut);
+    const cv::Point2d center = saliency_.blob_center(static_cast<int>(retina.levels.size()) - 1, target_, 0.5, &cut);
     if (!cut) {
       // Cut the template again around the centre, so that it holds the
       // object rather than the background next to it.
@@ -125,8 +124,8 @@ void FoveaController::track(const Retina& retina, const std::vector<cv::Mat>* mo
   }
   if (config_.mode == FoveaMode::kAttend && !config_.track_label.empty() && top_down != nullptr &&
       top_down->label == config_.track_label && distance(top_down->center, target_) < config_.ior_radius)
-    recognised_ = true;
-  if (config_.mode == FoveaMode::kAttend && dwell_ >= config_.dwell_frames && !recognised_) {
+    recognized_ = true;
+  if (config_.mode == FoveaMode::kAttend && dwell_ >= config_.dwell_frames && !recognized_) {
     // Seen long enough: inhibit it and let attention move on.
     ior_.add(target_);
     tracker_.reset();
@@ -226,7 +225,7 @@ void FoveaController::lost(const Retina& retina, const std::vector<cv::Mat>* mot
     return;
   }
   if (!fixed_template_ && frames_lost_ > config_.lost_frames) {
-    recognised_ = false;
+    recognized_ = false;
     tracker_.reset();
     ior_.add(target_);
     phase_ = Phase::kSearch;
@@ -315,8 +314,8 @@ void FoveaController::check_border(const Retina& retina, Decision& d) {
   gaze_armed_ = false;
   gaze_wait_ = config_.gaze_repeat;
   ++gaze_requests_;
-  const double f = config_.focal_px > 0 ? config_.focal_px
-                                         : (frame.width / 2.0) / std::tan(config_.hfov_deg * M_PI / 360.0);
+  const double f =
+      config_.focal_px > 0 ? config_.focal_px : (frame.width / 2.0) / std::tan(config_.hfov_deg * M_PI / 360.0);
   GazeRequest g;
   g.pixel = d.target_valid ? d.target : d.next;
   const cv::Vec3d ray((g.pixel.x - frame.width / 2.0) / f, (g.pixel.y - frame.height / 2.0) / f, 1.0);

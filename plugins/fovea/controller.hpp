@@ -25,26 +25,26 @@ struct ControllerConfig {
   FoveaMode mode = FoveaMode::kTrack;
   SaliencyConfig saliency;
   TrackerConfig tracker;
-  double ior_radius = 40.0;   // source pixels
+  double ior_radius = 40.0;  // source pixels
   int ior_frames = 90;
-  int dwell_frames = 20;      // attend: frames on one place before attention moves on
-  int coast_frames = 2;       // lost: frames the fovea follows the predicted path before searching
-  int lost_frames = 30;       // lost: frames before the target is given up (never, with a given template)
-  int verify_attempts = 3;    // failed looks near one place before that place is inhibited
-  double min_saliency = 0.05; // a place less salient than this is not worth a look
+  int dwell_frames = 20;       // attend: frames on one place before attention moves on
+  int coast_frames = 2;        // lost: frames the fovea follows the predicted path before searching
+  int lost_frames = 30;        // lost: frames before the target is given up (never, with a given template)
+  int verify_attempts = 3;     // failed looks near one place before that place is inhibited
+  double min_saliency = 0.05;  // a place less salient than this is not worth a look
   // track: lock on (and search for a lost target) only where something moves,
   // when motion is given; a still scene then gives no target.
   bool lock_on_motion = true;
-  bool predict = true;        // place the next fovea where the target will be, not where it was
-  double velocity_gain = 0.7; // weight of the newest velocity measurement
+  bool predict = true;          // place the next fovea where the target will be, not where it was
+  double velocity_gain = 0.7;   // weight of the newest velocity measurement
   double border_margin = 16.0;  // pixels between the fovea's edge and the frame's edge that trigger a gaze request
-  int gaze_repeat = 30;       // frames after which an unanswered gaze request is repeated
+  int gaze_repeat = 30;         // frames after which an unanswered gaze request is repeated
   // attend: a top-down target (a classifier's) with this label, naming the
   // place being tracked, ends the visiting: the fovea keeps tracking it.
   std::string track_label;
-  double focal_px = 0.0;      // 0: from hfov_deg
+  double focal_px = 0.0;  // 0: from hfov_deg
   double hfov_deg = 60.0;
-  BoxTrackerConfig box;       // a target given as a box (track_box)
+  BoxTrackerConfig box;  // a target given as a box (track_box)
 };
 
 struct Decision {
@@ -53,10 +53,10 @@ struct Decision {
   cv::Point2d target{-1, -1};  // the target in this frame
   cv::Size2d target_size;      // and its size, source pixels
   bool target_valid = false;
-  double confidence = 0.0;     // the tracker's (box: peak-to-sidelobe ratio; template: NCC)
+  double confidence = 0.0;  // the tracker's (box: peak-to-sidelobe ratio; template: NCC)
   double score = 0.0;
   bool attention_shift = false;
-  bool reacquired = false;     // the target was found again after being lost
+  bool reacquired = false;          // the target was found again after being lost
   std::optional<GazeRequest> gaze;  // pixel, direction, image size, reason
 };
 
@@ -113,7 +113,8 @@ class FoveaController {
   bool acquire_refine_ = true;
   static constexpr int kAcquireLooks = 3;  // looks at a place cut by the fovea's edge before acquiring anyway
   int acquire_looks_ = 0;
-  static constexpr int kCenteringFrames = 8;  // frames after acquisition in which the point may move to the object's centre
+  static constexpr int kCenteringFrames =
+      8;  // frames after acquisition in which the point may move to the object's centre
   int centering_ = 0;
   std::optional<cv::Point2d> center_next_;
   int dwell_ = 0, attempts_ = 0;
@@ -122,7 +123,7 @@ class FoveaController {
   int gaze_wait_ = 0;
   std::optional<cv::Point2d> recenter_shift_;
   int64_t last_top_down_ = -1;
-  bool recognised_ = false;  // attend: the tracked place is what track_label names
+  bool recognized_ = false;  // attend: the tracked place is what track_label names
 };
 
 }  // namespace saccade::fovea

@@ -69,11 +69,15 @@ class FoveaNode final : public Node {
  public:
   static constexpr const char* kName = "";
   static constexpr In<Retina> kRetina{"retina", "the retina (gray or BGR) the decision is made on"};
-  static constexpr OptionalIn<FeatureMaps> kMotion{"motion", "the motion node's maps of the same retina (uses dI); sync with 'retina'"};
-  static constexpr SideIn<Region> kTarget{"target", "a place to look at from outside (a classifier's detection, a click)"};
-  static constexpr SideIn<Region> kHead{"head", "the head turned: 'center' is the pixel (before the move) now at the image centre"};
+  static constexpr OptionalIn<FeatureMaps> kMotion{
+      "motion", "the motion node's maps of the same retina (uses dI); sync with 'retina'"};
+  static constexpr SideIn<Region> kTarget{"target",
+                                          "a place to look at from outside (a classifier's detection, a click)"};
+  static constexpr SideIn<Region> kHead{
+      "head", "the head turned: 'center' is the pixel (before the move) now at the image centre"};
   static constexpr Out<Region> kFovea{"fovea", "fovea centre for the next frame; label = state"};
-  static constexpr Out<FoveaState> kState{"state", "state, target, score, attention shifts, gaze requests; carries the retina"};
+  static constexpr Out<FoveaState> kState{"state",
+                                          "state, target, score, attention shifts, gaze requests; carries the retina"};
   static constexpr Out<GazeRequest> kGaze{"gaze", "emitted when the tracked fovea reaches the border margin"};
 
   static void bind(ParamBinder<ControllerConfig>& b) {
@@ -109,8 +113,10 @@ class FoveaNode final : public Node {
         .field("color_weight", {0, 100}, "saliency: similarity to 'color' (BGR retina)", &C::saliency, &S::color_weight)
         .field("color_tolerance", {1, 500}, "colour distance where similarity falls to exp(-1/2)", &C::saliency,
                &S::color_tolerance)
-        .field("track_label", "attend: when a 'target' with this label (a classifier's) names the tracked place, stop "
-               "visiting and keep tracking it", &C::track_label)
+        .field("track_label",
+               "attend: when a 'target' with this label (a classifier's) names the tracked place, stop "
+               "visiting and keep tracking it",
+               &C::track_label)
         .field("predict", "place the fovea where the target will be (constant velocity)", &C::predict)
         .field("margin", {0, 10000}, "gaze request when the fovea's edge is this close to the frame's, pixels",
                &C::border_margin)
@@ -131,10 +137,11 @@ class FoveaNode final : public Node {
   }
 
   static Contract contract() {
-    return Contract("The moving fovea: bottom-up attention (saliency from centre-surround contrast across levels, "
-                    "edges, motion, colour; inhibition of return) or a top-down target, template tracking with "
-                    "prediction, and gaze requests when the fovea reaches the frame's border. Feed 'fovea' back to "
-                    "the retina's fovea input through a delayed edge.")
+    return Contract(
+               "The moving fovea: bottom-up attention (saliency from centre-surround contrast across levels, "
+               "edges, motion, colour; inhibition of return) or a top-down target, template tracking with "
+               "prediction, and gaze requests when the fovea reaches the frame's border. Feed 'fovea' back to "
+               "the retina's fovea input through a delayed edge.")
         .ports(kRetina, kMotion, kTarget, kHead, kFovea, kState, kGaze)
         .params(&bind)
         .param_string("template", "", "image file of the target to look for (top-down); empty: lock on saliency")
@@ -227,7 +234,8 @@ class FoveaNode final : public Node {
     if (!target || target == last_target_ || !track_mode_ || target->size.area() <= 0) return false;
     last_target_ = target;
     const cv::Rect2d box = Box::around(target->center, target->size).rect();
-    const std::string why = retina.source ? controller_->track_box(retina.source->mat, box) : "no frame with the retina";
+    const std::string why =
+        retina.source ? controller_->track_box(retina.source->mat, box) : "no frame with the retina";
     if (!why.empty()) {
       log().warn("{}: target ignored: {}", ctx.node_name(), why);
       bad_targets_->fetch_add(1, std::memory_order_relaxed);

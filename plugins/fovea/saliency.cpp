@@ -99,7 +99,7 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
   const bool use_color = color && config_.color && config_.color_weight > 0;
   for (std::size_t k = 0; k < n; ++k)
     level_features(k, retina.levels[k], color, use_motion ? &(*motion_dI)[k] : nullptr, use_color);
-  centre_surround();
+  center_surround();
   combine(use_motion, use_color);
 }
 
@@ -108,8 +108,10 @@ void Saliency::compute(const Retina& retina, const std::vector<cv::Mat>* motion_
 // derivative and its closeness to the wanted colour.
 void Saliency::level_features(std::size_t k, const cv::Mat& level, bool color, const cv::Mat* motion_dI,
                               bool use_color) {
-  if (color) cv::cvtColor(level, gray_[k], cv::COLOR_BGR2GRAY);
-  else level.copyTo(gray_[k]);
+  if (color)
+    cv::cvtColor(level, gray_[k], cv::COLOR_BGR2GRAY);
+  else
+    level.copyTo(gray_[k]);
   gray_[k].convertTo(surround_, CV_32F);
   cv::GaussianBlur(surround_, blurred_[k], cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REFLECT_101);
   edges_.run(gray_[k], bank_out_);
@@ -138,7 +140,7 @@ void Saliency::level_features(std::size_t k, const cv::Mat& level, bool color, c
 
 // Centre-surround across levels: each level against the next coarser one,
 // sampled at the same scene points; the outermost against a wide blur of itself.
-void Saliency::centre_surround() {
+void Saliency::center_surround() {
   for (std::size_t k = 0; k < blurred_.size(); ++k) {
     const cv::Mat& center = blurred_[k];
     if (k == 0) {
@@ -179,7 +181,8 @@ void Saliency::combine(bool use_motion, bool use_color) {
   for (std::size_t k = 0; k < maps_.size(); ++k) {
     const float wc = static_cast<float>(config_.contrast_weight / total) * scale(contrast_[k], contrast_max);
     const float we = static_cast<float>(config_.edge_weight / total) * scale(edge_[k], edge_max);
-    const float wm = use_motion ? static_cast<float>(config_.motion_weight / total) * scale(motion_[k], motion_max) : 0.0f;
+    const float wm =
+        use_motion ? static_cast<float>(config_.motion_weight / total) * scale(motion_[k], motion_max) : 0.0f;
     const float wk = static_cast<float>(use_color ? config_.color_weight / total : 0.0);
     for (int y = 0; y < maps_[k].rows; ++y) {
       const float* c = contrast_[k].ptr<float>(y);

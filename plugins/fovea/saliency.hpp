@@ -22,9 +22,9 @@ struct SaliencyConfig {
   double edge_weight = 1.0;
   double motion_weight = 2.0;
   double color_weight = 1.0;
-  double contrast_floor = 10.0;  // gray levels
-  double edge_floor = 120.0;     // Sobel magnitude
-  double motion_floor = 15.0;    // |dI|, gray levels
+  double contrast_floor = 10.0;    // gray levels
+  double edge_floor = 120.0;       // Sobel magnitude
+  double motion_floor = 15.0;      // |dI|, gray levels
   std::optional<cv::Vec3d> color;  // wanted colour (B, G, R); needs a BGR retina
   double color_tolerance = 40.0;   // distance at which the colour term falls to exp(-1/2)
   int border = 1;                  // level pixels ignored at each level's edge
@@ -49,8 +49,8 @@ class InhibitionOfReturn {
  public:
   InhibitionOfReturn(double radius, int frames);
   void add(cv::Point2d point, double strength = 1.0);
-  void tick();                    // one frame has passed
-  void shift(cv::Point2d offset); // the scene moved in the image by `offset` (the head turned)
+  void tick();                     // one frame has passed
+  void shift(cv::Point2d offset);  // the scene moved in the image by `offset` (the head turned)
   void clear();
   // 0 (free) .. 1 (fully inhibited) at `point`.
   double at(cv::Point2d point) const;
@@ -98,7 +98,7 @@ class Saliency {
   // compute()'s steps, in order: each level's own features, the contrast
   // between levels, and their weighted sum.
   void level_features(std::size_t k, const cv::Mat& level, bool color, const cv::Mat* motion_dI, bool use_color);
-  void centre_surround();
+  void center_surround();
   void combine(bool use_motion, bool use_color);
   SaliencyConfig config_;
   filters::FilterBank edges_;

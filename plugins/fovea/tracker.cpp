@@ -12,8 +12,10 @@ namespace saccade::fovea {
 namespace {
 
 void to_gray(const cv::Mat& in, cv::Mat& out) {
-  if (in.channels() == 3) cv::cvtColor(in, out, cv::COLOR_BGR2GRAY);
-  else in.copyTo(out);
+  if (in.channels() == 3)
+    cv::cvtColor(in, out, cv::COLOR_BGR2GRAY);
+  else
+    in.copyTo(out);
 }
 
 // Offset of a parabola's vertex through (-1, a), (0, b), (1, c), in [-0.5, 0.5].
@@ -53,8 +55,8 @@ SACCADE_AVX2_CLONE void cross_terms(float* __restrict result, std::ptrdiff_t res
 // W and W^2: OpenCV's rule, a flat window (or template) scores 0, and a
 // numerator rounding past the denominator is clamped to +-1. Without branches
 // so that it vectorises; the same operations per placement.
-SACCADE_AVX2_CLONE void normalise_row(float* __restrict out, const double* __restrict sum,
-                                      const double* __restrict sq, int rw, double n, double t_norm) {
+SACCADE_AVX2_CLONE void normalise_row(float* __restrict out, const double* __restrict sum, const double* __restrict sq,
+                                      int rw, double n, double t_norm) {
   for (int x = 0; x < rw; ++x) {
     const double s = sum[x];
     const double norm = std::sqrt(std::max(0.0, sq[x] - s * s / n)) * t_norm;
@@ -68,7 +70,8 @@ SACCADE_AVX2_CLONE void normalise_row(float* __restrict out, const double* __res
 }  // namespace
 
 void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch) {
-  CV_Assert(window.type() == CV_32F && templ.type() == CV_32F && window.cols >= templ.cols && window.rows >= templ.rows);
+  CV_Assert(window.type() == CV_32F && templ.type() == CV_32F && window.cols >= templ.cols &&
+            window.rows >= templ.rows);
   const int tw = templ.cols, th = templ.rows, rw = window.cols - tw + 1, rh = window.rows - th + 1;
   const double n = static_cast<double>(tw) * th;
   result.create(rh, rw, CV_32F);
@@ -124,8 +127,10 @@ void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat&
     scratch.row_sq.resize(static_cast<std::size_t>(rw));
     for (int x = 0; x < rw; ++x) {
       if (x > 0) {
-        s += scratch.column_sum[static_cast<std::size_t>(x + tw - 1)] - scratch.column_sum[static_cast<std::size_t>(x - 1)];
-        s2 += scratch.column_sq[static_cast<std::size_t>(x + tw - 1)] - scratch.column_sq[static_cast<std::size_t>(x - 1)];
+        s += scratch.column_sum[static_cast<std::size_t>(x + tw - 1)] -
+             scratch.column_sum[static_cast<std::size_t>(x - 1)];
+        s2 += scratch.column_sq[static_cast<std::size_t>(x + tw - 1)] -
+              scratch.column_sq[static_cast<std::size_t>(x - 1)];
       }
       scratch.row_sum[static_cast<std::size_t>(x)] = s;
       scratch.row_sq[static_cast<std::size_t>(x)] = s2;
@@ -144,8 +149,10 @@ bool TemplateTracker::acquire(const Retina& retina, cv::Point2d point) {
   const LevelGeometry& g = retina.geometry.back();
   const cv::Size t = config_.template_size;
   if (fovea.cols < t.width || fovea.rows < t.height) return false;
-  const int x = std::clamp(static_cast<int>(std::lround(point.x - t.width / 2.0)) - g.region.x, 0, fovea.cols - t.width);
-  const int y = std::clamp(static_cast<int>(std::lround(point.y - t.height / 2.0)) - g.region.y, 0, fovea.rows - t.height);
+  const int x =
+      std::clamp(static_cast<int>(std::lround(point.x - t.width / 2.0)) - g.region.x, 0, fovea.cols - t.width);
+  const int y =
+      std::clamp(static_cast<int>(std::lround(point.y - t.height / 2.0)) - g.region.y, 0, fovea.rows - t.height);
   to_gray(fovea(cv::Rect(x, y, t.width, t.height)), window_gray_);
   cv::Scalar mean, stddev;
   cv::meanStdDev(window_gray_, mean, stddev);
@@ -202,7 +209,8 @@ TemplateTracker::Match TemplateTracker::match(const Retina& retina) {
   if (at.y > 0 && at.y + 1 < result_.rows)
     dy = vertex(result_.at<float>(at.y - 1, at.x), result_.at<float>(at.y, at.x), result_.at<float>(at.y + 1, at.x));
   m.found = true;
-  m.point = cv::Point2d(origin.x + at.x + dx + template_.cols / 2.0, origin.y + at.y + dy + template_.rows / 2.0) + offset_;
+  m.point =
+      cv::Point2d(origin.x + at.x + dx + template_.cols / 2.0, origin.y + at.y + dy + template_.rows / 2.0) + offset_;
   if (config_.update_rate > 0 && best >= config_.update_min_score) {
     const cv::Mat patch = window_f_(cv::Rect(at, template_.size()));
     cv::addWeighted(template_, 1.0 - config_.update_rate, patch, config_.update_rate, 0.0, template_);

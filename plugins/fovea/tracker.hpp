@@ -16,10 +16,10 @@ struct TrackerConfig {
   // crop than the fovea, so that a target that moved faster than predicted is
   // still found. 0x0, or a retina without its source frame: the fovea level.
   cv::Size search_size{40, 32};
-  double min_score = 0.6;         // a match below this is no match
-  double update_rate = 0.0;       // template <- (1 - a) template + a patch
-  double update_min_score = 0.85; // only confident matches update the template
-  double min_contrast = 4.0;      // a template whose standard deviation is below this is refused
+  double min_score = 0.6;          // a match below this is no match
+  double update_rate = 0.0;        // template <- (1 - a) template + a patch
+  double update_min_score = 0.85;  // only confident matches update the template
+  double min_contrast = 4.0;       // a template whose standard deviation is below this is refused
 };
 
 // cv::matchTemplate(window, templ, result, TM_CCOEFF_NORMED) for small CV_32F

@@ -21,8 +21,12 @@ std::vector<JointLimit> HeadConfig::joint_limits() const {
 }
 
 GazeController::GazeController(HeadConfig config)
-    : config_(std::move(config)), limits_(config_.joint_limits()), trajectory_(limits_), readings_(kJoints),
-      commanded_(kJoints), goal_(kJoints) {
+    : config_(std::move(config)),
+      limits_(config_.joint_limits()),
+      trajectory_(limits_),
+      readings_(kJoints),
+      commanded_(kJoints),
+      goal_(kJoints) {
   command_.position.assign(kJoints, 0.0);
   command_.velocity.assign(kJoints, 0.0);
 }
@@ -83,8 +87,8 @@ std::string GazeController::look_along(int camera, const Eigen::Vector3d& direct
   ++stats_.requests;
   if (!have_readings_) return reject("no joint state yet");
   const HeadJoints q = measured();
-  const Eigen::Isometry3d pose = kinematics::optical_frame(
-      camera == 0 ? kinematics::left_camera(config_.geometry, q) : kinematics::right_camera(config_.geometry, q));
+  const Eigen::Isometry3d pose = kinematics::optical_frame(camera == 0 ? kinematics::left_camera(config_.geometry, q)
+                                                                       : kinematics::right_camera(config_.geometry, q));
   const Eigen::Vector3d d = direction.normalized();
   if (!(d.z() > 1e-6)) return reject("the direction does not point in front of the camera");
   if (depth <= 0) {
@@ -117,8 +121,9 @@ std::string GazeController::turn(double azimuth, double elevation) {
   const Eigen::Vector3d center = 0.5 * (l.translation() + r.translation());
   const kinematics::Fixation f = fixation();
   const Eigen::Vector3d p =
-      f.valid ? f.point
-              : center + (kinematics::optical_axis(l) + kinematics::optical_axis(r)).normalized() * config_.default_depth;
+      f.valid
+          ? f.point
+          : center + (kinematics::optical_axis(l) + kinematics::optical_axis(r)).normalized() * config_.default_depth;
   const Eigen::Vector3d v = p - center;
   const double range = v.norm();
   const double az = std::atan2(v.x(), v.y()) + azimuth;
@@ -194,7 +199,8 @@ const HeadCommand& GazeController::cycle(int64_t now_ns, const std::vector<Joint
   }
   if (have_goal_) {
     double largest = 0;
-    for (std::size_t j = 0; j < goal_.size(); ++j) largest = std::max(largest, std::abs(goal_[j] - commanded_[j].position));
+    for (std::size_t j = 0; j < goal_.size(); ++j)
+      largest = std::max(largest, std::abs(goal_[j] - commanded_[j].position));
     const bool saccade = largest > config_.saccade_threshold;
     ++(saccade ? stats_.saccades : stats_.pursuits);
     trajectory_.plan(commanded_, goal_, saccade ? 0.0 : config_.pursuit_time);

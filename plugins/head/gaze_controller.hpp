@@ -27,13 +27,13 @@ const char* joint_name(int j);
 struct HeadConfig {
   kinematics::HeadGeometry geometry;
   kinematics::HeadLimits limits;
-  double velocity = 3.0;            // rad/s, every joint
-  double acceleration = 30.0;       // rad/s^2
-  double default_depth = 1.5;       // m, when a request has no depth and no fixation point is known
-  double saccade_threshold = 0.035; // rad: a larger change of any joint is a saccade
-  double pursuit_time = 0.12;       // s: the shortest re-planned pursuit move
-  double following_error = 0.2;     // rad between commanded and measured
-  double feedback_timeout = 0.05;   // s without a new position
+  double velocity = 3.0;             // rad/s, every joint
+  double acceleration = 30.0;        // rad/s^2
+  double default_depth = 1.5;        // m, when a request has no depth and no fixation point is known
+  double saccade_threshold = 0.035;  // rad: a larger change of any joint is a saccade
+  double pursuit_time = 0.12;        // s: the shortest re-planned pursuit move
+  double following_error = 0.2;      // rad between commanded and measured
+  double feedback_timeout = 0.05;    // s without a new position
   std::vector<JointLimit> joint_limits() const;
 };
 
@@ -47,8 +47,8 @@ struct JointReading {
 struct HeadCommand {
   std::vector<double> position, velocity;  // per joint
   bool hold = false;
-  int64_t reset = 0;   // incremented by reset(): the driver clears the drives' faults
-  std::string fault;   // why it holds
+  int64_t reset = 0;  // incremented by reset(): the driver clears the drives' faults
+  std::string fault;  // why it holds
 };
 
 class GazeController {

@@ -55,11 +55,13 @@ bool to_config(const HeadParams& p, head::HeadConfig& c) {
 class HeadNode final : public Node {
  public:
   static constexpr const char* kName = "";
-  static constexpr In<JointState> kState{"state", "the joints as the drives report them; one control cycle per message"};
+  static constexpr In<JointState> kState{"state",
+                                         "the joints as the drives report them; one control cycle per message"};
   static constexpr SideIn<GazeRequest> kGaze{"gaze", "where to look (each new request is taken once)"};
   static constexpr Out<JointTargets> kTargets{"targets", "joint targets for the driver, every cycle"};
-  static constexpr Out<Region> kMoved{"moved", "when a request from an image is taken: the pixel the head turns to "
-                                               "bring to the centre (for the fovea's 'head' input)"};
+  static constexpr Out<Region> kMoved{"moved",
+                                      "when a request from an image is taken: the pixel the head turns to "
+                                      "bring to the centre (for the fovea's 'head' input)"};
 
   static void bind(ParamBinder<HeadParams>& b) {
     using P = HeadParams;
@@ -72,15 +74,15 @@ class HeadNode final : public Node {
         .field("tilt_limits", "degrees: min,max of each tilt joint", &P::tilt_limits)
         .field("velocity", {1, 10000}, "degrees/s: every joint's velocity limit", &P::velocity_deg)
         .field("acceleration", {1, 1e6}, "degrees/s^2: every joint's acceleration limit", &P::acceleration_deg)
-        .field("saccade_threshold", {0, 180}, "degrees: a larger change of any joint is a saccade, smaller ones pursuit",
-               &P::saccade_threshold_deg)
+        .field("saccade_threshold", {0, 180},
+               "degrees: a larger change of any joint is a saccade, smaller ones pursuit", &P::saccade_threshold_deg)
         .field("pursuit_ms", {0, 10000}, "the shortest re-planned pursuit move", &P::pursuit_ms)
         .field("following_error", {0.01, 360}, "degrees between commanded and measured that hold the head",
                &P::following_error_deg)
         .field("feedback_timeout_ms", {1, 1e6}, "a joint without a new position this long holds the head",
                &P::feedback_timeout_ms)
-        .field("default_depth", {0.01, 1000},
-               "m: depth of a request without one when no fixation point is known", &P::default_depth)
+        .field("default_depth", {0.01, 1000}, "m: depth of a request without one when no fixation point is known",
+               &P::default_depth)
         .field("focal", {0, 1e6}, "focal length in pixels for pixel requests that carry none (0: from hfov)",
                &P::focal_px)
         .field("hfov", {1, 179}, "horizontal field of view, degrees (when focal is 0 and the request has none)",
@@ -88,10 +90,11 @@ class HeadNode final : public Node {
   }
 
   static Contract contract() {
-    return Contract("The gaze controller of the 5-DOF stereo head: gaze requests (a point, a camera direction or pixel "
-                    "with or without depth, a stereo pixel pair, a relative turn, the fovea's requests) become joint "
-                    "targets along minimum-jerk saccades or re-planned pursuit within the joints' limits. A drive "
-                    "fault, a silent drive, stale feedback or a following error hold the head until 'reset'.")
+    return Contract(
+               "The gaze controller of the 5-DOF stereo head: gaze requests (a point, a camera direction or pixel "
+               "with or without depth, a stereo pixel pair, a relative turn, the fovea's requests) become joint "
+               "targets along minimum-jerk saccades or re-planned pursuit within the joints' limits. A drive "
+               "fault, a silent drive, stale feedback or a following error hold the head until 'reset'.")
         .ports(kState, kGaze)
         .side_input<Message>("reset", "any new message clears a hold")
         .ports(kTargets, kMoved)
@@ -113,7 +116,8 @@ class HeadNode final : public Node {
 
   Status process(ProcessContext& ctx) override {
     auto state = ctx.get(kState);
-    if (state->position.size() != static_cast<std::size_t>(head::kJoints) || state->health.size() != state->position.size())
+    if (state->position.size() != static_cast<std::size_t>(head::kJoints) ||
+        state->health.size() != state->position.size())
       return Status::error("joint state for " + std::to_string(state->position.size()) + " joints, expected " +
                            std::to_string(head::kJoints));
     for (std::size_t j = 0; j < readings_.size(); ++j) {
@@ -157,8 +161,8 @@ class HeadNode final : public Node {
     const bool was_holding = controller_->holding();
     const head::HeadCommand& command = controller_->cycle(state->timestamp_ns, readings_);
     if (command.hold && !was_holding)
-      log().warn("{}: holding: {}{}{}", ctx.node_name(), command.fault, state->detail.empty() ? "" : "; the driver: ",
-                 state->detail);
+      log().warn("{}: holding: {}{}{}", ctx.node_name(), command.fault,
+                 state->detail.empty() ? "" : "; the driver: ", state->detail);
     auto targets = ctx.make(kTargets);
     targets->position = command.position;
     targets->velocity = command.velocity;
@@ -175,8 +179,8 @@ class HeadNode final : public Node {
   // The request in the controller's terms; "" when taken.
   std::string request(const GazeRequest& g) {
     const double focal = g.focal_px > 0 ? g.focal_px
-                         : focal_ > 0  ? focal_
-                                       : (g.image_size.width / 2.0) / std::tan(hfov_ / 2);
+                         : focal_ > 0   ? focal_
+                                        : (g.image_size.width / 2.0) / std::tan(hfov_ / 2);
     const double cx = g.image_size.width / 2.0, cy = g.image_size.height / 2.0;
     switch (g.kind) {
       case GazeRequest::Kind::kDirection:

@@ -27,10 +27,10 @@ bool finite(const cv::Mat& m) { return cv::checkRange(m, true, nullptr, -1e300, 
 // In the order of cv::aruco::PREDEFINED_DICTIONARY_NAME.
 const std::vector<std::string>& dictionary_names() {
   static const std::vector<std::string> names = {
-      "DICT_4X4_50",         "DICT_4X4_100",        "DICT_4X4_250",        "DICT_4X4_1000",      "DICT_5X5_50",
-      "DICT_5X5_100",        "DICT_5X5_250",        "DICT_5X5_1000",       "DICT_6X6_50",        "DICT_6X6_100",
-      "DICT_6X6_250",        "DICT_6X6_1000",       "DICT_7X7_50",         "DICT_7X7_100",       "DICT_7X7_250",
-      "DICT_7X7_1000",       "DICT_ARUCO_ORIGINAL", "DICT_APRILTAG_16h5",  "DICT_APRILTAG_25h9", "DICT_APRILTAG_36h10",
+      "DICT_4X4_50",        "DICT_4X4_100",        "DICT_4X4_250",       "DICT_4X4_1000",      "DICT_5X5_50",
+      "DICT_5X5_100",       "DICT_5X5_250",        "DICT_5X5_1000",      "DICT_6X6_50",        "DICT_6X6_100",
+      "DICT_6X6_250",       "DICT_6X6_1000",       "DICT_7X7_50",        "DICT_7X7_100",       "DICT_7X7_250",
+      "DICT_7X7_1000",      "DICT_ARUCO_ORIGINAL", "DICT_APRILTAG_16h5", "DICT_APRILTAG_25h9", "DICT_APRILTAG_36h10",
       "DICT_APRILTAG_36h11"};
   return names;
 }
@@ -50,11 +50,16 @@ cv::Ptr<cv::aruco::CharucoBoard> charuco_board(const BoardSpec& board) {
 cv::Mat gray_of(const cv::Mat& image) {
   if (image.empty() || image.type() == CV_8UC1) return image;
   cv::Mat gray, eight;
-  if (image.channels() == 3) cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  else if (image.channels() == 4) cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-  else gray = image;
-  if (gray.depth() != CV_8U) gray.convertTo(eight, CV_8U);
-  else eight = gray;
+  if (image.channels() == 3)
+    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  else if (image.channels() == 4)
+    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+  else
+    gray = image;
+  if (gray.depth() != CV_8U)
+    gray.convertTo(eight, CV_8U);
+  else
+    eight = gray;
   return eight;
 }
 
@@ -76,9 +81,7 @@ struct KeyReader {
     cv::Mat m;
     try {
       node >> m;
-    } catch (const cv::Exception&) {
-      m.release();
-    }
+    } catch (const cv::Exception&) { m.release(); }
     if (m.empty() || m.channels() != 1) {
       error = where(key) + " is not a matrix";
       return {};
@@ -149,9 +152,7 @@ std::string read_head_calibration(const std::string& path, HeadCalibration& out)
   if (!std::filesystem::is_regular_file(path, ec)) return "cannot open calibration file '" + path + "'";
   try {
     if (!fs.open(path, cv::FileStorage::READ)) return "cannot open calibration file '" + path + "'";
-  } catch (const cv::Exception& e) {
-    return "calibration file '" + path + "' cannot be parsed: " + e.err;
-  }
+  } catch (const cv::Exception& e) { return "calibration file '" + path + "' cannot be parsed: " + e.err; }
   KeyReader keys{fs, path, {}};
   HeadCalibration c;
   c.path = path;
@@ -181,7 +182,8 @@ std::string read_head_calibration(const std::string& path, HeadCalibration& out)
     if (t.total() != 3 || (t.rows != 1 && t.cols != 1))
       keys.error = keys.where("T") + " must be a translation of 3 values, got " + std::to_string(t.rows) + "x" +
                    std::to_string(t.cols);
-    else c.translation = cv::Vec3d(t.reshape(1, 3));
+    else
+      c.translation = cv::Vec3d(t.reshape(1, 3));
   }
   const int width = keys.positive_int("image_width");
   const int height = keys.positive_int("image_height");
@@ -219,22 +221,24 @@ std::string write_head_calibration(const std::string& path, const HeadCalibratio
   cv::FileStorage fs;
   try {
     if (!fs.open(path, cv::FileStorage::WRITE)) return "cannot write calibration file '" + path + "'";
-    fs.writeComment("saccade calibrate: a stereo head at its joints' zero. Keys as OpenCV's stereo_calib sample:\n"
-                    "M1 D1 / M2 D2 each camera's matrix and distortion, x_right = R x_left + T (metres),\n"
-                    "R1 R2 P1 P2 Q from stereoRectify at the joints' zero; rms and epipolar_error in pixels.");
+    fs.writeComment(
+        "saccade calibrate: a stereo head at its joints' zero. Keys as OpenCV's stereo_calib sample:\n"
+        "M1 D1 / M2 D2 each camera's matrix and distortion, x_right = R x_left + T (metres),\n"
+        "R1 R2 P1 P2 Q from stereoRectify at the joints' zero; rms and epipolar_error in pixels.");
     fs << "image_width" << c.image_size.width << "image_height" << c.image_size.height;
     fs << "M1" << cv::Mat(c.left_matrix) << "D1" << d1 << "M2" << cv::Mat(c.right_matrix) << "D2" << d2;
     fs << "R" << cv::Mat(c.rotation) << "T" << cv::Mat(c.translation);
     fs << "R1" << r1 << "R2" << r2 << "P1" << p1 << "P2" << p2 << "Q" << q;
     fs << "baseline" << c.baseline() << "rms" << c.rms << "epipolar_error" << c.epipolar_error;
     if (!c.board.empty()) fs << "board" << c.board;
-    fs << "pairs" << "[";
-    for (const auto& pair : c.pairs) fs << "{" << "left" << pair.left << "right" << pair.right << "rms" << pair.rms << "}";
+    fs << "pairs"
+       << "[";
+    for (const auto& pair : c.pairs)
+      fs << "{"
+         << "left" << pair.left << "right" << pair.right << "rms" << pair.rms << "}";
     fs << "]";
     fs.release();
-  } catch (const cv::Exception& e) {
-    return "cannot write calibration file '" + path + "': " + e.err;
-  }
+  } catch (const cv::Exception& e) { return "cannot write calibration file '" + path + "': " + e.err; }
   return {};
 }
 
@@ -249,8 +253,8 @@ std::string BoardSpec::check() const {
   const bool charuco = kind == Kind::kCharuco;
   const int least = charuco ? 3 : 2;
   if (size.width < least || size.height < least)
-    return std::string("board ") + size_text(size) + ": " + (charuco ? "a ChArUco board needs at least 3x3 squares"
-                                                                     : "a chessboard needs at least 2x2 inner corners");
+    return std::string("board ") + size_text(size) + ": " +
+           (charuco ? "a ChArUco board needs at least 3x3 squares" : "a chessboard needs at least 2x2 inner corners");
   if (!std::isfinite(square) || square <= 0) return "board square size must be > 0 metres, got " + number_text(square);
   if (!charuco) return {};
   if (!std::isfinite(marker) || marker <= 0 || marker >= square)
@@ -289,7 +293,8 @@ bool parse_board_size(const std::string& text, cv::Size& out) {
   const auto x = text.find_first_of("xX");
   if (x == std::string::npos || x == 0 || x + 1 >= text.size()) return false;
   auto digits = [](const std::string& s) {
-    return !s.empty() && s.size() < 6 && std::all_of(s.begin(), s.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
+    return !s.empty() && s.size() < 6 &&
+           std::all_of(s.begin(), s.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
   };
   const std::string w = text.substr(0, x), h = text.substr(x + 1);
   if (!digits(w) || !digits(h)) return false;
@@ -384,8 +389,10 @@ struct Observations {
 cv::Mat load_gray(const cv::Mat& given, const std::string& file, std::vector<std::string>& errors) {
   cv::Mat image;
   std::error_code ec;
-  if (!given.empty()) image = gray_of(given);
-  else if (std::filesystem::is_regular_file(file, ec)) image = cv::imread(file, cv::IMREAD_GRAYSCALE);
+  if (!given.empty())
+    image = gray_of(given);
+  else if (std::filesystem::is_regular_file(file, ec))
+    image = cv::imread(file, cv::IMREAD_GRAYSCALE);
   if (image.empty()) errors.push_back("cannot read image '" + file + "'");
   return image;
 }
@@ -471,8 +478,8 @@ void observe_pair(const ImagePair& pair, const BoardSpec& board, const std::vect
 
 // The camera matrices (and with per_camera_first, distortions) the stereo step
 // refines when its flags include CALIB_USE_INTRINSIC_GUESS, as the sample's do.
-void initial_intrinsics(const Observations& obs, const CalibrationOptions& options, int flags, cv::Mat& k1,
-                        cv::Mat& d1, cv::Mat& k2, cv::Mat& d2, CalibrationResult& result) {
+void initial_intrinsics(const Observations& obs, const CalibrationOptions& options, int flags, cv::Mat& k1, cv::Mat& d1,
+                        cv::Mat& k2, cv::Mat& d2, CalibrationResult& result) {
   if (options.per_camera_first) {
     // Each camera alone with the distortion model of the stereo step.
     const int mono = flags & (cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_RATIONAL_MODEL |
@@ -503,8 +510,7 @@ void solve_stereo(const Observations& obs, const CalibrationOptions& options, Ca
     c.rms = cv::stereoCalibrate(obs.object, obs.left_points, obs.right_points, k1, d1, k2, d2, obs.size, r, t, e, f,
                                 per_view, flags,
                                 cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5));
-    if (!std::isfinite(c.rms) || !finite(k1) || !finite(k2) || !finite(d1) || !finite(d2) || !finite(r) ||
-        !finite(t)) {
+    if (!std::isfinite(c.rms) || !finite(k1) || !finite(k2) || !finite(d1) || !finite(d2) || !finite(r) || !finite(t)) {
       result.error = "the stereo calibration did not converge (RMS " + number_text(c.rms) + ")";
       return;
     }
@@ -523,9 +529,7 @@ void solve_stereo(const Observations& obs, const CalibrationOptions& options, Ca
       c.pairs.push_back({report.left, report.right, report.rms});
     }
     c.epipolar_error = epipolar_error(c, obs.left_points, obs.right_points);
-  } catch (const cv::Exception& e) {
-    result.error = "calibration failed: " + e.err;
-  }
+  } catch (const cv::Exception& e) { result.error = "calibration failed: " + e.err; }
 }
 
 }  // namespace
@@ -561,16 +565,15 @@ std::string read_image_list(const std::string& path, std::vector<ImagePair>& out
   if (!std::filesystem::is_regular_file(path, ec)) return "cannot open image list '" + path + "'";
   try {
     if (!fs.open(path, cv::FileStorage::READ)) return "cannot open image list '" + path + "'";
-  } catch (const cv::Exception& e) {
-    return "image list '" + path + "' cannot be parsed: " + e.err;
-  }
+  } catch (const cv::Exception& e) { return "image list '" + path + "' cannot be parsed: " + e.err; }
   cv::FileNode list = fs.getFirstTopLevelNode();
   if (list.type() != cv::FileNode::SEQ)
     return "image list '" + path + "': expected a sequence of image names (as OpenCV's stereo_calib.xml)";
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   std::vector<std::string> names;
   for (const cv::FileNode& item : list) {
-    if (!item.isString()) return "image list '" + path + "': item " + std::to_string(names.size() + 1) + " is not a name";
+    if (!item.isString())
+      return "image list '" + path + "': item " + std::to_string(names.size() + 1) + " is not a name";
     std::filesystem::path name = static_cast<std::string>(item);
     names.push_back(name.is_relative() && !folder.empty() ? (folder / name).string() : name.string());
   }

@@ -20,9 +20,9 @@ struct HeadCalibration {
   cv::Matx33d left_matrix = cv::Matx33d::eye(), right_matrix = cv::Matx33d::eye();
   std::vector<double> left_distortion, right_distortion;  // OpenCV order: k1 k2 p1 p2 [k3 [k4 k5 k6 ...]]
   cv::Matx33d rotation = cv::Matx33d::eye();
-  cv::Vec3d translation;   // metres (the board's square size sets the unit)
-  double rms = 0;          // the calibration's RMS reprojection error, pixels (0: unknown)
-  std::string path;        // where it was read from, for messages
+  cv::Vec3d translation;  // metres (the board's square size sets the unit)
+  double rms = 0;         // the calibration's RMS reprojection error, pixels (0: unknown)
+  std::string path;       // where it was read from, for messages
   double baseline() const { return cv::norm(translation); }
 
   // Written to the file for the record; optional when reading.
@@ -49,8 +49,8 @@ struct BoardSpec {
   // Chessboard: inner corners per row and column (OpenCV's pattern size, e.g.
   // 9x6). ChArUco: squares per row and column (its inner corners are one fewer).
   cv::Size size{9, 6};
-  double square = 0;  // side of a square, metres
-  double marker = 0;  // ChArUco: side of a marker, metres (< square)
+  double square = 0;                       // side of a square, metres
+  double marker = 0;                       // ChArUco: side of a marker, metres (< square)
   std::string dictionary = "DICT_4X4_50";  // ChArUco: cv::aruco's predefined dictionary
   // "" or what is wrong with the description.
   std::string check() const;
@@ -107,10 +107,10 @@ struct CalibrationOptions {
 struct PairReport {
   std::string left, right;
   bool left_found = false, right_found = false;
-  int corners = 0;     // corners used (seen in both images)
-  bool used = false;   // in the calibration
-  double rms = 0;      // its RMS reprojection error over both images, pixels (used pairs)
-  std::string problem; // why it was skipped, or an error (unreadable, size)
+  int corners = 0;      // corners used (seen in both images)
+  bool used = false;    // in the calibration
+  double rms = 0;       // its RMS reprojection error over both images, pixels (used pairs)
+  std::string problem;  // why it was skipped, or an error (unreadable, size)
 };
 
 struct CalibrationResult {

@@ -29,7 +29,8 @@ std::string DhChain::check(std::size_t joint_count) const {
     for (const auto* joints : {&rows_[i].theta_joints, &rows_[i].alpha_joints})
       for (int j : *joints)
         if (j < 0 || static_cast<std::size_t>(j) >= joint_count)
-          return "row " + std::to_string(i) + " names joint " + std::to_string(j) + " of " + std::to_string(joint_count);
+          return "row " + std::to_string(i) + " names joint " + std::to_string(j) + " of " +
+                 std::to_string(joint_count);
   return {};
 }
 
@@ -100,7 +101,8 @@ Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3
       bool found = false;
       for (double tilt : {psi + a, psi + M_PI - a}) {
         tilt = std::remainder(tilt, 2 * M_PI);
-        const double ahead = (y + l2 * std::sin(tilt)) * std::cos(tilt) + (target.z() - l2 * std::cos(tilt)) * std::sin(tilt);
+        const double ahead =
+            (y + l2 * std::sin(tilt)) * std::cos(tilt) + (target.z() - l2 * std::cos(tilt)) * std::sin(tilt);
         if (ahead > 0) {
           p.tilt = tilt;
           found = true;
@@ -127,11 +129,13 @@ Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3
 }
 
 Eigen::Isometry3d left_camera(const HeadGeometry& g, const HeadJoints& q) {
-  return paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, -1).forward({q.neck, q.vergence_left, q.tilt_left});
+  return paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, -1)
+      .forward({q.neck, q.vergence_left, q.tilt_left});
 }
 
 Eigen::Isometry3d right_camera(const HeadGeometry& g, const HeadJoints& q) {
-  return paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, 1).forward({q.neck, q.vergence_right, q.tilt_right});
+  return paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, 1)
+      .forward({q.neck, q.vergence_right, q.tilt_right});
 }
 
 Gaze gaze_each(const Eigen::Vector3d& left_target, const Eigen::Vector3d& right_target, const HeadGeometry& g,

@@ -68,7 +68,7 @@ inline Eigen::Isometry3d optical_frame(const Eigen::Isometry3d& camera) {
 }
 
 struct JointLimits {
-  double pan_min = -1.6, pan_max = 1.6;    // the summed pan (neck + vergence) of the paper's chain
+  double pan_min = -1.6, pan_max = 1.6;  // the summed pan (neck + vergence) of the paper's chain
   double tilt_min = -0.8, tilt_max = 0.8;
 };
 

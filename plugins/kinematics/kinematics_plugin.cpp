@@ -32,8 +32,9 @@ class KinematicsNode final : public Node {
         .field("l3", {0, 10}, "m: tilt axis to the camera (L3)", &G::l3);
   }
   static Contract contract() {
-    return Contract("The stereo head's forward kinematics: from each joint state, the two cameras' poses and the "
-                    "point their optical axes meet (the paper's chain, docs/head.md).")
+    return Contract(
+               "The stereo head's forward kinematics: from each joint state, the two cameras' poses and the "
+               "point their optical axes meet (the paper's chain, docs/head.md).")
         .ports(kState, kPose)
         .params(&bind);
   }
@@ -53,7 +54,7 @@ class KinematicsNode final : public Node {
     const Eigen::Isometry3d left = kinematics::left_camera(geometry_, q);
     const Eigen::Isometry3d right = kinematics::right_camera(geometry_, q);
     const kinematics::Fixation f = kinematics::fixation_point(left.translation(), kinematics::optical_axis(left),
-                                                               right.translation(), kinematics::optical_axis(right));
+                                                              right.translation(), kinematics::optical_axis(right));
     auto pose = ctx.make(kPose);
     pose->left_position = to_cv(left.translation());
     pose->right_position = to_cv(right.translation());

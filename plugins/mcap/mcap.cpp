@@ -48,7 +48,8 @@ constexpr uint64_t kMaxChunk = uint64_t{1} << 32;
 // less when that is far more than its compressed bytes could make (grown as
 // they really make more), so that a few bytes claiming gigabytes cost a few bytes.
 std::size_t first_output_size(uint64_t claimed, std::size_t compressed) {
-  return static_cast<std::size_t>(std::min<uint64_t>(claimed, std::max<uint64_t>(uint64_t{1} << 20, uint64_t{16} * compressed)));
+  return static_cast<std::size_t>(
+      std::min<uint64_t>(claimed, std::max<uint64_t>(uint64_t{1} << 20, uint64_t{16} * compressed)));
 }
 
 // Decompresses zstd frames into `out`, at most `claimed` bytes; "" or what is wrong.
@@ -69,7 +70,7 @@ std::string decompress_zstd(const uint8_t* in, std::size_t in_size, uint64_t cla
     produced = dst.pos;
     if (!moved) {
       return produced == out.size() ? "decompresses to more than " + std::to_string(claimed) + " bytes"
-                                 : "does not decompress: its last frame is cut";
+                                    : "does not decompress: its last frame is cut";
     }
   }
   out.resize(produced);
@@ -406,7 +407,8 @@ void Writer::close_chunk() {
     LZ4F_preferences_t prefs{};
     prefs.frameInfo.contentSize = chunk_.size();
     compressed_.resize(LZ4F_compressFrameBound(chunk_.size(), &prefs));
-    const std::size_t n = LZ4F_compressFrame(compressed_.data(), compressed_.size(), chunk_.data(), chunk_.size(), &prefs);
+    const std::size_t n =
+        LZ4F_compressFrame(compressed_.data(), compressed_.size(), chunk_.data(), chunk_.size(), &prefs);
     if (!LZ4F_isError(n)) {
       body = compressed_.data();
       body_size = n;
@@ -518,7 +520,8 @@ std::string Writer::close() {
   for (std::size_t i = 0; i < schemas_.size(); ++i) append_schema(summary, static_cast<uint16_t>(i + 1), schemas_[i]);
   group(kSchema, from);
   from = summary.size();
-  for (std::size_t i = 0; i < channels_.size(); ++i) append_channel(summary, static_cast<uint16_t>(i + 1), channels_[i]);
+  for (std::size_t i = 0; i < channels_.size(); ++i)
+    append_channel(summary, static_cast<uint16_t>(i + 1), channels_[i]);
   group(kChannel, from);
   from = summary.size();
   append_statistics(summary);
@@ -599,7 +602,8 @@ std::string Reader::open(const std::string& path, bool salvage) {
   uint64_t len = 0;
   if (size_ < h + kRecordHeader) return fail(h, "truncated: the Header record is cut");
   std::memcpy(&len, data_ + h + 1, 8);
-  if (data_[h] != kHeader) return fail(h, std::string("the first record is a ") + op_name(data_[h]) + ", not the Header");
+  if (data_[h] != kHeader)
+    return fail(h, std::string("the first record is a ") + op_name(data_[h]) + ", not the Header");
   if (len > size_ - h - kRecordHeader) return fail(h, "truncated: the Header record runs past the end of the file");
   Cursor header(data_ + h + kRecordHeader, len);
   if (!header.string(profile_) || !header.string(library_)) return fail(h, "the Header record is malformed");
@@ -656,7 +660,8 @@ std::string Reader::read_summary() {
     const std::string scan = scan_definitions();
     return scan;
   }
-  if (summary_start < data_start_ || summary_start > footer || (offsets_start != 0 && (offsets_start < summary_start || offsets_start > footer)))
+  if (summary_start < data_start_ || summary_start > footer ||
+      (offsets_start != 0 && (offsets_start < summary_start || offsets_start > footer)))
     return fail(footer, "the Footer points outside the file (summary at " + std::to_string(summary_start) + ")");
   if (crc != 0) {
     const uint32_t actual = crc32(0, data_ + summary_start, footer + 9 + 16 - summary_start);
@@ -670,7 +675,8 @@ std::string Reader::read_summary() {
     if (end - pos < kRecordHeader) return fail(pos, "a summary record is cut");
     const uint8_t op = data_[pos];
     std::memcpy(&len, data_ + pos + 1, 8);
-    if (len > end - pos - kRecordHeader) return fail(pos, std::string("the summary's ") + op_name(op) + " record runs past the summary");
+    if (len > end - pos - kRecordHeader)
+      return fail(pos, std::string("the summary's ") + op_name(op) + " record runs past the summary");
     const uint8_t* p = data_ + pos + kRecordHeader;
     Cursor c(p, len);
     if (op == kSchema || op == kChannel) {
@@ -684,7 +690,8 @@ std::string Reader::read_summary() {
       while (!offsets.done()) {
         uint16_t channel;
         uint64_t at;
-        if (!offsets.get(channel) || !offsets.get(at)) return fail(pos, "a ChunkIndex's message index offsets are malformed");
+        if (!offsets.get(channel) || !offsets.get(at))
+          return fail(pos, "a ChunkIndex's message index offsets are malformed");
         ref.channels.push_back(channel);
       }
       if (!c.get(index_length)) return fail(pos, "a ChunkIndex record is malformed");
@@ -703,7 +710,8 @@ std::string Reader::read_summary() {
       while (!counts.done()) {
         uint16_t channel;
         uint64_t count;
-        if (!counts.get(channel) || !counts.get(count)) return fail(pos, "the Statistics' channel counts are malformed");
+        if (!counts.get(channel) || !counts.get(count))
+          return fail(pos, "the Statistics' channel counts are malformed");
         s.channel_message_counts[channel] = count;
       }
       has_statistics_ = true;
@@ -729,7 +737,8 @@ bool Reader::parse_definition(uint8_t op, const uint8_t* p, uint64_t len, uint64
   }
   Channel ch;
   Cursor meta(nullptr, 0);
-  if (!c.get(ch.id) || !c.get(ch.schema_id) || !c.string(ch.topic) || !c.string(ch.message_encoding) || !c.block(meta)) {
+  if (!c.get(ch.id) || !c.get(ch.schema_id) || !c.string(ch.topic) || !c.string(ch.message_encoding) ||
+      !c.block(meta)) {
     error = fail(offset, "a Channel record is malformed");
     return false;
   }
@@ -817,15 +826,19 @@ std::string Reader::load_chunk(uint64_t offset, uint64_t length, bool allow_cut)
   chunk_offset_ = offset;
   if (compression.empty()) {
     if (!cut && records_size != uncompressed_size)
-      return fail(offset, "an uncompressed Chunk's size (" + std::to_string(records_size) + ") differs from its header's");
+      return fail(offset,
+                  "an uncompressed Chunk's size (" + std::to_string(records_size) + ") differs from its header's");
     chunk_data_ = records;
     chunk_size_ = records_size;
   } else {
-    if (uncompressed_size > kMaxChunk) return fail(offset, "a Chunk claims " + std::to_string(uncompressed_size) + " bytes uncompressed");
+    if (uncompressed_size > kMaxChunk)
+      return fail(offset, "a Chunk claims " + std::to_string(uncompressed_size) + " bytes uncompressed");
     if (compression == "zstd") {
       if (std::string why = decompress_zstd(records, records_size, uncompressed_size, chunk_); !why.empty())
         return fail(offset, "a zstd Chunk " + why);
-      if (chunk_.size() != uncompressed_size) return fail(offset, "a zstd Chunk decompresses to " + std::to_string(chunk_.size()) + " bytes, not " + std::to_string(uncompressed_size));
+      if (chunk_.size() != uncompressed_size)
+        return fail(offset, "a zstd Chunk decompresses to " + std::to_string(chunk_.size()) + " bytes, not " +
+                                std::to_string(uncompressed_size));
     } else if (compression == "lz4") {
       // LZ4 makes at most 255 bytes of one (a match's length byte), so the
       // claim is checked before it is allocated.
@@ -834,7 +847,8 @@ std::string Reader::load_chunk(uint64_t offset, uint64_t length, bool allow_cut)
                                 std::to_string(uncompressed_size) + " bytes uncompressed");
       chunk_.resize(uncompressed_size);
       LZ4F_dctx* dctx = nullptr;
-      if (LZ4F_isError(LZ4F_createDecompressionContext(&dctx, LZ4F_VERSION))) return fail(offset, "no lz4 decompression context");
+      if (LZ4F_isError(LZ4F_createDecompressionContext(&dctx, LZ4F_VERSION)))
+        return fail(offset, "no lz4 decompression context");
       std::size_t out_at = 0, in_at = 0;
       std::size_t hint = 1;
       while (hint != 0 && in_at < records_size) {
@@ -850,9 +864,11 @@ std::string Reader::load_chunk(uint64_t offset, uint64_t length, bool allow_cut)
       }
       LZ4F_freeDecompressionContext(dctx);
       if (hint != 0 || out_at != uncompressed_size)
-        return fail(offset, "an lz4 Chunk decompresses to " + std::to_string(out_at) + " bytes, not " + std::to_string(uncompressed_size));
+        return fail(offset, "an lz4 Chunk decompresses to " + std::to_string(out_at) + " bytes, not " +
+                                std::to_string(uncompressed_size));
     } else {
-      return fail(offset, "a Chunk compressed with '" + compression + "', which this reader does not know (none, zstd, lz4)");
+      return fail(offset,
+                  "a Chunk compressed with '" + compression + "', which this reader does not know (none, zstd, lz4)");
     }
     chunk_data_ = chunk_.data();
     chunk_size_ = chunk_.size();
@@ -874,7 +890,8 @@ void Reader::rewind(const ReadOptions& options) {
 }
 
 bool Reader::wanted(uint16_t channel) const {
-  return read_.channels.empty() || std::find(read_.channels.begin(), read_.channels.end(), channel) != read_.channels.end();
+  return read_.channels.empty() ||
+         std::find(read_.channels.begin(), read_.channels.end(), channel) != read_.channels.end();
 }
 
 int Reader::next_in_chunk(MessageView& out, std::string& error) {
@@ -888,8 +905,9 @@ int Reader::next_in_chunk(MessageView& out, std::string& error) {
     uint64_t len = 0;
     std::memcpy(&len, chunk_data_ + at + 1, 8);
     if (len > chunk_size_ - at - kRecordHeader) {
-      error = fail(chunk_offset_, std::string("a ") + op_name(op) + " record inside the Chunk runs past its end (byte " +
-                                      std::to_string(at) + " of its records)");
+      error =
+          fail(chunk_offset_, std::string("a ") + op_name(op) + " record inside the Chunk runs past its end (byte " +
+                                  std::to_string(at) + " of its records)");
       return -1;
     }
     chunk_pos_ = at + kRecordHeader + len;

@@ -30,8 +30,8 @@ struct WriterOptions {
   // A chunk is closed once its records reach this many bytes (uncompressed);
   // 0 writes every record straight into the data section, unchunked.
   std::size_t chunk_size = 1 << 20;
-  int zstd_level = 1;       // fast: recording must keep up with the graph
-  std::string profile;      // the Header's profile ("" or "ros2")
+  int zstd_level = 1;   // fast: recording must keep up with the graph
+  std::string profile;  // the Header's profile ("" or "ros2")
   std::string library = "saccade";
 };
 
@@ -206,8 +206,9 @@ class Reader {
   Statistics statistics_;
   bool has_statistics_ = false, has_summary_ = false, salvage_open_ = false;
   std::string profile_, library_;
-  uint64_t data_start_ = 0, data_end_ = 0;  // records after the Header; where the data section ends (file size when unknown)
-  std::vector<ChunkRef> chunks_;            // from the chunk indexes, in file order
+  uint64_t data_start_ = 0,
+           data_end_ = 0;         // records after the Header; where the data section ends (file size when unknown)
+  std::vector<ChunkRef> chunks_;  // from the chunk indexes, in file order
   std::vector<std::string> warnings_;
 
   ReadOptions read_;

@@ -53,7 +53,9 @@ class Record final : public Node {
                "saccade's IDL type (docs/recording.md). Give its edge queue=\"block:N\" to record every message.")
         .ports(kIn)
         .required_string("path", "MCAP file to write (created or truncated; its folder is made)")
-        .param_string("topic", "", "the channel's topic (default: /<node name>); name it after the recorded port, e.g. /retina/retina")
+        .param_string(
+            "topic", "",
+            "the channel's topic (default: /<node name>); name it after the recorded port, e.g. /retina/retina")
         .param_enum("compression", "zstd", {"none", "zstd", "lz4"}, "chunk compression")
         .param_int("chunk_kib", 1024, 0, 1 << 20, "chunk size in KiB before compression (0: no chunks, no index)");
   }
@@ -172,15 +174,15 @@ class Replay final : public Node {
 
   static Contract contract() {
     Contract c(
-               "Plays recorded topics of an MCAP file into the graph in file order, each message with its recorded "
-               "timestamp and frame id (origin = when it is played): at the recorded pace (realtime, the replay "
-               "nodes of one file keeping their topics' spacing) or as fast as consumers take (fast: give its edges "
-               "queue=\"block:N\" to drop nothing; the same file gives the same messages in the same order). "
-               "Several topics (comma-separated) play interleaved as they were recorded, on one thread: a node's "
-               "trigger and side inputs replayed by one node see each other as they did when recorded "
-               "(docs/recording.md). Messages leave on 'out' and on the output named after their type (retina, "
-               "feature_maps, ...), which typed inputs take; topics played by one node carry different types. A "
-               "truncated or corrupted file is an error naming the offset, unless salvage.");
+        "Plays recorded topics of an MCAP file into the graph in file order, each message with its recorded "
+        "timestamp and frame id (origin = when it is played): at the recorded pace (realtime, the replay "
+        "nodes of one file keeping their topics' spacing) or as fast as consumers take (fast: give its edges "
+        "queue=\"block:N\" to drop nothing; the same file gives the same messages in the same order). "
+        "Several topics (comma-separated) play interleaved as they were recorded, on one thread: a node's "
+        "trigger and side inputs replayed by one node see each other as they did when recorded "
+        "(docs/recording.md). Messages leave on 'out' and on the output named after their type (retina, "
+        "feature_maps, ...), which typed inputs take; topics played by one node carry different types. A "
+        "truncated or corrupted file is an error naming the offset, unless salvage.");
     c.ports(kOut)
         .required_string("path", "MCAP file to read")
         .param_string("topic", "",
@@ -188,7 +190,8 @@ class Replay final : public Node {
                       "lists the file's")
         .param_enum("rate", "fast", {"fast", "realtime"}, "as fast as consumers take, or at the recorded pace")
         .param_double("speed", 1.0, 0.01, 1000.0, "realtime: this many times the recorded pace")
-        .param_bool("salvage", false, "play the readable part of a truncated or corrupted file (skipped parts counted in 'skipped')");
+        .param_bool("salvage", false,
+                    "play the readable part of a truncated or corrupted file (skipped parts counted in 'skipped')");
     ReplayOutputs::declare(c);
     return c;
   }

@@ -37,7 +37,8 @@ using namespace saccade;
 int usage() {
   std::cerr << "usage: saccade_mcap info FILE [--salvage]\n"
                "       saccade_mcap record GRAPH FILE [--compression none|zstd|lz4] [--chunk-kib N]\n"
-               "                    [--ports node.port,...] [--queue N] [--lossless] [--frames N] [--set node.param=value]...\n"
+               "                    [--ports node.port,...] [--queue N] [--lossless] [--frames N] [--set "
+               "node.param=value]...\n"
                "       saccade_mcap compare A B [--topic T]... [--ignore field,...]\n";
   return 2;
 }
@@ -65,8 +66,7 @@ int info(const std::string& path, bool salvage) {
   std::printf("file:     %s (%llu bytes, library '%s', %s)\n", path.c_str(),
               static_cast<unsigned long long>(reader.file_size()), reader.header_library().c_str(),
               reader.has_summary() ? "with its summary" : "no summary: scanned");
-  if (const auto* s = reader.statistics())
-    std::printf("chunks:   %u\n", s->chunk_count);
+  if (const auto* s = reader.statistics()) std::printf("chunks:   %u\n", s->chunk_count);
   std::printf("messages: %llu over %.3f s\n", static_cast<unsigned long long>(total),
               total > 0 ? static_cast<double>(last - first) / 1e9 : 0.0);
   for (const auto& [id, c] : reader.channels()) {
@@ -142,7 +142,8 @@ int record(const std::vector<std::string>& args) {
   for (const NodeStats* n : executor.stats()) frames = std::max<uint64_t>(frames, n->emitted.load());
   std::printf("%s\n", recorder->report().c_str());
   std::printf("graph: %.2f s, %.0f messages/s recorded, %.1f MB/s written\n", seconds,
-              static_cast<double>(recorder->recorded()) / seconds, static_cast<double>(recorder->bytes()) / 1e6 / seconds);
+              static_cast<double>(recorder->recorded()) / seconds,
+              static_cast<double>(recorder->bytes()) / 1e6 / seconds);
   if (!s.ok()) {
     std::cerr << "error: " << s.message() << "\n";
     return 1;
@@ -153,7 +154,6 @@ int record(const std::vector<std::string>& args) {
   }
   return 0;
 }
-
 
 std::string shorten(const std::string& value) { return value.size() > 160 ? value.substr(0, 157) + "..." : value; }
 

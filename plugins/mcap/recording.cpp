@@ -64,9 +64,11 @@ std::string MessageFile::write(Topic* topic, const Message& message) {
     topic->channels.push_back(std::move(t));
     typed = &topic->channels.back();
   }
-  if (std::string why = typed->encoder->encode(message, topic->bytes); !why.empty()) return "topic " + topic->name + ": " + why;
-  return writer_.write(typed->channel, static_cast<uint32_t>(message.frame_id), static_cast<uint64_t>(message.timestamp_ns),
-                       static_cast<uint64_t>(message.timestamp_ns), topic->bytes.data(), topic->bytes.size());
+  if (std::string why = typed->encoder->encode(message, topic->bytes); !why.empty())
+    return "topic " + topic->name + ": " + why;
+  return writer_.write(typed->channel, static_cast<uint32_t>(message.frame_id),
+                       static_cast<uint64_t>(message.timestamp_ns), static_cast<uint64_t>(message.timestamp_ns),
+                       topic->bytes.data(), topic->bytes.size());
 }
 
 std::string MessageFile::close() {
@@ -126,11 +128,11 @@ std::unique_ptr<GraphRecorder> attach_recorder(Executor& executor, const std::st
   for (const auto& [n, p] : ports) {
     const ResolvedNode& node = graph.nodes[static_cast<std::size_t>(n)];
     const PortSpec& port = node.contract.outputs()[static_cast<std::size_t>(p)];
-    MessageFile::Topic* topic = r->file_.topic("/" + node.decl.name + "/" + port.name,
-                                               {{"node", node.decl.name}, {"port", port.name}});
+    MessageFile::Topic* topic =
+        r->file_.topic("/" + node.decl.name + "/" + port.name, {{"node", node.decl.name}, {"port", port.name}});
     r->topics_.push_back(topic);
-    if (std::string why = executor.add_tap(node.decl.name, port.name,
-                                           [self, topic](const MessagePtr& m) { self->push(topic, m); });
+    if (std::string why =
+            executor.add_tap(node.decl.name, port.name, [self, topic](const MessagePtr& m) { self->push(topic, m); });
         !why.empty()) {
       error = "--record: " + why;
       return nullptr;

@@ -67,8 +67,8 @@ class MessageFile {
 
 // What attach_recorder records and how.
 struct RecorderOptions {
-  WriterOptions writer;        // compression (zstd by default), chunk size
-  std::size_t queue = 256;     // messages waiting for the writer thread
+  WriterOptions writer;     // compression (zstd by default), chunk size
+  std::size_t queue = 256;  // messages waiting for the writer thread
   // A full queue makes the emitting node wait for the writer (nothing is
   // dropped, the graph slows down) instead of dropping the message (counted).
   bool lossless = false;
@@ -88,9 +88,9 @@ class GraphRecorder {
   // After Executor::run(): writes what is queued, closes the file (summary,
   // footer). "" or the first error (also in report()).
   std::string finish();
-  uint64_t recorded() const { return recorded_.load(); }   // messages written
-  uint64_t dropped() const { return dropped_.load(); }     // messages dropped on a full queue
-  uint64_t failed() const { return failed_.load(); }       // messages that could not be encoded or written
+  uint64_t recorded() const { return recorded_.load(); }  // messages written
+  uint64_t dropped() const { return dropped_.load(); }    // messages dropped on a full queue
+  uint64_t failed() const { return failed_.load(); }      // messages that could not be encoded or written
   uint64_t bytes() const;
   std::size_t channels() const { return topics_.size(); }
   // One line for the run's report: "recorded 1200 messages on 2 channels to

@@ -127,7 +127,8 @@ void resample_level(const cv::Mat& prev, const LevelGeometry& prev_geometry, con
         v[x] = 0;
         continue;
       }
-      int x0 = std::min(static_cast<int>(p.x), w - 2 < 0 ? 0 : w - 2), y0 = std::min(static_cast<int>(p.y), h - 2 < 0 ? 0 : h - 2);
+      int x0 = std::min(static_cast<int>(p.x), w - 2 < 0 ? 0 : w - 2),
+          y0 = std::min(static_cast<int>(p.y), h - 2 < 0 ? 0 : h - 2);
       float fx = static_cast<float>(p.x - x0), fy = static_cast<float>(p.y - y0);
       int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
       o[x] = (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x1, y0)) + fy * ((1 - fx) * at(x0, y1) + fx * at(x1, y1));

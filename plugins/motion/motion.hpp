@@ -25,13 +25,13 @@ struct MotionConfig {
 };
 
 struct LevelMotion {
-  cv::Mat diff;   // CV_32F, I(t) - I(t-1)
-  cv::Mat mx;     // CV_32F
-  cv::Mat my;     // CV_32F
-  cv::Mat mask;   // CV_8U, 255 where |dI| > threshold and both frames saw the pixel
-  cv::Mat valid;  // CV_8U, 255 where both frames saw the pixel
-  double energy = 0;   // mean of dI^2 over valid pixels
-  double moving = 0;   // fraction of valid pixels in the mask
+  cv::Mat diff;                  // CV_32F, I(t) - I(t-1)
+  cv::Mat mx;                    // CV_32F
+  cv::Mat my;                    // CV_32F
+  cv::Mat mask;                  // CV_8U, 255 where |dI| > threshold and both frames saw the pixel
+  cv::Mat valid;                 // CV_8U, 255 where both frames saw the pixel
+  double energy = 0;             // mean of dI^2 over valid pixels
+  double moving = 0;             // fraction of valid pixels in the mask
   cv::Point2d centroid{-1, -1};  // of the mask, in level pixels
 };
 

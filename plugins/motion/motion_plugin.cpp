@@ -26,8 +26,9 @@ class MotionNode final : public Node {
   }
 
   static Contract contract() {
-    return Contract("Frame difference per retina level, its Gaussian derivatives Mx/My, a motion mask, and per level "
-                    "the motion energy and centroid; a fovea shift is not reported as motion.")
+    return Contract(
+               "Frame difference per retina level, its Gaussian derivatives Mx/My, a motion mask, and per level "
+               "the motion energy and centroid; a fovea shift is not reported as motion.")
         .ports(kRetina, kMaps, kMotion)
         .params(&bind);
   }
@@ -69,7 +70,8 @@ class MotionNode final : public Node {
         swap_out(*maps, k);
         summary->energy[k] = level_.energy;
         summary->moving[k] = level_.moving;
-        if (level_.centroid.x >= 0) summary->centroid[k] = cur->geometry[k].to_source(level_.centroid.x, level_.centroid.y);
+        if (level_.centroid.x >= 0)
+          summary->centroid[k] = cur->geometry[k].to_source(level_.centroid.x, level_.centroid.y);
       }
     } else {
       // Nothing to compare with yet: every map is zero.

@@ -110,7 +110,8 @@ std::string rectify_pair(const kinematics::HeadCalibration& calibration, const k
               calibration.path);
 }
 
-kinematics::HeadCalibration model_calibration(cv::Size size, double focal_px, const kinematics::HeadGeometry& geometry) {
+kinematics::HeadCalibration model_calibration(cv::Size size, double focal_px,
+                                              const kinematics::HeadGeometry& geometry) {
   kinematics::HeadCalibration out;
   out.image_size = size;
   // capture.sim_head renders pixel u (OpenCV's convention, centres at

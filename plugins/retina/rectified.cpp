@@ -7,9 +7,7 @@ namespace saccade::retina {
 
 namespace {
 
-cv::Matx33d matrix(const cv::Vec<double, 9>& v) {
-  return {v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8]};
-}
+cv::Matx33d matrix(const cv::Vec<double, 9>& v) { return {v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8]}; }
 
 int sub_step(double step) { return std::max(1, static_cast<int>(std::ceil(step / 3.0 - 1e-9))); }
 
@@ -17,10 +15,15 @@ int sub_step(double step) { return std::max(1, static_cast<int>(std::ceil(step /
 template <int kChannels>
 struct Pixels {
   explicit Pixels(const cv::Mat& frame)
-      : data(frame.data), step(static_cast<std::ptrdiff_t>(frame.step[0])), max_u(frame.cols - 1.0),
-        max_v(frame.rows - 1.0), last_x(std::max(frame.cols - 2, 0)), last_y(std::max(frame.rows - 2, 0)),
-        dx(frame.cols > 1 ? kChannels : 0), dy(frame.rows > 1 ? step : 0) {}
-  // Channel c at (u, v) in OpenCV's pixel convention (centres at integers).
+      : data(frame.data),
+        step(static_cast<std::ptrdiff_t>(frame.step[0])),
+        max_u(frame.cols - 1.0),
+        max_v(frame.rows - 1.0),
+        last_x(std::max(frame.cols - 2, 0)),
+        last_y(std::max(frame.rows - 2, 0)),
+        dx(frame.cols > 1 ? kChannels : 0),
+        dy(frame.rows > 1 ? step : 0) {}
+  // Channel c at (u, v) in OpenCV's pixel convention (centers at integers).
   double at(double u, double v, int c) const {
     u = std::clamp(u, 0.0, max_u);
     v = std::clamp(v, 0.0, max_v);
@@ -38,7 +41,7 @@ struct Pixels {
   std::ptrdiff_t dx, dy;
 };
 
-// The source positions of the cell centres (OpenCV's convention), a row of
+// The source positions of the cell centers (OpenCV's convention), a row of
 // the level after another; scratch kept per thread so that sampling allocates
 // nothing in steady state.
 struct Scratch {
@@ -51,13 +54,13 @@ Scratch& scratch() {
 }
 
 // Where a cell's neighbours at +-sub-step lie in the source: the map's
-// derivative from the neighbouring cell centres (exact for an affine map, and
+// derivative from the neighbouring cell centers (exact for an affine map, and
 // the map bends little over a cell), so that each cell costs one projection,
 // not five.
-inline cv::Point2d derivative(const cv::Point2d* at, const int* centres, int i, int n, std::ptrdiff_t stride) {
+inline cv::Point2d derivative(const cv::Point2d* at, const int* centers, int i, int n, std::ptrdiff_t stride) {
   const int lo = i > 0 ? i - 1 : i, hi = i + 1 < n ? i + 1 : i;
-  if (hi == lo || centres[hi] == centres[lo]) return {stride == 1 ? 1.0 : 0.0, stride == 1 ? 0.0 : 1.0};
-  return (at[(hi - i) * stride] - at[(lo - i) * stride]) / static_cast<double>(centres[hi] - centres[lo]);
+  if (hi == lo || centers[hi] == centers[lo]) return {stride == 1 ? 1.0 : 0.0, stride == 1 ? 0.0 : 1.0};
+  return (at[(hi - i) * stride] - at[(lo - i) * stride]) / static_cast<double>(centers[hi] - centers[lo]);
 }
 
 template <int kChannels>
@@ -89,7 +92,8 @@ void sample_level_with(const cv::Mat& frame, const RectifiedMap& map, double x0,
       const cv::Point2d p = row[i];
       if (crop) {
         for (int c = 0; c < kChannels; ++c)
-          o[i * kChannels + c] = static_cast<uint8_t>(pixels.at(p.x, p.y, c) + 0.5);  // in 0 .. 255.5: truncation rounds
+          o[i * kChannels + c] =
+              static_cast<uint8_t>(pixels.at(p.x, p.y, c) + 0.5);  // in 0 .. 255.5: truncation rounds
         continue;
       }
       const cv::Point2d dx = derivative(row + i, t.cols.data(), i, size.width, 1) * sx;
@@ -118,7 +122,8 @@ RectifiedMap::RectifiedMap(const Rectification& rectification) : rectification_(
   }
   if (rectification.distortion[12] != 0 || rectification.distortion[13] != 0)
     problem_ = "a tilted sensor (distortion coefficients 13 and 14) is not supported";
-  ray_from_rectified_ = r.inv() * kr.inv();  // inv, not the transpose: a rotation read from text is not quite orthonormal
+  ray_from_rectified_ =
+      r.inv() * kr.inv();  // inv, not the transpose: a rotation read from text is not quite orthonormal
   rectified_from_ray_ = kr * r;
   fx_ = k(0, 0), fy_ = k(1, 1), cx_ = k(0, 2), cy_ = k(1, 2), skew_ = k(0, 1);
   for (int i = 0; i < 12; ++i) distorted_ = distorted_ || rectification.distortion[i] != 0;
@@ -134,7 +139,7 @@ cv::Point2d RectifiedMap::distort(double x, double y) const {
 }
 
 bool RectifiedMap::to_source(cv::Point2d rectified, cv::Point2d& source) const {
-  // OpenCV's convention inside: pixel centres at integers.
+  // OpenCV's convention inside: pixel centers at integers.
   const cv::Vec3d ray = ray_from_rectified_ * cv::Vec3d(rectified.x - 0.5, rectified.y - 0.5, 1.0);
   if (ray[2] <= 1e-12) return false;
   const cv::Point2d d = distort(ray[0] / ray[2], ray[1] / ray[2]);

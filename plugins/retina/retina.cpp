@@ -82,7 +82,8 @@ void sample_reference(const RetinaConfig& config, const cv::Mat& frame, const st
           int y1 = std::max(y0 + 1, g.region.y + static_cast<int>(std::floor((j + 1) * g.step_y)));
           double sum = 0;
           for (int y = y0; y < y1; ++y)
-            for (int x = x0; x < x1; ++x) sum += frame.ptr<uint8_t>(std::clamp(y, 0, frame.rows - 1))[std::clamp(x, 0, frame.cols - 1) * cn + c];
+            for (int x = x0; x < x1; ++x)
+              sum += frame.ptr<uint8_t>(std::clamp(y, 0, frame.rows - 1))[std::clamp(x, 0, frame.cols - 1) * cn + c];
           level.ptr<uint8_t>(j)[i * cn + c] = cv::saturate_cast<uint8_t>(sum / ((x1 - x0) * (y1 - y0)));
         }
   }
@@ -153,8 +154,8 @@ SACCADE_AVX2_CLONE void sample_level_with(const cv::Mat& frame, double x0, doubl
           o[i * cn + c] = p[c];
           continue;
         }
-        const unsigned sum = static_cast<unsigned>(p[c]) + p[c - sx * cn] + p[c + sx * cn] + p[c - sy * pitch] +
-                             p[c + sy * pitch];
+        const unsigned sum =
+            static_cast<unsigned>(p[c]) + p[c - sx * cn] + p[c + sx * cn] + p[c - sy * pitch] + p[c + sy * pitch];
         o[i * cn + c] = mean5(sum);
       }
     }

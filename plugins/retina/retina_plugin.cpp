@@ -29,8 +29,9 @@ class RetinaNode final : public Node {
   static constexpr In<Image> kImage{"image", "8-bit gray or BGR frame"};
   static constexpr SideIn<Region> kFovea{"fovea", "moves the fovea (its centre); the newest value is used"};
   static constexpr SideIn<JointState> kJoints{
-      "joints", "with rectify: the head's joints (neck, vergence left, tilt left, vergence right, tilt right), "
-                "radians; the newest value is used (none: the joints' zero)"};
+      "joints",
+      "with rectify: the head's joints (neck, vergence left, tilt left, vergence right, tilt right), "
+      "radians; the newest value is used (none: the joints' zero)"};
   static constexpr Out<Retina> kRetina{"retina", "levels (0 outermost) with their geometry"};
 
   static void bind(ParamBinder<RetinaNodeConfig>& b) {
@@ -45,8 +46,9 @@ class RetinaNode final : public Node {
                "sample along the stereo pair's rectified geometry for the current joints (the image's camera_id: 0 "
                "left, 1 right), so that the two retinas' rows are epipolar lines at any vergence",
                &C::rectify)
-        .field("calibration", "with rectify: the head's calibration file (saccade calibrate); empty: the head model's "
-                              "ideal cameras (model_hfov)",
+        .field("calibration",
+               "with rectify: the head's calibration file (saccade calibrate); empty: the head model's "
+               "ideal cameras (model_hfov)",
                &C::calibration)
         .field("model_hfov", {1, 170},
                "with rectify and no calibration: the ideal cameras' horizontal field of view, degrees (as "
@@ -58,13 +60,15 @@ class RetinaNode final : public Node {
   }
 
   static Contract contract() {
-    return Contract("Multi-resolution retina (Algorithm 1): L levels of WxH, the innermost a crop of the fovea, "
-                    "the outer ones five-point means over growing regions up to the whole frame.")
+    return Contract(
+               "Multi-resolution retina (Algorithm 1): L levels of WxH, the innermost a crop of the fovea, "
+               "the outer ones five-point means over growing regions up to the whole frame.")
         .ports(kImage, kFovea, kJoints, kRetina)
         .params(&bind)
         // Unbound: it has no default (the frame's centre), which a struct field cannot express.
         .param_point("fovea", std::nullopt, "initial fovea centre x,y in source pixels (default: the frame's centre)")
-        .param_enum("channels", "same", {"same", "gray"}, "sample the frame as it comes, or convert colour to gray first");
+        .param_enum("channels", "same", {"same", "gray"},
+                    "sample the frame as it comes, or convert colour to gray first");
   }
   Status open(OpenContext& ctx) override {
     const Params& p = ctx.params();

@@ -41,8 +41,10 @@ cv::Mat to_display(const cv::Mat& image) {
     }
   }
   cv::Mat bgr;
-  if (m8.channels() == 1) cv::cvtColor(m8, bgr, cv::COLOR_GRAY2BGR);
-  else bgr = m8.clone();
+  if (m8.channels() == 1)
+    cv::cvtColor(m8, bgr, cv::COLOR_GRAY2BGR);
+  else
+    bgr = m8.clone();
   return bgr;
 }
 
@@ -95,7 +97,8 @@ bool write_pfm(const std::string& path, const cv::Mat& disparity) {
   for (int y = disparity.rows - 1; y >= 0; --y) {
     const float* d = disparity.ptr<float>(y);
     for (int x = 0; x < disparity.cols; ++x)
-      row[static_cast<std::size_t>(x)] = d[x] >= 0 && std::isfinite(d[x]) ? d[x] : std::numeric_limits<float>::infinity();
+      row[static_cast<std::size_t>(x)] =
+          d[x] >= 0 && std::isfinite(d[x]) ? d[x] : std::numeric_limits<float>::infinity();
     file.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size() * sizeof(float)));
   }
   return static_cast<bool>(file);
@@ -163,8 +166,9 @@ cv::Mat track_overlay(const FoveaState& state, const std::vector<TrackPoint>& tr
       cv::drawMarker(out, state.target.center(), cv::Scalar(255, 160, 0), cv::MARKER_SQUARE, 10, thickness);
   }
   char text[160];
-  std::snprintf(text, sizeof text, "%s  score %.2f  shifts %lld  gaze requests %lld", to_string(state.state), state.score,
-                static_cast<long long>(state.attention_shifts), static_cast<long long>(state.gaze_requests));
+  std::snprintf(text, sizeof text, "%s  score %.2f  shifts %lld  gaze requests %lld", to_string(state.state),
+                state.score, static_cast<long long>(state.attention_shifts),
+                static_cast<long long>(state.gaze_requests));
   cv::putText(out, text, {8, 42}, cv::FONT_HERSHEY_SIMPLEX, 0.6, color(state.state), 1, cv::LINE_AA);
   return out;
 }
@@ -187,7 +191,8 @@ cv::Mat level_strip(const std::vector<cv::Mat>& levels, int scale, const std::st
     }
   for (std::size_t k = 0; k < levels.size(); ++k) {
     cv::Mat big;
-    cv::Mat shown = disparity && levels[k].type() == CV_32F ? disparity_color(levels[k], max_disparity) : to_display(levels[k]);
+    cv::Mat shown =
+        disparity && levels[k].type() == CV_32F ? disparity_color(levels[k], max_disparity) : to_display(levels[k]);
     cv::resize(shown, big, cell, 0, 0, cv::INTER_NEAREST);
     big.copyTo(out(cv::Rect(static_cast<int>(k) * (cell.width + gap), header, cell.width, cell.height)));
     cv::putText(out, "L" + std::to_string(k), {static_cast<int>(k) * (cell.width + gap) + 2, 13},

@@ -39,8 +39,10 @@ class Snapshot final : public Node {
   }
 
   static Contract contract() {
-    return Contract("Writes PNG mosaics every N frames: an Image as it is; a Retina as the frame with its level "
-                    "rectangles, the level strip and the foveated view; FeatureMaps as all of those plus one strip per feature.")
+    return Contract(
+               "Writes PNG mosaics every N frames: an Image as it is; a Retina as the frame with its level "
+               "rectangles, the level strip and the foveated view; FeatureMaps as all of those plus one strip per "
+               "feature.")
         .input<Message>("in", "Image, Retina, FeatureMaps or FoveaState (the fovea's track over the frame)")
         .params(&bind);
   }
@@ -60,11 +62,13 @@ class Snapshot final : public Node {
     if (fovea) {
       // The track is remembered on every frame, drawn on the frames written.
       if (track_.size() == kTrackLength) track_.erase(track_.begin());
-      track_.push_back(TrackPoint{fovea->fovea, fovea->target.center(), fovea->target_valid, fovea->state, fovea->gaze_request});
+      track_.push_back(
+          TrackPoint{fovea->fovea, fovea->target.center(), fovea->target_valid, fovea->state, fovea->gaze_request});
     }
     if (msg->frame_id < config_.first || (msg->frame_id - config_.first) % config_.every != 0) return {};
     if (fovea) return write("track", msg->frame_id, track_overlay(*fovea, track_));
-    if (auto image = std::dynamic_pointer_cast<const Image>(msg)) return write("frame", msg->frame_id, to_display(image->mat));
+    if (auto image = std::dynamic_pointer_cast<const Image>(msg))
+      return write("frame", msg->frame_id, to_display(image->mat));
     const Retina* retina = nullptr;
     auto maps = std::dynamic_pointer_cast<const FeatureMaps>(msg);
     if (maps) retina = maps->retina.get();

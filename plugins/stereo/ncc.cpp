@@ -205,9 +205,12 @@ __attribute__((always_inline)) inline void box_stats_rows_impl(const float* __re
 SACCADE_AVX2_CLONE void box_stats_rows(const float* __restrict src, std::ptrdiff_t step, int w, int h, int r,
                                        float* __restrict mean, float* __restrict stddev, float* __restrict col,
                                        float* __restrict col2) {
-  if (r == 2) box_stats_rows_impl<2>(src, step, w, h, r, mean, stddev, col, col2);
-  else if (r == 1) box_stats_rows_impl<1>(src, step, w, h, r, mean, stddev, col, col2);
-  else box_stats_rows_impl<0>(src, step, w, h, r, mean, stddev, col, col2);
+  if (r == 2)
+    box_stats_rows_impl<2>(src, step, w, h, r, mean, stddev, col, col2);
+  else if (r == 1)
+    box_stats_rows_impl<1>(src, step, w, h, r, mean, stddev, col, col2);
+  else
+    box_stats_rows_impl<0>(src, step, w, h, r, mean, stddev, col, col2);
 }
 
 // Window mean and standard deviation of `src` (CV_32F) at every pixel whose
@@ -311,16 +314,16 @@ SACCADE_AVX2_CLONE Search bounds(const cv::Mat& lo, const cv::Mat& hi, const cv:
 // Everything one disparity's pass of the sweep reads and writes, as base
 // pointers and row strides (elements), so one call covers every row.
 struct SweepArgs {
-  const float *left, *right;          // centred values
+  const float *left, *right;  // centred values
   const float *left_mean, *left_std, *right_mean, *right_std;
-  std::ptrdiff_t image_step;          // of the six images above and the volumes
-  const int *lo_lr, *hi_lr;           // left pixels' ranges
-  const int *lo_rl, *hi_rl;           // right pixels' ranges, null: the left pixels' pairs
+  std::ptrdiff_t image_step;  // of the six images above and the volumes
+  const int *lo_lr, *hi_lr;   // left pixels' ranges
+  const int *lo_rl, *hi_rl;   // right pixels' ranges, null: the left pixels' pairs
   std::ptrdiff_t lr_step, rl_step;
-  float* col;                         // column sums, two rows of col_stride
+  float* col;  // column sums, two rows of col_stride
   std::ptrdiff_t col_stride;
-  float *volume_lr, *volume_rl;       // this disparity's planes, rows of image_step; no volume_rl with kImplicit
-  int r, y0, y1;                      // window half size; rows whose pixels are searched
+  float *volume_lr, *volume_rl;  // this disparity's planes, rows of image_step; no volume_rl with kImplicit
+  int r, y0, y1;                 // window half size; rows whose pixels are searched
   float inv_n, min_texture;
 };
 
@@ -379,8 +382,7 @@ inline void sweep_pixel(const SweepArgs& a, const float* col, std::ptrdiff_t row
   const float c =
       textured ? (sum * a.inv_n - a.left_mean[at] * a.right_mean[at_right]) / std::max(sa * sb, 1e-6f) : -2.0f;
   const bool wanted_lr = d >= a.lo_lr[lr_row + x] && d <= a.hi_lr[lr_row + x];
-  const bool wanted_rl =
-      a.lo_rl == nullptr ? wanted_lr : d >= a.lo_rl[rl_row + x - d] && d <= a.hi_rl[rl_row + x - d];
+  const bool wanted_rl = a.lo_rl == nullptr ? wanted_lr : d >= a.lo_rl[rl_row + x - d] && d <= a.hi_rl[rl_row + x - d];
   a.volume_lr[at] = wanted_lr ? c : -2.0f;
   if (a.volume_rl != nullptr) a.volume_rl[at_right] = wanted_rl ? c : -2.0f;
 }
@@ -562,13 +564,19 @@ SACCADE_AVX2_CLONE void sweep_plane(const SweepArgs& a, int d, int xs, int xe) {
     const int n = xe - xs + 1, chunks = (n + 2 * a.r + 15) / 16;
     if ((a.r == 1 || a.r == 2) && n >= 16 && chunks <= 4) {
       if (a.r == 2) {
-        if (chunks == 2) sweep_plane_avx512<2, 2>(a, d, xs, xe);
-        else if (chunks == 3) sweep_plane_avx512<2, 3>(a, d, xs, xe);
-        else sweep_plane_avx512<2, 4>(a, d, xs, xe);
+        if (chunks == 2)
+          sweep_plane_avx512<2, 2>(a, d, xs, xe);
+        else if (chunks == 3)
+          sweep_plane_avx512<2, 3>(a, d, xs, xe);
+        else
+          sweep_plane_avx512<2, 4>(a, d, xs, xe);
       } else {
-        if (chunks == 2) sweep_plane_avx512<1, 2>(a, d, xs, xe);
-        else if (chunks == 3) sweep_plane_avx512<1, 3>(a, d, xs, xe);
-        else sweep_plane_avx512<1, 4>(a, d, xs, xe);
+        if (chunks == 2)
+          sweep_plane_avx512<1, 2>(a, d, xs, xe);
+        else if (chunks == 3)
+          sweep_plane_avx512<1, 3>(a, d, xs, xe);
+        else
+          sweep_plane_avx512<1, 4>(a, d, xs, xe);
       }
       return;
     }
@@ -576,14 +584,20 @@ SACCADE_AVX2_CLONE void sweep_plane(const SweepArgs& a, int d, int xs, int xe) {
 #endif
   const bool implicit = a.lo_rl == nullptr;
   if (a.r == 2) {
-    if (implicit) sweep_plane_impl<2, true>(a, d, xs, xe);
-    else sweep_plane_impl<2, false>(a, d, xs, xe);
+    if (implicit)
+      sweep_plane_impl<2, true>(a, d, xs, xe);
+    else
+      sweep_plane_impl<2, false>(a, d, xs, xe);
   } else if (a.r == 1) {
-    if (implicit) sweep_plane_impl<1, true>(a, d, xs, xe);
-    else sweep_plane_impl<1, false>(a, d, xs, xe);
+    if (implicit)
+      sweep_plane_impl<1, true>(a, d, xs, xe);
+    else
+      sweep_plane_impl<1, false>(a, d, xs, xe);
   } else {
-    if (implicit) sweep_plane_impl<0, true>(a, d, xs, xe);
-    else sweep_plane_impl<0, false>(a, d, xs, xe);
+    if (implicit)
+      sweep_plane_impl<0, true>(a, d, xs, xe);
+    else
+      sweep_plane_impl<0, false>(a, d, xs, xe);
   }
 }
 
@@ -595,7 +609,7 @@ SACCADE_AVX2_CLONE void sweep_plane(const SweepArgs& a, int d, int xs, int xe) {
 // volume along its diagonal: right x at d is left x + d, so eight right
 // pixels are eight consecutive left ones there too.
 struct PickArgs {
-  const float* volume;           // plane of d_min, rows of step
+  const float* volume;  // plane of d_min, rows of step
   std::ptrdiff_t plane, step;
   int d_min, count;
   const int *span_lo, *span_hi;  // per plane, the left columns computed
@@ -603,7 +617,7 @@ struct PickArgs {
   int diagonal;                  // 1: right pixels reading the left pixels' volume
   float min_score;
   bool subpixel;
-  float *disparity, *score;      // rows of step
+  float *disparity, *score;  // rows of step
 };
 
 // Picks of kBlocks vectors of eight pixels at row y, from columns xs[0..]:
@@ -819,8 +833,10 @@ SACCADE_AVX2_CLONE void pick(const PickArgs& a, int y0, int y1, int x0, int x1, 
       int begin, end;
       planes_reaching(a, xs[0], xs[blocks - 1] + kLanes - 1, begin, end);
       for (int y = y0; y <= y1; ++y) {
-        if (blocks == 2) pick_lanes<2>(a, y, xs, begin, end);
-        else pick_lanes<1>(a, y, xs, begin, end);
+        if (blocks == 2)
+          pick_lanes<2>(a, y, xs, begin, end);
+        else
+          pick_lanes<1>(a, y, xs, begin, end);
       }
       blocks = 0;
     }
@@ -887,8 +903,8 @@ SweepArgs sweep_args(NccScratch& scratch, const cv::Mat& lo_lr, const cv::Mat& h
                      const cv::Mat* hi_rl, int r, const SweepExtent& extent, const NccConfig& config) {
   const bool implicit = lo_rl == nullptr;
   CV_Assert(hi_lr.step1() == lo_lr.step1() && (implicit || hi_rl->step1() == lo_rl->step1()));
-  for (const cv::Mat* m : {&scratch.ref_f, &scratch.other_f, &scratch.ref_mean, &scratch.ref_std, &scratch.other_mean,
-                           &scratch.other_std})
+  for (const cv::Mat* m :
+       {&scratch.ref_f, &scratch.other_f, &scratch.ref_mean, &scratch.ref_std, &scratch.other_mean, &scratch.other_std})
     CV_Assert(m->isContinuous());
   const int w = scratch.ref_f.cols;
   return {
@@ -1064,9 +1080,9 @@ namespace {
 // right pixels' results read by lane: the same decisions (lround's halves
 // away from zero made exact from the truncation and the exact remainder).
 __attribute__((target("avx512f"))) void left_right_check_avx512(const float* d_row, const float* s_row,
-                                                                 const float* back, const float* back_score, int cols,
-                                                                 float tolerance, uint8_t* ok, int x0, int x1,
-                                                                 int& matched, int& kept) {
+                                                                const float* back, const float* back_score, int cols,
+                                                                float tolerance, uint8_t* ok, int x0, int x1,
+                                                                int& matched, int& kept) {
   constexpr int kLanes = 16;
   const __m512i lanes = lane_offsets();
   const __m512 minus_one = _mm512_set1_ps(-1.0f), half = _mm512_set1_ps(0.5f), minus_half = _mm512_set1_ps(-0.5f);
@@ -1094,10 +1110,10 @@ __attribute__((target("avx512f"))) void left_right_check_avx512(const float* d_r
       const __m512i index = _mm512_sub_epi32(xr, _mm512_set1_epi32(first));
       const int reach = cols - first;
       const __mmask16 low = first_lanes(reach), high = first_lanes(reach - kLanes);
-      other_score = _mm512_mask_blend_ps(
-          inside, minus_one,
-          _mm512_permutex2var_ps(_mm512_maskz_loadu_ps(low, back_score + first), index,
-                                 _mm512_maskz_loadu_ps(high, back_score + first + kLanes)));
+      other_score =
+          _mm512_mask_blend_ps(inside, minus_one,
+                               _mm512_permutex2var_ps(_mm512_maskz_loadu_ps(low, back_score + first), index,
+                                                      _mm512_maskz_loadu_ps(high, back_score + first + kLanes)));
       other = _mm512_permutex2var_ps(_mm512_maskz_loadu_ps(low, back + first), index,
                                      _mm512_maskz_loadu_ps(high, back + first + kLanes));
     } else {
@@ -1128,8 +1144,8 @@ double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Ma
     uint8_t* ok = valid.ptr<uint8_t>(y);
 #if defined(__x86_64__)
     if (use_avx512()) {
-      left_right_check_avx512(d_row, s_row, back, back_score, rl.cols, tolerance, ok, region.x,
-                              region.x + region.width, matched, kept);
+      left_right_check_avx512(d_row, s_row, back, back_score, rl.cols, tolerance, ok, region.x, region.x + region.width,
+                              matched, kept);
       continue;
     }
 #endif
@@ -1141,10 +1157,11 @@ double left_right_check(const cv::Mat& lr, const cv::Mat& lr_score, const cv::Ma
       ++matched;
       const float d = d_row[x];
       const int xr = static_cast<int>(std::lround(x - d));
-      const bool agrees =
-          xr >= 0 && xr < rl.cols && back_score[xr] > -1.0f && std::fabs(back[xr] - d) <= tolerance;
-      if (agrees) ++kept;
-      else ok[x] = 0;
+      const bool agrees = xr >= 0 && xr < rl.cols && back_score[xr] > -1.0f && std::fabs(back[xr] - d) <= tolerance;
+      if (agrees)
+        ++kept;
+      else
+        ok[x] = 0;
     }
   }
   return matched > 0 ? static_cast<double>(kept) / matched : 0.0;

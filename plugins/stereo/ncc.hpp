@@ -12,10 +12,10 @@
 namespace saccade::stereo {
 
 struct NccConfig {
-  int window = 5;               // odd: 3 or 5 in the paper
-  bool subpixel = true;         // parabola through the scores around the best
-  float min_score = 0.5f;       // below this the match is invalid
-  float min_texture = 2.0f;     // window standard deviation (gray levels) below which nothing can be matched
+  int window = 5;            // odd: 3 or 5 in the paper
+  bool subpixel = true;      // parabola through the scores around the best
+  float min_score = 0.5f;    // below this the match is invalid
+  float min_texture = 2.0f;  // window standard deviation (gray levels) below which nothing can be matched
   // Semi-global aggregation (ncc_match_cross only): each pixel's costs
   // (1 - NCC) are summed with those along four paths through the image,
   // which add p1 for a disparity step of one and p2 for a larger one, so that

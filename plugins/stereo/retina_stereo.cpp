@@ -55,8 +55,7 @@ SACCADE_AVX2_CLONE void window_products(const uint8_t* __restrict window, std::p
 SACCADE_AVX2_CLONE int to_source_pixels(const float* __restrict d, const float* __restrict d_score,
                                         const float* __restrict r, const float* __restrict r_score,
                                         const uint8_t* __restrict checked, int width, int offset, double step,
-                                        float* __restrict forward, float* __restrict reverse,
-                                        float* __restrict score) {
+                                        float* __restrict forward, float* __restrict reverse, float* __restrict score) {
   typedef float v4f __attribute__((vector_size(16)));
   typedef int v4i __attribute__((vector_size(16)));
   typedef double v4d __attribute__((vector_size(32)));
@@ -113,10 +112,10 @@ void RetinaStereo::sample_around_level(const cv::Mat& frame, bool right, const c
   level(cv::Rect(seen.tl() - at, seen.size())).copyTo(out(seen));
   const int c0 = cols.start, c1 = cols.end;
   const cv::Rect strips[] = {
-      {c0, 0, c1 - c0, seen.y},                                             // above
-      {c0, seen.br().y, c1 - c0, padded.height - seen.br().y},              // below
-      {c0, seen.y, seen.x - c0, seen.height},                               // left
-      {seen.br().x, seen.y, c1 - seen.br().x, seen.height},                 // right
+      {c0, 0, c1 - c0, seen.y},                                 // above
+      {c0, seen.br().y, c1 - c0, padded.height - seen.br().y},  // below
+      {c0, seen.y, seen.x - c0, seen.height},                   // left
+      {seen.br().x, seen.y, c1 - seen.br().x, seen.height},     // right
   };
   for (const cv::Rect& strip : strips) {
     if (strip.width <= 0 || strip.height <= 0) continue;
@@ -267,8 +266,8 @@ int RetinaStereo::correlate_window(const cv::Mat& window, const cv::Mat& strip, 
   strip32_.resize(static_cast<std::size_t>(stride * wh));
   // Shift s pairs window column x with strip column x + s_hi - s.
   window_products(window.ptr<uint8_t>(), static_cast<std::ptrdiff_t>(window.step), ww, wh, strip.ptr<uint8_t>(),
-                  static_cast<std::ptrdiff_t>(strip.step), strip_cols, count, strip32_.data(), stride,
-                  products_.data(), column_sum_.data(), column_sq_.data());
+                  static_cast<std::ptrdiff_t>(strip.step), strip_cols, count, strip32_.data(), stride, products_.data(),
+                  column_sum_.data(), column_sq_.data());
   int best = -1;
   // The strip's sums over the window's columns, slid one column per shift
   // (whole numbers: exact).
@@ -286,8 +285,7 @@ int RetinaStereo::correlate_window(const cv::Mat& window, const cv::Mat& strip, 
     const double om = static_cast<double>(sum) / area;
     const double os = std::sqrt(std::max(0.0, static_cast<double>(sq) / area - om * om));
     if (os < config_.ncc.min_texture) continue;
-    const double cross =
-        static_cast<double>(products_[static_cast<std::size_t>(x0s)]) - wm * static_cast<double>(sum);
+    const double cross = static_cast<double>(products_[static_cast<std::size_t>(x0s)]) - wm * static_cast<double>(sum);
     const float ncc = static_cast<float>(cross / (area * ws * os));
     samples_[static_cast<std::size_t>(s - s_lo)] = ncc;
     if (best < 0 || ncc > samples_[static_cast<std::size_t>(best)]) best = s - s_lo;
@@ -308,7 +306,8 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
   for (std::size_t k = 0; k < n; ++k) {
     const LevelGeometry& g = left.geometry[k];
     const cv::Mat& level = left.levels[k];
-    const int ww = std::min(config_.fixation_window.width, level.cols), wh = std::min(config_.fixation_window.height, level.rows);
+    const int ww = std::min(config_.fixation_window.width, level.cols),
+              wh = std::min(config_.fixation_window.height, level.rows);
     const cv::Point2d c = g.from_source(center);
     const cv::Rect window(std::clamp(static_cast<int>(std::lround(c.x - ww / 2.0 + 0.5)), 0, level.cols - ww),
                           std::clamp(static_cast<int>(std::lround(c.y - wh / 2.0 + 0.5)), 0, level.rows - wh), ww, wh);
@@ -386,8 +385,8 @@ struct RetinaStereo::LevelPlan {
   // The right retina's level lies on the left one's rows (else, on a rectified
   // pair whose foveae differ in row, the right frame is sampled on the left's).
   bool right_on_left_rows = true;
-  int offset = 0;          // level pixels the right image lies left of the left one's (vergence's or the region's)
-  double right_x0 = 0;     // source x of the right image's left edge
+  int offset = 0;       // level pixels the right image lies left of the left one's (vergence's or the region's)
+  double right_x0 = 0;  // source x of the right image's left edge
   bool around_fixation = false;          // the fovea, verged: searched around the fixation disparity
   int full_lo = 0, full_hi = 0;          // level disparities of 0 .. max_disparity source pixels
   int radius_lo = 0, radius_hi = 0;      // fovea_radius around the fixation, within those
@@ -466,7 +465,7 @@ void widen_to_ranges(const cv::Mat& lo, const cv::Mat& hi, int half_window, int&
     const int* u = hi.ptr<int>(y);
     for (int x = 0; x < w; ++x) {
       if (l[x] > u[x]) continue;
-      left = std::max(left, u[x] - x + half_window);             // right pixel x - hi, its window's left column
+      left = std::max(left, u[x] - x + half_window);              // right pixel x - hi, its window's left column
       right = std::max(right, x - l[x] - (w - 1) + half_window);  // right pixel x - lo past the last column
     }
   }
@@ -550,11 +549,8 @@ RetinaStereo::LevelImages RetinaStereo::level_images(const LevelPlan& plan, cons
   lo_.create(level.size(), CV_32S);
   hi_.create(level.size(), CV_32S);
   search_ranges(plan, out, left, lo_, hi_);
-  return {.left = &level,
-          .right = plan.right_level,
-          .lo = &lo_,
-          .hi = &hi_,
-          .inside = cv::Rect(cv::Point(), level.size())};
+  return {
+      .left = &level, .right = plan.right_level, .lo = &lo_, .hi = &hi_, .inside = cv::Rect(cv::Point(), level.size())};
 }
 
 // Both frames sampled with a margin around the level, so that windows and
@@ -574,8 +570,7 @@ RetinaStereo::LevelImages RetinaStereo::padded_images(const LevelPlan& plan, con
     search_ranges(plan, out, left, lo_, hi_);
     widen_to_ranges(lo_, hi_, half_window, reach_left, reach_right);
   }
-  const Margins m =
-      padded_margins(gl, size, left_frame.size(), plan.right_x0, reach_left, reach_right, half_window);
+  const Margins m = padded_margins(gl, size, left_frame.size(), plan.right_x0, reach_left, reach_right, half_window);
   const cv::Size padded(size.width + m.left + m.right, size.height + m.top + m.bottom);
   const cv::Rect inside(m.left, m.top, size.width, size.height);
   sample_padded(plan, left, right, left_frame, right_frame, padded, inside, ls);
@@ -591,11 +586,8 @@ RetinaStereo::LevelImages RetinaStereo::padded_images(const LevelPlan& plan, con
   } else {
     search_ranges(plan, out, left, lo_inside, hi_inside);
   }
-  return {.left = &ls.left_padded,
-          .right = &ls.right_padded,
-          .lo = &ls.lo_padded,
-          .hi = &ls.hi_padded,
-          .inside = inside};
+  return {
+      .left = &ls.left_padded, .right = &ls.right_padded, .lo = &ls.lo_padded, .hi = &ls.hi_padded, .inside = inside};
 }
 
 // A retina's level holds its frame's pixels by the same rule on the same grid
@@ -617,18 +609,16 @@ void RetinaStereo::sample_padded(const LevelPlan& plan, const Retina& left, cons
   // pixels outside the level search nothing.
   if (holds_frame_pixels(left, left_frame))
     sample_around_level(left_frame, false, left.levels[plan.k], left_origin, gl, cv::Point(mx0, my0), padded,
-                        cv::Range(std::max(0, mx0 - mr), std::min(padded.width, mx0 + w + mr)), crop,
-                        ls.left_padded);
+                        cv::Range(std::max(0, mx0 - mr), std::min(padded.width, mx0 + w + mr)), crop, ls.left_padded);
   else
-    sample_frame(left_frame, false, left_origin.x, left_origin.y, gl.step_x, gl.step_y, padded, crop,
-                 ls.left_padded);
+    sample_frame(left_frame, false, left_origin.x, left_origin.y, gl.step_x, gl.step_y, padded, crop, ls.left_padded);
   // The right retina's level serves where the verged level overlaps it
   // (outer levels verge by a few of their pixels): its pixel x lies at
   // padded column mx0 + x + offset - region_shift.
   if (plan.right_on_left_rows && holds_frame_pixels(right, right_frame))
     sample_around_level(right_frame, true, right.levels[plan.k], right_origin, gl,
-                        cv::Point(mx0 + plan.offset - plan.region_shift, my0), padded, cv::Range(0, padded.width),
-                        crop, ls.right_padded);
+                        cv::Point(mx0 + plan.offset - plan.region_shift, my0), padded, cv::Range(0, padded.width), crop,
+                        ls.right_padded);
   else
     sample_frame(right_frame, true, right_origin.x, right_origin.y, gl.step_x, gl.step_y, padded, crop,
                  ls.right_padded);
@@ -663,7 +653,8 @@ void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan,
 }
 
 std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out) {
-  if (left.levels.size() != right.levels.size() || left.levels.empty()) return "left and right retinas differ in levels";
+  if (left.levels.size() != right.levels.size() || left.levels.empty())
+    return "left and right retinas differ in levels";
   const std::size_t n = left.levels.size();
   if (std::string error = take_rectification(left, right); !error.empty()) return error;
   out.resize(n);
@@ -672,7 +663,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
   level_scratch_.resize(n);
   fixation_.per_level.assign(n, -1.0);
   fixation_.disparity = fixation_.score = -1;
-  if (config_.vergence && right_frame != nullptr && !left.geometry.empty()) find_fixation(left, *right_frame, fixation_);
+  if (config_.vergence && right_frame != nullptr && !left.geometry.empty())
+    find_fixation(left, *right_frame, fixation_);
   const bool padded = left_frame != nullptr && right_frame != nullptr && config_.pad > 0;
   for (std::size_t k = 0; k < n; ++k) {
     LevelPlan plan;
@@ -755,10 +747,14 @@ double fill_holes(cv::Mat& disparity, cv::Mat& score, double fallback) {
       int next = x + 1;
       while (next < disparity.cols && !(c[next] > 0)) ++next;
       float value = -1.0f;
-      if (last >= 0 && next < disparity.cols) value = std::min(d[last], d[next]);
-      else if (last >= 0) value = d[last];
-      else if (next < disparity.cols) value = d[next];
-      else if (fallback >= 0) value = static_cast<float>(fallback);
+      if (last >= 0 && next < disparity.cols)
+        value = std::min(d[last], d[next]);
+      else if (last >= 0)
+        value = d[last];
+      else if (next < disparity.cols)
+        value = d[next];
+      else if (fallback >= 0)
+        value = static_cast<float>(fallback);
       for (int i = x; i < next; ++i) {
         d[i] = value;
         c[i] = value >= 0 ? 0.0f : -1.0f;
@@ -774,9 +770,7 @@ std::string read_calibration(const std::string& path, StereoCalibration& out) {
   cv::FileStorage fs;
   try {
     if (!fs.open(path, cv::FileStorage::READ)) return "cannot open calibration file '" + path + "'";
-  } catch (const cv::Exception& e) {
-    return "calibration file '" + path + "': " + e.what();
-  }
+  } catch (const cv::Exception& e) { return "calibration file '" + path + "': " + e.what(); }
   auto matrix = [&](const char* name) {
     cv::Mat m;
     if (!fs[name].empty()) fs[name] >> m;

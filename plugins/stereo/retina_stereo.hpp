@@ -24,9 +24,9 @@ struct RetinaStereoConfig {
   NccConfig ncc;
   double max_disparity = 256;  // source pixels
   bool coarse_to_fine = true;
-  int search_radius = 2;       // pixels of the outer level around its prediction
+  int search_radius = 2;  // pixels of the outer level around its prediction
   bool left_right_check = true;
-  float lr_tolerance = 1.0f;   // level pixels
+  float lr_tolerance = 1.0f;  // level pixels
   // Software vergence: the fixation disparity (at the fovea's centre) is found
   // coarse to fine with one large window per level, and each level then looks
   // at the right frame where the left level's scene is at that disparity
@@ -84,13 +84,13 @@ struct Fixation {
 };
 
 struct LevelDisparity {
-  cv::Mat disparity;  // CV_32F, source pixels, -1 invalid (left -> right)
-  cv::Mat reverse;    // CV_32F, source pixels, -1 invalid (right -> left)
-  cv::Mat score;      // CV_32F, NCC at the chosen disparity, -1 invalid
-  double density = 0; // share of matched pixels
+  cv::Mat disparity;          // CV_32F, source pixels, -1 invalid (left -> right)
+  cv::Mat reverse;            // CV_32F, source pixels, -1 invalid (right -> left)
+  cv::Mat score;              // CV_32F, NCC at the chosen disparity, -1 invalid
+  double density = 0;         // share of matched pixels
   double filled_density = 0;  // share with a disparity, matched or filled
-  double vergence = 0; // source pixels the right level was moved by (0: not moved)
-  double right_x0 = 0;  // left edge of the right level's region as matched, source pixels
+  double vergence = 0;        // source pixels the right level was moved by (0: not moved)
+  double right_x0 = 0;        // left edge of the right level's region as matched, source pixels
   // With keep_images: the left and right images compared (the level with a
   // margin around it as far as the frames reach; the right one shifted by
   // `offset` level pixels),
@@ -102,10 +102,10 @@ struct LevelDisparity {
 
 // Depth from disparity for rectified cameras: Z = focal * baseline / d.
 struct StereoCalibration {
-  double focal_px = 0;   // focal length of the rectified images, pixels
-  double baseline_m = 0; // distance between the optical centres, metres
-  cv::Size image_size;   // the images the calibration was made for (empty: unknown)
-  std::string path;      // the file it was read from (empty: parameters)
+  double focal_px = 0;    // focal length of the rectified images, pixels
+  double baseline_m = 0;  // distance between the optical centres, metres
+  cv::Size image_size;    // the images the calibration was made for (empty: unknown)
+  std::string path;       // the file it was read from (empty: parameters)
   bool valid() const { return focal_px > 0 && baseline_m > 0; }
   double depth(double disparity) const { return disparity > 0 ? focal_px * baseline_m / disparity : -1.0; }
 };
@@ -176,8 +176,8 @@ class RetinaStereo {
                            cv::Mat& out) const;
   // One level's rule on the left or right frame: the plain grid, or the
   // rectified one when the retinas were rectified (rectified.hpp).
-  void sample_frame(const cv::Mat& frame, bool right, double x0, double y0, double step_x, double step_y,
-                    cv::Size size, bool crop, cv::Mat& out) const;
+  void sample_frame(const cv::Mat& frame, bool right, double x0, double y0, double step_x, double step_y, cv::Size size,
+                    bool crop, cv::Mat& out) const;
   // "" or why the pair's rectifications do not match; keeps their maps.
   std::string take_rectification(const Retina& left, const Retina& right);
   int correlate_window(const cv::Mat& window, const cv::Mat& strip, double wm, double ws, int s_lo, int s_hi);

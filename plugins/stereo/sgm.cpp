@@ -41,8 +41,7 @@ constexpr float kOutside = 16.0f;
 // The costs the paths aggregate, into scratch.cost at [((y - y0) * cols + x -
 // x0) * count + d - d_min]: 1 - NCC where the sweep computed the pair, 1 (no
 // preference) where a window was too flat, kOutside outside the pixel's range.
-void path_costs(const Box& box, const SweepVolume& volume, const cv::Mat& lo, const cv::Mat& hi,
-                NccScratch& scratch) {
+void path_costs(const Box& box, const SweepVolume& volume, const cv::Mat& lo, const cv::Mat& hi, NccScratch& scratch) {
   constexpr float kFlat = 1.0f;
   const int rows = box.y1 - box.y0 + 1, cols = box.x1 - box.x0 + 1, count = volume.d_max - volume.d_min + 1;
   const std::size_t pixel_count = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols);
@@ -59,9 +58,11 @@ void path_costs(const Box& box, const SweepVolume& volume, const cv::Mat& lo, co
           c[i] = kOutside;
           continue;
         }
-        const float ncc = volume.has(d, x) ? volume.data[static_cast<std::size_t>(i) * volume.plane +
-                                                         static_cast<std::size_t>(y) * volume.width + x]
-                                           : -2.0f;
+        const float ncc =
+            volume.has(d, x)
+                ? volume
+                      .data[static_cast<std::size_t>(i) * volume.plane + static_cast<std::size_t>(y) * volume.width + x]
+                : -2.0f;
         c[i] = ncc > -2.0f ? 1.0f - ncc : kFlat;
       }
     }
@@ -100,8 +101,10 @@ void aggregate(const Box& box, const SweepVolume& volume, const cv::Mat& lo, con
         const int x = dir == 0 ? k : cols - 1 - k;
         const std::size_t pixel = static_cast<std::size_t>(y) * cols + x;
         const float* c = cost.data() + pixel * count;
-        if (k == 0) std::copy(c, c + count, next + 1);
-        else path_step(next + 1, c, prev, count, p1, p2);
+        if (k == 0)
+          std::copy(c, c + count, next + 1);
+        else
+          path_step(next + 1, c, prev, count, p1, p2);
         add(pixel, next + 1);
         std::swap(prev, next);
       }
@@ -124,8 +127,10 @@ void aggregate(const Box& box, const SweepVolume& volume, const cv::Mat& lo, con
         const float* c = cost.data() + pixel * count;
         float* next = now + static_cast<std::size_t>(x) * stride;
         const int from = x - path.lean;
-        if (k == 0 || from < 0 || from >= cols) std::copy(c, c + count, next + 1);
-        else path_step(next + 1, c, before + static_cast<std::size_t>(from) * stride, count, p1, p2);
+        if (k == 0 || from < 0 || from >= cols)
+          std::copy(c, c + count, next + 1);
+        else
+          path_step(next + 1, c, before + static_cast<std::size_t>(from) * stride, count, p1, p2);
         add(pixel, next + 1);
       }
       std::swap(before, now);
@@ -171,7 +176,8 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
       int best = first;
       for (int i = first + 1; i <= last; ++i)
         if (at(y, x, i) < at(y, x, best)) best = i;
-      const float step = best > first && best < last ? refine(at(y, x, best - 1), at(y, x, best), at(y, x, best + 1)) : 0.0f;
+      const float step =
+          best > first && best < last ? refine(at(y, x, best - 1), at(y, x, best), at(y, x, best + 1)) : 0.0f;
       out_d[x] = static_cast<float>(best + volume.d_min) + step;
       out_s[x] = ncc(y, x, best + volume.d_min);
     }
@@ -196,7 +202,8 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
       if (best < 0) continue;
       float step = 0.0f;
       if (best > 0 && best + 1 < count && wanted(best - 1) && wanted(best + 1))
-        step = refine(at(y, xr + best - 1 + volume.d_min, best - 1), best_cost, at(y, xr + best + 1 + volume.d_min, best + 1));
+        step = refine(at(y, xr + best - 1 + volume.d_min, best - 1), best_cost,
+                      at(y, xr + best + 1 + volume.d_min, best + 1));
       back_d[xr] = static_cast<float>(best + volume.d_min) + step;
       back_s[xr] = ncc(y, xr + best + volume.d_min, best + volume.d_min);
     }
@@ -205,9 +212,9 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
 
 }  // namespace
 
-void semi_global_match(const SweepVolume& volume, const cv::Mat& lo, const cv::Mat& hi, int r,
-                       const NccConfig& config, NccScratch& scratch, cv::Mat& disparity_lr, cv::Mat& score_lr,
-                       cv::Mat& disparity_rl, cv::Mat& score_rl) {
+void semi_global_match(const SweepVolume& volume, const cv::Mat& lo, const cv::Mat& hi, int r, const NccConfig& config,
+                       NccScratch& scratch, cv::Mat& disparity_lr, cv::Mat& score_lr, cv::Mat& disparity_rl,
+                       cv::Mat& score_rl) {
   const int w = lo.cols, h = lo.rows;
   Box box{.y0 = std::numeric_limits<int>::max(), .y1 = -1, .x0 = std::numeric_limits<int>::max(), .x1 = -1};
   for (int y = r; y < h - r; ++y) {

@@ -26,8 +26,8 @@ struct SweepVolume {
 // config.paths paths, over every left pixel with a range (lo <= hi) whose
 // window (half width r) fits, flat ones too: their neighbours decide. Right
 // pixels search exactly the pairs the left pixels do (ncc_match_cross).
-void semi_global_match(const SweepVolume& volume, const cv::Mat& lo, const cv::Mat& hi, int r,
-                       const NccConfig& config, NccScratch& scratch, cv::Mat& disparity_lr, cv::Mat& score_lr,
-                       cv::Mat& disparity_rl, cv::Mat& score_rl);
+void semi_global_match(const SweepVolume& volume, const cv::Mat& lo, const cv::Mat& hi, int r, const NccConfig& config,
+                       NccScratch& scratch, cv::Mat& disparity_lr, cv::Mat& score_lr, cv::Mat& disparity_rl,
+                       cv::Mat& score_rl);
 
 }  // namespace saccade::stereo

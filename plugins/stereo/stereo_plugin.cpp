@@ -27,13 +27,15 @@ class StereoNode final : public Node {
   static constexpr In<Retina> kRight{"right",
                                      "right retina, same level size; regions equal or shifted by whole level pixels"};
   static constexpr Out<StereoFixation> kFixation{
-      "fixation", "the disparity at the left fovea's centre (-1 when not found), its NCC, and its depth when "
-                  "calibrated: for the head's vergence"};
+      "fixation",
+      "the disparity at the left fovea's centre (-1 when not found), its NCC, and its depth when "
+      "calibrated: for the head's vergence"};
   static constexpr SideIn<HeadPose> kHead{
       "head", "the cameras' poses (the kinematics node): the fixated point also in the head's frame, and gaze"};
   static constexpr Out<GazeRequest> kGaze{
-      "gaze", "verge both cameras on the fixated point (kind point, head frame) when its depth and the head's pose "
-              "are known: connect to the head's gaze to close see -> verge -> fixate"};
+      "gaze",
+      "verge both cameras on the fixated point (kind point, head frame) when its depth and the head's pose "
+      "are known: connect to the head's gaze to close see -> verge -> fixate"};
   static constexpr Out<FeatureMaps> kMaps{
       "maps",
       "per level, every map on the left retina's level geometry (the message's retina): disparity (left->right, "
@@ -52,8 +54,7 @@ class StereoNode final : public Node {
                "largest disparity searched, source pixels (larger than the frame's width: a warning, and the "
                "width less one is searched)",
                &C::stereo, &S::max_disparity)
-        .field("min_score", {-1, 1}, "matches whose NCC is below this are invalid", &C::stereo, &S::ncc,
-               &N::min_score)
+        .field("min_score", {-1, 1}, "matches whose NCC is below this are invalid", &C::stereo, &S::ncc, &N::min_score)
         .field("min_texture", {0, 128}, "windows whose standard deviation is below this are not matched", &C::stereo,
                &S::ncc, &N::min_texture)
         .field("coarse_to_fine", "search inner levels only around the outer level's result", &C::stereo,
@@ -115,9 +116,10 @@ class StereoNode final : public Node {
   }
 
   static Contract contract() {
-    return Contract("Disparity between a left and a right retina by normalized cross correlation, both ways, with a "
-                    "left-right check, sub-pixel peaks and a confidence, coarse to fine across levels. Pair the inputs "
-                    "with <sync inputs=\"left,right\"/>.")
+    return Contract(
+               "Disparity between a left and a right retina by normalized cross correlation, both ways, with a "
+               "left-right check, sub-pixel peaks and a confidence, coarse to fine across levels. Pair the inputs "
+               "with <sync inputs=\"left,right\"/>.")
         .ports(kLeft, kRight, kHead, kFixation, kGaze, kMaps)
         .params(&bind);
   }
@@ -222,9 +224,10 @@ class StereoNode final : public Node {
     if (!c.vergence && !left.geometry.empty() && !left.levels.empty()) {
       const double fovea_reach = (left.levels.back().cols - 1) * left.geometry.back().step_x;
       if (c.max_disparity > fovea_reach)
-        log().warn("{}: max_disparity {} is beyond what the fovea ({} px wide) can match without vergence ({} px); "
-                   "turn vergence on or use a wider retina",
-                   name_, c.max_disparity, left.levels.back().cols, fovea_reach);
+        log().warn(
+            "{}: max_disparity {} is beyond what the fovea ({} px wide) can match without vergence ({} px); "
+            "turn vergence on or use a wider retina",
+            name_, c.max_disparity, left.levels.back().cols, fovea_reach);
     }
     stereo_ = std::make_unique<RetinaStereo>(c);
   }

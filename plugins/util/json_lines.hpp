@@ -60,8 +60,9 @@ class JsonLines final : public Node {
   static constexpr In<Message> kIn{"in", "any message"};
 
   static Contract contract() {
-    return Contract("Writes every message it receives as one line of JSON: {\"type\", \"frame\", \"stamp_ns\", "
-                    "\"origin_ns\", then the type's fields} (schemas: docs/plugins.md). Matrices appear by shape.")
+    return Contract(
+               "Writes every message it receives as one line of JSON: {\"type\", \"frame\", \"stamp_ns\", "
+               "\"origin_ns\", then the type's fields} (schemas: docs/plugins.md). Matrices appear by shape.")
         .ports(kIn)
         .required_string("path", "file to write (created or truncated)")
         .param_bool("flush", false, "flush after every line (a reader tailing the file sees each at once)");

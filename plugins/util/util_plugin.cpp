@@ -76,7 +76,9 @@ class Record final : public Node {
 class Null final : public Node {
  public:
   static constexpr const char* kName = "null";
-  static Contract contract() { return Contract("Discards every message (its stats count them).").input<Message>("in", "any message"); }
+  static Contract contract() {
+    return Contract("Discards every message (its stats count them).").input<Message>("in", "any message");
+  }
   Status process(ProcessContext&) override { return {}; }
 };
 
@@ -106,7 +108,8 @@ class Counter final : public Node {
         .field("camera_id", {0, 255}, "camera id carried by the images", &C::camera_id);
   }
   static Contract contract() {
-    return Contract("A source of small gray images whose pixels hold the frame number, with timestamps on a fixed step.")
+    return Contract(
+               "A source of small gray images whose pixels hold the frame number, with timestamps on a fixed step.")
         .ports(kImage)
         .params(&bind);
   }
@@ -148,7 +151,9 @@ class Pair final : public Node {
   static constexpr const char* kName = "pair";
   static constexpr Out<Region> kPair{"pair", "center = (a.frame_id, b.frame_id), label = \"ts_a,ts_b\""};
   static Contract contract() {
-    return Contract("Joins two inputs; emits a Region whose centre holds the two frame ids and whose label holds both timestamps (ns).")
+    return Contract(
+               "Joins two inputs; emits a Region whose centre holds the two frame ids and whose label holds both "
+               "timestamps (ns).")
         .input<Message>("a", "first input")
         .input<Message>("b", "second input")
         .ports(kPair);

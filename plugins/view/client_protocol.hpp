@@ -25,9 +25,9 @@ struct ClientRequest {
     std::string topic, encoding;
   };
   Op op = Op::kMalformed;
-  std::vector<Subscription> subscriptions;   // subscribe
-  std::vector<uint32_t> ids;                 // unsubscribe: subscription ids; unadvertise: channel ids
-  std::vector<AdvertisedChannel> channels;   // advertise
+  std::vector<Subscription> subscriptions;  // subscribe
+  std::vector<uint32_t> ids;                // unsubscribe: subscription ids; unadvertise: channel ids
+  std::vector<AdvertisedChannel> channels;  // advertise
   // Why the request is dropped (kMalformed), or why one of its entries is:
   // the entries before that one are above and are applied first, as a server
   // taking them one at a time would. Empty when the whole request is good.

@@ -88,7 +88,8 @@ struct Counters {
 
 uint64_t wall_ns() {
   return static_cast<uint64_t>(
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count());
 }
 
 class Server;
@@ -124,10 +125,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   Server& server_;
   beast::flat_buffer buffer_;
   bool open_ = false, writing_ = false, ended_ = false;
-  std::map<uint32_t, uint32_t> subscriptions_;              // subscription id -> channel id
-  std::map<uint32_t, std::optional<Target>> advertised_;    // client channel id -> where it goes (none: nowhere)
+  std::map<uint32_t, uint32_t> subscriptions_;            // subscription id -> channel id
+  std::map<uint32_t, std::optional<Target>> advertised_;  // client channel id -> where it goes (none: nowhere)
   std::deque<std::string> text_;
-  std::map<uint32_t, PayloadPtr> pending_;                  // subscription id -> newest payload not yet sent
+  std::map<uint32_t, PayloadPtr> pending_;  // subscription id -> newest payload not yet sent
   uint32_t next_subscription_ = 0;
   std::string text_in_flight_;
   std::array<uint8_t, 13> header_{};
@@ -216,7 +217,7 @@ class Server final : public ViewServer {
   int port_ = 0;
   std::vector<std::unique_ptr<Source>> sources_;
   std::vector<std::unique_ptr<Channel>> channels_;  // index = channel id
-  std::map<std::string, Target> targets_;          // topic -> side input
+  std::map<std::string, Target> targets_;           // topic -> side input
   std::string server_info_, advertise_, graph_json_;
   std::vector<std::weak_ptr<WsSession>> sessions_;  // network thread
   Counters counters_;
@@ -287,7 +288,8 @@ void WsSession::on_read(beast::error_code ec) {
 void WsSession::ended() {
   if (ended_) return;
   ended_ = true;
-  for (auto it = subscriptions_.begin(); it != subscriptions_.end(); it = subscriptions_.begin()) drop_subscription(it->first);
+  for (auto it = subscriptions_.begin(); it != subscriptions_.end(); it = subscriptions_.begin())
+    drop_subscription(it->first);
   pending_.clear();
   if (open_) server_.stats().clients.fetch_sub(1);
   close();
@@ -310,8 +312,7 @@ void WsSession::drop_subscription(uint32_t id) {
 void WsSession::on_text(const std::string& text) {
   const ClientRequest r = parse_client_text(text);
   switch (r.op) {
-    case ClientRequest::Op::kMalformed:
-      return malformed(r.malformed);
+    case ClientRequest::Op::kMalformed: return malformed(r.malformed);
     case ClientRequest::Op::kSubscribe:
       for (const ClientRequest::Subscription& s : r.subscriptions) {
         Channel* c = server_.channel(s.channel_id);
@@ -402,8 +403,7 @@ void WsSession::pump() {
   std::memcpy(header_.data() + 5, &payload_in_flight_->receive_ns, 8);
   writing_ = true;
   ws_.binary(true);
-  const std::array<net::const_buffer, 2> buffers{net::buffer(header_),
-                                                 net::buffer(payload_in_flight_->bytes)};
+  const std::array<net::const_buffer, 2> buffers{net::buffer(header_), net::buffer(payload_in_flight_->bytes)};
   server_.stats().messages_sent.fetch_add(1);
   ws_.async_write(buffers, std::move(done));
 }
@@ -416,7 +416,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void read() {
     parser_.emplace();
     parser_->body_limit(server_.options().max_client_message);
-    parser_->header_limit(static_cast<std::uint32_t>(std::min<std::size_t>(server_.options().max_client_message, 65536)));
+    parser_->header_limit(
+        static_cast<std::uint32_t>(std::min<std::size_t>(server_.options().max_client_message, 65536)));
     stream_.expires_after(std::chrono::seconds(30));
     http::async_read(stream_, buffer_, *parser_,
                      [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_read(ec); });
@@ -472,7 +473,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     res->keep_alive(false);
     res->body() = text;
     res->prepare_payload();
-    http::async_write(stream_, *res, [self = shared_from_this(), res](beast::error_code, std::size_t) { self->close(); });
+    http::async_write(stream_, *res,
+                      [self = shared_from_this(), res](beast::error_code, std::size_t) { self->close(); });
   }
 
   void close() {
@@ -606,8 +608,8 @@ json Server::output_channels(const std::string& node, const PortSpec& out, json&
   source->type = out.type;
   const std::string base = "/" + node + "/" + out.name;
   if (cdr) {
-    auto c = make_channel(base, Kind::kCdr, cdr->message_encoding, cdr->schema_name, cdr->schema_encoding,
-                          cdr->schema, source.get());
+    auto c = make_channel(base, Kind::kCdr, cdr->message_encoding, cdr->schema_name, cdr->schema_encoding, cdr->schema,
+                          source.get());
     c->cdr = cdr;
     topics.push_back(c->topic);
     add_channel(std::move(c), advertised);
@@ -618,8 +620,8 @@ json Server::output_channels(const std::string& node, const PortSpec& out, json&
     topics.push_back(c->topic);
     add_channel(std::move(c), advertised);
   } else if (described) {
-    auto c = make_channel(base + "/json", Kind::kJson, "json", out.type, "jsonschema", json_schema(out.type),
-                          source.get());
+    auto c =
+        make_channel(base + "/json", Kind::kJson, "json", out.type, "jsonschema", json_schema(out.type), source.get());
     topics.push_back(c->topic);
     add_channel(std::move(c), advertised);
   }
@@ -642,10 +644,10 @@ void Server::build_channels() {
                      {"inputs", input_ports(n, targets)},
                      {"outputs", std::move(outputs)}});
   }
-  add_channel(make_channel("/saccade/stats", Kind::kStats, "json", "saccade.Stats", "jsonschema",
-                           R"({"type":"object","properties":{"view":{"type":"object"},"stats":{"type":"object"}}})",
-                           nullptr),
-              channels);
+  add_channel(
+      make_channel("/saccade/stats", Kind::kStats, "json", "saccade.Stats", "jsonschema",
+                   R"({"type":"object","properties":{"view":{"type":"object"},"stats":{"type":"object"}}})", nullptr),
+      channels);
   server_info_ = json{{"op", "serverInfo"},
                       {"name", "saccade " + graph.name},
                       {"capabilities", json::array({"clientPublish"})},
@@ -654,16 +656,24 @@ void Server::build_channels() {
                       {"sessionId", std::to_string(wall_ns())}}
                      .dump();
   advertise_ = json{{"op", "advertise"}, {"channels", std::move(channels)}}.dump();
-  graph_json_ = json{{"name", graph.name}, {"nodes", std::move(nodes)}, {"edges", edges_json(graph)},
+  graph_json_ = json{{"name", graph.name},
+                     {"nodes", std::move(nodes)},
+                     {"edges", edges_json(graph)},
                      {"targets", std::move(targets)}}
                     .dump();
 }
 
 std::string Server::view_json() const {
   const ViewCounters c = counters();
-  return json{{"clients", c.clients},         {"connections", c.connections}, {"http_requests", c.http_requests},
-              {"messages_sent", c.messages_sent}, {"malformed", c.malformed},     {"oversize", c.oversize},
-              {"injected", c.injected},       {"inject_refused", c.inject_refused}, {"budget_waits", c.budget_waits}}
+  return json{{"clients", c.clients},
+              {"connections", c.connections},
+              {"http_requests", c.http_requests},
+              {"messages_sent", c.messages_sent},
+              {"malformed", c.malformed},
+              {"oversize", c.oversize},
+              {"injected", c.injected},
+              {"inject_refused", c.inject_refused},
+              {"budget_waits", c.budget_waits}}
       .dump();
 }
 
@@ -700,8 +710,7 @@ bool Server::encode(Channel& c, const Message& m, Payload& p, std::vector<uint8_
       p.bytes.assign(text.begin(), text.end());
       return true;
     }
-    case Kind::kStats:
-      return false;
+    case Kind::kStats: return false;
   }
   return false;
 }

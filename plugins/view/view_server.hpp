@@ -36,8 +36,8 @@ namespace saccade::view {
 
 struct ViewOptions {
   std::string address = "127.0.0.1";  // loopback unless told
-  int port = 8765;                     // 0: a free port the kernel picks
-  double max_rate_hz = 30.0;           // messages per second per channel, at most
+  int port = 8765;                    // 0: a free port the kernel picks
+  double max_rate_hz = 30.0;          // messages per second per channel, at most
   // The share of one core the view's own threads (encoding, sending) may
   // use; past it, pictures wait (every channel's rate falls) instead of the
   // graph slowing down. <= 0: no limit.
@@ -46,7 +46,7 @@ struct ViewOptions {
   // A WebSocket message from a client larger than this closes that client
   // (counted as oversize); an HTTP request larger than this is refused.
   std::size_t max_client_message = 64 * 1024;
-  double stats_interval_s = 1.0;       // of /saccade/stats
+  double stats_interval_s = 1.0;  // of /saccade/stats
 };
 
 // "[ADDR:]PORT" (e.g. "8765", "0.0.0.0:8765", "[::1]:8765") into `options`;
@@ -55,8 +55,8 @@ bool parse_view_address(const std::string& text, ViewOptions& options, std::stri
 
 // What the server has seen, for the page, the stats and tests.
 struct ViewCounters {
-  uint64_t clients = 0;         // connected WebSocket clients now
-  uint64_t connections = 0;     // WebSocket clients since the start
+  uint64_t clients = 0;      // connected WebSocket clients now
+  uint64_t connections = 0;  // WebSocket clients since the start
   uint64_t http_requests = 0;
   uint64_t messages_sent = 0;   // messageData frames
   uint64_t malformed = 0;       // client messages dropped: not JSON, unknown op, bad fields, bad binary

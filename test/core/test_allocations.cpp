@@ -37,14 +37,14 @@ namespace {
 
 // Allocations of a whole run of the graph for `frames` frames (set-up included).
 uint64_t allocations_for(int frames, bool deterministic) {
-  const std::string xml =
-      "<graph><node name=\"cam\" plugin=\"capture.synthetic\"><param name=\"count\" value=\"" + std::to_string(frames) +
-      "\"/></node>"
-      "<node name=\"retina\" plugin=\"retina\"/><node name=\"filters\" plugin=\"filters.bank\">"
-      "<param name=\"features\" value=\"all\"/></node><node name=\"sink\" plugin=\"util.null\"/>"
-      "<edge from=\"cam.image\" to=\"retina.image\" queue=\"block:2\"/>"
-      "<edge from=\"retina.retina\" to=\"filters.retina\" queue=\"block:2\"/>"
-      "<edge from=\"filters.maps\" to=\"sink.in\" queue=\"block:2\"/></graph>";
+  const std::string xml = "<graph><node name=\"cam\" plugin=\"capture.synthetic\"><param name=\"count\" value=\"" +
+                          std::to_string(frames) +
+                          "\"/></node>"
+                          "<node name=\"retina\" plugin=\"retina\"/><node name=\"filters\" plugin=\"filters.bank\">"
+                          "<param name=\"features\" value=\"all\"/></node><node name=\"sink\" plugin=\"util.null\"/>"
+                          "<edge from=\"cam.image\" to=\"retina.image\" queue=\"block:2\"/>"
+                          "<edge from=\"retina.retina\" to=\"filters.retina\" queue=\"block:2\"/>"
+                          "<edge from=\"filters.maps\" to=\"sink.in\" queue=\"block:2\"/></graph>";
   ExecutorOptions o;
   o.deterministic = deterministic;
   o.threads = 1;
@@ -64,7 +64,8 @@ TEST(SteadyState, RunningMoreFramesAllocatesNothingMore) {
 
 TEST(SteadyState, HarnessedRetinaAndFiltersReuseEverything) {
   auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
-  auto filters = testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="all"/></node>)");
+  auto filters =
+      testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="all"/></node>)");
   ASSERT_TRUE(retina && filters);
   auto image = std::make_shared<Image>();
   image->mat.create(480, 640, CV_8UC1);
@@ -87,7 +88,8 @@ TEST(SteadyState, HarnessedRetinaAndFiltersReuseEverything) {
 TEST(SteadyState, HarnessedMotionAndStereoReuseEverything) {
   auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
   auto motion = testing::NodeHarness::create(R"(<node plugin="motion"/>)");
-  auto stereo = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)");
+  auto stereo =
+      testing::NodeHarness::create(R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)");
   ASSERT_TRUE(retina && motion && stereo);
   auto left = std::make_shared<Image>(), right = std::make_shared<Image>();
   left->mat = test::random_image({640, 480}, 3);

@@ -30,8 +30,8 @@ std::string counter(const std::string& name, int count, const std::string& extra
 }
 
 std::string slow_sink(const std::string& name, int busy_us) {
-  return "<node name=\"" + name + "\" plugin=\"util.record\"><param name=\"busy_us\" value=\"" + std::to_string(busy_us) +
-         "\"/></node>";
+  return "<node name=\"" + name + "\" plugin=\"util.record\"><param name=\"busy_us\" value=\"" +
+         std::to_string(busy_us) + "\"/></node>";
 }
 
 TEST_F(Executor, LatestKeepsTheNewestAndCountsEveryDrop) {
@@ -151,20 +151,22 @@ TEST_F(Executor, ANodeThatSleepsSeesWhatItsSideInputsReceivedMeanwhile) {
 TEST_F(Executor, EndOfStreamEndsAFileDrivenGraphByItself) {
   auto g = open_graph("<graph>" + counter("src", 5) +
                       "<node name=\"p\" plugin=\"util.passthrough\"/><node name=\"n\" plugin=\"util.null\"/>"
-                      "<edge from=\"src.image\" to=\"p.in\" queue=\"block:1\"/><edge from=\"p.out\" to=\"n.in\" queue=\"block:1\"/></graph>");
+                      "<edge from=\"src.image\" to=\"p.in\" queue=\"block:1\"/><edge from=\"p.out\" to=\"n.in\" "
+                      "queue=\"block:1\"/></graph>");
   ASSERT_TRUE(g->run().ok());
   EXPECT_EQ(g->stats("n").processed.load(), 5u);
 }
 
 TEST_F(Executor, ZeroCopyFanOutDeliversTheSamePointer) {
-  auto g = open_graph("<graph>" + counter("src", 20) +
-                          "<node name=\"p\" plugin=\"util.passthrough\"/>"
-                          "<node name=\"a\" plugin=\"util.record\"/><node name=\"b\" plugin=\"util.record\"/>"
-                          "<node name=\"c\" plugin=\"util.record\"/>"
-                          "<edge from=\"src.image\" to=\"p.in\" queue=\"block:2\"/>"
-                          "<edge from=\"p.out\" to=\"a.in\" queue=\"block:20\"/><edge from=\"p.out\" to=\"b.in\" queue=\"block:20\"/>"
-                          "<edge from=\"p.out\" to=\"c.in\" queue=\"block:20\"/></graph>",
-                      threads(3));
+  auto g = open_graph(
+      "<graph>" + counter("src", 20) +
+          "<node name=\"p\" plugin=\"util.passthrough\"/>"
+          "<node name=\"a\" plugin=\"util.record\"/><node name=\"b\" plugin=\"util.record\"/>"
+          "<node name=\"c\" plugin=\"util.record\"/>"
+          "<edge from=\"src.image\" to=\"p.in\" queue=\"block:2\"/>"
+          "<edge from=\"p.out\" to=\"a.in\" queue=\"block:20\"/><edge from=\"p.out\" to=\"b.in\" queue=\"block:20\"/>"
+          "<edge from=\"p.out\" to=\"c.in\" queue=\"block:20\"/></graph>",
+      threads(3));
   ASSERT_TRUE(g->run().ok());
   auto a = recorded<Image>("a"), b = recorded<Image>("b"), c = recorded<Image>("c");
   ASSERT_EQ(a.size(), 20u);
@@ -209,14 +211,15 @@ TEST(MessagePool, DropsBuffersSharedWithSomeoneElse) {
 }
 
 TEST_F(Executor, ResultsDoNotDependOnTheThreadCount) {
-  const std::string xml = "<graph>" + counter("a", 40) + counter("b", 40) +
-                          "<node name=\"pa\" plugin=\"util.passthrough\" inline=\"true\"/>"
-                          "<node name=\"pb\" plugin=\"util.passthrough\"/>"
-                          "<node name=\"p\" plugin=\"util.pair\"><sync inputs=\"a,b\"/></node>"
-                          "<node name=\"sink\" plugin=\"util.record\"/>"
-                          "<edge from=\"a.image\" to=\"pa.in\" queue=\"block:2\"/><edge from=\"b.image\" to=\"pb.in\" queue=\"block:2\"/>"
-                          "<edge from=\"pa.out\" to=\"p.a\" queue=\"block:2\"/><edge from=\"pb.out\" to=\"p.b\" queue=\"block:2\"/>"
-                          "<edge from=\"p.pair\" to=\"sink.in\" queue=\"block:2\"/></graph>";
+  const std::string xml =
+      "<graph>" + counter("a", 40) + counter("b", 40) +
+      "<node name=\"pa\" plugin=\"util.passthrough\" inline=\"true\"/>"
+      "<node name=\"pb\" plugin=\"util.passthrough\"/>"
+      "<node name=\"p\" plugin=\"util.pair\"><sync inputs=\"a,b\"/></node>"
+      "<node name=\"sink\" plugin=\"util.record\"/>"
+      "<edge from=\"a.image\" to=\"pa.in\" queue=\"block:2\"/><edge from=\"b.image\" to=\"pb.in\" queue=\"block:2\"/>"
+      "<edge from=\"pa.out\" to=\"p.a\" queue=\"block:2\"/><edge from=\"pb.out\" to=\"p.b\" queue=\"block:2\"/>"
+      "<edge from=\"p.pair\" to=\"sink.in\" queue=\"block:2\"/></graph>";
   for (int n : {1, 2, 3, 4, 8}) {
     testing::Recorder::instance().clear();
     auto g = open_graph(xml, threads(n));
@@ -258,9 +261,10 @@ TEST_F(Executor, DeterministicModeIsBitIdenticalRunToRun) {
 
 TEST_F(Executor, NodeErrorStopsTheGraphAndNamesTheNode) {
   auto g = open_graph("<graph>" + counter("src", 100) +
-                      "<node name=\"bad\" plugin=\"util.fail\"><param name=\"fail_at\" value=\"5\"/></node>"
-                      "<node name=\"n\" plugin=\"util.null\"/>"
-                      "<edge from=\"src.image\" to=\"bad.in\" queue=\"block:1\"/><edge from=\"bad.out\" to=\"n.in\" queue=\"block:1\"/></graph>",
+                          "<node name=\"bad\" plugin=\"util.fail\"><param name=\"fail_at\" value=\"5\"/></node>"
+                          "<node name=\"n\" plugin=\"util.null\"/>"
+                          "<edge from=\"src.image\" to=\"bad.in\" queue=\"block:1\"/><edge from=\"bad.out\" "
+                          "to=\"n.in\" queue=\"block:1\"/></graph>",
                       threads(2));
   Status s = g->run();
   ASSERT_TRUE(s.is_error());
@@ -270,10 +274,11 @@ TEST_F(Executor, NodeErrorStopsTheGraphAndNamesTheNode) {
 }
 
 TEST_F(Executor, ThrownExceptionsAreCaughtInsideThePlugin) {
-  auto g = open_graph("<graph>" + counter("src", 10) +
-                      "<node name=\"bad\" plugin=\"util.fail\"><param name=\"throw\" value=\"true\"/></node>"
-                      "<node name=\"n\" plugin=\"util.null\"/>"
-                      "<edge from=\"src.image\" to=\"bad.in\" queue=\"block:1\"/><edge from=\"bad.out\" to=\"n.in\"/></graph>");
+  auto g = open_graph(
+      "<graph>" + counter("src", 10) +
+      "<node name=\"bad\" plugin=\"util.fail\"><param name=\"throw\" value=\"true\"/></node>"
+      "<node name=\"n\" plugin=\"util.null\"/>"
+      "<edge from=\"src.image\" to=\"bad.in\" queue=\"block:1\"/><edge from=\"bad.out\" to=\"n.in\"/></graph>");
   Status s = g->run();
   ASSERT_TRUE(s.is_error());
   EXPECT_NE(s.message().find("process threw: injected exception at call 3"), std::string::npos) << s.message();
@@ -283,7 +288,8 @@ TEST_F(Executor, OnErrorSkipDropsTheFrameAndCountsIt) {
   auto g = open_graph("<graph>" + counter("src", 100) +
                       "<node name=\"bad\" plugin=\"util.fail\" on_error=\"skip\"><param name=\"fail_at\" value=\"0\"/>"
                       "<param name=\"fail_every\" value=\"10\"/></node><node name=\"n\" plugin=\"util.null\"/>"
-                      "<edge from=\"src.image\" to=\"bad.in\" queue=\"block:1\"/><edge from=\"bad.out\" to=\"n.in\" queue=\"block:1\"/></graph>");
+                      "<edge from=\"src.image\" to=\"bad.in\" queue=\"block:1\"/><edge from=\"bad.out\" to=\"n.in\" "
+                      "queue=\"block:1\"/></graph>");
   ASSERT_TRUE(g->run().ok());
   EXPECT_EQ(g->stats("bad").errors.load(), 10u);
   EXPECT_EQ(g->stats("n").processed.load(), 90u);
@@ -296,8 +302,9 @@ TEST_F(Executor, OpenFailureNamesTheNode) {
   saccade::Executor e(graph, testing::default_registry());
   Status s = e.open();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("node 'cam' (capture.video, line 1) failed to open: /nonexistent/x.avi: no such video file"),
-            std::string::npos)
+  EXPECT_NE(
+      s.message().find("node 'cam' (capture.video, line 1) failed to open: /nonexistent/x.avi: no such video file"),
+      std::string::npos)
       << s.message();
 }
 
@@ -305,8 +312,10 @@ TEST_F(Executor, FrameLimitAndDurationStopEndlessSources) {
   {
     ExecutorOptions o;
     o.max_frames = 7;
-    auto g = open_graph("<graph>" + counter("src", 0) + "<node name=\"n\" plugin=\"util.null\"/>"
-                        "<edge from=\"src.image\" to=\"n.in\" queue=\"block:1\"/></graph>", o);
+    auto g = open_graph("<graph>" + counter("src", 0) +
+                            "<node name=\"n\" plugin=\"util.null\"/>"
+                            "<edge from=\"src.image\" to=\"n.in\" queue=\"block:1\"/></graph>",
+                        o);
     ASSERT_TRUE(g->run().ok());
     EXPECT_EQ(g->stats("n").processed.load(), 7u);
   }
@@ -314,7 +323,8 @@ TEST_F(Executor, FrameLimitAndDurationStopEndlessSources) {
     ExecutorOptions o;
     o.duration_s = 0.3;
     auto g = open_graph("<graph>" + counter("src", 0, "<param name=\"rate_hz\" value=\"100\"/>") +
-                        "<node name=\"n\" plugin=\"util.null\"/><edge from=\"src.image\" to=\"n.in\"/></graph>", o);
+                            "<node name=\"n\" plugin=\"util.null\"/><edge from=\"src.image\" to=\"n.in\"/></graph>",
+                        o);
     ASSERT_TRUE(g->run().ok());
     EXPECT_GT(g->stats("n").processed.load(), 5u);
     EXPECT_LT(g->executor->elapsed_s(), 5.0);
@@ -326,7 +336,8 @@ TEST_F(Executor, ExternalStopEndsCleanly) {
   ExecutorOptions o;
   o.external_stop = &stop;
   auto g = open_graph("<graph>" + counter("src", 0, "<param name=\"rate_hz\" value=\"200\"/>") +
-                      "<node name=\"n\" plugin=\"util.null\"/><edge from=\"src.image\" to=\"n.in\"/></graph>", o);
+                          "<node name=\"n\" plugin=\"util.null\"/><edge from=\"src.image\" to=\"n.in\"/></graph>",
+                      o);
   std::thread stopper([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     stop = true;
@@ -353,11 +364,12 @@ TEST_F(Executor, InlineNodesRunOnTheProducersThread) {
 }
 
 TEST_F(Executor, InlineConsumersTimeIsNotChargedToTheProducer) {
-  auto g = open_graph("<graph>" + counter("src", 20) +
-                      "<node name=\"p\" plugin=\"util.passthrough\" inline=\"true\"><param name=\"busy_us\" value=\"3000\"/></node>"
-                      "<node name=\"sink\" plugin=\"util.null\" inline=\"true\"/>"
-                      "<edge from=\"src.image\" to=\"p.in\" queue=\"block:1\"/><edge from=\"p.out\" to=\"sink.in\"/></graph>",
-                      threads(1));
+  auto g = open_graph(
+      "<graph>" + counter("src", 20) +
+          "<node name=\"p\" plugin=\"util.passthrough\" inline=\"true\"><param name=\"busy_us\" value=\"3000\"/></node>"
+          "<node name=\"sink\" plugin=\"util.null\" inline=\"true\"/>"
+          "<edge from=\"src.image\" to=\"p.in\" queue=\"block:1\"/><edge from=\"p.out\" to=\"sink.in\"/></graph>",
+      threads(1));
   ASSERT_TRUE(g->run().ok());
   EXPECT_EQ(g->stats("sink").processed.load(), 20u);
   EXPECT_GE(g->stats("p").process_time.percentile(0.5), 3'000'000);
@@ -409,12 +421,11 @@ TEST_F(Executor, ATapSeesEveryMessageOfAnOutputConnectedOrNot) {
 
 TEST_F(Executor, AnInjectedValueReachesASideInputAndOnlyASideInput) {
   // The retina's fovea input is a side input nobody feeds here.
-  auto g = open_graph(
-      "<graph>" + counter("src", 3, "<param name=\"size\" value=\"320x240\"/>") +
-          "<node name=\"retina\" plugin=\"retina\"/>" + slow_sink("sink", 0) +
-          "<edge from=\"src.image\" to=\"retina.image\" queue=\"block:4\"/>"
-          "<edge from=\"retina.retina\" to=\"sink.in\" queue=\"block:4\"/></graph>",
-      ExecutorOptions{});
+  auto g = open_graph("<graph>" + counter("src", 3, "<param name=\"size\" value=\"320x240\"/>") +
+                          "<node name=\"retina\" plugin=\"retina\"/>" + slow_sink("sink", 0) +
+                          "<edge from=\"src.image\" to=\"retina.image\" queue=\"block:4\"/>"
+                          "<edge from=\"retina.retina\" to=\"sink.in\" queue=\"block:4\"/></graph>",
+                      ExecutorOptions{});
   auto fovea = std::make_shared<Region>();
   fovea->center = {20, 15};
   ASSERT_EQ(g->executor->inject("retina", "fovea", fovea), "");

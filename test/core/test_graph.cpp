@@ -22,7 +22,8 @@ using test::diagnose_xml;
     for (const auto& f : fragments) all = all && text.find(f) != std::string::npos;
     if (all) return ::testing::AssertionSuccess();
   }
-  return ::testing::AssertionFailure() << "no error on line " << line << " with the expected words; got:\n" << diag.format();
+  return ::testing::AssertionFailure() << "no error on line " << line << " with the expected words; got:\n"
+                                       << diag.format();
 }
 
 const char* kSource = R"(<node name="src" plugin="util.counter"/>)";
@@ -53,16 +54,18 @@ TEST(GraphValidation, MissingRequiredParameter) {
 
 TEST(GraphValidation, IllTypedParameterIsCheckedOnTheWholeString) {
   // tinyxml2 would read "12abc" as 12; saccade refuses it.
-  auto diag = diagnose_xml(std::string("<graph>") + kSource +
-                           "\n<node name=\"r\" plugin=\"retina\">\n\n  <param name=\"levels\" value=\"12abc\"/>\n</node>"
-                           "<edge from=\"src.image\" to=\"r.image\"/></graph>");
+  auto diag =
+      diagnose_xml(std::string("<graph>") + kSource +
+                   "\n<node name=\"r\" plugin=\"retina\">\n\n  <param name=\"levels\" value=\"12abc\"/>\n</node>"
+                   "<edge from=\"src.image\" to=\"r.image\"/></graph>");
   EXPECT_TRUE(HasError(diag, 4, {"parameter 'levels' (int)", "expected an integer, got '12abc'"}));
 }
 
 TEST(GraphValidation, OverflowingIntegerIsRefusedNotWrapped) {
-  auto diag = diagnose_xml(std::string("<graph>") + kSource +
-                           "\n<node name=\"r\" plugin=\"retina\">\n  <param name=\"levels\" value=\"99999999999999999999\"/>\n</node>"
-                           "<edge from=\"src.image\" to=\"r.image\"/></graph>");
+  auto diag = diagnose_xml(
+      std::string("<graph>") + kSource +
+      "\n<node name=\"r\" plugin=\"retina\">\n  <param name=\"levels\" value=\"99999999999999999999\"/>\n</node>"
+      "<edge from=\"src.image\" to=\"r.image\"/></graph>");
   EXPECT_TRUE(HasError(diag, 3, {"parameter 'levels'", "expected an integer"}));
 }
 
@@ -95,8 +98,9 @@ TEST(GraphValidation, OutputUsedAsInputIsExplained) {
 }
 
 TEST(GraphValidation, TypeMismatchOnAnEdge) {
-  auto diag = diagnose_xml(std::string("<graph>") + kSource +
-                           "<node name=\"f\" plugin=\"filters.bank\"/>\n<edge from=\"src.image\" to=\"f.retina\"/></graph>");
+  auto diag =
+      diagnose_xml(std::string("<graph>") + kSource +
+                   "<node name=\"f\" plugin=\"filters.bank\"/>\n<edge from=\"src.image\" to=\"f.retina\"/></graph>");
   EXPECT_TRUE(HasError(diag, 2, {"node 'f' port 'retina'", "type mismatch", "produces Image, input expects Retina"}));
 }
 
@@ -125,24 +129,29 @@ TEST(GraphValidation, CycleWithoutDelayedEdge) {
 }
 
 TEST(GraphValidation, DuplicateNodeNames) {
-  auto diag = diagnose_xml("<graph>\n<node name=\"a\" plugin=\"util.counter\"/>\n<node name=\"a\" plugin=\"util.counter\"/>\n</graph>");
+  auto diag = diagnose_xml(
+      "<graph>\n<node name=\"a\" plugin=\"util.counter\"/>\n<node name=\"a\" plugin=\"util.counter\"/>\n</graph>");
   EXPECT_TRUE(HasError(diag, 3, {"node 'a'", "duplicate node name (first defined at line 2)"}));
 }
 
 TEST(GraphValidation, BadQueuePolicyAndDelay) {
-  auto diag = diagnose_xml(std::string("<graph>") + kSource +
-                           "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" queue=\"fifo:0\"/></graph>");
+  auto diag = diagnose_xml(
+      std::string("<graph>") + kSource +
+      "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" queue=\"fifo:0\"/></graph>");
   EXPECT_TRUE(HasError(diag, 2, {"queue must be latest, fifo:N or block:N", "got 'fifo:0'"}));
-  diag = diagnose_xml(std::string("<graph>") + kSource +
-                      "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" delay=\"2\"/></graph>");
+  diag = diagnose_xml(
+      std::string("<graph>") + kSource +
+      "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" delay=\"2\"/></graph>");
   EXPECT_TRUE(HasError(diag, 2, {"delay must be 0 or 1"}));
   diag = diagnose_xml(std::string("<graph>") + kSource +
-                      "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" queue=\"block:2\" delay=\"1\"/></graph>");
+                      "<node name=\"n\" plugin=\"util.null\"/>\n<edge from=\"src.image\" to=\"n.in\" queue=\"block:2\" "
+                      "delay=\"1\"/></graph>");
   EXPECT_TRUE(HasError(diag, 2, {"a delayed (feedback) edge cannot block its producer"}));
 }
 
 TEST(GraphValidation, UnknownElementsAndAttributes) {
-  auto diag = diagnose_xml("<graph>\n<nod name=\"a\"/>\n<node name=\"b\" plugin=\"util.counter\" inlin=\"true\"/>\n</graph>");
+  auto diag =
+      diagnose_xml("<graph>\n<nod name=\"a\"/>\n<node name=\"b\" plugin=\"util.counter\" inlin=\"true\"/>\n</graph>");
   EXPECT_TRUE(HasError(diag, 2, {"unknown element <nod>"}));
   EXPECT_TRUE(HasError(diag, 3, {"unknown attribute 'inlin'", "did you mean 'inline'"}));
 }
@@ -157,10 +166,10 @@ TEST(GraphValidation, SyncGroupNamesRealInputs) {
 TEST(GraphValidation, EveryErrorOfAFileIsReportedAtOnce) {
   auto diag = diagnose_xml(
       "<graph>\n"
-      "<node name=\"a\" plugin=\"util.countr\"/>\n"                        // 2: unknown plugin
+      "<node name=\"a\" plugin=\"util.countr\"/>\n"                                       // 2: unknown plugin
       "<node name=\"r\" plugin=\"retina\"><param name=\"levels\" value=\"0\"/></node>\n"  // 3: range, 3: input
-      "<node name=\"r\" plugin=\"retina\"/>\n"                             // 4: duplicate
-      "<edge from=\"a.image\" to=\"x.in\"/>\n"                             // 5: unknown node
+      "<node name=\"r\" plugin=\"retina\"/>\n"                                            // 4: duplicate
+      "<edge from=\"a.image\" to=\"x.in\"/>\n"                                            // 5: unknown node
       "</graph>");
   EXPECT_GE(diag.error_count(), 4u) << diag.format();
   EXPECT_TRUE(HasError(diag, 2, {"unknown plugin"}));
@@ -191,10 +200,11 @@ TEST(GraphValidation, VariablesExpandFromTheEnvironment) {
 }
 
 TEST(GraphValidation, DotShowsNodesEdgesAndFeedback) {
-  auto graph = test::resolve_xml(std::string("<graph name=\"g\">") + kSource +
-                                 "<node name=\"l\" plugin=\"util.latch\"/><node name=\"p\" plugin=\"util.passthrough\"/>"
-                                 "<edge from=\"src.image\" to=\"l.in\"/><edge from=\"l.out\" to=\"p.in\"/>"
-                                 "<edge from=\"p.out\" to=\"l.side\" delay=\"1\"/></graph>");
+  auto graph =
+      test::resolve_xml(std::string("<graph name=\"g\">") + kSource +
+                        "<node name=\"l\" plugin=\"util.latch\"/><node name=\"p\" plugin=\"util.passthrough\"/>"
+                        "<edge from=\"src.image\" to=\"l.in\"/><edge from=\"l.out\" to=\"p.in\"/>"
+                        "<edge from=\"p.out\" to=\"l.side\" delay=\"1\"/></graph>");
   std::string dot = to_dot(graph);
   EXPECT_NE(dot.find("digraph \"g\""), std::string::npos);
   EXPECT_NE(dot.find("\"p\":\"o_out\" -> \"l\":\"i_side\" [label=\"latest\", style=dashed"), std::string::npos) << dot;
@@ -217,8 +227,8 @@ TEST(GraphLimits, AChainOfFortyThousandNodesIsCheckedAndItsCycleReportedWithoutR
 TEST(GraphLimits, TooManyAttributesAreRefusedBeforeTheXmlIsParsed) {
   std::string many;
   for (int i = 0; i < 100000; ++i) many += " a" + std::to_string(i) + "=\"x\"";
-  auto diag = diagnose_xml("<graph>\n<!-- <node a=\"1\" b=\"2\"/> -->\n<node name=\"c\" plugin=\"util.counter\"" + many +
-                           "/>\n</graph>");
+  auto diag = diagnose_xml("<graph>\n<!-- <node a=\"1\" b=\"2\"/> -->\n<node name=\"c\" plugin=\"util.counter\"" +
+                           many + "/>\n</graph>");
   EXPECT_TRUE(HasError(diag, 3, {"more than 256 attributes"}));
   EXPECT_EQ(diag.error_count(), 1u) << "one error, not one per attribute";
 }

@@ -31,7 +31,8 @@ TEST(Params, DoublesRejectTrailingGarbageAndNonFinite) {
   ParamValue v;
   EXPECT_FALSE(parse_param(spec(ParamType::kDouble), "2.5e-3", v));
   EXPECT_DOUBLE_EQ(std::get<double>(v), 2.5e-3);
-  for (const char* bad : {"3.5x", "inf", "nan", "1e999", ""}) EXPECT_TRUE(parse_param(spec(ParamType::kDouble), bad, v)) << bad;
+  for (const char* bad : {"3.5x", "inf", "nan", "1e999", ""})
+    EXPECT_TRUE(parse_param(spec(ParamType::kDouble), bad, v)) << bad;
 }
 
 TEST(Params, RangesAreInclusive) {
@@ -149,7 +150,7 @@ TEST(ParamBinder, ConfigIsFilledFromTheNodesParameters) {
 }
 
 struct Broken {
-  int window = 50;            // outside the range the node declares
+  int window = 50;              // outside the range the node declares
   Shape shape = Shape::kRound;  // none of the named choices
 };
 

@@ -29,7 +29,8 @@ TEST(Registry, LoadsEveryBuiltPluginWithContracts) {
   Registry r;
   r.load_folders(Registry::default_search_path());
   EXPECT_TRUE(r.load_errors().empty());
-  for (const char* type : {"capture.video", "capture.synthetic", "retina", "filters.bank", "snapshot", "util.passthrough"})
+  for (const char* type :
+       {"capture.video", "capture.synthetic", "retina", "filters.bank", "snapshot", "util.passthrough"})
     EXPECT_NE(r.find(type), nullptr) << type;
   const NodeTypeInfo* retina = r.find("retina");
   ASSERT_NE(retina, nullptr);
@@ -203,12 +204,16 @@ struct ScratchFolder {
 struct ScopedEnv {
   ScopedEnv(const char* name, const char* value) : name_(name) {
     if (const char* old = std::getenv(name)) old_ = old;
-    if (value) setenv(name, value, 1);
-    else unsetenv(name);
+    if (value)
+      setenv(name, value, 1);
+    else
+      unsetenv(name);
   }
   ~ScopedEnv() {
-    if (old_) setenv(name_, old_->c_str(), 1);
-    else unsetenv(name_);
+    if (old_)
+      setenv(name_, old_->c_str(), 1);
+    else
+      unsetenv(name_);
   }
   const char* name_;
   std::optional<std::string> old_;
@@ -241,7 +246,8 @@ TEST(RegistrySearch, ALibraryNotNamedSaccadeIsSkippedWithAWarningSayingWhy) {
   ASSERT_EQ(r.warnings().size(), 2u);
   for (const std::string& w : r.warnings())
     EXPECT_NE(w.find(": skipped: a plugin library's file name must be saccade_<name>.so"), std::string::npos) << w;
-  EXPECT_TRUE(r.warnings()[0].find("libgood.so") != std::string::npos || r.warnings()[1].find("libgood.so") != std::string::npos);
+  EXPECT_TRUE(r.warnings()[0].find("libgood.so") != std::string::npos ||
+              r.warnings()[1].find("libgood.so") != std::string::npos);
   EXPECT_TRUE(r.load_errors().empty());
 }
 
@@ -253,8 +259,8 @@ TEST(RegistrySearch, ALibraryShadowedByAnEarlierFolderIsAWarningNamingBoth) {
   ASSERT_NE(r.find("good.echo"), nullptr);
   EXPECT_EQ(r.find("good.echo")->library, dir.path + "/saccade_good.so");
   ASSERT_EQ(r.warnings().size(), 1u);
-  EXPECT_NE(r.warnings()[0].find(test_plugin("saccade_good.so") + ": skipped: saccade_good.so was already loaded from " +
-                                 dir.path + "/saccade_good.so"),
+  EXPECT_NE(r.warnings()[0].find(test_plugin("saccade_good.so") +
+                                 ": skipped: saccade_good.so was already loaded from " + dir.path + "/saccade_good.so"),
             std::string::npos)
       << r.warnings()[0];
 }
@@ -270,7 +276,8 @@ TEST(RegistrySearch, AFolderNamedTwiceIsReadOnceWithoutWarnings) {
 TEST(RegistrySearch, UnknownPluginSaysWhereItLooked) {
   Registry r;
   r.load_folders({"/no/such/plugin/folder", SACCADE_TEST_PLUGIN_DIR});
-  const std::string where = "searched /no/such/plugin/folder (no such folder), " + std::string(SACCADE_TEST_PLUGIN_DIR) +
+  const std::string where = "searched /no/such/plugin/folder (no such folder), " +
+                            std::string(SACCADE_TEST_PLUGIN_DIR) +
                             " (3 libraries, 4 failed)";  // good, example, faultkit; 4 broken on purpose
   EXPECT_EQ(r.searched_summary(), where);
   Diagnostics diag;

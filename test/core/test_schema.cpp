@@ -115,7 +115,8 @@ TEST(Schema, EveryTypesObjectsHaveExactlyTheFieldsItsSchemaLists) {
 TEST(JsonLines, TheSinkWritesOneLinePerMessage) {
   const std::string path = (std::filesystem::temp_directory_path() / "saccade_jsonl_test.jsonl").string();
   {
-    auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)");
+    auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path +
+                                          R"("/></node>)");
     ASSERT_NE(h, nullptr);
     for (int k = 0; k < 3; ++k) {
       auto r = std::make_shared<Region>();
@@ -146,8 +147,8 @@ TEST(JsonLines, AnUnwritablePathIsAnErrorAtOpenNamingIt) {
   std::ofstream(file) << "x";
   const std::string path = (file / "out.jsonl").string();
   std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)",
-                                        &error);
+  auto h = testing::NodeHarness::create(
+      R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)", &error);
   EXPECT_EQ(h, nullptr);
   EXPECT_NE(error.find(path), std::string::npos) << error;
   std::filesystem::remove(file);
@@ -158,7 +159,8 @@ TEST(JsonLines, TheFilesFolderIsMadeWhenMissing) {
   std::filesystem::remove_all(folder);
   const std::string path = (folder / "deeper" / "out.jsonl").string();
   {
-    auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)");
+    auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path +
+                                          R"("/></node>)");
     ASSERT_NE(h, nullptr);
     h->node().close();
   }

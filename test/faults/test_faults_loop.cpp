@@ -35,12 +35,12 @@ const Registry& registry() {
 }
 
 struct LoopRun {
-  std::vector<std::shared_ptr<const Region>> truth;         // the left camera's target, per frame
-  std::vector<std::shared_ptr<const JointState>> shafts;    // the drives' true positions, per step
-  std::vector<std::shared_ptr<const JointState>> state;     // what the driver reports, per cycle
-  std::vector<std::shared_ptr<const JointTargets>> targets; // the head's targets, per cycle
-  std::vector<std::shared_ptr<const FoveaState>> fovea;     // per frame
-  std::map<std::string, uint64_t> counters;                 // "node.counter"
+  std::vector<std::shared_ptr<const Region>> truth;          // the left camera's target, per frame
+  std::vector<std::shared_ptr<const JointState>> shafts;     // the drives' true positions, per step
+  std::vector<std::shared_ptr<const JointState>> state;      // what the driver reports, per cycle
+  std::vector<std::shared_ptr<const JointTargets>> targets;  // the head's targets, per cycle
+  std::vector<std::shared_ptr<const FoveaState>> fovea;      // per frame
+  std::map<std::string, uint64_t> counters;                  // "node.counter"
   uint64_t counter(const std::string& name) const {
     auto it = counters.find(name);
     return it == counters.end() ? 0 : it->second;
@@ -144,7 +144,8 @@ TEST(FaultsHeadLoop, CanPacketsDroppedDuplicatedReorderedAndCorrupted) {
         "driver.bus=udp:" + std::to_string(master_port) + ":127.0.0.1:" + std::to_string(drives_port),
         "drives.bus=udp:" + std::to_string(drives_port) + ":127.0.0.1:" + std::to_string(master_port)};
     for (const std::string node : {"driver", "drives"}) {
-      for (const std::string fault : {"loss", "duplicate", "reorder", "corrupt"}) o.push_back(node + "." + fault + "=0.1");
+      for (const std::string fault : {"loss", "duplicate", "reorder", "corrupt"})
+        o.push_back(node + "." + fault + "=0.1");
       o.push_back(node + ".key_file=" + key);
       o.push_back(node + ".wait_ms=2");
       o.push_back(node + ".fault_seed=" + std::to_string(node == "driver" ? seed : seed + 1000));
@@ -161,12 +162,13 @@ TEST(FaultsHeadLoop, CanPacketsDroppedDuplicatedReorderedAndCorrupted) {
     // What the faults did, on each side's sender and receiver.
     auto print_link = [&](const std::string& sender, const std::string& receiver) {
       auto n = [&](const std::string& counter) { return static_cast<unsigned long long>(run.counter(counter)); };
-      std::printf("[ fault ] CAN faults round %d (seed %u): %s sent %llu frames: dropped %llu, duplicated %llu, "
-                  "reordered %llu, corrupted %llu; %s got %llu (packets unauthenticated %llu, replayed %llu, lost %llu)\n",
-                  round, seed, sender.c_str(), n(sender + ".bus_sent"), n(sender + ".bus_dropped"),
-                  n(sender + ".bus_duplicated"), n(sender + ".bus_reordered"), n(sender + ".bus_corrupted"),
-                  receiver.c_str(), n(receiver + ".bus_received"), n(receiver + ".bus_unauthenticated"),
-                  n(receiver + ".bus_replayed"), n(receiver + ".bus_lost"));
+      std::printf(
+          "[ fault ] CAN faults round %d (seed %u): %s sent %llu frames: dropped %llu, duplicated %llu, "
+          "reordered %llu, corrupted %llu; %s got %llu (packets unauthenticated %llu, replayed %llu, lost %llu)\n",
+          round, seed, sender.c_str(), n(sender + ".bus_sent"), n(sender + ".bus_dropped"),
+          n(sender + ".bus_duplicated"), n(sender + ".bus_reordered"), n(sender + ".bus_corrupted"), receiver.c_str(),
+          n(receiver + ".bus_received"), n(receiver + ".bus_unauthenticated"), n(receiver + ".bus_replayed"),
+          n(receiver + ".bus_lost"));
     };
     print_link("driver", "drives");
     print_link("drives", "driver");
@@ -186,7 +188,8 @@ TEST(FaultsHeadLoop, CanPacketsDroppedDuplicatedReorderedAndCorrupted) {
     for (const auto& st : run.state) {
       if (seconds(st->timestamp_ns) < 1.0) continue;
       not_ready += !st->all_ready();
-      for (int64_t u : st->updated_ns) longest_ms = std::max(longest_ms, static_cast<double>(st->timestamp_ns - u) / 1e6);
+      for (int64_t u : st->updated_ns)
+        longest_ms = std::max(longest_ms, static_cast<double>(st->timestamp_ns - u) / 1e6);
     }
     int holds = 0;
     std::string why;
@@ -194,8 +197,10 @@ TEST(FaultsHeadLoop, CanPacketsDroppedDuplicatedReorderedAndCorrupted) {
       if (t->hold && holds++ == 0) why = t->fault + " at " + std::to_string(seconds(t->timestamp_ns)) + " s";
     }
     const double visible = in_view(run, 1.0, kSeconds);
-    std::printf("[ fault ]   longest without a joint's position %.0f ms; cycles not ready %d, holding %d; target in "
-                "view %.1f%%\n", longest_ms, not_ready, holds, 100 * visible);
+    std::printf(
+        "[ fault ]   longest without a joint's position %.0f ms; cycles not ready %d, holding %d; target in "
+        "view %.1f%%\n",
+        longest_ms, not_ready, holds, 100 * visible);
     std::string health;
     for (auto h : run.state.back()->health) health += std::to_string(static_cast<int>(h)) + " ";
     EXPECT_EQ(not_ready, 0) << "the driver: " << run.state.back()->detail << "; health " << health;
@@ -216,9 +221,10 @@ TEST(FaultsHeadLoop, ADriveGoingSilentHoldsTheHeadUntilItIsBack) {
   constexpr double kSilentFor = 1.0;
   for (int round = 0; round < faults::rounds(1); ++round) {
     const double at = 4.0 + 0.37 * round;  // a different moment of the motion each round
-    const LoopRun run = run_loop({"drives.silent_at=" + std::to_string(at), "drives.silent_for=" + std::to_string(kSilentFor),
-                                  "drives.fault_joint=" + std::to_string(kJoint)},
-                                 true);
+    const LoopRun run =
+        run_loop({"drives.silent_at=" + std::to_string(at), "drives.silent_for=" + std::to_string(kSilentFor),
+                  "drives.fault_joint=" + std::to_string(kJoint)},
+                 true);
     ASSERT_FALSE(run.targets.empty());
     // Found silent by the master (heartbeat 100 ms, process data 50 ms), and the head holds.
     double silent = -1, hold = -1, unhold = -1;
@@ -234,9 +240,10 @@ TEST(FaultsHeadLoop, ADriveGoingSilentHoldsTheHeadUntilItIsBack) {
       if (hold >= 0 && unhold < 0 && !t->hold) unhold = seconds(t->timestamp_ns);
     }
     const double back = at + kSilentFor;
-    std::printf("[ fault ] silent drive round %d: silent at %.3f s, found %.3f s later, head holding %.3f s later (%s); "
-                "speaks again at %.3f s, head moving again %.3f s after that\n",
-                round, at, silent - at, hold - at, why.c_str(), back, unhold - back);
+    std::printf(
+        "[ fault ] silent drive round %d: silent at %.3f s, found %.3f s later, head holding %.3f s later (%s); "
+        "speaks again at %.3f s, head moving again %.3f s after that\n",
+        round, at, silent - at, hold - at, why.c_str(), back, unhold - back);
     ASSERT_GE(silent, at);
     EXPECT_LT(silent - at, 0.1);
     ASSERT_GE(hold, silent);
@@ -244,9 +251,10 @@ TEST(FaultsHeadLoop, ADriveGoingSilentHoldsTheHeadUntilItIsBack) {
     EXPECT_EQ(why, "vergence_left: drive silent");
     // Held: the other joints stay where they stopped (after 0.2 s to stop).
     const double drift = drift_deg(run, hold + 0.2, back, kJoint);
-    std::printf("[ fault ]   while held the other joints moved %.3f deg; target in view %.1f%% then, %.1f%% from 1 s "
-                "after the head moves again\n", drift, 100 * in_view(run, hold, unhold),
-                100 * in_view(run, unhold + 1.0, kSeconds));
+    std::printf(
+        "[ fault ]   while held the other joints moved %.3f deg; target in view %.1f%% then, %.1f%% from 1 s "
+        "after the head moves again\n",
+        drift, 100 * in_view(run, hold, unhold), 100 * in_view(run, unhold + 1.0, kSeconds));
     EXPECT_LT(drift, 0.2);
     ASSERT_GT(unhold, back) << "the head moves again once the drive is back and reset";
     EXPECT_LT(unhold - back, 2.0);
@@ -282,10 +290,11 @@ TEST(FaultsHeadLoop, TheCamerasStoppingAndComingBack) {
     }
     const uint64_t missed = run.counter("cameras.stopped_frames");
     const double drift = drift_deg(run, at + 0.3, back);
-    std::printf("[ fault ] cameras stopped round %d: at %.2f s for %.1f s, %llu frames missed; while stopped the joints "
-                "moved %.3f deg; first frame %.3f s after, tracking %.3f s after; target in view %.1f%% from then\n",
-                round, at, kStopFor, static_cast<unsigned long long>(missed), drift, first_after - back,
-                tracking - back, 100 * in_view(run, tracking, kSeconds));
+    std::printf(
+        "[ fault ] cameras stopped round %d: at %.2f s for %.1f s, %llu frames missed; while stopped the joints "
+        "moved %.3f deg; first frame %.3f s after, tracking %.3f s after; target in view %.1f%% from then\n",
+        round, at, kStopFor, static_cast<unsigned long long>(missed), drift, first_after - back, tracking - back,
+        100 * in_view(run, tracking, kSeconds));
     EXPECT_EQ(during, 0) << "no frame while stopped";
     EXPECT_NEAR(static_cast<double>(missed), kStopFor * 25, 2.0);
     EXPECT_LT(drift, 0.2) << "the head holds while it sees nothing";

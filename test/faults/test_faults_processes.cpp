@@ -193,7 +193,8 @@ class FaultsTwoPc : public ::testing::Test {
   // The graph, with `motors`: the drives as a process of their own.
   std::string write_graph(bool motors, const std::string& head_host, const std::string& robot_host) {
     std::string g = test::read_text(SACCADE_SOURCE_DIR "/graphs/two_pc.xml");
-    replace_once(g, "<process name=\"head_pc\" host=\"localhost\"/>", "<process name=\"head_pc\" host=\"" + head_host + "\"/>");
+    replace_once(g, "<process name=\"head_pc\" host=\"localhost\"/>",
+                 "<process name=\"head_pc\" host=\"" + head_host + "\"/>");
     replace_once(g, "<process name=\"robot_pc\" host=\"localhost\"/>",
                  "<process name=\"robot_pc\" host=\"" + robot_host + "\"/>" +
                      (motors ? "<process name=\"motors\" host=\"" + robot_host + "\"/>" : std::string()));
@@ -201,16 +202,30 @@ class FaultsTwoPc : public ::testing::Test {
                  jsonl("truth", "head_pc", dir_ / "frames_0.jsonl"));
     replace_once(g, "<node name=\"drive_truth\" process=\"robot_pc\" plugin=\"util.null\"/>",
                  jsonl("drive_truth", motors ? "motors" : "robot_pc", dir_ / "shafts.jsonl"));
-    if (motors) replace_once(g, "<node name=\"drives\" process=\"robot_pc\"", "<node name=\"drives\" process=\"motors\"");
+    if (motors)
+      replace_once(g, "<node name=\"drives\" process=\"robot_pc\"", "<node name=\"drives\" process=\"motors\"");
     const fs::path file = dir_ / "two_pc_faults.xml";
     std::ofstream(file) << g;
     return file.string();
   }
   std::vector<std::string> args(const std::string& process, const std::vector<std::string>& extra = {}) {
-    std::vector<std::string> a = {SACCADE_BINARY_DIR "/bin/saccade", "--log-level", "info", "run", graph_,
-                                  "--process", process, "--domain", std::to_string(test::private_domain()),
-                                  "--topic-prefix", prefix_, "--set", "driver.duration=0", "--set", "drives.duration=0",
-                                  "--set", "snapshot.dir=" + (dir_ / "snapshots").string()};
+    std::vector<std::string> a = {SACCADE_BINARY_DIR "/bin/saccade",
+                                  "--log-level",
+                                  "info",
+                                  "run",
+                                  graph_,
+                                  "--process",
+                                  process,
+                                  "--domain",
+                                  std::to_string(test::private_domain()),
+                                  "--topic-prefix",
+                                  prefix_,
+                                  "--set",
+                                  "driver.duration=0",
+                                  "--set",
+                                  "drives.duration=0",
+                                  "--set",
+                                  "snapshot.dir=" + (dir_ / "snapshots").string()};
     a.insert(a.end(), bus_.begin(), bus_.end());
     a.insert(a.end(), extra.begin(), extra.end());
     return a;
@@ -264,8 +279,9 @@ void FaultsTwoPc::kill_and_restart(bool vision) {
   ASSERT_GT(head, 0);
   int64_t born = steady_now_ns();
   Tail frames(dir_ / "frames_0.jsonl"), shafts(dir_ / "shafts.jsonl");
-  ASSERT_TRUE(test::wait_for([&] { return frames.first_after(0) > 0; }, 60))
-      << "the loop never ran\nrobot:\n" << log_of("robot_0.log") << "\nhead:\n" << log_of("head_0.log");
+  ASSERT_TRUE(test::wait_for([&] { return frames.first_after(0) > 0; }, 60)) << "the loop never ran\nrobot:\n"
+                                                                             << log_of("robot_0.log") << "\nhead:\n"
+                                                                             << log_of("head_0.log");
 
   faults::Figures resume{victim + " killed: the loop resumed after the restart in", "s"};
   faults::Figures lost{victim + " killed: no frames for", "s"};
@@ -301,11 +317,12 @@ void FaultsTwoPc::kill_and_restart(bool vision) {
     // (after 0.3 s for a set-point in flight), until the loop runs again.
     const double drift = shafts.drift_deg(t_kill + 300'000'000, t_frame);
     const int steps = shafts.count_between(t_kill, t_spawn);
-    std::printf("[ fault ] %s killed, round %d: restarted after %.1f s; frames again %.3f s and requests matched %.3f s "
-                "after the restart; no frames for %.3f s (~%d frames lost); the joints moved %.3f deg meanwhile; the "
-                "drives stepped %d times while it was down\n",
-                victim.c_str(), round, kOutage, since(t_spawn, t_frame), since(t_spawn, t_joined),
-                since(last_frame, t_frame), static_cast<int>(since(last_frame, t_frame) * 25), drift, steps);
+    std::printf(
+        "[ fault ] %s killed, round %d: restarted after %.1f s; frames again %.3f s and requests matched %.3f s "
+        "after the restart; no frames for %.3f s (~%d frames lost); the joints moved %.3f deg meanwhile; the "
+        "drives stepped %d times while it was down\n",
+        victim.c_str(), round, kOutage, since(t_spawn, t_frame), since(t_spawn, t_joined), since(last_frame, t_frame),
+        static_cast<int>(since(last_frame, t_frame) * 25), drift, steps);
     std::fflush(stdout);
     EXPECT_LT(resumed, kResume) << "round " << round;
     EXPECT_LT(drift, 0.5) << "the head holds while the " << victim << " is down";
@@ -319,14 +336,15 @@ void FaultsTwoPc::kill_and_restart(bool vision) {
       std::set<std::string> dead = killed_files[static_cast<std::size_t>(round - 1)];
       for (pid_t p : {head, robot, motors})
         for (const auto& f : shm_files_of(p)) dead.erase(f);
-      EXPECT_EQ(still_there(dead), std::vector<std::string>{}) << "left by the " << victim << " killed in round " << round - 1;
+      EXPECT_EQ(still_there(dead), std::vector<std::string>{})
+          << "left by the " << victim << " killed in round " << round - 1;
     }
     resume.add(resumed);
     lost.add(since(last_frame, t_frame));
     over_floor += resumed >= kResume;
   }
-  std::printf("[ fault ] %s killed: %d of %d rounds resumed within the %.0f s floor\n", victim.c_str(), n - over_floor, n,
-              kResume);
+  std::printf("[ fault ] %s killed: %d of %d rounds resumed within the %.0f s floor\n", victim.c_str(), n - over_floor,
+              n, kResume);
   // Once everything has stopped (cleanly), the next process to start removes
   // what the killed ones left (files of a dead owner, 5 s old at least).
   std::set<std::string> live = shm_files_of(head), robot_files = shm_files_of(robot);
@@ -335,12 +353,13 @@ void FaultsTwoPc::kill_and_restart(bool vision) {
     kill(pid, SIGTERM);
     EXPECT_EQ(test::wait_child(pid, 30), 128 + SIGTERM);
   }
-  const pid_t next = start(args("head_pc", {"--duration", "1", "--set", "truth.path=" + (dir_ / "last.jsonl").string()}),
-                           "last.log");
+  const pid_t next =
+      start(args("head_pc", {"--duration", "1", "--set", "truth.path=" + (dir_ / "last.jsonl").string()}), "last.log");
   EXPECT_EQ(test::wait_child(next, 60), 0) << log_of("last.log");
   EXPECT_EQ(still_there(live), std::vector<std::string>{}) << "left by the processes stopped cleanly";
   for (std::size_t r = 0; r < killed_files.size(); ++r)
-    EXPECT_EQ(still_there(killed_files[r]), std::vector<std::string>{}) << "left by the " << victim << " killed in round " << r;
+    EXPECT_EQ(still_there(killed_files[r]), std::vector<std::string>{})
+        << "left by the " << victim << " killed in round " << r;
   resume.print();
   lost.print();
 }
@@ -352,12 +371,12 @@ TEST_F(FaultsTwoPc, TheDdsLinkCutForFiveSeconds) {
   const std::string head_ns = "saccade_" + id_ + "_fh", robot_ns = "saccade_" + id_ + "_fr";
   const std::string veth_head = "sf" + id_ + "h", veth_robot = "sf" + id_ + "r";
   const std::string setup =
-      "ip netns add " + head_ns + " && ip netns add " + robot_ns + " && ip link add " + veth_head + " type veth peer name " +
-      veth_robot + " && ip link set " + veth_head + " netns " + head_ns + " && ip link set " + veth_robot + " netns " +
-      robot_ns + " && ip -n " + head_ns + " addr add 10.78.0.1/24 dev " + veth_head + " && ip -n " + robot_ns +
-      " addr add 10.78.0.2/24 dev " + veth_robot + " && ip -n " + head_ns + " link set lo up && ip -n " + robot_ns +
-      " link set lo up && ip -n " + head_ns + " link set " + veth_head + " up && ip -n " + robot_ns + " link set " +
-      veth_robot + " up && ip netns exec " + head_ns + " unshare -m true";
+      "ip netns add " + head_ns + " && ip netns add " + robot_ns + " && ip link add " + veth_head +
+      " type veth peer name " + veth_robot + " && ip link set " + veth_head + " netns " + head_ns + " && ip link set " +
+      veth_robot + " netns " + robot_ns + " && ip -n " + head_ns + " addr add 10.78.0.1/24 dev " + veth_head +
+      " && ip -n " + robot_ns + " addr add 10.78.0.2/24 dev " + veth_robot + " && ip -n " + head_ns +
+      " link set lo up && ip -n " + robot_ns + " link set lo up && ip -n " + head_ns + " link set " + veth_head +
+      " up && ip -n " + robot_ns + " link set " + veth_robot + " up && ip netns exec " + head_ns + " unshare -m true";
   const bool made = std::system((setup + " > " + (dir_ / "setup.log").string() + " 2>&1").c_str()) == 0;
   struct Cleanup {
     std::string cmd;
@@ -379,8 +398,9 @@ TEST_F(FaultsTwoPc, TheDdsLinkCutForFiveSeconds) {
   ASSERT_GT(robot, 0);
   ASSERT_GT(head, 0);
   Tail frames(dir_ / "frames_0.jsonl"), shafts(dir_ / "shafts.jsonl");
-  ASSERT_TRUE(test::wait_for([&] { return frames.first_after(0) > 0; }, 60))
-      << "the loop never ran\nrobot:\n" << log_of("robot_0.log") << "\nhead:\n" << log_of("head_0.log");
+  ASSERT_TRUE(test::wait_for([&] { return frames.first_after(0) > 0; }, 60)) << "the loop never ran\nrobot:\n"
+                                                                             << log_of("robot_0.log") << "\nhead:\n"
+                                                                             << log_of("head_0.log");
   ASSERT_GE(when_logged("robot_0.log", gaze_joined(), 1, 30), 0) << log_of("robot_0.log");
 
   constexpr double kCut = 5.0;
@@ -402,11 +422,12 @@ TEST_F(FaultsTwoPc, TheDdsLinkCutForFiveSeconds) {
     const double drift = shafts.drift_deg(t_cut + 300'000'000, t_frame);
     const int steps = shafts.count_between(t_cut, t_up);
     const double resumed = since(t_up, std::max(t_frame, t_joined));
-    std::printf("[ fault ] DDS link cut %.0f s, round %d: frames again %.3f s and requests matched %.3f s after it came "
-                "back; no frames for %.3f s (~%d frames lost), the joints moved %.3f deg meanwhile; the robot side "
-                "cycled %d times while cut\n",
-                kCut, round, since(t_up, t_frame), since(t_up, t_joined), since(last_frame, t_frame),
-                static_cast<int>(since(last_frame, t_frame) * 25), drift, steps);
+    std::printf(
+        "[ fault ] DDS link cut %.0f s, round %d: frames again %.3f s and requests matched %.3f s after it came "
+        "back; no frames for %.3f s (~%d frames lost), the joints moved %.3f deg meanwhile; the robot side "
+        "cycled %d times while cut\n",
+        kCut, round, since(t_up, t_frame), since(t_up, t_joined), since(last_frame, t_frame),
+        static_cast<int>(since(last_frame, t_frame) * 25), drift, steps);
     std::fflush(stdout);
     EXPECT_EQ(during, 0) << "no joint state crosses a cut link";
     EXPECT_LT(drift, 0.5) << "the head holds while cut off";

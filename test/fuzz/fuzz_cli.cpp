@@ -58,7 +58,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (line.completion->parsed()) (void)saccade::cli::bash_completion(line.app);
   if (line.run->parsed()) {
     saccade::mcap::Compression compression;
-    if (!saccade::mcap::parse_compression(line.run_args.record_compression, compression)) __builtin_trap();  // CLI11 checked it
+    if (!saccade::mcap::parse_compression(line.run_args.record_compression, compression))
+      __builtin_trap();  // CLI11 checked it
     if (!line.run_args.view.empty()) {
       saccade::view::ViewOptions options;
       std::string error;

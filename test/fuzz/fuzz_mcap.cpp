@@ -85,8 +85,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     saccade::mcap::TopicReader player;
     if (!player.open(path, topics, salvage).empty()) continue;  // a topic named twice, a schema saccade does not read
     std::string error;
-    while (player.next(error) != nullptr) {
-    }
+    while (player.next(error) != nullptr) {}
     if (!error.empty()) expect_offset(error);
   }
   return 0;

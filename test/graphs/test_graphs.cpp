@@ -49,10 +49,12 @@ TEST(DemoGraph, RunsEndToEndOnVtestAndWritesTheMosaics) {
 }
 
 TEST(DemoGraph, DeterministicRunsGiveIdenticalPictures) {
-  fs::path a = fs::path(SACCADE_BINARY_DIR) / "test_out" / "det_a", b = fs::path(SACCADE_BINARY_DIR) / "test_out" / "det_b";
+  fs::path a = fs::path(SACCADE_BINARY_DIR) / "test_out" / "det_a",
+           b = fs::path(SACCADE_BINARY_DIR) / "test_out" / "det_b";
   for (const auto& dir : {a, b}) {
     fs::remove_all(dir);
-    auto graph = load(std::string(SACCADE_SOURCE_DIR) + "/graphs/demo.xml", {"snapshot.dir=" + dir.string(), "snapshot.every=50"});
+    auto graph = load(std::string(SACCADE_SOURCE_DIR) + "/graphs/demo.xml",
+                      {"snapshot.dir=" + dir.string(), "snapshot.every=50"});
     ASSERT_TRUE(graph);
     ExecutorOptions o;
     o.deterministic = true;

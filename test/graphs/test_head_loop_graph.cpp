@@ -50,9 +50,10 @@ LoopFigures run(const std::vector<std::string>& extra) {
 
 TEST(HeadLoopGraph, TheHeadTurnsAndTheTargetStaysInView) {
   const LoopFigures f = run({});
-  std::printf("[ figure ] head loop: target in view %d of %d frames (%.1f%%), neck %.1f..%.1f deg, %lld gaze requests\n",
-              f.visible, f.frames, 100.0 * f.visible / std::max(1, f.frames), f.neck_min, f.neck_max,
-              static_cast<long long>(f.gaze_requests));
+  std::printf(
+      "[ figure ] head loop: target in view %d of %d frames (%.1f%%), neck %.1f..%.1f deg, %lld gaze requests\n",
+      f.visible, f.frames, 100.0 * f.visible / std::max(1, f.frames), f.neck_min, f.neck_max,
+      static_cast<long long>(f.gaze_requests));
   ASSERT_GT(f.frames, 300);
   EXPECT_GE(f.visible, f.frames * 95 / 100);
   EXPECT_LT(f.neck_min, -25.0) << "the head turned left";
@@ -70,9 +71,10 @@ TEST(DrivesProgram, TheSimulatedDrivesRunAsTheirOwnProcessBehindAUdpTunnel) {
   // graphs/drives_sim.xml in a child process stands in for the robot's motors; a
   // CAN driver here configures and enables them over the cannelloni tunnel.
   const auto [master_port, drives_port] = test::free_udp_ports();
-  int child = test::spawn_saccade({"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/graphs/drives_sim.xml", "--set",
-                                   "drives.bus=udp:" + std::to_string(drives_port) + ":127.0.0.1:" + std::to_string(master_port),
-                                   "--duration", "10"});
+  int child = test::spawn_saccade(
+      {"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/graphs/drives_sim.xml", "--set",
+       "drives.bus=udp:" + std::to_string(drives_port) + ":127.0.0.1:" + std::to_string(master_port), "--duration",
+       "10"});
   ASSERT_GT(child, 0);
   // The master gives a drive three SDO attempts; start it once the drives listen.
   for (int i = 0; i < 1000 && !test::udp_port_in_use(drives_port); ++i)
@@ -80,7 +82,8 @@ TEST(DrivesProgram, TheSimulatedDrivesRunAsTheirOwnProcessBehindAUdpTunnel) {
   testing::Recorder::instance().clear();
   auto run = test::open_graph(R"(<graph name="master">
     <node name="driver" plugin="can.driver">
-      <param name="bus" value="udp:)" + std::to_string(master_port) + ":127.0.0.1:" + std::to_string(drives_port) + R"("/>
+      <param name="bus" value="udp:)" +
+                              std::to_string(master_port) + ":127.0.0.1:" + std::to_string(drives_port) + R"("/>
       <param name="duration" value="5"/>
       <param name="wait_ms" value="2"/>
     </node>

@@ -43,7 +43,7 @@ EdgeEnds edge_of(const std::string& type, const std::string& name, bool reliable
   EXPECT_TRUE(e.domain) << error;
   e.codec = sd::choose_codec(type, {.zero_copy = true, .reliable = reliable}, &error);
   EXPECT_NE(e.codec, nullptr) << error;
-  EXPECT_EQ(e.codec->form, sd::Codec::Form::kSerialised);
+  EXPECT_EQ(e.codec->form, sd::Codec::Form::kSerialized);
   e.settings.reliable = reliable;
   e.settings.depth = depth;
   e.topic = e.domain->topic("test_mailbox/" + std::to_string(getpid()) + "/" + name, *e.codec, &error);
@@ -109,7 +109,8 @@ struct Reader {
 
 void wait_matched(const Writer& w) {
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (!w.matched() && std::chrono::steady_clock::now() < give_up) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  while (!w.matched() && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   ASSERT_TRUE(w.matched());
 }
 

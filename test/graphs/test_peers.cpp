@@ -27,9 +27,10 @@ namespace {
 using test::private_domain;
 
 pid_t start_peer(const std::string& topic, const std::vector<std::string>& extra = {}) {
-  std::vector<std::string> args = {"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/test/graphs/peer_counter.xml",
-                                   "--set", "publish.topic=" + topic, "--set",
-                                   "publish.domain=" + std::to_string(private_domain())};
+  std::vector<std::string> args = {"--log-level", "warn",
+                                   "run",         SACCADE_SOURCE_DIR "/test/graphs/peer_counter.xml",
+                                   "--set",       "publish.topic=" + topic,
+                                   "--set",       "publish.domain=" + std::to_string(private_domain())};
   args.insert(args.end(), extra.begin(), extra.end());
   return test::spawn_saccade(args);
 }
@@ -38,9 +39,12 @@ pid_t start_peer(const std::string& topic, const std::vector<std::string>& extra
 std::unique_ptr<test::GraphRun> open_recording_reader(const std::string& topic, bool zero_copy) {
   return test::open_graph(R"(<graph name="reader">
   <node name="sub" plugin="dds.subscribe">
-    <param name="topic" value=")" + topic + R"("/><param name="type" value="Image"/>
-    <param name="domain" value=")" + std::to_string(private_domain()) + R"("/>
-    <param name="zero_copy" value=")" + (zero_copy ? "true" : "false") + R"("/>
+    <param name="topic" value=")" +
+                          topic + R"("/><param name="type" value="Image"/>
+    <param name="domain" value=")" +
+                          std::to_string(private_domain()) + R"("/>
+    <param name="zero_copy" value=")" +
+                          (zero_copy ? "true" : "false") + R"("/>
   </node>
   <node name="rx" plugin="util.record"/>
   <edge from="sub.out" to="rx.in" queue="block:16"/>
@@ -110,9 +114,7 @@ void rejoin_a_writer_killed_and_started_again(bool zero_copy) {
   EXPECT_EQ(reported("joined"), 2);
   // Through the frame ring, the killed writer's ring (never closed) is left
   // for the new one's, whose frames then come from its mailbox too.
-  if (zero_copy) {
-    EXPECT_GE(node_counter(*run, "sub", "mailbox_frames"), 30u);
-  }
+  if (zero_copy) { EXPECT_GE(node_counter(*run, "sub", "mailbox_frames"), 30u); }
 }
 
 TEST(DdsPeers, AWriterKilledAndStartedAgainIsRejoinedWhileTheReaderKeepsRunning) {
@@ -144,7 +146,8 @@ TEST(DdsPeers, FramesThroughTheFrameRingArriveIntactAndAreReadInPlace) {
   std::thread reader([&] { status = run->run(); });
   auto received = [] { return testing::Recorder::instance().get("rx").size(); };
   const std::string stats = "/tmp/saccade_test_ring_" + std::to_string(getpid()) + ".json";
-  pid_t writer = start_peer(topic, {"--set", "publish.zero_copy=true", "--set", "camera.size=640x480", "--stats-json", stats});
+  pid_t writer =
+      start_peer(topic, {"--set", "publish.zero_copy=true", "--set", "camera.size=640x480", "--stats-json", stats});
   ASSERT_GT(writer, 0);
   EXPECT_TRUE(test::wait_for([&] { return received() >= 40; }, 60));
   const auto rings = frame_ring_mappings();
@@ -260,7 +263,8 @@ TEST(DdsPeers, AReaderOnAnotherClockCountsLatencyFromArrival) {
     auto sub = testing::NodeHarness::create(
         "<node plugin=\"dds.subscribe\"><param name=\"topic\" value=\"" + topic +
             "\"/><param name=\"type\" value=\"Image\"/><param name=\"reliable\" value=\"true\"/>"
-            "<param name=\"same_clock\" value=\"" + (same_clock ? "true" : "false") + "\"/></node>",
+            "<param name=\"same_clock\" value=\"" +
+            (same_clock ? "true" : "false") + "\"/></node>",
         &error);
     ASSERT_NE(sub, nullptr) << error;
     auto pub = testing::NodeHarness::create(
@@ -340,8 +344,10 @@ TEST(DdsPeers, AMissingPeerAnIncompatibleQosAndAMissedDeadlineAreReported) {
 
   EXPECT_TRUE(logged("no reader of " + base + "nobody after 100 ms"));
   EXPECT_TRUE(logged("no writer of " + base + "absent has joined yet"));
-  EXPECT_TRUE(logged("this end reads saccade_idl::Image, which both ends' zero_copy")) << "the type a writer must match";
-  EXPECT_TRUE(logged("the writer of " + base + "mismatch offers an incompatible QoS (reliability); nothing will arrive"));
+  EXPECT_TRUE(logged("this end reads saccade_idl::Image, which both ends' zero_copy"))
+      << "the type a writer must match";
+  EXPECT_TRUE(
+      logged("the writer of " + base + "mismatch offers an incompatible QoS (reliability); nothing will arrive"));
   EXPECT_TRUE(logged("a reader of " + base + "mismatch asks for an incompatible QoS (reliability)"));
   EXPECT_TRUE(logged("nothing on " + base + "deadline within its deadline"));
   EXPECT_FALSE(logged("no writer of " + base + "deadline has joined yet"));

@@ -77,7 +77,8 @@ std::string graph_xml(const std::string& model, bool connected) {
   </node>
   <node name="retina" plugin="retina"><param name="fovea" value="120,100"/></node>
   <node name="classifier" plugin="classifier">
-    <param name="model" value=")" + model + R"("/><param name="target_classes" value="target"/>
+    <param name="model" value=")" +
+         model + R"("/><param name="target_classes" value="target"/>
   </node>
   <node name="fovea" plugin="fovea">
     <param name="mode" value="attend"/><param name="dwell" value="8"/>
@@ -88,7 +89,8 @@ std::string graph_xml(const std::string& model, bool connected) {
   <edge from="scene.image" to="retina.image" queue="block:2"/>
   <edge from="retina.retina" to="classifier.retina" queue="block:2"/>
   <edge from="retina.retina" to="fovea.retina" queue="block:2"/>
-  )" + std::string(connected ? R"(<edge from="classifier.target" to="fovea.target"/>)" : "") + R"(
+  )" + std::string(connected ? R"(<edge from="classifier.target" to="fovea.target"/>)" : "") +
+         R"(
   <edge from="classifier.result" to="results.in" queue="block:2"/>
   <edge from="fovea.fovea" to="retina.fovea" delay="1"/>
   <edge from="fovea.state" to="states.in" queue="block:2"/>
@@ -119,15 +121,17 @@ TEST(RecognitionGraph, TheClassifierStopsAttentionOnTheObjectItRecognises) {
   const std::string model = train_target_model();
   const double with_classifier = share_on_target(graph_xml(model, true));
   auto results = test::recorded<Classification>("results");
-  int recognised = 0;
-  for (const auto& r : results) recognised += r->outcome == Classification::Outcome::kClassified && r->label() == "target";
+  int recognized = 0;
+  for (const auto& r : results)
+    recognized += r->outcome == Classification::Outcome::kClassified && r->label() == "target";
   const double without = share_on_target(graph_xml(model, false));
-  std::printf("fovea on the square in the last 100 frames: %.2f with the classifier's target, %.2f without; "
-              "frames classified 'target': %d\n",
-              with_classifier, without, recognised);
+  std::printf(
+      "fovea on the square in the last 100 frames: %.2f with the classifier's target, %.2f without; "
+      "frames classified 'target': %d\n",
+      with_classifier, without, recognized);
   EXPECT_GE(with_classifier, 0.95);
   EXPECT_LT(without, 0.6) << "without the classifier's target, attention keeps moving on";
-  EXPECT_GT(recognised, 0);
+  EXPECT_GT(recognized, 0);
 }
 
 }  // namespace
@@ -153,7 +157,8 @@ TEST(CollectGraph, ALabelSourceInAGraphMakesTrainingSamples) {
   <node name="retina" plugin="retina"><param name="fovea" value="440,240"/></node>
   <node name="labeller" plugin="classifier.truth_label"><sync inputs="retina,truth"/></node>
   <node name="collect" plugin="classifier.collect">
-    <param name="out" value=")" + samples_path + R"("/>
+    <param name="out" value=")" +
+                          samples_path + R"("/>
     <sync inputs="retina,label"/>
   </node>
   <edge from="scene.image" to="retina.image" queue="block:2"/>

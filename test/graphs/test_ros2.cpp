@@ -172,7 +172,8 @@ TEST(Ros2Interop, APlainRos2ReaderSeesJointStatesWithTheirNames) {
 
   ros::JointState_ msg;
   ASSERT_TRUE(take_within(reader, msg, 30));
-  EXPECT_EQ(msg.name(), (std::vector<std::string>{"neck", "vergence_left", "tilt_left", "vergence_right", "tilt_right"}))
+  EXPECT_EQ(msg.name(),
+            (std::vector<std::string>{"neck", "vergence_left", "tilt_left", "vergence_right", "tilt_right"}))
       << "the head's joints, by default";
   EXPECT_EQ(msg.position(), state->position);
   EXPECT_EQ(msg.velocity(), state->velocity);

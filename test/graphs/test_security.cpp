@@ -50,8 +50,8 @@ class Participant {
       p.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", dir + "permissions.p7s");
       p.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
     }
-    participant_ = fdds::DomainParticipantFactory::get_instance()->create_participant(
-        static_cast<fdds::DomainId_t>(domain), qos);
+    participant_ =
+        fdds::DomainParticipantFactory::get_instance()->create_participant(static_cast<fdds::DomainId_t>(domain), qos);
     if (participant_ == nullptr) return;
     fdds::TypeSupport image(new saccade_idl::ImagePubSubType()), targets(new saccade_idl::JointTargetsPubSubType());
     image.register_type(participant_);
@@ -119,9 +119,9 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
   const fs::path stats = root / "robot.json";
   pid_t robot = test::spawn_saccade({"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_robot.xml",
                                      "--security", (root / "keys" / "robot_pc").string(), "--set",
-                                     "images.topic=" + prefix + "images", "--set", "targets.topic=" + prefix + "targets",
-                                     "--set", "images.domain=" + domain_text, "--set", "targets.domain=" + domain_text,
-                                     "--stats-json", stats.string()});
+                                     "images.topic=" + prefix + "images", "--set",
+                                     "targets.topic=" + prefix + "targets", "--set", "images.domain=" + domain_text,
+                                     "--set", "targets.domain=" + domain_text, "--stats-json", stats.string()});
   const fs::path head_stats = root / "head.json";
   pid_t head = test::spawn_saccade({"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_images.xml",
                                     "--security", (root / "keys" / "head_pc").string(), "--set",

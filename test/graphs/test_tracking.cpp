@@ -26,12 +26,12 @@ namespace fs = std::filesystem;
 
 struct TrackFigures {
   int frames = 0;
-  int scored = 0;          // frames with the target in view, away from the edge, jumps and bounces
-  int all = 0;             // frames with the target in view, but just after a jump
-  double all_error = 0;    // mean error over those
-  double mean_error = 0;   // fovea centre to target centre, pixels, over scored frames
+  int scored = 0;         // frames with the target in view, away from the edge, jumps and bounces
+  int all = 0;            // frames with the target in view, but just after a jump
+  double all_error = 0;   // mean error over those
+  double mean_error = 0;  // fovea centre to target centre, pixels, over scored frames
   double max_error = 0;
-  int lost = 0;            // scored frames not in the tracking state
+  int lost = 0;  // scored frames not in the tracking state
   int jumps = 0;
   double mean_reacquire = 0;  // frames from a jump to tracking within 4 px again
   int max_reacquire = 0;
@@ -51,8 +51,8 @@ TrackFigures evaluate(const std::vector<std::shared_ptr<const FoveaState>>& stat
     const double error = std::hypot(s.fovea.x - t.center.x, s.fovea.y - t.center.y);
     if (std::getenv("SACCADE_TRACK_DUMP"))
       std::printf("%4lld %-9s fovea %6.1f %6.1f target %6.1f %6.1f truth %6.1f %6.1f %s score %.2f err %.1f\n",
-                  static_cast<long long>(s.frame_id), to_string(s.state), s.fovea.x, s.fovea.y, s.target.center().x, s.target.center().y,
-                  t.center.x, t.center.y, t.label.c_str(), s.score, error);
+                  static_cast<long long>(s.frame_id), to_string(s.state), s.fovea.x, s.fovea.y, s.target.center().x,
+                  s.target.center().y, t.center.x, t.center.y, t.label.c_str(), s.score, error);
     const int k = static_cast<int>(s.frame_id);
     if (jump_every > 0 && k > 0 && k % jump_every == 0) {
       ++f.jumps;
@@ -76,8 +76,8 @@ TrackFigures evaluate(const std::vector<std::shared_ptr<const FoveaState>>& stat
     const bool reversing = since_reversal >= 0 && since_reversal++ < 3;
     // The retina keeps the fovea inside the frame: within half a fovea of the
     // edge it cannot be centred on the target.
-    const bool at_edge = t.center.x < 16 || t.center.x > frame.width - 16 || t.center.y < 12 ||
-                         t.center.y > frame.height - 12;
+    const bool at_edge =
+        t.center.x < 16 || t.center.x > frame.width - 16 || t.center.y < 12 || t.center.y > frame.height - 12;
     if (!settling && t.label == "visible") {
       f.all_error += error;
       ++f.all;
@@ -96,10 +96,11 @@ TrackFigures evaluate(const std::vector<std::shared_ptr<const FoveaState>>& stat
 }
 
 void print(const char* what, const TrackFigures& f) {
-  std::printf("%s: %d frames, %d scored, mean error %.2f px, max %.2f px (all %d frames in view: mean %.2f px), lost %d, "
-              "jumps %d, re-acquired after %.1f frames on average (max %d)\n",
-              what, f.frames, f.scored, f.mean_error, f.max_error, f.all, f.all_error, f.lost, f.jumps, f.mean_reacquire,
-              f.max_reacquire);
+  std::printf(
+      "%s: %d frames, %d scored, mean error %.2f px, max %.2f px (all %d frames in view: mean %.2f px), lost %d, "
+      "jumps %d, re-acquired after %.1f frames on average (max %d)\n",
+      what, f.frames, f.scored, f.mean_error, f.max_error, f.all, f.all_error, f.lost, f.jumps, f.mean_reacquire,
+      f.max_reacquire);
 }
 
 const std::string kLockOn = std::string(SACCADE_SOURCE_DIR) + "/graphs/lock_on.xml";
@@ -157,11 +158,11 @@ TEST(TrackingGraph, FindsTheTargetAgainAfterJumpsAndAsksTheHeadToTurnAtTheBorder
       ++expected;
       EXPECT_TRUE(s->gaze_request) << "frame " << s->frame_id << " entered the margin without a request";
     }
-    if (s->gaze_request) {
-      EXPECT_TRUE(near) << "frame " << s->frame_id << ": a request away from the border";
-    }
-    if (!near) inside_before = true;
-    else if (s->state == FoveaState::State::kTracking) inside_before = false;
+    if (s->gaze_request) { EXPECT_TRUE(near) << "frame " << s->frame_id << ": a request away from the border"; }
+    if (!near)
+      inside_before = true;
+    else if (s->state == FoveaState::State::kTracking)
+      inside_before = false;
   }
   std::printf("gaze requests: %zu (%d approaches to the border)\n", gaze.size(), expected);
   EXPECT_GE(static_cast<int>(gaze.size()), expected);
@@ -171,7 +172,6 @@ TEST(TrackingGraph, FindsTheTargetAgainAfterJumpsAndAsksTheHeadToTurnAtTheBorder
     EXPECT_EQ(g->direction[0] > 0, g->pixel.x > 320) << g->pixel;
   }
 }
-
 
 // graphs/tracking.xml as a user runs it: the box given on frame 0 followed
 // through three jumps no tracker can follow. While the target is where the
@@ -183,10 +183,10 @@ TEST(BoxTrackingGraph, FollowsTheGivenBoxIsHonestAfterJumpsAndWritesJsonLines) {
   fs::remove_all(out);
   fs::create_directories(out);
   const std::string results = (out / "fovea.jsonl").string();
-  test::run_recording(kTracking,
-                      {"snapshot.dir=" + out.string(), "results.path=" + results,
-                       "truth.path=" + (out / "truth.jsonl").string()},
-                      {"gaze"});
+  test::run_recording(
+      kTracking,
+      {"snapshot.dir=" + out.string(), "results.path=" + results, "truth.path=" + (out / "truth.jsonl").string()},
+      {"gaze"});
   std::ifstream lines(results);
   std::vector<nlohmann::json> states;
   for (std::string line; std::getline(lines, line);) states.push_back(nlohmann::json::parse(line));
@@ -213,9 +213,10 @@ TEST(BoxTrackingGraph, FollowsTheGivenBoxIsHonestAfterJumpsAndWritesJsonLines) {
     if (claims && error > 8) ++false_claims;
     if (claims) ++tracked, error_sum += error;
   }
-  std::printf("tracking.xml: %d of 600 frames tracked, mean error %.2f px, %d claimed far from the target, re-acquired "
-              "within %d frames of each jump\n",
-              tracked, error_sum / tracked, false_claims, worst_reacquire);
+  std::printf(
+      "tracking.xml: %d of 600 frames tracked, mean error %.2f px, %d claimed far from the target, re-acquired "
+      "within %d frames of each jump\n",
+      tracked, error_sum / tracked, false_claims, worst_reacquire);
   EXPECT_EQ(since_jump, -1) << "the last jump was never followed by re-acquisition";
   EXPECT_LE(worst_reacquire, 15);
   EXPECT_EQ(false_claims, 0);
@@ -234,7 +235,8 @@ namespace {
 TEST(AttentionGraph, VisitsTheMovingPeopleInTurn) {
   fs::path out = fs::path(SACCADE_BINARY_DIR) / "test_out" / "attention";
   fs::remove_all(out);
-  test::run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {"snapshot.dir=" + out.string()}, {"gaze"});
+  test::run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {"snapshot.dir=" + out.string()},
+                      {"gaze"});
   EXPECT_TRUE(fs::exists(out / "snapshot_000300_track.png"));
   test::run_recording(std::string(SACCADE_SOURCE_DIR) + "/graphs/attention.xml", {}, {"snapshot"});
   auto states = test::recorded<FoveaState>("snapshot");
@@ -251,8 +253,8 @@ TEST(AttentionGraph, VisitsTheMovingPeopleInTurn) {
       // Motion near the place chosen: full-resolution |I(t) - I(t-1)| > 15
       // within 24 px of it.
       cv::absdiff(gray, previous, moving);
-      const cv::Rect around = cv::Rect(cv::Point(s->next) - cv::Point(24, 24), cv::Size(49, 49)) &
-                              cv::Rect(cv::Point(), gray.size());
+      const cv::Rect around =
+          cv::Rect(cv::Point(s->next) - cv::Point(24, 24), cv::Size(49, 49)) & cv::Rect(cv::Point(), gray.size());
       double hi = 0;
       cv::minMaxLoc(moving(around), nullptr, &hi);
       ++shifts;
@@ -264,9 +266,10 @@ TEST(AttentionGraph, VisitsTheMovingPeopleInTurn) {
     tracked += s->state == FoveaState::State::kTracking;
     gray.copyTo(previous);
   }
-  std::printf("attention.xml: %d attention shifts in %zu frames, %d (%.0f%%) onto moving things, %zu distinct places, "
-              "tracking in %d frames\n",
-              shifts, states.size(), on_motion, 100.0 * on_motion / std::max(1, shifts), places.size(), tracked);
+  std::printf(
+      "attention.xml: %d attention shifts in %zu frames, %d (%.0f%%) onto moving things, %zu distinct places, "
+      "tracking in %d frames\n",
+      shifts, states.size(), on_motion, 100.0 * on_motion / std::max(1, shifts), places.size(), tracked);
   EXPECT_GE(shifts, 20);
   EXPECT_GE(on_motion, shifts * 8 / 10) << "attention goes where people move";
   EXPECT_GE(places.size(), 8u) << "and moves on to others";

@@ -43,9 +43,9 @@ class TwoHosts : public ::testing::Test {
         "ip netns add " + head_ + " && ip netns add " + robot_ + " && ip link add " + veth_head +
         " type veth peer name " + veth_robot + " && ip link set " + veth_head + " netns " + head_ + " && ip link set " +
         veth_robot + " netns " + robot_ + " && ip -n " + head_ + " addr add 10.77.0.1/24 dev " + veth_head +
-        " && ip -n " + robot_ + " addr add 10.77.0.2/24 dev " + veth_robot + " && ip -n " + head_ + " link set lo up && ip -n " +
-        robot_ + " link set lo up && ip -n " + head_ + " link set " + veth_head + " up && ip -n " + robot_ + " link set " +
-        veth_robot + " up && ip netns exec " + head_ + " unshare -m true";
+        " && ip -n " + robot_ + " addr add 10.77.0.2/24 dev " + veth_robot + " && ip -n " + head_ +
+        " link set lo up && ip -n " + robot_ + " link set lo up && ip -n " + head_ + " link set " + veth_head +
+        " up && ip -n " + robot_ + " link set " + veth_robot + " up && ip netns exec " + head_ + " unshare -m true";
     link_down_ = "ip -n " + head_ + " link set " + veth_head + " down";
     link_up_ = "ip -n " + head_ + " link set " + veth_head + " up";
     made_ = std::system((setup + " > " + (dir_ / "setup.log").string() + " 2>&1").c_str()) == 0;
@@ -66,8 +66,8 @@ class TwoHosts : public ::testing::Test {
 
   // saccade with `args` inside namespace `ns`, with its own /dev/shm; output to `log`.
   pid_t run_in(const std::string& ns, const std::string& env, const std::string& args, const std::string& log) {
-    const std::string inner = "mount -t tmpfs tmpfs /dev/shm && exec env " + env + " " SACCADE_BINARY_DIR "/bin/saccade " +
-                              args + " > " + (dir_ / log).string() + " 2>&1";
+    const std::string inner = "mount -t tmpfs tmpfs /dev/shm && exec env " + env +
+                              " " SACCADE_BINARY_DIR "/bin/saccade " + args + " > " + (dir_ / log).string() + " 2>&1";
     std::vector<std::string> argv_s = {"ip", "netns", "exec", ns, "unshare", "-m", "sh", "-c", inner};
     std::vector<char*> argv;
     for (auto& a : argv_s) argv.push_back(a.data());
@@ -93,10 +93,12 @@ class TwoHosts : public ::testing::Test {
     <rtps>
       <builtin>
         <metatrafficUnicastLocatorList>
-          <locator><udpv4><address>)" << self << R"(</address><port>7412</port></udpv4></locator>
+          <locator><udpv4><address>)"
+                        << self << R"(</address><port>7412</port></udpv4></locator>
         </metatrafficUnicastLocatorList>
         <initialPeersList>
-          <locator><udpv4><address>)" << peer << R"(</address><port>7412</port></udpv4></locator>
+          <locator><udpv4><address>)"
+                        << peer << R"(</address><port>7412</port></udpv4></locator>
         </initialPeersList>
       </builtin>
     </rtps>
@@ -107,8 +109,8 @@ class TwoHosts : public ::testing::Test {
   }
 
   static std::string publisher(const std::string& extra = "", const std::string& level = "warn") {
-    return "--log-level " + level + " run " SACCADE_SOURCE_DIR "/test/graphs/peer_counter.xml --set publish.topic=hosts/images " +
-           extra;
+    return "--log-level " + level +
+           " run " SACCADE_SOURCE_DIR "/test/graphs/peer_counter.xml --set publish.topic=hosts/images " + extra;
   }
   std::string subscriber(const std::string& extra) {
     const fs::path graph = dir_ / "robot.xml";
@@ -135,7 +137,8 @@ TEST_F(TwoHosts, MulticastDiscoveryAcrossTheLinkSurvivesALinkCut) {
   const std::string joined = "the writer of hosts/images joined", left = "the writer of hosts/images left";
   const std::string reader_joined = "a reader of hosts/images joined", reader_left = "a reader of hosts/images left";
   ASSERT_TRUE(test::wait_for([&] { return count_of(log_of("robot.log"), joined) == 1; }, 30)) << log_of("robot.log");
-  ASSERT_TRUE(test::wait_for([&] { return count_of(log_of("head.log"), reader_joined) == 1; }, 30)) << log_of("head.log");
+  ASSERT_TRUE(test::wait_for([&] { return count_of(log_of("head.log"), reader_joined) == 1; }, 30))
+      << log_of("head.log");
   std::this_thread::sleep_for(std::chrono::seconds(1));  // frames flow
 
   ASSERT_EQ(std::system(link_down_.c_str()), 0);
@@ -159,8 +162,8 @@ TEST_F(TwoHosts, MulticastDiscoveryAcrossTheLinkSurvivesALinkCut) {
 
 TEST_F(TwoHosts, InitialPeersAloneFindThePeerWhereMulticastIsOff) {
   // Wrong peers first: with no multicast, nothing else can find the head.
-  pid_t robot = run_in(robot_, unicast_profile("robot_wrong.xml", "10.77.0.2", "10.77.0.98"), subscriber("--duration 4"),
-                       "robot.log");
+  pid_t robot = run_in(robot_, unicast_profile("robot_wrong.xml", "10.77.0.2", "10.77.0.98"),
+                       subscriber("--duration 4"), "robot.log");
   pid_t head = run_in(head_, unicast_profile("head_wrong.xml", "10.77.0.1", "10.77.0.99"), publisher("--duration 4"),
                       "head.log");
   EXPECT_EQ(finish(head, 30), 0) << log_of("head.log");
@@ -171,8 +174,10 @@ TEST_F(TwoHosts, InitialPeersAloneFindThePeerWhereMulticastIsOff) {
   // The right peers.
   robot = run_in(robot_, unicast_profile("robot.xml.profile", "10.77.0.2", "10.77.0.1"), subscriber("--duration 60"),
                  "robot2.log");
-  head = run_in(head_, unicast_profile("head.xml.profile", "10.77.0.1", "10.77.0.2"), publisher("", "info"), "head2.log");
-  EXPECT_TRUE(test::wait_for([&] { return count_of(log_of("robot2.log"), "the writer of hosts/images joined") == 1; }, 30))
+  head =
+      run_in(head_, unicast_profile("head.xml.profile", "10.77.0.1", "10.77.0.2"), publisher("", "info"), "head2.log");
+  EXPECT_TRUE(
+      test::wait_for([&] { return count_of(log_of("robot2.log"), "the writer of hosts/images joined") == 1; }, 30))
       << log_of("robot2.log");
   EXPECT_TRUE(test::wait_for([&] { return count_of(log_of("head2.log"), "a reader of hosts/images joined") == 1; }, 30))
       << log_of("head2.log");

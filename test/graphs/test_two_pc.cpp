@@ -72,8 +72,10 @@ TEST(TwoPcPlan, EdgesBetweenProcessesBecomeTopicsWithTheirTypesQos) {
   EXPECT_EQ(find_edge(*plan, *graph, "retina", "fovea")->route, EdgeRoute::kInProcess);
   // The printed plan says all of it.
   std::string text = format_plan(*graph, *plan);
-  EXPECT_NE(text.find("process robot_pc  [host localhost]: driver, drives, head, drive_truth"), std::string::npos) << text;
-  EXPECT_NE(text.find("fovea.gaze -> head.gaze  GazeRequest  dds-shm  head_pc -> robot_pc  topic saccade/two_pc/fovea/gaze  qos reliable,depth=8"),
+  EXPECT_NE(text.find("process robot_pc  [host localhost]: driver, drives, head, drive_truth"), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("fovea.gaze -> head.gaze  GazeRequest  dds-shm  head_pc -> robot_pc  topic "
+                      "saccade/two_pc/fovea/gaze  qos reliable,depth=8"),
             std::string::npos)
       << text;
 }
@@ -137,7 +139,8 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
   EXPECT_TRUE(plan->edges[0].zero_copy);
   EXPECT_FALSE(plan->edges[1].zero_copy) << "its reader is on another host";
   const std::string text = format_plan(*graph, *plan);
-  EXPECT_NE(text.find("cam.image -> near.in  Image  dds-shm  a -> b  topic g/cam/image  qos best_effort,depth=1,capacity=16M  zero_copy"),
+  EXPECT_NE(text.find("cam.image -> near.in  Image  dds-shm  a -> b  topic g/cam/image  qos "
+                      "best_effort,depth=1,capacity=16M  zero_copy"),
             std::string::npos)
       << text;
   EXPECT_NE(text.find("cam.right -> far.in  Image  dds-udp  a -> c  topic g/cam/right  qos best_effort,depth=1\n"),
@@ -163,9 +166,7 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
   auto b = partition_graph(*graph, *plan, "b", testing::default_registry(), diag);
   ASSERT_TRUE(b) << diag.format();
   for (const auto& n : b->nodes) {
-    if (n.decl.plugin == "dds.subscribe") {
-      EXPECT_TRUE(n.params.get_bool("same_clock")) << n.decl.name;
-    }
+    if (n.decl.plugin == "dds.subscribe") { EXPECT_TRUE(n.params.get_bool("same_clock")) << n.decl.name; }
   }
 
   EXPECT_EQ(parse_edge_qos("capacity=512K", EdgeQos{}, nullptr)->capacity, 512u << 10);
@@ -321,8 +322,8 @@ TEST(TwoPcRun, TwoProcessesOverDdsGiveExactlyWhatOneProcessGives) {
   testing::Recorder::instance().clear();
   Executor executor(*robot, testing::default_registry());
   ASSERT_TRUE(executor.open().ok());
-  pid_t child = test::spawn_saccade({"--log-level", "warn", "run", file, "--process", "head_pc", "--frames", std::to_string(frames),
-                               "--topic-prefix", prefix});
+  pid_t child = test::spawn_saccade({"--log-level", "warn", "run", file, "--process", "head_pc", "--frames",
+                                     std::to_string(frames), "--topic-prefix", prefix});
   ASSERT_GT(child, 0);
   Status status;
   std::atomic<bool> finished{false};

@@ -26,7 +26,8 @@ std::shared_ptr<Image> gray_image(const std::string& name, double scale = 1.0) {
 }
 
 TEST(BaselineFilters, EqualTheOpenCvCallsTheyWrap) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="baseline.filters"><param name="features" value="all"/></node>)");
+  auto h =
+      testing::NodeHarness::create(R"(<node plugin="baseline.filters"><param name="features" value="all"/></node>)");
   ASSERT_NE(h, nullptr);
   auto image = gray_image("basketball1.png");
   h->set("image", image);
@@ -91,8 +92,9 @@ TEST(BaselineStereo, AloeBothWaysWithBmAndSgbm) {
   cv::resize(gt8, gt8, l->mat.size(), 0, 0, cv::INTER_NEAREST);
   gt8.convertTo(gt, CV_32F, s);
   for (const char* algorithm : {"bm", "sgbm"}) {
-    auto h = testing::NodeHarness::create(std::string("<node plugin=\"baseline.stereo\"><param name=\"algorithm\" value=\"") +
-                                          algorithm + "\"/><param name=\"num_disparities\" value=\"64\"/></node>");
+    auto h = testing::NodeHarness::create(
+        std::string("<node plugin=\"baseline.stereo\"><param name=\"algorithm\" value=\"") + algorithm +
+        "\"/><param name=\"num_disparities\" value=\"64\"/></node>");
     ASSERT_NE(h, nullptr);
     h->set("left", l);
     h->set("right", r);

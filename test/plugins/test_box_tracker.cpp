@@ -35,7 +35,8 @@ struct Scene {
 
   cv::Mat render(cv::Point2d camera, cv::Point2d center, double scale = 0.3, double gain = 1.0,
                  cv::Rect occluder = {}) const {
-    cv::Mat out = background(cv::Rect(cv::Point(static_cast<int>(camera.x), static_cast<int>(camera.y)), frame)).clone();
+    cv::Mat out =
+        background(cv::Rect(cv::Point(static_cast<int>(camera.x), static_cast<int>(camera.y)), frame)).clone();
     cv::Mat t;
     cv::resize(target, t, cv::Size(), scale, scale, cv::INTER_AREA);
     const cv::Rect where(static_cast<int>(std::lround(center.x - t.cols / 2.0)),
@@ -60,7 +61,9 @@ cv::Point2d center(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b.hei
 TEST(BoxTracker, FollowsATargetAcrossARealBackgroundWhileTheCameraPans) {
   const Scene scene;
   BoxTracker tracker;
-  const auto path = [](int k) { return cv::Point2d(100 + 1.2 * k + 10 * std::sin(k * 0.1), 110 + 25 * std::sin(k * 0.05)); };
+  const auto path = [](int k) {
+    return cv::Point2d(100 + 1.2 * k + 10 * std::sin(k * 0.1), 110 + 25 * std::sin(k * 0.05));
+  };
   const auto camera = [](int k) { return cv::Point2d(50 + 0.5 * k, 40 + 5 * std::sin(k * 0.3)); };
   ASSERT_EQ(tracker.init(scene.render(camera(0), path(0)), scene.box(path(0))), "");
   double total = 0;
@@ -124,7 +127,9 @@ TEST(BoxTracker, AHiddenTargetIsLostAndFoundAgainWhenItReappears) {
   int found_after = -1;
   for (int k = 0; k < 40 && found_after < 0; ++k) {
     const TrackEstimate e = tracker.update(scene.render({60, 60}, after));
-    if (std::getenv("SACCADE_TEST_VERBOSE")) std::printf("after %d %s %.1f %.1f,%.1f\n", k, to_string(e.state), e.confidence, center(e.box).x, center(e.box).y);
+    if (std::getenv("SACCADE_TEST_VERBOSE"))
+      std::printf("after %d %s %.1f %.1f,%.1f\n", k, to_string(e.state), e.confidence, center(e.box).x,
+                  center(e.box).y);
     if (e.state == TrackState::kTracking && cv::norm(center(e.box) - after) < 6) found_after = k;
   }
   EXPECT_GE(found_after, 0) << "never found again";
@@ -156,7 +161,7 @@ TEST(BoxTracker, RefusesBoxesItCannotFollowAndSaysWhy) {
   EXPECT_NE(t.init(frame, {100, 100, 5, 5}).find("box 100,100,5,5"), std::string::npos);
   const cv::Mat flat(240, 320, CV_8UC3, cv::Scalar(90, 90, 90));
   EXPECT_NE(t.init(flat, {100, 100, 40, 40}).find("flat"), std::string::npos);
-  EXPECT_FALSE(t.initialised());
+  EXPECT_FALSE(t.initialized());
   EXPECT_NE(t.init(cv::Mat(), {100, 100, 40, 40}), "");
   // A refused box leaves a tracker that follows a target as it was.
   const cv::Point2d c(160, 120);

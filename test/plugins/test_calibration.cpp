@@ -107,7 +107,8 @@ void expect_same(const HeadCalibration& a, const HeadCalibration& b) {
   EXPECT_LT(cv::norm(a.right_matrix - b.right_matrix), 1e-9);
   ASSERT_EQ(a.left_distortion.size(), b.left_distortion.size());
   ASSERT_EQ(a.right_distortion.size(), b.right_distortion.size());
-  for (std::size_t i = 0; i < a.left_distortion.size(); ++i) EXPECT_NEAR(a.left_distortion[i], b.left_distortion[i], 1e-12);
+  for (std::size_t i = 0; i < a.left_distortion.size(); ++i)
+    EXPECT_NEAR(a.left_distortion[i], b.left_distortion[i], 1e-12);
   for (std::size_t i = 0; i < a.right_distortion.size(); ++i)
     EXPECT_NEAR(a.right_distortion[i], b.right_distortion[i], 1e-12);
   EXPECT_LT(cv::norm(a.rotation - b.rotation), 1e-12);
@@ -263,7 +264,8 @@ TEST(Calibration, MismatchedAndUnreadableImagesAreErrors) {
   pairs.push_back({missing, pairs[0].right, {}, {}});
   pairs.push_back({pairs[0].left, not_an_image, {}, {}});
   const CalibrationResult r = calibrate_head(pairs, chessboard());
-  EXPECT_NE(r.error.find("pair '" + pairs[3].left + "' (640x480) and 'small_right04.png' (320x240): the two images "
+  EXPECT_NE(r.error.find("pair '" + pairs[3].left +
+                         "' (640x480) and 'small_right04.png' (320x240): the two images "
                          "differ in size"),
             std::string::npos)
       << r.error;
@@ -295,7 +297,8 @@ TEST(Calibration, BadBoardsAreRefused) {
   cv::Size size;
   EXPECT_TRUE(parse_board_size("9x6", size));
   EXPECT_EQ(size, cv::Size(9, 6));
-  for (const char* bad : {"9", "9x", "x6", "9x6x2", "-9x6", "9 x 6", "0x6", ""}) EXPECT_FALSE(parse_board_size(bad, size)) << bad;
+  for (const char* bad : {"9", "9x", "x6", "9x6x2", "-9x6", "9 x 6", "0x6", ""})
+    EXPECT_FALSE(parse_board_size(bad, size)) << bad;
 }
 
 TEST(Calibration, ImageListAsStereoCalibXml) {
@@ -307,7 +310,12 @@ TEST(Calibration, ImageListAsStereoCalibXml) {
   const std::string odd = (out_dir() / "odd_list.yml").string();
   {
     cv::FileStorage file(odd, cv::FileStorage::WRITE);
-    file << "images" << "[" << "a.jpg" << "b.jpg" << "c.jpg" << "]";
+    file << "images"
+         << "["
+         << "a.jpg"
+         << "b.jpg"
+         << "c.jpg"
+         << "]";
   }
   pairs.clear();
   EXPECT_NE(read_image_list(odd, pairs).find("has 3 names"), std::string::npos);
@@ -349,7 +357,8 @@ TEST(Calibration, CharucoPairsOfAKnownHead) {
         return out;
       };
       const std::string name = "charuco" + std::to_string(n++);
-      pairs.push_back({name + "_left", name + "_right", view(rb, tb), view(rotation * rb, rotation * tb + translation)});
+      pairs.push_back(
+          {name + "_left", name + "_right", view(rb, tb), view(rotation * rb, rotation * tb + translation)});
     }
   CalibrationOptions options;
   options.board = board;

@@ -62,12 +62,12 @@ TEST(CanFilter, TruthTableOfTheKernelsSemantics) {
     bool sff, other, eff, rtr;
   };
   const Row rows[] = {
-      {{0, 0}, true, true, true, true},                                  // the default: everything
-      {{0x181, kSffMask}, true, false, true, true},                      // id only: extended 0x181 matches too
-      {Filter::exact(0x181), true, false, false, true},                  // standard format only
+      {{0, 0}, true, true, true, true},                                      // the default: everything
+      {{0x181, kSffMask}, true, false, true, true},                          // id only: extended 0x181 matches too
+      {Filter::exact(0x181), true, false, false, true},                      // standard format only
       {{0x181, kSffMask | kEffFlag | kRtrFlag}, true, false, false, false},  // data frames only
-      {{0x180, 0x7F0}, true, true, true, true},                          // a range: 0x180..0x18F
-      {{0x181 | kInvFilter, kSffMask}, false, true, false, false},       // inverted
+      {{0x180, 0x7F0}, true, true, true, true},                              // a range: 0x180..0x18F
+      {{0x181 | kInvFilter, kSffMask}, false, true, false, false},           // inverted
       {{0x181 | kEffFlag, kEffMask | kEffFlag}, false, false, true, false},  // extended 0x181 only
   };
   for (const Row& r : rows) {
@@ -189,9 +189,9 @@ TEST(VirtualBus, BusOffAndErrorPassiveReportErrorFrames) {
 
 // Captured from cannelloni's encoder: sequence 7, an SDO upload request, an
 // extended remote frame and an FD frame with bit-rate switch.
-const std::vector<uint8_t> kGolden = {0x02, 0x00, 0x07, 0x00, 0x03,                                      //
+const std::vector<uint8_t> kGolden = {0x02, 0x00, 0x07, 0x00, 0x03,                                   //
                                       0x00, 0x00, 0x06, 0x01, 0x08, 0x40, 0x64, 0x60, 0, 0, 0, 0, 0,  //
-                                      0xC0, 0x01, 0x23, 0x45, 0x04,                                    //
+                                      0xC0, 0x01, 0x23, 0x45, 0x04,                                   //
                                       0x00, 0x00, 0x01, 0x81, 0x82, 0x01, 0xAA, 0xBB};
 
 std::vector<Frame> golden_frames() {
@@ -239,8 +239,12 @@ TEST(Cannelloni, RejectsMalformedPacketsWithTheReason) {
       {"op code", {0x02, 0x01, 0x00, 0x00, 0x00}, "op code 1"},
       {"truncated data", truncated, "frame 3 of 3: truncated data"},
       {"trailing bytes", trailing, "1 bytes after the last frame"},
-      {"count beyond the data", {0x02, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x01, 0x00, 0x00}, "frame 2 of 2: truncated header"},
-      {"classic len 9", {0x02, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x01, 0x00, 0x09, 1, 2, 3, 4, 5, 6, 7, 8, 9}, "classic length 9 > 8"},
+      {"count beyond the data",
+       {0x02, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x01, 0x00, 0x00},
+       "frame 2 of 2: truncated header"},
+      {"classic len 9",
+       {0x02, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x01, 0x00, 0x09, 1, 2, 3, 4, 5, 6, 7, 8, 9},
+       "classic length 9 > 8"},
       {"FD len 65", {0x02, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x01, 0x00, 0x80 | 65, 0x00}, "FD length 65 > 64"},
   };
   for (const Case& c : cases) {
@@ -426,7 +430,9 @@ cannelloni::Key test_key(uint8_t first) {
 
 // The tag's view of a link from `from` to the tunnel on 127.0.0.1:`to_port`.
 cannelloni::LinkEnds ends(const RawEnd& from, int to_port) {
-  return {.from_addr = from.self.sin_addr.s_addr, .to_addr = htonl(INADDR_LOOPBACK), .from_port = from.self.sin_port,
+  return {.from_addr = from.self.sin_addr.s_addr,
+          .to_addr = htonl(INADDR_LOOPBACK),
+          .from_port = from.self.sin_port,
           .to_port = htons(static_cast<uint16_t>(to_port))};
 }
 
@@ -512,8 +518,8 @@ TEST(UdpTunnel, AKeyedTunnelTakesOnlyAuthenticNewPacketsOfThePeersNewestSession)
   EXPECT_EQ(next_id(*t), -1);
   EXPECT_EQ(c.unauthenticated, 3u) << "another key";
   // Its own packet sent back to it (the tag covers who sent it to whom).
-  const cannelloni::LinkEnds reflected{.from_addr = link.to_addr, .to_addr = link.from_addr,
-                                       .from_port = link.to_port, .to_port = link.from_port};
+  const cannelloni::LinkEnds reflected{
+      .from_addr = link.to_addr, .to_addr = link.from_addr, .from_port = link.to_port, .to_port = link.from_port};
   peer.send_to(pt, sealed(sender, 5, epoch, 4, reflected));
   EXPECT_EQ(next_id(*t), -1);
   EXPECT_EQ(c.unauthenticated, 4u) << "reflected";
@@ -666,8 +672,10 @@ TEST(CanNodes, TheTunnelsDropsAreInTheNodesStatsAndStatsJson) {
   RawEnd peer(pr), intruder(0);
   auto run = test::open_graph(R"(<graph name="keyed_tap">
     <node name="tap" plugin="can.tap">
-      <param name="bus" value="udp:)" + std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr) + R"("/>
-      <param name="key_file" value=")" + key_file + R"("/>
+      <param name="bus" value="udp:)" +
+                              std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr) + R"("/>
+      <param name="key_file" value=")" +
+                              key_file + R"("/>
       <param name="period_ms" value="20"/>
       <param name="duration" value="0.3"/>
     </node>
@@ -690,7 +698,8 @@ TEST(CanNodes, TheTunnelsDropsAreInTheNodesStatsAndStatsJson) {
   EXPECT_EQ(own_counter(tap, "bus_malformed"), 0u);
   const std::string json = ::testing::TempDir() + "can_stats_" + std::to_string(::getpid()) + ".json";
   std::ofstream(json) << run->executor->stats_json();
-  for (const auto& field : kBusCounterFields) EXPECT_GE(test::stats_counter(json, "tap", std::string("bus_") + field.name), 0) << field.name;
+  for (const auto& field : kBusCounterFields)
+    EXPECT_GE(test::stats_counter(json, "tap", std::string("bus_") + field.name), 0) << field.name;
   EXPECT_EQ(test::stats_counter(json, "tap", "bus_foreign"), 1);
   EXPECT_EQ(test::stats_counter(json, "tap", "bus_unauthenticated"), 1);
   EXPECT_EQ(test::stats_counter(json, "tap", "bus_replayed"), 1);
@@ -704,10 +713,10 @@ TEST(CanNodes, CanSendSealsItsPacketsAndCountsThem) {
   const auto [ps, pr] = test::free_udp_ports();
   RawEnd peer(pr);
   std::string error;
-  auto send = testing::NodeHarness::create("<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:" +
-                                               std::to_string(ps) + ":127.0.0.1:" + std::to_string(pr) +
-                                               "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>",
-                                           &error);
+  auto send = testing::NodeHarness::create(
+      "<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:" + std::to_string(ps) +
+          ":127.0.0.1:" + std::to_string(pr) + "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>",
+      &error);
   ASSERT_NE(send, nullptr) << error;
   auto out = std::make_shared<CanFrames>();
   CanFrames::Frame m;
@@ -724,8 +733,10 @@ TEST(CanNodes, CanSendSealsItsPacketsAndCountsThem) {
   cannelloni::Authenticator check(test_key(0));
   std::size_t payload = 0;
   uint64_t epoch = 0, counter = 0;
-  cannelloni::LinkEnds link{.from_addr = htonl(INADDR_LOOPBACK), .to_addr = peer.self.sin_addr.s_addr,
-                            .from_port = htons(static_cast<uint16_t>(ps)), .to_port = peer.self.sin_port};
+  cannelloni::LinkEnds link{.from_addr = htonl(INADDR_LOOPBACK),
+                            .to_addr = peer.self.sin_addr.s_addr,
+                            .from_port = htons(static_cast<uint16_t>(ps)),
+                            .to_port = peer.self.sin_port};
   ASSERT_TRUE(check.open(packet.data(), packet.size(), link, payload, epoch, counter));
   EXPECT_EQ(counter, 1u);
   EXPECT_GT(epoch, 0u);
@@ -735,10 +746,10 @@ TEST(CanNodes, CanSendSealsItsPacketsAndCountsThem) {
   EXPECT_EQ(frames.size(), 2u);
   // A group-readable key file is refused when the node opens, naming the fix.
   ::chmod(key_file.c_str(), 0640);
-  EXPECT_EQ(testing::NodeHarness::create("<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:0:127.0.0.1:" +
-                                             std::to_string(pr) + "\"/><param name=\"key_file\" value=\"" + key_file +
-                                             "\"/></node>",
-                                         &error),
+  EXPECT_EQ(testing::NodeHarness::create(
+                "<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:0:127.0.0.1:" + std::to_string(pr) +
+                    "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>",
+                &error),
             nullptr);
   EXPECT_NE(error.find("chmod 600"), std::string::npos) << error;
   ::unlink(key_file.c_str());
@@ -754,14 +765,18 @@ TEST(CanNodes, TheDriverAndTheDrivesRunOverAKeyedTunnel) {
   testing::Recorder::instance().clear();
   auto run = test::open_graph(R"(<graph name="keyed_loop">
     <node name="driver" plugin="can.driver">
-      <param name="bus" value="udp:)" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb) + R"("/>
-      <param name="key_file" value=")" + key_file + R"("/>
+      <param name="bus" value="udp:)" +
+                              std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb) + R"("/>
+      <param name="key_file" value=")" +
+                              key_file + R"("/>
       <param name="duration" value="2.5"/>
       <param name="wait_ms" value="2"/>
     </node>
     <node name="drives" plugin="can.drives">
-      <param name="bus" value="udp:)" + std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa) + R"("/>
-      <param name="key_file" value=")" + key_file + R"("/>
+      <param name="bus" value="udp:)" +
+                              std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa) + R"("/>
+      <param name="key_file" value=")" +
+                              key_file + R"("/>
       <param name="duration" value="2.5"/>
     </node>
     <node name="state" plugin="util.record"/>

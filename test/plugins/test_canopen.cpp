@@ -32,7 +32,8 @@ TEST(Statusword, EveryStateRoundTripsAndRealDriveWordsDecode) {
 TEST(Controlword, TheProfilesTransitions) {
   using S = DriveState;
   EXPECT_EQ(next_state(S::kSwitchOnDisabled, control::kShutdown), S::kReadyToSwitchOn);
-  EXPECT_EQ(next_state(S::kSwitchOnDisabled, control::kEnableOperation), S::kSwitchOnDisabled) << "needs shutdown first";
+  EXPECT_EQ(next_state(S::kSwitchOnDisabled, control::kEnableOperation), S::kSwitchOnDisabled)
+      << "needs shutdown first";
   EXPECT_EQ(next_state(S::kReadyToSwitchOn, control::kSwitchOn), S::kSwitchedOn);
   EXPECT_EQ(next_state(S::kSwitchedOn, control::kEnableOperation), S::kOperationEnabled);
   EXPECT_EQ(next_state(S::kOperationEnabled, control::kDisableOperation), S::kSwitchedOn);
@@ -308,7 +309,8 @@ struct Head {
     bus->set_time(now);
   }
   bool ready() const {
-    return !feedback.empty() && std::all_of(feedback.begin(), feedback.end(), [](const JointFeedback& f) { return f.health == DriveHealth::kReady; });
+    return !feedback.empty() && std::all_of(feedback.begin(), feedback.end(),
+                                            [](const JointFeedback& f) { return f.health == DriveHealth::kReady; });
   }
 };
 
@@ -509,9 +511,12 @@ TEST(Master, TheSetPointHandshakeHoldsWhateverArrivesBetweenCycles) {
           rises_this_period = 0;
           if (n == 1) ++syncs;
         } else if (f.id == cob::tpdo1(n) && parse_tpdo1(f, word, mode)) {
-          if ((word & pp::kSetPointAcknowledge) != 0) ack_seen = high;
-          else ack_low_seen = ack_low_seen || !high;
-        } else if (f.id == cob::rpdo1(n) && parse_rpdo1(f, word, mode) && (word & control::kEnableOperation) == control::kEnableOperation) {
+          if ((word & pp::kSetPointAcknowledge) != 0)
+            ack_seen = high;
+          else
+            ack_low_seen = ack_low_seen || !high;
+        } else if (f.id == cob::rpdo1(n) && parse_rpdo1(f, word, mode) &&
+                   (word & control::kEnableOperation) == control::kEnableOperation) {
           const bool bit4 = (word & pp::kNewSetPoint) != 0;
           if (bit4 && !high) {
             EXPECT_TRUE(ack_low_seen) << "node " << n << ": a set-point before the acknowledge was seen low";

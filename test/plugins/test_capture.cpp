@@ -76,14 +76,16 @@ TEST(CaptureVideo, LoopsWithIncreasingTimestampsAndResizes) {
 
 TEST(CaptureVideo, MissingFileIsAClearError) {
   std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="capture.video"><param name="path" value="/no/such.avi"/></node>)", &error);
+  auto h = testing::NodeHarness::create(
+      R"(<node plugin="capture.video"><param name="path" value="/no/such.avi"/></node>)", &error);
   EXPECT_EQ(h, nullptr);
   EXPECT_NE(error.find("/no/such.avi: no such video file"), std::string::npos) << error;
 }
 
 TEST(CaptureImages, ReadsTheSequenceUpToTheFirstGap) {
   // left01..left09 exist, left10 does not.
-  auto h = harness("<node plugin=\"capture.images\"><param name=\"pattern\" value=\"" + sample_path("left01.jpg").substr(0, sample_path("left01.jpg").size() - 6) +
+  auto h = harness("<node plugin=\"capture.images\"><param name=\"pattern\" value=\"" +
+                   sample_path("left01.jpg").substr(0, sample_path("left01.jpg").size() - 6) +
                    "%02d.jpg\"/><param name=\"rate\" value=\"fast\"/></node>");
   int n = 0;
   while (h->process().ok()) ++n;
@@ -96,8 +98,7 @@ TEST(CaptureImage, RepeatsOneImageWithoutCopying) {
   auto h = harness("<node plugin=\"capture.image\"><param name=\"path\" value=\"" + sample_path("aloeL.jpg") +
                    "\"/><param name=\"count\" value=\"3\"/><param name=\"rate\" value=\"fast\"/>"
                    "<param name=\"color\" value=\"unchanged\"/></node>");
-  while (h->process().ok()) {
-  }
+  while (h->process().ok()) {}
   const auto& out = h->outputs("image");
   ASSERT_EQ(out.size(), 3u);
   auto a = std::dynamic_pointer_cast<const Image>(out[0]);
@@ -131,15 +132,16 @@ TEST(CaptureStereo, TheAloePairComesOutTimeMatched) {
 
 TEST(CaptureCamera, AbsentDeviceIsAClearError) {
   std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="capture.camera"><param name="device" value="/dev/video97"/></node>)", &error);
+  auto h = testing::NodeHarness::create(
+      R"(<node plugin="capture.camera"><param name="device" value="/dev/video97"/></node>)", &error);
   EXPECT_EQ(h, nullptr);
   EXPECT_NE(error.find("camera '/dev/video97' cannot be opened"), std::string::npos) << error;
 }
 
 TEST(CaptureCamera, AnIndexPastAnyDeviceIsAClearErrorNotAThrow) {
   std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="capture.camera"><param name="device" value="99999999999"/></node>)",
-                                        &error);
+  auto h = testing::NodeHarness::create(
+      R"(<node plugin="capture.camera"><param name="device" value="99999999999"/></node>)", &error);
   EXPECT_EQ(h, nullptr);
   EXPECT_NE(error.find("camera '99999999999': a V4L2 index is 0..9999"), std::string::npos) << error;
 }
@@ -177,9 +179,8 @@ TEST(CaptureImage, AFifoAndAnImageLargerThanTheLimitAreErrors) {
   std::filesystem::remove(fifo);
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   std::string error;
-  EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="capture.image"><param name="path" value=")" + fifo +
-                                             R"("/></node>)",
-                                         &error),
+  EXPECT_EQ(testing::NodeHarness::create(
+                R"(<node plugin="capture.image"><param name="path" value=")" + fifo + R"("/></node>)", &error),
             nullptr);
   EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
   std::filesystem::remove(fifo);
@@ -205,9 +206,8 @@ TEST(CaptureImage, AFifoAndAnImageLargerThanTheLimitAreErrors) {
   const std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) + chunk("IEND", "");
   const std::string huge = (std::filesystem::temp_directory_path() / "saccade_capture_huge.png").string();
   std::ofstream(huge, std::ios::binary) << png;
-  EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="capture.image"><param name="path" value=")" + huge +
-                                             R"("/></node>)",
-                                         &error),
+  EXPECT_EQ(testing::NodeHarness::create(
+                R"(<node plugin="capture.image"><param name="path" value=")" + huge + R"("/></node>)", &error),
             nullptr);
   EXPECT_NE(error.find("a 20000x20000 image; at most 67108864 pixels are read"), std::string::npos) << error;
   std::filesystem::remove(huge);
@@ -217,8 +217,7 @@ TEST(CaptureSynthetic, TruthIsWhereTheTargetIsDrawnAndTheRightViewIsShifted) {
   // Synthetic data: a textured square over vtest.avi's first frame.
   auto h = harness("<node plugin=\"capture.synthetic\"><param name=\"background\" value=\"" + sample_path("vtest.avi") +
                    "\"/><param name=\"disparity\" value=\"9\"/><param name=\"count\" value=\"20\"/></node>");
-  while (h->process().ok()) {
-  }
+  while (h->process().ok()) {}
   ASSERT_EQ(h->outputs("image").size(), 20u);
   ASSERT_EQ(h->outputs("truth").size(), 20u);
   ASSERT_EQ(h->outputs("right").size(), 20u);

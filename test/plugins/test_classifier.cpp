@@ -200,7 +200,8 @@ TEST(ClassifierPlugin, ClassifiesTheFoveaAndOffersItAsATarget) {
 
 TEST(ClassifierPlugin, RefusesAModelWhoseRecipeDiffersFromTheGraphs) {
   std::string error;
-  EXPECT_FALSE(testing::NodeHarness::create("<node plugin=\"classifier\"><param name=\"model\" value=\"" + stripes_model() +
+  EXPECT_FALSE(testing::NodeHarness::create("<node plugin=\"classifier\"><param name=\"model\" value=\"" +
+                                                stripes_model() +
                                                 "\"/><param name=\"features\" value=\"gray,laplacian\"/></node>",
                                             &error));
   EXPECT_NE(error.find("trained on levels 0; features gray,grad_hist"), std::string::npos) << error;
@@ -211,7 +212,8 @@ TEST(ClassifierPlugin, RefusesAModelWhoseRecipeDiffersFromTheGraphs) {
 }
 
 TEST(TrainFolder, WritesAModelAndPrintsProgressAndTheConfusionMatrix) {
-  const fs::path root = fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier" / ("folder_" + std::to_string(::getpid()));
+  const fs::path root =
+      fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier" / ("folder_" + std::to_string(::getpid()));
   fs::remove_all(root);
   for (int c = 0; c < 2; ++c) {
     fs::create_directories(root / (c ? "horizontal" : "vertical"));
@@ -287,10 +289,10 @@ TEST(DigitsAccuracy, TheRetinaFeaturesAndBackpropReachTheFloor) {
     knn_right += static_cast<int>(knn_out.at<float>(i)) == test_y[static_cast<std::size_t>(i)];
     svm_right += static_cast<int>(svm_out.at<float>(i)) == test_y[static_cast<std::size_t>(i)];
   }
-  std::printf("digits, test set of 1000: retina features + MLP (backprop) %.3f; raw pixels: kNN (k=5) %.3f, SVM (RBF) "
-              "%.3f\n%s",
-              ours, knn_right / 1000.0, svm_right / 1000.0,
-              format_confusion(confusion(model, test_x, test_y), names).c_str());
+  std::printf(
+      "digits, test set of 1000: retina features + MLP (backprop) %.3f; raw pixels: kNN (k=5) %.3f, SVM (RBF) "
+      "%.3f\n%s",
+      ours, knn_right / 1000.0, svm_right / 1000.0, format_confusion(confusion(model, test_x, test_y), names).c_str());
   EXPECT_GE(ours, 0.95);
 }
 
@@ -343,7 +345,9 @@ struct TwoObjects {
       cv::fillConvexPoly(mask, poly, cv::Scalar(255), cv::LINE_AA);
       const double a = angle * CV_PI / 180;
       const cv::Point2d u(std::cos(a), std::sin(a)), v(-std::sin(a), std::cos(a));
-      auto at = [&](double du, double dv) { return cv::Point2d(c) + u * (du * size.width / 2) + v * (dv * size.height / 2); };
+      auto at = [&](double du, double dv) {
+        return cv::Point2d(c) + u * (du * size.width / 2) + v * (dv * size.height / 2);
+      };
       cv::line(object, at(0, -0.8), at(0, 0.8), cv::Scalar(230), 1, cv::LINE_AA);
       for (auto [du, dv] : {std::pair{-0.5, 0.0}, {0.5, -0.45}, {0.5, 0.45}, {0.75, 0.0}, {0.25, 0.0}})
         cv::circle(object, at(du, dv), std::max(1, static_cast<int>(std::lround(1.6 * scale))), cv::Scalar(240),
@@ -404,10 +408,14 @@ TEST(TwoObjectsAccuracy, BallAndDominoInVtestFramesBeatThePaper) {
       model.scores(rows.row(i), scores);
       int best = -1;
       const auto outcome = decide(scores, thresholds, &best);
-      if (outcome != Classification::Outcome::kNotClassified && best != kind) ++counts[3];
-      else if (outcome == Classification::Outcome::kClassified) ++counts[0];
-      else if (outcome == Classification::Outcome::kProbable) ++counts[1];
-      else ++counts[2];
+      if (outcome != Classification::Outcome::kNotClassified && best != kind)
+        ++counts[3];
+      else if (outcome == Classification::Outcome::kClassified)
+        ++counts[0];
+      else if (outcome == Classification::Outcome::kProbable)
+        ++counts[1];
+      else
+        ++counts[2];
     }
     classified_share[kind] = counts[0] / static_cast<double>(rows.rows);
     std::printf("| %s | %d (%.0f%%) | %d | %d | %d |\n", kind == 0 ? "ball" : "domino", counts[0],

@@ -371,20 +371,23 @@ TEST(DdsWire, EveryDescribedFieldOfEveryTypeSurvivesTheWire) {
   expect_every_field_round_trips<saccade::FeatureMaps, saccade_idl::FeatureMaps, saccade_idl::FeatureMapsPubSubType>();
   expect_every_field_round_trips<saccade::Motion, saccade_idl::Motion, saccade_idl::MotionPubSubType>();
   expect_every_field_round_trips<saccade::Region, saccade_idl::Region, saccade_idl::RegionPubSubType>();
-  expect_every_field_round_trips<saccade::StereoFixation, saccade_idl::StereoFixation, saccade_idl::StereoFixationPubSubType>();
+  expect_every_field_round_trips<saccade::StereoFixation, saccade_idl::StereoFixation,
+                                 saccade_idl::StereoFixationPubSubType>();
   expect_every_field_round_trips<saccade::GazeRequest, saccade_idl::GazeRequest, saccade_idl::GazeRequestPubSubType>();
   expect_every_field_round_trips<saccade::JointState, saccade_idl::JointState, saccade_idl::JointStatePubSubType>();
-  expect_every_field_round_trips<saccade::JointTargets, saccade_idl::JointTargets, saccade_idl::JointTargetsPubSubType>();
+  expect_every_field_round_trips<saccade::JointTargets, saccade_idl::JointTargets,
+                                 saccade_idl::JointTargetsPubSubType>();
   expect_every_field_round_trips<saccade::HeadPose, saccade_idl::HeadPose, saccade_idl::HeadPosePubSubType>();
   expect_every_field_round_trips<saccade::FoveaState, saccade_idl::FoveaState, saccade_idl::FoveaStatePubSubType>();
-  expect_every_field_round_trips<saccade::Classification, saccade_idl::Classification, saccade_idl::ClassificationPubSubType>();
+  expect_every_field_round_trips<saccade::Classification, saccade_idl::Classification,
+                                 saccade_idl::ClassificationPubSubType>();
   expect_every_field_round_trips<saccade::CanFrames, saccade_idl::CanFrames, saccade_idl::CanFramesPubSubType>();
   EXPECT_EQ(described_message_types().size(), 13u) << "a new type needs its line here";
 }
 
 TEST(DdsWire, EveryMessageTypeHasACodec) {
-  for (auto type : {"Image", "Retina", "FeatureMaps", "Motion", "Region", "StereoFixation", "GazeRequest", "JointState", "JointTargets", "HeadPose",
-                    "FoveaState", "Classification", "CanFrames"}) {
+  for (auto type : {"Image", "Retina", "FeatureMaps", "Motion", "Region", "StereoFixation", "GazeRequest", "JointState",
+                    "JointTargets", "HeadPose", "FoveaState", "Classification", "CanFrames"}) {
     const dds::Codec* codec = dds::find_codec(type);
     ASSERT_NE(codec, nullptr) << type;
     EXPECT_EQ(codec->type, type);
@@ -654,9 +657,9 @@ TEST(DdsRing, ZeroCopyPicksTheRingForImagesTheMailboxForOtherTypesOrWhatIsAsked)
   std::string error;
   EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true}, &error)->form, dds::Codec::Form::kRing);
   // The mailbox carries the serialised form.
-  EXPECT_EQ(dds::choose_codec("Retina", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialised);
+  EXPECT_EQ(dds::choose_codec("Retina", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialized);
   EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true, .shared_memory = SharedMemory::kMailbox}, &error)->form,
-            dds::Codec::Form::kSerialised);
+            dds::Codec::Form::kSerialized);
   // A reliable image edge is not promised every frame by a ring of reused buffers: loans.
   for (SharedMemory asked : {SharedMemory::kAuto, SharedMemory::kRing})
     EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true, .shared_memory = asked, .reliable = true}, &error)->form,
@@ -666,11 +669,12 @@ TEST(DdsRing, ZeroCopyPicksTheRingForImagesTheMailboxForOtherTypesOrWhatIsAsked)
     ASSERT_NE(ring, nullptr) << error;
     EXPECT_EQ(ring->form, dds::Codec::Form::kRing) << type;
     EXPECT_TRUE(ring->make_type()->is_plain()) << type << ": data sharing for the small sample too";
-    const dds::Codec* loans = dds::choose_codec(type, {.zero_copy = true, .shared_memory = SharedMemory::kLoans}, &error);
+    const dds::Codec* loans =
+        dds::choose_codec(type, {.zero_copy = true, .shared_memory = SharedMemory::kLoans}, &error);
     ASSERT_NE(loans, nullptr) << error;
     EXPECT_EQ(loans->form, dds::Codec::Form::kPlain) << type;
   }
-  EXPECT_EQ(dds::choose_codec("JointState", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialised);
+  EXPECT_EQ(dds::choose_codec("JointState", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialized);
 }
 
 TEST(DdsMailbox, OnlyZeroCopySerialisedEdgesThatDoNotAskForLoansUseTheMailbox) {
@@ -736,21 +740,18 @@ TEST(DdsRos2, AnImageIsTheCdrBytesRos2Expects) {
   dds::to_ros2(in, {.frame_id = "ab", .joint_names = {}}, wire);
   std::vector<uint8_t> bytes;
   cdr_round_trip<ros::Image_, ros::Image_PubSubType>(wire, &bytes);
-  const int pad = -1;  // alignment padding: any value
-  const std::vector<int> expected = {
-      0, 1, 0, 0,                                 // encapsulation: CDR little endian
-      1, 0, 0, 0, 2, 0, 0, 0,                     // header.stamp.sec, nanosec
-      3, 0, 0, 0, 'a', 'b', 0, pad,               // header.frame_id
-      1, 0, 0, 0, 2, 0, 0, 0,                     // height, width
-      6, 0, 0, 0, 'm', 'o', 'n', 'o', '8', 0,     // encoding
-      0, pad,                                     // is_bigendian
-      2, 0, 0, 0,                                 // step
-      2, 0, 0, 0, 7, 9};                          // data
+  const int pad = -1;                                                           // alignment padding: any value
+  const std::vector<int> expected = {0, 1,   0, 0,                              // encapsulation: CDR little endian
+                                     1, 0,   0, 0, 2,   0,   0,   0,            // header.stamp.sec, nanosec
+                                     3, 0,   0, 0, 'a', 'b', 0,   pad,          // header.frame_id
+                                     1, 0,   0, 0, 2,   0,   0,   0,            // height, width
+                                     6, 0,   0, 0, 'm', 'o', 'n', 'o', '8', 0,  // encoding
+                                     0, pad,                                    // is_bigendian
+                                     2, 0,   0, 0,                              // step
+                                     2, 0,   0, 0, 7,   9};                     // data
   ASSERT_EQ(bytes.size(), expected.size());
   for (std::size_t i = 0; i < bytes.size(); ++i)
-    if (expected[i] != pad) {
-      EXPECT_EQ(bytes[i], expected[i]) << "byte " << i;
-    }
+    if (expected[i] != pad) { EXPECT_EQ(bytes[i], expected[i]) << "byte " << i; }
 }
 
 TEST(DdsRos2, ImagesKeepPixelsStampAndCameraInEveryEncoding) {
@@ -764,8 +765,9 @@ TEST(DdsRos2, ImagesKeepPixelsStampAndCameraInEveryEncoding) {
   const cv::Mat color = test::random_image({64, 48}, 2, CV_8UC3);
   cv::Mat wide(6, 7, CV_16UC1);
   cv::randu(wide, 0, 65535);
-  std::vector<Case> cases = {{test::random_image({32, 24}, 1), "mono8"}, {color, "bgr8"}, {wide, "mono16"},
-                             {f, "32FC1"}, {s, "16SC2"}, {color(cv::Rect(3, 5, 17, 11)), "bgr8"}};
+  std::vector<Case> cases = {
+      {test::random_image({32, 24}, 1), "mono8"}, {color, "bgr8"}, {wide, "mono16"}, {f, "32FC1"}, {s, "16SC2"},
+      {color(cv::Rect(3, 5, 17, 11)), "bgr8"}};
   for (const auto& c : cases) {
     Image in, out;
     in.timestamp_ns = 1'700'000'000'123'456'789;
@@ -970,7 +972,8 @@ TEST(Channel, ImagesAndJointStatesTravelAsRos2Messages) {
   state.position = {0.1, -0.2, 0.3, 0.0, 0.5};
   state.velocity = {1, 2, 3, 4, 5};
   ASSERT_EQ(dds::make_encoder(*j)->encode(state, bytes), "");
-  auto back = std::dynamic_pointer_cast<const JointState>(dds::make_decoder(*j)->decode(bytes.data(), bytes.size(), why));
+  auto back =
+      std::dynamic_pointer_cast<const JointState>(dds::make_decoder(*j)->decode(bytes.data(), bytes.size(), why));
   ASSERT_NE(back, nullptr) << why;
   EXPECT_EQ(back->position, state.position);
 }

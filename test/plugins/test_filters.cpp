@@ -41,7 +41,9 @@ std::vector<cv::Mat> test_levels() {
 
 double tolerance(int f) {
   switch (f) {
-    case kGGradX: case kGGradY: case kGGradMag: return 2e-4;
+    case kGGradX:
+    case kGGradY:
+    case kGGradMag: return 2e-4;
     case kGradDir: return 1e-4;
     default: return 1e-5;  // integer masks: exact up to float rounding
   }
@@ -120,7 +122,8 @@ TEST(FilterBank, WorksOnRoiViews) {
   bank.run(view, a);
   bank.run(view.clone(), b);
   for (int f = 0; f < kFeatureCount; ++f)
-    EXPECT_EQ(test::max_abs_diff(a[static_cast<std::size_t>(f)], b[static_cast<std::size_t>(f)]), 0) << kFeatureNames[static_cast<std::size_t>(f)];
+    EXPECT_EQ(test::max_abs_diff(a[static_cast<std::size_t>(f)], b[static_cast<std::size_t>(f)]), 0)
+        << kFeatureNames[static_cast<std::size_t>(f)];
 }
 
 TEST(FilterBank, GaussianGradientOfARampIsExactlyItsSlope) {
@@ -146,7 +149,8 @@ TEST(FastAtan2, IsWithin1e5RadiansOfStdAtan2) {
     float a = static_cast<float>(i) * 0.0000628318f * 10 - 3.14159f;
     for (float r : {0.5f, 30.0f, 1000.0f}) {
       float y = r * std::sin(a), x = r * std::cos(a);
-      worst = std::max(worst, static_cast<double>(std::abs(std::remainder(fast_atan2(y, x) - std::atan2(y, x), 2 * CV_PI))));
+      worst = std::max(worst,
+                       static_cast<double>(std::abs(std::remainder(fast_atan2(y, x) - std::atan2(y, x), 2 * CV_PI))));
     }
   }
   EXPECT_LT(worst, 2e-5);
@@ -164,7 +168,8 @@ Retina make_retina(const cv::Mat& level, int n) {
 
 TEST(FilterBankNode, FlatRetinaStaysFlat) {
   std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="all"/></node>)", &error);
+  auto h = testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="all"/></node>)",
+                                        &error);
   ASSERT_NE(h, nullptr) << error;
   auto r = std::make_shared<Retina>(make_retina(cv::Mat(24, 32, CV_8UC1, cv::Scalar(90)), 5));
   h->set("retina", r);
@@ -173,14 +178,16 @@ TEST(FilterBankNode, FlatRetinaStaysFlat) {
   ASSERT_NE(maps, nullptr);
   EXPECT_EQ(maps->names.size(), static_cast<std::size_t>(kFeatureCount));
   EXPECT_EQ(maps->retina.get(), r.get());
-  for (const auto& level : *maps->find("gauss")) EXPECT_EQ(cv::norm(level, cv::Mat(24, 32, CV_32F, cv::Scalar(90)), cv::NORM_INF), 0);
+  for (const auto& level : *maps->find("gauss"))
+    EXPECT_EQ(cv::norm(level, cv::Mat(24, 32, CV_32F, cv::Scalar(90)), cv::NORM_INF), 0);
   for (const char* name : {"sobel_x", "sobel_y", "grad_mag", "laplacian", "log", "ggrad_mag"})
     for (const auto& level : *maps->find(name)) EXPECT_LE(cv::norm(level, cv::NORM_INF), 1e-3) << name;
   for (const auto& level : *maps->find("grad_mask")) EXPECT_EQ(cv::countNonZero(level), 0);
 }
 
 TEST(FilterBankNode, ImpulseGivesThe121Mask) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="gauss,laplacian"/></node>)");
+  auto h = testing::NodeHarness::create(
+      R"(<node plugin="filters.bank"><param name="features" value="gauss,laplacian"/></node>)");
   ASSERT_NE(h, nullptr);
   cv::Mat impulse = cv::Mat::zeros(24, 32, CV_8UC1);
   impulse.at<uint8_t>(10, 10) = 16;
@@ -197,7 +204,7 @@ TEST(FilterBankNode, ImpulseGivesThe121Mask) {
   EXPECT_EQ(l.at<float>(9, 10), 16.0f);
 }
 
-TEST(FilterBankNode, RefusesColourLevelsWithAHint) {
+TEST(FilterBankNode, RefusesColorLevelsWithAHint) {
   auto h = testing::NodeHarness::create(R"(<node plugin="filters.bank"/>)");
   h->set("retina", std::make_shared<Retina>(make_retina(cv::Mat(24, 32, CV_8UC3, cv::Scalar(1, 2, 3)), 2)));
   Status s = h->process();

@@ -34,7 +34,8 @@ void draw_target(cv::Mat& frame, cv::Point2d c, int seed = 1, int size = 16) {
       const bool dark = ((x / 2) + (y / 2)) % 2 == 0;
       texture.at<uint8_t>(y, x) = static_cast<uint8_t>((dark ? 30 : 220) + texture.at<uint8_t>(y, x) / 16);
     }
-  const cv::Point corner(static_cast<int>(std::lround(c.x - size / 2.0)), static_cast<int>(std::lround(c.y - size / 2.0)));
+  const cv::Point corner(static_cast<int>(std::lround(c.x - size / 2.0)),
+                         static_cast<int>(std::lround(c.y - size / 2.0)));
   texture.copyTo(frame(cv::Rect(corner, cv::Size(size, size))));
 }
 
@@ -65,7 +66,7 @@ TEST(Saliency, PeaksOnATargetAnywhereInTheFrame) {
   }
 }
 
-TEST(Saliency, BlobCentreIsTheObjectsCentreNotItsMostSalientCorner) {
+TEST(Saliency, BlobCenterIsTheObjectsCenterNotItsMostSalientCorner) {
   cv::Mat frame = plain_background();
   const cv::Point2d where(323, 245);
   draw_target(frame, where);
@@ -106,10 +107,10 @@ TEST(Saliency, MotionMakesTheMovingOneOfTwoTwinsWin) {
   EXPECT_LT(cv::norm(c.point - cv::Point2d(490, 240)), 30) << c.point;
 }
 
-TEST(Saliency, ColourTermPrefersTheWantedColour) {
+TEST(Saliency, ColorTermPrefersTheWantedColor) {
   cv::Mat frame(480, 640, CV_8UC3, cv::Scalar(100, 100, 100));
-  cv::circle(frame, {150, 240}, 10, cv::Scalar(0, 0, 255), cv::FILLED);   // red
-  cv::circle(frame, {490, 240}, 10, cv::Scalar(255, 0, 0), cv::FILLED);   // blue
+  cv::circle(frame, {150, 240}, 10, cv::Scalar(0, 0, 255), cv::FILLED);  // red
+  cv::circle(frame, {490, 240}, 10, cv::Scalar(255, 0, 0), cv::FILLED);  // blue
   auto retina = make_retina(frame, {320, 240});
   SaliencyConfig config;
   config.color = cv::Vec3d(255, 0, 0);
@@ -162,7 +163,7 @@ TEST(MatchTemplateNormed, IsOpenCvsNormalisedCorrelationCoefficient) {
   for (int trial = 0; trial < 4; ++trial) {
     cv::Mat window, templ, ours, theirs;
     test::random_image({40, 32}, 60 + trial).convertTo(window, CV_32F);
-    window(cv::Rect(0, 0, 14, 14)).setTo(90);  // flat placements score 0 in both
+    window(cv::Rect(0, 0, 14, 14)).setTo(90);        // flat placements score 0 in both
     window(cv::Rect(20, 10, 12, 12)).copyTo(templ);  // one perfect match
     match_template_normed(window, templ, ours, scratch);
     cv::matchTemplate(window, templ, theirs, cv::TM_CCOEFF_NORMED);
@@ -170,7 +171,8 @@ TEST(MatchTemplateNormed, IsOpenCvsNormalisedCorrelationCoefficient) {
     double worst = 0;
     cv::Point at;
     for (int y = 0; y < ours.rows; ++y)
-      for (int x = 0; x < ours.cols; ++x) worst = std::max(worst, std::fabs(double(ours.at<float>(y, x)) - theirs.at<float>(y, x)));
+      for (int x = 0; x < ours.cols; ++x)
+        worst = std::max(worst, std::fabs(double(ours.at<float>(y, x)) - theirs.at<float>(y, x)));
     EXPECT_LT(worst, 1e-4) << "trial " << trial;
     cv::minMaxLoc(ours, nullptr, nullptr, nullptr, &at);
     EXPECT_EQ(at, cv::Point(20, 10));
@@ -267,7 +269,7 @@ TEST(FoveaController, ReportsLostThenSearchesAndFindsTheTargetAgain) {
   EXPECT_LT(cv::norm(loop.fovea - cv::Point2d(150, 380)), 3.0);
 }
 
-TEST(FoveaController, AsksTheHeadToTurnWhenTheFoveaReachesTheMarginAndRecentresAfterwards) {
+TEST(FoveaController, AsksTheHeadToTurnWhenTheFoveaReachesTheMarginAndRecentersAfterwards) {
   ControllerConfig config;
   config.border_margin = 20;
   config.hfov_deg = 90;  // focal = half the width: direction x = (u - cx) / 320
@@ -280,9 +282,7 @@ TEST(FoveaController, AsksTheHeadToTurnWhenTheFoveaReachesTheMarginAndRecentresA
     draw_target(frame, p);
     Decision d = loop.step(frame, k);
     const bool near = d.next.x + 16 > 640 - 20;
-    if (!near) {
-      EXPECT_FALSE(d.gaze) << "frame " << k;
-    }
+    if (!near) { EXPECT_FALSE(d.gaze) << "frame " << k; }
     if (d.gaze) {
       request = d.gaze;
       request_frame = k;
@@ -292,7 +292,8 @@ TEST(FoveaController, AsksTheHeadToTurnWhenTheFoveaReachesTheMarginAndRecentresA
   ASSERT_TRUE(request) << "no gaze request";
   EXPECT_EQ(request->reason, "border");
   EXPECT_EQ(request->image_size, cv::Size(640, 480));
-  const cv::Vec3d expected = cv::normalize(cv::Vec3d((request->pixel.x - 320) / 320, (request->pixel.y - 240) / 320, 1));
+  const cv::Vec3d expected =
+      cv::normalize(cv::Vec3d((request->pixel.x - 320) / 320, (request->pixel.y - 240) / 320, 1));
   EXPECT_LT(cv::norm(request->direction - expected), 1e-9);
   // The head turns so that the requested pixel comes to the centre: the scene
   // shifts, and the fovea follows the target there.
@@ -374,8 +375,8 @@ TEST(FoveaPlugin, EmitsTheNextFoveaStateAndRejectsBadParameters) {
   EXPECT_LT(cv::norm(h->last<Region>("fovea")->center - cv::Point2d(300, 250)), 1.5);
 
   std::string error;
-  EXPECT_FALSE(testing::NodeHarness::create(
-      R"(<node plugin="fovea"><param name="color" value="255,0"/></node>)", &error));
+  EXPECT_FALSE(
+      testing::NodeHarness::create(R"(<node plugin="fovea"><param name="color" value="255,0"/></node>)", &error));
   EXPECT_NE(error.find("B,G,R"), std::string::npos) << error;
   EXPECT_FALSE(testing::NodeHarness::create(
       R"(<node plugin="fovea"><param name="template" value="/nonexistent.png"/></node>)", &error));
@@ -451,7 +452,8 @@ TEST(FoveaPlugin, BadBoxesAndTemplatesAreErrorsAtOpenNamingTheValue) {
     EXPECT_NE(error.find(bad), std::string::npos) << error;
   }
   EXPECT_FALSE(testing::NodeHarness::create(R"(<node plugin="fovea"><param name="template_size" value="50x20"/>
-      <param name="search_size" value="40x32"/></node>)", &error));
+      <param name="search_size" value="40x32"/></node>)",
+                                            &error));
   EXPECT_NE(error.find("template_size 50x20 is larger than search_size 40x32"), std::string::npos) << error;
   // A box outside the frame is known only with the first frame: an error then, naming both.
   auto h = testing::NodeHarness::create(R"(<node plugin="fovea"><param name="init" value="900,10,40,30"/></node>)");

@@ -22,9 +22,9 @@
 
 using namespace saccade;
 using saccade::dds::FrameRing;
+using saccade::dds::ReaderWait;
 using saccade::dds::RingAddress;
 using saccade::dds::RingReader;
-using saccade::dds::ReaderWait;
 
 namespace {
 
@@ -214,7 +214,8 @@ int fill_a_small_shared_memory() {
     const bool ok = std::fputs(text.c_str(), f) >= 0;
     return std::fclose(f) == 0 && ok;
   };
-  if (!write_file("/proc/self/setgroups", "deny") || !write_file("/proc/self/uid_map", "0 " + std::to_string(uid) + " 1") ||
+  if (!write_file("/proc/self/setgroups", "deny") ||
+      !write_file("/proc/self/uid_map", "0 " + std::to_string(uid) + " 1") ||
       !write_file("/proc/self/gid_map", "0 " + std::to_string(gid) + " 1") ||
       mount("none", "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
       mount("tmpfs", "/dev/shm", "tmpfs", 0, "size=400k") != 0)

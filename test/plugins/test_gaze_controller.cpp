@@ -29,7 +29,8 @@ struct IdealHead {
   const HeadCommand& step() {
     for (auto& r : readings) r.updated_ns = now;
     const HeadCommand& c = controller.cycle(now, readings);
-    for (int j = 0; j < kJoints; ++j) readings[static_cast<std::size_t>(j)].position = c.position[static_cast<std::size_t>(j)];
+    for (int j = 0; j < kJoints; ++j)
+      readings[static_cast<std::size_t>(j)].position = c.position[static_cast<std::size_t>(j)];
     now += kPeriodNs;
     return c;
   }
@@ -39,7 +40,8 @@ struct IdealHead {
   // Angle between camera `c`'s optical axis and the direction to `p`, degrees.
   double error_deg(int camera, const Vector3d& p) const {
     const auto q = controller.measured();
-    const auto pose = camera == 0 ? kinematics::left_camera(config.geometry, q) : kinematics::right_camera(config.geometry, q);
+    const auto pose =
+        camera == 0 ? kinematics::left_camera(config.geometry, q) : kinematics::right_camera(config.geometry, q);
     const Vector3d to = (p - pose.translation()).normalized();
     return std::acos(std::clamp(to.dot(kinematics::optical_axis(pose)), -1.0, 1.0)) * 180 / M_PI;
   }
@@ -156,9 +158,12 @@ TEST(GazeController, TroubleHoldsTheHeadUntilReset) {
     const char* fault;
   };
   const std::vector<Trouble> troubles = {
-      {"drive fault", [](IdealHead& h) { h.readings[2].health = JointReading::Health::kFault; }, "tilt_left: drive fault"},
-      {"silent drive", [](IdealHead& h) { h.readings[4].health = JointReading::Health::kSilent; }, "tilt_right: drive silent"},
-      {"stale feedback", [](IdealHead& h) { h.readings[0].updated_ns = h.now - 80'000'000; }, "neck: no feedback for 80 ms"},
+      {"drive fault", [](IdealHead& h) { h.readings[2].health = JointReading::Health::kFault; },
+       "tilt_left: drive fault"},
+      {"silent drive", [](IdealHead& h) { h.readings[4].health = JointReading::Health::kSilent; },
+       "tilt_right: drive silent"},
+      {"stale feedback", [](IdealHead& h) { h.readings[0].updated_ns = h.now - 80'000'000; },
+       "neck: no feedback for 80 ms"},
       {"following error", [](IdealHead& h) { h.readings[1].position += 0.3; }, "vergence_left: following error"},
   };
   for (const Trouble& t : troubles) {

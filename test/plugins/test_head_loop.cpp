@@ -77,18 +77,19 @@ struct Loop {
     if (virtual_bus) virtual_bus->set_time(now);
   }
   bool ready() const {
-    return !feedback.empty() && std::all_of(feedback.begin(), feedback.end(), [](const auto& f) {
-      return f.health == can::DriveHealth::kReady;
-    });
+    return !feedback.empty() && std::all_of(feedback.begin(), feedback.end(),
+                                            [](const auto& f) { return f.health == can::DriveHealth::kReady; });
   }
   // Degrees between each camera's optical axis (from the drives' true shaft
   // positions) and the direction to `p`: the larger of the two.
   double gaze_error_deg(const Vector3d& p) {
     kinematics::HeadJoints q;
     double* joints[] = {&q.neck, &q.vergence_left, &q.tilt_left, &q.vergence_right, &q.tilt_right};
-    for (std::size_t j = 0; j < 5; ++j) *joints[j] = rack->drive(j).position() - 1000.0 * static_cast<double>(j) / 20000.0;
+    for (std::size_t j = 0; j < 5; ++j)
+      *joints[j] = rack->drive(j).position() - 1000.0 * static_cast<double>(j) / 20000.0;
     double worst = 0;
-    for (const auto& pose : {kinematics::left_camera(config.geometry, q), kinematics::right_camera(config.geometry, q)}) {
+    for (const auto& pose :
+         {kinematics::left_camera(config.geometry, q), kinematics::right_camera(config.geometry, q)}) {
       const Vector3d to = (p - pose.translation()).normalized();
       worst = std::max(worst, std::acos(std::clamp(to.dot(kinematics::optical_axis(pose)), -1.0, 1.0)) * 180 / M_PI);
     }
@@ -161,8 +162,10 @@ TEST(HeadLoop, ADriveFaultAndASilentDriveEachHoldTheHead) {
     ASSERT_TRUE(loop.ready());
     ASSERT_EQ(loop.controller.look_at({0.8, 1.5, 0.3}), "");
     for (int i = 0; i < 20; ++i) loop.cycle();  // mid-saccade
-    if (trouble == 0) loop.rack->drive(1).inject_fault(can::emcy::kGeneric);
-    else loop.rack->drive(3).set_silent(true);
+    if (trouble == 0)
+      loop.rack->drive(1).inject_fault(can::emcy::kGeneric);
+    else
+      loop.rack->drive(3).set_silent(true);
     for (int i = 0; i < 30; ++i) loop.cycle();
     ASSERT_TRUE(loop.controller.holding());
     // A silent drive: the head's own feedback timeout and the master's

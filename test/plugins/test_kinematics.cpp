@@ -17,9 +17,7 @@ constexpr double kL1 = 0.12, kL2 = 0.12, kL3 = 0.06;
 
 Eigen::Isometry3d rz(double t) { return Eigen::Isometry3d(Eigen::AngleAxisd(t, Eigen::Vector3d::UnitZ())); }
 Eigen::Isometry3d rx(double t) { return Eigen::Isometry3d(Eigen::AngleAxisd(t, Eigen::Vector3d::UnitX())); }
-Eigen::Isometry3d tr(double x, double y, double z) {
-  return Eigen::Isometry3d(Eigen::Translation3d(x, y, z));
-}
+Eigen::Isometry3d tr(double x, double y, double z) { return Eigen::Isometry3d(Eigen::Translation3d(x, y, z)); }
 
 TEST(PaperChain, StandardReadingIsThePapersPrintedComposition) {
   const DhChain chain = paper_camera_chain(Convention::kStandard);
@@ -78,8 +76,10 @@ TEST(OffsetChain, TheVergenceAxisSitsL1FromTheNeck) {
 }
 
 TEST(PaperChain, TheOtherCameraIsTheMirrorImage) {
-  const Eigen::Vector3d right = paper_camera_chain(Convention::kStandard, kL1, kL2, kL3, 1).forward({0, 0, 0}).translation();
-  const Eigen::Vector3d left = paper_camera_chain(Convention::kStandard, kL1, kL2, kL3, -1).forward({0, 0, 0}).translation();
+  const Eigen::Vector3d right =
+      paper_camera_chain(Convention::kStandard, kL1, kL2, kL3, 1).forward({0, 0, 0}).translation();
+  const Eigen::Vector3d left =
+      paper_camera_chain(Convention::kStandard, kL1, kL2, kL3, -1).forward({0, 0, 0}).translation();
   EXPECT_LT((right - Eigen::Vector3d(0.18, 0, 0.12)).norm(), 1e-12);
   EXPECT_LT((left - Eigen::Vector3d(-0.18, 0, 0.12)).norm(), 1e-12);
   EXPECT_EQ(paper_camera_chain(Convention::kStandard).check(3), "");
@@ -171,7 +171,8 @@ TEST(Gaze, IndependentModeGivesEachCameraItsOwnTarget) {
   const Eigen::Vector3d a(-0.6, 2.0, 0.3), b(0.9, 2.5, -0.1);
   const Gaze gaze = gaze_each(a, b, g, HeadLimits{});
   ASSERT_TRUE(gaze.reachable) << gaze.why;
-  for (const auto& [camera, target] : {std::pair{left_camera(g, gaze.joints), a}, std::pair{right_camera(g, gaze.joints), b}}) {
+  for (const auto& [camera, target] :
+       {std::pair{left_camera(g, gaze.joints), a}, std::pair{right_camera(g, gaze.joints), b}}) {
     const Eigen::Vector3d to = target - camera.translation(), axis = optical_axis(camera);
     EXPECT_GT(to.dot(axis), 0);
     EXPECT_LT((to - to.dot(axis) * axis).norm(), 1e-9);

@@ -213,7 +213,9 @@ TEST_P(McapRoundTrip, EveryMessageTypeSurvivesAFile) {
 
 INSTANTIATE_TEST_SUITE_P(Compressions, McapRoundTrip,
                          ::testing::Values(Compression::kNone, Compression::kZstd, Compression::kLz4),
-                         [](const ::testing::TestParamInfo<Compression>& p) { return std::string(mcap::to_string(p.param)); });
+                         [](const ::testing::TestParamInfo<Compression>& p) {
+                           return std::string(mcap::to_string(p.param));
+                         });
 
 TEST(Mcap, AnUnchunkedFileIsReadByItsLinearScan) {
   const auto messages = every_type(3);
@@ -283,7 +285,9 @@ TEST(McapDamage, ATruncatedFileIsAnErrorWithTheOffsetAndSalvageReadsWhatPrecedes
       EXPECT_LT(images.size(), 60u);
       for (std::size_t k = 0; k < images.size(); ++k) {
         ASSERT_EQ(images[k]->frame_id, static_cast<int64_t>(k));
-        EXPECT_EQ(cv::norm(std::static_pointer_cast<const Image>(images[k])->mat, test::random_image({64, 48}, static_cast<int>(k)), cv::NORM_INF), 0);
+        EXPECT_EQ(cv::norm(std::static_pointer_cast<const Image>(images[k])->mat,
+                           test::random_image({64, 48}, static_cast<int>(k)), cv::NORM_INF),
+                  0);
       }
     }
   }
@@ -349,7 +353,8 @@ TEST(McapDamage, AChunkClaimingGigabytesIsAnErrorWithoutAllocatingThem) {
     const uint64_t chunk = v.offset;  // the first chunk
     auto bytes = read_bytes(full);
     const uint64_t claim = uint64_t{3} << 30;
-    std::memcpy(&bytes[chunk + 9 + 16], &claim, 8);  // after the record header, start and end times: the uncompressed size
+    std::memcpy(&bytes[chunk + 9 + 16], &claim,
+                8);  // after the record header, start and end times: the uncompressed size
     const std::string bad = out_path(std::string("claim_bad_") + mcap::to_string(c) + ".mcap");
     write_bytes(bad, bytes);
 
@@ -359,8 +364,7 @@ TEST(McapDamage, AChunkClaimingGigabytesIsAnErrorWithoutAllocatingThem) {
     ASSERT_EQ(strict.open(bad), "") << "the summary is intact";
     strict.rewind();
     std::string why;
-    while (strict.next(v, why) == 1) {
-    }
+    while (strict.next(v, why) == 1) {}
     getrusage(RUSAGE_SELF, &after);
     EXPECT_EQ(offset_in(why), static_cast<int64_t>(chunk)) << why;
     EXPECT_NE(why.find(std::to_string(claim)), std::string::npos) << why;
@@ -459,9 +463,11 @@ TEST(McapNodes, RecordNodesShareAFileAndReplayPlaysItBackInOrder) {
   auto run = test::open_graph(R"(<graph name="rec">
       <node name="counter" plugin="util.counter"><param name="count" value="40"/><param name="size" value="16x12"/></node>
       <node name="retina" plugin="retina"><param name="levels" value="3"/><param name="size" value="8x6"/></node>
-      <node name="rec_image" plugin="mcap.record"><param name="path" value=")" + path + R"("/>
+      <node name="rec_image" plugin="mcap.record"><param name="path" value=")" +
+                              path + R"("/>
         <param name="topic" value="/counter/image"/><param name="compression" value="lz4"/></node>
-      <node name="rec_retina" plugin="mcap.record"><param name="path" value=")" + path + R"("/>
+      <node name="rec_retina" plugin="mcap.record"><param name="path" value=")" +
+                              path + R"("/>
         <param name="topic" value="/retina/retina"/><param name="compression" value="lz4"/></node>
       <edge from="counter.image" to="retina.image" queue="block:4"/>
       <edge from="counter.image" to="rec_image.in" queue="block:4"/>
@@ -477,9 +483,11 @@ TEST(McapNodes, RecordNodesShareAFileAndReplayPlaysItBackInOrder) {
 
   testing::Recorder::instance().clear();
   auto replay = test::open_graph(R"(<graph name="play">
-      <node name="image" plugin="mcap.replay"><param name="path" value=")" + path + R"("/>
+      <node name="image" plugin="mcap.replay"><param name="path" value=")" +
+                                 path + R"("/>
         <param name="topic" value="/counter/image"/></node>
-      <node name="retina" plugin="mcap.replay"><param name="path" value=")" + path + R"("/>
+      <node name="retina" plugin="mcap.replay"><param name="path" value=")" +
+                                 path + R"("/>
         <param name="topic" value="/retina/retina"/><param name="rate" value="realtime"/><param name="speed" value="100"/></node>
       <node name="images" plugin="util.record"/>
       <node name="retinas" plugin="util.record"/>
@@ -507,7 +515,8 @@ TEST(McapNodes, ReplayRefusesDamagedFilesUnlessSalvagingAndNamesMissingTopics) {
   write_bytes(cut, {bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(bytes.size() / 2)});
   auto xml = [](const std::string& path, const std::string& topic, bool salvage) {
     return R"(<graph name="play"><node name="play" plugin="mcap.replay"><param name="path" value=")" + path +
-           R"("/><param name="topic" value=")" + topic + R"("/><param name="salvage" value=")" + (salvage ? "true" : "false") +
+           R"("/><param name="topic" value=")" + topic + R"("/><param name="salvage" value=")" +
+           (salvage ? "true" : "false") +
            R"("/></node><node name="sink" plugin="util.record"/><edge from="play.out" to="sink.in" queue="block:4"/></graph>)";
   };
   {
@@ -567,7 +576,8 @@ TEST(McapNodes, OneReplayNodePlaysSeveralTopicsInterleavedAsTheyWereRecorded) {
 
   testing::Recorder::instance().clear();
   auto replay = test::open_graph(R"(<graph name="play">
-      <node name="log" plugin="mcap.replay"><param name="path" value=")" + path + R"("/>
+      <node name="log" plugin="mcap.replay"><param name="path" value=")" +
+                                 path + R"("/>
         <param name="topic" value=" /retina/retina, /counter/image"/></node>
       <node name="all" plugin="util.record"/>
       <node name="images" plugin="util.record"/>
@@ -603,11 +613,13 @@ TEST(McapNodes, OneReplayNodePlaysSeveralTopicsInterleavedAsTheyWereRecorded) {
     ASSERT_TRUE(run->executor->run().ok());
     ASSERT_EQ(recorder->finish(), "");
   }
-  for (const auto& [topics, expected] : {std::pair<std::string, std::string>{"/left/image,/right/image", "both carry Image"},
-                                         {"/left/image,/left/image", "named twice"}}) {
+  for (const auto& [topics, expected] :
+       {std::pair<std::string, std::string>{"/left/image,/right/image", "both carry Image"},
+        {"/left/image,/left/image", "named twice"}}) {
     test::GraphRun run;
-    run.graph = test::resolve_xml(R"(<graph name="play"><node name="log" plugin="mcap.replay"><param name="path" value=")" +
-                                  pair + R"("/><param name="topic" value=")" + topics + R"("/></node>
+    run.graph =
+        test::resolve_xml(R"(<graph name="play"><node name="log" plugin="mcap.replay"><param name="path" value=")" +
+                          pair + R"("/><param name="topic" value=")" + topics + R"("/></node>
         <node name="sink" plugin="util.null"/><edge from="log.out" to="sink.in"/></graph>)");
     run.executor = std::make_unique<Executor>(run.graph, testing::default_registry());
     const Status s = run.executor->open();
@@ -709,9 +721,11 @@ TEST(McapDemo, RecordedRetinaReplayedThroughTheFilterBankGivesTheRecordedFeature
   }
   testing::Recorder::instance().clear();
   auto replay = test::open_graph(R"(<graph name="replay">
-      <node name="retina" plugin="mcap.replay"><param name="path" value=")" + path + R"("/>
+      <node name="retina" plugin="mcap.replay"><param name="path" value=")" +
+                                 path + R"("/>
         <param name="topic" value="/retina/retina"/></node>
-      <node name="filters" plugin="filters.bank"><param name="features" value=")" + features + R"("/></node>
+      <node name="filters" plugin="filters.bank"><param name="features" value=")" +
+                                 features + R"("/></node>
       <node name="maps" plugin="util.record"/>
       <edge from="retina.retina" to="filters.retina" queue="block:4"/>
       <edge from="filters.maps" to="maps.in" queue="block:4"/>
@@ -755,14 +769,13 @@ std::vector<std::shared_ptr<const JointTargets>> replay_head(const std::string& 
                                                              const std::string& name) {
   const std::string path = out_path(name);
   Diagnostics diag;
-  GraphDecl decl = with_gaze
-                       ? load_graph_file(std::string(SACCADE_SOURCE_DIR) + "/test/mcap/replay_head.xml", diag)
-                       : load_graph_string(R"(<graph name="blind">
+  GraphDecl decl = with_gaze ? load_graph_file(std::string(SACCADE_SOURCE_DIR) + "/test/mcap/replay_head.xml", diag)
+                             : load_graph_string(R"(<graph name="blind">
                            <node name="log" plugin="mcap.replay"><param name="topic" value="/driver/state"/></node>
                            <node name="head" plugin="head" inline="true"/><node name="sink" plugin="util.null"/>
                            <edge from="log.joint_state" to="head.state" queue="block:8"/>
                            <edge from="head.targets" to="sink.in"/></graph>)",
-                                           "blind.xml", diag);
+                                                 "blind.xml", diag);
   apply_overrides(decl, {"log.path=" + recording}, diag);
   auto graph = diag.has_errors() ? std::nullopt : resolve_graph(decl, testing::default_registry(), diag);
   EXPECT_TRUE(graph) << diag.format();
@@ -785,7 +798,8 @@ TEST(McapHeadLoop, ALiveHeadLoopRecordingReplaysWithTheSameJointTargets) {
   {
     Diagnostics diag;
     GraphDecl decl = load_graph_file(std::string(SACCADE_SOURCE_DIR) + "/graphs/head_loop.xml", diag);
-    apply_overrides(decl, {"driver.duration=8", "drives.duration=8", "snapshot.dir=" + out_path("head_loop_snapshots")}, diag);
+    apply_overrides(decl, {"driver.duration=8", "drives.duration=8", "snapshot.dir=" + out_path("head_loop_snapshots")},
+                    diag);
     auto graph = resolve_graph(decl, testing::default_registry(), diag);
     ASSERT_TRUE(graph) << diag.format();
     Executor executor(*graph, testing::default_registry());
@@ -820,7 +834,8 @@ TEST(McapHeadLoop, ALiveHeadLoopRecordingReplaysWithTheSameJointTargets) {
   // above depends on the side input's place among the joint states. (Only
   // when the head took a request: on a starved machine the simulated drives
   // can lag into a following-error hold that refuses every request.)
-  const bool taken = std::any_of(recorded.begin(), recorded.end(), [](const auto& t) { return t->cause_taken_ns != 0; });
+  const bool taken =
+      std::any_of(recorded.begin(), recorded.end(), [](const auto& t) { return t->cause_taken_ns != 0; });
   if (!taken) {
     std::printf("note: the live head took no gaze request (it held); the control replay is left out\n");
     return;
@@ -906,9 +921,7 @@ TEST(McapReference, TheTypeScriptReaderReadsEveryTypeInEveryCompression) {
     options.chunk_size = 16 * 1024;
     write_file(path, messages, options);
     auto json = reference_read(path);
-    if (!json) {
-      GTEST_SKIP() << "node and @mcap/core are not installed (scripts/install-test-npm.sh)";
-    }
+    if (!json) { GTEST_SKIP() << "node and @mcap/core are not installed (scripts/install-test-npm.sh)"; }
     ASSERT_TRUE(json->is_object());
     const auto& j = *json;
     EXPECT_EQ(j["library"], "saccade");
@@ -925,9 +938,7 @@ TEST(McapReference, TheTypeScriptReaderReadsEveryTypeInEveryCompression) {
     bool image = false;
     for (const auto& s : j["schemas"]) {
       if (s["name"] == "sensor_msgs/msg/Image") image = s["encoding"] == "ros2msg";
-      if (s["name"] == "saccade_idl::Retina") {
-        EXPECT_EQ(s["encoding"], "omgidl");
-      }
+      if (s["name"] == "saccade_idl::Retina") { EXPECT_EQ(s["encoding"], "omgidl"); }
     }
     EXPECT_TRUE(image);
     EXPECT_EQ(j["firstLogTime"]["/test/Image"], "1000000000");
@@ -951,9 +962,7 @@ TEST(McapReference, TheTypeScriptReaderReadsARecordedGraph) {
   ASSERT_TRUE(run->run().ok());
   ASSERT_EQ(recorder->finish(), "");
   auto json = reference_read(path);
-  if (!json) {
-    GTEST_SKIP() << "node and @mcap/core are not installed (scripts/install-test-npm.sh)";
-  }
+  if (!json) { GTEST_SKIP() << "node and @mcap/core are not installed (scripts/install-test-npm.sh)"; }
   EXPECT_EQ((*json)["counts"]["/counter/image"], 50);
   EXPECT_EQ((*json)["counts"]["/retina/retina"], 50);
   for (const auto& c : (*json)["channels"]) EXPECT_EQ(c["messageEncoding"], "cdr");

@@ -42,7 +42,8 @@ TEST(RectifiedSampling, TheIdentityIsThePlainRetinaBitForBit) {
   RetinaConfig config;
   for (const cv::Mat* frame : std::vector<const cv::Mat*>{&gray, &color}) {
     const RectifiedMap map(identity(frame->size(), 900));
-    for (cv::Point2d fovea : {cv::Point2d(641, 555), cv::Point2d(3, 4), cv::Point2d(1270, 1100), cv::Point2d(300, 900)}) {
+    for (cv::Point2d fovea :
+         {cv::Point2d(641, 555), cv::Point2d(3, 4), cv::Point2d(1270, 1100), cv::Point2d(300, 900)}) {
       RetinaSampler sampler(config);
       Retina plain, rectified;
       sampler.sample(*frame, fovea, plain);
@@ -89,7 +90,8 @@ cv::Point2d project(const capture::SimHeadConfig& c, int camera, const HeadJoint
                                                                        : kinematics::right_camera(c.geometry, q));
   const Eigen::Vector3d x = pose.inverse() * p;
   if (depth) *depth = x.z();
-  return {c.size.width / 2.0 + c.focal_px * x.x() / x.z() + 0.5, c.size.height / 2.0 + c.focal_px * x.y() / x.z() + 0.5};
+  return {c.size.width / 2.0 + c.focal_px * x.x() / x.z() + 0.5,
+          c.size.height / 2.0 + c.focal_px * x.y() / x.z() + 0.5};
 }
 
 TEST(HeadRectification, AtTheJointsZeroTheModelsParallelCamerasNeedNoTurn) {
@@ -139,14 +141,13 @@ TEST(HeadRectification, RowsAreEpipolarLinesAtAnyVergenceAndDisparityGivesDepth)
             const cv::Vec3d in_rectified = r1 * cv::Vec3d(in_left.x(), in_left.y(), in_left.z());
             const double disparity = rl.x - rr.x;
             ASSERT_GT(disparity, 0);
-            EXPECT_NEAR(pair.left.rectified[0] * pair.left.baseline / disparity, in_rectified[2], 1e-6 * in_rectified[2]);
+            EXPECT_NEAR(pair.left.rectified[0] * pair.left.baseline / disparity, in_rectified[2],
+                        1e-6 * in_rectified[2]);
           }
         }
       }
       EXPECT_GT(seen, 8) << "vergence " << vergence;
-      if (vergence != 0) {
-        EXPECT_GT(worst_source_rows, 0.5) << "vergence " << vergence << " tilt " << tilt;
-      }
+      if (vergence != 0) { EXPECT_GT(worst_source_rows, 0.5) << "vergence " << vergence << " tilt " << tilt; }
     }
   }
 }
@@ -202,8 +203,8 @@ TEST(RectifiedStereo, AVergingHeadMeasuresItsTargetsDepthWithinOnePercent) {
       const VergingScene s = verge_on(distance, lateral);
       ASSERT_TRUE(s.left_view.visible && s.right_view.visible);
       PairRectification pair;
-      ASSERT_EQ(rectify_pair(model_calibration(s.config.size, s.config.focal_px, s.config.geometry),
-                             s.config.geometry, s.joints, pair),
+      ASSERT_EQ(rectify_pair(model_calibration(s.config.size, s.config.focal_px, s.config.geometry), s.config.geometry,
+                             s.joints, pair),
                 "");
       // The sim's target centre is in OpenCV's convention; the retina's is half a pixel on.
       const cv::Point2d at(s.left_view.center.x + 0.5, s.left_view.center.y + 0.5);
@@ -219,8 +220,7 @@ TEST(RectifiedStereo, AVergingHeadMeasuresItsTargetsDepthWithinOnePercent) {
       const double disparity = matcher.fixation().disparity;
       ASSERT_GT(disparity, 0) << "distance " << distance << " lateral " << lateral;
       // The truth: the target's depth along the rectified left camera's axis.
-      const Eigen::Isometry3d pose =
-          kinematics::optical_frame(kinematics::left_camera(s.config.geometry, s.joints));
+      const Eigen::Isometry3d pose = kinematics::optical_frame(kinematics::left_camera(s.config.geometry, s.joints));
       const Eigen::Vector3d p = pose.inverse() * s.target;
       const cv::Vec3d in_rectified = cv::Matx33d(pair.left.rotation.val) * cv::Vec3d(p.x(), p.y(), p.z());
       const double depth = pair.left.rectified[0] * pair.left.baseline / disparity;
@@ -233,10 +233,9 @@ TEST(RectifiedStereo, AVergingHeadMeasuresItsTargetsDepthWithinOnePercent) {
         std::printf("; left fovea %d,%d (target %.1f,%.1f)\n", left.fovea.x, left.fovea.y, rl.x, rl.y);
       }
       // The fixated point in metres, in the left camera's own frame: the target's centre.
-      const stereo::LocatedPoint point =
-          stereo::locate(stereo::depth_model(left, {}), cv::Point2d(left.geometry.back().region.x + 16.0,
-                                                                     left.geometry.back().region.y + 12.0),
-                         disparity, 0.3);
+      const stereo::LocatedPoint point = stereo::locate(
+          stereo::depth_model(left, {}),
+          cv::Point2d(left.geometry.back().region.x + 16.0, left.geometry.back().region.y + 12.0), disparity, 0.3);
       ASSERT_TRUE(point.valid);
       EXPECT_NEAR(point.depth, depth, 1e-9);
       EXPECT_LT(cv::norm(point.point - cv::Vec3d(p.x(), p.y(), p.z())), 0.01 * p.z() + 0.003)
@@ -263,8 +262,8 @@ std::shared_ptr<Image> frame_of(int camera) {
 
 TEST(RectifiedRetinaNode, AtTheJointsZeroTheModelHeadsRetinaIsThePlainOne) {
   std::string error;
-  auto rectified = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)",
-                                                &error);
+  auto rectified =
+      testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)", &error);
   ASSERT_NE(rectified, nullptr) << error;
   auto plain = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
   const auto image = frame_of(0);
@@ -305,7 +304,8 @@ TEST(RectifiedRetinaNode, RefusesACalibrationForAnotherImageSizeAndAThirdCamera)
   const capture::SimHeadConfig c;
   ASSERT_EQ(kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, c.geometry)), "");
   auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/>)"
-                                        R"(<param name="calibration" value=")" + path + R"("/></node>)");
+                                        R"(<param name="calibration" value=")" +
+                                        path + R"("/></node>)");
   ASSERT_NE(h, nullptr);
   h->set("image", frame_of(0));
   Status s = h->process();
@@ -428,12 +428,12 @@ TEST(RectifiedBadInput, AJointThatIsNotANumberAndAStereoCalibrationForOtherImage
 
   // saccade calibrate's file for 640x480 images; the stereo on 320x240 frames.
   const std::string path = (std::filesystem::temp_directory_path() / "saccade_stereo_640.yml").string();
-  ASSERT_EQ(kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, capture::SimHeadConfig{}.geometry)),
-            "");
+  ASSERT_EQ(
+      kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, capture::SimHeadConfig{}.geometry)),
+      "");
   std::string error;
-  auto stereo = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="calibration" value=")" + path +
-                                                 R"("/></node>)",
-                                             &error);
+  auto stereo = testing::NodeHarness::create(
+      R"(<node plugin="stereo"><param name="calibration" value=")" + path + R"("/></node>)", &error);
   ASSERT_NE(stereo, nullptr) << error;
   RetinaSampler sampler(RetinaConfig{});
   auto left = std::make_shared<Retina>(), right = std::make_shared<Retina>();

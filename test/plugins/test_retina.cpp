@@ -37,8 +37,7 @@ TEST(RetinaGeometry, LevelsAreNestedInsideTheFrameAndGrowLinearly) {
       }
       // Linear growth: the width steps differ by at most a rounding pixel.
       int d0 = g[0].region.width - g[1].region.width;
-      for (std::size_t k = 1; k + 1 < g.size(); ++k)
-        EXPECT_NEAR(g[k].region.width - g[k + 1].region.width, d0, 1);
+      for (std::size_t k = 1; k + 1 < g.size(); ++k) EXPECT_NEAR(g[k].region.width - g[k + 1].region.width, d0, 1);
     }
   }
 }
@@ -103,13 +102,15 @@ TEST(RetinaSampling, AreaMeanByHand) {
 
 TEST(RetinaSampling, FastSamplerEqualsTheReferenceEverywhere) {
   for (int type : {CV_8UC1, CV_8UC3}) {
-    for (cv::Size frame : {cv::Size(1024, 768), cv::Size(640, 480), cv::Size(1282, 1110), cv::Size(97, 61), cv::Size(32, 24)}) {
+    for (cv::Size frame :
+         {cv::Size(1024, 768), cv::Size(640, 480), cv::Size(1282, 1110), cv::Size(97, 61), cv::Size(32, 24)}) {
       for (int levels : {1, 3, 5, 7}) {
         RetinaConfig c;
         c.levels = levels;
         cv::Mat image = test::random_image({frame.width, frame.height}, frame.width + levels, type);
         RetinaSampler s(c);
-        for (cv::Point2d f : {cv::Point2d(frame.width * 0.3, frame.height * 0.7), cv::Point2d(0, 0), cv::Point2d(1e5, 1e5)}) {
+        for (cv::Point2d f :
+             {cv::Point2d(frame.width * 0.3, frame.height * 0.7), cv::Point2d(0, 0), cv::Point2d(1e5, 1e5)}) {
           std::vector<cv::Mat> fast, ref;
           std::vector<LevelGeometry> g;
           s.sample(image, f, fast, g);

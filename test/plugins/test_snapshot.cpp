@@ -16,8 +16,8 @@ namespace fs = std::filesystem;
 TEST(Snapshot, WritesMosaicsForImagesRetinasAndFeatureMaps) {
   fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "snapshot";
   fs::remove_all(dir);
-  auto h = testing::NodeHarness::create("<node plugin=\"snapshot\" name=\"s\"><param name=\"dir\" value=\"" + dir.string() +
-                                        "\"/><param name=\"every\" value=\"2\"/></node>");
+  auto h = testing::NodeHarness::create("<node plugin=\"snapshot\" name=\"s\"><param name=\"dir\" value=\"" +
+                                        dir.string() + "\"/><param name=\"every\" value=\"2\"/></node>");
   ASSERT_NE(h, nullptr);
   auto image = std::make_shared<Image>();
   image->mat = cv::Mat(120, 160, CV_8UC1, cv::Scalar(100));
@@ -32,7 +32,8 @@ TEST(Snapshot, WritesMosaicsForImagesRetinasAndFeatureMaps) {
   auto maps = std::make_shared<FeatureMaps>();
   maps->retina = retina;
   maps->names = {"sobel_x"};
-  maps->maps = {{cv::Mat(24, 32, CV_32F, cv::Scalar(-3)), cv::Mat(24, 32, CV_32F, cv::Scalar(4)), cv::Mat(24, 32, CV_32F, cv::Scalar(0))}};
+  maps->maps = {{cv::Mat(24, 32, CV_32F, cv::Scalar(-3)), cv::Mat(24, 32, CV_32F, cv::Scalar(4)),
+                 cv::Mat(24, 32, CV_32F, cv::Scalar(0))}};
   int64_t frame = 0;
   for (MessagePtr m : std::vector<MessagePtr>{image, retina, maps}) {
     auto copy = m;
@@ -54,11 +55,11 @@ TEST(Snapshot, WritesMosaicsForImagesRetinasAndFeatureMaps) {
   EXPECT_FALSE(fs::exists(dir / "s_000003_frame.png"));
 }
 
-TEST(Snapshot, DisparityIsColourMappedAndSavedAs16Bit) {
+TEST(Snapshot, DisparityIsColorMappedAndSavedAs16Bit) {
   fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "snapshot_disparity";
   fs::remove_all(dir);
-  auto h = testing::NodeHarness::create("<node plugin=\"snapshot\" name=\"d\"><param name=\"dir\" value=\"" + dir.string() +
-                                        "\"/><param name=\"disparity_png16\" value=\"true\"/></node>");
+  auto h = testing::NodeHarness::create("<node plugin=\"snapshot\" name=\"d\"><param name=\"dir\" value=\"" +
+                                        dir.string() + "\"/><param name=\"disparity_png16\" value=\"true\"/></node>");
   ASSERT_NE(h, nullptr);
   auto maps = std::make_shared<FeatureMaps>();
   cv::Mat d(24, 32, CV_32F, cv::Scalar(12.5f));
@@ -67,7 +68,7 @@ TEST(Snapshot, DisparityIsColourMappedAndSavedAs16Bit) {
   d.at<float>(6, 6) = 300.25f;        // beyond 256
   d.at<float>(7, 7) = 2000.0f;        // beyond what 16 bits hold at 1/64 px
   d.at<float>(8, 8) = std::numeric_limits<float>::quiet_NaN();
-  d.at<float>(9, 9) = 17.3f;          // not a multiple of 1/64
+  d.at<float>(9, 9) = 17.3f;  // not a multiple of 1/64
   maps->names = {"disparity_lr"};
   maps->maps = {{d}};
   h->set("in", maps);

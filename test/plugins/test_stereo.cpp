@@ -81,7 +81,8 @@ std::pair<double, double> accuracy(const cv::Mat& disparity, double d, double to
       ++valid;
       good += std::abs(v - d) <= tolerance;
     }
-  return {valid ? static_cast<double>(good) / valid : 0.0, static_cast<double>(valid) / static_cast<double>(disparity.total())};
+  return {valid ? static_cast<double>(good) / valid : 0.0,
+          static_cast<double>(valid) / static_cast<double>(disparity.total())};
 }
 
 // Runs one pair through two configurations.
@@ -104,7 +105,8 @@ TEST(RetinaStereo, FindsAKnownDisparityOnEveryLevel) {
   for (std::size_t k = 0; k < out.size(); ++k) {
     const double step = p.left->geometry[k].step_x;
     auto [share, density] = accuracy(out[k].disparity, d, std::max(1.0, 0.5 * step));
-    std::printf("level %zu (step %.2f): %.3f of valid pixels within tolerance, density %.3f\n", k, step, share, density);
+    std::printf("level %zu (step %.2f): %.3f of valid pixels within tolerance, density %.3f\n", k, step, share,
+                density);
     // Measured 0.88 on level 0 (12 px is 0.6 of its pixels), 0.97 and up inside.
     EXPECT_GE(share, k == 0 ? 0.85 : 0.95) << "level " << k;
     // On the fovea (32 px wide) a 12 px disparity leaves only the right part matchable.
@@ -159,9 +161,10 @@ TEST(RetinaStereo, FoveaPredictionMatchesSurfacesBeyondTheFixationsRadius) {
   auto [around_share, around_density] = accuracy(a.back().disparity(block), 40, 0.5);
   auto [block_share, block_density] = accuracy(b.back().disparity(block), 40, 0.5);
   auto [far_share, far_density] = accuracy(b.back().disparity(far), 20, 0.5);
-  std::printf("block in the fovea: around the fixation %.3f right of %.3f matched, with prediction %.3f of %.3f; far "
-              "surface %.3f of %.3f\n",
-              around_share, around_density, block_share, block_density, far_share, far_density);
+  std::printf(
+      "block in the fovea: around the fixation %.3f right of %.3f matched, with prediction %.3f of %.3f; far "
+      "surface %.3f of %.3f\n",
+      around_share, around_density, block_share, block_density, far_share, far_density);
   EXPECT_LT(around_share * around_density, 0.05) << "the block's disparity is outside the fixation's range";
   EXPECT_GE(block_share, 0.95);
   EXPECT_GE(block_density, 0.9);
@@ -305,7 +308,8 @@ TEST(StereoNode, TheRightToLeftMapLiesOnTheLeftLevelsGeometry) {
   EXPECT_GT(matched, 14 * (rl.rows - 6) * 9 / 10);
   // Without vergence nothing is shifted: the map is the matcher's own.
   auto plain = stereo_node_on(
-      p, R"(<node plugin="stereo"><param name="max_disparity" value="64"/><param name="vergence" value="false"/></node>)");
+      p,
+      R"(<node plugin="stereo"><param name="max_disparity" value="64"/><param name="vergence" value="false"/></node>)");
   ASSERT_NE(plain, nullptr);
   const cv::Mat& outer = plain->last<FeatureMaps>("maps")->find("disparity_rl")->front();
   int near_truth = 0, given = 0;
@@ -334,10 +338,11 @@ TEST(StereoNode, AMaxDisparityBeyondTheFrameIsSearchedToTheFramesWidth) {
 TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
   Pair p = make_pair(12, {320, 240});
   for (const char* paths : {"4", "8"}) {
-    auto h = stereo_node_on(p, std::string(R"(<node plugin="stereo"><param name="max_disparity" value="64"/>)") +
-                                   R"(<param name="semi_global" value="true"/><param name="fill_gaps" value="2"/>)" +
-                                   R"(<param name="fill_occlusions" value="true"/><param name="fovea_prediction" value="true"/>)" +
-                                   R"(<param name="sgm_paths" value=")" + paths + R"("/></node>)");
+    auto h = stereo_node_on(
+        p, std::string(R"(<node plugin="stereo"><param name="max_disparity" value="64"/>)") +
+               R"(<param name="semi_global" value="true"/><param name="fill_gaps" value="2"/>)" +
+               R"(<param name="fill_occlusions" value="true"/><param name="fovea_prediction" value="true"/>)" +
+               R"(<param name="sgm_paths" value=")" + paths + R"("/></node>)");
     ASSERT_NE(h, nullptr);
     auto maps = h->last<FeatureMaps>("maps");
     ASSERT_NE(maps, nullptr);
@@ -348,7 +353,8 @@ TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
       R"(<node plugin="stereo"><param name="sgm_p1" value="1"/><param name="sgm_p2" value="0.5"/></node>)", &error);
   EXPECT_EQ(bad, nullptr);
   EXPECT_NE(error.find("sgm_p2"), std::string::npos) << error;
-  auto six = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="sgm_paths" value="6"/></node>)", &error);
+  auto six =
+      testing::NodeHarness::create(R"(<node plugin="stereo"><param name="sgm_paths" value="6"/></node>)", &error);
   EXPECT_EQ(six, nullptr);
   EXPECT_NE(error.find("sgm_paths"), std::string::npos) << error;
 }
@@ -390,10 +396,10 @@ TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
 
 TEST(FillHoles, TakesTheFartherNeighbourOnTheRowAndTheFallbackOnEmptyRows) {
   cv::Mat d = (cv::Mat_<float>(3, 6) << 10, -1, -1, 20, -1, -1,  //
-               -1, -1, -1, -1, -1, -1,                             //
+               -1, -1, -1, -1, -1, -1,                           //
                -1, 30, -1, -1, -1, 40);
   cv::Mat c = (cv::Mat_<float>(3, 6) << 0.9f, -1, -1, 0.8f, -1, -1,  //
-               -1, -1, -1, -1, -1, -1,                                  //
+               -1, -1, -1, -1, -1, -1,                               //
                -1, 0.7f, -1, -1, -1, 0.6f);
   EXPECT_DOUBLE_EQ(fill_holes(d, c, 15.0), 1.0);
   const cv::Mat expected = (cv::Mat_<float>(3, 6) << 10, 10, 10, 20, 20, 20,  //
@@ -412,10 +418,10 @@ TEST(FillGaps, FillsOnlyShortRunsBetweenAgreeingEndsOfARow) {
   // at the row's ends (one end only). Row 2: a matched pixel with score 0 (as
   // semi-global gives) is an end, not a gap.
   cv::Mat d = (cv::Mat_<float>(3, 8) << 10, -1, -1, 10.5f, -1, -1, -1, 10.5f,  //
-               -1, 10, -1, 20, 20, -1, -1, -1,                                  //
+               -1, 10, -1, 20, 20, -1, -1, -1,                                 //
                12, 12, -1, 12.5f, -1, 13, 13, 13);
   cv::Mat c = (cv::Mat_<float>(3, 8) << 0.9f, -1, -1, 0.8f, -1, -1, -1, 0.7f,  //
-               -1, 0.9f, -1, 0.9f, 0.9f, -1, -1, -1,                             //
+               -1, 0.9f, -1, 0.9f, 0.9f, -1, -1, -1,                           //
                0.9f, 0.9f, -1, 0.0f, -1, 0.9f, 0.9f, 0.9f);
   const double density = fill_gaps(d, c, 2, 1.0);
   const cv::Mat expected = (cv::Mat_<float>(3, 8) << 10, 10, 10, 10.5f, -1, -1, -1, 10.5f,  //
@@ -435,10 +441,10 @@ TEST(FillOcclusions, FillsWithinTheHiddenWidthLeftOfANearerSurface) {
   // hidden width in level pixels: (14 - 10) / 2 + 1 = 3 (x 4..6), runs at the
   // row's ends are left.
   cv::Mat d = (cv::Mat_<float>(3, 8) << 10, -1, -1, -1, -1, -1, -1, 14,  //
-               14, -1, -1, -1, -1, -1, -1, 10,                             //
+               14, -1, -1, -1, -1, -1, -1, 10,                           //
                -1, 10, -1, -1, -1, -1, -1, 14);
   cv::Mat c = (cv::Mat_<float>(3, 8) << 0.9f, -1, -1, -1, -1, -1, -1, 0.8f,  //
-               0.9f, -1, -1, -1, -1, -1, -1, 0.8f,                             //
+               0.9f, -1, -1, -1, -1, -1, -1, 0.8f,                           //
                -1, 0.9f, -1, -1, -1, -1, -1, 0.8f);
   cv::Mat rows_1 = d.rowRange(0, 2).clone(), scores_1 = c.rowRange(0, 2).clone();
   const double density = fill_occlusions(rows_1, scores_1, 1.0, 1);

@@ -128,8 +128,8 @@ double truth_at_fixation(const cv::Mat& truth, cv::Point2d f) {
 }
 
 // Fixation points over the scene: leaves, pot, background, edges of depth.
-const std::vector<cv::Point2d> kFixations = {{700, 560}, {400, 300}, {900, 400}, {640, 800}, {300, 700},
-                                             {1000, 800}, {550, 450}, {800, 250}};
+const std::vector<cv::Point2d> kFixations = {{700, 560}, {400, 300},  {900, 400}, {640, 800},
+                                             {300, 700}, {1000, 800}, {550, 450}, {800, 250}};
 
 // OpenCV's block matchers on exactly the images our matcher compared (the level
 // with its margin, the right one verged), over the range it searched; the
@@ -167,25 +167,25 @@ struct Variant {
   bool fovea_prediction = false;
 };
 
-const std::vector<Variant> kVariants = {{"NCC 5x5, coarse-to-fine, LR check, vergence", 5, true, true, true},
-                                        {"NCC 3x3, coarse-to-fine, LR check, vergence", 3, true, true, true},
-                                        {"NCC 5x5, coarse-to-fine, no LR check, vergence", 5, true, false, true},
-                                        {"NCC 5x5, full search, LR check, no vergence", 5, false, true, false},
-                                        {"NCC 5x5, semi-global, coarse-to-fine, LR check, vergence", 5, true, true, true, true},
-                                        {"NCC 5x5, semi-global (8 paths), coarse-to-fine, LR check, vergence", 5, true,
-                                         true, true, true, 8},
-                                        {"NCC 5x5, semi-global (8 paths), gaps of up to 2 filled, coarse-to-fine, LR "
-                                         "check, vergence",
-                                         5, true, true, true, true, 8, 2},
-                                        {"NCC 5x5, semi-global (8 paths), gaps of up to 2 and occlusions filled, "
-                                         "coarse-to-fine, LR check, vergence",
-                                         5, true, true, true, true, 8, 2, true},
-                                        {"NCC 5x5, semi-global (8 paths), gaps of up to 2 filled, fovea prediction, "
-                                         "coarse-to-fine, LR check, vergence",
-                                         5, true, true, true, true, 8, 2, false, true},
-                                        {"NCC 5x5, semi-global (8 paths), gaps of up to 2 and occlusions filled, fovea "
-                                         "prediction, coarse-to-fine, LR check, vergence",
-                                         5, true, true, true, true, 8, 2, true, true}};
+const std::vector<Variant> kVariants = {
+    {"NCC 5x5, coarse-to-fine, LR check, vergence", 5, true, true, true},
+    {"NCC 3x3, coarse-to-fine, LR check, vergence", 3, true, true, true},
+    {"NCC 5x5, coarse-to-fine, no LR check, vergence", 5, true, false, true},
+    {"NCC 5x5, full search, LR check, no vergence", 5, false, true, false},
+    {"NCC 5x5, semi-global, coarse-to-fine, LR check, vergence", 5, true, true, true, true},
+    {"NCC 5x5, semi-global (8 paths), coarse-to-fine, LR check, vergence", 5, true, true, true, true, 8},
+    {"NCC 5x5, semi-global (8 paths), gaps of up to 2 filled, coarse-to-fine, LR "
+     "check, vergence",
+     5, true, true, true, true, 8, 2},
+    {"NCC 5x5, semi-global (8 paths), gaps of up to 2 and occlusions filled, "
+     "coarse-to-fine, LR check, vergence",
+     5, true, true, true, true, 8, 2, true},
+    {"NCC 5x5, semi-global (8 paths), gaps of up to 2 filled, fovea prediction, "
+     "coarse-to-fine, LR check, vergence",
+     5, true, true, true, true, 8, 2, false, true},
+    {"NCC 5x5, semi-global (8 paths), gaps of up to 2 and occlusions filled, fovea "
+     "prediction, coarse-to-fine, LR check, vergence",
+     5, true, true, true, true, 8, 2, true, true}};
 constexpr std::size_t kPlain = 0, k3x3 = 1, kSemiGlobal = 4, kSemiGlobal8 = 5, kGapsFilled = 6, kOcclusionsFilled = 7,
                       kFoveaPrediction = 8, kDensest = 9, kFovea = 4;
 
@@ -194,8 +194,14 @@ constexpr std::size_t kPlain = 0, k3x3 = 1, kSemiGlobal = 4, kSemiGlobal8 = 5, k
 // truth and over those of them the right camera sees.
 struct Table {
   explicit Table(std::size_t levels)
-      : ours(kVariants.size(), std::vector<Score>(levels)), ours_seen(kVariants.size(), std::vector<Score>(levels)),
-        bm(levels), sgbm(levels), bm_seen(levels), sgbm_seen(levels), filled(levels), reverse(levels) {}
+      : ours(kVariants.size(), std::vector<Score>(levels)),
+        ours_seen(kVariants.size(), std::vector<Score>(levels)),
+        bm(levels),
+        sgbm(levels),
+        bm_seen(levels),
+        sgbm_seen(levels),
+        filled(levels),
+        reverse(levels) {}
   std::vector<std::vector<Score>> ours, ours_seen;
   std::vector<Score> bm, sgbm, bm_seen, sgbm_seen, filled, reverse;
   int fixations_right = 0, fixations_known = 0;
@@ -247,9 +253,8 @@ Table evaluate(const Aloe& aloe, const std::vector<cv::Point2d>& fixations, bool
         const Score s = score_level(out[k].disparity, l->geometry[k], aloe.truth);
         if (verbose && k == kFovea) {
           std::printf("  %s fixation (%g,%g) truth %d: vergence %.0f density %.2f bad-2 %.2f; fixation per level",
-                      kVariants[v].name, f.x, f.y,
-                      aloe.truth.at<uint8_t>(static_cast<int>(f.y), static_cast<int>(f.x)), out[k].vergence,
-                      s.density(), s.bad2_rate());
+                      kVariants[v].name, f.x, f.y, aloe.truth.at<uint8_t>(static_cast<int>(f.y), static_cast<int>(f.x)),
+                      out[k].vergence, s.density(), s.bad2_rate());
           for (double d : stereo.fixation().per_level) std::printf(" %.1f", d);
           std::printf(" (score %.2f)\n", stereo.fixation().score);
         }
@@ -273,8 +278,8 @@ void print(const Table& t) {
   print("OpenCV StereoBM 5x5 on the same level images and range", t.bm);
   print("OpenCV StereoSGBM 5x5 (3-way) on the same level images and range", t.sgbm);
   print("NCC 5x5, coarse-to-fine, vergence: right -> left (no check of its own)", t.reverse);
-  std::printf("fixation disparity within 2 px of the truth's median around the fixation: %d of %d\n",
-              t.fixations_right, t.fixations_known);
+  std::printf("fixation disparity within 2 px of the truth's median around the fixation: %d of %d\n", t.fixations_right,
+              t.fixations_known);
   for (std::size_t v = 0; v < kVariants.size(); ++v) print(kVariants[v].name, t.ours[v]);
   std::printf("Over the pixels the right camera sees:\n");
   print("OpenCV StereoBM (seen)", t.bm_seen);
@@ -295,11 +300,11 @@ TEST(StereoAloe, PerLevelAccuracyAgainstTheGroundTruth) {
   EXPECT_LE(plain[kFovea].bad2_rate(), 0.16);  // measured 0.135 (StereoBM 0.192)
   EXPECT_GE(plain[kFovea].density(), 0.6);     // measured 0.692 (StereoBM 0.794)
   EXPECT_GE(t.filled[kFovea].density(), 0.99);
-  EXPECT_LE(t.filled[kFovea].bad2_rate(), 0.33);    // measured 0.309
-  EXPECT_LE(plain[0].bad2_rate(), 0.03);      // measured 0.008
+  EXPECT_LE(t.filled[kFovea].bad2_rate(), 0.33);                                               // measured 0.309
+  EXPECT_LE(plain[0].bad2_rate(), 0.03);                                                       // measured 0.008
   for (std::size_t k = 1; k < 4; ++k) EXPECT_LE(plain[k].bad2_rate(), 0.13) << "level " << k;  // 0.051-0.109
-  EXPECT_LE(t.ours[k3x3][kFovea].bad2_rate(), 0.27) << "3x3";  // measured 0.213
-  EXPECT_LE(t.reverse[kFovea].bad2_rate(), 0.26);             // measured 0.167
+  EXPECT_LE(t.ours[k3x3][kFovea].bad2_rate(), 0.27) << "3x3";                                  // measured 0.213
+  EXPECT_LE(t.reverse[kFovea].bad2_rate(), 0.26);                                              // measured 0.167
   // Semi-global aggregation: denser, at a bad-2 close to the plain matcher's.
   const std::vector<Score>& sgm = t.ours[kSemiGlobal];
   EXPECT_GE(sgm[kFovea].density(), 0.8);     // measured 0.849
@@ -315,24 +320,24 @@ TEST(StereoAloe, PerLevelAccuracyAgainstTheGroundTruth) {
   const std::vector<Score>& plain_seen = t.ours_seen[kPlain];
   const std::vector<Score>& sgm_seen = t.ours_seen[kSemiGlobal];
   EXPECT_LE(plain_seen[kFovea].bad2_rate(), t.bm_seen[kFovea].bad2_rate());  // measured 0.053 (StereoBM 0.075)
-  EXPECT_GE(plain_seen[kFovea].density(), 0.75);                            // measured 0.808
+  EXPECT_GE(plain_seen[kFovea].density(), 0.75);                             // measured 0.808
   EXPECT_GE(sgm_seen[kFovea].density(), t.bm_seen[kFovea].density());        // measured 0.931 (StereoBM 0.883)
   EXPECT_GE(sgm_seen[kFovea].density(), 0.9);
-  EXPECT_LE(sgm_seen[kFovea].bad2_rate(), 0.1);                             // measured 0.087
+  EXPECT_LE(sgm_seen[kFovea].bad2_rate(), 0.1);  // measured 0.087
   // Eight paths: about as accurate, a little denser (docs/accuracy.md).
   const std::vector<Score>& sgm8 = t.ours[kSemiGlobal8];
   const std::vector<Score>& sgm8_seen = t.ours_seen[kSemiGlobal8];
-  EXPECT_GE(sgm8[kFovea].density(), 0.8);              // measured 0.855
-  EXPECT_LE(sgm8[kFovea].bad2_rate(), 0.23);           // measured 0.211
-  EXPECT_GE(sgm8_seen[kFovea].density(), 0.9);         // measured 0.937
-  EXPECT_LE(sgm8_seen[kFovea].bad2_rate(), 0.1);       // measured 0.090
+  EXPECT_GE(sgm8[kFovea].density(), 0.8);         // measured 0.855
+  EXPECT_LE(sgm8[kFovea].bad2_rate(), 0.23);      // measured 0.211
+  EXPECT_GE(sgm8_seen[kFovea].density(), 0.9);    // measured 0.937
+  EXPECT_LE(sgm8_seen[kFovea].bad2_rate(), 0.1);  // measured 0.090
   // Gaps of up to 2 pixels between agreeing ends filled: denser, bad-2 about the same.
   EXPECT_GE(t.ours[kGapsFilled][kFovea].density(), sgm8[kFovea].density());  // measured 0.877
   EXPECT_LE(t.ours[kGapsFilled][kFovea].bad2_rate(), 0.24);                  // measured 0.218
   EXPECT_GE(t.ours_seen[kGapsFilled][kFovea].density(), 0.93);               // measured 0.953
   EXPECT_LE(t.ours_seen[kGapsFilled][kFovea].bad2_rate(), 0.11);             // measured 0.094
   // Occlusions filled: denser still; the hidden pixels take the far surface.
-  EXPECT_GE(t.ours[kOcclusionsFilled][kFovea].density(), 0.91);  // measured 0.929
+  EXPECT_GE(t.ours[kOcclusionsFilled][kFovea].density(), 0.91);    // measured 0.929
   EXPECT_LE(t.ours[kOcclusionsFilled][kFovea].bad2_rate(), 0.27);  // measured 0.250
   // The fovea searching what the level outside found too: the surfaces
   // beyond the fixation's +-6 are matched instead of mistaken.
@@ -370,7 +375,7 @@ TEST(StereoAloe, OnAGridOfFixations) {
     EXPECT_LE(t.ours[v][kFovea].bad2_rate(), t.bm[kFovea].bad2_rate());            // measured 0.102 (0.133)
     EXPECT_GE(t.ours[v][kFovea].density(), t.bm[kFovea].density());                // measured 0.868 (0.811)
     EXPECT_LE(t.ours_seen[v][kFovea].bad2_rate(), t.bm_seen[kFovea].bad2_rate());  // measured 0.048 (0.076)
-    EXPECT_GE(t.ours_seen[v][kFovea].density(), 0.88);                            // measured 0.901
+    EXPECT_GE(t.ours_seen[v][kFovea].density(), 0.88);                             // measured 0.901
   }
   // With gaps filled, the fovea floor over the seen pixels: density >= 0.9 with bad-2
   // no worse than StereoBM's (measured 0.912 / 0.050 against 0.838 / 0.076).
@@ -383,7 +388,7 @@ TEST(StereoAloe, OnAGridOfFixations) {
   for (const std::size_t v : {kOcclusionsFilled, kDensest}) {
     EXPECT_GE(t.ours_seen[v][kFovea].density(), 0.9) << kVariants[v].name;
     EXPECT_LE(t.ours_seen[v][kFovea].bad2_rate(), t.bm_seen[kFovea].bad2_rate()) << kVariants[v].name;
-    EXPECT_GE(t.ours[v][kFovea].density(), 0.9) << kVariants[v].name;  // 0.911 and 0.901
+    EXPECT_GE(t.ours[v][kFovea].density(), 0.9) << kVariants[v].name;                         // 0.911 and 0.901
     EXPECT_LE(t.ours[v][kFovea].bad2_rate(), t.bm[kFovea].bad2_rate()) << kVariants[v].name;  // 0.131 and 0.127
   }
 }

@@ -26,9 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string data_dir() {
-  return fs::path(test::sample_path("baboon.jpg")).parent_path().string();
-}
+std::string data_dir() { return fs::path(test::sample_path("baboon.jpg")).parent_path().string(); }
 
 // A fresh folder under the system's temporary folder, removed afterwards.
 class TempDir {
@@ -66,9 +64,7 @@ template <class F>
 std::string error_of(F&& call) {
   try {
     call();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
+  } catch (const std::exception& e) { return e.what(); }
   return "";
 }
 
@@ -166,12 +162,8 @@ TEST(Generator, HasEnoughLongSequencesWithInvisibleFrames) {
   // Occlusion and leaving the view both hide the target for a while.
   for (const Sequence& s : all) {
     const auto hidden = std::count(s.visible.begin(), s.visible.end(), false);
-    if (s.name == "occlusion" || s.name == "out_of_view") {
-      EXPECT_GE(hidden, 20) << s.name;
-    }
-    if (s.name == "scale" || s.name == "rotation") {
-      EXPECT_EQ(hidden, 0) << s.name;
-    }
+    if (s.name == "occlusion" || s.name == "out_of_view") { EXPECT_GE(hidden, 20) << s.name; }
+    if (s.name == "scale" || s.name == "rotation") { EXPECT_EQ(hidden, 0) << s.name; }
   }
 }
 
@@ -205,7 +197,8 @@ TEST(Generator, IsDeterministic) {
 // Where the target's picture, scaled to the truth box, matches the frame best
 // within `margin` pixels of the box, relative to the box; `peak` is the
 // normalised correlation there.
-cv::Point best_match_offset(const cv::Mat& frame, const cv::Rect& box, const cv::Mat& target, int margin, double& peak) {
+cv::Point best_match_offset(const cv::Mat& frame, const cv::Rect& box, const cv::Mat& target, int margin,
+                            double& peak) {
   cv::Mat area, picture, score;
   cv::cvtColor(frame(box + cv::Size(2 * margin, 2 * margin) - cv::Point(margin, margin)), area, cv::COLOR_BGR2GRAY);
   cv::resize(target, picture, box.size(), 0, 0, cv::INTER_AREA);
@@ -264,12 +257,11 @@ TEST(Scoring, HandMadeTrackGivesTheExpectedMeasures) {
   const std::vector<cv::Rect2d> truth(6, t);
   const std::vector<bool> visible{true, true, true, false, true, true};
   const std::vector<TrackedFrame> track{
-      {cv::Rect2d(500, 500, 1, 1), false, 100},
-      {t, true, 1},                            // IoU 1, error 0
-      {t + cv::Point2d(4, 0), true, 2},        // IoU 320/480 = 2/3, error 4
-      {cv::Rect2d(90, 90, 20, 20), true, 3},   // invisible: unscored, claims tracking
-      {t + cv::Point2d(10, 0), false, 4},      // IoU 200/600 = 1/3, error 10
-      {t + cv::Point2d(0, 25), false, 5},      // IoU 0, error 25
+      {cv::Rect2d(500, 500, 1, 1), false, 100}, {t, true, 1},  // IoU 1, error 0
+      {t + cv::Point2d(4, 0), true, 2},                        // IoU 320/480 = 2/3, error 4
+      {cv::Rect2d(90, 90, 20, 20), true, 3},                   // invisible: unscored, claims tracking
+      {t + cv::Point2d(10, 0), false, 4},                      // IoU 200/600 = 1/3, error 10
+      {t + cv::Point2d(0, 25), false, 5},                      // IoU 0, error 25
   };
   const TrackScore s = score_track(truth, visible, track);
   EXPECT_EQ(s.scored_frames, 4);
@@ -307,10 +299,10 @@ TEST(Scoring, ReacquisitionDelayAndHonesty) {
   const std::vector<bool> visible{true, true, false, false, false, true, true, true, false, true, true, true};
   const std::vector<cv::Rect2d> truth(visible.size(), t);
   std::vector<TrackedFrame> track(visible.size(), TrackedFrame{t, true, 0});
-  track[2].tracking = track[3].tracking = false;   // honest on 2 of the first 3 invisible frames
-  track[5].box = far;                               // reappears at 5: wrong box at 5,
-  track[6].tracking = false;                        // lost at 6, right at 7: delay 2
-  track[8].tracking = false;                        // honest; reappears at 9: right at once, delay 0
+  track[2].tracking = track[3].tracking = false;  // honest on 2 of the first 3 invisible frames
+  track[5].box = far;                             // reappears at 5: wrong box at 5,
+  track[6].tracking = false;                      // lost at 6, right at 7: delay 2
+  track[8].tracking = false;                      // honest; reappears at 9: right at once, delay 0
   const TrackScore s = score_track(truth, visible, track);
   EXPECT_EQ(s.reappearances, 2);
   EXPECT_EQ(s.max_reacquire_delay, 2);
@@ -320,7 +312,7 @@ TEST(Scoring, ReacquisitionDelayAndHonesty) {
   EXPECT_EQ(s.scored_frames, 7);
 }
 
-TEST(Scoring, IouAndCentreError) {
+TEST(Scoring, IouAndCenterError) {
   EXPECT_DOUBLE_EQ(iou({0, 0, 10, 10}, {5, 0, 10, 10}), 50.0 / 150);
   EXPECT_DOUBLE_EQ(iou({0, 0, 10, 10}, {20, 0, 10, 10}), 0);
   EXPECT_DOUBLE_EQ(iou({0, 0, 0, 0}, {0, 0, 0, 0}), 0);

@@ -13,7 +13,10 @@ namespace {
 
 std::vector<JointLimit> head_limits() {
   // neck, vergence left, tilt left, vergence right, tilt right
-  return {{-1.6, 1.6, 2.0, 20.0}, {-0.6, 0.6, 4.0, 40.0}, {-0.8, 0.8, 3.0, 30.0}, {-0.6, 0.6, 4.0, 40.0},
+  return {{-1.6, 1.6, 2.0, 20.0},
+          {-0.6, 0.6, 4.0, 40.0},
+          {-0.8, 0.8, 3.0, 30.0},
+          {-0.6, 0.6, 4.0, 40.0},
           {-0.8, 0.8, 3.0, 30.0}};
 }
 

@@ -39,7 +39,8 @@ using json = nlohmann::json;
 const std::string kGraph =
     "<graph name=\"viewtest\">"
     "<node name=\"scene\" plugin=\"capture.synthetic\"><param name=\"size\" value=\"320x240\"/>"
-    "<param name=\"count\" value=\"0\"/><param name=\"rate\" value=\"realtime\"/><param name=\"fps\" value=\"60\"/></node>"
+    "<param name=\"count\" value=\"0\"/><param name=\"rate\" value=\"realtime\"/><param name=\"fps\" "
+    "value=\"60\"/></node>"
     "<node name=\"retina\" plugin=\"retina\"/>"
     "<node name=\"fovea\" plugin=\"fovea\"/>"
     "<node name=\"sink\" plugin=\"util.null\"/>"
@@ -188,7 +189,8 @@ TEST(View, SpeaksTheFoxgloveProtocol) {
   const json info = client.next_json();
   EXPECT_EQ(info["op"], "serverInfo");
   EXPECT_EQ(info["name"], "saccade viewtest");
-  EXPECT_NE(std::find(info["capabilities"].begin(), info["capabilities"].end(), "clientPublish"), info["capabilities"].end());
+  EXPECT_NE(std::find(info["capabilities"].begin(), info["capabilities"].end(), "clientPublish"),
+            info["capabilities"].end());
   const json advertise = client.next_json();
   ASSERT_EQ(advertise["op"], "advertise");
   auto channels = channels_of(advertise);
@@ -264,7 +266,8 @@ TEST(View, ServesItsPageAndTheGraph) {
   EXPECT_EQ(graph["name"], "viewtest");
   EXPECT_EQ(graph["nodes"].size(), 4u);
   EXPECT_EQ(graph["edges"].size(), 4u);
-  ASSERT_EQ(graph["targets"].size(), 3u);  // every side input that takes a Region: fovea.target, fovea.head, retina.fovea
+  ASSERT_EQ(graph["targets"].size(),
+            3u);  // every side input that takes a Region: fovea.target, fovea.head, retina.fovea
   EXPECT_TRUE(json::parse(http_get(run.server->port(), "/api/stats")).contains("nodes"));
   http::status status{};
   http_get(run.server->port(), "/nothing", &status);
@@ -276,12 +279,13 @@ TEST(View, AClientsRegionReachesTheFovea) {
   Client client(run.server->port());
   auto channels = channels_of((client.next_json(), client.next_json()));
   ASSERT_TRUE(eventually([&] { return run.processed("fovea") > 5; }));
-  client.send_text(json{{"op", "advertise"},
-                        {"channels", {{{"id", 3}, {"topic", "/fovea/target"}, {"encoding", "json"}, {"schemaName", "Region"}}}}}
-                       .dump());
-  client.send_text(json{{"op", "subscribe"},
-                        {"subscriptions", {{{"id", 1}, {"channelId", channels["/fovea/state/json"]["id"]}}}}}
-                       .dump());
+  client.send_text(
+      json{{"op", "advertise"},
+           {"channels", {{{"id", 3}, {"topic", "/fovea/target"}, {"encoding", "json"}, {"schemaName", "Region"}}}}}
+          .dump());
+  client.send_text(
+      json{{"op", "subscribe"}, {"subscriptions", {{{"id", 1}, {"channelId", channels["/fovea/state/json"]["id"]}}}}}
+          .dump());
   const std::string region = R"({"center":{"x":100,"y":80},"size":{"width":40,"height":30},"label":"view"})";
   std::string frame(1, '\x01');
   const uint32_t id = 3;
@@ -294,7 +298,8 @@ TEST(View, AClientsRegionReachesTheFovea) {
     const json s = json::parse(client.next_data(1));
     const json& t = s["target"];
     found = s["target_valid"] == true && std::abs(t["x"].get<double>() + t["w"].get<double>() / 2 - 100) < 4 &&
-            std::abs(t["y"].get<double>() + t["h"].get<double>() / 2 - 80) < 4 && std::abs(t["w"].get<double>() - 40) < 4;
+            std::abs(t["y"].get<double>() + t["h"].get<double>() / 2 - 80) < 4 &&
+            std::abs(t["w"].get<double>() - 40) < 4;
   }
   EXPECT_TRUE(found) << "the fovea's state never showed the box";
   EXPECT_EQ(run.server->counters().malformed, 0u);
@@ -317,8 +322,7 @@ TEST(View, MalformedAndOversizeMessagesAreDroppedAndCounted) {
     client.send_binary(std::string("\x01\x05\x00\x00\x00{}", 7));  // a channel never advertised
     client.send_text(R"({"op":"advertise","channels":[{"id":4,"topic":"/fovea/target","encoding":"json"}]})");
     client.send_binary(std::string("\x01\x04\x00\x00\x00{\"center\":3}", 17));
-    ASSERT_TRUE(eventually([&] { return run.server->counters().malformed == 8; }))
-        << run.server->counters().malformed;
+    ASSERT_TRUE(eventually([&] { return run.server->counters().malformed == 8; })) << run.server->counters().malformed;
     // Each is answered with a warning, and the connection stays.
     const json status = client.next_json();
     EXPECT_EQ(status["op"], "status");
@@ -352,9 +356,7 @@ TEST(View, MalformedAndOversizeMessagesAreDroppedAndCounted) {
     beast::flat_buffer buffer;
     http::response<http::string_body> res;
     http::read(stream, buffer, res, ec);
-    if (!ec) {
-      EXPECT_EQ(res.result(), http::status::payload_too_large);
-    }
+    if (!ec) { EXPECT_EQ(res.result(), http::status::payload_too_large); }
   }
   ASSERT_TRUE(eventually([&] { return run.server->counters().oversize == 2; }));
   EXPECT_EQ(run.server->counters().oversize, 2u);
@@ -365,12 +367,15 @@ TEST(View, MalformedAndOversizeMessagesAreDroppedAndCounted) {
 // `count` 640x480 frames as fast as the graph goes (or at `fps`), through a
 // retina or straight, to a sink; a view on any free port that would send them all.
 std::string fast_graph(int count, bool with_retina, double fps = 0) {
-  const std::string pace = fps > 0 ? "<param name=\"rate\" value=\"realtime\"/><param name=\"fps\" value=\"" +
-                                         std::to_string(fps) + "\"/>"
-                                   : "";
-  const std::string scene = "<node name=\"scene\" plugin=\"capture.synthetic\"><param name=\"size\" value=\"640x480\"/>"
-                            "<param name=\"count\" value=\"" + std::to_string(count) + "\"/>" + pace + "</node>"
-                            "<node name=\"sink\" plugin=\"util.null\"/>";
+  const std::string pace =
+      fps > 0 ? "<param name=\"rate\" value=\"realtime\"/><param name=\"fps\" value=\"" + std::to_string(fps) + "\"/>"
+              : "";
+  const std::string scene =
+      "<node name=\"scene\" plugin=\"capture.synthetic\"><param name=\"size\" value=\"640x480\"/>"
+      "<param name=\"count\" value=\"" +
+      std::to_string(count) + "\"/>" + pace +
+      "</node>"
+      "<node name=\"sink\" plugin=\"util.null\"/>";
   const std::string path = with_retina ? "<node name=\"retina\" plugin=\"retina\"/>"
                                          "<edge from=\"scene.image\" to=\"retina.image\" queue=\"block:2\"/>"
                                          "<edge from=\"retina.retina\" to=\"sink.in\" queue=\"block:2\"/>"
@@ -417,7 +422,9 @@ TEST(View, ATightCpuShareSlowsThePicturesNotTheGraph) {
   Client client(server->port());
   auto channels = channels_of((client.next_json(), client.next_json()));
   ASSERT_TRUE(channels.count("/scene/image/jpeg"));
-  client.send_text(json{{"op", "subscribe"}, {"subscriptions", {{{"id", 1}, {"channelId", channels["/scene/image/jpeg"]["id"]}}}}}.dump());
+  client.send_text(
+      json{{"op", "subscribe"}, {"subscriptions", {{{"id", 1}, {"channelId", channels["/scene/image/jpeg"]["id"]}}}}}
+          .dump());
   ASSERT_TRUE(eventually([&] { return server->counters().clients == 1; }));
   ASSERT_TRUE(graph->run().ok());
   EXPECT_EQ(graph->stats("sink").processed.load(), 400u);
@@ -472,7 +479,6 @@ TEST(View, APortInUseIsAClearError) {
   EXPECT_EQ(error, "view: cannot listen on 127.0.0.1:" + std::to_string(port) + ": the port is in use");
 }
 
-
 // The client's messages as the server parses them (client_protocol.hpp, what
 // fuzz_view feeds any bytes): what each request asks, and an entry that is not
 // whole ends it after the entries before it.
@@ -491,7 +497,8 @@ TEST(ViewProtocol, ParsesEachRequestAndKeepsTheEntriesBeforeABadOne) {
   EXPECT_EQ(r.ids, (std::vector<uint32_t>{7, 8}));
   EXPECT_EQ(r.malformed, "");
 
-  r = view::parse_client_text(R"({"op":"advertise","channels":[{"id":4,"topic":"/fovea/target","encoding":"json"},{"id":5}]})");
+  r = view::parse_client_text(
+      R"({"op":"advertise","channels":[{"id":4,"topic":"/fovea/target","encoding":"json"},{"id":5}]})");
   EXPECT_EQ(r.op, ClientRequest::Op::kAdvertise);
   ASSERT_EQ(r.channels.size(), 1u);
   EXPECT_EQ(r.channels[0].topic, "/fovea/target");

@@ -2,8 +2,7 @@
 #include "saccade/plugin.hpp"
 
 namespace {
-const saccade::PluginDescriptor kDescriptor = {
-    {999, 1, 1, 1, 1, 1}, "badabi", nullptr, 0};
+const saccade::PluginDescriptor kDescriptor = {{999, 1, 1, 1, 1, 1}, "badabi", nullptr, 0};
 const saccade::PluginDescriptor* entry() { return &kDescriptor; }
 }  // namespace
 

@@ -7,7 +7,6 @@ struct ThresholdConfig {  // the algorithm's settings; their defaults live here,
   double level = 128;
   bool invert = false;
 };
-
 class Threshold final : public saccade::Node {
  public:
   static constexpr const char* kName = "threshold";  // the node type is "example.threshold"
@@ -30,7 +29,8 @@ class Threshold final : public saccade::Node {
     out->geometry = in->geometry, out->source_size = in->source_size, out->fovea = in->fovea;
     out->levels.resize(in->levels.size());
     const int type = config_.invert ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY;
-    for (std::size_t k = 0; k < in->levels.size(); ++k) cv::threshold(in->levels[k], out->levels[k], config_.level, 255, type);
+    for (std::size_t k = 0; k < in->levels.size(); ++k)
+      cv::threshold(in->levels[k], out->levels[k], config_.level, 255, type);
     ctx.emit(kBinary, std::move(out));
     return {};
   }

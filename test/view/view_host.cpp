@@ -50,8 +50,7 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
   std::thread watch([&] {
     std::string line;
-    while (std::getline(std::cin, line)) {
-    }
+    while (std::getline(std::cin, line)) {}
     stop = true;
     executor.request_stop();
   });
@@ -59,11 +58,12 @@ int main(int argc, char** argv) {
   const Status status = executor.run();
   const view::ViewCounters c = server->counters();
   server->stop();
-  std::printf("counters: {\"connections\": %llu, \"messages_sent\": %llu, \"malformed\": %llu, \"oversize\": %llu, "
-              "\"injected\": %llu}\n",
-              static_cast<unsigned long long>(c.connections), static_cast<unsigned long long>(c.messages_sent),
-              static_cast<unsigned long long>(c.malformed), static_cast<unsigned long long>(c.oversize),
-              static_cast<unsigned long long>(c.injected));
+  std::printf(
+      "counters: {\"connections\": %llu, \"messages_sent\": %llu, \"malformed\": %llu, \"oversize\": %llu, "
+      "\"injected\": %llu}\n",
+      static_cast<unsigned long long>(c.connections), static_cast<unsigned long long>(c.messages_sent),
+      static_cast<unsigned long long>(c.malformed), static_cast<unsigned long long>(c.oversize),
+      static_cast<unsigned long long>(c.injected));
   std::fflush(stdout);
   if (!status.ok() && !status.is_end_of_stream()) {
     std::fprintf(stderr, "%s\n", status.message().c_str());

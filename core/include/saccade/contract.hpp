@@ -80,8 +80,7 @@ struct Out {
 template <class Config>
 class ParamBinder;
 
-using ParamValue =
-    std::variant<int64_t, double, bool, std::string, cv::Size, cv::Point2d, std::vector<std::string>>;
+using ParamValue = std::variant<int64_t, double, bool, std::string, cv::Size, cv::Point2d, std::vector<std::string>>;
 
 // Parses `text` as `spec` requires (whole string, range, choices). Returns the
 // reason when it does not fit.
@@ -159,10 +158,8 @@ class Contract {
   Contract& required_string(std::string name, std::string doc);
   Contract& param_size(std::string name, cv::Size def, std::string doc);
   Contract& param_point(std::string name, std::optional<cv::Point2d> def, std::string doc);
-  Contract& param_enum(std::string name, std::string def, std::vector<std::string> choices,
-                       std::string doc);
-  Contract& param_flags(std::string name, std::string def, std::vector<std::string> choices,
-                        std::string doc);
+  Contract& param_enum(std::string name, std::string def, std::vector<std::string> choices, std::string doc);
+  Contract& param_flags(std::string name, std::string def, std::vector<std::string> choices, std::string doc);
 
   const std::string& doc() const { return doc_; }
   const std::vector<PortSpec>& inputs() const { return inputs_; }
@@ -187,7 +184,7 @@ class Contract {
   const ParamSpec* find_param(std::string_view name) const;
   int input_index(std::string_view name) const;   // -1 when absent
   int output_index(std::string_view name) const;  // -1 when absent
-  int input_index(const void* key) const;          // by port constant; -1 when absent
+  int input_index(const void* key) const;         // by port constant; -1 when absent
   int output_index(const void* key) const;
 
  private:

@@ -45,7 +45,8 @@ struct EdgeQos {
 // state reliable, keep-last 8.
 EdgeQos default_qos(std::string_view message_type);
 // Parses a comma-separated list over `base`: best_effort | reliable, depth=N |
-// keep_all, deadline_ms=X, wait_ms=X, capacity=N[K|M] (KiB, MiB), ros2, spin. Returns nothing and sets `error` when it cannot.
+// keep_all, deadline_ms=X, wait_ms=X, capacity=N[K|M] (KiB, MiB), ros2, spin. Returns nothing and sets `error` when it
+// cannot.
 std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std::string* error);
 
 enum class OnError { kStop, kSkip };
@@ -151,8 +152,7 @@ bool resolve_node(const NodeDecl& node, const Registry& registry, const std::str
 
 // Validates the whole graph against the registry's contracts and reports every
 // error at once; returns nothing when there is any.
-std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registry& registry,
-                                           Diagnostics& diag);
+std::optional<ResolvedGraph> resolve_graph(const GraphDecl& graph, const Registry& registry, Diagnostics& diag);
 
 // Graphviz text of a graph.
 std::string to_dot(const ResolvedGraph& graph);

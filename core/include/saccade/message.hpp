@@ -57,7 +57,8 @@ cv::Mat view_of_buffer(cv::UMatData* u, uchar* data, cv::Size size, int type);
 // `allocator`, each from a 64-byte boundary: a consumer that sends from that
 // allocator's memory (a DDS edge's frame ring) then sends them all at once,
 // without a copy. The buffer lives as long as any of them.
-void create_together(cv::MatAllocator* allocator, std::size_t count, cv::Size size, int type, std::vector<cv::Mat>& mats);
+void create_together(cv::MatAllocator* allocator, std::size_t count, cv::Size size, int type,
+                     std::vector<cv::Mat>& mats);
 
 // Port type name that accepts every message type.
 inline constexpr std::string_view kAnyType = "any";
@@ -220,9 +221,9 @@ struct Motion final : Message {
   std::string_view type_name() const override { return kTypeName; }
   ~Motion() override;
 
-  std::vector<double> energy;          // mean of dI^2 over the level
-  std::vector<double> moving;          // fraction of the level's pixels above the threshold
-  std::vector<cv::Point2d> centroid;   // of the moving pixels, in source pixels ((-1,-1) when none)
+  std::vector<double> energy;         // mean of dI^2 over the level
+  std::vector<double> moving;         // fraction of the level's pixels above the threshold
+  std::vector<cv::Point2d> centroid;  // of the moving pixels, in source pixels ((-1,-1) when none)
   int camera_id = 0;
   bool first = false;  // the first frame: nothing to compare with, no motion reported
 
@@ -289,17 +290,17 @@ struct StereoFixation final : Message {
   std::string_view type_name() const override { return kTypeName; }
   ~StereoFixation() override;
 
-  cv::Point2d pixel;        // the left fovea's centre, source pixels (rectified pixels when `rectified`)
-  cv::Size2d fovea;         // the fovea's size there, in the same pixels
-  double disparity = -1.0;  // left x minus right x, in the same pixels; < 0: not found
-  double score = -1.0;      // the match's NCC at that disparity
-  double depth = -1.0;      // metres along the optical axis (< 0: not calibrated or not found)
+  cv::Point2d pixel;          // the left fovea's centre, source pixels (rectified pixels when `rectified`)
+  cv::Size2d fovea;           // the fovea's size there, in the same pixels
+  double disparity = -1.0;    // left x minus right x, in the same pixels; < 0: not found
+  double score = -1.0;        // the match's NCC at that disparity
+  double depth = -1.0;        // metres along the optical axis (< 0: not calibrated or not found)
   double depth_sigma = -1.0;  // one standard deviation of depth, metres (< 0: unknown)
-  cv::Vec3d point;          // the fixated point, metres, left camera's optical frame (x right, y down, z ahead)
-  cv::Vec3d point_head;     // the same point in the head's base frame (when point_head_valid)
+  cv::Vec3d point;            // the fixated point, metres, left camera's optical frame (x right, y down, z ahead)
+  cv::Vec3d point_head;       // the same point in the head's base frame (when point_head_valid)
   bool point_head_valid = false;
-  bool rectified = false;   // the retinas were sampled along the pair's rectified geometry
-  int camera_id = 0;        // of the left retina
+  bool rectified = false;  // the retinas were sampled along the pair's rectified geometry
+  int camera_id = 0;       // of the left retina
 
   template <class Self, class Visit>
   static void fields(Self& self, Visit&& visit) {
@@ -332,16 +333,16 @@ struct GazeRequest final : Message {
     kRelative,        // turn the gaze by `azimuth` (right +) and `elevation` (up +), radians
   };
   Kind kind = Kind::kDirection;
-  cv::Point2d pixel;     // source pixels of the image it was decided on
-  cv::Vec3d direction;   // unit vector to it in the camera frame (x right, y down, z forward)
-  cv::Size image_size;   // of that image, so a receiver can tell where the centre was
-  double focal_px = 0;   // the sender's focal length in pixels (0: the receiver's own)
-  double depth = -1;     // kPixelDepth (and kDirection when known, > 0)
-  double disparity = 0;  // kPixelDisparity: left x minus right x, pixels
-  cv::Vec3d point;       // kPoint
+  cv::Point2d pixel;                  // source pixels of the image it was decided on
+  cv::Vec3d direction;                // unit vector to it in the camera frame (x right, y down, z forward)
+  cv::Size image_size;                // of that image, so a receiver can tell where the centre was
+  double focal_px = 0;                // the sender's focal length in pixels (0: the receiver's own)
+  double depth = -1;                  // kPixelDepth (and kDirection when known, > 0)
+  double disparity = 0;               // kPixelDisparity: left x minus right x, pixels
+  cv::Vec3d point;                    // kPoint
   double azimuth = 0, elevation = 0;  // kRelative
-  int camera_id = 0;     // 0 left, 1 right
-  std::string reason;    // why: "border" (the fovea reached the margin), "target", ...
+  int camera_id = 0;                  // 0 left, 1 right
+  std::string reason;                 // why: "border" (the fovea reached the margin), "target", ...
 
   template <class Self, class Visit>
   static void fields(Self& self, Visit&& visit) {
@@ -375,13 +376,13 @@ struct JointState final : Message {
     kFault,     // the drive reports a fault (statusword or emergency)
     kSilent,    // no heartbeat or process data within the timeout
   };
-  std::vector<double> position;       // rad
-  std::vector<double> velocity;       // rad/s
+  std::vector<double> position;  // rad
+  std::vector<double> velocity;  // rad/s
   std::vector<Health> health;
-  std::vector<int64_t> updated_ns;    // when each joint's position last arrived (the driver's clock)
-  std::vector<uint16_t> error_code;   // the drive's last emergency code (0: none)
-  int64_t cycle = 0;                  // control cycles since the start
-  std::string detail;                 // the first problem in words, empty when every joint is ready
+  std::vector<int64_t> updated_ns;   // when each joint's position last arrived (the driver's clock)
+  std::vector<uint16_t> error_code;  // the drive's last emergency code (0: none)
+  int64_t cycle = 0;                 // control cycles since the start
+  std::string detail;                // the first problem in words, empty when every joint is ready
   bool all_ready() const;
 
   template <class Self, class Visit>
@@ -464,17 +465,17 @@ struct FoveaState final : Message {
   // kLost: the target is gone (hidden, out of view); the tracker looks for it.
   enum class State : uint8_t { kSearching, kTracking, kLost, kUncertain };
   State state = State::kSearching;
-  cv::Point2d fovea;       // fovea centre the retina used for this frame, source pixels
-  cv::Point2d next;        // fovea centre asked for the next frame
-  Box target;              // the target in this frame, source pixels (when target_valid)
+  cv::Point2d fovea;  // fovea centre the retina used for this frame, source pixels
+  cv::Point2d next;   // fovea centre asked for the next frame
+  Box target;         // the target in this frame, source pixels (when target_valid)
   bool target_valid = false;
-  double confidence = 0.0; // the tracker's: a box's peak-to-sidelobe ratio, a template's match (NCC)
-  double score = 0.0;      // tracking: as confidence; searching: the attended saliency
+  double confidence = 0.0;       // the tracker's: a box's peak-to-sidelobe ratio, a template's match (NCC)
+  double score = 0.0;            // tracking: as confidence; searching: the attended saliency
   bool attention_shift = false;  // the fovea was sent somewhere new this frame
   bool gaze_request = false;     // a GazeRequest went out this frame
   int64_t attention_shifts = 0;  // since the start
   int64_t gaze_requests = 0;
-  int64_t frames_lost = 0;       // consecutive frames in the lost state
+  int64_t frames_lost = 0;  // consecutive frames in the lost state
   int camera_id = 0;
   std::shared_ptr<const Retina> retina;  // the retina it was decided on, for overlays
 
@@ -506,11 +507,11 @@ struct Classification final : Message {
   // The paper's three outcomes, from the classifier's thresholds.
   enum class Outcome : uint8_t { kClassified, kProbable, kNotClassified };
   Outcome outcome = Outcome::kNotClassified;
-  int best = -1;                 // index of the best class
-  double score = 0.0;            // its score, 0..1
-  std::vector<float> scores;     // per class, 0..1
+  int best = -1;                                            // index of the best class
+  double score = 0.0;                                       // its score, 0..1
+  std::vector<float> scores;                                // per class, 0..1
   std::shared_ptr<const std::vector<std::string>> classes;  // class names (shared by every message)
-  cv::Rect region;               // source pixels the classifier looked at
+  cv::Rect region;                                          // source pixels the classifier looked at
   int camera_id = 0;
 
   template <class Self, class Visit>
@@ -524,8 +525,9 @@ struct Classification final : Message {
     visit("camera_id", self.camera_id);
   }
   std::string_view label() const {
-    return classes && best >= 0 && best < static_cast<int>(classes->size()) ? std::string_view((*classes)[static_cast<std::size_t>(best)])
-                                                                            : std::string_view();
+    return classes && best >= 0 && best < static_cast<int>(classes->size())
+               ? std::string_view((*classes)[static_cast<std::size_t>(best)])
+               : std::string_view();
   }
 };
 
@@ -539,7 +541,7 @@ struct CanFrames final : Message {
   std::string_view type_name() const override { return kTypeName; }
   ~CanFrames() override;
   static constexpr uint32_t kExtended = 0x80000000U, kRemote = 0x40000000U, kError = 0x20000000U;  // in can_id
-  static constexpr uint8_t kFd = 0x80, kBitRateSwitch = 0x01, kErrorStateIndicator = 0x02;        // in flags
+  static constexpr uint8_t kFd = 0x80, kBitRateSwitch = 0x01, kErrorStateIndicator = 0x02;         // in flags
   struct Frame {
     uint32_t can_id = 0;  // 11- or 29-bit id with kExtended / kRemote / kError, as linux/can.h
     uint8_t length = 0;   // data bytes: 0..8, 0..64 with kFd

@@ -64,8 +64,9 @@ class ParamBinder {
 
   // A bool, text, size (WxH) or point (x,y) field.
   template <class... Path>
-    requires detail::kPlainField<detail::field_t<Config, Path...>>
-  ParamBinder& field(std::string_view name, std::string_view doc, Path... path) {
+  requires detail::kPlainField<detail::field_t<Config, Path...>> ParamBinder& field(std::string_view name,
+                                                                                    std::string_view doc,
+                                                                                    Path... path) {
     using F = detail::field_t<Config, Path...>;
     bind<F>(name, doc, Range{}, {}, path...);
     return *this;
@@ -73,8 +74,9 @@ class ParamBinder {
 
   // A number, within `range`.
   template <class... Path>
-    requires detail::kNumberField<detail::field_t<Config, Path...>>
-  ParamBinder& field(std::string_view name, Range range, std::string_view doc, Path... path) {
+  requires detail::kNumberField<detail::field_t<Config, Path...>> ParamBinder& field(std::string_view name, Range range,
+                                                                                     std::string_view doc,
+                                                                                     Path... path) {
     using F = detail::field_t<Config, Path...>;
     bind<F>(name, doc, range, {}, path...);
     return *this;

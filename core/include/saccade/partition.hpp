@@ -25,8 +25,8 @@ struct PlannedEdge {
   std::string from_process, to_process;  // empty: the node runs in every process
   std::string type;                      // the producer port's message type
   EdgeRoute route = EdgeRoute::kInProcess;
-  std::string topic;                     // DDS edges only
-  EdgeQos qos;                           // DDS edges only
+  std::string topic;  // DDS edges only
+  EdgeQos qos;        // DDS edges only
   // DDS edges whose output has every reader on the writer's host (and is no
   // ROS 2 topic): the bridges are told zero_copy, so messages travel through
   // shared memory (images in the writer's frame ring, other types through its
@@ -53,7 +53,6 @@ std::string format_plan(const ResolvedGraph& graph, const GraphPlan& plan);
 // remote output this process consumes a dds.subscribe node (one per output).
 // An unknown process is an error that lists the known ones.
 std::optional<ResolvedGraph> partition_graph(const ResolvedGraph& graph, const GraphPlan& plan,
-                                             const std::string& process, const Registry& registry,
-                                             Diagnostics& diag);
+                                             const std::string& process, const Registry& registry, Diagnostics& diag);
 
 }  // namespace saccade

@@ -29,8 +29,11 @@ struct AbiStamp {
 };
 
 constexpr AbiStamp current_abi_stamp() {
-  return {kAbiVersion, static_cast<uint32_t>(__GNUC__), static_cast<uint32_t>(_GLIBCXX_USE_CXX11_ABI),
-          static_cast<uint32_t>(sizeof(Contract)), static_cast<uint32_t>(sizeof(NodeSlot)),
+  return {kAbiVersion,
+          static_cast<uint32_t>(__GNUC__),
+          static_cast<uint32_t>(_GLIBCXX_USE_CXX11_ABI),
+          static_cast<uint32_t>(sizeof(Contract)),
+          static_cast<uint32_t>(sizeof(NodeSlot)),
           static_cast<uint32_t>(sizeof(Image))};
 }
 
@@ -58,32 +61,26 @@ class Guarded final : public Node {
   Status open(OpenContext& ctx) override {
     try {
       return inner_.open(ctx);
-    } catch (const std::exception& e) {
-      return Status::error(std::string("open threw: ") + e.what());
-    } catch (...) {
+    } catch (const std::exception& e) { return Status::error(std::string("open threw: ") + e.what()); } catch (...) {
       return Status::error("open threw a non-standard exception");
     }
   }
   Status process(ProcessContext& ctx) override {
     try {
       return inner_.process(ctx);
-    } catch (const std::exception& e) {
-      return Status::error(std::string("process threw: ") + e.what());
-    } catch (...) {
+    } catch (const std::exception& e) { return Status::error(std::string("process threw: ") + e.what()); } catch (...) {
       return Status::error("process threw a non-standard exception");
     }
   }
   void inputs_ended() override {
     try {
       inner_.inputs_ended();
-    } catch (...) {
-    }
+    } catch (...) {}
   }
   void close() override {
     try {
       inner_.close();
-    } catch (...) {
-    }
+    } catch (...) {}
   }
 
  private:
@@ -110,29 +107,24 @@ NodeFactory make_factory() {
 }  // namespace detail
 }  // namespace saccade
 
-#define SACCADE_PLUGIN(LIBRARY, ...)                                                          \
-  namespace saccade_plugin_entry_ns {                                                         \
-  static const ::saccade::NodeFactory kFactories[] = {                                        \
-      SACCADE_PLUGIN_FACTORIES_(__VA_ARGS__)};                                                \
-  static const ::saccade::PluginDescriptor kDescriptor = {                                    \
-      ::saccade::current_abi_stamp(), LIBRARY, kFactories,                                    \
-      sizeof(kFactories) / sizeof(kFactories[0])};                                            \
-  const ::saccade::PluginDescriptor* saccade_plugin_entry() { return &kDescriptor; }          \
-  }                                                                                           \
-  BOOST_DLL_ALIAS_SECTIONED(saccade_plugin_entry_ns::saccade_plugin_entry, saccade_plugin_entry, \
-                            saccade)
+#define SACCADE_PLUGIN(LIBRARY, ...)                                                                           \
+  namespace saccade_plugin_entry_ns {                                                                          \
+  static const ::saccade::NodeFactory kFactories[] = {SACCADE_PLUGIN_FACTORIES_(__VA_ARGS__)};                 \
+  static const ::saccade::PluginDescriptor kDescriptor = {::saccade::current_abi_stamp(), LIBRARY, kFactories, \
+                                                          sizeof(kFactories) / sizeof(kFactories[0])};         \
+  const ::saccade::PluginDescriptor* saccade_plugin_entry() { return &kDescriptor; }                           \
+  }                                                                                                            \
+  BOOST_DLL_ALIAS_SECTIONED(saccade_plugin_entry_ns::saccade_plugin_entry, saccade_plugin_entry, saccade)
 
 #define SACCADE_PLUGIN_F1_(T) ::saccade::detail::make_factory<T>()
 #define SACCADE_PLUGIN_FACTORIES_(...) SACCADE_PLUGIN_MAP_(SACCADE_PLUGIN_F1_, __VA_ARGS__)
 // A small for-each over up to 16 node classes.
-#define SACCADE_PLUGIN_MAP_(F, ...) \
-  SACCADE_PLUGIN_GET_(__VA_ARGS__, SACCADE_M16_, SACCADE_M15_, SACCADE_M14_, SACCADE_M13_, \
-                      SACCADE_M12_, SACCADE_M11_, SACCADE_M10_, SACCADE_M9_, SACCADE_M8_,  \
-                      SACCADE_M7_, SACCADE_M6_, SACCADE_M5_, SACCADE_M4_, SACCADE_M3_,     \
-                      SACCADE_M2_, SACCADE_M1_)(F, __VA_ARGS__)
-#define SACCADE_PLUGIN_GET_(_1, _2, _3, _4, _5, _6, _7, _8, _9, _10, _11, _12, _13, _14, _15, \
-                            _16, NAME, ...)                                                   \
-  NAME
+#define SACCADE_PLUGIN_MAP_(F, ...)                                                                                    \
+  SACCADE_PLUGIN_GET_(__VA_ARGS__, SACCADE_M16_, SACCADE_M15_, SACCADE_M14_, SACCADE_M13_, SACCADE_M12_, SACCADE_M11_, \
+                      SACCADE_M10_, SACCADE_M9_, SACCADE_M8_, SACCADE_M7_, SACCADE_M6_, SACCADE_M5_, SACCADE_M4_,      \
+                      SACCADE_M3_, SACCADE_M2_, SACCADE_M1_)                                                           \
+  (F, __VA_ARGS__)
+#define SACCADE_PLUGIN_GET_(_1, _2, _3, _4, _5, _6, _7, _8, _9, _10, _11, _12, _13, _14, _15, _16, NAME, ...) NAME
 #define SACCADE_M1_(F, x) F(x)
 #define SACCADE_M2_(F, x, ...) F(x), SACCADE_M1_(F, __VA_ARGS__)
 #define SACCADE_M3_(F, x, ...) F(x), SACCADE_M2_(F, __VA_ARGS__)
