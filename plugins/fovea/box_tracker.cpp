@@ -673,13 +673,24 @@ void BoxTracker::look_elsewhere(const cv::Mat& frame) {
   if (impl_->unsure_frames < config_.redetect_after) return;
   const double confidence = last_.confidence;
   const TrackState state = last_.state;
-  redetect(frame, impl_->center);
+  redetect(frame, impl_->center, /*unsure=*/true);
   if (last_.state != TrackState::kTracking) last_.confidence = confidence, last_.state = state;
 }
 
-void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted) {
+void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsure) {
   Impl& m = *impl_;
-  const double threshold = config_.redetect_psr;
+  // One place: as near as a moving target can be on the next frame, the
+  // search's reach around the candidate (a quarter patch) or half the target.
+  const double near = std::max(0.5 * std::max(m.size.width, m.size.height), 0.25 * config_.patch * m.step);
+  // While unsure, the place the tracker sits on is what follow() found too
+  // weak to track: found there again, a peak must be as sure as a tracked
+  // frame's, or background the filter half matches would be "re-detected".
+  const bool warm = m.tracked_frames >= config_.warmup_frames;
+  const double tracked_bar = std::max(config_.tracking_psr, warm ? config_.relative_psr * m.psr_mean : 0.0);
+  auto bar = [&](cv::Point2d found) {
+    return unsure && cv::norm(found - m.center) < near ? std::max(config_.redetect_psr, tracked_bar)
+                                                       : config_.redetect_psr;
+  };
   // A candidate from the last frame is looked at again first: a re-detection
   // must hold on consecutive frames at one place.
   std::vector<Placement>& looks = m.looks;
@@ -689,21 +700,19 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted) {
   // The whole-frame search on every other frame: it costs as much as the
   // rest of the frame, and a candidate it found is confirmed locally meanwhile.
   if (m.search_tick++ % 2 == 0) m.propose(frame, config_.proposals, looks);
-  Peak best;
+  Peak best, strongest;
   Placement where;
   for (const Placement& p : looks) {
     const Peak peak = m.look_at(frame, p);
-    if (peak.psr > best.psr) best = peak, where = p;
+    if (peak.psr > strongest.psr) strongest = peak;
+    if (peak.psr >= bar(p.to_frame(peak.offset)) && peak.psr > best.psr) best = peak, where = p;
   }
-  last_.confidence = best.psr;
-  if (best.psr < threshold) {
+  last_.confidence = strongest.psr;
+  if (best.psr <= 0) {
     m.candidate_frames = 0;
     return;
   }
   const cv::Point2d found = where.to_frame(best.offset);
-  // One place: as near as a moving target can be on the next frame, the
-  // search's reach around the candidate (a quarter patch) or half the target.
-  const double near = std::max(0.5 * std::max(m.size.width, m.size.height), 0.25 * config_.patch * m.step);
   const bool consistent = m.candidate_frames > 0 && cv::norm(found - m.candidate) < near;
   m.candidate = found;
   m.candidate_step = where.step;

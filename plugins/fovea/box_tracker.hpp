@@ -76,7 +76,7 @@ class BoxTracker {
  private:
   struct Impl;
   void follow(const cv::Mat& frame, cv::Point2d predicted);
-  void redetect(const cv::Mat& frame, cv::Point2d predicted);
+  void redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsure = false);
   void look_elsewhere(const cv::Mat& frame);
   BoxTrackerConfig config_;
   bool initialized_ = false;
