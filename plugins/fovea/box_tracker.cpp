@@ -1,6 +1,7 @@
 #include "box_tracker.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 
@@ -463,7 +464,7 @@ struct BoxTracker::Impl {
   // Where the lost target may be: the best matches (normalised correlation)
   // of its coarse look over the whole frame seen at the coarse step, at
   // least a target apart.
-  void propose(const cv::Mat& frame, int count, std::vector<Placement>& out) {
+  void propose(const cv::Mat& frame, int count, int reach, std::vector<Placement>& out) {
     if (appearance.empty()) return;
     const double s = coarse_step();
     const cv::Size coarse_size(static_cast<int>(frame.cols / s), static_cast<int>(frame.rows / s));
@@ -473,9 +474,13 @@ struct BoxTracker::Impl {
     coarse_f.create(coarse_size, CV_32F);
     sample_area(frame, {frame.cols / 2.0, frame.rows / 2.0}, static_cast<double>(frame.cols) / coarse_size.width,
                 static_cast<double>(frame.rows) / coarse_size.height, coarse_size, coarse_f.ptr<float>());
-    // The target may have grown or shrunk while it was away: its look is
-    // matched at three sizes, and each place is proposed at its size.
-    for (const double factor : {1.0, 1.25, 0.8}) {
+    // The target may have grown or shrunk while it was away (come closer,
+    // gone further): its look is matched at three sizes, and each place is
+    // proposed at its size. The sizes reach 1.25x, 1.56x and 1.95x either
+    // way on successive searches (`reach` 0, 1, 2), at the cost of one.
+    static const std::array<std::array<double, 3>, 3> sizes{
+        {{1.0, 1.25, 0.8}, {1.0, 1.5625, 0.64}, {1.0, 1.953125, 0.512}}};
+    for (const double factor : sizes[static_cast<std::size_t>(reach)]) {
       const cv::Size t(std::max(3, static_cast<int>(std::lround(appearance.cols * factor))),
                        std::max(3, static_cast<int>(std::lround(appearance.rows * factor))));
       if (coarse_size.width < t.width || coarse_size.height < t.height) continue;
@@ -699,7 +704,8 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   looks.push_back({predicted, m.step, m.angle});
   // The whole-frame search on every other frame: it costs as much as the
   // rest of the frame, and a candidate it found is confirmed locally meanwhile.
-  if (m.search_tick++ % 2 == 0) m.propose(frame, config_.proposals, looks);
+  if (m.search_tick % 2 == 0) m.propose(frame, config_.proposals, (m.search_tick / 2) % 3, looks);
+  ++m.search_tick;
   Peak best, strongest;
   Placement where;
   for (const Placement& p : looks) {

@@ -136,6 +136,30 @@ TEST(BoxTracker, AHiddenTargetIsLostAndFoundAgainWhenItReappears) {
   EXPECT_LE(found_after, 15);
 }
 
+// A target that came closer while hidden: it reappears elsewhere 1.9x as
+// large, beyond the sizes the whole-frame search tried before (up to 1.25x,
+// which never found it), and is found again at about its new size.
+TEST(BoxTracker, AHiddenTargetThatReappearsLargerIsFoundAtItsNewSize) {
+  const Scene scene;
+  BoxTracker tracker;
+  const cv::Point2d before(100, 120), after(210, 120);
+  const double small = 0.25, large = 0.25 * 1.9;
+  ASSERT_EQ(tracker.init(scene.render({60, 60}, before, small), scene.box(before, small)), "");
+  for (int k = 1; k <= 20; ++k)
+    ASSERT_EQ(tracker.update(scene.render({60, 60}, before, small)).state, TrackState::kTracking);
+  for (int k = 0; k < 40; ++k) tracker.update(scene.render({60, 60}, {-200, -200}, small));  // out of view
+  EXPECT_NE(tracker.last().state, TrackState::kTracking);
+  int found_after = -1;
+  TrackEstimate e;
+  for (int k = 0; k < 40 && found_after < 0; ++k) {
+    e = tracker.update(scene.render({60, 60}, after, large));
+    if (e.state == TrackState::kTracking && cv::norm(center(e.box) - after) < 10) found_after = k;
+  }
+  ASSERT_GE(found_after, 0) << "never found again";
+  EXPECT_LE(found_after, 15);
+  EXPECT_NEAR(e.box.width / scene.box(after, large).width, 1.0, 0.2) << "found at about its new size";
+}
+
 TEST(BoxTracker, TheCamerasOwnMoveIsNotTakenForTheTargets) {
   const Scene scene;
   BoxTracker told, untold;
