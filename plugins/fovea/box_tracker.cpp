@@ -164,6 +164,22 @@ void sample_area(const cv::Mat& frame, cv::Point2d center, double step_x, double
     }
 }
 
+// The chromaticity (r, g: each channel's share of R + G + B) of the mean
+// colour inside the central half of `box`: the same under brighter or dimmer
+// light, changed by a tint. (1/3, 1/3) for a gray frame.
+cv::Vec2d chroma(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
+  if (frame.channels() < 3) return {1.0 / 3, 1.0 / 3};
+  const cv::Rect inner =
+      cv::Rect(
+          cv::Point(static_cast<int>(center.x - size.width / 4), static_cast<int>(center.y - size.height / 4)),
+          cv::Size(std::max(1, static_cast<int>(size.width / 2)), std::max(1, static_cast<int>(size.height / 2)))) &
+      cv::Rect(0, 0, frame.cols, frame.rows);
+  if (inner.empty()) return {1.0 / 3, 1.0 / 3};
+  const cv::Scalar bgr = cv::mean(frame(inner));
+  const double sum = bgr[0] + bgr[1] + bgr[2] + 1e-9;
+  return {bgr[2] / sum, bgr[1] / sum};
+}
+
 // DSST's scale filter: a one-dimensional correlation filter across `count`
 // scales of the target (Danelljan et al., BMVC 2014). Each scale's sample is
 // the target's box times that scale, sampled to a small fixed patch; the
@@ -524,7 +540,19 @@ struct BoxTracker::Impl {
   int search_tick = 0;
   int low_frames = 0;     // consecutive frames below lost_psr
   int unsure_frames = 0;  // consecutive frames not confident enough to learn from
-  cv::Mat appearance;     // CV_32F, the target at the coarse step
+  cv::Vec2d chroma_mean;  // of the tracked frames' target
+  double chroma_deviation = 0;
+  int chroma_frames = 0;
+  int untracked_frames = 0;  // since the target was last tracked
+  // The colour is checked once it is known, and until the target has been
+  // away so long that it may come back in another light.
+  bool color_gate_on(const BoxTrackerConfig& c) const {
+    return chroma_frames >= c.warmup_frames && untracked_frames < c.color_patience;
+  }
+  bool color_matches(const BoxTrackerConfig& c, double distance) const {
+    return !color_gate_on(c) || distance <= std::max(c.min_chroma_change, c.chroma_deviations * chroma_deviation);
+  }
+  cv::Mat appearance;  // CV_32F, the target at the coarse step
   std::vector<float> coarse_sample;
   cv::Mat coarse_f, resized, match;
   cv::Point2d candidate{-1, -1};  // lost: a re-detection waiting for confirmation, and its step
@@ -596,6 +624,7 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   Impl& m = *impl_;
   const cv::Point2d predicted = m.center + m.velocity + camera_shift_;
   camera_shift_ = {};
+  ++m.untracked_frames;  // follow() zeroes it on a tracked frame
   if (last_.state == TrackState::kLost)
     redetect(frame, predicted);
   else
@@ -653,6 +682,21 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     look_elsewhere(frame);
     return;
   }
+  const cv::Vec2d color = chroma(frame, measured, m.size);
+  const double color_distance = cv::norm(color - m.chroma_mean);
+  if (warm && !m.color_matches(config_, color_distance)) {
+    m.velocity *= 0.8;
+    m.center = measured;
+    last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
+    look_elsewhere(frame);
+    return;
+  }
+  // Away so long that it may be back in another light: its colour is learnt again.
+  if (m.untracked_frames >= config_.color_patience) m.chroma_frames = 0;
+  m.untracked_frames = 0;
+  if (m.chroma_frames++ == 0) m.chroma_mean = color, m.chroma_deviation = 0;
+  m.chroma_deviation = 0.95 * m.chroma_deviation + 0.05 * color_distance;
+  m.chroma_mean = 0.95 * m.chroma_mean + 0.05 * color;
   m.unsure_frames = 0;
   m.angle = at.angle;
   m.velocity = config_.velocity_gain * (measured - m.center) + (1 - config_.velocity_gain) * m.velocity;

@@ -42,14 +42,17 @@ struct BoxTrackerConfig {
   double relative_psr = 0.5;    // ... and at or above this share of its mean over tracked frames
   int warmup_frames = 10;       // tracked frames that make that mean before it is used
   double rival_ratio = 0.7;     // a second peak above this share of the first: not sure (1: never)
-  double lost_psr = 5.0;        // below this the peak is not trusted at all
-  int lost_frames = 5;          // consecutive frames below lost_psr before the target is lost
-  int unsure_frames = 30;       // consecutive frames not tracked before the target is lost
-  int redetect_after = 3;       // consecutive frames not tracked before the whole frame is searched too
-  double redetect_psr = 9.0;    // a re-detection must reach this ...
-  int redetect_frames = 2;      // ... on this many consecutive frames, at a consistent place
-  int proposals = 3;            // lost: places per frame the whole-frame search proposes to the filter
-  double velocity_gain = 0.5;   // weight of the newest velocity measurement
+  double min_chroma_change = 0.02;  // a tracked target's colour (chromaticity) may move this far ...
+  double chroma_deviations = 4;     // ... or this many times its usual frame-to-frame deviation
+  int color_patience = 60;          // frames away after which a target may come back another colour
+  double lost_psr = 5.0;            // below this the peak is not trusted at all
+  int lost_frames = 5;              // consecutive frames below lost_psr before the target is lost
+  int unsure_frames = 30;           // consecutive frames not tracked before the target is lost
+  int redetect_after = 3;           // consecutive frames not tracked before the whole frame is searched too
+  double redetect_psr = 9.0;        // a re-detection must reach this ...
+  int redetect_frames = 2;          // ... on this many consecutive frames, at a consistent place
+  int proposals = 3;                // lost: places per frame the whole-frame search proposes to the filter
+  double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 
 struct TrackEstimate {

@@ -160,6 +160,31 @@ TEST(BoxTracker, AHiddenTargetThatReappearsLargerIsFoundAtItsNewSize) {
   EXPECT_NEAR(e.box.width / scene.box(after, large).width, 1.0, 0.2) << "found at about its new size";
 }
 
+// Gray and gradient features barely see colour: a look-alike of another
+// colour (here the target with its red and blue swapped) in the target's
+// place gives as sure a peak. The target's chromaticity, learnt while it is
+// tracked, keeps such frames unsure (nothing learnt from them); a whole
+// untracked second later its colour is learnt again.
+TEST(BoxTracker, ALookAlikeOfAnotherColorIsNotClaimed) {
+  Scene scene;
+  BoxTracker tracker;
+  const cv::Point2d c(150, 120);
+  ASSERT_EQ(tracker.init(scene.render({60, 60}, c), scene.box(c)), "");
+  for (int k = 1; k <= 30; ++k) ASSERT_EQ(tracker.update(scene.render({60, 60}, c)).state, TrackState::kTracking);
+  cv::Mat swapped;
+  cv::cvtColor(scene.target, swapped, cv::COLOR_BGR2RGB);
+  scene.target = swapped;
+  int claimed = 0;
+  for (int k = 0; k < 40; ++k) claimed += tracker.update(scene.render({60, 60}, c)).state == TrackState::kTracking;
+  EXPECT_LE(claimed, 12) << "at most 30% of the frames claimed";
+  int tracked_again = -1;
+  for (int k = 0; k < 80 && tracked_again < 0; ++k)
+    if (tracker.update(scene.render({60, 60}, c)).state == TrackState::kTracking &&
+        tracker.update(scene.render({60, 60}, c)).state == TrackState::kTracking)
+      tracked_again = k;
+  EXPECT_GE(tracked_again, 0) << "a target that changed colour for good is followed again";
+}
+
 TEST(BoxTracker, TheCamerasOwnMoveIsNotTakenForTheTargets) {
   const Scene scene;
   BoxTracker told, untold;
