@@ -133,7 +133,11 @@ class FoveaNode final : public Node {
                &C::box, &B::lost_frames)
         .field("box_redetect_psr", {0, 1000},
                "box tracking: peak-to-sidelobe ratio a re-detection must reach (twice, at one place)", &C::box,
-               &B::redetect_psr);
+               &B::redetect_psr)
+        .field("box_color_change", {0, 1},
+               "box tracking: how far the target's chromaticity may move before a sure peak is doubted (as well "
+               "as four times its usual deviation; 1: colour never doubts)",
+               &C::box, &B::min_chroma_change);
   }
 
   static Contract contract() {
