@@ -546,11 +546,18 @@ struct BoxTracker::Impl {
   int untracked_frames = 0;  // since the target was last tracked
   // The colour is checked once it is known, and until the target has been
   // away so long that it may come back in another light.
-  bool color_gate_on(const BoxTrackerConfig& c) const {
-    return chroma_frames >= c.warmup_frames && untracked_frames < c.color_patience;
-  }
   bool color_matches(const BoxTrackerConfig& c, double distance) const {
-    return !color_gate_on(c) || distance <= std::max(c.min_chroma_change, c.chroma_deviations * chroma_deviation);
+    const bool checked = chroma_frames >= c.warmup_frames && untracked_frames < c.color_patience;
+    return !checked || distance <= std::max(c.min_chroma_change, c.chroma_deviations * chroma_deviation);
+  }
+  // A tracked frame's colour, `distance` from the mean. Away so long that it
+  // may be back in another light, the target's colour is learnt afresh.
+  void learn_color(const BoxTrackerConfig& c, cv::Vec2d color, double distance) {
+    if (untracked_frames >= c.color_patience) chroma_frames = 0;
+    untracked_frames = 0;
+    if (chroma_frames++ == 0) chroma_mean = color, chroma_deviation = 0;
+    chroma_deviation = 0.95 * chroma_deviation + 0.05 * distance;
+    chroma_mean = 0.95 * chroma_mean + 0.05 * color;
   }
   cv::Mat appearance;  // CV_32F, the target at the coarse step
   std::vector<float> coarse_sample;
@@ -673,7 +680,17 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   // A second peak nearly as high: two look-alikes in the patch, and the
   // filter cannot tell which is the target.
   const bool contested = peak.rival > config_.rival_ratio;
-  if (contested || psr < std::max(config_.tracking_psr, warm ? config_.relative_psr * m.psr_mean : 0.0)) {
+  // A sure peak of another colour: the features (gray, gradients) barely
+  // see colour, and a look-alike of another one peaks as surely as the target.
+  bool doubted = contested || psr < std::max(config_.tracking_psr, warm ? config_.relative_psr * m.psr_mean : 0.0);
+  cv::Vec2d color;
+  double color_distance = 0;
+  if (!doubted) {
+    color = chroma(frame, measured, m.size);
+    color_distance = cv::norm(color - m.chroma_mean);
+    doubted = warm && !m.color_matches(config_, color_distance);
+  }
+  if (doubted) {
     // Where the peak is, but not sure enough to learn from it or to trust
     // its motion (an occluder's edge, a distractor passing).
     m.velocity *= 0.8;
@@ -682,21 +699,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     look_elsewhere(frame);
     return;
   }
-  const cv::Vec2d color = chroma(frame, measured, m.size);
-  const double color_distance = cv::norm(color - m.chroma_mean);
-  if (warm && !m.color_matches(config_, color_distance)) {
-    m.velocity *= 0.8;
-    m.center = measured;
-    last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
-    look_elsewhere(frame);
-    return;
-  }
-  // Away so long that it may be back in another light: its colour is learnt again.
-  if (m.untracked_frames >= config_.color_patience) m.chroma_frames = 0;
-  m.untracked_frames = 0;
-  if (m.chroma_frames++ == 0) m.chroma_mean = color, m.chroma_deviation = 0;
-  m.chroma_deviation = 0.95 * m.chroma_deviation + 0.05 * color_distance;
-  m.chroma_mean = 0.95 * m.chroma_mean + 0.05 * color;
+  m.learn_color(config_, color, color_distance);
   m.unsure_frames = 0;
   m.angle = at.angle;
   m.velocity = config_.velocity_gain * (measured - m.center) + (1 - config_.velocity_gain) * m.velocity;
