@@ -555,7 +555,8 @@ struct BoxTracker::Impl {
   void learn_color(const BoxTrackerConfig& c, cv::Vec2d color, double distance) {
     if (untracked_frames >= c.color_patience) chroma_frames = 0;
     untracked_frames = 0;
-    if (chroma_frames++ == 0) chroma_mean = color, chroma_deviation = 0;
+    // (Measured against the old mean, a fresh start's distance is no deviation.)
+    if (chroma_frames++ == 0) chroma_mean = color, chroma_deviation = 0, distance = 0;
     chroma_deviation = 0.95 * chroma_deviation + 0.05 * distance;
     chroma_mean = 0.95 * chroma_mean + 0.05 * color;
   }
