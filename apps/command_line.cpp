@@ -169,6 +169,7 @@ CommandLine::CommandLine() {
   check = add_check_command(app, graph);
   plugins = add_plugins_command(app, plugins_args);
   dot = add_dot_command(app, graph);
+  idl = app.add_subcommand("idl", "print the IDL of saccade's messages as they travel in CDR (idl/saccade.idl)");
   train = add_train_command(app, train_args);
   calibrate = add_calibrate_command(app, calibrate_args);
   completion = add_completion_command(app, completion_args);

@@ -85,7 +85,7 @@ struct CommandLine {
   CalibrateArgs calibrate_args;
   CompletionArgs completion_args;
   CLI::App *run = nullptr, *plan = nullptr, *check = nullptr, *plugins = nullptr, *dot = nullptr, *train = nullptr,
-           *calibrate = nullptr, *completion = nullptr;
+           *calibrate = nullptr, *completion = nullptr, *idl = nullptr;
 };
 
 // Parses argv into `line`. nullopt: go on with the subcommand parsed; else the

@@ -25,6 +25,7 @@
 #include "saccade/partition.hpp"
 #include "saccade/plugin.hpp"
 #include "saccade/registry.hpp"
+#include "saccade/cdr.hpp"
 #include "saccade/schema.hpp"
 #include "view_server.hpp"
 
@@ -427,6 +428,10 @@ int main(int argc, char** argv) {
   if (line.plan->parsed()) return plan_command(line.common, line.graph);
   if (line.check->parsed()) return check_command(line.common, line.graph);
   if (line.dot->parsed()) return dot_command(line.common, line.graph);
+  if (line.idl->parsed()) {
+    std::cout << saccade::cdr::idl();
+    return 0;
+  }
   // Exactly one subcommand parsed: what is left is run.
   return run_command(line.common, line.graph, line.run_args);
 }

@@ -33,7 +33,7 @@ const char* to_string(GazeRequest::Kind kind) {
     case GazeRequest::Kind::kPoint: return "point";
     case GazeRequest::Kind::kRelative: return "relative";
   }
-  return "?";
+  return "unknown";
 }
 
 const char* to_string(Retina::Sampling sampling) {
@@ -41,7 +41,7 @@ const char* to_string(Retina::Sampling sampling) {
     case Retina::Sampling::kFivePoint: return "five_point";
     case Retina::Sampling::kAreaMean: return "area_mean";
   }
-  return "?";
+  return "unknown";
 }
 
 const char* to_string(JointState::Health health) {
@@ -51,7 +51,7 @@ const char* to_string(JointState::Health health) {
     case JointState::Health::kFault: return "fault";
     case JointState::Health::kSilent: return "silent";
   }
-  return "?";
+  return "unknown";
 }
 FoveaState::~FoveaState() = default;
 Classification::~Classification() = default;

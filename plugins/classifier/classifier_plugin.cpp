@@ -101,7 +101,7 @@ class ClassifierNode final : public Node {
     result->best = best;
     result->score = best >= 0 ? result->scores[static_cast<std::size_t>(best)] : 0.0;
     result->classes = model_->classes;
-    result->region = extractor_->region(*retina);
+    result->roi = extractor_->region(*retina);
     result->camera_id = retina->camera_id;
     const bool wanted = target_classes_.empty() ||
                         std::find(target_classes_.begin(), target_classes_.end(), best) != target_classes_.end();

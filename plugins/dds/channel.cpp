@@ -5,15 +5,14 @@
 #include <fastcdr/exceptions/Exception.h>
 
 #include "ros2.hpp"
+#include "saccade/cdr.hpp"
+#include "saccade/schema.hpp"
 #include "wire.hpp"
 
 namespace saccade::dds {
 
-extern const char* const kSaccadeIdlText;
-
 namespace {
 
-namespace w = saccade_idl;
 namespace ros = sensor_msgs::msg::dds_;
 
 std::string ros2_image_schema() {
@@ -36,19 +35,13 @@ float64[] effort
 )");
 }
 
-template <class M>
-ChannelEncoding idl_encoding() {
-  return {M::kTypeName, "saccade_idl::" + std::string(M::kTypeName), "omgidl", kSaccadeIdlText, "cdr"};
+template <class... M>
+std::vector<ChannelEncoding> idl_encodings_of(TypeList<M...>) {
+  return {ChannelEncoding{M::kTypeName, cdr::idl_type_name(M::kTypeName), "omgidl", cdr::idl(), "cdr"}...};
 }
 
 const std::vector<ChannelEncoding>& idl_encodings() {
-  static const std::vector<ChannelEncoding> all = {
-      idl_encoding<Image>(),       idl_encoding<Retina>(),     idl_encoding<FeatureMaps>(),
-      idl_encoding<Motion>(),      idl_encoding<Region>(),     idl_encoding<StereoFixation>(),
-      idl_encoding<GazeRequest>(), idl_encoding<JointState>(), idl_encoding<JointTargets>(),
-      idl_encoding<HeadPose>(),    idl_encoding<FoveaState>(), idl_encoding<Classification>(),
-      idl_encoding<CanFrames>(),
-  };
+  static const std::vector<ChannelEncoding> all = idl_encodings_of(MessageTypes{});
   return all;
 }
 
@@ -89,33 +82,26 @@ std::string wrong_type(const Message& m, std::string_view expected) {
   return "a " + std::string(m.type_name()) + " on a channel of " + std::string(expected);
 }
 
-// saccade's own IDL form.
-template <class M, class W>
+// saccade's own IDL form (saccade/cdr.hpp).
+template <class M>
 class IdlEncoder final : public MessageEncoder {
  public:
   std::string encode(const Message& message, std::vector<uint8_t>& out) override {
     if (message.type_name() != M::kTypeName) return wrong_type(message, M::kTypeName);
-    to_wire(static_cast<const M&>(message), wire_);
-    serialize(wire_, out);
+    cdr::write(static_cast<const M&>(message), cdr::Envelope{}, out);
     return {};
   }
-
- private:
-  W wire_;
 };
 
-template <class M, class W>
+template <class M>
 class IdlDecoder final : public MessageDecoder {
  public:
   MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) override {
-    if (!deserialize(data, size, wire_, why)) return nullptr;
     auto out = std::make_shared<M>();
-    from_wire(wire_, *out);
+    cdr::Envelope envelope;
+    if (!cdr::read(data, size, *out, envelope, why)) return nullptr;
     return out;
   }
-
- private:
-  W wire_;
 };
 
 // ROS 2's sensor_msgs forms.
@@ -153,28 +139,15 @@ class Ros2Decoder final : public MessageDecoder {
   R wire_;
 };
 
-// Calls `f` with a null M* and W* for saccade's type named `type`.
-template <class F>
-bool with_idl_type(std::string_view type, F&& f) {
-  auto one = [&](auto* m, auto* wire) {
-    using M = std::remove_pointer_t<decltype(m)>;
-    if (type != M::kTypeName) return false;
-    f(m, wire);
+// Calls `f` with a null M* for saccade's type named `type`.
+template <class F, class... M>
+bool with_idl_type(std::string_view type, F&& f, TypeList<M...>) {
+  auto one = [&](auto* m) {
+    if (type != std::remove_pointer_t<decltype(m)>::kTypeName) return false;
+    f(m);
     return true;
   };
-  return one(static_cast<Image*>(nullptr), static_cast<w::Image*>(nullptr)) ||
-         one(static_cast<Retina*>(nullptr), static_cast<w::Retina*>(nullptr)) ||
-         one(static_cast<FeatureMaps*>(nullptr), static_cast<w::FeatureMaps*>(nullptr)) ||
-         one(static_cast<Motion*>(nullptr), static_cast<w::Motion*>(nullptr)) ||
-         one(static_cast<Region*>(nullptr), static_cast<w::Region*>(nullptr)) ||
-         one(static_cast<StereoFixation*>(nullptr), static_cast<w::StereoFixation*>(nullptr)) ||
-         one(static_cast<GazeRequest*>(nullptr), static_cast<w::GazeRequest*>(nullptr)) ||
-         one(static_cast<JointState*>(nullptr), static_cast<w::JointState*>(nullptr)) ||
-         one(static_cast<JointTargets*>(nullptr), static_cast<w::JointTargets*>(nullptr)) ||
-         one(static_cast<HeadPose*>(nullptr), static_cast<w::HeadPose*>(nullptr)) ||
-         one(static_cast<FoveaState*>(nullptr), static_cast<w::FoveaState*>(nullptr)) ||
-         one(static_cast<Classification*>(nullptr), static_cast<w::Classification*>(nullptr)) ||
-         one(static_cast<CanFrames*>(nullptr), static_cast<w::CanFrames*>(nullptr));
+  return (one(static_cast<M*>(nullptr)) || ...);
 }
 
 }  // namespace
@@ -217,11 +190,9 @@ std::unique_ptr<MessageEncoder> make_encoder(const ChannelEncoding& encoding) {
     return nullptr;
   }
   std::unique_ptr<MessageEncoder> out;
-  with_idl_type(encoding.type, [&](auto* m, auto* wire) {
-    using M = std::remove_pointer_t<decltype(m)>;
-    using W = std::remove_pointer_t<decltype(wire)>;
-    out = std::make_unique<IdlEncoder<M, W>>();
-  });
+  with_idl_type(
+      encoding.type, [&](auto* m) { out = std::make_unique<IdlEncoder<std::remove_pointer_t<decltype(m)>>>(); },
+      MessageTypes{});
   return out;
 }
 
@@ -232,11 +203,9 @@ std::unique_ptr<MessageDecoder> make_decoder(const ChannelEncoding& encoding) {
     return nullptr;
   }
   std::unique_ptr<MessageDecoder> out;
-  with_idl_type(encoding.type, [&](auto* m, auto* wire) {
-    using M = std::remove_pointer_t<decltype(m)>;
-    using W = std::remove_pointer_t<decltype(wire)>;
-    out = std::make_unique<IdlDecoder<M, W>>();
-  });
+  with_idl_type(
+      encoding.type, [&](auto* m) { out = std::make_unique<IdlDecoder<std::remove_pointer_t<decltype(m)>>>(); },
+      MessageTypes{});
   return out;
 }
 

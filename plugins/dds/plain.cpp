@@ -1,4 +1,4 @@
-// The shared-memory forms of Image and Retina (idl/saccade.idl, module plain).
+// The shared-memory forms of Image and Retina (idl/saccade_plain.idl).
 // Loans: a writer fills a sample loaned from Fast DDS' data-sharing pool and
 // writes it; a reader takes a loan on the writer's memory and copies the
 // pixels once into a pooled message. Ring: the pixels stay in the writer's
@@ -15,15 +15,66 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include "saccade/log.hpp"
-#include "saccadePubSubTypes.h"
-#include "wire.hpp"
+#include "saccade/cdr.hpp"
+#include "saccade_plainPubSubTypes.h"
 
 namespace saccade::dds {
 
-namespace wp = saccade_idl::plain;
+namespace wp = saccade_plain;
+namespace wc = saccade_plain::common;
 namespace fdds = eprosima::fastdds::dds;
+using cdr::kEndOfStream;
 
 namespace {
+
+void stamp_to_wire(const Message& in, wc::Stamp& out) {
+  out.timestamp_ns(in.timestamp_ns);
+  out.origin_ns(in.origin_ns);
+  out.frame_id(in.frame_id);
+  out.flags(0);
+  out.mailbox(0);
+  out.post(0);
+}
+
+void stamp_from_wire(const wc::Stamp& in, Message& out) {
+  out.timestamp_ns = in.timestamp_ns();
+  out.origin_ns = in.origin_ns();
+  out.frame_id = in.frame_id();
+}
+
+void geometry_to_wire(const LevelGeometry& in, wc::LevelGeometry& out) {
+  out.area().x(in.region.x);
+  out.area().y(in.region.y);
+  out.area().width(in.region.width);
+  out.area().height(in.region.height);
+  out.step_x(in.step_x);
+  out.step_y(in.step_y);
+}
+
+LevelGeometry geometry_from_wire(const wc::LevelGeometry& in) {
+  return {{in.area().x(), in.area().y(), in.area().width(), in.area().height()}, in.step_x(), in.step_y()};
+}
+
+void rectification_to_wire(const Rectification& in, wc::Rectification& out) {
+  out.enabled(in.enabled);
+  out.reserved().fill(0);
+  std::copy(in.camera.val, in.camera.val + 9, out.camera().begin());
+  std::copy(in.distortion.val, in.distortion.val + 14, out.distortion().begin());
+  std::copy(in.rotation.val, in.rotation.val + 9, out.rotation().begin());
+  std::copy(in.rectified.val, in.rectified.val + 9, out.rectified().begin());
+  out.baseline(in.baseline);
+}
+
+Rectification rectification_from_wire(const wc::Rectification& in) {
+  Rectification out;
+  out.enabled = in.enabled();
+  std::copy(in.camera().begin(), in.camera().end(), out.camera.val);
+  std::copy(in.distortion().begin(), in.distortion().end(), out.distortion.val);
+  std::copy(in.rotation().begin(), in.rotation().end(), out.rotation.val);
+  std::copy(in.rectified().begin(), in.rectified().end(), out.rectified.val);
+  out.baseline = in.baseline();
+  return out;
+}
 
 std::string mib(std::size_t bytes) { return std::to_string(bytes >> 20) + " MiB"; }
 

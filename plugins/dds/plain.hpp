@@ -1,8 +1,7 @@
 #pragma once
-// The shared-memory forms of Image and Retina (idl/saccade.idl, module
-// plain): a plain fixed-capacity sample loaned from Fast DDS' data-sharing
-// pool, or a small sample saying where the pixels are in the writer's frame
-// ring (frame_ring.hpp); their codecs.
+// The shared-memory forms of Image and Retina (idl/saccade_plain.idl): a plain fixed-capacity sample loaned from Fast
+// DDS' data-sharing pool, or a small sample saying where the pixels are in the writer's frame ring (frame_ring.hpp);
+// their codecs.
 #include <cstddef>
 #include <string>
 #include <string_view>
@@ -10,7 +9,7 @@
 
 #include "codec.hpp"
 #include "frame_ring.hpp"
-#include "saccade.h"
+#include "saccade_plain.h"
 #include "saccade/message.hpp"
 
 namespace saccade::dds {
@@ -34,10 +33,10 @@ bool from_plain(const P& in, Retina& out);
 // held (a failed write), else why the message does not fit. from_ring views
 // them in place (pinned while `out` holds them); false with `why` set.
 inline const std::string kRingFull = "every buffer of the frame ring is held";
-std::string to_ring(const Image& in, FrameRing& ring, cv::Mat& hold, saccade_idl::plain::ImageRef& out);
-std::string to_ring(const Retina& in, FrameRing& ring, cv::Mat& hold, saccade_idl::plain::RetinaRef& out);
-bool from_ring(const saccade_idl::plain::ImageRef& in, RingReader& reader, Image& out, std::string& why);
-bool from_ring(const saccade_idl::plain::RetinaRef& in, RingReader& reader, Retina& out, std::string& why);
+std::string to_ring(const Image& in, FrameRing& ring, cv::Mat& hold, saccade_plain::ImageRef& out);
+std::string to_ring(const Retina& in, FrameRing& ring, cv::Mat& hold, saccade_plain::RetinaRef& out);
+bool from_ring(const saccade_plain::ImageRef& in, RingReader& reader, Image& out, std::string& why);
+bool from_ring(const saccade_plain::RetinaRef& in, RingReader& reader, Retina& out, std::string& why);
 
 // Bytes a shared-memory sample or ring buffer of `type` holds unless the edge
 // says otherwise: 4 MiB for Image, 1 MiB for Retina.

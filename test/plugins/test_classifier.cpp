@@ -191,7 +191,7 @@ TEST(ClassifierPlugin, ClassifiesTheFoveaAndOffersItAsATarget) {
   EXPECT_EQ(result->outcome, Classification::Outcome::kClassified);
   EXPECT_EQ(result->label(), "horizontal");
   EXPECT_EQ(result->scores.size(), 2u);
-  EXPECT_EQ(result->region, retina->geometry.back().region);
+  EXPECT_EQ(result->roi, retina->geometry.back().region);
   auto target = h->last<Region>("target");
   ASSERT_TRUE(target);
   EXPECT_EQ(target->label, "horizontal");

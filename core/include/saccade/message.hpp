@@ -92,6 +92,7 @@ struct Image final : Message {
 // Where one retina level came from: its region of the source frame, in source
 // pixels, and the sampling step (source pixels per level pixel) along x and y.
 struct LevelGeometry {
+  static constexpr std::string_view kTypeName = "LevelGeometry";
   cv::Rect region;
   double step_x = 1.0;
   double step_y = 1.0;
@@ -120,6 +121,7 @@ struct LevelGeometry {
 // retinas of a rectified pair share `rectified`, so their rows are epipolar
 // lines and depth = rectified(0,0) * baseline / disparity. Matrices row-major.
 struct Rectification {
+  static constexpr std::string_view kTypeName = "Rectification";
   bool enabled = false;
   cv::Vec<double, 9> camera{1, 0, 0, 0, 1, 0, 0, 0, 1};     // the source camera's matrix
   cv::Vec<double, 14> distortion;                           // OpenCV's order (k1 k2 p1 p2 k3 ...), unused 0
@@ -240,6 +242,7 @@ struct Motion final : Message {
 // An axis-aligned box in source pixels: its top-left corner and its size (a
 // tracked target, a detection).
 struct Box {
+  static constexpr std::string_view kTypeName = "Box";
   double x = 0, y = 0, w = 0, h = 0;
 
   static Box around(cv::Point2d center, cv::Size2d size) {
@@ -511,7 +514,7 @@ struct Classification final : Message {
   double score = 0.0;                                       // its score, 0..1
   std::vector<float> scores;                                // per class, 0..1
   std::shared_ptr<const std::vector<std::string>> classes;  // class names (shared by every message)
-  cv::Rect region;                                          // source pixels the classifier looked at
+  cv::Rect roi;                                             // source pixels the classifier looked at
   int camera_id = 0;
 
   template <class Self, class Visit>
@@ -521,7 +524,7 @@ struct Classification final : Message {
     visit("score", self.score);
     visit("scores", self.scores);
     visit("classes", self.classes);
-    visit("region", self.region);
+    visit("roi", self.roi);
     visit("camera_id", self.camera_id);
   }
   std::string_view label() const {
@@ -543,6 +546,7 @@ struct CanFrames final : Message {
   static constexpr uint32_t kExtended = 0x80000000U, kRemote = 0x40000000U, kError = 0x20000000U;  // in can_id
   static constexpr uint8_t kFd = 0x80, kBitRateSwitch = 0x01, kErrorStateIndicator = 0x02;         // in flags
   struct Frame {
+    static constexpr std::string_view kTypeName = "CanFrame";
     uint32_t can_id = 0;  // 11- or 29-bit id with kExtended / kRemote / kError, as linux/can.h
     uint8_t length = 0;   // data bytes: 0..8, 0..64 with kFd
     uint8_t flags = 0;
