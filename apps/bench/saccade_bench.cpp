@@ -2,7 +2,8 @@
 //   retina vs OpenCV resize(INTER_AREA); the fused filter bank vs the same
 //   OpenCV calls on the levels and on the full frame; framework overhead per
 //   edge (inline, across threads) vs GStreamer's identity element; the
-//   capture(memory) -> retina -> filters pipeline.
+//   capture(memory) -> retina -> filters pipeline; a message's CDR bytes
+//   (what a DDS edge, an MCAP log and the live view carry) written and read.
 // Single thread unless a benchmark says otherwise. Figures go to docs/performance.md.
 #include <benchmark/benchmark.h>
 
@@ -19,6 +20,7 @@
 #include "bench_util.hpp"
 #include "kernels.hpp"
 #include "retina.hpp"
+#include "saccade/cdr.hpp"
 #include "saccade/executor.hpp"
 #include "saccade/graph.hpp"
 #include "saccade/registry.hpp"
@@ -42,6 +44,66 @@ cv::Mat frame_of(cv::Size size) {
   cv::resize(aloe, out, size, 0, 0, cv::INTER_AREA);
   return out;
 }
+
+// ---- CDR: a message's bytes, written from and read back into the message ----
+
+Retina retina_message() {
+  retina::RetinaSampler sampler(retina::RetinaConfig{});
+  Retina retina;
+  sampler.sample(frame_of({640, 480}), {320, 240}, retina);
+  return retina;
+}
+
+template <class M>
+void cdr_write(benchmark::State& state, const M& message) {
+  std::vector<uint8_t> bytes;
+  for (auto _ : state) {
+    cdr::write(message, cdr::Envelope{}, bytes);
+    benchmark::DoNotOptimize(bytes.data());
+  }
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * bytes.size()));
+}
+
+template <class M>
+void cdr_read(benchmark::State& state, const M& message) {
+  std::vector<uint8_t> bytes;
+  cdr::write(message, cdr::Envelope{}, bytes);
+  M out;
+  cdr::Envelope envelope;
+  std::string why;
+  for (auto _ : state)
+    if (!cdr::read(bytes.data(), bytes.size(), out, envelope, why)) state.SkipWithError(why.c_str());
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * bytes.size()));
+}
+
+void BM_Cdr_Write_Retina(benchmark::State& state) { cdr_write(state, retina_message()); }
+void BM_Cdr_Read_Retina(benchmark::State& state) { cdr_read(state, retina_message()); }
+void BM_Cdr_Write_Image640x480(benchmark::State& state) {
+  Image image;
+  image.mat = frame_of({640, 480});
+  cdr_write(state, image);
+}
+void BM_Cdr_Read_Image640x480(benchmark::State& state) {
+  Image image;
+  image.mat = frame_of({640, 480});
+  cdr_read(state, image);
+}
+void BM_Cdr_Write_FoveaState(benchmark::State& state) {
+  FoveaState fovea;
+  fovea.state = FoveaState::State::kTracking;
+  cdr_write(state, fovea);
+}
+void BM_Cdr_Read_FoveaState(benchmark::State& state) {
+  FoveaState fovea;
+  fovea.state = FoveaState::State::kTracking;
+  cdr_read(state, fovea);
+}
+BENCHMARK(BM_Cdr_Write_Retina);
+BENCHMARK(BM_Cdr_Read_Retina);
+BENCHMARK(BM_Cdr_Write_Image640x480);
+BENCHMARK(BM_Cdr_Read_Image640x480);
+BENCHMARK(BM_Cdr_Write_FoveaState);
+BENCHMARK(BM_Cdr_Read_FoveaState);
 
 // ---- retina ----
 

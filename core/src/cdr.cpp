@@ -509,8 +509,7 @@ class Idl {
   IdlType operator()(const float&) { return {"float", ""}; }
   IdlType operator()(const double&) { return {"double", ""}; }
   template <class E>
-  requires std::is_enum_v<E>
-  IdlType operator()(const E&) { return {"octet", ""}; }
+  requires std::is_enum_v<E> IdlType operator()(const E&) { return {"octet", ""}; }
   IdlType operator()(const std::string&) { return {"string", ""}; }
   template <class T>
   IdlType operator()(const cv::Point_<T>&) {
@@ -561,8 +560,7 @@ class Idl {
     return (*this)(T{});
   }
   template <class V>
-  requires Described<V>
-  IdlType operator()(const V& v) {
+  requires Described<V> IdlType operator()(const V& v) {
     const std::string name(V::kTypeName);
     if (!defined_.contains(name)) {
       std::string body = "    struct " + name + " {\n" + members(v, "      ") + "    };\n";
@@ -577,7 +575,8 @@ class Idl {
     const M defaults{};
     std::string body = "  struct " + std::string(M::kTypeName) + " {\n    common::Stamp stamp;\n";
     body += members(defaults, "    ");
-    if constexpr (CarriesRetina<M>) body += "    sequence<Retina, 1> source_retina;  // the retina it was computed on\n";
+    if constexpr (CarriesRetina<M>)
+      body += "    sequence<Retina, 1> source_retina;  // the retina it was computed on\n";
     messages_ += body + "  };\n\n";
   }
 
@@ -668,10 +667,10 @@ const std::string& idl() {
 std::string idl_type_name(std::string_view type) { return "saccade_idl::" + std::string(type); }
 
 // One instantiation per described message type.
-#define SACCADE_CDR_FOR(M)                                                                                        \
-  template std::size_t size_of<M>(const M&);                                                                      \
-  template std::size_t write<M>(const M&, const Envelope&, uint8_t*, std::size_t);                                \
-  template void write<M>(const M&, const Envelope&, std::vector<uint8_t>&);                                        \
+#define SACCADE_CDR_FOR(M)                                                         \
+  template std::size_t size_of<M>(const M&);                                       \
+  template std::size_t write<M>(const M&, const Envelope&, uint8_t*, std::size_t); \
+  template void write<M>(const M&, const Envelope&, std::vector<uint8_t>&);        \
   template bool read<M>(const uint8_t*, std::size_t, M&, Envelope&, std::string&, std::shared_ptr<Retina>*);
 SACCADE_CDR_FOR(Image)
 SACCADE_CDR_FOR(Retina)

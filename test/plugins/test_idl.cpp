@@ -121,7 +121,8 @@ TEST(Idl, BigEndianBytesReadTheSame) {
   Region out;
   cdr::Envelope envelope;
   std::string why;
-  ASSERT_TRUE(cdr::read(reinterpret_cast<const uint8_t*>(big.data()), cdr.getSerializedDataLength(), out, envelope, why))
+  ASSERT_TRUE(
+      cdr::read(reinterpret_cast<const uint8_t*>(big.data()), cdr.getSerializedDataLength(), out, envelope, why))
       << why;
   std::string a, b;
   append_json(a, in);
