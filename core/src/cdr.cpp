@@ -13,15 +13,6 @@ namespace {
 
 static_assert(std::endian::native == std::endian::little, "the CDR writer writes the host's bytes as little endian");
 
-template <class V>
-concept Described = requires(const V& v) {
-  V::fields(v, [](const char*, const auto&) {});
-};
-template <class E>
-concept Named = std::is_enum_v<E> && requires(E e) {
-  to_string(e);
-};
-
 // Alignment counts from the end of the 4-byte encapsulation header.
 constexpr std::size_t kHeader = 4;
 constexpr uint8_t kLittleEndianHeader[kHeader] = {0x00, 0x01, 0x00, 0x00};
@@ -261,7 +252,7 @@ struct Read {
     uint8_t b = 0;
     if (!r.primitive(b)) return false;
     v = static_cast<E>(b);
-    if constexpr (Named<E>)
+    if constexpr (NamedEnum<E>)
       if (!known(v)) return r.fail(std::string(r.field()) + ": " + std::to_string(b) + " is not a value it names");
     return true;
   }
@@ -293,13 +284,7 @@ struct Read {
   }
   template <class T, std::size_t N>
   bool operator()(std::array<T, N>& v) const {
-    if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
-      return r.array(v.data(), N);
-    } else {
-      for (T& e : v)
-        if (!(*this)(e)) return false;
-      return true;
-    }
+    return elements(v.data(), N);
   }
   bool operator()(cv::Mat& m) const;
   template <class T>
@@ -307,13 +292,7 @@ struct Read {
     uint32_t n = 0;
     if (!r.length(n, min_bytes<T>())) return false;
     v.resize(n);
-    if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
-      return r.array(v.data(), n);
-    } else {
-      for (T& e : v)
-        if (!(*this)(e)) return false;
-      return true;
-    }
+    return elements(v.data(), n);
   }
   // Class names rarely change: the names a message already holds are kept
   // (still shared with earlier messages) when the bytes say the same.
@@ -346,6 +325,18 @@ struct Read {
   }
 
  private:
+  // n elements in a row: numbers at once, anything else one by one.
+  template <class T>
+  bool elements(T* data, std::size_t n) const {
+    if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
+      return r.array(data, n);
+    } else {
+      for (std::size_t i = 0; i < n; ++i)
+        if (!(*this)(data[i])) return false;
+      return true;
+    }
+  }
+
   bool same_strings(const std::vector<std::string>& names) const {
     for (const std::string& name : names) {
       uint32_t n = 0;
@@ -597,7 +588,7 @@ class Idl {
   }
   template <class F>
   static std::string enum_comment(const F&) {
-    if constexpr (Named<F>) {
+    if constexpr (NamedEnum<F>) {
       std::string out = "  //";
       for (int v = 0; v < 256; ++v) {
         if (!known(static_cast<F>(v))) break;

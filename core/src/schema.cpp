@@ -9,15 +9,6 @@
 namespace saccade {
 namespace {
 
-template <class V>
-concept Described = requires(const V& v) {
-  V::fields(v, [](const char*, const auto&) {});
-};
-template <class V>
-concept Named = std::is_enum_v<V> && requires(V v) {
-  to_string(v);
-};
-
 void append_string(std::string& out, std::string_view text) {
   out += '"';
   for (const char c : text) {
@@ -85,7 +76,7 @@ struct JsonValue {
   template <class V>
   requires std::is_enum_v<V>
   void operator()(V v) const {
-    if constexpr (Named<V>)
+    if constexpr (NamedEnum<V>)
       append_string(out, to_string(v));
     else
       append_number(out, static_cast<int64_t>(v));
@@ -189,7 +180,7 @@ struct SchemaOf {
   }
   template <class V>
   requires std::is_enum_v<V>
-  void operator()(const V&) const { out += Named<V> ? R"({"type":"string"})" : R"({"type":"integer"})"; }
+  void operator()(const V&) const { out += NamedEnum<V> ? R"({"type":"string"})" : R"({"type":"integer"})"; }
   template <class T>
   void operator()(const cv::Point_<T>&) const {
     out += object_of({"x", "y"}, std::is_integral_v<T> ? "integer" : "number");

@@ -4,6 +4,7 @@
 // sink, the docs and any tool that reads what saccade writes.
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "saccade/message.hpp"
@@ -12,6 +13,19 @@ namespace saccade {
 
 template <class... T>
 struct TypeList {};
+
+// A type that names its fields (message.hpp's `fields`): the JSON writer, the
+// CDR writer and reader and the IDL walk them.
+template <class V>
+concept Described = requires(const V& v) {
+  V::fields(v, [](const char*, const auto&) {});
+};
+// An enum whose values have names (a to_string overload; "unknown" for any other value).
+template <class E>
+concept NamedEnum = std::is_enum_v<E> && requires(E e) {
+  to_string(e);
+};
+
 // Every message type core defines: the one list the JSON writer, the schemas
 // and their tests walk.
 using MessageTypes = TypeList<Image, Retina, FeatureMaps, Motion, Region, StereoFixation, GazeRequest, JointState,
