@@ -19,19 +19,21 @@ std::string join(const std::vector<double>& values) {
   return out;
 }
 
-// The board from the options; "" or what is wrong.
-std::string board_of(const CalibrateArgs& args, BoardSpec& board) {
+// The board the options describe, or what is wrong with them.
+Result<BoardSpec> board_of(const CalibrateArgs& args) {
+  BoardSpec board;
   if (!kinematics::parse_board_size(args.board, board.size))
-    return "--board: expected WxH (e.g. 9x6), got '" + args.board + "'";
+    return Status::error("--board: expected WxH (e.g. 9x6), got '" + args.board + "'");
   board.square = args.square;
   if (!args.charuco.empty()) {
     board.kind = BoardSpec::Kind::kCharuco;
     board.dictionary = args.charuco;
     board.marker = args.marker;
   } else if (args.marker != 0) {
-    return "--marker is for ChArUco boards (give --charuco DICTIONARY too)";
+    return Status::error("--marker is for ChArUco boards (give --charuco DICTIONARY too)");
   }
-  return board.check();
+  if (Status s = board.check(); !s.ok()) return s;
+  return board;
 }
 
 // Each pair; a used pair whose error is over twice the whole calibration's
@@ -83,8 +85,9 @@ int calibrate_command(const CalibrateArgs& args) {
     std::cerr << "saccade calibrate: " << message << "\n";
     return 2;
   };
-  BoardSpec board;
-  if (std::string e = board_of(args, board); !e.empty()) return fail(e);
+  const Result<BoardSpec> described = board_of(args);
+  if (!described.ok()) return fail(described.error());
+  const BoardSpec& board = *described;
   if (!args.draw_board.empty()) {
     if (board.kind != BoardSpec::Kind::kCharuco) return fail("--draw-board draws ChArUco boards (give --charuco)");
     bool written = false;
@@ -97,8 +100,11 @@ int calibrate_command(const CalibrateArgs& args) {
   }
   if (args.out.empty()) return fail("give the calibration file to write with -o FILE");
   std::vector<kinematics::ImagePair> pairs;
-  for (const auto& list : args.lists)
-    if (std::string e = kinematics::read_image_list(list, pairs); !e.empty()) return fail(e);
+  for (const auto& list : args.lists) {
+    auto listed = kinematics::read_image_list(list);
+    if (!listed.ok()) return fail(listed.error());
+    pairs.insert(pairs.end(), listed->begin(), listed->end());
+  }
   if (args.left.size() != args.right.size())
     return fail("--left has " + std::to_string(args.left.size()) + " images but --right has " +
                 std::to_string(args.right.size()) + "; give them in pairs");
@@ -112,8 +118,8 @@ int calibrate_command(const CalibrateArgs& args) {
   std::printf("%s, %zu pairs\n", board.describe().c_str(), pairs.size());
   const kinematics::CalibrationResult result = kinematics::calibrate_head(pairs, options);
   print_pairs(result);
-  if (!result.error.empty()) {
-    std::istringstream lines(result.error);
+  if (!result.status.ok()) {
+    std::istringstream lines(result.status.message());
     for (std::string line; std::getline(lines, line);) std::cerr << "saccade calibrate: " << line << "\n";
     return 2;
   }
@@ -133,7 +139,7 @@ int calibrate_command(const CalibrateArgs& args) {
               c.right_matrix(0, 2), c.right_matrix(1, 2), join(c.right_distortion).c_str());
   std::printf("right camera from the left: T = [%.5f %.5f %.5f] m, baseline %.5f m\n", c.translation[0],
               c.translation[1], c.translation[2], c.baseline());
-  if (std::string e = kinematics::write_head_calibration(args.out, c); !e.empty()) return fail(e);
+  if (Status s = kinematics::write_head_calibration(args.out, c); !s.ok()) return fail(s.message());
   std::printf("wrote %s\n", args.out.c_str());
   return 0;
 }

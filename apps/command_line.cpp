@@ -206,18 +206,19 @@ std::optional<int> parse_command_line(CommandLine& line, int argc, const char* c
   return std::nullopt;
 }
 
-std::string parse_training_options(TrainArgs& args) {
-  std::string error;
-  auto levels = classifier::parse_levels(args.levels, &error);
-  auto features = levels ? classifier::parse_features(args.features, &error) : std::nullopt;
-  auto hidden = features ? classifier::parse_int_list(args.hidden, "--hidden", &error) : std::nullopt;
+Status parse_training_options(TrainArgs& args) {
+  Result<std::vector<int>> levels = classifier::parse_levels(args.levels);
+  if (!levels.ok()) return levels.status();
+  Result<std::vector<std::string>> features = classifier::parse_features(args.features);
+  if (!features.ok()) return features.status();
+  Result<std::vector<int>> hidden = classifier::parse_int_list(args.hidden, "--hidden");
+  if (!hidden.ok()) return hidden.status();
+  if (std::find(hidden->begin(), hidden->end(), 0) != hidden->end())
+    return Status::error("--hidden: every layer needs at least one neuron, got '" + args.hidden + "'");
   int w = 0, h = 0;
   char tail = 0;
-  if (hidden && std::find(hidden->begin(), hidden->end(), 0) != hidden->end())
-    error = "--hidden: every layer needs at least one neuron, got '" + args.hidden + "'";
-  else if (hidden && (std::sscanf(args.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1))
-    error = "--size: expected WxH, got '" + args.size + "'";
-  if (!error.empty()) return error;
+  if (std::sscanf(args.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1)
+    return Status::error("--size: expected WxH, got '" + args.size + "'");
   classifier::FolderTraining& training = args.training;
   training.recipe.levels = *levels;
   training.recipe.features = *features;

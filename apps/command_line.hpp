@@ -95,6 +95,6 @@ std::optional<int> parse_command_line(CommandLine& line, int argc, const char* c
                                       std::ostream& err);
 
 // train's recipe and network options into args.training; the first error, if any.
-std::string parse_training_options(TrainArgs& args);
+Status parse_training_options(TrainArgs& args);
 
 }  // namespace saccade::cli

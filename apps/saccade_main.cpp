@@ -164,31 +164,28 @@ void print_plugin_markdown(const NodeTypeInfo& info) {
 }
 
 int train_command(TrainArgs& args) {
-  if (std::string error = saccade::cli::parse_training_options(args); !error.empty()) {
-    std::cerr << "saccade train: " << error << "\n";
+  if (Status options = saccade::cli::parse_training_options(args); !options.ok()) {
+    std::cerr << "saccade train: " << options.message() << "\n";
     return 2;
   }
   if (args.training.data.empty() == args.samples.empty()) {
     std::cerr << "saccade train: give either a data folder or --samples FILE\n";
     return 2;
   }
-  classifier::TrainingResult result;
   if (!args.samples.empty()) {
     // The recipe is the one the graph collected with.
-    classifier::SampleSet samples;
-    if (std::string e = samples.load(args.samples); !e.empty()) {
-      std::cerr << "saccade train: " << e << "\n";
+    Result<classifier::SampleSet> samples = classifier::SampleSet::load(args.samples);
+    if (!samples.ok()) {
+      std::cerr << "saccade train: " << samples.error() << "\n";
       return 2;
     }
-    result = classifier::train_rows(samples, args.training, std::cout);
-  } else {
-    result = classifier::train_folder(args.training, std::cout);
+    Result<classifier::TrainingResult> result = classifier::train_rows(*samples, args.training, std::cout);
+    if (!result.ok()) std::cerr << "saccade train: " << result.error() << "\n";
+    return result.ok() ? 0 : 2;
   }
-  if (!result.error.empty()) {
-    std::cerr << "saccade train: " << result.error << "\n";
-    return 2;
-  }
-  return 0;
+  Result<classifier::TrainingResult> result = classifier::train_folder(args.training, std::cout);
+  if (!result.ok()) std::cerr << "saccade train: " << result.error() << "\n";
+  return result.ok() ? 0 : 2;
 }
 
 int plugins_command(const Common& common, const PluginsArgs& args) {
@@ -299,11 +296,14 @@ int attach_recording(const RunArgs& args, Executor& executor, std::unique_ptr<sa
   saccade::mcap::RecorderOptions ro;
   saccade::mcap::parse_compression(args.record_compression, ro.writer.compression);
   ro.lossless = args.record_lossless;
-  std::string error;
-  recorder = saccade::mcap::attach_recorder(executor, args.record, ro, error);
-  if (recorder) return 0;
-  std::cerr << "saccade run: --record: " << error << "\n";
-  return 1;
+  Result<std::unique_ptr<saccade::mcap::GraphRecorder>> attached =
+      saccade::mcap::attach_recorder(executor, args.record, ro);
+  if (!attached.ok()) {
+    std::cerr << "saccade run: --record: " << attached.error() << "\n";
+    return 1;
+  }
+  recorder = std::move(attached).value();
+  return 0;
 }
 
 // --view: the live view's server started; 0 or the command's exit status.
@@ -311,16 +311,16 @@ int attach_view(const RunArgs& args, Executor& executor, std::unique_ptr<saccade
   if (args.view.empty()) return 0;
   saccade::view::ViewOptions vo;
   vo.cpu_share = args.view_cpu;
-  std::string error;
-  if (!saccade::view::parse_view_address(args.view, vo, error)) {
-    std::cerr << "saccade run: " << error << "\n";
+  if (Status address = saccade::view::parse_view_address(args.view, vo); !address.ok()) {
+    std::cerr << "saccade run: " << address.message() << "\n";
     return 2;
   }
-  server = saccade::view::start_view(executor, vo, error);
-  if (!server) {
-    std::cerr << "saccade run: " << error << "\n";
+  Result<std::unique_ptr<saccade::view::ViewServer>> started = saccade::view::start_view(executor, vo);
+  if (!started.ok()) {
+    std::cerr << "saccade run: " << started.error() << "\n";
     return 1;
   }
+  server = std::move(started).value();
   std::cerr << "view: " << server->url() << " (Foxglove: ws://" << vo.address << ":" << server->port() << ")\n";
   return 0;
 }
@@ -330,8 +330,8 @@ int attach_view(const RunArgs& args, Executor& executor, std::unique_ptr<saccade
 Status report_run(const RunArgs& args, bool stats, Executor& executor, saccade::mcap::GraphRecorder* recorder,
                   Status status) {
   if (recorder != nullptr) {
-    if (std::string why = recorder->finish(); !why.empty()) {
-      std::cerr << "saccade run: --record: " << why << "\n";
+    if (Status finished = recorder->finish(); !finished.ok()) {
+      std::cerr << "saccade run: --record: " << finished.message() << "\n";
       if (status.ok()) status = Status::error("the recording is incomplete");
     }
     std::cerr << recorder->report() << "\n";

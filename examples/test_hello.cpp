@@ -12,9 +12,9 @@ std::shared_ptr<saccade::Image> gray(int value) {
 }
 
 TEST(HelloInvert, TurnsAFrameIntoItsNegative) {
-  std::string error;
-  auto h = saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"/>)", &error);
-  ASSERT_NE(h, nullptr) << error;
+  auto made = saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"/>)");
+  ASSERT_TRUE(made.ok()) << made.error();
+  auto& h = *made;
   h->set("image", gray(200));
   ASSERT_TRUE(h->process().ok());
   auto out = h->last<saccade::Image>("inverted");
@@ -24,7 +24,8 @@ TEST(HelloInvert, TurnsAFrameIntoItsNegative) {
 
 TEST(HelloInvert, LevelSetsWhatBlackBecomesAndSaturates) {
   auto h =
-      saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"><param name="level" value="100"/></node>)");
+      saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"><param name="level" value="100"/></node>)")
+          .value_or(nullptr);
   ASSERT_NE(h, nullptr);
   h->set("image", gray(150));
   ASSERT_TRUE(h->process().ok());
@@ -32,7 +33,7 @@ TEST(HelloInvert, LevelSetsWhatBlackBecomesAndSaturates) {
 }
 
 TEST(HelloInvert, CountsWhatItSkips) {
-  auto h = saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"/>)");
+  auto h = saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"/>)").value_or(nullptr);
   ASSERT_NE(h, nullptr);
   auto image = std::make_shared<saccade::Image>();
   image->mat = cv::Mat(24, 32, CV_32F, cv::Scalar(0.5));
@@ -43,11 +44,10 @@ TEST(HelloInvert, CountsWhatItSkips) {
 }
 
 TEST(HelloInvert, ALevelOutOfRangeIsRefusedBeforeItRuns) {
-  std::string error;
-  EXPECT_EQ(saccade::testing::NodeHarness::create(
-                R"(<node plugin="hello.invert"><param name="level" value="300"/></node>)", &error),
-            nullptr);
-  EXPECT_NE(error.find("level"), std::string::npos) << error;
+  auto made =
+      saccade::testing::NodeHarness::create(R"(<node plugin="hello.invert"><param name="level" value="300"/></node>)");
+  EXPECT_FALSE(made.ok());
+  EXPECT_NE(made.error().find("level"), std::string::npos) << made.error();
 }
 
 }  // namespace

@@ -146,19 +146,21 @@ struct SaccadeEnd {
   fdds::Topic* topic = nullptr;
   sd::EdgeSettings settings;
   void open(const Options& o, const PayloadKind& p, const std::string& topic_name, bool spin = false) {
-    std::string error;
-    domain = sd::Domain::get(o.domain, &error);
-    if (!domain) throw std::runtime_error(error);
+    auto got = sd::Domain::get(o.domain);
+    if (!got.ok()) throw std::runtime_error(got.error());
+    domain = std::move(got).value();
     const EdgeQos qos = default_qos(p.saccade_type);
     // As the partitioner does on one host: a zero-copy edge.
     const sd::CodecRequest request{.zero_copy = true, .reliable = qos.reliable};
-    codec = sd::choose_codec(p.saccade_type, request, &error);
-    if (codec == nullptr) throw std::runtime_error(error);
+    auto chosen = sd::choose_codec(p.saccade_type, request);
+    if (!chosen.ok()) throw std::runtime_error(chosen.error());
+    codec = *chosen;
     settings.reliable = qos.reliable;
     settings.depth = qos.depth;
     settings.zero_copy = codec->shares_memory();
-    topic = domain->topic(topic_name, *codec, &error);
-    if (topic == nullptr) throw std::runtime_error(error);
+    auto made = domain->topic(topic_name, *codec);
+    if (!made.ok()) throw std::runtime_error(made.error());
+    topic = *made;
     sd::WireOptions options;  // as dds.publish / dds.subscribe set them on a zero-copy edge
     sd::set_mailbox(request, *codec, settings.depth, options);
     if (spin) options.reader_wait = sd::ReaderWait::kSpin;
@@ -474,7 +476,8 @@ int run_reader(const Options& o) {
   return 0;
 }
 
-struct Result {
+// What one payload and edge variant measured (named apart from saccade::Result).
+struct CaseResult {
   std::size_t received = 0;
   double p50 = 0, p99 = 0, max = 0, per_s = 0, cpu = 0;
   bool ok = false;     // the whole run's line came
@@ -482,7 +485,7 @@ struct Result {
   int status = 0;      // the reader's wait status
 };
 
-Result run_case(const Options& o, const char* self, const PayloadKind& k, const std::string& variant) {
+CaseResult run_case(const Options& o, const char* self, const PayloadKind& k, const std::string& variant) {
   Options child = o;
   child.payload = k.name;
   child.variant = variant;
@@ -515,7 +518,7 @@ Result run_case(const Options& o, const char* self, const PayloadKind& k, const 
   char line[256] = {};
   if (std::fgets(line, sizeof line, from_child) == nullptr) return {};  // "ready": its reader exists
 
-  Result r;
+  CaseResult r;
   {
     auto writer = make_writer(o, k, variant, topic_of(child));
     const int64_t match_by = now_ns() + 10'000'000'000;
@@ -578,7 +581,7 @@ int main(int argc, char** argv) {
       if (o.payload != "all" && o.payload != k.name) continue;
       for (const char* variant : kVariants) {
         if ((o.variant != "all" && o.variant != variant) || !applies(variant, k)) continue;
-        Result r = run_case(o, argv[0], k, variant);
+        CaseResult r = run_case(o, argv[0], k, variant);
         const char* ended = WIFSIGNALED(r.status) ? "signal" : "exit status";
         const int code = WIFSIGNALED(r.status) ? WTERMSIG(r.status) : WEXITSTATUS(r.status);
         if (!r.ok && !r.paced) {

@@ -70,9 +70,9 @@ void cdr_read(benchmark::State& state, const M& message) {
   cdr::write(message, cdr::Envelope{}, bytes);
   M out;
   cdr::Envelope envelope;
-  std::string why;
   for (auto _ : state)
-    if (!cdr::read(bytes.data(), bytes.size(), out, envelope, why)) state.SkipWithError(why.c_str());
+    if (Status s = cdr::read(bytes.data(), bytes.size(), out, envelope); !s.ok())
+      state.SkipWithError(s.message().c_str());
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * bytes.size()));
 }
 

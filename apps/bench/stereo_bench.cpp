@@ -244,7 +244,7 @@ struct Score {
   double bad2_rate() const { return given > 0 ? bad2 / given : 0; }
 };
 
-struct Result {
+struct MatcherResult {
   std::string matcher;
   Score fovea, whole;
   double ms = 0;             // per full pair, median
@@ -267,9 +267,9 @@ std::vector<cv::Point2d> fixations(cv::Size size) {
 }
 
 // OpenCV's matchers: on the whole pair, CV_16S x 16, invalid below 0.
-Result opencv_matcher(const std::string& name, const cv::Ptr<cv::StereoMatcher>& m, const Pair& p,
-                      const std::vector<cv::Rect>& foveas, int reps) {
-  Result r;
+MatcherResult opencv_matcher(const std::string& name, const cv::Ptr<cv::StereoMatcher>& m, const Pair& p,
+                             const std::vector<cv::Rect>& foveas, int reps) {
+  MatcherResult r;
   r.matcher = name;
   cv::Mat raw;
   std::vector<double> ms;
@@ -301,9 +301,10 @@ std::shared_ptr<Retina> make_retina(retina::RetinaSampler& sampler, const std::s
 }
 
 // Our matcher with one configuration on every fixation of the pair.
-Result ours(const std::string& name, const stereo::RetinaStereoConfig& config,
-            const retina::RetinaConfig& retina_config, const Pair& p, int reps, std::vector<cv::Rect>* foveas_out) {
-  Result r;
+MatcherResult ours(const std::string& name, const stereo::RetinaStereoConfig& config,
+                   const retina::RetinaConfig& retina_config, const Pair& p, int reps,
+                   std::vector<cv::Rect>* foveas_out) {
+  MatcherResult r;
   r.matcher = name;
   auto left_frame = std::make_shared<Image>(), right_frame = std::make_shared<Image>();
   left_frame->mat = p.left;
@@ -319,10 +320,11 @@ Result ours(const std::string& name, const stereo::RetinaStereoConfig& config,
       const auto t0 = Clock::now();
       left = make_retina(left_sampler, left_frame, f, left);
       right = make_retina(right_sampler, right_frame, f, right);
-      const std::string error = matcher.run(*left, *right, out);
+      const Status matched = matcher.run(*left, *right, out);
       ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-      if (!error.empty()) {
-        std::fprintf(stderr, "saccade_stereo_bench: %s on %s: %s\n", name.c_str(), p.name.c_str(), error.c_str());
+      if (!matched.ok()) {
+        std::fprintf(stderr, "saccade_stereo_bench: %s on %s: %s\n", name.c_str(), p.name.c_str(),
+                     matched.message().c_str());
         std::exit(1);
       }
     }
@@ -468,8 +470,8 @@ std::vector<Pair> select_pairs(const std::string& data, const std::vector<std::s
 // Every matcher on one pair: ours with the defaults first (its foveas are where
 // the others' fovea scores are taken), then the variants asked for, then BM and
 // SGBM last (the floor compares the first with the last).
-std::vector<Result> run_matchers(const Pair& p, const retina::RetinaConfig& retina_config, const Matchers& m) {
-  std::vector<Result> results;
+std::vector<MatcherResult> run_matchers(const Pair& p, const retina::RetinaConfig& retina_config, const Matchers& m) {
+  std::vector<MatcherResult> results;
   std::vector<cv::Rect> foveas;
   results.push_back(ours("saccade, defaults", stereo::RetinaStereoConfig{}, retina_config, p, m.reps, &foveas));
   if (m.all_variants) {
@@ -491,12 +493,12 @@ std::vector<Result> run_matchers(const Pair& p, const retina::RetinaConfig& reti
   return results;
 }
 
-void write_results_table(std::ostringstream& md, const Pair& p, const std::vector<Result>& results) {
+void write_results_table(std::ostringstream& md, const Pair& p, const std::vector<MatcherResult>& results) {
   md << "\n### " << p.name << ": " << p.what << "\n\n"
      << "| matcher | fovea density | fovea bad-1 | fovea bad-2 | image density | image bad-1 | image bad-2 | ms per "
         "pair "
         "| fixation within 2 px | notes |\n|---|---|---|---|---|---|---|---|---|---|\n";
-  for (const Result& r : results) {
+  for (const MatcherResult& r : results) {
     md << "| " << r.matcher << " | " << fmt("%.3f", r.fovea.density()) << " | " << fmt("%.3f", r.fovea.bad1_rate())
        << " | " << fmt("%.3f", r.fovea.bad2_rate()) << " | " << fmt("%.3f", r.whole.density()) << " | "
        << fmt("%.3f", r.whole.bad1_rate()) << " | " << fmt("%.3f", r.whole.bad2_rate()) << " | "
@@ -508,7 +510,7 @@ void write_results_table(std::ostringstream& md, const Pair& p, const std::vecto
 
 struct Floor {
   std::string pair;
-  Result ours, sgbm;
+  MatcherResult ours, sgbm;
 };
 
 // The floor: the defaults' fovea against SGBM's, at <= 1/20 of its time.
@@ -565,7 +567,7 @@ int main(int argc, char** argv) {
   std::vector<Floor> floors;
   for (const Pair& p : pairs) {
     std::fprintf(stderr, "%s: %s\n", p.name.c_str(), p.what.c_str());
-    const std::vector<Result> results = run_matchers(p, retina_config, matchers);
+    const std::vector<MatcherResult> results = run_matchers(p, retina_config, matchers);
     floors.push_back({p.name, results.front(), results.back()});
     write_results_table(md, p, results);
     // Each pair's table as soon as it is measured: a full run takes minutes.

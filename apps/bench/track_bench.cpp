@@ -21,12 +21,15 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <system_error>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/tracking.hpp>
 
+#include "saccade/status.hpp"
 #include "tracking_data.hpp"
 
 #if SACCADE_TRACK_BENCH_FOVEA
@@ -37,13 +40,14 @@
 namespace {
 
 using namespace saccade::bench;
+using saccade::Status;
 
 // One tracker under test, behind the interface the benchmark drives.
 class Tracker {
  public:
   virtual ~Tracker() = default;
-  // "" on success, else why the tracker refused the box.
-  virtual std::string init(const cv::Mat& frame, cv::Rect2d box) = 0;
+  // Ok, or the error saying why the tracker refused the box.
+  virtual Status init(const cv::Mat& frame, cv::Rect2d box) = 0;
   // The box and whether the tracker claims to follow the target (ms left 0).
   virtual TrackedFrame update(const cv::Mat& frame) = 0;
 };
@@ -68,14 +72,14 @@ class OwnRandomStream {
 class OpenCvTracker final : public Tracker {
  public:
   explicit OpenCvTracker(cv::Ptr<cv::Tracker> tracker) : tracker_(std::move(tracker)) {}
-  std::string init(const cv::Mat& frame, cv::Rect2d box) override {
+  Status init(const cv::Mat& frame, cv::Rect2d box) override {
     // OpenCV's trackers take integer boxes.
     last_ = cv::Rect(cvRound(box.x), cvRound(box.y), cvRound(box.width), cvRound(box.height));
     const OwnRandomStream stream(random_);
     try {
       tracker_->init(frame, last_);
-    } catch (const cv::Exception& e) { return e.what(); }
-    return "";
+    } catch (const cv::Exception& e) { return Status::error(e.what()); }
+    return {};
   }
   TrackedFrame update(const cv::Mat& frame) override {
     cv::Rect box;
@@ -103,7 +107,7 @@ class OpenCvTracker final : public Tracker {
 class FoveaTracker final : public Tracker {
  public:
   FoveaTracker() : tracker_(saccade::fovea::BoxTrackerConfig{}), retina_(saccade::retina::RetinaConfig{}) {}
-  std::string init(const cv::Mat& frame, cv::Rect2d box) override {
+  Status init(const cv::Mat& frame, cv::Rect2d box) override {
     fovea_ = (box.tl() + box.br()) * 0.5;
     return tracker_.init(frame, box);
   }
@@ -160,9 +164,9 @@ std::vector<std::string> split_list(const std::string& list) {
 
 // --- Running.
 
-struct Result {
+struct TrackerResult {
   std::string tracker;
-  std::string error;  // why it did not run, "" when it did
+  Status status;  // why it did not run; ok when it did
   TrackScore score;
 };
 
@@ -170,13 +174,16 @@ struct SequenceResults {
   std::string name;
   int frames = 0, invisible = 0;
   cv::Size size;
-  std::vector<Result> results;
+  std::vector<TrackerResult> results;
 };
 
 // One line per frame: what was true, what the tracker said, how well that fits.
-void write_trace(const std::string& folder, const Sequence& sequence, const std::string& tracker,
-                 const std::vector<TrackedFrame>& track) {
-  std::filesystem::create_directories(folder);
+// An error names the folder or file that could not be written.
+Status write_trace(const std::string& folder, const Sequence& sequence, const std::string& tracker,
+                   const std::vector<TrackedFrame>& track) {
+  std::error_code ec;
+  std::filesystem::create_directories(folder, ec);
+  if (ec) return Status::error("cannot create " + folder + ": " + ec.message());
   const std::string path = folder + "/" + sequence.name + "_" + tracker + ".csv";
   std::ofstream out(path);
   out << "frame,visible,truth_x,truth_y,truth_w,truth_h,x,y,w,h,tracking,state,confidence,iou,centre_error,ms\n";
@@ -188,34 +195,40 @@ void write_trace(const std::string& folder, const Sequence& sequence, const std:
         << ',' << f.state << ',' << f.confidence << ',' << iou(t, f.box) << ',' << center_error(t, f.box) << ',' << f.ms
         << '\n';
   }
-  if (!out) throw std::runtime_error("cannot write " + path);
+  if (!out) return Status::error("cannot write " + path);
+  return {};
 }
 
-// Runs all trackers frame by frame (each frame is read or rendered once).
-SequenceResults run_sequence(const Sequence& sequence, const std::vector<std::string>& names,
-                             const std::string& trace) {
+// Runs all trackers frame by frame (each frame is read or rendered once). A
+// tracker that refuses the first box is reported as failed; an error is a
+// frame that cannot be read or a trace that cannot be written.
+saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const std::vector<std::string>& names,
+                                              const std::string& trace) {
   SequenceResults out{sequence.name,
                       sequence.size(),
                       static_cast<int>(std::count(sequence.visible.begin(), sequence.visible.end(), false)),
                       sequence.frame_size,
                       {}};
-  const cv::Mat first = sequence.frame(0);
+  const saccade::Result<cv::Mat> first = sequence.frame(0);
+  if (!first.ok()) return first.status();
   std::vector<std::unique_ptr<Tracker>> trackers;
   std::vector<std::vector<TrackedFrame>> tracks;
   for (const std::string& name : names) {
-    out.results.push_back({name, "", {}});
+    out.results.push_back({name, {}, {}});
     trackers.push_back(make_tracker(name));
     if (!sequence.visible.front())
-      out.results.back().error = "the target is not visible in frame 1";
+      out.results.back().status = Status::error("the target is not visible in frame 1");
     else
-      out.results.back().error = trackers.back()->init(first, sequence.truth.front());
+      out.results.back().status = trackers.back()->init(*first, sequence.truth.front());
     tracks.emplace_back(static_cast<std::size_t>(sequence.size()));
     tracks.back()[0] = {sequence.truth.front(), true, 0};
   }
   for (int i = 1; i < sequence.size(); ++i) {
-    const cv::Mat frame = sequence.frame(i);
+    const saccade::Result<cv::Mat> read = sequence.frame(i);
+    if (!read.ok()) return read.status();
+    const cv::Mat& frame = *read;
     for (std::size_t k = 0; k < trackers.size(); ++k) {
-      if (!out.results[k].error.empty()) continue;
+      if (!out.results[k].status.ok()) continue;
       const auto t0 = std::chrono::steady_clock::now();
       TrackedFrame f = trackers[k]->update(frame);
       f.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -226,11 +239,14 @@ SequenceResults run_sequence(const Sequence& sequence, const std::vector<std::st
       tracks[k][static_cast<std::size_t>(i)] = f;
     }
   }
-  for (std::size_t k = 0; k < trackers.size(); ++k)
-    if (out.results[k].error.empty()) out.results[k].score = score_track(sequence.truth, sequence.visible, tracks[k]);
-  if (!trace.empty())
-    for (std::size_t k = 0; k < trackers.size(); ++k)
-      if (out.results[k].error.empty()) write_trace(trace, sequence, names[k], tracks[k]);
+  for (std::size_t k = 0; k < trackers.size(); ++k) {
+    if (!out.results[k].status.ok()) continue;
+    const saccade::Result<TrackScore> score = score_track(sequence.truth, sequence.visible, tracks[k]);
+    if (!score.ok()) return score.status();
+    out.results[k].score = *score;
+    if (trace.empty()) continue;
+    if (Status written = write_trace(trace, sequence, names[k], tracks[k]); !written.ok()) return written;
+  }
   return out;
 }
 
@@ -273,8 +289,8 @@ std::string reacquisition_cell(const TrackScore& s) {
   return cell;
 }
 
-std::vector<std::string> score_row(const Result& r) {
-  if (!r.error.empty()) return {r.tracker, "failed: " + r.error, "", "", "", "", "", "", ""};
+std::vector<std::string> score_row(const TrackerResult& r) {
+  if (!r.status.ok()) return {r.tracker, "failed: " + r.status.message(), "", "", "", "", "", "", ""};
   const TrackScore& s = r.score;
   return {r.tracker,
           fixed(s.mean_center_error, 1),
@@ -289,7 +305,7 @@ std::vector<std::string> score_row(const Result& r) {
 
 std::string sequence_section(const SequenceResults& sequence) {
   std::vector<std::vector<std::string>> rows{kHeader};
-  for (const Result& r : sequence.results) rows.push_back(score_row(r));
+  for (const TrackerResult& r : sequence.results) rows.push_back(score_row(r));
   return "## " + sequence.name + " (" + std::to_string(sequence.frames) + " frames, " +
          std::to_string(sequence.size.width) + "x" + std::to_string(sequence.size.height) + ", target invisible in " +
          std::to_string(sequence.invisible) + ")\n\n" + table(rows) + "\n";
@@ -307,9 +323,9 @@ std::vector<std::string> average_row(const std::string& tracker, const std::vect
   Mean error, precision, auc, success, lost, honest, reacquire, ms;
   int misses = 0, reappearances = 0, failed = 0;
   for (const SequenceResults& sequence : all)
-    for (const Result& r : sequence.results) {
+    for (const TrackerResult& r : sequence.results) {
       if (r.tracker != tracker) continue;
-      if (!r.error.empty()) {
+      if (!r.status.ok()) {
         ++failed;
         continue;
       }
@@ -347,11 +363,28 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
 
 // --- Main.
 
-std::vector<Sequence> load_sequences(const Options& options) {
+// Appends the sequence in each of `dirs`, read by `read` (read_otb or read_vot).
+Status read_folders(const std::vector<std::string>& dirs, saccade::Result<Sequence> (*read)(const std::string&),
+                    std::vector<Sequence>& sequences) {
+  for (const std::string& dir : dirs) {
+    saccade::Result<Sequence> sequence = read(dir);
+    if (!sequence.ok()) return sequence.status();
+    sequences.push_back(std::move(sequence).value());
+  }
+  return {};
+}
+
+// The generated sequences and those read from folders, kept and shortened as
+// the options say; or the error naming the image, file or folder at fault.
+saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
   std::vector<Sequence> sequences;
-  if (!options.no_generated) sequences = generate_sequences(options.data);
-  for (const std::string& dir : options.otb) sequences.push_back(read_otb(dir));
-  for (const std::string& dir : options.vot) sequences.push_back(read_vot(dir));
+  if (!options.no_generated) {
+    saccade::Result<std::vector<Sequence>> generated = generate_sequences(options.data);
+    if (!generated.ok()) return generated.status();
+    sequences = std::move(generated).value();
+  }
+  if (Status read = read_folders(options.otb, &read_otb, sequences); !read.ok()) return read;
+  if (Status read = read_folders(options.vot, &read_vot, sequences); !read.ok()) return read;
   const std::vector<std::string> keep = split_list(options.sequences);
   if (!keep.empty())
     std::erase_if(sequences,
@@ -368,7 +401,12 @@ int run(const Options& options) {
                 << "csrt, kcf, mil)\n";
       return 2;
     }
-  const std::vector<Sequence> sequences = load_sequences(options);
+  const saccade::Result<std::vector<Sequence>> loaded = load_sequences(options);
+  if (!loaded.ok()) {
+    std::cerr << "error: " << loaded.error() << "\n";
+    return 1;
+  }
+  const std::vector<Sequence>& sequences = *loaded;
   if (sequences.empty()) {
     std::cerr << "no sequences to run\n";
     return 2;
@@ -376,7 +414,12 @@ int run(const Options& options) {
   std::vector<SequenceResults> results;
   for (const Sequence& sequence : sequences) {
     std::cerr << "running " << sequence.name << " (" << sequence.size() << " frames)\n";
-    results.push_back(run_sequence(sequence, trackers, options.trace));
+    saccade::Result<SequenceResults> result = run_sequence(sequence, trackers, options.trace);
+    if (!result.ok()) {
+      std::cerr << "error: " << result.error() << "\n";
+      return 1;
+    }
+    results.push_back(std::move(result).value());
   }
   const std::string text = report(results, trackers);
   std::cout << text;
@@ -409,10 +452,5 @@ int main(int argc, char** argv) {
   // One thread for everything: the times compare the algorithms, not how
   // well each spreads over cores.
   cv::setNumThreads(1);
-  try {
-    return run(options);
-  } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
-    return 1;
-  }
+  return run(options);
 }

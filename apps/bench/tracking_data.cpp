@@ -11,7 +11,6 @@
 #include <numbers>
 #include <random>
 #include <sstream>
-#include <stdexcept>
 #include <utility>
 
 #include <opencv2/imgcodecs.hpp>
@@ -23,10 +22,20 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double kPi = std::numbers::pi;
 
-cv::Mat read_image(const std::string& path) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
-  if (image.empty()) throw std::runtime_error("cannot read image " + path);
+Result<cv::Mat> read_image(const std::string& path) {
+  cv::Mat image;
+  try {
+    image = cv::imread(path, cv::IMREAD_COLOR);
+  } catch (const cv::Exception& e) {  // a decoder's limits (e.g. image size) are asserted
+    return Status::error("cannot read image " + path + ": " + e.what());
+  }
+  if (image.empty()) return Status::error("cannot read image " + path);
   return image;
+}
+
+// Sequence::frame's error for an index outside the sequence.
+Status no_such_frame(int i, std::size_t frames) {
+  return Status::error("no frame " + std::to_string(i) + " (the sequence has " + std::to_string(frames) + ")");
 }
 
 }  // namespace
@@ -39,7 +48,7 @@ void truncate(Sequence& sequence, int frames) {
 
 // ---------------------------------------------------------------- readers
 
-cv::Rect2d parse_truth_row(const std::string& row, const std::string& where, bool& visible) {
+Result<TruthRow> parse_truth_row(const std::string& row, const std::string& where) {
   std::string text = row;
   // Commas, tabs and a CR left by CRLF line ends are all separators.
   std::replace_if(
@@ -49,70 +58,81 @@ cv::Rect2d parse_truth_row(const std::string& row, const std::string& where, boo
   for (std::string token; tokens >> token;) {
     char* end = nullptr;
     const double number = std::strtod(token.c_str(), &end);
-    if (end == token.c_str() || *end != '\0') throw std::runtime_error(where + ": '" + token + "' is not a number");
+    if (end == token.c_str() || *end != '\0') return Status::error(where + ": '" + token + "' is not a number");
     v.push_back(number);
   }
   if (v.size() != 4 && v.size() != 8)
-    throw std::runtime_error(where + ": expected 4 numbers (x,y,w,h) or 8 (a polygon x1,y1,...,x4,y4), got " +
-                             std::to_string(v.size()));
-  visible = std::none_of(v.begin(), v.end(), [](double x) { return std::isnan(x); });
-  if (!visible) return {};
+    return Status::error(where + ": expected 4 numbers (x,y,w,h) or 8 (a polygon x1,y1,...,x4,y4), got " +
+                         std::to_string(v.size()));
+  if (std::any_of(v.begin(), v.end(), [](double x) { return std::isnan(x); })) return TruthRow{{}, false};
   cv::Rect2d box(v[0], v[1], v[2], v[3]);
   if (v.size() == 8) {
     const double x0 = std::min({v[0], v[2], v[4], v[6]}), x1 = std::max({v[0], v[2], v[4], v[6]});
     const double y0 = std::min({v[1], v[3], v[5], v[7]}), y1 = std::max({v[1], v[3], v[5], v[7]});
     box = {x0, y0, x1 - x0, y1 - y0};
   } else if (box.width < 0 || box.height < 0) {
-    throw std::runtime_error(where + ": negative width or height");
+    return Status::error(where + ": negative width or height");
   }
   // An empty box is how several datasets (GOT-10k, LaSOT) mark an absent target.
-  visible = box.width > 0 && box.height > 0;
-  return box;
+  return TruthRow{box, box.width > 0 && box.height > 0};
 }
 
 namespace {
 
-void read_truth_file(const fs::path& path, Sequence& sequence) {
+// Appends the file's rows to the sequence's truth and visibility.
+Status read_truth_file(const fs::path& path, Sequence& sequence) {
   std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot open " + path.string());
+  if (!in) return Status::error("cannot open " + path.string());
   std::vector<std::string> lines;
   for (std::string line; std::getline(in, line);) lines.push_back(line);
   // Trailing blank lines are common; a blank line inside would shift every later frame.
   auto blank = [](const std::string& s) { return s.find_first_not_of(" \t\r") == std::string::npos; };
   while (!lines.empty() && blank(lines.back())) lines.pop_back();
-  if (lines.empty()) throw std::runtime_error(path.string() + ": no ground-truth rows");
+  if (lines.empty()) return Status::error(path.string() + ": no ground-truth rows");
   for (std::size_t i = 0; i < lines.size(); ++i) {
-    bool visible = true;
-    sequence.truth.push_back(parse_truth_row(lines[i], path.string() + ":" + std::to_string(i + 1), visible));
-    sequence.visible.push_back(visible);
+    const Result<TruthRow> row = parse_truth_row(lines[i], path.string() + ":" + std::to_string(i + 1));
+    if (!row.ok()) return row.status();
+    sequence.truth.push_back(row->box);
+    sequence.visible.push_back(row->visible);
   }
+  return {};
 }
 
 // Frame paths numbered from 1 with `digits` digits; every frame the truth
 // names must exist.
-std::vector<std::string> numbered_frames(const fs::path& folder, int digits, const std::string& extension,
-                                         std::size_t count, const fs::path& truth_file) {
+Result<std::vector<std::string>> numbered_frames(const fs::path& folder, int digits, const std::string& extension,
+                                                 std::size_t count, const fs::path& truth_file) {
   std::vector<std::string> paths;
   for (std::size_t i = 1; i <= count; ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "%0*zu%s", digits, i, extension.c_str());
     const fs::path path = folder / name;
-    if (!fs::exists(path))
-      throw std::runtime_error(path.string() + ": missing (" + truth_file.filename().string() + " has " +
-                               std::to_string(count) + " rows)");
+    std::error_code ec;
+    if (!fs::exists(path, ec))
+      return Status::error(path.string() + ": missing (" + truth_file.filename().string() + " has " +
+                           std::to_string(count) + " rows)");
     paths.push_back(path.string());
   }
   return paths;
 }
 
-void attach_frames(Sequence& sequence, std::vector<std::string> paths) {
-  sequence.frame_size = read_image(paths.front()).size();
+// The frames are read when asked for; the first now, for the frame size.
+Status attach_frames(Sequence& sequence, std::vector<std::string> paths) {
+  const Result<cv::Mat> first = read_image(paths.front());
+  if (!first.ok()) return first.status();
+  sequence.frame_size = first->size();
   auto shared = std::make_shared<std::vector<std::string>>(std::move(paths));
-  sequence.frame = [shared](int i) { return read_image(shared->at(static_cast<std::size_t>(i))); };
+  sequence.frame = [shared](int i) -> Result<cv::Mat> {
+    if (i < 0 || static_cast<std::size_t>(i) >= shared->size()) return no_such_frame(i, shared->size());
+    return read_image((*shared)[static_cast<std::size_t>(i)]);
+  };
+  return {};
 }
 
-void require_folder(const fs::path& dir) {
-  if (!fs::is_directory(dir)) throw std::runtime_error(dir.string() + ": not a folder");
+Status require_folder(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return Status::error(dir.string() + ": not a folder");
+  return {};
 }
 
 // "data/Basketball/" and "data/Basketball" are both named Basketball.
@@ -124,27 +144,32 @@ std::string folder_name(const std::string& dir) {
 
 }  // namespace
 
-Sequence read_otb(const std::string& dir) {
-  require_folder(dir);
+Result<Sequence> read_otb(const std::string& dir) {
+  if (Status s = require_folder(dir); !s.ok()) return s;
   Sequence sequence;
   sequence.name = folder_name(dir);
   const fs::path truth_file = fs::path(dir) / "groundtruth_rect.txt";
-  read_truth_file(truth_file, sequence);
-  attach_frames(sequence, numbered_frames(fs::path(dir) / "img", 4, ".jpg", sequence.truth.size(), truth_file));
+  if (Status s = read_truth_file(truth_file, sequence); !s.ok()) return s;
+  auto frames = numbered_frames(fs::path(dir) / "img", 4, ".jpg", sequence.truth.size(), truth_file);
+  if (!frames.ok()) return frames.status();
+  if (Status s = attach_frames(sequence, std::move(frames).value()); !s.ok()) return s;
   return sequence;
 }
 
-Sequence read_vot(const std::string& dir) {
-  require_folder(dir);
+Result<Sequence> read_vot(const std::string& dir) {
+  if (Status s = require_folder(dir); !s.ok()) return s;
   Sequence sequence;
   sequence.name = folder_name(dir);
   const fs::path truth_file = fs::path(dir) / "groundtruth.txt";
-  read_truth_file(truth_file, sequence);
+  if (Status s = read_truth_file(truth_file, sequence); !s.ok()) return s;
   // VOT 2020 and later keep the frames in color/; older editions next to the truth.
+  std::error_code ec;
   fs::path folder = fs::path(dir) / "color";
-  if (!fs::is_directory(folder)) folder = dir;
-  const std::string extension = fs::exists(folder / "00000001.png") ? ".png" : ".jpg";
-  attach_frames(sequence, numbered_frames(folder, 8, extension, sequence.truth.size(), truth_file));
+  if (!fs::is_directory(folder, ec)) folder = dir;
+  const std::string extension = fs::exists(folder / "00000001.png", ec) ? ".png" : ".jpg";
+  auto frames = numbered_frames(folder, 8, extension, sequence.truth.size(), truth_file);
+  if (!frames.ok()) return frames.status();
+  if (Status s = attach_frames(sequence, std::move(frames).value()); !s.ok()) return s;
   return sequence;
 }
 
@@ -247,10 +272,13 @@ cv::Size2d target_base_size(const SyntheticScript& script) {
   return {script.target_crop.width * k, script.target_crop.height * k};
 }
 
-cv::Mat crop_of(const cv::Mat& image, const cv::Rect& rect, const std::string& what) {
-  if ((rect & cv::Rect(0, 0, image.cols, image.rows)) != rect || rect.empty())
-    throw std::runtime_error(what + ": crop rectangle outside the image");
-  return image(rect).clone();
+// The part `rect` of the image at `path` (named by `what` in the error).
+Result<cv::Mat> crop_of(const std::string& path, const cv::Rect& rect, const std::string& what) {
+  const Result<cv::Mat> image = read_image(path);
+  if (!image.ok()) return image.status();
+  if ((rect & cv::Rect(0, 0, image->cols, image->rows)) != rect || rect.empty())
+    return Status::error(what + ": crop rectangle outside the image");
+  return (*image)(rect).clone();
 }
 
 Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, double min_scale) {
@@ -427,11 +455,13 @@ cv::Mat look_alike(const cv::Mat& target) {
   return tinted;
 }
 
-std::vector<cv::Mat> make_occluders(const SyntheticScript& s, const std::string& data_dir, Random& random,
-                                    const std::vector<FramePlan>& plans) {
+Result<std::vector<cv::Mat>> make_occluders(const SyntheticScript& s, const std::string& data_dir, Random& random,
+                                            const std::vector<FramePlan>& plans) {
   std::vector<cv::Mat> patches(s.occlusions.size());
   if (s.occlusions.empty()) return patches;
-  const cv::Mat source = read_image(data_dir + "/" + s.occluder_image);
+  const Result<cv::Mat> read = read_image(data_dir + "/" + s.occluder_image);
+  if (!read.ok()) return read.status();
+  const cv::Mat& source = *read;
   for (const FramePlan& p : plans) {
     if (p.occlusion < 0 || !patches[static_cast<std::size_t>(p.occlusion)].empty()) continue;
     // A random square of the occluder image, a third of its smaller side.
@@ -444,20 +474,25 @@ std::vector<cv::Mat> make_occluders(const SyntheticScript& s, const std::string&
   return patches;
 }
 
-std::shared_ptr<Scene> build_scene(const SyntheticScript& s, const std::string& data_dir) {
+Result<std::shared_ptr<Scene>> build_scene(const SyntheticScript& s, const std::string& data_dir) {
   if (s.frames < 1 || s.frame_size.area() <= 0 || s.scale_min <= 0 || s.scale_max < s.scale_min)
-    throw std::runtime_error(s.name + ": invalid script");
+    return Status::error(s.name + ": invalid script");
   auto scene = std::make_shared<Scene>();
   scene->script = s;
   Random random(s.seed);
   const Motion motion = plan_motion(s, random);
   const cv::Size2d base = target_base_size(s);
   scene->plans = plan_frames(s, base, motion);
-  scene->background = fit_background(read_image(data_dir + "/" + s.background), s.frame_size, scene->plans);
-  const cv::Mat target = crop_of(read_image(data_dir + "/" + s.target_image), s.target_crop, s.target_image);
-  scene->target = make_sprite(target, base, s.scale_max, s.scale_min);
-  if (s.distractor) scene->distractor = make_sprite(look_alike(target), base, s.scale_max, s.scale_min);
-  scene->occluders = make_occluders(s, data_dir, random, scene->plans);
+  const Result<cv::Mat> background = read_image(data_dir + "/" + s.background);
+  if (!background.ok()) return background.status();
+  scene->background = fit_background(*background, s.frame_size, scene->plans);
+  const Result<cv::Mat> target = crop_of(data_dir + "/" + s.target_image, s.target_crop, s.target_image);
+  if (!target.ok()) return target.status();
+  scene->target = make_sprite(*target, base, s.scale_max, s.scale_min);
+  if (s.distractor) scene->distractor = make_sprite(look_alike(*target), base, s.scale_max, s.scale_min);
+  auto occluders = make_occluders(s, data_dir, random, scene->plans);
+  if (!occluders.ok()) return occluders.status();
+  scene->occluders = std::move(occluders).value();
   return scene;
 }
 
@@ -529,8 +564,10 @@ cv::Mat render_frame(const Scene& scene, int i) {
 
 }  // namespace
 
-Sequence generate_sequence(const SyntheticScript& script, const std::string& data_dir) {
-  std::shared_ptr<const Scene> scene = build_scene(script, data_dir);
+Result<Sequence> generate_sequence(const SyntheticScript& script, const std::string& data_dir) {
+  auto built = build_scene(script, data_dir);
+  if (!built.ok()) return built.status();
+  std::shared_ptr<const Scene> scene = std::move(built).value();
   Sequence sequence;
   sequence.name = script.name;
   sequence.frame_size = script.frame_size;
@@ -540,24 +577,31 @@ Sequence generate_sequence(const SyntheticScript& script, const std::string& dat
     sequence.truth.push_back(truth_box(p.center, size));
     sequence.visible.push_back(target_visible(p, size, script.frame_size));
   }
-  sequence.frame = [scene](int i) { return render_frame(*scene, i); };
+  sequence.frame = [scene](int i) -> Result<cv::Mat> {
+    if (i < 0 || static_cast<std::size_t>(i) >= scene->plans.size()) return no_such_frame(i, scene->plans.size());
+    return render_frame(*scene, i);
+  };
   return sequence;
 }
 
-cv::Mat target_appearance(const SyntheticScript& script, const std::string& data_dir) {
-  const cv::Mat target =
-      crop_of(read_image(data_dir + "/" + script.target_image), script.target_crop, script.target_image);
+Result<cv::Mat> target_appearance(const SyntheticScript& script, const std::string& data_dir) {
+  const Result<cv::Mat> target = crop_of(data_dir + "/" + script.target_image, script.target_crop, script.target_image);
+  if (!target.ok()) return target.status();
   const cv::Size2d base = target_base_size(script);
   cv::Mat out;
-  cv::resize(target, out,
+  cv::resize(*target, out,
              cv::Size(static_cast<int>(std::lround(base.width)), static_cast<int>(std::lround(base.height))), 0, 0,
              cv::INTER_AREA);
   return out;
 }
 
-std::vector<Sequence> generate_sequences(const std::string& data_dir) {
+Result<std::vector<Sequence>> generate_sequences(const std::string& data_dir) {
   std::vector<Sequence> sequences;
-  for (const SyntheticScript& script : standard_scripts()) sequences.push_back(generate_sequence(script, data_dir));
+  for (const SyntheticScript& script : standard_scripts()) {
+    auto sequence = generate_sequence(script, data_dir);
+    if (!sequence.ok()) return sequence.status();
+    sequences.push_back(std::move(sequence).value());
+  }
   return sequences;
 }
 
@@ -686,10 +730,10 @@ void score_reacquisition(const std::vector<cv::Rect2d>& truth, const std::vector
 
 }  // namespace
 
-TrackScore score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
-                       const std::vector<TrackedFrame>& track) {
+Result<TrackScore> score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
+                               const std::vector<TrackedFrame>& track) {
   if (truth.size() != visible.size() || truth.size() != track.size())
-    throw std::invalid_argument("score_track: truth, visibility and track differ in length");
+    return Status::error("score_track: truth, visibility and track differ in length");
   TrackScore score;
   std::vector<double> overlaps;
   double error_sum = 0, ms_sum = 0;

@@ -17,6 +17,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "saccade/status.hpp"
+
 namespace saccade::bench {
 
 struct Sequence {
@@ -25,31 +27,39 @@ struct Sequence {
   std::vector<cv::Rect2d> truth;  // per frame; may lie partly (or, when invisible, wholly) outside the frame
   std::vector<bool> visible;      // false where the target is fully occluded or out of view
   // Frame i (0-based) as 8-bit BGR, read or rendered on demand: a few
-  // sequences of hundreds of frames at 640x480 would not fit in memory.
-  std::function<cv::Mat(int)> frame;
+  // sequences of hundreds of frames at 640x480 would not fit in memory. An
+  // error names a frame file that can no longer be read, or an index outside
+  // the sequence.
+  std::function<Result<cv::Mat>(int)> frame;
   int size() const { return static_cast<int>(truth.size()); }
 };
 
 // Keeps the first `frames` frames (all when frames <= 0 or more than there are).
 void truncate(Sequence& sequence, int frames);
 
-// --- Readers. Both throw std::runtime_error naming the file (and line) at fault.
+// --- Readers. Each returns the sequence, or an error naming the file (and
+// line) at fault.
 
 // OTB layout: DIR/img/0001.jpg ... and DIR/groundtruth_rect.txt, one x,y,w,h
 // row per frame (separated by commas, tabs or spaces; CRLF allowed). Rows of
 // NaN or with a zero width or height mark frames without the target. Only
 // sequences whose ground truth starts at image 0001 are supported.
-Sequence read_otb(const std::string& dir);
+Result<Sequence> read_otb(const std::string& dir);
 
 // VOT layout: DIR/00000001.jpg ... (or DIR/color/00000001.jpg ...) and
 // DIR/groundtruth.txt, one row per frame of 4 numbers (x,y,w,h) or 8 (the
 // polygon x1,y1,...,x4,y4, scored as its axis-aligned bounding box); NaN rows
 // mark frames without the target.
-Sequence read_vot(const std::string& dir);
+Result<Sequence> read_vot(const std::string& dir);
 
-// One ground-truth row as a box; `where` ("file:line") prefixes the error.
-// Sets `visible` false for NaN or empty rows.
-cv::Rect2d parse_truth_row(const std::string& row, const std::string& where, bool& visible);
+// One ground-truth row: its box, and whether the target is in the frame
+// (false for NaN or empty rows).
+struct TruthRow {
+  cv::Rect2d box;
+  bool visible = true;
+};
+// The row, or an error prefixed with `where` ("file:line").
+Result<TruthRow> parse_truth_row(const std::string& row, const std::string& where);
 
 // --- The generator.
 
@@ -101,13 +111,15 @@ std::vector<SyntheticScript> standard_scripts();
 
 // Renders a script from the images in `data_dir`. The same script gives the
 // same frames and truth on every run (seeded, no wall-clock or thread
-// dependence). Throws std::runtime_error when an image is missing.
-Sequence generate_sequence(const SyntheticScript& script, const std::string& data_dir);
-std::vector<Sequence> generate_sequences(const std::string& data_dir);
+// dependence). An error names an image that is missing or a script that
+// cannot be rendered.
+Result<Sequence> generate_sequence(const SyntheticScript& script, const std::string& data_dir);
+Result<std::vector<Sequence>> generate_sequences(const std::string& data_dir);
 
 // The target's appearance at scale 1 and no rotation (BGR), as the generator
-// renders it: the script's crop resized to target_side.
-cv::Mat target_appearance(const SyntheticScript& script, const std::string& data_dir);
+// renders it: the script's crop resized to target_side; or the error naming
+// the image.
+Result<cv::Mat> target_appearance(const SyntheticScript& script, const std::string& data_dir);
 
 // --- Scoring.
 
@@ -141,9 +153,10 @@ struct TrackScore {
 double iou(const cv::Rect2d& a, const cv::Rect2d& b);
 double center_error(const cv::Rect2d& a, const cv::Rect2d& b);
 
-// `track` has one entry per frame (entry 0 is ignored).
-TrackScore score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
-                       const std::vector<TrackedFrame>& track);
+// `track` has one entry per frame (entry 0 is ignored); an error when the
+// three differ in length.
+Result<TrackScore> score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
+                               const std::vector<TrackedFrame>& track);
 
 // FNV-1a over a frame's pixels: cheap evidence that two renders are equal.
 uint64_t frame_hash(const cv::Mat& frame);

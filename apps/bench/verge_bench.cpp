@@ -104,11 +104,11 @@ bool true_right(const Views& v, cv::Point2d pl, cv::Point2d& pr) {
   return pr.x >= 0 && pr.y >= 0 && pr.x < c.size.width && pr.y < c.size.height;
 }
 
-Retina make_retina(const cv::Mat& frame, int camera, const retina::RectifiedMap* map, cv::Point2d fovea) {
+// The retina of `frame` at `fovea`, or why it cannot be sampled through `map`.
+Result<Retina> make_retina(const cv::Mat& frame, int camera, const retina::RectifiedMap* map, cv::Point2d fovea) {
   Retina out;
   if (map) {
-    if (std::string e = retina::sample_rectified(retina::RetinaConfig{}, frame, *map, fovea, out); !e.empty())
-      throw std::runtime_error(e);
+    if (Status s = retina::sample_rectified(retina::RetinaConfig{}, frame, *map, fovea, out); !s.ok()) return s;
   } else {
     retina::RetinaSampler(retina::RetinaConfig{}).sample(frame, fovea, out);
   }
@@ -144,13 +144,15 @@ void score_level(const Views& v, const Retina& left, std::size_t k, const stereo
   }
 }
 
-Score run(const Views& v, Mode mode, const stereo::RetinaStereoConfig& config) {
+// One mode on one view, or the error that stopped the rectification, the
+// sampling or the matcher.
+Result<Score> run(const Views& v, Mode mode, const stereo::RetinaStereoConfig& config) {
   Score s;
   const kinematics::HeadCalibration calibration =
       retina::model_calibration(v.config.size, v.config.focal_px, v.config.geometry);
-  retina::PairRectification pair;
-  if (std::string e = retina::rectify_pair(calibration, v.config.geometry, v.joints, pair); !e.empty())
-    throw std::runtime_error(e);
+  Result<retina::PairRectification> rectified_pair = retina::rectify_pair(calibration, v.config.geometry, v.joints);
+  if (!rectified_pair.ok()) return rectified_pair.status();
+  const retina::PairRectification& pair = *rectified_pair;
   const cv::Point2d lc(v.left_target.center.x + 0.5, v.left_target.center.y + 0.5);
   const cv::Point2d rc(v.right_target.center.x + 0.5, v.right_target.center.y + 0.5);
   const bool rectified = mode != Mode::kPlain;
@@ -159,11 +161,15 @@ Score run(const Views& v, Mode mode, const stereo::RetinaStereoConfig& config) {
   // Plain retinas must share their rows (the stereo's rule for unrectified
   // pairs): the right one takes the left's fovea, as a plain pair does.
   const cv::Point2d right_fovea = rectified ? rc : lc;
-  Retina left = make_retina(v.left, 0, rectified ? &*left_map : nullptr, lc);
-  Retina right = make_retina(v.right, 1, rectified ? &*right_map : nullptr, right_fovea);
+  Result<Retina> left_retina = make_retina(v.left, 0, rectified ? &*left_map : nullptr, lc);
+  if (!left_retina.ok()) return left_retina.status();
+  Result<Retina> right_retina = make_retina(v.right, 1, rectified ? &*right_map : nullptr, right_fovea);
+  if (!right_retina.ok()) return right_retina.status();
+  Retina& left = *left_retina;
+  Retina& right = *right_retina;
   stereo::RetinaStereo matcher(config);
   std::vector<stereo::LevelDisparity> levels;
-  if (std::string e = matcher.run(left, right, levels); !e.empty()) throw std::runtime_error(e);
+  if (Status matched = matcher.run(left, right, levels); !matched.ok()) return matched;
   // Time in steady state (buffers made): both retinas sampled again and matched, median of 5.
   std::vector<double> times;
   retina::RetinaSampler sampler(retina::RetinaConfig{});
@@ -197,7 +203,8 @@ Score run(const Views& v, Mode mode, const stereo::RetinaStereoConfig& config) {
   return s;
 }
 
-Views look(const cv::Mat& wall, double distance, double lateral, double height, bool parallel) {
+// The head's views of the target, or why the head cannot look at it.
+Result<Views> look(const cv::Mat& wall, double distance, double lateral, double height, bool parallel) {
   Views v;
   v.config.wall_distance = 4.0;  // behind every target
   v.config.wall_width = 8.0;
@@ -207,9 +214,10 @@ Views look(const cv::Mat& wall, double distance, double lateral, double height, 
   v.config.target_speed = 0;
   capture::SimHead head(wall, v.config);
   v.target = head.target_at(0);
-  const kinematics::Gaze gaze = kinematics::gaze_at(v.target, v.config.geometry, kinematics::HeadLimits{});
-  if (!gaze.reachable) throw std::runtime_error("target not reachable: " + gaze.why);
-  v.joints = gaze.joints;
+  const Result<kinematics::HeadJoints> gaze =
+      kinematics::gaze_at(v.target, v.config.geometry, kinematics::HeadLimits{});
+  if (!gaze.ok()) return Status::error("target not reachable: " + gaze.error());
+  v.joints = *gaze;
   if (parallel) v.joints.vergence_left = v.joints.vergence_right = 0;
   cv::Mat l, r;
   v.left_target = head.render(0, v.joints, 0, l);
@@ -237,28 +245,29 @@ struct Tally {
 
 // Every view of the target at one distance (each wall, lateral offset and
 // height) in every mode, into `tally` per mode; the squared fixation
-// disparity errors straight into the all-distance sums, view by view. False
-// when a wall's image cannot be read.
-bool measure_distance(const std::string& data, double distance, const stereo::RetinaStereoConfig& config,
-                      Tally (&tally)[3], double (&all_disparity_sq)[3], double& vergence) {
+// disparity errors straight into the all-distance sums, view by view. An
+// error when a wall's image cannot be read or a view cannot be measured.
+Status measure_distance(const std::string& data, double distance, const stereo::RetinaStereoConfig& config,
+                        Tally (&tally)[3], double (&all_disparity_sq)[3], double& vergence) {
   const std::vector<std::string> walls = {"aloeL.jpg", "graf1.png", "building.jpg"};
   const std::vector<double> laterals = {-0.3, 0.0, 0.3};  // times the distance: the neck turns about +-17 degrees
   int count = 0;
   for (const std::string& w : walls) {
     const cv::Mat wall = cv::imread(data + "/" + w, cv::IMREAD_COLOR);
-    if (wall.empty()) {
-      std::cerr << "saccade_verge_bench: cannot read " << data << "/" << w << " (install opencv-doc)\n";
-      return false;
-    }
+    if (wall.empty()) return Status::error("cannot read " + data + "/" + w + " (install opencv-doc)");
     for (double lateral : laterals) {
       for (double height : {0.0, 0.15}) {
-        const Views verged = look(wall, distance, lateral * distance, height * distance, false);
-        const Views parallel = look(wall, distance, lateral * distance, height * distance, true);
-        vergence = std::max(vergence, std::abs(verged.joints.vergence_left) * 180 / CV_PI);
+        const Result<Views> verged = look(wall, distance, lateral * distance, height * distance, false);
+        if (!verged.ok()) return verged.status();
+        const Result<Views> parallel = look(wall, distance, lateral * distance, height * distance, true);
+        if (!parallel.ok()) return parallel.status();
+        vergence = std::max(vergence, std::abs(verged->joints.vergence_left) * 180 / CV_PI);
         ++count;
         for (Mode m : kModes) {
           const int i = static_cast<int>(m);
-          const Score s = run(m == Mode::kParallel ? parallel : verged, m, config);
+          const Result<Score> measured = run(m == Mode::kParallel ? *parallel : *verged, m, config);
+          if (!measured.ok()) return measured.status();
+          const Score& s = *measured;
           tally[i].score.add(s);
           tally[i].depth_sum += s.depth_error;
           all_disparity_sq[i] += s.disparity_error * s.disparity_error;
@@ -270,7 +279,7 @@ bool measure_distance(const std::string& data, double distance, const stereo::Re
     }
   }
   for (Tally& t : tally) t.count = count;
-  return true;
+  return {};
 }
 
 std::string distance_row(double distance, double vergence, Mode m, const Tally& t) {
@@ -348,7 +357,10 @@ int main(int argc, char** argv) {
   for (double distance : distances) {
     Tally tally[3];
     double vergence = 0;
-    if (!measure_distance(data, distance, config, tally, all_disparity_sq, vergence)) return 1;
+    if (Status s = measure_distance(data, distance, config, tally, all_disparity_sq, vergence); !s.ok()) {
+      std::cerr << "saccade_verge_bench: " << s.message() << "\n";
+      return 1;
+    }
     for (Mode m : kModes) {
       const int i = static_cast<int>(m);
       out << distance_row(distance, vergence, m, tally[i]);

@@ -55,7 +55,7 @@ struct Viewer {
   std::atomic<uint64_t> messages{0};
   std::map<std::string, uint64_t> per_topic;  // after the thread joined
   std::thread thread;
-  std::string error;
+  Status status;  // what ended the connection early (Beast throws)
 
   void start(int port, const std::vector<std::string>& topics) {
     thread = std::thread([this, port, topics] {
@@ -97,7 +97,7 @@ struct Viewer {
         beast::error_code ec;
         ws.next_layer().close(ec);
       } catch (const std::exception& e) {
-        if (!stop) error = e.what();
+        if (!stop) status = Status::error(e.what());
       }
     });
   }
@@ -105,9 +105,10 @@ struct Viewer {
     stop = true;
     if (thread.joinable()) thread.join();
   }
+  ~Viewer() { end(); }  // a round that fails returns with the viewer still connected
 };
 
-struct Result {
+struct RoundResult {
   double fps = 0;
   double viewer_hz = 0;
   std::map<std::string, uint64_t> per_topic;
@@ -179,26 +180,31 @@ struct Bench {
 
   // One run of the graph in `mode`, its viewer (if any) connected and
   // subscribed before the first frame, so the whole run carries its load.
-  Result run(Mode mode) const {
+  // The round's figures, or what stopped the graph, the server or the viewer.
+  Result<RoundResult> run(Mode mode) const {
     ExecutorOptions options;
     options.threads = threads;
     options.max_frames = frames;
     Executor executor(graph, registry, options);
-    if (Status s = executor.open(); !s.ok()) throw std::runtime_error(s.message());
+    if (Status s = executor.open(); !s.ok()) return s;
     std::unique_ptr<view::ViewServer> server;
     Viewer viewer;
-    if (mode != Mode::kNone) server = serve(executor, mode, viewer);
+    if (mode != Mode::kNone) {
+      auto served = serve(executor, mode, viewer);
+      if (!served.ok()) return served.status();
+      server = std::move(served).value();
+    }
     const double cpu0 = cpu_seconds();
     const auto t0 = std::chrono::steady_clock::now();
     const uint64_t m0 = viewer.messages.load();
-    if (Status s = executor.run(); !s.ok() && !s.is_end_of_stream()) throw std::runtime_error(s.message());
+    if (Status s = executor.run(); !s.ok() && !s.is_end_of_stream()) return s;
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const uint64_t m1 = viewer.messages.load();
     const double cpu = cpu_seconds() - cpu0;
     viewer.end();
     if (server) server->stop();
-    if (!viewer.error.empty()) throw std::runtime_error("viewer: " + viewer.error);
-    Result r;
+    if (!viewer.status.ok()) return Status::error("viewer: " + viewer.status.message());
+    RoundResult r;
     r.fps = static_cast<double>(executor.stats(last)->processed.load()) / seconds;
     r.viewer_hz = static_cast<double>(m1 - m0) / seconds;
     r.per_topic = viewer.per_topic;
@@ -207,13 +213,14 @@ struct Bench {
     return r;
   }
 
-  std::unique_ptr<view::ViewServer> serve(Executor& executor, Mode mode, Viewer& viewer) const {
+  // The view server on a free port, its viewer connected (per `mode`).
+  Result<std::unique_ptr<view::ViewServer>> serve(Executor& executor, Mode mode, Viewer& viewer) const {
     view::ViewOptions vo;
     vo.port = 0;
     vo.max_rate_hz = rate;
-    std::string error;
-    std::unique_ptr<view::ViewServer> server = view::start_view(executor, vo, error);
-    if (!server) throw std::runtime_error(error);
+    auto started = view::start_view(executor, vo);
+    if (!started.ok()) return started.status();
+    std::unique_ptr<view::ViewServer> server = std::move(started).value();
     if (mode == Mode::kViewer || mode == Mode::kAll) {
       viewer.start(server->port(), mode == Mode::kAll ? topics.all : topics.page);
       for (int i = 0; i < 500 && server->counters().clients == 0; ++i)
@@ -224,7 +231,7 @@ struct Bench {
   }
 };
 
-void print_round(int round, Mode m, const Result& res) {
+void print_round(int round, Mode m, const RoundResult& res) {
   std::printf("round %d  %-18s %8.1f frames/s %7.1f CPU us/frame", round, name(m), res.fps, res.cpu_us_per_frame);
   if (m == Mode::kViewer || m == Mode::kAll) {
     std::printf("  viewer got (Hz):");
@@ -292,20 +299,21 @@ int main(int argc, char** argv) {
   const Bench bench{*graph, registry, threads, frames, rate, viewer_topics(*graph), graph->nodes.back().decl.name};
 
   Runs runs;
-  try {
-    bench.run(Mode::kNone);  // warm-up: caches, the video file, the plugins
-    for (int r = 0; r < rounds; ++r)
-      for (Mode m : kModes) {
-        const Result res = bench.run(m);
-        runs.fps[m].push_back(res.fps);
-        runs.viewer_hz[m].push_back(res.viewer_hz);
-        runs.cpu[m].push_back(res.cpu_us_per_frame);
-        print_round(r + 1, m, res);
-      }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "view_bench: %s\n", e.what());
+  auto failed = [](const Status& s) {
+    std::fprintf(stderr, "view_bench: %s\n", s.message().c_str());
     return 1;
-  }
+  };
+  // Warm-up: caches, the video file, the plugins.
+  if (const Result<RoundResult> warm = bench.run(Mode::kNone); !warm.ok()) return failed(warm.status());
+  for (int r = 0; r < rounds; ++r)
+    for (Mode m : kModes) {
+      const Result<RoundResult> res = bench.run(m);
+      if (!res.ok()) return failed(res.status());
+      runs.fps[m].push_back(res->fps);
+      runs.viewer_hz[m].push_back(res->viewer_hz);
+      runs.cpu[m].push_back(res->cpu_us_per_frame);
+      print_round(r + 1, m, *res);
+    }
   print_summary(graph_file, bench, rounds, runs);
   return 0;
 }

@@ -642,12 +642,10 @@ void write(const M& message, const Envelope& envelope, std::vector<uint8_t>& out
 }
 
 template <class M>
-bool read(const uint8_t* data, std::size_t size, M& out, Envelope& envelope, std::string& why,
-          std::shared_ptr<Retina>* spare) {
+Status read(const uint8_t* data, std::size_t size, M& out, Envelope& envelope, std::shared_ptr<Retina>* spare) {
   Reader reader(data, size);
-  if (read_message(reader, out, envelope, spare)) return true;
-  why = std::string("not a ") + std::string(M::kTypeName) + ": " + reader.why();
-  return false;
+  if (read_message(reader, out, envelope, spare)) return {};
+  return Status::error(std::string("not a ") + std::string(M::kTypeName) + ": " + reader.why());
 }
 
 const std::string& idl() {
@@ -662,7 +660,7 @@ std::string idl_type_name(std::string_view type) { return "saccade_idl::" + std:
   template std::size_t size_of<M>(const M&);                                       \
   template std::size_t write<M>(const M&, const Envelope&, uint8_t*, std::size_t); \
   template void write<M>(const M&, const Envelope&, std::vector<uint8_t>&);        \
-  template bool read<M>(const uint8_t*, std::size_t, M&, Envelope&, std::string&, std::shared_ptr<Retina>*);
+  template Status read<M>(const uint8_t*, std::size_t, M&, Envelope&, std::shared_ptr<Retina>*);
 SACCADE_CDR_FOR(Image)
 SACCADE_CDR_FOR(Retina)
 SACCADE_CDR_FOR(FeatureMaps)

@@ -34,31 +34,33 @@ using text::parse_number;
 using text::split_list;
 using text::trim;
 
-std::optional<std::string> check_range(const ParamSpec& spec, double v) {
+Status check_range(const ParamSpec& spec, double v) {
   if ((spec.min && v < *spec.min) || (spec.max && v > *spec.max)) {
-    return "value " + format_number(v) + " is out of range [" + format_number(spec.min.value_or(-INFINITY)) + ", " +
-           format_number(spec.max.value_or(INFINITY)) + "]";
+    return Status::error("value " + format_number(v) + " is out of range [" +
+                         format_number(spec.min.value_or(-INFINITY)) + ", " +
+                         format_number(spec.max.value_or(INFINITY)) + "]");
   }
-  return std::nullopt;
+  return {};
 }
 
 }  // namespace
 
-std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out) {
+Status parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out) {
   switch (spec.type) {
     case ParamType::kInt: {
       int64_t v = 0;
-      if (!parse_number(text, v)) return "expected an integer, got '" + std::string(text) + "'";
-      if (auto e = check_range(spec, static_cast<double>(v))) return e;
+      if (!parse_number(text, v)) return Status::error("expected an integer, got '" + std::string(text) + "'");
+      if (Status e = check_range(spec, static_cast<double>(v)); !e.ok()) return e;
       out = v;
-      return std::nullopt;
+      return {};
     }
     case ParamType::kDouble: {
       double v = 0;
-      if (!parse_number(text, v) || !std::isfinite(v)) return "expected a number, got '" + std::string(text) + "'";
-      if (auto e = check_range(spec, v)) return e;
+      if (!parse_number(text, v) || !std::isfinite(v))
+        return Status::error("expected a number, got '" + std::string(text) + "'");
+      if (Status e = check_range(spec, v); !e.ok()) return e;
       out = v;
-      return std::nullopt;
+      return {};
     }
     case ParamType::kBool: {
       auto t = trim(text);
@@ -67,38 +69,38 @@ std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view t
       } else if (t == "false" || t == "0" || t == "no" || t == "off") {
         out = false;
       } else {
-        return "expected true or false, got '" + std::string(text) + "'";
+        return Status::error("expected true or false, got '" + std::string(text) + "'");
       }
-      return std::nullopt;
+      return {};
     }
-    case ParamType::kString: out = std::string(text); return std::nullopt;
+    case ParamType::kString: out = std::string(text); return {};
     case ParamType::kSize: {
       auto t = trim(text);
       auto x = t.find('x');
       int w = 0, h = 0;
       if (x == std::string_view::npos || !parse_number(t.substr(0, x), w) || !parse_number(t.substr(x + 1), h))
-        return "expected a size WxH such as 32x24, got '" + std::string(text) + "'";
-      if (auto e = check_range(spec, w)) return "width " + *e;
-      if (auto e = check_range(spec, h)) return "height " + *e;
+        return Status::error("expected a size WxH such as 32x24, got '" + std::string(text) + "'");
+      if (Status e = check_range(spec, w); !e.ok()) return Status::error("width " + e.message());
+      if (Status e = check_range(spec, h); !e.ok()) return Status::error("height " + e.message());
       out = cv::Size(w, h);
-      return std::nullopt;
+      return {};
     }
     case ParamType::kPoint: {
       auto parts = split_list(text, ',');
       double x = 0, y = 0;
       if (parts.size() != 2 || !parse_number(parts[0], x) || !parse_number(parts[1], y))
-        return "expected a point x,y such as 320,240, got '" + std::string(text) + "'";
+        return Status::error("expected a point x,y such as 320,240, got '" + std::string(text) + "'");
       out = cv::Point2d(x, y);
-      return std::nullopt;
+      return {};
     }
     case ParamType::kEnum: {
       auto t = std::string(trim(text));
       for (const auto& c : spec.choices)
         if (c == t) {
           out = t;
-          return std::nullopt;
+          return {};
         }
-      return "expected one of " + join(spec.choices, ", ") + "; got '" + std::string(text) + "'";
+      return Status::error("expected one of " + join(spec.choices, ", ") + "; got '" + std::string(text) + "'");
     }
     case ParamType::kFlags: {
       std::vector<std::string> flags;
@@ -110,16 +112,17 @@ std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view t
         bool known = false;
         for (const auto& c : spec.choices) known = known || c == item;
         if (!known)
-          return "unknown flag '" + item + "'; expected a comma list of " + join(spec.choices, ", ") + " (or all)";
+          return Status::error("unknown flag '" + item + "'; expected a comma list of " + join(spec.choices, ", ") +
+                               " (or all)");
         bool present = false;
         for (const auto& f : flags) present = present || f == item;
         if (!present) flags.push_back(item);
       }
       out = flags;
-      return std::nullopt;
+      return {};
     }
   }
-  return "unknown parameter type";
+  return Status::error("unknown parameter type");
 }
 
 template <class T>

@@ -321,9 +321,9 @@ struct Executor::Impl {
   Status open_nodes() {
     for (int i : topo) {
       NodeRt& n = nodes[static_cast<std::size_t>(i)];
-      std::string error;
-      n.node = registry.create(n.resolved->decl.plugin, &error);
-      if (!n.node) return Status::error("node '" + n.slot.name + "': " + error);
+      Result<std::shared_ptr<Node>> node = registry.create(n.resolved->decl.plugin);
+      if (!node.ok()) return Status::error("node '" + n.slot.name + "': " + node.error());
+      n.node = std::move(node).value();
       OpenContext ctx(n.slot);
       Status s = n.node->open(ctx);
       if (!s.ok()) return Status::error(where(n) + " failed to open: " + s.message());
@@ -817,34 +817,37 @@ Node* Executor::node(const std::string& name) const {
   return nullptr;
 }
 
-std::string Executor::add_tap(const std::string& node, const std::string& port, Tap tap) {
+Status Executor::add_tap(const std::string& node, const std::string& port, Tap tap) {
   for (auto& n : impl_->nodes) {
     if (n.slot.name != node) continue;
     const int k = n.resolved->contract.output_index(port);
-    if (k < 0) return "node '" + node + "' (" + n.resolved->decl.plugin + ") has no output '" + port + "'";
+    if (k < 0)
+      return Status::error("node '" + node + "' (" + n.resolved->decl.plugin + ") has no output '" + port + "'");
     n.taps[static_cast<std::size_t>(k)].push_back(std::move(tap));
     return {};
   }
-  return "no node '" + node + "'";
+  return Status::error("no node '" + node + "'");
 }
 
-std::string Executor::inject(const std::string& node, const std::string& input, MessagePtr message) {
+Status Executor::inject(const std::string& node, const std::string& input, MessagePtr message) {
   for (auto& n : impl_->nodes) {
     if (n.slot.name != node) continue;
     const int k = n.resolved->contract.input_index(input);
-    if (k < 0) return "node '" + node + "' (" + n.resolved->decl.plugin + ") has no input '" + input + "'";
+    if (k < 0)
+      return Status::error("node '" + node + "' (" + n.resolved->decl.plugin + ") has no input '" + input + "'");
     const auto& port = n.resolved->contract.inputs()[static_cast<std::size_t>(k)];
     if (port.kind != InputKind::kSide)
-      return "input '" + node + "." + input + "' is not a side input: only its edge feeds it";
+      return Status::error("input '" + node + "." + input + "' is not a side input: only its edge feeds it");
     if (message && port.type != "any" && message->type_name() != port.type)
-      return "input '" + node + "." + input + "' takes " + port.type + ", not " + std::string(message->type_name());
+      return Status::error("input '" + node + "." + input + "' takes " + port.type + ", not " +
+                           std::string(message->type_name()));
     std::lock_guard lock(impl_->mu);
     InputRt& in = n.inputs[static_cast<std::size_t>(k)];
     bump(in.stats->received);
     in.side_latest = std::move(message);
     return {};
   }
-  return "no node '" + node + "'";
+  return Status::error("no node '" + node + "'");
 }
 
 const ResolvedGraph& Executor::graph() const { return impl_->graph; }

@@ -125,7 +125,7 @@ std::optional<std::size_t> parse_capacity(const std::string& item) {
 
 }  // namespace
 
-std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std::string* error) {
+Result<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base) {
   for (const std::string& item : text::split_list(text, ',')) {
     auto value_after = [&](std::string_view prefix, double lo, double hi, double& value) {
       return item.rfind(prefix, 0) == 0 && text::parse_number(std::string_view(item).substr(prefix.size()), value) &&
@@ -150,13 +150,10 @@ std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std
       base.ros2 = true;
     else if (item == "spin")
       base.spin = true;
-    else {
-      if (error)
-        *error = "qos: unknown item '" + item +
-                 "'; expected best_effort or reliable, depth=N (1..100000) or keep_all, deadline_ms=X, wait_ms=X, "
-                 "capacity=N, NK or NM (1 byte to 1024M), ros2, spin";
-      return std::nullopt;
-    }
+    else
+      return Status::error("qos: unknown item '" + item +
+                           "'; expected best_effort or reliable, depth=N (1..100000) or keep_all, deadline_ms=X, "
+                           "wait_ms=X, capacity=N, NK or NM (1 byte to 1024M), ros2, spin");
   }
   return base;
 }
@@ -204,12 +201,12 @@ std::string describe_xml_error(const XMLDocument& doc) {
 
 // Limits on a graph file, checked before tinyxml2 parses it (it finds a
 // repeated attribute by comparing each with every other: 100,000 attributes
-// on one element took 35 s). "" or what is over, with its line.
-std::string over_limits(std::string_view xml, int& line) {
+// on one element took 35 s). An error saying what is over, its line in `line`.
+Status over_limits(std::string_view xml, int& line) {
   line = 1;
   if (xml.size() > kMaxGraphFileBytes)
-    return "the file is " + std::to_string(xml.size()) + " bytes; a graph file may have at most " +
-           std::to_string(kMaxGraphFileBytes);
+    return Status::error("the file is " + std::to_string(xml.size()) + " bytes; a graph file may have at most " +
+                         std::to_string(kMaxGraphFileBytes));
   bool in_tag = false, in_comment = false;
   char quote = 0;
   int attributes = 0, tag_line = 1;
@@ -235,7 +232,7 @@ std::string over_limits(std::string_view xml, int& line) {
       quote = c;
     else if (c == '=' && ++attributes > kMaxAttributesPerElement) {
       line = tag_line;
-      return "an element with more than " + std::to_string(kMaxAttributesPerElement) + " attributes";
+      return Status::error("an element with more than " + std::to_string(kMaxAttributesPerElement) + " attributes");
     } else if (c == '>')
       in_tag = false;
   }
@@ -455,8 +452,8 @@ GraphDecl load_graph_file(const std::string& path, Diagnostics& diag) {
 
 GraphDecl load_graph_string(const std::string& xml, const std::string& file_name, Diagnostics& diag) {
   int line = 0;
-  if (std::string over = over_limits(xml, line); !over.empty()) {
-    diag.error(file_name, line, "", "", over);
+  if (Status over = over_limits(xml, line); !over.ok()) {
+    diag.error(file_name, line, "", "", over.message());
     GraphDecl g;
     g.file = file_name;
     return g;
@@ -492,15 +489,12 @@ void apply_overrides(GraphDecl& graph, const std::vector<std::string>& overrides
   }
 }
 
-std::string expand_variables(const std::string& text, const std::string& graph_file, std::string* error) {
+Result<std::string> expand_variables(const std::string& text, const std::string& graph_file) {
   std::string out;
   for (std::size_t i = 0; i < text.size(); ++i) {
     if (text[i] == '$' && i + 1 < text.size() && text[i + 1] == '{') {
       auto close = text.find('}', i + 2);
-      if (close == std::string::npos) {
-        if (error) *error = "unterminated ${ in '" + text + "'";
-        return text;
-      }
+      if (close == std::string::npos) { return Status::error("unterminated ${ in '" + text + "'"); }
       std::string var = text.substr(i + 2, close - i - 2);
       const char* env = std::getenv(var.c_str());
       if (env != nullptr) {
@@ -511,8 +505,7 @@ std::string expand_variables(const std::string& text, const std::string& graph_f
         auto dir = std::filesystem::path(graph_file).parent_path().string();
         out += dir.empty() ? "." : dir;
       } else {
-        if (error) *error = "unknown variable ${" + var + "} (not in the environment)";
-        return text;
+        return Status::error("unknown variable ${" + var + "} (not in the environment)");
       }
       i = close;
     } else {
@@ -552,16 +545,15 @@ bool resolve_node(const NodeDecl& n, const Registry& registry, const std::string
         diag.error(file, line, n.name, "", "parameter '" + p.name + "' given twice");
         continue;
       }
-      std::string expand_error;
-      std::string value = expand_variables(p.value, file, &expand_error);
-      if (!expand_error.empty()) {
-        diag.error(file, line, n.name, "", "parameter '" + p.name + "': " + expand_error);
+      Result<std::string> value = expand_variables(p.value, file);
+      if (!value.ok()) {
+        diag.error(file, line, n.name, "", "parameter '" + p.name + "': " + value.error());
         continue;
       }
       ParamValue v;
-      if (auto err = parse_param(*spec, value, v)) {
+      if (Status parsed = parse_param(*spec, *value, v); !parsed.ok()) {
         diag.error(file, line, n.name, "",
-                   "parameter '" + p.name + "' (" + std::string(to_string(spec->type)) + "): " + *err +
+                   "parameter '" + p.name + "' (" + std::string(to_string(spec->type)) + "): " + parsed.message() +
                        (p.line == 0 ? " [from --set]" : ""));
         continue;
       }
@@ -576,10 +568,12 @@ bool resolve_node(const NodeDecl& n, const Registry& registry, const std::string
       if (spec.default_value.empty() && spec.type != ParamType::kString && spec.type != ParamType::kFlags)
         continue;  // optional, no default: absent
       ParamValue v;
-      std::string expand_error;
-      std::string value = expand_variables(spec.default_value, file, &expand_error);
-      if (auto err = parse_param(spec, value, v))
-        diag.error(file, n.line, n.name, "", "default of parameter '" + spec.name + "' is invalid: " + *err);
+      // An unknown variable in a default is read as written (and its parse says what is wrong).
+      Result<std::string> expanded = expand_variables(spec.default_value, file);
+      const std::string& value = expanded.ok() ? *expanded : spec.default_value;
+      if (Status parsed = parse_param(spec, value, v); !parsed.ok())
+        diag.error(file, n.line, n.name, "",
+                   "default of parameter '" + spec.name + "' is invalid: " + parsed.message());
       else
         rn.params.set(spec.name, std::move(v));
     }
@@ -655,9 +649,11 @@ bool resolve_edge_decl(const EdgeDecl& e, const NodeIndex& nodes, const std::str
   re.delay = e.delay;
   re.qos = e.qos;
   bool ok = true;
-  if (std::string qos_error; !e.qos.empty() && !parse_edge_qos(e.qos, EdgeQos{}, &qos_error)) {
-    diag.error(file, e.line, e.to_node, e.to_port, qos_error);
-    ok = false;
+  if (!e.qos.empty()) {
+    if (Result<EdgeQos> qos = parse_edge_qos(e.qos, EdgeQos{}); !qos.ok()) {
+      diag.error(file, e.line, e.to_node, e.to_port, qos.error());
+      ok = false;
+    }
   }
   auto from = nodes.index.find(e.from_node);
   auto to = nodes.index.find(e.to_node);

@@ -93,10 +93,9 @@ std::optional<GraphPlan> plan_graph(const ResolvedGraph& graph, Diagnostics& dia
       pe.route = host_of(graph, pe.from_process) == host_of(graph, pe.to_process) ? EdgeRoute::kSameHost
                                                                                   : EdgeRoute::kOtherHost;
       pe.topic = prefix + "/" + from.decl.name + "/" + port.name;
-      std::string error;
-      auto qos = parse_edge_qos(e.qos, default_qos(pe.type), &error);
-      if (!qos) {
-        diag.error(graph.file, e.line, to.decl.name, "", error);
+      Result<EdgeQos> qos = parse_edge_qos(e.qos, default_qos(pe.type));
+      if (!qos.ok()) {
+        diag.error(graph.file, e.line, to.decl.name, "", qos.error());
         continue;
       }
       pe.qos = *qos;

@@ -139,11 +139,10 @@ void Registry::load_folders(const std::vector<std::string>& folders) {
         ++shadowed;
         continue;
       }
-      std::string error;
-      if (load_library(f.string(), &error))
+      if (Status status = load_library(f.string()); status.ok())
         ++loaded;
       else
-        load_errors_.push_back(error);
+        load_errors_.push_back(status.message());
     }
     const std::size_t failed = files.size() - loaded - shadowed;
     std::string found = std::to_string(loaded) + (loaded == 1 ? " library" : " libraries");
@@ -153,11 +152,8 @@ void Registry::load_folders(const std::vector<std::string>& folders) {
   }
 }
 
-bool Registry::load_library(const std::string& path, std::string* error) {
-  auto fail = [&](const std::string& message) {
-    if (error) *error = message;
-    return false;
-  };
+Status Registry::load_library(const std::string& path) {
+  auto fail = [](const std::string& message) { return Status::error(message); };
   if (!fs::exists(path)) return fail(path + ": no such plugin library");
   auto lib = std::make_shared<Library>();
   lib->path = path;
@@ -202,7 +198,7 @@ bool Registry::load_library(const std::string& path, std::string* error) {
     entries_.emplace(type, std::move(e));
   }
   libraries_[fs::path(path).filename().string()] = lib;
-  return true;
+  return {};
 }
 
 const NodeTypeInfo* Registry::find(const std::string& type) const {
@@ -216,23 +212,16 @@ std::vector<std::string> Registry::types() const {
   return out;
 }
 
-std::shared_ptr<Node> Registry::create(const std::string& type, std::string* error) const {
+Result<std::shared_ptr<Node>> Registry::create(const std::string& type) const {
   auto it = entries_.find(type);
-  if (it == entries_.end()) {
-    if (error) *error = "unknown plugin '" + type + "' (" + searched_summary() + ")";
-    return nullptr;
-  }
+  if (it == entries_.end()) return Status::error("unknown plugin '" + type + "' (" + searched_summary() + ")");
   std::shared_ptr<Library> lib = it->second.library;
   const NodeFactory& f = lib->descriptor->factories[it->second.factory];
-  std::string create_error;
-  Node* raw = f.create(&create_error);
-  if (raw == nullptr) {
-    if (error) *error = "creating '" + type + "' failed: " + create_error;
-    return nullptr;
-  }
+  Result<Node*> raw = f.create();
+  if (!raw.ok()) return Status::error("creating '" + type + "' failed: " + raw.error());
   // The deleter holds the library: the node's code stays mapped while it lives.
   auto destroy = f.destroy;
-  return std::shared_ptr<Node>(raw, [lib, destroy](Node* n) { destroy(n); });
+  return std::shared_ptr<Node>(*raw, [lib, destroy](Node* n) { destroy(n); });
 }
 
 }  // namespace saccade

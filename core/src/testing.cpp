@@ -13,8 +13,7 @@ const Registry& default_registry() {
   return *registry;
 }
 
-std::unique_ptr<NodeHarness> NodeHarness::create(const std::string& node_xml, std::string* error,
-                                                 const Registry* registry) {
+Result<std::unique_ptr<NodeHarness>> NodeHarness::create(const std::string& node_xml, const Registry* registry) {
   if (registry == nullptr) registry = &default_registry();
   Diagnostics diag;
   std::string xml = node_xml;
@@ -31,16 +30,10 @@ std::unique_ptr<NodeHarness> NodeHarness::create(const std::string& node_xml, st
     diag.error("<harness>", 1, "", "", "expected exactly one <node> element");
   std::unique_ptr<NodeHarness> h(new NodeHarness());
   if (!diag.has_errors()) resolve_node(graph.nodes.front(), *registry, "<harness>", diag, h->resolved_);
-  if (diag.has_errors()) {
-    if (error) *error = diag.format();
-    return nullptr;
-  }
-  std::string create_error;
-  h->node_ = registry->create(h->resolved_.decl.plugin, &create_error);
-  if (!h->node_) {
-    if (error) *error = create_error;
-    return nullptr;
-  }
+  if (diag.has_errors()) return Status::error(diag.format());
+  Result<std::shared_ptr<Node>> node = registry->create(h->resolved_.decl.plugin);
+  if (!node.ok()) return node.status();
+  h->node_ = std::move(node).value();
   const Contract& c = h->resolved_.contract;
   h->slot_.name = h->resolved_.decl.name;
   h->slot_.contract = &h->resolved_.contract;
@@ -58,10 +51,7 @@ std::unique_ptr<NodeHarness> NodeHarness::create(const std::string& node_xml, st
   h->emitted_.resize(c.outputs().size());
   OpenContext ctx(h->slot_);
   Status s = h->node_->open(ctx);
-  if (!s.ok()) {
-    if (error) *error = "open failed: " + s.message();
-    return nullptr;
-  }
+  if (!s.ok()) return Status::error("open failed: " + s.message());
   h->opened_ = true;
   return h;
 }

@@ -1,7 +1,5 @@
 #include "baseline.hpp"
 
-#include <stdexcept>
-
 #include <opencv2/imgproc.hpp>
 
 namespace saccade::baseline {
@@ -11,7 +9,7 @@ const std::vector<std::string>& full_frame_features() {
   return names;
 }
 
-void compute_feature(const std::string& feature, const cv::Mat& gray, cv::Mat& out, cv::Mat& scratch) {
+Status compute_feature(const std::string& feature, const cv::Mat& gray, cv::Mat& out, cv::Mat& scratch) {
   constexpr int kBorder = cv::BORDER_REFLECT_101;
   if (feature == "gauss") {
     cv::GaussianBlur(gray, scratch, {3, 3}, 0, 0, kBorder);
@@ -31,8 +29,9 @@ void compute_feature(const std::string& feature, const cv::Mat& gray, cv::Mat& o
     scratch.convertTo(scratch, CV_32F);
     cv::Laplacian(scratch, out, CV_32F, 1, 1, 0, kBorder);
   } else {
-    throw std::invalid_argument("unknown full-frame feature '" + feature + "'");
+    return Status::error("unknown full-frame feature '" + feature + "'");
   }
+  return {};
 }
 
 FullFrameStereo::FullFrameStereo(StereoConfig config) : config_(config) {

@@ -7,13 +7,17 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include "saccade/status.hpp"
+
 namespace saccade::baseline {
 
 // Full-frame feature names, a subset of the filter bank's with the same meaning.
 const std::vector<std::string>& full_frame_features();
 
-// Computes `feature` on an 8-bit gray frame with OpenCV (reflect-101 borders).
-void compute_feature(const std::string& feature, const cv::Mat& gray, cv::Mat& out, cv::Mat& scratch);
+// Computes `feature` on an 8-bit gray frame with OpenCV (reflect-101 borders)
+// into `out` (buffers reused); an error naming a feature that is not one of
+// full_frame_features().
+Status compute_feature(const std::string& feature, const cv::Mat& gray, cv::Mat& out, cv::Mat& scratch);
 
 enum class StereoAlgorithm { kBlockMatching, kSemiGlobal };
 

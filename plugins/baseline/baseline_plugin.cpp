@@ -38,7 +38,8 @@ class Filters final : public Node {
     if (Status s = require_gray(*image); !s.ok()) return s;
     auto maps = ctx.make(kMaps);
     maps->set_layout(names_, 1);
-    for (std::size_t i = 0; i < names_.size(); ++i) compute_feature(names_[i], image->mat, maps->maps[i][0], scratch_);
+    for (std::size_t i = 0; i < names_.size(); ++i)
+      if (Status s = compute_feature(names_[i], image->mat, maps->maps[i][0], scratch_); !s.ok()) return s;
     ctx.emit(kMaps, std::move(maps));
     return {};
   }

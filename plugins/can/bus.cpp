@@ -76,30 +76,34 @@ const char* to_string(BusState s) {
   return "?";
 }
 
-std::unique_ptr<Bus> open_bus(const std::string& spec, std::string& error, const BusOptions& options) {
+namespace {
+// A backend's open result as a Bus.
+template <class Backend>
+Result<std::unique_ptr<Bus>> as_bus(Result<std::unique_ptr<Backend>> opened) {
+  if (!opened.ok()) return opened.status();
+  return std::unique_ptr<Bus>(std::move(opened).value());
+}
+}  // namespace
+
+Result<std::unique_ptr<Bus>> open_bus(const std::string& spec, const BusOptions& options) {
   const auto colon = spec.find(':');
   const std::string kind = spec.substr(0, colon), rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
-  if (!options.key_file.empty() && kind != "udp") {
-    error = "bus '" + spec + "': key_file '" + options.key_file + "' is for a udp bus only (a " + kind +
-            " bus carries no key)";
-    return nullptr;
-  }
+  if (!options.key_file.empty() && kind != "udp")
+    return Status::error("bus '" + spec + "': key_file '" + options.key_file + "' is for a udp bus only (a " + kind +
+                         " bus carries no key)");
   if (kind == "virtual") {
-    if (rest.empty()) {
-      error = "bus '" + spec + "': expected virtual:NAME";
-      return nullptr;
-    }
-    return VirtualBus::named(rest)->attach();
+    if (rest.empty()) return Status::error("bus '" + spec + "': expected virtual:NAME");
+    return std::unique_ptr<Bus>(VirtualBus::named(rest)->attach());
   }
   if (kind == "udp") {
-    if (options.key_file.empty()) return UdpTunnel::open(rest, error);
+    if (options.key_file.empty()) return as_bus(UdpTunnel::open(rest));
     cannelloni::Key key;
-    if (!cannelloni::load_key(options.key_file, key, error)) return nullptr;
-    return UdpTunnel::open(rest, error, &key);
+    if (Status loaded = cannelloni::load_key(options.key_file, key); !loaded.ok()) return loaded;
+    return as_bus(UdpTunnel::open(rest, &key));
   }
-  if (kind == "socketcan") return SocketCan::open(rest, error);
-  error = "bus '" + spec + "': expected virtual:NAME, udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT or socketcan:IFNAME";
-  return nullptr;
+  if (kind == "socketcan") return as_bus(SocketCan::open(rest));
+  return Status::error("bus '" + spec +
+                       "': expected virtual:NAME, udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT or socketcan:IFNAME");
 }
 
 }  // namespace saccade::can

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "saccade/status.hpp"
+
 namespace saccade::can {
 
 // Flags of the kernel's can_id encoding (linux/can.h), used by filters and by
@@ -137,7 +139,8 @@ struct BusOptions {
 
 // Opens a bus from a spec: "virtual:NAME" (the process-wide virtual bus of
 // that name), "udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT" (the cannelloni tunnel)
-// or "socketcan:IFNAME". Null with `error` set when it cannot.
-std::unique_ptr<Bus> open_bus(const std::string& spec, std::string& error, const BusOptions& options = {});
+// or "socketcan:IFNAME". The open bus, or the error naming the spec and what
+// is wrong with it or with opening it.
+Result<std::unique_ptr<Bus>> open_bus(const std::string& spec, const BusOptions& options = {});
 
 }  // namespace saccade::can

@@ -8,6 +8,7 @@
 #include <array>
 #include <atomic>
 #include <iterator>
+#include <optional>
 #include <sstream>
 
 #include "cannelloni.hpp"
@@ -22,29 +23,35 @@ namespace {
 
 using namespace saccade;
 
-// "1,2,3" -> numbers; `count` values, or one value repeated.
-bool parse_list(const std::string& text, std::size_t count, std::vector<double>& out, std::string& error,
-                const std::string& name) {
-  out.clear();
+// `item` as a number, read as std::stod reads it, with nothing but blanks
+// after it; nothing when it is not one.
+std::optional<double> number(const std::string& item) {
+  try {
+    std::size_t used = 0;
+    const double value = std::stod(item, &used);
+    if (item.find_first_not_of(" \t", used) == std::string::npos) return value;
+  } catch (const std::exception&) {  // std::stod's way of saying "not a number" or "out of range"
+  }
+  return std::nullopt;
+}
+
+// "1,2,3" -> numbers; `count` values, or one value repeated (count 0: any
+// number of them). The error names the parameter `name` and what is wrong.
+Result<std::vector<double>> parse_list(const std::string& text, std::size_t count, const std::string& name) {
+  std::vector<double> out;
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      out.push_back(std::stod(item, &used));
-      if (item.find_first_not_of(" \t", used) != std::string::npos) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      error = name + ": '" + item + "' is not a number (expected a comma list such as 1,2,3,4,5)";
-      return false;
-    }
+    const std::optional<double> value = number(item);
+    if (!value)
+      return Status::error(name + ": '" + item + "' is not a number (expected a comma list such as 1,2,3,4,5)");
+    out.push_back(*value);
   }
   if (out.size() == 1 && count > 1) out.assign(count, out[0]);
-  if (count > 0 && out.size() != count) {
-    error =
-        name + ": " + std::to_string(out.size()) + " values, expected " + std::to_string(count) + " (or one for all)";
-    return false;
-  }
-  return true;
+  if (count > 0 && out.size() != count)
+    return Status::error(name + ": " + std::to_string(out.size()) + " values, expected " + std::to_string(count) +
+                         " (or one for all)");
+  return out;
 }
 
 constexpr const char* kBusSpecDoc =
@@ -164,18 +171,23 @@ struct Setup {
 };
 
 Status setup(const CommonConfig& c, Setup& s) {
-  std::string error;
-  if (!parse_list(c.nodes, 0, s.nodes, error, "nodes") ||
-      !parse_list(c.counts_per_rad, s.nodes.size(), s.counts, error, "counts_per_rad") ||
-      !parse_list(c.zero_counts, s.nodes.size(), s.zero, error, "zero_counts"))
-    return Status::error(error);
+  Result<std::vector<double>> parsed = parse_list(c.nodes, 0, "nodes");
+  if (!parsed.ok()) return parsed.status();
+  s.nodes = std::move(parsed).value();
+  parsed = parse_list(c.counts_per_rad, s.nodes.size(), "counts_per_rad");
+  if (!parsed.ok()) return parsed.status();
+  s.counts = std::move(parsed).value();
+  parsed = parse_list(c.zero_counts, s.nodes.size(), "zero_counts");
+  if (!parsed.ok()) return parsed.status();
+  s.zero = std::move(parsed).value();
   for (double n : s.nodes)
     if (n < 1 || n > 127 || n != static_cast<int>(n))
       return Status::error("nodes: " + std::to_string(n) + " is not a CANopen node id (1..127)");
   for (double counts : s.counts)
     if (counts == 0) return Status::error("counts_per_rad: 0 counts per radian");
-  s.bus = can::open_bus(c.bus, error, {c.key_file});
-  if (!s.bus) return Status::error(error);
+  Result<std::unique_ptr<can::Bus>> bus = can::open_bus(c.bus, {c.key_file});
+  if (!bus.ok()) return bus.status();
+  s.bus = std::move(bus).value();
   const auto seed = static_cast<uint64_t>(c.fault_seed);
   auto* tunnel = dynamic_cast<can::UdpTunnel*>(s.bus.get());
   if (tunnel != nullptr) {
@@ -448,15 +460,14 @@ class Drives final : public Node {
   Status open(OpenContext& ctx) override {
     if (Status s = setup(ctx.config(&bind_common), setup_); !s.ok()) return s;
     const DrivesConfig c = ctx.config(&bind);
-    std::vector<double> initial;
-    std::string error;
-    if (!parse_list(c.initial, setup_.nodes.size(), initial, error, "initial")) return Status::error(error);
+    const Result<std::vector<double>> initial = parse_list(c.initial, setup_.nodes.size(), "initial");
+    if (!initial.ok()) return initial.status();
     std::vector<can::DriveConfig> drives;
     for (std::size_t j = 0; j < setup_.nodes.size(); ++j) {
       can::DriveConfig d;
       d.node = static_cast<int>(setup_.nodes[j]);
       d.counts_per_rad = setup_.counts[j];
-      d.initial_position = initial[j] + setup_.zero[j] / setup_.counts[j];
+      d.initial_position = (*initial)[j] + setup_.zero[j] / setup_.counts[j];
       d.motor = c.motor;
       // Gains for the same closed-loop bandwidth whatever the inertia.
       const double scale = d.motor.inertia / can::MotorModel{}.inertia;
@@ -597,10 +608,10 @@ class Tap final : public Node {
   }
   Status open(OpenContext& ctx) override {
     const TapConfig c = ctx.config(&bind);
-    std::string error;
     spec_ = c.bus;
-    bus_ = can::open_bus(spec_, error, {c.key_file});
-    if (!bus_) return Status::error(error);
+    Result<std::unique_ptr<can::Bus>> bus = can::open_bus(spec_, {c.key_file});
+    if (!bus.ok()) return bus.status();
+    bus_ = std::move(bus).value();
     bus_stats_.open(ctx);
     if (c.errors) {
       can::FilterSet filters;
@@ -656,9 +667,10 @@ class Send final : public Node {
         .param_string("key_file", "", kKeyFileDoc);
   }
   Status open(OpenContext& ctx) override {
-    std::string error;
-    bus_ = can::open_bus(ctx.params().get_string("bus"), error, {ctx.params().get_string("key_file")});
-    if (!bus_) return Status::error(error);
+    Result<std::unique_ptr<can::Bus>> bus =
+        can::open_bus(ctx.params().get_string("bus"), {ctx.params().get_string("key_file")});
+    if (!bus.ok()) return bus.status();
+    bus_ = std::move(bus).value();
     bus_stats_.open(ctx);
     sent_ = &ctx.counter("sent");
     failed_ = &ctx.counter("failed");

@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 
 namespace saccade::can {
 
@@ -52,12 +53,11 @@ std::size_t encode(uint8_t seq, const Frame* frames, std::size_t n, std::vector<
   return size;
 }
 
-bool decode(const uint8_t* packet, std::size_t size, uint8_t& seq, std::vector<Frame>& out, std::string& error) {
+Status decode(const uint8_t* packet, std::size_t size, uint8_t& seq, std::vector<Frame>& out) {
   const std::size_t first = out.size();
   const auto fail = [&](std::string why) {
     out.resize(first);
-    error = std::move(why);
-    return false;
+    return Status::error(std::move(why));
   };
   if (size < kHeaderSize) return fail("packet of " + std::to_string(size) + " bytes: shorter than the 5-byte header");
   if (packet[0] != kVersion) return fail("version " + std::to_string(packet[0]) + ", expected 2");
@@ -90,31 +90,26 @@ bool decode(const uint8_t* packet, std::size_t size, uint8_t& seq, std::vector<F
     out.push_back(f);
   }
   if (at != size) return fail(std::to_string(size - at) + " bytes after the last frame");
-  return true;
+  return {};
 }
 
 Key::~Key() { OPENSSL_cleanse(bytes.data(), bytes.size()); }
 
-bool load_key(const std::string& path, Key& key, std::string& error) {
+Status load_key(const std::string& path, Key& key) {
   const std::string what = "key file '" + path + "'";
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
-  if (fd < 0) {
-    error = what + ": " + std::strerror(errno);
-    return false;
-  }
+  if (fd < 0) return Status::error(what + ": " + std::strerror(errno));
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
-    error = what + ": not a regular file";
-    return false;
+    return Status::error(what + ": not a regular file");
   }
   if ((st.st_mode & 077) != 0) {
     ::close(fd);
     char mode[8];
     std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
-    error = what + " can be read or written by its group or others (mode " + mode +
-            "): the link's key must be its owner's alone; chmod 600 '" + path + "'";
-    return false;
+    return Status::error(what + " can be read or written by its group or others (mode " + mode +
+                         "): the link's key must be its owner's alone; chmod 600 '" + path + "'");
   }
   char text[256];
   ssize_t got = 0;
@@ -123,10 +118,7 @@ bool load_key(const std::string& path, Key& key, std::string& error) {
     if (got >= 0 || errno != EINTR) break;
   }
   ::close(fd);
-  if (got < 0) {
-    error = what + ": " + std::strerror(errno);
-    return false;
-  }
+  if (got < 0) return Status::error(what + ": " + std::strerror(errno));
   std::size_t n = static_cast<std::size_t>(got), first = 0;
   while (first < n && std::isspace(static_cast<unsigned char>(text[first]))) ++first;
   while (n > first && std::isspace(static_cast<unsigned char>(text[n - 1]))) --n;
@@ -147,10 +139,9 @@ bool load_key(const std::string& path, Key& key, std::string& error) {
   OPENSSL_cleanse(text, sizeof text);
   if (!hex) {
     OPENSSL_cleanse(key.bytes.data(), key.bytes.size());
-    error = what + ": expected 64 hex characters (a 256-bit key, e.g. from: openssl rand -hex 32)";
-    return false;
+    return Status::error(what + ": expected 64 hex characters (a 256-bit key, e.g. from: openssl rand -hex 32)");
   }
-  return true;
+  return {};
 }
 
 namespace {
@@ -264,39 +255,49 @@ std::string to_string(const sockaddr_in& a) {
 bool is_loopback(const in_addr& a) { return (ntohl(a.s_addr) >> 24) == 127; }
 
 // The local address the kernel would send to `peer` from (a connected UDP
-// socket's own address; nothing is sent).
-bool route_source(const sockaddr_in& peer, in_addr& out, std::string& error) {
+// socket's own address; nothing is sent), or why there is none.
+Result<in_addr> route_source(const sockaddr_in& peer) {
   const int probe = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  if (probe < 0) {
-    error = std::string("socket: ") + std::strerror(errno);
-    return false;
-  }
+  if (probe < 0) return Status::error(std::string("socket: ") + std::strerror(errno));
   sockaddr_in self{};
   socklen_t size = sizeof self;
   const bool ok = ::connect(probe, reinterpret_cast<const sockaddr*>(&peer), sizeof peer) == 0 &&
                   ::getsockname(probe, reinterpret_cast<sockaddr*>(&self), &size) == 0;
-  if (!ok) error = std::strerror(errno);
+  const int failure = errno;  // before close() can change it
   ::close(probe);
-  if (ok) out = self.sin_addr;
-  return ok;
+  if (!ok) return Status::error(std::strerror(failure));
+  return self.sin_addr;
 }
 
-bool resolve(const std::string& host, int port, sockaddr_in& out, std::string& error) {
+Result<sockaddr_in> resolve(const std::string& host, int port) {
   addrinfo hints{};
   hints.ai_family = AF_INET;
   hints.ai_socktype = SOCK_DGRAM;
   addrinfo* found = nullptr;
-  if (int rc = getaddrinfo(host.c_str(), std::to_string(port).c_str(), &hints, &found); rc != 0) {
-    error = "cannot resolve '" + host + "': " + gai_strerror(rc);
-    return false;
-  }
+  if (int rc = getaddrinfo(host.c_str(), std::to_string(port).c_str(), &hints, &found); rc != 0)
+    return Status::error("cannot resolve '" + host + "': " + gai_strerror(rc));
+  sockaddr_in out{};
   std::memcpy(&out, found->ai_addr, sizeof out);
   freeaddrinfo(found);
-  return true;
+  return out;
+}
+
+// `text` as a whole int, read as std::stoi reads it; nothing when it is not one.
+std::optional<int> whole_int(const std::string& text) {
+  try {
+    std::size_t used = 0;
+    const int value = std::stoi(text, &used);
+    if (used == text.size()) return value;
+  } catch (const std::exception&) {  // std::stoi's way of saying "not a number" or "out of range"
+  }
+  return std::nullopt;
 }
 }  // namespace
 
-std::unique_ptr<UdpTunnel> UdpTunnel::open(const std::string& spec, std::string& error, const cannelloni::Key* key) {
+Result<std::unique_ptr<UdpTunnel>> UdpTunnel::open(const std::string& spec, const cannelloni::Key* key) {
+  const Status malformed = Status::error("udp bus '" + spec +
+                                         "': expected [BIND_ADDR:]LOCAL_PORT:HOST:PORT, e.g. 20000:192.168.1.2:20000 "
+                                         "or 192.168.1.1:20000:192.168.1.2:20000");
   Options o;
   Link link;
   link.key = key;
@@ -307,88 +308,68 @@ std::unique_ptr<UdpTunnel> UdpTunnel::open(const std::string& spec, std::string&
     if (colon == std::string::npos) break;
     at = colon + 1;
   }
-  try {
-    if (parts.size() != 3 && parts.size() != 4) throw std::invalid_argument("shape");
-    if (parts.size() == 4) {
-      link.bind_address = parts[0];
-      parts.erase(parts.begin());
-      if (link.bind_address.empty()) throw std::invalid_argument("bind address");
-    }
-    std::size_t used = 0;
-    o.local_port = std::stoi(parts[0], &used);
-    if (used != parts[0].size()) throw std::invalid_argument("local port");
-    o.peer_host = parts[1];
-    if (o.peer_host.empty()) throw std::invalid_argument("host");
-    o.peer_port = std::stoi(parts[2], &used);
-    if (used != parts[2].size()) throw std::invalid_argument("peer port");
-  } catch (const std::exception&) {
-    error = "udp bus '" + spec +
-            "': expected [BIND_ADDR:]LOCAL_PORT:HOST:PORT, e.g. 20000:192.168.1.2:20000 or "
-            "192.168.1.1:20000:192.168.1.2:20000";
-    return nullptr;
+  if (parts.size() != 3 && parts.size() != 4) return malformed;
+  if (parts.size() == 4) {
+    link.bind_address = parts[0];
+    parts.erase(parts.begin());
+    if (link.bind_address.empty()) return malformed;
   }
-  return open(o, link, error);
+  const std::optional<int> local_port = whole_int(parts[0]);
+  o.peer_host = parts[1];
+  const std::optional<int> peer_port = whole_int(parts[2]);
+  if (!local_port || o.peer_host.empty() || !peer_port) return malformed;
+  o.local_port = *local_port;
+  o.peer_port = *peer_port;
+  return open(o, link);
 }
 
-std::unique_ptr<UdpTunnel> UdpTunnel::open(const Options& o, std::string& error) { return open(o, Link{}, error); }
+Result<std::unique_ptr<UdpTunnel>> UdpTunnel::open(const Options& o) { return open(o, Link{}); }
 
-std::unique_ptr<UdpTunnel> UdpTunnel::open(const Options& o, const Link& link, std::string& error) {
+Result<std::unique_ptr<UdpTunnel>> UdpTunnel::open(const Options& o, const Link& link) {
   const std::string where = "udp bus " + (link.bind_address.empty() ? "" : link.bind_address + ":") +
                             std::to_string(o.local_port) + ":" + o.peer_host + ":" + std::to_string(o.peer_port);
-  if (o.local_port < 0 || o.local_port > 65535 || o.peer_port <= 0 || o.peer_port > 65535) {
-    error = where + ": ports must be in 1..65535 (local 0: any)";
-    return nullptr;
-  }
-  sockaddr_in peer{};
-  if (!resolve(o.peer_host, o.peer_port, peer, error)) {
-    error = where + ": " + error;
-    return nullptr;
-  }
-  if (peer.sin_addr.s_addr == htonl(INADDR_ANY) || peer.sin_addr.s_addr == htonl(INADDR_BROADCAST)) {
-    error = where + ": the peer must be one host's address, not " + o.peer_host;
-    return nullptr;
-  }
+  if (o.local_port < 0 || o.local_port > 65535 || o.peer_port <= 0 || o.peer_port > 65535)
+    return Status::error(where + ": ports must be in 1..65535 (local 0: any)");
+  const Result<sockaddr_in> peer = resolve(o.peer_host, o.peer_port);
+  if (!peer.ok()) return Status::error(where + ": " + peer.error());
+  if (peer->sin_addr.s_addr == htonl(INADDR_ANY) || peer->sin_addr.s_addr == htonl(INADDR_BROADCAST))
+    return Status::error(where + ": the peer must be one host's address, not " + o.peer_host);
   sockaddr_in local{};
   local.sin_family = AF_INET;
   local.sin_port = htons(static_cast<uint16_t>(o.local_port));
   if (!link.bind_address.empty()) {
-    if (!resolve(link.bind_address, o.local_port, local, error)) {
-      error = where + ": bind address: " + error;
-      return nullptr;
-    }
-    if (link.key != nullptr && local.sin_addr.s_addr == htonl(INADDR_ANY)) {
-      error = where + ": an authenticated tunnel binds one address, not 0.0.0.0 (its tag covers both ends' addresses)";
-      return nullptr;
-    }
-  } else if (is_loopback(peer.sin_addr)) {
+    const Result<sockaddr_in> bind_to = resolve(link.bind_address, o.local_port);
+    if (!bind_to.ok()) return Status::error(where + ": bind address: " + bind_to.error());
+    local = *bind_to;
+    if (link.key != nullptr && local.sin_addr.s_addr == htonl(INADDR_ANY))
+      return Status::error(where +
+                           ": an authenticated tunnel binds one address, not 0.0.0.0 (its tag covers both ends' "
+                           "addresses)");
+  } else if (is_loopback(peer->sin_addr)) {
     local.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  } else if (!route_source(peer, local.sin_addr, error)) {
-    error = where + ": no route to " + o.peer_host + " (" + error +
-            "); name the local address: udp:ADDR:" + std::to_string(o.local_port) + ":" + o.peer_host + ":" +
-            std::to_string(o.peer_port);
-    return nullptr;
+  } else {
+    const Result<in_addr> source = route_source(*peer);
+    if (!source.ok())
+      return Status::error(where + ": no route to " + o.peer_host + " (" + source.error() +
+                           "); name the local address: udp:ADDR:" + std::to_string(o.local_port) + ":" + o.peer_host +
+                           ":" + std::to_string(o.peer_port));
+    local.sin_addr = *source;
   }
   std::unique_ptr<cannelloni::Authenticator> auth;
   if (link.key != nullptr) {
     auth = std::make_unique<cannelloni::Authenticator>(*link.key);
-    if (!auth->ok()) {
-      error = where + ": OpenSSL has no HMAC-SHA256";
-      return nullptr;
-    }
+    if (!auth->ok()) return Status::error(where + ": OpenSSL has no HMAC-SHA256");
   }
   const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (fd < 0) {
-    error = where + ": socket: " + std::strerror(errno);
-    return nullptr;
-  }
+  if (fd < 0) return Status::error(where + ": socket: " + std::strerror(errno));
   socklen_t size = sizeof local;
   if (::bind(fd, reinterpret_cast<const sockaddr*>(&local), sizeof local) != 0 ||
       ::getsockname(fd, reinterpret_cast<sockaddr*>(&local), &size) != 0) {
-    error = where + ": bind to " + to_string(local) + ": " + std::strerror(errno);
+    const int failure = errno;  // before close() can change it
     ::close(fd);
-    return nullptr;
+    return Status::error(where + ": bind to " + to_string(local) + ": " + std::strerror(failure));
   }
-  std::unique_ptr<UdpTunnel> t(new UdpTunnel(fd, o, local, peer));
+  std::unique_ptr<UdpTunnel> t(new UdpTunnel(fd, o, local, peer.value()));
   t->auth_ = std::move(auth);
   return t;
 }
@@ -501,7 +482,8 @@ bool UdpTunnel::read_packet(int64_t timeout_ns) {
     std::size_t size = static_cast<std::size_t>(got);
     if (auth_ && (size = check_sealed(buffer, size)) == 0) return true;
     uint8_t seq = 0;
-    if (!cannelloni::decode(buffer, size, seq, incoming_, last_error_)) {
+    if (Status decoded = cannelloni::decode(buffer, size, seq, incoming_); !decoded.ok()) {
+      last_error_ = decoded.message();
       ++counters_.malformed;
       return true;
     }

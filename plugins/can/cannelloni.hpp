@@ -36,10 +36,11 @@ inline constexpr std::size_t kMaxPacket = 1400;  // stays below a typical MTU, a
 std::size_t encoded_size(const Frame& f);
 // Writes a packet holding frames [0, n) to `out` (resized); returns its size.
 std::size_t encode(uint8_t seq, const Frame* frames, std::size_t n, std::vector<uint8_t>& out);
-// Appends the frames of one packet to `out`; false with `error` (and nothing
-// appended) when the packet is malformed: wrong version or op code, truncated,
-// a classic frame longer than 8 bytes or an FD frame longer than 64.
-bool decode(const uint8_t* packet, std::size_t size, uint8_t& seq, std::vector<Frame>& out, std::string& error);
+// Appends the frames of one packet to `out` (the receiver's reused buffer)
+// and sets `seq`; an error (and nothing appended) when the packet is
+// malformed: wrong version or op code, truncated, a classic frame longer than
+// 8 bytes or an FD frame longer than 64.
+Status decode(const uint8_t* packet, std::size_t size, uint8_t& seq, std::vector<Frame>& out);
 
 // A link's shared key: 32 bytes, wiped from memory when destroyed.
 struct Key {
@@ -52,11 +53,12 @@ struct Key {
 inline constexpr std::size_t kTagSize = 16;                    // HMAC-SHA256 truncated to 128 bits
 inline constexpr std::size_t kTrailerSize = 8 + 8 + kTagSize;  // epoch, counter, tag
 
-// Reads a key file: 64 hex characters (surrounding white space allowed). False
-// with `error` naming the file when it cannot be read, is not a regular file,
-// holds anything else, or is readable or writable by its group or others (the
-// error says the chmod that fixes it).
-bool load_key(const std::string& path, Key& key, std::string& error);
+// Reads a key file (64 hex characters, surrounding white space allowed) into
+// `key` (filled in place: the secret is never copied into a temporary). An
+// error naming the file when it cannot be read, is not a regular file, holds
+// anything else, or is readable or writable by its group or others (the error
+// says the chmod that fixes it).
+Status load_key(const std::string& path, Key& key);
 
 // The two ends of a link as the tag covers them (IPv4 address and port of the
 // sender, then of the receiver, network byte order), so that a packet sent
@@ -181,11 +183,12 @@ class UdpTunnel final : public Bus {
     // be authentic, new and of the peer's newest session.
     const cannelloni::Key* key = nullptr;
   };
-  // spec "[BIND_ADDR:]LOCAL_PORT:HOST:PORT".
-  static std::unique_ptr<UdpTunnel> open(const std::string& spec, std::string& error,
-                                         const cannelloni::Key* key = nullptr);
-  static std::unique_ptr<UdpTunnel> open(const Options& options, std::string& error);
-  static std::unique_ptr<UdpTunnel> open(const Options& options, const Link& link, std::string& error);
+  // The bound tunnel, or the error naming the tunnel and what failed (a spec
+  // not of the form "[BIND_ADDR:]LOCAL_PORT:HOST:PORT", a port out of range,
+  // a host that does not resolve, no route, a bind that fails).
+  static Result<std::unique_ptr<UdpTunnel>> open(const std::string& spec, const cannelloni::Key* key = nullptr);
+  static Result<std::unique_ptr<UdpTunnel>> open(const Options& options);
+  static Result<std::unique_ptr<UdpTunnel>> open(const Options& options, const Link& link);
   ~UdpTunnel() override;
 
   bool send(const Frame& f) override;

@@ -20,22 +20,18 @@ static_assert(kEffFlag == CAN_EFF_FLAG && kRtrFlag == CAN_RTR_FLAG && kErrFlag =
 static_assert(kInvFilter == CAN_INV_FILTER && error_class::kBusOff == CAN_ERR_BUSOFF);
 static_assert(controller_status::kRxPassive == CAN_ERR_CRTL_RX_PASSIVE);
 
-std::unique_ptr<SocketCan> SocketCan::open(const std::string& interface, std::string& error) {
+Result<std::unique_ptr<SocketCan>> SocketCan::open(const std::string& interface) {
   const std::string where = "socketcan '" + interface + "'";
-  if (interface.empty() || interface.size() >= IFNAMSIZ) {
-    error =
-        where + ": expected an interface name such as can0 (at most " + std::to_string(IFNAMSIZ - 1) + " characters)";
-    return nullptr;
-  }
+  if (interface.empty() || interface.size() >= IFNAMSIZ)
+    return Status::error(where + ": expected an interface name such as can0 (at most " + std::to_string(IFNAMSIZ - 1) +
+                         " characters)");
   const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-  if (fd < 0) {
-    error = where + ": this kernel has no CAN sockets (socket(PF_CAN): " + std::strerror(errno) + ")";
-    return nullptr;
-  }
+  if (fd < 0)
+    return Status::error(where + ": this kernel has no CAN sockets (socket(PF_CAN): " + std::strerror(errno) + ")");
   const auto fail = [&](const std::string& what) {
-    error = where + ": " + what + ": " + std::strerror(errno);
+    const int failure = errno;  // before close() can change it
     ::close(fd);
-    return nullptr;
+    return Status::error(where + ": " + what + ": " + std::strerror(failure));
   };
   const int on = 1;
   // FD frames are accepted where the interface speaks FD; a kernel without FD

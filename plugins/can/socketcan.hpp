@@ -12,9 +12,9 @@ namespace saccade::can {
 
 class SocketCan final : public Bus {
  public:
-  // Null with `error` naming the interface and the reason (no CAN support in
-  // this kernel, no such interface, ...).
-  static std::unique_ptr<SocketCan> open(const std::string& interface, std::string& error);
+  // The open socket, or the error naming the interface and the reason (no
+  // CAN support in this kernel, no such interface, ...).
+  static Result<std::unique_ptr<SocketCan>> open(const std::string& interface);
   ~SocketCan() override;
 
   bool send(const Frame& f) override;

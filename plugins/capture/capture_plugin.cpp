@@ -48,19 +48,19 @@ class Delivery {
     return f > 0 && f < 1000 ? f : 30.0;
   }
 
-  // Reads the next frame of `reader` into `image`; false at end (error set on
-  // failure). With `allocator` (what the consumer sends from, a DDS edge's
-  // frame ring: ProcessContext::frame_allocator) the frame is decoded, or
-  // converted, straight into a buffer of it.
-  bool read(FrameReader& reader, Image& image, cv::MatAllocator* allocator, std::string* error) {
+  // Reads the next frame of `reader` into `image`: ok, end_of_stream at the end
+  // (unless looping), or the reader's error. With `allocator` (what the
+  // consumer sends from, a DDS edge's frame ring:
+  // ProcessContext::frame_allocator) the frame is decoded, or converted,
+  // straight into a buffer of it.
+  Status read(FrameReader& reader, Image& image, cv::MatAllocator* allocator) {
     cv::Mat& target = allocator != nullptr ? image.mat : raw_;
     image.mat.allocator = allocator;
     int64_t media = 0;
-    error->clear();
-    if (!reader.read(target, media, error)) {
-      if (!error->empty() || !config_.loop || !reader.rewind()) return false;
+    if (Status s = reader.read(target, media); !s.ok()) {
+      if (!s.is_end_of_stream() || !config_.loop || !reader.rewind()) return s;
       loop_offset_ns_ = last_media_ns_ + static_cast<int64_t>(1e9 / fps_for(reader));
-      if (!reader.read(target, media, error)) return false;
+      if (Status again = reader.read(target, media); !again.ok()) return again;
     }
     media += loop_offset_ns_;
     last_media_ns_ = media;
@@ -75,7 +75,7 @@ class Delivery {
     image.camera_id = config_.camera_id;
     image.timestamp_ns = media;
     image.origin_ns = steady_now_ns();
-    return true;
+    return {};
   }
 
   // Sleeps until the frame's media time (realtime files); false when stopped.
@@ -134,9 +134,9 @@ class SingleCapture : public Node {
   Status open(OpenContext& ctx) override {
     const typename Derived::Config config = ctx.config(&Derived::bind);
     delivery_.configure(config);
-    std::string error;
-    reader_ = static_cast<Derived*>(this)->open_reader(config, ctx.params(), &error);
-    if (!reader_) return Status::error(error);
+    auto reader = static_cast<Derived*>(this)->open_reader(config, ctx.params());
+    if (!reader.ok()) return reader.status();
+    reader_ = std::move(reader).value();
     // How many frames the stream will have, for a progress line's ETA (saccade run).
     if (!config.loop && reader_->length() > 0)
       ctx.counter("frames_total").store(static_cast<uint64_t>(reader_->length()));
@@ -144,8 +144,7 @@ class SingleCapture : public Node {
   }
   Status process(ProcessContext& ctx) override {
     auto image = ctx.make(Derived::kImage);
-    if (!delivery_.read(*reader_, *image, ctx.frame_allocator(Derived::kImage), &error_))
-      return error_.empty() ? Status::end_of_stream() : Status::error(error_);
+    if (Status s = delivery_.read(*reader_, *image, ctx.frame_allocator(Derived::kImage)); !s.ok()) return s;
     image->frame_id = frame_++;
     if (!delivery_.pace(ctx, *reader_, image->timestamp_ns)) return Status::end_of_stream();
     image->origin_ns = steady_now_ns();  // released now: latency starts here, not before the pacing sleep
@@ -156,7 +155,6 @@ class SingleCapture : public Node {
  private:
   Delivery delivery_;
   std::unique_ptr<FrameReader> reader_;
-  std::string error_;
   int64_t frame_ = 0;
 };
 
@@ -172,8 +170,8 @@ class Video final : public SingleCapture<Video> {
         .required_string("path", "video file")
         .params(&bind);
   }
-  std::unique_ptr<FrameReader> open_reader(const Config&, const Params& p, std::string* error) {
-    return open_video(p.get_string("path"), error);
+  Result<std::unique_ptr<FrameReader>> open_reader(const Config&, const Params& p) {
+    return open_video(p.get_string("path"));
   }
 };
 
@@ -194,8 +192,8 @@ class Images final : public SingleCapture<Images> {
         .required_string("pattern", "file pattern, e.g. ${SACCADE_SAMPLE_DATA}/left%02d.jpg")
         .params(&bind);
   }
-  std::unique_ptr<FrameReader> open_reader(const Config& c, const Params& p, std::string* error) {
-    return open_sequence(p.get_string("pattern"), c.first, c.fps, error);
+  Result<std::unique_ptr<FrameReader>> open_reader(const Config& c, const Params& p) {
+    return open_sequence(p.get_string("pattern"), c.first, c.fps);
   }
 };
 
@@ -216,8 +214,8 @@ class OneImage final : public SingleCapture<OneImage> {
         .required_string("path", "image file")
         .params(&bind);
   }
-  std::unique_ptr<FrameReader> open_reader(const Config& c, const Params& p, std::string* error) {
-    return open_image(p.get_string("path"), c.count, c.fps, error);
+  Result<std::unique_ptr<FrameReader>> open_reader(const Config& c, const Params& p) {
+    return open_image(p.get_string("path"), c.count, c.fps);
   }
 };
 
@@ -239,8 +237,8 @@ class Camera final : public SingleCapture<Camera> {
         .ports(kImage)
         .params(&bind);
   }
-  std::unique_ptr<FrameReader> open_reader(const Config& c, const Params&, std::string* error) {
-    return open_camera(c.device, c.size, c.fps, error);
+  Result<std::unique_ptr<FrameReader>> open_reader(const Config& c, const Params&) {
+    return open_camera(c.device, c.size, c.fps);
   }
 };
 
@@ -270,24 +268,23 @@ class Stereo final : public Node {
     const Config c = ctx.config(&bind);
     left_.configure(c);
     right_.configure(c);
-    std::string error;
-    auto make = [&](const std::string& path) -> std::unique_ptr<FrameReader> {
-      if (classify_source(path) == SourceKind::kImage)
-        return open_image(path, c.count > 0 ? c.count : 1, c.fps, &error);
-      return open_any(path, c.fps, &error);
+    auto make = [&](const std::string& path) {
+      if (classify_source(path) == SourceKind::kImage) return open_image(path, c.count > 0 ? c.count : 1, c.fps);
+      return open_any(path, c.fps);
     };
-    left_reader_ = make(ctx.params().get_string("left_path"));
-    if (!left_reader_) return Status::error(error);
-    right_reader_ = make(ctx.params().get_string("right_path"));
-    if (!right_reader_) return Status::error(error);
+    auto left = make(ctx.params().get_string("left_path"));
+    if (!left.ok()) return left.status();
+    auto right = make(ctx.params().get_string("right_path"));
+    if (!right.ok()) return right.status();
+    left_reader_ = std::move(left).value();
+    right_reader_ = std::move(right).value();
     return {};
   }
   Status process(ProcessContext& ctx) override {
     auto l = ctx.make(kLeft);
     auto r = ctx.make(kRight);
-    if (!left_.read(*left_reader_, *l, ctx.frame_allocator(kLeft), &error_) ||
-        !right_.read(*right_reader_, *r, ctx.frame_allocator(kRight), &error_))
-      return error_.empty() ? Status::end_of_stream() : Status::error(error_);
+    if (Status s = left_.read(*left_reader_, *l, ctx.frame_allocator(kLeft)); !s.ok()) return s;
+    if (Status s = right_.read(*right_reader_, *r, ctx.frame_allocator(kRight)); !s.ok()) return s;
     l->camera_id = 0;
     r->camera_id = 1;
     l->frame_id = r->frame_id = frame_++;
@@ -302,7 +299,6 @@ class Stereo final : public Node {
  private:
   Delivery left_, right_;
   std::unique_ptr<FrameReader> left_reader_, right_reader_;
-  std::string error_;
   int64_t frame_ = 0;
 };
 
@@ -365,12 +361,12 @@ class Synthetic final : public Node {
   Status open(OpenContext& ctx) override {
     SyntheticConfig c = ctx.config(&bind);
     right_wanted_ = ctx.connected(kRight);
-    std::string error;
-    auto reader = open_any(c.background, 0, &error);
-    if (!reader) return Status::error("background: " + error);
+    auto reader = open_any(c.background, 0);
+    if (!reader.ok()) return Status::error("background: " + reader.error());
     cv::Mat bg;
     int64_t t = 0;
-    if (!reader->read(bg, t, &error)) return Status::error("background: cannot read a frame " + error);
+    if (Status s = (*reader)->read(bg, t); !s.ok())
+      return Status::error("background: cannot read a frame " + s.message());
     if (bg.channels() == 1) cv::cvtColor(bg, bg, cv::COLOR_GRAY2BGR);
     if (!c.size.empty()) cv::resize(bg, bg, c.size, 0, 0, cv::INTER_AREA);
     if (c.scene.target_size > std::min(bg.cols, bg.rows)) return Status::error("target_size is larger than the frame");

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <optional>
 
 #include <chrono>
 #include <cmath>
@@ -36,12 +35,12 @@ std::string lower_extension(const std::string& path) {
 }
 
 // A path that exists but is no regular file (a FIFO, a device) would block the
-// read or never end: "" or the error naming it.
-std::string not_a_regular_file(const std::string& path) {
+// read or never end: an error naming it.
+Status require_regular_file(const std::string& path) {
   std::error_code ec;
   const auto status = fs::status(path, ec);
   if (!fs::exists(status) || fs::is_regular_file(status)) return {};
-  return path + ": not a regular file (a FIFO or a device); expected an image or video file";
+  return Status::error(path + ": not a regular file (a FIFO or a device); expected an image or video file");
 }
 
 // An image's size from its file's header, for PNG, JPEG and BMP (the formats
@@ -77,38 +76,30 @@ cv::Size header_size(const std::string& path) {
   return {};
 }
 
-// "" or why the image at `path` is larger than a reader decodes.
-std::string too_large(const std::string& path) {
+// An error when the image at `path` is larger than a reader decodes.
+Status require_decodable_size(const std::string& path) {
   const cv::Size size = header_size(path);
   if (static_cast<long long>(size.width) * size.height <= kMaxImagePixels) return {};
-  return path + ": a " + std::to_string(size.width) + "x" + std::to_string(size.height) + " image; at most " +
-         std::to_string(kMaxImagePixels) + " pixels are read";
+  return Status::error(path + ": a " + std::to_string(size.width) + "x" + std::to_string(size.height) +
+                       " image; at most " + std::to_string(kMaxImagePixels) + " pixels are read");
 }
 
 class VideoReader final : public FrameReader {
  public:
-  bool open(const std::string& path, std::string* error) {
-    if (!fs::exists(path)) {
-      if (error) *error = path + ": no such video file";
-      return false;
-    }
-    if (std::string e = not_a_regular_file(path); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
-    if (!cap_.open(path, cv::CAP_ANY) || !cap_.isOpened()) {
-      if (error) *error = path + ": OpenCV cannot open it as a video";
-      return false;
-    }
+  Status open(const std::string& path) {
+    if (!fs::exists(path)) return Status::error(path + ": no such video file");
+    if (Status s = require_regular_file(path); !s.ok()) return s;
+    if (!cap_.open(path, cv::CAP_ANY) || !cap_.isOpened())
+      return Status::error(path + ": OpenCV cannot open it as a video");
     fps_ = cap_.get(cv::CAP_PROP_FPS);
     length_ = std::max<int64_t>(0, static_cast<int64_t>(cap_.get(cv::CAP_PROP_FRAME_COUNT)));
-    return true;
+    return {};
   }
   int64_t length() const override { return length_; }
-  bool read(cv::Mat& out, int64_t& media_ns, std::string*) override {
-    if (!cap_.read(out) || out.empty()) return false;
+  Status read(cv::Mat& out, int64_t& media_ns) override {
+    if (!cap_.read(out) || out.empty()) return Status::end_of_stream();
     media_ns = frame_time_ns(index_++, fps_);
-    return true;
+    return {};
   }
   bool rewind() override {
     index_ = 0;
@@ -125,7 +116,7 @@ class VideoReader final : public FrameReader {
 
 }  // namespace
 
-std::optional<NumberedPattern> NumberedPattern::parse(const std::string& pattern, std::string* why) {
+Result<NumberedPattern> NumberedPattern::parse(const std::string& pattern) {
   // The user's text is never handed to printf as a format: one %d (with an
   // optional 0 flag and width, as in img_%04d.png) is the frame number, %% a
   // percent sign, and anything else after a % is refused.
@@ -148,23 +139,20 @@ std::optional<NumberedPattern> NumberedPattern::parse(const std::string& pattern
     int width = 0;
     while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])) && width < 64)
       width = width * 10 + (pattern[j++] - '0');
-    if (j >= pattern.size() || pattern[j] != 'd' || numbered) {
-      *why = "pattern '" + pattern +
-             "': expected one %d for the frame number (such as img_%04d.png; %% for a percent sign), " +
-             (numbered && j < pattern.size() && pattern[j] == 'd' ? "found a second"
-                                                                  : "found '" + pattern.substr(k, j - k + 1) + "'");
-      return std::nullopt;
-    }
+    if (j >= pattern.size() || pattern[j] != 'd' || numbered)
+      return Status::error("pattern '" + pattern +
+                           "': expected one %d for the frame number (such as img_%04d.png; %% for a percent sign), " +
+                           (numbered && j < pattern.size() && pattern[j] == 'd'
+                                ? "found a second"
+                                : "found '" + pattern.substr(k, j - k + 1) + "'"));
     numbered = true;
     out.zero_ = zero;
     out.width_ = width;
     text = &out.suffix_;
     k = j;
   }
-  if (!numbered) {
-    *why = "pattern '" + pattern + "': expected one %d for the frame number (such as img_%04d.png)";
-    return std::nullopt;
-  }
+  if (!numbered)
+    return Status::error("pattern '" + pattern + "': expected one %d for the frame number (such as img_%04d.png)");
   return out;
 }
 
@@ -178,41 +166,26 @@ namespace {
 
 class SequenceReader final : public FrameReader {
  public:
-  bool open(const std::string& pattern, int first, double fps, std::string* error) {
-    std::string why;
-    auto parsed = NumberedPattern::parse(pattern, &why);
-    if (!parsed) {
-      if (error) *error = why;
-      return false;
-    }
-    pattern_ = std::move(*parsed);
+  Status open(const std::string& pattern, int first, double fps) {
+    auto parsed = NumberedPattern::parse(pattern);
+    if (!parsed.ok()) return parsed.status();
+    pattern_ = std::move(parsed).value();
     first_ = next_ = first;
     fps_ = fps;
-    if (!fs::exists(name(first))) {
-      if (error) *error = pattern + ": the first image of the sequence, " + name(first) + ", does not exist";
-      return false;
-    }
-    return true;
+    if (!fs::exists(name(first)))
+      return Status::error(pattern + ": the first image of the sequence, " + name(first) + ", does not exist");
+    return {};
   }
-  bool read(cv::Mat& out, int64_t& media_ns, std::string* error) override {
+  Status read(cv::Mat& out, int64_t& media_ns) override {
     std::string file = name(next_);
-    if (!fs::exists(file)) return false;
-    if (std::string e = not_a_regular_file(file); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
-    if (std::string e = too_large(file); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
+    if (!fs::exists(file)) return Status::end_of_stream();
+    if (Status s = require_regular_file(file); !s.ok()) return s;
+    if (Status s = require_decodable_size(file); !s.ok()) return s;
     out = cv::imread(file, cv::IMREAD_UNCHANGED);
-    if (out.empty()) {
-      if (error) *error = file + ": cannot decode image";
-      return false;
-    }
+    if (out.empty()) return Status::error(file + ": cannot decode image");
     media_ns = frame_time_ns(next_ - first_, fps_);
     ++next_;
-    return true;
+    return {};
   }
   bool rewind() override {
     next_ = first_;
@@ -230,30 +203,22 @@ class SequenceReader final : public FrameReader {
 // Decodes once; every read hands out the same pixels without copying them.
 class ImageReader final : public FrameReader {
  public:
-  bool open(const std::string& path, int64_t count, double fps, std::string* error) {
-    if (std::string e = not_a_regular_file(path); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
-    if (std::string e = too_large(path); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
+  Status open(const std::string& path, int64_t count, double fps) {
+    if (Status s = require_regular_file(path); !s.ok()) return s;
+    if (Status s = require_decodable_size(path); !s.ok()) return s;
     image_ = cv::imread(path, cv::IMREAD_UNCHANGED);
-    if (image_.empty()) {
-      if (error) *error = path + (fs::exists(path) ? ": cannot decode image" : ": no such image file");
-      return false;
-    }
+    if (image_.empty())
+      return Status::error(path + (fs::exists(path) ? ": cannot decode image" : ": no such image file"));
     count_ = count;
     fps_ = fps;
-    return true;
+    return {};
   }
   int64_t length() const override { return count_; }
-  bool read(cv::Mat& out, int64_t& media_ns, std::string*) override {
-    if (count_ > 0 && index_ >= count_) return false;
+  Status read(cv::Mat& out, int64_t& media_ns) override {
+    if (count_ > 0 && index_ >= count_) return Status::end_of_stream();
     out = image_;
     media_ns = frame_time_ns(index_++, fps_);
-    return true;
+    return {};
   }
   bool rewind() override {
     index_ = 0;
@@ -269,33 +234,26 @@ class ImageReader final : public FrameReader {
 
 class CameraReader final : public FrameReader {
  public:
-  bool open(const std::string& device, cv::Size size, double fps, std::string* error) {
+  Status open(const std::string& device, cv::Size size, double fps) {
     bool numeric = !device.empty() && device.find_first_not_of("0123456789") == std::string::npos;
-    if (numeric && (device.size() > 4 || std::stoi(device) > 9999)) {  // stoi would throw past INT_MAX
-      if (error) *error = "camera '" + device + "': a V4L2 index is 0..9999 (/dev/videoN)";
-      return false;
-    }
+    // At most four digits, so std::stoi below cannot throw.
+    if (numeric && device.size() > 4)
+      return Status::error("camera '" + device + "': a V4L2 index is 0..9999 (/dev/videoN)");
     bool ok = numeric ? cap_.open(std::stoi(device), cv::CAP_V4L2) : cap_.open(device, cv::CAP_V4L2);
-    if (!ok || !cap_.isOpened()) {
-      if (error)
-        *error = "camera '" + device + "' cannot be opened through V4L2 (is it connected, and is " +
-                 (numeric ? "/dev/video" + device : device) + " readable?)";
-      return false;
-    }
+    if (!ok || !cap_.isOpened())
+      return Status::error("camera '" + device + "' cannot be opened through V4L2 (is it connected, and is " +
+                           (numeric ? "/dev/video" + device : device) + " readable?)");
     if (size.area() > 0) {
       cap_.set(cv::CAP_PROP_FRAME_WIDTH, size.width);
       cap_.set(cv::CAP_PROP_FRAME_HEIGHT, size.height);
     }
     if (fps > 0) cap_.set(cv::CAP_PROP_FPS, fps);
-    return true;
+    return {};
   }
-  bool read(cv::Mat& out, int64_t& media_ns, std::string* error) override {
-    if (!cap_.read(out) || out.empty()) {
-      if (error) *error = "camera stopped delivering frames";
-      return false;
-    }
+  Status read(cv::Mat& out, int64_t& media_ns) override {
+    if (!cap_.read(out) || out.empty()) return Status::error("camera stopped delivering frames");
     media_ns = now_ns();
-    return true;
+    return {};
   }
   double fps() const override { return cap_.get(cv::CAP_PROP_FPS); }
   bool live() const override { return true; }
@@ -316,34 +274,38 @@ SourceKind classify_source(const std::string& path) {
   return SourceKind::kVideo;
 }
 
-std::unique_ptr<FrameReader> open_video(const std::string& path, std::string* error) {
+Result<std::unique_ptr<FrameReader>> open_video(const std::string& path) {
   auto r = std::make_unique<VideoReader>();
-  return r->open(path, error) ? std::move(r) : nullptr;
+  if (Status s = r->open(path); !s.ok()) return s;
+  return std::unique_ptr<FrameReader>(std::move(r));
 }
 
-std::unique_ptr<FrameReader> open_sequence(const std::string& pattern, int first, double fps, std::string* error) {
+Result<std::unique_ptr<FrameReader>> open_sequence(const std::string& pattern, int first, double fps) {
   auto r = std::make_unique<SequenceReader>();
-  return r->open(pattern, first, fps, error) ? std::move(r) : nullptr;
+  if (Status s = r->open(pattern, first, fps); !s.ok()) return s;
+  return std::unique_ptr<FrameReader>(std::move(r));
 }
 
-std::unique_ptr<FrameReader> open_image(const std::string& path, int64_t count, double fps, std::string* error) {
+Result<std::unique_ptr<FrameReader>> open_image(const std::string& path, int64_t count, double fps) {
   auto r = std::make_unique<ImageReader>();
-  return r->open(path, count, fps, error) ? std::move(r) : nullptr;
+  if (Status s = r->open(path, count, fps); !s.ok()) return s;
+  return std::unique_ptr<FrameReader>(std::move(r));
 }
 
-std::unique_ptr<FrameReader> open_camera(const std::string& device, cv::Size size, double fps, std::string* error) {
+Result<std::unique_ptr<FrameReader>> open_camera(const std::string& device, cv::Size size, double fps) {
   auto r = std::make_unique<CameraReader>();
-  return r->open(device, size, fps, error) ? std::move(r) : nullptr;
+  if (Status s = r->open(device, size, fps); !s.ok()) return s;
+  return std::unique_ptr<FrameReader>(std::move(r));
 }
 
-std::unique_ptr<FrameReader> open_any(const std::string& path, double fps, std::string* error) {
+Result<std::unique_ptr<FrameReader>> open_any(const std::string& path, double fps) {
   switch (classify_source(path)) {
-    case SourceKind::kSequence: return open_sequence(path, 1, fps, error);
-    case SourceKind::kImage: return open_image(path, 0, fps, error);
-    case SourceKind::kCamera: return open_camera(path, {}, fps, error);
-    case SourceKind::kVideo: return open_video(path, error);
+    case SourceKind::kSequence: return open_sequence(path, 1, fps);
+    case SourceKind::kImage: return open_image(path, 0, fps);
+    case SourceKind::kCamera: return open_camera(path, {}, fps);
+    case SourceKind::kVideo: return open_video(path);
   }
-  return nullptr;
+  return Status::error("'" + path + "': an unknown kind of source");
 }
 
 SyntheticRenderer::SyntheticRenderer(SyntheticScene scene) : scene_(std::move(scene)) {

@@ -3,20 +3,22 @@
 // image repeated, a camera device, and a synthetic scene with exact ground truth.
 #include <cstdint>
 #include <memory>
-#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
+
+#include "saccade/status.hpp"
 
 namespace saccade::capture {
 
 class FrameReader {
  public:
   virtual ~FrameReader() = default;
-  // Reads the next frame into `out` (reusing its buffer); false at end of stream.
+  // Reads the next frame into `out` (reusing its buffer): ok, end_of_stream when
+  // the source has no more frames, or the error naming the file or device.
   // `media_ns` gets the frame's media time (file position) or capture time.
-  virtual bool read(cv::Mat& out, int64_t& media_ns, std::string* error) = 0;
+  virtual Status read(cv::Mat& out, int64_t& media_ns) = 0;
   // Back to the first frame, for looping; false when the source cannot.
   virtual bool rewind() { return false; }
   // Frames per second the source declares (0 when unknown).
@@ -33,8 +35,8 @@ class FrameReader {
 enum class SourceKind { kVideo, kSequence, kImage, kCamera };
 SourceKind classify_source(const std::string& path);
 
-// Each returns nullptr and fills `error` (naming the path) when it cannot open.
-std::unique_ptr<FrameReader> open_video(const std::string& path, std::string* error);
+// Each returns the reader, or the error naming the path when it cannot open.
+Result<std::unique_ptr<FrameReader>> open_video(const std::string& path);
 // An image sequence's file pattern: the file of frame i is the pattern with its
 // one %d (optionally %0Nd) replaced by i, as printf would, without printf.
 // The largest image a reader decodes, in pixels (docs/reliability.md).
@@ -42,8 +44,8 @@ inline constexpr long long kMaxImagePixels = 64LL << 20;
 
 class NumberedPattern {
  public:
-  // The pattern, or nullopt and `why` (naming it) when it is not one %d.
-  static std::optional<NumberedPattern> parse(const std::string& pattern, std::string* why);
+  // The pattern, or the error naming it when it is not one %d.
+  static Result<NumberedPattern> parse(const std::string& pattern);
   std::string name(int i) const;
 
  private:
@@ -52,10 +54,10 @@ class NumberedPattern {
   bool zero_ = false;
 };
 
-std::unique_ptr<FrameReader> open_sequence(const std::string& pattern, int first, double fps, std::string* error);
-std::unique_ptr<FrameReader> open_image(const std::string& path, int64_t count, double fps, std::string* error);
-std::unique_ptr<FrameReader> open_camera(const std::string& device, cv::Size size, double fps, std::string* error);
-std::unique_ptr<FrameReader> open_any(const std::string& path, double fps, std::string* error);
+Result<std::unique_ptr<FrameReader>> open_sequence(const std::string& pattern, int first, double fps);
+Result<std::unique_ptr<FrameReader>> open_image(const std::string& path, int64_t count, double fps);
+Result<std::unique_ptr<FrameReader>> open_camera(const std::string& device, cv::Size size, double fps);
+Result<std::unique_ptr<FrameReader>> open_any(const std::string& path, double fps);
 
 // A textured square moving over a real background on a known path; the right
 // view sees the target shifted left by `disparity` and the background by

@@ -57,21 +57,21 @@ class ClassifierNode final : public Node {
   }
   Status open(OpenContext& ctx) override {
     const ClassifierConfig c = ctx.config(&bind);
-    std::string error;
     const std::string path = ctx.params().get_string("model");
-    model_ = Model::load(path, &error);
-    if (!model_) return Status::error(error);
+    auto model = Model::load(path);
+    if (!model.ok()) return model.status();
+    model_ = std::move(model).value();
     // The graph may state the recipe it expects: a model made with another is refused.
     if (!c.levels.empty()) {
-      auto parsed = parse_levels(c.levels, &error);
-      if (!parsed) return Status::error(error);
+      auto parsed = parse_levels(c.levels);
+      if (!parsed.ok()) return parsed.status();
       if (*parsed != model_->recipe.levels)
         return Status::error("model '" + path + "' was trained on " + model_->recipe.describe() +
                              "; the graph asks for levels " + c.levels);
     }
     if (!c.features.empty()) {
-      auto parsed = parse_features(c.features, &error);
-      if (!parsed) return Status::error(error);
+      auto parsed = parse_features(c.features);
+      if (!parsed.ok()) return parsed.status();
       if (*parsed != model_->recipe.features)
         return Status::error("model '" + path + "' was trained on " + model_->recipe.describe() +
                              "; the graph asks for features " + c.features);
@@ -93,7 +93,7 @@ class ClassifierNode final : public Node {
   }
   Status process(ProcessContext& ctx) override {
     auto retina = ctx.get(kRetina);
-    if (std::string e = extractor_->extract(*retina, row_); !e.empty()) return Status::error(e);
+    if (Status s = extractor_->extract(*retina, row_); !s.ok()) return s;
     auto result = ctx.make(kResult);
     model_->scores(row_, result->scores);
     int best = -1;
@@ -212,14 +212,13 @@ class Collect final : public Node {
   Status open(OpenContext& ctx) override {
     const CollectConfig c = ctx.config(&bind);
     out_path_ = ctx.params().get_string("out");
-    std::string error;
-    auto levels = parse_levels(c.levels, &error);
-    if (!levels) return Status::error(error);
-    auto features = parse_features(c.features, &error);
-    if (!features) return Status::error(error);
+    auto levels = parse_levels(c.levels);
+    if (!levels.ok()) return levels.status();
+    auto features = parse_features(c.features);
+    if (!features.ok()) return features.status();
     samples_.recipe = c.recipe;
-    samples_.recipe.levels = *levels;
-    samples_.recipe.features = *features;
+    samples_.recipe.levels = std::move(levels).value();
+    samples_.recipe.features = std::move(features).value();
     every_ = c.every;
     return {};
   }
@@ -234,10 +233,10 @@ class Collect final : public Node {
       // The retina's shape becomes part of the recipe.
       samples_.recipe.retina_levels = static_cast<int>(retina->levels.size());
       samples_.recipe.level_size = retina->levels.empty() ? cv::Size() : retina->levels[0].size();
-      if (std::string e = samples_.recipe.check(); !e.empty()) return Status::error(e);
+      if (Status s = samples_.recipe.check(); !s.ok()) return s;
       extractor_ = std::make_unique<FeatureExtractor>(samples_.recipe);
     }
-    if (std::string e = extractor_->extract(*retina, row_); !e.empty()) return Status::error(e);
+    if (Status s = extractor_->extract(*retina, row_); !s.ok()) return s;
     auto it = std::find(samples_.classes.begin(), samples_.classes.end(), label->label);
     if (it == samples_.classes.end()) it = samples_.classes.insert(samples_.classes.end(), label->label);
     samples_.x.push_back(row_);
@@ -246,7 +245,7 @@ class Collect final : public Node {
   }
   void close() override {
     if (samples_.x.empty()) return;
-    if (std::string e = samples_.save(out_path_); !e.empty()) log().error("classifier.collect: {}", e);
+    if (Status s = samples_.save(out_path_); !s.ok()) log().error("classifier.collect: {}", s.message());
   }
 
  private:

@@ -87,29 +87,30 @@ std::string FeatureRecipe::describe() const {
   return o.str();
 }
 
-std::string FeatureRecipe::check() const {
-  if (levels.empty()) return "the recipe names no level";
-  if (features.empty()) return "the recipe names no feature";
-  if (size.width < 1 || size.height < 1) return "the recipe's size must be at least 1x1";
+Status FeatureRecipe::check() const {
+  if (levels.empty()) return Status::error("the recipe names no level");
+  if (features.empty()) return Status::error("the recipe names no feature");
+  if (size.width < 1 || size.height < 1) return Status::error("the recipe's size must be at least 1x1");
   if (const int64_t n = values_in(*this); n > kMostValues)
-    return "the recipe's feature vector would hold " + std::to_string(n) + " values; at most " +
-           std::to_string(kMostValues) + " (a smaller size, fewer levels or features)";
+    return Status::error("the recipe's feature vector would hold " + std::to_string(n) + " values; at most " +
+                         std::to_string(kMostValues) + " (a smaller size, fewer levels or features)");
   for (int l : levels)
     if (l < 0 || l >= retina_levels)
-      return "level " + std::to_string(l) + " is not one of the retina's " + std::to_string(retina_levels) +
-             " (0 = the fovea)";
+      return Status::error("level " + std::to_string(l) + " is not one of the retina's " +
+                           std::to_string(retina_levels) + " (0 = the fovea)");
   for (const auto& f : features)
-    if (!known_feature(f)) return "unknown feature '" + f + "' (gray, grad_hist or a filter-bank map)";
+    if (!known_feature(f)) return Status::error("unknown feature '" + f + "' (gray, grad_hist or a filter-bank map)");
   return {};
 }
 
-std::string FeatureRecipe::check(const Retina& retina) const {
+Status FeatureRecipe::check(const Retina& retina) const {
   const int n = static_cast<int>(retina.levels.size());
   const cv::Size s = n > 0 ? retina.levels[0].size() : cv::Size();
   if (n != retina_levels || s != level_size)
-    return "the model was trained on a retina of " + std::to_string(retina_levels) + " levels of " +
-           std::to_string(level_size.width) + "x" + std::to_string(level_size.height) + "; this retina has " +
-           std::to_string(n) + " levels of " + std::to_string(s.width) + "x" + std::to_string(s.height);
+    return Status::error("the model was trained on a retina of " + std::to_string(retina_levels) + " levels of " +
+                         std::to_string(level_size.width) + "x" + std::to_string(level_size.height) +
+                         "; this retina has " + std::to_string(n) + " levels of " + std::to_string(s.width) + "x" +
+                         std::to_string(s.height));
   return {};
 }
 
@@ -118,21 +119,15 @@ void FeatureRecipe::write(cv::FileStorage& fs) const {
      << "level_size" << level_size;
 }
 
-std::optional<FeatureRecipe> FeatureRecipe::read(const cv::FileNode& node, std::string* error) {
-  if (node.empty() || !node.isMap()) {
-    *error = "no feature recipe (saccade_recipe) in the model file";
-    return std::nullopt;
-  }
+Result<FeatureRecipe> FeatureRecipe::read(const cv::FileNode& node) {
+  if (node.empty() || !node.isMap()) return Status::error("no feature recipe (saccade_recipe) in the model file");
   FeatureRecipe r;
   node["levels"] >> r.levels;
   node["features"] >> r.features;
   node["size"] >> r.size;
   node["retina_levels"] >> r.retina_levels;
   node["level_size"] >> r.level_size;
-  if (std::string e = r.check(); !e.empty()) {
-    *error = "feature recipe in the model file: " + e;
-    return std::nullopt;
-  }
+  if (Status s = r.check(); !s.ok()) return Status::error("feature recipe in the model file: " + s.message());
   return r;
 }
 
@@ -141,11 +136,11 @@ bool FeatureRecipe::operator==(const FeatureRecipe& o) const {
          level_size == o.level_size;
 }
 
-std::optional<std::vector<int>> parse_levels(const std::string& text, std::string* error) {
-  return parse_int_list(text, "levels (0 = the fovea)", error);
+Result<std::vector<int>> parse_levels(const std::string& text) {
+  return parse_int_list(text, "levels (0 = the fovea)");
 }
 
-std::optional<std::vector<int>> parse_int_list(const std::string& text, const std::string& what, std::string* error) {
+Result<std::vector<int>> parse_int_list(const std::string& text, const std::string& what) {
   std::vector<int> out;
   std::stringstream in(text);
   std::string item;
@@ -155,34 +150,23 @@ std::optional<std::vector<int>> parse_int_list(const std::string& text, const st
     try {
       v = std::stoi(item, &used);
     } catch (...) { used = 0; }
-    if (used != item.size() || v < 0) {
-      *error = what + ": expected numbers like 0,1, got '" + text + "'";
-      return std::nullopt;
-    }
+    if (used != item.size() || v < 0) return Status::error(what + ": expected numbers like 0,1, got '" + text + "'");
     out.push_back(v);
   }
-  if (out.empty()) {
-    *error = what + ": empty";
-    return std::nullopt;
-  }
+  if (out.empty()) return Status::error(what + ": empty");
   return out;
 }
 
-std::optional<std::vector<std::string>> parse_features(const std::string& text, std::string* error) {
+Result<std::vector<std::string>> parse_features(const std::string& text) {
   std::vector<std::string> out;
   std::stringstream in(text);
   std::string item;
   while (std::getline(in, item, ',')) {
-    if (!known_feature(item)) {
-      *error = "features: unknown '" + item + "' (gray, grad_hist or a filter-bank map)";
-      return std::nullopt;
-    }
+    if (!known_feature(item))
+      return Status::error("features: unknown '" + item + "' (gray, grad_hist or a filter-bank map)");
     out.push_back(item);
   }
-  if (out.empty()) {
-    *error = "features: empty";
-    return std::nullopt;
-  }
+  if (out.empty()) return Status::error("features: empty");
   return out;
 }
 
@@ -194,8 +178,8 @@ cv::Rect FeatureExtractor::region(const Retina& retina) const {
   return k >= 0 ? retina.geometry[static_cast<std::size_t>(k)].region : cv::Rect();
 }
 
-std::string FeatureExtractor::extract(const Retina& retina, cv::Mat& row) {
-  if (std::string e = recipe_.check(retina); !e.empty()) return e;
+Status FeatureExtractor::extract(const Retina& retina, cv::Mat& row) {
+  if (Status s = recipe_.check(retina); !s.ok()) return s;
   row.create(1, recipe_.length(), CV_32F);
   float* out = row.ptr<float>(0);
   const int n = static_cast<int>(retina.levels.size());
@@ -257,10 +241,10 @@ void Model::scores(const cv::Mat& row, std::vector<float>& out) const {
     out[static_cast<std::size_t>(i)] = std::clamp((response.at<float>(0, i) + 1.0f) / 2.0f, 0.0f, 1.0f);
 }
 
-std::string Model::save(const std::string& path) const {
+Status Model::save(const std::string& path) const {
   try {
     cv::FileStorage fs(path, cv::FileStorage::WRITE);
-    if (!fs.isOpened()) return "cannot write model file '" + path + "'";
+    if (!fs.isOpened()) return Status::error("cannot write model file '" + path + "'");
     fs << net->getDefaultName() << "{";
     net->write(fs);
     fs << "}";
@@ -269,47 +253,33 @@ std::string Model::save(const std::string& path) const {
     recipe.write(fs);
     fs << "}";
     fs << "saccade_classes" << *classes;
-  } catch (const cv::Exception& e) { return "cannot write model file '" + path + "': " + e.what(); }
+  } catch (const cv::Exception& e) { return Status::error("cannot write model file '" + path + "': " + e.what()); }
   return {};
 }
 
-std::unique_ptr<Model> Model::load(const std::string& path, std::string* error) {
+Result<std::unique_ptr<Model>> Model::load(const std::string& path) {
   try {
     cv::FileStorage fs(path, cv::FileStorage::READ);
-    if (!fs.isOpened()) {
-      *error = "cannot open model file '" + path + "'";
-      return nullptr;
-    }
+    if (!fs.isOpened()) return Status::error("cannot open model file '" + path + "'");
     auto model = std::make_unique<Model>();
     model->net = cv::ml::ANN_MLP::create();
     const cv::FileNode net = fs[model->net->getDefaultName()];
-    if (net.empty()) {
-      *error = "model file '" + path + "' holds no " + model->net->getDefaultName();
-      return nullptr;
-    }
+    if (net.empty()) return Status::error("model file '" + path + "' holds no " + model->net->getDefaultName());
     model->net->read(net);
-    auto recipe = FeatureRecipe::read(fs["saccade_recipe"], error);
-    if (!recipe) {
-      *error = "model file '" + path + "': " + *error;
-      return nullptr;
-    }
+    auto recipe = FeatureRecipe::read(fs["saccade_recipe"]);
+    if (!recipe.ok()) return Status::error("model file '" + path + "': " + recipe.error());
     model->recipe = *recipe;
     std::vector<std::string> classes;
     fs["saccade_classes"] >> classes;
     const cv::Mat layers = model->net->getLayerSizes();
     if (layers.total() < 2 ||
         classes.size() != static_cast<std::size_t>(layers.at<int>(static_cast<int>(layers.total()) - 1)) ||
-        layers.at<int>(0) != model->recipe.length()) {
-      *error = "model file '" + path + "': the network's layers do not fit its recipe (" + model->recipe.describe() +
-               ") and " + std::to_string(classes.size()) + " classes";
-      return nullptr;
-    }
+        layers.at<int>(0) != model->recipe.length())
+      return Status::error("model file '" + path + "': the network's layers do not fit its recipe (" +
+                           model->recipe.describe() + ") and " + std::to_string(classes.size()) + " classes");
     model->classes = std::make_shared<const std::vector<std::string>>(std::move(classes));
     return model;
-  } catch (const cv::Exception& e) {
-    *error = "cannot read model file '" + path + "': " + e.what();
-    return nullptr;
-  }
+  } catch (const cv::Exception& e) { return Status::error("cannot read model file '" + path + "': " + e.what()); }
 }
 
 Model train(const cv::Mat& x, const std::vector<int>& y, std::vector<std::string> classes, const FeatureRecipe& recipe,
@@ -415,15 +385,16 @@ Classification::Outcome decide(const std::vector<float>& scores, const Threshold
   return Classification::Outcome::kNotClassified;
 }
 
-std::string load_folder(const std::string& root, int video_step, Dataset& out) {
+Status load_folder(const std::string& root, int video_step, Dataset& out) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::is_directory(root, ec)) return "'" + root + "' is not a folder (expected one sub-folder per class)";
+  if (!fs::is_directory(root, ec))
+    return Status::error("'" + root + "' is not a folder (expected one sub-folder per class)");
   std::vector<fs::path> folders;
   for (const auto& entry : fs::directory_iterator(root, ec))
     if (entry.is_directory()) folders.push_back(entry.path());
   std::sort(folders.begin(), folders.end());
-  if (folders.size() < 2) return "'" + root + "' needs at least two sub-folders, one per class";
+  if (folders.size() < 2) return Status::error("'" + root + "' needs at least two sub-folders, one per class");
   auto lower = [](std::string s) {
     for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     return s;
@@ -442,13 +413,13 @@ std::string load_folder(const std::string& root, int video_step, Dataset& out) {
       const std::string ext = lower(file.extension().string());
       if (std::find(images.begin(), images.end(), ext) != images.end()) {
         cv::Mat m = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
-        if (m.empty()) return "cannot read image '" + file.string() + "'";
+        if (m.empty()) return Status::error("cannot read image '" + file.string() + "'");
         out.images.push_back(m);
         out.labels.push_back(label);
         ++count;
       } else if (std::find(videos.begin(), videos.end(), ext) != videos.end()) {
         cv::VideoCapture video(file.string());
-        if (!video.isOpened()) return "cannot open video '" + file.string() + "'";
+        if (!video.isOpened()) return Status::error("cannot open video '" + file.string() + "'");
         cv::Mat frame, gray;
         for (int i = 0; video.read(frame); ++i) {
           if (i % std::max(1, video_step) != 0) continue;
@@ -459,12 +430,12 @@ std::string load_folder(const std::string& root, int video_step, Dataset& out) {
         }
       }
     }
-    if (count == 0) return "class folder '" + folder.string() + "' holds no image or video";
+    if (count == 0) return Status::error("class folder '" + folder.string() + "' holds no image or video");
   }
   return {};
 }
 
-std::string features_of_views(const std::vector<cv::Mat>& images, const FeatureRecipe& recipe, cv::Mat& rows) {
+Status features_of_views(const std::vector<cv::Mat>& images, const FeatureRecipe& recipe, cv::Mat& rows) {
   retina::RetinaConfig config;
   config.levels = recipe.retina_levels;
   config.size = recipe.level_size;
@@ -475,7 +446,7 @@ std::string features_of_views(const std::vector<cv::Mat>& images, const FeatureR
   rows.create(static_cast<int>(images.size()), recipe.length(), CV_32F);
   for (std::size_t i = 0; i < images.size(); ++i) {
     retina_of_view(images[i], sampler, retina, frame);
-    if (std::string e = extractor.extract(retina, row); !e.empty()) return e;
+    if (Status s = extractor.extract(retina, row); !s.ok()) return s;
     row.copyTo(rows.row(static_cast<int>(i)));
   }
   return {};
@@ -500,37 +471,38 @@ std::string format_confusion(const cv::Mat& confusion, const std::vector<std::st
   return o.str();
 }
 
-std::string SampleSet::save(const std::string& path) const {
+Status SampleSet::save(const std::string& path) const {
   try {
     cv::FileStorage fs(path, cv::FileStorage::WRITE);
-    if (!fs.isOpened()) return "cannot write samples file '" + path + "'";
+    if (!fs.isOpened()) return Status::error("cannot write samples file '" + path + "'");
     fs << "saccade_recipe"
        << "{";
     recipe.write(fs);
     fs << "}";
     fs << "saccade_classes" << classes << "x" << x << "y" << y;
-  } catch (const cv::Exception& e) { return "cannot write samples file '" + path + "': " + e.what(); }
+  } catch (const cv::Exception& e) { return Status::error("cannot write samples file '" + path + "': " + e.what()); }
   return {};
 }
 
-std::string SampleSet::load(const std::string& path) {
+Result<SampleSet> SampleSet::load(const std::string& path) {
   try {
     cv::FileStorage fs(path, cv::FileStorage::READ);
-    if (!fs.isOpened()) return "cannot open samples file '" + path + "'";
-    std::string error;
-    auto r = FeatureRecipe::read(fs["saccade_recipe"], &error);
-    if (!r) return "samples file '" + path + "': " + error;
-    recipe = *r;
-    fs["saccade_classes"] >> classes;
-    fs["x"] >> x;
-    fs["y"] >> y;
-    if (x.rows != static_cast<int>(y.size()) || (x.rows > 0 && x.cols != recipe.length()) || classes.size() < 2)
-      return "samples file '" + path + "': its rows, labels, recipe and classes do not fit together";
-    for (int label : y)
-      if (label < 0 || label >= static_cast<int>(classes.size()))
-        return "samples file '" + path + "': a label outside its classes";
-  } catch (const cv::Exception& e) { return "cannot read samples file '" + path + "': " + e.what(); }
-  return {};
+    if (!fs.isOpened()) return Status::error("cannot open samples file '" + path + "'");
+    auto recipe = FeatureRecipe::read(fs["saccade_recipe"]);
+    if (!recipe.ok()) return Status::error("samples file '" + path + "': " + recipe.error());
+    SampleSet samples;
+    samples.recipe = std::move(recipe).value();
+    fs["saccade_classes"] >> samples.classes;
+    fs["x"] >> samples.x;
+    fs["y"] >> samples.y;
+    if (samples.x.rows != static_cast<int>(samples.y.size()) ||
+        (samples.x.rows > 0 && samples.x.cols != samples.recipe.length()) || samples.classes.size() < 2)
+      return Status::error("samples file '" + path + "': its rows, labels, recipe and classes do not fit together");
+    for (int label : samples.y)
+      if (label < 0 || label >= static_cast<int>(samples.classes.size()))
+        return Status::error("samples file '" + path + "': a label outside its classes");
+    return samples;
+  } catch (const cv::Exception& e) { return Status::error("cannot read samples file '" + path + "': " + e.what()); }
 }
 
 namespace {
@@ -550,7 +522,7 @@ void split(const std::vector<int>& y, int classes, double validation, std::vecto
 
 }  // namespace
 
-TrainingResult train_rows(const SampleSet& samples, const FolderTraining& job, std::ostream& log) {
+Result<TrainingResult> train_rows(const SampleSet& samples, const FolderTraining& job, std::ostream& log) {
   TrainingResult result;
   std::vector<int> train_rows, val_rows;
   split(samples.y, static_cast<int>(samples.classes.size()), job.validation, train_rows, val_rows);
@@ -568,10 +540,7 @@ TrainingResult train_rows(const SampleSet& samples, const FolderTraining& job, s
   for (std::size_t c = 0; c < samples.classes.size(); ++c) log << (c ? ", " : "") << samples.classes[c];
   log << "); " << train_y.size() << " training and " << val_y.size() << " validation samples\n";
   log << "features: " << samples.recipe.describe() << " (" << samples.recipe.length() << " values)\n";
-  if (train_y.empty()) {
-    result.error = "no training samples";
-    return result;
-  }
+  if (train_y.empty()) return Status::error("no training samples");
   Model model =
       train(train_x, train_y, samples.classes, samples.recipe, job.train, val_x, val_y, [&](const EpochReport& r) {
         if (r.epoch % std::max(1, job.report_every) == 0 || r.epoch == job.train.epochs)
@@ -585,34 +554,21 @@ TrainingResult train_rows(const SampleSet& samples, const FolderTraining& job, s
     log << "validation confusion matrix (rows: truth):\n" << format_confusion(result.confusion, result.classes);
   }
   if (!job.out.empty()) {
-    if (std::string e = model.save(job.out); !e.empty()) {
-      result.error = e;
-      return result;
-    }
+    if (Status s = model.save(job.out); !s.ok()) return s;
     log << "model written to " << job.out << "\n";
   }
   return result;
 }
 
-TrainingResult train_folder(const FolderTraining& job, std::ostream& log) {
-  TrainingResult result;
-  if (std::string e = job.recipe.check(); !e.empty()) {
-    result.error = e;
-    return result;
-  }
+Result<TrainingResult> train_folder(const FolderTraining& job, std::ostream& log) {
+  if (Status s = job.recipe.check(); !s.ok()) return s;
   Dataset data;
-  if (std::string e = load_folder(job.data, job.video_step, data); !e.empty()) {
-    result.error = e;
-    return result;
-  }
+  if (Status s = load_folder(job.data, job.video_step, data); !s.ok()) return s;
   SampleSet samples;
   samples.recipe = job.recipe;
   samples.classes = data.classes;
   samples.y = data.labels;
-  if (std::string e = features_of_views(data.images, job.recipe, samples.x); !e.empty()) {
-    result.error = e;
-    return result;
-  }
+  if (Status s = features_of_views(data.images, job.recipe, samples.x); !s.ok()) return s;
   return train_rows(samples, job, log);
 }
 

@@ -7,7 +7,6 @@
 #include <functional>
 #include <ostream>
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +16,7 @@
 #include "kernels.hpp"
 #include "retina.hpp"
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::classifier {
 
@@ -38,26 +38,28 @@ struct FeatureRecipe {
   static constexpr int kOrientationBins = 8;
   int length() const;
   std::string describe() const;
-  // "" or what is wrong with the recipe itself.
-  std::string check() const;
-  // "" or why `retina` cannot give this recipe's vector.
-  std::string check(const Retina& retina) const;
+  // An error saying what is wrong with the recipe itself.
+  Status check() const;
+  // An error saying why `retina` cannot give this recipe's vector.
+  Status check(const Retina& retina) const;
   void write(cv::FileStorage& fs) const;
-  static std::optional<FeatureRecipe> read(const cv::FileNode& node, std::string* error);
+  // The recipe a model or samples file keeps, or what is missing or wrong in it.
+  static Result<FeatureRecipe> read(const cv::FileNode& node);
   bool operator==(const FeatureRecipe& o) const;
 };
 
 // "64,32" -> {64, 32} (non-negative); `what` names the list in the error.
-std::optional<std::vector<int>> parse_int_list(const std::string& text, const std::string& what, std::string* error);
-// "0,1" -> {0, 1}; "gray,grad_mag" -> names. Empty optional and `error` on bad text.
-std::optional<std::vector<int>> parse_levels(const std::string& text, std::string* error);
-std::optional<std::vector<std::string>> parse_features(const std::string& text, std::string* error);
+Result<std::vector<int>> parse_int_list(const std::string& text, const std::string& what);
+// "0,1" -> {0, 1}; "gray,grad_mag" -> names; or the error naming the bad text.
+Result<std::vector<int>> parse_levels(const std::string& text);
+Result<std::vector<std::string>> parse_features(const std::string& text);
 
 class FeatureExtractor {
  public:
   explicit FeatureExtractor(FeatureRecipe recipe);
-  // A 1 x length CV_32F row; "" or what is wrong.
-  std::string extract(const Retina& retina, cv::Mat& row);
+  // Fills `row` (its buffer reused) with the 1 x length CV_32F vector, or
+  // returns the error saying why this retina cannot give it.
+  Status extract(const Retina& retina, cv::Mat& row);
   // The source region the vector looked at: the outermost level used.
   cv::Rect region(const Retina& retina) const;
   const FeatureRecipe& recipe() const { return recipe_; }
@@ -97,9 +99,11 @@ struct Model {
 
   // Scores per class in 0..1.
   void scores(const cv::Mat& row, std::vector<float>& out) const;
-  // Network, recipe and class names in one OpenCV FileStorage file.
-  std::string save(const std::string& path) const;
-  static std::unique_ptr<Model> load(const std::string& path, std::string* error);
+  // Network, recipe and class names in one OpenCV FileStorage file; the error
+  // names the file.
+  Status save(const std::string& path) const;
+  // The model, or the error naming the file and what is wrong in it.
+  static Result<std::unique_ptr<Model>> load(const std::string& path);
 };
 
 // Trains on rows of `x` (CV_32F) with labels 0..classes-1, one epoch at a time,
@@ -120,22 +124,25 @@ struct Thresholds {
 Classification::Outcome decide(const std::vector<float>& scores, const Thresholds& t, int* best = nullptr);
 
 // Labelled samples from a folder with one sub-folder per class of images or
-// videos (every `video_step`-th frame); classes sorted by name.
+// videos (every `video_step`-th frame); classes sorted by name. Appended to
+// `out`; the error names the folder or file it could not use.
 struct Dataset {
   std::vector<std::string> classes;
   std::vector<cv::Mat> images;  // 8-bit gray
   std::vector<int> labels;
 };
-std::string load_folder(const std::string& root, int video_step, Dataset& out);
+Status load_folder(const std::string& root, int video_step, Dataset& out);
 
 // Feature rows (CV_32F) of pictures of objects, each seen through a retina
-// (retina_of_view) and the recipe; "" or what is wrong.
-std::string features_of_views(const std::vector<cv::Mat>& images, const FeatureRecipe& recipe, cv::Mat& rows);
+// (retina_of_view) and the recipe, into `rows` (its buffer reused); or the
+// error saying what is wrong.
+Status features_of_views(const std::vector<cv::Mat>& images, const FeatureRecipe& recipe, cv::Mat& rows);
 
 // What `saccade train` does: a folder per class -> a split (per class, the
 // first 1 - validation of its files, sorted by name, train; the rest
 // validates) -> training with per-epoch progress on `log` -> the validation
-// confusion matrix -> the model file.
+// confusion matrix -> the model file. The result, or the error that stopped it
+// (a bad recipe or folder, no training samples, an unwritable model file).
 struct FolderTraining {
   std::string data, out;
   FeatureRecipe recipe;
@@ -145,12 +152,11 @@ struct FolderTraining {
   int report_every = 1;  // epochs between progress lines
 };
 struct TrainingResult {
-  std::string error;
   double validation_accuracy = 0;
   cv::Mat confusion;
   std::vector<std::string> classes;
 };
-TrainingResult train_folder(const FolderTraining& job, std::ostream& log);
+Result<TrainingResult> train_folder(const FolderTraining& job, std::ostream& log);
 
 // Labelled feature rows as a graph collects them (the classifier.collect node):
 // the recipe they were made with, the class names, the rows and their labels.
@@ -159,11 +165,13 @@ struct SampleSet {
   std::vector<std::string> classes;
   cv::Mat x;
   std::vector<int> y;
-  std::string save(const std::string& path) const;
-  std::string load(const std::string& path);
+  // Writes the samples file; the error names it.
+  Status save(const std::string& path) const;
+  // The samples a file holds, or the error naming the file and what does not fit.
+  static Result<SampleSet> load(const std::string& path);
 };
 // The same split, training, report and model file from rows (job.data unused).
-TrainingResult train_rows(const SampleSet& samples, const FolderTraining& job, std::ostream& log);
+Result<TrainingResult> train_rows(const SampleSet& samples, const FolderTraining& job, std::ostream& log);
 
 // The confusion matrix as text, rows = truth.
 std::string format_confusion(const cv::Mat& confusion, const std::vector<std::string>& classes);

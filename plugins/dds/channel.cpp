@@ -64,29 +64,30 @@ void serialize(W& wire, std::vector<uint8_t>& out) {
   out.resize(cdr.getSerializedDataLength());
 }
 
+// `wire` from CDR with its encapsulation; Fast CDR's exception for bytes
+// that do not decode becomes the error.
 template <class W>
-bool deserialize(const uint8_t* data, std::size_t size, W& wire, std::string& why) {
+Status deserialize(const uint8_t* data, std::size_t size, W& wire) {
   try {
     eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(const_cast<uint8_t*>(data)), size);
     eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
     cdr.read_encapsulation();
     wire.deserialize(cdr);
-    return true;
+    return {};
   } catch (const eprosima::fastcdr::exception::Exception& e) {
-    why = std::string("does not decode as ") + typeid(W).name() + ": " + e.what();
-    return false;
+    return Status::error(std::string("does not decode as ") + typeid(W).name() + ": " + e.what());
   }
 }
 
-std::string wrong_type(const Message& m, std::string_view expected) {
-  return "a " + std::string(m.type_name()) + " on a channel of " + std::string(expected);
+Status wrong_type(const Message& m, std::string_view expected) {
+  return Status::error("a " + std::string(m.type_name()) + " on a channel of " + std::string(expected));
 }
 
 // saccade's own IDL form (saccade/cdr.hpp).
 template <class M>
 class IdlEncoder final : public MessageEncoder {
  public:
-  std::string encode(const Message& message, std::vector<uint8_t>& out) override {
+  Status encode(const Message& message, std::vector<uint8_t>& out) override {
     if (message.type_name() != M::kTypeName) return wrong_type(message, M::kTypeName);
     cdr::write(static_cast<const M&>(message), cdr::Envelope{}, out);
     return {};
@@ -96,11 +97,11 @@ class IdlEncoder final : public MessageEncoder {
 template <class M>
 class IdlDecoder final : public MessageDecoder {
  public:
-  MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) override {
+  Result<MessagePtr> decode(const uint8_t* data, std::size_t size) override {
     auto out = std::make_shared<M>();
     cdr::Envelope envelope;
-    if (!cdr::read(data, size, *out, envelope, why)) return nullptr;
-    return out;
+    if (Status s = cdr::read(data, size, *out, envelope); !s.ok()) return s;
+    return MessagePtr(std::move(out));
   }
 };
 
@@ -108,7 +109,7 @@ class IdlDecoder final : public MessageDecoder {
 template <class M, class R>
 class Ros2Encoder final : public MessageEncoder {
  public:
-  std::string encode(const Message& message, std::vector<uint8_t>& out) override {
+  Status encode(const Message& message, std::vector<uint8_t>& out) override {
     if (message.type_name() != M::kTypeName) return wrong_type(message, M::kTypeName);
     to_ros2(static_cast<const M&>(message), options_, wire_);
     serialize(wire_, out);
@@ -123,15 +124,16 @@ class Ros2Encoder final : public MessageEncoder {
 template <class M, class R>
 class Ros2Decoder final : public MessageDecoder {
  public:
-  MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) override {
-    if (!deserialize(data, size, wire_, why)) return nullptr;
+  Result<MessagePtr> decode(const uint8_t* data, std::size_t size) override {
+    if (Status s = deserialize(data, size, wire_); !s.ok()) return s;
     auto out = std::make_shared<M>();
-    bool ok = false;
+    Status read;
     if constexpr (std::is_same_v<M, Image>)
-      ok = from_ros2(wire_, *out, &why);
+      read = from_ros2(wire_, *out);
     else
-      ok = from_ros2(wire_, options_, *out, &why);
-    return ok ? out : nullptr;
+      read = from_ros2(wire_, options_, *out);
+    if (!read.ok()) return read;
+    return MessagePtr(std::move(out));
   }
 
  private:

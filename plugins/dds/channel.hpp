@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::dds {
 
@@ -43,8 +44,9 @@ std::string ros2_schema_with_header(std::string_view fields);
 class MessageEncoder {
  public:
   virtual ~MessageEncoder();
-  // The message's bytes into `out` (resized). "" or what is wrong (another type).
-  virtual std::string encode(const Message& message, std::vector<uint8_t>& out) = 0;
+  // The message's bytes into `out` (resized, its capacity reused), or what is
+  // wrong (a message of another type).
+  virtual Status encode(const Message& message, std::vector<uint8_t>& out) = 0;
 };
 std::unique_ptr<MessageEncoder> make_encoder(const ChannelEncoding& encoding);
 
@@ -52,9 +54,9 @@ std::unique_ptr<MessageEncoder> make_encoder(const ChannelEncoding& encoding);
 class MessageDecoder {
  public:
   virtual ~MessageDecoder();
-  // A new message from `size` bytes; nullptr with `why` when they do not
-  // decode (truncated, another type).
-  virtual MessagePtr decode(const uint8_t* data, std::size_t size, std::string& why) = 0;
+  // A new message from `size` bytes, or why they do not decode (truncated,
+  // another type).
+  virtual Result<MessagePtr> decode(const uint8_t* data, std::size_t size) = 0;
 };
 std::unique_ptr<MessageDecoder> make_decoder(const ChannelEncoding& encoding);
 

@@ -133,21 +133,23 @@ struct TopicEnd {
   Status open(const OpenContext& ctx, BridgeConfig c) {
     const Params& p = ctx.params();
     node = ctx.node_name();
-    std::string error;
-    domain = sd::Domain::get(c.domain, &error);
-    if (!domain) return Status::error(error);
+    auto got = sd::Domain::get(c.domain);
+    if (!got.ok()) return got.status();
+    domain = std::move(got).value();
     sd::CodecRequest& request = c.request;
     request.reliable = c.edge.reliable;
     // The ring's pixels bypass DDS security's encryption and access control,
     // and its buffers are reused whatever a reliable reader has not yet taken.
     if (domain->secure()) request.shared_memory = sd::CodecRequest::SharedMemory::kLoans;
-    codec = sd::choose_codec(p.get_string("type"), request, &error);
-    if (codec == nullptr) return Status::error(error);
+    auto chosen = sd::choose_codec(p.get_string("type"), request);
+    if (!chosen.ok()) return chosen.status();
+    codec = *chosen;
     edge = c.edge;
     edge.zero_copy = codec->shares_memory();
     topic_name = request.ros2 ? sd::ros2_topic(p.get_string("topic")) : p.get_string("topic");
-    topic = domain->topic(topic_name, *codec, &error);
-    if (topic == nullptr) return Status::error(error);
+    auto made = domain->topic(topic_name, *codec);
+    if (!made.ok()) return made.status();
+    topic = *made;
     sd::WireOptions& options = c.wire;
     options.capacity = request.capacity;
     options.joint_names = comma_list(c.joint_names);

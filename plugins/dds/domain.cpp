@@ -35,8 +35,9 @@ void apply_edge_settings(Qos& qos, const EdgeSettings& s) {
 }
 
 // DDS Security from a folder made by scripts/make-security.sh: the builtin
-// PKI-DH authentication, access control and AES-GCM-GMAC plugins.
-bool add_security(fdds::DomainParticipantQos& qos, const std::string& folder, std::string* error) {
+// PKI-DH authentication, access control and AES-GCM-GMAC plugins. An error
+// naming the first file the folder lacks.
+Status add_security(fdds::DomainParticipantQos& qos, const std::string& folder) {
   namespace fs = std::filesystem;
   const std::pair<const char*, const char*> files[] = {
       {"dds.sec.auth.builtin.PKI-DH.identity_ca", "ca.pem"},
@@ -52,15 +53,12 @@ bool add_security(fdds::DomainParticipantQos& qos, const std::string& folder, st
   props.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
   for (const auto& [property, file] : files) {
     const fs::path path = fs::absolute(fs::path(folder) / file);
-    if (!fs::is_regular_file(path)) {
-      if (error)
-        *error =
-            "DDS security: " + path.string() + " is missing (make the folder with scripts/make-security.sh DIR NAME)";
-      return false;
-    }
+    if (!fs::is_regular_file(path))
+      return Status::error("DDS security: " + path.string() +
+                           " is missing (make the folder with scripts/make-security.sh DIR NAME)");
     props.emplace_back(property, "file://" + path.string());
   }
-  return true;
+  return {};
 }
 
 }  // namespace
@@ -83,7 +81,7 @@ fdds::DataReaderQos reader_qos(const fdds::Subscriber& subscriber, const EdgeSet
   return qos;
 }
 
-std::shared_ptr<Domain> Domain::get(int domain_id, std::string* error) {
+Result<std::shared_ptr<Domain>> Domain::get(int domain_id) {
   static std::mutex mu;
   static std::map<int, std::weak_ptr<Domain>> domains;
   std::lock_guard lock(mu);
@@ -126,26 +124,22 @@ std::shared_ptr<Domain> Domain::get(int domain_id, std::string* error) {
   qos.name("saccade");
   const char* env_security = std::getenv("SACCADE_DDS_SECURITY");
   const std::string security = env_security != nullptr ? env_security : "";
-  if (!security.empty() && !add_security(qos, security, error)) return nullptr;
+  if (!security.empty())
+    if (Status s = add_security(qos, security); !s.ok()) return s;
   std::shared_ptr<Domain> domain(new Domain());
   for (const auto& property : qos.properties().properties())  // from saccade's folder or an XML profile
     if (property.name().rfind("dds.sec.", 0) == 0) domain->secure_ = true;
   domain->participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_id), qos);
-  if (domain->participant_ == nullptr) {
-    if (error)
-      *error = "cannot create a DDS participant in domain " + std::to_string(domain_id) +
-               (security.empty() ? std::string()
-                                 : " with the DDS security of " + security +
-                                       " (a certificate, key or signed document that does not check out: Fast DDS' "
-                                       "log says which)");
-    return nullptr;
-  }
+  if (domain->participant_ == nullptr)
+    return Status::error("cannot create a DDS participant in domain " + std::to_string(domain_id) +
+                         (security.empty() ? std::string()
+                                           : " with the DDS security of " + security +
+                                                 " (a certificate, key or signed document that does not check out: "
+                                                 "Fast DDS' log says which)"));
   domain->publisher_ = domain->participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
   domain->subscriber_ = domain->participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
-  if (domain->publisher_ == nullptr || domain->subscriber_ == nullptr) {
-    if (error) *error = "cannot create a DDS publisher or subscriber in domain " + std::to_string(domain_id);
-    return nullptr;
-  }
+  if (domain->publisher_ == nullptr || domain->subscriber_ == nullptr)
+    return Status::error("cannot create a DDS publisher or subscriber in domain " + std::to_string(domain_id));
   domains[domain_id] = domain;
   return domain;
 }
@@ -156,22 +150,17 @@ Domain::~Domain() {
   fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
 }
 
-fdds::Topic* Domain::topic(const std::string& name, const Codec& codec, std::string* error) {
+Result<fdds::Topic*> Domain::topic(const std::string& name, const Codec& codec) {
   std::lock_guard lock(mu_);
   fdds::TypeSupport type(codec.make_type().release());
   if (auto it = topics_.find(name); it != topics_.end()) {
-    if (it->second->get_type_name() != type.get_type_name()) {
-      if (error) *error = "topic " + name + " already carries " + it->second->get_type_name();
-      return nullptr;
-    }
+    if (it->second->get_type_name() != type.get_type_name())
+      return Status::error("topic " + name + " already carries " + it->second->get_type_name());
     return it->second;
   }
   if (participant_->find_type(type.get_type_name()).empty()) type.register_type(participant_);
   fdds::Topic* topic = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
-  if (topic == nullptr) {
-    if (error) *error = "cannot create DDS topic " + name + " of type " + type.get_type_name();
-    return nullptr;
-  }
+  if (topic == nullptr) return Status::error("cannot create DDS topic " + name + " of type " + type.get_type_name());
   topics_[name] = topic;
   return topic;
 }

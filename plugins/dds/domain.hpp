@@ -14,6 +14,7 @@
 #include <fastdds/dds/topic/Topic.hpp>
 
 #include "codec.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::dds {
 
@@ -47,20 +48,21 @@ eprosima::fastdds::dds::DataReaderQos reader_qos(const eprosima::fastdds::dds::S
 
 class Domain {
  public:
-  // The process's participant for `domain_id`, created at first use. With
-  // FASTRTPS_DEFAULT_PROFILES_FILE set, the participant comes from that XML
-  // profile unchanged (initial peers, security, ...); otherwise from
-  // TransportSettings. With SACCADE_DDS_SECURITY naming a folder made by
-  // scripts/make-security.sh (saccade run --security), the participant
-  // authenticates, is access-controlled and encrypts (DDS Security).
-  static std::shared_ptr<Domain> get(int domain_id, std::string* error);
+  // The process's participant for `domain_id`, created at first use, or why
+  // it cannot be created. With FASTRTPS_DEFAULT_PROFILES_FILE set, the
+  // participant comes from that XML profile unchanged (initial peers,
+  // security, ...); otherwise from TransportSettings. With
+  // SACCADE_DDS_SECURITY naming a folder made by scripts/make-security.sh
+  // (saccade run --security), the participant authenticates, is
+  // access-controlled and encrypts (DDS Security).
+  static Result<std::shared_ptr<Domain>> get(int domain_id);
   ~Domain();
   Domain(const Domain&) = delete;
   Domain& operator=(const Domain&) = delete;
 
-  // The topic `name` of `codec`'s type, registering the type once; nullptr with
-  // `error` set when the name is taken by another type.
-  eprosima::fastdds::dds::Topic* topic(const std::string& name, const Codec& codec, std::string* error);
+  // The topic `name` of `codec`'s type, registering the type once; an error
+  // when the name is taken by another type or DDS refuses the topic.
+  Result<eprosima::fastdds::dds::Topic*> topic(const std::string& name, const Codec& codec);
   eprosima::fastdds::dds::Publisher* publisher() const { return publisher_; }
   eprosima::fastdds::dds::Subscriber* subscriber() const { return subscriber_; }
   eprosima::fastdds::dds::DomainParticipant* participant() const { return participant_; }

@@ -9,18 +9,14 @@
 
 namespace saccade::dds {
 
-const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error) {
+Result<const Codec*> choose_codec(std::string_view type, const CodecRequest& request) {
   const Codec* serialized = find_codec(type);
-  if (serialized == nullptr) {
-    if (error) *error = "no IDL type for '" + std::string(type) + "'";
-    return nullptr;
-  }
+  if (serialized == nullptr) return Status::error("no IDL type for '" + std::string(type) + "'");
   if (request.ros2) {
     if (const Codec* ros2 = find_ros2_codec(type)) return ros2;
     std::string have;
     for (const auto& c : ros2_codecs()) have += (have.empty() ? "" : ", ") + std::string(c.type);
-    if (error) *error = "ROS 2 has no message for " + std::string(type) + " (it has for " + have + ")";
-    return nullptr;
+    return Status::error("ROS 2 has no message for " + std::string(type) + " (it has for " + have + ")");
   }
   if (!request.zero_copy) return serialized;
   using SharedMemory = CodecRequest::SharedMemory;
@@ -36,10 +32,8 @@ const Codec* choose_codec(std::string_view type, const CodecRequest& request, st
   for (const auto& c : plain_codecs())
     if (c.type == type) largest = std::max(largest, c.capacity);
   if (largest == 0) return serialized;  // no plain form: small types travel serialised
-  if (error)
-    *error = "no shared-memory form of " + std::string(type) + " holds " + std::to_string(request.capacity) +
-             " bytes (the largest holds " + std::to_string(largest) + ")";
-  return nullptr;
+  return Status::error("no shared-memory form of " + std::string(type) + " holds " + std::to_string(request.capacity) +
+                       " bytes (the largest holds " + std::to_string(largest) + ")");
 }
 
 void set_mailbox(const CodecRequest& request, const Codec& codec, int depth, WireOptions& options) {

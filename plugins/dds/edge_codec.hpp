@@ -6,6 +6,7 @@
 #include <string_view>
 
 #include "codec.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::dds {
 
@@ -27,8 +28,8 @@ struct CodecRequest {
 // none); with `zero_copy`, the frame ring, the plain form holding `capacity`
 // or the serialised form (for the mailbox) as `shared_memory` says (a plain
 // form too small is an error naming the largest); else the serialised form.
-// nullptr with `error` set when there is none.
-const Codec* choose_codec(std::string_view type, const CodecRequest& request, std::string* error);
+// An error when there is none (a type without an IDL form, too).
+Result<const Codec*> choose_codec(std::string_view type, const CodecRequest& request);
 // Sets `options`' mailbox fields for an edge that asked `request`, got
 // `codec` and keeps `depth` samples: the same-host message mailbox for zero
 // copy, the serialised form and shared_memory auto or mailbox (the bridges

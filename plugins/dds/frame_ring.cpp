@@ -142,12 +142,9 @@ std::string shared_memory_shortfall(std::size_t slot_bytes, uint32_t slots, std:
          "/dev/shm more room (a container's --shm-size)";
 }
 
-std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t slots, std::string* error,
-                                             std::string* warning) {
-  if (slots == 0 || slot_bytes == 0) {
-    if (error) *error = "a frame ring needs at least one buffer of at least one byte";
-    return nullptr;
-  }
+Result<std::shared_ptr<FrameRing>> FrameRing::create(std::size_t slot_bytes, uint32_t slots, std::string* warning) {
+  if (slots == 0 || slot_bytes == 0)
+    return Status::error("a frame ring needs at least one buffer of at least one byte");
   slot_bytes = round_up(slot_bytes, kPage);
   std::unique_ptr<FrameRing> ring(new FrameRing());
   ring->slot_bytes_ = slot_bytes;
@@ -159,12 +156,11 @@ std::shared_ptr<FrameRing> FrameRing::create(std::size_t slot_bytes, uint32_t sl
   struct statvfs shm {};
   if (warning != nullptr && ::statvfs("/dev/shm", &shm) == 0)
     *warning = shared_memory_shortfall(slot_bytes, slots, static_cast<std::size_t>(shm.f_bavail) * shm.f_frsize);
-  ring->segment_ = SharedSegment::create(ring_segment_name(ring->pid_, ring->ring_id_), bytes, error);
-  if (!ring->segment_) return nullptr;
-  if (!lock_byte(ring->segment_->fd(), kWriterLockByte)) {
-    if (error) *error = "cannot lock the frame ring " + ring->segment_->name() + ": " + std::strerror(errno);
-    return nullptr;
-  }
+  auto segment = SharedSegment::create(ring_segment_name(ring->pid_, ring->ring_id_), bytes);
+  if (!segment.ok()) return segment.status();
+  ring->segment_ = std::move(segment).value();
+  if (!lock_byte(ring->segment_->fd(), kWriterLockByte))
+    return Status::error("cannot lock the frame ring " + ring->segment_->name() + ": " + std::strerror(errno));
   auto* h = new (ring->segment_->base()) RingHeader();
   h->version = kVersion;
   h->slots = slots;
@@ -336,17 +332,18 @@ uint64_t FrameRing::heap_fallbacks() const {
 // Deleted once its RingReader has let go and no Mat pins a buffer of it.
 class RingMapping final : public cv::MatAllocator {
  public:
-  static RingMapping* open(const RingAddress& at, std::string& why) {
+  // The writer's ring `at` lies in, mapped and registered as one of its
+  // readers; an error when it cannot be opened, is not a ring this version
+  // wrote, or has all its readers.
+  static Result<RingMapping*> open(const RingAddress& at) {
     const std::string name = ring_segment_name(at.writer_pid, at.ring_id);
-    std::unique_ptr<SharedSegment> segment =
-        SharedSegment::open(name, sizeof(RingHeader), "the writer's frame ring", &why);
-    if (!segment) return nullptr;
+    auto opened = SharedSegment::open(name, sizeof(RingHeader), "the writer's frame ring");
+    if (!opened.ok()) return opened.status();
+    std::unique_ptr<SharedSegment> segment = std::move(opened).value();
     RingHeader& h = header_of(*segment);
     if (h.magic != kMagic || h.version != kVersion || h.ring_id != at.ring_id || h.slots == 0 ||
-        h.data_offset != data_offset(h.slots) || h.data_offset + h.slot_bytes * h.slots > segment->bytes()) {
-      why = "the frame ring " + name + " is not one this version of saccade wrote";
-      return nullptr;
-    }
+        h.data_offset != data_offset(h.slots) || h.data_offset + h.slot_bytes * h.slots > segment->bytes())
+      return Status::error("the frame ring " + name + " is not one this version of saccade wrote");
     const auto pid = static_cast<int32_t>(::getpid());
     for (uint32_t r = 0; r < FrameRing::kMaxReaders; ++r) {
       // The lock first: a registered reader always holds it, so the writer
@@ -368,23 +365,25 @@ class RingMapping final : public cv::MatAllocator {
       for (uint32_t i = 0; i < h.slots; ++i) m->umat_.push_back(std::make_unique<cv::UMatData>(m));
       return m;
     }
-    why = "the frame ring " + name + " has " + std::to_string(FrameRing::kMaxReaders) + " readers already";
-    return nullptr;
+    return Status::error("the frame ring " + name + " has " + std::to_string(FrameRing::kMaxReaders) +
+                         " readers already");
   }
 
   bool same_ring(const RingAddress& at) const { return dds::same_ring(at, at_); }
   RingMailbox& mailbox() const { return mailbox_of(*segment_); }
 
-  bool pin(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out, std::string& why,
-           bool& overwritten, bool& copied) {
+  // The frame at `offset` of buffer at.slot into `out` (see
+  // RingReader::view); an error when it lies outside the buffer or the
+  // writer took the buffer again (`overwritten` set). `copied`: the frame
+  // was copied out rather than pinned.
+  Status pin(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out, bool& overwritten,
+             bool& copied) {
     const RingHeader& h = header_of(*segment_);
     const std::size_t bytes = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * CV_ELEM_SIZE(type);
-    if (at.slot >= h.slots || offset > h.slot_bytes || bytes > h.slot_bytes - offset) {
-      why = "a frame outside the writer's ring (buffer " + std::to_string(at.slot) + ", bytes " +
-            std::to_string(offset) + ".." + std::to_string(offset + bytes) + " of " + std::to_string(h.slot_bytes) +
-            ")";
-      return false;
-    }
+    if (at.slot >= h.slots || offset > h.slot_bytes || bytes > h.slot_bytes - offset)
+      return Status::error("a frame outside the writer's ring (buffer " + std::to_string(at.slot) + ", bytes " +
+                           std::to_string(offset) + ".." + std::to_string(offset + bytes) + " of " +
+                           std::to_string(h.slot_bytes) + ")");
     out.release();  // before the lock: it may be a Mat of this ring, whose release locks it
     std::lock_guard lock(mu_);
     cv::UMatData* u = umat_[at.slot].get();
@@ -394,8 +393,7 @@ class RingMapping final : public cv::MatAllocator {
       // new reference and keeps the pin). The writer cannot have taken it.
       if (pinned_generation_[at.slot] != at.generation) {
         overwritten = true;
-        why = "the writer reused the frame's buffer before it was read";
-        return false;
+        return Status::error("the writer reused the frame's buffer before it was read");
       }
     } else {
       std::atomic<uint64_t>& state = states_of(*segment_)[at.slot];
@@ -403,9 +401,8 @@ class RingMapping final : public cv::MatAllocator {
       do {
         if (generation_of(s) != at.generation) {
           overwritten = true;
-          why = "the writer reused the frame's buffer before it was read (its ring of " + std::to_string(h.slots) +
-                " buffers went round)";
-          return false;
+          return Status::error("the writer reused the frame's buffer before it was read (its ring of " +
+                               std::to_string(h.slots) + " buffers went round)");
         }
       } while (!state.compare_exchange_weak(s, s | bit_, std::memory_order_acq_rel));
       if (pins_ >= max_pins_) {
@@ -416,7 +413,7 @@ class RingMapping final : public cv::MatAllocator {
         state.fetch_and(~bit_, std::memory_order_release);
         out = std::move(copy);
         copied = true;
-        return true;
+        return {};
       }
       reset_umat(*u, slot_data(*segment_, at.slot), h.slot_bytes, at.slot);
       pinned_generation_[at.slot] = at.generation;
@@ -424,7 +421,7 @@ class RingMapping final : public cv::MatAllocator {
       ++pins_;
     }
     out = view_of_buffer(u, slot_data(*segment_, at.slot) + offset, {cols, rows}, type);
-    return true;
+    return {};
   }
 
   // Its RingReader let go: gone now when nothing is pinned, else with the last pin.
@@ -481,7 +478,7 @@ RingReader::~RingReader() {
   for (RingMapping* m : mappings_) m->retire();
 }
 
-RingMapping* RingReader::find_or_open(const RingAddress& at, std::string& why) {
+Result<RingMapping*> RingReader::find_or_open(const RingAddress& at) {
   for (RingMapping* m : mappings_)
     if (m->same_ring(at)) return m;
   // A new writer (the old one restarted): earlier rings go once nothing pins them.
@@ -494,25 +491,25 @@ RingMapping* RingReader::find_or_open(const RingAddress& at, std::string& why) {
       ++it;
     }
   }
-  RingMapping* m = RingMapping::open(at, why);
-  if (m != nullptr) mappings_.push_back(m);
+  Result<RingMapping*> m = RingMapping::open(at);
+  if (m.ok()) mappings_.push_back(*m);
   return m;
 }
 
-bool RingReader::view(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out,
-                      std::string& why) {
-  RingMapping* m = find_or_open(at, why);
+Status RingReader::view(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out) {
+  Result<RingMapping*> m = find_or_open(at);
+  if (!m.ok()) return m.status();
   bool overwritten = false, copied = false;
-  const bool ok = m != nullptr && m->pin(at, offset, rows, cols, type, out, why, overwritten, copied);
+  Status pinned = (*m)->pin(at, offset, rows, cols, type, out, overwritten, copied);
   overwritten_ += overwritten ? 1 : 0;
   copied_ += copied ? 1 : 0;
-  return ok;
+  return pinned;
 }
 
-bool RingReader::follow(const RingAddress& at, std::string& why) {
-  RingMapping* m = find_or_open(at, why);
-  followed_ = m;
-  return m != nullptr;
+Status RingReader::follow(const RingAddress& at) {
+  Result<RingMapping*> m = find_or_open(at);
+  followed_ = m.ok() ? *m : nullptr;
+  return m.status();
 }
 
 bool RingReader::follows(const RingAddress& at) const { return followed_ != nullptr && followed_->same_ring(at); }

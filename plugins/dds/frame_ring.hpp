@@ -38,6 +38,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "saccade/status.hpp"
 #include "shared_segment.hpp"
 
 namespace saccade::dds {
@@ -105,12 +106,12 @@ class FrameRing final : public cv::MatAllocator {
   static constexpr uint32_t kMaxReaders = 16;
   static constexpr std::size_t kMailBytes = 2048;  // the largest sample the mailbox holds
 
-  // A ring of `slots` buffers of at least `slot_bytes` each; nullptr with
-  // `error` set when the segment cannot be made. `warning`, when given, is
-  // set when /dev/shm has less room free than the whole ring (see
-  // shared_memory_shortfall).
-  static std::shared_ptr<FrameRing> create(std::size_t slot_bytes, uint32_t slots, std::string* error,
-                                           std::string* warning = nullptr);
+  // A ring of `slots` buffers of at least `slot_bytes` each, or why the
+  // segment cannot be made. `warning`, when given, is set when /dev/shm has
+  // less room free than the whole ring (see shared_memory_shortfall): a
+  // warning, not an error, the ring is made anyway.
+  static Result<std::shared_ptr<FrameRing>> create(std::size_t slot_bytes, uint32_t slots,
+                                                   std::string* warning = nullptr);
 
   // A buffer of `bytes` (one row of CV_8U) for a frame to be copied into;
   // empty when the frame is larger than a buffer or every buffer is held.
@@ -192,15 +193,16 @@ class RingReader {
   // The frame bytes at `offset` of the buffer `at`, in place, as a rows x
   // cols Mat of `type` (rows packed): the buffer stays pinned until the last
   // header of it is gone. A reader that pins a quarter of the ring already
-  // gets a copy instead (counted), so it never starves the writer. False with
-  // `why` set when the writer's ring cannot be opened, the bytes lie outside
-  // the buffer, or the writer has taken the buffer for a newer frame
-  // (counted: a lost frame).
-  bool view(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out, std::string& why);
+  // gets a copy instead (counted), so it never starves the writer. An error
+  // when the writer's ring cannot be opened, the bytes lie outside the
+  // buffer, or the writer has taken the buffer for a newer frame (counted: a
+  // lost frame).
+  Status view(const RingAddress& at, std::size_t offset, int rows, int cols, int type, cv::Mat& out);
 
   // The mailbox of the ring `at` lies in (mapped now if it is not) becomes the
-  // one mail() and wait_mail() read. False with `why` when it cannot be opened.
-  bool follow(const RingAddress& at, std::string& why);
+  // one mail() and wait_mail() read. An error when it cannot be opened (then
+  // no ring is followed).
+  Status follow(const RingAddress& at);
   bool following() const { return followed_ != nullptr; }
   // Whether `at` lies in the followed ring.
   bool follows(const RingAddress& at) const;
@@ -227,7 +229,9 @@ class RingReader {
   uint64_t overwritten() const { return overwritten_; }
 
  private:
-  RingMapping* find_or_open(const RingAddress& at, std::string& why);
+  // The mapping of the ring `at` lies in, mapped now if it is not; an error
+  // when that ring cannot be opened.
+  Result<RingMapping*> find_or_open(const RingAddress& at);
   std::vector<RingMapping*> mappings_;
   RingMapping* followed_ = nullptr;  // one of mappings_
   ReaderWait wait_ = ReaderWait::kSleep;

@@ -74,11 +74,8 @@ bool mailbox_has_writer(const std::string& path) { return file_byte_is_locked(pa
 
 // --- the writer ---
 
-std::unique_ptr<Mailbox> Mailbox::create(std::size_t slot_bytes, uint32_t slots, std::string* error) {
-  if (slots == 0 || slot_bytes == 0) {
-    if (error) *error = "a mailbox needs at least one slot of at least one byte";
-    return nullptr;
-  }
+Result<std::unique_ptr<Mailbox>> Mailbox::create(std::size_t slot_bytes, uint32_t slots) {
+  if (slots == 0 || slot_bytes == 0) return Status::error("a mailbox needs at least one slot of at least one byte");
   slot_bytes = round_up(slot_bytes, 8);
   std::unique_ptr<Mailbox> box(new Mailbox());
   std::random_device entropy;
@@ -86,12 +83,11 @@ std::unique_ptr<Mailbox> Mailbox::create(std::size_t slot_bytes, uint32_t slots,
   while (box->id_ == 0);
   box->slot_bytes_ = slot_bytes;
   box->slots_ = slots;
-  box->segment_ = SharedSegment::create(mailbox_segment_name(box->id_), segment_bytes(slot_bytes, slots), error);
-  if (!box->segment_) return nullptr;
-  if (!lock_byte(box->segment_->fd(), kWriterLockByte)) {
-    if (error) *error = "cannot lock the mailbox " + box->segment_->name() + ": " + std::strerror(errno);
-    return nullptr;
-  }
+  auto segment = SharedSegment::create(mailbox_segment_name(box->id_), segment_bytes(slot_bytes, slots));
+  if (!segment.ok()) return segment.status();
+  box->segment_ = std::move(segment).value();
+  if (!lock_byte(box->segment_->fd(), kWriterLockByte))
+    return Status::error("cannot lock the mailbox " + box->segment_->name() + ": " + std::strerror(errno));
   auto* h = new (box->segment_->base()) MailHeader();
   h->version = kVersion;
   h->slots = slots;
@@ -163,21 +159,20 @@ bool Mailbox::wait_until_taken(uint64_t post, int64_t timeout_ns) const {
 MailboxReader::MailboxReader() = default;
 MailboxReader::~MailboxReader() = default;
 
-bool MailboxReader::follow(uint64_t id, std::string& why) {
+Status MailboxReader::follow(uint64_t id) {
   segment_.reset();
   id_ = 0;
   const std::string name = mailbox_segment_name(id);
-  std::unique_ptr<SharedSegment> segment = SharedSegment::open(name, sizeof(MailHeader), "the writer's mailbox", &why);
-  if (!segment) return false;
+  auto opened = SharedSegment::open(name, sizeof(MailHeader), "the writer's mailbox");
+  if (!opened.ok()) return opened.status();
+  std::unique_ptr<SharedSegment> segment = std::move(opened).value();
   const MailHeader& h = header_of(*segment);
   if (h.magic != kMagic || h.version != kVersion || h.id != id || h.slots == 0 || h.slot_bytes % 8 != 0 ||
-      segment_bytes(h.slot_bytes, h.slots) > segment->bytes()) {
-    why = "the mailbox " + name + " is not one this version of saccade wrote";
-    return false;
-  }
+      segment_bytes(h.slot_bytes, h.slots) > segment->bytes())
+    return Status::error("the mailbox " + name + " is not one this version of saccade wrote");
   segment_ = std::move(segment);
   id_ = id;
-  return true;
+  return {};
 }
 
 bool MailboxReader::open() const {

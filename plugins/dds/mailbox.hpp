@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "saccade/status.hpp"
 #include "shared_segment.hpp"
 
 namespace saccade::dds {
@@ -36,9 +37,9 @@ class Mailbox {
   // Marks a post whose message was too large for a slot: read it from DDS.
   static constexpr uint32_t kInDds = 0xffffffffu;
 
-  // `slots` slots of at least `slot_bytes` bytes; nullptr with `error` set
-  // when the segment cannot be made.
-  static std::unique_ptr<Mailbox> create(std::size_t slot_bytes, uint32_t slots, std::string* error);
+  // `slots` slots of at least `slot_bytes` bytes, or why the segment cannot
+  // be made.
+  static Result<std::unique_ptr<Mailbox>> create(std::size_t slot_bytes, uint32_t slots);
   // Closes it: its readers go back to DDS.
   ~Mailbox();
   Mailbox(const Mailbox&) = delete;
@@ -79,9 +80,10 @@ class MailboxReader {
   MailboxReader(const MailboxReader&) = delete;
   MailboxReader& operator=(const MailboxReader&) = delete;
 
-  // Maps the mailbox `id` and reads it from now on. False with `why` set when
-  // it cannot be opened (another host's writer, or a writer gone).
-  bool follow(uint64_t id, std::string& why);
+  // Maps the mailbox `id` and reads it from now on. An error when it cannot
+  // be opened (another host's writer, or a writer gone): then nothing is
+  // followed.
+  Status follow(uint64_t id);
   // Whether a mailbox is followed and its writer has not closed it.
   bool open() const;
   uint64_t id() const { return id_; }

@@ -104,51 +104,59 @@ bool is_cv_type(int type) {
   return type >= 0 && CV_MAT_DEPTH(type) <= CV_16F && CV_MAT_CN(type) <= 4 && CV_MAT_TYPE(type) == type;
 }
 
+// A header no cv::Mat has: a side negative, one side zero, or no OpenCV type.
+Status malformed_header(const wp::MatHeader& header) {
+  return Status::error("a malformed image header (" + std::to_string(header.rows()) + "x" +
+                       std::to_string(header.cols()) + ", type " + std::to_string(header.cv_type()) + ")");
+}
+
 // Unpacks a header's rows into `out` (its buffer reused when the size and type
 // match). A header that points outside the used bytes, or names no OpenCV
-// type, gives an empty mat: a malformed sample, never a crash.
+// type, gives an empty mat and an error: a malformed sample, never a crash.
 template <std::size_t N>
-bool unpack(const wp::MatHeader& header, const std::array<uint8_t, N>& data, uint32_t size, cv::Mat& out) {
+Status unpack(const wp::MatHeader& header, const std::array<uint8_t, N>& data, uint32_t size, cv::Mat& out) {
   if (header.rows() <= 0 || header.cols() <= 0) {
     out = cv::Mat();
-    return header.rows() == 0 && header.cols() == 0;
+    return header.rows() == 0 && header.cols() == 0 ? Status{} : malformed_header(header);
   }
   const int type = header.cv_type();
   if (!is_cv_type(type)) {
     out = cv::Mat();
-    return false;
+    return malformed_header(header);
   }
   const std::size_t elem = CV_ELEM_SIZE(type);
   const std::size_t bytes = elem * static_cast<std::size_t>(header.rows()) * static_cast<std::size_t>(header.cols());
-  if (static_cast<std::size_t>(header.offset()) + bytes > std::min<std::size_t>(size, N)) {
+  const std::size_t used = std::min<std::size_t>(size, N);
+  if (static_cast<std::size_t>(header.offset()) + bytes > used) {
     out = cv::Mat();
-    return false;
+    return Status::error("an image of " + std::to_string(bytes) + " bytes at byte " + std::to_string(header.offset()) +
+                         " of a sample that holds " + std::to_string(used));
   }
   make_exclusive(out);
   out.create(header.rows(), header.cols(), type);
   std::memcpy(out.data, data.data() + header.offset(), bytes);
-  return true;
+  return {};
 }
 
 }  // namespace
 
 template <class P>
-std::string to_plain(const Image& in, P& out) {
+Status to_plain(const Image& in, P& out) {
   stamp_to_wire(in, out.stamp());
   out.camera_id(in.camera_id);
   uint32_t end = 0;
   if (!pack(in.mat, out.data(), 0, out.mat(), end)) {
-    return "a " + std::to_string(in.mat.cols) + "x" + std::to_string(in.mat.rows) + " image of " +
-           std::to_string(in.mat.total() * in.mat.elemSize()) +
-           " bytes does not fit the edge's shared-memory capacity (" + mib(out.data().size()) +
-           "); give the edge a larger one (qos=\"capacity=16M\")";
+    return Status::error("a " + std::to_string(in.mat.cols) + "x" + std::to_string(in.mat.rows) + " image of " +
+                         std::to_string(in.mat.total() * in.mat.elemSize()) +
+                         " bytes does not fit the edge's shared-memory capacity (" + mib(out.data().size()) +
+                         "); give the edge a larger one (qos=\"capacity=16M\")");
   }
   out.size(end);
   return {};
 }
 
 template <class P>
-bool from_plain(const P& in, Image& out) {
+Status from_plain(const P& in, Image& out) {
   stamp_from_wire(in.stamp(), out);
   out.camera_id = in.camera_id();
   return unpack(in.mat(), in.data(), in.size(), out.mat);
@@ -159,7 +167,7 @@ namespace {
 // A retina's fields but its pixels, both shared-memory forms alike (the
 // levels' MatHeaders are the form's own).
 template <class P>
-std::string retina_fields_to(const Retina& in, P& out) {
+Status retina_fields_to(const Retina& in, P& out) {
   stamp_to_wire(in, out.stamp());
   out.camera_id(in.camera_id);
   out.source_width(in.source_size.width);
@@ -169,17 +177,20 @@ std::string retina_fields_to(const Retina& in, P& out) {
   out.sampling(static_cast<uint8_t>(in.sampling));
   rectification_to_wire(in.rectification, out.rectification());
   if (in.levels.size() > out.levels().size() || in.geometry.size() != in.levels.size())
-    return "a retina of " + std::to_string(in.levels.size()) + " levels (" + std::to_string(in.geometry.size()) +
-           " geometries) does not fit the shared-memory form (at most " + std::to_string(out.levels().size()) +
-           " levels, one geometry each)";
+    return Status::error("a retina of " + std::to_string(in.levels.size()) + " levels (" +
+                         std::to_string(in.geometry.size()) +
+                         " geometries) does not fit the shared-memory form (at most " +
+                         std::to_string(out.levels().size()) + " levels, one geometry each)");
   out.level_count(static_cast<uint32_t>(in.levels.size()));
   for (std::size_t i = 0; i < in.levels.size(); ++i) geometry_to_wire(in.geometry[i], out.geometry()[i]);
   return {};
 }
 
-// Returns the number of levels to read (false when level_count is out of range).
+// A retina's fields but its pixels, and in `levels` the number of levels to
+// read; an error when level_count is out of range (the levels the form holds
+// are read still).
 template <class P>
-bool retina_fields_from(const P& in, Retina& out, std::size_t& levels) {
+Status retina_fields_from(const P& in, Retina& out, std::size_t& levels) {
   stamp_from_wire(in.stamp(), out);
   out.camera_id = in.camera_id();
   out.source_size = {in.source_width(), in.source_height()};
@@ -191,40 +202,47 @@ bool retina_fields_from(const P& in, Retina& out, std::size_t& levels) {
   out.geometry.resize(levels);
   for (std::size_t i = 0; i < levels; ++i) out.geometry[i] = geometry_from_wire(in.geometry()[i]);
   out.source.reset();
-  return levels == in.level_count();
+  if (levels == in.level_count()) return {};
+  return Status::error("a retina of " + std::to_string(in.level_count()) + " levels (at most " +
+                       std::to_string(in.levels().size()) + ")");
 }
 
 }  // namespace
 
 template <class P>
-std::string to_plain(const Retina& in, P& out) {
-  if (std::string error = retina_fields_to(in, out); !error.empty()) return error;
+Status to_plain(const Retina& in, P& out) {
+  if (Status s = retina_fields_to(in, out); !s.ok()) return s;
   uint32_t end = 0;
   for (std::size_t i = 0; i < in.levels.size(); ++i) {
     if (!pack(in.levels[i], out.data(), end, out.levels()[i], end))
-      return "a retina of " + std::to_string(in.levels.size()) +
-             " levels does not fit the edge's shared-memory capacity (" + mib(out.data().size()) + ")";
+      return Status::error("a retina of " + std::to_string(in.levels.size()) +
+                           " levels does not fit the edge's shared-memory capacity (" + mib(out.data().size()) + ")");
   }
   out.size(end);
   return {};
 }
 
+// Every level the form holds is read, even after a malformed one; the error
+// is the first.
 template <class P>
-bool from_plain(const P& in, Retina& out) {
+Status from_plain(const P& in, Retina& out) {
   std::size_t n = 0;
-  bool ok = retina_fields_from(in, out, n);
-  for (std::size_t i = 0; i < n; ++i) ok = unpack(in.levels()[i], in.data(), in.size(), out.levels[i]) && ok;
-  return ok;
+  Status read = retina_fields_from(in, out, n);
+  for (std::size_t i = 0; i < n; ++i) {
+    Status level = unpack(in.levels()[i], in.data(), in.size(), out.levels[i]);
+    if (read.ok() && !level.ok()) read = Status::error("level " + std::to_string(i) + ": " + level.message());
+  }
+  return read;
 }
 
-template std::string to_plain(const Image&, wp::Image1M&);
-template std::string to_plain(const Image&, wp::Image4M&);
-template std::string to_plain(const Image&, wp::Image16M&);
-template bool from_plain(const wp::Image1M&, Image&);
-template bool from_plain(const wp::Image4M&, Image&);
-template bool from_plain(const wp::Image16M&, Image&);
-template std::string to_plain(const Retina&, wp::Retina1M&);
-template bool from_plain(const wp::Retina1M&, Retina&);
+template Status to_plain(const Image&, wp::Image1M&);
+template Status to_plain(const Image&, wp::Image4M&);
+template Status to_plain(const Image&, wp::Image16M&);
+template Status from_plain(const wp::Image1M&, Image&);
+template Status from_plain(const wp::Image4M&, Image&);
+template Status from_plain(const wp::Image16M&, Image&);
+template Status to_plain(const Retina&, wp::Retina1M&);
+template Status from_plain(const wp::Retina1M&, Retina&);
 
 namespace {
 
@@ -253,8 +271,8 @@ bool copy_loaned(fdds::DataReader& reader, const P& sample, const fdds::SampleIn
 
 // Both shared-memory forms write a sample loaned from the data-sharing pool:
 // `fill` fills it from `message`, or, without one, it says the stream ended.
-// `fill` returns empty, kRingFull (nothing written, counted as a failed
-// write like an exhausted pool) or why the message does not fit.
+// `fill` returns ok, kRingFull (nothing written, counted as a failed write
+// like an exhausted pool: see is_ring_full) or why the message does not fit.
 // `end` completes an end-of-stream sample.
 template <class P, class Fill, class End>
 Status write_loaned(fdds::DataWriter& writer, const Message* message, bool& written, Fill&& fill, End&& end) {
@@ -269,9 +287,9 @@ Status write_loaned(fdds::DataWriter& writer, const Message* message, bool& writ
     sample.stamp().flags(kEndOfStream);
     if constexpr (requires { sample.size(0u); }) sample.size(0);
     end(sample);
-  } else if (std::string why = fill(sample); !why.empty()) {
+  } else if (Status filled = fill(sample); !filled.ok()) {
     writer.discard_loan(memory);
-    return why == kRingFull ? Status{} : Status::error(why);
+    return is_ring_full(filled) ? Status{} : filled;
   }
   written = writer.write(memory);
   if (!written) writer.discard_loan(memory);
@@ -300,7 +318,7 @@ class PlainSample final : public WireSample {
         std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
         // The writer's pool is a ring: a writer far ahead may reuse this
         // sample while it is copied. Dropped, never emitted torn.
-        if (copy_loaned(reader, sample, infos_[0], [&](const P& from) { return from_plain(from, *m); })) {
+        if (copy_loaned(reader, sample, infos_[0], [&](const P& from) { return from_plain(from, *m).ok(); })) {
           slot = std::move(m);
           result = Taken::kMessage;
         }
@@ -338,16 +356,18 @@ void mat_header(const cv::Mat& mat, std::size_t offset, wp::MatHeader& out) {
 
 std::size_t packed_bytes(const cv::Mat& mat) { return mat.empty() ? 0 : mat.total() * mat.elemSize(); }
 
-std::string too_large(std::size_t bytes, const FrameRing& ring) {
-  return "a frame of " + std::to_string(bytes) + " bytes does not fit the edge's frame ring (buffers of " +
-         mib(ring.slot_bytes()) + "); give the edge a larger one (qos=\"capacity=16M\")";
+Status too_large(std::size_t bytes, const FrameRing& ring) {
+  return Status::error("a frame of " + std::to_string(bytes) +
+                       " bytes does not fit the edge's frame ring (buffers of " + mib(ring.slot_bytes()) +
+                       "); give the edge a larger one (qos=\"capacity=16M\")");
 }
 
 // The mats' rows, packed one after another (each from a 64-byte boundary),
-// into a fresh buffer of `ring` held by `hold`; their offsets in it.
+// into a fresh buffer of `ring` held by `hold`; their offsets in it. An
+// error: kRingFull, or the frame is larger than a buffer.
 template <std::size_t N>
-std::string copy_into_ring(const cv::Mat* const* mats, std::size_t n, FrameRing& ring, cv::Mat& hold,
-                           std::array<std::size_t, N>& offsets) {
+Status copy_into_ring(const cv::Mat* const* mats, std::size_t n, FrameRing& ring, cv::Mat& hold,
+                      std::array<std::size_t, N>& offsets) {
   std::size_t total = 0;
   for (std::size_t i = 0; i < n; ++i) {
     offsets[i] = total;
@@ -355,7 +375,7 @@ std::string copy_into_ring(const cv::Mat* const* mats, std::size_t n, FrameRing&
   }
   if (total > ring.slot_bytes()) return too_large(total, ring);
   hold = ring.take(std::max<std::size_t>(total, 1));
-  if (hold.empty()) return kRingFull;
+  if (hold.empty()) return Status::error(kRingFull);
   for (std::size_t i = 0; i < n; ++i) {
     const cv::Mat& m = *mats[i];
     if (m.empty()) continue;
@@ -385,75 +405,72 @@ bool already_in_ring(const cv::Mat* const* mats, std::size_t n, const FrameRing&
   return any;
 }
 
+// Where `mats` lie in one buffer of `ring` (copied into a fresh one held by
+// `hold` unless they lie there already); copy_into_ring's errors.
 template <std::size_t N>
-std::string mats_to_ring(const cv::Mat* const* mats, std::size_t n, FrameRing& ring, cv::Mat& hold, RingAddress& at,
-                         std::array<std::size_t, N>& offsets) {
+Status mats_to_ring(const cv::Mat* const* mats, std::size_t n, FrameRing& ring, cv::Mat& hold, RingAddress& at,
+                    std::array<std::size_t, N>& offsets) {
   if (already_in_ring(mats, n, ring, at, offsets)) return {};  // the producer wrote into the ring: no copy
-  if (std::string why = copy_into_ring(mats, n, ring, hold, offsets); !why.empty()) return why;
+  if (Status s = copy_into_ring(mats, n, ring, hold, offsets); !s.ok()) return s;
   std::size_t base = 0;
   ring.locate(hold, at, base);
   for (std::size_t i = 0; i < n; ++i) offsets[i] += base;
   return {};
 }
 
-bool view_ring(const wp::MatHeader& header, const RingAddress& at, RingReader& reader, cv::Mat& out, std::string& why) {
+// The matrix `header` describes, in place in the ring `at` lies in.
+Status view_ring(const wp::MatHeader& header, const RingAddress& at, RingReader& reader, cv::Mat& out) {
   if (header.rows() == 0 && header.cols() == 0) {
     out = cv::Mat();
-    return true;
+    return {};
   }
   if (header.rows() < 0 || header.cols() < 0 || (header.rows() == 0) != (header.cols() == 0) ||
       !is_cv_type(header.cv_type())) {
     out = cv::Mat();
-    why = "a malformed image header (" + std::to_string(header.rows()) + "x" + std::to_string(header.cols()) +
-          ", type " + std::to_string(header.cv_type()) + ")";
-    return false;
+    return malformed_header(header);
   }
-  return reader.view(at, header.offset(), header.rows(), header.cols(), header.cv_type(), out, why);
+  return reader.view(at, header.offset(), header.rows(), header.cols(), header.cv_type(), out);
 }
 
 }  // namespace
 
-std::string to_ring(const Image& in, FrameRing& ring, cv::Mat& hold, wp::ImageRef& out) {
+Status to_ring(const Image& in, FrameRing& ring, cv::Mat& hold, wp::ImageRef& out) {
   stamp_to_wire(in, out.stamp());
   out.camera_id(in.camera_id);
   const cv::Mat* mats[] = {&in.mat};
   std::array<std::size_t, 1> offsets{};
   RingAddress at;
-  if (std::string why = mats_to_ring(mats, 1, ring, hold, at, offsets); !why.empty()) return why;
+  if (Status s = mats_to_ring(mats, 1, ring, hold, at, offsets); !s.ok()) return s;
   mat_header(in.mat, offsets[0], out.mat());
   ring_to_wire(at, out.ring());
   return {};
 }
 
-std::string to_ring(const Retina& in, FrameRing& ring, cv::Mat& hold, wp::RetinaRef& out) {
-  if (std::string error = retina_fields_to(in, out); !error.empty()) return error;
+Status to_ring(const Retina& in, FrameRing& ring, cv::Mat& hold, wp::RetinaRef& out) {
+  if (Status s = retina_fields_to(in, out); !s.ok()) return s;
   std::array<const cv::Mat*, 16> mats{};
   for (std::size_t i = 0; i < in.levels.size(); ++i) mats[i] = &in.levels[i];
   std::array<std::size_t, 16> offsets{};
   RingAddress at;
-  if (std::string why = mats_to_ring(mats.data(), in.levels.size(), ring, hold, at, offsets); !why.empty()) return why;
+  if (Status s = mats_to_ring(mats.data(), in.levels.size(), ring, hold, at, offsets); !s.ok()) return s;
   for (std::size_t i = 0; i < in.levels.size(); ++i) mat_header(in.levels[i], offsets[i], out.levels()[i]);
   ring_to_wire(at, out.ring());
   return {};
 }
 
-bool from_ring(const wp::ImageRef& in, RingReader& reader, Image& out, std::string& why) {
+Status from_ring(const wp::ImageRef& in, RingReader& reader, Image& out) {
   stamp_from_wire(in.stamp(), out);
   out.camera_id = in.camera_id();
-  return view_ring(in.mat(), ring_from_wire(in.ring()), reader, out.mat, why);
+  return view_ring(in.mat(), ring_from_wire(in.ring()), reader, out.mat);
 }
 
-bool from_ring(const wp::RetinaRef& in, RingReader& reader, Retina& out, std::string& why) {
+Status from_ring(const wp::RetinaRef& in, RingReader& reader, Retina& out) {
   std::size_t n = 0;
-  if (!retina_fields_from(in, out, n)) {
-    why = "a retina of " + std::to_string(in.level_count()) + " levels (at most " + std::to_string(in.levels().size()) +
-          ")";
-    return false;
-  }
+  if (Status s = retina_fields_from(in, out, n); !s.ok()) return s;
   const RingAddress at = ring_from_wire(in.ring());
   for (std::size_t i = 0; i < n; ++i)
-    if (!view_ring(in.levels()[i], at, reader, out.levels[i], why)) return false;
-  return true;
+    if (Status s = view_ring(in.levels()[i], at, reader, out.levels[i]); !s.ok()) return s;
+  return {};
 }
 
 namespace {
@@ -467,15 +484,12 @@ class RingSample final : public WireSample {
     frames_.set_wait(wait);
   }
 
-  cv::MatAllocator* frame_allocator() override {
-    std::string error;
-    return ring(error);
-  }
+  cv::MatAllocator* frame_allocator() override { return make_ring().ok() ? ring_.get() : nullptr; }
 
   Status write(fdds::DataWriter& writer, const Message* message, bool& written) override {
     written = false;
-    std::string error;
-    if (message != nullptr && ring(error) == nullptr) return Status::error(error);
+    if (message != nullptr)
+      if (Status s = make_ring(); !s.ok()) return s;
     cv::Mat hold;  // the buffer a copied frame went into, held until it is written
     // Posted to the ring's mailbox before DDS writes it: a reader there
     // takes it first (see FrameRing::post), and it counts as delivered to
@@ -487,9 +501,9 @@ class RingSample final : public WireSample {
     Status s = write_loaned<P>(
         writer, message, written,
         [&](P& sample) {
-          std::string why = to_ring(static_cast<const M&>(*message), *ring_, hold, sample);
-          if (why.empty()) post(sample);
-          return why;
+          Status placed = to_ring(static_cast<const M&>(*message), *ring_, hold, sample);
+          if (placed.ok()) post(sample);
+          return placed;
         },
         [&](P& sample) {
           // The end names the ring too, so that readers drop DDS' copy of what the mailbox gave them.
@@ -529,10 +543,8 @@ class RingSample final : public WireSample {
       if (!copied) return Taken::kUnreadable;
       const RingAddress at = ring_from_wire(copy_.ring());
       post = copy_.ring().post();
-      if (post != 0 && !frames_.follows(at)) {
-        std::string ignored;  // a ring that cannot be opened says why when its frame is read
-        frames_.follow(at, ignored);
-      }
+      // A ring that cannot be opened says why when its frame is read.
+      if (post != 0 && !frames_.follows(at)) (void)frames_.follow(at);
       if (post != 0 && frames_.follows(at)) {
         if (post > frames_.newest_post()) {
           // The writer posts before DDS writes: a number its mailbox never
@@ -562,18 +574,23 @@ class RingSample final : public WireSample {
   Taken deliver(ProcessContext* ctx, int output, MessagePtr& slot) {
     if (copy_.stamp().flags() & kEndOfStream) return Taken::kEnd;
     std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
-    if (!from_ring(copy_, frames_, *m, why_)) return Taken::kUnreadable;
+    if (Status s = from_ring(copy_, frames_, *m); !s.ok()) {
+      why_ = s.message();
+      return Taken::kUnreadable;
+    }
     slot = std::move(m);
     return Taken::kMessage;
   }
 
-  FrameRing* ring(std::string& error) {
-    if (!ring_) {
-      std::string warning;
-      ring_ = FrameRing::create(capacity_, slots_, &error, &warning);
-      if (!warning.empty()) log().warn("{}", warning);
-    }
-    return ring_.get();
+  // Makes the writer's ring unless it has one; why it cannot.
+  Status make_ring() {
+    if (ring_) return {};
+    std::string warning;
+    auto made = FrameRing::create(capacity_, slots_, &warning);
+    if (!warning.empty()) log().warn("{}", warning);
+    if (!made.ok()) return made.status();
+    ring_ = std::move(made).value();
+    return {};
   }
 
   std::size_t capacity_;

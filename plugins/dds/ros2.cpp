@@ -112,7 +112,10 @@ class Ros2Sample final : public WireSample {
     if (!info.valid_data) return Taken::kUnreadable;
     if (wire_.header().frame_id() == kEndOfStreamFrame) return Taken::kEnd;
     std::shared_ptr<M> m = fresh<M>(ctx, output, slot);
-    if (!read(*m)) return Taken::kUnreadable;
+    if (Status s = read(*m); !s.ok()) {
+      why_ = s.message();
+      return Taken::kUnreadable;
+    }
     // ROS 2 messages carry neither a frame count nor saccade's steady-clock
     // origin: frames are numbered as they arrive, latency counts from arrival.
     m->frame_id = next_frame_++;
@@ -122,11 +125,11 @@ class Ros2Sample final : public WireSample {
   }
 
  private:
-  bool read(M& out) {
+  Status read(M& out) {
     if constexpr (std::is_same_v<M, Image>)
-      return from_ros2(wire_, out, &why_);
+      return from_ros2(wire_, out);
     else
-      return from_ros2(wire_, options_, out, &why_);
+      return from_ros2(wire_, options_, out);
   }
 
   WireOptions options_;
@@ -185,7 +188,7 @@ void to_ros2(const Image& in, const WireOptions& options, ros::Image_& out) {
     std::memcpy(out.data().data() + row_bytes * static_cast<std::size_t>(r), m.ptr(r), row_bytes);
 }
 
-bool from_ros2(const ros::Image_& in, Image& out, std::string* error) {
+Status from_ros2(const ros::Image_& in, Image& out) {
   const std::string& encoding = in.encoding();
   int cv_type = generic_encoding(encoding);
   bool rgb = false;
@@ -194,34 +197,29 @@ bool from_ros2(const ros::Image_& in, Image& out, std::string* error) {
       cv_type = e.cv_type;
       rgb = e.rgb;
     }
-  if (cv_type < 0) {
-    if (error)
-      *error = "image encoding '" + encoding + "' is not one saccade reads (mono8, bgr8, rgb8, mono16, 32FC1, ...)";
-    return false;
-  }
+  if (cv_type < 0)
+    return Status::error("image encoding '" + encoding +
+                         "' is not one saccade reads (mono8, bgr8, rgb8, mono16, 32FC1, ...)");
   const std::size_t rows = in.height(), cols = in.width(), step = in.step();
   const std::size_t row_bytes = cols * static_cast<std::size_t>(CV_ELEM_SIZE(cv_type));
-  if (rows > (1u << 16) || cols > (1u << 16) || step < row_bytes || in.data().size() < step * rows) {
-    if (error)
-      *error = "a " + std::to_string(cols) + "x" + std::to_string(rows) + " " + encoding + " image with step " +
-               std::to_string(step) + " needs " + std::to_string(step * rows) + " bytes of data, it has " +
-               std::to_string(in.data().size());
-    return false;
-  }
+  if (rows > (1u << 16) || cols > (1u << 16) || step < row_bytes || in.data().size() < step * rows)
+    return Status::error("a " + std::to_string(cols) + "x" + std::to_string(rows) + " " + encoding +
+                         " image with step " + std::to_string(step) + " needs " + std::to_string(step * rows) +
+                         " bytes of data, it has " + std::to_string(in.data().size()));
   out.timestamp_ns = stamp_from_ros2(in.header());
   out.origin_ns = 0;
   out.frame_id = 0;
   out.camera_id = camera_of_frame(in.header().frame_id());
   if (rows == 0 || cols == 0) {  // no pixels (fuzz_channel found memcpy into the null data of such a Mat)
     out.mat.release();
-    return true;
+    return {};
   }
   out.mat.create(static_cast<int>(rows), static_cast<int>(cols), cv_type);
   for (std::size_t r = 0; r < rows; ++r)
     std::memcpy(out.mat.ptr(static_cast<int>(r)), in.data().data() + r * step, row_bytes);
   if (in.is_bigendian() != 0) swap_bytes(out.mat);
   if (rgb) cv::cvtColor(out.mat, out.mat, out.mat.channels() == 3 ? cv::COLOR_RGB2BGR : cv::COLOR_RGBA2BGRA);
-  return true;
+  return {};
 }
 
 void to_ros2(const JointState& in, const WireOptions& options, ros::JointState_& out) {
@@ -234,14 +232,11 @@ void to_ros2(const JointState& in, const WireOptions& options, ros::JointState_&
   out.effort().clear();
 }
 
-bool from_ros2(const ros::JointState_& in, const WireOptions& options, JointState& out, std::string* error) {
+Status from_ros2(const ros::JointState_& in, const WireOptions& options, JointState& out) {
   const std::size_t n = in.position().size();
-  if ((!in.name().empty() && in.name().size() != n) || (!in.velocity().empty() && in.velocity().size() != n)) {
-    if (error)
-      *error = "a joint state with " + std::to_string(in.name().size()) + " names, " + std::to_string(n) +
-               " positions and " + std::to_string(in.velocity().size()) + " velocities";
-    return false;
-  }
+  if ((!in.name().empty() && in.name().size() != n) || (!in.velocity().empty() && in.velocity().size() != n))
+    return Status::error("a joint state with " + std::to_string(in.name().size()) + " names, " + std::to_string(n) +
+                         " positions and " + std::to_string(in.velocity().size()) + " velocities");
   out.timestamp_ns = stamp_from_ros2(in.header());
   out.origin_ns = 0;
   out.frame_id = 0;
@@ -268,7 +263,7 @@ bool from_ros2(const ros::JointState_& in, const WireOptions& options, JointStat
     out.position[j] = in.position()[k];
     if (!in.velocity().empty()) out.velocity[j] = in.velocity()[k];
   }
-  return true;
+  return {};
 }
 
 }  // namespace saccade::dds

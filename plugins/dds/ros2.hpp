@@ -8,6 +8,7 @@
 #include "codec.hpp"
 #include "ros2.h"
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::dds {
 
@@ -21,15 +22,15 @@ std::string ros2_topic(std::string_view ros_topic);
 // The ROS 2 forms (idl/ros2.idl). An image's encoding follows ROS 2's
 // sensor_msgs/image_encodings (mono8, bgr8, bgra8, mono16, else "32FC1" style);
 // reading, rgb8/rgba8/rgb16/rgba16 become BGR, big-endian data is swapped.
-// from_ros2 returns false with `error` set for data it cannot read.
+// from_ros2 fills `out` (its buffers reused), or returns an error saying why
+// the data cannot be read.
 std::string ros2_encoding(int cv_type);
 void to_ros2(const Image& in, const WireOptions& options, sensor_msgs::msg::dds_::Image_& out);
-bool from_ros2(const sensor_msgs::msg::dds_::Image_& in, Image& out, std::string* error);
+Status from_ros2(const sensor_msgs::msg::dds_::Image_& in, Image& out);
 // Joint i is named options.joint_names[i] ("joint_<i>" past the list's end).
 void to_ros2(const JointState& in, const WireOptions& options, sensor_msgs::msg::dds_::JointState_& out);
 // Joints are taken by name in the order of options.joint_names (a named joint
 // the message lacks is kSilent with NaN position); without names, in order.
-bool from_ros2(const sensor_msgs::msg::dds_::JointState_& in, const WireOptions& options, JointState& out,
-               std::string* error);
+Status from_ros2(const sensor_msgs::msg::dds_::JointState_& in, const WireOptions& options, JointState& out);
 
 }  // namespace saccade::dds

@@ -22,10 +22,8 @@ static_assert(std::atomic<uint32_t>::is_always_lock_free && sizeof(std::atomic<u
 
 namespace {
 
-std::unique_ptr<SharedSegment> fail(const std::string& why, std::string* error) {
-  if (error) *error = why + ": " + std::strerror(errno);
-  return nullptr;
-}
+// `what` failed, with errno's reason.
+Status system_error(const std::string& what) { return Status::error(what + ": " + std::strerror(errno)); }
 
 struct flock one_byte(short type, off_t at) {
   struct flock lock {};
@@ -38,43 +36,41 @@ struct flock one_byte(short type, off_t at) {
 
 }  // namespace
 
-std::unique_ptr<SharedSegment> SharedSegment::create(const std::string& name, std::size_t bytes, std::string* error) {
+Result<std::unique_ptr<SharedSegment>> SharedSegment::create(const std::string& name, std::size_t bytes) {
   int fd = ::shm_open(name.c_str(), O_CREAT | O_EXCL | O_RDWR | O_CLOEXEC, 0600);
-  if (fd < 0) return fail("cannot create shared memory " + name, error);
+  if (fd < 0) return system_error("cannot create shared memory " + name);
   if (::ftruncate(fd, static_cast<off_t>(bytes)) != 0) {
+    Status failed = system_error("cannot size shared memory " + name + " to " + std::to_string(bytes) + " bytes");
     ::close(fd);
     ::shm_unlink(name.c_str());
-    return fail("cannot size shared memory " + name + " to " + std::to_string(bytes) + " bytes", error);
+    return failed;
   }
-  auto s = map(fd, name, bytes, error);
-  if (s)
-    s->linked_ = true;
+  auto s = map(fd, name, bytes);
+  if (s.ok())
+    (*s)->linked_ = true;
   else
     ::shm_unlink(name.c_str());
   return s;
 }
 
-std::unique_ptr<SharedSegment> SharedSegment::open(const std::string& name, std::size_t min_bytes,
-                                                   const std::string& what, std::string* error) {
+Result<std::unique_ptr<SharedSegment>> SharedSegment::open(const std::string& name, std::size_t min_bytes,
+                                                           const std::string& what) {
   int fd = ::shm_open(name.c_str(), O_RDWR | O_CLOEXEC, 0);
-  if (fd < 0) return fail("cannot open " + what + " " + name, error);
+  if (fd < 0) return system_error("cannot open " + what + " " + name);
   struct stat st {};
   if (::fstat(fd, &st) != 0 || st.st_size < static_cast<off_t>(min_bytes)) {
     ::close(fd);
-    if (error) *error = what + " " + name + " is too small to be one";
-    return nullptr;
+    return Status::error(what + " " + name + " is too small to be one");
   }
-  return map(fd, name, static_cast<std::size_t>(st.st_size), error);
+  return map(fd, name, static_cast<std::size_t>(st.st_size));
 }
 
-std::unique_ptr<SharedSegment> SharedSegment::map(int fd, const std::string& name, std::size_t bytes,
-                                                  std::string* error) {
+Result<std::unique_ptr<SharedSegment>> SharedSegment::map(int fd, const std::string& name, std::size_t bytes) {
   void* base = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
   if (base == MAP_FAILED) {
-    const int mmap_errno = errno;
+    Status failed = system_error("cannot map shared memory " + name);
     ::close(fd);
-    errno = mmap_errno;
-    return fail("cannot map shared memory " + name, error);
+    return failed;
   }
   auto s = std::unique_ptr<SharedSegment>(new SharedSegment());
   s->fd_ = fd;

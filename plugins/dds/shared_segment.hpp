@@ -10,6 +10,8 @@
 #include <memory>
 #include <string>
 
+#include "saccade/status.hpp"
+
 namespace saccade::dds {
 
 // One mapped POSIX shared-memory segment; its creator unlinks the name
@@ -17,11 +19,14 @@ namespace saccade::dds {
 // reserves memory through it, and both ends hold their liveness locks on it.
 class SharedSegment {
  public:
-  static std::unique_ptr<SharedSegment> create(const std::string& name, std::size_t bytes, std::string* error);
-  // `what` names the segment in errors ("the writer's frame ring"); a segment
-  // smaller than `min_bytes` is refused.
-  static std::unique_ptr<SharedSegment> open(const std::string& name, std::size_t min_bytes, const std::string& what,
-                                             std::string* error);
+  // A new segment `name` of `bytes` bytes, or why it cannot be made (the
+  // system's error in words).
+  static Result<std::unique_ptr<SharedSegment>> create(const std::string& name, std::size_t bytes);
+  // The existing segment `name`, or why it cannot be mapped. `what` names the
+  // segment in errors ("the writer's frame ring"); a segment smaller than
+  // `min_bytes` is refused.
+  static Result<std::unique_ptr<SharedSegment>> open(const std::string& name, std::size_t min_bytes,
+                                                     const std::string& what);
   ~SharedSegment();
   SharedSegment(const SharedSegment&) = delete;
   SharedSegment& operator=(const SharedSegment&) = delete;
@@ -36,7 +41,8 @@ class SharedSegment {
 
  private:
   SharedSegment() = default;
-  static std::unique_ptr<SharedSegment> map(int fd, const std::string& name, std::size_t bytes, std::string* error);
+  // Maps `fd` (which it then owns, closed on failure too).
+  static Result<std::unique_ptr<SharedSegment>> map(int fd, const std::string& name, std::size_t bytes);
   int fd_ = -1;
   uint8_t* base_ = nullptr;
   std::size_t bytes_ = 0;

@@ -43,10 +43,9 @@ class CdrType final : public fdds::TopicDataType {
 
   bool deserialize(SerializedPayload_t* payload, void* data) override {
     auto* sample = static_cast<CdrSample*>(data);
-    sample->why.clear();
-    sample->readable = cdr::read(payload->data, payload->length, static_cast<M&>(*sample->target), sample->envelope,
-                                 sample->why, sample->spare);
-    return true;  // an unreadable sample is the reader's to count (CdrSample::readable)
+    sample->status =
+        cdr::read(payload->data, payload->length, static_cast<M&>(*sample->target), sample->envelope, sample->spare);
+    return true;  // an unreadable sample is the reader's to count (CdrSample::status)
   }
 
   std::function<uint32_t()> getSerializedSizeProvider(void* data) override {
@@ -118,8 +117,8 @@ class Sample final : public WireSample {
         if (r == MailboxReader::Read::kMessage) {
           last_ = post;
           ++mailed_;
-          if (!cdr::read(bytes_.data(), bytes_.size(), m, envelope, why_, &spare_retina_)) {
-            why_ = "a mailbox message: " + why_;
+          if (Status s = cdr::read(bytes_.data(), bytes_.size(), m, envelope, &spare_retina_); !s.ok()) {
+            why_ = "a mailbox message: " + s.message();
             return Taken::kUnreadable;
           }
           return envelope.flags & kEndOfStream ? Taken::kEnd : Taken::kMessage;
@@ -135,8 +134,8 @@ class Sample final : public WireSample {
       fdds::SampleInfo info;
       if (reader.take_next_sample(&in_, &info) != ReturnCode_t::RETCODE_OK) return Taken::kNothing;
       if (!info.valid_data) return Taken::kUnreadable;
-      if (!in_.readable) {
-        why_ = in_.why;
+      if (!in_.status.ok()) {
+        why_ = in_.status.message();
         return Taken::kUnreadable;
       }
       if (options_.mailbox && !seen_first_time(in_.envelope.mailbox, in_.envelope.post)) continue;
@@ -154,15 +153,15 @@ class Sample final : public WireSample {
     const std::size_t bytes = cdr::size_of(message);
     if (!box_ || (bytes > box_->slot_bytes() && box_->slot_bytes() < kMaxSlotBytes)) {
       box_.reset();
-      std::string error;
       const std::size_t slot_bytes =
           std::clamp<std::size_t>((2 * bytes + 4095) / 4096 * 4096, kMinSlotBytes, kMaxSlotBytes);
-      box_ = Mailbox::create(slot_bytes, options_.mailbox_slots, &error);
-      if (!box_) {
-        log().warn("no same-host mailbox ({}): messages go through DDS alone", error);
+      auto made = Mailbox::create(slot_bytes, options_.mailbox_slots);
+      if (!made.ok()) {
+        log().warn("no same-host mailbox ({}): messages go through DDS alone", made.error());
         options_.mailbox = false;
         return;
       }
+      box_ = std::move(made).value();
     }
     out_.envelope.mailbox = box_->id();
     out_.envelope.post = box_->next_post();
@@ -194,8 +193,7 @@ class Sample final : public WireSample {
     if (box == unreachable_id_ || (mail_.open() && mail_.writer_alive())) return true;
     previous_id_ = mail_.id();
     previous_last_ = last_;
-    std::string ignored;  // another host's writer: DDS alone
-    if (mail_.follow(box, ignored)) {
+    if (mail_.follow(box).ok()) {  // else another host's writer: DDS alone
       last_ = post;
       dds_turn_ = false;
     } else {

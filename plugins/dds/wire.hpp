@@ -10,6 +10,7 @@
 #include "codec.hpp"
 #include "saccade/cdr.hpp"
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::dds {
 
@@ -22,10 +23,10 @@ struct CdrSample {
   std::unique_ptr<Message> owned;    // the target of a sample Fast DDS made itself (createData)
   cdr::Envelope envelope;
   std::shared_ptr<Retina>* spare = nullptr;  // see cdr::read
-  // Whether the last deserialize read a whole message, and what was wrong if
-  // not: an unreadable sample reaches the reader, which counts it.
-  bool readable = true;
-  std::string why;
+  // What the last deserialize made of the bytes: ok for a whole message,
+  // else what was wrong (an unreadable sample reaches the reader, which
+  // counts it).
+  Status status;
 };
 
 // The serialised codec of `type`; nullptr for a type without an IDL form.

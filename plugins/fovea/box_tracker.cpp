@@ -593,20 +593,21 @@ std::string describe(cv::Rect2d b) {
 
 }  // namespace
 
-std::string BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
-  if (frame.empty() || frame.depth() != CV_8U) return "the frame must be an 8-bit image";
+Status BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
+  if (frame.empty() || frame.depth() != CV_8U) return Status::error("the frame must be an 8-bit image");
   const cv::Rect2d inside = box & cv::Rect2d(0, 0, frame.cols, frame.rows);
   if (!(box.width >= config_.min_target && box.height >= config_.min_target))
-    return "box " + describe(box) + " is smaller than the smallest target, " + std::to_string(config_.min_target) +
-           " pixels a side";
+    return Status::error("box " + describe(box) + " is smaller than the smallest target, " +
+                         std::to_string(config_.min_target) + " pixels a side");
   if (inside.area() < 0.5 * box.area())
-    return "box " + describe(box) + " lies mostly outside the " + std::to_string(frame.cols) + "x" +
-           std::to_string(frame.rows) + " frame";
+    return Status::error("box " + describe(box) + " lies mostly outside the " + std::to_string(frame.cols) + "x" +
+                         std::to_string(frame.rows) + " frame");
   cv::Mat scratch;
   cv::Scalar mean, sd;
   cv::meanStdDev(to_gray(frame(cv::Rect(inside)), scratch), mean, sd);  // the box alone: is it flat?
   if (sd[0] < 2)
-    return "box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) + "): nothing to follow";
+    return Status::error("box " + describe(box) + " is flat (gray deviation " + std::to_string(sd[0]) +
+                         "): nothing to follow");
   // Only a box that will be followed replaces what the tracker had.
   Impl& m = *impl_;
   m = Impl(config_);

@@ -21,6 +21,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "saccade/status.hpp"
+
 namespace saccade::fovea {
 
 enum class TrackState { kTracking, kUncertain, kLost };
@@ -65,8 +67,9 @@ class BoxTracker {
  public:
   explicit BoxTracker(BoxTrackerConfig config = {});
   // Learns the target inside `box` (source pixels) of `frame` (8-bit, gray or
-  // BGR). Empty on success, else why not (a box outside the frame, too small).
-  std::string init(const cv::Mat& frame, cv::Rect2d box);
+  // BGR). An error says why not (a box outside the frame, too small, flat);
+  // the tracker is then unchanged.
+  Status init(const cv::Mat& frame, cv::Rect2d box);
   bool initialized() const { return initialized_; }
   // Follows the target into `frame`.
   TrackEstimate update(const cv::Mat& frame);

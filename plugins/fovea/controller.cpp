@@ -265,8 +265,8 @@ void FoveaController::lost(const Retina& retina, const std::vector<cv::Mat>* mot
   }
 }
 
-std::string FoveaController::track_box(const cv::Mat& frame, cv::Rect2d box) {
-  if (std::string why = box_tracker_.init(frame, box); !why.empty()) return why;
+Status FoveaController::track_box(const cv::Mat& frame, cv::Rect2d box) {
+  if (Status learnt = box_tracker_.init(frame, box); !learnt.ok()) return learnt;
   phase_ = Phase::kBox;
   frames_lost_ = 0;
   ever_locked_ = true;

@@ -67,9 +67,9 @@ class FoveaController {
   bool set_template(const cv::Mat& image);
   // From now on follows the target inside `box` (source pixels) of `frame`
   // with the box tracker: honest states (tracking, uncertain, lost) and
-  // re-detection when lost. Empty on success, else why not (the controller
-  // is then unchanged).
-  std::string track_box(const cv::Mat& frame, cv::Rect2d box);
+  // re-detection when lost. An error says why not (the controller is then
+  // unchanged).
+  Status track_box(const cv::Mat& frame, cv::Rect2d box);
   bool tracking_box() const { return phase_ == Phase::kBox; }
   // One frame. `motion_dI`: the motion node's dI per level on this retina's
   // geometry (or nullptr); `top_down`: a place to look at given from outside

@@ -15,16 +15,14 @@ namespace {
 using namespace saccade;
 using namespace saccade::fovea;
 
-// "B,G,R" -> colour; "" -> none.
-std::optional<cv::Vec3d> parse_color(const std::string& text, std::string* error) {
-  if (text.empty()) return std::nullopt;
+// "B,G,R" -> colour; "" -> none; anything else is an error.
+Result<std::optional<cv::Vec3d>> parse_color(const std::string& text) {
+  if (text.empty()) return std::optional<cv::Vec3d>();
   cv::Vec3d c;
   char tail = 0;
-  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &c[0], &c[1], &c[2], &tail) != 3) {
-    *error = "color: expected B,G,R (three numbers), got '" + text + "'";
-    return std::nullopt;
-  }
-  return c;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &c[0], &c[1], &c[2], &tail) != 3)
+    return Status::error("color: expected B,G,R (three numbers), got '" + text + "'");
+  return std::optional<cv::Vec3d>(c);
 }
 
 struct InitBox {
@@ -33,10 +31,10 @@ struct InitBox {
   std::string text;    // as written, for errors
 };
 
-// "x,y,w,h" or "x,y,w,h,frame" -> a box; "" -> none. Fills `error` when the
-// text is not a box a tracker can follow.
-std::optional<InitBox> parse_init(const std::string& text, double min_side, std::string* error) {
-  if (text.empty()) return std::nullopt;
+// "x,y,w,h" or "x,y,w,h,frame" -> a box; "" -> none. An error when the text
+// is not a box a tracker can follow.
+Result<std::optional<InitBox>> parse_init(const std::string& text, double min_side) {
+  if (text.empty()) return std::optional<InitBox>();
   std::vector<double> v;
   bool numbers = true;
   std::stringstream items(text);
@@ -48,21 +46,15 @@ std::optional<InitBox> parse_init(const std::string& text, double min_side, std:
     numbers = numbers && ec == std::errc() && ptr == end && first != std::string::npos;
     v.push_back(value);
   }
-  if (!numbers || (v.size() != 4 && v.size() != 5)) {
-    *error = "expected x,y,w,h or x,y,w,h,frame (numbers), got '" + text + "'";
-    return std::nullopt;
-  }
-  if (!(v[2] >= min_side && v[3] >= min_side)) {
-    *error = "box '" + text + "': width and height must be at least " + std::to_string(static_cast<int>(min_side)) +
-             " pixels";
-    return std::nullopt;
-  }
+  if (!numbers || (v.size() != 4 && v.size() != 5))
+    return Status::error("expected x,y,w,h or x,y,w,h,frame (numbers), got '" + text + "'");
+  if (!(v[2] >= min_side && v[3] >= min_side))
+    return Status::error("box '" + text + "': width and height must be at least " +
+                         std::to_string(static_cast<int>(min_side)) + " pixels");
   const double frame = v.size() == 5 ? v[4] : -1;
-  if (v.size() == 5 && (frame < 0 || frame != std::floor(frame))) {
-    *error = "box '" + text + "': the frame must be a whole number >= 0";
-    return std::nullopt;
-  }
-  return InitBox{{v[0], v[1], v[2], v[3]}, static_cast<int64_t>(frame), text};
+  if (v.size() == 5 && (frame < 0 || frame != std::floor(frame)))
+    return Status::error("box '" + text + "': the frame must be a whole number >= 0");
+  return std::optional<InitBox>(InitBox{{v[0], v[1], v[2], v[3]}, static_cast<int64_t>(frame), text});
 }
 
 class FoveaNode final : public Node {
@@ -157,17 +149,18 @@ class FoveaNode final : public Node {
 
   Status open(OpenContext& ctx) override {
     ControllerConfig c = ctx.config(&bind);
-    std::string error;
-    c.saliency.color = parse_color(ctx.params().get_string("color"), &error);
-    if (!error.empty()) return Status::error(error);
+    Result<std::optional<cv::Vec3d>> color = parse_color(ctx.params().get_string("color"));
+    if (!color.ok()) return color.status();
+    c.saliency.color = *color;
     const cv::Size t = c.tracker.template_size, w = c.tracker.search_size;
     if (t.width < 3 || t.height < 3) return Status::error("template_size must be at least 3x3");
     if (w.area() > 0 && (t.width > w.width || t.height > w.height))
       return Status::error("template_size " + std::to_string(t.width) + "x" + std::to_string(t.height) +
                            " is larger than search_size " + std::to_string(w.width) + "x" + std::to_string(w.height) +
                            ": the template could never be found");
-    if (auto init = parse_init(ctx.params().get_string("init"), c.box.min_target, &error)) init_ = *init;
-    if (!error.empty()) return Status::error("init: " + error);
+    Result<std::optional<InitBox>> init = parse_init(ctx.params().get_string("init"), c.box.min_target);
+    if (!init.ok()) return Status::error("init: " + init.error());
+    init_ = std::move(init).value();
     track_mode_ = c.mode == FoveaMode::kTrack;
     bad_targets_ = &ctx.counter("bad_targets");
     controller_ = std::make_unique<FoveaController>(c);
@@ -238,10 +231,10 @@ class FoveaNode final : public Node {
     if (!target || target == last_target_ || !track_mode_ || target->size.area() <= 0) return false;
     last_target_ = target;
     const cv::Rect2d box = Box::around(target->center, target->size).rect();
-    const std::string why =
-        retina.source ? controller_->track_box(retina.source->mat, box) : "no frame with the retina";
-    if (!why.empty()) {
-      log().warn("{}: target ignored: {}", ctx.node_name(), why);
+    const Status taken =
+        retina.source ? controller_->track_box(retina.source->mat, box) : Status::error("no frame with the retina");
+    if (!taken.ok()) {
+      log().warn("{}: target ignored: {}", ctx.node_name(), taken.message());
       bad_targets_->fetch_add(1, std::memory_order_relaxed);
     }
     return true;
@@ -253,8 +246,8 @@ class FoveaNode final : public Node {
     const InitBox box = *init_;
     init_.reset();
     if (!retina.source) return Status::error("init: the retina carries no frame to learn the target from");
-    if (std::string why = controller_->track_box(retina.source->mat, box.box); !why.empty())
-      return Status::error("init " + box.text + ": " + why);
+    if (Status taken = controller_->track_box(retina.source->mat, box.box); !taken.ok())
+      return Status::error("init " + box.text + ": " + taken.message());
     return {};
   }
 

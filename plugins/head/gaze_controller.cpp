@@ -49,15 +49,15 @@ kinematics::Fixation GazeController::fixation() const {
                                     kinematics::optical_axis(r));
 }
 
-std::string GazeController::reject(std::string why) {
+Status GazeController::reject(std::string why) {
   ++stats_.rejected;
   last_rejection_ = why;
-  return why;
+  return Status::error(std::move(why));
 }
 
-std::string GazeController::accept(const kinematics::Gaze& gaze) {
-  if (!gaze.reachable) return reject(gaze.why);
-  const HeadJoints& q = gaze.joints;
+Status GazeController::accept(const Result<HeadJoints>& gaze) {
+  if (!gaze.ok()) return reject(gaze.error());
+  const HeadJoints& q = *gaze;
   goal_ = {q.neck, q.vergence_left, q.tilt_left, q.vergence_right, q.tilt_right};
   for (std::size_t j = 0; j < goal_.size(); ++j)
     if (goal_[j] < limits_[j].min || goal_[j] > limits_[j].max) {
@@ -68,12 +68,12 @@ std::string GazeController::accept(const kinematics::Gaze& gaze) {
   return {};
 }
 
-std::string GazeController::look_at(const Eigen::Vector3d& point) {
+Status GazeController::look_at(const Eigen::Vector3d& point) {
   ++stats_.requests;
   return aim(point);
 }
 
-std::string GazeController::aim(const Eigen::Vector3d& point) {
+Status GazeController::aim(const Eigen::Vector3d& point) {
   if (!have_readings_) return reject("no joint state yet");
   if (command_.hold) return reject("holding (" + command_.fault + "): reset first");
   // Only the geometry may refuse; joint limits clamp the move instead.
@@ -83,7 +83,7 @@ std::string GazeController::aim(const Eigen::Vector3d& point) {
   return accept(kinematics::gaze_at(point, config_.geometry, open));
 }
 
-std::string GazeController::look_along(int camera, const Eigen::Vector3d& direction, double depth) {
+Status GazeController::look_along(int camera, const Eigen::Vector3d& direction, double depth) {
   ++stats_.requests;
   if (!have_readings_) return reject("no joint state yet");
   const HeadJoints q = measured();
@@ -99,7 +99,7 @@ std::string GazeController::look_along(int camera, const Eigen::Vector3d& direct
   return aim(pose.translation() + pose.linear() * (d * (depth / d.z())));
 }
 
-std::string GazeController::look_at_stereo(double u, double v, double disparity, double focal, double cx, double cy) {
+Status GazeController::look_at_stereo(double u, double v, double disparity, double focal, double cx, double cy) {
   ++stats_.requests;
   if (!have_readings_) return reject("no joint state yet");
   const HeadJoints q = measured();
@@ -112,7 +112,7 @@ std::string GazeController::look_at_stereo(double u, double v, double disparity,
   return aim(f.point);
 }
 
-std::string GazeController::turn(double azimuth, double elevation) {
+Status GazeController::turn(double azimuth, double elevation) {
   ++stats_.requests;
   if (!have_readings_) return reject("no joint state yet");
   const HeadJoints q = measured();

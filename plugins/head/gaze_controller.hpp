@@ -16,6 +16,7 @@
 #include <Eigen/Geometry>
 
 #include "kinematics.hpp"
+#include "saccade/status.hpp"
 #include "trajectory.hpp"
 
 namespace saccade::head {
@@ -55,17 +56,18 @@ class GazeController {
  public:
   explicit GazeController(HeadConfig config);
 
-  // Requests; each returns "" when taken, else why not (holding, the target
-  // unreachable, no joint state yet). They use the latest measured joints.
-  std::string look_at(const Eigen::Vector3d& point);  // base frame, m
+  // Requests; each returns ok when taken, else an error saying why not
+  // (holding, the target unreachable, no joint state yet). They use the
+  // latest measured joints.
+  Status look_at(const Eigen::Vector3d& point);  // base frame, m
   // `direction` in camera `camera`'s optical frame (0 left, 1 right: x right,
   // y down, z forward); `depth` along its optical axis, <= 0: the distance
   // of the current fixation point (the vergence stays), or default_depth.
-  std::string look_along(int camera, const Eigen::Vector3d& direction, double depth);
+  Status look_along(int camera, const Eigen::Vector3d& direction, double depth);
   // A pixel of the left image and its disparity (left x - right x) with the
   // cameras' intrinsics: triangulated from the two rays.
-  std::string look_at_stereo(double u, double v, double disparity, double focal, double cx, double cy);
-  std::string turn(double azimuth, double elevation);  // right +, up +, radians
+  Status look_at_stereo(double u, double v, double disparity, double focal, double cx, double cy);
+  Status turn(double azimuth, double elevation);  // right +, up +, radians
 
   // One control cycle at `now_ns` with the joints' readings; the targets to send.
   const HeadCommand& cycle(int64_t now_ns, const std::vector<JointReading>& joints);
@@ -84,10 +86,13 @@ class GazeController {
   const std::string& last_rejection() const { return last_rejection_; }
 
  private:
-  // The checks and inverse kinematics every request ends in; counted by its caller.
-  std::string aim(const Eigen::Vector3d& point);
-  std::string accept(const kinematics::Gaze& gaze);
-  std::string reject(std::string why);
+  // The checks and inverse kinematics every request ends in; counted by its
+  // caller. Ok when the gaze becomes the new goal.
+  Status aim(const Eigen::Vector3d& point);
+  // The inverse kinematics' joints become the goal; its error is rejected.
+  Status accept(const Result<kinematics::HeadJoints>& gaze);
+  // Counts and remembers a refused request; the error to return for it.
+  Status reject(std::string why);
   void hold(std::string why);
 
   HeadConfig config_;

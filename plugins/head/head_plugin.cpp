@@ -32,13 +32,14 @@ struct HeadParams {
   double hfov_deg = 60.0;
 };
 
-// The controller's configuration; false when a joint range is not min < max.
-bool to_config(const HeadParams& p, head::HeadConfig& c) {
+// The controller's configuration, or an error when a joint range is not min < max.
+Result<head::HeadConfig> to_config(const HeadParams& p) {
   const auto range = [](const cv::Point2d& r, double& lo, double& hi) {
     lo = r.x * kDeg;
     hi = r.y * kDeg;
     return r.x < r.y;
   };
+  head::HeadConfig c;
   c.geometry = p.geometry;
   c.velocity = p.velocity_deg * kDeg;
   c.acceleration = p.acceleration_deg * kDeg;
@@ -47,9 +48,11 @@ bool to_config(const HeadParams& p, head::HeadConfig& c) {
   c.following_error = p.following_error_deg * kDeg;
   c.feedback_timeout = p.feedback_timeout_ms * 1e-3;
   c.default_depth = p.default_depth;
-  return range(p.neck_limits, c.limits.neck_min, c.limits.neck_max) &&
-         range(p.vergence_limits, c.limits.vergence_min, c.limits.vergence_max) &&
-         range(p.tilt_limits, c.limits.tilt_min, c.limits.tilt_max);
+  if (!range(p.neck_limits, c.limits.neck_min, c.limits.neck_max) ||
+      !range(p.vergence_limits, c.limits.vergence_min, c.limits.vergence_max) ||
+      !range(p.tilt_limits, c.limits.tilt_min, c.limits.tilt_max))
+    return Status::error("joint limits must be min,max with min < max");
+  return c;
 }
 
 class HeadNode final : public Node {
@@ -105,11 +108,11 @@ class HeadNode final : public Node {
     reset_ = ctx.input<Message>("reset");
     capture_to_taken_ = &ctx.timing("gaze_capture_to_taken");
     const HeadParams p = ctx.config(&bind);
-    head::HeadConfig c;
-    if (!to_config(p, c)) return Status::error("joint limits must be min,max with min < max");
+    Result<head::HeadConfig> config = to_config(p);
+    if (!config.ok()) return config.status();
     focal_ = p.focal_px;
     hfov_ = p.hfov_deg * kDeg;
-    controller_ = std::make_unique<head::GazeController>(c);
+    controller_ = std::make_unique<head::GazeController>(std::move(config).value());
     readings_.resize(head::kJoints);
     return {};
   }
@@ -141,9 +144,8 @@ class HeadNode final : public Node {
     Cause answered;
     if (auto gaze = ctx.get(kGaze); gaze && gaze != last_gaze_) {
       last_gaze_ = gaze;
-      const std::string why = request(*gaze);
-      if (!why.empty()) {
-        log().info("{}: gaze request ({}) not taken: {}", ctx.node_name(), to_string(gaze->kind), why);
+      if (const Status taken = request(*gaze); !taken.ok()) {
+        log().info("{}: gaze request ({}) not taken: {}", ctx.node_name(), to_string(gaze->kind), taken.message());
       } else {
         answered = {gaze->origin_ns, steady_now_ns()};
         if (gaze->origin_ns > 0 && answered.taken_ns >= gaze->origin_ns)
@@ -176,8 +178,8 @@ class HeadNode final : public Node {
   }
 
  private:
-  // The request in the controller's terms; "" when taken.
-  std::string request(const GazeRequest& g) {
+  // The request in the controller's terms; ok when taken, else why not.
+  Status request(const GazeRequest& g) {
     const double focal = g.focal_px > 0 ? g.focal_px
                          : focal_ > 0   ? focal_
                                         : (g.image_size.width / 2.0) / std::tan(hfov_ / 2);
@@ -186,15 +188,15 @@ class HeadNode final : public Node {
       case GazeRequest::Kind::kDirection:
         return controller_->look_along(g.camera_id, {g.direction[0], g.direction[1], g.direction[2]}, g.depth);
       case GazeRequest::Kind::kPixelDepth:
-        if (g.image_size.width <= 0) return "pixel request without its image size";
+        if (g.image_size.width <= 0) return Status::error("pixel request without its image size");
         return controller_->look_along(g.camera_id, {(g.pixel.x - cx) / focal, (g.pixel.y - cy) / focal, 1.0}, g.depth);
       case GazeRequest::Kind::kPixelDisparity:
-        if (g.image_size.width <= 0) return "pixel request without its image size";
+        if (g.image_size.width <= 0) return Status::error("pixel request without its image size");
         return controller_->look_at_stereo(g.pixel.x, g.pixel.y, g.disparity, focal, cx, cy);
       case GazeRequest::Kind::kPoint: return controller_->look_at({g.point[0], g.point[1], g.point[2]});
       case GazeRequest::Kind::kRelative: return controller_->turn(g.azimuth, g.elevation);
     }
-    return "unknown request kind";
+    return Status::error("unknown request kind");
   }
 
   InputHandle<Message> reset_;

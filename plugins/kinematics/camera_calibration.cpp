@@ -63,19 +63,23 @@ cv::Mat gray_of(const cv::Mat& image) {
   return eight;
 }
 
-// Reads one key of a calibration file as a double matrix.
+// Reads keys of a calibration file; the first key that is missing or bad
+// sets `status`, and every read after it returns a default.
 struct KeyReader {
   const cv::FileStorage& fs;
   const std::string& path;
-  std::string error;
+  Status status;
+
+  bool failed() const { return !status.ok(); }
+  void fail(const std::string& key, const std::string& why) { status = Status::error(where(key) + why); }
 
   std::string where(const std::string& key) const { return "calibration file '" + path + "': key '" + key + "'"; }
 
   cv::Mat matrix(const std::string& key) {
-    if (!error.empty()) return {};
+    if (failed()) return {};
     cv::FileNode node = fs[key];
     if (node.empty() || node.isNone()) {
-      error = where(key) + " is missing";
+      fail(key, " is missing");
       return {};
     }
     cv::Mat m;
@@ -83,34 +87,34 @@ struct KeyReader {
       node >> m;
     } catch (const cv::Exception&) { m.release(); }
     if (m.empty() || m.channels() != 1) {
-      error = where(key) + " is not a matrix";
+      fail(key, " is not a matrix");
       return {};
     }
     m.convertTo(m, CV_64F);
-    if (!finite(m)) error = where(key) + " holds a value that is not a finite number";
+    if (!finite(m)) fail(key, " holds a value that is not a finite number");
     return m;
   }
 
   cv::Matx33d camera(const std::string& key) {
     cv::Mat m = matrix(key);
-    if (!error.empty()) return cv::Matx33d::eye();
+    if (failed()) return cv::Matx33d::eye();
     if (m.rows != 3 || m.cols != 3) {
-      error = where(key) + " must be a 3x3 camera matrix, got " + std::to_string(m.rows) + "x" + std::to_string(m.cols);
+      fail(key, " must be a 3x3 camera matrix, got " + std::to_string(m.rows) + "x" + std::to_string(m.cols));
       return cv::Matx33d::eye();
     }
     cv::Matx33d k(m);
     if (k(0, 0) <= 0 || k(1, 1) <= 0 || k(2, 2) != 1 || k(1, 0) != 0 || k(2, 0) != 0 || k(2, 1) != 0)
-      error = where(key) + " is not a camera matrix (fx, fy > 0, last row 0 0 1)";
+      fail(key, " is not a camera matrix (fx, fy > 0, last row 0 0 1)");
     return k;
   }
 
   std::vector<double> distortion(const std::string& key) {
     cv::Mat m = matrix(key);
-    if (!error.empty()) return {};
+    if (failed()) return {};
     const std::size_t n = m.total();
     if ((m.rows != 1 && m.cols != 1) || (n != 4 && n != 5 && n != 8 && n != 12 && n != 14)) {
-      error = where(key) + " must hold 4, 5, 8, 12 or 14 distortion coefficients in one row, got " +
-              std::to_string(m.rows) + "x" + std::to_string(m.cols);
+      fail(key, " must hold 4, 5, 8, 12 or 14 distortion coefficients in one row, got " + std::to_string(m.rows) + "x" +
+                    std::to_string(m.cols));
       return {};
     }
     m = m.reshape(1, 1);
@@ -118,14 +122,14 @@ struct KeyReader {
   }
 
   int positive_int(const std::string& key) {
-    if (!error.empty()) return 0;
+    if (failed()) return 0;
     cv::FileNode node = fs[key];
     if (node.empty() || node.isNone()) {
-      error = where(key) + " is missing (the size of the images the cameras were calibrated at)";
+      fail(key, " is missing (the size of the images the cameras were calibrated at)");
       return 0;
     }
     if (!node.isInt() || static_cast<int>(node) <= 0) {
-      error = where(key) + " must be a positive integer";
+      fail(key, " must be a positive integer");
       return 0;
     }
     return static_cast<int>(node);
@@ -133,26 +137,28 @@ struct KeyReader {
 
   double optional_number(const std::string& key) {
     cv::FileNode node = fs[key];
-    if (!error.empty() || node.empty() || node.isNone()) return 0;
+    if (failed() || node.empty() || node.isNone()) return 0;
     if (!node.isReal() && !node.isInt()) {
-      error = where(key) + " must be a number";
+      fail(key, " must be a number");
       return 0;
     }
     const double v = static_cast<double>(node);
-    if (!std::isfinite(v) || v < 0) error = where(key) + " must be a number >= 0, got " + number_text(v);
+    if (!std::isfinite(v) || v < 0) fail(key, " must be a number >= 0, got " + number_text(v));
     return v;
   }
 };
 
 }  // namespace
 
-std::string read_head_calibration(const std::string& path, HeadCalibration& out) {
+Result<HeadCalibration> read_head_calibration(const std::string& path) {
   cv::FileStorage fs;
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return "cannot open calibration file '" + path + "'";
+  if (!std::filesystem::is_regular_file(path, ec)) return Status::error("cannot open calibration file '" + path + "'");
   try {
-    if (!fs.open(path, cv::FileStorage::READ)) return "cannot open calibration file '" + path + "'";
-  } catch (const cv::Exception& e) { return "calibration file '" + path + "' cannot be parsed: " + e.err; }
+    if (!fs.open(path, cv::FileStorage::READ)) return Status::error("cannot open calibration file '" + path + "'");
+  } catch (const cv::Exception& e) {
+    return Status::error("calibration file '" + path + "' cannot be parsed: " + e.err);
+  }
   KeyReader keys{fs, path, {}};
   HeadCalibration c;
   c.path = path;
@@ -161,27 +167,26 @@ std::string read_head_calibration(const std::string& path, HeadCalibration& out)
   c.right_matrix = keys.camera("M2");
   c.right_distortion = keys.distortion("D2");
   cv::Mat r = keys.matrix("R");
-  if (keys.error.empty()) {
+  if (!keys.failed()) {
     if (r.total() == 3 && (r.rows == 1 || r.cols == 1)) {
       cv::Mat rotation;
       cv::Rodrigues(r, rotation);  // a rotation vector, as cv::stereoCalibrate's older callers wrote
       r = rotation;
     }
     if (r.rows != 3 || r.cols != 3) {
-      keys.error = keys.where("R") + " must be a 3x3 rotation matrix, got " + std::to_string(r.rows) + "x" +
-                   std::to_string(r.cols);
+      keys.fail("R", " must be a 3x3 rotation matrix, got " + std::to_string(r.rows) + "x" + std::to_string(r.cols));
     } else {
       c.rotation = cv::Matx33d(r);
       const double off = cv::norm(c.rotation * c.rotation.t() - cv::Matx33d::eye());
       if (off > 1e-3 || cv::determinant(c.rotation) <= 0)
-        keys.error = keys.where("R") + " is not a rotation (R R^T differs from I by " + number_text(off) + ")";
+        keys.fail("R", " is not a rotation (R R^T differs from I by " + number_text(off) + ")");
     }
   }
   cv::Mat t = keys.matrix("T");
-  if (keys.error.empty()) {
+  if (!keys.failed()) {
     if (t.total() != 3 || (t.rows != 1 && t.cols != 1))
-      keys.error = keys.where("T") + " must be a translation of 3 values, got " + std::to_string(t.rows) + "x" +
-                   std::to_string(t.cols);
+      keys.fail("T",
+                " must be a translation of 3 values, got " + std::to_string(t.rows) + "x" + std::to_string(t.cols));
     else
       c.translation = cv::Vec3d(t.reshape(1, 3));
   }
@@ -190,7 +195,7 @@ std::string read_head_calibration(const std::string& path, HeadCalibration& out)
   c.image_size = cv::Size(width, height);
   c.rms = keys.optional_number("rms");
   c.epipolar_error = keys.optional_number("epipolar_error");
-  if (!keys.error.empty()) return keys.error;
+  if (keys.failed()) return keys.status;
   if (cv::FileNode board = fs["board"]; board.isString()) c.board = static_cast<std::string>(board);
   for (const cv::FileNode& pair : fs["pairs"]) {
     HeadCalibration::PairError e;
@@ -199,13 +204,12 @@ std::string read_head_calibration(const std::string& path, HeadCalibration& out)
     if (pair["rms"].isReal() || pair["rms"].isInt()) e.rms = static_cast<double>(pair["rms"]);
     c.pairs.push_back(e);
   }
-  out = std::move(c);
-  return {};
+  return c;
 }
 
-std::string write_head_calibration(const std::string& path, const HeadCalibration& c) {
+Status write_head_calibration(const std::string& path, const HeadCalibration& c) {
   if (c.image_size.width <= 0 || c.image_size.height <= 0)
-    return "cannot write calibration file '" + path + "': no image size";
+    return Status::error("cannot write calibration file '" + path + "': no image size");
   cv::Mat d1(c.left_distortion, true), d2(c.right_distortion, true);
   d1 = d1.reshape(1, 1);
   d2 = d2.reshape(1, 1);
@@ -216,11 +220,11 @@ std::string write_head_calibration(const std::string& path, const HeadCalibratio
     cv::stereoRectify(cv::Mat(c.left_matrix), d1, cv::Mat(c.right_matrix), d2, c.image_size, cv::Mat(c.rotation),
                       cv::Mat(c.translation), r1, r2, p1, p2, q, cv::CALIB_ZERO_DISPARITY, 1, c.image_size);
   } catch (const cv::Exception& e) {
-    return "cannot write calibration file '" + path + "': stereoRectify failed: " + e.err;
+    return Status::error("cannot write calibration file '" + path + "': stereoRectify failed: " + e.err);
   }
   cv::FileStorage fs;
   try {
-    if (!fs.open(path, cv::FileStorage::WRITE)) return "cannot write calibration file '" + path + "'";
+    if (!fs.open(path, cv::FileStorage::WRITE)) return Status::error("cannot write calibration file '" + path + "'");
     fs.writeComment(
         "saccade calibrate: a stereo head at its joints' zero. Keys as OpenCV's stereo_calib sample:\n"
         "M1 D1 / M2 D2 each camera's matrix and distortion, x_right = R x_left + T (metres),\n"
@@ -238,35 +242,39 @@ std::string write_head_calibration(const std::string& path, const HeadCalibratio
          << "left" << pair.left << "right" << pair.right << "rms" << pair.rms << "}";
     fs << "]";
     fs.release();
-  } catch (const cv::Exception& e) { return "cannot write calibration file '" + path + "': " + e.err; }
+  } catch (const cv::Exception& e) { return Status::error("cannot write calibration file '" + path + "': " + e.err); }
   return {};
 }
 
-std::string check_frame_size(const HeadCalibration& calibration, cv::Size frame) {
+Status check_frame_size(const HeadCalibration& calibration, cv::Size frame) {
   if (calibration.image_size == frame) return {};
   const std::string file = calibration.path.empty() ? "the calibration" : "calibration file '" + calibration.path + "'";
-  return file + " is for " + size_text(calibration.image_size) + " images, but the frames are " + size_text(frame) +
-         " (calibrate at the frame size the cameras deliver)";
+  return Status::error(file + " is for " + size_text(calibration.image_size) + " images, but the frames are " +
+                       size_text(frame) + " (calibrate at the frame size the cameras deliver)");
 }
 
-std::string BoardSpec::check() const {
+Status BoardSpec::check() const {
   const bool charuco = kind == Kind::kCharuco;
   const int least = charuco ? 3 : 2;
   if (size.width < least || size.height < least)
-    return std::string("board ") + size_text(size) + ": " +
-           (charuco ? "a ChArUco board needs at least 3x3 squares" : "a chessboard needs at least 2x2 inner corners");
-  if (!std::isfinite(square) || square <= 0) return "board square size must be > 0 metres, got " + number_text(square);
+    return Status::error(
+        std::string("board ") + size_text(size) + ": " +
+        (charuco ? "a ChArUco board needs at least 3x3 squares" : "a chessboard needs at least 2x2 inner corners"));
+  if (!std::isfinite(square) || square <= 0)
+    return Status::error("board square size must be > 0 metres, got " + number_text(square));
   if (!charuco) return {};
   if (!std::isfinite(marker) || marker <= 0 || marker >= square)
-    return "ChArUco marker size must be > 0 and smaller than the square (" + number_text(square) + " m), got " +
-           number_text(marker);
+    return Status::error("ChArUco marker size must be > 0 and smaller than the square (" + number_text(square) +
+                         " m), got " + number_text(marker));
   const int id = dictionary_id(dictionary);
-  if (id < 0) return "unknown ArUco dictionary '" + dictionary + "' (e.g. DICT_4X4_50, DICT_5X5_100, DICT_6X6_250)";
+  if (id < 0)
+    return Status::error("unknown ArUco dictionary '" + dictionary +
+                         "' (e.g. DICT_4X4_50, DICT_5X5_100, DICT_6X6_250)");
   const int markers = size.width * size.height / 2;
   const int available = cv::aruco::getPredefinedDictionary(id)->bytesList.rows;
   if (markers > available)
-    return "a " + size_text(size) + " ChArUco board needs " + std::to_string(markers) + " markers; " + dictionary +
-           " has " + std::to_string(available);
+    return Status::error("a " + size_text(size) + " ChArUco board needs " + std::to_string(markers) + " markers; " +
+                         dictionary + " has " + std::to_string(available));
   return {};
 }
 
@@ -397,14 +405,16 @@ cv::Mat load_gray(const cv::Mat& given, const std::string& file, std::vector<std
   return image;
 }
 
-// Why a pair's images cannot be used ("" when they can). Unlike a board not
-// found, a size that disagrees is an error: the pairs are not of one camera set-up.
-std::string image_problem(const ImagePair& pair, const cv::Mat& left, const cv::Mat& right, Observations& obs) {
-  if (left.empty() || right.empty()) return "cannot read " + std::string(left.empty() ? pair.left : pair.right);
+// Ok when a pair's images can be used, else why not (the pair's problem).
+// Unlike a board not found, a size that disagrees is also an error of the
+// whole calibration (in obs.errors): the pairs are not of one camera set-up.
+Status image_problem(const ImagePair& pair, const cv::Mat& left, const cv::Mat& right, Observations& obs) {
+  if (left.empty() || right.empty())
+    return Status::error("cannot read " + std::string(left.empty() ? pair.left : pair.right));
   if (left.size() != right.size()) {
     obs.errors.push_back("pair '" + pair.left + "' (" + size_text(left.size()) + ") and '" + pair.right + "' (" +
                          size_text(right.size()) + "): the two images differ in size");
-    return "the images differ in size";
+    return Status::error("the images differ in size");
   }
   if (obs.size.empty()) {
     obs.size = left.size();
@@ -412,9 +422,9 @@ std::string image_problem(const ImagePair& pair, const cv::Mat& left, const cv::
   } else if (left.size() != obs.size) {
     obs.errors.push_back("'" + pair.left + "' is " + size_text(left.size()) + " but '" + obs.size_from + "' is " +
                          size_text(obs.size) + ": every image must have one size");
-    return "another image size";
+    return Status::error("another image size");
   }
-  return "";
+  return {};
 }
 
 // The board corners seen in both images: every corner of a chessboard, the
@@ -447,8 +457,8 @@ void observe_pair(const ImagePair& pair, const BoardSpec& board, const std::vect
   report.right = pair.right;
   const cv::Mat left = load_gray(pair.left_image, pair.left, obs.errors);
   const cv::Mat right = load_gray(pair.right_image, pair.right, obs.errors);
-  report.problem = image_problem(pair, left, right, obs);
-  if (!report.problem.empty()) {
+  if (Status usable = image_problem(pair, left, right, obs); !usable.ok()) {
+    report.problem = usable.message();
     result.pairs.push_back(report);
     return;
   }
@@ -497,7 +507,7 @@ void initial_intrinsics(const Observations& obs, const CalibrationOptions& optio
 }
 
 // Both cameras together from the usable pairs, into result.calibration, with
-// each used pair's own error; result.error when OpenCV fails or diverges.
+// each used pair's own error; result.status an error when OpenCV fails or diverges.
 void solve_stereo(const Observations& obs, const CalibrationOptions& options, CalibrationResult& result) {
   const int flags = options.stereo_flags >= 0 ? options.stereo_flags : CalibrationOptions::sample_stereo_flags();
   HeadCalibration& c = result.calibration;
@@ -511,7 +521,7 @@ void solve_stereo(const Observations& obs, const CalibrationOptions& options, Ca
                                 per_view, flags,
                                 cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-5));
     if (!std::isfinite(c.rms) || !finite(k1) || !finite(k2) || !finite(d1) || !finite(d2) || !finite(r) || !finite(t)) {
-      result.error = "the stereo calibration did not converge (RMS " + number_text(c.rms) + ")";
+      result.status = Status::error("the stereo calibration did not converge (RMS " + number_text(c.rms) + ")");
       return;
     }
     c.left_matrix = cv::Matx33d(k1);
@@ -529,7 +539,7 @@ void solve_stereo(const Observations& obs, const CalibrationOptions& options, Ca
       c.pairs.push_back({report.left, report.right, report.rms});
     }
     c.epipolar_error = epipolar_error(c, obs.left_points, obs.right_points);
-  } catch (const cv::Exception& e) { result.error = "calibration failed: " + e.err; }
+  } catch (const cv::Exception& e) { result.status = Status::error("calibration failed: " + e.err); }
 }
 
 }  // namespace
@@ -537,52 +547,56 @@ void solve_stereo(const Observations& obs, const CalibrationOptions& options, Ca
 CalibrationResult calibrate_head(const std::vector<ImagePair>& pairs, const CalibrationOptions& options) {
   CalibrationResult result;
   const BoardSpec& board = options.board;
-  if (std::string e = board.check(); !e.empty()) {
-    result.error = e;
+  if (Status valid = board.check(); !valid.ok()) {
+    result.status = valid;
     return result;
   }
   const std::vector<cv::Point3f> board_corners = board.corners();
   Observations obs;
   for (const ImagePair& pair : pairs) observe_pair(pair, board, board_corners, obs, result);
   if (!obs.errors.empty()) {
-    for (std::size_t i = 0; i < obs.errors.size(); ++i) result.error += (i ? "\n" : "") + obs.errors[i];
+    std::string lines;
+    for (std::size_t i = 0; i < obs.errors.size(); ++i) lines += (i ? "\n" : "") + obs.errors[i];
+    result.status = Status::error(lines);
     return result;
   }
   result.used_pairs = static_cast<int>(obs.object.size());
   if (result.used_pairs < std::max(options.min_pairs, 1)) {
-    result.error = "the board (" + board.describe() + ") was found in both images of " +
-                   std::to_string(result.used_pairs) + " of " + std::to_string(pairs.size()) + " pairs; at least " +
-                   std::to_string(std::max(options.min_pairs, 1)) + " are needed";
+    result.status = Status::error("the board (" + board.describe() + ") was found in both images of " +
+                                  std::to_string(result.used_pairs) + " of " + std::to_string(pairs.size()) +
+                                  " pairs; at least " + std::to_string(std::max(options.min_pairs, 1)) + " are needed");
     return result;
   }
   solve_stereo(obs, options, result);
   return result;
 }
 
-std::string read_image_list(const std::string& path, std::vector<ImagePair>& out) {
+Result<std::vector<ImagePair>> read_image_list(const std::string& path) {
   cv::FileStorage fs;
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return "cannot open image list '" + path + "'";
+  if (!std::filesystem::is_regular_file(path, ec)) return Status::error("cannot open image list '" + path + "'");
   try {
-    if (!fs.open(path, cv::FileStorage::READ)) return "cannot open image list '" + path + "'";
-  } catch (const cv::Exception& e) { return "image list '" + path + "' cannot be parsed: " + e.err; }
+    if (!fs.open(path, cv::FileStorage::READ)) return Status::error("cannot open image list '" + path + "'");
+  } catch (const cv::Exception& e) { return Status::error("image list '" + path + "' cannot be parsed: " + e.err); }
   cv::FileNode list = fs.getFirstTopLevelNode();
   if (list.type() != cv::FileNode::SEQ)
-    return "image list '" + path + "': expected a sequence of image names (as OpenCV's stereo_calib.xml)";
+    return Status::error("image list '" + path +
+                         "': expected a sequence of image names (as OpenCV's stereo_calib.xml)");
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   std::vector<std::string> names;
   for (const cv::FileNode& item : list) {
     if (!item.isString())
-      return "image list '" + path + "': item " + std::to_string(names.size() + 1) + " is not a name";
+      return Status::error("image list '" + path + "': item " + std::to_string(names.size() + 1) + " is not a name");
     std::filesystem::path name = static_cast<std::string>(item);
     names.push_back(name.is_relative() && !folder.empty() ? (folder / name).string() : name.string());
   }
-  if (names.empty()) return "image list '" + path + "' is empty";
+  if (names.empty()) return Status::error("image list '" + path + "' is empty");
   if (names.size() % 2 != 0)
-    return "image list '" + path + "' has " + std::to_string(names.size()) +
-           " names; expected left, right, left, right ... (an even number)";
-  for (std::size_t i = 0; i < names.size(); i += 2) out.push_back({names[i], names[i + 1], {}, {}});
-  return {};
+    return Status::error("image list '" + path + "' has " + std::to_string(names.size()) +
+                         " names; expected left, right, left, right ... (an even number)");
+  std::vector<ImagePair> pairs;
+  for (std::size_t i = 0; i < names.size(); i += 2) pairs.push_back({names[i], names[i + 1], {}, {}});
+  return pairs;
 }
 
 }  // namespace saccade::kinematics

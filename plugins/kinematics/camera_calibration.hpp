@@ -10,6 +10,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "saccade/status.hpp"
+
 namespace saccade::kinematics {
 
 // A calibrated stereo head at its joints' zero: each camera's intrinsics and
@@ -35,12 +37,14 @@ struct HeadCalibration {
   std::vector<PairError> pairs;  // the pairs the calibration used
 };
 
-// "" or what is wrong, naming the file and the missing/bad key.
-std::string read_head_calibration(const std::string& path, HeadCalibration& out);
-// YAML by default, XML when the name ends in .xml (.gz compresses either).
-std::string write_head_calibration(const std::string& path, const HeadCalibration& calibration);
-// "" or an error naming the file, its image size and the frame's size.
-std::string check_frame_size(const HeadCalibration& calibration, cv::Size frame);
+// The calibration, or an error naming the file and the missing/bad key.
+Result<HeadCalibration> read_head_calibration(const std::string& path);
+// YAML by default, XML when the name ends in .xml (.gz compresses either). An
+// error names the file and why it could not be written.
+Status write_head_calibration(const std::string& path, const HeadCalibration& calibration);
+// Ok when the calibration is for frames of this size, else an error naming
+// the file, its image size and the frame's size.
+Status check_frame_size(const HeadCalibration& calibration, cv::Size frame);
 
 // The calibration target.
 struct BoardSpec {
@@ -52,8 +56,8 @@ struct BoardSpec {
   double square = 0;                       // side of a square, metres
   double marker = 0;                       // ChArUco: side of a marker, metres (< square)
   std::string dictionary = "DICT_4X4_50";  // ChArUco: cv::aruco's predefined dictionary
-  // "" or what is wrong with the description.
-  std::string check() const;
+  // Ok, or an error saying what is wrong with the description.
+  Status check() const;
   // e.g. "chessboard 9x6 inner corners, square 0.025 m".
   std::string describe() const;
   // The board's corner positions (z = 0), metres, in detection order /
@@ -114,14 +118,14 @@ struct PairReport {
 };
 
 struct CalibrationResult {
-  std::string error;  // "" when `calibration` is valid
+  Status status;  // ok when `calibration` is valid, else the errors, one line each
   HeadCalibration calibration;
   std::vector<PairReport> pairs;
   int used_pairs = 0;
   double left_rms = 0, right_rms = 0;  // each camera alone (per_camera_first)
 };
 
-// Finds the board in every pair and calibrates the head. Errors (in `error`,
+// Finds the board in every pair and calibrates the head. Errors (in `status`,
 // one line each, naming the file and value): an unreadable image, a pair of
 // two sizes or of another size than the first pair, fewer than min_pairs
 // pairs with the board in both images (their count is given), a bad board.
@@ -137,7 +141,8 @@ double epipolar_error(const HeadCalibration& calibration, const std::vector<std:
 
 // Reads an OpenCV image-list file (a sequence of names, as stereo_calib.xml)
 // of left, right, left, right ... names; relative names are taken from the
-// list's folder. "" or what is wrong.
-std::string read_image_list(const std::string& path, std::vector<ImagePair>& out);
+// list's folder. The pairs in the list's order, or an error saying what is
+// wrong with the list.
+Result<std::vector<ImagePair>> read_image_list(const std::string& path);
 
 }  // namespace saccade::kinematics

@@ -24,13 +24,13 @@ Eigen::Isometry3d trans(double x, double y, double z) {
 
 }  // namespace
 
-std::string DhChain::check(std::size_t joint_count) const {
+Status DhChain::check(std::size_t joint_count) const {
   for (std::size_t i = 0; i < rows_.size(); ++i)
     for (const auto* joints : {&rows_[i].theta_joints, &rows_[i].alpha_joints})
       for (int j : *joints)
         if (j < 0 || static_cast<std::size_t>(j) >= joint_count)
-          return "row " + std::to_string(i) + " names joint " + std::to_string(j) + " of " +
-                 std::to_string(joint_count);
+          return Status::error("row " + std::to_string(i) + " names joint " + std::to_string(j) + " of " +
+                               std::to_string(joint_count));
   return {};
 }
 
@@ -69,20 +69,20 @@ DhChain offset_camera_chain(Convention convention, double l1, double l2, double 
   return DhChain(std::move(rows), convention);
 }
 
-Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits,
-                  Convention convention) {
+Result<Pointing> point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side,
+                          const JointLimits& limits, Convention convention) {
   // T = Rz(pan) Tx(R) Tz(L2) Rx(tilt) Tx(R3): the centre is Rz(pan) (R, 0, L2)
   // with R = s (L1 + L3), the axis Rz(pan) (0, cos tilt, sin tilt). In the
   // frame turned by -pan the target must lie at x' = R, in front (y' > 0).
-  Pointing p;
   const double r = (side < 0 ? -1.0 : 1.0) * (l1 + l3);
   const double rho = std::hypot(target.x(), target.y());
-  if (rho < std::abs(r) + 1e-12) {
-    p.why = "the target is within the cameras' circle around the neck (" + std::to_string(rho) + " m from the axis)";
-    return p;
-  }
+  if (rho < std::abs(r) + 1e-12)
+    return Status::error("the target is within the cameras' circle around the neck (" + std::to_string(rho) +
+                         " m from the axis)");
   const double phi = std::atan2(target.y(), target.x());
   const double delta = std::acos(r / rho);
+  Pointing p;
+  bool reachable = false;
   for (double pan : {phi - delta, phi + delta}) {
     pan = std::remainder(pan, 2 * M_PI);
     const double y = -target.x() * std::sin(pan) + target.y() * std::cos(pan);
@@ -111,20 +111,14 @@ Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3
       }
       if (!found) continue;
     }
-    p.reachable = true;
+    reachable = true;
     break;
   }
-  if (!p.reachable) {
-    p.why = "no pan puts the target in front of the camera";
-    return p;
-  }
-  if (p.pan < limits.pan_min || p.pan > limits.pan_max) {
-    p.reachable = false;
-    p.why = "pan " + std::to_string(p.pan) + " rad is beyond its limits";
-  } else if (p.tilt < limits.tilt_min || p.tilt > limits.tilt_max) {
-    p.reachable = false;
-    p.why = "tilt " + std::to_string(p.tilt) + " rad is beyond its limits";
-  }
+  if (!reachable) return Status::error("no pan puts the target in front of the camera");
+  if (p.pan < limits.pan_min || p.pan > limits.pan_max)
+    return Status::error("pan " + std::to_string(p.pan) + " rad is beyond its limits");
+  if (p.tilt < limits.tilt_min || p.tilt > limits.tilt_max)
+    return Status::error("tilt " + std::to_string(p.tilt) + " rad is beyond its limits");
   return p;
 }
 
@@ -138,42 +132,30 @@ Eigen::Isometry3d right_camera(const HeadGeometry& g, const HeadJoints& q) {
       .forward({q.neck, q.vergence_right, q.tilt_right});
 }
 
-Gaze gaze_each(const Eigen::Vector3d& left_target, const Eigen::Vector3d& right_target, const HeadGeometry& g,
-               const HeadLimits& limits) {
-  Gaze gaze;
+Result<HeadJoints> gaze_each(const Eigen::Vector3d& left_target, const Eigen::Vector3d& right_target,
+                             const HeadGeometry& g, const HeadLimits& limits) {
   // Each camera's own pan and tilt, with limits wide enough not to cut the
   // sum (neck + vergence); the head's own limits are checked after the split.
   const JointLimits open{-M_PI, M_PI, limits.tilt_min, limits.tilt_max};
-  const Pointing l = point_at(left_target, g.l1, g.l2, g.l3, -1, open);
-  if (!l.reachable) {
-    gaze.why = "left camera: " + l.why;
-    return gaze;
-  }
-  const Pointing r = point_at(right_target, g.l1, g.l2, g.l3, 1, open);
-  if (!r.reachable) {
-    gaze.why = "right camera: " + r.why;
-    return gaze;
-  }
-  HeadJoints& q = gaze.joints;
-  q.neck = 0.5 * (l.pan + r.pan);
-  q.vergence_left = l.pan - q.neck;
-  q.vergence_right = r.pan - q.neck;
-  q.tilt_left = l.tilt;
-  q.tilt_right = r.tilt;
-  if (q.neck < limits.neck_min || q.neck > limits.neck_max) {
-    gaze.why = "neck " + std::to_string(q.neck) + " rad is beyond its limits";
-    return gaze;
-  }
+  const Result<Pointing> l = point_at(left_target, g.l1, g.l2, g.l3, -1, open);
+  if (!l.ok()) return Status::error("left camera: " + l.error());
+  const Result<Pointing> r = point_at(right_target, g.l1, g.l2, g.l3, 1, open);
+  if (!r.ok()) return Status::error("right camera: " + r.error());
+  HeadJoints q;
+  q.neck = 0.5 * (l->pan + r->pan);
+  q.vergence_left = l->pan - q.neck;
+  q.vergence_right = r->pan - q.neck;
+  q.tilt_left = l->tilt;
+  q.tilt_right = r->tilt;
+  if (q.neck < limits.neck_min || q.neck > limits.neck_max)
+    return Status::error("neck " + std::to_string(q.neck) + " rad is beyond its limits");
   for (double v : {q.vergence_left, q.vergence_right})
-    if (v < limits.vergence_min || v > limits.vergence_max) {
-      gaze.why = "vergence " + std::to_string(v) + " rad is beyond its limits (the target is too near)";
-      return gaze;
-    }
-  gaze.reachable = true;
-  return gaze;
+    if (v < limits.vergence_min || v > limits.vergence_max)
+      return Status::error("vergence " + std::to_string(v) + " rad is beyond its limits (the target is too near)");
+  return q;
 }
 
-Gaze gaze_at(const Eigen::Vector3d& target, const HeadGeometry& g, const HeadLimits& limits) {
+Result<HeadJoints> gaze_at(const Eigen::Vector3d& target, const HeadGeometry& g, const HeadLimits& limits) {
   return gaze_each(target, target, g, limits);
 }
 

@@ -10,6 +10,8 @@
 
 #include <Eigen/Geometry>
 
+#include "saccade/status.hpp"
+
 namespace saccade::kinematics {
 
 enum class Convention {
@@ -30,8 +32,8 @@ class DhChain {
   DhChain(std::vector<DhRow> rows, Convention convention) : rows_(std::move(rows)), convention_(convention) {}
   // Pose of the last frame in the base frame for joint values q.
   Eigen::Isometry3d forward(const std::vector<double>& q) const;
-  // "" or what is wrong (a joint index beyond the joint vector).
-  std::string check(std::size_t joint_count) const;
+  // Ok, or an error saying what is wrong (a joint index beyond the joint vector).
+  Status check(std::size_t joint_count) const;
   const std::vector<DhRow>& rows() const { return rows_; }
   Convention convention() const { return convention_; }
 
@@ -73,18 +75,16 @@ struct JointLimits {
 };
 
 struct Pointing {
-  bool reachable = false;
   double pan = 0, tilt = 0;  // the paper's chain: q0 + q1 (neck + vergence), q2
-  std::string why;           // when not reachable
 };
 
 // Closed form for the paper's chain: the pan and tilt that put `target`
 // (base frame) on the camera's optical axis, in front of it; the root in
-// front is chosen; limits are respected (a target beyond them is reported
-// unreachable, with the reason). The modified reading, whose tilt also turns
-// the L2 offset, has its own tilt formula.
-Pointing point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side, const JointLimits& limits,
-                  Convention convention = Convention::kStandard);
+// front is chosen; limits are respected (a target beyond them, or one no pan
+// puts in front, is an error saying why). The modified reading, whose tilt
+// also turns the L2 offset, has its own tilt formula.
+Result<Pointing> point_at(const Eigen::Vector3d& target, double l1, double l2, double l3, int side,
+                          const JointLimits& limits, Convention convention = Convention::kStandard);
 
 // The whole head with the paper's chain for each camera: the left camera on
 // the -x side (side -1), the right on +x, each turning about the neck axis by
@@ -104,17 +104,14 @@ struct HeadLimits {
 Eigen::Isometry3d left_camera(const HeadGeometry& g, const HeadJoints& q);
 Eigen::Isometry3d right_camera(const HeadGeometry& g, const HeadJoints& q);
 
-struct Gaze {
-  bool reachable = false;
-  HeadJoints joints;
-  std::string why;
-};
-// Dependent mode: both cameras fixate `target`; the neck takes the mean of the
-// two pans so that the vergence is symmetric (left = -right).
-Gaze gaze_at(const Eigen::Vector3d& target, const HeadGeometry& g, const HeadLimits& limits);
+// Dependent mode: the joints that make both cameras fixate `target`; the
+// neck takes the mean of the two pans so that the vergence is symmetric (left
+// = -right). An error says why the head cannot (a camera cannot point there,
+// a joint beyond its limits).
+Result<HeadJoints> gaze_at(const Eigen::Vector3d& target, const HeadGeometry& g, const HeadLimits& limits);
 // Independent mode: each camera its own target; the neck again the mean pan.
-Gaze gaze_each(const Eigen::Vector3d& left_target, const Eigen::Vector3d& right_target, const HeadGeometry& g,
-               const HeadLimits& limits);
+Result<HeadJoints> gaze_each(const Eigen::Vector3d& left_target, const Eigen::Vector3d& right_target,
+                             const HeadGeometry& g, const HeadLimits& limits);
 
 // The fixation point of two rays (camera centres c1, c2 and directions d1,
 // d2): the midpoint of their common perpendicular, and its length (the

@@ -52,10 +52,11 @@ std::size_t first_output_size(uint64_t claimed, std::size_t compressed) {
       std::min<uint64_t>(claimed, std::max<uint64_t>(uint64_t{1} << 20, uint64_t{16} * compressed)));
 }
 
-// Decompresses zstd frames into `out`, at most `claimed` bytes; "" or what is wrong.
-std::string decompress_zstd(const uint8_t* in, std::size_t in_size, uint64_t claimed, std::vector<uint8_t>& out) {
+// Decompresses zstd frames into `out` (the reader's reused chunk buffer), at
+// most `claimed` bytes; an error saying what is wrong with them.
+Status decompress_zstd(const uint8_t* in, std::size_t in_size, uint64_t claimed, std::vector<uint8_t>& out) {
   std::unique_ptr<ZSTD_DCtx, std::size_t (*)(ZSTD_DCtx*)> dctx(ZSTD_createDCtx(), ZSTD_freeDCtx);
-  if (!dctx) return "no zstd decompression context";
+  if (!dctx) return Status::error("no zstd decompression context");
   out.resize(first_output_size(claimed, in_size));
   ZSTD_inBuffer src{in, in_size, 0};
   std::size_t produced = 0, left = 1;  // left: 0 once a frame is whole
@@ -65,12 +66,12 @@ std::string decompress_zstd(const uint8_t* in, std::size_t in_size, uint64_t cla
     ZSTD_outBuffer dst{out.data(), out.size(), produced};
     const std::size_t read_before = src.pos;
     left = ZSTD_decompressStream(dctx.get(), &dst, &src);
-    if (ZSTD_isError(left)) return std::string("does not decompress: ") + ZSTD_getErrorName(left);
+    if (ZSTD_isError(left)) return Status::error(std::string("does not decompress: ") + ZSTD_getErrorName(left));
     const bool moved = dst.pos != produced || src.pos != read_before;
     produced = dst.pos;
     if (!moved) {
-      return produced == out.size() ? "decompresses to more than " + std::to_string(claimed) + " bytes"
-                                    : "does not decompress: its last frame is cut";
+      return Status::error(produced == out.size() ? "decompresses to more than " + std::to_string(claimed) + " bytes"
+                                                  : "does not decompress: its last frame is cut");
     }
   }
   out.resize(produced);
@@ -266,16 +267,18 @@ Writer::~Writer() {
 
 bool Writer::is_open() const { return file_ != nullptr; }
 
-std::string Writer::open(const std::string& path, const WriterOptions& options) {
-  if (file_ != nullptr) return "already open";
+Status Writer::write_status() const { return error_.empty() ? Status() : Status::error(error_); }
+
+Status Writer::open(const std::string& path, const WriterOptions& options) {
+  if (file_ != nullptr) return Status::error("already open");
   options_ = options;
   path_ = path;
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   std::error_code ec;
   if (!folder.empty()) std::filesystem::create_directories(folder, ec);
-  if (ec) return "cannot create the folder of '" + path + "': " + ec.message();
+  if (ec) return Status::error("cannot create the folder of '" + path + "': " + ec.message());
   file_ = std::fopen(path.c_str(), "wb");
-  if (file_ == nullptr) return "cannot write '" + path + "': " + std::strerror(errno);
+  if (file_ == nullptr) return Status::error("cannot write '" + path + "': " + std::strerror(errno));
   std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
   if (options_.compression == Compression::kZstd && zstd_ == nullptr) zstd_ = ZSTD_createCCtx();
   offset_ = 0;
@@ -289,7 +292,7 @@ std::string Writer::open(const std::string& path, const WriterOptions& options) 
   end_record(scratch_, at);
   flush_scratch();
   if (options_.chunk_size > 0) chunk_.reserve(options_.chunk_size + (options_.chunk_size >> 2));
-  return error_;
+  return write_status();
 }
 
 void Writer::put(const void* data, std::size_t size) {
@@ -357,10 +360,11 @@ uint16_t Writer::add_channel(uint16_t schema_id, std::string_view topic, std::st
   return id;
 }
 
-std::string Writer::write(uint16_t channel_id, uint32_t sequence, uint64_t log_time, uint64_t publish_time,
-                          const void* data, std::size_t size) {
-  if (file_ == nullptr) return "not open";
-  if (channel_id == 0 || channel_id > channels_.size()) return "no channel " + std::to_string(channel_id);
+Status Writer::write(uint16_t channel_id, uint32_t sequence, uint64_t log_time, uint64_t publish_time, const void* data,
+                     std::size_t size) {
+  if (file_ == nullptr) return Status::error("not open");
+  if (channel_id == 0 || channel_id > channels_.size())
+    return Status::error("no channel " + std::to_string(channel_id));
   ChannelState& channel = channels_[channel_id - 1];
   std::vector<uint8_t>& out = records_out();
   if (options_.chunk_size > 0) {
@@ -385,7 +389,7 @@ std::string Writer::write(uint16_t channel_id, uint32_t sequence, uint64_t log_t
   } else if (chunk_.size() >= options_.chunk_size) {
     close_chunk();
   }
-  return error_;
+  return write_status();
 }
 
 void Writer::close_chunk() {
@@ -495,8 +499,8 @@ void Writer::append_chunk_indexes(std::vector<uint8_t>& out) const {
   }
 }
 
-std::string Writer::close() {
-  if (file_ == nullptr) return error_;
+Status Writer::close() {
+  if (file_ == nullptr) return write_status();
   if (options_.chunk_size > 0) close_chunk();
   scratch_.clear();
   auto at = begin_record(scratch_, kDataEnd);
@@ -548,7 +552,7 @@ std::string Writer::close() {
   put(kMagic, sizeof(kMagic));
   if (std::fclose(file_) != 0 && error_.empty()) error_ = "cannot write '" + path_ + "': " + std::strerror(errno);
   file_ = nullptr;
-  return error_;
+  return write_status();
 }
 
 // ---------------------------------------------------------------- Reader
@@ -559,8 +563,8 @@ Reader::~Reader() {
   if (data_ != nullptr) munmap(const_cast<uint8_t*>(data_), size_);
 }
 
-std::string Reader::fail(uint64_t offset, const std::string& what) const {
-  return path_ + ": at offset " + std::to_string(offset) + ": " + what;
+Status Reader::fail(uint64_t offset, const std::string& what) const {
+  return Status::error(path_ + ": at offset " + std::to_string(offset) + ": " + what);
 }
 
 const Channel* Reader::find_channel(std::string_view topic) const {
@@ -574,22 +578,22 @@ const Schema* Reader::schema_of(const Channel& channel) const {
   return it == schemas_.end() ? nullptr : &it->second;
 }
 
-std::string Reader::open(const std::string& path, bool salvage) {
+Status Reader::open(const std::string& path, bool salvage) {
   path_ = path;
   salvage_open_ = salvage;
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return "cannot read '" + path + "': " + std::strerror(errno);
+  if (fd < 0) return Status::error("cannot read '" + path + "': " + std::strerror(errno));
   struct stat st {};
   if (fstat(fd, &st) != 0) {
     ::close(fd);
-    return "cannot read '" + path + "': " + std::strerror(errno);
+    return Status::error("cannot read '" + path + "': " + std::strerror(errno));
   }
   size_ = static_cast<uint64_t>(st.st_size);
   if (size_ > 0) {
     void* m = mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
     if (m == MAP_FAILED) {
       ::close(fd);
-      return "cannot map '" + path + "': " + std::strerror(errno);
+      return Status::error("cannot map '" + path + "': " + std::strerror(errno));
     }
     data_ = static_cast<const uint8_t*>(m);
   }
@@ -619,7 +623,7 @@ std::string Reader::open(const std::string& path, bool salvage) {
     problem = "no Footer and closing magic at the end of the file (" + std::to_string(size_) +
               " bytes): truncated, or the recording was not closed";
   } else {
-    problem = read_summary();
+    problem = read_summary().message();
   }
   if (problem.empty()) return {};
   if (has_summary_) {
@@ -632,19 +636,19 @@ std::string Reader::open(const std::string& path, bool salvage) {
   }
   // Scan the data section for where the damage starts (the offset to report)
   // and, when salvaging, for the schemas and channels before it.
-  const std::string scan = scan_definitions();
+  const std::string scan = scan_definitions().message();
   if (!has_footer) {
-    problem = scan.empty() ? fail(size_, problem) : scan + "; " + problem;
+    problem = scan.empty() ? fail(size_, problem).message() : scan + "; " + problem;
     data_end_ = size_;  // the reader stops where records stop, and reads a cut uncompressed chunk's whole records
   } else if (!scan.empty()) {
     problem += "; " + scan.substr(path_.size() + 2);
   }
-  if (!salvage) return problem + " (salvage reads the messages before the damage)";
+  if (!salvage) return Status::error(problem + " (salvage reads the messages before the damage)");
   warnings_.push_back(problem);
   return {};
 }
 
-std::string Reader::read_summary() {
+Status Reader::read_summary() {
   const uint64_t footer = size_ - sizeof(kMagic) - kFooterRecord;
   uint64_t len = 0;
   std::memcpy(&len, data_ + footer + 1, 8);
@@ -657,8 +661,7 @@ std::string Reader::read_summary() {
   if (summary_start == 0) {
     // A valid file without a summary: the data section holds everything.
     data_end_ = footer;
-    const std::string scan = scan_definitions();
-    return scan;
+    return scan_definitions();
   }
   if (summary_start < data_start_ || summary_start > footer ||
       (offsets_start != 0 && (offsets_start < summary_start || offsets_start > footer)))
@@ -670,7 +673,6 @@ std::string Reader::read_summary() {
   has_summary_ = true;
   const uint64_t end = offsets_start != 0 ? offsets_start : footer;
   uint64_t pos = summary_start;
-  std::string error;
   while (pos < end) {
     if (end - pos < kRecordHeader) return fail(pos, "a summary record is cut");
     const uint8_t op = data_[pos];
@@ -680,7 +682,7 @@ std::string Reader::read_summary() {
     const uint8_t* p = data_ + pos + kRecordHeader;
     Cursor c(p, len);
     if (op == kSchema || op == kChannel) {
-      if (!parse_definition(op, p, len, pos, error)) return error;
+      if (Status parsed = parse_definition(op, p, len, pos); !parsed.ok()) return parsed;
     } else if (op == kChunkIndex) {
       uint64_t start_time, end_time, offset, length, index_length;
       Cursor offsets(nullptr, 0);
@@ -724,52 +726,43 @@ std::string Reader::read_summary() {
   return {};
 }
 
-bool Reader::parse_definition(uint8_t op, const uint8_t* p, uint64_t len, uint64_t offset, std::string& error) {
+Status Reader::parse_definition(uint8_t op, const uint8_t* p, uint64_t len, uint64_t offset) {
   Cursor c(p, len);
   if (op == kSchema) {
     Schema s;
-    if (!c.get(s.id) || !c.string(s.name) || !c.string(s.encoding) || !c.bytes32(s.data)) {
-      error = fail(offset, "a Schema record is malformed");
-      return false;
-    }
+    if (!c.get(s.id) || !c.string(s.name) || !c.string(s.encoding) || !c.bytes32(s.data))
+      return fail(offset, "a Schema record is malformed");
     if (s.id != 0) schemas_[s.id] = std::move(s);
-    return true;
+    return {};
   }
   Channel ch;
   Cursor meta(nullptr, 0);
-  if (!c.get(ch.id) || !c.get(ch.schema_id) || !c.string(ch.topic) || !c.string(ch.message_encoding) ||
-      !c.block(meta)) {
-    error = fail(offset, "a Channel record is malformed");
-    return false;
-  }
+  if (!c.get(ch.id) || !c.get(ch.schema_id) || !c.string(ch.topic) || !c.string(ch.message_encoding) || !c.block(meta))
+    return fail(offset, "a Channel record is malformed");
   while (!meta.done()) {
     std::string k, v;
-    if (!meta.string(k) || !meta.string(v)) {
-      error = fail(offset, "a Channel record's metadata is malformed");
-      return false;
-    }
+    if (!meta.string(k) || !meta.string(v)) return fail(offset, "a Channel record's metadata is malformed");
     ch.metadata[k] = v;
   }
   channels_[ch.id] = std::move(ch);
-  return true;
+  return {};
 }
 
-void Reader::read_chunk_definitions(uint64_t offset, std::string& error) {
+void Reader::read_chunk_definitions(uint64_t offset) {
   Cursor inner(chunk_data_, chunk_size_);
   while (inner.left() >= kRecordHeader) {
     const uint8_t op = *inner.here();
     uint64_t len = 0;
     std::memcpy(&len, inner.here() + 1, 8);
     if (len > inner.left() - kRecordHeader) break;
-    if (op == kSchema || op == kChannel) parse_definition(op, inner.here() + kRecordHeader, len, offset, error);
+    if (op == kSchema || op == kChannel) (void)parse_definition(op, inner.here() + kRecordHeader, len, offset);
     inner.skip(kRecordHeader + len);
   }
 }
 
-std::string Reader::scan_definitions() {
+Status Reader::scan_definitions() {
   uint64_t pos = data_start_;
   const uint64_t end = data_end_;
-  std::string error;
   while (pos < end) {
     if (end - pos < kRecordHeader) {
       data_end_ = pos;
@@ -785,19 +778,19 @@ std::string Reader::scan_definitions() {
     if (len > end - pos - kRecordHeader) {
       data_end_ = pos;
       // A cut chunk may still hold whole records (uncompressed chunks).
-      if (op == kChunk && load_chunk(pos, end - pos, true).empty()) read_chunk_definitions(pos, error);
+      if (op == kChunk && load_chunk(pos, end - pos, true).ok()) read_chunk_definitions(pos);
       return fail(pos, std::string("truncated: a ") + op_name(op) + " record of " + std::to_string(len) +
                            " bytes runs past the end of the file (" + std::to_string(size_) + " bytes)");
     }
     const uint8_t* p = data_ + pos + kRecordHeader;
     if (op == kSchema || op == kChannel) {
-      if (!parse_definition(op, p, len, pos, error)) {
+      if (Status parsed = parse_definition(op, p, len, pos); !parsed.ok()) {
         data_end_ = pos;
-        return error;
+        return parsed;
       }
     } else if (op == kChunk) {
-      const std::string why = load_chunk(pos, kRecordHeader + len, false);
-      if (why.empty()) read_chunk_definitions(pos, error);
+      // A chunk that does not load is reported where its messages are read.
+      if (load_chunk(pos, kRecordHeader + len, false).ok()) read_chunk_definitions(pos);
     } else if (op < kHeader || op > kDataEnd) {
       data_end_ = pos;
       return fail(pos, "corrupted: a record with opcode " + std::to_string(op) + ", which MCAP does not have");
@@ -807,7 +800,7 @@ std::string Reader::scan_definitions() {
   return {};
 }
 
-std::string Reader::load_chunk(uint64_t offset, uint64_t length, bool allow_cut) {
+Status Reader::load_chunk(uint64_t offset, uint64_t length, bool allow_cut) {
   if (length < kRecordHeader || data_[offset] != kChunk) return fail(offset, "no Chunk record where its index points");
   Cursor c(data_ + offset + kRecordHeader, length - kRecordHeader);
   uint64_t start_time, end_time, uncompressed_size, records_size;
@@ -834,8 +827,8 @@ std::string Reader::load_chunk(uint64_t offset, uint64_t length, bool allow_cut)
     if (uncompressed_size > kMaxChunk)
       return fail(offset, "a Chunk claims " + std::to_string(uncompressed_size) + " bytes uncompressed");
     if (compression == "zstd") {
-      if (std::string why = decompress_zstd(records, records_size, uncompressed_size, chunk_); !why.empty())
-        return fail(offset, "a zstd Chunk " + why);
+      if (Status unpacked = decompress_zstd(records, records_size, uncompressed_size, chunk_); !unpacked.ok())
+        return fail(offset, "a zstd Chunk " + unpacked.message());
       if (chunk_.size() != uncompressed_size)
         return fail(offset, "a zstd Chunk decompresses to " + std::to_string(chunk_.size()) + " bytes, not " +
                                 std::to_string(uncompressed_size));
@@ -894,104 +887,81 @@ bool Reader::wanted(uint16_t channel) const {
          std::find(read_.channels.begin(), read_.channels.end(), channel) != read_.channels.end();
 }
 
-int Reader::next_in_chunk(MessageView& out, std::string& error) {
+Result<bool> Reader::next_in_chunk(MessageView& out) {
   while (chunk_pos_ < chunk_size_) {
     const uint64_t at = chunk_pos_;
-    if (chunk_size_ - at < kRecordHeader) {
-      error = fail(chunk_offset_, "a record inside the Chunk is cut at byte " + std::to_string(at) + " of its records");
-      return -1;
-    }
+    if (chunk_size_ - at < kRecordHeader)
+      return fail(chunk_offset_, "a record inside the Chunk is cut at byte " + std::to_string(at) + " of its records");
     const uint8_t op = chunk_data_[at];
     uint64_t len = 0;
     std::memcpy(&len, chunk_data_ + at + 1, 8);
-    if (len > chunk_size_ - at - kRecordHeader) {
-      error =
-          fail(chunk_offset_, std::string("a ") + op_name(op) + " record inside the Chunk runs past its end (byte " +
-                                  std::to_string(at) + " of its records)");
-      return -1;
-    }
+    if (len > chunk_size_ - at - kRecordHeader)
+      return fail(chunk_offset_, std::string("a ") + op_name(op) + " record inside the Chunk runs past its end (byte " +
+                                     std::to_string(at) + " of its records)");
     chunk_pos_ = at + kRecordHeader + len;
     if (op != kMessage) continue;
-    if (len < kMessageFields) {
-      error = fail(chunk_offset_, "a Message record inside the Chunk is shorter than its fields");
-      return -1;
-    }
+    if (len < kMessageFields)
+      return fail(chunk_offset_, "a Message record inside the Chunk is shorter than its fields");
     read_message(chunk_data_ + at + kRecordHeader, len, chunk_offset_, out);
     if (!wanted(out.channel_id)) continue;
-    return 1;
+    return true;
   }
   in_chunk_ = false;
-  return 0;
+  return false;
 }
 
-int Reader::next_linear(MessageView& out, std::string& error) {
+Result<bool> Reader::next_linear(MessageView& out) {
   while (pos_ < data_end_) {
     const uint64_t at = pos_;
-    if (data_end_ - at < kRecordHeader) {
-      error = fail(at, "truncated: a record's header is cut");
-      return -1;
-    }
+    if (data_end_ - at < kRecordHeader) return fail(at, "truncated: a record's header is cut");
     const uint8_t op = data_[at];
     uint64_t len = 0;
     std::memcpy(&len, data_ + at + 1, 8);
-    if (op == kDataEnd) return 0;
+    if (op == kDataEnd) return false;
     if (len > data_end_ - at - kRecordHeader) {
       if (op == kChunk && read_.salvage) {
         // Reads a cut uncompressed chunk up to where it stops.
         pos_ = data_end_;
-        if (load_chunk(at, data_end_ - at, true).empty()) {
+        if (load_chunk(at, data_end_ - at, true).ok()) {
           chunk_pos_ = 0;
           in_chunk_ = true;
-          return 0;  // the caller reads the chunk
+          return false;  // the caller reads the chunk
         }
       }
-      error = fail(at, std::string("truncated: a ") + op_name(op) + " record runs past the readable end (" +
-                           std::to_string(data_end_) + ")");
-      return -1;
+      return fail(at, std::string("truncated: a ") + op_name(op) + " record runs past the readable end (" +
+                          std::to_string(data_end_) + ")");
     }
     pos_ = at + kRecordHeader + len;
     if (op == kMessage) {
-      if (len < kMessageFields) {
-        error = fail(at, "a Message record is shorter than its fields");
-        return -1;
-      }
+      if (len < kMessageFields) return fail(at, "a Message record is shorter than its fields");
       read_message(data_ + at + kRecordHeader, len, at, out);
       if (!wanted(out.channel_id)) continue;
-      return 1;
+      return true;
     }
     if (op == kChunk) {
-      const std::string why = load_chunk(at, kRecordHeader + len, false);
-      if (!why.empty()) {
-        error = why;
-        return -1;
-      }
+      if (Status loaded = load_chunk(at, kRecordHeader + len, false); !loaded.ok()) return loaded;
       chunk_pos_ = 0;
       in_chunk_ = true;
-      return 0;
+      return false;
     }
     if (op < kHeader || op > kDataEnd) {
-      error = fail(at, "corrupted: a record with opcode " + std::to_string(op) + ", which MCAP does not have");
       pos_ = data_end_;  // no way to find the next record
-      return -1;
+      return fail(at, "corrupted: a record with opcode " + std::to_string(op) + ", which MCAP does not have");
     }
   }
-  return 0;
+  return false;
 }
 
-int Reader::next(MessageView& out, std::string& error) {
-  if (data_ == nullptr) {
-    error = "not open";
-    return -1;
-  }
+Result<bool> Reader::next(MessageView& out) {
+  if (data_ == nullptr) return Status::error("not open");
   while (!done_) {
     if (in_chunk_) {
-      const int r = next_in_chunk(out, error);
-      if (r == 1) return 1;
-      if (r < 0) {
+      const Result<bool> r = next_in_chunk(out);
+      if (r.ok() && *r) return true;
+      if (!r.ok()) {
         in_chunk_ = false;
-        if (!read_.salvage) return -1;
-        warnings_.push_back(error);
-        error.clear();
+        if (!read_.salvage) return r;
+        warnings_.push_back(r.error());
         ++skipped_;
       }
       continue;
@@ -1007,13 +977,9 @@ int Reader::next(MessageView& out, std::string& error) {
         for (uint16_t ch : ref.channels) any = any || wanted(ch);
         if (!any) continue;
       }
-      const std::string why = load_chunk(ref.offset, ref.length, false);
-      if (!why.empty()) {
-        if (!read_.salvage) {
-          error = why;
-          return -1;
-        }
-        warnings_.push_back(why);
+      if (Status loaded = load_chunk(ref.offset, ref.length, false); !loaded.ok()) {
+        if (!read_.salvage) return loaded;
+        warnings_.push_back(loaded.message());
         ++skipped_;
         continue;
       }
@@ -1022,23 +988,22 @@ int Reader::next(MessageView& out, std::string& error) {
       continue;
     }
     const uint64_t before = pos_;
-    const int r = next_linear(out, error);
-    if (r == 1) return 1;
-    if (r == 0 && in_chunk_) continue;
-    if (r == 0) {
+    const Result<bool> r = next_linear(out);
+    if (r.ok() && *r) return true;
+    if (r.ok() && in_chunk_) continue;
+    if (r.ok()) {
       done_ = true;
       break;
     }
-    if (!read_.salvage) return -1;
-    warnings_.push_back(error);
-    error.clear();
+    if (!read_.salvage) return r;
+    warnings_.push_back(r.error());
     ++skipped_;
     if (pos_ <= before) {  // nothing to resume from
       done_ = true;
       break;
     }
   }
-  return 0;
+  return false;
 }
 
 }  // namespace saccade::mcap

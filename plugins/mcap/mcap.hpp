@@ -5,7 +5,8 @@
 // MessageIndex per channel after each chunk, DataEnd, a summary section with
 // Schemas, Channels, Statistics and ChunkIndexes, SummaryOffsets, Footer and
 // CRCs) and a reader (summary-driven or a linear scan of the data section).
-// Nothing of saccade here: records, bytes and errors that name file offsets.
+// Nothing of saccade here but its Status: records, bytes and errors that name
+// file offsets.
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -14,6 +15,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "saccade/status.hpp"
 
 namespace saccade::mcap {
 
@@ -43,19 +46,21 @@ class Writer {
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
 
-  // "" or why the file cannot be written (its folder is made when missing).
-  std::string open(const std::string& path, const WriterOptions& options = {});
+  // An error saying why the file cannot be written (its folder is made when
+  // missing).
+  Status open(const std::string& path, const WriterOptions& options = {});
   // Ids from 1, in the order added (0 is "no schema" in MCAP).
   uint16_t add_schema(std::string_view name, std::string_view encoding, const void* data, std::size_t size);
   uint16_t add_channel(uint16_t schema_id, std::string_view topic, std::string_view message_encoding,
                        const std::map<std::string, std::string>& metadata = {});
-  // One message; its bytes are copied (into the open chunk). "" or what failed
-  // (an unknown channel, a write error). Steady state allocates nothing.
-  std::string write(uint16_t channel_id, uint32_t sequence, uint64_t log_time, uint64_t publish_time, const void* data,
-                    std::size_t size);
-  // Closes the open chunk, writes DataEnd, the summary and the footer. "" or
-  // the first write error.
-  std::string close();
+  // One message; its bytes are copied (into the open chunk). An error saying
+  // what failed (an unknown channel, a write error, also an earlier one: a
+  // write error sticks). Steady state allocates nothing.
+  Status write(uint16_t channel_id, uint32_t sequence, uint64_t log_time, uint64_t publish_time, const void* data,
+               std::size_t size);
+  // Closes the open chunk, writes DataEnd, the summary and the footer; the
+  // first write error of the file, if any.
+  Status close();
   bool is_open() const;
 
   uint64_t messages() const { return message_count_; }
@@ -85,6 +90,7 @@ class Writer {
     std::vector<uint8_t> data;
   };
   void put(const void* data, std::size_t size);  // to the file, counting the offset and the data CRC
+  Status write_status() const;                   // the first write error (error_), as a Status
   void close_chunk();
   std::vector<uint8_t>& records_out();  // the open chunk, or the scratch buffer of an unchunked file
   void flush_scratch();
@@ -154,12 +160,12 @@ class Reader {
   Reader& operator=(const Reader&) = delete;
 
   // Maps the file and reads its schemas and channels: from the summary when
-  // the file has an intact one, else by scanning the data section. "" or what
-  // is wrong, with the file offset ("run.mcap: truncated at offset 1234: ...").
-  // With `salvage`, a file without a summary, or with a broken one, is read
-  // by a scan that stops where the damage starts; the damage is then only
-  // reported in warnings().
-  std::string open(const std::string& path, bool salvage = false);
+  // the file has an intact one, else by scanning the data section. An error
+  // saying what is wrong, with the file offset ("run.mcap: at offset 1234:
+  // truncated ..."). With `salvage`, a file without a summary, or with a
+  // broken one, is read by a scan that stops where the damage starts; the
+  // damage is then only reported in warnings().
+  Status open(const std::string& path, bool salvage = false);
 
   const std::map<uint16_t, Schema>& schemas() const { return schemas_; }
   const std::map<uint16_t, Channel>& channels() const { return channels_; }
@@ -176,9 +182,10 @@ class Reader {
 
   // Starts (again) reading messages in file order.
   void rewind(const ReadOptions& options = {});
-  // The next message: 1, 0 at the end, -1 with `error` (naming the offset)
-  // when the file is damaged and not salvaging.
-  int next(MessageView& out, std::string& error);
+  // The next message into `out` (reused: its bytes are the reader's): true,
+  // or false at the end; an error naming the offset when the file is damaged
+  // and not salvaging (a later call goes on after the damage, where it can).
+  Result<bool> next(MessageView& out);
   uint64_t skipped() const { return skipped_; }  // damaged chunks or records passed over
 
  private:
@@ -186,17 +193,29 @@ class Reader {
     uint64_t offset, length;
     std::vector<uint16_t> channels;
   };
-  std::string fail(uint64_t offset, const std::string& what) const;
-  std::string read_summary();
-  std::string scan_definitions();  // schemas and channels from the data section
-  bool parse_definition(uint8_t op, const uint8_t* p, uint64_t len, uint64_t offset, std::string& error);
-  // The schemas and channels inside the loaded chunk (at `offset`), up to its first cut record.
-  void read_chunk_definitions(uint64_t offset, std::string& error);
-  // Decompresses the chunk record at `offset` into chunk_; "" or the error.
-  std::string load_chunk(uint64_t offset, uint64_t length, bool allow_cut);
+  // The error "PATH: at offset N: what".
+  Status fail(uint64_t offset, const std::string& what) const;
+  Status read_summary();
+  // Schemas and channels from the data section; the first damage met.
+  Status scan_definitions();
+  // One Schema or Channel record (op) of `len` bytes at `p`, file offset
+  // `offset`, into schemas_ / channels_; an error when it is malformed.
+  Status parse_definition(uint8_t op, const uint8_t* p, uint64_t len, uint64_t offset);
+  // The schemas and channels inside the loaded chunk (at `offset`), up to its
+  // first cut record. A malformed one is passed over: the definitions are
+  // read where they can be, the damage is reported where messages are read.
+  void read_chunk_definitions(uint64_t offset);
+  // Decompresses the chunk record at `offset` into chunk_; an error when it
+  // is malformed, does not decompress or fails its CRC.
+  Status load_chunk(uint64_t offset, uint64_t length, bool allow_cut);
   bool wanted(uint16_t channel) const;
-  int next_in_chunk(MessageView& out, std::string& error);
-  int next_linear(MessageView& out, std::string& error);
+  // The loaded chunk's next wanted message: true, or false when the chunk is
+  // done; an error when a record inside it is damaged.
+  Result<bool> next_in_chunk(MessageView& out);
+  // The data section's next wanted message: true, or false when there is none
+  // here (the end, or a chunk now loaded for next_in_chunk: in_chunk_); an
+  // error naming the offset of the damage.
+  Result<bool> next_linear(MessageView& out);
 
   std::string path_;
   const uint8_t* data_ = nullptr;

@@ -11,24 +11,22 @@ namespace {
 using namespace saccade;
 
 // The files record nodes write, by path: the nodes of one path share one
-// file (one channel each); the last node to close it writes its summary.
-std::shared_ptr<mcap::MessageFile> shared_file(const std::string& path, const mcap::WriterOptions& options,
-                                               std::string& error) {
+// file (one channel each); the last node to close it writes its summary. An
+// error when the file cannot be written, or another node writes it with
+// other options.
+Result<std::shared_ptr<mcap::MessageFile>> shared_file(const std::string& path, const mcap::WriterOptions& options) {
   static std::mutex mutex;
   static std::map<std::string, std::weak_ptr<mcap::MessageFile>> files;
   std::lock_guard lock(mutex);
   if (auto existing = files[path].lock()) {
     if (existing->options().compression != options.compression || existing->options().chunk_size != options.chunk_size)
-      error = "another mcap.record node writes '" + path + "' with compression " +
-              mcap::to_string(existing->options().compression) + " and chunk size " +
-              std::to_string(existing->options().chunk_size) + ": give every node of one file the same";
+      return Status::error("another mcap.record node writes '" + path + "' with compression " +
+                           mcap::to_string(existing->options().compression) + " and chunk size " +
+                           std::to_string(existing->options().chunk_size) + ": give every node of one file the same");
     return existing;
   }
   auto file = std::make_shared<mcap::MessageFile>();
-  if (std::string why = file->open(path, options); !why.empty()) {
-    error = why;
-    return nullptr;
-  }
+  if (Status opened = file->open(path, options); !opened.ok()) return opened;
   files[path] = file;
   return file;
 }
@@ -64,23 +62,24 @@ class Record final : public Node {
     mcap::WriterOptions options;
     mcap::parse_compression(p.get_string("compression"), options.compression);
     options.chunk_size = static_cast<std::size_t>(p.get_int("chunk_kib")) * 1024;
-    std::string error;
-    file_ = shared_file(p.get_string("path"), options, error);
-    if (!error.empty()) return Status::error(error);
+    Result<std::shared_ptr<mcap::MessageFile>> file = shared_file(p.get_string("path"), options);
+    if (!file.ok()) return file.status();
+    file_ = std::move(file).value();
     const std::string topic = p.get_string("topic").empty() ? "/" + ctx.node_name() : p.get_string("topic");
     topic_ = file_->topic(topic, {{"node", ctx.node_name()}});
     write_errors_ = &ctx.counter("write_errors");
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    if (std::string why = file_->write(topic_, *ctx.get(kIn)); !why.empty()) {
-      if (write_errors_->fetch_add(1, std::memory_order_relaxed) == 0) log().warn("{}: {}", ctx.node_name(), why);
+    if (Status written = file_->write(topic_, *ctx.get(kIn)); !written.ok()) {
+      if (write_errors_->fetch_add(1, std::memory_order_relaxed) == 0)
+        log().warn("{}: {}", ctx.node_name(), written.message());
     }
     return {};
   }
   void close() override {
     if (file_.use_count() == 1) {
-      if (std::string why = file_->close(); !why.empty()) log().error("mcap.record: {}", why);
+      if (Status closed = file_->close(); !closed.ok()) log().error("mcap.record: {}", closed.message());
     }
     file_.reset();
   }
@@ -126,15 +125,20 @@ struct TypedOutputs {
     (c.output<M>(port_name(M::kTypeName), "the topic's messages when it carries " + std::string(M::kTypeName)), ...);
   }
   // The output index for each of `types` (-1 for a type without one); an
-  // error for a connected output that no type played takes.
-  static std::vector<int> open(OpenContext& ctx, const std::vector<std::string_view>& types, std::string& error) {
+  // error for a connected output that no type played takes (the first such).
+  static Result<std::vector<int>> open(OpenContext& ctx, const std::vector<std::string_view>& types) {
     std::vector<int> index(types.size(), -1);
-    (check<M>(ctx, types, index, error), ...);
+    // Every type's output is looked up, also after an error: the first error is kept.
+    Status first;
+    const auto keep_first = [&first](Status s) {
+      if (first.ok()) first = std::move(s);
+    };
+    (keep_first(check<M>(ctx, types, index)), ...);
+    if (!first.ok()) return first;
     return index;
   }
   template <class T>
-  static void check(OpenContext& ctx, const std::vector<std::string_view>& types, std::vector<int>& index,
-                    std::string& error) {
+  static Status check(OpenContext& ctx, const std::vector<std::string_view>& types, std::vector<int>& index) {
     const std::string name = port_name(T::kTypeName);
     auto h = ctx.output<T>(name);
     bool played = false;
@@ -143,12 +147,11 @@ struct TypedOutputs {
       index[i] = h.index;
       played = true;
     }
-    if (!played && ctx.connected(h) && error.empty()) {
-      std::string carried;
-      for (std::string_view t : types) carried += (carried.empty() ? "" : ", ") + std::string(t);
-      error = "output '" + name + "' is connected, but the played topics carry " + carried + " (output '" +
-              port_name(types.front()) + "'" + (types.size() > 1 ? ", ..." : "") + ")";
-    }
+    if (played || !ctx.connected(h)) return {};
+    std::string carried;
+    for (std::string_view t : types) carried += (carried.empty() ? "" : ", ") + std::string(t);
+    return Status::error("output '" + name + "' is connected, but the played topics carry " + carried + " (output '" +
+                         port_name(types.front()) + "'" + (types.size() > 1 ? ", ..." : "") + ")");
   }
   // "FeatureMaps" -> "feature_maps"
   static std::string port_name(std::string_view type) {
@@ -200,8 +203,8 @@ class Replay final : public Node {
     path_ = p.get_string("path");
     realtime_ = p.get_string("rate") == "realtime";
     speed_ = p.get_double("speed");
-    if (std::string why = reader_.open(path_, comma_list(p.get_string("topic")), p.get_bool("salvage")); !why.empty())
-      return Status::error(why);
+    if (Status opened = reader_.open(path_, comma_list(p.get_string("topic")), p.get_bool("salvage")); !opened.ok())
+      return opened;
     std::vector<std::string_view> types;
     for (std::size_t i = 0; i < reader_.topic_count(); ++i) {
       for (std::size_t k = 0; k < i; ++k)
@@ -210,9 +213,9 @@ class Replay final : public Node {
                                std::string(reader_.type(i)) + ": play them with a replay node each");
       types.push_back(reader_.type(i));
     }
-    std::string error;
-    typed_ = ReplayOutputs::open(ctx, types, error);
-    if (!error.empty()) return Status::error(reader_.topic() + ": " + error);
+    Result<std::vector<int>> typed = ReplayOutputs::open(ctx, types);
+    if (!typed.ok()) return Status::error(reader_.topic() + ": " + typed.error());
+    typed_ = std::move(typed).value();
     for (const std::string& w : reader_.reader().warnings()) log().warn("{}: {}", ctx.node_name(), w);
     skipped_ = &ctx.counter("skipped");
     Anchors::instance().join(path_);
@@ -220,19 +223,17 @@ class Replay final : public Node {
     return {};
   }
   Status process(ProcessContext& ctx) override {
-    std::string error;
     std::size_t topic = 0;
-    MessagePtr m = reader_.next(error, &topic);
+    Result<MessagePtr> next = reader_.next(&topic);
     const uint64_t skipped = reader_.reader().skipped();
     if (skipped > skipped_seen_) {
       skipped_->fetch_add(skipped - skipped_seen_, std::memory_order_relaxed);
       skipped_seen_ = skipped;
       log().warn("{}: skipped a damaged part: {}", ctx.node_name(), reader_.reader().warnings().back());
     }
-    if (m == nullptr) {
-      if (!error.empty()) return Status::error(error);
-      return Status::end_of_stream();
-    }
+    if (!next.ok()) return next.status();
+    MessagePtr m = std::move(next).value();
+    if (m == nullptr) return Status::end_of_stream();
     if (realtime_) {
       if (anchor_ == 0) anchor_ = Anchors::instance().start(path_);
       const double since = static_cast<double>(m->timestamp_ns - static_cast<int64_t>(reader_.start_time())) / speed_;

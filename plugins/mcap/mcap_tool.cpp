@@ -45,8 +45,8 @@ int usage() {
 
 int info(const std::string& path, bool salvage) {
   mcap::Reader reader;
-  if (std::string why = reader.open(path, salvage); !why.empty()) {
-    std::cerr << "error: " << why << "\n";
+  if (Status opened = reader.open(path, salvage); !opened.ok()) {
+    std::cerr << "error: " << opened.message() << "\n";
     return 1;
   }
   for (const std::string& w : reader.warnings()) std::cerr << "warning: " << w << "\n";
@@ -54,10 +54,9 @@ int info(const std::string& path, bool salvage) {
   std::map<uint16_t, uint64_t> counts;
   uint64_t first = 0, last = 0, total = 0;
   mcap::MessageView v;
-  std::string error;
   reader.rewind({salvage, {}});
-  int r;
-  while ((r = reader.next(v, error)) == 1) {
+  Result<bool> read = false;
+  while ((read = reader.next(v)).ok() && *read) {
     ++counts[v.channel_id];
     if (total == 0 || v.log_time < first) first = v.log_time;
     if (total == 0 || v.log_time > last) last = v.log_time;
@@ -71,14 +70,13 @@ int info(const std::string& path, bool salvage) {
               total > 0 ? static_cast<double>(last - first) / 1e9 : 0.0);
   for (const auto& [id, c] : reader.channels()) {
     const mcap::Schema* s = reader.schema_of(c);
-    std::string why;
-    const auto* e = mcap::encoding_of(c, s, why);
+    const Result<const dds::ChannelEncoding*> e = mcap::encoding_of(c, s);
     std::printf("  %-28s %8llu  %-14s %s (%s)\n", c.topic.c_str(), static_cast<unsigned long long>(counts[id]),
-                e != nullptr ? std::string(e->type).c_str() : "(not saccade's)", s != nullptr ? s->name.c_str() : "-",
+                e.ok() ? std::string((*e)->type).c_str() : "(not saccade's)", s != nullptr ? s->name.c_str() : "-",
                 s != nullptr ? s->encoding.c_str() : "-");
   }
-  if (r < 0) {
-    std::cerr << "error: " << error << "\n";
+  if (!read.ok()) {
+    std::cerr << "error: " << read.error() << "\n";
     return 1;
   }
   if (reader.skipped() > 0)
@@ -129,14 +127,14 @@ int record(const std::vector<std::string>& args) {
     std::cerr << "error: " << s.message() << "\n";
     return 1;
   }
-  std::string error;
-  auto recorder = mcap::attach_recorder(executor, path, options, error);
-  if (!recorder) {
-    std::cerr << "error: " << error << "\n";
+  Result<std::unique_ptr<mcap::GraphRecorder>> attached = mcap::attach_recorder(executor, path, options);
+  if (!attached.ok()) {
+    std::cerr << "error: " << attached.error() << "\n";
     return 1;
   }
+  const std::unique_ptr<mcap::GraphRecorder> recorder = std::move(attached).value();
   const Status s = executor.run();
-  const std::string why = recorder->finish();
+  const Status finished = recorder->finish();
   const double seconds = executor.elapsed_s();
   uint64_t frames = 0;
   for (const NodeStats* n : executor.stats()) frames = std::max<uint64_t>(frames, n->emitted.load());
@@ -148,8 +146,8 @@ int record(const std::vector<std::string>& args) {
     std::cerr << "error: " << s.message() << "\n";
     return 1;
   }
-  if (!why.empty()) {
-    std::cerr << "error: " << why << "\n";
+  if (!finished.ok()) {
+    std::cerr << "error: " << finished.message() << "\n";
     return 1;
   }
   return 0;
@@ -157,37 +155,40 @@ int record(const std::vector<std::string>& args) {
 
 std::string shorten(const std::string& value) { return value.size() > 160 ? value.substr(0, 157) + "..." : value; }
 
-// "" when the topic's messages are equal in both files, else the first difference.
-std::string compare_topic(const std::string& a, const std::string& b, const std::string& topic,
-                          const std::set<std::string>& ignored, uint64_t& compared) {
+// Ok when the topic's messages are equal in both files, else an error naming
+// the first difference (or why a file cannot be read). `compared`: the
+// messages compared equal.
+Status compare_topic(const std::string& a, const std::string& b, const std::string& topic,
+                     const std::set<std::string>& ignored, uint64_t& compared) {
   mcap::TopicReader readers[2];
   const std::string* paths[2] = {&a, &b};
   for (int k = 0; k < 2; ++k)
-    if (std::string why = readers[k].open(*paths[k], topic, false); !why.empty()) return why;
-  std::string json[2], error;
+    if (Status opened = readers[k].open(*paths[k], topic, false); !opened.ok()) return opened;
+  std::string json[2];
   for (compared = 0;; ++compared) {
     MessagePtr m[2];
     for (int k = 0; k < 2; ++k) {
-      m[k] = readers[k].next(error);
-      if (!error.empty()) return error;
+      Result<MessagePtr> next = readers[k].next();
+      if (!next.ok()) return next.status();
+      m[k] = std::move(next).value();
     }
     if (m[0] == nullptr && m[1] == nullptr) return {};
     const std::string where = topic + ": message " + std::to_string(compared);
     if (m[0] == nullptr || m[1] == nullptr)
-      return where + ": " + (m[0] == nullptr ? a : b) + " ends here, the other goes on";
+      return Status::error(where + ": " + (m[0] == nullptr ? a : b) + " ends here, the other goes on");
     for (int k = 0; k < 2; ++k) {
       json[k].clear();
       append_json(json[k], *m[k]);
     }
     // In the order the type names its fields, so the first difference is the first field that differs.
     const auto fa = nlohmann::ordered_json::parse(json[0]), fb = nlohmann::ordered_json::parse(json[1]);
-    if (fa.size() != fb.size()) return where + ": the messages have different fields";
+    if (fa.size() != fb.size()) return Status::error(where + ": the messages have different fields");
     for (auto field = fa.begin(); field != fa.end(); ++field) {
       const auto other = fb.find(field.key());
-      if (other == fb.end()) return where + ": the messages have different fields";
+      if (other == fb.end()) return Status::error(where + ": the messages have different fields");
       if (ignored.count(field.key()) != 0 || *field == *other) continue;
-      return where + " (frame " + std::to_string(m[0]->frame_id) + "): " + field.key() + " is " +
-             shorten(field->dump()) + " in " + a + ", " + shorten(other->dump()) + " in " + b;
+      return Status::error(where + " (frame " + std::to_string(m[0]->frame_id) + "): " + field.key() + " is " +
+                           shorten(field->dump()) + " in " + a + ", " + shorten(other->dump()) + " in " + b);
     }
   }
 }
@@ -210,8 +211,8 @@ int compare(const std::vector<std::string>& args) {
   if (topics.empty()) {
     mcap::Reader ra, rb;
     for (auto [reader, path] : {std::pair{&ra, &a}, std::pair{&rb, &b}}) {
-      if (std::string why = reader->open(*path); !why.empty()) {
-        std::cerr << "error: " << why << "\n";
+      if (Status opened = reader->open(*path); !opened.ok()) {
+        std::cerr << "error: " << opened.message() << "\n";
         return 1;
       }
     }
@@ -225,11 +226,11 @@ int compare(const std::vector<std::string>& args) {
   int status = 0;
   for (const std::string& topic : topics) {
     uint64_t compared = 0;
-    const std::string why = compare_topic(a, b, topic, ignored, compared);
-    if (why.empty()) {
+    const Status same = compare_topic(a, b, topic, ignored, compared);
+    if (same.ok()) {
       std::printf("%-28s %8llu messages, all equal\n", topic.c_str(), static_cast<unsigned long long>(compared));
     } else {
-      std::printf("%-28s differs: %s\n", topic.c_str(), why.c_str());
+      std::printf("%-28s differs: %s\n", topic.c_str(), same.message().c_str());
       status = 1;
     }
   }

@@ -23,7 +23,7 @@ struct MessageFile::Topic {
 MessageFile::MessageFile() = default;
 MessageFile::~MessageFile() { close(); }
 
-std::string MessageFile::open(const std::string& path, const WriterOptions& options) {
+Status MessageFile::open(const std::string& path, const WriterOptions& options) {
   std::lock_guard lock(mutex_);
   path_ = path;
   options_ = options;
@@ -38,16 +38,17 @@ MessageFile::Topic* MessageFile::topic(const std::string& name, const std::map<s
   return topics_.back().get();
 }
 
-std::string MessageFile::write(Topic* topic, const Message& message) {
+Status MessageFile::write(Topic* topic, const Message& message) {
   std::lock_guard lock(mutex_);
-  if (!writer_.is_open()) return "'" + path_ + "' is closed";
+  if (!writer_.is_open()) return Status::error("'" + path_ + "' is closed");
   const std::string_view type = message.type_name();
   Topic::Typed* typed = nullptr;
   for (auto& t : topic->channels)
     if (t.type == type) typed = &t;
   if (typed == nullptr) {
     const dds::ChannelEncoding* e = dds::channel_encoding(type);
-    if (e == nullptr) return "topic " + topic->name + ": " + std::string(type) + " has no channel encoding";
+    if (e == nullptr)
+      return Status::error("topic " + topic->name + ": " + std::string(type) + " has no channel encoding");
     uint16_t schema = 0;
     for (const auto& [name, id] : schemas_)
       if (name == e->schema_name) schema = id;
@@ -64,14 +65,14 @@ std::string MessageFile::write(Topic* topic, const Message& message) {
     topic->channels.push_back(std::move(t));
     typed = &topic->channels.back();
   }
-  if (std::string why = typed->encoder->encode(message, topic->bytes); !why.empty())
-    return "topic " + topic->name + ": " + why;
+  if (Status encoded = typed->encoder->encode(message, topic->bytes); !encoded.ok())
+    return Status::error("topic " + topic->name + ": " + encoded.message());
   return writer_.write(typed->channel, static_cast<uint32_t>(message.frame_id),
                        static_cast<uint64_t>(message.timestamp_ns), static_cast<uint64_t>(message.timestamp_ns),
                        topic->bytes.data(), topic->bytes.size());
 }
 
-std::string MessageFile::close() {
+Status MessageFile::close() {
   std::lock_guard lock(mutex_);
   if (!writer_.is_open()) return {};
   return writer_.close();
@@ -89,8 +90,8 @@ uint64_t MessageFile::bytes() const {
 
 // ---------------------------------------------------------------- GraphRecorder
 
-std::unique_ptr<GraphRecorder> attach_recorder(Executor& executor, const std::string& path,
-                                               const RecorderOptions& options, std::string& error) {
+Result<std::unique_ptr<GraphRecorder>> attach_recorder(Executor& executor, const std::string& path,
+                                                       const RecorderOptions& options) {
   std::unique_ptr<GraphRecorder> r(new GraphRecorder());
   r->options_ = options;
   if (r->options_.queue == 0) r->options_.queue = 1;
@@ -113,16 +114,10 @@ std::unique_ptr<GraphRecorder> attach_recorder(Executor& executor, const std::st
           found = true;
         }
       }
-      if (!found) {
-        error = "--record: no output '" + name + "' in the graph (node.port)";
-        return nullptr;
-      }
+      if (!found) return Status::error("--record: no output '" + name + "' in the graph (node.port)");
     }
   }
-  if (std::string why = r->file_.open(path, options.writer); !why.empty()) {
-    error = why;
-    return nullptr;
-  }
+  if (Status opened = r->file_.open(path, options.writer); !opened.ok()) return opened;
   r->ring_.resize(r->options_.queue);
   GraphRecorder* self = r.get();
   for (const auto& [n, p] : ports) {
@@ -131,12 +126,10 @@ std::unique_ptr<GraphRecorder> attach_recorder(Executor& executor, const std::st
     MessageFile::Topic* topic =
         r->file_.topic("/" + node.decl.name + "/" + port.name, {{"node", node.decl.name}, {"port", port.name}});
     r->topics_.push_back(topic);
-    if (std::string why =
+    if (Status tapped =
             executor.add_tap(node.decl.name, port.name, [self, topic](const MessagePtr& m) { self->push(topic, m); });
-        !why.empty()) {
-      error = "--record: " + why;
-      return nullptr;
-    }
+        !tapped.ok())
+      return Status::error("--record: " + tapped.message());
   }
   r->writer_ = std::thread([self] { self->run_writer(); });
   return r;
@@ -175,31 +168,31 @@ void GraphRecorder::run_writer() {
     --count_;
     lock.unlock();
     has_room_.notify_one();
-    const std::string why = file_.write(topic, *message);
+    const Status written = file_.write(topic, *message);
     message.reset();  // back to its pool, off the lock
     lock.lock();
-    if (why.empty()) {
+    if (written.ok()) {
       recorded_.fetch_add(1, std::memory_order_relaxed);
     } else {
       failed_.fetch_add(1, std::memory_order_relaxed);
-      if (first_error_.empty()) first_error_ = why;
+      if (first_error_.empty()) first_error_ = written.message();
     }
   }
 }
 
-std::string GraphRecorder::finish() {
+Status GraphRecorder::finish() {
   {
     std::lock_guard lock(mutex_);
-    if (finished_) return first_error_;
+    if (finished_) return first_error_.empty() ? Status() : Status::error(first_error_);
     finished_ = true;
     stopping_ = true;
   }
   has_items_.notify_all();
   has_room_.notify_all();
   if (writer_.joinable()) writer_.join();
-  const std::string why = file_.close();
-  if (first_error_.empty()) first_error_ = why;
-  return first_error_;
+  const Status closed = file_.close();
+  if (first_error_.empty()) first_error_ = closed.message();
+  return first_error_.empty() ? Status() : Status::error(first_error_);
 }
 
 GraphRecorder::~GraphRecorder() { finish(); }
@@ -223,16 +216,13 @@ std::string GraphRecorder::report() const {
 
 // ---------------------------------------------------------------- reading
 
-const dds::ChannelEncoding* encoding_of(const Channel& channel, const Schema* schema, std::string& why) {
-  if (schema == nullptr) {
-    why = "topic " + channel.topic + ": its channel names schema " + std::to_string(channel.schema_id) +
-          ", which the file does not have";
-    return nullptr;
-  }
-  if (channel.message_encoding != "cdr") {
-    why = "topic " + channel.topic + ": message encoding '" + channel.message_encoding + "' (saccade reads cdr)";
-    return nullptr;
-  }
+Result<const dds::ChannelEncoding*> encoding_of(const Channel& channel, const Schema* schema) {
+  if (schema == nullptr)
+    return Status::error("topic " + channel.topic + ": its channel names schema " + std::to_string(channel.schema_id) +
+                         ", which the file does not have");
+  if (channel.message_encoding != "cdr")
+    return Status::error("topic " + channel.topic + ": message encoding '" + channel.message_encoding +
+                         "' (saccade reads cdr)");
   const bool ros2 = schema->encoding == "ros2msg";
   if (auto it = channel.metadata.find("saccade_type"); it != channel.metadata.end()) {
     const dds::ChannelEncoding* e = dds::channel_encoding(it->second, ros2);
@@ -252,9 +242,8 @@ const dds::ChannelEncoding* encoding_of(const Channel& channel, const Schema* sc
       known += (known.empty() ? "" : ", ") + e->schema_name;
     }
   }
-  why = "topic " + channel.topic + ": schema '" + schema->name + "' (" + schema->encoding +
-        ") is not one saccade reads (it reads " + known + ")";
-  return nullptr;
+  return Status::error("topic " + channel.topic + ": schema '" + schema->name + "' (" + schema->encoding +
+                       ") is not one saccade reads (it reads " + known + ")");
 }
 
 TopicReader::TopicReader() = default;
@@ -277,13 +266,13 @@ std::string list_topics(const Reader& reader) {
 
 }  // namespace
 
-std::string TopicReader::add_topic(const std::string& path, const Channel& channel) {
+Status TopicReader::add_topic(const std::string& path, const Channel& channel) {
   for (const Played& t : topics_)
-    if (t.channel == channel.id) return path + ": topic '" + channel.topic + "' named twice";
-  std::string why;
+    if (t.channel == channel.id) return Status::error(path + ": topic '" + channel.topic + "' named twice");
+  const Result<const dds::ChannelEncoding*> encoding = encoding_of(channel, reader_.schema_of(channel));
+  if (!encoding.ok()) return Status::error(path + ": " + encoding.error());
   Played played;
-  played.encoding = encoding_of(channel, reader_.schema_of(channel), why);
-  if (played.encoding == nullptr) return path + ": " + why;
+  played.encoding = *encoding;
   played.decoder = dds::make_decoder(*played.encoding);
   played.ros2 = played.encoding->schema_encoding == "ros2msg";
   played.name = channel.topic;
@@ -292,31 +281,31 @@ std::string TopicReader::add_topic(const std::string& path, const Channel& chann
   return {};
 }
 
-std::string TopicReader::open(const std::string& path, const std::vector<std::string>& topics, bool salvage) {
+Status TopicReader::open(const std::string& path, const std::vector<std::string>& topics, bool salvage) {
   salvage_ = salvage;
   topics_.clear();
-  if (std::string why = reader_.open(path, salvage); !why.empty()) return why;
+  if (Status opened = reader_.open(path, salvage); !opened.ok()) return opened;
   if (topics.empty()) {
     if (reader_.channels().size() != 1)
-      return path + ": which topic? the file has " + (reader_.channels().empty() ? "none" : "several") +
-             "; its topics: " + list_topics(reader_);
-    if (std::string why = add_topic(path, reader_.channels().begin()->second); !why.empty()) return why;
+      return Status::error(path + ": which topic? the file has " + (reader_.channels().empty() ? "none" : "several") +
+                           "; its topics: " + list_topics(reader_));
+    if (Status added = add_topic(path, reader_.channels().begin()->second); !added.ok()) return added;
   }
   for (const std::string& name : topics) {
     const Channel* channel = reader_.find_channel(name);
-    if (channel == nullptr) return path + ": no topic '" + name + "'; its topics: " + list_topics(reader_);
-    if (std::string why = add_topic(path, *channel); !why.empty()) return why;
+    if (channel == nullptr)
+      return Status::error(path + ": no topic '" + name + "'; its topics: " + list_topics(reader_));
+    if (Status added = add_topic(path, *channel); !added.ok()) return added;
   }
   start_time_ = reader_.statistics() != nullptr ? reader_.statistics()->message_start_time : 0;
   rewind();
   if (reader_.statistics() == nullptr) {
     // No summary (salvaged): the first message of the file gives the start.
     Reader probe;
-    if (probe.open(path, true).empty()) {
+    if (probe.open(path, true).ok()) {
       probe.rewind({});
       MessageView v;
-      std::string ignored;
-      if (probe.next(v, ignored) == 1) start_time_ = v.log_time;
+      if (const Result<bool> read = probe.next(v); read.ok() && *read) start_time_ = v.log_time;
     }
   }
   return {};
@@ -329,24 +318,24 @@ void TopicReader::rewind() {
   reader_.rewind(options);
 }
 
-MessagePtr TopicReader::next(std::string& error, std::size_t* topic_index) {
+Result<MessagePtr> TopicReader::next(std::size_t* topic_index) {
   MessageView view;
   for (;;) {
-    const int r = reader_.next(view, error);
-    if (r <= 0) return nullptr;
+    const Result<bool> read = reader_.next(view);
+    if (!read.ok()) return read.status();
+    if (!*read) return MessagePtr();  // the end
     std::size_t index = 0;
     while (index < topics_.size() && topics_[index].channel != view.channel_id) ++index;
     if (index == topics_.size()) continue;  // a channel not asked for (the reader filters them already)
     Played& played = topics_[index];
-    std::string why;
-    MessagePtr m = played.decoder->decode(view.data, view.size, why);
-    if (m == nullptr) {
-      error = reader_.file_size() > 0 ? "topic " + played.name + ": the message at offset " +
-                                            std::to_string(view.offset) + " does not decode: " + why
-                                      : why;
+    Result<MessagePtr> decoded = played.decoder->decode(view.data, view.size);
+    if (!decoded.ok()) {
       if (salvage_) continue;
-      return nullptr;
+      if (reader_.file_size() == 0) return decoded.status();
+      return Status::error("topic " + played.name + ": the message at offset " + std::to_string(view.offset) +
+                           " does not decode: " + decoded.error());
     }
+    MessagePtr m = std::move(decoded).value();
     auto& mutable_message = const_cast<Message&>(*m);  // new, not shared yet
     mutable_message.timestamp_ns = static_cast<int64_t>(view.log_time);
     if (played.ros2) mutable_message.frame_id = view.sequence;

@@ -18,6 +18,7 @@
 
 #include "mcap.hpp"
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade {
 class Executor;
@@ -40,16 +41,17 @@ class MessageFile {
   MessageFile(const MessageFile&) = delete;
   MessageFile& operator=(const MessageFile&) = delete;
 
-  std::string open(const std::string& path, const WriterOptions& options);
+  // An error saying why the file cannot be written.
+  Status open(const std::string& path, const WriterOptions& options);
   // A topic to write on, kept until the file closes; `metadata` goes to each
   // of its channels (beside saccade_type, the message type).
   Topic* topic(const std::string& name, const std::map<std::string, std::string>& metadata = {});
   // Writes `message` on `topic`: log time and publish time are its timestamp,
   // the sequence its frame id. Its channel (schema described once per type)
-  // is made at the first message of its type. "" or what failed (a type with
-  // no encoding, a write error).
-  std::string write(Topic* topic, const Message& message);
-  std::string close();  // "" or the first write error
+  // is made at the first message of its type. An error saying what failed (a
+  // type with no encoding, a message that does not encode, a write error).
+  Status write(Topic* topic, const Message& message);
+  Status close();  // the file's first write error, if any
 
   uint64_t messages() const;
   uint64_t bytes() const;  // written to the file so far
@@ -86,8 +88,8 @@ class GraphRecorder {
   GraphRecorder& operator=(const GraphRecorder&) = delete;
 
   // After Executor::run(): writes what is queued, closes the file (summary,
-  // footer). "" or the first error (also in report()).
-  std::string finish();
+  // footer). The first error of the recording, if any (also in report()).
+  Status finish();
   uint64_t recorded() const { return recorded_.load(); }  // messages written
   uint64_t dropped() const { return dropped_.load(); }    // messages dropped on a full queue
   uint64_t failed() const { return failed_.load(); }      // messages that could not be encoded or written
@@ -98,8 +100,7 @@ class GraphRecorder {
   std::string report() const;
 
  private:
-  friend std::unique_ptr<GraphRecorder> attach_recorder(Executor&, const std::string&, const RecorderOptions&,
-                                                        std::string&);
+  friend Result<std::unique_ptr<GraphRecorder>> attach_recorder(Executor&, const std::string&, const RecorderOptions&);
   GraphRecorder() = default;
   void push(MessageFile::Topic* topic, const MessagePtr& message);
   void run_writer();
@@ -124,14 +125,15 @@ class GraphRecorder {
 // Taps every connected output port of `executor`'s graph (or options.ports)
 // and records what they emit to `path`. Call after Executor::open() and
 // before run(); call finish() (or destroy the recorder) after run().
-// nullptr with `error` when the file cannot be written or a port is unknown.
-std::unique_ptr<GraphRecorder> attach_recorder(Executor& executor, const std::string& path,
-                                               const RecorderOptions& options, std::string& error);
+// The running recorder, or an error when the file cannot be written or a
+// port is unknown.
+Result<std::unique_ptr<GraphRecorder>> attach_recorder(Executor& executor, const std::string& path,
+                                                       const RecorderOptions& options);
 
 // The saccade type a recorded channel carries: its saccade_type metadata, or
-// the type whose schema it names. nullptr with `why` for a schema saccade does
-// not read (it names the schema and what saccade reads).
-const dds::ChannelEncoding* encoding_of(const Channel& channel, const Schema* schema, std::string& why);
+// the type whose schema it names (never nullptr). An error for a schema
+// saccade does not read (it names the schema and what saccade reads).
+Result<const dds::ChannelEncoding*> encoding_of(const Channel& channel, const Schema* schema);
 
 // Reads recorded topics back as messages, in file order: one topic, or
 // several interleaved as they were written (a recorder writes in the order
@@ -140,17 +142,18 @@ class TopicReader {
  public:
   TopicReader();
   ~TopicReader();
-  // "" or what is wrong: the file (with the offset of the damage), no such
-  // topic (the error lists the file's topics), a schema saccade does not
-  // read, a topic named twice. No topics: the file's only topic.
-  std::string open(const std::string& path, const std::vector<std::string>& topics, bool salvage);
-  std::string open(const std::string& path, const std::string& topic, bool salvage) {
+  // An error saying what is wrong: the file (with the offset of the damage),
+  // no such topic (the error lists the file's topics), a schema saccade does
+  // not read, a topic named twice. No topics: the file's only topic.
+  Status open(const std::string& path, const std::vector<std::string>& topics, bool salvage);
+  Status open(const std::string& path, const std::string& topic, bool salvage) {
     return open(path, topic.empty() ? std::vector<std::string>{} : std::vector<std::string>{topic}, salvage);
   }
-  // The next message (timestamp = the log time), nullptr at the end or on an
-  // error (`error` set; with salvage, damaged parts are skipped instead).
-  // `topic_index`, when given, is set to the index of the message's topic.
-  MessagePtr next(std::string& error, std::size_t* topic_index = nullptr);
+  // The next message (timestamp = the log time), or nullptr at the end; an
+  // error naming the offset of a damaged part or of a message that does not
+  // decode (with salvage, both are skipped instead). `topic_index`, when
+  // given, is set to the index of the message's topic.
+  Result<MessagePtr> next(std::size_t* topic_index = nullptr);
   void rewind();
   std::size_t topic_count() const { return topics_.size(); }
   const std::string& topic(std::size_t index = 0) const { return topics_[index].name; }
@@ -166,7 +169,8 @@ class TopicReader {
     const dds::ChannelEncoding* encoding = nullptr;
     std::unique_ptr<dds::MessageDecoder> decoder;
   };
-  std::string add_topic(const std::string& path, const Channel& channel);
+  // Plays `channel` too; an error naming `path` when it cannot be played.
+  Status add_topic(const std::string& path, const Channel& channel);
   Reader reader_;
   std::vector<Played> topics_;
   bool salvage_ = false;

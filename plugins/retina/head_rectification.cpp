@@ -33,12 +33,13 @@ cv::Vec<double, 9> row_major(const cv::Matx33d& m) {
   return {m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)};
 }
 
-std::string fill(Rectification& out, const cv::Matx33d& camera, const std::vector<double>& distortion,
-                 const cv::Matx33d& rotation, const cv::Matx33d& rectified, double baseline, const char* which,
-                 const std::string& path) {
+// One camera's rectification into `out`; an error when its lens model is not OpenCV's.
+Status fill(Rectification& out, const cv::Matx33d& camera, const std::vector<double>& distortion,
+            const cv::Matx33d& rotation, const cv::Matx33d& rectified, double baseline, const char* which,
+            const std::string& path) {
   if (distortion.size() > 14)
-    return path + ": the " + which + " camera has " + std::to_string(distortion.size()) +
-           " distortion coefficients; at most 14 (OpenCV's models)";
+    return Status::error(path + ": the " + which + " camera has " + std::to_string(distortion.size()) +
+                         " distortion coefficients; at most 14 (OpenCV's models)");
   out.enabled = true;
   out.camera = row_major(camera);
   out.distortion = {};
@@ -75,16 +76,17 @@ std::pair<cv::Matx33d, cv::Matx33d> rectifying_rotations(const cv::Matx33d& rota
   return {turn * half.t(), turn * half};
 }
 
-std::string rectify_pair(const kinematics::HeadCalibration& calibration, const kinematics::HeadGeometry& geometry,
-                         const kinematics::HeadJoints& joints, PairRectification& out) {
-  if (calibration.image_size.area() <= 0) return calibration.path + ": no image size";
+Result<PairRectification> rectify_pair(const kinematics::HeadCalibration& calibration,
+                                       const kinematics::HeadGeometry& geometry, const kinematics::HeadJoints& joints) {
+  if (calibration.image_size.area() <= 0) return Status::error(calibration.path + ": no image size");
   const Pose at_zero{calibration.rotation, calibration.translation};
   const Pose now = at_zero * model_right_from_left(geometry, kinematics::HeadJoints{}).inverse() *
                    model_right_from_left(geometry, joints);
+  PairRectification out;
   out.rotation = now.rotation;
   out.translation = now.translation;
   const double baseline = cv::norm(now.translation);
-  if (baseline <= 0) return calibration.path + ": the cameras' centres coincide (baseline 0)";
+  if (baseline <= 0) return Status::error(calibration.path + ": the cameras' centres coincide (baseline 0)");
   const auto [r1, r2] = rectifying_rotations(now.rotation, now.translation);
   // The camera matrix is not cv::stereoRectify's, which zooms to keep only
   // valid pixels (alpha 0) or shrinks to keep them all: a verging head's
@@ -98,16 +100,20 @@ std::string rectify_pair(const kinematics::HeadCalibration& calibration, const k
   const cv::Matx33d& kr = calibration.right_matrix;
   const double f = std::min({kl(0, 0), kl(1, 1), kr(0, 0), kr(1, 1)});
   const cv::Vec3d axis_left = r1 * cv::Vec3d(0, 0, 1), axis_right = r2 * cv::Vec3d(0, 0, 1);
-  if (axis_left[2] <= 0 || axis_right[2] <= 0) return calibration.path + ": a camera looks backwards once rectified";
+  if (axis_left[2] <= 0 || axis_right[2] <= 0)
+    return Status::error(calibration.path + ": a camera looks backwards once rectified");
   const double cx = (kl(0, 2) + kr(0, 2)) / 2 - f * (axis_left[0] / axis_left[2] + axis_right[0] / axis_right[2]) / 2;
   const double cy = (kl(1, 2) + kr(1, 2)) / 2 - f * (axis_left[1] / axis_left[2] + axis_right[1] / axis_right[2]) / 2;
   const cv::Matx33d rectified(f, 0, cx, 0, f, cy, 0, 0, 1);
-  if (std::string e = fill(out.left, calibration.left_matrix, calibration.left_distortion, r1, rectified, baseline,
-                           "left", calibration.path);
-      !e.empty())
-    return e;
-  return fill(out.right, calibration.right_matrix, calibration.right_distortion, r2, rectified, baseline, "right",
-              calibration.path);
+  if (Status left = fill(out.left, calibration.left_matrix, calibration.left_distortion, r1, rectified, baseline,
+                         "left", calibration.path);
+      !left.ok())
+    return left;
+  if (Status right = fill(out.right, calibration.right_matrix, calibration.right_distortion, r2, rectified, baseline,
+                          "right", calibration.path);
+      !right.ok())
+    return right;
+  return out;
 }
 
 kinematics::HeadCalibration model_calibration(cv::Size size, double focal_px,

@@ -12,6 +12,7 @@
 #include "camera_calibration.hpp"
 #include "kinematics.hpp"
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::retina {
 
@@ -32,9 +33,10 @@ std::pair<cv::Matx33d, cv::Matx33d> rectifying_rotations(const cv::Matx33d& rota
 // the right camera's mount, and moves with it:
 //   T(q) = T_calibration(0) * T_model(0)^-1 * T_model(q),
 // with T_model(q) = right(q)^-1 * left(q) from the kinematics. At the joints'
-// zero this is the calibration's own pose. Returns "" or what is wrong.
-std::string rectify_pair(const kinematics::HeadCalibration& calibration, const kinematics::HeadGeometry& geometry,
-                         const kinematics::HeadJoints& joints, PairRectification& out);
+// zero this is the calibration's own pose. The pair's rectification, or an
+// error naming the calibration and what is wrong.
+Result<PairRectification> rectify_pair(const kinematics::HeadCalibration& calibration,
+                                       const kinematics::HeadGeometry& geometry, const kinematics::HeadJoints& joints);
 
 // The head's cameras as the model sees them: pinhole cameras of `focal_px`
 // centred on the image, no distortion, their relative pose at zero from the

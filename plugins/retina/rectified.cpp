@@ -117,11 +117,11 @@ RectifiedMap::RectifiedMap(const Rectification& rectification) : rectification_(
                     kr = matrix(rectification.rectified);
   if (std::abs(cv::determinant(k)) < 1e-12 || std::abs(cv::determinant(kr)) < 1e-12 ||
       std::abs(cv::determinant(r)) < 1e-9) {
-    problem_ = "a singular camera, rectified camera or rotation matrix";
+    status_ = Status::error("a singular camera, rectified camera or rotation matrix");
     return;
   }
   if (rectification.distortion[12] != 0 || rectification.distortion[13] != 0)
-    problem_ = "a tilted sensor (distortion coefficients 13 and 14) is not supported";
+    status_ = Status::error("a tilted sensor (distortion coefficients 13 and 14) is not supported");
   ray_from_rectified_ =
       r.inv() * kr.inv();  // inv, not the transpose: a rotation read from text is not quite orthonormal
   rectified_from_ray_ = kr * r;
@@ -178,10 +178,11 @@ void sample_level(const cv::Mat& frame, const RectifiedMap& map, double x0, doub
     sample_level_with<3>(frame, map, x0, y0, step_x, step_y, size, crop, out);
 }
 
-std::string sample_rectified(const RetinaConfig& config, const cv::Mat& frame, const RectifiedMap& map,
-                             cv::Point2d fovea, Retina& out) {
-  if (!map.problem().empty()) return "rectified sampling: " + map.problem();
-  if (config.mode != SamplingMode::kFivePoint) return "rectified sampling uses the five-point rule (mode five_point)";
+Status sample_rectified(const RetinaConfig& config, const cv::Mat& frame, const RectifiedMap& map, cv::Point2d fovea,
+                        Retina& out) {
+  if (!map.status().ok()) return Status::error("rectified sampling: " + map.status().message());
+  if (config.mode != SamplingMode::kFivePoint)
+    return Status::error("rectified sampling uses the five-point rule (mode five_point)");
   const cv::Point2d at = map.to_rectified(fovea);
   retina_geometry(config, frame.size(), at, out.geometry);
   out.levels.resize(out.geometry.size());

@@ -16,6 +16,7 @@
 
 #include "retina.hpp"
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::retina {
 
@@ -24,9 +25,9 @@ namespace saccade::retina {
 class RectifiedMap {
  public:
   explicit RectifiedMap(const Rectification& rectification);
-  // "" or why the rectification cannot be sampled (tilted sensor model, a
-  // singular matrix).
-  const std::string& problem() const { return problem_; }
+  // Ok, or an error saying why the rectification cannot be sampled (tilted
+  // sensor model, a singular matrix).
+  const Status& status() const { return status_; }
   // The source position of rectified point p; false when it lies behind the camera.
   bool to_source(cv::Point2d rectified, cv::Point2d& source) const;
   // The rectified position of source point p (the lens model inverted iteratively).
@@ -41,7 +42,7 @@ class RectifiedMap {
   cv::Matx33d rectified_from_ray_;  // rectified * rotation
   double fx_ = 1, fy_ = 1, cx_ = 0, cy_ = 0, skew_ = 0;
   bool distorted_ = false;
-  std::string problem_;
+  Status status_;
 };
 
 // One level on the rectified grid, as sample_level does on the plain one:
@@ -53,9 +54,9 @@ void sample_level(const cv::Mat& frame, const RectifiedMap& map, double x0, doub
 
 // A whole retina on the rectified grid: the fovea (source pixels) is mapped to
 // the rectified image and the levels laid out around it as the plain retina
-// lays them out on the frame. Five-point sampling only. Returns "" or what is
-// wrong.
-std::string sample_rectified(const RetinaConfig& config, const cv::Mat& frame, const RectifiedMap& map,
-                             cv::Point2d fovea, Retina& out);
+// lays them out on the frame. Five-point sampling only. An error says why the
+// map or the configuration cannot be sampled.
+Status sample_rectified(const RetinaConfig& config, const cv::Mat& frame, const RectifiedMap& map, cv::Point2d fovea,
+                        Retina& out);
 
 }  // namespace saccade::retina

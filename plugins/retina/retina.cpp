@@ -181,13 +181,14 @@ RetinaSampler::RetinaSampler(RetinaConfig config) : config_(config) {
   sums_.resize(static_cast<std::size_t>(config_.size.width));
 }
 
-std::string RetinaSampler::check(const cv::Mat& frame) const {
-  if (frame.empty()) return "empty frame";
+Status RetinaSampler::check(const cv::Mat& frame) const {
+  if (frame.empty()) return Status::error("empty frame");
   if (frame.depth() != CV_8U || (frame.channels() != 1 && frame.channels() != 3))
-    return "expected an 8-bit gray or BGR frame, got type " + cv::typeToString(frame.type());
+    return Status::error("expected an 8-bit gray or BGR frame, got type " + cv::typeToString(frame.type()));
   if (frame.cols < config_.size.width || frame.rows < config_.size.height)
-    return "frame " + std::to_string(frame.cols) + "x" + std::to_string(frame.rows) + " is smaller than a level (" +
-           std::to_string(config_.size.width) + "x" + std::to_string(config_.size.height) + ")";
+    return Status::error("frame " + std::to_string(frame.cols) + "x" + std::to_string(frame.rows) +
+                         " is smaller than a level (" + std::to_string(config_.size.width) + "x" +
+                         std::to_string(config_.size.height) + ")");
   return {};
 }
 

@@ -19,6 +19,7 @@
 #include <opencv2/core.hpp>
 
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::retina {
 
@@ -58,8 +59,8 @@ void sample_level(const cv::Mat& frame, double x0, double y0, double step_x, dou
 class RetinaSampler {
  public:
   explicit RetinaSampler(RetinaConfig config);
-  // Checks the frame against the configuration ("" when it fits).
-  std::string check(const cv::Mat& frame) const;
+  // Checks the frame against the configuration: ok when it fits, else why not.
+  Status check(const cv::Mat& frame) const;
   // Samples `frame` (8-bit, 1 or 3 channels) into `levels` and fills `geometry`.
   void sample(const cv::Mat& frame, cv::Point2d fovea, std::vector<cv::Mat>& levels,
               std::vector<LevelGeometry>& geometry);

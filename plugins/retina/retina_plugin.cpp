@@ -79,8 +79,9 @@ class RetinaNode final : public Node {
     if (config_.rectify) {
       if (config.mode != SamplingMode::kFivePoint) return Status::error("rectify needs mode five_point");
       if (!config_.calibration.empty()) {
-        if (std::string e = kinematics::read_head_calibration(config_.calibration, calibration_); !e.empty())
-          return Status::error(e);
+        Result<kinematics::HeadCalibration> read = kinematics::read_head_calibration(config_.calibration);
+        if (!read.ok()) return read.status();
+        calibration_ = std::move(read).value();
         if (calibration_.left_distortion.size() > 14 || calibration_.right_distortion.size() > 14)
           return Status::error(config_.calibration + ": more than 14 distortion coefficients");
       }
@@ -97,7 +98,7 @@ class RetinaNode final : public Node {
       cv::cvtColor(*frame, gray_frame_, cv::COLOR_BGR2GRAY);
       frame = &gray_frame_;
     }
-    if (std::string e = sampler_->check(*frame); !e.empty()) return Status::error(e);
+    if (Status fits = sampler_->check(*frame); !fits.ok()) return fits;
     cv::Point2d fovea(frame->cols / 2.0, frame->rows / 2.0);
     if (initial_fovea_) fovea = *initial_fovea_;
     if (auto f = ctx.get(kFovea)) fovea = f->center;
@@ -108,8 +109,8 @@ class RetinaNode final : public Node {
                       retina->levels);
     if (config_.rectify) {
       if (Status st = update_rectification(ctx, frame->size(), image->camera_id); !st.ok()) return st;
-      if (std::string e = sample_rectified(config_.retina, *frame, *map_, fovea, *retina); !e.empty())
-        return Status::error(e);
+      if (Status sampled = sample_rectified(config_.retina, *frame, *map_, fovea, *retina); !sampled.ok())
+        return sampled;
     } else {
       sampler_->sample(*frame, fovea, *retina);
     }
@@ -130,7 +131,7 @@ class RetinaNode final : public Node {
         q = {p[0], p[1], p[2], p[3], p[4]};
       else
         short_joints_->fetch_add(1, std::memory_order_relaxed);
-      if (std::string e = check_joints(q); !e.empty()) return Status::error(e);
+      if (Status finite = check_joints(q); !finite.ok()) return finite;
     }
     const bool same = map_ && frame == rectified_size_ && camera_id == rectified_camera_ && q.neck == joints_.neck &&
                       q.vergence_left == joints_.vergence_left && q.tilt_left == joints_.tilt_left &&
@@ -139,25 +140,26 @@ class RetinaNode final : public Node {
     if (config_.calibration.empty()) {
       const double focal = (frame.width / 2.0) / std::tan(config_.model_hfov_deg * CV_PI / 360.0);
       calibration_ = model_calibration(frame, focal, config_.geometry);
-    } else if (std::string e = kinematics::check_frame_size(calibration_, frame); !e.empty()) {
-      return Status::error(e);
+    } else if (Status fits = kinematics::check_frame_size(calibration_, frame); !fits.ok()) {
+      return fits;
     }
     if (camera_id != 0 && camera_id != 1)
       return Status::error("rectify: the image's camera_id is " + std::to_string(camera_id) +
                            "; a stereo pair's cameras are 0 (left) and 1 (right)");
-    PairRectification pair;
-    if (std::string e = rectify_pair(calibration_, config_.geometry, q, pair); !e.empty()) return Status::error(e);
-    map_.emplace(camera_id == 0 ? pair.left : pair.right);
-    if (!map_->problem().empty()) return Status::error(calibration_.path + ": " + map_->problem());
+    const Result<PairRectification> pair = rectify_pair(calibration_, config_.geometry, q);
+    if (!pair.ok()) return pair.status();
+    map_.emplace(camera_id == 0 ? pair->left : pair->right);
+    if (!map_->status().ok()) return Status::error(calibration_.path + ": " + map_->status().message());
     joints_ = q;
     rectified_size_ = frame;
     rectified_camera_ = camera_id;
     return {};
   }
 
-  // A joint that is not a number cannot be rectified for; one beyond the
-  // head's usual limits is warned about once (the head node has the real ones).
-  std::string check_joints(const kinematics::HeadJoints& q) {
+  // A joint that is not a number cannot be rectified for (an error); one
+  // beyond the head's usual limits is warned about once (the head node has
+  // the real ones).
+  Status check_joints(const kinematics::HeadJoints& q) {
     const std::pair<const char*, double> joints[] = {{"neck", q.neck},
                                                      {"vergence_left", q.vergence_left},
                                                      {"tilt_left", q.tilt_left},
@@ -168,7 +170,8 @@ class RetinaNode final : public Node {
                             limits.tilt_max};
     for (std::size_t i = 0; i < 5; ++i) {
       const auto& [name, value] = joints[i];
-      if (!std::isfinite(value)) return std::string("rectify: joint ") + name + " is " + std::to_string(value);
+      if (!std::isfinite(value))
+        return Status::error(std::string("rectify: joint ") + name + " is " + std::to_string(value));
       if (std::abs(value) > bound[i] && !warned_limits_) {
         warned_limits_ = true;
         log().warn("retina: rectifying for joint {} at {} rad, beyond the head's usual +-{} rad", name, value,

@@ -101,7 +101,11 @@ class Snapshot final : public Node {
  private:
   Status write(const std::string& what, int64_t frame, const cv::Mat& image) {
     const std::string path = file_name(what, frame) + ".png";
-    if (image.empty() || !cv::imwrite(path, image)) return Status::error("cannot write " + path);
+    bool written = false;
+    try {  // OpenCV throws for an image its PNG encoder cannot take
+      written = !image.empty() && cv::imwrite(path, image);
+    } catch (const cv::Exception& e) { return Status::error("cannot write " + path + ": " + e.what()); }
+    if (!written) return Status::error("cannot write " + path);
     ++written_;
     return {};
   }

@@ -134,22 +134,24 @@ void RetinaStereo::sample_frame(const cv::Mat& frame, bool right, double x0, dou
     retina::sample_level(frame, x0, y0, step_x, step_y, size, crop, out);
 }
 
-std::string RetinaStereo::take_rectification(const Retina& left, const Retina& right) {
+Status RetinaStereo::take_rectification(const Retina& left, const Retina& right) {
   const Rectification& l = left.rectification;
   const Rectification& r = right.rectification;
   if (l.enabled != r.enabled)
-    return std::string("the ") + (l.enabled ? "left" : "right") + " retina is rectified and the other is not";
+    return Status::error(std::string("the ") + (l.enabled ? "left" : "right") +
+                         " retina is rectified and the other is not");
   if (!l.enabled) {
     left_map_.reset();
     right_map_.reset();
     return {};
   }
   if (l.rectified != r.rectified || l.baseline != r.baseline)
-    return "the left and right retinas were rectified for different poses (their rectified cameras differ)";
+    return Status::error(
+        "the left and right retinas were rectified for different poses (their rectified cameras differ)");
   if (!left_map_ || !(left_map_->rectification() == l)) left_map_ = std::make_shared<retina::RectifiedMap>(l);
   if (!right_map_ || !(right_map_->rectification() == r)) right_map_ = std::make_shared<retina::RectifiedMap>(r);
-  if (!left_map_->problem().empty()) return "left retina: " + left_map_->problem();
-  if (!right_map_->problem().empty()) return "right retina: " + right_map_->problem();
+  if (!left_map_->status().ok()) return Status::error("left retina: " + left_map_->status().message());
+  if (!right_map_->status().ok()) return Status::error("right retina: " + right_map_->status().message());
   return {};
 }
 
@@ -409,14 +411,14 @@ const cv::Mat* gray_frame(const Retina& retina, cv::Mat& buffer) {
   return &buffer;
 }
 
-// "" when level k of the two retinas can be matched, or what is wrong.
-std::string check_level(const Retina& left, const Retina& right, std::size_t k, int& region_shift,
-                        bool& right_on_left_rows) {
+// Ok when level k of the two retinas can be matched, else what is wrong.
+Status check_level(const Retina& left, const Retina& right, std::size_t k, int& region_shift,
+                   bool& right_on_left_rows) {
   const LevelGeometry& gl = left.geometry[k];
   const LevelGeometry& gr = right.geometry[k];
   if (left.levels[k].size() != right.levels[k].size() || left.levels[k].type() != CV_8UC1 ||
       right.levels[k].type() != CV_8UC1)
-    return "level " + std::to_string(k) + ": expected 8-bit gray levels of one size";
+    return Status::error("level " + std::to_string(k) + ": expected 8-bit gray levels of one size");
   const double shift = (gl.region.x - gr.region.x) / gl.step_x;
   region_shift = static_cast<int>(std::lround(shift));
   const bool same_rows =
@@ -430,8 +432,9 @@ std::string check_level(const Retina& left, const Retina& right, std::size_t k, 
     region_shift = 0;
     return {};
   }
-  if (!same_rows) return "level " + std::to_string(k) + ": left and right regions differ in step or rows";
-  return "level " + std::to_string(k) + ": the right region is shifted by a fraction of a level pixel";
+  if (!same_rows)
+    return Status::error("level " + std::to_string(k) + ": left and right regions differ in step or rows");
+  return Status::error("level " + std::to_string(k) + ": the right region is shifted by a fraction of a level pixel");
 }
 
 // Level pixels of margin on each side of the level in its padded images.
@@ -652,11 +655,11 @@ void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan,
   if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[plan.k]);
 }
 
-std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out) {
+Status RetinaStereo::run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out) {
   if (left.levels.size() != right.levels.size() || left.levels.empty())
-    return "left and right retinas differ in levels";
+    return Status::error("left and right retinas differ in levels");
   const std::size_t n = left.levels.size();
-  if (std::string error = take_rectification(left, right); !error.empty()) return error;
+  if (Status taken = take_rectification(left, right); !taken.ok()) return taken;
   out.resize(n);
   const cv::Mat* right_frame = gray_frame(right, right_gray_);
   const cv::Mat* left_frame = config_.pad > 0 ? gray_frame(left, left_gray_) : nullptr;
@@ -671,8 +674,8 @@ std::string RetinaStereo::run(const Retina& left, const Retina& right, std::vect
     plan.k = k;
     plan.innermost = k + 1 == n;
     plan.padded = padded;
-    if (std::string error = check_level(left, right, k, plan.region_shift, plan.right_on_left_rows); !error.empty())
-      return error;
+    if (Status level = check_level(left, right, k, plan.region_shift, plan.right_on_left_rows); !level.ok())
+      return level;
     plan_level(left, right, right_frame, plan, out[k]);
     const LevelImages images =
         padded ? padded_images(plan, out, left, right, *left_frame, *right_frame) : level_images(plan, out, left);
@@ -766,39 +769,54 @@ double fill_holes(cv::Mat& disparity, cv::Mat& score, double fallback) {
   return static_cast<double>(known) / static_cast<double>(disparity.total());
 }
 
-std::string read_calibration(const std::string& path, StereoCalibration& out) {
-  cv::FileStorage fs;
-  try {
-    if (!fs.open(path, cv::FileStorage::READ)) return "cannot open calibration file '" + path + "'";
-  } catch (const cv::Exception& e) { return "calibration file '" + path + "': " + e.what(); }
+namespace {
+
+// Focal length and baseline from whichever of Q, P2 or M1 with T the open file holds.
+Result<StereoCalibration> calibration_from(const cv::FileStorage& fs, const std::string& path) {
   auto matrix = [&](const char* name) {
     cv::Mat m;
     if (!fs[name].empty()) fs[name] >> m;
     if (!m.empty()) m.convertTo(m, CV_64F);
     return m;
   };
+  StereoCalibration out;
   // The images it was made for, when the file says (saccade calibrate's does).
   if (!fs["image_width"].empty() && !fs["image_height"].empty())
     out.image_size = {static_cast<int>(fs["image_width"]), static_cast<int>(fs["image_height"])};
   out.path = path;
+  const std::string file = "calibration file '" + path + "': ";
   if (cv::Mat q = matrix("Q"); q.rows == 4 && q.cols == 4 && q.at<double>(3, 2) != 0) {
     // Q maps (x, y, d, 1) to (X, Y, Z, W): Z/W = Q(2,3) / (Q(3,2) d + Q(3,3)).
     out.focal_px = q.at<double>(2, 3);
     out.baseline_m = std::abs(1.0 / q.at<double>(3, 2));
-    return out.valid() ? std::string() : "calibration file '" + path + "': Q gives no positive focal length";
+    if (!out.valid()) return Status::error(file + "Q gives no positive focal length");
+    return out;
   }
   if (cv::Mat p2 = matrix("P2"); p2.rows == 3 && p2.cols == 4 && p2.at<double>(0, 0) > 0) {
     out.focal_px = p2.at<double>(0, 0);
     out.baseline_m = std::abs(p2.at<double>(0, 3) / p2.at<double>(0, 0));
-    return out.valid() ? std::string() : "calibration file '" + path + "': P2 gives no baseline";
+    if (!out.valid()) return Status::error(file + "P2 gives no baseline");
+    return out;
   }
   cv::Mat m1 = matrix("M1"), t = matrix("T");
   if (m1.rows == 3 && m1.cols == 3 && t.total() == 3) {
     out.focal_px = m1.at<double>(0, 0);
     out.baseline_m = cv::norm(t);
-    return out.valid() ? std::string() : "calibration file '" + path + "': M1 and T give no focal length or baseline";
+    if (!out.valid()) return Status::error(file + "M1 and T give no focal length or baseline");
+    return out;
   }
-  return "calibration file '" + path + "': expected Q (4x4), P2 (3x4), or M1 (3x3) with T (3x1)";
+  return Status::error(file + "expected Q (4x4), P2 (3x4), or M1 (3x3) with T (3x1)");
+}
+
+}  // namespace
+
+Result<StereoCalibration> read_calibration(const std::string& path) {
+  // OpenCV throws on a file it cannot parse and on a key that is not a matrix.
+  try {
+    cv::FileStorage fs;
+    if (!fs.open(path, cv::FileStorage::READ)) return Status::error("cannot open calibration file '" + path + "'");
+    return calibration_from(fs, path);
+  } catch (const cv::Exception& e) { return Status::error("calibration file '" + path + "': " + e.what()); }
 }
 
 }  // namespace saccade::stereo

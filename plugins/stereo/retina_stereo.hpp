@@ -10,6 +10,7 @@
 
 #include "ncc.hpp"
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::retina {
 class RectifiedMap;
@@ -113,9 +114,9 @@ struct StereoCalibration {
 // Reads focal length and baseline from an OpenCV calibration file (YAML or
 // XML, as written by cv::stereoCalibrate / stereoRectify and OpenCV's
 // stereo_calib sample): Q (the reprojection matrix), or P2 (the right
-// rectified projection, P2(0,3) = -f B), or M1 with T. Returns "" or what is
-// missing.
-std::string read_calibration(const std::string& path, StereoCalibration& out);
+// rectified projection, P2(0,3) = -f B), or M1 with T. The calibration, or an
+// error naming the file and what is missing.
+Result<StereoCalibration> read_calibration(const std::string& path);
 
 // Fills unmatched pixels (score <= 0) row by row from the nearest matched ones
 // (the smaller of the two disparities), or with `fallback` (>= 0) on rows
@@ -142,8 +143,8 @@ double fill_occlusions(cv::Mat& disparity, cv::Mat& score, double step, int slac
 class RetinaStereo {
  public:
   explicit RetinaStereo(RetinaStereoConfig config) : config_(config) {}
-  // Fills one LevelDisparity per level; returns "" or what is wrong with the pair.
-  std::string run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out);
+  // Fills one LevelDisparity per level; an error says what is wrong with the pair.
+  Status run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out);
   // The fixation disparity of the last run (with vergence).
   const Fixation& fixation() const { return fixation_; }
   // Finds the fixation disparity, coarse to fine, by correlating the central
@@ -178,8 +179,9 @@ class RetinaStereo {
   // rectified one when the retinas were rectified (rectified.hpp).
   void sample_frame(const cv::Mat& frame, bool right, double x0, double y0, double step_x, double step_y, cv::Size size,
                     bool crop, cv::Mat& out) const;
-  // "" or why the pair's rectifications do not match; keeps their maps.
-  std::string take_rectification(const Retina& left, const Retina& right);
+  // Keeps the pair's rectified maps; an error says why their rectifications
+  // do not match or cannot be sampled.
+  Status take_rectification(const Retina& left, const Retina& right);
   int correlate_window(const cv::Mat& window, const cv::Mat& strip, double wm, double ws, int s_lo, int s_hi);
   // The fixation search's best shift (level pixels, sub-pixel) of the left
   // level's `window` over the right frame within `span`, and its NCC.

@@ -129,7 +129,9 @@ class StereoNode final : public Node {
     if (c.stereo.ncc.p2 < c.stereo.ncc.p1) return Status::error("sgm_p2 must not be smaller than sgm_p1");
     calibration_ = c.calibration;
     if (!c.calibration_file.empty()) {
-      if (std::string e = read_calibration(c.calibration_file, calibration_); !e.empty()) return Status::error(e);
+      Result<StereoCalibration> read = read_calibration(c.calibration_file);
+      if (!read.ok()) return read.status();
+      calibration_ = std::move(read).value();
     } else if ((calibration_.focal_px > 0) != (calibration_.baseline_m > 0)) {
       return Status::error("depth needs both focal and baseline (or a calibration file)");
     }
@@ -147,7 +149,7 @@ class StereoNode final : public Node {
       return Status::error(calibration_.path + " was made for " + std::to_string(calibration_.image_size.width) + "x" +
                            std::to_string(calibration_.image_size.height) + " images; the left retina's frame is " +
                            std::to_string(l->source_size.width) + "x" + std::to_string(l->source_size.height));
-    if (std::string e = stereo_->run(*l, *r, levels_); !e.empty()) return Status::error(e);
+    if (Status matched = stereo_->run(*l, *r, levels_); !matched.ok()) return matched;
     const DepthModel model = depth_model(*l, calibration_);
     auto maps = ctx.make(kMaps);
     maps->retina = l;

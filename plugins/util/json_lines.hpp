@@ -18,15 +18,15 @@ namespace saccade::util {
 // steady-state writes allocate nothing.
 class JsonLinesWriter {
  public:
-  // Empty on success, else why the file cannot be written.
+  // Ok, or an error saying why the file cannot be written.
   // Creates the file's folder when missing, as the snapshot sink does.
-  std::string open(const std::string& path) {
+  Status open(const std::string& path) {
     const std::filesystem::path folder = std::filesystem::path(path).parent_path();
     std::error_code ec;
     if (!folder.empty()) std::filesystem::create_directories(folder, ec);
-    if (ec) return "cannot create the folder of '" + path + "': " + ec.message();
+    if (ec) return Status::error("cannot create the folder of '" + path + "': " + ec.message());
     file_.reset(std::fopen(path.c_str(), "w"));
-    if (!file_) return "cannot write '" + path + "': " + std::strerror(errno);
+    if (!file_) return Status::error("cannot write '" + path + "': " + std::strerror(errno));
     line_.reserve(4096);
     return {};
   }
@@ -71,8 +71,7 @@ class JsonLines final : public Node {
     path_ = ctx.params().get_string("path");
     flush_ = ctx.params().get_bool("flush");
     write_errors_ = &ctx.counter("write_errors");
-    if (std::string why = writer_.open(path_); !why.empty()) return Status::error(why);
-    return {};
+    return writer_.open(path_);
   }
   Status process(ProcessContext& ctx) override {
     if (!writer_.write(*ctx.get(kIn), flush_)) write_errors_->fetch_add(1, std::memory_order_relaxed);

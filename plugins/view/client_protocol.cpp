@@ -96,17 +96,17 @@ bool parse_message_data(const uint8_t* data, std::size_t size, uint32_t& channel
   return true;
 }
 
-std::string parse_region_json(const uint8_t* data, std::size_t size, Region& region) {
+Status parse_region_json(const uint8_t* data, std::size_t size, Region& region) {
   const json m = json::parse(data, data + size, nullptr, false);
-  if (m.is_discarded() || !m.is_object()) return "a Region needs 'center': {'x', 'y'}";
+  if (m.is_discarded() || !m.is_object()) return Status::error("a Region needs 'center': {'x', 'y'}");
   auto center = m.find("center");
   if (center == m.end() || !center->is_object() || !number(*center, "x", region.center.x) ||
       !number(*center, "y", region.center.y))
-    return "a Region needs 'center': {'x', 'y'}";
+    return Status::error("a Region needs 'center': {'x', 'y'}");
   if (auto s = m.find("size"); s != m.end()) {
     if (!s->is_object() || !number(*s, "width", region.size.width) || !number(*s, "height", region.size.height) ||
         region.size.width < 0 || region.size.height < 0)
-      return "a Region's 'size' needs 'width' and 'height' >= 0";
+      return Status::error("a Region's 'size' needs 'width' and 'height' >= 0");
   }
   if (auto label = m.find("label"); label != m.end() && label->is_string()) region.label = label->get<std::string>();
   if (auto camera = m.find("camera_id"); camera != m.end() && camera->is_number_integer())

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::view {
 
@@ -41,8 +42,8 @@ ClientRequest parse_client_text(std::string_view text);
 // 4 bytes little-endian, the payload after byte 5). false when it is not.
 bool parse_message_data(const uint8_t* data, std::size_t size, uint32_t& channel_id);
 
-// The JSON Region a client publishes (a messageData payload): "" with
-// `region` filled, or why it is not a Region.
-std::string parse_region_json(const uint8_t* data, std::size_t size, Region& region);
+// The JSON Region a client publishes (a messageData payload) into `region`
+// (a message to fill), or an error saying why it is not a Region.
+Status parse_region_json(const uint8_t* data, std::size_t size, Region& region);
 
 }  // namespace saccade::view

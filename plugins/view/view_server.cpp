@@ -140,7 +140,8 @@ class Server final : public ViewServer {
   Server(Executor& executor, ViewOptions options) : executor_(executor), options_(std::move(options)) {}
   ~Server() override { stop(); }
 
-  std::string start();
+  // Ok when listening with every output tapped; else the error naming the address or output.
+  Status start();
   int port() const override { return port_; }
   std::string url() const override {
     const bool v6 = options_.address.find(':') != std::string::npos;
@@ -184,7 +185,7 @@ class Server final : public ViewServer {
     if (it == targets_.end()) return std::nullopt;
     return it->second;
   }
-  std::string inject(const Target& target, MessagePtr message) {
+  Status inject(const Target& target, MessagePtr message) {
     return executor_.inject(target.node, target.input, std::move(message));
   }
   void joined(const std::shared_ptr<WsSession>& s) {
@@ -354,13 +355,12 @@ void WsSession::on_binary(const uint8_t* data, std::size_t size) {
     return;
   }
   auto region = std::make_shared<Region>();
-  if (std::string why = parse_region_json(data + 5, size - 5, *region); !why.empty()) return malformed(why);
-  const std::string why = server_.inject(*it->second, region);
-  if (why.empty()) {
+  if (Status s = parse_region_json(data + 5, size - 5, *region); !s.ok()) return malformed(s.message());
+  if (Status s = server_.inject(*it->second, region); s.ok()) {
     server_.stats().injected.fetch_add(1);
   } else {
     server_.stats().inject_refused.fetch_add(1);
-    send_text(json{{"op", "status"}, {"level", 2}, {"message", why}}.dump());
+    send_text(json{{"op", "status"}, {"level", 2}, {"message", s.message()}}.dump());
   }
 }
 
@@ -491,25 +491,25 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
 // ---------------------------------------------------------------- Server
 
-std::string Server::start() {
+Status Server::start() {
   build_channels();
   beast::error_code ec;
   const net::ip::address address = net::ip::make_address(options_.address, ec);
-  if (ec) return "view: bad address '" + options_.address + "'";
+  if (ec) return Status::error("view: bad address '" + options_.address + "'");
   const tcp::endpoint endpoint(address, static_cast<unsigned short>(options_.port));
   const std::string where = options_.address + ":" + std::to_string(options_.port);
   acceptor_.open(endpoint.protocol(), ec);
   if (!ec) acceptor_.set_option(net::socket_base::reuse_address(true), ec);
   if (!ec) acceptor_.bind(endpoint, ec);
-  if (ec == net::error::address_in_use) return "view: cannot listen on " + where + ": the port is in use";
   if (!ec) acceptor_.listen(net::socket_base::max_listen_connections, ec);
-  if (ec == net::error::address_in_use) return "view: cannot listen on " + where + ": the port is in use";
-  if (ec) return "view: cannot listen on " + where + ": " + ec.message();
+  if (ec == net::error::address_in_use)
+    return Status::error("view: cannot listen on " + where + ": the port is in use");
+  if (ec) return Status::error("view: cannot listen on " + where + ": " + ec.message());
   port_ = acceptor_.local_endpoint().port();
 
   for (auto& s : sources_) {
     Source* source = s.get();
-    const std::string why = executor_.add_tap(source->node, source->port, [source](const MessagePtr& m) {
+    const Status tapped = executor_.add_tap(source->node, source->port, [source](const MessagePtr& m) {
       if (source->interest.load(std::memory_order_relaxed) == 0) return;
       MessagePtr old;
       {
@@ -518,7 +518,7 @@ std::string Server::start() {
         ++source->seq;
       }
     });
-    if (!why.empty()) return "view: " + why;
+    if (!tapped.ok()) return Status::error("view: " + tapped.message());
   }
   accept();
   io_thread_ = std::thread([this] { ioc_.run(); });
@@ -696,7 +696,7 @@ bool Server::encode(Channel& c, const Message& m, Payload& p, std::vector<uint8_
   switch (c.kind) {
     case Kind::kCdr:
       if (!c.encoder) c.encoder = dds::make_encoder(*c.cdr);
-      return c.encoder && c.encoder->encode(m, p.bytes).empty();
+      return c.encoder && c.encoder->encode(m, p.bytes).ok();
     case Kind::kJpeg: {
       render_picture(m, picture);
       if (picture.empty()) return false;
@@ -782,45 +782,36 @@ void Server::send_loop() {
 
 }  // namespace
 
-bool parse_view_address(const std::string& text, ViewOptions& options, std::string& error) {
+Status parse_view_address(const std::string& text, ViewOptions& options) {
   std::string address = options.address, port = text;
   if (!text.empty() && text.front() == '[') {
     const std::size_t close = text.find(']');
-    if (close == std::string::npos || close + 1 >= text.size() || text[close + 1] != ':') {
-      error = "--view: expected [ADDR]:PORT, got '" + text + "'";
-      return false;
-    }
+    if (close == std::string::npos || close + 1 >= text.size() || text[close + 1] != ':')
+      return Status::error("--view: expected [ADDR]:PORT, got '" + text + "'");
     address = text.substr(1, close - 1);
     port = text.substr(close + 2);
   } else if (const std::size_t colon = text.rfind(':'); colon != std::string::npos) {
-    if (text.find(':') != colon) {
-      error = "--view: an IPv6 address goes in brackets ([::1]:8765), got '" + text + "'";
-      return false;
-    }
+    if (text.find(':') != colon)
+      return Status::error("--view: an IPv6 address goes in brackets ([::1]:8765), got '" + text + "'");
     address = text.substr(0, colon);
     port = text.substr(colon + 1);
   }
+  // At most five digits, so std::stoi cannot throw.
   if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
-      std::stoi(port) > 65535) {
-    error = "--view: expected a port number 0-65535, got '" + port + "'";
-    return false;
-  }
+      std::stoi(port) > 65535)
+    return Status::error("--view: expected a port number 0-65535, got '" + port + "'");
   boost::system::error_code ec;
   boost::asio::ip::make_address(address, ec);
-  if (ec) {
-    error = "--view: '" + address + "' is not an IP address";
-    return false;
-  }
+  if (ec) return Status::error("--view: '" + address + "' is not an IP address");
   options.address = address;
   options.port = std::stoi(port);
-  return true;
+  return {};
 }
 
-std::unique_ptr<ViewServer> start_view(Executor& executor, const ViewOptions& options, std::string& error) {
+Result<std::unique_ptr<ViewServer>> start_view(Executor& executor, const ViewOptions& options) {
   auto server = std::make_unique<Server>(executor, options);
-  error = server->start();
-  if (!error.empty()) return nullptr;
-  return server;
+  if (Status s = server->start(); !s.ok()) return s;
+  return std::unique_ptr<ViewServer>(std::move(server));
 }
 
 }  // namespace saccade::view

@@ -28,6 +28,8 @@
 #include <memory>
 #include <string>
 
+#include "saccade/status.hpp"
+
 namespace saccade {
 class Executor;
 }
@@ -49,9 +51,9 @@ struct ViewOptions {
   double stats_interval_s = 1.0;  // of /saccade/stats
 };
 
-// "[ADDR:]PORT" (e.g. "8765", "0.0.0.0:8765", "[::1]:8765") into `options`;
-// false with `error` saying what is wrong.
-bool parse_view_address(const std::string& text, ViewOptions& options, std::string& error);
+// "[ADDR:]PORT" (e.g. "8765", "0.0.0.0:8765", "[::1]:8765") into `options`
+// (its other fields kept); an error saying what is wrong leaves it unchanged.
+Status parse_view_address(const std::string& text, ViewOptions& options);
 
 // What the server has seen, for the page, the stats and tests.
 struct ViewCounters {
@@ -79,9 +81,9 @@ class ViewServer {
 };
 
 // Taps every output of `executor` (opened, not yet running) and listens on
-// options.address:options.port. nullptr with `error` when it cannot (the port
-// is in use, a bad address). Keep the server until run() returned, then stop
-// it (or destroy it) before the executor.
-std::unique_ptr<ViewServer> start_view(Executor& executor, const ViewOptions& options, std::string& error);
+// options.address:options.port: the running server, or an error when it
+// cannot (the port is in use, a bad address). Keep the server until run()
+// returned, then stop it (or destroy it) before the executor.
+Result<std::unique_ptr<ViewServer>> start_view(Executor& executor, const ViewOptions& options);
 
 }  // namespace saccade::view

@@ -63,9 +63,10 @@ TEST(SteadyState, RunningMoreFramesAllocatesNothingMore) {
 }
 
 TEST(SteadyState, HarnessedRetinaAndFiltersReuseEverything) {
-  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
   auto filters =
-      testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="all"/></node>)");
+      testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="all"/></node>)")
+          .value_or(nullptr);
   ASSERT_TRUE(retina && filters);
   auto image = std::make_shared<Image>();
   image->mat.create(480, 640, CV_8UC1);
@@ -86,10 +87,10 @@ TEST(SteadyState, HarnessedRetinaAndFiltersReuseEverything) {
 }
 
 TEST(SteadyState, HarnessedMotionAndStereoReuseEverything) {
-  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
-  auto motion = testing::NodeHarness::create(R"(<node plugin="motion"/>)");
-  auto stereo =
-      testing::NodeHarness::create(R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)");
+  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
+  auto motion = testing::NodeHarness::create(R"(<node plugin="motion"/>)").value_or(nullptr);
+  auto stereo = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)")
+                    .value_or(nullptr);
   ASSERT_TRUE(retina && motion && stereo);
   auto left = std::make_shared<Image>(), right = std::make_shared<Image>();
   left->mat = test::random_image({640, 480}, 3);

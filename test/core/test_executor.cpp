@@ -408,10 +408,10 @@ TEST_F(Executor, ATapSeesEveryMessageOfAnOutputConnectedOrNot) {
                           "<edge from=\"src.image\" to=\"sink.in\" queue=\"block:4\"/></graph>",
                       threads(2));
   std::vector<int64_t> seen;  // taps run on the emitting thread: one source, one thread
-  ASSERT_EQ(g->executor->add_tap("src", "image", [&](const MessagePtr& m) { seen.push_back(m->frame_id); }), "");
-  EXPECT_NE(g->executor->add_tap("src", "nothing", [](const MessagePtr&) {}).find("no output 'nothing'"),
+  ASSERT_TRUE(g->executor->add_tap("src", "image", [&](const MessagePtr& m) { seen.push_back(m->frame_id); }).ok());
+  EXPECT_NE(g->executor->add_tap("src", "nothing", [](const MessagePtr&) {}).message().find("no output 'nothing'"),
             std::string::npos);
-  EXPECT_NE(g->executor->add_tap("nobody", "image", [](const MessagePtr&) {}).find("no node 'nobody'"),
+  EXPECT_NE(g->executor->add_tap("nobody", "image", [](const MessagePtr&) {}).message().find("no node 'nobody'"),
             std::string::npos);
   ASSERT_TRUE(g->run().ok());
   ASSERT_EQ(seen.size(), 50u);
@@ -428,11 +428,12 @@ TEST_F(Executor, AnInjectedValueReachesASideInputAndOnlyASideInput) {
                       ExecutorOptions{});
   auto fovea = std::make_shared<Region>();
   fovea->center = {20, 15};
-  ASSERT_EQ(g->executor->inject("retina", "fovea", fovea), "");
-  EXPECT_NE(g->executor->inject("retina", "image", std::make_shared<Image>()).find("not a side input"),
+  ASSERT_TRUE(g->executor->inject("retina", "fovea", fovea).ok());
+  EXPECT_NE(g->executor->inject("retina", "image", std::make_shared<Image>()).message().find("not a side input"),
             std::string::npos);
-  EXPECT_NE(g->executor->inject("retina", "fovea", std::make_shared<Image>()).find("takes Region"), std::string::npos);
-  EXPECT_NE(g->executor->inject("retina", "nothing", fovea).find("no input 'nothing'"), std::string::npos);
+  EXPECT_NE(g->executor->inject("retina", "fovea", std::make_shared<Image>()).message().find("takes Region"),
+            std::string::npos);
+  EXPECT_NE(g->executor->inject("retina", "nothing", fovea).message().find("no input 'nothing'"), std::string::npos);
   ASSERT_TRUE(g->run().ok());
   const auto retinas = recorded<Retina>("sink");
   ASSERT_EQ(retinas.size(), 3u);

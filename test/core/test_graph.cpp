@@ -191,12 +191,11 @@ TEST(GraphValidation, OverridesFromTheCommandLine) {
 
 TEST(GraphValidation, VariablesExpandFromTheEnvironment) {
   setenv("SACCADE_TEST_VAR", "/tmp/x", 1);
-  std::string error;
-  EXPECT_EQ(expand_variables("${SACCADE_TEST_VAR}/a.avi", "g.xml", &error), "/tmp/x/a.avi");
-  EXPECT_EQ(expand_variables("${GRAPH_DIR}/a", "/data/graphs/g.xml", &error), "/data/graphs/a");
-  EXPECT_TRUE(error.empty());
-  expand_variables("${NO_SUCH_VARIABLE_HERE}", "g.xml", &error);
-  EXPECT_NE(error.find("unknown variable ${NO_SUCH_VARIABLE_HERE}"), std::string::npos);
+  EXPECT_EQ(*expand_variables("${SACCADE_TEST_VAR}/a.avi", "g.xml"), "/tmp/x/a.avi");
+  EXPECT_EQ(*expand_variables("${GRAPH_DIR}/a", "/data/graphs/g.xml"), "/data/graphs/a");
+  const Result<std::string> unknown = expand_variables("${NO_SUCH_VARIABLE_HERE}", "g.xml");
+  EXPECT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.error().find("unknown variable ${NO_SUCH_VARIABLE_HERE}"), std::string::npos);
 }
 
 TEST(GraphValidation, DotShowsNodesEdgesAndFeedback) {

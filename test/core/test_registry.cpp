@@ -54,8 +54,8 @@ TEST(Registry, EveryContractsDefaultsAreTheAlgorithmsAndParse) {
       bound += p.bound ? 1 : 0;
       if (p.required || (p.type == ParamType::kPoint && p.default_value.empty())) continue;
       ParamValue v;
-      const auto why = parse_param(p, p.default_value, v);
-      EXPECT_FALSE(why) << type << "." << p.name << " = '" << p.default_value << "': " << why.value_or("");
+      const Status parsed = parse_param(p, p.default_value, v);
+      EXPECT_TRUE(parsed.ok()) << type << "." << p.name << " = '" << p.default_value << "': " << parsed.message();
     }
   }
   EXPECT_GT(bound, 100u) << "the nodes' parameters are bound to their algorithms' fields";
@@ -65,13 +65,15 @@ TEST(Registry, EveryContractsDefaultsAreTheAlgorithmsAndParse) {
 // user would test it.
 TEST(GuideExample, ThresholdPluginBindsItsParametersAndThresholdsEveryLevel) {
   Registry r;
-  ASSERT_TRUE(r.load_library(test_plugin("saccade_example.so")));
+  ASSERT_TRUE(r.load_library(test_plugin("saccade_example.so")).ok());
   const Contract& c = r.find("example.threshold")->contract;
   EXPECT_EQ(c.find_param("level")->default_value, "128");
   EXPECT_EQ(c.find_param("invert")->default_value, "false");
-  auto h = testing::NodeHarness::create(
-      R"(<node plugin="example.threshold"><param name="level" value="100"/><param name="invert" value="true"/></node>)",
-      nullptr, &r);
+  auto h =
+      testing::NodeHarness::create(
+          R"(<node plugin="example.threshold"><param name="level" value="100"/><param name="invert" value="true"/></node>)",
+          &r)
+          .value_or(nullptr);
   ASSERT_NE(h, nullptr);
   auto retina = std::make_shared<Retina>();
   retina->levels = {cv::Mat(24, 32, CV_8U, cv::Scalar(50)), cv::Mat(24, 32, CV_8U, cv::Scalar(150))};
@@ -86,30 +88,30 @@ TEST(GuideExample, ThresholdPluginBindsItsParametersAndThresholdsEveryLevel) {
 
 TEST(Registry, MissingLibraryNamesTheFile) {
   Registry r;
-  std::string error;
-  EXPECT_FALSE(r.load_library(test_plugin("saccade_nothere.so"), &error));
+  const std::string error = r.load_library(test_plugin("saccade_nothere.so")).message();
+  EXPECT_FALSE(error.empty());
   EXPECT_NE(error.find("saccade_nothere.so: no such plugin library"), std::string::npos) << error;
 }
 
 TEST(Registry, NotAnElfFileNamesTheFile) {
   Registry r;
-  std::string error;
-  EXPECT_FALSE(r.load_library(test_plugin("saccade_garbage.so"), &error));
+  const std::string error = r.load_library(test_plugin("saccade_garbage.so")).message();
+  EXPECT_FALSE(error.empty());
   EXPECT_NE(error.find("saccade_garbage.so: cannot load"), std::string::npos) << error;
   EXPECT_EQ(error.find("Bad file descriptor"), std::string::npos) << error;
 }
 
 TEST(Registry, MissingEntryNamesTheSymbol) {
   Registry r;
-  std::string error;
-  EXPECT_FALSE(r.load_library(test_plugin("saccade_noentry.so"), &error));
+  const std::string error = r.load_library(test_plugin("saccade_noentry.so")).message();
+  EXPECT_FALSE(error.empty());
   EXPECT_NE(error.find("saccade_noentry.so: no symbol 'saccade_plugin_entry'"), std::string::npos) << error;
 }
 
 TEST(Registry, AbiMismatchIsRefusedBeforeAnythingIsCreated) {
   Registry r;
-  std::string error;
-  EXPECT_FALSE(r.load_library(test_plugin("saccade_badabi.so"), &error));
+  const std::string error = r.load_library(test_plugin("saccade_badabi.so")).message();
+  EXPECT_FALSE(error.empty());
   EXPECT_NE(error.find("saccade_badabi.so: symbol 'saccade_plugin_entry': ABI mismatch"), std::string::npos) << error;
   EXPECT_NE(error.find("abi 999"), std::string::npos) << error;
   EXPECT_TRUE(r.types().empty());
@@ -117,8 +119,8 @@ TEST(Registry, AbiMismatchIsRefusedBeforeAnythingIsCreated) {
 
 TEST(Registry, MissingSymbolFailsAtLoadNotAtFirstCall) {
   Registry r;
-  std::string error;
-  EXPECT_FALSE(r.load_library(test_plugin("saccade_missingsym.so"), &error));
+  const std::string error = r.load_library(test_plugin("saccade_missingsym.so")).message();
+  EXPECT_FALSE(error.empty());
   EXPECT_NE(error.find("saccade_missingsym.so: cannot load"), std::string::npos) << error;
   EXPECT_NE(error.find("saccade_symbol_that_does_not_exist"), std::string::npos) << error;
 }
@@ -144,10 +146,10 @@ TEST(Registry, NodeKeepsItsLibraryLoadedAfterTheRegistryIsGone) {
   std::shared_ptr<Node> node;
   {
     Registry r;
-    ASSERT_TRUE(r.load_library(path));
-    std::string error;
-    node = r.create("good.echo", &error);
-    ASSERT_NE(node, nullptr) << error;
+    ASSERT_TRUE(r.load_library(path).ok());
+    Result<std::shared_ptr<Node>> created = r.create("good.echo");
+    ASSERT_TRUE(created.ok()) << created.error();
+    node = std::move(created).value();
   }
   // The registry and its handle are gone; the node's deleter still holds the
   // library (built with -fno-gnu-unique, so nothing else pins it).
@@ -284,9 +286,9 @@ TEST(RegistrySearch, UnknownPluginSaysWhereItLooked) {
   GraphDecl decl = load_graph_string("<graph><node name=\"n\" plugin=\"nothere.x\"/></graph>", "g.xml", diag);
   resolve_graph(decl, r, diag);
   EXPECT_NE(diag.format().find("unknown plugin 'nothere.x'; " + where), std::string::npos) << diag.format();
-  std::string error;
-  EXPECT_EQ(r.create("nothere.x", &error), nullptr);
-  EXPECT_NE(error.find(where), std::string::npos) << error;
+  const Result<std::shared_ptr<Node>> created = r.create("nothere.x");
+  EXPECT_FALSE(created.ok());
+  EXPECT_NE(created.error().find(where), std::string::npos) << created.error();
 }
 
 }  // namespace

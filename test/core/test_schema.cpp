@@ -115,8 +115,9 @@ TEST(Schema, EveryTypesObjectsHaveExactlyTheFieldsItsSchemaLists) {
 TEST(JsonLines, TheSinkWritesOneLinePerMessage) {
   const std::string path = (std::filesystem::temp_directory_path() / "saccade_jsonl_test.jsonl").string();
   {
-    auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path +
-                                          R"("/></node>)");
+    auto h =
+        testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)")
+            .value_or(nullptr);
     ASSERT_NE(h, nullptr);
     for (int k = 0; k < 3; ++k) {
       auto r = std::make_shared<Region>();
@@ -147,8 +148,10 @@ TEST(JsonLines, AnUnwritablePathIsAnErrorAtOpenNamingIt) {
   std::ofstream(file) << "x";
   const std::string path = (file / "out.jsonl").string();
   std::string error;
-  auto h = testing::NodeHarness::create(
-      R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)", &error);
+  auto h_made =
+      testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)");
+  error = h_made.error();
+  auto h = std::move(h_made).value_or(nullptr);
   EXPECT_EQ(h, nullptr);
   EXPECT_NE(error.find(path), std::string::npos) << error;
   std::filesystem::remove(file);
@@ -159,8 +162,9 @@ TEST(JsonLines, TheFilesFolderIsMadeWhenMissing) {
   std::filesystem::remove_all(folder);
   const std::string path = (folder / "deeper" / "out.jsonl").string();
   {
-    auto h = testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path +
-                                          R"("/></node>)");
+    auto h =
+        testing::NodeHarness::create(R"(<node plugin="util.jsonl"><param name="path" value=")" + path + R"("/></node>)")
+            .value_or(nullptr);
     ASSERT_NE(h, nullptr);
     h->node().close();
   }

@@ -11,9 +11,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace saccade::can;
   std::vector<Frame> frames;
-  std::string error;
   uint8_t seq = 0;
-  if (!cannelloni::decode(data, size, seq, frames, error)) return 0;
+  if (!cannelloni::decode(data, size, seq, frames).ok()) return 0;
   for (const Frame& f : frames) {
     Sdo sdo;
     (void)parse_sdo(f, sdo);

@@ -16,12 +16,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       pick < types.size() ? saccade::dds::channel_encoding(types[pick], false)
                           : saccade::dds::channel_encoding(pick == types.size() ? "Image" : "JointState", true);
   auto decoder = saccade::dds::make_decoder(*encoding);
-  std::string why;
-  saccade::MessagePtr m = decoder->decode(data + 1, size - 1, why);
-  if (m) {
+  saccade::Result<saccade::MessagePtr> m = decoder->decode(data + 1, size - 1);
+  if (m.ok()) {
     // What decodes encodes again.
     std::vector<uint8_t> bytes;
-    (void)saccade::dds::make_encoder(*encoding)->encode(*m, bytes);
+    (void)saccade::dds::make_encoder(*encoding)->encode(**m, bytes);
   }
   return 0;
 }

@@ -62,8 +62,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       __builtin_trap();  // CLI11 checked it
     if (!line.run_args.view.empty()) {
       saccade::view::ViewOptions options;
-      std::string error;
-      (void)saccade::view::parse_view_address(line.run_args.view, options, error);
+      (void)saccade::view::parse_view_address(line.run_args.view, options);
     }
   }
   if (!line.graph.sets.empty()) {

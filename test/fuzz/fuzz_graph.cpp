@@ -15,8 +15,7 @@ saccade::Registry* registry = nullptr;
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   registry = new saccade::Registry();
-  std::string error;
-  if (!registry->load_library(SACCADE_FUZZ_UTIL_PLUGIN, &error)) __builtin_trap();  // the harness is miswired
+  if (!registry->load_library(SACCADE_FUZZ_UTIL_PLUGIN).ok()) __builtin_trap();  // the harness is miswired
   return 0;
 }
 

@@ -32,14 +32,15 @@ void expect_offset(const std::string& error) {
 uint64_t read_all(saccade::mcap::Reader& reader, const saccade::mcap::ReadOptions& options) {
   reader.rewind(options);
   saccade::mcap::MessageView view;
-  std::string error;
   uint64_t count = 0;
-  for (int r; (r = reader.next(view, error)) != 0; ++count) {
-    if (r < 0) {
+  for (;; ++count) {
+    const saccade::Result<bool> read = reader.next(view);
+    if (!read.ok()) {
       if (options.salvage) __builtin_trap();  // salvaging skips damage instead
-      expect_offset(error);
+      expect_offset(read.error());
       break;
     }
+    if (!*read) break;
     volatile uint8_t sum = 0;
     for (std::size_t i = 0; i < view.size; i += 4096) sum = sum + view.data[i];  // the bytes are readable
   }
@@ -59,8 +60,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (ftruncate(fd, 0) != 0 || pwrite(fd, data, size, 0) != static_cast<ssize_t>(size)) __builtin_trap();
   for (const bool salvage : {false, true}) {
     saccade::mcap::Reader reader;
-    if (std::string error = reader.open(path, salvage); !error.empty()) {
-      expect_offset(error);
+    if (saccade::Status opened = reader.open(path, salvage); !opened.ok()) {
+      expect_offset(opened.message());
       continue;
     }
     for (const std::string& warning : reader.warnings()) expect_offset(warning);
@@ -83,10 +84,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       if (!named) topics.push_back(channel.topic);
     }
     saccade::mcap::TopicReader player;
-    if (!player.open(path, topics, salvage).empty()) continue;  // a topic named twice, a schema saccade does not read
-    std::string error;
-    while (player.next(error) != nullptr) {}
-    if (!error.empty()) expect_offset(error);
+    if (!player.open(path, topics, salvage).ok()) continue;  // a topic named twice, a schema saccade does not read
+    for (;;) {
+      const saccade::Result<saccade::MessagePtr> next = player.next();
+      if (!next.ok()) {
+        expect_offset(next.error());
+        break;
+      }
+      if (*next == nullptr) break;
+    }
   }
   return 0;
 }

@@ -7,8 +7,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string pattern(reinterpret_cast<const char*>(data), size);
-  std::string why;
-  if (auto p = saccade::capture::NumberedPattern::parse(pattern, &why)) {
+  if (auto p = saccade::capture::NumberedPattern::parse(pattern); p.ok()) {
     (void)p->name(0);
     (void)p->name(123456789);
     (void)p->name(-7);

@@ -24,7 +24,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   uint32_t channel = 0;
   if (!saccade::view::parse_message_data(bytes, n, channel)) return 0;
   saccade::Region region;
-  if (saccade::view::parse_region_json(bytes + 5, n - 5, region).empty()) {
+  if (saccade::view::parse_region_json(bytes + 5, n - 5, region).ok()) {
     // Taken: a centre, and a size that is not negative.
     if (!(region.size.width >= 0) || !(region.size.height >= 0) || std::isnan(region.center.x) ||
         std::isnan(region.center.y))

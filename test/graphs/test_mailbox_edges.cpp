@@ -38,16 +38,18 @@ struct EdgeEnds {
 
 EdgeEnds edge_of(const std::string& type, const std::string& name, bool reliable, int depth) {
   EdgeEnds e;
-  std::string error;
-  e.domain = sd::Domain::get(private_domain(), &error);
-  EXPECT_TRUE(e.domain) << error;
-  e.codec = sd::choose_codec(type, {.zero_copy = true, .reliable = reliable}, &error);
-  EXPECT_NE(e.codec, nullptr) << error;
+  auto domain = sd::Domain::get(private_domain());
+  EXPECT_TRUE(domain.ok()) << domain.error();
+  e.domain = std::move(domain).value_or(nullptr);
+  auto codec = sd::choose_codec(type, {.zero_copy = true, .reliable = reliable});
+  EXPECT_TRUE(codec.ok()) << codec.error();
+  e.codec = std::move(codec).value_or(nullptr);
   EXPECT_EQ(e.codec->form, sd::Codec::Form::kSerialized);
   e.settings.reliable = reliable;
   e.settings.depth = depth;
-  e.topic = e.domain->topic("test_mailbox/" + std::to_string(getpid()) + "/" + name, *e.codec, &error);
-  EXPECT_NE(e.topic, nullptr) << error;
+  auto topic = e.domain->topic("test_mailbox/" + std::to_string(getpid()) + "/" + name, *e.codec);
+  EXPECT_TRUE(topic.ok()) << topic.error();
+  e.topic = std::move(topic).value_or(nullptr);
   return e;
 }
 
@@ -161,14 +163,16 @@ TEST(DdsMailbox, AReaderSpinningOnTheMailboxGetsEveryMessageOnceAndInOrder) { pa
 
 TEST(DdsMailbox, AReaderSpinningOnAFrameRingGetsThePacedImagesInOrder) {
   EdgeEnds e;
-  std::string error;
-  e.domain = sd::Domain::get(private_domain(), &error);
-  ASSERT_TRUE(e.domain) << error;
-  e.codec = sd::choose_codec("Image", {.zero_copy = true}, &error);
-  ASSERT_NE(e.codec, nullptr) << error;
+  auto domain = sd::Domain::get(private_domain());
+  ASSERT_TRUE(domain.ok()) << domain.error();
+  e.domain = *domain;
+  auto codec = sd::choose_codec("Image", {.zero_copy = true});
+  ASSERT_TRUE(codec.ok()) << codec.error();
+  e.codec = *codec;
   ASSERT_EQ(e.codec->form, sd::Codec::Form::kRing);
-  e.topic = e.domain->topic("test_mailbox/" + std::to_string(getpid()) + "/ring_spin", *e.codec, &error);
-  ASSERT_NE(e.topic, nullptr) << error;
+  auto topic = e.domain->topic("test_mailbox/" + std::to_string(getpid()) + "/ring_spin", *e.codec);
+  ASSERT_TRUE(topic.ok()) << topic.error();
+  e.topic = *topic;
   Writer w(e, false);
   Reader r(e, false, /*spin=*/true);
   wait_matched(w);

@@ -26,6 +26,14 @@ namespace {
 
 using test::private_domain;
 
+// The node `xml` describes, opened; nullptr, and a test failure saying why,
+// when it cannot be.
+std::unique_ptr<testing::NodeHarness> open_node(const std::string& xml) {
+  Result<std::unique_ptr<testing::NodeHarness>> node = testing::NodeHarness::create(xml);
+  EXPECT_TRUE(node.ok()) << node.error();
+  return std::move(node).value_or(nullptr);
+}
+
 pid_t start_peer(const std::string& topic, const std::vector<std::string>& extra = {}) {
   std::vector<std::string> args = {"--log-level", "warn",
                                    "run",         SACCADE_SOURCE_DIR "/test/graphs/peer_counter.xml",
@@ -259,20 +267,15 @@ TEST(DdsSharedMemory, WhatAKilledProcessLeftIsRemovedAsStale) {
 TEST(DdsPeers, AReaderOnAnotherClockCountsLatencyFromArrival) {
   for (bool same_clock : {true, false}) {
     const std::string topic = "test_peers/" + std::to_string(getpid()) + "/clock" + (same_clock ? "1" : "0");
-    std::string error;
-    auto sub = testing::NodeHarness::create(
-        "<node plugin=\"dds.subscribe\"><param name=\"topic\" value=\"" + topic +
-            "\"/><param name=\"type\" value=\"Image\"/><param name=\"reliable\" value=\"true\"/>"
-            "<param name=\"same_clock\" value=\"" +
-            (same_clock ? "true" : "false") + "\"/></node>",
-        &error);
-    ASSERT_NE(sub, nullptr) << error;
-    auto pub = testing::NodeHarness::create(
-        "<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + topic +
-            "\"/><param name=\"type\" value=\"Image\"/><param name=\"reliable\" value=\"true\"/>"
-            "<param name=\"wait_ms\" value=\"20000\"/></node>",
-        &error);
-    ASSERT_NE(pub, nullptr) << error;
+    auto sub = open_node("<node plugin=\"dds.subscribe\"><param name=\"topic\" value=\"" + topic +
+                         "\"/><param name=\"type\" value=\"Image\"/><param name=\"reliable\" value=\"true\"/>"
+                         "<param name=\"same_clock\" value=\"" +
+                         (same_clock ? "true" : "false") + "\"/></node>");
+    ASSERT_NE(sub, nullptr);
+    auto pub = open_node("<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + topic +
+                         "\"/><param name=\"type\" value=\"Image\"/><param name=\"reliable\" value=\"true\"/>"
+                         "<param name=\"wait_ms\" value=\"20000\"/></node>");
+    ASSERT_NE(pub, nullptr);
     auto image = std::make_shared<Image>();
     image->mat = cv::Mat(4, 4, CV_8UC1, cv::Scalar(7));
     image->origin_ns = 12345;  // another host's steady clock
@@ -302,14 +305,12 @@ TEST(DdsPeers, AMissingPeerAnIncompatibleQosAndAMissedDeadlineAreReported) {
       if (line.find(text) != std::string::npos) return true;
     return false;
   };
-  std::string error;
-  auto lonely = testing::NodeHarness::create("<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base +
-                                                 "nobody\"/><param name=\"wait_ms\" value=\"100\"/></node>",
-                                             &error);
-  ASSERT_NE(lonely, nullptr) << error;
-  auto best_effort = testing::NodeHarness::create(
-      "<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base + "mismatch\"/></node>", &error);
-  ASSERT_NE(best_effort, nullptr) << error;
+  auto lonely = open_node("<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base +
+                          "nobody\"/><param name=\"wait_ms\" value=\"100\"/></node>");
+  ASSERT_NE(lonely, nullptr);
+  auto best_effort =
+      open_node("<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base + "mismatch\"/></node>");
+  ASSERT_NE(best_effort, nullptr);
   auto sub = [&](const std::string& name, const std::string& params) {
     return "<node name=\"" + name + "\" plugin=\"dds.subscribe\"><param name=\"topic\" value=\"" + base + name +
            "\"/>" + params + "</node><node name=\"" + name + "_sink\" plugin=\"util.null\"/><edge from=\"" + name +
@@ -326,12 +327,11 @@ TEST(DdsPeers, AMissingPeerAnIncompatibleQosAndAMissedDeadlineAreReported) {
   std::thread writer([&] {
     // Waits for the deadline's reader, writes once, then stays silent. The
     // writer offers the deadline too (a writer offering none is incompatible).
-    std::string e;
     auto once = testing::NodeHarness::create(
-        "<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base +
-            "deadline\"/><param name=\"reliable\" value=\"true\"/><param name=\"deadline_ms\" value=\"50\"/>"
-            "<param name=\"wait_ms\" value=\"20000\"/></node>",
-        &e);
+                    "<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + base +
+                    "deadline\"/><param name=\"reliable\" value=\"true\"/><param name=\"deadline_ms\" value=\"50\"/>"
+                    "<param name=\"wait_ms\" value=\"20000\"/></node>")
+                    .value_or(nullptr);
     if (once == nullptr) return;
     auto image = std::make_shared<Image>();
     image->mat = cv::Mat(2, 2, CV_8UC1, cv::Scalar(1));

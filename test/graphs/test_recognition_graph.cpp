@@ -55,7 +55,7 @@ std::string train_target_model() {
     cv::Point2d at = center + cv::Point2d(rng.uniform(-8.0, 8.0), rng.uniform(-8.0, 8.0));
     while (!target && cv::norm(at - center) < 40) at = {rng.uniform(20.0, 620.0), rng.uniform(20.0, 460.0)};
     sampler.sample(gray, at, retina.levels, retina.geometry);
-    EXPECT_EQ(extractor.extract(retina, row), "");
+    EXPECT_TRUE(extractor.extract(retina, row).ok());
     x.push_back(row);
     y.push_back(target ? 0 : 1);
   }
@@ -65,7 +65,7 @@ std::string train_target_model() {
   const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "recognition";
   fs::create_directories(dir);
   const std::string path = (dir / "target.yml.gz").string();
-  EXPECT_EQ(model.save(path), "");
+  EXPECT_TRUE(model.save(path).ok());
   return path;
 }
 
@@ -172,8 +172,9 @@ TEST(CollectGraph, ALabelSourceInAGraphMakesTrainingSamples) {
   auto run = test::open_graph(xml, options);
   ASSERT_TRUE(run->run().ok());
   run.reset();  // closes the nodes: the samples are written
-  classifier::SampleSet samples;
-  ASSERT_EQ(samples.load(samples_path), "");
+  Result<classifier::SampleSet> loaded = classifier::SampleSet::load(samples_path);
+  ASSERT_TRUE(loaded.ok()) << loaded.error();
+  const classifier::SampleSet& samples = *loaded;
   // Classes in the order the labels first came: the square starts in the fovea.
   EXPECT_EQ(samples.classes, (std::vector<std::string>{"target", "background"}));
   EXPECT_EQ(samples.x.rows, 720);
@@ -182,8 +183,9 @@ TEST(CollectGraph, ALabelSourceInAGraphMakesTrainingSamples) {
   classifier::FolderTraining job;
   job.train.epochs = 20;
   std::ostringstream log;
-  auto result = classifier::train_rows(samples, job, log);
-  ASSERT_EQ(result.error, "");
+  Result<classifier::TrainingResult> trained = classifier::train_rows(samples, job, log);
+  ASSERT_TRUE(trained.ok()) << trained.error();
+  const classifier::TrainingResult& result = *trained;
   std::printf("%s", log.str().c_str());
   EXPECT_GE(result.validation_accuracy, 0.95);
   ASSERT_EQ(result.confusion.rows, 2);

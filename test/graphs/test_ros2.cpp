@@ -67,6 +67,14 @@ class PlainRos2Node {
 };
 
 // True once process `pid` has ended (a zombie not yet reaped by wait_child).
+// The node `xml` describes, opened; nullptr, and a test failure saying why,
+// when it cannot be.
+std::unique_ptr<testing::NodeHarness> open_node(const std::string& xml) {
+  Result<std::unique_ptr<testing::NodeHarness>> node = testing::NodeHarness::create(xml);
+  EXPECT_TRUE(node.ok()) << node.error();
+  return std::move(node).value_or(nullptr);
+}
+
 bool ended(pid_t pid) {
   std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
   std::string line;
@@ -154,14 +162,11 @@ TEST(Ros2Interop, APlainRos2ReaderSeesJointStatesWithTheirNames) {
   const std::string topic = unique_topic("joint_states");
   PlainRos2Node<ros::JointState_PubSubType> ros_node(topic);
   fdds::DataReader* reader = ros_node.reader();
-  std::string error;
-  auto publish = testing::NodeHarness::create(
-      "<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + topic +
-          "\"/><param name=\"type\" value=\"JointState\"/><param name=\"ros2\" value=\"true\"/>"
-          "<param name=\"reliable\" value=\"true\"/><param name=\"depth\" value=\"0\"/>"
-          "<param name=\"wait_ms\" value=\"20000\"/></node>",
-      &error);
-  ASSERT_NE(publish, nullptr) << error;
+  auto publish = open_node("<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + topic +
+                           "\"/><param name=\"type\" value=\"JointState\"/><param name=\"ros2\" value=\"true\"/>"
+                           "<param name=\"reliable\" value=\"true\"/><param name=\"depth\" value=\"0\"/>"
+                           "<param name=\"wait_ms\" value=\"20000\"/></node>");
+  ASSERT_NE(publish, nullptr);
   auto state = std::make_shared<JointState>();
   state->timestamp_ns = 3'000'000'007;
   state->position = {0.1, 0.2, -0.3, 0.4, -0.5};
@@ -183,13 +188,10 @@ TEST(Ros2Interop, APlainRos2ReaderSeesJointStatesWithTheirNames) {
 
 TEST(Ros2Interop, ASaccadeSubscriberReadsWhatAPlainRos2WriterPublishes) {
   const std::string topic = unique_topic("usb_cam/image_raw");
-  std::string error;
-  auto subscribe = testing::NodeHarness::create(
-      "<node plugin=\"dds.subscribe\"><param name=\"topic\" value=\"" + topic +
-          "\"/><param name=\"type\" value=\"Image\"/><param name=\"ros2\" value=\"true\"/>"
-          "<param name=\"reliable\" value=\"true\"/><param name=\"depth\" value=\"0\"/></node>",
-      &error);
-  ASSERT_NE(subscribe, nullptr) << error;
+  auto subscribe = open_node("<node plugin=\"dds.subscribe\"><param name=\"topic\" value=\"" + topic +
+                             "\"/><param name=\"type\" value=\"Image\"/><param name=\"ros2\" value=\"true\"/>"
+                             "<param name=\"reliable\" value=\"true\"/><param name=\"depth\" value=\"0\"/></node>");
+  ASSERT_NE(subscribe, nullptr);
   PlainRos2Node<ros::Image_PubSubType> ros_node(topic);
   fdds::DataWriter* writer = ros_node.writer();
   ASSERT_TRUE(matched_within(writer, 30));

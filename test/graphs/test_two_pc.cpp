@@ -169,13 +169,13 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
     if (n.decl.plugin == "dds.subscribe") { EXPECT_TRUE(n.params.get_bool("same_clock")) << n.decl.name; }
   }
 
-  EXPECT_EQ(parse_edge_qos("capacity=512K", EdgeQos{}, nullptr)->capacity, 512u << 10);
-  EXPECT_EQ(parse_edge_qos("capacity=1000", EdgeQos{}, nullptr)->capacity, 1000u);
-  std::string error;
-  EXPECT_FALSE(parse_edge_qos("capacity=2G", EdgeQos{}, &error));
-  EXPECT_NE(error.find("capacity=N, NK or NM"), std::string::npos) << error;
-  EXPECT_FALSE(parse_edge_qos("capacity=1.5M", EdgeQos{}, &error));
-  EXPECT_FALSE(parse_edge_qos("capacity=2048M", EdgeQos{}, &error));
+  EXPECT_EQ(parse_edge_qos("capacity=512K", EdgeQos{})->capacity, 512u << 10);
+  EXPECT_EQ(parse_edge_qos("capacity=1000", EdgeQos{})->capacity, 1000u);
+  const Result<EdgeQos> too_large = parse_edge_qos("capacity=2G", EdgeQos{});
+  EXPECT_FALSE(too_large.ok());
+  EXPECT_NE(too_large.error().find("capacity=N, NK or NM"), std::string::npos) << too_large.error();
+  EXPECT_FALSE(parse_edge_qos("capacity=1.5M", EdgeQos{}).ok());
+  EXPECT_FALSE(parse_edge_qos("capacity=2048M", EdgeQos{}).ok());
 }
 
 TEST(TwoPcPlan, ARos2EdgeAsksBothBridgesForTheRos2FormNotZeroCopy) {

@@ -27,7 +27,8 @@ std::shared_ptr<Image> gray_image(const std::string& name, double scale = 1.0) {
 
 TEST(BaselineFilters, EqualTheOpenCvCallsTheyWrap) {
   auto h =
-      testing::NodeHarness::create(R"(<node plugin="baseline.filters"><param name="features" value="all"/></node>)");
+      testing::NodeHarness::create(R"(<node plugin="baseline.filters"><param name="features" value="all"/></node>)")
+          .value_or(nullptr);
   ASSERT_NE(h, nullptr);
   auto image = gray_image("basketball1.png");
   h->set("image", image);
@@ -50,8 +51,17 @@ TEST(BaselineFilters, EqualTheOpenCvCallsTheyWrap) {
   EXPECT_EQ(test::max_abs_diff((*maps->find("log"))[0], log), 0);
 }
 
+TEST(BaselineFilters, AnUnknownFeatureIsAnError) {
+  cv::Mat gray(8, 8, CV_8UC1, cv::Scalar(1)), out, scratch;
+  const Status s = compute_feature("blur", gray, out, scratch);
+  EXPECT_TRUE(s.is_error());
+  EXPECT_EQ(s.message(), "unknown full-frame feature 'blur'");
+  EXPECT_TRUE(compute_feature("gauss", gray, out, scratch).ok());
+}
+
 TEST(BaselineMotion, AbsdiffOfConsecutiveFrames) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="baseline.motion"/>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="baseline.motion"/>)").value_or(nullptr);
+  ASSERT_NE(h, nullptr);
   auto a = gray_image("basketball1.png"), b = gray_image("basketball2.png");
   h->set("image", a);
   ASSERT_TRUE(h->process().ok());
@@ -93,8 +103,9 @@ TEST(BaselineStereo, AloeBothWaysWithBmAndSgbm) {
   gt8.convertTo(gt, CV_32F, s);
   for (const char* algorithm : {"bm", "sgbm"}) {
     auto h = testing::NodeHarness::create(
-        std::string("<node plugin=\"baseline.stereo\"><param name=\"algorithm\" value=\"") + algorithm +
-        "\"/><param name=\"num_disparities\" value=\"64\"/></node>");
+                 std::string("<node plugin=\"baseline.stereo\"><param name=\"algorithm\" value=\"") + algorithm +
+                 "\"/><param name=\"num_disparities\" value=\"64\"/></node>")
+                 .value_or(nullptr);
     ASSERT_NE(h, nullptr);
     h->set("left", l);
     h->set("right", r);

@@ -65,7 +65,7 @@ TEST(BoxTracker, FollowsATargetAcrossARealBackgroundWhileTheCameraPans) {
     return cv::Point2d(100 + 1.2 * k + 10 * std::sin(k * 0.1), 110 + 25 * std::sin(k * 0.05));
   };
   const auto camera = [](int k) { return cv::Point2d(50 + 0.5 * k, 40 + 5 * std::sin(k * 0.3)); };
-  ASSERT_EQ(tracker.init(scene.render(camera(0), path(0)), scene.box(path(0))), "");
+  ASSERT_TRUE(tracker.init(scene.render(camera(0), path(0)), scene.box(path(0))).ok());
   double total = 0;
   for (int k = 1; k < 100; ++k) {
     const TrackEstimate e = tracker.update(scene.render(camera(k), path(k)));
@@ -81,7 +81,7 @@ TEST(BoxTracker, TheBoxFollowsTheTargetsScale) {
   const Scene scene;
   BoxTracker tracker;
   const cv::Point2d c(160, 120);
-  ASSERT_EQ(tracker.init(scene.render({60, 60}, c, 0.25), scene.box(c, 0.25)), "");
+  ASSERT_TRUE(tracker.init(scene.render({60, 60}, c, 0.25), scene.box(c, 0.25)).ok());
   TrackEstimate e;
   for (int k = 1; k <= 120; ++k) {
     const double scale = 0.25 * std::pow(1.6, k / 120.0);  // 1.6x over 4 s at 30 Hz
@@ -97,7 +97,7 @@ TEST(BoxTracker, KeepsTheTargetThroughAChangeOfLight) {
   const Scene scene;
   BoxTracker tracker;
   const auto path = [](int k) { return cv::Point2d(120 + k, 120); };
-  ASSERT_EQ(tracker.init(scene.render({60, 60}, path(0)), scene.box(path(0))), "");
+  ASSERT_TRUE(tracker.init(scene.render({60, 60}, path(0)), scene.box(path(0))).ok());
   for (int k = 1; k <= 80; ++k) {
     const double gain = k < 20 ? 1.0 : std::max(0.45, 1.0 - (k - 20) * 0.02);  // dims to less than half
     const TrackEstimate e = tracker.update(scene.render({60, 60}, path(k), 0.3, gain));
@@ -113,7 +113,7 @@ TEST(BoxTracker, AHiddenTargetIsLostAndFoundAgainWhenItReappears) {
   const Scene scene;
   BoxTracker tracker;
   const cv::Point2d before(100, 120), after(230, 90);
-  ASSERT_EQ(tracker.init(scene.render({60, 60}, before), scene.box(before)), "");
+  ASSERT_TRUE(tracker.init(scene.render({60, 60}, before), scene.box(before)).ok());
   for (int k = 1; k <= 20; ++k) ASSERT_EQ(tracker.update(scene.render({60, 60}, before)).state, TrackState::kTracking);
   int claimed = 0, lost = 0;
   for (int k = 0; k < 40; ++k) {
@@ -144,7 +144,7 @@ TEST(BoxTracker, AHiddenTargetThatReappearsLargerIsFoundAtItsNewSize) {
   BoxTracker tracker;
   const cv::Point2d before(100, 120), after(210, 120);
   const double small = 0.25, large = 0.25 * 1.9;
-  ASSERT_EQ(tracker.init(scene.render({60, 60}, before, small), scene.box(before, small)), "");
+  ASSERT_TRUE(tracker.init(scene.render({60, 60}, before, small), scene.box(before, small)).ok());
   for (int k = 1; k <= 20; ++k)
     ASSERT_EQ(tracker.update(scene.render({60, 60}, before, small)).state, TrackState::kTracking);
   for (int k = 0; k < 40; ++k) tracker.update(scene.render({60, 60}, {-200, -200}, small));  // out of view
@@ -169,7 +169,7 @@ TEST(BoxTracker, ALookAlikeOfAnotherColorIsNotClaimed) {
   Scene scene;
   BoxTracker tracker;
   const cv::Point2d c(150, 120);
-  ASSERT_EQ(tracker.init(scene.render({60, 60}, c), scene.box(c)), "");
+  ASSERT_TRUE(tracker.init(scene.render({60, 60}, c), scene.box(c)).ok());
   for (int k = 1; k <= 30; ++k) ASSERT_EQ(tracker.update(scene.render({60, 60}, c)).state, TrackState::kTracking);
   cv::Mat swapped;
   cv::cvtColor(scene.target, swapped, cv::COLOR_BGR2RGB);
@@ -189,8 +189,8 @@ TEST(BoxTracker, TheCamerasOwnMoveIsNotTakenForTheTargets) {
   const Scene scene;
   BoxTracker told, untold;
   const cv::Point2d c(160, 120);
-  ASSERT_EQ(told.init(scene.render({60, 60}, c), scene.box(c)), "");
-  ASSERT_EQ(untold.init(scene.render({60, 60}, c), scene.box(c)), "");
+  ASSERT_TRUE(told.init(scene.render({60, 60}, c), scene.box(c)).ok());
+  ASSERT_TRUE(untold.init(scene.render({60, 60}, c), scene.box(c)).ok());
   // The head turns: the whole image shifts by 70 px (the target with it).
   const cv::Point2d shift(-70, 0);
   const cv::Mat turned = scene.render({60, 60}, c + shift);
@@ -205,17 +205,17 @@ TEST(BoxTracker, RefusesBoxesItCannotFollowAndSaysWhy) {
   const Scene scene;
   const cv::Mat frame = scene.render({60, 60}, {160, 120});
   BoxTracker t;
-  EXPECT_NE(t.init(frame, {400, 100, 40, 40}).find("outside the 320x240 frame"), std::string::npos);
-  EXPECT_NE(t.init(frame, {100, 100, 0, 40}).find("smaller than the smallest target"), std::string::npos);
-  EXPECT_NE(t.init(frame, {100, 100, 5, 5}).find("box 100,100,5,5"), std::string::npos);
+  EXPECT_NE(t.init(frame, {400, 100, 40, 40}).message().find("outside the 320x240 frame"), std::string::npos);
+  EXPECT_NE(t.init(frame, {100, 100, 0, 40}).message().find("smaller than the smallest target"), std::string::npos);
+  EXPECT_NE(t.init(frame, {100, 100, 5, 5}).message().find("box 100,100,5,5"), std::string::npos);
   const cv::Mat flat(240, 320, CV_8UC3, cv::Scalar(90, 90, 90));
-  EXPECT_NE(t.init(flat, {100, 100, 40, 40}).find("flat"), std::string::npos);
+  EXPECT_NE(t.init(flat, {100, 100, 40, 40}).message().find("flat"), std::string::npos);
   EXPECT_FALSE(t.initialized());
-  EXPECT_NE(t.init(cv::Mat(), {100, 100, 40, 40}), "");
+  EXPECT_FALSE(t.init(cv::Mat(), {100, 100, 40, 40}).ok());
   // A refused box leaves a tracker that follows a target as it was.
   const cv::Point2d c(160, 120);
-  ASSERT_EQ(t.init(frame, scene.box(c)), "");
-  EXPECT_NE(t.init(flat, {100, 100, 40, 40}), "");
+  ASSERT_TRUE(t.init(frame, scene.box(c)).ok());
+  EXPECT_FALSE(t.init(flat, {100, 100, 40, 40}).ok());
   const TrackEstimate e = t.update(scene.render({60, 60}, c + cv::Point2d(3, 2)));
   EXPECT_EQ(e.state, TrackState::kTracking);
   EXPECT_LT(cv::norm(center(e.box) - (c + cv::Point2d(3, 2))), 2.0);

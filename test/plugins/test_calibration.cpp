@@ -58,7 +58,7 @@ const CalibrationResult& opencv_calibration() {
 
 TEST(Calibration, OpencvPairsWithinTenPercentOfTheSample) {
   const CalibrationResult& r = opencv_calibration();
-  ASSERT_EQ(r.error, "");
+  ASSERT_TRUE(r.status.ok()) << r.status.message();
   EXPECT_EQ(r.used_pairs, 13);
   ASSERT_EQ(r.pairs.size(), 13u);
   for (const auto& pair : r.pairs) {
@@ -88,7 +88,7 @@ TEST(Calibration, SampleStartReproducesTheSample) {
   CalibrationOptions options = chessboard();
   options.per_camera_first = false;
   const CalibrationResult r = calibrate_head(opencv_pairs(), options);
-  ASSERT_EQ(r.error, "");
+  ASSERT_TRUE(r.status.ok()) << r.status.message();
   std::printf("sample start: RMS %.4f px, epipolar %.4f px\n", r.calibration.rms, r.calibration.epipolar_error);
   EXPECT_NEAR(r.calibration.rms, kSampleRms, kSampleRms * 0.10);
   EXPECT_NEAR(r.calibration.epipolar_error, kSampleEpipolar, kSampleEpipolar * 0.10);
@@ -96,7 +96,7 @@ TEST(Calibration, SampleStartReproducesTheSample) {
 
 TEST(Calibration, SquareSizeSetsTheUnit) {
   const CalibrationResult r = calibrate_head(opencv_pairs(), chessboard(0.025));
-  ASSERT_EQ(r.error, "");
+  ASSERT_TRUE(r.status.ok()) << r.status.message();
   EXPECT_NEAR(r.calibration.baseline(), 0.025 * opencv_calibration().calibration.baseline(), 1e-4);
   EXPECT_NEAR(r.calibration.rms, opencv_calibration().calibration.rms, 1e-3);
 }
@@ -129,12 +129,14 @@ TEST(Calibration, FileRoundTripYamlAndXml) {
   ASSERT_GT(c.rms, 0);
   for (const char* name : {"head.yml", "head.xml", "head.yml.gz"}) {
     const std::string path = (out_dir() / name).string();
-    ASSERT_EQ(write_head_calibration(path, c), "") << name;
-    HeadCalibration back;
-    ASSERT_EQ(read_head_calibration(path, back), "") << name;
+    const Status written = write_head_calibration(path, c);
+    ASSERT_TRUE(written.ok()) << name << ": " << written.message();
+    const Result<HeadCalibration> read = read_head_calibration(path);
+    ASSERT_TRUE(read.ok()) << name << ": " << read.error();
+    const HeadCalibration& back = *read;
     EXPECT_EQ(back.path, path);
     expect_same(back, c);
-    EXPECT_EQ(check_frame_size(back, cv::Size(640, 480)), "");
+    EXPECT_TRUE(check_frame_size(back, cv::Size(640, 480)).ok());
     // OpenCV's stereo_calib keys, with stereoRectify's at the joints' zero.
     cv::FileStorage file(path, cv::FileStorage::READ);
     for (const char* key : {"M1", "D1", "M2", "D2", "R", "T", "R1", "R2", "P1", "P2", "Q"})
@@ -174,14 +176,13 @@ std::string file_without(const std::string& skip, const std::string& name, const
 TEST(Calibration, ReadNamesTheFileAndTheMissingKey) {
   for (const char* key : {"M1", "D1", "M2", "D2", "R", "T", "image_width", "image_height"}) {
     const std::string path = file_without(key, std::string("without_") + key + ".yml");
-    HeadCalibration c;
-    const std::string error = read_head_calibration(path, c);
+    const std::string error = read_head_calibration(path).error();
     EXPECT_NE(error.find("'" + path + "'"), std::string::npos) << error;
     EXPECT_NE(error.find(std::string("key '") + key + "' is missing"), std::string::npos) << error;
   }
   // The one written without anything left out reads.
-  HeadCalibration c;
-  EXPECT_EQ(read_head_calibration(file_without("", "complete.yml"), c), "");
+  const Result<HeadCalibration> complete = read_head_calibration(file_without("", "complete.yml"));
+  EXPECT_TRUE(complete.ok()) << complete.error();
 }
 
 TEST(Calibration, ReadRejectsBadValues) {
@@ -200,24 +201,22 @@ TEST(Calibration, ReadRejectsBadValues) {
   };
   for (const auto& bad : cases) {
     const std::string path = file_without(bad.key, std::string("bad_") + bad.key + ".yml", bad.value);
-    HeadCalibration c;
-    const std::string error = read_head_calibration(path, c);
+    const std::string error = read_head_calibration(path).error();
     EXPECT_NE(error.find(path), std::string::npos) << error;
     EXPECT_NE(error.find(bad.says), std::string::npos) << error;
   }
-  HeadCalibration c;
   const std::string missing = (out_dir() / "no_such_calibration.yml").string();
-  EXPECT_EQ(read_head_calibration(missing, c), "cannot open calibration file '" + missing + "'");
+  EXPECT_EQ(read_head_calibration(missing).error(), "cannot open calibration file '" + missing + "'");
   const std::string garbage = (out_dir() / "garbage.yml").string();
   std::ofstream(garbage) << "%YAML:1.0\nM1: [ 1, 2\n";
-  EXPECT_NE(read_head_calibration(garbage, c).find(garbage), std::string::npos);
+  EXPECT_NE(read_head_calibration(garbage).error().find(garbage), std::string::npos);
 }
 
 TEST(Calibration, CheckFrameSizeNamesTheFileAndBothSizes) {
   HeadCalibration c = opencv_calibration().calibration;
   c.path = "cams/head.yml";
-  EXPECT_EQ(check_frame_size(c, cv::Size(640, 480)), "");
-  const std::string error = check_frame_size(c, cv::Size(1024, 768));
+  EXPECT_TRUE(check_frame_size(c, cv::Size(640, 480)).ok());
+  const std::string error = check_frame_size(c, cv::Size(1024, 768)).message();
   EXPECT_NE(error.find("'cams/head.yml'"), std::string::npos) << error;
   EXPECT_NE(error.find("640x480"), std::string::npos) << error;
   EXPECT_NE(error.find("1024x768"), std::string::npos) << error;
@@ -229,7 +228,7 @@ TEST(Calibration, PairsWithoutTheBoardAreListedAndSkipped) {
   pairs.insert(pairs.begin() + 2, ImagePair{"blank_left.png", pairs[0].right, blank, {}});
   pairs.push_back(ImagePair{pairs[1].left, "blank_right.png", {}, blank});
   const CalibrationResult r = calibrate_head(pairs, chessboard());
-  ASSERT_EQ(r.error, "");
+  ASSERT_TRUE(r.status.ok()) << r.status.message();
   EXPECT_EQ(r.used_pairs, 13);
   ASSERT_EQ(r.pairs.size(), 15u);
   EXPECT_FALSE(r.pairs[2].used);
@@ -246,7 +245,8 @@ TEST(Calibration, TooFewUsablePairsSaysHowMany) {
   const cv::Mat blank(480, 640, CV_8UC1, cv::Scalar(0));
   pairs.push_back(ImagePair{"dark_left.png", "dark_right.png", blank, blank});
   const CalibrationResult r = calibrate_head(pairs, chessboard());
-  EXPECT_NE(r.error.find("found in both images of 2 of 3 pairs; at least 3 are needed"), std::string::npos) << r.error;
+  EXPECT_NE(r.status.message().find("found in both images of 2 of 3 pairs; at least 3 are needed"), std::string::npos)
+      << r.status.message();
   EXPECT_EQ(r.pairs[2].problem, "no board in either image");
 }
 
@@ -264,20 +264,22 @@ TEST(Calibration, MismatchedAndUnreadableImagesAreErrors) {
   pairs.push_back({missing, pairs[0].right, {}, {}});
   pairs.push_back({pairs[0].left, not_an_image, {}, {}});
   const CalibrationResult r = calibrate_head(pairs, chessboard());
-  EXPECT_NE(r.error.find("pair '" + pairs[3].left +
-                         "' (640x480) and 'small_right04.png' (320x240): the two images "
-                         "differ in size"),
+  const std::string& error = r.status.message();
+  EXPECT_NE(error.find("pair '" + pairs[3].left +
+                       "' (640x480) and 'small_right04.png' (320x240): the two images "
+                       "differ in size"),
             std::string::npos)
-      << r.error;
-  EXPECT_NE(r.error.find("'" + pairs[5].left + "' is 320x240 but '" + pairs[0].left + "' is 640x480"),
-            std::string::npos)
-      << r.error;
-  EXPECT_NE(r.error.find("cannot read image '" + missing + "'"), std::string::npos) << r.error;
-  EXPECT_NE(r.error.find("cannot read image '" + not_an_image + "'"), std::string::npos) << r.error;
+      << error;
+  EXPECT_NE(error.find("'" + pairs[5].left + "' is 320x240 but '" + pairs[0].left + "' is 640x480"), std::string::npos)
+      << error;
+  EXPECT_NE(error.find("cannot read image '" + missing + "'"), std::string::npos) << error;
+  EXPECT_NE(error.find("cannot read image '" + not_an_image + "'"), std::string::npos) << error;
 }
 
 TEST(Calibration, BadBoardsAreRefused) {
-  auto error_of = [](BoardSpec board) { return calibrate_head(opencv_pairs(), CalibrationOptions{board}).error; };
+  auto error_of = [](BoardSpec board) {
+    return calibrate_head(opencv_pairs(), CalibrationOptions{board}).status.message();
+  };
   BoardSpec board;
   board.square = 0;
   EXPECT_EQ(error_of(board), "board square size must be > 0 metres, got 0");
@@ -302,8 +304,9 @@ TEST(Calibration, BadBoardsAreRefused) {
 }
 
 TEST(Calibration, ImageListAsStereoCalibXml) {
-  std::vector<ImagePair> pairs;
-  ASSERT_EQ(read_image_list(test::sample_path("stereo_calib.xml"), pairs), "");
+  const Result<std::vector<ImagePair>> list = read_image_list(test::sample_path("stereo_calib.xml"));
+  ASSERT_TRUE(list.ok()) << list.error();
+  const std::vector<ImagePair>& pairs = *list;
   ASSERT_EQ(pairs.size(), 13u);
   EXPECT_EQ(pairs[0].left, test::sample_path("left01.jpg"));
   EXPECT_EQ(pairs[12].right, test::sample_path("right14.jpg"));
@@ -317,9 +320,8 @@ TEST(Calibration, ImageListAsStereoCalibXml) {
          << "c.jpg"
          << "]";
   }
-  pairs.clear();
-  EXPECT_NE(read_image_list(odd, pairs).find("has 3 names"), std::string::npos);
-  EXPECT_NE(read_image_list((out_dir() / "no_list.xml").string(), pairs).find("cannot open image list"),
+  EXPECT_NE(read_image_list(odd).error().find("has 3 names"), std::string::npos);
+  EXPECT_NE(read_image_list((out_dir() / "no_list.xml").string()).error().find("cannot open image list"),
             std::string::npos);
 }
 
@@ -363,7 +365,7 @@ TEST(Calibration, CharucoPairsOfAKnownHead) {
   CalibrationOptions options;
   options.board = board;
   const CalibrationResult r = calibrate_head(pairs, options);
-  ASSERT_EQ(r.error, "");
+  ASSERT_TRUE(r.status.ok()) << r.status.message();
   EXPECT_GE(r.used_pairs, 8);
   for (const auto& pair : r.pairs) EXPECT_GT(pair.corners, 12) << pair.left << ": " << pair.problem;
   const HeadCalibration& c = r.calibration;

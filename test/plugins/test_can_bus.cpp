@@ -29,6 +29,17 @@
 namespace saccade::can {
 namespace {
 
+// What an open that must succeed made; on an error, the test fails with it
+// and this is empty (nullptr).
+template <class T>
+T opened(Result<T> result) {
+  if (!result.ok()) {
+    ADD_FAILURE() << result.error();
+    return T();
+  }
+  return std::move(result).value();
+}
+
 Frame data_frame(uint32_t id, std::initializer_list<uint8_t> bytes, bool extended = false) {
   Frame f;
   f.id = id;
@@ -216,8 +227,8 @@ TEST(Cannelloni, EncodesTheGoldenVector) {
 TEST(Cannelloni, DecodesTheGoldenVector) {
   std::vector<Frame> frames;
   uint8_t seq = 0;
-  std::string error;
-  ASSERT_TRUE(cannelloni::decode(kGolden.data(), kGolden.size(), seq, frames, error)) << error;
+  const Status decoded = cannelloni::decode(kGolden.data(), kGolden.size(), seq, frames);
+  ASSERT_TRUE(decoded.ok()) << decoded.message();
   EXPECT_EQ(seq, 7);
   ASSERT_EQ(frames.size(), 3u);
   const auto want = golden_frames();
@@ -250,9 +261,9 @@ TEST(Cannelloni, RejectsMalformedPacketsWithTheReason) {
   for (const Case& c : cases) {
     std::vector<Frame> frames = {Frame{}};
     uint8_t seq = 0;
-    std::string error;
-    EXPECT_FALSE(cannelloni::decode(c.bytes.data(), c.bytes.size(), seq, frames, error)) << c.what;
-    EXPECT_NE(error.find(c.reason), std::string::npos) << c.what << ": " << error;
+    const Status decoded = cannelloni::decode(c.bytes.data(), c.bytes.size(), seq, frames);
+    EXPECT_FALSE(decoded.ok()) << c.what;
+    EXPECT_NE(decoded.message().find(c.reason), std::string::npos) << c.what << ": " << decoded.message();
     EXPECT_EQ(frames.size(), 1u) << c.what << ": nothing appended";
   }
   // 64 bytes is a valid FD frame.
@@ -260,17 +271,16 @@ TEST(Cannelloni, RejectsMalformedPacketsWithTheReason) {
   fd64.resize(fd64.size() + 64, 0x55);
   std::vector<Frame> frames;
   uint8_t seq = 0;
-  std::string error;
-  EXPECT_TRUE(cannelloni::decode(fd64.data(), fd64.size(), seq, frames, error)) << error;
+  const Status decoded = cannelloni::decode(fd64.data(), fd64.size(), seq, frames);
+  EXPECT_TRUE(decoded.ok()) << decoded.message();
 }
 
 TEST(UdpTunnel, CarriesFramesBothWaysPacksACycleAndCountsLoss) {
   const auto [pa, pb] = test::free_udp_ports();
-  std::string error;
-  auto a = UdpTunnel::open(std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error);
-  ASSERT_TRUE(a) << error;
-  auto b = UdpTunnel::open(std::to_string(pb) + ":localhost:" + std::to_string(pa), error);
-  ASSERT_TRUE(b) << error;
+  auto a = opened(UdpTunnel::open(std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb)));
+  ASSERT_TRUE(a);
+  auto b = opened(UdpTunnel::open(std::to_string(pb) + ":localhost:" + std::to_string(pa)));
+  ASSERT_TRUE(b);
   for (const Frame& f : golden_frames()) a->send(f);
   a->flush();
   EXPECT_EQ(a->packets_sent(), 1u) << "one packet per flush";
@@ -360,20 +370,25 @@ TEST(UdpTunnel, FaultInjectionDropsDuplicatesReordersAndCorruptsPackets) {
 }
 
 TEST(UdpTunnel, BadSpecsSayWhatWasExpected) {
-  std::string error;
   for (const char* spec : {"20000", "1:2:3:4:5", ":20000:127.0.0.1:20001", "20000::20001", "x:127.0.0.1:20001"}) {
-    EXPECT_FALSE(UdpTunnel::open(spec, error)) << spec;
-    EXPECT_NE(error.find("expected [BIND_ADDR:]LOCAL_PORT:HOST:PORT"), std::string::npos) << spec << ": " << error;
+    const auto tunnel = UdpTunnel::open(spec);
+    EXPECT_FALSE(tunnel.ok()) << spec;
+    EXPECT_NE(tunnel.error().find("expected [BIND_ADDR:]LOCAL_PORT:HOST:PORT"), std::string::npos)
+        << spec << ": " << tunnel.error();
   }
-  EXPECT_FALSE(open_bus("serial:/dev/ttyS0", error));
-  EXPECT_NE(error.find("expected virtual:NAME, udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT or socketcan:IFNAME"),
+  const auto serial = open_bus("serial:/dev/ttyS0");
+  EXPECT_FALSE(serial.ok());
+  EXPECT_NE(serial.error().find("expected virtual:NAME, udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT or socketcan:IFNAME"),
             std::string::npos);
-  EXPECT_FALSE(UdpTunnel::open("0:no.such.host.invalid:20001", error));
-  EXPECT_NE(error.find("cannot resolve"), std::string::npos) << error;
-  EXPECT_FALSE(UdpTunnel::open("no.such.host.invalid:0:127.0.0.1:20001", error));
-  EXPECT_NE(error.find("bind address: cannot resolve"), std::string::npos) << error;
-  EXPECT_FALSE(UdpTunnel::open("0:0.0.0.0:20001", error));
-  EXPECT_NE(error.find("the peer must be one host's address"), std::string::npos) << error;
+  const auto unresolved = UdpTunnel::open("0:no.such.host.invalid:20001");
+  EXPECT_FALSE(unresolved.ok());
+  EXPECT_NE(unresolved.error().find("cannot resolve"), std::string::npos) << unresolved.error();
+  const auto unresolved_bind = UdpTunnel::open("no.such.host.invalid:0:127.0.0.1:20001");
+  EXPECT_FALSE(unresolved_bind.ok());
+  EXPECT_NE(unresolved_bind.error().find("bind address: cannot resolve"), std::string::npos) << unresolved_bind.error();
+  const auto any_peer = UdpTunnel::open("0:0.0.0.0:20001");
+  EXPECT_FALSE(any_peer.ok());
+  EXPECT_NE(any_peer.error().find("the peer must be one host's address"), std::string::npos) << any_peer.error();
 }
 
 // A plain UDP socket on a loopback address standing in for the tunnel's peer,
@@ -444,30 +459,29 @@ int next_id(UdpTunnel& t) {
 
 TEST(UdpTunnel, BindsLoopbackForALoopbackPeerOrTheAddressGiven) {
   const auto [pa, pb] = test::free_udp_ports();
-  std::string error;
-  auto a = UdpTunnel::open(std::to_string(pa) + ":localhost:" + std::to_string(pb), error);
-  ASSERT_TRUE(a) << error;
+  auto a = opened(UdpTunnel::open(std::to_string(pa) + ":localhost:" + std::to_string(pb)));
+  ASSERT_TRUE(a);
   EXPECT_EQ(a->local_address(), "127.0.0.1:" + std::to_string(pa)) << "loopback, not every interface";
   a.reset();
   // Any 127.x address is this host's loopback on Linux: the tunnel listens there alone.
-  auto b = UdpTunnel::open("127.0.0.2:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error);
-  ASSERT_TRUE(b) << error;
+  auto b = opened(UdpTunnel::open("127.0.0.2:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb)));
+  ASSERT_TRUE(b);
   EXPECT_EQ(b->local_address(), "127.0.0.2:" + std::to_string(pa));
   EXPECT_NE(b->describe().find("127.0.0.2:" + std::to_string(pa)), std::string::npos) << b->describe();
   // So the same port on 127.0.0.1 is still free.
-  auto c = UdpTunnel::open(std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error);
-  EXPECT_TRUE(c) << error;
+  auto c = opened(UdpTunnel::open(std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb)));
+  EXPECT_TRUE(c);
   // An address of no interface of this host cannot be bound.
-  EXPECT_FALSE(UdpTunnel::open("192.0.2.1:" + std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa), error));
-  EXPECT_NE(error.find("bind to 192.0.2.1:" + std::to_string(pb)), std::string::npos) << error;
+  const auto elsewhere = UdpTunnel::open("192.0.2.1:" + std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa));
+  EXPECT_FALSE(elsewhere.ok());
+  EXPECT_NE(elsewhere.error().find("bind to 192.0.2.1:" + std::to_string(pb)), std::string::npos) << elsewhere.error();
 }
 
 TEST(UdpTunnel, PacketsFromAnyoneButThePeerAreDroppedAndCounted) {
   const auto [pt, pr] = test::free_udp_ports();
   RawEnd peer(pr), intruder(0), other_address(pr, "127.0.0.2");
-  std::string error;
-  auto t = UdpTunnel::open(std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr), error);
-  ASSERT_TRUE(t) << error;
+  auto t = opened(UdpTunnel::open(std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr)));
+  ASSERT_TRUE(t);
   intruder.send_to(pt, plain_packet(1));       // another port
   other_address.send_to(pt, plain_packet(2));  // the peer's port on another address
   peer.send_to(pt, plain_packet(3));
@@ -485,9 +499,8 @@ TEST(UdpTunnel, AKeyedTunnelTakesOnlyAuthenticNewPacketsOfThePeersNewestSession)
   const auto [pt, pr] = test::free_udp_ports();
   RawEnd peer(pr);
   const cannelloni::Key key = test_key(1);
-  std::string error;
-  auto t = UdpTunnel::open(std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr), error, &key);
-  ASSERT_TRUE(t) << error;
+  auto t = opened(UdpTunnel::open(std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr), &key));
+  ASSERT_TRUE(t);
   EXPECT_TRUE(t->authenticated());
   EXPECT_NE(t->describe().find("authenticated"), std::string::npos);
   cannelloni::Authenticator sender(key), wrong(test_key(2));
@@ -567,11 +580,10 @@ TEST(UdpTunnel, KeyedTunnelsCarryFramesBothWaysAndARestartedEndIsTaken) {
   const auto [pa, pb] = test::free_udp_ports();
   const cannelloni::Key key = test_key(7);
   const std::string a_spec = std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb);
-  std::string error;
-  auto a = UdpTunnel::open(a_spec, error, &key);
-  ASSERT_TRUE(a) << error;
-  auto b = UdpTunnel::open(std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa), error, &key);
-  ASSERT_TRUE(b) << error;
+  auto a = opened(UdpTunnel::open(a_spec, &key));
+  ASSERT_TRUE(a);
+  auto b = opened(UdpTunnel::open(std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa), &key));
+  ASSERT_TRUE(b);
   for (const Frame& f : golden_frames()) a->send(f);
   a->flush();
   Frame f;
@@ -586,8 +598,8 @@ TEST(UdpTunnel, KeyedTunnelsCarryFramesBothWaysAndARestartedEndIsTaken) {
   const uint64_t first_epoch = a->epoch();
 
   a.reset();  // the robot PC's process restarts
-  a = UdpTunnel::open(a_spec, error, &key);
-  ASSERT_TRUE(a) << error;
+  a = opened(UdpTunnel::open(a_spec, &key));
+  ASSERT_TRUE(a);
   EXPECT_GT(a->epoch(), first_epoch);
   a->send(data_frame(0x701, {0x05}));
   a->flush();
@@ -597,8 +609,8 @@ TEST(UdpTunnel, KeyedTunnelsCarryFramesBothWaysAndARestartedEndIsTaken) {
 
   // A key-less end (as a real cannelloni bridge) and a keyed one do not talk.
   a.reset();
-  auto keyless = UdpTunnel::open(a_spec, error);
-  ASSERT_TRUE(keyless) << error;
+  auto keyless = opened(UdpTunnel::open(a_spec));
+  ASSERT_TRUE(keyless);
   keyless->send(data_frame(0x181, {9}));
   keyless->flush();
   EXPECT_FALSE(b->receive(f, 50'000'000));
@@ -608,8 +620,9 @@ TEST(UdpTunnel, KeyedTunnelsCarryFramesBothWaysAndARestartedEndIsTaken) {
   EXPECT_FALSE(keyless->receive(f, 50'000'000));
   EXPECT_EQ(keyless->counters().malformed, 1u) << "the trailer is bytes after the last frame to it";
   // A keyed end refuses to listen on every interface: its tag names its address.
-  EXPECT_FALSE(UdpTunnel::open("0.0.0.0:0:127.0.0.1:" + std::to_string(pa), error, &key));
-  EXPECT_NE(error.find("not 0.0.0.0"), std::string::npos) << error;
+  const auto everywhere = UdpTunnel::open("0.0.0.0:0:127.0.0.1:" + std::to_string(pa), &key);
+  EXPECT_FALSE(everywhere.ok());
+  EXPECT_NE(everywhere.error().find("not 0.0.0.0"), std::string::npos) << everywhere.error();
 }
 
 // A key file in the test's temporary folder, with `mode`.
@@ -625,35 +638,40 @@ constexpr const char* kKeyHex = "000102030405060708090a0b0c0d0e0f101112131415161
 TEST(UdpTunnel, AKeyFileIsTheOwnersAloneAndHoldsSixtyFourHexCharacters) {
   const std::string good = write_key_file("can_key_good", std::string(kKeyHex) + "\n", 0600);
   cannelloni::Key key;
-  std::string error;
-  ASSERT_TRUE(cannelloni::load_key(good, key, error)) << error;
+  const Status loaded = cannelloni::load_key(good, key);
+  ASSERT_TRUE(loaded.ok()) << loaded.message();
   EXPECT_EQ(key.bytes, test_key(0).bytes);
 
   for (mode_t mode : {0640, 0604, 0620, 0644}) {
     const std::string open_to_others = write_key_file("can_key_open", kKeyHex, mode);
-    EXPECT_FALSE(cannelloni::load_key(open_to_others, key, error)) << std::oct << mode;
-    EXPECT_NE(error.find("key file '" + open_to_others + "'"), std::string::npos) << error;
-    EXPECT_NE(error.find("chmod 600 '" + open_to_others + "'"), std::string::npos) << error;
+    const Status refused = cannelloni::load_key(open_to_others, key);
+    EXPECT_FALSE(refused.ok()) << std::oct << mode;
+    EXPECT_NE(refused.message().find("key file '" + open_to_others + "'"), std::string::npos) << refused.message();
+    EXPECT_NE(refused.message().find("chmod 600 '" + open_to_others + "'"), std::string::npos) << refused.message();
     ::unlink(open_to_others.c_str());
   }
   for (const char* text : {"0011", "zz0102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f", ""}) {
     const std::string bad = write_key_file("can_key_bad", text, 0600);
-    EXPECT_FALSE(cannelloni::load_key(bad, key, error)) << text;
-    EXPECT_NE(error.find("expected 64 hex characters"), std::string::npos) << error;
+    const Status refused = cannelloni::load_key(bad, key);
+    EXPECT_FALSE(refused.ok()) << text;
+    EXPECT_NE(refused.message().find("expected 64 hex characters"), std::string::npos) << refused.message();
     ::unlink(bad.c_str());
   }
-  EXPECT_FALSE(cannelloni::load_key(good + ".missing", key, error));
-  EXPECT_NE(error.find("No such file"), std::string::npos) << error;
-  EXPECT_FALSE(cannelloni::load_key(::testing::TempDir(), key, error));
-  EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
+  const Status missing = cannelloni::load_key(good + ".missing", key);
+  EXPECT_FALSE(missing.ok());
+  EXPECT_NE(missing.message().find("No such file"), std::string::npos) << missing.message();
+  const Status folder = cannelloni::load_key(::testing::TempDir(), key);
+  EXPECT_FALSE(folder.ok());
+  EXPECT_NE(folder.message().find("not a regular file"), std::string::npos) << folder.message();
 
   // Through open_bus, as the nodes open it.
   const auto [pa, pb] = test::free_udp_ports();
-  auto bus = open_bus("udp:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), error, {good});
-  ASSERT_TRUE(bus) << error;
+  auto bus = opened(open_bus("udp:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb), {good}));
+  ASSERT_TRUE(bus);
   EXPECT_TRUE(dynamic_cast<UdpTunnel&>(*bus).authenticated());
-  EXPECT_FALSE(open_bus("virtual:keyed", error, {good}));
-  EXPECT_NE(error.find("is for a udp bus only"), std::string::npos) << error;
+  const auto keyed_virtual = open_bus("virtual:keyed", {good});
+  EXPECT_FALSE(keyed_virtual.ok());
+  EXPECT_NE(keyed_virtual.error().find("is for a udp bus only"), std::string::npos) << keyed_virtual.error();
   ::unlink(good.c_str());
 }
 
@@ -712,12 +730,10 @@ TEST(CanNodes, CanSendSealsItsPacketsAndCountsThem) {
   const std::string key_file = write_key_file("can_key_send", kKeyHex, 0600);
   const auto [ps, pr] = test::free_udp_ports();
   RawEnd peer(pr);
-  std::string error;
-  auto send = testing::NodeHarness::create(
+  auto send = opened(testing::NodeHarness::create(
       "<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:" + std::to_string(ps) +
-          ":127.0.0.1:" + std::to_string(pr) + "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>",
-      &error);
-  ASSERT_NE(send, nullptr) << error;
+      ":127.0.0.1:" + std::to_string(pr) + "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>"));
+  ASSERT_NE(send, nullptr);
   auto out = std::make_shared<CanFrames>();
   CanFrames::Frame m;
   m.can_id = 0x601;
@@ -742,16 +758,16 @@ TEST(CanNodes, CanSendSealsItsPacketsAndCountsThem) {
   EXPECT_GT(epoch, 0u);
   std::vector<Frame> frames;
   uint8_t seq = 0;
-  ASSERT_TRUE(cannelloni::decode(packet.data(), payload, seq, frames, error)) << error;
+  const Status decoded = cannelloni::decode(packet.data(), payload, seq, frames);
+  ASSERT_TRUE(decoded.ok()) << decoded.message();
   EXPECT_EQ(frames.size(), 2u);
   // A group-readable key file is refused when the node opens, naming the fix.
   ::chmod(key_file.c_str(), 0640);
-  EXPECT_EQ(testing::NodeHarness::create(
-                "<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:0:127.0.0.1:" + std::to_string(pr) +
-                    "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>",
-                &error),
-            nullptr);
-  EXPECT_NE(error.find("chmod 600"), std::string::npos) << error;
+  const auto refused = testing::NodeHarness::create(
+      "<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:0:127.0.0.1:" + std::to_string(pr) +
+      "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>");
+  EXPECT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().find("chmod 600"), std::string::npos) << refused.error();
   ::unlink(key_file.c_str());
 }
 
@@ -803,11 +819,12 @@ TEST(CanNodes, TheDriverAndTheDrivesRunOverAKeyedTunnel) {
 }
 
 TEST(SocketCan, TalksOnVcan0WhereTheKernelHasCan) {
-  std::string error;
-  auto a = SocketCan::open("vcan0", error);
-  if (!a) GTEST_SKIP() << error << " (create one with: ip link add dev vcan0 type vcan && ip link set up vcan0)";
-  auto b = SocketCan::open("vcan0", error);
-  ASSERT_TRUE(b) << error;
+  auto vcan0 = SocketCan::open("vcan0");
+  if (!vcan0.ok())
+    GTEST_SKIP() << vcan0.error() << " (create one with: ip link add dev vcan0 type vcan && ip link set up vcan0)";
+  auto a = std::move(vcan0).value();
+  auto b = opened(SocketCan::open("vcan0"));
+  ASSERT_TRUE(b);
   FilterSet only;
   only.filters = {Filter::exact(0x181)};
   b->set_filters(only);
@@ -821,11 +838,12 @@ TEST(SocketCan, TalksOnVcan0WhereTheKernelHasCan) {
 }
 
 TEST(SocketCan, AMissingInterfaceOrKernelSupportIsAClearError) {
-  std::string error;
-  EXPECT_FALSE(SocketCan::open("nosuchcan9", error));
-  EXPECT_NE(error.find("socketcan 'nosuchcan9'"), std::string::npos) << error;
-  EXPECT_FALSE(SocketCan::open("", error));
-  EXPECT_NE(error.find("expected an interface name"), std::string::npos) << error;
+  const auto missing = SocketCan::open("nosuchcan9");
+  EXPECT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("socketcan 'nosuchcan9'"), std::string::npos) << missing.error();
+  const auto unnamed = SocketCan::open("");
+  EXPECT_FALSE(unnamed.ok());
+  EXPECT_NE(unnamed.error().find("expected an interface name"), std::string::npos) << unnamed.error();
 }
 
 // can.send puts a CanFrames message's frames on a bus; can.tap, on another
@@ -833,14 +851,12 @@ TEST(SocketCan, AMissingInterfaceOrKernelSupportIsAClearError) {
 // and FD frames keep their ids, flags and bytes.
 TEST(CanNodes, FramesSentByCanSendComeBackFromCanTap) {
   const std::string bus = "virtual:tap_test_" + std::to_string(getpid());
-  std::string error;
-  auto tap = testing::NodeHarness::create("<node plugin=\"can.tap\"><param name=\"bus\" value=\"" + bus +
-                                              "\"/><param name=\"period_ms\" value=\"50\"/></node>",
-                                          &error);
-  ASSERT_NE(tap, nullptr) << error;
-  auto send = testing::NodeHarness::create(
-      "<node plugin=\"can.send\"><param name=\"bus\" value=\"" + bus + "\"/></node>", &error);
-  ASSERT_NE(send, nullptr) << error;
+  auto tap = opened(testing::NodeHarness::create("<node plugin=\"can.tap\"><param name=\"bus\" value=\"" + bus +
+                                                 "\"/><param name=\"period_ms\" value=\"50\"/></node>"));
+  ASSERT_NE(tap, nullptr);
+  auto send = opened(
+      testing::NodeHarness::create("<node plugin=\"can.send\"><param name=\"bus\" value=\"" + bus + "\"/></node>"));
+  ASSERT_NE(send, nullptr);
 
   auto out = std::make_shared<CanFrames>();
   CanFrames::Frame sdo;
@@ -888,14 +904,12 @@ TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
   // The driver node (in the plugin) and the drives (here) meet on a UDP tunnel.
   const auto [pa, pb] = test::free_udp_ports();
   const std::string bus = "udp:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb);
-  std::string error;
-  auto head = testing::NodeHarness::create("<node plugin=\"head\"/>", &error);
-  ASSERT_NE(head, nullptr) << error;
-  auto driver = testing::NodeHarness::create("<node plugin=\"can.driver\"><param name=\"bus\" value=\"" + bus +
-                                                 "\"/><param name=\"realtime\" value=\"false\"/>"
-                                                 "<param name=\"wait_ms\" value=\"5\"/></node>",
-                                             &error);
-  ASSERT_NE(driver, nullptr) << error;
+  auto head = opened(testing::NodeHarness::create("<node plugin=\"head\"/>"));
+  ASSERT_NE(head, nullptr);
+  auto driver = opened(testing::NodeHarness::create("<node plugin=\"can.driver\"><param name=\"bus\" value=\"" + bus +
+                                                    "\"/><param name=\"realtime\" value=\"false\"/>"
+                                                    "<param name=\"wait_ms\" value=\"5\"/></node>"));
+  ASSERT_NE(driver, nullptr);
 
   auto state = std::make_shared<JointState>();
   const int64_t now = steady_now_ns();
@@ -933,8 +947,8 @@ TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
     c.counts_per_rad = 20000.0;
     configs.push_back(c);
   }
-  auto drives_end = UdpTunnel::open(std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa), error);
-  ASSERT_TRUE(drives_end) << error;
+  auto drives_end = opened(UdpTunnel::open(std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa)));
+  ASSERT_TRUE(drives_end);
   DriveRack rack(std::move(drives_end), configs);
   auto step = [&](int tick) {
     ASSERT_TRUE(driver->process().ok());

@@ -14,10 +14,9 @@ namespace {
 using test::sample_path;
 
 std::unique_ptr<testing::NodeHarness> harness(const std::string& xml) {
-  std::string error;
-  auto h = testing::NodeHarness::create(xml, &error);
-  if (!h) throw std::runtime_error(error);
-  return h;
+  auto h = testing::NodeHarness::create(xml);
+  if (!h.ok()) throw std::runtime_error(h.error());
+  return std::move(h).value();
 }
 
 TEST(CaptureVideo, ReadsEveryFrameOfVtestWithMediaTimestamps) {
@@ -75,11 +74,10 @@ TEST(CaptureVideo, LoopsWithIncreasingTimestampsAndResizes) {
 }
 
 TEST(CaptureVideo, MissingFileIsAClearError) {
-  std::string error;
-  auto h = testing::NodeHarness::create(
-      R"(<node plugin="capture.video"><param name="path" value="/no/such.avi"/></node>)", &error);
-  EXPECT_EQ(h, nullptr);
-  EXPECT_NE(error.find("/no/such.avi: no such video file"), std::string::npos) << error;
+  auto h =
+      testing::NodeHarness::create(R"(<node plugin="capture.video"><param name="path" value="/no/such.avi"/></node>)");
+  EXPECT_FALSE(h.ok());
+  EXPECT_NE(h.error().find("/no/such.avi: no such video file"), std::string::npos) << h.error();
 }
 
 TEST(CaptureImages, ReadsTheSequenceUpToTheFirstGap) {
@@ -131,19 +129,17 @@ TEST(CaptureStereo, TheAloePairComesOutTimeMatched) {
 }
 
 TEST(CaptureCamera, AbsentDeviceIsAClearError) {
-  std::string error;
   auto h = testing::NodeHarness::create(
-      R"(<node plugin="capture.camera"><param name="device" value="/dev/video97"/></node>)", &error);
-  EXPECT_EQ(h, nullptr);
-  EXPECT_NE(error.find("camera '/dev/video97' cannot be opened"), std::string::npos) << error;
+      R"(<node plugin="capture.camera"><param name="device" value="/dev/video97"/></node>)");
+  EXPECT_FALSE(h.ok());
+  EXPECT_NE(h.error().find("camera '/dev/video97' cannot be opened"), std::string::npos) << h.error();
 }
 
 TEST(CaptureCamera, AnIndexPastAnyDeviceIsAClearErrorNotAThrow) {
-  std::string error;
   auto h = testing::NodeHarness::create(
-      R"(<node plugin="capture.camera"><param name="device" value="99999999999"/></node>)", &error);
-  EXPECT_EQ(h, nullptr);
-  EXPECT_NE(error.find("camera '99999999999': a V4L2 index is 0..9999"), std::string::npos) << error;
+      R"(<node plugin="capture.camera"><param name="device" value="99999999999"/></node>)");
+  EXPECT_FALSE(h.ok());
+  EXPECT_NE(h.error().find("camera '99999999999': a V4L2 index is 0..9999"), std::string::npos) << h.error();
 }
 
 // Issue 25: after the drives' side restarted, its joint states' clock starts
@@ -178,11 +174,10 @@ TEST(CaptureImage, AFifoAndAnImageLargerThanTheLimitAreErrors) {
   const std::string fifo = (std::filesystem::temp_directory_path() / "saccade_capture_fifo.png").string();
   std::filesystem::remove(fifo);
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
-  std::string error;
-  EXPECT_EQ(testing::NodeHarness::create(
-                R"(<node plugin="capture.image"><param name="path" value=")" + fifo + R"("/></node>)", &error),
-            nullptr);
-  EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
+  auto h = testing::NodeHarness::create(R"(<node plugin="capture.image"><param name="path" value=")" + fifo +
+                                        R"("/></node>)");
+  EXPECT_FALSE(h.ok());
+  EXPECT_NE(h.error().find("not a regular file"), std::string::npos) << h.error();
   std::filesystem::remove(fifo);
 
   // A PNG whose header says 20000 x 20000 (its pixels need not be there: the
@@ -206,10 +201,10 @@ TEST(CaptureImage, AFifoAndAnImageLargerThanTheLimitAreErrors) {
   const std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) + chunk("IEND", "");
   const std::string huge = (std::filesystem::temp_directory_path() / "saccade_capture_huge.png").string();
   std::ofstream(huge, std::ios::binary) << png;
-  EXPECT_EQ(testing::NodeHarness::create(
-                R"(<node plugin="capture.image"><param name="path" value=")" + huge + R"("/></node>)", &error),
-            nullptr);
-  EXPECT_NE(error.find("a 20000x20000 image; at most 67108864 pixels are read"), std::string::npos) << error;
+  h = testing::NodeHarness::create(R"(<node plugin="capture.image"><param name="path" value=")" + huge +
+                                   R"("/></node>)");
+  EXPECT_FALSE(h.ok());
+  EXPECT_NE(h.error().find("a 20000x20000 image; at most 67108864 pixels are read"), std::string::npos) << h.error();
   std::filesystem::remove(huge);
 }
 
@@ -267,19 +262,38 @@ namespace {
 // stray % are refused with the pattern named; one %d (with 0 and a width)
 // and %% work as printf would have them.
 TEST(NumberedPattern, TakesOneNumberAndRefusesEveryOtherConversion) {
-  std::string why;
   for (const char* bad : {"img_%s.png", "img_%n.png", "img_%d_%d.png", "img_%04d_%s.png", "img.png", "100%", "%%d.png",
                           "img_%ld.png", "img_%x.png"}) {
-    why.clear();
-    EXPECT_FALSE(NumberedPattern::parse(bad, &why)) << bad;
-    EXPECT_NE(why.find(std::string("'") + bad + "'"), std::string::npos) << why;
+    const auto parsed = NumberedPattern::parse(bad);
+    EXPECT_FALSE(parsed.ok()) << bad;
+    EXPECT_NE(parsed.error().find(std::string("'") + bad + "'"), std::string::npos) << parsed.error();
   }
-  EXPECT_EQ(NumberedPattern::parse("img_%04d.png", &why)->name(7), "img_0007.png");
-  EXPECT_EQ(NumberedPattern::parse("a%%b_%d.jpg", &why)->name(12), "a%b_12.jpg");
-  EXPECT_EQ(NumberedPattern::parse("%3d", &why)->name(5), "  5");
-  std::string error;
-  EXPECT_EQ(open_sequence("/nonexistent/img_%s_%n.png", 0, 30, &error), nullptr);
-  EXPECT_NE(error.find("expected one %d"), std::string::npos) << error;
+  EXPECT_EQ(NumberedPattern::parse("img_%04d.png")->name(7), "img_0007.png");
+  EXPECT_EQ(NumberedPattern::parse("a%%b_%d.jpg")->name(12), "a%b_12.jpg");
+  EXPECT_EQ(NumberedPattern::parse("%3d")->name(5), "  5");
+  const auto reader = open_sequence("/nonexistent/img_%s_%n.png", 0, 30);
+  EXPECT_FALSE(reader.ok());
+  EXPECT_NE(reader.error().find("expected one %d"), std::string::npos) << reader.error();
+}
+
+// A reader tells the end of its frames apart from an error.
+TEST(FrameReader, EndOfStreamIsNotAnError) {
+  const std::string dir = (std::filesystem::temp_directory_path() / "saccade_frame_reader_end").string();
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  cv::imwrite(dir + "/img_1.png", cv::Mat(8, 8, CV_8UC1, cv::Scalar(7)));
+  auto reader = open_sequence(dir + "/img_%d.png", 1, 30);
+  ASSERT_TRUE(reader.ok()) << reader.error();
+  cv::Mat frame;
+  int64_t media_ns = 0;
+  EXPECT_TRUE((*reader)->read(frame, media_ns).ok());
+  EXPECT_EQ(frame.at<uint8_t>(0, 0), 7);
+  const Status end = (*reader)->read(frame, media_ns);
+  EXPECT_TRUE(end.is_end_of_stream()) << end.message();
+  std::ofstream(dir + "/img_2.png") << "not a png";
+  const Status broken = (*reader)->read(frame, media_ns);
+  EXPECT_TRUE(broken.is_error());
+  EXPECT_NE(broken.message().find("img_2.png: cannot decode image"), std::string::npos) << broken.message();
 }
 
 }  // namespace

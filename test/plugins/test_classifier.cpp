@@ -43,8 +43,8 @@ struct Tiny {
       (i < 30 ? images : val_images).push_back(stripes(i % 2 == 0, i));
       (i < 30 ? y : val_y).push_back(i % 2);
     }
-    EXPECT_EQ(features_of_views(images, recipe, x), "");
-    EXPECT_EQ(features_of_views(val_images, recipe, val_x), "");
+    EXPECT_EQ(features_of_views(images, recipe, x).message(), "");
+    EXPECT_EQ(features_of_views(val_images, recipe, val_x).message(), "");
   }
 };
 
@@ -88,10 +88,10 @@ TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
   const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier";
   fs::create_directories(dir);
   const std::string path = (dir / ("stripes_" + std::to_string(::getpid()) + ".yml.gz")).string();
-  ASSERT_EQ(model.save(path), "");
-  std::string error;
-  auto loaded = Model::load(path, &error);
-  ASSERT_TRUE(loaded) << error;
+  ASSERT_TRUE(model.save(path).ok());
+  auto loaded_model = Model::load(path);
+  ASSERT_TRUE(loaded_model.ok()) << loaded_model.error();
+  const std::unique_ptr<Model>& loaded = *loaded_model;
   EXPECT_TRUE(loaded->recipe == t.recipe);
   EXPECT_EQ(*loaded->classes, (std::vector<std::string>{"vertical", "horizontal"}));
   std::vector<float> a, b;
@@ -100,8 +100,9 @@ TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
     loaded->scores(t.val_x.row(i), b);
     ASSERT_EQ(a, b) << "row " << i;
   }
-  EXPECT_FALSE(Model::load((dir / "missing.yml").string(), &error));
-  EXPECT_NE(error.find("missing.yml"), std::string::npos) << error;
+  const auto missing = Model::load((dir / "missing.yml").string());
+  EXPECT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().find("missing.yml"), std::string::npos) << missing.error();
   // A file without the recipe is refused, saying what is missing.
   {
     cv::FileStorage fs((dir / "no_recipe.yml").string(), cv::FileStorage::WRITE);
@@ -109,8 +110,9 @@ TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
     model.net->write(fs);
     fs << "}";
   }
-  EXPECT_FALSE(Model::load((dir / "no_recipe.yml").string(), &error));
-  EXPECT_NE(error.find("recipe"), std::string::npos) << error;
+  const auto no_recipe = Model::load((dir / "no_recipe.yml").string());
+  EXPECT_FALSE(no_recipe.ok());
+  EXPECT_NE(no_recipe.error().find("recipe"), std::string::npos) << no_recipe.error();
 }
 
 TEST(Decision, ThresholdsGiveThePapersThreeOutcomes) {
@@ -128,22 +130,22 @@ TEST(Decision, ThresholdsGiveThePapersThreeOutcomes) {
 
 TEST(FeatureRecipe, ChecksItselfAndTheRetina) {
   FeatureRecipe r;
-  EXPECT_EQ(r.check(), "");
+  EXPECT_TRUE(r.check().ok()) << r.check().message();
   EXPECT_EQ(r.length(), 8 * 6 + 8 * 6 * FeatureRecipe::kOrientationBins);
   r.features = {"gray", "colour"};
-  EXPECT_NE(r.check().find("colour"), std::string::npos);
+  EXPECT_NE(r.check().message().find("colour"), std::string::npos);
   r = {};
   r.levels = {7};
-  EXPECT_NE(r.check().find("level 7"), std::string::npos);
+  EXPECT_NE(r.check().message().find("level 7"), std::string::npos);
   // A size an int's arithmetic would overflow (read from a model file): refused, and counted without overflow.
   r = {};
   r.size = {100000, 100000};
-  EXPECT_NE(r.check().find("at most"), std::string::npos) << r.check();
+  EXPECT_NE(r.check().message().find("at most"), std::string::npos) << r.check().message();
   EXPECT_GT(r.length(), 0);
-  std::string error;
-  EXPECT_FALSE(parse_levels("0,x", &error));
-  EXPECT_NE(error.find("0,x"), std::string::npos);
-  EXPECT_EQ(*parse_levels("0,1", &error), (std::vector<int>{0, 1}));
+  const auto bad_levels = parse_levels("0,x");
+  EXPECT_FALSE(bad_levels.ok());
+  EXPECT_NE(bad_levels.error().find("0,x"), std::string::npos);
+  EXPECT_EQ(*parse_levels("0,1"), (std::vector<int>{0, 1}));
   retina::RetinaConfig small;
   small.levels = 3;
   retina::RetinaSampler sampler(small);
@@ -152,7 +154,7 @@ TEST(FeatureRecipe, ChecksItselfAndTheRetina) {
   retina_of_view(stripes(true, 1), sampler, retina, frame);
   FeatureExtractor extractor(FeatureRecipe{});
   cv::Mat row;
-  const std::string e = extractor.extract(retina, row);
+  const std::string e = extractor.extract(retina, row).message();
   EXPECT_NE(e.find("5 levels of 32x24"), std::string::npos) << e;
   EXPECT_NE(e.find("3 levels"), std::string::npos) << e;
 }
@@ -169,17 +171,17 @@ std::string stripes_model() {
     fs::create_directories(dir);
     // CTest runs each test in its own process, in parallel: one file each.
     const std::string p = (dir / ("plugin_" + std::to_string(::getpid()) + ".yml.gz")).string();
-    EXPECT_EQ(model.save(p), "");
+    EXPECT_TRUE(model.save(p).ok());
     return p;
   }();
   return path;
 }
 
 TEST(ClassifierPlugin, ClassifiesTheFoveaAndOffersItAsATarget) {
-  std::string error;
-  auto h = testing::NodeHarness::create(
-      "<node plugin=\"classifier\"><param name=\"model\" value=\"" + stripes_model() + "\"/></node>", &error);
-  ASSERT_TRUE(h) << error;
+  auto created = testing::NodeHarness::create("<node plugin=\"classifier\"><param name=\"model\" value=\"" +
+                                              stripes_model() + "\"/></node>");
+  ASSERT_TRUE(created.ok()) << created.error();
+  const std::unique_ptr<testing::NodeHarness>& h = *created;
   retina::RetinaSampler sampler({});
   auto retina = std::make_shared<Retina>();
   cv::Mat frame;
@@ -199,16 +201,15 @@ TEST(ClassifierPlugin, ClassifiesTheFoveaAndOffersItAsATarget) {
 }
 
 TEST(ClassifierPlugin, RefusesAModelWhoseRecipeDiffersFromTheGraphs) {
-  std::string error;
-  EXPECT_FALSE(testing::NodeHarness::create("<node plugin=\"classifier\"><param name=\"model\" value=\"" +
-                                                stripes_model() +
-                                                "\"/><param name=\"features\" value=\"gray,laplacian\"/></node>",
-                                            &error));
-  EXPECT_NE(error.find("trained on levels 0; features gray,grad_hist"), std::string::npos) << error;
-  EXPECT_NE(error.find("gray,laplacian"), std::string::npos) << error;
-  EXPECT_FALSE(testing::NodeHarness::create(
-      R"(<node plugin="classifier"><param name="model" value="/nonexistent/model.yml"/></node>)", &error));
-  EXPECT_NE(error.find("/nonexistent/model.yml"), std::string::npos) << error;
+  auto h = testing::NodeHarness::create("<node plugin=\"classifier\"><param name=\"model\" value=\"" + stripes_model() +
+                                        "\"/><param name=\"features\" value=\"gray,laplacian\"/></node>");
+  EXPECT_FALSE(h.ok());
+  EXPECT_NE(h.error().find("trained on levels 0; features gray,grad_hist"), std::string::npos) << h.error();
+  EXPECT_NE(h.error().find("gray,laplacian"), std::string::npos) << h.error();
+  h = testing::NodeHarness::create(
+      R"(<node plugin="classifier"><param name="model" value="/nonexistent/model.yml"/></node>)");
+  EXPECT_FALSE(h.ok());
+  EXPECT_NE(h.error().find("/nonexistent/model.yml"), std::string::npos) << h.error();
 }
 
 TEST(TrainFolder, WritesAModelAndPrintsProgressAndTheConfusionMatrix) {
@@ -227,15 +228,16 @@ TEST(TrainFolder, WritesAModelAndPrintsProgressAndTheConfusionMatrix) {
   job.train.hidden = {16};
   job.train.epochs = 10;
   std::ostringstream log;
-  TrainingResult r = train_folder(job, log);
-  ASSERT_EQ(r.error, "");
+  auto trained = train_folder(job, log);
+  ASSERT_TRUE(trained.ok()) << trained.error();
+  const TrainingResult& r = *trained;
   EXPECT_TRUE(fs::exists(job.out));
   EXPECT_NE(log.str().find("epoch 10/10"), std::string::npos) << log.str();
   EXPECT_NE(log.str().find("<- predicted"), std::string::npos) << log.str();
   EXPECT_EQ(r.classes, (std::vector<std::string>{"horizontal", "vertical"}));
   EXPECT_DOUBLE_EQ(r.validation_accuracy, 1.0);
   job.data = (root / "horizontal").string();
-  EXPECT_NE(train_folder(job, log).error.find("at least two sub-folders"), std::string::npos);
+  EXPECT_NE(train_folder(job, log).error().find("at least two sub-folders"), std::string::npos);
 }
 
 // digits.png: 5000 digits of 20x20, 500 per class in row blocks. Per class the
@@ -264,8 +266,8 @@ TEST(DigitsAccuracy, TheRetinaFeaturesAndBackpropReachTheFloor) {
     }
   FeatureRecipe recipe;  // the defaults: the fovea's gray and gradient-orientation histograms
   cv::Mat x, test_x;
-  ASSERT_EQ(features_of_views(train_images, recipe, x), "");
-  ASSERT_EQ(features_of_views(test_images, recipe, test_x), "");
+  ASSERT_EQ(features_of_views(train_images, recipe, x).message(), "");
+  ASSERT_EQ(features_of_views(test_images, recipe, test_x).message(), "");
   std::vector<std::string> names;
   for (int c = 0; c < 10; ++c) names.push_back(std::to_string(c));
   TrainConfig config;  // the defaults: backprop, 128 hidden, 20 epochs, seed 1
@@ -382,7 +384,7 @@ TEST(TwoObjectsAccuracy, BallAndDominoInVtestFramesBeatThePaper) {
       cv::Mat frame = scene.compose(kind, rng, center);
       const cv::Point2d fovea = center + cv::Point2d(rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0));
       sampler.sample(frame, fovea, retina.levels, retina.geometry);
-      ASSERT_EQ(extractor.extract(retina, row), "");
+      ASSERT_EQ(extractor.extract(retina, row).message(), "");
       rows.push_back(row);
     }
   };

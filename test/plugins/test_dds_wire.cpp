@@ -20,6 +20,19 @@ namespace {
 
 using namespace saccade;
 
+// An ok Status passes; an error fails, showing its words.
+::testing::AssertionResult is_ok(const Status& status) {
+  if (status.ok()) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << status.message();
+}
+
+// The codec choose_codec picks; a failure (and nullptr) when it picks none.
+const dds::Codec* chosen(std::string_view type, const dds::CodecRequest& request) {
+  Result<const dds::Codec*> codec = dds::choose_codec(type, request);
+  EXPECT_TRUE(codec.ok()) << type << ": " << codec.error();
+  return codec.ok() ? *codec : nullptr;
+}
+
 // Through the type's TopicDataType, serialize then deserialize, as the bridges do.
 template <class M>
 void round_trip(const M& in, M& out) {
@@ -33,7 +46,7 @@ void round_trip(const M& in, M& out) {
   dds::CdrSample back;
   back.target = &out;
   ASSERT_TRUE(type->deserialize(&payload, &back));
-  ASSERT_TRUE(back.readable) << back.why;
+  ASSERT_TRUE(is_ok(back.status));
 }
 
 void expect_same_stamp(const Message& a, const Message& b) {
@@ -156,9 +169,8 @@ TEST(DdsWire, AReaderReusesAReleasedRetinaAndNeverOneStillHeld) {
   std::shared_ptr<Retina> spare;
   FeatureMaps first, second, third;
   cdr::Envelope envelope;
-  std::string why;
   auto read = [&](FeatureMaps& out) {
-    ASSERT_TRUE(cdr::read(bytes.data(), bytes.size(), out, envelope, why, &spare)) << why;
+    ASSERT_TRUE(is_ok(cdr::read(bytes.data(), bytes.size(), out, envelope, &spare)));
   };
   read(first);
   ASSERT_NE(first.retina, nullptr);
@@ -418,9 +430,9 @@ TEST(DdsPlain, ImagesRoundTripBitExactlyWhateverTheirLayout) {
     stamp(image, static_cast<int64_t>(i));
     image.camera_id = static_cast<int>(i);
     image.mat = mats[i];
-    ASSERT_EQ(dds::to_plain(image, *sample), "") << i;
+    ASSERT_TRUE(is_ok(dds::to_plain(image, *sample))) << i;
     EXPECT_EQ(sample->size(), mats[i].total() * mats[i].elemSize()) << "only the used bytes count";
-    ASSERT_TRUE(dds::from_plain(*sample, back)) << i;
+    ASSERT_TRUE(is_ok(dds::from_plain(*sample, back))) << i;
     expect_same_stamp(image, back);
     EXPECT_EQ(back.camera_id, image.camera_id);
     expect_same_mat(image.mat, back.mat);
@@ -432,12 +444,12 @@ TEST(DdsPlain, TheReaderReusesItsBufferForFramesOfOneSize) {
   auto sample = std::make_unique<saccade_plain::Image1M>();
   Image image, back;
   image.mat = test::random_image({640, 480}, 1);
-  ASSERT_EQ(dds::to_plain(image, *sample), "");
-  ASSERT_TRUE(dds::from_plain(*sample, back));
+  ASSERT_TRUE(is_ok(dds::to_plain(image, *sample)));
+  ASSERT_TRUE(is_ok(dds::from_plain(*sample, back)));
   const uint8_t* buffer = back.mat.data;
   image.mat = test::random_image({640, 480}, 2);
-  ASSERT_EQ(dds::to_plain(image, *sample), "");
-  ASSERT_TRUE(dds::from_plain(*sample, back));
+  ASSERT_TRUE(is_ok(dds::to_plain(image, *sample)));
+  ASSERT_TRUE(is_ok(dds::from_plain(*sample, back)));
   EXPECT_EQ(back.mat.data, buffer);
   expect_same_mat(image.mat, back.mat);
 }
@@ -446,7 +458,7 @@ TEST(DdsPlain, AnImageLargerThanTheCapacityIsRefusedWithTheFix) {
   auto sample = std::make_unique<saccade_plain::Image1M>();
   Image image;
   image.mat = test::random_image({1024, 768}, 1, CV_8UC3);
-  EXPECT_EQ(dds::to_plain(image, *sample),
+  EXPECT_EQ(dds::to_plain(image, *sample).message(),
             "a 1024x768 image of 2359296 bytes does not fit the edge's shared-memory capacity (1 MiB); give the edge a "
             "larger one (qos=\"capacity=16M\")");
 }
@@ -455,17 +467,18 @@ TEST(DdsPlain, MalformedHeadersGiveEmptyMatsNotCrashes) {
   auto sample = std::make_unique<saccade_plain::Image1M>();
   Image image, back;
   image.mat = test::random_image({64, 48}, 1);
-  ASSERT_EQ(dds::to_plain(image, *sample), "");
+  ASSERT_TRUE(is_ok(dds::to_plain(image, *sample)));
   sample->mat().rows(100000);  // points past the used bytes
-  EXPECT_FALSE(dds::from_plain(*sample, back));
+  EXPECT_EQ(dds::from_plain(*sample, back).message(),
+            "an image of 6400000 bytes at byte 0 of a sample that holds 3072");
   EXPECT_TRUE(back.mat.empty());
   sample->mat().rows(48);
   sample->mat().cv_type(12345);  // no OpenCV type
-  EXPECT_FALSE(dds::from_plain(*sample, back));
+  EXPECT_EQ(dds::from_plain(*sample, back).message(), "a malformed image header (48x64, type 12345)");
   EXPECT_TRUE(back.mat.empty());
   sample->mat().cv_type(CV_8UC1);
   sample->size(1 << 30);  // a size beyond the array is clamped to it
-  EXPECT_TRUE(dds::from_plain(*sample, back));
+  EXPECT_TRUE(is_ok(dds::from_plain(*sample, back)));
   expect_same_mat(image.mat, back.mat);
 }
 
@@ -473,13 +486,15 @@ TEST(DdsPlain, RetinasRoundTripBitExactly) {
   auto sample = std::make_unique<saccade_plain::Retina1M>();
   Retina r = make_retina();
   r.levels[2] = test::random_image({32, 24}, 7, CV_32FC1);
-  ASSERT_EQ(dds::to_plain(r, *sample), "");
+  ASSERT_TRUE(is_ok(dds::to_plain(r, *sample)));
   Retina back;
-  ASSERT_TRUE(dds::from_plain(*sample, back));
+  ASSERT_TRUE(is_ok(dds::from_plain(*sample, back)));
   expect_same_retina(r, back);
+  sample->level_count(17);
+  EXPECT_EQ(dds::from_plain(*sample, back).message(), "a retina of 17 levels (at most 16)");
   r.levels.resize(17);
   r.geometry.resize(17);
-  EXPECT_NE(dds::to_plain(r, *sample).find("at most 16 levels"), std::string::npos);
+  EXPECT_NE(dds::to_plain(r, *sample).message().find("at most 16 levels"), std::string::npos);
 }
 
 TEST(DdsPlain, TheSmallestPlainFormAtLeastTheCapacityIsChosen) {
@@ -517,10 +532,9 @@ TEST(DdsPlain, EveryPlainSampleFitsTheLoanFastDdsGivesIt) {
 // --- The frame-ring forms: the sample says where the pixels are; the reader views them in place.
 
 std::shared_ptr<dds::FrameRing> ring_of(std::size_t bytes, uint32_t slots = 4) {
-  std::string error;
-  auto ring = dds::FrameRing::create(bytes, slots, &error);
-  EXPECT_TRUE(ring) << error;
-  return ring;
+  auto ring = dds::FrameRing::create(bytes, slots);
+  EXPECT_TRUE(is_ok(ring.status()));
+  return ring.ok() ? *ring : nullptr;
 }
 
 TEST(DdsRing, ImagesRoundTripBitExactlyWhateverTheirLayout) {
@@ -538,9 +552,8 @@ TEST(DdsRing, ImagesRoundTripBitExactlyWhateverTheirLayout) {
     image.camera_id = static_cast<int>(i);
     image.mat = mats[i];
     cv::Mat hold;
-    ASSERT_EQ(dds::to_ring(image, *ring, hold, sample), "") << i;
-    std::string why;
-    ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << i << ": " << why;
+    ASSERT_TRUE(is_ok(dds::to_ring(image, *ring, hold, sample))) << i;
+    ASSERT_TRUE(is_ok(dds::from_ring(sample, reader, back))) << i;
     expect_same_stamp(image, back);
     EXPECT_EQ(back.camera_id, image.camera_id);
     expect_same_mat(image.mat, back.mat);
@@ -558,7 +571,7 @@ TEST(DdsRing, AnImageAProducerWroteIntoTheRingIsNotCopiedAgain) {
   test::random_image({640, 480}, 5).copyTo(image.mat);
   saccade_plain::ImageRef sample;
   cv::Mat hold;
-  ASSERT_EQ(dds::to_ring(image, *ring, hold, sample), "");
+  ASSERT_TRUE(is_ok(dds::to_ring(image, *ring, hold, sample)));
   EXPECT_TRUE(hold.empty()) << "no buffer taken for a copy";
   EXPECT_EQ(ring->held_slots(), 1u);
   dds::RingAddress at;
@@ -569,8 +582,7 @@ TEST(DdsRing, AnImageAProducerWroteIntoTheRingIsNotCopiedAgain) {
 
   dds::RingReader reader;
   Image back;
-  std::string why;
-  ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << why;
+  ASSERT_TRUE(is_ok(dds::from_ring(sample, reader, back)));
   expect_same_mat(image.mat, back.mat);
 }
 
@@ -581,12 +593,11 @@ TEST(DdsRing, RetinasTravelInOneBufferAndRoundTripBitExactly) {
   r.levels[2] = test::random_image({32, 24}, 7, CV_32FC1);
   saccade_plain::RetinaRef sample;
   cv::Mat hold;
-  ASSERT_EQ(dds::to_ring(r, *ring, hold, sample), "");
+  ASSERT_TRUE(is_ok(dds::to_ring(r, *ring, hold, sample)));
   EXPECT_FALSE(hold.empty());
   dds::RingReader reader;
   Retina back;
-  std::string why;
-  ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << why;
+  ASSERT_TRUE(is_ok(dds::from_ring(sample, reader, back)));
   expect_same_retina(r, back);
   hold.release();
   EXPECT_EQ(ring->held_slots(), 1u) << "all five levels pin one buffer";
@@ -594,7 +605,7 @@ TEST(DdsRing, RetinasTravelInOneBufferAndRoundTripBitExactly) {
   EXPECT_EQ(ring->held_slots(), 0u);
   r.levels.resize(17);
   r.geometry.resize(17);
-  EXPECT_NE(dds::to_ring(r, *ring, hold, sample).find("at most 16 levels"), std::string::npos);
+  EXPECT_NE(dds::to_ring(r, *ring, hold, sample).message().find("at most 16 levels"), std::string::npos);
 }
 
 TEST(DdsRing, ARetinaWhoseLevelsWereMadeTogetherInTheRingIsNotCopiedAgain) {
@@ -608,12 +619,11 @@ TEST(DdsRing, ARetinaWhoseLevelsWereMadeTogetherInTheRingIsNotCopiedAgain) {
   made.levels = in_ring;
   saccade_plain::RetinaRef sample;
   cv::Mat hold;
-  ASSERT_EQ(dds::to_ring(made, *ring, hold, sample), "");
+  ASSERT_TRUE(is_ok(dds::to_ring(made, *ring, hold, sample)));
   EXPECT_TRUE(hold.empty()) << "no buffer taken for a copy";
   dds::RingReader reader;
   Retina back;
-  std::string why;
-  ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << why;
+  ASSERT_TRUE(is_ok(dds::from_ring(sample, reader, back)));
   expect_same_retina(r, back);
 }
 
@@ -624,13 +634,17 @@ TEST(DdsRing, AFrameLargerThanABufferIsRefusedWithTheFixAndAFullRingIsAFailedWri
   image.mat = test::random_image({1024, 768}, 1, CV_8UC3);
   saccade_plain::ImageRef sample;
   cv::Mat hold;
-  EXPECT_EQ(dds::to_ring(image, *ring, hold, sample),
+  const Status too_large = dds::to_ring(image, *ring, hold, sample);
+  EXPECT_FALSE(dds::is_ring_full(too_large));
+  EXPECT_EQ(too_large.message(),
             "a frame of 2359296 bytes does not fit the edge's frame ring (buffers of 1 MiB); give the edge a larger "
             "one (qos=\"capacity=16M\")");
   std::vector<cv::Mat> held;
   for (int i = 0; i < 4; ++i) held.push_back(ring->take(10));
   image.mat = test::random_image({64, 48}, 1);
-  EXPECT_EQ(dds::to_ring(image, *ring, hold, sample), dds::kRingFull);
+  const Status full = dds::to_ring(image, *ring, hold, sample);
+  EXPECT_TRUE(dds::is_ring_full(full)) << full.message();
+  EXPECT_EQ(full.message(), dds::kRingFull);
 }
 
 TEST(DdsRing, MalformedHeadersAreRefusedNotCrashes) {
@@ -640,57 +654,53 @@ TEST(DdsRing, MalformedHeadersAreRefusedNotCrashes) {
   image.mat = test::random_image({64, 48}, 1);
   saccade_plain::ImageRef sample;
   cv::Mat hold;
-  ASSERT_EQ(dds::to_ring(image, *ring, hold, sample), "");
+  ASSERT_TRUE(is_ok(dds::to_ring(image, *ring, hold, sample)));
   dds::RingReader reader;
-  std::string why;
   sample.mat().rows(100000);  // past the buffer's end
-  EXPECT_FALSE(dds::from_ring(sample, reader, back, why));
-  EXPECT_NE(why.find("outside the writer's ring"), std::string::npos) << why;
+  const Status outside = dds::from_ring(sample, reader, back);
+  EXPECT_NE(outside.message().find("outside the writer's ring"), std::string::npos) << outside.message();
   sample.mat().rows(48);
   sample.mat().cv_type(12345);
-  EXPECT_FALSE(dds::from_ring(sample, reader, back, why));
-  EXPECT_NE(why.find("malformed"), std::string::npos) << why;
+  const Status malformed = dds::from_ring(sample, reader, back);
+  EXPECT_NE(malformed.message().find("malformed"), std::string::npos) << malformed.message();
   sample.mat().cv_type(CV_8UC1);
   sample.mat().rows(-1);
-  EXPECT_FALSE(dds::from_ring(sample, reader, back, why));
+  EXPECT_FALSE(dds::from_ring(sample, reader, back).ok());
   sample.mat().rows(48);
-  ASSERT_TRUE(dds::from_ring(sample, reader, back, why)) << why;
+  ASSERT_TRUE(is_ok(dds::from_ring(sample, reader, back)));
   expect_same_mat(image.mat, back.mat);
 }
 
 TEST(DdsRing, ZeroCopyPicksTheRingForImagesTheMailboxForOtherTypesOrWhatIsAsked) {
   using SharedMemory = dds::CodecRequest::SharedMemory;
-  std::string error;
-  EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true}, &error)->form, dds::Codec::Form::kRing);
+  EXPECT_EQ(chosen("Image", {.zero_copy = true})->form, dds::Codec::Form::kRing);
   // The mailbox carries the serialised form.
-  EXPECT_EQ(dds::choose_codec("Retina", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialized);
-  EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true, .shared_memory = SharedMemory::kMailbox}, &error)->form,
+  EXPECT_EQ(chosen("Retina", {.zero_copy = true})->form, dds::Codec::Form::kSerialized);
+  EXPECT_EQ(chosen("Image", {.zero_copy = true, .shared_memory = SharedMemory::kMailbox})->form,
             dds::Codec::Form::kSerialized);
   // A reliable image edge is not promised every frame by a ring of reused buffers: loans.
   for (SharedMemory asked : {SharedMemory::kAuto, SharedMemory::kRing})
-    EXPECT_EQ(dds::choose_codec("Image", {.zero_copy = true, .shared_memory = asked, .reliable = true}, &error)->form,
+    EXPECT_EQ(chosen("Image", {.zero_copy = true, .shared_memory = asked, .reliable = true})->form,
               dds::Codec::Form::kPlain);
   for (const char* type : {"Image", "Retina"}) {
-    const dds::Codec* ring = dds::choose_codec(type, {.zero_copy = true, .shared_memory = SharedMemory::kRing}, &error);
-    ASSERT_NE(ring, nullptr) << error;
+    const dds::Codec* ring = chosen(type, {.zero_copy = true, .shared_memory = SharedMemory::kRing});
+    ASSERT_NE(ring, nullptr);
     EXPECT_EQ(ring->form, dds::Codec::Form::kRing) << type;
     EXPECT_TRUE(ring->make_type()->is_plain()) << type << ": data sharing for the small sample too";
-    const dds::Codec* loans =
-        dds::choose_codec(type, {.zero_copy = true, .shared_memory = SharedMemory::kLoans}, &error);
-    ASSERT_NE(loans, nullptr) << error;
+    const dds::Codec* loans = chosen(type, {.zero_copy = true, .shared_memory = SharedMemory::kLoans});
+    ASSERT_NE(loans, nullptr);
     EXPECT_EQ(loans->form, dds::Codec::Form::kPlain) << type;
   }
-  EXPECT_EQ(dds::choose_codec("JointState", {.zero_copy = true}, &error)->form, dds::Codec::Form::kSerialized);
+  EXPECT_EQ(chosen("JointState", {.zero_copy = true})->form, dds::Codec::Form::kSerialized);
 }
 
 TEST(DdsMailbox, OnlyZeroCopySerialisedEdgesThatDoNotAskForLoansUseTheMailbox) {
   using SharedMemory = dds::CodecRequest::SharedMemory;
-  std::string error;
   auto uses = [&](const char* type, dds::CodecRequest request) {
-    const dds::Codec* codec = dds::choose_codec(type, request, &error);
+    Result<const dds::Codec*> codec = dds::choose_codec(type, request);
     dds::WireOptions options;
-    if (codec != nullptr) dds::set_mailbox(request, *codec, 8, options);
-    return codec != nullptr && options.mailbox;
+    if (codec.ok()) dds::set_mailbox(request, **codec, 8, options);
+    return codec.ok() && options.mailbox;
   };
   EXPECT_TRUE(uses("JointTargets", {.zero_copy = true, .reliable = true}));
   EXPECT_TRUE(uses("Retina", {.zero_copy = true}));
@@ -712,12 +722,11 @@ TEST(DdsWire, AnOutOfRangeEnumMakesTheSampleUnreadable) {
   cdr::write(s, cdr::Envelope{}, bytes);
   JointState out;
   cdr::Envelope envelope;
-  std::string why;
-  EXPECT_FALSE(cdr::read(bytes.data(), bytes.size(), out, envelope, why));
-  EXPECT_NE(why.find("health: 200 is not a value it names"), std::string::npos) << why;
+  const Status unnamed = cdr::read(bytes.data(), bytes.size(), out, envelope);
+  EXPECT_NE(unnamed.message().find("health: 200 is not a value it names"), std::string::npos) << unnamed.message();
   s.health.back() = JointState::Health::kSilent;
   cdr::write(s, cdr::Envelope{}, bytes);
-  EXPECT_TRUE(cdr::read(bytes.data(), bytes.size(), out, envelope, why)) << why;
+  EXPECT_TRUE(is_ok(cdr::read(bytes.data(), bytes.size(), out, envelope)));
   EXPECT_EQ(out.health, s.health);
 }
 
@@ -794,8 +803,7 @@ TEST(DdsRos2, ImagesKeepPixelsStampAndCameraInEveryEncoding) {
     EXPECT_EQ(wire.header().stamp().sec(), 1'700'000'000);
     EXPECT_EQ(wire.header().stamp().nanosec(), 123'456'789u);
     EXPECT_EQ(wire.step(), c.mat.cols * c.mat.elemSize());
-    std::string error;
-    ASSERT_TRUE(dds::from_ros2(cdr_round_trip<ros::Image_, ros::Image_PubSubType>(wire), out, &error)) << error;
+    ASSERT_TRUE(is_ok(dds::from_ros2(cdr_round_trip<ros::Image_, ros::Image_PubSubType>(wire), out)));
     EXPECT_EQ(out.timestamp_ns, in.timestamp_ns);
     EXPECT_EQ(out.camera_id, 1);
     expect_same_mat(in.mat, out.mat);
@@ -816,8 +824,7 @@ TEST(DdsRos2, RgbPaddedAndBigEndianImagesAreReadAsSaccadeImages) {
   for (int r = 0; r < 4; ++r) std::memcpy(wire.data().data() + 32 * r, rgb.ptr(r), 27);
   wire.header().frame_id("left_optical_frame");
   Image out;
-  std::string error;
-  ASSERT_TRUE(dds::from_ros2(wire, out, &error)) << error;
+  ASSERT_TRUE(is_ok(dds::from_ros2(wire, out)));
   expect_same_mat(bgr, out.mat);
   EXPECT_EQ(out.camera_id, 0) << "a frame name that is not camera_<n>";
 
@@ -828,7 +835,7 @@ TEST(DdsRos2, RgbPaddedAndBigEndianImagesAreReadAsSaccadeImages) {
   big.is_bigendian(1);
   big.step(4);
   big.data() = {0x12, 0x34, 0xAB, 0xCD};
-  ASSERT_TRUE(dds::from_ros2(big, out, &error)) << error;
+  ASSERT_TRUE(is_ok(dds::from_ros2(big, out)));
   EXPECT_EQ(out.mat.at<uint16_t>(0, 0), 0x1234);
   EXPECT_EQ(out.mat.at<uint16_t>(0, 1), 0xABCD);
 }
@@ -841,16 +848,15 @@ TEST(DdsRos2, UnreadableImagesSayWhy) {
   wire.step(3);
   wire.data().resize(6);
   Image out;
-  std::string error;
-  EXPECT_FALSE(dds::from_ros2(wire, out, &error));
-  EXPECT_NE(error.find("image encoding 'bayer_rggb8' is not one saccade reads"), std::string::npos) << error;
+  const Status bayer = dds::from_ros2(wire, out);
+  EXPECT_NE(bayer.message().find("image encoding 'bayer_rggb8' is not one saccade reads"), std::string::npos)
+      << bayer.message();
   wire.encoding("mono8");
   wire.data().resize(5);
-  EXPECT_FALSE(dds::from_ros2(wire, out, &error));
-  EXPECT_EQ(error, "a 3x2 mono8 image with step 3 needs 6 bytes of data, it has 5");
+  EXPECT_EQ(dds::from_ros2(wire, out).message(), "a 3x2 mono8 image with step 3 needs 6 bytes of data, it has 5");
   wire.data().resize(6);
   wire.step(2);
-  EXPECT_FALSE(dds::from_ros2(wire, out, &error)) << "a step shorter than a row";
+  EXPECT_FALSE(dds::from_ros2(wire, out).ok()) << "a step shorter than a row";
 }
 
 TEST(DdsRos2, JointStatesTravelByName) {
@@ -864,8 +870,7 @@ TEST(DdsRos2, JointStatesTravelByName) {
   EXPECT_EQ(wire.name(), (std::vector<std::string>{"neck", "vergence_left", "tilt_left"}));
   EXPECT_TRUE(wire.effort().empty());
   JointState out;
-  std::string error;
-  ASSERT_TRUE(dds::from_ros2(cdr_round_trip<ros::JointState_, ros::JointState_PubSubType>(wire), options, out, &error));
+  ASSERT_TRUE(is_ok(dds::from_ros2(cdr_round_trip<ros::JointState_, ros::JointState_PubSubType>(wire), options, out)));
   EXPECT_EQ(out.timestamp_ns, in.timestamp_ns);
   EXPECT_EQ(out.position, in.position);
   EXPECT_EQ(out.velocity, in.velocity);
@@ -875,7 +880,7 @@ TEST(DdsRos2, JointStatesTravelByName) {
   ros::JointState_ other;
   other.name() = {"tilt_left", "gripper", "neck"};
   other.position() = {3, 99, 1};
-  ASSERT_TRUE(dds::from_ros2(other, options, out, &error));
+  ASSERT_TRUE(is_ok(dds::from_ros2(other, options, out)));
   ASSERT_EQ(out.position.size(), 3u);
   EXPECT_EQ(out.position[0], 1);
   EXPECT_TRUE(std::isnan(out.position[1]));
@@ -885,19 +890,18 @@ TEST(DdsRos2, JointStatesTravelByName) {
   EXPECT_EQ(out.velocity, (std::vector<double>{0, 0, 0})) << "no velocities in the message";
 
   other.velocity() = {1, 2};
-  EXPECT_FALSE(dds::from_ros2(other, options, out, &error));
-  EXPECT_EQ(error, "a joint state with 3 names, 3 positions and 2 velocities");
+  EXPECT_EQ(dds::from_ros2(other, options, out).message(), "a joint state with 3 names, 3 positions and 2 velocities");
 }
 
 TEST(DdsRos2, OnlyTypesRos2HasCanBeRos2Topics) {
-  std::string error;
-  const dds::Codec* image = dds::choose_codec("Image", {.zero_copy = true, .capacity = 0, .ros2 = true}, &error);
-  ASSERT_NE(image, nullptr) << error;
+  const dds::Codec* image = chosen("Image", {.zero_copy = true, .capacity = 0, .ros2 = true});
+  ASSERT_NE(image, nullptr);
   EXPECT_EQ(image->form, dds::Codec::Form::kRos2) << "ROS 2 wins over zero copy: ROS 2 cannot read plain types";
   EXPECT_EQ(std::string(image->make_type()->getName()), "sensor_msgs::msg::dds_::Image_");
-  EXPECT_EQ(dds::choose_codec("JointState", {.ros2 = true}, &error)->form, dds::Codec::Form::kRos2);
-  EXPECT_EQ(dds::choose_codec("Retina", {.ros2 = true}, &error), nullptr);
-  EXPECT_EQ(error, "ROS 2 has no message for Retina (it has for Image, JointState)");
+  EXPECT_EQ(chosen("JointState", {.ros2 = true})->form, dds::Codec::Form::kRos2);
+  Result<const dds::Codec*> retina = dds::choose_codec("Retina", {.ros2 = true});
+  EXPECT_FALSE(retina.ok());
+  EXPECT_EQ(retina.error(), "ROS 2 has no message for Retina (it has for Image, JointState)");
 }
 
 }  // namespace
@@ -923,17 +927,17 @@ void expect_channel_round_trip() {
   auto decoder = dds::make_decoder(*e);
   ASSERT_TRUE(encoder && decoder);
   std::vector<uint8_t> bytes;
-  ASSERT_EQ(encoder->encode(in, bytes), "");
-  std::string why;
-  MessagePtr out = decoder->decode(bytes.data(), bytes.size(), why);
-  ASSERT_NE(out, nullptr) << why;
+  ASSERT_TRUE(is_ok(encoder->encode(in, bytes)));
+  Result<MessagePtr> out = decoder->decode(bytes.data(), bytes.size());
+  ASSERT_TRUE(is_ok(out.status()));
   std::string a, b;
   append_json(a, in);
-  append_json(b, *out);
+  append_json(b, **out);
   EXPECT_EQ(a, b) << M::kTypeName;
   // Truncated bytes are an error, not a crash.
-  EXPECT_EQ(decoder->decode(bytes.data(), bytes.size() / 2, why), nullptr);
-  EXPECT_FALSE(why.empty());
+  Result<MessagePtr> truncated = decoder->decode(bytes.data(), bytes.size() / 2);
+  EXPECT_FALSE(truncated.ok());
+  EXPECT_FALSE(truncated.error().empty());
 }
 
 TEST(Channel, EveryDescribedFieldOfEveryTypeSurvivesItsChannel) {
@@ -965,30 +969,31 @@ TEST(Channel, ImagesAndJointStatesTravelAsRos2Messages) {
   in.mat = test::random_image({64, 48}, 3, CV_8UC3);
   in.timestamp_ns = 1'500'000'001;
   std::vector<uint8_t> bytes;
-  ASSERT_EQ(dds::make_encoder(*e)->encode(in, bytes), "");
+  ASSERT_TRUE(is_ok(dds::make_encoder(*e)->encode(in, bytes)));
   // The CDR a ROS 2 node writes: encapsulation, then the header's stamp.
   ASSERT_GT(bytes.size(), 12u);
   EXPECT_EQ(bytes[1], 1) << "CDR little endian";
   int32_t sec = 0;
   std::memcpy(&sec, bytes.data() + 4, 4);
   EXPECT_EQ(sec, 1);
-  std::string why;
-  auto out = std::dynamic_pointer_cast<const Image>(dds::make_decoder(*e)->decode(bytes.data(), bytes.size(), why));
-  ASSERT_NE(out, nullptr) << why;
+  Result<MessagePtr> decoded = dds::make_decoder(*e)->decode(bytes.data(), bytes.size());
+  ASSERT_TRUE(is_ok(decoded.status()));
+  auto out = std::dynamic_pointer_cast<const Image>(*decoded);
+  ASSERT_NE(out, nullptr);
   EXPECT_EQ(cv::norm(out->mat, in.mat, cv::NORM_INF), 0.0);
   EXPECT_EQ(out->timestamp_ns, in.timestamp_ns);
-  std::string mismatch;
-  EXPECT_NE(dds::make_encoder(*e)->encode(Region{}, bytes), "") << "a Region on an image channel";
+  EXPECT_EQ(dds::make_encoder(*e)->encode(Region{}, bytes).message(), "a Region on a channel of Image");
 
   const dds::ChannelEncoding* j = dds::channel_encoding("JointState");
   EXPECT_EQ(j->schema_name, "sensor_msgs/msg/JointState");
   JointState state;
   state.position = {0.1, -0.2, 0.3, 0.0, 0.5};
   state.velocity = {1, 2, 3, 4, 5};
-  ASSERT_EQ(dds::make_encoder(*j)->encode(state, bytes), "");
-  auto back =
-      std::dynamic_pointer_cast<const JointState>(dds::make_decoder(*j)->decode(bytes.data(), bytes.size(), why));
-  ASSERT_NE(back, nullptr) << why;
+  ASSERT_TRUE(is_ok(dds::make_encoder(*j)->encode(state, bytes)));
+  decoded = dds::make_decoder(*j)->decode(bytes.data(), bytes.size());
+  ASSERT_TRUE(is_ok(decoded.status()));
+  auto back = std::dynamic_pointer_cast<const JointState>(*decoded);
+  ASSERT_NE(back, nullptr);
   EXPECT_EQ(back->position, state.position);
 }
 
@@ -1012,9 +1017,7 @@ TEST(DdsWire, AMalformedMatHeaderIsUnreadable) {
     for (auto [at, value] : patches) std::memcpy(bytes.data() + at, &value, 4);
     Image out;
     cdr::Envelope envelope;
-    std::string why;
-    const bool ok = cdr::read(bytes.data(), bytes.size(), out, envelope, why);
-    return ok ? std::string() : why;
+    return cdr::read(bytes.data(), bytes.size(), out, envelope).message();
   };
   ASSERT_EQ(read_with({}), "");
   EXPECT_NE(read_with({{kCount, 0}}).find("is 6 bytes, not 0"), std::string::npos) << "a header with no data";
@@ -1041,13 +1044,12 @@ TEST(DdsRos2, AnImageWithoutColumnsOrRowsIsAnEmptyImage) {
   wire.step(0);
   Image out;
   out.mat = cv::Mat(2, 2, CV_8UC1, cv::Scalar(7));
-  std::string error;
-  EXPECT_TRUE(dds::from_ros2(wire, out, &error)) << error;
+  EXPECT_TRUE(is_ok(dds::from_ros2(wire, out)));
   EXPECT_TRUE(out.mat.empty());
   wire.height(0);
   wire.width(4);
   wire.step(4);
-  EXPECT_TRUE(dds::from_ros2(wire, out, &error)) << error;
+  EXPECT_TRUE(is_ok(dds::from_ros2(wire, out)));
   EXPECT_TRUE(out.mat.empty());
 }
 

@@ -167,10 +167,10 @@ Retina make_retina(const cv::Mat& level, int n) {
 }
 
 TEST(FilterBankNode, FlatRetinaStaysFlat) {
-  std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="all"/></node>)",
-                                        &error);
-  ASSERT_NE(h, nullptr) << error;
+  auto created =
+      testing::NodeHarness::create(R"(<node plugin="filters.bank"><param name="features" value="all"/></node>)");
+  ASSERT_TRUE(created.ok()) << created.error();
+  auto h = std::move(created).value();
   auto r = std::make_shared<Retina>(make_retina(cv::Mat(24, 32, CV_8UC1, cv::Scalar(90)), 5));
   h->set("retina", r);
   ASSERT_TRUE(h->process().ok());
@@ -187,7 +187,8 @@ TEST(FilterBankNode, FlatRetinaStaysFlat) {
 
 TEST(FilterBankNode, ImpulseGivesThe121Mask) {
   auto h = testing::NodeHarness::create(
-      R"(<node plugin="filters.bank"><param name="features" value="gauss,laplacian"/></node>)");
+               R"(<node plugin="filters.bank"><param name="features" value="gauss,laplacian"/></node>)")
+               .value_or(nullptr);
   ASSERT_NE(h, nullptr);
   cv::Mat impulse = cv::Mat::zeros(24, 32, CV_8UC1);
   impulse.at<uint8_t>(10, 10) = 16;
@@ -205,7 +206,8 @@ TEST(FilterBankNode, ImpulseGivesThe121Mask) {
 }
 
 TEST(FilterBankNode, RefusesColorLevelsWithAHint) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="filters.bank"/>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="filters.bank"/>)").value_or(nullptr);
+  ASSERT_NE(h, nullptr);
   h->set("retina", std::make_shared<Retina>(make_retina(cv::Mat(24, 32, CV_8UC3, cv::Scalar(1, 2, 3)), 2)));
   Status s = h->process();
   ASSERT_TRUE(s.is_error());

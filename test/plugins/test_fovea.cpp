@@ -352,7 +352,7 @@ TEST(FoveaController, FindsAGivenTemplateTopDownAmongDistractors) {
 }
 
 TEST(FoveaPlugin, EmitsTheNextFoveaStateAndRejectsBadParameters) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"/>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"/>)").value_or(nullptr);
   ASSERT_TRUE(h);
   cv::Mat frame = plain_background();
   draw_target(frame, {300, 250});
@@ -374,13 +374,14 @@ TEST(FoveaPlugin, EmitsTheNextFoveaStateAndRejectsBadParameters) {
   EXPECT_EQ(h->last<Region>("fovea")->label, "tracking");
   EXPECT_LT(cv::norm(h->last<Region>("fovea")->center - cv::Point2d(300, 250)), 1.5);
 
-  std::string error;
-  EXPECT_FALSE(
-      testing::NodeHarness::create(R"(<node plugin="fovea"><param name="color" value="255,0"/></node>)", &error));
-  EXPECT_NE(error.find("B,G,R"), std::string::npos) << error;
-  EXPECT_FALSE(testing::NodeHarness::create(
-      R"(<node plugin="fovea"><param name="template" value="/nonexistent.png"/></node>)", &error));
-  EXPECT_NE(error.find("/nonexistent.png"), std::string::npos) << error;
+  const auto bad_color =
+      testing::NodeHarness::create(R"(<node plugin="fovea"><param name="color" value="255,0"/></node>)");
+  EXPECT_FALSE(bad_color.ok());
+  EXPECT_NE(bad_color.error().find("B,G,R"), std::string::npos) << bad_color.error();
+  const auto no_template =
+      testing::NodeHarness::create(R"(<node plugin="fovea"><param name="template" value="/nonexistent.png"/></node>)");
+  EXPECT_FALSE(no_template.ok());
+  EXPECT_NE(no_template.error().find("/nonexistent.png"), std::string::npos) << no_template.error();
 }
 
 // A textured 40x30 target (a real photograph's patch) on the plain
@@ -397,7 +398,8 @@ cv::Mat frame_with_patch(cv::Point2d center) {
 }
 
 TEST(FoveaPlugin, FollowsTheBoxGivenByInitAndReportsItsBoxConfidenceAndState) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"><param name="init" value="180,135,40,30,2"/></node>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"><param name="init" value="180,135,40,30,2"/></node>)")
+               .value_or(nullptr);
   ASSERT_TRUE(h);
   cv::Point2d at(200, 150), fovea(320, 240);
   for (int64_t k = 0; k < 40; ++k, at += cv::Point2d(3, 1)) {
@@ -418,7 +420,7 @@ TEST(FoveaPlugin, FollowsTheBoxGivenByInitAndReportsItsBoxConfidenceAndState) {
 }
 
 TEST(FoveaPlugin, ASizedTargetStartsTheBoxTrackerAndABadOneChangesNothing) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"/>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"/>)").value_or(nullptr);
   ASSERT_TRUE(h);
   const cv::Mat frame = frame_with_patch({400, 300});
   auto bad = std::make_shared<Region>();
@@ -444,19 +446,21 @@ TEST(FoveaPlugin, ASizedTargetStartsTheBoxTrackerAndABadOneChangesNothing) {
 }
 
 TEST(FoveaPlugin, BadBoxesAndTemplatesAreErrorsAtOpenNamingTheValue) {
-  std::string error;
   for (const char* bad : {"10,10,40", "10,10,40,30,x", "a,b,c,d", "10,10,4,30", "10,10,40,30,-1", "10,10,40,30,1.5"}) {
-    EXPECT_FALSE(testing::NodeHarness::create(
-        std::string(R"(<node plugin="fovea"><param name="init" value=")") + bad + R"("/></node>)", &error))
-        << bad;
-    EXPECT_NE(error.find(bad), std::string::npos) << error;
+    const auto h = testing::NodeHarness::create(std::string(R"(<node plugin="fovea"><param name="init" value=")") +
+                                                bad + R"("/></node>)");
+    EXPECT_FALSE(h.ok()) << bad;
+    EXPECT_NE(h.error().find(bad), std::string::npos) << h.error();
   }
-  EXPECT_FALSE(testing::NodeHarness::create(R"(<node plugin="fovea"><param name="template_size" value="50x20"/>
-      <param name="search_size" value="40x32"/></node>)",
-                                            &error));
-  EXPECT_NE(error.find("template_size 50x20 is larger than search_size 40x32"), std::string::npos) << error;
+  const auto too_large =
+      testing::NodeHarness::create(R"(<node plugin="fovea"><param name="template_size" value="50x20"/>
+      <param name="search_size" value="40x32"/></node>)");
+  EXPECT_FALSE(too_large.ok());
+  EXPECT_NE(too_large.error().find("template_size 50x20 is larger than search_size 40x32"), std::string::npos)
+      << too_large.error();
   // A box outside the frame is known only with the first frame: an error then, naming both.
-  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"><param name="init" value="900,10,40,30"/></node>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="fovea"><param name="init" value="900,10,40,30"/></node>)")
+               .value_or(nullptr);
   ASSERT_TRUE(h);
   h->set("retina", make_retina(plain_background(), {320, 240}, 0));
   const Status s = h->process();

@@ -29,10 +29,9 @@ using saccade::dds::RingReader;
 namespace {
 
 std::shared_ptr<FrameRing> make_ring(std::size_t bytes, uint32_t slots) {
-  std::string error;
-  auto ring = FrameRing::create(bytes, slots, &error);
-  EXPECT_TRUE(ring) << error;
-  return ring;
+  auto ring = FrameRing::create(bytes, slots);
+  EXPECT_TRUE(ring.ok()) << ring.error();
+  return std::move(ring).value_or(nullptr);
 }
 
 // A frame copied into a fresh buffer of `ring`, and where it is.
@@ -64,8 +63,8 @@ TEST(FrameRing, AReaderSeesTheWritersBytesInPlaceAndTheWriterNeverTakesAPinnedBu
 
   RingReader reader;
   cv::Mat view;
-  std::string why;
-  ASSERT_TRUE(reader.view(at, 0, 480, 640, CV_8UC1, view, why)) << why;
+  const Status viewed = reader.view(at, 0, 480, 640, CV_8UC1, view);
+  ASSERT_TRUE(viewed.ok()) << viewed.message();
   EXPECT_EQ(test::max_abs_diff(view, frame), 0);
   EXPECT_NE(view.data, where) << "another mapping of the same memory";
   EXPECT_EQ(ring->held_slots(), 1u) << "pinned by the reader";
@@ -104,12 +103,13 @@ TEST(FrameRing, AFrameWhoseBufferTheWriterTookAgainIsReportedLostNotReadTorn) {
 
   RingReader reader;
   cv::Mat view;
-  std::string why;
-  EXPECT_FALSE(reader.view(first, 0, 64, 64, CV_8UC1, view, why));
-  EXPECT_NE(why.find("reused the frame's buffer"), std::string::npos) << why;
+  const Status lost = reader.view(first, 0, 64, 64, CV_8UC1, view);
+  EXPECT_FALSE(lost.ok());
+  EXPECT_NE(lost.message().find("reused the frame's buffer"), std::string::npos) << lost.message();
   EXPECT_EQ(reader.overwritten(), 1u);
   EXPECT_TRUE(view.empty());
-  ASSERT_TRUE(reader.view(third, 0, 64, 64, CV_8UC1, view, why)) << why;
+  const Status newest_viewed = reader.view(third, 0, 64, 64, CV_8UC1, view);
+  ASSERT_TRUE(newest_viewed.ok()) << newest_viewed.message();
   EXPECT_EQ(test::max_abs_diff(view, newest), 0);
 }
 
@@ -120,16 +120,17 @@ TEST(FrameRing, BytesOutsideABufferOrAMissingRingAreRefusedWithTheReason) {
   cv::Mat held = write_frame(*ring, test::random_image({64, 64}, 1), at);
   RingReader reader;
   cv::Mat view;
-  std::string why;
-  EXPECT_FALSE(reader.view(at, 4000, 64, 64, CV_8UC1, view, why));
-  EXPECT_NE(why.find("outside the writer's ring"), std::string::npos) << why;
+  const Status outside = reader.view(at, 4000, 64, 64, CV_8UC1, view);
+  EXPECT_FALSE(outside.ok());
+  EXPECT_NE(outside.message().find("outside the writer's ring"), std::string::npos) << outside.message();
   RingAddress bad_slot = at;
   bad_slot.slot = 7;
-  EXPECT_FALSE(reader.view(bad_slot, 0, 1, 1, CV_8UC1, view, why));
+  EXPECT_FALSE(reader.view(bad_slot, 0, 1, 1, CV_8UC1, view).ok());
   RingAddress gone = at;
   gone.ring_id ^= 1;
-  EXPECT_FALSE(reader.view(gone, 0, 1, 1, CV_8UC1, view, why));
-  EXPECT_NE(why.find("cannot open the writer's frame ring"), std::string::npos) << why;
+  const Status missing = reader.view(gone, 0, 1, 1, CV_8UC1, view);
+  EXPECT_FALSE(missing.ok());
+  EXPECT_NE(missing.message().find("cannot open the writer's frame ring"), std::string::npos) << missing.message();
 }
 
 TEST(FrameRing, AReaderKeepingManyFramesGetsCopiesSoTheWriterNeverStarves) {
@@ -142,8 +143,8 @@ TEST(FrameRing, AReaderKeepingManyFramesGetsCopiesSoTheWriterNeverStarves) {
     RingAddress at;
     ASSERT_FALSE(write_frame(*ring, frame, at).empty()) << "frame " << i << ": the writer found no free buffer";
     cv::Mat view;
-    std::string why;
-    ASSERT_TRUE(reader.view(at, 0, 64, 64, CV_8UC1, view, why)) << why;
+    const Status viewed = reader.view(at, 0, 64, 64, CV_8UC1, view);
+    ASSERT_TRUE(viewed.ok()) << viewed.message();
     kept.push_back(view);
   }
   EXPECT_EQ(ring->held_slots(), 2u);
@@ -195,9 +196,9 @@ TEST(FrameRing, ARingLargerThanTheFreeSharedMemoryIsWarnedAboutWithTheFix) {
   EXPECT_NE(warning.find("16 buffers of 4 MiB (64 MiB) exceed the 60 MiB free in /dev/shm"), std::string::npos)
       << warning;
   EXPECT_NE(warning.find("capacity"), std::string::npos) << warning;
-  std::string error, none = "unset";
-  auto ring = FrameRing::create(4096, 2, &error, &none);
-  ASSERT_TRUE(ring) << error;
+  std::string none = "unset";
+  auto ring = FrameRing::create(4096, 2, &none);
+  ASSERT_TRUE(ring.ok()) << ring.error();
   EXPECT_EQ(none, "") << "this machine's /dev/shm holds 8 KiB";
 }
 
@@ -220,8 +221,7 @@ int fill_a_small_shared_memory() {
       mount("none", "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
       mount("tmpfs", "/dev/shm", "tmpfs", 0, "size=400k") != 0)
     return 2;
-  std::string error;
-  auto ring = FrameRing::create(640 * 480, 4, &error);
+  const std::shared_ptr<FrameRing> ring = FrameRing::create(640 * 480, 4).value_or(nullptr);
   if (!ring) return 1;
   RingAddress at;
   std::size_t offset = 0;
@@ -271,8 +271,7 @@ TEST(FrameRing, TheWriterTakesBackThePinsOfAReaderWhoseProcessDied) {
   if (child == 0) {
     auto* reader = new RingReader();  // never deleted: the process dies holding its pin
     cv::Mat view;
-    std::string why;
-    const bool pinned = reader->view(at, 0, 64, 64, CV_8UC1, view, why);
+    const bool pinned = reader->view(at, 0, 64, 64, CV_8UC1, view).ok();
     new cv::Mat(view);  // keeps the pin past _exit's skipped destructors
     _exit(pinned ? 0 : 1);
   }
@@ -290,8 +289,7 @@ TEST(FrameRing, TheWriterTakesBackThePinsOfAReaderWhoseProcessDied) {
 
 TEST(FrameRing, ARingWhoseWriterDiedIsRemovedAsStale) {
   const std::string name = test::left_by_a_crashed_child([] {
-    std::string error;
-    auto* ring = new std::shared_ptr<FrameRing>(FrameRing::create(4096, 2, &error));
+    auto* ring = new std::shared_ptr<FrameRing>(FrameRing::create(4096, 2).value_or(nullptr));
     return *ring ? (*ring)->name() : std::string();
   });
   ASSERT_TRUE(shm_exists(name)) << name;
@@ -337,8 +335,8 @@ TEST(FrameRing, TheMailboxHoldsTheNewestSampleAndSaysWhenThereIsNothingNewer) {
   Numbered got{};
   uint64_t post = 0;
   EXPECT_FALSE(reader.mail(0, &got, sizeof got, post)) << "no ring followed yet";
-  std::string why;
-  ASSERT_TRUE(reader.follow(at, why)) << why;
+  const Status followed = reader.follow(at);
+  ASSERT_TRUE(followed.ok()) << followed.message();
   EXPECT_TRUE(reader.follows(at));
   EXPECT_FALSE(reader.mail(0, &got, sizeof got, post)) << "nothing posted yet";
 
@@ -382,9 +380,8 @@ void reader_races_the_writer(ReaderWait how) {
   if (child == 0) {
     RingReader reader;
     reader.set_wait(how);
-    std::string why;
     uint64_t last = 0, reads = 0, torn = 0, backwards = 0;
-    if (reader.follow(at, why)) {
+    if (reader.follow(at).ok()) {
       (void)!write(to_parent[1], "r", 1);
       Numbered got{};
       const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -435,8 +432,8 @@ TEST(FrameRing, ASpinningReaderWaitsOutItsTimeoutWhenNothingIsPosted) {
   ASSERT_TRUE(ring);
   RingReader reader;
   reader.set_wait(ReaderWait::kSpin);
-  std::string why;
-  ASSERT_TRUE(reader.follow(at, why)) << why;
+  const Status followed = reader.follow(at);
+  ASSERT_TRUE(followed.ok()) << followed.message();
   const auto start = std::chrono::steady_clock::now();
   EXPECT_TRUE(reader.wait_mail(0, 20'000'000)) << "the ring is still there";
   EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(20));
@@ -450,8 +447,8 @@ void letting_go_sends_readers_back(ReaderWait how) {
   ASSERT_TRUE(ring);
   RingReader reader;
   reader.set_wait(how);
-  std::string why;
-  ASSERT_TRUE(reader.follow(at, why)) << why;
+  const Status followed = reader.follow(at);
+  ASSERT_TRUE(followed.ok()) << followed.message();
   std::thread sleeper([&] {
     // Woken at once by the writer's end, not after a minute.
     EXPECT_FALSE(reader.wait_mail(0, 60'000'000'000));
@@ -480,8 +477,8 @@ TEST(FrameRing, AReaderLivesWhileItHoldsTheRingWhateverItsProcessIdSays) {
   ASSERT_FALSE(write_frame(*ring, test::random_image({64, 64}, 1), at).empty());
   RingReader reader;
   cv::Mat view;
-  std::string why;
-  ASSERT_TRUE(reader.view(at, 0, 64, 64, CV_8UC1, view, why)) << why;
+  const Status viewed = reader.view(at, 0, 64, 64, CV_8UC1, view);
+  ASSERT_TRUE(viewed.ok()) << viewed.message();
   EXPECT_EQ(ring->held_slots(), 1u);
 
   // The segment's header, as laid out in frame_ring.cpp: the first reader's pid at byte 48.
@@ -512,8 +509,8 @@ TEST(FrameRing, AWriterThatWokeASleepingReaderCanWaitUntilItHasTakenThePost) {
   auto [ring, at, frame] = ring_with_a_frame();
   ASSERT_TRUE(ring);
   RingReader reader;
-  std::string why;
-  ASSERT_TRUE(reader.follow(at, why)) << why;
+  const Status followed = reader.follow(at);
+  ASSERT_TRUE(followed.ok()) << followed.message();
   const Numbered first = numbered(1);
   EXPECT_FALSE(ring->post(&first, sizeof first)) << "nobody was asleep on the doorbell";
   EXPECT_FALSE(ring->wait_until_taken(1, 2'000'000)) << "nobody took it: the wait times out";

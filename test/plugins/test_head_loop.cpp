@@ -102,12 +102,12 @@ struct Loop {
     for (int i = 0; i < 200 && !ready(); ++i) cycle();
     EXPECT_TRUE(ready()) << master->problem();
     const Vector3d ahead(0, 1.5, 0.12);
-    EXPECT_EQ(controller.look_at(ahead), "");
+    EXPECT_EQ(controller.look_at(ahead).message(), "");
     for (int i = 0; i < 250; ++i) cycle();
     EXPECT_LT(gaze_error_deg(ahead), 0.5);
     const double a = degrees * M_PI / 180;
     const Vector3d target(1.5 * std::sin(a), 1.5 * std::cos(a), 0.12);
-    EXPECT_EQ(controller.look_at(target), "");
+    EXPECT_EQ(controller.look_at(target).message(), "");
     EXPECT_GT(gaze_error_deg(target), degrees - 1);
     double settled = -1;
     for (int i = 1; i <= 500; ++i) {  // 2 s
@@ -134,16 +134,15 @@ TEST(HeadLoop, A20DegreeSaccadeSettlesWithinOneSecondOverTheVirtualBus) {
 
 TEST(HeadLoop, A20DegreeSaccadeSettlesOverTheUdpTunnelWithLoss) {
   const auto [local, peer] = test::free_udp_ports();
-  std::string error;
-  auto master_end = can::UdpTunnel::open({local, "127.0.0.1", peer, 0.05, 11}, error);
-  ASSERT_TRUE(master_end) << error;
-  auto drive_end = can::UdpTunnel::open({peer, "127.0.0.1", local, 0.05, 12}, error);
-  ASSERT_TRUE(drive_end) << error;
-  can::UdpTunnel* m = master_end.get();
-  can::UdpTunnel* d = drive_end.get();
+  auto master_end = can::UdpTunnel::open({local, "127.0.0.1", peer, 0.05, 11});
+  ASSERT_TRUE(master_end.ok()) << master_end.error();
+  auto drive_end = can::UdpTunnel::open({peer, "127.0.0.1", local, 0.05, 12});
+  ASSERT_TRUE(drive_end.ok()) << drive_end.error();
+  can::UdpTunnel* m = master_end->get();
+  can::UdpTunnel* d = drive_end->get();
   Loop loop;
   loop.wait_ns = 3'000'000;  // a lost packet costs this much real time, nothing simulated
-  loop.start(std::move(master_end), std::move(drive_end));
+  loop.start(std::move(master_end).value(), std::move(drive_end).value());
   const double settled = loop.saccade(20);
   EXPECT_LT(settled, 1.0);
   EXPECT_GT(m->counters().dropped + d->counters().dropped, 20u) << "packets were lost";
@@ -160,7 +159,7 @@ TEST(HeadLoop, ADriveFaultAndASilentDriveEachHoldTheHead) {
     loop.start(loop.virtual_bus->attach(), loop.virtual_bus->attach());
     for (int i = 0; i < 200 && !loop.ready(); ++i) loop.cycle();
     ASSERT_TRUE(loop.ready());
-    ASSERT_EQ(loop.controller.look_at({0.8, 1.5, 0.3}), "");
+    ASSERT_EQ(loop.controller.look_at({0.8, 1.5, 0.3}).message(), "");
     for (int i = 0; i < 20; ++i) loop.cycle();  // mid-saccade
     if (trouble == 0)
       loop.rack->drive(1).inject_fault(can::emcy::kGeneric);
@@ -181,7 +180,7 @@ TEST(HeadLoop, ADriveFaultAndASilentDriveEachHoldTheHead) {
     loop.controller.reset();
     for (int i = 0; i < 100; ++i) loop.cycle();
     EXPECT_TRUE(loop.ready()) << loop.master->problem();
-    EXPECT_EQ(loop.controller.look_at({0.0, 1.5, 0.12}), "");
+    EXPECT_EQ(loop.controller.look_at({0.0, 1.5, 0.12}).message(), "");
     for (int i = 0; i < 250; ++i) loop.cycle();
     EXPECT_LT(loop.gaze_error_deg({0.0, 1.5, 0.12}), 0.5);
   }

@@ -67,8 +67,8 @@ void expect_same_bytes_both_ways(int seed) {
 
   M out;
   cdr::Envelope back;
-  std::string why;
-  ASSERT_TRUE(cdr::read(theirs.data, theirs.length, out, back, why)) << why;
+  const Status read = cdr::read(theirs.data, theirs.length, out, back);
+  ASSERT_TRUE(read.ok()) << read.message();
   std::string a, b;
   append_json(a, in);
   append_json(b, out);
@@ -120,10 +120,9 @@ TEST(Idl, BigEndianBytesReadTheSame) {
   ASSERT_EQ(big[1], 0) << "big-endian encapsulation";
   Region out;
   cdr::Envelope envelope;
-  std::string why;
-  ASSERT_TRUE(
-      cdr::read(reinterpret_cast<const uint8_t*>(big.data()), cdr.getSerializedDataLength(), out, envelope, why))
-      << why;
+  const Status read =
+      cdr::read(reinterpret_cast<const uint8_t*>(big.data()), cdr.getSerializedDataLength(), out, envelope);
+  ASSERT_TRUE(read.ok()) << read.message();
   std::string a, b;
   append_json(a, in);
   append_json(b, out);

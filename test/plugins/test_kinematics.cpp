@@ -82,8 +82,8 @@ TEST(PaperChain, TheOtherCameraIsTheMirrorImage) {
       paper_camera_chain(Convention::kStandard, kL1, kL2, kL3, -1).forward({0, 0, 0}).translation();
   EXPECT_LT((right - Eigen::Vector3d(0.18, 0, 0.12)).norm(), 1e-12);
   EXPECT_LT((left - Eigen::Vector3d(-0.18, 0, 0.12)).norm(), 1e-12);
-  EXPECT_EQ(paper_camera_chain(Convention::kStandard).check(3), "");
-  EXPECT_NE(paper_camera_chain(Convention::kStandard).check(2).find("joint 2 of 2"), std::string::npos);
+  EXPECT_TRUE(paper_camera_chain(Convention::kStandard).check(3).ok());
+  EXPECT_NE(paper_camera_chain(Convention::kStandard).check(2).message().find("joint 2 of 2"), std::string::npos);
 }
 
 // Both readings of the paper's table: the modified one, whose tilt also turns
@@ -96,9 +96,10 @@ TEST(PointAt, PutsTheTargetOnTheOpticalAxisInFrontInBothReadings) {
     for (int side : {1, -1})
       for (int i = 0; i < 100; ++i) {
         const Eigen::Vector3d target(coord(rng), ahead(rng), coord(rng) * 0.5 + 0.12);
-        const Pointing p = point_at(target, kL1, kL2, kL3, side, limits, convention);
-        ASSERT_TRUE(p.reachable) << p.why << " " << target.transpose();
-        const Eigen::Isometry3d cam = paper_camera_chain(convention, kL1, kL2, kL3, side).forward({p.pan, 0.0, p.tilt});
+        const Result<Pointing> p = point_at(target, kL1, kL2, kL3, side, limits, convention);
+        ASSERT_TRUE(p.ok()) << p.error() << " " << target.transpose();
+        const Eigen::Isometry3d cam =
+            paper_camera_chain(convention, kL1, kL2, kL3, side).forward({p->pan, 0.0, p->tilt});
         const Eigen::Vector3d to = target - cam.translation();
         const Eigen::Vector3d axis = optical_axis(cam);
         EXPECT_GT(to.dot(axis), 0) << "in front";
@@ -109,17 +110,17 @@ TEST(PointAt, PutsTheTargetOnTheOpticalAxisInFrontInBothReadings) {
 TEST(PointAt, ReportsWhatItCannotReach) {
   const JointLimits limits;
   // Inside the circle the cameras sweep around the neck.
-  Pointing p = point_at({0.05, 0.05, 0.2}, kL1, kL2, kL3, 1, limits);
-  EXPECT_FALSE(p.reachable);
-  EXPECT_NE(p.why.find("circle"), std::string::npos) << p.why;
+  Result<Pointing> p = point_at({0.05, 0.05, 0.2}, kL1, kL2, kL3, 1, limits);
+  EXPECT_FALSE(p.ok());
+  EXPECT_NE(p.error().find("circle"), std::string::npos) << p.error();
   // Straight up: a tilt beyond its limit.
   p = point_at({0.18, 0.3, 3.0}, kL1, kL2, kL3, 1, limits);
-  EXPECT_FALSE(p.reachable);
-  EXPECT_NE(p.why.find("tilt"), std::string::npos) << p.why;
+  EXPECT_FALSE(p.ok());
+  EXPECT_NE(p.error().find("tilt"), std::string::npos) << p.error();
   // Behind, beyond the pan's limits.
   p = point_at({0.0, -2.0, 0.12}, kL1, kL2, kL3, 1, limits);
-  EXPECT_FALSE(p.reachable);
-  EXPECT_NE(p.why.find("pan"), std::string::npos) << p.why;
+  EXPECT_FALSE(p.ok());
+  EXPECT_NE(p.error().find("pan"), std::string::npos) << p.error();
 }
 
 TEST(Fixation, MidpointOfTheCommonPerpendicularWithItsResidual) {
@@ -151,28 +152,27 @@ TEST(Gaze, BothCamerasFixateTheTargetWithSymmetricVergence) {
   std::uniform_real_distribution<double> x(-1.0, 1.0), y(0.8, 4.0), z(-0.5, 0.8);
   for (int i = 0; i < 100; ++i) {
     const Eigen::Vector3d target(x(rng), y(rng), z(rng));
-    const Gaze gaze = gaze_at(target, g, limits);
-    ASSERT_TRUE(gaze.reachable) << gaze.why << " " << target.transpose();
-    EXPECT_NEAR(gaze.joints.vergence_left, -gaze.joints.vergence_right, 1e-12) << "symmetric";
-    const Eigen::Isometry3d l = left_camera(g, gaze.joints), r = right_camera(g, gaze.joints);
+    const Result<HeadJoints> gaze = gaze_at(target, g, limits);
+    ASSERT_TRUE(gaze.ok()) << gaze.error() << " " << target.transpose();
+    EXPECT_NEAR(gaze->vergence_left, -gaze->vergence_right, 1e-12) << "symmetric";
+    const Eigen::Isometry3d l = left_camera(g, *gaze), r = right_camera(g, *gaze);
     const Fixation f = fixation_point(l.translation(), optical_axis(l), r.translation(), optical_axis(r));
     ASSERT_TRUE(f.valid) << f.why;
     EXPECT_LT((f.point - target).norm(), 1e-9);
     EXPECT_LT(f.residual, 1e-9);
   }
   // Too near: the vergence would pass its limit.
-  const Gaze near = gaze_at({0.0, 0.25, 0.12}, g, limits);
-  EXPECT_FALSE(near.reachable);
-  EXPECT_NE(near.why.find("vergence"), std::string::npos) << near.why;
+  const Result<HeadJoints> near = gaze_at({0.0, 0.25, 0.12}, g, limits);
+  EXPECT_FALSE(near.ok());
+  EXPECT_NE(near.error().find("vergence"), std::string::npos) << near.error();
 }
 
 TEST(Gaze, IndependentModeGivesEachCameraItsOwnTarget) {
   const HeadGeometry g;
   const Eigen::Vector3d a(-0.6, 2.0, 0.3), b(0.9, 2.5, -0.1);
-  const Gaze gaze = gaze_each(a, b, g, HeadLimits{});
-  ASSERT_TRUE(gaze.reachable) << gaze.why;
-  for (const auto& [camera, target] :
-       {std::pair{left_camera(g, gaze.joints), a}, std::pair{right_camera(g, gaze.joints), b}}) {
+  const Result<HeadJoints> gaze = gaze_each(a, b, g, HeadLimits{});
+  ASSERT_TRUE(gaze.ok()) << gaze.error();
+  for (const auto& [camera, target] : {std::pair{left_camera(g, *gaze), a}, std::pair{right_camera(g, *gaze), b}}) {
     const Eigen::Vector3d to = target - camera.translation(), axis = optical_axis(camera);
     EXPECT_GT(to.dot(axis), 0);
     EXPECT_LT((to - to.dot(axis) * axis).norm(), 1e-9);
@@ -194,14 +194,14 @@ namespace {
 // a point (gaze_at) give back that point as the fixation, and the cameras'
 // poses are the library's.
 TEST(KinematicsNode, GivesTheCamerasPosesAndTheFixationPointOfAJointState) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="kinematics"/>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="kinematics"/>)").value_or(nullptr);
   ASSERT_TRUE(h);
   const kinematics::HeadGeometry g;
   const Eigen::Vector3d target(0.3, 1.2, 0.25);
-  const kinematics::Gaze gaze = kinematics::gaze_at(target, g, kinematics::HeadLimits());
-  ASSERT_TRUE(gaze.reachable) << gaze.why;
+  const Result<kinematics::HeadJoints> gaze = kinematics::gaze_at(target, g, kinematics::HeadLimits());
+  ASSERT_TRUE(gaze.ok()) << gaze.error();
   auto state = std::make_shared<JointState>();
-  const kinematics::HeadJoints& q = gaze.joints;
+  const kinematics::HeadJoints& q = *gaze;
   state->position = {q.neck, q.vergence_left, q.tilt_left, q.vergence_right, q.tilt_right};
   h->set("state", state);
   ASSERT_TRUE(h->process().ok());

@@ -36,10 +36,9 @@ bool is_message_of(const std::vector<uint8_t>& bytes, uint64_t post) { return by
 bool shm_exists(const std::string& name) { return std::filesystem::exists("/dev/shm" + name); }
 
 std::unique_ptr<Mailbox> make_mailbox(std::size_t slot_bytes, uint32_t slots) {
-  std::string error;
-  auto box = Mailbox::create(slot_bytes, slots, &error);
-  EXPECT_TRUE(box) << error;
-  return box;
+  auto box = Mailbox::create(slot_bytes, slots);
+  EXPECT_TRUE(box.ok()) << box.error();
+  return std::move(box).value_or(nullptr);
 }
 
 void post(Mailbox& box, uint64_t n) {
@@ -53,8 +52,8 @@ TEST(Mailbox, EveryPostIsReadInOrderUntilTheWriterHasUsedItsSlotAgain) {
   auto box = make_mailbox(256, 4);
   ASSERT_TRUE(box);
   MailboxReader reader;
-  std::string why;
-  ASSERT_TRUE(reader.follow(box->id(), why)) << why;
+  const saccade::Status followed = reader.follow(box->id());
+  ASSERT_TRUE(followed.ok()) << followed.message();
   EXPECT_TRUE(reader.open());
   EXPECT_TRUE(reader.writer_alive());
   std::vector<uint8_t> got;
@@ -85,8 +84,8 @@ TEST(Mailbox, AMessageLargerThanASlotIsPostedAsOneToTakeFromDds) {
   auto box = make_mailbox(64, 4);
   ASSERT_TRUE(box);
   MailboxReader reader;
-  std::string why;
-  ASSERT_TRUE(reader.follow(box->id(), why)) << why;
+  const saccade::Status followed = reader.follow(box->id());
+  ASSERT_TRUE(followed.ok()) << followed.message();
   const std::vector<uint8_t> large(65, 7), fits(64, 8);
   box->post(large.data(), large.size());
   box->post(fits.data(), fits.size());
@@ -98,9 +97,9 @@ TEST(Mailbox, AMessageLargerThanASlotIsPostedAsOneToTakeFromDds) {
 
 TEST(Mailbox, AnUnknownOrForeignMailboxIsRefusedWithTheReason) {
   MailboxReader reader;
-  std::string why;
-  EXPECT_FALSE(reader.follow(0x1234, why));
-  EXPECT_NE(why.find("saccade_mail_0000000000001234"), std::string::npos) << why;
+  const saccade::Status refused = reader.follow(0x1234);
+  EXPECT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("saccade_mail_0000000000001234"), std::string::npos) << refused.message();
   EXPECT_FALSE(reader.open());
   std::vector<uint8_t> got;
   EXPECT_EQ(reader.read(1, got), Read::kNotYet);
@@ -114,8 +113,8 @@ void closing_sends_readers_back(ReaderWait how) {
   EXPECT_TRUE(shm_exists(name));
   MailboxReader reader;
   reader.set_wait(how);
-  std::string why;
-  ASSERT_TRUE(reader.follow(box->id(), why)) << why;
+  const saccade::Status followed = reader.follow(box->id());
+  ASSERT_TRUE(followed.ok()) << followed.message();
   post(*box, 1);
   std::thread sleeper([&] {
     // Woken at once by the writer's end, not after a minute.
@@ -155,9 +154,8 @@ void reader_reads_every_post(ReaderWait how) {
   if (child == 0) {
     MailboxReader reader;
     reader.set_wait(how);
-    std::string why;
     uint64_t last = 0, torn = 0, overwritten = 0, woken = 0;
-    if (reader.follow(box->id(), why)) {
+    if (reader.follow(box->id()).ok()) {
       (void)!write(to_parent[1], "r", 1);
       std::vector<uint8_t> got;
       const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -205,8 +203,7 @@ TEST(Mailbox, ASpinningReaderInAnotherProcessReadsEveryPostInOrderAndNeverATornO
 
 TEST(Mailbox, AMailboxWhoseWriterDiedIsRemovedAsStale) {
   const std::string name = saccade::test::left_by_a_crashed_child([] {
-    std::string error;
-    auto* box = Mailbox::create(256, 4, &error).release();
+    auto* box = Mailbox::create(256, 4).value_or(nullptr).release();
     return box != nullptr ? saccade::dds::mailbox_segment_name(box->id()) : std::string();
   });
   ASSERT_TRUE(shm_exists(name)) << name;
@@ -228,8 +225,8 @@ TEST(Mailbox, AWriterThatWokeASleepingReaderCanWaitUntilItHasReadThePost) {
   auto box = make_mailbox(256, 4);
   ASSERT_TRUE(box);
   MailboxReader reader;
-  std::string why;
-  ASSERT_TRUE(reader.follow(box->id(), why)) << why;
+  const saccade::Status followed = reader.follow(box->id());
+  ASSERT_TRUE(followed.ok()) << followed.message();
   const std::vector<uint8_t> m = message_of(1);
   EXPECT_FALSE(box->post(m.data(), m.size())) << "nobody was asleep on the doorbell";
   EXPECT_FALSE(box->wait_until_taken(1, 2'000'000)) << "nobody read it: the wait times out";

@@ -35,6 +35,16 @@ std::string out_path(const std::string& name) {
   return (dir / name).string();
 }
 
+// The recorder attach_recorder attached; on an error, the test fails with it
+// and this is nullptr.
+std::unique_ptr<mcap::GraphRecorder> attached(Result<std::unique_ptr<mcap::GraphRecorder>> recorder) {
+  if (!recorder.ok()) {
+    ADD_FAILURE() << recorder.error();
+    return nullptr;
+  }
+  return std::move(recorder).value();
+}
+
 std::vector<uint8_t> read_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -80,14 +90,14 @@ std::string topic_of(const Message& m) { return "/test/" + std::string(m.type_na
 // Writes `messages` to `path`, one topic per type.
 void write_file(const std::string& path, const std::vector<MessagePtr>& messages, const mcap::WriterOptions& options) {
   mcap::MessageFile file;
-  ASSERT_EQ(file.open(path, options), "");
+  ASSERT_EQ(file.open(path, options).message(), "");
   std::map<std::string, mcap::MessageFile::Topic*> topics;
   for (const auto& m : messages) {
     auto& t = topics[topic_of(*m)];
     if (t == nullptr) t = file.topic(topic_of(*m));
-    ASSERT_EQ(file.write(t, *m), "");
+    ASSERT_EQ(file.write(t, *m).message(), "");
   }
-  ASSERT_EQ(file.close(), "");
+  ASSERT_EQ(file.close().message(), "");
 }
 
 // The pixels of every matrix a message carries, in order.
@@ -134,23 +144,41 @@ void expect_same_message(const Message& in, const Message& out) {
   EXPECT_EQ(a, b);
 }
 
+// Every message a TopicReader gives from where it is, and the error that
+// stopped it ("" when it reached the end).
+struct ReadBack {
+  std::vector<MessagePtr> messages;
+  std::string error;
+};
+ReadBack read_back(mcap::TopicReader& reader) {
+  ReadBack back;
+  for (;;) {
+    Result<MessagePtr> next = reader.next();
+    if (!next.ok()) {
+      back.error = next.error();
+      return back;
+    }
+    if (*next == nullptr) return back;
+    back.messages.push_back(std::move(next).value());
+  }
+}
+
 // Every message of every topic of `path`, in file order, through TopicReader.
 std::map<std::string, std::vector<MessagePtr>> read_topics(const std::string& path, bool salvage = false,
                                                            std::string* error = nullptr) {
   std::map<std::string, std::vector<MessagePtr>> out;
   mcap::Reader probe;
-  const std::string why = probe.open(path, salvage);
-  if (!why.empty()) {
-    if (error) *error = why;
+  const Status opened = probe.open(path, salvage);
+  if (!opened.ok()) {
+    if (error) *error = opened.message();
     return out;
   }
   for (const auto& [id, channel] : probe.channels()) {
     mcap::TopicReader reader;
-    const std::string w = reader.open(path, channel.topic, salvage);
-    EXPECT_EQ(w, "");
-    std::string e;
-    while (MessagePtr m = reader.next(e)) out[channel.topic].push_back(m);
-    if (!e.empty() && error) *error = e;
+    EXPECT_EQ(reader.open(path, channel.topic, salvage).message(), "");
+    ReadBack back = read_back(reader);
+    out[channel.topic] = std::move(back.messages);
+    if (!back.error.empty() && error) *error = back.error;
   }
   return out;
 }
@@ -166,7 +194,7 @@ TEST_P(McapRoundTrip, EveryMessageTypeSurvivesAFile) {
   write_file(path, messages, options);
 
   mcap::Reader reader;
-  ASSERT_EQ(reader.open(path), "");
+  ASSERT_EQ(reader.open(path).message(), "");
   EXPECT_TRUE(reader.has_summary());
   EXPECT_EQ(reader.header_library(), "saccade");
   ASSERT_NE(reader.statistics(), nullptr);
@@ -198,15 +226,16 @@ TEST_P(McapRoundTrip, EveryMessageTypeSurvivesAFile) {
   // The linear scan and the summary-driven read see the same messages.
   std::size_t linear = 0, indexed = 0;
   mcap::MessageView view;
-  std::string error;
   reader.rewind();
-  while (reader.next(view, error) == 1) ++linear;
+  Result<bool> read = true;
+  while ((read = reader.next(view)).ok() && *read) ++linear;
+  EXPECT_EQ(read.error(), "");
   reader.rewind({false, {image->id}});
-  while (reader.next(view, error) == 1) {
+  while ((read = reader.next(view)).ok() && *read) {
     EXPECT_EQ(view.channel_id, image->id);
     ++indexed;
   }
-  EXPECT_EQ(error, "");
+  EXPECT_EQ(read.error(), "");
   EXPECT_EQ(linear, messages.size());
   EXPECT_EQ(indexed, 20u);
 }
@@ -224,7 +253,7 @@ TEST(Mcap, AnUnchunkedFileIsReadByItsLinearScan) {
   options.chunk_size = 0;
   write_file(path, messages, options);
   mcap::Reader reader;
-  ASSERT_EQ(reader.open(path), "");
+  ASSERT_EQ(reader.open(path).message(), "");
   EXPECT_EQ(reader.statistics()->chunk_count, 0u);
   auto topics = read_topics(path);
   std::size_t n = 0;
@@ -270,7 +299,7 @@ TEST(McapDamage, ATruncatedFileIsAnErrorWithTheOffsetAndSalvageReadsWhatPrecedes
       const std::string cut = out_path(std::string("cut_") + mcap::to_string(c) + ".mcap");
       write_bytes(cut, {bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(bytes.size() * fraction)});
       mcap::TopicReader strict;
-      const std::string error = strict.open(cut, "/test/Image", false);
+      const std::string error = strict.open(cut, "/test/Image", false).message();
       EXPECT_NE(error.find("truncated"), std::string::npos) << error;
       EXPECT_NE(error.find("salvage"), std::string::npos) << error;
       const int64_t offset = offset_in(error);
@@ -297,14 +326,14 @@ TEST(McapDamage, ACorruptedChunkIsAnErrorWithItsOffsetAndSalvageSkipsOnlyIt) {
   for (Compression c : {Compression::kZstd, Compression::kLz4, Compression::kNone}) {
     const std::string full = image_file(std::string("whole2_") + mcap::to_string(c) + ".mcap", c);
     mcap::Reader reader;
-    ASSERT_EQ(reader.open(full), "");
+    ASSERT_EQ(reader.open(full).message(), "");
     // The third chunk: its offset and frames from the reader's own walk.
     std::vector<uint64_t> chunk_offsets;
     std::vector<std::vector<int64_t>> chunk_frames;
     mcap::MessageView v;
-    std::string error;
     reader.rewind();
-    while (reader.next(v, error) == 1) {
+    Result<bool> read = true;
+    while ((read = reader.next(v)).ok() && *read) {
       if (chunk_offsets.empty() || chunk_offsets.back() != v.offset) {
         chunk_offsets.push_back(v.offset);
         chunk_frames.emplace_back();
@@ -319,18 +348,18 @@ TEST(McapDamage, ACorruptedChunkIsAnErrorWithItsOffsetAndSalvageSkipsOnlyIt) {
     write_bytes(bad, bytes);
 
     mcap::TopicReader strict;
-    ASSERT_EQ(strict.open(bad, "/test/Image", false), "") << "the summary is intact";
-    std::string why;
-    std::size_t n = 0;
-    while (strict.next(why)) ++n;
+    ASSERT_EQ(strict.open(bad, "/test/Image", false).message(), "") << "the summary is intact";
+    const ReadBack strict_back = read_back(strict);
+    const std::string& why = strict_back.error;
     EXPECT_EQ(offset_in(why), static_cast<int64_t>(target)) << why;
     EXPECT_NE(why.find("Chunk"), std::string::npos) << why;
-    EXPECT_EQ(n, chunk_frames[0].size() + chunk_frames[1].size()) << "the two chunks before it";
+    EXPECT_EQ(strict_back.messages.size(), chunk_frames[0].size() + chunk_frames[1].size())
+        << "the two chunks before it";
 
     mcap::TopicReader salvage;
-    ASSERT_EQ(salvage.open(bad, "/test/Image", true), "");
+    ASSERT_EQ(salvage.open(bad, "/test/Image", true).message(), "");
     std::vector<int64_t> frames;
-    while (MessagePtr m = salvage.next(why)) frames.push_back(m->frame_id);
+    for (const MessagePtr& m : read_back(salvage).messages) frames.push_back(m->frame_id);
     EXPECT_EQ(frames.size(), 60u - chunk_frames[2].size()) << mcap::to_string(c);
     EXPECT_EQ(salvage.reader().skipped(), 1u);
     for (int64_t k : chunk_frames[2]) EXPECT_EQ(std::count(frames.begin(), frames.end(), k), 0) << k;
@@ -345,11 +374,11 @@ TEST(McapDamage, AChunkClaimingGigabytesIsAnErrorWithoutAllocatingThem) {
   for (Compression c : {Compression::kZstd, Compression::kLz4}) {
     const std::string full = image_file(std::string("claim_") + mcap::to_string(c) + ".mcap", c, 6);
     mcap::Reader reader;
-    ASSERT_EQ(reader.open(full), "");
+    ASSERT_EQ(reader.open(full).message(), "");
     reader.rewind();
     mcap::MessageView v;
-    std::string error;
-    ASSERT_EQ(reader.next(v, error), 1);
+    const Result<bool> first = reader.next(v);
+    ASSERT_TRUE(first.ok() && *first) << first.error();
     const uint64_t chunk = v.offset;  // the first chunk
     auto bytes = read_bytes(full);
     const uint64_t claim = uint64_t{3} << 30;
@@ -361,11 +390,12 @@ TEST(McapDamage, AChunkClaimingGigabytesIsAnErrorWithoutAllocatingThem) {
     rusage before{}, after{};
     getrusage(RUSAGE_SELF, &before);
     mcap::Reader strict;
-    ASSERT_EQ(strict.open(bad), "") << "the summary is intact";
+    ASSERT_EQ(strict.open(bad).message(), "") << "the summary is intact";
     strict.rewind();
-    std::string why;
-    while (strict.next(v, why) == 1) {}
+    Result<bool> read = true;
+    while ((read = strict.next(v)).ok() && *read) {}
     getrusage(RUSAGE_SELF, &after);
+    const std::string why = read.error();
     EXPECT_EQ(offset_in(why), static_cast<int64_t>(chunk)) << why;
     EXPECT_NE(why.find(std::to_string(claim)), std::string::npos) << why;
     EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 512 * 1024) << "kB more at its peak: the claim was allocated";
@@ -379,7 +409,7 @@ TEST(McapDamage, ACorruptedSummaryIsAnErrorAndSalvageReadsTheDataSection) {
   const std::string bad = out_path("corrupt_summary.mcap");
   write_bytes(bad, bytes);
   mcap::Reader strict;
-  const std::string error = strict.open(bad);
+  const std::string error = strict.open(bad).message();
   EXPECT_NE(error.find("summary"), std::string::npos) << error;
   EXPECT_GT(offset_in(error), 0) << error;
   std::string why;
@@ -391,11 +421,11 @@ TEST(McapDamage, NotAnMcapFileAndAFlippedRecordLengthAreErrorsWithOffsets) {
   const std::string text = out_path("not_mcap.mcap");
   write_bytes(text, {'h', 'e', 'l', 'l', 'o', ' ', 'w', 'o', 'r', 'l', 'd'});
   mcap::Reader reader;
-  const std::string error = reader.open(text);
+  const std::string error = reader.open(text).message();
   EXPECT_NE(error.find("not an MCAP file"), std::string::npos) << error;
   EXPECT_EQ(offset_in(error), 0);
   mcap::Reader missing;
-  EXPECT_NE(missing.open(out_path("no_such_file.mcap")).find("cannot read"), std::string::npos);
+  EXPECT_NE(missing.open(out_path("no_such_file.mcap")).message().find("cannot read"), std::string::npos);
 
   // A length field gone wild in an unindexed (unchunked) file: the scan stops there.
   std::vector<MessagePtr> messages = every_type(4);
@@ -405,25 +435,27 @@ TEST(McapDamage, NotAnMcapFileAndAFlippedRecordLengthAreErrorsWithOffsets) {
   write_file(path, messages, options);
   auto bytes = read_bytes(path);
   mcap::Reader good;
-  ASSERT_EQ(good.open(path), "");
+  ASSERT_EQ(good.open(path).message(), "");
   mcap::MessageView v;
-  std::string e;
   good.rewind();
-  for (int i = 0; i < 20; ++i) ASSERT_EQ(good.next(v, e), 1);
+  for (int i = 0; i < 20; ++i) {
+    const Result<bool> read = good.next(v);
+    ASSERT_TRUE(read.ok() && *read) << read.error();
+  }
   const uint64_t record = v.offset;  // the 20th message's record
   bytes[record + 8] = 0x7F;          // its length's top byte
   // Drop the summary too, as a crashed recording would have none.
   bytes.resize(bytes.size() - 200);
   write_bytes(path, bytes);
   mcap::Reader broken;
-  const std::string why = broken.open(path);
+  const std::string why = broken.open(path).message();
   EXPECT_EQ(offset_in(why), static_cast<int64_t>(record)) << why;
   mcap::Reader salvage;
-  ASSERT_EQ(salvage.open(path, true), "");
+  ASSERT_EQ(salvage.open(path, true).message(), "");
   ASSERT_FALSE(salvage.warnings().empty());
   salvage.rewind();
   int n = 0;
-  while (salvage.next(v, e) == 1) ++n;
+  for (Result<bool> read = salvage.next(v); read.ok() && *read; read = salvage.next(v)) ++n;
   EXPECT_EQ(n, 19);
 }
 
@@ -431,28 +463,28 @@ TEST(McapErrors, AnUnknownSchemaAndAMissingChannelNameWhatIsThere) {
   const std::string path = out_path("foreign.mcap");
   {
     mcap::Writer w;
-    ASSERT_EQ(w.open(path), "");
+    ASSERT_EQ(w.open(path).message(), "");
     const std::string text = "float64 x\n";
     const uint16_t s = w.add_schema("geometry_msgs/msg/Vector3", "ros2msg", text.data(), text.size());
     const uint16_t c = w.add_channel(s, "/vector", "cdr");
     const uint16_t j = w.add_channel(0, "/json", "json");
     const uint8_t bytes[] = {0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
-    ASSERT_EQ(w.write(c, 0, 1, 1, bytes, sizeof bytes), "");
-    ASSERT_EQ(w.write(j, 0, 2, 2, "{}", 2), "");
-    EXPECT_NE(w.write(9, 0, 1, 1, bytes, sizeof bytes), "") << "no channel 9";
-    ASSERT_EQ(w.close(), "");
+    ASSERT_EQ(w.write(c, 0, 1, 1, bytes, sizeof bytes).message(), "");
+    ASSERT_EQ(w.write(j, 0, 2, 2, "{}", 2).message(), "");
+    EXPECT_FALSE(w.write(9, 0, 1, 1, bytes, sizeof bytes).ok()) << "no channel 9";
+    ASSERT_EQ(w.close().message(), "");
   }
   mcap::TopicReader reader;
-  std::string error = reader.open(path, "/vector", false);
+  std::string error = reader.open(path, "/vector", false).message();
   EXPECT_NE(error.find("schema 'geometry_msgs/msg/Vector3'"), std::string::npos) << error;
   EXPECT_NE(error.find("not one saccade reads"), std::string::npos) << error;
   EXPECT_NE(error.find("saccade_idl::Retina"), std::string::npos) << "lists what it reads: " << error;
-  error = reader.open(path, "/json", false);
+  error = reader.open(path, "/json", false).message();
   EXPECT_NE(error.find("json"), std::string::npos) << error;
-  error = reader.open(path, "/nope", false);
+  error = reader.open(path, "/nope", false).message();
   EXPECT_NE(error.find("no topic '/nope'"), std::string::npos) << error;
   EXPECT_NE(error.find("/vector (geometry_msgs/msg/Vector3)"), std::string::npos) << error;
-  error = reader.open(path, "", false);
+  error = reader.open(path, "", false).message();
   EXPECT_NE(error.find("several"), std::string::npos) << error;
 }
 
@@ -477,7 +509,7 @@ TEST(McapNodes, RecordNodesShareAFileAndReplayPlaysItBackInOrder) {
   run.reset();  // closes the file
 
   mcap::Reader reader;
-  ASSERT_EQ(reader.open(path), "");
+  ASSERT_EQ(reader.open(path).message(), "");
   EXPECT_EQ(reader.statistics()->message_count, 80u);
   EXPECT_EQ(reader.channels().size(), 2u);
 
@@ -557,20 +589,18 @@ TEST(McapNodes, OneReplayNodePlaysSeveralTopicsInterleavedAsTheyWereRecorded) {
       </graph>)");
     mcap::RecorderOptions options;
     options.lossless = true;
-    std::string error;
-    auto recorder = mcap::attach_recorder(*run->executor, path, options, error);
-    ASSERT_NE(recorder, nullptr) << error;
+    auto recorder = attached(mcap::attach_recorder(*run->executor, path, options));
+    ASSERT_NE(recorder, nullptr);
     ASSERT_TRUE(run->executor->run().ok());
-    ASSERT_EQ(recorder->finish(), "");
+    ASSERT_EQ(recorder->finish().message(), "");
   }
   // The file's order, channel by channel, as the recorder wrote it.
   mcap::Reader reader;
-  ASSERT_EQ(reader.open(path), "");
+  ASSERT_EQ(reader.open(path).message(), "");
   std::vector<std::pair<std::string, int64_t>> written;
   reader.rewind();
   mcap::MessageView v;
-  std::string error;
-  while (reader.next(v, error) == 1)
+  for (Result<bool> read = reader.next(v); read.ok() && *read; read = reader.next(v))
     written.emplace_back(reader.channels().at(v.channel_id).topic, static_cast<int64_t>(v.log_time));
   ASSERT_EQ(written.size(), 100u);
 
@@ -608,10 +638,10 @@ TEST(McapNodes, OneReplayNodePlaysSeveralTopicsInterleavedAsTheyWereRecorded) {
       </graph>)");
     mcap::RecorderOptions options;
     options.lossless = true;
-    auto recorder = mcap::attach_recorder(*run->executor, pair, options, error);
-    ASSERT_NE(recorder, nullptr) << error;
+    auto recorder = attached(mcap::attach_recorder(*run->executor, pair, options));
+    ASSERT_NE(recorder, nullptr);
     ASSERT_TRUE(run->executor->run().ok());
-    ASSERT_EQ(recorder->finish(), "");
+    ASSERT_EQ(recorder->finish().message(), "");
   }
   for (const auto& [topics, expected] :
        {std::pair<std::string, std::string>{"/left/image,/right/image", "both carry Image"},
@@ -640,11 +670,10 @@ TEST(McapRecorder, AttachRecorderRecordsEveryConnectedOutput) {
   mcap::RecorderOptions options;
   options.lossless = true;
   options.queue = 8;
-  std::string error;
-  auto recorder = mcap::attach_recorder(*run->executor, path, options, error);
-  ASSERT_NE(recorder, nullptr) << error;
+  auto recorder = attached(mcap::attach_recorder(*run->executor, path, options));
+  ASSERT_NE(recorder, nullptr);
   ASSERT_TRUE(run->run().ok());
-  EXPECT_EQ(recorder->finish(), "");
+  EXPECT_EQ(recorder->finish().message(), "");
   EXPECT_EQ(recorder->recorded(), 400u);
   EXPECT_EQ(recorder->dropped(), 0u);
   EXPECT_EQ(recorder->channels(), 2u);
@@ -660,8 +689,9 @@ TEST(McapRecorder, AttachRecorderRecordsEveryConnectedOutput) {
       <edge from="counter.image" to="sink.in"/>
     </graph>)");
   options.ports = {"counter.nope"};
-  EXPECT_EQ(mcap::attach_recorder(*other->executor, out_path("x.mcap"), options, error), nullptr);
-  EXPECT_NE(error.find("counter.nope"), std::string::npos) << error;
+  const auto refused = mcap::attach_recorder(*other->executor, out_path("x.mcap"), options);
+  EXPECT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().find("counter.nope"), std::string::npos) << refused.error();
 }
 
 TEST(McapRecorder, AFullQueueDropsAndCountsWithoutBlockingTheGraph) {
@@ -672,11 +702,10 @@ TEST(McapRecorder, AFullQueueDropsAndCountsWithoutBlockingTheGraph) {
     </graph>)");
   mcap::RecorderOptions options;
   options.queue = 1;  // as small as it gets: some are dropped, which must be counted
-  std::string error;
-  auto recorder = mcap::attach_recorder(*run->executor, out_path("drops.mcap"), options, error);
-  ASSERT_NE(recorder, nullptr) << error;
+  auto recorder = attached(mcap::attach_recorder(*run->executor, out_path("drops.mcap"), options));
+  ASSERT_NE(recorder, nullptr);
   ASSERT_TRUE(run->run().ok());
-  EXPECT_EQ(recorder->finish(), "");
+  EXPECT_EQ(recorder->finish().message(), "");
   EXPECT_EQ(recorder->recorded() + recorder->dropped(), 3000u) << "every message written or counted";
   EXPECT_NE(recorder->report().find(std::to_string(recorder->dropped()) + " dropped"), std::string::npos);
 }
@@ -688,7 +717,6 @@ TEST(McapDemo, RecordedRetinaReplayedThroughTheFilterBankGivesTheRecordedFeature
   test::sample_path("vtest.avi");
   const std::string path = out_path("demo.mcap");
   const std::string out = (fs::path(SACCADE_BINARY_DIR) / "test_out" / "mcap_demo").string();
-  std::string error;
   uint64_t retinas = 0;
   {
     Diagnostics diag;
@@ -703,10 +731,10 @@ TEST(McapDemo, RecordedRetinaReplayedThroughTheFilterBankGivesTheRecordedFeature
     mcap::RecorderOptions options;
     options.ports = {"retina.retina", "filters.maps"};
     options.lossless = true;
-    auto recorder = mcap::attach_recorder(executor, path, options, error);
-    ASSERT_NE(recorder, nullptr) << error;
+    auto recorder = attached(mcap::attach_recorder(executor, path, options));
+    ASSERT_NE(recorder, nullptr);
     ASSERT_TRUE(executor.run().ok());
-    ASSERT_EQ(recorder->finish(), "");
+    ASSERT_EQ(recorder->finish().message(), "");
     retinas = executor.stats("retina")->emitted.load();
     EXPECT_EQ(retinas, 300u);
     EXPECT_EQ(recorder->dropped(), 0u);
@@ -733,9 +761,10 @@ TEST(McapDemo, RecordedRetinaReplayedThroughTheFilterBankGivesTheRecordedFeature
   ASSERT_TRUE(replay->run().ok());
   const auto replayed = test::recorded<FeatureMaps>("maps");
   mcap::TopicReader recorded;
-  ASSERT_EQ(recorded.open(path, "/filters/maps", false), "");
+  ASSERT_EQ(recorded.open(path, "/filters/maps", false).message(), "");
   std::size_t k = 0;
-  while (MessagePtr m = recorded.next(error)) {
+  const ReadBack back = read_back(recorded);
+  for (const MessagePtr& m : back.messages) {
     ASSERT_LT(k, replayed.size());
     const auto& a = dynamic_cast<const FeatureMaps&>(*m);
     const auto& b = *replayed[k];
@@ -745,7 +774,7 @@ TEST(McapDemo, RecordedRetinaReplayedThroughTheFilterBankGivesTheRecordedFeature
     expect_same_pixels(a, b, "frame " + std::to_string(k));
     ++k;
   }
-  EXPECT_EQ(error, "");
+  EXPECT_EQ(back.error, "");
   EXPECT_EQ(k, retinas);
   EXPECT_EQ(replayed.size(), retinas);
 }
@@ -755,11 +784,11 @@ TEST(McapDemo, RecordedRetinaReplayedThroughTheFilterBankGivesTheRecordedFeature
 // recording: the same joint targets, message for message.
 std::vector<std::shared_ptr<const JointTargets>> read_targets(const std::string& path) {
   mcap::TopicReader reader;
-  EXPECT_EQ(reader.open(path, "/head/targets", false), "");
+  EXPECT_EQ(reader.open(path, "/head/targets", false).message(), "");
   std::vector<std::shared_ptr<const JointTargets>> out;
-  std::string error;
-  while (MessagePtr m = reader.next(error)) out.push_back(std::dynamic_pointer_cast<const JointTargets>(m));
-  EXPECT_EQ(error, "");
+  const ReadBack back = read_back(reader);
+  for (const MessagePtr& m : back.messages) out.push_back(std::dynamic_pointer_cast<const JointTargets>(m));
+  EXPECT_EQ(back.error, "");
   return out;
 }
 
@@ -785,11 +814,10 @@ std::vector<std::shared_ptr<const JointTargets>> replay_head(const std::string& 
   mcap::RecorderOptions options;
   options.ports = {"head.targets"};
   options.lossless = true;
-  std::string error;
-  auto recorder = mcap::attach_recorder(executor, path, options, error);
-  EXPECT_NE(recorder, nullptr) << error;
+  auto recorder = attached(mcap::attach_recorder(executor, path, options));
+  EXPECT_NE(recorder, nullptr);
   EXPECT_TRUE(executor.run().ok());
-  EXPECT_EQ(recorder->finish(), "");
+  EXPECT_EQ(recorder->finish().message(), "");
   return read_targets(path);
 }
 
@@ -806,15 +834,14 @@ TEST(McapHeadLoop, ALiveHeadLoopRecordingReplaysWithTheSameJointTargets) {
     ASSERT_TRUE(executor.open().ok());
     mcap::RecorderOptions options;
     options.ports = {"driver.state", "fovea.gaze", "head.targets"};
-    std::string error;
-    auto recorder = mcap::attach_recorder(executor, live, options, error);
-    ASSERT_NE(recorder, nullptr) << error;
+    auto recorder = attached(mcap::attach_recorder(executor, live, options));
+    ASSERT_NE(recorder, nullptr);
     ASSERT_TRUE(executor.run().ok());
-    ASSERT_EQ(recorder->finish(), "");
+    ASSERT_EQ(recorder->finish().message(), "");
     ASSERT_EQ(recorder->dropped(), 0u);
   }
   mcap::Reader reader;
-  ASSERT_EQ(reader.open(live), "");
+  ASSERT_EQ(reader.open(live).message(), "");
   const auto* gaze = reader.find_channel("/fovea/gaze");
   ASSERT_NE(gaze, nullptr) << "the fovea asked for no saccade in 8 s: the comparison would not test the side input";
   ASSERT_GE(reader.statistics()->channel_message_counts.at(gaze->id), 1u);
@@ -956,11 +983,10 @@ TEST(McapReference, TheTypeScriptReaderReadsARecordedGraph) {
   const std::string path = out_path("reference_graph.mcap");
   mcap::RecorderOptions options;
   options.lossless = true;
-  std::string error;
-  auto recorder = mcap::attach_recorder(*run->executor, path, options, error);
-  ASSERT_NE(recorder, nullptr) << error;
+  auto recorder = attached(mcap::attach_recorder(*run->executor, path, options));
+  ASSERT_NE(recorder, nullptr);
   ASSERT_TRUE(run->run().ok());
-  ASSERT_EQ(recorder->finish(), "");
+  ASSERT_EQ(recorder->finish().message(), "");
   auto json = reference_read(path);
   if (!json) { GTEST_SKIP() << "node and @mcap/core are not installed (scripts/install-test-npm.sh)"; }
   EXPECT_EQ((*json)["counts"]["/counter/image"], 50);

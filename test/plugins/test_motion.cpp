@@ -98,8 +98,8 @@ TEST(ResampleLevel, BilinearIsExactOnARampAndMarksWhatWasNotSeen) {
 struct Chain {
   std::unique_ptr<testing::NodeHarness> retina, motion;
   Chain(const std::string& retina_params = "") {
-    retina = testing::NodeHarness::create("<node plugin=\"retina\">" + retina_params + "</node>");
-    motion = testing::NodeHarness::create(R"(<node plugin="motion"/>)");
+    retina = testing::NodeHarness::create("<node plugin=\"retina\">" + retina_params + "</node>").value_or(nullptr);
+    motion = testing::NodeHarness::create(R"(<node plugin="motion"/>)").value_or(nullptr);
   }
   std::shared_ptr<const Motion> step(const cv::Mat& frame, std::optional<cv::Point2d> fovea, int64_t id) {
     auto image = std::make_shared<Image>();
@@ -172,8 +172,10 @@ TEST(MotionNode, AShiftedBlockIsFoundWhereItMoved) {
 
 TEST(MotionNode, WithoutTheSourceFrameOnlyTheOverlapIsCompared) {
   cv::Mat frame = vtest_frame(3);
-  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
-  auto motion = testing::NodeHarness::create(R"(<node plugin="motion"><param name="threshold" value="40"/></node>)");
+  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
+  auto motion = testing::NodeHarness::create(R"(<node plugin="motion"><param name="threshold" value="40"/></node>)")
+                    .value_or(nullptr);
+  ASSERT_TRUE(retina && motion);
   auto run = [&](cv::Point2d f) {
     auto image = std::make_shared<Image>();
     image->mat = frame;

@@ -47,7 +47,7 @@ TEST(RectifiedSampling, TheIdentityIsThePlainRetinaBitForBit) {
       RetinaSampler sampler(config);
       Retina plain, rectified;
       sampler.sample(*frame, fovea, plain);
-      ASSERT_EQ(sample_rectified(config, *frame, map, fovea, rectified), "");
+      ASSERT_TRUE(sample_rectified(config, *frame, map, fovea, rectified).ok());
       EXPECT_TRUE(rectified.rectification.enabled);
       EXPECT_EQ(rectified.fovea, plain.fovea);
       ASSERT_EQ(rectified.levels.size(), plain.levels.size());
@@ -70,7 +70,7 @@ TEST(RectifiedSampling, SourceAndRectifiedPointsMapBackAndForthThroughADistorted
   const cv::Matx33d turn(std::cos(a), 0, std::sin(a), 0, 1, 0, -std::sin(a), 0, std::cos(a));
   for (int i = 0; i < 9; ++i) r.rotation[i] = turn.val[i];
   const RectifiedMap map(r);
-  ASSERT_EQ(map.problem(), "");
+  ASSERT_TRUE(map.status().ok()) << map.status().message();
   for (cv::Point2d p : {cv::Point2d(320, 240), cv::Point2d(20, 30), cv::Point2d(600, 450), cv::Point2d(100, 400)}) {
     const cv::Point2d q = map.to_rectified(p);
     cv::Point2d back;
@@ -79,7 +79,7 @@ TEST(RectifiedSampling, SourceAndRectifiedPointsMapBackAndForthThroughADistorted
     EXPECT_NEAR(back.y, p.y, 1e-3) << p;
   }
   r.distortion[12] = 0.01;
-  EXPECT_NE(RectifiedMap(r).problem().find("tilted"), std::string::npos);
+  EXPECT_NE(RectifiedMap(r).status().message().find("tilted"), std::string::npos);
 }
 
 // Where the sim's camera (0 left, 1 right) at joints q sees world point p, in
@@ -96,8 +96,10 @@ cv::Point2d project(const capture::SimHeadConfig& c, int camera, const HeadJoint
 
 TEST(HeadRectification, AtTheJointsZeroTheModelsParallelCamerasNeedNoTurn) {
   const capture::SimHeadConfig c;
-  PairRectification pair;
-  ASSERT_EQ(rectify_pair(model_calibration(c.size, c.focal_px, c.geometry), c.geometry, HeadJoints{}, pair), "");
+  const Result<PairRectification> rectified =
+      rectify_pair(model_calibration(c.size, c.focal_px, c.geometry), c.geometry, HeadJoints{});
+  ASSERT_TRUE(rectified.ok()) << rectified.error();
+  const PairRectification& pair = *rectified;
   for (int i = 0; i < 9; ++i) {
     EXPECT_NEAR(pair.left.rotation[i], i % 4 == 0 ? 1.0 : 0.0, 1e-9);
     EXPECT_NEAR(pair.right.rotation[i], i % 4 == 0 ? 1.0 : 0.0, 1e-9);
@@ -114,8 +116,9 @@ TEST(HeadRectification, RowsAreEpipolarLinesAtAnyVergenceAndDisparityGivesDepth)
   for (double vergence : {-0.35, -0.15, 0.0, 0.2, 0.35}) {
     for (double tilt : {0.0, 0.2}) {
       const HeadJoints q{0.1, vergence, tilt, -vergence, tilt};
-      PairRectification pair;
-      ASSERT_EQ(rectify_pair(calibration, c.geometry, q, pair), "");
+      const Result<PairRectification> rectified = rectify_pair(calibration, c.geometry, q);
+      ASSERT_TRUE(rectified.ok()) << rectified.error();
+      const PairRectification& pair = *rectified;
       const RectifiedMap left(pair.left), right(pair.right);
       double worst_source_rows = 0;
       int seen = 0;
@@ -176,8 +179,9 @@ VergingScene verge_on(double distance, double lateral) {
   const cv::Mat wall = cv::imread(test::sample_path("aloeL.jpg"), cv::IMREAD_COLOR);
   capture::SimHead head(wall, s.config);
   s.target = head.target_at(0);
-  const kinematics::Gaze gaze = kinematics::gaze_at(s.target, s.config.geometry, kinematics::HeadLimits{});
-  s.joints = gaze.joints;
+  const Result<HeadJoints> gaze = kinematics::gaze_at(s.target, s.config.geometry, kinematics::HeadLimits{});
+  EXPECT_TRUE(gaze.ok()) << gaze.error();
+  if (gaze.ok()) s.joints = *gaze;
   cv::Mat left_bgr, right_bgr;
   s.left_view = head.render(0, s.joints, 0, left_bgr);
   s.right_view = head.render(1, s.joints, 0, right_bgr);
@@ -188,7 +192,8 @@ VergingScene verge_on(double distance, double lateral) {
 
 Retina rectified_retina(const cv::Mat& frame, int camera, const Rectification& r, cv::Point2d fovea) {
   Retina out;
-  EXPECT_EQ(sample_rectified(RetinaConfig{}, frame, RectifiedMap(r), fovea, out), "");
+  const Status sampled = sample_rectified(RetinaConfig{}, frame, RectifiedMap(r), fovea, out);
+  EXPECT_TRUE(sampled.ok()) << sampled.message();
   auto image = std::make_shared<Image>();
   image->mat = frame;
   image->camera_id = camera;
@@ -202,10 +207,10 @@ TEST(RectifiedStereo, AVergingHeadMeasuresItsTargetsDepthWithinOnePercent) {
     for (double lateral : {-0.25, 0.0, 0.2}) {
       const VergingScene s = verge_on(distance, lateral);
       ASSERT_TRUE(s.left_view.visible && s.right_view.visible);
-      PairRectification pair;
-      ASSERT_EQ(rectify_pair(model_calibration(s.config.size, s.config.focal_px, s.config.geometry), s.config.geometry,
-                             s.joints, pair),
-                "");
+      const Result<PairRectification> rectified = rectify_pair(
+          model_calibration(s.config.size, s.config.focal_px, s.config.geometry), s.config.geometry, s.joints);
+      ASSERT_TRUE(rectified.ok()) << rectified.error();
+      const PairRectification& pair = *rectified;
       // The sim's target centre is in OpenCV's convention; the retina's is half a pixel on.
       const cv::Point2d at(s.left_view.center.x + 0.5, s.left_view.center.y + 0.5);
       const Retina left = rectified_retina(s.left, 0, pair.left, at);
@@ -216,7 +221,8 @@ TEST(RectifiedStereo, AVergingHeadMeasuresItsTargetsDepthWithinOnePercent) {
       config.max_disparity = 256;
       stereo::RetinaStereo matcher(config);
       std::vector<stereo::LevelDisparity> levels;
-      ASSERT_EQ(matcher.run(left, right, levels), "");
+      const Status matched = matcher.run(left, right, levels);
+      ASSERT_TRUE(matched.ok()) << matched.message();
       const double disparity = matcher.fixation().disparity;
       ASSERT_GT(disparity, 0) << "distance " << distance << " lateral " << lateral;
       // The truth: the target's depth along the rectified left camera's axis.
@@ -261,11 +267,10 @@ std::shared_ptr<Image> frame_of(int camera) {
 }
 
 TEST(RectifiedRetinaNode, AtTheJointsZeroTheModelHeadsRetinaIsThePlainOne) {
-  std::string error;
-  auto rectified =
-      testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)", &error);
-  ASSERT_NE(rectified, nullptr) << error;
-  auto plain = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto created = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
+  ASSERT_TRUE(created.ok()) << created.error();
+  auto rectified = std::move(created).value();
+  auto plain = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
   const auto image = frame_of(0);
   rectified->set("image", image);
   plain->set("image", image);
@@ -280,8 +285,10 @@ TEST(RectifiedRetinaNode, AtTheJointsZeroTheModelHeadsRetinaIsThePlainOne) {
 }
 
 TEST(RectifiedRetinaNode, TheJointsTurnTheGridAndBothCamerasShareTheRectifiedCamera) {
-  auto left = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
-  auto right = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
+  auto left = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)")
+                  .value_or(nullptr);
+  auto right = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)")
+                   .value_or(nullptr);
   ASSERT_TRUE(left && right);
   auto joints = std::make_shared<JointState>();
   joints->position = {0.1, 0.2, 0.05, -0.2, 0.05};
@@ -302,10 +309,11 @@ TEST(RectifiedRetinaNode, TheJointsTurnTheGridAndBothCamerasShareTheRectifiedCam
 TEST(RectifiedRetinaNode, RefusesACalibrationForAnotherImageSizeAndAThirdCamera) {
   const std::string path = (std::filesystem::temp_directory_path() / "saccade_rectified_640.yml").string();
   const capture::SimHeadConfig c;
-  ASSERT_EQ(kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, c.geometry)), "");
+  ASSERT_TRUE(kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, c.geometry)).ok());
   auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/>)"
                                         R"(<param name="calibration" value=")" +
-                                        path + R"("/></node>)");
+                                        path + R"("/></node>)")
+               .value_or(nullptr);
   ASSERT_NE(h, nullptr);
   h->set("image", frame_of(0));
   Status s = h->process();
@@ -315,18 +323,18 @@ TEST(RectifiedRetinaNode, RefusesACalibrationForAnotherImageSizeAndAThirdCamera)
   EXPECT_NE(s.message().find("320"), std::string::npos) << s.message();
   std::filesystem::remove(path);
 
-  auto model = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
+  auto model = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)")
+                   .value_or(nullptr);
+  ASSERT_NE(model, nullptr);
   model->set("image", frame_of(2));
   s = model->process();
   ASSERT_TRUE(s.is_error());
   EXPECT_NE(s.message().find("camera_id is 2"), std::string::npos) << s.message();
 
-  std::string error;
-  EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/>)"
-                                         R"(<param name="calibration" value="/no/such/head.yml"/></node>)",
-                                         &error),
-            nullptr);
-  EXPECT_NE(error.find("/no/such/head.yml"), std::string::npos) << error;
+  const auto no_file = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/>)"
+                                                    R"(<param name="calibration" value="/no/such/head.yml"/></node>)");
+  EXPECT_FALSE(no_file.ok());
+  EXPECT_NE(no_file.error().find("/no/such/head.yml"), std::string::npos) << no_file.error();
 }
 
 }  // namespace
@@ -340,8 +348,9 @@ TEST(HeadRectification, TheRotationsAreOpenCVsStereoRectifys) {
   const kinematics::HeadCalibration calibration = model_calibration(c.size, c.focal_px, c.geometry);
   for (const HeadJoints& q : {HeadJoints{0.1, 0.3, 0.1, -0.25, 0.05}, HeadJoints{-0.2, -0.1, -0.3, 0.2, 0.1},
                               HeadJoints{0, 0.35, 0, -0.35, 0}}) {
-    PairRectification pair;
-    ASSERT_EQ(rectify_pair(calibration, c.geometry, q, pair), "");
+    const Result<PairRectification> rectified = rectify_pair(calibration, c.geometry, q);
+    ASSERT_TRUE(rectified.ok()) << rectified.error();
+    const PairRectification& pair = *rectified;
     cv::Mat r1, r2, p1, p2, reprojection;
     cv::stereoRectify(cv::Mat(calibration.left_matrix), cv::noArray(), cv::Mat(calibration.right_matrix), cv::noArray(),
                       c.size, cv::Mat(pair.rotation), cv::Mat(pair.translation), r1, r2, p1, p2, reprojection,
@@ -364,17 +373,17 @@ namespace {
 // verge on it.
 TEST(RectifiedStereoNode, GivesTheFixatedPointInTheHeadsFrameAndAsksTheHeadToVergeOnIt) {
   const VergingScene s = verge_on(0.9, 0.15);
-  PairRectification pair;
-  ASSERT_EQ(rectify_pair(model_calibration(s.config.size, s.config.focal_px, s.config.geometry), s.config.geometry,
-                         s.joints, pair),
-            "");
+  const Result<PairRectification> rectified =
+      rectify_pair(model_calibration(s.config.size, s.config.focal_px, s.config.geometry), s.config.geometry, s.joints);
+  ASSERT_TRUE(rectified.ok()) << rectified.error();
+  const PairRectification& pair = *rectified;
   auto left = std::make_shared<Retina>(
       rectified_retina(s.left, 0, pair.left, {s.left_view.center.x + 0.5, s.left_view.center.y + 0.5}));
   auto right = std::make_shared<Retina>(
       rectified_retina(s.right, 1, pair.right, {s.right_view.center.x + 0.5, s.right_view.center.y + 0.5}));
-  std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="stereo"/>)", &error);
-  ASSERT_NE(h, nullptr) << error;
+  auto created = testing::NodeHarness::create(R"(<node plugin="stereo"/>)");
+  ASSERT_TRUE(created.ok()) << created.error();
+  auto h = std::move(created).value();
   // The head's pose as the kinematics node gives it.
   const Eigen::Isometry3d camera = kinematics::optical_frame(kinematics::left_camera(s.config.geometry, s.joints));
   const Eigen::Quaterniond q(camera.linear());
@@ -402,7 +411,8 @@ TEST(RectifiedStereoNode, GivesTheFixatedPointInTheHeadsFrameAndAsksTheHeadToVer
   EXPECT_EQ(gaze->kind, GazeRequest::Kind::kPoint);
   EXPECT_EQ(gaze->point, f->point_head);
   // Without the head's pose: the point in the camera's frame, no gaze.
-  auto alone = testing::NodeHarness::create(R"(<node plugin="stereo"/>)");
+  auto alone = testing::NodeHarness::create(R"(<node plugin="stereo"/>)").value_or(nullptr);
+  ASSERT_NE(alone, nullptr);
   alone->set("left", left);
   alone->set("right", right);
   ASSERT_TRUE(alone->process().ok());
@@ -417,7 +427,9 @@ namespace saccade::retina {
 namespace {
 
 TEST(RectifiedBadInput, AJointThatIsNotANumberAndAStereoCalibrationForOtherImagesAreErrors) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)")
+               .value_or(nullptr);
+  ASSERT_NE(h, nullptr);
   auto joints = std::make_shared<JointState>();
   joints->position = {0, std::nan(""), 0, 0, 0};
   h->set("joints", joints);
@@ -428,13 +440,13 @@ TEST(RectifiedBadInput, AJointThatIsNotANumberAndAStereoCalibrationForOtherImage
 
   // saccade calibrate's file for 640x480 images; the stereo on 320x240 frames.
   const std::string path = (std::filesystem::temp_directory_path() / "saccade_stereo_640.yml").string();
-  ASSERT_EQ(
-      kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, capture::SimHeadConfig{}.geometry)),
-      "");
-  std::string error;
-  auto stereo = testing::NodeHarness::create(
-      R"(<node plugin="stereo"><param name="calibration" value=")" + path + R"("/></node>)", &error);
-  ASSERT_NE(stereo, nullptr) << error;
+  ASSERT_TRUE(
+      kinematics::write_head_calibration(path, model_calibration({640, 480}, 554, capture::SimHeadConfig{}.geometry))
+          .ok());
+  auto created = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="calibration" value=")" + path +
+                                              R"("/></node>)");
+  ASSERT_TRUE(created.ok()) << created.error();
+  auto stereo = std::move(created).value();
   RetinaSampler sampler(RetinaConfig{});
   auto left = std::make_shared<Retina>(), right = std::make_shared<Retina>();
   sampler.sample(frame_of(0)->mat, {160, 120}, *left);

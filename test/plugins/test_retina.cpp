@@ -154,9 +154,9 @@ TEST(RetinaSampling, FivePointIsCloseToTheAreaMeanOnARealFrame) {
 }
 
 TEST(RetinaNode, EmitsLevelsGeometryAndFollowsTheFoveaInput) {
-  std::string error;
-  auto h = testing::NodeHarness::create(R"(<node plugin="retina"><param name="levels" value="4"/></node>)", &error);
-  ASSERT_NE(h, nullptr) << error;
+  auto created = testing::NodeHarness::create(R"(<node plugin="retina"><param name="levels" value="4"/></node>)");
+  ASSERT_TRUE(created.ok()) << created.error();
+  auto h = std::move(created).value();
   auto image = std::make_shared<Image>();
   image->mat = test::random_image({640, 480}, 9, CV_8UC1);
   image->frame_id = 12;
@@ -180,7 +180,7 @@ TEST(RetinaNode, EmitsLevelsGeometryAndFollowsTheFoveaInput) {
 }
 
 TEST(RetinaNode, ReusesItsBuffersInSteadyState) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
   ASSERT_NE(h, nullptr);
   auto image = std::make_shared<Image>();
   image->mat = test::random_image({640, 480}, 1, CV_8UC1);
@@ -196,8 +196,8 @@ TEST(RetinaNode, ReusesItsBuffersInSteadyState) {
 
 TEST(RetinaNode, LevelsAreMadeTogetherInTheAllocatorAConsumerOffers) {
   test::NamedAllocator ring;  // outlives the harnesses' pooled retinas it made
-  auto plain = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
-  auto offered = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto plain = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
+  auto offered = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
   ASSERT_TRUE(plain && offered);
   offered->set_frame_allocator("retina", &ring);
   for (int i = 0; i < 3; ++i) {
@@ -222,7 +222,8 @@ TEST(RetinaNode, LevelsAreMadeTogetherInTheAllocatorAConsumerOffers) {
 }
 
 TEST(RetinaNode, RefusesFramesSmallerThanALevel) {
-  auto h = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto h = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
+  ASSERT_NE(h, nullptr);
   auto image = std::make_shared<Image>();
   image->mat = cv::Mat::zeros(20, 20, CV_8UC1);
   h->set("image", image);

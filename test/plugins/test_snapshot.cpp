@@ -17,7 +17,8 @@ TEST(Snapshot, WritesMosaicsForImagesRetinasAndFeatureMaps) {
   fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "snapshot";
   fs::remove_all(dir);
   auto h = testing::NodeHarness::create("<node plugin=\"snapshot\" name=\"s\"><param name=\"dir\" value=\"" +
-                                        dir.string() + "\"/><param name=\"every\" value=\"2\"/></node>");
+                                        dir.string() + "\"/><param name=\"every\" value=\"2\"/></node>")
+               .value_or(nullptr);
   ASSERT_NE(h, nullptr);
   auto image = std::make_shared<Image>();
   image->mat = cv::Mat(120, 160, CV_8UC1, cv::Scalar(100));
@@ -59,7 +60,8 @@ TEST(Snapshot, DisparityIsColorMappedAndSavedAs16Bit) {
   fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "snapshot_disparity";
   fs::remove_all(dir);
   auto h = testing::NodeHarness::create("<node plugin=\"snapshot\" name=\"d\"><param name=\"dir\" value=\"" +
-                                        dir.string() + "\"/><param name=\"disparity_png16\" value=\"true\"/></node>");
+                                        dir.string() + "\"/><param name=\"disparity_png16\" value=\"true\"/></node>")
+               .value_or(nullptr);
   ASSERT_NE(h, nullptr);
   auto maps = std::make_shared<FeatureMaps>();
   cv::Mat d(24, 32, CV_32F, cv::Scalar(12.5f));

@@ -55,7 +55,7 @@ Pair make_block_pair(int far, int near, cv::Rect block, cv::Point2d fovea) {
 }
 
 Pair retinas_of(const cv::Mat& left, const cv::Mat& right, cv::Point2d fovea) {
-  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)");
+  auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
   Pair p;
   for (int side = 0; side < 2; ++side) {
     auto image = std::make_shared<Image>();
@@ -88,8 +88,8 @@ std::pair<double, double> accuracy(const cv::Mat& disparity, double d, double to
 // Runs one pair through two configurations.
 void run_both(const Pair& p, const RetinaStereoConfig& first, const RetinaStereoConfig& second,
               std::vector<LevelDisparity>& a, std::vector<LevelDisparity>& b) {
-  ASSERT_EQ(RetinaStereo(first).run(*p.left, *p.right, a), "");
-  ASSERT_EQ(RetinaStereo(second).run(*p.left, *p.right, b), "");
+  ASSERT_TRUE(RetinaStereo(first).run(*p.left, *p.right, a).ok());
+  ASSERT_TRUE(RetinaStereo(second).run(*p.left, *p.right, b).ok());
 }
 
 TEST(RetinaStereo, FindsAKnownDisparityOnEveryLevel) {
@@ -100,7 +100,8 @@ TEST(RetinaStereo, FindsAKnownDisparityOnEveryLevel) {
   config.vergence = false;
   RetinaStereo stereo(config);
   std::vector<LevelDisparity> out;
-  ASSERT_EQ(stereo.run(*p.left, *p.right, out), "");
+  const Status matched = stereo.run(*p.left, *p.right, out);
+  ASSERT_TRUE(matched.ok()) << matched.message();
   ASSERT_EQ(out.size(), 5u);
   for (std::size_t k = 0; k < out.size(); ++k) {
     const double step = p.left->geometry[k].step_x;
@@ -254,16 +255,16 @@ TEST(RetinaStereo, RefusesMismatchedRetinas) {
   std::vector<LevelDisparity> out;
   RetinaStereoConfig config = plain_matcher_config();
   config.vergence = false;
-  EXPECT_NE(RetinaStereo(config).run(*p.left, *q.right, out).find("regions differ"), std::string::npos);
+  EXPECT_NE(RetinaStereo(config).run(*p.left, *q.right, out).message().find("regions differ"), std::string::npos);
 }
 
 // A stereo node made from `node_xml`, run once on the pair; null (and a
 // failure) when it cannot be made or fails.
 std::unique_ptr<testing::NodeHarness> stereo_node_on(const Pair& p, const std::string& node_xml) {
-  std::string error;
-  auto h = testing::NodeHarness::create(node_xml, &error);
-  EXPECT_NE(h, nullptr) << error;
-  if (h == nullptr) return nullptr;
+  auto created = testing::NodeHarness::create(node_xml);
+  EXPECT_TRUE(created.ok()) << created.error();
+  if (!created.ok()) return nullptr;
+  auto h = std::move(created).value();
   h->set("left", p.left);
   h->set("right", p.right);
   const Status s = h->process();
@@ -348,15 +349,13 @@ TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
     ASSERT_NE(maps, nullptr);
     EXPECT_NEAR(maps->find("disparity")->back().at<float>(12, 20), 12.0, 0.25) << paths << " paths";
   }
-  std::string error;
-  auto bad = testing::NodeHarness::create(
-      R"(<node plugin="stereo"><param name="sgm_p1" value="1"/><param name="sgm_p2" value="0.5"/></node>)", &error);
-  EXPECT_EQ(bad, nullptr);
-  EXPECT_NE(error.find("sgm_p2"), std::string::npos) << error;
-  auto six =
-      testing::NodeHarness::create(R"(<node plugin="stereo"><param name="sgm_paths" value="6"/></node>)", &error);
-  EXPECT_EQ(six, nullptr);
-  EXPECT_NE(error.find("sgm_paths"), std::string::npos) << error;
+  const auto bad = testing::NodeHarness::create(
+      R"(<node plugin="stereo"><param name="sgm_p1" value="1"/><param name="sgm_p2" value="0.5"/></node>)");
+  EXPECT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().find("sgm_p2"), std::string::npos) << bad.error();
+  const auto six = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="sgm_paths" value="6"/></node>)");
+  EXPECT_FALSE(six.ok());
+  EXPECT_NE(six.error().find("sgm_paths"), std::string::npos) << six.error();
 }
 
 TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
@@ -388,10 +387,10 @@ TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
     }
   EXPECT_GT(checked, 600) << "verged, the fovea matches nearly everywhere";
 
-  std::string error;
-  EXPECT_EQ(testing::NodeHarness::create(R"(<node plugin="stereo"><param name="focal" value="500"/></node>)", &error),
-            nullptr);
-  EXPECT_NE(error.find("baseline"), std::string::npos) << error;
+  const auto focal_only =
+      testing::NodeHarness::create(R"(<node plugin="stereo"><param name="focal" value="500"/></node>)");
+  EXPECT_FALSE(focal_only.ok());
+  EXPECT_NE(focal_only.error().find("baseline"), std::string::npos) << focal_only.error();
 }
 
 TEST(FillHoles, TakesTheFartherNeighbourOnTheRowAndTheFallbackOnEmptyRows) {
@@ -469,33 +468,32 @@ TEST(StereoCalibration, ReadsFocalAndBaselineFromQOrP2OrM1AndT) {
     body(fs);
     return (dir / name).string();
   };
-  StereoCalibration c;
   // As cv::stereoRectify writes it: Q(2,3) = f, Q(3,2) = -1/Tx with Tx = -B.
   const std::string q = write("q.yml", [](cv::FileStorage& fs) {
     fs << "Q" << (cv::Mat_<double>(4, 4) << 1, 0, 0, -320, 0, 1, 0, -240, 0, 0, 0, 534.8, 0, 0, 1 / 0.06, 0);
   });
-  ASSERT_EQ(read_calibration(q, c), "");
-  EXPECT_NEAR(c.focal_px, 534.8, 1e-9);
-  EXPECT_NEAR(c.baseline_m, 0.06, 1e-12);
+  Result<StereoCalibration> c = read_calibration(q);
+  ASSERT_TRUE(c.ok()) << c.error();
+  EXPECT_NEAR(c->focal_px, 534.8, 1e-9);
+  EXPECT_NEAR(c->baseline_m, 0.06, 1e-12);
   const std::string p2 = write("p2.xml", [](cv::FileStorage& fs) {
     fs << "P2" << (cv::Mat_<double>(3, 4) << 500, 0, 320, -500 * 0.12, 0, 500, 240, 0, 0, 0, 1, 0);
   });
-  c = {};
-  ASSERT_EQ(read_calibration(p2, c), "");
-  EXPECT_NEAR(c.focal_px, 500, 1e-9);
-  EXPECT_NEAR(c.baseline_m, 0.12, 1e-12);
+  c = read_calibration(p2);
+  ASSERT_TRUE(c.ok()) << c.error();
+  EXPECT_NEAR(c->focal_px, 500, 1e-9);
+  EXPECT_NEAR(c->baseline_m, 0.12, 1e-12);
   const std::string mt = write("mt.yml", [](cv::FileStorage& fs) {
     fs << "M1" << (cv::Mat_<double>(3, 3) << 600, 0, 320, 0, 600, 240, 0, 0, 1);
     fs << "T" << (cv::Mat_<double>(3, 1) << -0.09, 0, 0);
   });
-  c = {};
-  ASSERT_EQ(read_calibration(mt, c), "");
-  EXPECT_NEAR(c.baseline_m, 0.09, 1e-12);
+  c = read_calibration(mt);
+  ASSERT_TRUE(c.ok()) << c.error();
+  EXPECT_NEAR(c->baseline_m, 0.09, 1e-12);
   // OpenCV's own intrinsics.yml (M1, D1, M2, D2, no extrinsics): a clear error.
-  c = {};
   const std::string only_intrinsics = test::sample_path("intrinsics.yml");
-  EXPECT_NE(read_calibration(only_intrinsics, c).find("expected Q"), std::string::npos);
-  EXPECT_NE(read_calibration("/nonexistent.yml", c).find("/nonexistent.yml"), std::string::npos);
+  EXPECT_NE(read_calibration(only_intrinsics).error().find("expected Q"), std::string::npos);
+  EXPECT_NE(read_calibration("/nonexistent.yml").error().find("/nonexistent.yml"), std::string::npos);
 }
 
 }  // namespace

@@ -227,7 +227,7 @@ Table evaluate(const Aloe& aloe, const std::vector<cv::Point2d>& fixations, bool
     for (const auto& f : fixations) {
       auto l = retina_of(aloe.left, f), r = retina_of(aloe.right, f);
       std::vector<LevelDisparity> out;
-      EXPECT_EQ(stereo.run(*l, *r, out), "");
+      EXPECT_TRUE(stereo.run(*l, *r, out).ok());
       if (out.size() != 5) return table;
       if (v == kPlain) {
         const double t = truth_at_fixation(aloe.truth, f);

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <utility>
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -59,13 +60,11 @@ void write_frames(const fs::path& folder, int count, int digits) {
   }
 }
 
-// The error the call throws, "" when it does not.
-template <class F>
-std::string error_of(F&& call) {
-  try {
-    call();
-  } catch (const std::exception& e) { return e.what(); }
-  return "";
+// The value, failing the test (and giving a default one) when there is none.
+template <class T>
+T value_of(Result<T> result) {
+  EXPECT_TRUE(result.ok()) << result.error();
+  return std::move(result).value_or(T{});
 }
 
 void expect_box(const cv::Rect2d& box, double x, double y, double w, double h) {
@@ -81,7 +80,7 @@ TEST(OtbReader, ReadsCommaTabSpaceAndCrlfRows) {
   TempDir dir;
   write_frames(dir.path() / "img", 4, 4);
   write_file(dir.path() / "groundtruth_rect.txt", "10,20,30,40\r\n11\t21\t31\t41\r\n12 22  32 42\nNaN,NaN,NaN,NaN\n\n");
-  const Sequence s = read_otb(dir.path().string());
+  const Sequence s = value_of(read_otb(dir.path().string()));
   ASSERT_EQ(s.size(), 4);
   expect_box(s.truth[0], 10, 20, 30, 40);
   expect_box(s.truth[1], 11, 21, 31, 41);
@@ -89,7 +88,7 @@ TEST(OtbReader, ReadsCommaTabSpaceAndCrlfRows) {
   EXPECT_EQ(s.visible, (std::vector<bool>{true, true, true, false}));
   EXPECT_EQ(s.frame_size, cv::Size(64, 48));
   EXPECT_EQ(s.name, dir.path().filename().string());
-  const cv::Mat third = s.frame(2);
+  const cv::Mat third = value_of(s.frame(2));
   ASSERT_EQ(third.type(), CV_8UC3);
   EXPECT_NEAR(third.at<cv::Vec3b>(10, 10)[0], 30, 3);  // image 0003.jpg
 }
@@ -98,7 +97,7 @@ TEST(OtbReader, NamesAMissingImage) {
   TempDir dir;
   write_frames(dir.path() / "img", 2, 4);
   write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3,4\n1,2,3,4\n");
-  const std::string error = error_of([&] { read_otb(dir.path().string()); });
+  const std::string error = read_otb(dir.path().string()).error();
   EXPECT_NE(error.find("img/0003.jpg: missing"), std::string::npos) << error;
 }
 
@@ -106,12 +105,12 @@ TEST(OtbReader, NamesTheFileAndLineOfAMalformedRow) {
   TempDir dir;
   write_frames(dir.path() / "img", 3, 4);
   write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3\n1,2,3,4\n");
-  std::string error = error_of([&] { read_otb(dir.path().string()); });
+  std::string error = read_otb(dir.path().string()).error();
   EXPECT_NE(error.find("groundtruth_rect.txt:2: expected 4 numbers"), std::string::npos) << error;
   write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3,4\n1,2,x3,4\n");
-  error = error_of([&] { read_otb(dir.path().string()); });
+  error = read_otb(dir.path().string()).error();
   EXPECT_NE(error.find("groundtruth_rect.txt:3: 'x3' is not a number"), std::string::npos) << error;
-  error = error_of([&] { read_otb((dir.path() / "nowhere").string()); });
+  error = read_otb((dir.path() / "nowhere").string()).error();
   EXPECT_NE(error.find("nowhere: not a folder"), std::string::npos) << error;
 }
 
@@ -122,29 +121,48 @@ TEST(VotReader, PolygonsBecomeTheirBoundingBoxesAndNanRowsInvisible) {
              "10.5,20,40.5,22,38,50,8,48\n"  // a slightly rotated quadrilateral
              "nan,nan,nan,nan\n"
              "5,6,7,8\n");
-  const Sequence s = read_vot(dir.path().string());
+  const Sequence s = value_of(read_vot(dir.path().string()));
   ASSERT_EQ(s.size(), 3);
   expect_box(s.truth[0], 8, 20, 32.5, 30);
   EXPECT_EQ(s.visible, (std::vector<bool>{true, false, true}));
   expect_box(s.truth[2], 5, 6, 7, 8);
-  EXPECT_FALSE(s.frame(1).empty());
+  EXPECT_FALSE(value_of(s.frame(1)).empty());
+  const Result<cv::Mat> past_the_end = s.frame(3);
+  ASSERT_FALSE(past_the_end.ok());
+  EXPECT_EQ(past_the_end.error(), "no frame 3 (the sequence has 3)");
 }
 
 TEST(VotReader, ReadsFramesBesideTheTruthAndNamesBadRows) {
   TempDir dir;
   write_frames(dir.path(), 2, 8);
   write_file(dir.path() / "groundtruth.txt", "1,2,3,4,5,6\n1,2,3,4\n");
-  const std::string error = error_of([&] { read_vot(dir.path().string()); });
+  const std::string error = read_vot(dir.path().string()).error();
   EXPECT_NE(error.find("groundtruth.txt:1: expected 4 numbers (x,y,w,h) or 8"), std::string::npos) << error;
   write_file(dir.path() / "groundtruth.txt", "1,2,3,4\n1,2,3,4\n");
-  EXPECT_EQ(read_vot(dir.path().string()).size(), 2);
+  EXPECT_EQ(value_of(read_vot(dir.path().string())).size(), 2);
+  write_file(dir.path() / "groundtruth.txt", "\n\n");
+  EXPECT_NE(read_vot(dir.path().string()).error().find("groundtruth.txt: no ground-truth rows"), std::string::npos);
+  fs::remove(dir.path() / "groundtruth.txt");
+  EXPECT_NE(read_vot(dir.path().string()).error().find("cannot open "), std::string::npos);
+}
+
+TEST(TruthRow, GivesTheBoxAndVisibilityOrNamesTheFault) {
+  const Result<TruthRow> row = parse_truth_row("1,2,3,4", "f:1");
+  ASSERT_TRUE(row.ok()) << row.error();
+  expect_box(row->box, 1, 2, 3, 4);
+  EXPECT_TRUE(row->visible);
+  EXPECT_FALSE(value_of(parse_truth_row("NaN,1,2,3", "f:2")).visible);
+  EXPECT_FALSE(value_of(parse_truth_row("5,6,0,0", "f:3")).visible);  // an empty box: no target
+  EXPECT_EQ(parse_truth_row("1,2,-3,4", "f:4").error(), "f:4: negative width or height");
+  EXPECT_EQ(parse_truth_row("1,2,3", "f:5").error(),
+            "f:5: expected 4 numbers (x,y,w,h) or 8 (a polygon x1,y1,...,x4,y4), got 3");
 }
 
 // ------------------------------------------------------------------ generator
 
 TEST(Generator, HasEnoughLongSequencesWithInvisibleFrames) {
   const std::vector<SyntheticScript> scripts = standard_scripts();
-  const std::vector<Sequence> all = generate_sequences(data_dir());
+  const std::vector<Sequence> all = value_of(generate_sequences(data_dir()));
   ASSERT_EQ(all.size(), scripts.size());
   int small = 0, large = 0;
   std::set<std::string> names;
@@ -168,8 +186,8 @@ TEST(Generator, HasEnoughLongSequencesWithInvisibleFrames) {
 }
 
 TEST(Generator, IsDeterministic) {
-  const std::vector<Sequence> a = generate_sequences(data_dir());
-  const std::vector<Sequence> b = generate_sequences(data_dir());
+  const std::vector<Sequence> a = value_of(generate_sequences(data_dir()));
+  const std::vector<Sequence> b = value_of(generate_sequences(data_dir()));
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t k = 0; k < a.size(); ++k) {
     ASSERT_EQ(a[k].truth.size(), b[k].truth.size());
@@ -180,18 +198,32 @@ TEST(Generator, IsDeterministic) {
     // Frames in a different order in the second run: each renders on its own.
     for (int i = 0; i < a[k].size(); i += 37) {
       const int j = a[k].size() - 1 - i;
-      const cv::Mat fa = a[k].frame(j), fb = b[k].frame(j);
+      const cv::Mat fa = value_of(a[k].frame(j)), fb = value_of(b[k].frame(j));
       ASSERT_EQ(fa.size(), a[k].frame_size);
       ASSERT_EQ(fa.type(), CV_8UC3);
       EXPECT_EQ(frame_hash(fa), frame_hash(fb)) << a[k].name << " frame " << j;
     }
   }
-  EXPECT_NE(frame_hash(a[0].frame(1)), frame_hash(a[0].frame(2)));
+  EXPECT_NE(frame_hash(value_of(a[0].frame(1))), frame_hash(value_of(a[0].frame(2))));
   // One sequence with everything (blur, lighting, noise, occluder) frame by frame.
   const auto mixed = std::find_if(a.begin(), a.end(), [](const Sequence& s) { return s.name == "mixed"; });
   ASSERT_NE(mixed, a.end());
   const Sequence& again = b[static_cast<std::size_t>(mixed - a.begin())];
-  for (int i = 0; i < mixed->size(); ++i) EXPECT_EQ(frame_hash(mixed->frame(i)), frame_hash(again.frame(i))) << i;
+  for (int i = 0; i < mixed->size(); ++i)
+    EXPECT_EQ(frame_hash(value_of(mixed->frame(i))), frame_hash(value_of(again.frame(i)))) << i;
+  EXPECT_EQ(a[0].frame(a[0].size()).error(),
+            "no frame " + std::to_string(a[0].size()) + " (the sequence has " + std::to_string(a[0].size()) + ")");
+}
+
+TEST(Generator, NamesAMissingImageABadCropAndAnInvalidScript) {
+  SyntheticScript script = standard_scripts().front();
+  EXPECT_EQ(generate_sequence(script, "/nonexistent").error(), "cannot read image /nonexistent/" + script.background);
+  EXPECT_EQ(target_appearance(script, "/nonexistent").error(), "cannot read image /nonexistent/" + script.target_image);
+  script.target_crop = cv::Rect(0, 0, 100000, 10);
+  EXPECT_EQ(generate_sequence(script, data_dir()).error(), script.target_image + ": crop rectangle outside the image");
+  EXPECT_EQ(target_appearance(script, data_dir()).error(), script.target_image + ": crop rectangle outside the image");
+  script.frames = 0;
+  EXPECT_EQ(generate_sequence(script, data_dir()).error(), script.name + ": invalid script");
 }
 
 // Where the target's picture, scaled to the truth box, matches the frame best
@@ -213,8 +245,8 @@ TEST(Generator, TruthBoxesFrameTheRenderedTarget) {
   constexpr int kMargin = 8;
   for (const SyntheticScript& script : standard_scripts()) {
     if (script.name != "scale" && script.name != "distractor") continue;  // neither occluded nor rotated
-    const Sequence s = generate_sequence(script, data_dir());
-    const cv::Mat target = target_appearance(script, data_dir());
+    const Sequence s = value_of(generate_sequence(script, data_dir()));
+    const cv::Mat target = value_of(target_appearance(script, data_dir()));
     const cv::Rect frame_rect(0, 0, s.frame_size.width, s.frame_size.height);
     int checked = 0;
     for (int i = 0; i < s.size(); i += 10) {
@@ -223,7 +255,7 @@ TEST(Generator, TruthBoxesFrameTheRenderedTarget) {
       const cv::Rect search = box + cv::Size(2 * kMargin, 2 * kMargin) - cv::Point(kMargin, kMargin);
       if ((search & frame_rect) != search) continue;
       double peak = 0;
-      const cv::Point offset = best_match_offset(s.frame(i), box, target, kMargin, peak);
+      const cv::Point offset = best_match_offset(value_of(s.frame(i)), box, target, kMargin, peak);
       // The picture sits where the truth says, to the rounding of the box.
       EXPECT_LE(std::abs(offset.x), 1) << s.name << " frame " << i;
       EXPECT_LE(std::abs(offset.y), 1) << s.name << " frame " << i;
@@ -235,7 +267,7 @@ TEST(Generator, TruthBoxesFrameTheRenderedTarget) {
 }
 
 TEST(Generator, TheTargetLeavesTheViewAndComesBack) {
-  const Sequence s = generate_sequence(standard_scripts().at(6), data_dir());
+  const Sequence s = value_of(generate_sequence(standard_scripts().at(6), data_dir()));
   ASSERT_EQ(s.name, "out_of_view");
   const cv::Rect2d frame_rect(0, 0, s.frame_size.width, s.frame_size.height);
   int reappearances = 0;
@@ -263,7 +295,7 @@ TEST(Scoring, HandMadeTrackGivesTheExpectedMeasures) {
       {t + cv::Point2d(10, 0), false, 4},                      // IoU 200/600 = 1/3, error 10
       {t + cv::Point2d(0, 25), false, 5},                      // IoU 0, error 25
   };
-  const TrackScore s = score_track(truth, visible, track);
+  const TrackScore s = value_of(score_track(truth, visible, track));
   EXPECT_EQ(s.scored_frames, 4);
   EXPECT_DOUBLE_EQ(s.mean_center_error, (0 + 4 + 10 + 25) / 4.0);
   EXPECT_DOUBLE_EQ(s.precision20, 0.75);
@@ -283,7 +315,7 @@ TEST(Scoring, PerfectTrackScoresAsOtbDoes) {
   const std::vector<bool> visible(11, true);
   std::vector<TrackedFrame> track;
   for (const cv::Rect2d& box : truth) track.push_back({box, true, 0});
-  const TrackScore s = score_track(truth, visible, track);
+  const TrackScore s = value_of(score_track(truth, visible, track));
   EXPECT_DOUBLE_EQ(s.mean_center_error, 0);
   EXPECT_DOUBLE_EQ(s.precision20, 1);
   EXPECT_NEAR(s.success_auc, 20.0 / 21, 1e-12);  // IoU 1 is not above the threshold 1
@@ -303,7 +335,7 @@ TEST(Scoring, ReacquisitionDelayAndHonesty) {
   track[5].box = far;                             // reappears at 5: wrong box at 5,
   track[6].tracking = false;                      // lost at 6, right at 7: delay 2
   track[8].tracking = false;                      // honest; reappears at 9: right at once, delay 0
-  const TrackScore s = score_track(truth, visible, track);
+  const TrackScore s = value_of(score_track(truth, visible, track));
   EXPECT_EQ(s.reappearances, 2);
   EXPECT_EQ(s.max_reacquire_delay, 2);
   EXPECT_EQ(s.reacquire_misses, 0);
@@ -317,7 +349,8 @@ TEST(Scoring, IouAndCenterError) {
   EXPECT_DOUBLE_EQ(iou({0, 0, 10, 10}, {20, 0, 10, 10}), 0);
   EXPECT_DOUBLE_EQ(iou({0, 0, 0, 0}, {0, 0, 0, 0}), 0);
   EXPECT_DOUBLE_EQ(center_error({0, 0, 10, 10}, {3, 4, 10, 10}), 5);
-  EXPECT_THROW(score_track({{0, 0, 1, 1}}, {true, false}, {{}}), std::invalid_argument);
+  EXPECT_EQ(score_track({{0, 0, 1, 1}}, {true, false}, {{}}).error(),
+            "score_track: truth, visibility and track differ in length");
 }
 
 }  // namespace

@@ -66,9 +66,9 @@ struct Running {
   explicit Running(const std::string& xml = kGraph, view::ViewOptions options = {}) {
     graph = test::open_graph(xml, two_threads());
     options.port = 0;
-    std::string error;
-    server = view::start_view(*graph->executor, options, error);
-    if (!server) throw std::runtime_error(error);
+    auto started = view::start_view(*graph->executor, options);
+    if (!started.ok()) throw std::runtime_error(started.error());
+    server = std::move(started).value();
     thread = std::thread([this] { status = graph->run(); });
   }
   ~Running() {
@@ -166,20 +166,24 @@ bool eventually(F done) {
 
 TEST(View, ParsesItsAddress) {
   view::ViewOptions o;
-  std::string error;
-  ASSERT_TRUE(view::parse_view_address("9000", o, error)) << error;
+  Status s = view::parse_view_address("9000", o);
+  ASSERT_TRUE(s.ok()) << s.message();
   EXPECT_EQ(o.address, "127.0.0.1") << "loopback unless told";
   EXPECT_EQ(o.port, 9000);
-  ASSERT_TRUE(view::parse_view_address("0.0.0.0:8765", o, error)) << error;
+  s = view::parse_view_address("0.0.0.0:8765", o);
+  ASSERT_TRUE(s.ok()) << s.message();
   EXPECT_EQ(o.address, "0.0.0.0");
   EXPECT_EQ(o.port, 8765);
-  ASSERT_TRUE(view::parse_view_address("[::1]:8000", o, error)) << error;
+  s = view::parse_view_address("[::1]:8000", o);
+  ASSERT_TRUE(s.ok()) << s.message();
   EXPECT_EQ(o.address, "::1");
-  EXPECT_FALSE(view::parse_view_address("70000", o, error));
-  EXPECT_NE(error.find("0-65535"), std::string::npos) << error;
-  EXPECT_FALSE(view::parse_view_address("nohost:80", o, error));
-  EXPECT_NE(error.find("'nohost' is not an IP address"), std::string::npos) << error;
-  EXPECT_FALSE(view::parse_view_address("::1:80", o, error));
+  s = view::parse_view_address("70000", o);
+  EXPECT_TRUE(s.is_error());
+  EXPECT_NE(s.message().find("0-65535"), std::string::npos) << s.message();
+  s = view::parse_view_address("nohost:80", o);
+  EXPECT_TRUE(s.is_error());
+  EXPECT_NE(s.message().find("'nohost' is not an IP address"), std::string::npos) << s.message();
+  EXPECT_TRUE(view::parse_view_address("::1:80", o).is_error());
 }
 
 TEST(View, SpeaksTheFoxgloveProtocol) {
@@ -217,10 +221,9 @@ TEST(View, SpeaksTheFoxgloveProtocol) {
   // The raw frame decodes as the channel's encoding says.
   const std::string raw = client.next_data(7);
   auto decoder = dds::make_decoder(*dds::channel_encoding("Image"));
-  std::string why;
-  MessagePtr m = decoder->decode(reinterpret_cast<const uint8_t*>(raw.data()), raw.size(), why);
-  ASSERT_TRUE(m) << why;
-  const auto& image = static_cast<const Image&>(*m);
+  auto decoded = decoder->decode(reinterpret_cast<const uint8_t*>(raw.data()), raw.size());
+  ASSERT_TRUE(decoded.ok()) << decoded.error();
+  const auto& image = static_cast<const Image&>(**decoded);
   EXPECT_EQ(image.mat.cols, 320);
   EXPECT_EQ(image.mat.rows, 240);
   // The JPEG inside its CompressedImage is the same frame's size.
@@ -394,9 +397,9 @@ TEST(View, AClientThatNeverReadsDoesNotHoldTheGraph) {
   // channel that never reads: the graph still ends with every frame.
   auto graph = test::open_graph(fast_graph(300, true), two_threads());
   view::ViewOptions options = fast_view();
-  std::string error;
-  auto server = view::start_view(*graph->executor, options, error);
-  ASSERT_TRUE(server) << error;
+  auto started = view::start_view(*graph->executor, options);
+  ASSERT_TRUE(started.ok()) << started.error();
+  const std::unique_ptr<view::ViewServer>& server = *started;
   Client client(server->port());
   auto channels = channels_of((client.next_json(), client.next_json()));
   json subs = json::array();
@@ -416,9 +419,9 @@ TEST(View, ATightCpuShareSlowsThePicturesNotTheGraph) {
   auto graph = test::open_graph(fast_graph(400, false, 200), two_threads());
   view::ViewOptions options = fast_view();
   options.cpu_share = 0.01;
-  std::string error;
-  auto server = view::start_view(*graph->executor, options, error);
-  ASSERT_TRUE(server) << error;
+  auto started = view::start_view(*graph->executor, options);
+  ASSERT_TRUE(started.ok()) << started.error();
+  const std::unique_ptr<view::ViewServer>& server = *started;
   Client client(server->port());
   auto channels = channels_of((client.next_json(), client.next_json()));
   ASSERT_TRUE(channels.count("/scene/image/jpeg"));
@@ -473,10 +476,9 @@ TEST(View, APortInUseIsAClearError) {
   auto graph = test::open_graph(kGraph);
   view::ViewOptions options;
   options.port = port;
-  std::string error;
-  auto server = view::start_view(*graph->executor, options, error);
-  EXPECT_FALSE(server);
-  EXPECT_EQ(error, "view: cannot listen on 127.0.0.1:" + std::to_string(port) + ": the port is in use");
+  auto server = view::start_view(*graph->executor, options);
+  EXPECT_FALSE(server.ok());
+  EXPECT_EQ(server.error(), "view: cannot listen on 127.0.0.1:" + std::to_string(port) + ": the port is in use");
 }
 
 // The client's messages as the server parses them (client_protocol.hpp, what
@@ -524,16 +526,19 @@ TEST(ViewProtocol, ParsesEachRequestAndKeepsTheEntriesBeforeABadOne) {
   EXPECT_FALSE(view::parse_message_data(reinterpret_cast<const uint8_t*>("\x02\x00"), 2, channel));
   EXPECT_FALSE(view::parse_message_data(reinterpret_cast<const uint8_t*>("\x01\x04\x00"), 3, channel));
   Region region;
-  EXPECT_EQ(view::parse_region_json(reinterpret_cast<const uint8_t*>(frame.data()) + 5, frame.size() - 5, region), "");
+  EXPECT_TRUE(
+      view::parse_region_json(reinterpret_cast<const uint8_t*>(frame.data()) + 5, frame.size() - 5, region).ok());
   EXPECT_EQ(region.center, cv::Point2d(1.5, 2));
   EXPECT_EQ(region.size, cv::Size2d(3, 4));
   EXPECT_EQ(region.label, "cup");
   const std::string negative = R"({"center":{"x":1,"y":2},"size":{"width":-3,"height":4}})";
-  EXPECT_EQ(view::parse_region_json(reinterpret_cast<const uint8_t*>(negative.data()), negative.size(), region),
-            "a Region's 'size' needs 'width' and 'height' >= 0");
+  EXPECT_EQ(
+      view::parse_region_json(reinterpret_cast<const uint8_t*>(negative.data()), negative.size(), region).message(),
+      "a Region's 'size' needs 'width' and 'height' >= 0");
   const std::string no_center = R"({"centre":{"x":1,"y":2}})";
-  EXPECT_EQ(view::parse_region_json(reinterpret_cast<const uint8_t*>(no_center.data()), no_center.size(), region),
-            "a Region needs 'center': {'x', 'y'}");
+  EXPECT_EQ(
+      view::parse_region_json(reinterpret_cast<const uint8_t*>(no_center.data()), no_center.size(), region).message(),
+      "a Region needs 'center': {'x', 'y'}");
 }
 
 }  // namespace

@@ -40,12 +40,12 @@ int main(int argc, char** argv) {
   }
   view::ViewOptions view_options;
   view_options.port = argc > 2 ? std::stoi(argv[2]) : 0;
-  std::string error;
-  auto server = view::start_view(executor, view_options, error);
-  if (!server) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+  auto started = view::start_view(executor, view_options);
+  if (!started.ok()) {
+    std::fprintf(stderr, "%s\n", started.error().c_str());
     return 1;
   }
+  const std::unique_ptr<view::ViewServer>& server = *started;
   std::printf("view: %s\n", server->url().c_str());
   std::fflush(stdout);
   std::thread watch([&] {

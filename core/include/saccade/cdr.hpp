@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::cdr {
 
@@ -39,17 +40,17 @@ std::size_t write(const M& message, const Envelope& envelope, uint8_t* out, std:
 template <class M>
 void write(const M& message, const Envelope& envelope, std::vector<uint8_t>& out);
 
-// Reads `message` from size bytes written by write() or by any CDR writer of
-// the IDL type (either endianness). False, with what was wrong in `why`, for
-// bytes that are not such a message: too short, a sequence longer than the
-// bytes, an enum value the type does not name, a matrix no cv::Mat can have.
-// Buffers `out` already holds are reused. `spare`, for a type that carries a
-// retina: a retina of an earlier message, refilled in place once nobody else
-// holds it (a reader passes the same one every time and allocates none in
-// steady state).
+// Reads `out` and `envelope` from size bytes written by write() or by any CDR
+// writer of the IDL type (either endianness). An error saying what was wrong
+// for bytes that are not such a message: too short, a sequence longer than
+// the bytes, an enum value the type does not name, a matrix no cv::Mat can
+// have. Buffers `out` already holds are reused. `spare`, for a type that
+// carries a retina: a retina of an earlier message, refilled in place once
+// nobody else holds it (a reader passes the same one every time and
+// allocates none in steady state).
 template <class M>
-bool read(const uint8_t* data, std::size_t size, M& out, Envelope& envelope, std::string& why,
-          std::shared_ptr<Retina>* spare = nullptr);
+Status read(const uint8_t* data, std::size_t size, M& out, Envelope& envelope,
+            std::shared_ptr<Retina>* spare = nullptr);
 
 // The IDL (OMG IDL 4) of every described message type, module saccade_idl,
 // as idl/saccade.idl holds it.

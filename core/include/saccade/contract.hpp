@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "saccade/message.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade {
 
@@ -82,9 +83,9 @@ class ParamBinder;
 
 using ParamValue = std::variant<int64_t, double, bool, std::string, cv::Size, cv::Point2d, std::vector<std::string>>;
 
-// Parses `text` as `spec` requires (whole string, range, choices). Returns the
-// reason when it does not fit.
-std::optional<std::string> parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out);
+// Parses `text` as `spec` requires (whole string, range, choices) into `out`;
+// an error saying why when it does not fit.
+Status parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out);
 
 // "a, b,,c" -> {"a", "b", "c"}: a parameter that names several things (topics,
 // joints), items trimmed, empty ones dropped.

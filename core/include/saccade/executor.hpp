@@ -55,14 +55,14 @@ class Executor {
   // so all taps together see messages in the order consumers take them (a
   // side input's newest value among its node's triggers): keep a tap short,
   // hand the message off, never call back into the executor. Before run();
-  // "" or what is wrong (no such node or output).
+  // an error when there is no such node or output.
   using Tap = std::function<void(const MessagePtr&)>;
-  std::string add_tap(const std::string& node, const std::string& port, Tap tap);
+  Status add_tap(const std::string& node, const std::string& port, Tap tap);
   // Gives a node's side input `input` a value as an edge would (the newest
   // wins; the node sees it at its next process()): a target from a viewer.
-  // Thread-safe, while running. "" or what is wrong (no such node, or not a
-  // side input: a trigger input is fed by its edge alone).
-  std::string inject(const std::string& node, const std::string& input, MessagePtr message);
+  // Thread-safe, while running. An error when there is no such node, or it is
+  // not a side input (a trigger input is fed by its edge alone).
+  Status inject(const std::string& node, const std::string& input, MessagePtr message);
   // The graph this executor runs.
   const ResolvedGraph& graph() const;
 

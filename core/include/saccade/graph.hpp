@@ -7,6 +7,7 @@
 
 #include "saccade/contract.hpp"
 #include "saccade/diagnostics.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade {
 
@@ -45,9 +46,9 @@ struct EdgeQos {
 // state reliable, keep-last 8.
 EdgeQos default_qos(std::string_view message_type);
 // Parses a comma-separated list over `base`: best_effort | reliable, depth=N |
-// keep_all, deadline_ms=X, wait_ms=X, capacity=N[K|M] (KiB, MiB), ros2, spin. Returns nothing and sets `error` when it
-// cannot.
-std::optional<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base, std::string* error);
+// keep_all, deadline_ms=X, wait_ms=X, capacity=N[K|M] (KiB, MiB), ros2, spin; an
+// error naming the item it cannot read.
+Result<EdgeQos> parse_edge_qos(const std::string& text, EdgeQos base);
 
 enum class OnError { kStop, kSkip };
 
@@ -123,8 +124,8 @@ void apply_overrides(GraphDecl& graph, const std::vector<std::string>& overrides
 
 // Expands ${VAR} in parameter values from the environment; SACCADE_SAMPLE_DATA
 // defaults to the folder the build was configured with, GRAPH_DIR is the graph
-// file's folder.
-std::string expand_variables(const std::string& text, const std::string& graph_file, std::string* error);
+// file's folder. An error for an unknown variable or an unterminated ${.
+Result<std::string> expand_variables(const std::string& text, const std::string& graph_file);
 
 struct ResolvedEdge {
   int from_node = -1, from_port = -1, to_node = -1, to_port = -1;

@@ -170,8 +170,8 @@ class ParamBinder {
     Contract& c = *contract_;
     const ParamSpec& spec = c.params().back();
     ParamValue value;
-    if (auto why = parse_param(spec, spec.default_value, value)) {
-      c.add_problem("parameter '" + spec.name + "': default '" + spec.default_value + "': " + *why);
+    if (Status parsed = parse_param(spec, spec.default_value, value); !parsed.ok()) {
+      c.add_problem("parameter '" + spec.name + "': default '" + spec.default_value + "': " + parsed.message());
       return;
     }
     Params one;

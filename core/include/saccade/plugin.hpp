@@ -15,7 +15,7 @@
 namespace saccade {
 
 // Bumped whenever Node, Contract, messages or the descriptor change layout.
-inline constexpr uint32_t kAbiVersion = 8;
+inline constexpr uint32_t kAbiVersion = 9;
 
 // Stamped into every plugin at its build and compared by the host at load.
 struct AbiStamp {
@@ -40,7 +40,7 @@ constexpr AbiStamp current_abi_stamp() {
 struct NodeFactory {
   const char* name;  // short name inside the library ("" = the library's own name)
   Contract (*contract)();
-  Node* (*create)(std::string* error) noexcept;
+  Result<Node*> (*create)() noexcept;  // a new node, or why there is none
   void (*destroy)(Node*) noexcept;
 };
 
@@ -92,13 +92,10 @@ NodeFactory make_factory() {
   return NodeFactory{
       T::kName,
       +[]() { return T::contract(); },
-      +[](std::string* error) noexcept -> Node* {
+      +[]() noexcept -> Result<Node*> {
         try {
-          return new Guarded<T>();
-        } catch (const std::exception& e) {
-          if (error) *error = e.what();
-          return nullptr;
-        }
+          return static_cast<Node*>(new Guarded<T>());
+        } catch (const std::exception& e) { return Status::error(e.what()); }
       },
       +[](Node* node) noexcept { delete node; },
   };

@@ -40,8 +40,8 @@ class Registry {
   // saccade_*.so, or a library of that name already loaded from an earlier
   // folder) is a warning: logged, and kept in warnings().
   void load_folders(const std::vector<std::string>& folders);
-  // Loads one library; false (and an error naming the file and the symbol) on failure.
-  bool load_library(const std::string& path, std::string* error = nullptr);
+  // Loads one library; an error naming the file and the symbol on failure.
+  Status load_library(const std::string& path);
 
   const NodeTypeInfo* find(const std::string& type) const;
   std::vector<std::string> types() const;
@@ -55,7 +55,7 @@ class Registry {
   std::string searched_summary() const;
 
   // A node instance that keeps its library loaded as long as it lives.
-  std::shared_ptr<Node> create(const std::string& type, std::string* error) const;
+  Result<std::shared_ptr<Node>> create(const std::string& type) const;
 
  private:
   struct Library;

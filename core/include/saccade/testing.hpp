@@ -1,6 +1,7 @@
 #pragma once
 // Test one node in a few lines:
-//   auto h = saccade::testing::NodeHarness::create(R"(<node plugin="filters.bank"/>)");
+//   auto h = saccade::testing::NodeHarness::create(R"(<node plugin="filters.bank"/>)").value_or(nullptr);
+//   ASSERT_NE(h, nullptr);
 //   h->set("retina", retina);
 //   ASSERT_TRUE(h->process().ok());
 //   auto maps = h->last<saccade::FeatureMaps>("maps");
@@ -22,10 +23,9 @@ const Registry& default_registry();
 
 class NodeHarness final : public EmitSink {
  public:
-  // Builds and opens the node described by one <node> element (name optional).
-  // Returns nullptr and fills `error` (file:line messages) when it fails.
-  static std::unique_ptr<NodeHarness> create(const std::string& node_xml, std::string* error = nullptr,
-                                             const Registry* registry = nullptr);
+  // Builds and opens the node described by one <node> element (name optional);
+  // the error (file:line messages) when it cannot.
+  static Result<std::unique_ptr<NodeHarness>> create(const std::string& node_xml, const Registry* registry = nullptr);
   ~NodeHarness() override;
 
   // The message input `name` carries in the next process() call (nullptr clears it).
