@@ -26,7 +26,8 @@ concept CarriesRetina = requires(M& m) {
   { m.retina } -> std::convertible_to<std::shared_ptr<const Retina>>;
 };
 
-// Appends CDR, or only counts its bytes when `data` is null.
+// Appends CDR, storing only what fits in `capacity` bytes (nothing when
+// `data` is null: it then only counts them).
 class Writer {
  public:
   Writer(uint8_t* data, std::size_t capacity) : data_(data), capacity_(capacity) {}
@@ -469,7 +470,7 @@ class Idl {
     std::string out =
         "// saccade's messages as they travel in CDR (DDS, MCAP's cdr channels, the live view).\n"
         "// Generated from core/include/saccade/message.hpp by `saccade idl`: do not edit;\n"
-        "// test cli.idl_is_current fails when it differs from what saccade writes.\n"
+        "// test Idl.TheCommittedFileIsWhatSaccadeWrites fails when it differs from what saccade writes.\n"
         "module saccade_idl {\n"
         "  // Building blocks; their own module, since IDL names are case-insensitive and\n"
         "  // a member may not share a type's name in one scope.\n"
@@ -625,13 +626,13 @@ std::size_t size_of(const M& message) {
   return counter.size();
 }
 
+// One walk: the Writer stores only what fits, so a message larger than
+// `capacity` is found at its end, without counting it first.
 template <class M>
 std::size_t write(const M& message, const Envelope& envelope, uint8_t* out, std::size_t capacity) {
-  const std::size_t n = size_of(message);
-  if (n > capacity) return 0;
   Writer writer(out, capacity);
   write_message(writer, message, envelope);
-  return writer.size();
+  return writer.size() <= capacity ? writer.size() : 0;
 }
 
 template <class M>

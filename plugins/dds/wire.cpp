@@ -25,8 +25,10 @@ class CdrType final : public fdds::TopicDataType {
  public:
   CdrType() {
     setName(cdr::idl_type_name(M::kTypeName).c_str());
-    // What a history preallocates per sample (a default message); larger
-    // ones reallocate (Fast DDS' default PREALLOCATED_WITH_REALLOC).
+    // What a history preallocates per sample (a default message, with its
+    // encapsulation, and 4 bytes for a submessage's alignment as fastddsgen's
+    // types have); larger ones reallocate (Fast DDS' default
+    // PREALLOCATED_WITH_REALLOC).
     m_typeSize = static_cast<uint32_t>(cdr::size_of(M{}) + 4);
     m_isGetKeyDefined = false;
   }
@@ -169,7 +171,8 @@ class Sample final : public WireSample {
       box_->post(nullptr, bytes);  // posted as "in DDS"
       return;
     }
-    cdr::write(message, out_.envelope, bytes_);
+    bytes_.resize(bytes);
+    cdr::write(message, out_.envelope, bytes_.data(), bytes_.size());
     box_->post(bytes_.data(), bytes_.size());
   }
 

@@ -713,6 +713,22 @@ TEST(DdsMailbox, OnlyZeroCopySerialisedEdgesThatDoNotAskForLoansUseTheMailbox) {
   EXPECT_FALSE(uses("JointState", {.zero_copy = true, .ros2 = true})) << "ROS 2's type";
 }
 
+// A buffer one byte short gets nothing past its end and a 0; an exact one the whole message.
+TEST(DdsWire, AMessageIsWrittenOnlyIntoABufferWithRoomForIt) {
+  Region r;
+  r.label = "a label";
+  const std::size_t n = cdr::size_of(r);
+  std::vector<uint8_t> buffer(n + 1, 0xAB);
+  EXPECT_EQ(cdr::write(r, cdr::Envelope{}, buffer.data(), n - 1), 0u);
+  EXPECT_EQ(buffer[n - 1], 0xAB) << "nothing written past the capacity";
+  EXPECT_EQ(cdr::write(r, cdr::Envelope{}, buffer.data(), n), n);
+  EXPECT_EQ(buffer[n], 0xAB);
+  Region out;
+  cdr::Envelope envelope;
+  ASSERT_TRUE(cdr::read(buffer.data(), n, out, envelope).ok());
+  EXPECT_EQ(out.label, r.label);
+}
+
 // An enum value the type does not name is no message (the reader counts it
 // as unreadable), not a guess at what the writer meant.
 TEST(DdsWire, AnOutOfRangeEnumMakesTheSampleUnreadable) {
