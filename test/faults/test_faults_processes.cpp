@@ -377,13 +377,7 @@ void FaultsTwoPc::kill_and_restart(bool vision) {
 TEST_F(FaultsTwoPc, TheDdsLinkCutForFiveSeconds) {
   const std::string head_ns = "saccade_" + id_ + "_fh", robot_ns = "saccade_" + id_ + "_fr";
   const std::string veth_head = "sf" + id_ + "h", veth_robot = "sf" + id_ + "r";
-  const std::string setup =
-      "ip netns add " + head_ns + " && ip netns add " + robot_ns + " && ip link add " + veth_head +
-      " type veth peer name " + veth_robot + " && ip link set " + veth_head + " netns " + head_ns + " && ip link set " +
-      veth_robot + " netns " + robot_ns + " && ip -n " + head_ns + " addr add 10.78.0.1/24 dev " + veth_head +
-      " && ip -n " + robot_ns + " addr add 10.78.0.2/24 dev " + veth_robot + " && ip -n " + head_ns +
-      " link set lo up && ip -n " + robot_ns + " link set lo up && ip -n " + head_ns + " link set " + veth_head +
-      " up && ip -n " + robot_ns + " link set " + veth_robot + " up && ip netns exec " + head_ns + " unshare -m true";
+  const std::string setup = test::two_hosts_command(head_ns, robot_ns, veth_head, veth_robot, "10.78.0");
   const bool made = std::system((setup + " > " + (dir_ / "setup.log").string() + " 2>&1").c_str()) == 0;
   struct Cleanup {
     std::string cmd;

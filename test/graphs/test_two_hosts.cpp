@@ -39,13 +39,7 @@ class TwoHosts : public ::testing::Test {
     dir_ = fs::temp_directory_path() / ("saccade_two_hosts_" + id);
     fs::create_directories(dir_);
     const std::string veth_head = "sv" + id + "h", veth_robot = "sv" + id + "r";
-    const std::string setup =
-        "ip netns add " + head_ + " && ip netns add " + robot_ + " && ip link add " + veth_head +
-        " type veth peer name " + veth_robot + " && ip link set " + veth_head + " netns " + head_ + " && ip link set " +
-        veth_robot + " netns " + robot_ + " && ip -n " + head_ + " addr add 10.77.0.1/24 dev " + veth_head +
-        " && ip -n " + robot_ + " addr add 10.77.0.2/24 dev " + veth_robot + " && ip -n " + head_ +
-        " link set lo up && ip -n " + robot_ + " link set lo up && ip -n " + head_ + " link set " + veth_head +
-        " up && ip -n " + robot_ + " link set " + veth_robot + " up && ip netns exec " + head_ + " unshare -m true";
+    const std::string setup = test::two_hosts_command(head_, robot_, veth_head, veth_robot, "10.77.0");
     link_down_ = "ip -n " + head_ + " link set " + veth_head + " down";
     link_up_ = "ip -n " + head_ + " link set " + veth_head + " up";
     made_ = std::system((setup + " > " + (dir_ / "setup.log").string() + " 2>&1").c_str()) == 0;
