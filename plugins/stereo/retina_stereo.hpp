@@ -148,7 +148,9 @@ class RetinaStereo {
   // The fixation disparity of the last run (with vergence).
   const Fixation& fixation() const { return fixation_; }
   // Finds the fixation disparity, coarse to fine, by correlating the central
-  // window of each left level with the right frame sampled the same way.
+  // window of each left level with the right frame sampled the same way;
+  // coarse to fine, all levels but the fovea (run finds the fovea's from the
+  // level outside it as matched).
   void find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out);
 
  private:
@@ -189,6 +191,17 @@ class RetinaStereo {
     double shift = -1;
     double score = -2;
   };
+  // The fovea's fixation, from the level outside it as matched (coarse to fine).
+  void fovea_fixation(const Retina& left, const LevelDisparity& outer, const cv::Mat& right_frame, Fixation& out);
+  // Level k's fixation window searched over `span` (and, with `second_guess`,
+  // around a verging head's own fixation): true, and `out` updated, when it
+  // matched.
+  bool take_fixation(const Retina& left, std::size_t k, const cv::Mat& right_frame, Span span, bool second_guess,
+                     Fixation& out);
+  static constexpr double kMinFixationScore = 0.3;
+  // How much better the fovea's whole-range correlation must be to overrule
+  // the surfaces the level outside saw (fovea_fixation).
+  static constexpr double kFullRangeMargin = 0.2;
   WindowMatch match_window(const Retina& left, std::size_t k, cv::Rect window, const cv::Mat& right_frame, Span span);
   // A rectified verging pair: the disparity where the optical axes meet (< 0: none).
   double vergence_prior(const Retina& left) const;
@@ -207,7 +220,7 @@ class RetinaStereo {
   Fixation fixation_;
   std::vector<LevelScratch> level_scratch_;
   std::vector<int32_t> column_sum_, column_sq_, products_, strip32_;
-  std::vector<float> samples_;
+  std::vector<float> samples_, around_center_;
   std::vector<int> outer_col_, outer_center_;
   cv::Mat right_level_, right_gray_, left_gray_;
   cv::Mat lo_, hi_;

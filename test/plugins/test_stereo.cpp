@@ -143,6 +143,36 @@ TEST(RetinaStereo, SoftwareVergenceLetsTheFoveaMatchWhatItCouldNotSee) {
   EXPECT_NEAR(b.back().vergence, d, 1.0);
 }
 
+TEST(RetinaStereo, TheFoveasFixationFollowsTheLevelOutsideWhereItsOwnWindowIsAmbiguous) {
+  // Around the fovea the scene repeats every 30 px along the rows (a fence, a
+  // tiled wall): the fovea's window alone correlates as well at 10, 40 and
+  // 70 px. The levels outside see the unrepeated texture around it and match
+  // 40, which the fovea's fixation then keeps.
+  const int d = 40, period = 30;
+  cv::Mat texture = texture_of({640 + d, 480}, 11);
+  const cv::Mat tile = texture(cv::Rect(100, 100, period, 60)).clone();
+  for (int x = 320 - 100; x < 320 + 100 + d; x += period) {
+    const int w = std::min(period, 320 + 100 + d - x);
+    tile(cv::Rect(0, 0, w, 60)).copyTo(texture(cv::Rect(x, 240 - 30, w, 60)));
+  }
+  const Pair p =
+      retinas_of(texture(cv::Rect(0, 0, 640, 480)).clone(), texture(cv::Rect(d, 0, 640, 480)).clone(), {320, 240});
+  RetinaStereoConfig config;
+  config.max_disparity = 96;
+  RetinaStereo stereo(config);
+  std::vector<LevelDisparity> out;
+  ASSERT_TRUE(stereo.run(*p.left, *p.right, out).ok());
+  std::printf("repeated texture: fixation %.2f (NCC %.2f), outer levels", stereo.fixation().disparity,
+              stereo.fixation().score);
+  for (double v : stereo.fixation().per_level) std::printf(" %.1f", v);
+  std::printf("\n");
+  EXPECT_NEAR(stereo.fixation().disparity, d, 0.5);
+  EXPECT_NEAR(out.back().vergence, d, 1.0);
+  auto [share, density] = accuracy(out.back().disparity, d, 1.0);
+  EXPECT_GE(share, 0.9);
+  EXPECT_GE(density, 0.8);
+}
+
 TEST(RetinaStereo, FoveaPredictionMatchesSurfacesBeyondTheFixationsRadius) {
   // The fovea (x 304..335) fixates the far surface (disparity 20); its left
   // ten columns show a block at 40, beyond the +-6 searched around the
