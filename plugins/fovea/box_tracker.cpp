@@ -124,44 +124,77 @@ void sample_gray(const cv::Mat& frame, cv::Point2d center, double step_x, double
     fine.copyTo(out);
 }
 
-// The mean gray of a cell of `step_x` x `step_y` source pixels around (x, y),
-// from four bilinear samples at its quarter points: a retina level's pixel,
-// for any step and any sub-pixel position, read straight from the frame.
-template <int Channels>
-float cell_mean(const cv::Mat& frame, double x, double y, double step_x, double step_y) {
-  float total = 0;
-  for (const double qy : {-0.25, 0.25})
-    for (const double qx : {-0.25, 0.25}) {
-      const double sx = std::clamp(x + qx * step_x, 0.0, frame.cols - 1.001);
-      const double sy = std::clamp(y + qy * step_y, 0.0, frame.rows - 1.001);
-      const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
-      const float ax = static_cast<float>(sx - x0), ay = static_cast<float>(sy - y0);
-      const uchar* r0 = frame.ptr<uchar>(y0) + x0 * Channels;
-      const uchar* r1 = frame.ptr<uchar>(y0 + 1) + x0 * Channels;
-      auto gray = [](const uchar* p) {
-        if constexpr (Channels == 1)
-          return static_cast<float>(p[0]);
-        else
-          return 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2];
-      };
-      const float top = (1 - ax) * gray(r0) + ax * gray(r0 + Channels);
-      const float bottom = (1 - ax) * gray(r1) + ax * gray(r1 + Channels);
-      total += (1 - ay) * top + ay * bottom;
+// Where a quarter point of a cell falls between two source pixels along one
+// axis: the first pixel and the weight of the second.
+struct Tap {
+  int first;
+  float weight;
+};
+
+// The taps of the quarter points (-1/4 and +1/4 of a step either side of
+// each cell's centre) of `count` cells centred on `center` + (i - middle)
+// `step` along an axis of `length` pixels (clamped inside it, as the
+// frame's border is replicated).
+void quarter_taps(double center, double step, int count, int length, Tap* out) {
+  const double middle = (count - 1) / 2.0;
+  for (int i = 0; i < count; ++i) {
+    const double at = center + (i - middle) * step;
+    for (int q = 0; q < 2; ++q) {
+      const double s = std::clamp(at + (q == 0 ? -0.25 : 0.25) * step, 0.0, length - 1.001);
+      const int first = static_cast<int>(s);
+      out[2 * i + q] = {first, static_cast<float>(s - first)};
     }
-  return total * 0.25f;
+  }
 }
 
-// A size.width x size.height gray sample centred on `centre`, one cell_mean
+// The mean gray of each cell from four bilinear samples at its quarter
+// points: a retina level's pixel, for any step and any sub-pixel position,
+// read straight from the frame. Taps are per column and per row (the grid is
+// separable), so each sample costs its four pixels' reads and nothing else.
+template <int Channels>
+void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Size size, float* out) {
+  auto gray = [](const uchar* p) {
+    if constexpr (Channels == 1)
+      return static_cast<float>(p[0]);
+    else
+      return 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2];
+  };
+  for (int j = 0; j < size.height; ++j) {
+    const Tap* ty = rows + 2 * j;
+    for (int i = 0; i < size.width; ++i) {
+      const Tap* tx = cols + 2 * i;
+      float total = 0;
+      for (int qy = 0; qy < 2; ++qy) {
+        const uchar* r0 = frame.ptr<uchar>(ty[qy].first);
+        const uchar* r1 = frame.ptr<uchar>(ty[qy].first + 1);
+        const float ay = ty[qy].weight;
+        for (int qx = 0; qx < 2; ++qx) {
+          const int x = tx[qx].first * Channels;
+          const float ax = tx[qx].weight;
+          const float top = (1 - ax) * gray(r0 + x) + ax * gray(r0 + x + Channels);
+          const float bottom = (1 - ax) * gray(r1 + x) + ax * gray(r1 + x + Channels);
+          total += (1 - ay) * top + ay * bottom;
+        }
+      }
+      out[j * size.width + i] = total * 0.25f;
+    }
+  }
+}
+
+// A size.width x size.height gray sample centred on `centre`, one cell mean
 // per pixel (row by row into `out`).
 void sample_area(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size, float* out) {
-  const double half_x = (size.width - 1) / 2.0, half_y = (size.height - 1) / 2.0;
-  for (int j = 0; j < size.height; ++j)
-    for (int i = 0; i < size.width; ++i) {
-      const double x = center.x + (i - half_x) * step_x, y = center.y + (j - half_y) * step_y;
-      out[j * size.width + i] = frame.channels() == 1   ? cell_mean<1>(frame, x, y, step_x, step_y)
-                                : frame.channels() == 3 ? cell_mean<3>(frame, x, y, step_x, step_y)
-                                                        : cell_mean<4>(frame, x, y, step_x, step_y);
-    }
+  thread_local std::vector<Tap> taps;  // grows to the largest sample, then allocates no more
+  taps.resize(2 * static_cast<std::size_t>(size.width + size.height));
+  Tap* cols = taps.data();
+  Tap* rows = taps.data() + 2 * size.width;
+  quarter_taps(center.x, step_x, size.width, frame.cols, cols);
+  quarter_taps(center.y, step_y, size.height, frame.rows, rows);
+  switch (frame.channels()) {
+    case 1: return sample_cells<1>(frame, cols, rows, size, out);
+    case 3: return sample_cells<3>(frame, cols, rows, size, out);
+    default: return sample_cells<4>(frame, cols, rows, size, out);
+  }
 }
 
 // The chromaticity (r, g: each channel's share of R + G + B) of the mean
