@@ -18,7 +18,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bench_util.hpp"
+#include "box_tracker.hpp"
 #include "kernels.hpp"
+#include "real_fft.hpp"
 #include "retina.hpp"
 #include "saccade/cdr.hpp"
 #include "saccade/executor.hpp"
@@ -461,6 +463,66 @@ BENCHMARK(BM_Pipeline_MemoryRetinaFilters)
     ->UseManualTime()
     ->Iterations(1)
     ->Unit(benchmark::kMicrosecond);
+
+// ---- The box tracker: its transform against OpenCV's, and whole frames ----
+
+// Forward and back, as each look of the tracker takes five and one.
+void BM_Tracker_Fft64_Saccade(benchmark::State& state) {
+  cv::Mat image(64, 64, CV_32F), back;
+  cv::randu(image, -1.0f, 1.0f);
+  fovea::RealFft2d fft(64);
+  fovea::HalfSpectrum spectrum;
+  for (auto _ : state) {
+    fft.forward(image, spectrum);
+    fft.inverse(spectrum, back);
+    benchmark::DoNotOptimize(back.data);
+  }
+}
+BENCHMARK(BM_Tracker_Fft64_Saccade);
+
+void BM_Tracker_Fft64_OpenCv(benchmark::State& state) {
+  cv::Mat image(64, 64, CV_32F), spectrum, back;
+  cv::randu(image, -1.0f, 1.0f);
+  for (auto _ : state) {
+    cv::dft(image, spectrum, cv::DFT_COMPLEX_OUTPUT);
+    cv::idft(spectrum, back, cv::DFT_REAL_OUTPUT | cv::DFT_SCALE);
+    benchmark::DoNotOptimize(back.data);
+  }
+}
+BENCHMARK(BM_Tracker_Fft64_OpenCv);
+
+// A 640x480 colour frame and a 96x72 target on it (scaled Aloe).
+cv::Mat tracker_frame() {
+  cv::Mat frame;
+  cv::cvtColor(frame_of({640, 480}), frame, cv::COLOR_GRAY2BGR);
+  return frame;
+}
+const cv::Rect2d kTrackerTarget(272, 204, 96, 72);
+
+// A tracked frame: the filter's look (and every fourth frame two turned
+// ones), the scale filter, learning. The target stands still.
+void BM_Tracker_TrackedFrame640(benchmark::State& state) {
+  const cv::Mat frame = tracker_frame();
+  fovea::BoxTracker tracker;
+  if (!tracker.init(frame, kTrackerTarget).ok()) state.SkipWithError("init");
+  for (auto _ : state)
+    if (tracker.update(frame).state != fovea::TrackState::kTracking) state.SkipWithError("not tracked");
+}
+BENCHMARK(BM_Tracker_TrackedFrame640)->Unit(benchmark::kMicrosecond);
+
+// A frame while the target is lost: the looks at the last place and at the
+// whole-frame search's proposals (every other frame), on a frame without it.
+void BM_Tracker_LostFrame640(benchmark::State& state) {
+  const cv::Mat frame = tracker_frame();
+  cv::Mat other;
+  cv::flip(frame, other, -1);
+  fovea::BoxTracker tracker;
+  if (!tracker.init(frame, kTrackerTarget).ok()) state.SkipWithError("init");
+  for (int i = 0; i < 40 && tracker.last().state != fovea::TrackState::kLost; ++i) tracker.update(other);
+  if (tracker.last().state != fovea::TrackState::kLost) state.SkipWithError("never lost");
+  for (auto _ : state) benchmark::DoNotOptimize(tracker.update(other));
+}
+BENCHMARK(BM_Tracker_LostFrame640)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -7,6 +7,9 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "real_fft.hpp"
+#include "saccade/simd.hpp"
+
 namespace saccade::fovea {
 
 const char* to_string(TrackState state) {
@@ -52,16 +55,14 @@ cv::Mat hann_window(int side) {
   return w;
 }
 
-// The desired response: a Gaussian at the patch's centre, as a spectrum.
-cv::Mat gaussian_spectrum(int side, double sigma) {
+// The desired response: a Gaussian at the patch's centre.
+cv::Mat gaussian_response(int side, double sigma) {
   cv::Mat g(side, side, CV_32F);
   const double c = side / 2;
   for (int y = 0; y < side; ++y)
     for (int x = 0; x < side; ++x)
       g.at<float>(y, x) = static_cast<float>(std::exp(-((x - c) * (x - c) + (y - c) * (y - c)) / (2 * sigma * sigma)));
-  cv::Mat spectrum;
-  cv::dft(g, spectrum, cv::DFT_COMPLEX_OUTPUT);
-  return spectrum;
+  return g;
 }
 
 // Sub-pixel position of a peak along one axis from its neighbours (a parabola).
@@ -349,12 +350,96 @@ class ScaleFilter {
   std::vector<std::complex<float>> twiddle_, target_, spectra_, numerator_, response_;
 };
 
+namespace {
+
+// One row of the box tracker's feature channels (Impl::features): `p` is the
+// row's 7x7 windows' first row in a patch bordered by 3 pixels (`wide`
+// floats a row), `w` the row's window weights; `scratch` holds 4 * wide
+// floats. Written for the vectoriser: plain loops over the row.
+SACCADE_AVX2_CLONE void feature_row(const float* __restrict p, int wide, const float* __restrict w,
+                                    float* __restrict scratch, float* const* out) {
+  constexpr float kArea = 1.0f / 49.0f, kDiagonal = static_cast<float>(M_SQRT1_2);
+  const int side = wide - 6;
+  float* __restrict cs = scratch;  // column sums over the window's 7 rows
+  float* __restrict cq = scratch + wide;
+  float* __restrict mean = scratch + 2 * wide;  // the 7x7 window's mean and mean square
+  float* __restrict square = scratch + 3 * wide;
+  for (int px = 0; px < wide; ++px) cs[px] = cq[px] = 0.0f;
+  for (int r = 0; r < 7; ++r) {
+    const float* __restrict q = p + r * wide;
+    for (int px = 0; px < wide; ++px) {
+      cs[px] += q[px];
+      cq[px] += q[px] * q[px];
+    }
+  }
+  for (int x = 0; x < side; ++x) {
+    mean[x] = (cs[x] + cs[x + 1] + cs[x + 2] + cs[x + 3] + cs[x + 4] + cs[x + 5] + cs[x + 6]) * kArea;
+    square[x] = (cq[x] + cq[x + 1] + cq[x + 2] + cq[x + 3] + cq[x + 4] + cq[x + 5] + cq[x + 6]) * kArea;
+  }
+  const float* __restrict above = p + 2 * wide + 3;  // rows y - 1, y, y + 1 at the patch's column 0
+  const float* __restrict here = above + wide;
+  const float* __restrict below = here + wide;
+  float* __restrict c0 = out[0];
+  float* __restrict c1 = out[1];
+  float* __restrict c2 = out[2];
+  float* __restrict c3 = out[3];
+  float* __restrict c4 = out[4];
+  for (int x = 0; x < side; ++x) {
+    const float dx = (above[x + 1] + 2 * here[x + 1] + below[x + 1]) - (above[x - 1] + 2 * here[x - 1] + below[x - 1]);
+    const float dy = (below[x - 1] + 2 * below[x] + below[x + 1]) - (above[x - 1] + 2 * above[x] + above[x + 1]);
+    // +4: flat neighbourhoods stay flat rather than amplify noise.
+    const float spread = std::sqrt(std::max(square[x] - mean[x] * mean[x], 0.0f)) + 4.0f;
+    const float g = w[x] / spread, e = g * 0.25f;
+    c0[x] = (here[x] - mean[x]) * g;
+    c1[x] = std::abs(dx) * e;
+    c2[x] = std::abs(dy) * e;
+    c3[x] = std::abs(dx + dy) * kDiagonal * e;
+    c4[x] = std::abs(dx - dy) * kDiagonal * e;
+  }
+}
+
+// The filter's per-frequency arithmetic over the half spectra's planes
+// (RealFft2d's layout), for the vectoriser.
+
+// numerator <- keep numerator + a G conj(F); energy += a |F|^2.
+SACCADE_AVX2_CLONE void learn_channel(const float* __restrict gr, const float* __restrict gi,
+                                      const float* __restrict fr, const float* __restrict fi, float* __restrict nr,
+                                      float* __restrict ni, float* __restrict energy, float a, float keep,
+                                      std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) {
+    nr[i] = keep * nr[i] + a * (gr[i] * fr[i] + gi[i] * fi[i]);
+    ni[i] = keep * ni[i] + a * (gi[i] * fr[i] - gr[i] * fi[i]);
+    energy[i] += a * (fr[i] * fr[i] + fi[i] * fi[i]);
+  }
+}
+
+// sum += Z N.
+SACCADE_AVX2_CLONE void multiply_add(const float* __restrict zr, const float* __restrict zi, const float* __restrict nr,
+                                     const float* __restrict ni, float* __restrict sr, float* __restrict si,
+                                     std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) {
+    sr[i] += zr[i] * nr[i] - zi[i] * ni[i];
+    si[i] += zr[i] * ni[i] + zi[i] * nr[i];
+  }
+}
+
+// sum /= energy + lambda.
+SACCADE_AVX2_CLONE void divide(float* __restrict sr, float* __restrict si, const float* __restrict energy, float lambda,
+                               std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) {
+    const float scale = 1.0f / (energy[i] + lambda);
+    sr[i] *= scale;
+    si[i] *= scale;
+  }
+}
+
+}  // namespace
+
 struct BoxTracker::Impl {
   explicit Impl(const BoxTrackerConfig& c)
-      : config(c),
-        window(hann_window(c.patch)),
-        target_spectrum(gaussian_spectrum(c.patch, c.sigma * c.patch / c.padding)),  // set again by init
-        scale_filter(c.scales, c.scale_step, 12) {}
+      : config(c), window(hann_window(c.patch)), fft(c.patch), scale_filter(c.scales, c.scale_step, 12) {
+    fft.forward(gaussian_response(c.patch, c.sigma * c.patch / c.padding), target_spectrum);  // set again by init
+  }
 
   // The patch at `p`: a retina level's view of the target and around it.
   void sample(const cv::Mat& frame, const Placement& p, cv::Mat& out) {
@@ -366,39 +451,33 @@ struct BoxTracker::Impl {
   // neighbourhood's mean and spread, so a shadow or a light falling on part
   // of the target changes little), and the gradient's strength along four
   // directions under the same normalisation.
-  void features(const cv::Mat& patch8, std::vector<cv::Mat>& out) {
-    patch8.convertTo(patch_f, CV_32F);
-    const cv::Size block(7, 7);
-    cv::boxFilter(patch_f, local_mean, CV_32F, block);
-    cv::sqrBoxFilter(patch_f, local_sq, CV_32F, block);
-    cv::Sobel(patch_f, gx, CV_32F, 1, 0);
-    cv::Sobel(patch_f, gy, CV_32F, 0, 1);
+  void features(const cv::Mat& patch8, std::vector<HalfSpectrum>& out) {
+    // One pass over the patch with a border of kReach pixels (reflected, as
+    // OpenCV's filters' default border): per row, the 7x7 windows' sums of
+    // values and squares (column sums, then along the row) and the 3x3 Sobel
+    // derivatives, then the channels.
+    constexpr int kReach = 3;
+    const int side = patch8.cols, wide = side + 2 * kReach;
+    bordered.resize(static_cast<std::size_t>(wide * wide));
+    const auto reflect = [side](int i) { return i < 0 ? -i : i >= side ? 2 * side - 2 - i : i; };
+    for (int py = 0; py < wide; ++py) {
+      const uchar* row = patch8.ptr<uchar>(reflect(py - kReach));
+      float* out_row = &bordered[static_cast<std::size_t>(py * wide)];
+      for (int px = 0; px < kReach; ++px) out_row[px] = row[reflect(px - kReach)];
+      for (int x = 0; x < side; ++x) out_row[x + kReach] = row[x];
+      for (int px = side + kReach; px < wide; ++px) out_row[px] = row[reflect(px - kReach)];
+    }
+    row_scratch.resize(4 * static_cast<std::size_t>(wide));
     channels.resize(kChannels);
-    for (cv::Mat& c : channels) c.create(patch_f.size(), CV_32F);
-    const float diagonal = static_cast<float>(M_SQRT1_2);
-    for (int y = 0; y < patch_f.rows; ++y) {
-      const float* v = patch_f.ptr<float>(y);
-      const float* mean = local_mean.ptr<float>(y);
-      const float* sq = local_sq.ptr<float>(y);
-      const float* dx = gx.ptr<float>(y);
-      const float* dy = gy.ptr<float>(y);
-      const float* w = window.ptr<float>(y);
+    for (cv::Mat& c : channels) c.create(side, side, CV_32F);
+    for (int y = 0; y < side; ++y) {
       float* c[kChannels];
       for (int k = 0; k < kChannels; ++k) c[k] = channels[static_cast<std::size_t>(k)].ptr<float>(y);
-      for (int x = 0; x < patch_f.cols; ++x) {
-        // +4: flat neighbourhoods stay flat rather than amplify noise.
-        const float spread = std::sqrt(std::max(sq[x] - mean[x] * mean[x], 0.0f)) + 4.0f;
-        const float g = w[x] / spread, e = g * 0.25f;
-        c[0][x] = (v[x] - mean[x]) * g;
-        c[1][x] = std::abs(dx[x]) * e;
-        c[2][x] = std::abs(dy[x]) * e;
-        c[3][x] = std::abs(dx[x] + dy[x]) * diagonal * e;
-        c[4][x] = std::abs(dx[x] - dy[x]) * diagonal * e;
-      }
+      feature_row(&bordered[static_cast<std::size_t>(y * wide)], wide, window.ptr<float>(y), row_scratch.data(), c);
     }
     out.resize(kChannels);
     for (int k = 0; k < kChannels; ++k)
-      cv::dft(channels[static_cast<std::size_t>(k)], out[static_cast<std::size_t>(k)], cv::DFT_COMPLEX_OUTPUT);
+      fft.forward(channels[static_cast<std::size_t>(k)], out[static_cast<std::size_t>(k)]);
   }
 
   // Model <- (1 - rate) model + rate (this patch's filter): per channel
@@ -406,40 +485,26 @@ struct BoxTracker::Impl {
   // `offset` patch pixels from the patch's centre: the desired response G is
   // moved there by a phase ramp, so the patch the target was found in is
   // learnt from without sampling it again.
-  void learn(const std::vector<cv::Mat>& spectra_in, double rate, cv::Point2d offset = {}) {
-    const int side = config.patch;
+  void learn(const std::vector<HalfSpectrum>& spectra_in, double rate, cv::Point2d offset = {}) {
     shifted_target(offset);
-    const cv::Mat& target = offset == cv::Point2d() ? target_spectrum : shifted;
+    const HalfSpectrum& target = offset == cv::Point2d() ? target_spectrum : shifted;
+    const std::size_t plane = fft.plane();
     if (numerator.size() != spectra_in.size()) {
-      numerator.assign(spectra_in.size(), cv::Mat());
-      for (cv::Mat& n : numerator) n = cv::Mat::zeros(side, side, CV_32FC2);
-      denominator = cv::Mat::zeros(side, side, CV_32F);
+      numerator.assign(spectra_in.size(), HalfSpectrum{std::vector<float>(plane), std::vector<float>(plane)});
+      denominator.assign(plane, 0.0f);
       rate = 1;
     }
     const float a = static_cast<float>(rate), keep = 1.0f - a;
-    for (int y = 0; y < side; ++y) {
-      const auto* g = target.ptr<cv::Vec2f>(y);
-      float* d = denominator.ptr<float>(y);
-      for (int x = 0; x < side; ++x) d[x] *= keep;
-      for (std::size_t c = 0; c < spectra_in.size(); ++c) {
-        const auto* f = spectra_in[c].ptr<cv::Vec2f>(y);
-        auto* n = numerator[c].ptr<cv::Vec2f>(y);
-        for (int x = 0; x < side; ++x) {
-          // G conj(F)
-          const float re = g[x][0] * f[x][0] + g[x][1] * f[x][1];
-          const float im = g[x][1] * f[x][0] - g[x][0] * f[x][1];
-          n[x][0] = keep * n[x][0] + a * re;
-          n[x][1] = keep * n[x][1] + a * im;
-          d[x] += a * (f[x][0] * f[x][0] + f[x][1] * f[x][1]);
-        }
-      }
-    }
+    for (float& d : denominator) d *= keep;
+    for (std::size_t c = 0; c < spectra_in.size(); ++c)
+      learn_channel(target.re.data(), target.im.data(), spectra_in[c].re.data(), spectra_in[c].im.data(),
+                    numerator[c].re.data(), numerator[c].im.data(), denominator.data(), a, keep, plane);
   }
 
   // The desired response's spectrum moved by `offset` (patch pixels), in `shifted`.
   void shifted_target(cv::Point2d offset) {
     if (offset == cv::Point2d()) return;
-    const int side = config.patch;
+    const int side = config.patch, stride = fft.stride(), rows = side / 2 + 1;
     ramp_x.resize(static_cast<std::size_t>(side));
     ramp_y.resize(static_cast<std::size_t>(side));
     for (int u = 0; u < side; ++u) {
@@ -447,35 +512,28 @@ struct BoxTracker::Impl {
       ramp_x[static_cast<std::size_t>(u)] = std::polar(1.0f, static_cast<float>(-f * offset.x));
       ramp_y[static_cast<std::size_t>(u)] = std::polar(1.0f, static_cast<float>(-f * offset.y));
     }
-    shifted.create(side, side, CV_32FC2);
-    for (int y = 0; y < side; ++y) {
-      const auto* g = target_spectrum.ptr<std::complex<float>>(y);
-      auto* out = shifted.ptr<std::complex<float>>(y);
-      for (int x = 0; x < side; ++x)
-        out[x] = g[x] * ramp_x[static_cast<std::size_t>(x)] * ramp_y[static_cast<std::size_t>(y)];
-    }
+    shifted.re.assign(fft.plane(), 0.0f);
+    shifted.im.assign(fft.plane(), 0.0f);
+    for (int kx = 0; kx < side; ++kx)
+      for (int ky = 0; ky < rows; ++ky) {
+        const std::size_t i = static_cast<std::size_t>(kx * stride + ky);
+        const std::complex<float> g(target_spectrum.re[i], target_spectrum.im[i]);
+        const std::complex<float> v = g * ramp_x[static_cast<std::size_t>(kx)] * ramp_y[static_cast<std::size_t>(ky)];
+        shifted.re[i] = v.real();
+        shifted.im[i] = v.imag();
+      }
   }
 
   // The filter's response to `spectra`, and its best peak.
-  Peak correlate(const std::vector<cv::Mat>& spectra_in) {
-    const int side = config.patch;
-    sum.create(side, side, CV_32FC2);
-    const float lambda = static_cast<float>(config.lambda);
-    for (int y = 0; y < side; ++y) {
-      auto* out = sum.ptr<cv::Vec2f>(y);
-      const float* d = denominator.ptr<float>(y);
-      for (int x = 0; x < side; ++x) out[x] = cv::Vec2f(0, 0);
-      for (std::size_t c = 0; c < spectra_in.size(); ++c) {
-        const auto* z = spectra_in[c].ptr<cv::Vec2f>(y);
-        const auto* n = numerator[c].ptr<cv::Vec2f>(y);
-        for (int x = 0; x < side; ++x) {
-          out[x][0] += z[x][0] * n[x][0] - z[x][1] * n[x][1];
-          out[x][1] += z[x][0] * n[x][1] + z[x][1] * n[x][0];
-        }
-      }
-      for (int x = 0; x < side; ++x) out[x] *= 1.0f / (d[x] + lambda);
-    }
-    cv::idft(sum, response, cv::DFT_REAL_OUTPUT | cv::DFT_SCALE);
+  Peak correlate(const std::vector<HalfSpectrum>& spectra_in) {
+    const std::size_t plane = fft.plane();
+    sum.re.assign(plane, 0.0f);
+    sum.im.assign(plane, 0.0f);
+    for (std::size_t c = 0; c < spectra_in.size(); ++c)
+      multiply_add(spectra_in[c].re.data(), spectra_in[c].im.data(), numerator[c].re.data(), numerator[c].im.data(),
+                   sum.re.data(), sum.im.data(), plane);
+    divide(sum.re.data(), sum.im.data(), denominator.data(), static_cast<float>(config.lambda), plane);
+    fft.inverse(sum, response);
     cv::Point at;
     double value = 0;
     cv::minMaxLoc(response, nullptr, &value, nullptr, &at);
@@ -559,7 +617,9 @@ struct BoxTracker::Impl {
   }
 
   BoxTrackerConfig config;
-  cv::Mat window, target_spectrum;
+  cv::Mat window;
+  RealFft2d fft;
+  HalfSpectrum target_spectrum;
   ScaleFilter scale_filter;
   // The target: its centre and size (source pixels), the patch's step for
   // that size, its velocity, how sure the tracker has been.
@@ -600,12 +660,15 @@ struct BoxTracker::Impl {
   double candidate_step = 1;
   std::vector<Placement> looks;
   int candidate_frames = 0;
-  std::vector<cv::Mat> numerator;  // per channel, CV_32FC2
-  cv::Mat denominator;             // CV_32F, the channels' summed energy
+  std::vector<HalfSpectrum> numerator;  // per channel
+  std::vector<float> denominator;       // the channels' summed energy, per frequency (RealFft2d's layout)
   // Scratch, kept between frames so that steady state allocates little.
-  cv::Mat fine, fine_gray, patch, patch_f, gx, gy, local_mean, local_sq, sum, response, shifted;
+  cv::Mat fine, fine_gray, patch, response;
+  std::vector<float> bordered, row_scratch;
+  HalfSpectrum sum, shifted;
   std::vector<std::complex<float>> ramp_x, ramp_y;
-  std::vector<cv::Mat> channels, patch_spectra;
+  std::vector<cv::Mat> channels;
+  std::vector<HalfSpectrum> patch_spectra;
 };
 
 BoxTracker::BoxTracker(BoxTrackerConfig config) : config_(config), impl_(std::make_shared<Impl>(config)) {}
@@ -649,7 +712,8 @@ Status BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   // A small target is not magnified: the patch then covers more than
   // `padding` times it, which also widens the search around a fast one.
   m.step = std::max(1.0, config_.padding * std::max(box.width, box.height) / config_.patch);
-  m.target_spectrum = gaussian_spectrum(config_.patch, config_.sigma * std::max(box.width, box.height) / m.step);
+  m.fft.forward(gaussian_response(config_.patch, config_.sigma * std::max(box.width, box.height) / m.step),
+                m.target_spectrum);
   m.sample(frame, {m.center, m.step}, m.patch);
   m.features(m.patch, m.patch_spectra);
   m.learn(m.patch_spectra, 1.0);
