@@ -19,8 +19,8 @@ __attribute__((always_inline)) inline void store(float* p, const Lanes& v) { std
 
 // The 8x8 block at `in` (rows `in_step` apart) transposed: its column c
 // becomes row out_rows[c] of `out` (rows `out_step` apart).
-__attribute__((always_inline)) inline void transpose8(const float* in, std::ptrdiff_t in_step, float* out, const int* out_rows,
-                       std::ptrdiff_t out_step) {
+__attribute__((always_inline)) inline void transpose8(const float* in, std::ptrdiff_t in_step, float* out,
+                                                      const int* out_rows, std::ptrdiff_t out_step) {
   Lanes r[8], t[8], s[8];
   for (int i = 0; i < 8; ++i) load(r[i], in + i * in_step);
   for (int i = 0; i < 8; i += 2) {
@@ -185,7 +185,6 @@ SACCADE_AVX2_CLONE void inverse_lanes(const Plan& p, const float* in_re, const f
     }
   }
 }
-
 
 }  // namespace
 

@@ -39,11 +39,11 @@ class RealFft2d {
  private:
   bool fast() const { return !reverse_.empty(); }
   int n_, stride_;
-  std::vector<int> reverse_;       // bit reversal of the element indices (fast path)
-  std::vector<float> cos_, sin_;   // exp(-2 pi i k / n), k < n/2
+  std::vector<int> reverse_;              // bit reversal of the element indices (fast path)
+  std::vector<float> cos_, sin_;          // exp(-2 pi i k / n), k < n/2
   std::vector<float> lane_re_, lane_im_;  // n elements of 8 lanes
   std::vector<float> mid_re_, mid_im_;    // stride rows (ky) x n columns (x), between the passes
-  cv::Mat full_, real_;                   // the other sizes' cv::dft buffers
+  cv::Mat full_;                          // the other sizes' cv::dft buffer
 };
 
 }  // namespace saccade::fovea

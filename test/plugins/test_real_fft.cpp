@@ -60,7 +60,8 @@ TEST_P(RealFft, InverseOfAProductIsOpenCvsCircularCorrelation) {
   product.re.resize(fft.plane());
   product.im.resize(fft.plane());
   for (std::size_t i = 0; i < fft.plane(); ++i) {
-    const std::complex<float> p = std::complex<float>(fa.re[i], fa.im[i]) * std::conj(std::complex<float>(fb.re[i], fb.im[i]));
+    const std::complex<float> p =
+        std::complex<float>(fa.re[i], fa.im[i]) * std::conj(std::complex<float>(fb.re[i], fb.im[i]));
     product.re[i] = p.real();
     product.im[i] = p.imag();
   }
