@@ -79,6 +79,8 @@ struct Plan {
   float *re, *im, *mid_re, *mid_im;
 };
 
+// RealFft2d::forward's fast path: `pixels` (n x n, rows `step` floats apart)
+// to the transposed half spectrum's planes.
 SACCADE_AVX2_CLONE void forward_lanes(const Plan& p, const float* pixels, std::ptrdiff_t step, float* out_re,
                                       float* out_im) {
   const int n = p.n, rows = n / 2 + 1, stride = p.stride;
@@ -137,6 +139,8 @@ SACCADE_AVX2_CLONE void forward_lanes(const Plan& p, const float* pixels, std::p
   }
 }
 
+// RealFft2d::inverse's fast path: the transposed half spectrum's planes to
+// `pixels` (n x n, rows `step` floats apart), scaled by 1 / n^2.
 SACCADE_AVX2_CLONE void inverse_lanes(const Plan& p, const float* in_re, const float* in_im, float* pixels,
                                       std::ptrdiff_t step) {
   const int n = p.n, rows = n / 2 + 1, stride = p.stride;
