@@ -381,12 +381,12 @@ bool RetinaStereo::take_fixation(const Retina& left, std::size_t k, const cv::Ma
   return true;
 }
 
-// The fovea's fixation around what the level outside it matched under the
-// fovea's centre: its whole-window search over the full range is fooled by
-// repeated texture and by windows across depth edges (make bench-stereo
-// --verbose: Aloe 66.5 px where the truth is 95, 6.3 for 73), and the level
-// outside has matched every pixel coarse to fine by then. The full range
-// where that level matched nothing there or the window finds nothing around it.
+// The fovea's fixation among the surfaces the level outside it matched
+// around the fovea's centre: the fovea's window alone, over the full range,
+// is fooled by repeated texture (make bench-stereo --verbose: Aloe 6.3 px
+// where the truth is 73), and the level outside has matched every pixel
+// coarse to fine by then. The full range's peak only where that level saw
+// nothing there, or where it correlates clearly better on another surface.
 void RetinaStereo::fovea_fixation(const Retina& left, const LevelDisparity& outer, const cv::Mat& right_frame,
                                   Fixation& out) {
   const std::size_t k = left.levels.size() - 1;
