@@ -413,7 +413,8 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
       "success AUC over IoU thresholds 0, 0.05, ..., 1 (OTB); frames lost: the tracker did not claim "
       "tracking; honest lost: share of the frames without the target where it did not claim tracking; "
       "max re-acquisition: frames after a reappearance until it claims tracking with IoU >= 0.3; "
-      "ms/frame: its update alone (fovea: retina + update), one thread.\n\n";
+      "ms/frame: its update alone (fovea: retina + update), one thread, each tracker in its own pass over the "
+      "sequence.\n\n";
   for (const SequenceResults& sequence : all) out += sequence_section(sequence);
   if (runs > 1) out += spread_section(all, trackers, runs);
   std::vector<std::vector<std::string>> rows{kHeader};
