@@ -53,7 +53,7 @@ struct BoxTrackerConfig {
   int redetect_after = 3;           // consecutive frames not tracked before the whole frame is searched too
   double redetect_psr = 9.0;        // a re-detection must reach this ...
   int redetect_frames = 2;          // ... on this many consecutive frames, at a consistent place
-  int proposals = 3;                // lost: places per frame the whole-frame search proposes to the filter
+  int proposals = 2;                // lost: places per size the whole-frame search proposes to the filter
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 
