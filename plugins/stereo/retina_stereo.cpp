@@ -297,14 +297,18 @@ int RetinaStereo::correlate_window(const cv::Mat& window, const cv::Mat& strip, 
 
 namespace {
 
+// The fovea's centre in level k's pixels: where every level's fixation is sought.
+cv::Point2d fovea_center_in(const Retina& left, std::size_t k) {
+  const cv::Rect fovea = left.geometry.back().region;
+  return left.geometry[k].from_source(cv::Point2d(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0));
+}
+
 // Level k's window that finds the fixation: the fixation window's size (at
 // most the level's), centred on the fovea's centre, inside the level.
 cv::Rect fixation_window_of(const Retina& left, std::size_t k, cv::Size size) {
-  const cv::Rect fovea = left.geometry.back().region;
-  const cv::Point2d center(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0);
   const cv::Mat& level = left.levels[k];
   const int ww = std::min(size.width, level.cols), wh = std::min(size.height, level.rows);
-  const cv::Point2d c = left.geometry[k].from_source(center);
+  const cv::Point2d c = fovea_center_in(left, k);
   return {std::clamp(static_cast<int>(std::lround(c.x - ww / 2.0 + 0.5)), 0, level.cols - ww),
           std::clamp(static_cast<int>(std::lround(c.y - wh / 2.0 + 0.5)), 0, level.rows - wh), ww, wh};
 }
@@ -313,9 +317,7 @@ cv::Rect fixation_window_of(const Retina& left, std::size_t k, cv::Size size) {
 // the level pixel under the fovea's centre, sorted.
 void disparities_around_center(const Retina& left, std::size_t k, const cv::Mat& disparity, int radius,
                                std::vector<float>& values) {
-  const cv::Rect fovea = left.geometry.back().region;
-  const cv::Point2d c =
-      left.geometry[k].from_source(cv::Point2d(fovea.x + fovea.width / 2.0, fovea.y + fovea.height / 2.0));
+  const cv::Point2d c = fovea_center_in(left, k);
   const int cx = static_cast<int>(std::floor(c.x)), cy = static_cast<int>(std::floor(c.y));
   values.clear();
   values.reserve(static_cast<std::size_t>((2 * radius + 1) * (2 * radius + 1)));
@@ -344,13 +346,13 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat& right_frame,
     // Shifts in level pixels: the whole range on the outermost level, then
     // around the outer level's estimate (its uncertainty, a few of its pixels).
     const int full = static_cast<int>(std::ceil(config_.max_disparity / g.step_x));
+    const bool refined = previous >= 0 && k + 1 < n;
     Span span{0, full};
-    if (previous >= 0 && k + 1 < n) {
+    if (refined) {
       const int center_shift = static_cast<int>(std::lround(previous / g.step_x));
       const int radius = static_cast<int>(std::ceil(2.0 * previous_step / g.step_x));
       span = {std::max(0, center_shift - radius), std::min(full, center_shift + radius)};
     }
-    const bool refined = previous >= 0 && k + 1 < n;
     if (!take_fixation(left, k, right_frame, span, refined, out)) continue;
     previous = out.per_level[k];
     previous_step = g.step_x;
@@ -422,8 +424,9 @@ void RetinaStereo::fovea_fixation(const Retina& left, const LevelDisparity& oute
   // against the target's 1.0), repeated texture the fovea's to be fooled by
   // (make bench-stereo: Aloe at (641, 832), 0.62 at 6.3 px against 0.45 at
   // 74.4, the truth 73). On the same surface the whole-range peak is kept
-  // (no span's edge cuts its sub-pixel step short).
-  const bool own = take_fixation(left, k, right_frame, Span{0, full}, out.per_level[k - 1] >= 0, out);
+  // (no span's edge cuts its sub-pixel step short). (The head's own fixation
+  // was searched above: the whole range holds it.)
+  const bool own = take_fixation(left, k, right_frame, Span{0, full}, /*second_guess=*/false, out);
   const bool other_surface = !own || std::abs(best.shift * g.step_x - out.disparity) > radius * g.step_x;
   if (best.score >= kMinFixationScore && other_surface && (!own || best.score >= out.score - kFullRangeMargin)) {
     out.per_level[k] = best.shift * g.step_x;
