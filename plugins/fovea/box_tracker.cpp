@@ -459,7 +459,7 @@ struct BoxTracker::Impl {
     constexpr int kReach = 3;
     const int side = patch8.cols, wide = side + 2 * kReach;
     bordered.resize(static_cast<std::size_t>(wide * wide));
-    const auto reflect = [side](int i) { return i < 0 ? -i : i >= side ? 2 * side - 2 - i : i; };
+    const auto reflect = [side](int i) { return cv::borderInterpolate(i, side, cv::BORDER_REFLECT_101); };
     for (int py = 0; py < wide; ++py) {
       const uchar* row = patch8.ptr<uchar>(reflect(py - kReach));
       float* out_row = &bordered[static_cast<std::size_t>(py * wide)];
@@ -504,7 +504,7 @@ struct BoxTracker::Impl {
   // The desired response's spectrum moved by `offset` (patch pixels), in `shifted`.
   void shifted_target(cv::Point2d offset) {
     if (offset == cv::Point2d()) return;
-    const int side = config.patch, stride = fft.stride(), rows = side / 2 + 1;
+    const int side = config.patch, stride = fft.stride(), rows = fft.rows();
     ramp_x.resize(static_cast<std::size_t>(side));
     ramp_y.resize(static_cast<std::size_t>(side));
     for (int u = 0; u < side; ++u) {

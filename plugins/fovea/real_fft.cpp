@@ -216,7 +216,7 @@ RealFft2d::RealFft2d(int n) : n_(std::max(1, n)), stride_((n_ / 2 + 1 + 7) / 8 *
 
 void RealFft2d::forward(const cv::Mat& image, HalfSpectrum& out) {
   CV_Assert(image.type() == CV_32F && image.rows == n_ && image.cols == n_);
-  const int n = n_, rows = n / 2 + 1;
+  const int n = n_, rows = this->rows();
   out.re.resize(plane());
   out.im.resize(plane());
   if (!fast()) {
@@ -238,7 +238,7 @@ void RealFft2d::forward(const cv::Mat& image, HalfSpectrum& out) {
 
 void RealFft2d::inverse(const HalfSpectrum& in, cv::Mat& out) {
   CV_Assert(in.re.size() == plane() && in.im.size() == plane());
-  const int n = n_, rows = n / 2 + 1;
+  const int n = n_, rows = this->rows();
   out.create(n, n, CV_32F);
   if (!fast()) {
     full_.create(n, n, CV_32FC2);

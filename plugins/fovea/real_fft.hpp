@@ -29,6 +29,7 @@ class RealFft2d {
   explicit RealFft2d(int n);
   int size() const { return n_; }
   int stride() const { return stride_; }
+  int rows() const { return n_ / 2 + 1; }  // the ky the half spectrum holds
   std::size_t plane() const { return static_cast<std::size_t>(n_) * static_cast<std::size_t>(stride_); }
   // `image`: n x n, CV_32F.
   void forward(const cv::Mat& image, HalfSpectrum& out);
