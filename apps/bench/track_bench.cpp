@@ -186,7 +186,6 @@ struct TrackerResult {
 struct SequenceResults {
   std::string name;
   std::string sequence;  // the sequence's own name (name adds the run)
-  int run = 0;
   int frames = 0, invisible = 0;
   cv::Size size;
   std::vector<TrackerResult> results;
@@ -223,7 +222,6 @@ saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const st
   const cv::Rect2d box = first_box(sequence.truth.front(), run);
   SequenceResults out{run == 0 ? sequence.name : sequence.name + ", run " + std::to_string(run),
                       sequence.name,
-                      run,
                       sequence.size(),
                       static_cast<int>(std::count(sequence.visible.begin(), sequence.visible.end(), false)),
                       sequence.frame_size,
