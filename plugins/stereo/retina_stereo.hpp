@@ -82,6 +82,10 @@ struct Fixation {
   std::vector<double> per_level;  // source pixels; < 0 where not found
   double disparity = -1;          // the innermost level's estimate (source pixels), < 0 if none
   double score = -1;              // its NCC
+  // The fovea's fixation window, matched in the right frame, matches back to
+  // it over the whole range (false: repeated texture or a depth edge fooled
+  // the window; the fovea's pixels then follow the level outside them).
+  bool confirmed = false;
 };
 
 struct LevelDisparity {
@@ -150,8 +154,9 @@ class RetinaStereo {
   // Finds the fixation disparity, coarse to fine, by correlating the central
   // window of each left level with the right frame sampled the same way;
   // coarse to fine, all levels but the fovea (run finds the fovea's from the
-  // level outside it as matched).
-  void find_fixation(const Retina& left, const cv::Mat& right_frame, Fixation& out);
+  // level outside it as matched). With the left frame, a fovea's fixation
+  // found here is also confirmed (Fixation::confirmed).
+  void find_fixation(const Retina& left, const cv::Mat* left_frame, const cv::Mat& right_frame, Fixation& out);
 
  private:
   // Buffers per level: the levels' padded sizes differ, and sharing one set
@@ -167,12 +172,12 @@ class RetinaStereo {
   struct LevelImages;
   // Search ranges for level k's left pixels, from the level outside it. With
   // `fixation` (level disparities lo..hi), pixels without a prediction search
-  // it alone and every prediction is widened to cover it.
+  // it alone and, with `widen`, every prediction is widened to cover it.
   struct Span {
     int lo, hi;
   };
   void predict(const std::vector<LevelDisparity>& out, const Retina& left, std::size_t k, int full_lo, int full_hi,
-               int offset, const Span* fixation, cv::Mat& lo, cv::Mat& hi);
+               int offset, const Span* fixation, bool widen, cv::Mat& lo, cv::Mat& hi);
   int around_fixation_range(bool around, int full, bool low) const;
   void sample_around_level(const cv::Mat& frame, bool right, const cv::Mat& level, cv::Point2d origin,
                            const LevelGeometry& g, cv::Point at, cv::Size padded, cv::Range cols, bool crop,
@@ -192,7 +197,15 @@ class RetinaStereo {
     double score = -2;
   };
   // The fovea's fixation, from the level outside it as matched (coarse to fine).
-  void fovea_fixation(const Retina& left, const LevelDisparity& outer, const cv::Mat& right_frame, Fixation& out);
+  void fovea_fixation(const Retina& left, const LevelDisparity& outer, const cv::Mat* left_frame,
+                      const cv::Mat& right_frame, Fixation& out);
+  // Sets out.confirmed: whether the fovea's fixation matches back (no left frame: true).
+  void confirm_fixation(const Retina& left, const cv::Mat* left_frame, const cv::Mat& right_frame, Fixation& out);
+  // The disparity (level pixels) at which the right frame's window `shift`
+  // level pixels left of `window` best matches the left frame over the whole
+  // range (`shift` again when the pair agrees); < 0 where it cannot be matched.
+  double reverse_shift(const Retina& left, std::size_t k, cv::Rect window, const cv::Mat& left_frame,
+                       const cv::Mat& right_frame, double shift);
   // Level k's fixation window searched over `span` (and, with `second_guess`,
   // around a verging head's own fixation): true, and `out` updated, when it
   // matched.
@@ -202,6 +215,9 @@ class RetinaStereo {
   // How much better the fovea's whole-range correlation must be to overrule
   // the surfaces the level outside saw (fovea_fixation).
   static constexpr double kFullRangeMargin = 0.2;
+  // How far (level pixels) the fixation's right window may match back from
+  // where it was matched.
+  static constexpr double kMatchBackTolerance = 1.5;
   WindowMatch match_window(const Retina& left, std::size_t k, cv::Rect window, const cv::Mat& right_frame, Span span);
   // A rectified verging pair: the disparity where the optical axes meet (< 0: none).
   double vergence_prior(const Retina& left) const;
@@ -222,7 +238,7 @@ class RetinaStereo {
   std::vector<int32_t> column_sum_, column_sq_, products_, strip32_;
   std::vector<float> samples_, around_center_;
   std::vector<int> outer_col_, outer_center_;
-  cv::Mat right_level_, right_gray_, left_gray_;
+  cv::Mat right_level_, right_gray_, left_gray_, reverse_window_;
   cv::Mat lo_, hi_;
   // The retinas' rectified grids (null when they are plain), made again only
   // when a rectification changes.

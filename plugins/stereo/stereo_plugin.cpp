@@ -28,14 +28,14 @@ class StereoNode final : public Node {
                                      "right retina, same level size; regions equal or shifted by whole level pixels"};
   static constexpr Out<StereoFixation> kFixation{
       "fixation",
-      "the disparity at the left fovea's centre (-1 when not found), its NCC, and its depth when "
-      "calibrated: for the head's vergence"};
+      "the disparity at the left fovea's centre (-1 when not found), its NCC, whether it matches back "
+      "(confirmed), and its depth when calibrated: for the head's vergence"};
   static constexpr SideIn<HeadPose> kHead{
       "head", "the cameras' poses (the kinematics node): the fixated point also in the head's frame, and gaze"};
   static constexpr Out<GazeRequest> kGaze{
       "gaze",
-      "verge both cameras on the fixated point (kind point, head frame) when its depth and the head's pose "
-      "are known: connect to the head's gaze to close see -> verge -> fixate"};
+      "verge both cameras on the fixated point (kind point, head frame) when it is confirmed and its depth "
+      "and the head's pose are known: connect to the head's gaze to close see -> verge -> fixate"};
   static constexpr Out<FeatureMaps> kMaps{
       "maps",
       "per level, every map on the left retina's level geometry (the message's retina): disparity (left->right, "
@@ -175,6 +175,7 @@ class StereoNode final : public Node {
     fixation->fovea = cv::Size2d(fovea.size());
     fixation->disparity = stereo_->fixation().disparity;
     fixation->score = stereo_->fixation().score;
+    fixation->confirmed = stereo_->fixation().confirmed;
     fixation->rectified = l->rectification.enabled;
     fixation->camera_id = l->camera_id;
     const LocatedPoint at = locate(model, fixation->pixel, fixation->disparity, disparity_sigma_);
@@ -185,15 +186,18 @@ class StereoNode final : public Node {
       if (auto head = ctx.get(kHead)) {
         fixation->point_head = in_head_frame(*head, at.point);
         fixation->point_head_valid = true;
-        auto gaze = ctx.make(kGaze);
-        gaze->stamp_from(*fixation);
-        gaze->kind = GazeRequest::Kind::kPoint;
-        gaze->point = fixation->point_head;
-        gaze->pixel = fixation->pixel;
-        gaze->depth = at.depth;
-        gaze->camera_id = l->camera_id;
-        gaze->reason = "fixation";
-        ctx.emit(kGaze, std::move(gaze));
+        // An unconfirmed fixation may be repeated texture's: the head does not verge on it.
+        if (fixation->confirmed) {
+          auto gaze = ctx.make(kGaze);
+          gaze->stamp_from(*fixation);
+          gaze->kind = GazeRequest::Kind::kPoint;
+          gaze->point = fixation->point_head;
+          gaze->pixel = fixation->pixel;
+          gaze->depth = at.depth;
+          gaze->camera_id = l->camera_id;
+          gaze->reason = "fixation";
+          ctx.emit(kGaze, std::move(gaze));
+        }
       }
     }
     ctx.emit(kFixation, std::move(fixation));

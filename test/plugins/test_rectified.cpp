@@ -397,6 +397,7 @@ TEST(RectifiedStereoNode, GivesTheFixatedPointInTheHeadsFrameAndAsksTheHeadToVer
   const auto f = h->last<StereoFixation>("fixation");
   ASSERT_NE(f, nullptr);
   EXPECT_TRUE(f->rectified);
+  EXPECT_TRUE(f->confirmed);
   ASSERT_GT(f->depth, 0);
   const Eigen::Vector3d in_camera = camera.inverse() * s.target;
   EXPECT_LT(cv::norm(f->point - cv::Vec3d(in_camera.x(), in_camera.y(), in_camera.z())), 0.01 * in_camera.z())

@@ -173,6 +173,72 @@ TEST(RetinaStereo, TheFoveasFixationFollowsTheLevelOutsideWhereItsOwnWindowIsAmb
   EXPECT_GE(density, 0.8);
 }
 
+// The fovea's window (around (320, 240)) has a near copy 40 px to its left in
+// the scene (a pattern that repeats once), and, with `spoil`, where the right
+// camera sees the window itself (20 px further left) its view is spoilt
+// (glare, a smudge): the window then correlates best with the copy's image,
+// at 60. `patch` is the window's place in the left image.
+struct RepeatedOnce {
+  cv::Mat left, right;
+  cv::Rect patch{320 - 10, 240 - 7, 20, 14};
+  static constexpr int d = 20, period = 40;
+};
+
+RepeatedOnce repeated_once(bool spoil) {
+  RepeatedOnce r;
+  cv::Mat scene = texture_of({640 + r.d, 480}, 11);
+  cv::Mat copy = scene(r.patch).clone(), noise(copy.size(), CV_8U);
+  cv::randn(noise, 0, 6);
+  cv::add(copy, noise, copy);  // the copy is like the window, not equal to it
+  copy.copyTo(scene(r.patch - cv::Point(r.period, 0)));
+  r.left = scene(cv::Rect(0, 0, 640, 480)).clone();
+  r.right = scene(cv::Rect(r.d, 0, 640, 480)).clone();
+  if (spoil) {
+    cv::Mat spoilt = r.right(r.patch - cv::Point(r.d, 0));
+    cv::randu(spoilt, 0, 255);
+  }
+  return r;
+}
+
+TEST(RetinaStereo, AFixationWhoseRightWindowMatchesBackElsewhereIsNotConfirmed) {
+  // The spoilt view's right window at 60, matched back over the whole range,
+  // lands on the copy (20), not on the fovea: unconfirmed, and the fovea's
+  // pixels follow the level outside instead of the fixation. The unspoilt
+  // scene confirms its fixation.
+  RetinaStereoConfig config;
+  config.max_disparity = 96;
+  {
+    const RepeatedOnce r = repeated_once(false);
+    RetinaStereo stereo(config);
+    const Pair clean = retinas_of(r.left, r.right, {320, 240});
+    std::vector<LevelDisparity> out;
+    ASSERT_TRUE(stereo.run(*clean.left, *clean.right, out).ok());
+    EXPECT_NEAR(stereo.fixation().disparity, r.d, 0.5);
+    EXPECT_TRUE(stereo.fixation().confirmed);
+  }
+  const RepeatedOnce r = repeated_once(true);
+  RetinaStereo stereo(config);
+  const Pair p = retinas_of(r.left, r.right, {320, 240});
+  std::vector<LevelDisparity> out;
+  ASSERT_TRUE(stereo.run(*p.left, *p.right, out).ok());
+  std::printf("spoilt view: fixation %.2f (NCC %.2f), confirmed %d, outer levels", stereo.fixation().disparity,
+              stereo.fixation().score, stereo.fixation().confirmed);
+  for (double v : stereo.fixation().per_level) std::printf(" %.1f", v);
+  // The fovea's pixels whose windows miss the spoilt view.
+  const cv::Rect fovea = p.left->geometry.back().region;
+  cv::Mat clean = out.back().disparity.clone();
+  const cv::Rect spoilt_windows =
+      (r.patch - fovea.tl() + cv::Size(4, 4) - cv::Point(2, 2)) & cv::Rect(cv::Point(), clean.size());
+  clean(spoilt_windows).setTo(-1);
+  const double unspoilt = 1.0 - static_cast<double>(spoilt_windows.area()) / static_cast<double>(clean.total());
+  auto [share, density] = accuracy(clean, r.d, 1.0);
+  std::printf("; the fovea's unspoilt pixels %.3f of %.3f at %d\n", share, density / unspoilt, r.d);
+  EXPECT_NEAR(stereo.fixation().disparity, r.d + r.period, 1.0) << "the scene no longer fools the window";
+  EXPECT_FALSE(stereo.fixation().confirmed);
+  EXPECT_GE(share, 0.95) << "(searched around the unconfirmed fixation too, they matched 60: none right)";
+  EXPECT_GE(density / unspoilt, 0.9);
+}
+
 TEST(RetinaStereo, FoveaPredictionMatchesSurfacesBeyondTheFixationsRadius) {
   // The fovea (x 304..335) fixates the far surface (disparity 20); its left
   // ten columns show a block at 40, beyond the +-6 searched around the
@@ -421,6 +487,29 @@ TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
       testing::NodeHarness::create(R"(<node plugin="stereo"><param name="focal" value="500"/></node>)");
   EXPECT_FALSE(focal_only.ok());
   EXPECT_NE(focal_only.error().find("baseline"), std::string::npos) << focal_only.error();
+}
+
+TEST(StereoNode, AsksTheHeadToVergeOnlyOnAConfirmedFixation) {
+  for (const bool spoil : {false, true}) {
+    const RepeatedOnce r = repeated_once(spoil);
+    auto h = testing::NodeHarness::create(R"(<node plugin="stereo">
+        <param name="max_disparity" value="96"/>
+        <param name="focal" value="500"/><param name="baseline" value="0.1"/></node>)")
+                 .value_or(nullptr);
+    ASSERT_NE(h, nullptr);
+    const Pair p = retinas_of(r.left, r.right, {320, 240});
+    auto pose = std::make_shared<HeadPose>();
+    pose->left_rotation = pose->right_rotation = {1, 0, 0, 0};
+    h->set("left", p.left);
+    h->set("right", p.right);
+    h->set("head", pose);
+    ASSERT_TRUE(h->process().ok());
+    const auto fixation = h->last<StereoFixation>("fixation");
+    ASSERT_NE(fixation, nullptr);
+    EXPECT_GT(fixation->depth, 0) << "spoilt " << spoil;
+    EXPECT_EQ(fixation->confirmed, !spoil);
+    EXPECT_EQ(h->last<GazeRequest>("gaze") != nullptr, !spoil) << "spoilt " << spoil;
+  }
 }
 
 TEST(FillHoles, TakesTheFartherNeighbourOnTheRowAndTheFallbackOnEmptyRows) {

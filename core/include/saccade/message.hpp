@@ -293,10 +293,14 @@ struct StereoFixation final : Message {
   std::string_view type_name() const override { return kTypeName; }
   ~StereoFixation() override;
 
-  cv::Point2d pixel;          // the left fovea's centre, source pixels (rectified pixels when `rectified`)
-  cv::Size2d fovea;           // the fovea's size there, in the same pixels
-  double disparity = -1.0;    // left x minus right x, in the same pixels; < 0: not found
-  double score = -1.0;        // the match's NCC at that disparity
+  cv::Point2d pixel;        // the left fovea's centre, source pixels (rectified pixels when `rectified`)
+  cv::Size2d fovea;         // the fovea's size there, in the same pixels
+  double disparity = -1.0;  // left x minus right x, in the same pixels; < 0: not found
+  double score = -1.0;      // the match's NCC at that disparity
+  // The right fovea's window there matches back to the left one over the
+  // whole range: false where repeated texture or a depth edge may have fooled
+  // the match (no gaze request is made from it).
+  bool confirmed = false;
   double depth = -1.0;        // metres along the optical axis (< 0: not calibrated or not found)
   double depth_sigma = -1.0;  // one standard deviation of depth, metres (< 0: unknown)
   cv::Vec3d point;            // the fixated point, metres, left camera's optical frame (x right, y down, z ahead)
@@ -311,6 +315,7 @@ struct StereoFixation final : Message {
     visit("fovea", self.fovea);
     visit("disparity", self.disparity);
     visit("score", self.score);
+    visit("confirmed", self.confirmed);
     visit("depth", self.depth);
     visit("depth_sigma", self.depth_sigma);
     visit("point", self.point);
