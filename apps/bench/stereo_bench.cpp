@@ -48,7 +48,8 @@ namespace {
 
 using namespace saccade;
 using Clock = std::chrono::steady_clock;
-bool verbose = false;  // per fixation, on stderr
+bool verbose = false;     // per fixation, on stderr
+bool error_maps = false;  // with verbose: each fovea's errors pixel by pixel
 
 // A rectified pair, its left ground truth (source pixels, < 0 unknown), and
 // the disparity range OpenCV's matchers are given (a multiple of 16 over the
@@ -300,6 +301,22 @@ std::shared_ptr<Retina> make_retina(retina::RetinaSampler& sampler, const std::s
   return r;
 }
 
+// A fovea's disparity against the truth, a character per pixel: o within 2 px,
+// + nearer (larger) than the truth, - farther, . none given, ? no truth; and
+// the truth (rounded) every other column beside it.
+void print_error_map(const cv::Mat& truth, const cv::Mat& disparity) {
+  for (int y = 0; y < truth.rows; ++y) {
+    std::fprintf(stderr, "    ");
+    for (int x = 0; x < truth.cols; ++x) {
+      const float t = truth.at<float>(y, x), d = disparity.at<float>(y, x);
+      std::fputc(d < 0 ? '.' : t < 0 ? '?' : std::abs(d - t) <= 2 ? 'o' : d > t ? '+' : '-', stderr);
+    }
+    std::fprintf(stderr, "   ");
+    for (int x = 0; x < truth.cols; x += 2) std::fprintf(stderr, "%4.0f", truth.at<float>(y, x));
+    std::fputc('\n', stderr);
+  }
+}
+
 // Our matcher with one configuration on every fixation of the pair.
 MatcherResult ours(const std::string& name, const stereo::RetinaStereoConfig& config,
                    const retina::RetinaConfig& retina_config, const Pair& p, int reps,
@@ -367,6 +384,7 @@ MatcherResult ours(const std::string& name, const stereo::RetinaStereoConfig& co
       mine.subtract(fovea_before);
       std::fprintf(stderr, "; this fovea %.3f / %.3f", mine.density(), mine.bad2_rate());
       std::fprintf(stderr, "\n");
+      if (error_maps) print_error_map(p.truth(fovea.region), out[n - 1].disparity);
     }
   }
   r.ms = median(ms);
@@ -551,6 +569,9 @@ int main(int argc, char** argv) {
                  "the stereo node's parameter names)");
   app.add_option("--pair", only, "only these pairs (aloe, aloe_third, planes_640, planes_450)");
   app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
+  app.add_flag("--error-maps", error_maps,
+               "with --verbose, each fovea's pixels: o within 2 px of the truth, + nearer, - farther, . none, "
+               "? no truth; the truth beside");
   app.add_flag("--variants", matchers.all_variants,
                "also run the plain matcher and docs/accuracy.md's densest configuration");
   CLI11_PARSE(app, argc, argv);
