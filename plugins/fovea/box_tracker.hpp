@@ -14,7 +14,8 @@
 // lost: each frame, its coarse look (learnt alongside the filter) is matched
 // over the whole frame seen at a coarse step, as a retina's outer level sees
 // it, and the best places are checked by the filter until a confident peak
-// holds at one place on consecutive frames.
+// holds at one place on consecutive frames (less confident near where the
+// target was last tracked, if of its colour).
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,6 +54,8 @@ struct BoxTrackerConfig {
   int redetect_after = 3;           // consecutive frames not tracked before the whole frame is searched too
   double redetect_psr = 9.0;        // a re-detection must reach this ...
   int redetect_frames = 2;          // ... on this many consecutive frames, at a consistent place
+  double redetect_near = 2.0;       // within this many times its larger side of where it was last tracked ...
+  double redetect_near_psr = 7.0;   // ... and of its colour, a re-detection need only reach this
   int proposals = 2;                // lost: places per size the whole-frame search proposes to the filter
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };

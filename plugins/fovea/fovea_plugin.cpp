@@ -126,6 +126,14 @@ class FoveaNode final : public Node {
         .field("box_redetect_psr", {0, 1000},
                "box tracking: peak-to-sidelobe ratio a re-detection must reach (twice, at one place)", &C::box,
                &B::redetect_psr)
+        .field("box_redetect_near", {0, 1000},
+               "box tracking: within this many times the target's larger side of where it was last tracked, "
+               "and of its colour, a re-detection need only reach box_redetect_near_psr (0: nowhere)",
+               &C::box, &B::redetect_near)
+        .field("box_redetect_near_psr", {0, 1000},
+               "box tracking: peak-to-sidelobe ratio a re-detection near where the target was last tracked, "
+               "of its colour, must reach (twice, at one place)",
+               &C::box, &B::redetect_near_psr)
         .field("box_color_change", {0, 1},
                "box tracking: how far the target's chromaticity may move before a sure peak is doubted (as well "
                "as four times its usual deviation; 1: colour never doubts)",
