@@ -49,7 +49,8 @@ struct Score {
   double depth_error = 0;      // relative; 1 when no fixation was found
   double disparity_error = 0;  // the fixation's, pixels (when found)
   bool fixation_found = false;
-  double microseconds = 0;  // retinas (both cameras) and stereo
+  bool fixation_confirmed = false;  // its right window matched back to it (what the head verges on)
+  double microseconds = 0;          // retinas (both cameras) and stereo
   void add(const Score& s) {
     fovea_pixels += s.fovea_pixels, fovea_matched += s.fovea_matched, fovea_bad2 += s.fovea_bad2;
     outer_pixels += s.outer_pixels, outer_matched += s.outer_matched, outer_bad2 += s.outer_bad2;
@@ -196,6 +197,7 @@ Result<Score> run(const Views& v, Mode mode, const stereo::RetinaStereoConfig& c
   const cv::Vec3d in_rectified = cv::Matx33d(pair.left.rotation.val) * cv::Vec3d(p.x(), p.y(), p.z());
   const double disparity = matcher.fixation().disparity;
   s.fixation_found = disparity > 0;
+  s.fixation_confirmed = s.fixation_found && matcher.fixation().confirmed;
   // Without rectification the depth is what the parallel-camera formula makes of the disparity.
   const double depth = disparity > 0 ? pair.left.rectified[0] * pair.left.baseline / disparity : 0;
   s.depth_error = s.fixation_found ? std::abs(depth - in_rectified[2]) / in_rectified[2] : 1.0;
@@ -240,7 +242,7 @@ struct Tally {
   Score score;
   double depth_sum = 0, depth_max = 0;
   double us = 0;  // a distance's only
-  int found = 0, count = 0;
+  int found = 0, confirmed = 0, count = 0;
 };
 
 // Every view of the target at one distance (each wall, lateral offset and
@@ -273,6 +275,7 @@ Status measure_distance(const std::string& data, double distance, const stereo::
           all_disparity_sq[i] += s.disparity_error * s.disparity_error;
           tally[i].depth_max = std::max(tally[i].depth_max, s.depth_error);
           tally[i].found += s.fixation_found;
+          tally[i].confirmed += s.fixation_confirmed;
           tally[i].us += s.microseconds;
         }
       }
@@ -284,8 +287,9 @@ Status measure_distance(const std::string& data, double distance, const stereo::
 
 std::string distance_row(double distance, double vergence, Mode m, const Tally& t) {
   char line[512];
-  std::snprintf(line, sizeof line, "| %.2f m | %.1f | %s | %.2f%% / %.2f%% | %d / %d | %s | %s | %s | %s | %.0f |\n",
-                distance, vergence, name(m), 100 * t.depth_sum / t.count, 100 * t.depth_max, t.found, t.count,
+  std::snprintf(line, sizeof line,
+                "| %.2f m | %.1f | %s | %.2f%% / %.2f%% | %d / %d (%d) | %s | %s | %s | %s | %.0f |\n", distance,
+                vergence, name(m), 100 * t.depth_sum / t.count, 100 * t.depth_max, t.found, t.count, t.confirmed,
                 ratio(t.score.fovea_matched, t.score.fovea_pixels).c_str(),
                 ratio(t.score.fovea_bad2, t.score.fovea_matched).c_str(),
                 ratio(t.score.outer_matched, t.score.outer_pixels).c_str(),
@@ -299,12 +303,13 @@ void add_distance(Tally& all, const Tally& t) {
   all.depth_max = std::max(all.depth_max, t.depth_max);
   all.count += t.count;
   all.found += t.found;
+  all.confirmed += t.confirmed;
 }
 
 std::string all_row(Mode m, const Tally& t) {
   char line[512];
-  std::snprintf(line, sizeof line, "| **all** | | %s | %.2f%% / %.2f%% | %d / %d | %s | %s | %s | %s | |\n", name(m),
-                100 * t.depth_sum / t.count, 100 * t.depth_max, t.found, t.count,
+  std::snprintf(line, sizeof line, "| **all** | | %s | %.2f%% / %.2f%% | %d / %d (%d) | %s | %s | %s | %s | |\n",
+                name(m), 100 * t.depth_sum / t.count, 100 * t.depth_max, t.found, t.count, t.confirmed,
                 ratio(t.score.fovea_matched, t.score.fovea_pixels).c_str(),
                 ratio(t.score.fovea_bad2, t.score.fovea_matched).c_str(),
                 ratio(t.score.outer_matched, t.score.outer_pixels).c_str(),
@@ -349,7 +354,8 @@ int main(int argc, char** argv) {
   config.max_disparity = 256;  // a 0.5 m target: ~200 px on the rectified pair
 
   std::ostringstream out;
-  out << "| distance | vergence (deg) | mode | fixation depth error (mean / max) | fixations found | fovea density "
+  out << "| distance | vergence (deg) | mode | fixation depth error (mean / max) | fixations found (confirmed) | "
+         "fovea density "
          "| fovea bad-2 | outer level density | outer bad-2 | us per pair "
          "|\n|---|---|---|---|---|---|---|---|---|---|\n";
   Tally all[3];

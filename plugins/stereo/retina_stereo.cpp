@@ -447,9 +447,12 @@ void RetinaStereo::fovea_fixation(const Retina& left, const LevelDisparity& oute
 // (641, 832), whose own right window repeats too).
 void RetinaStereo::confirm_fixation(const Retina& left, const cv::Mat* left_frame, const cv::Mat& right_frame,
                                     Fixation& out) {
-  const std::size_t k = left.levels.size() - 1;
   out.confirmed = false;
-  if (out.per_level[k] < 0) return;
+  // The innermost level that found it (where the fovea's window is flat, an outer one's).
+  std::size_t k = out.per_level.size();
+  while (k > 0 && out.per_level[k - 1] < 0) --k;
+  if (k == 0) return;
+  --k;
   if (left_frame == nullptr) {  // nothing to check against: trusted, as before the check
     out.confirmed = true;
     return;

@@ -82,9 +82,11 @@ struct Fixation {
   std::vector<double> per_level;  // source pixels; < 0 where not found
   double disparity = -1;          // the innermost level's estimate (source pixels), < 0 if none
   double score = -1;              // its NCC
-  // The fovea's fixation window, matched in the right frame, matches back to
-  // it over the whole range (false: repeated texture or a depth edge fooled
-  // the window; the fovea's pixels then follow the level outside them).
+  // The fixation window of the innermost level that found `disparity` (the
+  // fovea's, unless its window was flat), as the right frame sees it there,
+  // matches back to it over the whole range (false: repeated texture or a
+  // depth edge fooled the window, and the fovea's pixels follow the level
+  // outside them instead of it; or nothing was found).
   bool confirmed = false;
 };
 
@@ -199,7 +201,8 @@ class RetinaStereo {
   // The fovea's fixation, from the level outside it as matched (coarse to fine).
   void fovea_fixation(const Retina& left, const LevelDisparity& outer, const cv::Mat* left_frame,
                       const cv::Mat& right_frame, Fixation& out);
-  // Sets out.confirmed: whether the fovea's fixation matches back (no left frame: true).
+  // Sets out.confirmed: whether the fixation matches back at the innermost
+  // level that found it (no left frame to check against: true).
   void confirm_fixation(const Retina& left, const cv::Mat* left_frame, const cv::Mat& right_frame, Fixation& out);
   // The disparity (level pixels) at which the right frame's window `shift`
   // level pixels left of `window` best matches the left frame over the whole

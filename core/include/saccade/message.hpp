@@ -297,9 +297,9 @@ struct StereoFixation final : Message {
   cv::Size2d fovea;         // the fovea's size there, in the same pixels
   double disparity = -1.0;  // left x minus right x, in the same pixels; < 0: not found
   double score = -1.0;      // the match's NCC at that disparity
-  // The right fovea's window there matches back to the left one over the
-  // whole range: false where repeated texture or a depth edge may have fooled
-  // the match (no gaze request is made from it).
+  // The right window there matches back to the left one over the whole
+  // range: false where repeated texture or a depth edge may have fooled the
+  // match, or nothing was found (no gaze request is made from it).
   bool confirmed = false;
   double depth = -1.0;        // metres along the optical axis (< 0: not calibrated or not found)
   double depth_sigma = -1.0;  // one standard deviation of depth, metres (< 0: unknown)
