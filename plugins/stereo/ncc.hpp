@@ -50,6 +50,8 @@ struct NccScratch {
   // (volume) and at the right ones (volume_rl).
   std::vector<float> volume, volume_rl;
   std::vector<float> cost, aggregated, path, path_rows;  // semi-global aggregation
+  std::vector<int> right_best;                           // its right pixels' picks, per row
+  std::vector<float> right_cost;
 };
 
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in
