@@ -1,6 +1,7 @@
 // The executor: queue policies with their drop counts, sync groups, feedback
 // edges, end of stream, determinism, thread counts, fan-out without copies,
 // failures.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <set>
@@ -268,8 +269,7 @@ TEST_F(Executor, NodeErrorStopsTheGraphAndNamesTheNode) {
                       threads(2));
   Status s = g->run();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("node 'bad' (util.fail, line 1): injected failure at call 5"), std::string::npos)
-      << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("node 'bad' (util.fail, line 1): injected failure at call 5"));
   EXPECT_LT(g->stats("n").processed.load(), 100u);
 }
 
@@ -281,7 +281,7 @@ TEST_F(Executor, ThrownExceptionsAreCaughtInsideThePlugin) {
       "<edge from=\"src.image\" to=\"bad.in\" queue=\"block:1\"/><edge from=\"bad.out\" to=\"n.in\"/></graph>");
   Status s = g->run();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("process threw: injected exception at call 3"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("process threw: injected exception at call 3"));
 }
 
 TEST_F(Executor, OnErrorSkipDropsTheFrameAndCountsIt) {
@@ -302,10 +302,9 @@ TEST_F(Executor, OpenFailureNamesTheNode) {
   saccade::Executor e(graph, testing::default_registry());
   Status s = e.open();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(
-      s.message().find("node 'cam' (capture.video, line 1) failed to open: /nonexistent/x.avi: no such video file"),
-      std::string::npos)
-      << s.message();
+  EXPECT_THAT(s.message(),
+              ::testing::HasSubstr(
+                  "node 'cam' (capture.video, line 1) failed to open: /nonexistent/x.avi: no such video file"));
 }
 
 TEST_F(Executor, FrameLimitAndDurationStopEndlessSources) {
@@ -394,7 +393,7 @@ TEST_F(Executor, StatsCountProcessingAndLatency) {
   EXPECT_GE(s.latency.percentile(0.5), s.process_time.percentile(0.5) / 2);
   EXPECT_GT(s.rate_hz(), 0.0);
   std::string json = g->executor->stats_json();
-  EXPECT_NE(json.find("\"name\": \"sink\""), std::string::npos);
+  EXPECT_THAT(json, ::testing::HasSubstr("\"name\": \"sink\""));
 }
 
 }  // namespace
@@ -409,10 +408,10 @@ TEST_F(Executor, ATapSeesEveryMessageOfAnOutputConnectedOrNot) {
                       threads(2));
   std::vector<int64_t> seen;  // taps run on the emitting thread: one source, one thread
   ASSERT_TRUE(g->executor->add_tap("src", "image", [&](const MessagePtr& m) { seen.push_back(m->frame_id); }).ok());
-  EXPECT_NE(g->executor->add_tap("src", "nothing", [](const MessagePtr&) {}).message().find("no output 'nothing'"),
-            std::string::npos);
-  EXPECT_NE(g->executor->add_tap("nobody", "image", [](const MessagePtr&) {}).message().find("no node 'nobody'"),
-            std::string::npos);
+  EXPECT_THAT(g->executor->add_tap("src", "nothing", [](const MessagePtr&) {}).message(),
+              ::testing::HasSubstr("no output 'nothing'"));
+  EXPECT_THAT(g->executor->add_tap("nobody", "image", [](const MessagePtr&) {}).message(),
+              ::testing::HasSubstr("no node 'nobody'"));
   ASSERT_TRUE(g->run().ok());
   ASSERT_EQ(seen.size(), 50u);
   for (std::size_t i = 0; i < seen.size(); ++i) EXPECT_EQ(seen[i], static_cast<int64_t>(i));
@@ -429,11 +428,11 @@ TEST_F(Executor, AnInjectedValueReachesASideInputAndOnlyASideInput) {
   auto fovea = std::make_shared<Region>();
   fovea->center = {20, 15};
   ASSERT_TRUE(g->executor->inject("retina", "fovea", fovea).ok());
-  EXPECT_NE(g->executor->inject("retina", "image", std::make_shared<Image>()).message().find("not a side input"),
-            std::string::npos);
-  EXPECT_NE(g->executor->inject("retina", "fovea", std::make_shared<Image>()).message().find("takes Region"),
-            std::string::npos);
-  EXPECT_NE(g->executor->inject("retina", "nothing", fovea).message().find("no input 'nothing'"), std::string::npos);
+  EXPECT_THAT(g->executor->inject("retina", "image", std::make_shared<Image>()).message(),
+              ::testing::HasSubstr("not a side input"));
+  EXPECT_THAT(g->executor->inject("retina", "fovea", std::make_shared<Image>()).message(),
+              ::testing::HasSubstr("takes Region"));
+  EXPECT_THAT(g->executor->inject("retina", "nothing", fovea).message(), ::testing::HasSubstr("no input 'nothing'"));
   ASSERT_TRUE(g->run().ok());
   const auto retinas = recorded<Retina>("sink");
   ASSERT_EQ(retinas.size(), 3u);

@@ -1,4 +1,5 @@
 // One test per validation error kind; each checks the message names the line.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
@@ -122,8 +123,8 @@ TEST(GraphValidation, CycleWithoutDelayedEdge) {
                            "<edge from=\"src.image\" to=\"l.in\"/>\n<edge from=\"l.out\" to=\"p.in\"/>\n";
   auto diag = diagnose_xml(body + "<edge from=\"p.out\" to=\"l.side\"/></graph>");
   ASSERT_TRUE(diag.has_errors());
-  EXPECT_NE(diag.format().find("cycle without a delayed edge"), std::string::npos) << diag.format();
-  EXPECT_NE(diag.format().find("delay=\"1\""), std::string::npos);
+  EXPECT_THAT(diag.format(), ::testing::HasSubstr("cycle without a delayed edge"));
+  EXPECT_THAT(diag.format(), ::testing::HasSubstr("delay=\"1\""));
   // The same cycle with the feedback edge delayed validates.
   EXPECT_FALSE(diagnose_xml(body + "<edge from=\"p.out\" to=\"l.side\" delay=\"1\"/></graph>").has_errors());
 }
@@ -183,8 +184,8 @@ TEST(GraphValidation, OverridesFromTheCommandLine) {
   GraphDecl decl = load_graph_string(std::string("<graph>") + kSource + "</graph>", "t.xml", diag);
   apply_overrides(decl, {"src.count=7", "nosuch.count=1", "garbage"}, diag);
   EXPECT_EQ(diag.error_count(), 2u) << diag.format();
-  EXPECT_NE(diag.format().find("node 'nosuch': no such node"), std::string::npos);
-  EXPECT_NE(diag.format().find("expected node.param=value, got 'garbage'"), std::string::npos);
+  EXPECT_THAT(diag.format(), ::testing::HasSubstr("node 'nosuch': no such node"));
+  EXPECT_THAT(diag.format(), ::testing::HasSubstr("expected node.param=value, got 'garbage'"));
   ASSERT_EQ(decl.nodes[0].params.size(), 1u);
   EXPECT_EQ(decl.nodes[0].params[0].value, "7");
 }
@@ -195,7 +196,7 @@ TEST(GraphValidation, VariablesExpandFromTheEnvironment) {
   EXPECT_EQ(*expand_variables("${GRAPH_DIR}/a", "/data/graphs/g.xml"), "/data/graphs/a");
   const Result<std::string> unknown = expand_variables("${NO_SUCH_VARIABLE_HERE}", "g.xml");
   EXPECT_FALSE(unknown.ok());
-  EXPECT_NE(unknown.error().find("unknown variable ${NO_SUCH_VARIABLE_HERE}"), std::string::npos);
+  EXPECT_THAT(unknown.error(), ::testing::HasSubstr("unknown variable ${NO_SUCH_VARIABLE_HERE}"));
 }
 
 TEST(GraphValidation, DotShowsNodesEdgesAndFeedback) {
@@ -205,8 +206,8 @@ TEST(GraphValidation, DotShowsNodesEdgesAndFeedback) {
                         "<edge from=\"src.image\" to=\"l.in\"/><edge from=\"l.out\" to=\"p.in\"/>"
                         "<edge from=\"p.out\" to=\"l.side\" delay=\"1\"/></graph>");
   std::string dot = to_dot(graph);
-  EXPECT_NE(dot.find("digraph \"g\""), std::string::npos);
-  EXPECT_NE(dot.find("\"p\":\"o_out\" -> \"l\":\"i_side\" [label=\"latest\", style=dashed"), std::string::npos) << dot;
+  EXPECT_THAT(dot, ::testing::HasSubstr("digraph \"g\""));
+  EXPECT_THAT(dot, ::testing::HasSubstr("\"p\":\"o_out\" -> \"l\":\"i_side\" [label=\"latest\", style=dashed"));
 }
 
 // Issue 25's crashes and hangs of the graph checker.
@@ -219,7 +220,7 @@ TEST(GraphLimits, AChainOfFortyThousandNodesIsCheckedAndItsCycleReportedWithoutR
   const std::string closing = "<edge from=\"p" + std::to_string(n - 1) + ".out\" to=\"p0.in\"/>\n</graph>";
   auto diag = diagnose_xml(xml + closing);
   ASSERT_TRUE(diag.has_errors());
-  EXPECT_NE(diag.format().find("cycle without a delayed edge: p0 -> p1 -> p2"), std::string::npos)
+  EXPECT_THAT(diag.format(), ::testing::HasSubstr("cycle without a delayed edge: p0 -> p1 -> p2"))
       << diag.format().substr(0, 300);
 }
 
@@ -239,13 +240,13 @@ TEST(GraphLimits, AnEmptyFileAFifoAndATooLargeFileAreClearErrors) {
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   Diagnostics diag;
   load_graph_file(fifo, diag);  // would block reading, before the check
-  EXPECT_NE(diag.format().find("not a regular file"), std::string::npos) << diag.format();
+  EXPECT_THAT(diag.format(), ::testing::HasSubstr("not a regular file"));
   std::filesystem::remove(fifo);
   const std::string big = (std::filesystem::temp_directory_path() / "saccade_graph_big.xml").string();
   std::ofstream(big) << std::string(kMaxGraphFileBytes + 1, ' ');
   Diagnostics too_big;
   load_graph_file(big, too_big);
-  EXPECT_NE(too_big.format().find("a graph file may have at most"), std::string::npos) << too_big.format();
+  EXPECT_THAT(too_big.format(), ::testing::HasSubstr("a graph file may have at most"));
   std::filesystem::remove(big);
 }
 

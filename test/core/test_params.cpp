@@ -1,3 +1,4 @@
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "saccade/contract.hpp"
@@ -42,7 +43,7 @@ TEST(Params, RangesAreInclusive) {
   EXPECT_TRUE(parse_param(s, "16", v).ok());
   const Status err = parse_param(s, "17", v);
   ASSERT_FALSE(err.ok());
-  EXPECT_NE(err.message().find("out of range [1, 16]"), std::string::npos);
+  EXPECT_THAT(err.message(), ::testing::HasSubstr("out of range [1, 16]"));
 }
 
 TEST(Params, BoolsSizesPointsEnumsFlags) {
@@ -162,9 +163,9 @@ void bind_broken(ParamBinder<Broken>& b) {
 TEST(ParamBinder, AStructDefaultTheContractCannotHoldIsAProblem) {
   const Contract c = Contract("broken").params(&bind_broken);
   ASSERT_EQ(c.problems().size(), 2u);
-  EXPECT_NE(c.problems()[0].find("'window'"), std::string::npos) << c.problems()[0];
-  EXPECT_NE(c.problems()[0].find("out of range"), std::string::npos) << c.problems()[0];
-  EXPECT_NE(c.problems()[1].find("'shape'"), std::string::npos) << c.problems()[1];
+  EXPECT_THAT(c.problems()[0], ::testing::HasSubstr("'window'"));
+  EXPECT_THAT(c.problems()[0], ::testing::HasSubstr("out of range"));
+  EXPECT_THAT(c.problems()[1], ::testing::HasSubstr("'shape'"));
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 // Plugin loading and its failures, on real .so files.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <dlfcn.h>
@@ -90,30 +91,30 @@ TEST(Registry, MissingLibraryNamesTheFile) {
   Registry r;
   const std::string error = r.load_library(test_plugin("saccade_nothere.so")).message();
   EXPECT_FALSE(error.empty());
-  EXPECT_NE(error.find("saccade_nothere.so: no such plugin library"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("saccade_nothere.so: no such plugin library"));
 }
 
 TEST(Registry, NotAnElfFileNamesTheFile) {
   Registry r;
   const std::string error = r.load_library(test_plugin("saccade_garbage.so")).message();
   EXPECT_FALSE(error.empty());
-  EXPECT_NE(error.find("saccade_garbage.so: cannot load"), std::string::npos) << error;
-  EXPECT_EQ(error.find("Bad file descriptor"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("saccade_garbage.so: cannot load"));
+  EXPECT_THAT(error, ::testing::Not(::testing::HasSubstr("Bad file descriptor")));
 }
 
 TEST(Registry, MissingEntryNamesTheSymbol) {
   Registry r;
   const std::string error = r.load_library(test_plugin("saccade_noentry.so")).message();
   EXPECT_FALSE(error.empty());
-  EXPECT_NE(error.find("saccade_noentry.so: no symbol 'saccade_plugin_entry'"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("saccade_noentry.so: no symbol 'saccade_plugin_entry'"));
 }
 
 TEST(Registry, AbiMismatchIsRefusedBeforeAnythingIsCreated) {
   Registry r;
   const std::string error = r.load_library(test_plugin("saccade_badabi.so")).message();
   EXPECT_FALSE(error.empty());
-  EXPECT_NE(error.find("saccade_badabi.so: symbol 'saccade_plugin_entry': ABI mismatch"), std::string::npos) << error;
-  EXPECT_NE(error.find("abi 999"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("saccade_badabi.so: symbol 'saccade_plugin_entry': ABI mismatch"));
+  EXPECT_THAT(error, ::testing::HasSubstr("abi 999"));
   EXPECT_TRUE(r.types().empty());
 }
 
@@ -121,8 +122,8 @@ TEST(Registry, MissingSymbolFailsAtLoadNotAtFirstCall) {
   Registry r;
   const std::string error = r.load_library(test_plugin("saccade_missingsym.so")).message();
   EXPECT_FALSE(error.empty());
-  EXPECT_NE(error.find("saccade_missingsym.so: cannot load"), std::string::npos) << error;
-  EXPECT_NE(error.find("saccade_symbol_that_does_not_exist"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("saccade_missingsym.so: cannot load"));
+  EXPECT_THAT(error, ::testing::HasSubstr("saccade_symbol_that_does_not_exist"));
 }
 
 TEST(Registry, FolderScanCollectsFailuresAndKeepsTheGoodOnes) {
@@ -138,7 +139,7 @@ TEST(Registry, UnknownPluginInAGraphMentionsItsBrokenLibrary) {
   Diagnostics diag;
   GraphDecl decl = load_graph_string("<graph><node name=\"b\" plugin=\"badabi.x\"/></graph>", "g.xml", diag);
   resolve_graph(decl, r, diag);
-  EXPECT_NE(diag.format().find("its library failed to load"), std::string::npos) << diag.format();
+  EXPECT_THAT(diag.format(), ::testing::HasSubstr("its library failed to load"));
 }
 
 TEST(Registry, NodeKeepsItsLibraryLoadedAfterTheRegistryIsGone) {
@@ -247,7 +248,7 @@ TEST(RegistrySearch, ALibraryNotNamedSaccadeIsSkippedWithAWarningSayingWhy) {
   EXPECT_EQ(r.find("good.echo"), nullptr);
   ASSERT_EQ(r.warnings().size(), 2u);
   for (const std::string& w : r.warnings())
-    EXPECT_NE(w.find(": skipped: a plugin library's file name must be saccade_<name>.so"), std::string::npos) << w;
+    EXPECT_THAT(w, ::testing::HasSubstr(": skipped: a plugin library's file name must be saccade_<name>.so"));
   EXPECT_TRUE(r.warnings()[0].find("libgood.so") != std::string::npos ||
               r.warnings()[1].find("libgood.so") != std::string::npos);
   EXPECT_TRUE(r.load_errors().empty());
@@ -261,10 +262,9 @@ TEST(RegistrySearch, ALibraryShadowedByAnEarlierFolderIsAWarningNamingBoth) {
   ASSERT_NE(r.find("good.echo"), nullptr);
   EXPECT_EQ(r.find("good.echo")->library, dir.path + "/saccade_good.so");
   ASSERT_EQ(r.warnings().size(), 1u);
-  EXPECT_NE(r.warnings()[0].find(test_plugin("saccade_good.so") +
-                                 ": skipped: saccade_good.so was already loaded from " + dir.path + "/saccade_good.so"),
-            std::string::npos)
-      << r.warnings()[0];
+  EXPECT_THAT(r.warnings()[0], ::testing::HasSubstr(test_plugin("saccade_good.so") +
+                                                    ": skipped: saccade_good.so was already loaded from " + dir.path +
+                                                    "/saccade_good.so"));
 }
 
 TEST(RegistrySearch, AFolderNamedTwiceIsReadOnceWithoutWarnings) {
@@ -285,10 +285,10 @@ TEST(RegistrySearch, UnknownPluginSaysWhereItLooked) {
   Diagnostics diag;
   GraphDecl decl = load_graph_string("<graph><node name=\"n\" plugin=\"nothere.x\"/></graph>", "g.xml", diag);
   resolve_graph(decl, r, diag);
-  EXPECT_NE(diag.format().find("unknown plugin 'nothere.x'; " + where), std::string::npos) << diag.format();
+  EXPECT_THAT(diag.format(), ::testing::HasSubstr("unknown plugin 'nothere.x'; " + where));
   const Result<std::shared_ptr<Node>> created = r.create("nothere.x");
   EXPECT_FALSE(created.ok());
-  EXPECT_NE(created.error().find(where), std::string::npos) << created.error();
+  EXPECT_THAT(created.error(), ::testing::HasSubstr(where));
 }
 
 }  // namespace

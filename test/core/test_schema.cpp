@@ -1,5 +1,6 @@
 // Messages as JSON through the fields each type names once, read back by a
 // real JSON parser (nlohmann/json, test-only), and the JSON lines sink.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -153,7 +154,7 @@ TEST(JsonLines, AnUnwritablePathIsAnErrorAtOpenNamingIt) {
   error = h_made.error();
   auto h = std::move(h_made).value_or(nullptr);
   EXPECT_EQ(h, nullptr);
-  EXPECT_NE(error.find(path), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr(path));
   std::filesystem::remove(file);
 }
 

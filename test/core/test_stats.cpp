@@ -1,3 +1,4 @@
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -53,11 +54,11 @@ TEST(Stats, TableAndJsonNameEveryNode) {
   in->dropped = 2;
   a.inputs.push_back(std::move(in));
   std::string table = format_stats_table({&a}, 1.0);
-  EXPECT_NE(table.find("cam"), std::string::npos);
-  EXPECT_NE(table.find("image=2"), std::string::npos);
+  EXPECT_THAT(table, ::testing::HasSubstr("cam"));
+  EXPECT_THAT(table, ::testing::HasSubstr("image=2"));
   std::string json = format_stats_json({&a}, 1.0);
-  EXPECT_NE(json.find("\"name\": \"cam\""), std::string::npos);
-  EXPECT_NE(json.find("\"dropped\": 2"), std::string::npos);
+  EXPECT_THAT(json, ::testing::HasSubstr("\"name\": \"cam\""));
+  EXPECT_THAT(json, ::testing::HasSubstr("\"dropped\": 2"));
 }
 
 TEST(Stats, ANodesOwnCountersAndTimingsAreRegisteredOnceAndReported) {
@@ -78,15 +79,15 @@ TEST(Stats, ANodesOwnCountersAndTimingsAreRegisteredOnceAndReported) {
   ctx.counter("unreadable").fetch_add(1);
   ASSERT_EQ(stats.counters.size(), 2u);
   const std::string json = format_stats_json({&stats}, 1.0);
-  EXPECT_NE(json.find("\"counters\": {\"lost\": 3, \"unreadable\": 1}"), std::string::npos) << json;
+  EXPECT_THAT(json, ::testing::HasSubstr("\"counters\": {\"lost\": 3, \"unreadable\": 1}"));
   const std::string table = format_stats_table({&stats}, 1.0);
-  EXPECT_NE(table.find("lost:3 unreadable:1"), std::string::npos) << table;
+  EXPECT_THAT(table, ::testing::HasSubstr("lost:3 unreadable:1"));
   Histogram& delay = ctx.timing("cause_to_effect");
   delay.record(2'000'000);
   EXPECT_EQ(&ctx.timing("cause_to_effect"), &delay);
   const std::string timed = format_stats_json({&stats}, 1.0);
-  EXPECT_NE(timed.find("\"timings_ns\": {\"cause_to_effect\": {\"count\": 1"), std::string::npos) << timed;
-  EXPECT_NE(format_stats_table({&stats}, 1.0).find("cause_to_effect:"), std::string::npos);
+  EXPECT_THAT(timed, ::testing::HasSubstr("\"timings_ns\": {\"cause_to_effect\": {\"count\": 1"));
+  EXPECT_THAT(format_stats_table({&stats}, 1.0), ::testing::HasSubstr("cause_to_effect:"));
   slot.stats = nullptr;
   EXPECT_THROW(ctx.counter("lost"), std::logic_error) << "nowhere to count";
   EXPECT_THROW(ctx.timing("cause_to_effect"), std::logic_error);

@@ -3,6 +3,7 @@
 // processes with them exchange images and joint targets, while a participant
 // without security, and one whose certificate comes from another CA, can
 // neither read the images nor publish joint targets the robot accepts.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -201,9 +202,8 @@ TEST(DdsSecurity, AMissingFileOfTheFolderIsNamed) {
                               (root / "head_pc").string() + " > " + log.string() + " 2>&1";
   EXPECT_NE(std::system(command.c_str()), 0);
   const std::string text = test::read_text(log);
-  EXPECT_NE(text.find("DDS security: " + (root / "head_pc" / "permissions.p7s").string() + " is missing"),
-            std::string::npos)
-      << text;
+  EXPECT_THAT(text,
+              ::testing::HasSubstr("DDS security: " + (root / "head_pc" / "permissions.p7s").string() + " is missing"));
   fs::remove_all(root);
   fs::remove(root.string() + ".log");
 }

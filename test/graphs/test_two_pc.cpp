@@ -1,6 +1,7 @@
 // One graph, two processes: the plan of graphs/two_pc.xml, the part each
 // process runs, and a split run over DDS (a second process on loopback) that
 // gives bit for bit what the single-process run gives.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -72,12 +73,9 @@ TEST(TwoPcPlan, EdgesBetweenProcessesBecomeTopicsWithTheirTypesQos) {
   EXPECT_EQ(find_edge(*plan, *graph, "retina", "fovea")->route, EdgeRoute::kInProcess);
   // The printed plan says all of it.
   std::string text = format_plan(*graph, *plan);
-  EXPECT_NE(text.find("process robot_pc  [host localhost]: driver, drives, head, drive_truth"), std::string::npos)
-      << text;
-  EXPECT_NE(text.find("fovea.gaze -> head.gaze  GazeRequest  dds-shm  head_pc -> robot_pc  topic "
-                      "saccade/two_pc/fovea/gaze  qos reliable,depth=8"),
-            std::string::npos)
-      << text;
+  EXPECT_THAT(text, ::testing::HasSubstr("process robot_pc  [host localhost]: driver, drives, head, drive_truth"));
+  EXPECT_THAT(text, ::testing::HasSubstr("fovea.gaze -> head.gaze  GazeRequest  dds-shm  head_pc -> robot_pc  topic "
+                                         "saccade/two_pc/fovea/gaze  qos reliable,depth=8"));
 }
 
 TEST(TwoPcPlan, EachProcessRunsItsNodesAndOneBridgePerRemoteOutput) {
@@ -139,13 +137,10 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
   EXPECT_TRUE(plan->edges[0].zero_copy);
   EXPECT_FALSE(plan->edges[1].zero_copy) << "its reader is on another host";
   const std::string text = format_plan(*graph, *plan);
-  EXPECT_NE(text.find("cam.image -> near.in  Image  dds-shm  a -> b  topic g/cam/image  qos "
-                      "best_effort,depth=1,capacity=16M  zero_copy"),
-            std::string::npos)
-      << text;
-  EXPECT_NE(text.find("cam.right -> far.in  Image  dds-udp  a -> c  topic g/cam/right  qos best_effort,depth=1\n"),
-            std::string::npos)
-      << text;
+  EXPECT_THAT(text, ::testing::HasSubstr("cam.image -> near.in  Image  dds-shm  a -> b  topic g/cam/image  qos "
+                                         "best_effort,depth=1,capacity=16M  zero_copy"));
+  EXPECT_THAT(text, ::testing::HasSubstr(
+                        "cam.right -> far.in  Image  dds-udp  a -> c  topic g/cam/right  qos best_effort,depth=1\n"));
   auto a = partition_graph(*graph, *plan, "a", testing::default_registry(), diag);
   ASSERT_TRUE(a) << diag.format();
   std::map<std::string, const ResolvedNode*> nodes;
@@ -173,7 +168,7 @@ TEST(TwoPcPlan, ZeroCopyOnlyWhenEveryReaderSharesTheWritersHostAndTheCapacityTra
   EXPECT_EQ(parse_edge_qos("capacity=1000", EdgeQos{})->capacity, 1000u);
   const Result<EdgeQos> too_large = parse_edge_qos("capacity=2G", EdgeQos{});
   EXPECT_FALSE(too_large.ok());
-  EXPECT_NE(too_large.error().find("capacity=N, NK or NM"), std::string::npos) << too_large.error();
+  EXPECT_THAT(too_large.error(), ::testing::HasSubstr("capacity=N, NK or NM"));
   EXPECT_FALSE(parse_edge_qos("capacity=1.5M", EdgeQos{}).ok());
   EXPECT_FALSE(parse_edge_qos("capacity=2048M", EdgeQos{}).ok());
 }
@@ -220,7 +215,7 @@ TEST(TwoPcPlan, ASpinningEdgeAsksItsSubscriberToSpin) {
   auto plan = plan_graph(*graph, diag);
   ASSERT_TRUE(plan) << diag.format();
   EXPECT_EQ(plan->edges[0].qos.text(), "best_effort,depth=1,spin");
-  EXPECT_NE(format_plan(*graph, *plan).find("qos best_effort,depth=1,spin  zero_copy"), std::string::npos);
+  EXPECT_THAT(format_plan(*graph, *plan), ::testing::HasSubstr("qos best_effort,depth=1,spin  zero_copy"));
   auto b = partition_graph(*graph, *plan, "b", testing::default_registry(), diag);
   ASSERT_TRUE(b) << diag.format();
   std::map<std::string, bool> spins;
@@ -249,31 +244,31 @@ TEST(TwoPcPlan, MistakesAreReportedWithFileLineAndWhatWasExpected) {
 )";
   std::string unknown = diagnose(head + R"(<node name="sink" process="c" plugin="util.null"/>
 <edge from="src.image" to="sink.in"/></graph>)");
-  EXPECT_NE(unknown.find("split.xml:3"), std::string::npos) << unknown;
-  EXPECT_NE(unknown.find("process 'c' is not declared"), std::string::npos) << unknown;
+  EXPECT_THAT(unknown, ::testing::HasSubstr("split.xml:3"));
+  EXPECT_THAT(unknown, ::testing::HasSubstr("process 'c' is not declared"));
 
   std::string bad_qos = diagnose(head + R"(<node name="sink" process="b" plugin="util.record"/>
 <edge from="src.image" to="sink.in" qos="reliable,depth=zero"/></graph>)");
-  EXPECT_NE(bad_qos.find("split.xml:4"), std::string::npos) << bad_qos;
-  EXPECT_NE(bad_qos.find("unknown item 'depth=zero'"), std::string::npos) << bad_qos;
+  EXPECT_THAT(bad_qos, ::testing::HasSubstr("split.xml:4"));
+  EXPECT_THAT(bad_qos, ::testing::HasSubstr("unknown item 'depth=zero'"));
 
   std::string conflict = diagnose(head + R"(<node name="x" process="b" plugin="util.record"/>
 <node name="y" process="b" plugin="util.record"/>
 <edge from="src.image" to="x.in" qos="reliable"/>
 <edge from="src.image" to="y.in" qos="best_effort"/></graph>)");
-  EXPECT_NE(conflict.find("split.xml:6"), std::string::npos) << conflict;
-  EXPECT_NE(conflict.find("one topic, one QoS"), std::string::npos) << conflict;
+  EXPECT_THAT(conflict, ::testing::HasSubstr("split.xml:6"));
+  EXPECT_THAT(conflict, ::testing::HasSubstr("one topic, one QoS"));
 
   std::string untyped = diagnose(head + R"(<node name="pass" process="a" plugin="util.passthrough"/>
 <node name="sink" process="b" plugin="util.record"/>
 <edge from="src.image" to="pass.in"/>
 <edge from="pass.out" to="sink.in"/></graph>)");
-  EXPECT_NE(untyped.find("output's type is 'any'"), std::string::npos) << untyped;
+  EXPECT_THAT(untyped, ::testing::HasSubstr("output's type is 'any'"));
 
   std::string no_such = diagnose(head + R"(<node name="sink" process="b" plugin="util.record"/>
 <edge from="src.image" to="sink.in"/></graph>)",
                                  "robot");
-  EXPECT_NE(no_such.find("no process 'robot' in this graph (processes: a, b)"), std::string::npos) << no_such;
+  EXPECT_THAT(no_such, ::testing::HasSubstr("no process 'robot' in this graph (processes: a, b)"));
 }
 
 struct Records {

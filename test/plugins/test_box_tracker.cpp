@@ -3,6 +3,7 @@
 // camera. Each test is one state change: acquire and track, scale change,
 // lighting change, occlusion -> uncertain/lost -> re-detection, the camera's
 // own move, and the boxes it refuses.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -273,11 +274,11 @@ TEST(BoxTracker, RefusesBoxesItCannotFollowAndSaysWhy) {
   const Scene scene;
   const cv::Mat frame = scene.render({60, 60}, {160, 120});
   BoxTracker t;
-  EXPECT_NE(t.init(frame, {400, 100, 40, 40}).message().find("outside the 320x240 frame"), std::string::npos);
-  EXPECT_NE(t.init(frame, {100, 100, 0, 40}).message().find("smaller than the smallest target"), std::string::npos);
-  EXPECT_NE(t.init(frame, {100, 100, 5, 5}).message().find("box 100,100,5,5"), std::string::npos);
+  EXPECT_THAT(t.init(frame, {400, 100, 40, 40}).message(), ::testing::HasSubstr("outside the 320x240 frame"));
+  EXPECT_THAT(t.init(frame, {100, 100, 0, 40}).message(), ::testing::HasSubstr("smaller than the smallest target"));
+  EXPECT_THAT(t.init(frame, {100, 100, 5, 5}).message(), ::testing::HasSubstr("box 100,100,5,5"));
   const cv::Mat flat(240, 320, CV_8UC3, cv::Scalar(90, 90, 90));
-  EXPECT_NE(t.init(flat, {100, 100, 40, 40}).message().find("flat"), std::string::npos);
+  EXPECT_THAT(t.init(flat, {100, 100, 40, 40}).message(), ::testing::HasSubstr("flat"));
   EXPECT_FALSE(t.initialized());
   EXPECT_FALSE(t.init(cv::Mat(), {100, 100, 40, 40}).ok());
   // A refused box leaves a tracker that follows a target as it was.

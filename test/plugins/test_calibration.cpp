@@ -2,6 +2,7 @@
 // left/right chessboard pairs against OpenCV's own stereo_calib sample, on
 // rendered ChArUco pairs of a known head, the calibration file's round trip,
 // and every bad input.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -150,7 +151,7 @@ TEST(Calibration, FileRoundTripYamlAndXml) {
   std::ifstream text(xml);
   std::string first;
   std::getline(text, first);
-  EXPECT_NE(first.find("<?xml"), std::string::npos);
+  EXPECT_THAT(first, ::testing::HasSubstr("<?xml"));
 }
 
 // A calibration file with `skip` left out and `replace` written instead of its key.
@@ -177,8 +178,8 @@ TEST(Calibration, ReadNamesTheFileAndTheMissingKey) {
   for (const char* key : {"M1", "D1", "M2", "D2", "R", "T", "image_width", "image_height"}) {
     const std::string path = file_without(key, std::string("without_") + key + ".yml");
     const std::string error = read_head_calibration(path).error();
-    EXPECT_NE(error.find("'" + path + "'"), std::string::npos) << error;
-    EXPECT_NE(error.find(std::string("key '") + key + "' is missing"), std::string::npos) << error;
+    EXPECT_THAT(error, ::testing::HasSubstr("'" + path + "'"));
+    EXPECT_THAT(error, ::testing::HasSubstr(std::string("key '") + key + "' is missing"));
   }
   // The one written without anything left out reads.
   const Result<HeadCalibration> complete = read_head_calibration(file_without("", "complete.yml"));
@@ -202,14 +203,14 @@ TEST(Calibration, ReadRejectsBadValues) {
   for (const auto& bad : cases) {
     const std::string path = file_without(bad.key, std::string("bad_") + bad.key + ".yml", bad.value);
     const std::string error = read_head_calibration(path).error();
-    EXPECT_NE(error.find(path), std::string::npos) << error;
-    EXPECT_NE(error.find(bad.says), std::string::npos) << error;
+    EXPECT_THAT(error, ::testing::HasSubstr(path));
+    EXPECT_THAT(error, ::testing::HasSubstr(bad.says));
   }
   const std::string missing = (out_dir() / "no_such_calibration.yml").string();
   EXPECT_EQ(read_head_calibration(missing).error(), "cannot open calibration file '" + missing + "'");
   const std::string garbage = (out_dir() / "garbage.yml").string();
   std::ofstream(garbage) << "%YAML:1.0\nM1: [ 1, 2\n";
-  EXPECT_NE(read_head_calibration(garbage).error().find(garbage), std::string::npos);
+  EXPECT_THAT(read_head_calibration(garbage).error(), ::testing::HasSubstr(garbage));
 }
 
 TEST(Calibration, CheckFrameSizeNamesTheFileAndBothSizes) {
@@ -217,9 +218,9 @@ TEST(Calibration, CheckFrameSizeNamesTheFileAndBothSizes) {
   c.path = "cams/head.yml";
   EXPECT_TRUE(check_frame_size(c, cv::Size(640, 480)).ok());
   const std::string error = check_frame_size(c, cv::Size(1024, 768)).message();
-  EXPECT_NE(error.find("'cams/head.yml'"), std::string::npos) << error;
-  EXPECT_NE(error.find("640x480"), std::string::npos) << error;
-  EXPECT_NE(error.find("1024x768"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("'cams/head.yml'"));
+  EXPECT_THAT(error, ::testing::HasSubstr("640x480"));
+  EXPECT_THAT(error, ::testing::HasSubstr("1024x768"));
 }
 
 TEST(Calibration, PairsWithoutTheBoardAreListedAndSkipped) {
@@ -245,8 +246,7 @@ TEST(Calibration, TooFewUsablePairsSaysHowMany) {
   const cv::Mat blank(480, 640, CV_8UC1, cv::Scalar(0));
   pairs.push_back(ImagePair{"dark_left.png", "dark_right.png", blank, blank});
   const CalibrationResult r = calibrate_head(pairs, chessboard());
-  EXPECT_NE(r.status.message().find("found in both images of 2 of 3 pairs; at least 3 are needed"), std::string::npos)
-      << r.status.message();
+  EXPECT_THAT(r.status.message(), ::testing::HasSubstr("found in both images of 2 of 3 pairs; at least 3 are needed"));
   EXPECT_EQ(r.pairs[2].problem, "no board in either image");
 }
 
@@ -265,15 +265,12 @@ TEST(Calibration, MismatchedAndUnreadableImagesAreErrors) {
   pairs.push_back({pairs[0].left, not_an_image, {}, {}});
   const CalibrationResult r = calibrate_head(pairs, chessboard());
   const std::string& error = r.status.message();
-  EXPECT_NE(error.find("pair '" + pairs[3].left +
-                       "' (640x480) and 'small_right04.png' (320x240): the two images "
-                       "differ in size"),
-            std::string::npos)
-      << error;
-  EXPECT_NE(error.find("'" + pairs[5].left + "' is 320x240 but '" + pairs[0].left + "' is 640x480"), std::string::npos)
-      << error;
-  EXPECT_NE(error.find("cannot read image '" + missing + "'"), std::string::npos) << error;
-  EXPECT_NE(error.find("cannot read image '" + not_an_image + "'"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("pair '" + pairs[3].left +
+                                          "' (640x480) and 'small_right04.png' (320x240): the two images "
+                                          "differ in size"));
+  EXPECT_THAT(error, ::testing::HasSubstr("'" + pairs[5].left + "' is 320x240 but '" + pairs[0].left + "' is 640x480"));
+  EXPECT_THAT(error, ::testing::HasSubstr("cannot read image '" + missing + "'"));
+  EXPECT_THAT(error, ::testing::HasSubstr("cannot read image '" + not_an_image + "'"));
 }
 
 TEST(Calibration, BadBoardsAreRefused) {
@@ -285,14 +282,14 @@ TEST(Calibration, BadBoardsAreRefused) {
   EXPECT_EQ(error_of(board), "board square size must be > 0 metres, got 0");
   board.square = 0.02;
   board.size = cv::Size(1, 6);
-  EXPECT_NE(error_of(board).find("at least 2x2 inner corners"), std::string::npos);
+  EXPECT_THAT(error_of(board), ::testing::HasSubstr("at least 2x2 inner corners"));
   board.kind = BoardSpec::Kind::kCharuco;
   board.size = cv::Size(7, 5);
   board.marker = 0.03;
-  EXPECT_NE(error_of(board).find("smaller than the square"), std::string::npos);
+  EXPECT_THAT(error_of(board), ::testing::HasSubstr("smaller than the square"));
   board.marker = 0.015;
   board.dictionary = "DICT_9X9_50";
-  EXPECT_NE(error_of(board).find("unknown ArUco dictionary 'DICT_9X9_50'"), std::string::npos);
+  EXPECT_THAT(error_of(board), ::testing::HasSubstr("unknown ArUco dictionary 'DICT_9X9_50'"));
   board.dictionary = "DICT_4X4_50";
   board.size = cv::Size(12, 10);
   EXPECT_EQ(error_of(board), "a 12x10 ChArUco board needs 60 markers; DICT_4X4_50 has 50");
@@ -320,9 +317,9 @@ TEST(Calibration, ImageListAsStereoCalibXml) {
          << "c.jpg"
          << "]";
   }
-  EXPECT_NE(read_image_list(odd).error().find("has 3 names"), std::string::npos);
-  EXPECT_NE(read_image_list((out_dir() / "no_list.xml").string()).error().find("cannot open image list"),
-            std::string::npos);
+  EXPECT_THAT(read_image_list(odd).error(), ::testing::HasSubstr("has 3 names"));
+  EXPECT_THAT(read_image_list((out_dir() / "no_list.xml").string()).error(),
+              ::testing::HasSubstr("cannot open image list"));
 }
 
 // A head of known geometry seeing a ChArUco board: each view is the drawn
@@ -378,7 +375,7 @@ TEST(Calibration, CharucoPairsOfAKnownHead) {
   cv::Vec3d angles;
   cv::Rodrigues(c.rotation, angles);
   EXPECT_NEAR(angles[1], -0.03, 0.003);
-  EXPECT_NE(c.board.find("ChArUco 7x5"), std::string::npos);
+  EXPECT_THAT(c.board, ::testing::HasSubstr("ChArUco 7x5"));
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // cannelloni's own encoder, the UDP tunnel on 127.0.0.1 (its bind address,
 // its peer check and its authenticated form), and SocketCAN where the kernel
 // has it.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <arpa/inet.h>
@@ -263,7 +264,7 @@ TEST(Cannelloni, RejectsMalformedPacketsWithTheReason) {
     uint8_t seq = 0;
     const Status decoded = cannelloni::decode(c.bytes.data(), c.bytes.size(), seq, frames);
     EXPECT_FALSE(decoded.ok()) << c.what;
-    EXPECT_NE(decoded.message().find(c.reason), std::string::npos) << c.what << ": " << decoded.message();
+    EXPECT_THAT(decoded.message(), ::testing::HasSubstr(c.reason)) << c.what;
     EXPECT_EQ(frames.size(), 1u) << c.what << ": nothing appended";
   }
   // 64 bytes is a valid FD frame.
@@ -373,22 +374,21 @@ TEST(UdpTunnel, BadSpecsSayWhatWasExpected) {
   for (const char* spec : {"20000", "1:2:3:4:5", ":20000:127.0.0.1:20001", "20000::20001", "x:127.0.0.1:20001"}) {
     const auto tunnel = UdpTunnel::open(spec);
     EXPECT_FALSE(tunnel.ok()) << spec;
-    EXPECT_NE(tunnel.error().find("expected [BIND_ADDR:]LOCAL_PORT:HOST:PORT"), std::string::npos)
-        << spec << ": " << tunnel.error();
+    EXPECT_THAT(tunnel.error(), ::testing::HasSubstr("expected [BIND_ADDR:]LOCAL_PORT:HOST:PORT")) << spec;
   }
   const auto serial = open_bus("serial:/dev/ttyS0");
   EXPECT_FALSE(serial.ok());
-  EXPECT_NE(serial.error().find("expected virtual:NAME, udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT or socketcan:IFNAME"),
-            std::string::npos);
+  EXPECT_THAT(serial.error(),
+              ::testing::HasSubstr("expected virtual:NAME, udp:[BIND_ADDR:]LOCAL_PORT:HOST:PORT or socketcan:IFNAME"));
   const auto unresolved = UdpTunnel::open("0:no.such.host.invalid:20001");
   EXPECT_FALSE(unresolved.ok());
-  EXPECT_NE(unresolved.error().find("cannot resolve"), std::string::npos) << unresolved.error();
+  EXPECT_THAT(unresolved.error(), ::testing::HasSubstr("cannot resolve"));
   const auto unresolved_bind = UdpTunnel::open("no.such.host.invalid:0:127.0.0.1:20001");
   EXPECT_FALSE(unresolved_bind.ok());
-  EXPECT_NE(unresolved_bind.error().find("bind address: cannot resolve"), std::string::npos) << unresolved_bind.error();
+  EXPECT_THAT(unresolved_bind.error(), ::testing::HasSubstr("bind address: cannot resolve"));
   const auto any_peer = UdpTunnel::open("0:0.0.0.0:20001");
   EXPECT_FALSE(any_peer.ok());
-  EXPECT_NE(any_peer.error().find("the peer must be one host's address"), std::string::npos) << any_peer.error();
+  EXPECT_THAT(any_peer.error(), ::testing::HasSubstr("the peer must be one host's address"));
 }
 
 // A plain UDP socket on a loopback address standing in for the tunnel's peer,
@@ -467,14 +467,14 @@ TEST(UdpTunnel, BindsLoopbackForALoopbackPeerOrTheAddressGiven) {
   auto b = opened(UdpTunnel::open("127.0.0.2:" + std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb)));
   ASSERT_TRUE(b);
   EXPECT_EQ(b->local_address(), "127.0.0.2:" + std::to_string(pa));
-  EXPECT_NE(b->describe().find("127.0.0.2:" + std::to_string(pa)), std::string::npos) << b->describe();
+  EXPECT_THAT(b->describe(), ::testing::HasSubstr("127.0.0.2:" + std::to_string(pa)));
   // So the same port on 127.0.0.1 is still free.
   auto c = opened(UdpTunnel::open(std::to_string(pa) + ":127.0.0.1:" + std::to_string(pb)));
   EXPECT_TRUE(c);
   // An address of no interface of this host cannot be bound.
   const auto elsewhere = UdpTunnel::open("192.0.2.1:" + std::to_string(pb) + ":127.0.0.1:" + std::to_string(pa));
   EXPECT_FALSE(elsewhere.ok());
-  EXPECT_NE(elsewhere.error().find("bind to 192.0.2.1:" + std::to_string(pb)), std::string::npos) << elsewhere.error();
+  EXPECT_THAT(elsewhere.error(), ::testing::HasSubstr("bind to 192.0.2.1:" + std::to_string(pb)));
 }
 
 TEST(UdpTunnel, PacketsFromAnyoneButThePeerAreDroppedAndCounted) {
@@ -502,7 +502,7 @@ TEST(UdpTunnel, AKeyedTunnelTakesOnlyAuthenticNewPacketsOfThePeersNewestSession)
   auto t = opened(UdpTunnel::open(std::to_string(pt) + ":127.0.0.1:" + std::to_string(pr), &key));
   ASSERT_TRUE(t);
   EXPECT_TRUE(t->authenticated());
-  EXPECT_NE(t->describe().find("authenticated"), std::string::npos);
+  EXPECT_THAT(t->describe(), ::testing::HasSubstr("authenticated"));
   cannelloni::Authenticator sender(key), wrong(test_key(2));
   const cannelloni::LinkEnds link = ends(peer, pt);
   const uint64_t epoch = 1'700'000'000'000'000'000ULL;
@@ -622,7 +622,7 @@ TEST(UdpTunnel, KeyedTunnelsCarryFramesBothWaysAndARestartedEndIsTaken) {
   // A keyed end refuses to listen on every interface: its tag names its address.
   const auto everywhere = UdpTunnel::open("0.0.0.0:0:127.0.0.1:" + std::to_string(pa), &key);
   EXPECT_FALSE(everywhere.ok());
-  EXPECT_NE(everywhere.error().find("not 0.0.0.0"), std::string::npos) << everywhere.error();
+  EXPECT_THAT(everywhere.error(), ::testing::HasSubstr("not 0.0.0.0"));
 }
 
 // A key file in the test's temporary folder, with `mode`.
@@ -646,23 +646,23 @@ TEST(UdpTunnel, AKeyFileIsTheOwnersAloneAndHoldsSixtyFourHexCharacters) {
     const std::string open_to_others = write_key_file("can_key_open", kKeyHex, mode);
     const Status refused = cannelloni::load_key(open_to_others, key);
     EXPECT_FALSE(refused.ok()) << std::oct << mode;
-    EXPECT_NE(refused.message().find("key file '" + open_to_others + "'"), std::string::npos) << refused.message();
-    EXPECT_NE(refused.message().find("chmod 600 '" + open_to_others + "'"), std::string::npos) << refused.message();
+    EXPECT_THAT(refused.message(), ::testing::HasSubstr("key file '" + open_to_others + "'"));
+    EXPECT_THAT(refused.message(), ::testing::HasSubstr("chmod 600 '" + open_to_others + "'"));
     ::unlink(open_to_others.c_str());
   }
   for (const char* text : {"0011", "zz0102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f", ""}) {
     const std::string bad = write_key_file("can_key_bad", text, 0600);
     const Status refused = cannelloni::load_key(bad, key);
     EXPECT_FALSE(refused.ok()) << text;
-    EXPECT_NE(refused.message().find("expected 64 hex characters"), std::string::npos) << refused.message();
+    EXPECT_THAT(refused.message(), ::testing::HasSubstr("expected 64 hex characters"));
     ::unlink(bad.c_str());
   }
   const Status missing = cannelloni::load_key(good + ".missing", key);
   EXPECT_FALSE(missing.ok());
-  EXPECT_NE(missing.message().find("No such file"), std::string::npos) << missing.message();
+  EXPECT_THAT(missing.message(), ::testing::HasSubstr("No such file"));
   const Status folder = cannelloni::load_key(::testing::TempDir(), key);
   EXPECT_FALSE(folder.ok());
-  EXPECT_NE(folder.message().find("not a regular file"), std::string::npos) << folder.message();
+  EXPECT_THAT(folder.message(), ::testing::HasSubstr("not a regular file"));
 
   // Through open_bus, as the nodes open it.
   const auto [pa, pb] = test::free_udp_ports();
@@ -671,7 +671,7 @@ TEST(UdpTunnel, AKeyFileIsTheOwnersAloneAndHoldsSixtyFourHexCharacters) {
   EXPECT_TRUE(dynamic_cast<UdpTunnel&>(*bus).authenticated());
   const auto keyed_virtual = open_bus("virtual:keyed", {good});
   EXPECT_FALSE(keyed_virtual.ok());
-  EXPECT_NE(keyed_virtual.error().find("is for a udp bus only"), std::string::npos) << keyed_virtual.error();
+  EXPECT_THAT(keyed_virtual.error(), ::testing::HasSubstr("is for a udp bus only"));
   ::unlink(good.c_str());
 }
 
@@ -767,7 +767,7 @@ TEST(CanNodes, CanSendSealsItsPacketsAndCountsThem) {
       "<node plugin=\"can.send\"><param name=\"bus\" value=\"udp:0:127.0.0.1:" + std::to_string(pr) +
       "\"/><param name=\"key_file\" value=\"" + key_file + "\"/></node>");
   EXPECT_FALSE(refused.ok());
-  EXPECT_NE(refused.error().find("chmod 600"), std::string::npos) << refused.error();
+  EXPECT_THAT(refused.error(), ::testing::HasSubstr("chmod 600"));
   ::unlink(key_file.c_str());
 }
 
@@ -840,10 +840,10 @@ TEST(SocketCan, TalksOnVcan0WhereTheKernelHasCan) {
 TEST(SocketCan, AMissingInterfaceOrKernelSupportIsAClearError) {
   const auto missing = SocketCan::open("nosuchcan9");
   EXPECT_FALSE(missing.ok());
-  EXPECT_NE(missing.error().find("socketcan 'nosuchcan9'"), std::string::npos) << missing.error();
+  EXPECT_THAT(missing.error(), ::testing::HasSubstr("socketcan 'nosuchcan9'"));
   const auto unnamed = SocketCan::open("");
   EXPECT_FALSE(unnamed.ok());
-  EXPECT_NE(unnamed.error().find("expected an interface name"), std::string::npos) << unnamed.error();
+  EXPECT_THAT(unnamed.error(), ::testing::HasSubstr("expected an interface name"));
 }
 
 // can.send puts a CanFrames message's frames on a bus; can.tap, on another

@@ -3,6 +3,7 @@
 // profile position handshake, the position loop, faults) and the master
 // (configuration, enabling, set-points, supervision, reset), all over the
 // virtual bus on a simulated clock.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -365,7 +366,7 @@ TEST(Master, ASilentDriveIsReportedAfterTheHeartbeatTimeout) {
   }
   EXPECT_EQ(h.feedback[4].health, DriveHealth::kSilent);
   EXPECT_NEAR(cycles * Head::kPeriod, 0.05, 0.01) << "the process-data timeout (50 ms) comes first";
-  EXPECT_NE(h.master.problem().find("tilt_right (node 5): no position for"), std::string::npos) << h.master.problem();
+  EXPECT_THAT(h.master.problem(), ::testing::HasSubstr("tilt_right (node 5): no position for"));
   // Back on the bus and reset: configured and enabled again.
   h.rack.drive(4).set_silent(false);
   for (int i = 0; i < 30; ++i) h.cycle(targets, 1);

@@ -1,3 +1,4 @@
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <fstream>
 #include <filesystem>
@@ -77,7 +78,7 @@ TEST(CaptureVideo, MissingFileIsAClearError) {
   auto h =
       testing::NodeHarness::create(R"(<node plugin="capture.video"><param name="path" value="/no/such.avi"/></node>)");
   EXPECT_FALSE(h.ok());
-  EXPECT_NE(h.error().find("/no/such.avi: no such video file"), std::string::npos) << h.error();
+  EXPECT_THAT(h.error(), ::testing::HasSubstr("/no/such.avi: no such video file"));
 }
 
 TEST(CaptureImages, ReadsTheSequenceUpToTheFirstGap) {
@@ -132,14 +133,14 @@ TEST(CaptureCamera, AbsentDeviceIsAClearError) {
   auto h = testing::NodeHarness::create(
       R"(<node plugin="capture.camera"><param name="device" value="/dev/video97"/></node>)");
   EXPECT_FALSE(h.ok());
-  EXPECT_NE(h.error().find("camera '/dev/video97' cannot be opened"), std::string::npos) << h.error();
+  EXPECT_THAT(h.error(), ::testing::HasSubstr("camera '/dev/video97' cannot be opened"));
 }
 
 TEST(CaptureCamera, AnIndexPastAnyDeviceIsAClearErrorNotAThrow) {
   auto h = testing::NodeHarness::create(
       R"(<node plugin="capture.camera"><param name="device" value="99999999999"/></node>)");
   EXPECT_FALSE(h.ok());
-  EXPECT_NE(h.error().find("camera '99999999999': a V4L2 index is 0..9999"), std::string::npos) << h.error();
+  EXPECT_THAT(h.error(), ::testing::HasSubstr("camera '99999999999': a V4L2 index is 0..9999"));
 }
 
 // Issue 25: after the drives' side restarted, its joint states' clock starts
@@ -177,7 +178,7 @@ TEST(CaptureImage, AFifoAndAnImageLargerThanTheLimitAreErrors) {
   auto h = testing::NodeHarness::create(R"(<node plugin="capture.image"><param name="path" value=")" + fifo +
                                         R"("/></node>)");
   EXPECT_FALSE(h.ok());
-  EXPECT_NE(h.error().find("not a regular file"), std::string::npos) << h.error();
+  EXPECT_THAT(h.error(), ::testing::HasSubstr("not a regular file"));
   std::filesystem::remove(fifo);
 
   // A PNG whose header says 20000 x 20000 (its pixels need not be there: the
@@ -204,7 +205,7 @@ TEST(CaptureImage, AFifoAndAnImageLargerThanTheLimitAreErrors) {
   h = testing::NodeHarness::create(R"(<node plugin="capture.image"><param name="path" value=")" + huge +
                                    R"("/></node>)");
   EXPECT_FALSE(h.ok());
-  EXPECT_NE(h.error().find("a 20000x20000 image; at most 67108864 pixels are read"), std::string::npos) << h.error();
+  EXPECT_THAT(h.error(), ::testing::HasSubstr("a 20000x20000 image; at most 67108864 pixels are read"));
   std::filesystem::remove(huge);
 }
 
@@ -266,14 +267,14 @@ TEST(NumberedPattern, TakesOneNumberAndRefusesEveryOtherConversion) {
                           "img_%ld.png", "img_%x.png"}) {
     const auto parsed = NumberedPattern::parse(bad);
     EXPECT_FALSE(parsed.ok()) << bad;
-    EXPECT_NE(parsed.error().find(std::string("'") + bad + "'"), std::string::npos) << parsed.error();
+    EXPECT_THAT(parsed.error(), ::testing::HasSubstr(std::string("'") + bad + "'"));
   }
   EXPECT_EQ(NumberedPattern::parse("img_%04d.png")->name(7), "img_0007.png");
   EXPECT_EQ(NumberedPattern::parse("a%%b_%d.jpg")->name(12), "a%b_12.jpg");
   EXPECT_EQ(NumberedPattern::parse("%3d")->name(5), "  5");
   const auto reader = open_sequence("/nonexistent/img_%s_%n.png", 0, 30);
   EXPECT_FALSE(reader.ok());
-  EXPECT_NE(reader.error().find("expected one %d"), std::string::npos) << reader.error();
+  EXPECT_THAT(reader.error(), ::testing::HasSubstr("expected one %d"));
 }
 
 // A reader tells the end of its frames apart from an error.
@@ -293,7 +294,7 @@ TEST(FrameReader, EndOfStreamIsNotAnError) {
   std::ofstream(dir + "/img_2.png") << "not a png";
   const Status broken = (*reader)->read(frame, media_ns);
   EXPECT_TRUE(broken.is_error());
-  EXPECT_NE(broken.message().find("img_2.png: cannot decode image"), std::string::npos) << broken.message();
+  EXPECT_THAT(broken.message(), ::testing::HasSubstr("img_2.png: cannot decode image"));
 }
 
 }  // namespace

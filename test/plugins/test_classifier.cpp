@@ -1,5 +1,6 @@
 // Recognition: feature recipes, training by backpropagation (OpenCV ANN_MLP),
 // model files, the three outcomes, the plugin, and the digits floor.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -102,7 +103,7 @@ TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
   }
   const auto missing = Model::load((dir / "missing.yml").string());
   EXPECT_FALSE(missing.ok());
-  EXPECT_NE(missing.error().find("missing.yml"), std::string::npos) << missing.error();
+  EXPECT_THAT(missing.error(), ::testing::HasSubstr("missing.yml"));
   // A file without the recipe is refused, saying what is missing.
   {
     cv::FileStorage fs((dir / "no_recipe.yml").string(), cv::FileStorage::WRITE);
@@ -112,7 +113,7 @@ TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
   }
   const auto no_recipe = Model::load((dir / "no_recipe.yml").string());
   EXPECT_FALSE(no_recipe.ok());
-  EXPECT_NE(no_recipe.error().find("recipe"), std::string::npos) << no_recipe.error();
+  EXPECT_THAT(no_recipe.error(), ::testing::HasSubstr("recipe"));
 }
 
 TEST(Decision, ThresholdsGiveThePapersThreeOutcomes) {
@@ -133,18 +134,18 @@ TEST(FeatureRecipe, ChecksItselfAndTheRetina) {
   EXPECT_TRUE(r.check().ok()) << r.check().message();
   EXPECT_EQ(r.length(), 8 * 6 + 8 * 6 * FeatureRecipe::kOrientationBins);
   r.features = {"gray", "colour"};
-  EXPECT_NE(r.check().message().find("colour"), std::string::npos);
+  EXPECT_THAT(r.check().message(), ::testing::HasSubstr("colour"));
   r = {};
   r.levels = {7};
-  EXPECT_NE(r.check().message().find("level 7"), std::string::npos);
+  EXPECT_THAT(r.check().message(), ::testing::HasSubstr("level 7"));
   // A size an int's arithmetic would overflow (read from a model file): refused, and counted without overflow.
   r = {};
   r.size = {100000, 100000};
-  EXPECT_NE(r.check().message().find("at most"), std::string::npos) << r.check().message();
+  EXPECT_THAT(r.check().message(), ::testing::HasSubstr("at most"));
   EXPECT_GT(r.length(), 0);
   const auto bad_levels = parse_levels("0,x");
   EXPECT_FALSE(bad_levels.ok());
-  EXPECT_NE(bad_levels.error().find("0,x"), std::string::npos);
+  EXPECT_THAT(bad_levels.error(), ::testing::HasSubstr("0,x"));
   EXPECT_EQ(*parse_levels("0,1"), (std::vector<int>{0, 1}));
   retina::RetinaConfig small;
   small.levels = 3;
@@ -155,8 +156,8 @@ TEST(FeatureRecipe, ChecksItselfAndTheRetina) {
   FeatureExtractor extractor(FeatureRecipe{});
   cv::Mat row;
   const std::string e = extractor.extract(retina, row).message();
-  EXPECT_NE(e.find("5 levels of 32x24"), std::string::npos) << e;
-  EXPECT_NE(e.find("3 levels"), std::string::npos) << e;
+  EXPECT_THAT(e, ::testing::HasSubstr("5 levels of 32x24"));
+  EXPECT_THAT(e, ::testing::HasSubstr("3 levels"));
 }
 
 // A model file for the plugin tests.
@@ -204,12 +205,12 @@ TEST(ClassifierPlugin, RefusesAModelWhoseRecipeDiffersFromTheGraphs) {
   auto h = testing::NodeHarness::create("<node plugin=\"classifier\"><param name=\"model\" value=\"" + stripes_model() +
                                         "\"/><param name=\"features\" value=\"gray,laplacian\"/></node>");
   EXPECT_FALSE(h.ok());
-  EXPECT_NE(h.error().find("trained on levels 0; features gray,grad_hist"), std::string::npos) << h.error();
-  EXPECT_NE(h.error().find("gray,laplacian"), std::string::npos) << h.error();
+  EXPECT_THAT(h.error(), ::testing::HasSubstr("trained on levels 0; features gray,grad_hist"));
+  EXPECT_THAT(h.error(), ::testing::HasSubstr("gray,laplacian"));
   h = testing::NodeHarness::create(
       R"(<node plugin="classifier"><param name="model" value="/nonexistent/model.yml"/></node>)");
   EXPECT_FALSE(h.ok());
-  EXPECT_NE(h.error().find("/nonexistent/model.yml"), std::string::npos) << h.error();
+  EXPECT_THAT(h.error(), ::testing::HasSubstr("/nonexistent/model.yml"));
 }
 
 TEST(TrainFolder, WritesAModelAndPrintsProgressAndTheConfusionMatrix) {
@@ -232,12 +233,12 @@ TEST(TrainFolder, WritesAModelAndPrintsProgressAndTheConfusionMatrix) {
   ASSERT_TRUE(trained.ok()) << trained.error();
   const TrainingResult& r = *trained;
   EXPECT_TRUE(fs::exists(job.out));
-  EXPECT_NE(log.str().find("epoch 10/10"), std::string::npos) << log.str();
-  EXPECT_NE(log.str().find("<- predicted"), std::string::npos) << log.str();
+  EXPECT_THAT(log.str(), ::testing::HasSubstr("epoch 10/10"));
+  EXPECT_THAT(log.str(), ::testing::HasSubstr("<- predicted"));
   EXPECT_EQ(r.classes, (std::vector<std::string>{"horizontal", "vertical"}));
   EXPECT_DOUBLE_EQ(r.validation_accuracy, 1.0);
   job.data = (root / "horizontal").string();
-  EXPECT_NE(train_folder(job, log).error().find("at least two sub-folders"), std::string::npos);
+  EXPECT_THAT(train_folder(job, log).error(), ::testing::HasSubstr("at least two sub-folders"));
 }
 
 // digits.png: 5000 digits of 20x20, 500 per class in row blocks. Per class the

@@ -1,4 +1,5 @@
 // Every message type through its IDL type's CDR bytes and back: bit-exact.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <fastdds/rtps/common/SerializedPayload.h>
@@ -490,7 +491,7 @@ TEST(DdsPlain, RetinasRoundTripBitExactly) {
   EXPECT_EQ(dds::from_plain(*sample, back).message(), "a retina of 17 levels (at most 16)");
   r.levels.resize(17);
   r.geometry.resize(17);
-  EXPECT_NE(dds::to_plain(r, *sample).message().find("at most 16 levels"), std::string::npos);
+  EXPECT_THAT(dds::to_plain(r, *sample).message(), ::testing::HasSubstr("at most 16 levels"));
 }
 
 TEST(DdsPlain, TheSmallestPlainFormAtLeastTheCapacityIsChosen) {
@@ -601,7 +602,7 @@ TEST(DdsRing, RetinasTravelInOneBufferAndRoundTripBitExactly) {
   EXPECT_EQ(ring->held_slots(), 0u);
   r.levels.resize(17);
   r.geometry.resize(17);
-  EXPECT_NE(dds::to_ring(r, *ring, hold, sample).message().find("at most 16 levels"), std::string::npos);
+  EXPECT_THAT(dds::to_ring(r, *ring, hold, sample).message(), ::testing::HasSubstr("at most 16 levels"));
 }
 
 TEST(DdsRing, ARetinaWhoseLevelsWereMadeTogetherInTheRingIsNotCopiedAgain) {
@@ -654,11 +655,11 @@ TEST(DdsRing, MalformedHeadersAreRefusedNotCrashes) {
   dds::RingReader reader;
   sample.mat().rows(100000);  // past the buffer's end
   const Status outside = dds::from_ring(sample, reader, back);
-  EXPECT_NE(outside.message().find("outside the writer's ring"), std::string::npos) << outside.message();
+  EXPECT_THAT(outside.message(), ::testing::HasSubstr("outside the writer's ring"));
   sample.mat().rows(48);
   sample.mat().cv_type(12345);
   const Status malformed = dds::from_ring(sample, reader, back);
-  EXPECT_NE(malformed.message().find("malformed"), std::string::npos) << malformed.message();
+  EXPECT_THAT(malformed.message(), ::testing::HasSubstr("malformed"));
   sample.mat().cv_type(CV_8UC1);
   sample.mat().rows(-1);
   EXPECT_FALSE(dds::from_ring(sample, reader, back).ok());
@@ -735,7 +736,7 @@ TEST(DdsWire, AnOutOfRangeEnumMakesTheSampleUnreadable) {
   JointState out;
   cdr::Envelope envelope;
   const Status unnamed = cdr::read(bytes.data(), bytes.size(), out, envelope);
-  EXPECT_NE(unnamed.message().find("health: 200 is not a value it names"), std::string::npos) << unnamed.message();
+  EXPECT_THAT(unnamed.message(), ::testing::HasSubstr("health: 200 is not a value it names"));
   s.health.back() = JointState::Health::kSilent;
   cdr::write(s, cdr::Envelope{}, bytes);
   EXPECT_TRUE(is_ok(cdr::read(bytes.data(), bytes.size(), out, envelope)));
@@ -861,8 +862,7 @@ TEST(DdsRos2, UnreadableImagesSayWhy) {
   wire.data().resize(6);
   Image out;
   const Status bayer = dds::from_ros2(wire, out);
-  EXPECT_NE(bayer.message().find("image encoding 'bayer_rggb8' is not one saccade reads"), std::string::npos)
-      << bayer.message();
+  EXPECT_THAT(bayer.message(), ::testing::HasSubstr("image encoding 'bayer_rggb8' is not one saccade reads"));
   wire.encoding("mono8");
   wire.data().resize(5);
   EXPECT_EQ(dds::from_ros2(wire, out).message(), "a 3x2 mono8 image with step 3 needs 6 bytes of data, it has 5");
@@ -934,7 +934,7 @@ void expect_channel_round_trip() {
   ASSERT_NE(e, nullptr) << M::kTypeName;
   EXPECT_EQ(e->schema_encoding, "omgidl");
   EXPECT_EQ(e->schema_name, "saccade_idl::" + std::string(M::kTypeName));
-  EXPECT_NE(e->schema.find("struct " + std::string(M::kTypeName) + " {"), std::string::npos) << M::kTypeName;
+  EXPECT_THAT(e->schema, ::testing::HasSubstr("struct " + std::string(M::kTypeName) + " {")) << M::kTypeName;
   auto encoder = dds::make_encoder(*e);
   auto decoder = dds::make_decoder(*e);
   ASSERT_TRUE(encoder && decoder);
@@ -976,7 +976,7 @@ TEST(Channel, ImagesAndJointStatesTravelAsRos2Messages) {
   EXPECT_EQ(e->schema_name, "sensor_msgs/msg/Image");
   EXPECT_EQ(e->schema_encoding, "ros2msg");
   EXPECT_EQ(e->schema.rfind("std_msgs/Header header\n", 0), 0u);
-  EXPECT_NE(e->schema.find("MSG: builtin_interfaces/Time"), std::string::npos);
+  EXPECT_THAT(e->schema, ::testing::HasSubstr("MSG: builtin_interfaces/Time"));
   Image in;
   in.mat = test::random_image({64, 48}, 3, CV_8UC3);
   in.timestamp_ns = 1'500'000'001;
@@ -1032,12 +1032,12 @@ TEST(DdsWire, AMalformedMatHeaderIsUnreadable) {
     return cdr::read(bytes.data(), bytes.size(), out, envelope).message();
   };
   ASSERT_EQ(read_with({}), "");
-  EXPECT_NE(read_with({{kCount, 0}}).find("is 6 bytes, not 0"), std::string::npos) << "a header with no data";
+  EXPECT_THAT(read_with({{kCount, 0}}), ::testing::HasSubstr("is 6 bytes, not 0")) << "a header with no data";
   for (int32_t type : {-1, 1 << 20, CV_MAKETYPE(CV_8U, 600)})
-    EXPECT_NE(read_with({{kType, type}}).find("no matrix is 2x3"), std::string::npos) << "type " << type;
-  EXPECT_NE(read_with({{kRows, 1 << 20}}).find("no matrix is"), std::string::npos) << "a side past the limit";
+    EXPECT_THAT(read_with({{kType, type}}), ::testing::HasSubstr("no matrix is 2x3")) << "type " << type;
+  EXPECT_THAT(read_with({{kRows, 1 << 20}}), ::testing::HasSubstr("no matrix is")) << "a side past the limit";
   EXPECT_NE(read_with({{kRows, 60000}, {kCols, 60000}}), "") << "3.6 GB claimed, 6 bytes carried";
-  EXPECT_NE(read_with({{kCount, 1 << 30}}).find("bytes left"), std::string::npos) << "a count past the end";
+  EXPECT_THAT(read_with({{kCount, 1 << 30}}), ::testing::HasSubstr("bytes left")) << "a count past the end";
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The fused filter bank against its scalar reference and against OpenCV's
 // filter2D with the same masks and border, on every level, borders included.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -211,7 +212,7 @@ TEST(FilterBankNode, RefusesColorLevelsWithAHint) {
   h->set("retina", std::make_shared<Retina>(make_retina(cv::Mat(24, 32, CV_8UC3, cv::Scalar(1, 2, 3)), 2)));
   Status s = h->process();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("channels=gray"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("channels=gray"));
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The fovea controller's parts (saliency, inhibition of return, template
 // tracking, the state machine, gaze requests) and its plugin.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -377,11 +378,11 @@ TEST(FoveaPlugin, EmitsTheNextFoveaStateAndRejectsBadParameters) {
   const auto bad_color =
       testing::NodeHarness::create(R"(<node plugin="fovea"><param name="color" value="255,0"/></node>)");
   EXPECT_FALSE(bad_color.ok());
-  EXPECT_NE(bad_color.error().find("B,G,R"), std::string::npos) << bad_color.error();
+  EXPECT_THAT(bad_color.error(), ::testing::HasSubstr("B,G,R"));
   const auto no_template =
       testing::NodeHarness::create(R"(<node plugin="fovea"><param name="template" value="/nonexistent.png"/></node>)");
   EXPECT_FALSE(no_template.ok());
-  EXPECT_NE(no_template.error().find("/nonexistent.png"), std::string::npos) << no_template.error();
+  EXPECT_THAT(no_template.error(), ::testing::HasSubstr("/nonexistent.png"));
 }
 
 // A textured 40x30 target (a real photograph's patch) on the plain
@@ -450,14 +451,13 @@ TEST(FoveaPlugin, BadBoxesAndTemplatesAreErrorsAtOpenNamingTheValue) {
     const auto h = testing::NodeHarness::create(std::string(R"(<node plugin="fovea"><param name="init" value=")") +
                                                 bad + R"("/></node>)");
     EXPECT_FALSE(h.ok()) << bad;
-    EXPECT_NE(h.error().find(bad), std::string::npos) << h.error();
+    EXPECT_THAT(h.error(), ::testing::HasSubstr(bad));
   }
   const auto too_large =
       testing::NodeHarness::create(R"(<node plugin="fovea"><param name="template_size" value="50x20"/>
       <param name="search_size" value="40x32"/></node>)");
   EXPECT_FALSE(too_large.ok());
-  EXPECT_NE(too_large.error().find("template_size 50x20 is larger than search_size 40x32"), std::string::npos)
-      << too_large.error();
+  EXPECT_THAT(too_large.error(), ::testing::HasSubstr("template_size 50x20 is larger than search_size 40x32"));
   // A box outside the frame is known only with the first frame: an error then, naming both.
   auto h = testing::NodeHarness::create(R"(<node plugin="fovea"><param name="init" value="900,10,40,30"/></node>)")
                .value_or(nullptr);
@@ -465,8 +465,8 @@ TEST(FoveaPlugin, BadBoxesAndTemplatesAreErrorsAtOpenNamingTheValue) {
   h->set("retina", make_retina(plain_background(), {320, 240}, 0));
   const Status s = h->process();
   EXPECT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("900,10,40,30"), std::string::npos) << s.message();
-  EXPECT_NE(s.message().find("640x480"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("900,10,40,30"));
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("640x480"));
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <thread>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "frame_ring.hpp"
@@ -105,7 +106,7 @@ TEST(FrameRing, AFrameWhoseBufferTheWriterTookAgainIsReportedLostNotReadTorn) {
   cv::Mat view;
   const Status lost = reader.view(first, 0, 64, 64, CV_8UC1, view);
   EXPECT_FALSE(lost.ok());
-  EXPECT_NE(lost.message().find("reused the frame's buffer"), std::string::npos) << lost.message();
+  EXPECT_THAT(lost.message(), ::testing::HasSubstr("reused the frame's buffer"));
   EXPECT_EQ(reader.overwritten(), 1u);
   EXPECT_TRUE(view.empty());
   const Status newest_viewed = reader.view(third, 0, 64, 64, CV_8UC1, view);
@@ -122,7 +123,7 @@ TEST(FrameRing, BytesOutsideABufferOrAMissingRingAreRefusedWithTheReason) {
   cv::Mat view;
   const Status outside = reader.view(at, 4000, 64, 64, CV_8UC1, view);
   EXPECT_FALSE(outside.ok());
-  EXPECT_NE(outside.message().find("outside the writer's ring"), std::string::npos) << outside.message();
+  EXPECT_THAT(outside.message(), ::testing::HasSubstr("outside the writer's ring"));
   RingAddress bad_slot = at;
   bad_slot.slot = 7;
   EXPECT_FALSE(reader.view(bad_slot, 0, 1, 1, CV_8UC1, view).ok());
@@ -130,7 +131,7 @@ TEST(FrameRing, BytesOutsideABufferOrAMissingRingAreRefusedWithTheReason) {
   gone.ring_id ^= 1;
   const Status missing = reader.view(gone, 0, 1, 1, CV_8UC1, view);
   EXPECT_FALSE(missing.ok());
-  EXPECT_NE(missing.message().find("cannot open the writer's frame ring"), std::string::npos) << missing.message();
+  EXPECT_THAT(missing.message(), ::testing::HasSubstr("cannot open the writer's frame ring"));
 }
 
 TEST(FrameRing, AReaderKeepingManyFramesGetsCopiesSoTheWriterNeverStarves) {
@@ -193,9 +194,8 @@ TEST(FrameRing, MatsCreatedWithTheRingLiveInItAndARecycledOneIsNeverRewrittenInP
 TEST(FrameRing, ARingLargerThanTheFreeSharedMemoryIsWarnedAboutWithTheFix) {
   EXPECT_EQ(saccade::dds::shared_memory_shortfall(4u << 20, 16, 64u << 20), "") << "exactly fits";
   const std::string warning = saccade::dds::shared_memory_shortfall(4u << 20, 16, 60u << 20);
-  EXPECT_NE(warning.find("16 buffers of 4 MiB (64 MiB) exceed the 60 MiB free in /dev/shm"), std::string::npos)
-      << warning;
-  EXPECT_NE(warning.find("capacity"), std::string::npos) << warning;
+  EXPECT_THAT(warning, ::testing::HasSubstr("16 buffers of 4 MiB (64 MiB) exceed the 60 MiB free in /dev/shm"));
+  EXPECT_THAT(warning, ::testing::HasSubstr("capacity"));
   std::string none = "unset";
   auto ring = FrameRing::create(4096, 2, &none);
   ASSERT_TRUE(ring.ok()) << ring.error();

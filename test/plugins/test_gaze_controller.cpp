@@ -3,6 +3,7 @@
 // axes on the target, limits hold under random requests, and each kind of
 // trouble (drive fault, silent drive, stale feedback, following error) holds
 // the head until reset.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -175,7 +176,7 @@ TEST(GazeController, TroubleHoldsTheHeadUntilReset) {
     t.cause(h);
     const HeadCommand& c = h.controller.cycle(h.now, h.readings);
     ASSERT_TRUE(c.hold);
-    EXPECT_NE(c.fault.find(t.fault), std::string::npos) << c.fault;
+    EXPECT_THAT(c.fault, ::testing::HasSubstr(t.fault));
     const std::vector<double> held = c.position;
     for (std::size_t j = 0; j < held.size(); ++j)
       EXPECT_NEAR(held[j], h.readings[j].position, 1e-9) << "holds where the joints are";

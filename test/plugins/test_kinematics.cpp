@@ -1,5 +1,6 @@
 // Kinematics of the stereo head: the paper's chain read both ways, the offset
 // variant, pointing the optical axis at a point, and fixation points.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -83,7 +84,7 @@ TEST(PaperChain, TheOtherCameraIsTheMirrorImage) {
   EXPECT_LT((right - Eigen::Vector3d(0.18, 0, 0.12)).norm(), 1e-12);
   EXPECT_LT((left - Eigen::Vector3d(-0.18, 0, 0.12)).norm(), 1e-12);
   EXPECT_TRUE(paper_camera_chain(Convention::kStandard).check(3).ok());
-  EXPECT_NE(paper_camera_chain(Convention::kStandard).check(2).message().find("joint 2 of 2"), std::string::npos);
+  EXPECT_THAT(paper_camera_chain(Convention::kStandard).check(2).message(), ::testing::HasSubstr("joint 2 of 2"));
 }
 
 // Both readings of the paper's table: the modified one, whose tilt also turns
@@ -112,15 +113,15 @@ TEST(PointAt, ReportsWhatItCannotReach) {
   // Inside the circle the cameras sweep around the neck.
   Result<Pointing> p = point_at({0.05, 0.05, 0.2}, kL1, kL2, kL3, 1, limits);
   EXPECT_FALSE(p.ok());
-  EXPECT_NE(p.error().find("circle"), std::string::npos) << p.error();
+  EXPECT_THAT(p.error(), ::testing::HasSubstr("circle"));
   // Straight up: a tilt beyond its limit.
   p = point_at({0.18, 0.3, 3.0}, kL1, kL2, kL3, 1, limits);
   EXPECT_FALSE(p.ok());
-  EXPECT_NE(p.error().find("tilt"), std::string::npos) << p.error();
+  EXPECT_THAT(p.error(), ::testing::HasSubstr("tilt"));
   // Behind, beyond the pan's limits.
   p = point_at({0.0, -2.0, 0.12}, kL1, kL2, kL3, 1, limits);
   EXPECT_FALSE(p.ok());
-  EXPECT_NE(p.error().find("pan"), std::string::npos) << p.error();
+  EXPECT_THAT(p.error(), ::testing::HasSubstr("pan"));
 }
 
 TEST(Fixation, MidpointOfTheCommonPerpendicularWithItsResidual) {
@@ -138,11 +139,11 @@ TEST(Fixation, MidpointOfTheCommonPerpendicularWithItsResidual) {
   // Parallel axes fixate nothing, and say so.
   f = fixation_point(c1, {0, 1, 0}, c2, {0, 2, 0});
   EXPECT_FALSE(f.valid);
-  EXPECT_NE(f.why.find("parallel"), std::string::npos);
+  EXPECT_THAT(f.why, ::testing::HasSubstr("parallel"));
   // Diverging axes meet behind the cameras.
   f = fixation_point(c1, {-0.5, 1, 0}, c2, {0.5, 1, 0});
   EXPECT_FALSE(f.valid);
-  EXPECT_NE(f.why.find("behind"), std::string::npos);
+  EXPECT_THAT(f.why, ::testing::HasSubstr("behind"));
 }
 
 TEST(Gaze, BothCamerasFixateTheTargetWithSymmetricVergence) {
@@ -164,7 +165,7 @@ TEST(Gaze, BothCamerasFixateTheTargetWithSymmetricVergence) {
   // Too near: the vergence would pass its limit.
   const Result<HeadJoints> near = gaze_at({0.0, 0.25, 0.12}, g, limits);
   EXPECT_FALSE(near.ok());
-  EXPECT_NE(near.error().find("vergence"), std::string::npos) << near.error();
+  EXPECT_THAT(near.error(), ::testing::HasSubstr("vergence"));
 }
 
 TEST(Gaze, IndependentModeGivesEachCameraItsOwnTarget) {

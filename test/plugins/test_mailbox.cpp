@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "mailbox.hpp"
@@ -99,7 +100,7 @@ TEST(Mailbox, AnUnknownOrForeignMailboxIsRefusedWithTheReason) {
   MailboxReader reader;
   const saccade::Status refused = reader.follow(0x1234);
   EXPECT_FALSE(refused.ok());
-  EXPECT_NE(refused.message().find("saccade_mail_0000000000001234"), std::string::npos) << refused.message();
+  EXPECT_THAT(refused.message(), ::testing::HasSubstr("saccade_mail_0000000000001234"));
   EXPECT_FALSE(reader.open());
   std::vector<uint8_t> got;
   EXPECT_EQ(reader.read(1, got), Read::kNotYet);

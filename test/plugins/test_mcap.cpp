@@ -1,6 +1,7 @@
 // MCAP record and replay (issue 26): the format library against its own
 // reader and the reference TypeScript reader (@mcap/core), every message type
 // through a file, damaged files, and the demo recorded and replayed bit for bit.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <sys/resource.h>
@@ -300,8 +301,8 @@ TEST(McapDamage, ATruncatedFileIsAnErrorWithTheOffsetAndSalvageReadsWhatPrecedes
       write_bytes(cut, {bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(bytes.size() * fraction)});
       mcap::TopicReader strict;
       const std::string error = strict.open(cut, "/test/Image", false).message();
-      EXPECT_NE(error.find("truncated"), std::string::npos) << error;
-      EXPECT_NE(error.find("salvage"), std::string::npos) << error;
+      EXPECT_THAT(error, ::testing::HasSubstr("truncated"));
+      EXPECT_THAT(error, ::testing::HasSubstr("salvage"));
       const int64_t offset = offset_in(error);
       EXPECT_GT(offset, 0) << error;
       EXPECT_LE(offset, static_cast<int64_t>(bytes.size() * fraction)) << error;
@@ -352,7 +353,7 @@ TEST(McapDamage, ACorruptedChunkIsAnErrorWithItsOffsetAndSalvageSkipsOnlyIt) {
     const ReadBack strict_back = read_back(strict);
     const std::string& why = strict_back.error;
     EXPECT_EQ(offset_in(why), static_cast<int64_t>(target)) << why;
-    EXPECT_NE(why.find("Chunk"), std::string::npos) << why;
+    EXPECT_THAT(why, ::testing::HasSubstr("Chunk"));
     EXPECT_EQ(strict_back.messages.size(), chunk_frames[0].size() + chunk_frames[1].size())
         << "the two chunks before it";
 
@@ -397,7 +398,7 @@ TEST(McapDamage, AChunkClaimingGigabytesIsAnErrorWithoutAllocatingThem) {
     getrusage(RUSAGE_SELF, &after);
     const std::string why = read.error();
     EXPECT_EQ(offset_in(why), static_cast<int64_t>(chunk)) << why;
-    EXPECT_NE(why.find(std::to_string(claim)), std::string::npos) << why;
+    EXPECT_THAT(why, ::testing::HasSubstr(std::to_string(claim)));
     EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 512 * 1024) << "kB more at its peak: the claim was allocated";
   }
 }
@@ -410,7 +411,7 @@ TEST(McapDamage, ACorruptedSummaryIsAnErrorAndSalvageReadsTheDataSection) {
   write_bytes(bad, bytes);
   mcap::Reader strict;
   const std::string error = strict.open(bad).message();
-  EXPECT_NE(error.find("summary"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("summary"));
   EXPECT_GT(offset_in(error), 0) << error;
   std::string why;
   auto topics = read_topics(bad, true, &why);
@@ -422,10 +423,10 @@ TEST(McapDamage, NotAnMcapFileAndAFlippedRecordLengthAreErrorsWithOffsets) {
   write_bytes(text, {'h', 'e', 'l', 'l', 'o', ' ', 'w', 'o', 'r', 'l', 'd'});
   mcap::Reader reader;
   const std::string error = reader.open(text).message();
-  EXPECT_NE(error.find("not an MCAP file"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("not an MCAP file"));
   EXPECT_EQ(offset_in(error), 0);
   mcap::Reader missing;
-  EXPECT_NE(missing.open(out_path("no_such_file.mcap")).message().find("cannot read"), std::string::npos);
+  EXPECT_THAT(missing.open(out_path("no_such_file.mcap")).message(), ::testing::HasSubstr("cannot read"));
 
   // A length field gone wild in an unindexed (unchunked) file: the scan stops there.
   std::vector<MessagePtr> messages = every_type(4);
@@ -476,16 +477,16 @@ TEST(McapErrors, AnUnknownSchemaAndAMissingChannelNameWhatIsThere) {
   }
   mcap::TopicReader reader;
   std::string error = reader.open(path, "/vector", false).message();
-  EXPECT_NE(error.find("schema 'geometry_msgs/msg/Vector3'"), std::string::npos) << error;
-  EXPECT_NE(error.find("not one saccade reads"), std::string::npos) << error;
-  EXPECT_NE(error.find("saccade_idl::Retina"), std::string::npos) << "lists what it reads: " << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("schema 'geometry_msgs/msg/Vector3'"));
+  EXPECT_THAT(error, ::testing::HasSubstr("not one saccade reads"));
+  EXPECT_THAT(error, ::testing::HasSubstr("saccade_idl::Retina")) << "lists what it reads: ";
   error = reader.open(path, "/json", false).message();
-  EXPECT_NE(error.find("json"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("json"));
   error = reader.open(path, "/nope", false).message();
-  EXPECT_NE(error.find("no topic '/nope'"), std::string::npos) << error;
-  EXPECT_NE(error.find("/vector (geometry_msgs/msg/Vector3)"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("no topic '/nope'"));
+  EXPECT_THAT(error, ::testing::HasSubstr("/vector (geometry_msgs/msg/Vector3)"));
   error = reader.open(path, "", false).message();
-  EXPECT_NE(error.find("several"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("several"));
 }
 
 // ---------------------------------------------------------------- nodes and graphs
@@ -557,7 +558,7 @@ TEST(McapNodes, ReplayRefusesDamagedFilesUnlessSalvagingAndNamesMissingTopics) {
     run.executor = std::make_unique<Executor>(run.graph, testing::default_registry());
     const Status s = run.executor->open();
     ASSERT_FALSE(s.ok());
-    EXPECT_NE(s.message().find("truncated"), std::string::npos) << s.message();
+    EXPECT_THAT(s.message(), ::testing::HasSubstr("truncated"));
     EXPECT_GT(offset_in(s.message()), 0) << s.message();
   }
   {
@@ -566,8 +567,8 @@ TEST(McapNodes, ReplayRefusesDamagedFilesUnlessSalvagingAndNamesMissingTopics) {
     run.executor = std::make_unique<Executor>(run.graph, testing::default_registry());
     const Status s = run.executor->open();
     ASSERT_FALSE(s.ok());
-    EXPECT_NE(s.message().find("no topic '/camera'"), std::string::npos) << s.message();
-    EXPECT_NE(s.message().find("/test/Image"), std::string::npos) << s.message();
+    EXPECT_THAT(s.message(), ::testing::HasSubstr("no topic '/camera'"));
+    EXPECT_THAT(s.message(), ::testing::HasSubstr("/test/Image"));
   }
   testing::Recorder::instance().clear();
   auto run = test::open_graph(xml(cut, "/test/Image", true));
@@ -654,7 +655,7 @@ TEST(McapNodes, OneReplayNodePlaysSeveralTopicsInterleavedAsTheyWereRecorded) {
     run.executor = std::make_unique<Executor>(run.graph, testing::default_registry());
     const Status s = run.executor->open();
     ASSERT_FALSE(s.ok()) << topics;
-    EXPECT_NE(s.message().find(expected), std::string::npos) << s.message();
+    EXPECT_THAT(s.message(), ::testing::HasSubstr(expected));
   }
 }
 
@@ -677,7 +678,7 @@ TEST(McapRecorder, AttachRecorderRecordsEveryConnectedOutput) {
   EXPECT_EQ(recorder->recorded(), 400u);
   EXPECT_EQ(recorder->dropped(), 0u);
   EXPECT_EQ(recorder->channels(), 2u);
-  EXPECT_NE(recorder->report().find("recorded 400 messages on 2 channels"), std::string::npos) << recorder->report();
+  EXPECT_THAT(recorder->report(), ::testing::HasSubstr("recorded 400 messages on 2 channels"));
   auto topics = read_topics(path);
   EXPECT_EQ(topics["/counter/image"].size(), 200u);
   EXPECT_EQ(topics["/pass/out"].size(), 200u);
@@ -691,7 +692,7 @@ TEST(McapRecorder, AttachRecorderRecordsEveryConnectedOutput) {
   options.ports = {"counter.nope"};
   const auto refused = mcap::attach_recorder(*other->executor, out_path("x.mcap"), options);
   EXPECT_FALSE(refused.ok());
-  EXPECT_NE(refused.error().find("counter.nope"), std::string::npos) << refused.error();
+  EXPECT_THAT(refused.error(), ::testing::HasSubstr("counter.nope"));
 }
 
 TEST(McapRecorder, AFullQueueDropsAndCountsWithoutBlockingTheGraph) {
@@ -707,7 +708,7 @@ TEST(McapRecorder, AFullQueueDropsAndCountsWithoutBlockingTheGraph) {
   ASSERT_TRUE(run->run().ok());
   EXPECT_EQ(recorder->finish().message(), "");
   EXPECT_EQ(recorder->recorded() + recorder->dropped(), 3000u) << "every message written or counted";
-  EXPECT_NE(recorder->report().find(std::to_string(recorder->dropped()) + " dropped"), std::string::npos);
+  EXPECT_THAT(recorder->report(), ::testing::HasSubstr(std::to_string(recorder->dropped()) + " dropped"));
 }
 
 // The issue's floor: the demo's retina and features recorded at full rate with
@@ -905,18 +906,18 @@ TEST(McapTool, CompareNamesTheFirstDifferenceAndExitsOneWhenTopicsDiffer) {
                     changed = file("compare_changed.mcap", 20, 7), shorter = file("compare_short.mcap", 15, -1);
   auto [status, text] = run_tool(a + " " + same);
   EXPECT_EQ(status, 0) << text;
-  EXPECT_NE(text.find("20 messages, all equal"), std::string::npos) << text;
+  EXPECT_THAT(text, ::testing::HasSubstr("20 messages, all equal"));
   std::tie(status, text) = run_tool(a + " " + changed);
   EXPECT_EQ(status, 1) << text;
-  EXPECT_NE(text.find("message 7 (frame 7): position is"), std::string::npos) << text;
+  EXPECT_THAT(text, ::testing::HasSubstr("message 7 (frame 7): position is"));
   std::tie(status, text) = run_tool(a + " " + changed + " --ignore position");
   EXPECT_EQ(status, 0) << text;
   std::tie(status, text) = run_tool(a + " " + shorter);
   EXPECT_EQ(status, 1) << text;
-  EXPECT_NE(text.find("message 15: " + shorter + " ends here"), std::string::npos) << text;
+  EXPECT_THAT(text, ::testing::HasSubstr("message 15: " + shorter + " ends here"));
   std::tie(status, text) = run_tool(a + " " + same + " --topic /nothing");
   EXPECT_EQ(status, 1) << text;
-  EXPECT_NE(text.find("no topic '/nothing'"), std::string::npos) << text;
+  EXPECT_THAT(text, ::testing::HasSubstr("no topic '/nothing'"));
 }
 
 // ---------------------------------------------------------------- the reference reader

@@ -2,6 +2,7 @@
 // head_rectification.hpp) and stereo on such retinas. The verging head is
 // capture.sim_head's: its cameras are the head model's ideal pinholes, so the
 // true projection of any point is known exactly.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -79,7 +80,7 @@ TEST(RectifiedSampling, SourceAndRectifiedPointsMapBackAndForthThroughADistorted
     EXPECT_NEAR(back.y, p.y, 1e-3) << p;
   }
   r.distortion[12] = 0.01;
-  EXPECT_NE(RectifiedMap(r).status().message().find("tilted"), std::string::npos);
+  EXPECT_THAT(RectifiedMap(r).status().message(), ::testing::HasSubstr("tilted"));
 }
 
 // Where the sim's camera (0 left, 1 right) at joints q sees world point p, in
@@ -318,9 +319,9 @@ TEST(RectifiedRetinaNode, RefusesACalibrationForAnotherImageSizeAndAThirdCamera)
   h->set("image", frame_of(0));
   Status s = h->process();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
-  EXPECT_NE(s.message().find("640"), std::string::npos) << s.message();
-  EXPECT_NE(s.message().find("320"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr(path));
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("640"));
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("320"));
   std::filesystem::remove(path);
 
   auto model = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/></node>)")
@@ -329,12 +330,12 @@ TEST(RectifiedRetinaNode, RefusesACalibrationForAnotherImageSizeAndAThirdCamera)
   model->set("image", frame_of(2));
   s = model->process();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("camera_id is 2"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("camera_id is 2"));
 
   const auto no_file = testing::NodeHarness::create(R"(<node plugin="retina"><param name="rectify" value="true"/>)"
                                                     R"(<param name="calibration" value="/no/such/head.yml"/></node>)");
   EXPECT_FALSE(no_file.ok());
-  EXPECT_NE(no_file.error().find("/no/such/head.yml"), std::string::npos) << no_file.error();
+  EXPECT_THAT(no_file.error(), ::testing::HasSubstr("/no/such/head.yml"));
 }
 
 }  // namespace
@@ -437,7 +438,7 @@ TEST(RectifiedBadInput, AJointThatIsNotANumberAndAStereoCalibrationForOtherImage
   h->set("image", frame_of(0));
   Status s = h->process();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("vergence_left"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("vergence_left"));
 
   // saccade calibrate's file for 640x480 images; the stereo on 320x240 frames.
   const std::string path = (std::filesystem::temp_directory_path() / "saccade_stereo_640.yml").string();
@@ -456,9 +457,9 @@ TEST(RectifiedBadInput, AJointThatIsNotANumberAndAStereoCalibrationForOtherImage
   stereo->set("right", right);
   s = stereo->process();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
-  EXPECT_NE(s.message().find("640x480"), std::string::npos) << s.message();
-  EXPECT_NE(s.message().find("320x240"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr(path));
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("640x480"));
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("320x240"));
   std::filesystem::remove(path);
 }
 

@@ -1,3 +1,4 @@
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -229,7 +230,7 @@ TEST(RetinaNode, RefusesFramesSmallerThanALevel) {
   h->set("image", image);
   Status s = h->process();
   ASSERT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("smaller than a level"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("smaller than a level"));
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The stereo node on synthetic pairs with a known disparity everywhere
 // (synthetic data: a random texture and its copy shifted by D pixels).
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -351,7 +352,7 @@ TEST(RetinaStereo, RefusesMismatchedRetinas) {
   std::vector<LevelDisparity> out;
   RetinaStereoConfig config = plain_matcher_config();
   config.vergence = false;
-  EXPECT_NE(RetinaStereo(config).run(*p.left, *q.right, out).message().find("regions differ"), std::string::npos);
+  EXPECT_THAT(RetinaStereo(config).run(*p.left, *q.right, out).message(), ::testing::HasSubstr("regions differ"));
 }
 
 // A stereo node made from `node_xml`, run once on the pair; null (and a
@@ -448,10 +449,10 @@ TEST(StereoNode, SemiGlobalIsAParameterAndChecksItsPenalties) {
   const auto bad = testing::NodeHarness::create(
       R"(<node plugin="stereo"><param name="sgm_p1" value="1"/><param name="sgm_p2" value="0.5"/></node>)");
   EXPECT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().find("sgm_p2"), std::string::npos) << bad.error();
+  EXPECT_THAT(bad.error(), ::testing::HasSubstr("sgm_p2"));
   const auto six = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="sgm_paths" value="6"/></node>)");
   EXPECT_FALSE(six.ok());
-  EXPECT_NE(six.error().find("sgm_paths"), std::string::npos) << six.error();
+  EXPECT_THAT(six.error(), ::testing::HasSubstr("sgm_paths"));
 }
 
 TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
@@ -486,7 +487,7 @@ TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
   const auto focal_only =
       testing::NodeHarness::create(R"(<node plugin="stereo"><param name="focal" value="500"/></node>)");
   EXPECT_FALSE(focal_only.ok());
-  EXPECT_NE(focal_only.error().find("baseline"), std::string::npos) << focal_only.error();
+  EXPECT_THAT(focal_only.error(), ::testing::HasSubstr("baseline"));
 }
 
 TEST(StereoNode, AsksTheHeadToVergeOnlyOnAConfirmedFixation) {
@@ -611,8 +612,8 @@ TEST(StereoCalibration, ReadsFocalAndBaselineFromQOrP2OrM1AndT) {
   EXPECT_NEAR(c->baseline_m, 0.09, 1e-12);
   // OpenCV's own intrinsics.yml (M1, D1, M2, D2, no extrinsics): a clear error.
   const std::string only_intrinsics = test::sample_path("intrinsics.yml");
-  EXPECT_NE(read_calibration(only_intrinsics).error().find("expected Q"), std::string::npos);
-  EXPECT_NE(read_calibration("/nonexistent.yml").error().find("/nonexistent.yml"), std::string::npos);
+  EXPECT_THAT(read_calibration(only_intrinsics).error(), ::testing::HasSubstr("expected Q"));
+  EXPECT_THAT(read_calibration("/nonexistent.yml").error(), ::testing::HasSubstr("/nonexistent.yml"));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // The tracking benchmark's data: OTB and VOT readers, the sequence generator
 // (deterministic, enough sequences, truth that matches what it renders) and
 // the OTB/VOT measures on hand-made tracks.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -98,7 +99,7 @@ TEST(OtbReader, NamesAMissingImage) {
   write_frames(dir.path() / "img", 2, 4);
   write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3,4\n1,2,3,4\n");
   const std::string error = read_otb(dir.path().string()).error();
-  EXPECT_NE(error.find("img/0003.jpg: missing"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("img/0003.jpg: missing"));
 }
 
 TEST(OtbReader, NamesTheFileAndLineOfAMalformedRow) {
@@ -106,12 +107,12 @@ TEST(OtbReader, NamesTheFileAndLineOfAMalformedRow) {
   write_frames(dir.path() / "img", 3, 4);
   write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3\n1,2,3,4\n");
   std::string error = read_otb(dir.path().string()).error();
-  EXPECT_NE(error.find("groundtruth_rect.txt:2: expected 4 numbers"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("groundtruth_rect.txt:2: expected 4 numbers"));
   write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3,4\n1,2,x3,4\n");
   error = read_otb(dir.path().string()).error();
-  EXPECT_NE(error.find("groundtruth_rect.txt:3: 'x3' is not a number"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("groundtruth_rect.txt:3: 'x3' is not a number"));
   error = read_otb((dir.path() / "nowhere").string()).error();
-  EXPECT_NE(error.find("nowhere: not a folder"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("nowhere: not a folder"));
 }
 
 TEST(VotReader, PolygonsBecomeTheirBoundingBoxesAndNanRowsInvisible) {
@@ -137,13 +138,13 @@ TEST(VotReader, ReadsFramesBesideTheTruthAndNamesBadRows) {
   write_frames(dir.path(), 2, 8);
   write_file(dir.path() / "groundtruth.txt", "1,2,3,4,5,6\n1,2,3,4\n");
   const std::string error = read_vot(dir.path().string()).error();
-  EXPECT_NE(error.find("groundtruth.txt:1: expected 4 numbers (x,y,w,h) or 8"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("groundtruth.txt:1: expected 4 numbers (x,y,w,h) or 8"));
   write_file(dir.path() / "groundtruth.txt", "1,2,3,4\n1,2,3,4\n");
   EXPECT_EQ(value_of(read_vot(dir.path().string())).size(), 2);
   write_file(dir.path() / "groundtruth.txt", "\n\n");
-  EXPECT_NE(read_vot(dir.path().string()).error().find("groundtruth.txt: no ground-truth rows"), std::string::npos);
+  EXPECT_THAT(read_vot(dir.path().string()).error(), ::testing::HasSubstr("groundtruth.txt: no ground-truth rows"));
   fs::remove(dir.path() / "groundtruth.txt");
-  EXPECT_NE(read_vot(dir.path().string()).error().find("cannot open "), std::string::npos);
+  EXPECT_THAT(read_vot(dir.path().string()).error(), ::testing::HasSubstr("cannot open "));
 }
 
 TEST(TruthRow, GivesTheBoxAndVisibilityOrNamesTheFault) {

@@ -14,6 +14,7 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -179,10 +180,10 @@ TEST(View, ParsesItsAddress) {
   EXPECT_EQ(o.address, "::1");
   s = view::parse_view_address("70000", o);
   EXPECT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("0-65535"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("0-65535"));
   s = view::parse_view_address("nohost:80", o);
   EXPECT_TRUE(s.is_error());
-  EXPECT_NE(s.message().find("'nohost' is not an IP address"), std::string::npos) << s.message();
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("'nohost' is not an IP address"));
   EXPECT_TRUE(view::parse_view_address("::1:80", o).is_error());
 }
 
@@ -262,9 +263,9 @@ TEST(View, SpeaksTheFoxgloveProtocol) {
 TEST(View, ServesItsPageAndTheGraph) {
   Running run;
   const std::string page = http_get(run.server->port(), "/");
-  EXPECT_NE(page.find("<title>saccade view</title>"), std::string::npos);
-  EXPECT_EQ(page.find("http://"), std::string::npos) << "no external URL";
-  EXPECT_EQ(page.find("https://"), std::string::npos) << "no external URL";
+  EXPECT_THAT(page, ::testing::HasSubstr("<title>saccade view</title>"));
+  EXPECT_THAT(page, ::testing::Not(::testing::HasSubstr("http://"))) << "no external URL";
+  EXPECT_THAT(page, ::testing::Not(::testing::HasSubstr("https://"))) << "no external URL";
   const json graph = json::parse(http_get(run.server->port(), "/api/graph"));
   EXPECT_EQ(graph["name"], "viewtest");
   EXPECT_EQ(graph["nodes"].size(), 4u);
@@ -329,7 +330,7 @@ TEST(View, MalformedAndOversizeMessagesAreDroppedAndCounted) {
     // Each is answered with a warning, and the connection stays.
     const json status = client.next_json();
     EXPECT_EQ(status["op"], "status");
-    EXPECT_NE(status["message"].get<std::string>().find("dropped: not a JSON object"), std::string::npos);
+    EXPECT_THAT(status["message"].get<std::string>(), ::testing::HasSubstr("dropped: not a JSON object"));
     const uint64_t before = run.processed("fovea");
     EXPECT_TRUE(eventually([&] { return run.processed("fovea") > before + 3; })) << "the graph goes on";
 
