@@ -421,6 +421,7 @@ bool set_param(stereo::RetinaStereoConfig& c, const std::string& key, const std:
       {"occlusion_slack", [](auto& s, double x, bool) { s.occlusion_slack = static_cast<int>(x); }},
       {"fovea_prediction", [](auto& s, double, bool y) { s.fovea_prediction = y; }},
       {"fovea_radius", [](auto& s, double x, bool) { s.fovea_radius = static_cast<int>(x); }},
+      {"fovea_recheck", [](auto& s, double x, bool) { s.fovea_recheck = static_cast<int>(x); }},
       {"search_radius", [](auto& s, double x, bool) { s.search_radius = static_cast<int>(x); }},
       {"lr_tolerance", [](auto& s, double x, bool) { s.lr_tolerance = static_cast<float>(x); }},
       {"fill", [](auto& s, double, bool y) { s.fill = y; }},

@@ -5,6 +5,7 @@
 #include "rectified.hpp"
 #include "retina.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -784,6 +785,58 @@ void RetinaStereo::sample_padded(const LevelPlan& plan, const Retina& left, cons
                  ls.right_padded);
 }
 
+namespace {
+
+// fovea_recheck (RetinaStereoConfig): over the matcher's own images (its
+// scratch: the images less 128, their window means and deviations), each
+// valid left pixel of `inside` at disparity d (right pixel x - d) is dropped
+// from `valid` where the right window correlates best with a left window
+// more than `tolerance` from d, within d +- radius (radius at most
+// kMaxRecheck).
+constexpr int kMaxRecheck = 64;
+void recheck_matches(const NccScratch& s, const cv::Mat& lr, const cv::Mat& lr_score, cv::Rect inside, int r,
+                     int radius, float tolerance, float min_texture, cv::Mat& valid) {
+  radius = std::min(radius, kMaxRecheck);
+  const int w = s.ref_f.cols, h = s.ref_f.rows;
+  const float area = static_cast<float>((2 * r + 1) * (2 * r + 1));
+  std::array<float, 2 * kMaxRecheck + 1> sums;
+  for (int y = std::max(inside.y, r); y < std::min(inside.br().y, h - r); ++y) {
+    const float* d_row = lr.ptr<float>(y);
+    const float* s_row = lr_score.ptr<float>(y);
+    uint8_t* v_row = valid.ptr<uint8_t>(y);
+    for (int x = inside.x; x < inside.br().x; ++x) {
+      if (!v_row[x] || !(s_row[x] > -1.0f)) continue;
+      const int xr = static_cast<int>(std::lround(x - d_row[x]));
+      if (xr < r || xr >= w - r || s.other_std.at<float>(y, xr) < min_texture) continue;
+      // Left windows at xr + dd for dd in lo .. hi, inside the image.
+      const int centre = static_cast<int>(std::lround(d_row[x]));
+      const int lo = std::max(centre - radius, r - xr), hi = std::min(centre + radius, w - 1 - r - xr);
+      const int count = hi - lo + 1;
+      if (count <= 0) continue;
+      std::fill_n(sums.begin(), count, 0.0f);
+      for (int j = -r; j <= r; ++j) {
+        const float* a = s.ref_f.ptr<float>(y + j) + xr + lo;
+        const float* b = s.other_f.ptr<float>(y + j) + xr;
+        for (int i = -r; i <= r; ++i)
+          for (int k = 0; k < count; ++k) sums[static_cast<std::size_t>(k)] += a[k + i] * b[i];
+      }
+      const float rm = s.other_mean.at<float>(y, xr), rs = s.other_std.at<float>(y, xr);
+      const float* lm = s.ref_mean.ptr<float>(y) + xr + lo;
+      const float* ls = s.ref_std.ptr<float>(y) + xr + lo;
+      float best = -2.0f;
+      int best_d = centre;
+      for (int k = 0; k < count; ++k) {
+        if (ls[k] < min_texture) continue;
+        const float ncc = (sums[static_cast<std::size_t>(k)] / area - lm[k] * rm) / (ls[k] * rs);
+        if (ncc > best) best = ncc, best_d = lo + k;
+      }
+      if (std::abs(static_cast<float>(best_d) - d_row[x]) > tolerance) v_row[x] = 0;
+    }
+  }
+}
+
+}  // namespace
+
 // Both directions in one sweep, checked against each other, back in source
 // pixels and filled as configured.
 void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan, double step, LevelDisparity& level) {
@@ -802,6 +855,9 @@ void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan,
   fill(valid_view, 255);
   if (config_.left_right_check)
     left_right_check(ls.lr, ls.lr_score, ls.rl, ls.rl_score, config_.lr_tolerance, ls.valid, inside);
+  if (plan.innermost && config_.fovea_recheck > 0)
+    recheck_matches(ls.ncc, ls.lr, ls.lr_score, inside, config_.ncc.window / 2, config_.fovea_recheck,
+                    config_.lr_tolerance + 0.5f, config_.ncc.min_texture, ls.valid);
   const int valid = to_source_disparities(ls.lr(inside), ls.lr_score(inside), ls.rl(inside), ls.rl_score(inside),
                                           valid_view, plan.offset, step, level);
   level.density = static_cast<double>(valid) / static_cast<double>(level.disparity.size().area());

@@ -39,6 +39,16 @@ struct RetinaStereoConfig {
   // found at each pixel (coarse to fine, as the other levels do), so surfaces
   // farther than fovea_radius from the fixation's can be matched.
   bool fovea_prediction = true;
+  // Each matched fovea pixel checked again the other way with the raw
+  // correlation: its right window matched back over its disparity ± this many
+  // pixels, and the pixel dropped where the window prefers another left pixel
+  // (by more than lr_tolerance + 0.5). The fovea's pixels search only around
+  // their predictions and the fixation, and a right pixel picks among the
+  // pairs its left pixels searched, so the band a nearer surface hides from
+  // the right camera can take the nearer surface's disparity and stay
+  // consistent with itself; dropped, fill_occlusions gives it the farther
+  // one. Fewer wrong disparities at a lower density (docs/accuracy.md). 0: off.
+  int fovea_recheck = 0;
   // Level pixels sampled around each level from the frames (when the retinas
   // carry them), so that windows and matches at a level's edge see real
   // pixels; 0 matches on the level images alone.

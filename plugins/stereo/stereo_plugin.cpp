@@ -74,6 +74,11 @@ class StereoNode final : public Node {
                "with vergence: the fovea also searches around what the level outside it found at each pixel "
                "(surfaces farther than fovea_radius from the fixation)",
                &C::stereo, &S::fovea_prediction)
+        .field("fovea_recheck", {0, 64},
+               "fovea: each matched pixel's right window matched back over its disparity +- this (raw "
+               "correlation), the pixel dropped where it prefers another (fewer wrong disparities, lower "
+               "density; 0: off)",
+               &C::stereo, &S::fovea_recheck)
         .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)",
                &C::stereo, &S::pad)
         .field("fill", "give unmatched pixels the nearest matched disparity on their row (confidence 0)", &C::stereo,

@@ -300,6 +300,33 @@ TEST(RetinaStereo, FillOcclusionsGivesTheHiddenStripTheFarSurface) {
   EXPECT_GE(zero_confidence, hidden.area() * 7 / 10) << "filled pixels have confidence 0";
 }
 
+TEST(RetinaStereo, FoveaRecheckDropsTheHiddenStripsNearerDisparitiesForTheOcclusionFill) {
+  // The defaults (semi-global, the fovea searching around its predictions):
+  // some of the strip a nearer block hides from the right camera takes the
+  // block's disparity and passes the check. Checked again the other way over
+  // +-16 with the raw correlation, those are dropped and filled with the far
+  // surface's.
+  const Pair p = make_block_pair(20, 30, cv::Rect(330, 150, 200, 180), {320, 240});
+  RetinaStereoConfig plain, rechecked;
+  plain.max_disparity = rechecked.max_disparity = 96;
+  rechecked.fovea_recheck = 16;
+  std::vector<LevelDisparity> a, b;
+  ASSERT_NO_FATAL_FAILURE(run_both(p, plain, rechecked, a, b));
+  const cv::Rect hidden(16, 0, 10, 24), far(0, 0, 14, 24), block(28, 0, 4, 24);
+  auto [plain_share, plain_density] = accuracy(a.back().disparity(hidden), 20, 1.0);
+  auto [share, density] = accuracy(b.back().disparity(hidden), 20, 1.0);
+  auto [far_share, far_density] = accuracy(b.back().disparity(far), 20, 1.0);
+  auto [block_share, block_density] = accuracy(b.back().disparity(block), 30, 1.0);
+  std::printf("hidden strip: %.3f right of %.3f given, rechecked %.3f of %.3f; far %.3f of %.3f, block %.3f of %.3f\n",
+              plain_share, plain_density, share, density, far_share, far_density, block_share, block_density);
+  EXPECT_GE(share, plain_share + 0.05);
+  EXPECT_GE(share, 0.75);
+  EXPECT_GE(density, plain_density);
+  EXPECT_GE(far_share, 0.95);
+  EXPECT_GE(far_density, 0.9);
+  EXPECT_GE(block_share, 0.95);
+}
+
 TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   Pair p = make_pair(9, {300, 200});
   RetinaStereoConfig fine = plain_matcher_config(), full = plain_matcher_config();
