@@ -1,5 +1,7 @@
 #include "recording.hpp"
 
+#include <cctype>
+
 #include <cstdio>
 #include <set>
 
@@ -216,6 +218,62 @@ std::string GraphRecorder::report() const {
 
 // ---------------------------------------------------------------- reading
 
+namespace {
+
+// The members of `struct <name> { ... };` in an IDL text, one per entry
+// ("double depth"), comments dropped and white space collapsed; empty where
+// the text has no such struct.
+std::vector<std::string> struct_members(std::string_view idl, std::string_view name) {
+  std::string text;
+  for (std::size_t i = 0; i < idl.size(); ++i) {  // without // comments
+    if (idl.compare(i, 2, "//") == 0) {
+      while (i < idl.size() && idl[i] != '\n') ++i;
+      text += ' ';
+      continue;
+    }
+    text += std::isspace(static_cast<unsigned char>(idl[i])) ? ' ' : idl[i];
+  }
+  const std::string head = "struct " + std::string(name) + " {";
+  std::string collapsed;
+  for (char c : text)
+    if (c != ' ' || (!collapsed.empty() && collapsed.back() != ' ')) collapsed += c;
+  const std::size_t at = collapsed.find(head);
+  if (at == std::string::npos) return {};
+  const std::size_t end = collapsed.find('}', at);
+  std::vector<std::string> members;
+  std::string member;
+  for (std::size_t i = at + head.size(); i < end; ++i) {
+    if (collapsed[i] != ';') {
+      member += collapsed[i];
+      continue;
+    }
+    while (!member.empty() && member.front() == ' ') member.erase(0, 1);
+    while (!member.empty() && member.back() == ' ') member.pop_back();
+    members.push_back(member);
+    member.clear();
+  }
+  return members;
+}
+
+// A saccade IDL type recorded by another version of saccade whose fields
+// differ from this build's cannot be decoded: an error that says where they part.
+Status same_fields(const Channel& channel, const Schema& recorded, const dds::ChannelEncoding& ours) {
+  const std::string_view full = ours.schema_name;
+  const std::string_view name = full.substr(full.rfind(':') + 1);
+  const std::vector<std::string> theirs =
+      struct_members(std::string_view(reinterpret_cast<const char*>(recorded.data.data()), recorded.data.size()), name);
+  const std::vector<std::string> mine = struct_members(ours.schema, name);
+  if (theirs == mine) return {};
+  std::size_t i = 0;
+  while (i < theirs.size() && i < mine.size() && theirs[i] == mine[i]) ++i;
+  const auto member = [&](const std::vector<std::string>& m) { return i < m.size() ? "'" + m[i] + "'" : "nothing"; };
+  return Status::error("topic " + channel.topic + ": recorded with another version of " + ours.schema_name +
+                       ", whose fields differ from this build's (member " + std::to_string(i + 1) + ": the file has " +
+                       member(theirs) + ", this build " + member(mine) + "); it cannot be decoded");
+}
+
+}  // namespace
+
 Result<const dds::ChannelEncoding*> encoding_of(const Channel& channel, const Schema* schema) {
   if (schema == nullptr)
     return Status::error("topic " + channel.topic + ": its channel names schema " + std::to_string(channel.schema_id) +
@@ -224,14 +282,19 @@ Result<const dds::ChannelEncoding*> encoding_of(const Channel& channel, const Sc
     return Status::error("topic " + channel.topic + ": message encoding '" + channel.message_encoding +
                          "' (saccade reads cdr)");
   const bool ros2 = schema->encoding == "ros2msg";
+  const auto checked = [&](const dds::ChannelEncoding* e) -> Result<const dds::ChannelEncoding*> {
+    if (e->schema_encoding != "omgidl") return e;
+    if (Status same = same_fields(channel, *schema, *e); !same.ok()) return same;
+    return e;
+  };
   if (auto it = channel.metadata.find("saccade_type"); it != channel.metadata.end()) {
     const dds::ChannelEncoding* e = dds::channel_encoding(it->second, ros2);
-    if (e != nullptr && e->schema_name == schema->name) return e;
+    if (e != nullptr && e->schema_name == schema->name) return checked(e);
   }
   for (std::string_view type : dds::channel_types()) {
     for (bool r : {true, false}) {
       const dds::ChannelEncoding* e = dds::channel_encoding(type, r);
-      if (e != nullptr && e->schema_name == schema->name && e->schema_encoding == schema->encoding) return e;
+      if (e != nullptr && e->schema_name == schema->name && e->schema_encoding == schema->encoding) return checked(e);
     }
   }
   std::string known;

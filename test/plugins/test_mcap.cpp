@@ -489,6 +489,40 @@ TEST(McapErrors, AnUnknownSchemaAndAMissingChannelNameWhatIsThere) {
   EXPECT_THAT(error, ::testing::HasSubstr("several"));
 }
 
+// A message type's fields changed since the file was recorded (StereoFixation
+// gained `confirmed`): decoding the old bytes with the new layout would shift
+// every field after it, so the reader refuses the topic and says where the
+// two versions part. The same file with this build's IDL opens.
+TEST(McapErrors, ATypeRecordedWithOtherFieldsIsRefusedNamingWhereTheyDiffer) {
+  const dds::ChannelEncoding* ours = dds::channel_encoding("StereoFixation", false);
+  ASSERT_NE(ours, nullptr);
+  std::string older = ours->schema;
+  const std::string field = "boolean confirmed;";
+  const std::size_t at = older.find(field, older.find("struct StereoFixation"));
+  ASSERT_NE(at, std::string::npos) << "the test's premise: StereoFixation has a 'confirmed' member";
+  older.erase(at, field.size());
+  for (const auto& [name, idl] : {std::pair{"older", older}, std::pair{"same", ours->schema}}) {
+    const std::string path = out_path(std::string("fixation_") + name + ".mcap");
+    {
+      mcap::Writer w;
+      ASSERT_EQ(w.open(path).message(), "");
+      const uint16_t s = w.add_schema(ours->schema_name, "omgidl", idl.data(), idl.size());
+      const uint16_t c = w.add_channel(s, "/stereo/fixation", "cdr", {{"saccade_type", "StereoFixation"}});
+      const uint8_t bytes[8] = {};
+      ASSERT_EQ(w.write(c, 0, 1, 1, bytes, sizeof bytes).message(), "");
+      ASSERT_EQ(w.close().message(), "");
+    }
+    mcap::TopicReader reader;
+    const std::string error = reader.open(path, "/stereo/fixation", false).message();
+    if (std::string(name) == "same") {
+      EXPECT_EQ(error, "");
+      continue;
+    }
+    EXPECT_THAT(error, ::testing::HasSubstr("another version of saccade_idl::StereoFixation"));
+    EXPECT_THAT(error, ::testing::HasSubstr("the file has 'double depth', this build 'boolean confirmed'"));
+  }
+}
+
 // ---------------------------------------------------------------- nodes and graphs
 
 TEST(McapNodes, RecordNodesShareAFileAndReplayPlaysItBackInOrder) {
