@@ -477,17 +477,23 @@ double RetinaStereo::reverse_shift(const Retina& left, std::size_t k, cv::Rect w
   const double x0 = g.region.x + (window.x - std::lround(shift)) * g.step_x, y0 = g.region.y + window.y * g.step_y;
   sample_frame(right_frame, true, x0, y0, g.step_x, g.step_y, window.size(), crop, reverse_window_);
   // The left frame from the right window's place (disparity 0) to the whole range.
-  const cv::Size size(window.width + full, window.height);
-  if (ls.strip.cols < size.width || ls.strip.rows < size.height || ls.strip.type() != left_frame.type())
-    ls.strip.create(std::max(size.height, ls.strip.rows), std::max(size.width, ls.strip.cols), left_frame.type());
-  cv::Mat strip = ls.strip(cv::Rect(cv::Point(), size));
-  sample_frame(left_frame, false, x0, y0, g.step_x, g.step_y, size, crop, strip);
+  cv::Mat strip = strip_of(ls, cv::Size(window.width + full, window.height), left_frame.type());
+  sample_frame(left_frame, false, x0, y0, g.step_x, g.step_y, strip.size(), crop, strip);
   double wm, ws;
   mean_and_deviation(reverse_window_, wm, ws);
   if (ws < config_.ncc.min_texture) return -1;
   // Shift -d pairs window column x with strip column x + d.
   const int best = correlate_window(reverse_window_, strip, wm, ws, -full, 0);
   return best < 0 ? -1 : full - best;
+}
+
+// A `size` view of the level's strip buffer, which only grows: the fovea's
+// spans differ in width from one search to the next, and the reverse search
+// spans the whole range.
+cv::Mat RetinaStereo::strip_of(LevelScratch& ls, cv::Size size, int type) {
+  if (ls.strip.cols < size.width || ls.strip.rows < size.height || ls.strip.type() != type)
+    ls.strip.create(std::max(size.height, ls.strip.rows), std::max(size.width, ls.strip.cols), type);
+  return ls.strip(cv::Rect(cv::Point(), size));
 }
 
 RetinaStereo::WindowMatch RetinaStereo::match_window(const Retina& left, std::size_t k, cv::Rect window,
@@ -497,14 +503,10 @@ RetinaStereo::WindowMatch RetinaStereo::match_window(const Retina& left, std::si
   const std::size_t n = left.levels.size();
   // One strip of the right frame covering every shift: strip column j is the
   // right frame at left window column j - span.hi.
-  // (A view of a buffer that only grows: the fovea's spans differ in width
-  // from one search to the next.)
   const double x0 = g.region.x + (window.x - span.hi) * g.step_x;
-  const cv::Size size(window.width + span.hi - span.lo, window.height);
-  if (ls.strip.cols < size.width || ls.strip.rows < size.height || ls.strip.type() != right_frame.type())
-    ls.strip.create(std::max(size.height, ls.strip.rows), std::max(size.width, ls.strip.cols), right_frame.type());
-  cv::Mat strip = ls.strip(cv::Rect(cv::Point(), size));
-  sample_frame(right_frame, true, x0, g.region.y + window.y * g.step_y, g.step_x, g.step_y, size, k + 1 == n, strip);
+  cv::Mat strip = strip_of(ls, cv::Size(window.width + span.hi - span.lo, window.height), right_frame.type());
+  sample_frame(right_frame, true, x0, g.region.y + window.y * g.step_y, g.step_x, g.step_y, strip.size(), k + 1 == n,
+               strip);
   const cv::Mat pixels = left.levels[k](window);
   double wm, ws;
   mean_and_deviation(pixels, wm, ws);

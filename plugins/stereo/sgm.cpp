@@ -83,7 +83,7 @@ void path_costs(const Box& box, const SweepVolume& volume, const cv::Mat& lo, co
       std::fill(c, c + count, kOutside);
       for (int i = first; i <= last; ++i) {
         const float ncc =
-            x >= volume.span_lo[i] && x <= volume.span_hi[i]
+            volume.has(volume.d_min + i, x)
                 ? volume
                       .data[static_cast<std::size_t>(i) * volume.plane + static_cast<std::size_t>(y) * volume.width + x]
                 : -2.0f;
