@@ -639,7 +639,6 @@ struct BoxTracker::Impl {
   int untracked_frames = 0;  // since the target was last tracked
   // The colour is checked once it is known, and until the target has been
   // away so long that it may come back in another light.
-  // The target's colour is known well enough, and recently enough, to be checked.
   bool color_checked(const BoxTrackerConfig& c) const {
     return chroma_frames >= c.warmup_frames && untracked_frames < c.color_patience;
   }
@@ -878,19 +877,17 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   const bool has_candidate = m.candidate_frames > 0;
   Peak best, strongest;
   Placement where;
+  // The last frame's candidate (the first look), found again, goes on: a
+  // stronger peak elsewhere would start the count anew.
+  bool candidate_held = false;
   for (std::size_t i = 0; i < looks.size(); ++i) {
     const Placement& p = looks[i];
     const Peak peak = m.look_at(frame, p);
     if (peak.psr > strongest.psr) strongest = peak;
-    const bool sure = peak.psr >= bar(p.to_frame(peak.offset));
-    // The last frame's candidate, found again, goes on: a stronger peak
-    // elsewhere would start the count anew.
-    if (i == 0 && has_candidate && (sure || near_and_of_its_colour(p, peak))) {
-      best = peak, where = p;
-      for (++i; i < looks.size(); ++i) strongest.psr = std::max(strongest.psr, m.look_at(frame, looks[i]).psr);
-      break;
-    }
-    if ((sure || near_and_of_its_colour(p, peak)) && peak.psr > best.psr) best = peak, where = p;
+    if (candidate_held) continue;
+    if (!(peak.psr >= bar(p.to_frame(peak.offset)) || near_and_of_its_colour(p, peak))) continue;
+    candidate_held = i == 0 && has_candidate;
+    if (candidate_held || peak.psr > best.psr) best = peak, where = p;
   }
   last_.confidence = strongest.psr;
   if (best.psr <= 0) {
