@@ -1,7 +1,6 @@
 #include "recording.hpp"
 
 #include <cctype>
-
 #include <cstdio>
 #include <set>
 
@@ -224,31 +223,29 @@ namespace {
 // ("double depth"), comments dropped and white space collapsed; empty where
 // the text has no such struct.
 std::vector<std::string> struct_members(std::string_view idl, std::string_view name) {
+  // The text with each run of white space and // comments as one space.
   std::string text;
-  for (std::size_t i = 0; i < idl.size(); ++i) {  // without // comments
-    if (idl.compare(i, 2, "//") == 0) {
-      while (i < idl.size() && idl[i] != '\n') ++i;
-      text += ' ';
+  for (std::size_t i = 0; i < idl.size(); ++i) {
+    const bool comment = idl.compare(i, 2, "//") == 0;
+    if (comment) i = std::min(idl.find('\n', i), idl.size());
+    if (comment || std::isspace(static_cast<unsigned char>(idl[i]))) {
+      if (!text.empty() && text.back() != ' ') text += ' ';
       continue;
     }
-    text += std::isspace(static_cast<unsigned char>(idl[i])) ? ' ' : idl[i];
+    text += idl[i];
   }
   const std::string head = "struct " + std::string(name) + " {";
-  std::string collapsed;
-  for (char c : text)
-    if (c != ' ' || (!collapsed.empty() && collapsed.back() != ' ')) collapsed += c;
-  const std::size_t at = collapsed.find(head);
+  const std::size_t at = text.find(head);
   if (at == std::string::npos) return {};
-  const std::size_t end = collapsed.find('}', at);
+  const std::size_t end = text.find('}', at);
   std::vector<std::string> members;
   std::string member;
   for (std::size_t i = at + head.size(); i < end; ++i) {
-    if (collapsed[i] != ';') {
-      member += collapsed[i];
+    if (text[i] != ';') {
+      if (text[i] != ' ' || !member.empty()) member += text[i];
       continue;
     }
-    while (!member.empty() && member.front() == ' ') member.erase(0, 1);
-    while (!member.empty() && member.back() == ' ') member.pop_back();
+    if (!member.empty() && member.back() == ' ') member.pop_back();
     members.push_back(member);
     member.clear();
   }
