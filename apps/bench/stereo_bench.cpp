@@ -30,6 +30,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <string>
@@ -58,8 +59,29 @@ struct Pair {
   std::string name, what;
   cv::Mat left, right;  // 8-bit gray
   cv::Mat truth;        // CV_32F
+  cv::Mat hidden;       // CV_8U, 255 where the right camera cannot see the left pixel (from the truth)
   int num_disparities = 16;
 };
+
+// The left pixels the right camera cannot see: a surface right of them on
+// the row lands left of them in the right image (x' - d' < x - d for some
+// x' > x, by more than a pixel), so it is nearer and in front of them. Their
+// truth is the hidden surface's; no matcher can find it, and the stereo
+// benchmarks' own (Middlebury's "nonocc") score them apart.
+cv::Mat hidden_from_right(const cv::Mat& truth) {
+  cv::Mat hidden(truth.size(), CV_8U, cv::Scalar(0));
+  for (int y = 0; y < truth.rows; ++y) {
+    const float* t = truth.ptr<float>(y);
+    uint8_t* out = hidden.ptr<uint8_t>(y);
+    float leftmost = std::numeric_limits<float>::infinity();  // right-image place of the row so far, from the right
+    for (int x = truth.cols - 1; x >= 0; --x) {
+      if (t[x] < 0) continue;
+      if (x - t[x] >= leftmost + 1.0f) out[x] = 255;
+      leftmost = std::min(leftmost, x - t[x]);
+    }
+  }
+  return hidden;
+}
 
 // ---------------------------------------------------------------- rendering
 
@@ -248,6 +270,12 @@ struct Score {
 struct MatcherResult {
   std::string matcher;
   Score fovea, whole;
+  Score fovea_seen, fovea_hidden;  // the fovea's pixels the right camera sees, and the others
+  void add_fovea(const Pair& p, int x, int y, double d) {
+    const float truth = p.truth.at<float>(y, x);
+    fovea.add(truth, d, 1.0);
+    (p.hidden.at<uint8_t>(y, x) ? fovea_hidden : fovea_seen).add(truth, d, 1.0);
+  }
   double ms = 0;             // per full pair, median
   int fixations_right = -1;  // ours: fixation disparity within 2 px of the truth
   int fixations = 0;
@@ -287,7 +315,7 @@ MatcherResult opencv_matcher(const std::string& name, const cv::Ptr<cv::StereoMa
     for (int x = 0; x < d.cols; ++x) r.whole.add(p.truth.at<float>(y, x), d.at<float>(y, x), 1.0);
   for (const cv::Rect& f : foveas)
     for (int y = f.y; y < f.br().y; ++y)
-      for (int x = f.x; x < f.br().x; ++x) r.fovea.add(p.truth.at<float>(y, x), d.at<float>(y, x), 1.0);
+      for (int x = f.x; x < f.br().x; ++x) r.add_fovea(p, x, y, d.at<float>(y, x));
   r.fixations = static_cast<int>(foveas.size());
   r.note = "numDisparities " + std::to_string(p.num_disparities) + " (from the truth)";
   return r;
@@ -352,8 +380,7 @@ MatcherResult ours(const std::string& name, const stereo::RetinaStereoConfig& co
     const Score fovea_before = r.fovea;
     for (int y = 0; y < fovea.region.height; ++y)
       for (int x = 0; x < fovea.region.width; ++x)
-        r.fovea.add(p.truth.at<float>(fovea.region.y + y, fovea.region.x + x), out[n - 1].disparity.at<float>(y, x),
-                    1.0);
+        r.add_fovea(p, fovea.region.x + x, fovea.region.y + y, out[n - 1].disparity.at<float>(y, x));
     // Whole image: each pixel from the finest level whose region holds it.
     for (int y = 0; y < p.left.rows; ++y)
       for (int x = 0; x < p.left.cols; ++x) {
@@ -426,6 +453,10 @@ bool set_param(stereo::RetinaStereoConfig& c, const std::string& key, const std:
       {"lr_tolerance", [](auto& s, double x, bool) { s.lr_tolerance = static_cast<float>(x); }},
       {"fill", [](auto& s, double, bool y) { s.fill = y; }},
       {"pad", [](auto& s, double x, bool) { s.pad = static_cast<int>(x); }},
+      {"occlusion_check", [](auto& s, double, bool y) { s.occlusion_check = y; }},
+      {"coarse_to_fine", [](auto& s, double, bool y) { s.coarse_to_fine = y; }},
+      {"vergence", [](auto& s, double, bool y) { s.vergence = y; }},
+      {"lr_check", [](auto& s, double, bool y) { s.left_right_check = y; }},
   };
   const auto it = setters.find(key);
   if (it == setters.end()) return false;
@@ -483,6 +514,7 @@ std::vector<Pair> select_pairs(const std::string& data, const std::vector<std::s
   if (wanted("aloe_third")) pairs.push_back(aloe(data, 3));
   for (Pair& p : rendered_pairs(data))
     if (wanted(p.name)) pairs.push_back(std::move(p));
+  for (Pair& p : pairs) p.hidden = hidden_from_right(p.truth);
   return pairs;
 }
 
@@ -525,6 +557,16 @@ void write_results_table(std::ostringstream& md, const Pair& p, const std::vecto
        << (r.fixations_right >= 0 ? std::to_string(r.fixations_right) + "/" + std::to_string(r.fixations) : "") << " | "
        << r.note << " |\n";
   }
+  const MatcherResult& any = results.front();
+  md << "\nThe foveas' pixels the right camera sees (" << fmt("%.0f", any.fovea_seen.known)
+     << ") and those a nearer surface hides from it (" << fmt("%.0f", any.fovea_hidden.known) << ", "
+     << fmt("%.0f", 100.0 * any.fovea_hidden.known / std::max(1.0, any.fovea.known))
+     << "%: their truth is the hidden surface's)\n\n"
+     << "| matcher | seen: density | seen: bad-2 | hidden: density | hidden: bad-2 |\n|---|---|---|---|---|\n";
+  for (const MatcherResult& r : results)
+    md << "| " << r.matcher << " | " << fmt("%.3f", r.fovea_seen.density()) << " | "
+       << fmt("%.3f", r.fovea_seen.bad2_rate()) << " | " << fmt("%.3f", r.fovea_hidden.density()) << " | "
+       << fmt("%.3f", r.fovea_hidden.bad2_rate()) << " |\n";
 }
 
 struct Floor {

@@ -69,6 +69,12 @@ struct RetinaStereoConfig {
   // pixels of the near one. After `fill_gaps`, before `fill`.
   bool fill_occlusions = true;
   int occlusion_slack = 2;
+  // Each matched fovea pixel whose right window correlates better with a
+  // nearer surface right of it on the row (the fovea's and, beyond it, the
+  // outer levels') than with its own match is dropped: the right camera
+  // cannot see it (docs/accuracy.md). Fewer wrong disparities at a lower
+  // density, +0.1-0.4 ms per pair. Off by default. Before the fills.
+  bool occlusion_check = false;
   // Keep, per level, the images actually compared (for comparisons with other
   // matchers on exactly the same pixels).
   bool keep_images = false;
@@ -246,6 +252,11 @@ class RetinaStereo {
   void sample_padded(const LevelPlan& plan, const Retina& left, const Retina& right, const cv::Mat& left_frame,
                      const cv::Mat& right_frame, cv::Size padded, cv::Rect inside, LevelScratch& ls) const;
   void match_level(const LevelImages& images, const LevelPlan& plan, double step, LevelDisparity& level);
+  void fill_level(const LevelPlan& plan, double step, LevelDisparity& level);
+  void drop_hidden(const Retina& left, const cv::Mat& left_frame, const cv::Mat& right_frame,
+                   std::vector<LevelDisparity>& out, std::size_t k);
+  std::vector<float> hidden_nearest_;
+  cv::Mat hidden_left_, hidden_right_;
   RetinaStereoConfig config_;
   Fixation fixation_;
   std::vector<LevelScratch> level_scratch_;

@@ -79,6 +79,10 @@ class StereoNode final : public Node {
                "correlation), the pixel dropped where it prefers another (fewer wrong disparities, lower "
                "density; 0: off)",
                &C::stereo, &S::fovea_recheck)
+        .field("occlusion_check",
+               "fovea: each matched pixel dropped where its right window correlates better with a nearer surface "
+               "right of it on the row (the right camera cannot see it; fewer wrong disparities, lower density)",
+               &C::stereo, &S::occlusion_check)
         .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)",
                &C::stereo, &S::pad)
         .field("fill", "give unmatched pixels the nearest matched disparity on their row (confidence 0)", &C::stereo,

@@ -89,7 +89,10 @@ TEST(SteadyState, HarnessedRetinaAndFiltersReuseEverything) {
 TEST(SteadyState, HarnessedMotionAndStereoReuseEverything) {
   auto retina = testing::NodeHarness::create(R"(<node plugin="retina"/>)").value_or(nullptr);
   auto motion = testing::NodeHarness::create(R"(<node plugin="motion"/>)").value_or(nullptr);
-  auto stereo = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="max_disparity" value="64"/></node>)")
+  // (With the opt-in checks of the fovea's matches too: they reuse their buffers.)
+  auto stereo = testing::NodeHarness::create(R"(<node plugin="stereo"><param name="max_disparity" value="64"/>
+                                                  <param name="occlusion_check" value="true"/>
+                                                  <param name="fovea_recheck" value="8"/></node>)")
                     .value_or(nullptr);
   ASSERT_TRUE(retina && motion && stereo);
   auto left = std::make_shared<Image>(), right = std::make_shared<Image>();

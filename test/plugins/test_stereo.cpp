@@ -327,6 +327,39 @@ TEST(RetinaStereo, FoveaRecheckDropsTheHiddenStripsNearerDisparitiesForTheOcclus
   EXPECT_GE(block_share, 0.95);
 }
 
+TEST(RetinaStereo, OcclusionCheckDropsTheFoveaPixelsANearerSurfaceBeyondItHides) {
+  // A block 40 px nearer than the background starts 14 px right of the
+  // fovea: the right camera sees none of the background in the fovea's right
+  // 26 columns (source x 320..359 are hidden), and the nearer surface lies
+  // beyond the fovea, where only the outer levels see it. The fovea's pixels
+  // there match something (there is nothing true to match) and pass the
+  // left-right check; checked against the nearer surfaces right of them on
+  // the row, their right windows correlate better with the block, and they
+  // are dropped.
+  const Pair p = make_block_pair(20, 60, cv::Rect(360, 120, 240, 240), {330, 240});
+  RetinaStereoConfig plain, checked;
+  plain.max_disparity = checked.max_disparity = 96;
+  checked.occlusion_check = true;
+  std::vector<LevelDisparity> a, b;
+  ASSERT_NO_FATAL_FAILURE(run_both(p, plain, checked, a, b));
+  ASSERT_EQ(b.back().disparity.cols, 32);
+  // Fovea column x is source x 314 + x.
+  const cv::Rect hidden(8, 0, 24, 24), seen(0, 0, 4, 24);
+  auto [plain_share, plain_density] = accuracy(a.back().disparity(hidden), 20, 2.0);
+  auto [share, density] = accuracy(b.back().disparity(hidden), 20, 2.0);
+  auto [seen_share, seen_density] = accuracy(b.back().disparity(seen), 20, 2.0);
+  auto [plain_seen_share, plain_seen_density] = accuracy(a.back().disparity(seen), 20, 2.0);
+  const double plain_wrong = plain_density * (1 - plain_share), wrong = density * (1 - share);
+  std::printf(
+      "hidden: %.3f given, %.3f of them wrong; checked %.3f given, %.3f wrong; seen %.3f of %.3f (was %.3f of %.3f)\n",
+      plain_density, 1 - plain_share, density, 1 - share, seen_share, seen_density, plain_seen_share,
+      plain_seen_density);
+  EXPECT_GE(plain_wrong, 0.3) << "the scene must fool the plain defaults for the test to mean anything";
+  EXPECT_LE(wrong, plain_wrong / 3);
+  EXPECT_GE(seen_density, plain_seen_density - 0.05);
+  EXPECT_GE(seen_share, 0.95);
+}
+
 TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   Pair p = make_pair(9, {300, 200});
   RetinaStereoConfig fine = plain_matcher_config(), full = plain_matcher_config();
