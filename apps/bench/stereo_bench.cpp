@@ -377,7 +377,7 @@ MatcherResult ours(const std::string& name, const stereo::RetinaStereoConfig& co
     const std::size_t n = out.size();
     const LevelGeometry& fovea = left->geometry.back();
     if (foveas_out != nullptr) foveas_out->push_back(fovea.region);
-    const Score fovea_before = r.fovea;
+    const Score fovea_before = r.fovea, seen_before = r.fovea_seen, hidden_before = r.fovea_hidden;
     for (int y = 0; y < fovea.region.height; ++y)
       for (int x = 0; x < fovea.region.width; ++x)
         r.add_fovea(p, fovea.region.x + x, fovea.region.y + y, out[n - 1].disparity.at<float>(y, x));
@@ -409,7 +409,12 @@ MatcherResult ours(const std::string& name, const stereo::RetinaStereoConfig& co
       for (double d : matcher.fixation().per_level) std::fprintf(stderr, " %.1f", d);
       Score mine = r.fovea;
       mine.subtract(fovea_before);
-      std::fprintf(stderr, "; this fovea %.3f / %.3f", mine.density(), mine.bad2_rate());
+      Score seen = r.fovea_seen, hidden = r.fovea_hidden;
+      seen.subtract(seen_before);
+      hidden.subtract(hidden_before);
+      std::fprintf(stderr, "; this fovea %.3f / %.3f (seen %.0f: %.3f / %.3f, hidden %.0f: %.3f / %.3f)",
+                   mine.density(), mine.bad2_rate(), seen.known, seen.density(), seen.bad2_rate(), hidden.known,
+                   hidden.density(), hidden.bad2_rate());
       std::fprintf(stderr, "\n");
       if (error_maps) print_error_map(p.truth(fovea.region), out[n - 1].disparity);
     }

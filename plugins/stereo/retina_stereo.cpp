@@ -906,10 +906,11 @@ cv::Mat grown_view(cv::Mat& buffer, cv::Size size) {
 // and within the restricted ranges the fovea searches, one that the
 // left-right check passes (make bench-stereo: 13-31% of its pixels, a
 // nearer surface to their right hiding them, 42-85% of them given a
-// disparity, 76-97% of those wrong). Its right window then shows the nearer
-// surface: matched against the left frame at the disparities of the nearer
-// surfaces to its right on the row (this level's and, beyond it, the outer
-// levels'), it correlates better there than at its own match.
+// disparity, 76-97% of those wrong). Its right window shows another
+// surface: the nearer one that hides it (right of it on the row, this
+// level's or, beyond it, the outer levels'), or, where it took the nearer
+// surface's disparity, the farther one seen left of it; matched against
+// the left frame there, the window correlates better than at its own match.
 void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, const cv::Mat& right_frame,
                                std::vector<LevelDisparity>& out, std::size_t k) {
   LevelDisparity& level = out[k];
@@ -920,8 +921,17 @@ void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, co
   // Per column, the largest disparity seen right of it on the row (level
   // pixels, plus a pixel of the level that saw it: its uncertainty): this
   // level's matches and, beyond it, the outer levels'.
-  std::vector<float>& nearest_right = hidden_nearest_;
+  // Per column, the smallest disparity matched left of it on the row. Left
+  // of the level, the finest outer level's disparities (matched or filled)
+  // and how far off they may be. (Scratch kept between frames.)
+  HiddenScratch& hs = hidden_;
+  std::vector<float>& nearest_right = hs.nearest_right;
+  std::vector<float>& farthest_left = hs.farthest_left;
+  std::vector<float>& row_d = hs.row;
+  std::vector<float>& outer_left = hs.outer_left;
+  std::vector<float>& outer_left_tol = hs.outer_left_tolerance;
   nearest_right.resize(static_cast<std::size_t>(cols));
+  farthest_left.resize(static_cast<std::size_t>(cols));
   int valid = 0;
   for (int y = 0; y < rows; ++y) {
     const double sy = g.to_source(0, y).y;
@@ -944,6 +954,14 @@ void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, co
           beyond = std::max(beyond, static_cast<float>((od[x] + o.step_x) / g.step_x));
       covered = std::max(covered, o.region.x + out[j].disparity.cols * o.step_x);
     }
+    row_d.assign(d, d + cols);
+    for (int x = 0; x < cols; ++x)
+      if (!(c[x] > 0)) row_d[x] = -1;
+    float leftmost = std::numeric_limits<float>::infinity();
+    for (int x = 0; x < cols; ++x) {
+      farthest_left[static_cast<std::size_t>(x)] = leftmost;
+      if (row_d[x] >= 0) leftmost = std::min(leftmost, static_cast<float>(row_d[x] / g.step_x));
+    }
     float running = beyond;
     for (int x = cols - 1; x >= 0; --x) {
       nearest_right[static_cast<std::size_t>(x)] = running;
@@ -951,48 +969,89 @@ void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, co
     }
     const int reach = static_cast<int>(std::ceil(std::max(running, 0.0f))) + 1;
     const int own_reach = static_cast<int>(std::ceil(own_max / g.step_x)) + 1;
+    outer_left.assign(static_cast<std::size_t>(own_reach), -1.0f);
+    outer_left_tol.assign(static_cast<std::size_t>(own_reach), 0.0f);
+    for (int i = 0; i < own_reach; ++i) {
+      const double sx = g.to_source(i - own_reach, 0).x;
+      for (std::size_t j = k; j-- > 0;) {
+        const LevelGeometry& o = left.geometry[j];
+        const int ox = static_cast<int>(std::floor((sx - o.region.x) / o.step_x));
+        const int oy = static_cast<int>(std::floor((sy - o.region.y) / o.step_y));
+        if (ox < 0 || oy < 0 || ox >= out[j].disparity.cols || oy >= out[j].disparity.rows) continue;
+        const float od = out[j].disparity.at<float>(oy, ox);
+        if (od < 0) continue;
+        outer_left[static_cast<std::size_t>(i)] = static_cast<float>(od / g.step_x);
+        outer_left_tol[static_cast<std::size_t>(i)] = static_cast<float>(o.step_x / g.step_x + 1);
+        break;
+      }
+    }
     const double y0 = g.region.y + (y - r) * g.step_y;
     // Views of buffers that only grow (the rows' reaches differ).
-    const cv::Mat band_left = grown_view(hidden_left_, cv::Size(cols + reach + w, w));
-    const cv::Mat band_right = grown_view(hidden_right_, cv::Size(cols + own_reach + w, w));
-    // Left column i is level column i - r; right column i is level column i - r - own_reach.
+    const cv::Mat band_left = grown_view(hs.left, cv::Size(own_reach + cols + reach + w, w));
+    const cv::Mat band_right = grown_view(hs.right, cv::Size(cols + own_reach + w, w));
+    // Both bands' column i is level column i - r - own_reach: a window whose
+    // left column is i is centred on level column i - own_reach.
     cv::Mat sampled_left = band_left, sampled_right = band_right;
-    sample_frame(left_frame, false, g.region.x - r * g.step_x, y0, g.step_x, g.step_y, band_left.size(), crop,
-                 sampled_left);
+    sample_frame(left_frame, false, g.region.x - (own_reach + r) * g.step_x, y0, g.step_x, g.step_y, band_left.size(),
+                 crop, sampled_left);
     sample_frame(right_frame, true, g.region.x - (own_reach + r) * g.step_x, y0, g.step_x, g.step_y, band_right.size(),
                  crop, sampled_right);
     for (int x = 0; x < cols; ++x) {
-      if (d[x] < 0 || !(c[x] > 0)) continue;
-      const int own = static_cast<int>(std::lround(d[x] / g.step_x));
-      const int lo = own + 3;
-      const int hi = std::min(static_cast<int>(std::ceil(nearest_right[static_cast<std::size_t>(x)])),
-                              own + band_left.cols - w - x);
-      if (hi < lo) continue;
+      if (row_d[x] < 0) continue;
+      const int own = static_cast<int>(std::lround(row_d[x] / g.step_x));
       const int rx = x - own + own_reach;  // the right window's column in band_right
       if (rx < 0 || rx + w > band_right.cols) continue;
       const cv::Mat window = band_right(cv::Rect(rx, 0, w, w));
       double wm, ws;
       mean_and_deviation(window, wm, ws);
       if (ws < config_.ncc.min_texture) continue;
-      // Shift s pairs the window with the left one at level column x - own + s:
-      // correlate_window's shift -t (t = s - lo) reads strip column t.
-      const cv::Mat strip = band_left(cv::Rect(x - own + lo, 0, hi - lo + w, w));
-      if (correlate_window(window, strip, wm, ws, lo - hi, 0) < 0) continue;
-      // Its own match at its best within a pixel (the aggregation's pick is not the correlation's peak).
+      // The right window against the left one at level column x - own + s,
+      // for s from lo to hi: correlate_window's shift -t reads strip column t.
+      const auto correlate = [&](int lo, int hi) {
+        if (hi < lo) return false;
+        const cv::Mat strip = band_left(cv::Rect(x - own + lo + own_reach, 0, hi - lo + w, w));
+        return correlate_window(window, strip, wm, ws, lo - hi, 0) >= 0;
+      };
+      float best = -2;
+      // Nearer: up to the nearest surface right of x. The place must be that
+      // surface's: where this level matched the left pixel there, at about
+      // that disparity (beyond the level, the outer levels place it too
+      // coarsely to tell).
+      const int near_lo = own + 3;
+      const int near_hi = std::min(static_cast<int>(std::ceil(nearest_right[static_cast<std::size_t>(x)])),
+                                   own + band_left.cols - w - x - own_reach);
+      if (correlate(near_lo, near_hi))
+        for (int i = 0; i <= near_hi - near_lo; ++i) {
+          const int shift = near_hi - i, lx = x - own + shift;
+          if (lx < cols && row_d[lx] >= 0 && std::abs(row_d[lx] / g.step_x - shift) > 2) continue;
+          best = std::max(best, samples_[static_cast<std::size_t>(i)]);
+        }
+      // Farther, as far as the farthest surface left of x: the right window
+      // may be a visible surface's that was matched at that place, at that
+      // disparity (the hidden pixel took the nearer surface's).
+      const int far_lo =
+          std::max(static_cast<int>(std::floor(farthest_left[static_cast<std::size_t>(x)])) - 1, own - x - own_reach);
+      const int far_hi = own - 3;
+      if (correlate(far_lo, far_hi))
+        for (int i = 0; i <= far_hi - far_lo; ++i) {
+          const int shift = far_hi - i, lx = x - own + shift;
+          bool consistent = false;
+          if (lx >= 0)
+            consistent = row_d[lx] >= 0 && std::abs(row_d[lx] / g.step_x - shift) <= 1;
+          else {
+            const float od = outer_left[static_cast<std::size_t>(lx + own_reach)];
+            consistent = od >= 0 && std::abs(od - shift) <= outer_left_tol[static_cast<std::size_t>(lx + own_reach)];
+          }
+          if (consistent) best = std::max(best, samples_[static_cast<std::size_t>(i)]);
+        }
+      if (best < -1) continue;
+      // Its own match at its best within a pixel (the aggregation's pick is
+      // not the correlation's peak).
       float mine = -2;
       for (int s = own - 1; s <= own + 1; ++s) {
-        const int lx = x - own + s;
+        const int lx = x - own + s + own_reach;
         if (lx < 0 || lx + w > band_left.cols) continue;
         mine = std::max(mine, window_ncc(band_right, rx, 0, band_left, lx, 0, w, config_.ncc.min_texture));
-      }
-      // The nearer place must be that surface's: where this level matched
-      // the left pixel there, at about that disparity.
-      float best = -2;
-      for (int i = 0; i <= hi - lo; ++i) {
-        const float v = samples_[static_cast<std::size_t>(i)];
-        const int shift = hi - i, lx = x - own + shift;
-        if (lx < cols && d[lx] >= 0 && c[lx] > 0 && std::abs(d[lx] / g.step_x - shift) > 2) continue;
-        best = std::max(best, v);
       }
       if (best > mine) d[x] = -1.0f, c[x] = -1.0f;
     }

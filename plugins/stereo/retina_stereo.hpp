@@ -69,11 +69,13 @@ struct RetinaStereoConfig {
   // pixels of the near one. After `fill_gaps`, before `fill`.
   bool fill_occlusions = true;
   int occlusion_slack = 2;
-  // Each matched fovea pixel whose right window correlates better with a
-  // nearer surface right of it on the row (the fovea's and, beyond it, the
-  // outer levels') than with its own match is dropped: the right camera
-  // cannot see it (docs/accuracy.md). Fewer wrong disparities at a lower
-  // density, +0.1-0.4 ms per pair. Off by default. Before the fills.
+  // Each matched fovea pixel whose right window correlates better with
+  // another surface than with its own match is dropped: a nearer one right
+  // of it on the row (the fovea's or, beyond it, the outer levels'), or a
+  // farther one left of it that was matched there at that disparity. The
+  // right camera cannot see that pixel (docs/accuracy.md). Fewer wrong
+  // disparities at a lower density, +0.1-0.45 ms per pair. Off by default.
+  // Before the fills.
   bool occlusion_check = false;
   // Keep, per level, the images actually compared (for comparisons with other
   // matchers on exactly the same pixels).
@@ -255,8 +257,11 @@ class RetinaStereo {
   void fill_level(const LevelPlan& plan, double step, LevelDisparity& level);
   void drop_hidden(const Retina& left, const cv::Mat& left_frame, const cv::Mat& right_frame,
                    std::vector<LevelDisparity>& out, std::size_t k);
-  std::vector<float> hidden_nearest_;
-  cv::Mat hidden_left_, hidden_right_;
+  struct HiddenScratch {
+    std::vector<float> nearest_right, farthest_left, row, outer_left, outer_left_tolerance;
+    cv::Mat left, right;  // the row's bands of the frames
+  };
+  HiddenScratch hidden_;
   RetinaStereoConfig config_;
   Fixation fixation_;
   std::vector<LevelScratch> level_scratch_;

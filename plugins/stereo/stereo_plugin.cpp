@@ -81,7 +81,8 @@ class StereoNode final : public Node {
                &C::stereo, &S::fovea_recheck)
         .field("occlusion_check",
                "fovea: each matched pixel dropped where its right window correlates better with a nearer surface "
-               "right of it on the row (the right camera cannot see it; fewer wrong disparities, lower density)",
+               "right of it on the row, or a farther one matched left of it, than with its own match (the right "
+               "camera cannot see it; fewer wrong disparities, lower density)",
                &C::stereo, &S::occlusion_check)
         .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)",
                &C::stereo, &S::pad)
