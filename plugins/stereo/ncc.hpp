@@ -24,7 +24,8 @@ struct NccConfig {
   // default, along eight paths (make bench-stereo: docs/accuracy.md).
   bool semi_global = true;
   float p1 = 0.2f, p2 = 0.8f;
-  int paths = 8;  // semi-global: 4 (along rows and columns) or 8 (and along the diagonals)
+  int paths = 8;                  // semi-global: 4 (along rows and columns) or 8 (and along the diagonals)
+  float flat_uniqueness = 0.05f;  // semi-global: see NccScratch::undecided
 };
 
 // The paper's matcher: the best window correlation per pixel, without
@@ -52,6 +53,10 @@ struct NccScratch {
   std::vector<float> cost, aggregated, path, path_rows;  // semi-global aggregation
   std::vector<int> right_best;                           // its right pixels' picks, per row
   std::vector<float> right_cost;
+  // The aggregation's left pixels whose own window was flat at their pick and
+  // whose aggregated costs have another disparity (more than one away)
+  // within NccConfig::flat_uniqueness of the best: decided by nothing (255).
+  cv::Mat undecided;
 };
 
 // Per-pixel search: for pixel (x, y) of the reference image, disparities in

@@ -851,6 +851,7 @@ void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan,
   ncc_match_cross(*images.left, *images.right, *images.lo, *images.hi, config_.ncc, ls.lr, ls.lr_score, ls.rl,
                   ls.rl_score, ls.ncc);
   const cv::Rect inside = images.inside;
+  ls.inside = inside;
   // Validity comes from the scores: with vergence a level disparity may be negative.
   ls.valid.create(images.left->size(), CV_8U);
   cv::Mat valid_view = ls.valid(inside);
@@ -1063,6 +1064,37 @@ void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, co
   level.density = static_cast<double>(valid) / static_cast<double>(level.disparity.total());
 }
 
+void RetinaStereo::flat_from_outer(const Retina& left, std::vector<LevelDisparity>& out, std::size_t k) {
+  const LevelScratch& ls = level_scratch_[k];
+  if (ls.ncc.undecided.empty()) return;
+  const LevelGeometry& g = left.geometry[k];
+  const LevelGeometry& o = left.geometry[k - 1];
+  const cv::Mat& outer = out[k - 1].disparity;
+  LevelDisparity& level = out[k];
+  for (int y = 0; y < level.disparity.rows; ++y) {
+    float* d = level.disparity.ptr<float>(y);
+    const uint8_t* undecided = ls.ncc.undecided.ptr<uint8_t>(y + ls.inside.y) + ls.inside.x;
+    for (int x = 0; x < level.disparity.cols; ++x) {
+      if (d[x] < 0 || !undecided[x]) continue;
+      // Bilinear over the outer pixels around the point that have a disparity.
+      const cv::Point2d p = o.from_source(g.to_source(x, y));
+      const int ox = static_cast<int>(std::floor(p.x)), oy = static_cast<int>(std::floor(p.y));
+      double sum = 0, weight = 0;
+      for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) {
+          const int qx = ox + i, qy = oy + j;
+          if (qx < 0 || qy < 0 || qx >= outer.cols || qy >= outer.rows) continue;
+          const float v = outer.at<float>(qy, qx);
+          if (v < 0) continue;
+          const double share = (i ? p.x - ox : 1 - (p.x - ox)) * (j ? p.y - oy : 1 - (p.y - oy)) + 1e-6;
+          sum += share * v;
+          weight += share;
+        }
+      if (weight > 0) d[x] = static_cast<float>(sum / weight);
+    }
+  }
+}
+
 Status RetinaStereo::run(const Retina& left, const Retina& right, std::vector<LevelDisparity>& out) {
   if (left.levels.size() != right.levels.size() || left.levels.empty())
     return Status::error("left and right retinas differ in levels");
@@ -1092,6 +1124,8 @@ Status RetinaStereo::run(const Retina& left, const Retina& right, std::vector<Le
     const LevelImages images =
         padded ? padded_images(plan, out, left, right, *left_frame, *right_frame) : level_images(plan, out, left);
     match_level(images, plan, left.geometry[k].step_x, out[k]);
+    if (config_.fovea_flat_from_outer && config_.ncc.semi_global && plan.innermost && k > 0)
+      flat_from_outer(left, out, k);
     if (config_.occlusion_check && plan.innermost && left_frame != nullptr && right_frame != nullptr)
       drop_hidden(left, *left_frame, *right_frame, out, k);
     fill_level(plan, left.geometry[k].step_x, out[k]);

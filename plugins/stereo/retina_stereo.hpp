@@ -69,6 +69,12 @@ struct RetinaStereoConfig {
   // pixels of the near one. After `fill_gaps`, before `fill`.
   bool fill_occlusions = true;
   int occlusion_slack = 2;
+  // The fovea's pixels whose windows are flat and whose aggregated costs
+  // prefer no disparity (NccScratch::undecided, semi-global only) take the
+  // level outside's disparity there (interpolated), which its larger cells
+  // saw: in a textureless area (sky, a wall) the fovea's windows see only
+  // noise, and the aggregation over the small fovea has nothing to carry in.
+  bool fovea_flat_from_outer = true;
   // Each matched fovea pixel whose right window correlates better with
   // another surface than with its own match is dropped: a nearer one right
   // of it on the row (the fovea's or, beyond it, the outer levels'), or a
@@ -185,6 +191,7 @@ class RetinaStereo {
     cv::Mat strip;
     cv::Mat left_padded, right_padded, lo_padded, hi_padded;
     cv::Mat lr, lr_score, rl, rl_score, valid;  // the matcher's results (padded when the level is)
+    cv::Rect inside;                            // where the level lies in them
     NccScratch ncc;
   };
   // What a level's steps share, and the images it matches (retina_stereo.cpp).
@@ -255,6 +262,7 @@ class RetinaStereo {
                      const cv::Mat& right_frame, cv::Size padded, cv::Rect inside, LevelScratch& ls) const;
   void match_level(const LevelImages& images, const LevelPlan& plan, double step, LevelDisparity& level);
   void fill_level(const LevelPlan& plan, double step, LevelDisparity& level);
+  void flat_from_outer(const Retina& left, std::vector<LevelDisparity>& out, std::size_t k);
   void drop_hidden(const Retina& left, const cv::Mat& left_frame, const cv::Mat& right_frame,
                    std::vector<LevelDisparity>& out, std::size_t k);
   struct HiddenScratch {

@@ -177,6 +177,11 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
                                 static_cast<std::size_t>(y) * volume.width + x];
     return v > -2.0f ? v : 0.0f;
   };
+  // No correlation at the pair: a flat window, or one the sweep did not reach.
+  auto flat = [&](int y, int x, int d) {
+    return !volume.has(d, x) || volume.data[static_cast<std::size_t>(d - volume.d_min) * volume.plane +
+                                            static_cast<std::size_t>(y) * volume.width + x] <= -2.0f;
+  };
   auto refine = [&](float c0, float c1, float c2) {
     const float denom = c0 - 2 * c1 + c2;
     return config.subpixel && denom > 0 ? std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f) : 0.0f;
@@ -185,11 +190,14 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
     m->create(lo.size(), CV_32F);
     fill(*m, -1);
   }
+  scratch.undecided.create(lo.size(), CV_8U);
+  fill(scratch.undecided, 0);
   for (int y = box.y0; y <= box.y1; ++y) {
     const int* l = lo.ptr<int>(y);
     const int* u = hi.ptr<int>(y);
     float* out_d = disparity_lr.ptr<float>(y);
     float* out_s = score_lr.ptr<float>(y);
+    uint8_t* undecided = scratch.undecided.ptr<uint8_t>(y);
     for (int x = box.x0; x <= box.x1; ++x) {
       const int first = std::max(l[x], volume.d_min) - volume.d_min, last = std::min(u[x], volume.d_max) - volume.d_min;
       if (last < first) continue;
@@ -200,6 +208,14 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
           best > first && best < last ? refine(at(y, x, best - 1), at(y, x, best), at(y, x, best + 1)) : 0.0f;
       out_d[x] = static_cast<float>(best + volume.d_min) + step;
       out_s[x] = ncc(y, x, best + volume.d_min);
+      if (flat(y, x, best + volume.d_min)) {
+        const float bar = at(y, x, best) * (1 + config.flat_uniqueness);
+        for (int i = first; i <= last; ++i)
+          if ((i < best - 1 || i > best + 1) && at(y, x, i) < bar) {
+            undecided[x] = 255;
+            break;
+          }
+      }
     }
     // Right pixel xr at d is left pixel xr + d: each left pixel's pairs, in
     // order of x and then of d, offered to their right pixels (for a right

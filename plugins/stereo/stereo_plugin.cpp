@@ -79,6 +79,10 @@ class StereoNode final : public Node {
                "correlation), the pixel dropped where it prefers another (fewer wrong disparities, lower "
                "density; 0: off)",
                &C::stereo, &S::fovea_recheck)
+        .field("fovea_flat_from_outer",
+               "semi-global: fovea pixels whose windows are flat and whose aggregated costs prefer no disparity "
+               "take the level outside's (interpolated)",
+               &C::stereo, &S::fovea_flat_from_outer)
         .field("occlusion_check",
                "fovea: each matched pixel dropped where its right window correlates better with a nearer surface "
                "right of it on the row, or a farther one matched left of it, than with its own match (the right "
