@@ -912,152 +912,168 @@ cv::Mat grown_view(cv::Mat& buffer, cv::Size size) {
 // level's or, beyond it, the outer levels'), or, where it took the nearer
 // surface's disparity, the farther one seen left of it; matched against
 // the left frame there, the window correlates better than at its own match.
+// Row y of level k as drop_hidden reads it (in hidden_): its matched
+// disparities (level pixels; -1 unmatched or filled), per column the nearest
+// surface right of it (largest disparity, plus a pixel of the level that saw
+// it: its uncertainty; this level's and, beyond it, the outer levels') and
+// the farthest matched left of it, and left of the level the finest outer
+// level's disparities (matched or filled) with how far off they may be.
+// Returns the row's largest matched disparity (level pixels), < 0 if none.
+float RetinaStereo::hidden_row(const Retina& left, const std::vector<LevelDisparity>& out, std::size_t k, int y) {
+  HiddenScratch& hs = hidden_;
+  const LevelGeometry& g = left.geometry[k];
+  const cv::Mat& disparity = out[k].disparity;
+  const int cols = disparity.cols;
+  const double sy = g.to_source(0, y).y;
+  const float* d = disparity.ptr<float>(y);
+  const float* c = out[k].score.ptr<float>(y);
+  hs.row.resize(static_cast<std::size_t>(cols));
+  float own_max = -1;
+  for (int x = 0; x < cols; ++x) {
+    hs.row[static_cast<std::size_t>(x)] = d[x] >= 0 && c[x] > 0 ? static_cast<float>(d[x] / g.step_x) : -1.0f;
+    own_max = std::max(own_max, hs.row[static_cast<std::size_t>(x)]);
+  }
+  if (own_max < 0) return own_max;
+  // The outer levels' pixels on this row, finest first; `covered` is the
+  // source x up to which a finer level spoke.
+  float beyond = -1;
+  double covered = g.region.x + cols * g.step_x;
+  for (std::size_t j = k; j-- > 0;) {
+    const LevelGeometry& o = left.geometry[j];
+    const int oy = static_cast<int>(std::floor((sy - o.region.y) / o.step_y));
+    if (oy < 0 || oy >= out[j].disparity.rows) continue;
+    const float* od = out[j].disparity.ptr<float>(oy);
+    const float* oc = out[j].score.ptr<float>(oy);
+    for (int x = 0; x < out[j].disparity.cols; ++x)
+      if (o.to_source(x, 0).x > covered && od[x] > 0 && oc[x] > 0)
+        beyond = std::max(beyond, static_cast<float>((od[x] + o.step_x) / g.step_x));
+    covered = std::max(covered, o.region.x + out[j].disparity.cols * o.step_x);
+  }
+  hs.nearest_right.resize(static_cast<std::size_t>(cols));
+  hs.farthest_left.resize(static_cast<std::size_t>(cols));
+  float nearest = beyond, farthest = std::numeric_limits<float>::infinity();
+  for (int x = cols - 1; x >= 0; --x) {
+    hs.nearest_right[static_cast<std::size_t>(x)] = nearest;
+    if (hs.row[static_cast<std::size_t>(x)] >= 0) nearest = std::max(nearest, hs.row[static_cast<std::size_t>(x)] + 1);
+  }
+  for (int x = 0; x < cols; ++x) {
+    hs.farthest_left[static_cast<std::size_t>(x)] = farthest;
+    if (hs.row[static_cast<std::size_t>(x)] >= 0) farthest = std::min(farthest, hs.row[static_cast<std::size_t>(x)]);
+  }
+  hs.nearest = nearest;
+  const int reach = static_cast<int>(std::ceil(own_max)) + 1;
+  hs.outer_left.assign(static_cast<std::size_t>(reach), -1.0f);
+  hs.outer_left_tolerance.assign(static_cast<std::size_t>(reach), 0.0f);
+  for (int i = 0; i < reach; ++i) {
+    const double sx = g.to_source(i - reach, 0).x;
+    for (std::size_t j = k; j-- > 0;) {
+      const LevelGeometry& o = left.geometry[j];
+      const int ox = static_cast<int>(std::floor((sx - o.region.x) / o.step_x));
+      const int oy = static_cast<int>(std::floor((sy - o.region.y) / o.step_y));
+      if (ox < 0 || oy < 0 || ox >= out[j].disparity.cols || oy >= out[j].disparity.rows) continue;
+      const float od = out[j].disparity.at<float>(oy, ox);
+      if (od < 0) continue;
+      hs.outer_left[static_cast<std::size_t>(i)] = static_cast<float>(od / g.step_x);
+      hs.outer_left_tolerance[static_cast<std::size_t>(i)] = static_cast<float>(o.step_x / g.step_x + 1);
+      break;
+    }
+  }
+  return own_max;
+}
+
+// Whether the right window of row pixel x (its disparity `own`, level
+// pixels) correlates better with another surface's place than with its own
+// match (hidden_row and the row's bands in hidden_ made; the bands' column i
+// is level column i - r - reach, r the window's half).
+bool RetinaStereo::hidden_pixel(int x, int own, int cols, int reach) {
+  HiddenScratch& hs = hidden_;
+  const int w = config_.ncc.window;
+  const std::vector<float>& row = hs.row;
+  const int rx = x - own + reach;  // the right window's column in the right band
+  if (rx < 0 || rx + w > hs.right_band.cols) return false;
+  const cv::Mat window = hs.right_band(cv::Rect(rx, 0, w, w));
+  double wm, ws;
+  mean_and_deviation(window, wm, ws);
+  if (ws < config_.ncc.min_texture) return false;
+  // The window against the left one at level column x - own + s, s from lo
+  // to hi (correlate_window's shift -t reads strip column t).
+  const auto correlate = [&](int lo, int hi) {
+    if (hi < lo) return false;
+    const cv::Mat strip = hs.left_band(cv::Rect(x - own + lo + reach, 0, hi - lo + w, w));
+    return correlate_window(window, strip, wm, ws, lo - hi, 0) >= 0;
+  };
+  float best = -2;
+  // Nearer, up to the nearest surface right of x; the place must be that
+  // surface's: where this level matched the left pixel there, at about that
+  // disparity (beyond the level, the outer levels place it too coarsely to
+  // tell).
+  const int near_lo = own + 3;
+  const int near_hi = std::min(static_cast<int>(std::ceil(hs.nearest_right[static_cast<std::size_t>(x)])),
+                               own + hs.left_band.cols - w - x - reach);
+  if (correlate(near_lo, near_hi))
+    for (int i = 0; i <= near_hi - near_lo; ++i) {
+      const int shift = near_hi - i, lx = x - own + shift;
+      if (lx < cols && row[static_cast<std::size_t>(lx)] >= 0 &&
+          std::abs(row[static_cast<std::size_t>(lx)] - shift) > 2)
+        continue;
+      best = std::max(best, samples_[static_cast<std::size_t>(i)]);
+    }
+  // Farther, as far as the farthest surface left of x: the window may be a
+  // visible surface's that was matched at that place, at that disparity (the
+  // hidden pixel took the nearer surface's).
+  const int far_lo =
+      std::max(static_cast<int>(std::floor(hs.farthest_left[static_cast<std::size_t>(x)])) - 1, own - x - reach);
+  const int far_hi = own - 3;
+  if (correlate(far_lo, far_hi))
+    for (int i = 0; i <= far_hi - far_lo; ++i) {
+      const int shift = far_hi - i, lx = x - own + shift;
+      const bool consistent =
+          lx >= 0 ? row[static_cast<std::size_t>(lx)] >= 0 && std::abs(row[static_cast<std::size_t>(lx)] - shift) <= 1
+                  : hs.outer_left[static_cast<std::size_t>(lx + reach)] >= 0 &&
+                        std::abs(hs.outer_left[static_cast<std::size_t>(lx + reach)] - shift) <=
+                            hs.outer_left_tolerance[static_cast<std::size_t>(lx + reach)];
+      if (consistent) best = std::max(best, samples_[static_cast<std::size_t>(i)]);
+    }
+  if (best < -1) return false;
+  // Its own match at its best within a pixel (the aggregation's pick is not
+  // the correlation's peak).
+  float mine = -2;
+  for (int s = own - 1; s <= own + 1; ++s) {
+    const int lx = x - own + s + reach;
+    if (lx >= 0 && lx + w <= hs.left_band.cols)
+      mine = std::max(mine, window_ncc(hs.right_band, rx, 0, hs.left_band, lx, 0, w, config_.ncc.min_texture));
+  }
+  return best > mine;
+}
+
 void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, const cv::Mat& right_frame,
                                std::vector<LevelDisparity>& out, std::size_t k) {
   LevelDisparity& level = out[k];
   const LevelGeometry& g = left.geometry[k];
   const bool crop = k + 1 == left.levels.size();
   const int w = config_.ncc.window, r = w / 2;
-  const int cols = level.disparity.cols, rows = level.disparity.rows;
-  // Per column, the largest disparity seen right of it on the row (level
-  // pixels, plus a pixel of the level that saw it: its uncertainty): this
-  // level's matches and, beyond it, the outer levels'.
-  // Per column, the smallest disparity matched left of it on the row. Left
-  // of the level, the finest outer level's disparities (matched or filled)
-  // and how far off they may be. (Scratch kept between frames.)
+  const int cols = level.disparity.cols;
   HiddenScratch& hs = hidden_;
-  std::vector<float>& nearest_right = hs.nearest_right;
-  std::vector<float>& farthest_left = hs.farthest_left;
-  std::vector<float>& row_d = hs.row;
-  std::vector<float>& outer_left = hs.outer_left;
-  std::vector<float>& outer_left_tol = hs.outer_left_tolerance;
-  nearest_right.resize(static_cast<std::size_t>(cols));
-  farthest_left.resize(static_cast<std::size_t>(cols));
   int valid = 0;
-  for (int y = 0; y < rows; ++y) {
-    const double sy = g.to_source(0, y).y;
-    float* d = level.disparity.ptr<float>(y);
-    float* c = level.score.ptr<float>(y);
-    float own_max = -1;
-    for (int x = 0; x < cols; ++x)
-      if (d[x] >= 0 && c[x] > 0) own_max = std::max(own_max, d[x]);
-    if (own_max < 0) continue;
-    float beyond = -1;  // beyond the level, level pixels
-    double covered = g.region.x + cols * g.step_x;
-    for (std::size_t j = k; j-- > 0;) {
-      const LevelGeometry& o = left.geometry[j];
-      const int oy = static_cast<int>(std::floor((sy - o.region.y) / o.step_y));
-      if (oy < 0 || oy >= out[j].disparity.rows) continue;
-      const float* od = out[j].disparity.ptr<float>(oy);
-      const float* oc = out[j].score.ptr<float>(oy);
-      for (int x = 0; x < out[j].disparity.cols; ++x)
-        if (o.to_source(x, 0).x > covered && od[x] > 0 && oc[x] > 0)
-          beyond = std::max(beyond, static_cast<float>((od[x] + o.step_x) / g.step_x));
-      covered = std::max(covered, o.region.x + out[j].disparity.cols * o.step_x);
-    }
-    row_d.assign(d, d + cols);
-    for (int x = 0; x < cols; ++x)
-      if (!(c[x] > 0)) row_d[x] = -1;
-    float leftmost = std::numeric_limits<float>::infinity();
-    for (int x = 0; x < cols; ++x) {
-      farthest_left[static_cast<std::size_t>(x)] = leftmost;
-      if (row_d[x] >= 0) leftmost = std::min(leftmost, static_cast<float>(row_d[x] / g.step_x));
-    }
-    float running = beyond;
-    for (int x = cols - 1; x >= 0; --x) {
-      nearest_right[static_cast<std::size_t>(x)] = running;
-      if (d[x] >= 0 && c[x] > 0) running = std::max(running, static_cast<float>(d[x] / g.step_x + 1));
-    }
-    const int reach = static_cast<int>(std::ceil(std::max(running, 0.0f))) + 1;
-    const int own_reach = static_cast<int>(std::ceil(own_max / g.step_x)) + 1;
-    outer_left.assign(static_cast<std::size_t>(own_reach), -1.0f);
-    outer_left_tol.assign(static_cast<std::size_t>(own_reach), 0.0f);
-    for (int i = 0; i < own_reach; ++i) {
-      const double sx = g.to_source(i - own_reach, 0).x;
-      for (std::size_t j = k; j-- > 0;) {
-        const LevelGeometry& o = left.geometry[j];
-        const int ox = static_cast<int>(std::floor((sx - o.region.x) / o.step_x));
-        const int oy = static_cast<int>(std::floor((sy - o.region.y) / o.step_y));
-        if (ox < 0 || oy < 0 || ox >= out[j].disparity.cols || oy >= out[j].disparity.rows) continue;
-        const float od = out[j].disparity.at<float>(oy, ox);
-        if (od < 0) continue;
-        outer_left[static_cast<std::size_t>(i)] = static_cast<float>(od / g.step_x);
-        outer_left_tol[static_cast<std::size_t>(i)] = static_cast<float>(o.step_x / g.step_x + 1);
-        break;
+  for (int y = 0; y < level.disparity.rows; ++y) {
+    const float own_max = hidden_row(left, out, k, y);
+    if (own_max >= 0) {
+      // The row's bands of the frames, from `reach` level pixels left of the
+      // level (a match's right window) to the nearest surface right of it.
+      const int reach = static_cast<int>(std::ceil(own_max)) + 1;
+      const int right_reach = static_cast<int>(std::ceil(std::max(hs.nearest, 0.0f))) + 1;
+      const double x0 = g.region.x - (reach + r) * g.step_x, y0 = g.region.y + (y - r) * g.step_y;
+      hs.left_band = grown_view(hs.left, cv::Size(reach + cols + right_reach + w, w));
+      hs.right_band = grown_view(hs.right, cv::Size(reach + cols + w, w));
+      sample_frame(left_frame, false, x0, y0, g.step_x, g.step_y, hs.left_band.size(), crop, hs.left_band);
+      sample_frame(right_frame, true, x0, y0, g.step_x, g.step_y, hs.right_band.size(), crop, hs.right_band);
+      float* d = level.disparity.ptr<float>(y);
+      float* c = level.score.ptr<float>(y);
+      for (int x = 0; x < cols; ++x) {
+        const float own = hs.row[static_cast<std::size_t>(x)];
+        if (own >= 0 && hidden_pixel(x, static_cast<int>(std::lround(own)), cols, reach)) d[x] = -1.0f, c[x] = -1.0f;
       }
     }
-    const double y0 = g.region.y + (y - r) * g.step_y;
-    // Views of buffers that only grow (the rows' reaches differ).
-    const cv::Mat band_left = grown_view(hs.left, cv::Size(own_reach + cols + reach + w, w));
-    const cv::Mat band_right = grown_view(hs.right, cv::Size(cols + own_reach + w, w));
-    // Both bands' column i is level column i - r - own_reach: a window whose
-    // left column is i is centred on level column i - own_reach.
-    cv::Mat sampled_left = band_left, sampled_right = band_right;
-    sample_frame(left_frame, false, g.region.x - (own_reach + r) * g.step_x, y0, g.step_x, g.step_y, band_left.size(),
-                 crop, sampled_left);
-    sample_frame(right_frame, true, g.region.x - (own_reach + r) * g.step_x, y0, g.step_x, g.step_y, band_right.size(),
-                 crop, sampled_right);
-    for (int x = 0; x < cols; ++x) {
-      if (row_d[x] < 0) continue;
-      const int own = static_cast<int>(std::lround(row_d[x] / g.step_x));
-      const int rx = x - own + own_reach;  // the right window's column in band_right
-      if (rx < 0 || rx + w > band_right.cols) continue;
-      const cv::Mat window = band_right(cv::Rect(rx, 0, w, w));
-      double wm, ws;
-      mean_and_deviation(window, wm, ws);
-      if (ws < config_.ncc.min_texture) continue;
-      // The right window against the left one at level column x - own + s,
-      // for s from lo to hi: correlate_window's shift -t reads strip column t.
-      const auto correlate = [&](int lo, int hi) {
-        if (hi < lo) return false;
-        const cv::Mat strip = band_left(cv::Rect(x - own + lo + own_reach, 0, hi - lo + w, w));
-        return correlate_window(window, strip, wm, ws, lo - hi, 0) >= 0;
-      };
-      float best = -2;
-      // Nearer: up to the nearest surface right of x. The place must be that
-      // surface's: where this level matched the left pixel there, at about
-      // that disparity (beyond the level, the outer levels place it too
-      // coarsely to tell).
-      const int near_lo = own + 3;
-      const int near_hi = std::min(static_cast<int>(std::ceil(nearest_right[static_cast<std::size_t>(x)])),
-                                   own + band_left.cols - w - x - own_reach);
-      if (correlate(near_lo, near_hi))
-        for (int i = 0; i <= near_hi - near_lo; ++i) {
-          const int shift = near_hi - i, lx = x - own + shift;
-          if (lx < cols && row_d[lx] >= 0 && std::abs(row_d[lx] / g.step_x - shift) > 2) continue;
-          best = std::max(best, samples_[static_cast<std::size_t>(i)]);
-        }
-      // Farther, as far as the farthest surface left of x: the right window
-      // may be a visible surface's that was matched at that place, at that
-      // disparity (the hidden pixel took the nearer surface's).
-      const int far_lo =
-          std::max(static_cast<int>(std::floor(farthest_left[static_cast<std::size_t>(x)])) - 1, own - x - own_reach);
-      const int far_hi = own - 3;
-      if (correlate(far_lo, far_hi))
-        for (int i = 0; i <= far_hi - far_lo; ++i) {
-          const int shift = far_hi - i, lx = x - own + shift;
-          bool consistent = false;
-          if (lx >= 0)
-            consistent = row_d[lx] >= 0 && std::abs(row_d[lx] / g.step_x - shift) <= 1;
-          else {
-            const float od = outer_left[static_cast<std::size_t>(lx + own_reach)];
-            consistent = od >= 0 && std::abs(od - shift) <= outer_left_tol[static_cast<std::size_t>(lx + own_reach)];
-          }
-          if (consistent) best = std::max(best, samples_[static_cast<std::size_t>(i)]);
-        }
-      if (best < -1) continue;
-      // Its own match at its best within a pixel (the aggregation's pick is
-      // not the correlation's peak).
-      float mine = -2;
-      for (int s = own - 1; s <= own + 1; ++s) {
-        const int lx = x - own + s + own_reach;
-        if (lx < 0 || lx + w > band_left.cols) continue;
-        mine = std::max(mine, window_ncc(band_right, rx, 0, band_left, lx, 0, w, config_.ncc.min_texture));
-      }
-      if (best > mine) d[x] = -1.0f, c[x] = -1.0f;
-    }
-  }
-  for (int y = 0; y < rows; ++y) {
     const float* d = level.disparity.ptr<float>(y);
     for (int x = 0; x < cols; ++x) valid += d[x] >= 0;
   }

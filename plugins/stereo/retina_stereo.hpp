@@ -266,9 +266,13 @@ class RetinaStereo {
   void drop_hidden(const Retina& left, const cv::Mat& left_frame, const cv::Mat& right_frame,
                    std::vector<LevelDisparity>& out, std::size_t k);
   struct HiddenScratch {
-    std::vector<float> nearest_right, farthest_left, row, outer_left, outer_left_tolerance;
-    cv::Mat left, right;  // the row's bands of the frames
+    std::vector<float> row, nearest_right, farthest_left, outer_left, outer_left_tolerance;
+    float nearest = -1;             // the nearest surface right of the row's first pixel
+    cv::Mat left, right;            // buffers for the row's bands of the frames, which only grow
+    cv::Mat left_band, right_band;  // views of them
   };
+  float hidden_row(const Retina& left, const std::vector<LevelDisparity>& out, std::size_t k, int y);
+  bool hidden_pixel(int x, int own, int cols, int reach);
   HiddenScratch hidden_;
   RetinaStereoConfig config_;
   Fixation fixation_;

@@ -158,6 +158,22 @@ void aggregate(const Box& box, const SweepVolume& volume, const cv::Mat& lo, con
   }
 }
 
+// Where between three costs the minimum lies: the vertex of the parabola
+// through them (-0.5 .. 0.5 from the middle one), 0 where it opens down.
+float parabola_step(float c0, float c1, float c2) {
+  const float denom = c0 - 2 * c1 + c2;
+  return denom > 0 ? std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f) : 0.0f;
+}
+
+// Whether a pixel's aggregated costs c[first..last] have another disparity,
+// more than one from the best, within `uniqueness` of it.
+bool undecided_costs(const float* c, int first, int last, int best, float uniqueness) {
+  const float bar = c[best] * (1 + uniqueness);
+  for (int i = first; i <= last; ++i)
+    if ((i < best - 1 || i > best + 1) && c[i] < bar) return true;
+  return false;
+}
+
 // Both directions' disparities from the aggregated costs: each left pixel
 // the smallest in its range, each right pixel the smallest among the pairs
 // the left pixels search; a parabola through the costs either side. Scores:
@@ -168,24 +184,20 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
   const int cols = box.x1 - box.x0 + 1, count = volume.d_max - volume.d_min + 1;
   const int w = lo.cols;
   const std::vector<float>& sum = scratch.aggregated;
-  auto at = [&](int y, int x, int i) {
+  auto at = [&](int y, int x, int i) -> const float& {
     return sum[(static_cast<std::size_t>(y - box.y0) * cols + (x - box.x0)) * count + i];
   };
+  // -2 where the pair has no correlation: a flat window, or one the sweep did not reach.
+  auto correlation = [&](int y, int x, int d) {
+    return volume.has(d, x) ? volume.data[static_cast<std::size_t>(d - volume.d_min) * volume.plane +
+                                          static_cast<std::size_t>(y) * volume.width + x]
+                            : -2.0f;
+  };
   auto ncc = [&](int y, int x, int d) {
-    if (!volume.has(d, x)) return 0.0f;
-    const float v = volume.data[static_cast<std::size_t>(d - volume.d_min) * volume.plane +
-                                static_cast<std::size_t>(y) * volume.width + x];
+    const float v = correlation(y, x, d);
     return v > -2.0f ? v : 0.0f;
   };
-  // No correlation at the pair: a flat window, or one the sweep did not reach.
-  auto flat = [&](int y, int x, int d) {
-    return !volume.has(d, x) || volume.data[static_cast<std::size_t>(d - volume.d_min) * volume.plane +
-                                            static_cast<std::size_t>(y) * volume.width + x] <= -2.0f;
-  };
-  auto refine = [&](float c0, float c1, float c2) {
-    const float denom = c0 - 2 * c1 + c2;
-    return config.subpixel && denom > 0 ? std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f) : 0.0f;
-  };
+  auto refine = [&](float c0, float c1, float c2) { return config.subpixel ? parabola_step(c0, c1, c2) : 0.0f; };
   for (cv::Mat* m : {&disparity_lr, &score_lr, &disparity_rl, &score_rl}) {
     m->create(lo.size(), CV_32F);
     fill(*m, -1);
@@ -208,14 +220,9 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
           best > first && best < last ? refine(at(y, x, best - 1), at(y, x, best), at(y, x, best + 1)) : 0.0f;
       out_d[x] = static_cast<float>(best + volume.d_min) + step;
       out_s[x] = ncc(y, x, best + volume.d_min);
-      if (flat(y, x, best + volume.d_min)) {
-        const float bar = at(y, x, best) * (1 + config.flat_uniqueness);
-        for (int i = first; i <= last; ++i)
-          if ((i < best - 1 || i > best + 1) && at(y, x, i) < bar) {
-            undecided[x] = 255;
-            break;
-          }
-      }
+      if (correlation(y, x, best + volume.d_min) <= -2.0f &&
+          undecided_costs(&at(y, x, 0), first, last, best, config.flat_uniqueness))
+        undecided[x] = 255;
     }
     // Right pixel xr at d is left pixel xr + d: each left pixel's pairs, in
     // order of x and then of d, offered to their right pixels (for a right

@@ -89,9 +89,17 @@ class StereoNode final : public Node {
                "camera cannot see it; fewer wrong disparities, lower density)",
                &C::stereo, &S::occlusion_check)
         .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)",
-               &C::stereo, &S::pad)
-        .field("fill", "give unmatched pixels the nearest matched disparity on their row (confidence 0)", &C::stereo,
-               &S::fill)
+               &C::stereo, &S::pad);
+    bind_fills_and_depth(b);
+  }
+
+  // The fills of unmatched pixels, the semi-global aggregation, depth.
+  static void bind_fills_and_depth(ParamBinder<StereoNodeConfig>& b) {
+    using C = StereoNodeConfig;
+    using S = RetinaStereoConfig;
+    using N = NccConfig;
+    b.field("fill", "give unmatched pixels the nearest matched disparity on their row (confidence 0)", &C::stereo,
+            &S::fill)
         .field("fill_gaps", {0, 64},
                "give unmatched runs of at most this many pixels on a row the smaller of their ends' disparities "
                "where those agree within a level pixel (confidence 0; 0: off; before fill)",
