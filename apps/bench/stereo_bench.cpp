@@ -459,6 +459,7 @@ bool set_param(stereo::RetinaStereoConfig& c, const std::string& key, const std:
       {"fill", [](auto& s, double, bool y) { s.fill = y; }},
       {"pad", [](auto& s, double x, bool) { s.pad = static_cast<int>(x); }},
       {"occlusion_check", [](auto& s, double, bool y) { s.occlusion_check = y; }},
+      {"fovea_range_check", [](auto& s, double, bool y) { s.fovea_range_check = y; }},
       {"fovea_flat_from_outer", [](auto& s, double, bool y) { s.fovea_flat_from_outer = y; }},
       {"sgm_flat_uniqueness", [](auto& s, double x, bool) { s.ncc.flat_uniqueness = static_cast<float>(x); }},
       {"coarse_to_fine", [](auto& s, double, bool y) { s.coarse_to_fine = y; }},

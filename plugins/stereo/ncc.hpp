@@ -26,6 +26,9 @@ struct NccConfig {
   float p1 = 0.2f, p2 = 0.8f;
   int paths = 8;                  // semi-global: 4 (along rows and columns) or 8 (and along the diagonals)
   float flat_uniqueness = 0.05f;  // semi-global: see NccScratch::undecided
+  // Semi-global: a left pixel whose aggregated minimum lies at an end of its
+  // range is not matched (the minimum may lie beyond what was searched).
+  bool drop_range_edges = false;
 };
 
 // The paper's matcher: the best window correlation per pixel, without

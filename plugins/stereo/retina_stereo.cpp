@@ -848,8 +848,10 @@ void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan,
     images.right->copyTo(level.right_image);
     level.margin = images.inside.tl();
   }
-  ncc_match_cross(*images.left, *images.right, *images.lo, *images.hi, config_.ncc, ls.lr, ls.lr_score, ls.rl,
-                  ls.rl_score, ls.ncc);
+  NccConfig ncc = config_.ncc;
+  ncc.drop_range_edges = ncc.drop_range_edges || (plan.innermost && config_.fovea_range_check);
+  ncc_match_cross(*images.left, *images.right, *images.lo, *images.hi, ncc, ls.lr, ls.lr_score, ls.rl, ls.rl_score,
+                  ls.ncc);
   const cv::Rect inside = images.inside;
   ls.inside = inside;
   // Validity comes from the scores: with vergence a level disparity may be negative.

@@ -83,6 +83,11 @@ struct RetinaStereoConfig {
   // disparities at a lower density, +0.1-0.45 ms per pair. Off by default.
   // Before the fills.
   bool occlusion_check = false;
+  // Semi-global: a fovea pixel whose aggregated minimum lies at an end of its
+  // range (around its prediction and the fixation) is not matched: its truth
+  // may lie beyond what was searched (NccConfig::drop_range_edges). Fewer
+  // wrong disparities at a lower density (docs/accuracy.md). Off by default.
+  bool fovea_range_check = false;
   // Keep, per level, the images actually compared (for comparisons with other
   // matchers on exactly the same pixels).
   bool keep_images = false;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -174,6 +175,85 @@ bool undecided_costs(const float* c, int first, int last, int best, float unique
   return false;
 }
 
+// The aggregated costs of the box's left pixels, and the sweep's correlations.
+struct AggregatedCosts {
+  const Box& box;
+  const SweepVolume& volume;
+  const std::vector<float>& sum;
+  int cols, count;
+  const float* at(int y, int x) const {
+    return sum.data() + (static_cast<std::size_t>(y - box.y0) * cols + (x - box.x0)) * count;
+  }
+  // -2 where the pair has no correlation: a flat window, or one the sweep did not reach.
+  float correlation(int y, int x, int d) const {
+    return volume.has(d, x) ? volume.data[static_cast<std::size_t>(d - volume.d_min) * volume.plane +
+                                          static_cast<std::size_t>(y) * volume.width + x]
+                            : -2.0f;
+  }
+  // The score given: the correlation, 0 where there is none.
+  float score(int y, int x, int d) const {
+    const float v = correlation(y, x, d);
+    return v > -2.0f ? v : 0.0f;
+  }
+};
+
+// Row y's left pixels: each the smallest aggregated cost in its range.
+void pick_left_row(const AggregatedCosts& a, const NccConfig& config, int y, const int* l, const int* u, float* out_d,
+                   float* out_s, uint8_t* undecided) {
+  const SweepVolume& volume = a.volume;
+  for (int x = a.box.x0; x <= a.box.x1; ++x) {
+    const int first = std::max(l[x], volume.d_min) - volume.d_min, last = std::min(u[x], volume.d_max) - volume.d_min;
+    if (last < first) continue;
+    const float* c = a.at(y, x);
+    const int best = static_cast<int>(std::min_element(c + first, c + last + 1) - c);
+    if (config.drop_range_edges && (best == first || best == last) && last > first) continue;
+    const float step =
+        config.subpixel && best > first && best < last ? parabola_step(c[best - 1], c[best], c[best + 1]) : 0.0f;
+    out_d[x] = static_cast<float>(best + volume.d_min) + step;
+    out_s[x] = a.score(y, x, best + volume.d_min);
+    if (a.correlation(y, x, best + volume.d_min) <= -2.0f &&
+        undecided_costs(c, first, last, best, config.flat_uniqueness))
+      undecided[x] = 255;
+  }
+}
+
+// Row y's right pixels: right pixel xr at d is left pixel xr + d; each left
+// pixel's pairs, in order of x and then of d, offered to their right pixels
+// (for a right pixel that is in order of d: the smallest d wins a tie, as a
+// search of each right pixel over d would pick).
+void pick_right_row(const AggregatedCosts& a, const NccConfig& config, NccScratch& scratch, int y, const int* l,
+                    const int* u, int w, float* back_d, float* back_s) {
+  const SweepVolume& volume = a.volume;
+  scratch.right_best.assign(static_cast<std::size_t>(w), -1);
+  scratch.right_cost.resize(static_cast<std::size_t>(w));
+  for (int x = a.box.x0; x <= a.box.x1; ++x) {
+    const int first = std::max(l[x], volume.d_min) - volume.d_min, last = std::min(u[x], volume.d_max) - volume.d_min;
+    const float* c = a.at(y, x);
+    for (int i = first; i <= last; ++i) {
+      const int xr = x - (i + volume.d_min);
+      if (xr < 0 || xr >= w) continue;
+      const std::size_t r = static_cast<std::size_t>(xr);
+      if (scratch.right_best[r] < 0 || c[i] < scratch.right_cost[r])
+        scratch.right_best[r] = i, scratch.right_cost[r] = c[i];
+    }
+  }
+  for (int xr = 0; xr < w; ++xr) {
+    auto wanted = [&](int i) {
+      const int d = i + volume.d_min, x = xr + d;
+      return x >= a.box.x0 && x <= a.box.x1 && d >= l[x] && d <= u[x];
+    };
+    const int best = scratch.right_best[static_cast<std::size_t>(xr)];
+    if (best < 0) continue;
+    const float best_cost = scratch.right_cost[static_cast<std::size_t>(xr)];
+    float step = 0.0f;
+    if (config.subpixel && best > 0 && best + 1 < a.count && wanted(best - 1) && wanted(best + 1))
+      step = parabola_step(a.at(y, xr + best - 1 + volume.d_min)[best - 1], best_cost,
+                           a.at(y, xr + best + 1 + volume.d_min)[best + 1]);
+    back_d[xr] = static_cast<float>(best + volume.d_min) + step;
+    back_s[xr] = a.score(y, xr + best + volume.d_min, best + volume.d_min);
+  }
+}
+
 // Both directions' disparities from the aggregated costs: each left pixel
 // the smallest in its range, each right pixel the smallest among the pairs
 // the left pixels search; a parabola through the costs either side. Scores:
@@ -181,23 +261,11 @@ bool undecided_costs(const float* c, int first, int last, int best, float unique
 void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& lo, const cv::Mat& hi,
                      const NccConfig& config, NccScratch& scratch, cv::Mat& disparity_lr, cv::Mat& score_lr,
                      cv::Mat& disparity_rl, cv::Mat& score_rl) {
-  const int cols = box.x1 - box.x0 + 1, count = volume.d_max - volume.d_min + 1;
-  const int w = lo.cols;
-  const std::vector<float>& sum = scratch.aggregated;
-  auto at = [&](int y, int x, int i) -> const float& {
-    return sum[(static_cast<std::size_t>(y - box.y0) * cols + (x - box.x0)) * count + i];
-  };
-  // -2 where the pair has no correlation: a flat window, or one the sweep did not reach.
-  auto correlation = [&](int y, int x, int d) {
-    return volume.has(d, x) ? volume.data[static_cast<std::size_t>(d - volume.d_min) * volume.plane +
-                                          static_cast<std::size_t>(y) * volume.width + x]
-                            : -2.0f;
-  };
-  auto ncc = [&](int y, int x, int d) {
-    const float v = correlation(y, x, d);
-    return v > -2.0f ? v : 0.0f;
-  };
-  auto refine = [&](float c0, float c1, float c2) { return config.subpixel ? parabola_step(c0, c1, c2) : 0.0f; };
+  const AggregatedCosts costs{.box = box,
+                              .volume = volume,
+                              .sum = scratch.aggregated,
+                              .cols = box.x1 - box.x0 + 1,
+                              .count = volume.d_max - volume.d_min + 1};
   for (cv::Mat* m : {&disparity_lr, &score_lr, &disparity_rl, &score_rl}) {
     m->create(lo.size(), CV_32F);
     fill(*m, -1);
@@ -205,59 +273,10 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
   scratch.undecided.create(lo.size(), CV_8U);
   fill(scratch.undecided, 0);
   for (int y = box.y0; y <= box.y1; ++y) {
-    const int* l = lo.ptr<int>(y);
-    const int* u = hi.ptr<int>(y);
-    float* out_d = disparity_lr.ptr<float>(y);
-    float* out_s = score_lr.ptr<float>(y);
-    uint8_t* undecided = scratch.undecided.ptr<uint8_t>(y);
-    for (int x = box.x0; x <= box.x1; ++x) {
-      const int first = std::max(l[x], volume.d_min) - volume.d_min, last = std::min(u[x], volume.d_max) - volume.d_min;
-      if (last < first) continue;
-      int best = first;
-      for (int i = first + 1; i <= last; ++i)
-        if (at(y, x, i) < at(y, x, best)) best = i;
-      const float step =
-          best > first && best < last ? refine(at(y, x, best - 1), at(y, x, best), at(y, x, best + 1)) : 0.0f;
-      out_d[x] = static_cast<float>(best + volume.d_min) + step;
-      out_s[x] = ncc(y, x, best + volume.d_min);
-      if (correlation(y, x, best + volume.d_min) <= -2.0f &&
-          undecided_costs(&at(y, x, 0), first, last, best, config.flat_uniqueness))
-        undecided[x] = 255;
-    }
-    // Right pixel xr at d is left pixel xr + d: each left pixel's pairs, in
-    // order of x and then of d, offered to their right pixels (for a right
-    // pixel that is in order of d: the smallest d wins a tie, as a search of
-    // each right pixel over d would pick).
-    float* back_d = disparity_rl.ptr<float>(y);
-    float* back_s = score_rl.ptr<float>(y);
-    scratch.right_best.assign(static_cast<std::size_t>(w), -1);
-    scratch.right_cost.resize(static_cast<std::size_t>(w));
-    for (int x = box.x0; x <= box.x1; ++x) {
-      const int first = std::max(l[x], volume.d_min) - volume.d_min, last = std::min(u[x], volume.d_max) - volume.d_min;
-      const float* c = sum.data() + (static_cast<std::size_t>(y - box.y0) * cols + (x - box.x0)) * count;
-      for (int i = first; i <= last; ++i) {
-        const int xr = x - (i + volume.d_min);
-        if (xr < 0 || xr >= w) continue;
-        const std::size_t r = static_cast<std::size_t>(xr);
-        if (scratch.right_best[r] < 0 || c[i] < scratch.right_cost[r])
-          scratch.right_best[r] = i, scratch.right_cost[r] = c[i];
-      }
-    }
-    for (int xr = 0; xr < w; ++xr) {
-      auto wanted = [&](int i) {
-        const int d = i + volume.d_min, x = xr + d;
-        return x >= box.x0 && x <= box.x1 && d >= l[x] && d <= u[x];
-      };
-      const int best = scratch.right_best[static_cast<std::size_t>(xr)];
-      if (best < 0) continue;
-      const float best_cost = scratch.right_cost[static_cast<std::size_t>(xr)];
-      float step = 0.0f;
-      if (best > 0 && best + 1 < count && wanted(best - 1) && wanted(best + 1))
-        step = refine(at(y, xr + best - 1 + volume.d_min, best - 1), best_cost,
-                      at(y, xr + best + 1 + volume.d_min, best + 1));
-      back_d[xr] = static_cast<float>(best + volume.d_min) + step;
-      back_s[xr] = ncc(y, xr + best + volume.d_min, best + volume.d_min);
-    }
+    pick_left_row(costs, config, y, lo.ptr<int>(y), hi.ptr<int>(y), disparity_lr.ptr<float>(y), score_lr.ptr<float>(y),
+                  scratch.undecided.ptr<uint8_t>(y));
+    pick_right_row(costs, config, scratch, y, lo.ptr<int>(y), hi.ptr<int>(y), lo.cols, disparity_rl.ptr<float>(y),
+                   score_rl.ptr<float>(y));
   }
 }
 

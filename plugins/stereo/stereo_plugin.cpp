@@ -88,6 +88,10 @@ class StereoNode final : public Node {
                "right of it on the row, or a farther one matched left of it, than with its own match (the right "
                "camera cannot see it; fewer wrong disparities, lower density)",
                &C::stereo, &S::occlusion_check)
+        .field("fovea_range_check",
+               "semi-global: fovea pixels whose aggregated minimum lies at an end of their search range are not "
+               "matched (the truth may lie beyond it; fewer wrong disparities, lower density)",
+               &C::stereo, &S::fovea_range_check)
         .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)",
                &C::stereo, &S::pad);
     bind_fills_and_depth(b);

@@ -106,6 +106,37 @@ TEST(NccMatchCross, SemiGlobalCarriesTheNeighboursDisparityAcrossAFlatBand) {
   }
 }
 
+TEST(NccMatchCross, AggregatedPicksAtTheirRangesEdgeAreDroppedOnRequest) {
+  // The truth, 12, lies outside the left half's range (0 .. 10), inside the
+  // right half's (6 .. 18). The left half's picks then sit at the range's
+  // edge nearest the truth (smooth texture: the correlation rises towards
+  // it); dropped on request, as the minimum may lie beyond what was searched.
+  const int d = 12;
+  cv::Mat left;
+  cv::GaussianBlur(test::random_image({80, 32}, 9), left, cv::Size(), 1.5);
+  left.convertTo(left, CV_8U, 3.0, -256);  // contrast back after the blur
+  cv::Mat right = shifted_right(left, d);
+  cv::Mat lo(left.size(), CV_32S, cv::Scalar(6)), hi(left.size(), CV_32S, cv::Scalar(18));
+  lo(cv::Rect(0, 0, 40, 32)).setTo(0);
+  hi(cv::Rect(0, 0, 40, 32)).setTo(10);
+  NccConfig config;  // semi-global, the defaults
+  NccScratch scratch;
+  cv::Mat lr, lr_score, rl, rl_score;
+  ncc_match_cross(left, right, lo, hi, config, lr, lr_score, rl, rl_score, scratch);
+  const cv::Rect outside(d + 4, 4, 40 - d - 8, 24), inside(44, 4, 30, 24);
+  const double given_before = 1 - share_near(lr_score, -1.0f, 0.0f, outside);
+  const double at_edge = share_near(lr, 10, 0.5f, outside);
+  config.drop_range_edges = true;
+  ncc_match_cross(left, right, lo, hi, config, lr, lr_score, rl, rl_score, scratch);
+  const double given_after = 1 - share_near(lr_score, -1.0f, 0.0f, outside);
+  std::printf("outside its range: %.3f given (%.3f at its edge), %.3f with the edge's picks dropped\n", given_before,
+              at_edge, given_after);
+  EXPECT_GE(given_before, 0.95);
+  EXPECT_GE(at_edge, 0.6);
+  EXPECT_LE(given_after, given_before - at_edge + 0.05) << "the edge's picks dropped, and only they";
+  EXPECT_GE(share_near(lr, d, 0.25f, inside), 0.95) << "picks inside their ranges stay";
+}
+
 TEST(NccMatchCross, EightSemiGlobalPathsCarryDisparityAlongTheDiagonals) {
   // Flat but for two textured blocks diagonal to each other: the pixels
   // between them see texture along neither their row nor their column, only
