@@ -1023,9 +1023,10 @@ bool RetinaStereo::hidden_pixel(int x, int own, int cols, int reach) {
   // Farther, as far as the farthest surface left of x: the window may be a
   // visible surface's that was matched at that place, at that disparity (the
   // hidden pixel took the nearer surface's).
-  const int far_lo =
-      std::max(static_cast<int>(std::floor(hs.farthest_left[static_cast<std::size_t>(x)])) - 1, own - x - reach);
+  const float farthest = hs.farthest_left[static_cast<std::size_t>(x)];  // infinite: nothing matched left of x
   const int far_hi = own - 3;
+  const int far_lo =
+      std::isfinite(farthest) ? std::max(static_cast<int>(std::floor(farthest)) - 1, own - x - reach) : far_hi + 1;
   if (correlate(far_lo, far_hi))
     for (int i = 0; i <= far_hi - far_lo; ++i) {
       const int shift = far_hi - i, lx = x - own + shift;
