@@ -65,7 +65,7 @@ struct Pair {
 
 // The left pixels the right camera cannot see: a surface right of them on
 // the row lands left of them in the right image (x' - d' < x - d for some
-// x' > x, by more than a pixel), so it is nearer and in front of them. Their
+// x' > x, by at least a pixel), so it is nearer and in front of them. Their
 // truth is the hidden surface's; no matcher can find it, and the stereo
 // benchmarks' own (Middlebury's "nonocc") score them apart.
 cv::Mat hidden_from_right(const cv::Mat& truth) {

@@ -961,6 +961,8 @@ void match(const cv::Mat& left, const cv::Mat& right, const cv::Mat& lo_lr, cons
     if (m != nullptr) CV_Assert(m->size() == left.size() && m->type() == CV_32S);
   const int r = config.window / 2;
   const int w = left.cols, h = left.rows;
+  scratch.undecided.create(left.size(), CV_8U);
+  fill(scratch.undecided, 0);
   if (w < 2 * r + 1 || h < 2 * r + 1) {
     unmatched(left.size(), disparity_lr, score_lr, disparity_rl, score_rl);
     return;

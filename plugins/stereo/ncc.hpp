@@ -5,6 +5,7 @@
 // Convention: a left-image pixel x matches the right image at x - d (d >= 0 for
 // points in front of the cameras); a right-image pixel x matches the left image
 // at x + d. Disparities are in the images' own pixels.
+#include <limits>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -27,8 +28,11 @@ struct NccConfig {
   int paths = 8;                  // semi-global: 4 (along rows and columns) or 8 (and along the diagonals)
   float flat_uniqueness = 0.05f;  // semi-global: see NccScratch::undecided
   // Semi-global: a left pixel whose aggregated minimum lies at an end of its
-  // range is not matched (the minimum may lie beyond what was searched).
+  // range is not matched (the minimum may lie beyond what was searched),
+  // unless that end is one of the whole search's, range_floor or
+  // range_ceiling, beyond which there is nothing.
   bool drop_range_edges = false;
+  int range_floor = std::numeric_limits<int>::min(), range_ceiling = std::numeric_limits<int>::max();
 };
 
 // The paper's matcher: the best window correlation per pixel, without
@@ -56,9 +60,11 @@ struct NccScratch {
   std::vector<float> cost, aggregated, path, path_rows;  // semi-global aggregation
   std::vector<int> right_best;                           // its right pixels' picks, per row
   std::vector<float> right_cost;
-  // The aggregation's left pixels whose own window was flat at their pick and
+  // The aggregation's left pixels whose pick has no correlation (their
+  // window or their partner's flat, or a pair the sweep did not reach) and
   // whose aggregated costs have another disparity (more than one away)
   // within NccConfig::flat_uniqueness of the best: decided by nothing (255).
+  // All 0 where the aggregation did not run.
   cv::Mat undecided;
 };
 

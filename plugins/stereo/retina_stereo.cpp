@@ -850,6 +850,8 @@ void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan,
   }
   NccConfig ncc = config_.ncc;
   ncc.drop_range_edges = ncc.drop_range_edges || (plan.innermost && config_.fovea_range_check);
+  ncc.range_floor = plan.full_lo;
+  ncc.range_ceiling = plan.full_hi;
   ncc_match_cross(*images.left, *images.right, *images.lo, *images.hi, ncc, ls.lr, ls.lr_score, ls.rl, ls.rl_score,
                   ls.ncc);
   const cv::Rect inside = images.inside;
@@ -914,13 +916,16 @@ cv::Mat grown_view(cv::Mat& buffer, cv::Size size) {
 // level's or, beyond it, the outer levels'), or, where it took the nearer
 // surface's disparity, the farther one seen left of it; matched against
 // the left frame there, the window correlates better than at its own match.
-// Row y of level k as drop_hidden reads it (in hidden_): its matched
-// disparities (level pixels; -1 unmatched or filled), per column the nearest
-// surface right of it (largest disparity, plus a pixel of the level that saw
-// it: its uncertainty; this level's and, beyond it, the outer levels') and
-// the farthest matched left of it, and left of the level the finest outer
-// level's disparities (matched or filled) with how far off they may be.
-// Returns the row's largest matched disparity (level pixels), < 0 if none.
+// Row y of level k as drop_hidden reads it (in hidden_): its disparities
+// matched with a positive correlation (level pixels; -1 where unmatched,
+// filled, or matched without one: those are neither checked nor taken for
+// surfaces), per column the nearest surface right of it (largest disparity,
+// plus a pixel of the level that saw it: its uncertainty; this level's and,
+// beyond it, the outer levels') and the farthest left of it (this level's
+// and, left of it, the outer levels'), and left of the level the finest
+// outer level's disparities (matched or filled) with how far off they may
+// be. Returns the row's largest disparity so matched (level pixels), < 0 if
+// none.
 float RetinaStereo::hidden_row(const Retina& left, const std::vector<LevelDisparity>& out, std::size_t k, int y) {
   HiddenScratch& hs = hidden_;
   const LevelGeometry& g = left.geometry[k];
@@ -951,18 +956,6 @@ float RetinaStereo::hidden_row(const Retina& left, const std::vector<LevelDispar
         beyond = std::max(beyond, static_cast<float>((od[x] + o.step_x) / g.step_x));
     covered = std::max(covered, o.region.x + out[j].disparity.cols * o.step_x);
   }
-  hs.nearest_right.resize(static_cast<std::size_t>(cols));
-  hs.farthest_left.resize(static_cast<std::size_t>(cols));
-  float nearest = beyond, farthest = std::numeric_limits<float>::infinity();
-  for (int x = cols - 1; x >= 0; --x) {
-    hs.nearest_right[static_cast<std::size_t>(x)] = nearest;
-    if (hs.row[static_cast<std::size_t>(x)] >= 0) nearest = std::max(nearest, hs.row[static_cast<std::size_t>(x)] + 1);
-  }
-  for (int x = 0; x < cols; ++x) {
-    hs.farthest_left[static_cast<std::size_t>(x)] = farthest;
-    if (hs.row[static_cast<std::size_t>(x)] >= 0) farthest = std::min(farthest, hs.row[static_cast<std::size_t>(x)]);
-  }
-  hs.nearest = nearest;
   const int reach = static_cast<int>(std::ceil(own_max)) + 1;
   hs.outer_left.assign(static_cast<std::size_t>(reach), -1.0f);
   hs.outer_left_tolerance.assign(static_cast<std::size_t>(reach), 0.0f);
@@ -980,6 +973,20 @@ float RetinaStereo::hidden_row(const Retina& left, const std::vector<LevelDispar
       break;
     }
   }
+  hs.nearest_right.resize(static_cast<std::size_t>(cols));
+  hs.farthest_left.resize(static_cast<std::size_t>(cols));
+  float nearest = beyond, farthest = std::numeric_limits<float>::infinity();
+  for (const float v : hs.outer_left)
+    if (v >= 0) farthest = std::min(farthest, v);
+  for (int x = cols - 1; x >= 0; --x) {
+    hs.nearest_right[static_cast<std::size_t>(x)] = nearest;
+    if (hs.row[static_cast<std::size_t>(x)] >= 0) nearest = std::max(nearest, hs.row[static_cast<std::size_t>(x)] + 1);
+  }
+  for (int x = 0; x < cols; ++x) {
+    hs.farthest_left[static_cast<std::size_t>(x)] = farthest;
+    if (hs.row[static_cast<std::size_t>(x)] >= 0) farthest = std::min(farthest, hs.row[static_cast<std::size_t>(x)]);
+  }
+  hs.nearest = nearest;
   return own_max;
 }
 
@@ -1005,10 +1012,10 @@ bool RetinaStereo::hidden_pixel(int x, int own, int cols, int reach) {
     return correlate_window(window, strip, wm, ws, lo - hi, 0) >= 0;
   };
   float best = -2;
-  // Nearer, up to the nearest surface right of x; the place must be that
-  // surface's: where this level matched the left pixel there, at about that
-  // disparity (beyond the level, the outer levels place it too coarsely to
-  // tell).
+  // Nearer, up to the nearest surface right of x; a place where this level
+  // matched the left pixel at another disparity (more than 2 px off) does
+  // not count (beyond the level, the outer levels place a surface too
+  // coarsely to tell).
   const int near_lo = own + 3;
   const int near_hi = std::min(static_cast<int>(std::ceil(hs.nearest_right[static_cast<std::size_t>(x)])),
                                own + hs.left_band.cols - w - x - reach);

@@ -272,7 +272,7 @@ class RetinaStereo {
                    std::vector<LevelDisparity>& out, std::size_t k);
   struct HiddenScratch {
     std::vector<float> row, nearest_right, farthest_left, outer_left, outer_left_tolerance;
-    float nearest = -1;             // the nearest surface right of the row's first pixel
+    float nearest = -1;             // the nearest surface on the row or right of it (sizes the left band)
     cv::Mat left, right;            // buffers for the row's bands of the frames, which only grow
     cv::Mat left_band, right_band;  // views of them
   };

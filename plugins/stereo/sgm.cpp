@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstddef>
-#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -206,7 +205,9 @@ void pick_left_row(const AggregatedCosts& a, const NccConfig& config, int y, con
     if (last < first) continue;
     const float* c = a.at(y, x);
     const int best = static_cast<int>(std::min_element(c + first, c + last + 1) - c);
-    if (config.drop_range_edges && (best == first || best == last) && last > first) continue;
+    const bool at_floor = best == first && first + volume.d_min > config.range_floor;
+    const bool at_ceiling = best == last && last + volume.d_min < config.range_ceiling;
+    if (config.drop_range_edges && last > first && (at_floor || at_ceiling)) continue;
     const float step =
         config.subpixel && best > first && best < last ? parabola_step(c[best - 1], c[best], c[best + 1]) : 0.0f;
     out_d[x] = static_cast<float>(best + volume.d_min) + step;
@@ -270,8 +271,6 @@ void pick_aggregated(const Box& box, const SweepVolume& volume, const cv::Mat& l
     m->create(lo.size(), CV_32F);
     fill(*m, -1);
   }
-  scratch.undecided.create(lo.size(), CV_8U);
-  fill(scratch.undecided, 0);
   for (int y = box.y0; y <= box.y1; ++y) {
     pick_left_row(costs, config, y, lo.ptr<int>(y), hi.ptr<int>(y), disparity_lr.ptr<float>(y), score_lr.ptr<float>(y),
                   scratch.undecided.ptr<uint8_t>(y));
