@@ -880,24 +880,6 @@ void RetinaStereo::fill_level(const LevelPlan& plan, double step, LevelDisparity
 
 namespace {
 
-// The correlation of two windows (their top-left corners given), or -2 where
-// either is flat.
-float window_ncc(const cv::Mat& a, int ax, int ay, const cv::Mat& b, int bx, int by, int w, float min_texture) {
-  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
-  for (int y = 0; y < w; ++y) {
-    const uint8_t* pa = a.ptr<uint8_t>(ay + y) + ax;
-    const uint8_t* pb = b.ptr<uint8_t>(by + y) + bx;
-    for (int x = 0; x < w; ++x) {
-      const double va = pa[x], vb = pb[x];
-      sa += va, sb += vb, saa += va * va, sbb += vb * vb, sab += va * vb;
-    }
-  }
-  const double n = static_cast<double>(w) * w;
-  const double da = saa / n - (sa / n) * (sa / n), db = sbb / n - (sb / n) * (sb / n);
-  if (da < min_texture * min_texture || db < min_texture * min_texture) return -2.0f;
-  return static_cast<float>((sab / n - (sa / n) * (sb / n)) / std::sqrt(da * db));
-}
-
 // A `size` view of `buffer`, which is grown (8-bit) when smaller.
 cv::Mat grown_view(cv::Mat& buffer, cv::Size size) {
   if (buffer.cols < size.width || buffer.rows < size.height)
@@ -1000,60 +982,55 @@ bool RetinaStereo::hidden_pixel(int x, int own, int cols, int reach) {
   const std::vector<float>& row = hs.row;
   const int rx = x - own + reach;  // the right window's column in the right band
   if (rx < 0 || rx + w > hs.right_band.cols) return false;
+  // Nearer, up to the nearest surface right of x; farther, as far as the
+  // farthest surface left of x (infinite: nothing matched left of it).
+  const int band_hi = own + hs.left_band.cols - w - x - reach, band_lo = own - x - reach;  // the band's shifts
+  const int near_lo = own + 3;
+  const int near_hi = std::min(static_cast<int>(std::ceil(hs.nearest_right[static_cast<std::size_t>(x)])), band_hi);
+  const float farthest = hs.farthest_left[static_cast<std::size_t>(x)];
+  const int far_hi = own - 3;
+  const int far_lo =
+      std::isfinite(farthest) ? std::max(static_cast<int>(std::floor(farthest)) - 1, band_lo) : far_hi + 1;
+  if (near_hi < near_lo && far_hi < far_lo) return false;
   const cv::Mat window = hs.right_band(cv::Rect(rx, 0, w, w));
   double wm, ws;
   mean_and_deviation(window, wm, ws);
   if (ws < config_.ncc.min_texture) return false;
-  // The window against the left one at level column x - own + s, s from lo
-  // to hi (correlate_window's shift -t reads strip column t).
-  const auto correlate = [&](int lo, int hi) {
-    if (hi < lo) return false;
-    const cv::Mat strip = hs.left_band(cv::Rect(x - own + lo + reach, 0, hi - lo + w, w));
-    return correlate_window(window, strip, wm, ws, lo - hi, 0) >= 0;
-  };
-  float best = -2;
-  // Nearer, up to the nearest surface right of x; a place where this level
-  // matched the left pixel at another disparity (more than 2 px off) does
-  // not count (beyond the level, the outer levels place a surface too
-  // coarsely to tell).
-  const int near_lo = own + 3;
-  const int near_hi = std::min(static_cast<int>(std::ceil(hs.nearest_right[static_cast<std::size_t>(x)])),
-                               own + hs.left_band.cols - w - x - reach);
-  if (correlate(near_lo, near_hi))
-    for (int i = 0; i <= near_hi - near_lo; ++i) {
-      const int shift = near_hi - i, lx = x - own + shift;
-      if (lx < cols && row[static_cast<std::size_t>(lx)] >= 0 &&
-          std::abs(row[static_cast<std::size_t>(lx)] - shift) > 2)
-        continue;
-      best = std::max(best, samples_[static_cast<std::size_t>(i)]);
-    }
-  // Farther, as far as the farthest surface left of x: the window may be a
-  // visible surface's that was matched at that place, at that disparity (the
-  // hidden pixel took the nearer surface's).
-  const float farthest = hs.farthest_left[static_cast<std::size_t>(x)];  // infinite: nothing matched left of x
-  const int far_hi = own - 3;
-  const int far_lo =
-      std::isfinite(farthest) ? std::max(static_cast<int>(std::floor(farthest)) - 1, own - x - reach) : far_hi + 1;
-  if (correlate(far_lo, far_hi))
-    for (int i = 0; i <= far_hi - far_lo; ++i) {
-      const int shift = far_hi - i, lx = x - own + shift;
-      const bool consistent =
-          lx >= 0 ? row[static_cast<std::size_t>(lx)] >= 0 && std::abs(row[static_cast<std::size_t>(lx)] - shift) <= 1
-                  : hs.outer_left[static_cast<std::size_t>(lx + reach)] >= 0 &&
-                        std::abs(hs.outer_left[static_cast<std::size_t>(lx + reach)] - shift) <=
-                            hs.outer_left_tolerance[static_cast<std::size_t>(lx + reach)];
-      if (consistent) best = std::max(best, samples_[static_cast<std::size_t>(i)]);
-    }
-  if (best < -1) return false;
+  // One sweep of the window over the left band from the farther places to
+  // the nearer ones, its own match's within a pixel among them: shift s
+  // pairs it with the left window at level column x - own + s, and
+  // correlate_window's shift -t reads strip column t, so samples_[hi - s].
+  const int lo = std::max(std::min(far_hi >= far_lo ? far_lo : own - 1, own - 1), band_lo);
+  const int hi = std::min(std::max(near_hi >= near_lo ? near_hi : own + 1, own + 1), band_hi);
+  const cv::Mat strip = hs.left_band(cv::Rect(x - own + lo + reach, 0, hi - lo + w, w));
+  if (correlate_window(window, strip, wm, ws, lo - hi, 0) < 0) return false;
+  const auto at = [&](int shift) { return samples_[static_cast<std::size_t>(hi - shift)]; };
   // Its own match at its best within a pixel (the aggregation's pick is not
   // the correlation's peak).
   float mine = -2;
-  for (int s = own - 1; s <= own + 1; ++s) {
-    const int lx = x - own + s + reach;
-    if (lx >= 0 && lx + w <= hs.left_band.cols)
-      mine = std::max(mine, window_ncc(hs.right_band, rx, 0, hs.left_band, lx, 0, w, config_.ncc.min_texture));
+  for (int shift = std::max(own - 1, lo); shift <= std::min(own + 1, hi); ++shift) mine = std::max(mine, at(shift));
+  float best = -2;
+  // A nearer place where this level matched the left pixel at another
+  // disparity (more than 2 px off) does not count (beyond the level, the
+  // outer levels place a surface too coarsely to tell).
+  for (int shift = near_lo; shift <= near_hi; ++shift) {
+    const int lx = x - own + shift;
+    if (lx < cols && row[static_cast<std::size_t>(lx)] >= 0 && std::abs(row[static_cast<std::size_t>(lx)] - shift) > 2)
+      continue;
+    best = std::max(best, at(shift));
   }
-  return best > mine;
+  // A farther place counts where that surface was matched, at that
+  // disparity (the hidden pixel took the nearer surface's).
+  for (int shift = far_lo; shift <= far_hi; ++shift) {
+    const int lx = x - own + shift;
+    const bool consistent =
+        lx >= 0 ? row[static_cast<std::size_t>(lx)] >= 0 && std::abs(row[static_cast<std::size_t>(lx)] - shift) <= 1
+                : hs.outer_left[static_cast<std::size_t>(lx + reach)] >= 0 &&
+                      std::abs(hs.outer_left[static_cast<std::size_t>(lx + reach)] - shift) <=
+                          hs.outer_left_tolerance[static_cast<std::size_t>(lx + reach)];
+    if (consistent) best = std::max(best, at(shift));
+  }
+  return best > -2 && best > mine;
 }
 
 void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, const cv::Mat& right_frame,

@@ -80,7 +80,7 @@ struct RetinaStereoConfig {
   // of it on the row (the fovea's or, beyond it, the outer levels'), or a
   // farther one left of it that was matched there at that disparity. The
   // right camera cannot see that pixel (docs/accuracy.md). Fewer wrong
-  // disparities at a lower density, +0.1-0.45 ms per pair. Off by default.
+  // disparities at a lower density, +0.1-0.4 ms per pair. Off by default.
   // Before the fills.
   bool occlusion_check = false;
   // Semi-global: a fovea pixel whose aggregated minimum lies at an end of its
