@@ -221,6 +221,14 @@ void RetinaStereo::predict(const std::vector<LevelDisparity>& out, const Retina&
 
 namespace {
 
+// A `size` view of `buffer`, which only grows (made again only for another
+// type): the searches' strips and rows differ in width from one to the next.
+cv::Mat grown_view(cv::Mat& buffer, cv::Size size, int type) {
+  if (buffer.cols < size.width || buffer.rows < size.height || buffer.type() != type)
+    buffer.create(std::max(size.height, buffer.rows), std::max(size.width, buffer.cols), type);
+  return buffer(cv::Rect(cv::Point(), size));
+}
+
 // The mean and (population) deviation of a window's pixels.
 void mean_and_deviation(const cv::Mat& window, double& mean, double& deviation) {
   double sum = 0, sq = 0;
@@ -477,7 +485,7 @@ double RetinaStereo::reverse_shift(const Retina& left, std::size_t k, cv::Rect w
   const double x0 = g.region.x + (window.x - std::lround(shift)) * g.step_x, y0 = g.region.y + window.y * g.step_y;
   sample_frame(right_frame, true, x0, y0, g.step_x, g.step_y, window.size(), crop, reverse_window_);
   // The left frame from the right window's place (disparity 0) to the whole range.
-  cv::Mat strip = strip_of(ls, cv::Size(window.width + full, window.height), left_frame.type());
+  cv::Mat strip = grown_view(ls.strip, cv::Size(window.width + full, window.height), left_frame.type());
   sample_frame(left_frame, false, x0, y0, g.step_x, g.step_y, strip.size(), crop, strip);
   double wm, ws;
   mean_and_deviation(reverse_window_, wm, ws);
@@ -485,15 +493,6 @@ double RetinaStereo::reverse_shift(const Retina& left, std::size_t k, cv::Rect w
   // Shift -d pairs window column x with strip column x + d.
   const int best = correlate_window(reverse_window_, strip, wm, ws, -full, 0);
   return best < 0 ? -1 : full - best;
-}
-
-// A `size` view of the level's strip buffer, which only grows: the fovea's
-// spans differ in width from one search to the next, and the reverse search
-// spans the whole range.
-cv::Mat RetinaStereo::strip_of(LevelScratch& ls, cv::Size size, int type) {
-  if (ls.strip.cols < size.width || ls.strip.rows < size.height || ls.strip.type() != type)
-    ls.strip.create(std::max(size.height, ls.strip.rows), std::max(size.width, ls.strip.cols), type);
-  return ls.strip(cv::Rect(cv::Point(), size));
 }
 
 RetinaStereo::WindowMatch RetinaStereo::match_window(const Retina& left, std::size_t k, cv::Rect window,
@@ -504,7 +503,7 @@ RetinaStereo::WindowMatch RetinaStereo::match_window(const Retina& left, std::si
   // One strip of the right frame covering every shift: strip column j is the
   // right frame at left window column j - span.hi.
   const double x0 = g.region.x + (window.x - span.hi) * g.step_x;
-  cv::Mat strip = strip_of(ls, cv::Size(window.width + span.hi - span.lo, window.height), right_frame.type());
+  cv::Mat strip = grown_view(ls.strip, cv::Size(window.width + span.hi - span.lo, window.height), right_frame.type());
   sample_frame(right_frame, true, x0, g.region.y + window.y * g.step_y, g.step_x, g.step_y, strip.size(), k + 1 == n,
                strip);
   const cv::Mat pixels = left.levels[k](window);
@@ -878,26 +877,6 @@ void RetinaStereo::fill_level(const LevelPlan& plan, double step, LevelDisparity
   if (config_.fill) level.filled_density = fill_holes(level.disparity, level.score, fixation_.per_level[plan.k]);
 }
 
-namespace {
-
-// A `size` view of `buffer`, which is grown (8-bit) when smaller.
-cv::Mat grown_view(cv::Mat& buffer, cv::Size size) {
-  if (buffer.cols < size.width || buffer.rows < size.height)
-    buffer.create(std::max(size.height, buffer.rows), std::max(size.width, buffer.cols), CV_8UC1);
-  return buffer(cv::Rect(cv::Point(), size));
-}
-
-}  // namespace
-
-// A left pixel the right camera cannot see has no match, only a wrong one,
-// and within the restricted ranges the fovea searches, one that the
-// left-right check passes (make bench-stereo: 13-31% of its pixels, a
-// nearer surface to their right hiding them, 42-85% of them given a
-// disparity, 76-97% of those wrong). Its right window shows another
-// surface: the nearer one that hides it (right of it on the row, this
-// level's or, beyond it, the outer levels'), or, where it took the nearer
-// surface's disparity, the farther one seen left of it; matched against
-// the left frame there, the window correlates better than at its own match.
 // Row y of level k as drop_hidden reads it (in hidden_): its disparities
 // matched with a positive correlation (level pixels; -1 where unmatched,
 // filled, or matched without one: those are neither checked nor taken for
@@ -1033,6 +1012,15 @@ bool RetinaStereo::hidden_pixel(int x, int own, int cols, int reach) {
   return best > -2 && best > mine;
 }
 
+// A left pixel the right camera cannot see has no match, only a wrong one,
+// and within the restricted ranges the fovea searches, one that the
+// left-right check passes (make bench-stereo: 13-31% of its pixels, a
+// nearer surface to their right hiding them, 42-85% of them given a
+// disparity, 76-97% of those wrong). Its right window shows another
+// surface: the nearer one that hides it (right of it on the row, this
+// level's or, beyond it, the outer levels'), or, where it took the nearer
+// surface's disparity, the farther one seen left of it; matched against
+// the left frame there, the window correlates better than at its own match.
 void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, const cv::Mat& right_frame,
                                std::vector<LevelDisparity>& out, std::size_t k) {
   LevelDisparity& level = out[k];
@@ -1050,8 +1038,8 @@ void RetinaStereo::drop_hidden(const Retina& left, const cv::Mat& left_frame, co
       const int reach = static_cast<int>(std::ceil(own_max)) + 1;
       const int right_reach = static_cast<int>(std::ceil(std::max(hs.nearest, 0.0f))) + 1;
       const double x0 = g.region.x - (reach + r) * g.step_x, y0 = g.region.y + (y - r) * g.step_y;
-      hs.left_band = grown_view(hs.left, cv::Size(reach + cols + right_reach + w, w));
-      hs.right_band = grown_view(hs.right, cv::Size(reach + cols + w, w));
+      hs.left_band = grown_view(hs.left, cv::Size(reach + cols + right_reach + w, w), left_frame.type());
+      hs.right_band = grown_view(hs.right, cv::Size(reach + cols + w, w), right_frame.type());
       sample_frame(left_frame, false, x0, y0, g.step_x, g.step_y, hs.left_band.size(), crop, hs.left_band);
       sample_frame(right_frame, true, x0, y0, g.step_x, g.step_y, hs.right_band.size(), crop, hs.right_band);
       float* d = level.disparity.ptr<float>(y);

@@ -252,7 +252,6 @@ class RetinaStereo {
   // where it was matched.
   static constexpr double kMatchBackTolerance = 1.5;
   WindowMatch match_window(const Retina& left, std::size_t k, cv::Rect window, const cv::Mat& right_frame, Span span);
-  static cv::Mat strip_of(LevelScratch& ls, cv::Size size, int type);
   // A rectified verging pair: the disparity where the optical axes meet (< 0: none).
   double vergence_prior(const Retina& left) const;
   // Run's steps on one level.
