@@ -662,6 +662,7 @@ struct BoxTracker::Impl {
   double candidate_step = 1;
   std::vector<Placement> looks;
   int candidate_frames = 0;
+  bool candidate_near = false;          // found under the bar: near where the target was, and of its colour
   cv::Point2d sure_center;              // where the target was last tracked
   std::vector<HalfSpectrum> numerator;  // per channel
   std::vector<float> denominator;       // the channels' summed energy, per frequency (RealFft2d's layout)
@@ -879,15 +880,23 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   Placement where;
   // The last frame's candidate (the first look), found again, goes on: a
   // stronger peak elsewhere would start the count anew.
-  bool candidate_held = false;
+  // A candidate let in by the lower bar (its colour checked) is confirmed by its
+  // peak there alone: a colour at the tolerance's edge flickers (the light, white
+  // balance), and a recheck restarted the count (`mixed`: 24 frames, not 14).
+  const auto confirmed_near = [&](std::size_t i, const Placement& p, const Peak& peak) {
+    return i == 0 && has_candidate && m.candidate_near && peak.psr >= config_.redetect_near_psr &&
+           cv::norm(p.to_frame(peak.offset) - m.candidate) < near;
+  };
+  bool candidate_held = false, best_near = false;
   for (std::size_t i = 0; i < looks.size(); ++i) {
     const Placement& p = looks[i];
     const Peak peak = m.look_at(frame, p);
     if (peak.psr > strongest.psr) strongest = peak;
     if (candidate_held) continue;
-    if (!(peak.psr >= bar(p.to_frame(peak.offset)) || near_and_of_its_colour(p, peak))) continue;
+    const bool over_bar = peak.psr >= bar(p.to_frame(peak.offset));
+    if (!over_bar && !confirmed_near(i, p, peak) && !near_and_of_its_colour(p, peak)) continue;
     candidate_held = i == 0 && has_candidate;
-    if (candidate_held || peak.psr > best.psr) best = peak, where = p;
+    if (candidate_held || peak.psr > best.psr) best = peak, where = p, best_near = !over_bar;
   }
   last_.confidence = strongest.psr;
   if (best.psr <= 0) {
@@ -897,6 +906,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   const cv::Point2d found = where.to_frame(best.offset);
   const bool consistent = m.candidate_frames > 0 && cv::norm(found - m.candidate) < near;
   m.candidate = found;
+  m.candidate_near = best_near;
   m.candidate_step = where.step;
   m.candidate_frames = consistent ? m.candidate_frames + 1 : 1;
   if (m.candidate_frames < config_.redetect_frames) return;
@@ -904,8 +914,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   m.size *= where.step / m.step;  // found at another size
   m.step = where.step;
   m.velocity = {};
-  m.low_frames = m.unsure_frames = 0;
-  m.candidate_frames = 0;
+  m.low_frames = m.unsure_frames = m.candidate_frames = 0;
   last_.state = TrackState::kTracking;
 }
 
