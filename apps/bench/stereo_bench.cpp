@@ -44,6 +44,7 @@
 
 #include "retina.hpp"
 #include "retina_stereo.hpp"
+#include "stereo_params.hpp"
 
 namespace {
 
@@ -430,48 +431,6 @@ MatcherResult ours(const std::string& name, const stereo::RetinaStereoConfig& co
 
 // ---------------------------------------------------------------- configurations
 
-// Sets one of the matcher's parameters by its node name; false if unknown.
-bool set_param(stereo::RetinaStereoConfig& c, const std::string& key, const std::string& value) {
-  const bool b = value == "true" || value == "1";
-  double v = b ? 1.0 : 0.0;
-  if (value != "true" && value != "false") {
-    char* end = nullptr;
-    v = std::strtod(value.c_str(), &end);
-    if (end == value.c_str() || *end != '\0') return false;
-  }
-  static const std::map<std::string, std::function<void(stereo::RetinaStereoConfig&, double, bool)>> setters = {
-      {"max_disparity", [](auto& s, double x, bool) { s.max_disparity = x; }},
-      {"window", [](auto& s, double x, bool) { s.ncc.window = static_cast<int>(x); }},
-      {"min_score", [](auto& s, double x, bool) { s.ncc.min_score = static_cast<float>(x); }},
-      {"min_texture", [](auto& s, double x, bool) { s.ncc.min_texture = static_cast<float>(x); }},
-      {"semi_global", [](auto& s, double, bool y) { s.ncc.semi_global = y; }},
-      {"sgm_paths", [](auto& s, double x, bool) { s.ncc.paths = static_cast<int>(x); }},
-      {"sgm_p1", [](auto& s, double x, bool) { s.ncc.p1 = static_cast<float>(x); }},
-      {"sgm_p2", [](auto& s, double x, bool) { s.ncc.p2 = static_cast<float>(x); }},
-      {"fill_gaps", [](auto& s, double x, bool) { s.fill_gaps = static_cast<int>(x); }},
-      {"fill_occlusions", [](auto& s, double, bool y) { s.fill_occlusions = y; }},
-      {"occlusion_slack", [](auto& s, double x, bool) { s.occlusion_slack = static_cast<int>(x); }},
-      {"fovea_prediction", [](auto& s, double, bool y) { s.fovea_prediction = y; }},
-      {"fovea_radius", [](auto& s, double x, bool) { s.fovea_radius = static_cast<int>(x); }},
-      {"fovea_recheck", [](auto& s, double x, bool) { s.fovea_recheck = static_cast<int>(x); }},
-      {"search_radius", [](auto& s, double x, bool) { s.search_radius = static_cast<int>(x); }},
-      {"lr_tolerance", [](auto& s, double x, bool) { s.lr_tolerance = static_cast<float>(x); }},
-      {"fill", [](auto& s, double, bool y) { s.fill = y; }},
-      {"pad", [](auto& s, double x, bool) { s.pad = static_cast<int>(x); }},
-      {"occlusion_check", [](auto& s, double, bool y) { s.occlusion_check = y; }},
-      {"fovea_range_check", [](auto& s, double, bool y) { s.fovea_range_check = y; }},
-      {"fovea_flat_from_outer", [](auto& s, double, bool y) { s.fovea_flat_from_outer = y; }},
-      {"sgm_flat_uniqueness", [](auto& s, double x, bool) { s.ncc.flat_uniqueness = static_cast<float>(x); }},
-      {"coarse_to_fine", [](auto& s, double, bool y) { s.coarse_to_fine = y; }},
-      {"vergence", [](auto& s, double, bool y) { s.vergence = y; }},
-      {"lr_check", [](auto& s, double, bool y) { s.left_right_check = y; }},
-  };
-  const auto it = setters.find(key);
-  if (it == setters.end()) return false;
-  it->second(c, v, b);
-  return true;
-}
-
 // docs/accuracy.md's densest configuration, spelled out.
 stereo::RetinaStereoConfig densest() {
   stereo::RetinaStereoConfig c;
@@ -498,17 +457,26 @@ struct Matchers {
   std::string custom_name;
 };
 
-// The defaults changed by --set key=value; false (with the message printed) on a key or value not known.
+// The defaults changed by --set key=value (the stereo node's parameters,
+// checked as in a graph); false (with the reason printed) on one that is not.
 bool parse_sets(const std::vector<std::string>& sets, Matchers& m) {
   m.custom_set = !sets.empty();
+  std::vector<std::pair<std::string, std::string>> settings;
   for (const std::string& s : sets) {
     const auto eq = s.find('=');
-    if (eq == std::string::npos || !set_param(m.custom, s.substr(0, eq), s.substr(eq + 1))) {
-      std::fprintf(stderr, "saccade_stereo_bench: --set %s: not a known key=value\n", s.c_str());
+    if (eq == std::string::npos) {
+      std::fprintf(stderr, "saccade_stereo_bench: --set %s: not key=value\n", s.c_str());
       return false;
     }
+    settings.emplace_back(s.substr(0, eq), s.substr(eq + 1));
     m.custom_name += (m.custom_name.empty() ? "" : ", ") + s;
   }
+  const Result<stereo::StereoNodeConfig> configured = configure(&stereo::bind_stereo_params, settings);
+  if (!configured.ok()) {
+    std::fprintf(stderr, "saccade_stereo_bench: --set: %s\n", configured.error().c_str());
+    return false;
+  }
+  m.custom = configured->stereo;
   return true;
 }
 

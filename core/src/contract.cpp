@@ -1,5 +1,7 @@
 #include "saccade/contract.hpp"
 
+#include "saccade/graph.hpp"
+
 #include "text.hpp"
 
 #include <charconv>
@@ -44,6 +46,31 @@ Status check_range(const ParamSpec& spec, double v) {
 }
 
 }  // namespace
+
+Status read_params(const Contract& contract, const std::vector<std::pair<std::string, std::string>>& settings,
+                   Params& params) {
+  std::vector<std::string> known;
+  for (const ParamSpec& spec : contract.params()) known.push_back(spec.name);
+  for (const auto& [name, text] : settings) {
+    const ParamSpec* spec = contract.find_param(name);
+    if (spec == nullptr) return Status::error("unknown parameter '" + name + "'" + did_you_mean(name, known));
+    ParamValue value;
+    if (Status parsed = parse_param(*spec, text, value); !parsed.ok())
+      return Status::error("parameter '" + name + "' (" + std::string(to_string(spec->type)) +
+                           "): " + parsed.message());
+    params.set(name, std::move(value));
+  }
+  for (const ParamSpec& spec : contract.params()) {
+    if (params.has(spec.name)) continue;
+    if (spec.required) return Status::error("missing required parameter '" + spec.name + "' (" + spec.doc + ")");
+    if (spec.default_value.empty() && spec.type != ParamType::kString && spec.type != ParamType::kFlags) continue;
+    ParamValue value;
+    if (Status parsed = parse_param(spec, spec.default_value, value); !parsed.ok())
+      return Status::error("default of parameter '" + spec.name + "' is invalid: " + parsed.message());
+    params.set(spec.name, std::move(value));
+  }
+  return {};
+}
 
 Status parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out) {
   switch (spec.type) {

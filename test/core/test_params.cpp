@@ -3,6 +3,7 @@
 
 #include "saccade/contract.hpp"
 #include "saccade/node.hpp"
+#include "saccade/params.hpp"
 
 namespace saccade {
 namespace {
@@ -148,6 +149,24 @@ TEST(ParamBinder, ConfigIsFilledFromTheNodesParameters) {
   EXPECT_EQ(s.label, "x");
   EXPECT_FLOAT_EQ(s.inner.rate, 0.5f);
   EXPECT_EQ(s.inner.size, cv::Size(4, 3));
+}
+
+TEST(ParamBinder, ConfigureSetsAStructByItsNodesParameterNames) {
+  const Result<Sample> s = configure(&bind_sample, {{"window", "7"}, {"shape", "round"}, {"size", "4x3"}});
+  ASSERT_TRUE(s.ok()) << s.error();
+  EXPECT_EQ(s->window, 7);
+  EXPECT_EQ(s->shape, Shape::kRound);
+  EXPECT_EQ(s->inner.size, cv::Size(4, 3));
+  EXPECT_DOUBLE_EQ(s->gain, 0.123456789012) << "the rest at the struct's defaults";
+  EXPECT_EQ(s->label, "x");
+}
+
+TEST(ParamBinder, ConfigureNamesTheSettingThatDoesNotFit) {
+  EXPECT_THAT(configure(&bind_sample, {{"windwo", "7"}}).error(),
+              ::testing::AllOf(::testing::HasSubstr("unknown parameter 'windwo'"), ::testing::HasSubstr("window")));
+  EXPECT_THAT(configure(&bind_sample, {{"window", "11"}}).error(),
+              ::testing::AllOf(::testing::HasSubstr("'window'"), ::testing::HasSubstr("out of range")));
+  EXPECT_THAT(configure(&bind_sample, {{"shape", "oval"}}).error(), ::testing::HasSubstr("'shape'"));
 }
 
 struct Broken {

@@ -87,6 +87,14 @@ using ParamValue = std::variant<int64_t, double, bool, std::string, cv::Size, cv
 // an error saying why when it does not fit.
 Status parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out);
 
+// `params` from `settings` (name, value as a graph's XML writes it) for the
+// parameters `contract` declares, each parsed as parse_param does, the rest
+// at their defaults; an error names a setting that is unknown or does not fit.
+class Contract;
+class Params;
+Status read_params(const Contract& contract, const std::vector<std::pair<std::string, std::string>>& settings,
+                   Params& params);
+
 // "a, b,,c" -> {"a", "b", "c"}: a parameter that names several things (topics,
 // joints), items trimmed, empty ones dropped.
 std::vector<std::string> comma_list(std::string_view text);

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "saccade/contract.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade {
 
@@ -206,6 +207,24 @@ Contract& Contract::params(void (*bind)(ParamBinder<Config>&)) {
   ParamBinder<Config> binder(*this);
   bind(binder);
   return *this;
+}
+
+// A Config at the struct's defaults changed by `settings` (name, value as a
+// graph's XML writes it), each checked as a node's parameter is: for tools
+// and tests that set an algorithm by its node's parameter names. An error
+// names the setting that is unknown or does not fit.
+template <class Config>
+Result<Config> configure(void (*bind)(ParamBinder<Config>&),
+                         const std::vector<std::pair<std::string, std::string>>& settings) {
+  Contract contract;
+  contract.params(bind);
+  if (!contract.problems().empty()) return Status::error(contract.problems().front());
+  Params params;
+  if (Status read = read_params(contract, settings, params); !read.ok()) return read;
+  Config config;
+  ParamBinder<Config> loader(params, config);
+  bind(loader);
+  return config;
 }
 
 }  // namespace saccade
