@@ -348,6 +348,7 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat* left_frame, 
   out.per_level.assign(n, -1.0);
   out.disparity = -1;
   out.score = -1;
+  out.step = 0;
   out.confirmed = false;
   // Coarse to fine, the fovea's is found once the level outside it has been
   // matched (fovea_fixation).
@@ -393,6 +394,7 @@ bool RetinaStereo::take_fixation(const Retina& left, std::size_t k, const cv::Ma
   out.per_level[k] = best.shift * g.step_x;
   out.disparity = out.per_level[k];
   out.score = best.score;
+  out.step = g.step_x;
   return true;
 }
 
@@ -445,6 +447,7 @@ void RetinaStereo::fovea_fixation(const Retina& left, const LevelDisparity& oute
     out.per_level[k] = best.shift * g.step_x;
     out.disparity = out.per_level[k];
     out.score = best.score;
+    out.step = g.step_x;
   }
   confirm_fixation(left, left_frame, right_frame, out);
 }
@@ -1098,6 +1101,7 @@ Status RetinaStereo::run(const Retina& left, const Retina& right, std::vector<Le
   level_scratch_.resize(n);
   fixation_.per_level.assign(n, -1.0);
   fixation_.disparity = fixation_.score = -1;
+  fixation_.step = 0;
   fixation_.confirmed = false;
   if (config_.vergence && right_frame != nullptr && !left.geometry.empty())
     find_fixation(left, left_frame, *right_frame, fixation_);

@@ -25,10 +25,8 @@ void bind_fills_and_depth(ParamBinder<StereoNodeConfig>& b) {
              "semi-global aggregation of the NCC costs along sgm_paths paths: denser where windows alone are "
              "ambiguous or flat (min_score then does not apply)",
              &C::stereo, &S::ncc, &N::semi_global)
-      .field("sgm_p1", {0, 8}, "semi-global: cost of a disparity step of one (NCC units)", &C::stereo, &S::ncc,
-             &N::p1)
-      .field("sgm_p2", {0, 8}, "semi-global: cost of a larger disparity step (NCC units)", &C::stereo, &S::ncc,
-             &N::p2)
+      .field("sgm_p1", {0, 8}, "semi-global: cost of a disparity step of one (NCC units)", &C::stereo, &S::ncc, &N::p1)
+      .field("sgm_p2", {0, 8}, "semi-global: cost of a larger disparity step (NCC units)", &C::stereo, &S::ncc, &N::p2)
       .field("sgm_flat_uniqueness", {0, 1},
              "semi-global: a pick without correlation (its window or its partner's flat) is undecided where "
              "another disparity, more than one away, aggregates within this share of the best (see "
@@ -38,8 +36,8 @@ void bind_fills_and_depth(ParamBinder<StereoNodeConfig>& b) {
              "semi-global: paths summed, along rows and columns (4) or also the diagonals (8: a little "
              "denser on Aloe's fovea, a third slower)",
              &C::stereo, &S::ncc, &N::paths)
-      .field("focal", {0, 1e6}, "focal length of the rectified images, pixels (with baseline: depth)",
-             &C::calibration, &StereoCalibration::focal_px)
+      .field("focal", {0, 1e6}, "focal length of the rectified images, pixels (with baseline: depth)", &C::calibration,
+             &StereoCalibration::focal_px)
       .field("baseline", {0, 100}, "distance between the cameras, metres", &C::calibration,
              &StereoCalibration::baseline_m)
       .field("calibration",
@@ -47,8 +45,9 @@ void bind_fills_and_depth(ParamBinder<StereoNodeConfig>& b) {
              "and baseline for depth; rectified retinas carry their own",
              &C::calibration_file)
       .field("disparity_sigma", {0, 100},
-             "standard deviation of the fixation disparity, pixels, for its depth's (make bench-verge measures "
-             "0.27 px RMS)",
+             "standard deviation of the fovea's fixation disparity, pixels, for its depth's (make bench-verge "
+             "measures 0.27 px RMS); a fixation found on a coarser level (the fovea's window flat) has it times "
+             "that level's step",
              &C::disparity_sigma);
 }
 
@@ -77,8 +76,8 @@ void bind_stereo_params(ParamBinder<StereoNodeConfig>& b) {
              "software vergence: find the fixation disparity coarse to fine and sample the right frame there "
              "(needs the retinas' frames)",
              &C::stereo, &S::vergence)
-      .field("fovea_radius", {1, 256}, "with vergence: fovea pixels searched around the fixation disparity",
-             &C::stereo, &S::fovea_radius)
+      .field("fovea_radius", {1, 256}, "with vergence: fovea pixels searched around the fixation disparity", &C::stereo,
+             &S::fovea_radius)
       .field("fovea_prediction",
              "with vergence: the fovea also searches around what the level outside it found at each pixel "
              "(surfaces farther than fovea_radius from the fixation)",
@@ -101,9 +100,9 @@ void bind_stereo_params(ParamBinder<StereoNodeConfig>& b) {
              "semi-global: fovea pixels whose aggregated minimum lies at an end of their search range are not "
              "matched (the truth may lie beyond it; fewer wrong disparities, lower density)",
              &C::stereo, &S::fovea_range_check)
-      .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)",
-             &C::stereo, &S::pad);
-bind_fills_and_depth(b);
+      .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)", &C::stereo,
+             &S::pad);
+  bind_fills_and_depth(b);
 }
 
 }  // namespace saccade::stereo

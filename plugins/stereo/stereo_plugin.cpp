@@ -98,7 +98,10 @@ class StereoNode final : public Node {
     fixation->confirmed = stereo_->fixation().confirmed;
     fixation->rectified = l->rectification.enabled;
     fixation->camera_id = l->camera_id;
-    const LocatedPoint at = locate(model, fixation->pixel, fixation->disparity, disparity_sigma_);
+    // disparity_sigma is the fovea's; found on a coarser level (the fovea's
+    // window flat), the disparity is as uncertain as that level's pixels are large.
+    const double coarser = std::max(1.0, stereo_->fixation().step / l->geometry.back().step_x);
+    const LocatedPoint at = locate(model, fixation->pixel, fixation->disparity, disparity_sigma_ * coarser);
     if (at.valid) {
       fixation->depth = at.depth;
       fixation->depth_sigma = at.depth_sigma;

@@ -360,13 +360,9 @@ TEST(RetinaStereo, OcclusionCheckDropsTheFoveaPixelsANearerSurfaceBeyondItHides)
   EXPECT_GE(seen_share, 0.95);
 }
 
-TEST(RetinaStereo, FlatFoveaPixelsTakeTheLevelOutsidesDisparity) {
-  // A plane at disparity 20 whose middle (100 x 80 pixels, the fovea in it)
-  // is blank but for each camera's own noise: the fovea's windows see only
-  // noise, and the aggregation over the fovea has nothing to carry in. The
-  // level outside, its cells larger than the blank, matched the plane around
-  // it; those flat pixels take its disparity.
-  const int d = 20;
+// A plane at disparity `d` whose middle (100 x 80 pixels, the fovea in it)
+// is blank but for each camera's own noise.
+Pair blank_fovea_pair(int d) {
   cv::Mat texture = texture_of({640 + d, 480}, 11);
   // The blank: a faint shading over tens of pixels (a cloudy sky), +-4 gray levels.
   cv::Mat shading = test::random_image({8, 6}, 3), faint;
@@ -382,7 +378,15 @@ TEST(RetinaStereo, FlatFoveaPixelsTakeTheLevelOutsidesDisparity) {
     cv::add(*m, noise, sum, cv::noArray(), CV_16S);
     sum.convertTo(*m, CV_8U);
   }
-  const Pair p = retinas_of(left, right, {320, 240});
+  return retinas_of(left, right, {320, 240});
+}
+
+TEST(RetinaStereo, FlatFoveaPixelsTakeTheLevelOutsidesDisparity) {
+  // The fovea's windows see only noise, and the aggregation over the fovea
+  // has nothing to carry in. The level outside, its cells larger than the
+  // blank, matched the plane around it; those flat pixels take its disparity.
+  const int d = 20;
+  const Pair p = blank_fovea_pair(d);
   RetinaStereoConfig plain, from_outer;
   plain.max_disparity = from_outer.max_disparity = 96;
   plain.fovea_flat_from_outer = false;
@@ -397,6 +401,29 @@ TEST(RetinaStereo, FlatFoveaPixelsTakeTheLevelOutsidesDisparity) {
   EXPECT_LE(plain_share * plain_density, 0.2) << "the scene must fool the aggregation for the test to mean anything";
   EXPECT_GE(share * density, 0.65);
   EXPECT_GE(density, plain_density - 0.02);
+}
+
+TEST(RetinaStereo, AFixationFoundOnACoarserLevelSaysWhichStep) {
+  // Where the fovea's fixation window is flat, the innermost level whose
+  // window is not finds the fixation, as precise as its pixels are large.
+  RetinaStereoConfig config;
+  config.max_disparity = 96;
+  RetinaStereo blank(config), textured(config);
+  std::vector<LevelDisparity> out;
+  const Pair b = blank_fovea_pair(20);
+  ASSERT_TRUE(blank.run(*b.left, *b.right, out).ok());
+  const std::vector<double>& found = blank.fixation().per_level;
+  EXPECT_LT(found.back(), 0) << "the fovea's window is flat";
+  std::size_t k = found.size();
+  while (k > 0 && found[k - 1] < 0) --k;
+  ASSERT_GT(k, 0u);
+  EXPECT_DOUBLE_EQ(blank.fixation().step, b.left->geometry[k - 1].step_x);
+  EXPECT_GT(blank.fixation().step, b.left->geometry.back().step_x);
+  EXPECT_NEAR(blank.fixation().disparity, 20, blank.fixation().step);
+  const Pair t = make_pair(20, {320, 240});
+  ASSERT_TRUE(textured.run(*t.left, *t.right, out).ok());
+  EXPECT_DOUBLE_EQ(textured.fixation().step, t.left->geometry.back().step_x);
+  EXPECT_NEAR(textured.fixation().disparity, 20, 0.25);
 }
 
 TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
@@ -587,6 +614,31 @@ TEST(StereoNode, EmitsTheFixationDisparityAndDepthFromFocalAndBaseline) {
       testing::NodeHarness::create(R"(<node plugin="stereo"><param name="focal" value="500"/></node>)");
   EXPECT_FALSE(focal_only.ok());
   EXPECT_THAT(focal_only.error(), ::testing::HasSubstr("baseline"));
+}
+
+TEST(StereoNode, AFixationFromACoarserLevelHasItsLargerDepthUncertainty) {
+  const std::string node = R"(<node plugin="stereo"><param name="max_disparity" value="96"/>
+      <param name="focal" value="500"/><param name="baseline" value="0.1"/></node>)";
+  const Pair blank = blank_fovea_pair(20), textured = make_pair(20, {320, 240});
+  auto b = stereo_node_on(blank, node), t = stereo_node_on(textured, node);
+  ASSERT_NE(b, nullptr);
+  ASSERT_NE(t, nullptr);
+  auto from_outer = b->last<StereoFixation>("fixation"), from_fovea = t->last<StereoFixation>("fixation");
+  ASSERT_NE(from_outer, nullptr);
+  ASSERT_NE(from_fovea, nullptr);
+  ASSERT_GT(from_outer->depth, 0);
+  ASSERT_GT(from_fovea->depth, 0);
+  // sigma_Z = Z^2 / (f B) sigma_d, with sigma_d 0.3 px at the fovea, times the level's step outside it.
+  const auto sigma = [](const StereoFixation& f, double sigma_d) { return f.depth * f.depth / 50.0 * sigma_d; };
+  EXPECT_NEAR(from_fovea->depth_sigma, sigma(*from_fovea, 0.3), 1e-9);
+  RetinaStereoConfig config;
+  config.max_disparity = 96;
+  RetinaStereo stereo(config);
+  std::vector<LevelDisparity> out;
+  ASSERT_TRUE(stereo.run(*blank.left, *blank.right, out).ok());
+  const double coarser = stereo.fixation().step / blank.left->geometry.back().step_x;
+  ASSERT_GT(coarser, 1) << "the fovea's window is flat: an outer level finds the fixation";
+  EXPECT_NEAR(from_outer->depth_sigma, sigma(*from_outer, 0.3 * coarser), 1e-9);
 }
 
 TEST(StereoNode, AsksTheHeadToVergeOnlyOnAConfirmedFixation) {
