@@ -379,6 +379,18 @@ bool RetinaStereo::take_fixation(const Retina& left, std::size_t k, const cv::Ma
   const cv::Rect window = fixation_window_of(left, k, config_.fixation_window);
   const int full = static_cast<int>(std::ceil(config_.max_disparity / g.step_x));
   WindowMatch best = match_window(left, k, window, right_frame, span);
+  // A peak at an end of the span, unless the whole range ends there, may be
+  // the slope of one beyond it (the outer levels' large windows saw another
+  // surface): the rest of the range on that side is searched too.
+  if (best.score > -2) {
+    Span beyond{1, 0};
+    if (best.shift <= span.lo + 0.5 && span.lo > 0) beyond = {0, span.lo};
+    if (best.shift >= span.hi - 0.5 && span.hi < full) beyond = {span.hi, full};
+    if (beyond.hi > beyond.lo) {
+      const WindowMatch other = match_window(left, k, window, right_frame, beyond);
+      if (other.score > best.score) best = other;
+    }
+  }
   // A verging head fixates with its joints: where its optical axes meet is
   // a second guess, which wins where the outer levels' wide windows saw
   // mostly background (a near target smaller than them).

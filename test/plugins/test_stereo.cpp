@@ -426,6 +426,42 @@ TEST(RetinaStereo, AFixationFoundOnACoarserLevelSaysWhichStep) {
   EXPECT_NEAR(textured.fixation().disparity, 20, 0.25);
 }
 
+TEST(RetinaStereo, AFixationPeakAtTheEndOfItsSpanIsSearchedBeyond) {
+  // A low-contrast far surface (disparity 8) whose middle is blank (the
+  // fovea's window flat), and 45 px left of the centre a textured block at 40
+  // that fills the outer levels' large windows: each finer level searches
+  // around the one outside it, and the level outside the fovea, whose window
+  // no longer reaches the block, peaks at the near end of its span. The
+  // range beyond that end holds the surface.
+  const int far = 8, near = 40;
+  cv::Mat back = texture_of({640 + near, 480}, 11), front = texture_of({640 + near, 480}, 29);
+  back.convertTo(back, CV_8U, 0.3, 128 * 0.7);
+  const cv::Point center(245, 240);
+  back(cv::Rect(center.x - 15, center.y - 12, 30 + far, 24)).setTo(128);
+  const cv::Rect block(0, 60, 200, 360);
+  cv::Mat left = back(cv::Rect(0, 0, 640, 480)).clone(), right(480, 640, CV_8U);
+  front(block).copyTo(left(block));
+  for (int y = 0; y < 480; ++y)
+    for (int x = 0; x < 640; ++x)
+      right.at<uint8_t>(y, x) =
+          block.contains({x + near, y}) ? front.at<uint8_t>(y, x + near) : back.at<uint8_t>(y, x + far);
+  const Pair p = retinas_of(left, right, center);
+  RetinaStereoConfig config;
+  config.max_disparity = 96;
+  RetinaStereo stereo(config);
+  std::vector<LevelDisparity> out;
+  ASSERT_TRUE(stereo.run(*p.left, *p.right, out).ok());
+  const std::vector<double>& found = stereo.fixation().per_level;
+  std::printf("per level:");
+  for (double d : found) std::printf(" %.1f", d);
+  std::printf("\n");
+  EXPECT_GT(found.front(), 30) << "the outer level must see the block for the test to mean anything";
+  EXPECT_LT(found.back(), 0) << "the fovea's window is flat";
+  const double step = p.left->geometry[found.size() - 2].step_x;
+  EXPECT_DOUBLE_EQ(stereo.fixation().step, step);
+  EXPECT_NEAR(stereo.fixation().disparity, far, step);
+}
+
 TEST(RetinaStereo, CoarseToFineAgreesWithAFullSearch) {
   Pair p = make_pair(9, {300, 200});
   RetinaStereoConfig fine = plain_matcher_config(), full = plain_matcher_config();
