@@ -666,7 +666,7 @@ struct BoxTracker::Impl {
   double candidate_step = 1;
   std::vector<Placement> looks;
   int candidate_frames = 0;
-  bool candidate_near = false;          // found under the bar: near where the target was, and of its colour
+  bool candidate_coloured = false;      // let in under the bar: near where the target was, of its colour
   cv::Point2d sure_center;              // where the target was last tracked
   std::vector<HalfSpectrum> numerator;  // per channel
   std::vector<float> denominator;       // the channels' summed energy, per frequency (RealFft2d's layout)
@@ -807,7 +807,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     return;
   }
   m.learn_color(config_, color, color_distance);
-  m.unsure_frames = 0;
+  m.unsure_frames = m.candidate_frames = 0;  // (and a count the unsure frames' re-detection began)
   m.angle = at.angle;
   m.velocity = config_.velocity_gain * (measured - m.center) + (1 - config_.velocity_gain) * m.velocity;
   m.center = measured;
@@ -868,14 +868,15 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   // comes back near where it was last tracked, and its colour does not lie
   // where its look may (it came back nearer, turned, in other light: the
   // filter peaks under the bar, make bench-track's `mixed` 7-8 for 15 frames):
-  // near that place and of its colour, a peak need only reach
-  // redetect_near_psr. (Of its colour anywhere, a tinted look-alike was taken
-  // for it: mixed_640.)
-  const auto near_and_of_its_colour = [&](const Placement& p, const Peak& peak) {
-    const cv::Point2d found = p.to_frame(peak.offset);
+  // near that place (not where the unsure tracker sits: what follow() found
+  // too weak) and of its colour, a peak need only reach redetect_near_psr.
+  // (Of its colour anywhere, a tinted look-alike was taken for it: mixed_640.)
+  const auto near_its_place = [&](cv::Point2d found, const Peak& peak) {
     const double reach = config_.redetect_near * std::max(m.size.width, m.size.height);
-    if (peak.psr < config_.redetect_near_psr || cv::norm(found - m.sure_center) >= reach) return false;
-    if (unsure && cv::norm(found - m.center) < near) return false;  // (what follow() found too weak)
+    return peak.psr >= config_.redetect_near_psr && cv::norm(found - m.sure_center) < reach &&
+           !(unsure && cv::norm(found - m.center) < near);
+  };
+  const auto of_its_colour = [&](const Placement& p, cv::Point2d found) {
     return m.color_checked(config_) &&
            m.color_matches(config_, cv::norm(chroma(frame, found, m.size * (p.step / m.step)) - m.chroma_mean));
   };
@@ -883,24 +884,23 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   Peak best, strongest;
   Placement where;
   // The last frame's candidate (the first look), found again, goes on: a
-  // stronger peak elsewhere would start the count anew.
-  // A candidate let in by the lower bar (its colour checked) is confirmed by its
-  // peak there alone: a colour at the tolerance's edge flickers (the light, white
-  // balance), and a recheck restarted the count (`mixed`: 24 frames, not 14).
-  const auto confirmed_near = [&](std::size_t i, const Placement& p, const Peak& peak) {
-    return i == 0 && has_candidate && m.candidate_near && peak.psr >= config_.redetect_near_psr &&
-           cv::norm(p.to_frame(peak.offset) - m.candidate) < near;
-  };
-  bool candidate_held = false, best_near = false;
+  // stronger peak elsewhere would start the count anew. One the lower bar let
+  // in, its colour checked, is confirmed at its place without the colour: a
+  // colour at the tolerance's edge flickers (the light, white balance), and a
+  // recheck restarted the count (`mixed`: 24 frames, not 14).
+  bool candidate_held = false, best_coloured = false;
   for (std::size_t i = 0; i < looks.size(); ++i) {
     const Placement& p = looks[i];
     const Peak peak = m.look_at(frame, p);
     if (peak.psr > strongest.psr) strongest = peak;
     if (candidate_held) continue;
-    const bool over_bar = peak.psr >= bar(p.to_frame(peak.offset));
-    if (!over_bar && !confirmed_near(i, p, peak) && !near_and_of_its_colour(p, peak)) continue;
+    const cv::Point2d found = p.to_frame(peak.offset);
+    const bool over_bar = peak.psr >= bar(found);
+    const bool held = i == 0 && has_candidate && m.candidate_coloured && cv::norm(found - m.candidate) < near;
+    bool coloured = false;
+    if (!over_bar && !(near_its_place(found, peak) && (held || (coloured = of_its_colour(p, found))))) continue;
     candidate_held = i == 0 && has_candidate;
-    if (candidate_held || peak.psr > best.psr) best = peak, where = p, best_near = !over_bar;
+    if (candidate_held || peak.psr > best.psr) best = peak, where = p, best_coloured = coloured;
   }
   last_.confidence = strongest.psr;
   if (best.psr <= 0) {
@@ -910,7 +910,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   const cv::Point2d found = where.to_frame(best.offset);
   const bool consistent = m.candidate_frames > 0 && cv::norm(found - m.candidate) < near;
   m.candidate = found;
-  m.candidate_near = best_near;
+  m.candidate_coloured = best_coloured;
   m.candidate_step = where.step;
   m.candidate_frames = consistent ? m.candidate_frames + 1 : 1;
   if (m.candidate_frames < config_.redetect_frames) return;

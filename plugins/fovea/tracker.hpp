@@ -26,7 +26,8 @@ struct TrackerConfig {
 // images, computed directly: OpenCV 4.6 takes the DFT path even for a 12x12
 // template in a 40x32 window, which allocates on every call and costs several
 // times more. Same definition, and the same rule for flat windows (their
-// score is 0). `scratch` keeps the buffers between calls.
+// score is 0); a flat template scores 0 everywhere (OpenCV's: 1). `scratch`
+// keeps the buffers between calls.
 struct CorrelationScratch {
   std::vector<float> centered, cross;
   std::vector<double> column_sum, column_sq, row_sum, row_sq;
