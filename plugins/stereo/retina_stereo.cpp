@@ -381,14 +381,17 @@ bool RetinaStereo::take_fixation(const Retina& left, std::size_t k, const cv::Ma
   WindowMatch best = match_window(left, k, window, right_frame, span);
   // A peak at an end of the span, unless the whole range ends there, may be
   // the slope of one beyond it (the outer levels' large windows saw another
-  // surface): the rest of the range on that side is searched too.
+  // surface): the span is searched again reaching as far again on that side
+  // (not the whole range, whose far peaks on repeated texture coarse to fine
+  // keeps away from).
   if (best.score > -2) {
-    Span beyond{1, 0};
-    if (best.shift <= span.lo + 0.5 && span.lo > 0) beyond = {0, span.lo};
-    if (best.shift >= span.hi - 0.5 && span.hi < full) beyond = {span.hi, full};
-    if (beyond.hi > beyond.lo) {
-      const WindowMatch other = match_window(left, k, window, right_frame, beyond);
-      if (other.score > best.score) best = other;
+    const int reach = std::max(2, span.hi - span.lo);
+    Span wider = span;
+    if (best.shift <= span.lo + 0.5 && span.lo > 0) wider.lo = std::max(0, span.lo - reach);
+    if (best.shift >= span.hi - 0.5 && span.hi < full) wider.hi = std::min(full, span.hi + reach);
+    if (wider.lo != span.lo || wider.hi != span.hi) {
+      span = wider;
+      best = match_window(left, k, window, right_frame, span);
     }
   }
   // A verging head fixates with its joints: where its optical axes meet is
