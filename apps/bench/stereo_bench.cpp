@@ -487,8 +487,9 @@ bool parse_sets(const std::vector<std::string>& sets, Matchers& m) {
     m.custom_name += (m.custom_name.empty() ? "" : ", ") + s;
   }
   const Result<stereo::StereoNodeConfig> configured = configure(&stereo::bind_stereo_params, settings);
-  if (!configured.ok()) {
-    std::fprintf(stderr, "saccade_stereo_bench: --set: %s\n", configured.error().c_str());
+  const Status checked = configured.ok() ? stereo::check_stereo_params(*configured) : configured.status();
+  if (!checked.ok()) {
+    std::fprintf(stderr, "saccade_stereo_bench: --set: %s\n", checked.message().c_str());
     return false;
   }
   m.custom = configured->stereo;

@@ -54,6 +54,7 @@ Status read_params(const Contract& contract, const std::vector<std::pair<std::st
   for (const auto& [name, text] : settings) {
     const ParamSpec* spec = contract.find_param(name);
     if (spec == nullptr) return Status::error("unknown parameter '" + name + "'" + did_you_mean(name, known));
+    if (params.has(name)) return Status::error("parameter '" + name + "' given twice");
     ParamValue value;
     if (Status parsed = parse_param(*spec, text, value); !parsed.ok())
       return Status::error("parameter '" + name + "' (" + std::string(to_string(spec->type)) +

@@ -105,4 +105,10 @@ void bind_stereo_params(ParamBinder<StereoNodeConfig>& b) {
   bind_fills_and_depth(b);
 }
 
+Status check_stereo_params(const StereoNodeConfig& c) {
+  if (c.stereo.ncc.window % 2 == 0) return Status::error("window must be odd");
+  if (c.stereo.ncc.p2 < c.stereo.ncc.p1) return Status::error("sgm_p2 must not be smaller than sgm_p1");
+  return {};
+}
+
 }  // namespace saccade::stereo

@@ -6,6 +6,7 @@
 
 #include "retina_stereo.hpp"
 #include "saccade/params.hpp"
+#include "saccade/status.hpp"
 
 namespace saccade::stereo {
 
@@ -22,5 +23,8 @@ struct StereoNodeConfig {
 
 // Declares (in a contract) or reads (from a node's parameters) every field.
 void bind_stereo_params(ParamBinder<StereoNodeConfig>& b);
+
+// What the parameters' ranges cannot say: an odd window, sgm_p2 >= sgm_p1.
+Status check_stereo_params(const StereoNodeConfig& c);
 
 }  // namespace saccade::stereo

@@ -45,8 +45,7 @@ class StereoNode final : public Node {
   }
   Status open(OpenContext& ctx) override {
     StereoNodeConfig c = ctx.config(&bind_stereo_params);
-    if (c.stereo.ncc.window % 2 == 0) return Status::error("window must be odd");
-    if (c.stereo.ncc.p2 < c.stereo.ncc.p1) return Status::error("sgm_p2 must not be smaller than sgm_p1");
+    if (Status checked = check_stereo_params(c); !checked.ok()) return checked;
     calibration_ = c.calibration;
     if (!c.calibration_file.empty()) {
       Result<StereoCalibration> read = read_calibration(c.calibration_file);

@@ -167,6 +167,7 @@ TEST(ParamBinder, ConfigureNamesTheSettingThatDoesNotFit) {
   EXPECT_THAT(configure(&bind_sample, {{"window", "11"}}).error(),
               ::testing::AllOf(::testing::HasSubstr("'window'"), ::testing::HasSubstr("out of range")));
   EXPECT_THAT(configure(&bind_sample, {{"shape", "oval"}}).error(), ::testing::HasSubstr("'shape'"));
+  EXPECT_THAT(configure(&bind_sample, {{"window", "5"}, {"window", "7"}}).error(), ::testing::HasSubstr("given twice"));
 }
 
 struct Broken {
