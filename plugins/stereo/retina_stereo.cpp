@@ -348,7 +348,6 @@ void RetinaStereo::find_fixation(const Retina& left, const cv::Mat* left_frame, 
   out.per_level.assign(n, -1.0);
   out.disparity = -1;
   out.score = -1;
-  out.step = 0;
   out.confirmed = false;
   // Coarse to fine, the fovea's is found once the level outside it has been
   // matched (fovea_fixation).
@@ -409,7 +408,6 @@ bool RetinaStereo::take_fixation(const Retina& left, std::size_t k, const cv::Ma
   out.per_level[k] = best.shift * g.step_x;
   out.disparity = out.per_level[k];
   out.score = best.score;
-  out.step = g.step_x;
   return true;
 }
 
@@ -462,7 +460,6 @@ void RetinaStereo::fovea_fixation(const Retina& left, const LevelDisparity& oute
     out.per_level[k] = best.shift * g.step_x;
     out.disparity = out.per_level[k];
     out.score = best.score;
-    out.step = g.step_x;
   }
   confirm_fixation(left, left_frame, right_frame, out);
 }
@@ -475,11 +472,9 @@ void RetinaStereo::fovea_fixation(const Retina& left, const LevelDisparity& oute
 void RetinaStereo::confirm_fixation(const Retina& left, const cv::Mat* left_frame, const cv::Mat& right_frame,
                                     Fixation& out) {
   out.confirmed = false;
-  // The innermost level that found it (where the fovea's window is flat, an outer one's).
-  std::size_t k = out.per_level.size();
-  while (k > 0 && out.per_level[k - 1] < 0) --k;
-  if (k == 0) return;
-  --k;
+  const int found_by = out.level();
+  if (found_by < 0) return;
+  const auto k = static_cast<std::size_t>(found_by);
   if (left_frame == nullptr) {  // nothing to check against: trusted, as before the check
     out.confirmed = true;
     return;
@@ -1116,7 +1111,6 @@ Status RetinaStereo::run(const Retina& left, const Retina& right, std::vector<Le
   level_scratch_.resize(n);
   fixation_.per_level.assign(n, -1.0);
   fixation_.disparity = fixation_.score = -1;
-  fixation_.step = 0;
   fixation_.confirmed = false;
   if (config_.vergence && right_frame != nullptr && !left.geometry.empty())
     find_fixation(left, left_frame, *right_frame, fixation_);

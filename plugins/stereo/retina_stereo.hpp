@@ -111,10 +111,14 @@ struct Fixation {
   std::vector<double> per_level;  // source pixels; < 0 where not found
   double disparity = -1;          // the innermost level's estimate (source pixels), < 0 if none
   double score = -1;              // its NCC
-  // Source pixels per pixel of the level that found `disparity` (an outer
-  // level's where the fovea's window was flat): its precision is a share of
-  // that level's pixel, not the fovea's. 0 where none found it.
-  double step = 0;
+  // The innermost level that found `disparity` (an outer one where the
+  // fovea's window was flat: the disparity is then as precise as that
+  // level's pixels are large, not the fovea's); -1 where none found it.
+  int level() const {
+    for (std::size_t k = per_level.size(); k-- > 0;)
+      if (per_level[k] >= 0) return static_cast<int>(k);
+    return -1;
+  }
   // The fixation window of the innermost level that found `disparity` (the
   // fovea's, unless its window was flat), as the right frame sees it there,
   // matches back to it over the whole range (false: repeated texture or a

@@ -99,7 +99,11 @@ class StereoNode final : public Node {
     fixation->camera_id = l->camera_id;
     // disparity_sigma is the fovea's; found on a coarser level (the fovea's
     // window flat), the disparity is as uncertain as that level's pixels are large.
-    const double coarser = std::max(1.0, stereo_->fixation().step / l->geometry.back().step_x);
+    const int found_by = stereo_->fixation().level();
+    const double coarser =
+        found_by < 0
+            ? 1.0
+            : std::max(1.0, l->geometry[static_cast<std::size_t>(found_by)].step_x / l->geometry.back().step_x);
     const LocatedPoint at = locate(model, fixation->pixel, fixation->disparity, disparity_sigma_ * coarser);
     if (at.valid) {
       fixation->depth = at.depth;

@@ -43,8 +43,8 @@ Pair make_pair(int d, cv::Point2d fovea) {
 // it (left image pixels `block`): the right camera sees the block `near`
 // pixels further left and the far surface `far`, so the (near - far) far
 // pixels just left of the block are hidden from it.
-Pair make_block_pair(int far, int near, cv::Rect block, cv::Point2d fovea) {
-  const cv::Mat back = texture_of({640 + near, 480}, 11), front = texture_of({640 + near, 480}, 29);
+// The same from the two surfaces' textures (640 + near by 480, 8-bit).
+Pair block_pair_of(const cv::Mat& back, const cv::Mat& front, int far, int near, cv::Rect block, cv::Point2d fovea) {
   cv::Mat left = back(cv::Rect(0, 0, 640, 480)).clone(), right(480, 640, CV_8U);
   front(block).copyTo(left(block));
   for (int y = 0; y < 480; ++y)
@@ -53,6 +53,10 @@ Pair make_block_pair(int far, int near, cv::Rect block, cv::Point2d fovea) {
       right.at<uint8_t>(y, x) = on_block ? front.at<uint8_t>(y, x + near) : back.at<uint8_t>(y, x + far);
     }
   return retinas_of(left, right, fovea);
+}
+
+Pair make_block_pair(int far, int near, cv::Rect block, cv::Point2d fovea) {
+  return block_pair_of(texture_of({640 + near, 480}, 11), texture_of({640 + near, 480}, 29), far, near, block, fovea);
 }
 
 Pair retinas_of(const cv::Mat& left, const cv::Mat& right, cv::Point2d fovea) {
@@ -403,7 +407,7 @@ TEST(RetinaStereo, FlatFoveaPixelsTakeTheLevelOutsidesDisparity) {
   EXPECT_GE(density, plain_density - 0.02);
 }
 
-TEST(RetinaStereo, AFixationFoundOnACoarserLevelSaysWhichStep) {
+TEST(RetinaStereo, AFixationFoundOnACoarserLevelSaysWhichLevel) {
   // Where the fovea's fixation window is flat, the innermost level whose
   // window is not finds the fixation, as precise as its pixels are large.
   RetinaStereoConfig config;
@@ -417,12 +421,13 @@ TEST(RetinaStereo, AFixationFoundOnACoarserLevelSaysWhichStep) {
   std::size_t k = found.size();
   while (k > 0 && found[k - 1] < 0) --k;
   ASSERT_GT(k, 0u);
-  EXPECT_DOUBLE_EQ(blank.fixation().step, b.left->geometry[k - 1].step_x);
-  EXPECT_GT(blank.fixation().step, b.left->geometry.back().step_x);
-  EXPECT_NEAR(blank.fixation().disparity, 20, blank.fixation().step);
+  ASSERT_EQ(blank.fixation().level(), static_cast<int>(k - 1));
+  const double step = b.left->geometry[k - 1].step_x;
+  EXPECT_GT(step, b.left->geometry.back().step_x);
+  EXPECT_NEAR(blank.fixation().disparity, 20, step);
   const Pair t = make_pair(20, {320, 240});
   ASSERT_TRUE(textured.run(*t.left, *t.right, out).ok());
-  EXPECT_DOUBLE_EQ(textured.fixation().step, t.left->geometry.back().step_x);
+  EXPECT_EQ(textured.fixation().level(), static_cast<int>(t.left->geometry.size()) - 1);
   EXPECT_NEAR(textured.fixation().disparity, 20, 0.25);
 }
 
@@ -438,14 +443,7 @@ TEST(RetinaStereo, AFixationPeakAtTheEndOfItsSpanIsSearchedBeyond) {
   back.convertTo(back, CV_8U, 0.3, 128 * 0.7);
   const cv::Point center(245, 240);
   back(cv::Rect(center.x - 15, center.y - 12, 30 + far, 24)).setTo(128);
-  const cv::Rect block(0, 60, 200, 360);
-  cv::Mat left = back(cv::Rect(0, 0, 640, 480)).clone(), right(480, 640, CV_8U);
-  front(block).copyTo(left(block));
-  for (int y = 0; y < 480; ++y)
-    for (int x = 0; x < 640; ++x)
-      right.at<uint8_t>(y, x) =
-          block.contains({x + near, y}) ? front.at<uint8_t>(y, x + near) : back.at<uint8_t>(y, x + far);
-  const Pair p = retinas_of(left, right, center);
+  const Pair p = block_pair_of(back, front, far, near, cv::Rect(0, 60, 200, 360), center);
   RetinaStereoConfig config;
   config.max_disparity = 96;
   RetinaStereo stereo(config);
@@ -457,8 +455,8 @@ TEST(RetinaStereo, AFixationPeakAtTheEndOfItsSpanIsSearchedBeyond) {
   std::printf("\n");
   EXPECT_GT(found.front(), 30) << "the outer level must see the block for the test to mean anything";
   EXPECT_LT(found.back(), 0) << "the fovea's window is flat";
+  ASSERT_EQ(stereo.fixation().level(), static_cast<int>(found.size()) - 2);
   const double step = p.left->geometry[found.size() - 2].step_x;
-  EXPECT_DOUBLE_EQ(stereo.fixation().step, step);
   EXPECT_NEAR(stereo.fixation().disparity, far, step);
 }
 
@@ -672,7 +670,9 @@ TEST(StereoNode, AFixationFromACoarserLevelHasItsLargerDepthUncertainty) {
   RetinaStereo stereo(config);
   std::vector<LevelDisparity> out;
   ASSERT_TRUE(stereo.run(*blank.left, *blank.right, out).ok());
-  const double coarser = stereo.fixation().step / blank.left->geometry.back().step_x;
+  ASSERT_GE(stereo.fixation().level(), 0);
+  const double coarser = blank.left->geometry[static_cast<std::size_t>(stereo.fixation().level())].step_x /
+                         blank.left->geometry.back().step_x;
   ASSERT_GT(coarser, 1) << "the fovea's window is flat: an outer level finds the fixation";
   EXPECT_NEAR(from_outer->depth_sigma, sigma(*from_outer, 0.3 * coarser), 1e-9);
 }
