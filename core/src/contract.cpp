@@ -64,7 +64,7 @@ Status read_params(const Contract& contract, const std::vector<std::pair<std::st
   for (const ParamSpec& spec : contract.params()) {
     if (params.has(spec.name)) continue;
     if (spec.required) return Status::error("missing required parameter '" + spec.name + "' (" + spec.doc + ")");
-    if (spec.default_value.empty() && spec.type != ParamType::kString && spec.type != ParamType::kFlags) continue;
+    if (!takes_default(spec)) continue;
     ParamValue value;
     if (Status parsed = parse_param(spec, spec.default_value, value); !parsed.ok())
       return Status::error("default of parameter '" + spec.name + "' is invalid: " + parsed.message());

@@ -565,8 +565,7 @@ bool resolve_node(const NodeDecl& n, const Registry& registry, const std::string
         diag.error(file, n.line, n.name, "", "missing required parameter '" + spec.name + "' (" + spec.doc + ")");
         continue;
       }
-      if (spec.default_value.empty() && spec.type != ParamType::kString && spec.type != ParamType::kFlags)
-        continue;  // optional, no default: absent
+      if (!takes_default(spec)) continue;  // optional, no default: absent
       ParamValue v;
       // An unknown variable in a default is read as written (and its parse says what is wrong).
       Result<std::string> expanded = expand_variables(spec.default_value, file);

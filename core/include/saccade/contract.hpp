@@ -87,6 +87,12 @@ using ParamValue = std::variant<int64_t, double, bool, std::string, cv::Size, cv
 // an error saying why when it does not fit.
 Status parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out);
 
+// Whether a parameter not given takes its default (an optional one without
+// a default stays absent; a text or a list defaults to empty).
+inline bool takes_default(const ParamSpec& spec) {
+  return !spec.default_value.empty() || spec.type == ParamType::kString || spec.type == ParamType::kFlags;
+}
+
 // `params` from `settings` (name, value as a graph's XML writes it) for the
 // parameters `contract` declares, each parsed as parse_param does, the rest
 // at their defaults; an error names a setting that is unknown or does not fit.
