@@ -9,6 +9,7 @@
 
 #include "real_fft.hpp"
 #include "saccade/simd.hpp"
+#include "saccade/subpixel.hpp"
 #include "tracker.hpp"
 
 namespace saccade::fovea {
@@ -64,12 +65,6 @@ cv::Mat gaussian_response(int side, double sigma) {
     for (int x = 0; x < side; ++x)
       g.at<float>(y, x) = static_cast<float>(std::exp(-((x - c) * (x - c) + (y - c) * (y - c)) / (2 * sigma * sigma)));
   return g;
-}
-
-// Sub-pixel position of a peak along one axis from its neighbours (a parabola).
-double parabola(float left, float center, float right) {
-  const double d = left - 2.0 * center + right;
-  return d < 0 ? 0.5 * (left - right) / d : 0.0;
 }
 
 // Peak-to-sidelobe ratio: the peak against the response outside an 11x11
@@ -541,9 +536,11 @@ struct BoxTracker::Impl {
     const int last = config.patch - 1;
     cv::Point2d sub(at);
     if (at.x > 0 && at.x < last)
-      sub.x += parabola(response.at<float>(at.y, at.x - 1), response.at<float>(at), response.at<float>(at.y, at.x + 1));
+      sub.x += peak_vertex<double>(response.at<float>(at.y, at.x - 1), response.at<float>(at),
+                                   response.at<float>(at.y, at.x + 1));
     if (at.y > 0 && at.y < last)
-      sub.y += parabola(response.at<float>(at.y - 1, at.x), response.at<float>(at), response.at<float>(at.y + 1, at.x));
+      sub.y += peak_vertex<double>(response.at<float>(at.y - 1, at.x), response.at<float>(at),
+                                   response.at<float>(at.y + 1, at.x));
     const double c = config.patch / 2;
     double rival = 0;
     const double psr = peak_to_sidelobe(response, at, &rival);

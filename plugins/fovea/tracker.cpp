@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "saccade/simd.hpp"
+#include "saccade/subpixel.hpp"
 
 namespace saccade::fovea {
 
@@ -17,17 +18,6 @@ void to_gray(const cv::Mat& in, cv::Mat& out) {
   else
     in.copyTo(out);
 }
-
-// Offset of a parabola's vertex through (-1, a), (0, b), (1, c), in [-0.5, 0.5].
-double vertex(double a, double b, double c) {
-  const double d = a - 2.0 * b + c;
-  if (d >= 0) return 0.0;
-  return std::clamp(0.5 * (a - c) / d, -0.5, 0.5);
-}
-
-}  // namespace
-
-namespace {
 
 // The cross terms of every placement: result row y gets, for each template
 // pixel (tx, ty), its centred value times the window row y + ty from column
@@ -204,10 +194,11 @@ TemplateTracker::Match TemplateTracker::match(const Retina& retina) {
   double dx = 0, dy = 0;
   if (at.x > 0 && at.x + 1 < result_.cols) {
     const float* r = result_.ptr<float>(at.y);
-    dx = vertex(r[at.x - 1], r[at.x], r[at.x + 1]);
+    dx = peak_vertex<double>(r[at.x - 1], r[at.x], r[at.x + 1]);
   }
   if (at.y > 0 && at.y + 1 < result_.rows)
-    dy = vertex(result_.at<float>(at.y - 1, at.x), result_.at<float>(at.y, at.x), result_.at<float>(at.y + 1, at.x));
+    dy = peak_vertex<double>(result_.at<float>(at.y - 1, at.x), result_.at<float>(at.y, at.x),
+                             result_.at<float>(at.y + 1, at.x));
   m.found = true;
   m.point =
       cv::Point2d(origin.x + at.x + dx + template_.cols / 2.0, origin.y + at.y + dy + template_.rows / 2.0) + offset_;

@@ -14,6 +14,7 @@
 
 #include "saccade/fill.hpp"
 #include "saccade/simd.hpp"
+#include "saccade/subpixel.hpp"
 #include "sgm.hpp"
 
 namespace saccade::stereo {
@@ -132,8 +133,7 @@ void ncc_match_reference(const cv::Mat& left, const cv::Mat& right, Direction di
         const float c0 = scores[static_cast<std::size_t>(best - 1 - d_lo)];
         const float c1 = scores[static_cast<std::size_t>(best - d_lo)];
         const float c2 = scores[static_cast<std::size_t>(best + 1 - d_lo)];
-        const float denom = c0 - 2 * c1 + c2;
-        if (c0 > -2 && c2 > -2 && denom < 0) d += std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f);
+        if (c0 > -2 && c2 > -2) d += peak_vertex(c0, c1, c2);
       }
       disparity.at<float>(y, x) = d;
       score.at<float>(y, x) = best_score;

@@ -13,6 +13,7 @@
 
 #include "saccade/fill.hpp"
 #include "saccade/simd.hpp"
+#include "saccade/subpixel.hpp"
 
 namespace saccade::stereo {
 
@@ -244,15 +245,13 @@ void mean_and_deviation(const cv::Mat& window, double& mean, double& deviation) 
   deviation = std::sqrt(std::max(0.0, sq / area - mean * mean));
 }
 
-// Where between samples the peak at `best` lies: the vertex of the parabola
-// through it and its neighbours, where both were measured (> -2) and it
-// opens downwards; 0 otherwise.
+// Where between samples the peak at `best` lies, where both its neighbours
+// were measured (> -2); 0 otherwise.
 double peak_offset(const std::vector<float>& samples, int best) {
   if (best <= 0 || best + 1 >= static_cast<int>(samples.size())) return 0.0;
   const double a = samples[static_cast<std::size_t>(best - 1)], b = samples[static_cast<std::size_t>(best)],
                c = samples[static_cast<std::size_t>(best + 1)];
-  const double den = a - 2 * b + c;
-  return den < 0 && a > -2 && c > -2 ? std::clamp(0.5 * (a - c) / den, -0.5, 0.5) : 0.0;
+  return a > -2 && c > -2 ? peak_vertex(a, b, c) : 0.0;
 }
 
 }  // namespace

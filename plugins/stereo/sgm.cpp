@@ -8,6 +8,7 @@
 
 #include "saccade/fill.hpp"
 #include "saccade/simd.hpp"
+#include "saccade/subpixel.hpp"
 
 namespace saccade::stereo {
 
@@ -158,13 +159,6 @@ void aggregate(const Box& box, const SweepVolume& volume, const cv::Mat& lo, con
   }
 }
 
-// Where between three costs the minimum lies: the vertex of the parabola
-// through them (-0.5 .. 0.5 from the middle one), 0 where it opens down.
-float parabola_step(float c0, float c1, float c2) {
-  const float denom = c0 - 2 * c1 + c2;
-  return denom > 0 ? std::clamp(0.5f * (c0 - c2) / denom, -0.5f, 0.5f) : 0.0f;
-}
-
 // Whether a pixel's aggregated costs c[first..last] have another disparity,
 // more than one from the best, within `uniqueness` of it.
 bool undecided_costs(const float* c, int first, int last, int best, float uniqueness) {
@@ -209,7 +203,7 @@ void pick_left_row(const AggregatedCosts& a, const NccConfig& config, int y, con
     const bool at_ceiling = best == last && last + volume.d_min < config.range_ceiling;
     if (config.drop_range_edges && last > first && (at_floor || at_ceiling)) continue;
     const float step =
-        config.subpixel && best > first && best < last ? parabola_step(c[best - 1], c[best], c[best + 1]) : 0.0f;
+        config.subpixel && best > first && best < last ? valley_vertex(c[best - 1], c[best], c[best + 1]) : 0.0f;
     out_d[x] = static_cast<float>(best + volume.d_min) + step;
     out_s[x] = a.score(y, x, best + volume.d_min);
     if (a.correlation(y, x, best + volume.d_min) <= -2.0f &&
@@ -248,7 +242,7 @@ void pick_right_row(const AggregatedCosts& a, const NccConfig& config, NccScratc
     const float best_cost = scratch.right_cost[static_cast<std::size_t>(xr)];
     float step = 0.0f;
     if (config.subpixel && best > 0 && best + 1 < a.count && wanted(best - 1) && wanted(best + 1))
-      step = parabola_step(a.at(y, xr + best - 1 + volume.d_min)[best - 1], best_cost,
+      step = valley_vertex(a.at(y, xr + best - 1 + volume.d_min)[best - 1], best_cost,
                            a.at(y, xr + best + 1 + volume.d_min)[best + 1]);
     back_d[xr] = static_cast<float>(best + volume.d_min) + step;
     back_s[xr] = a.score(y, xr + best + volume.d_min, best + volume.d_min);
