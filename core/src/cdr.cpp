@@ -656,6 +656,35 @@ const std::string& idl() {
 
 std::string idl_type_name(std::string_view type) { return "saccade_idl::" + std::string(type); }
 
+namespace {
+
+template <class M>
+std::string idl_of_type() {
+  if constexpr (CarriesRetina<M>)
+    return Idl().all(TypeList<Retina, M>{});
+  else
+    return Idl().all(TypeList<M>{});
+}
+
+template <class... T>
+std::string idl_of_as(std::string_view type, TypeList<T...>) {
+  std::string out;
+  (void)((type == T::kTypeName ? (out = idl_of_type<T>(), true) : false) || ...);
+  return out;
+}
+
+}  // namespace
+
+std::string idl_of(std::string_view type) { return idl_of_as(type, MessageTypes{}); }
+
+uint64_t schema_fingerprint(std::string_view type) {
+  const std::string text = idl_of(type);
+  if (text.empty()) return 0;
+  uint64_t hash = 14695981039346656037ull;
+  for (const char c : text) hash = (hash ^ static_cast<uint8_t>(c)) * 1099511628211ull;
+  return hash;
+}
+
 // One instantiation per described message type.
 #define SACCADE_CDR_FOR(M)                                                         \
   template std::size_t size_of<M>(const M&);                                       \

@@ -1,5 +1,6 @@
 #include "domain.hpp"
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <utility>
@@ -9,6 +10,7 @@
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 
+#include "saccade/cdr.hpp"
 #include "saccade/log.hpp"
 #include "shared_memory.hpp"
 
@@ -127,9 +129,12 @@ Result<std::shared_ptr<Domain>> Domain::get(int domain_id) {
   if (!security.empty())
     if (Status s = add_security(qos, security); !s.ok()) return s;
   std::shared_ptr<Domain> domain(new Domain());
+  domain->listener_.domain = domain.get();
   for (const auto& property : qos.properties().properties())  // from saccade's folder or an XML profile
     if (property.name().rfind("dds.sec.", 0) == 0) domain->secure_ = true;
-  domain->participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_id), qos);
+  // The listener hears discovery alone (no status: the readers and writers have their own listeners).
+  domain->participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_id), qos, &domain->listener_,
+                                                     fdds::StatusMask::none());
   if (domain->participant_ == nullptr)
     return Status::error("cannot create a DDS participant in domain " + std::to_string(domain_id) +
                          (security.empty() ? std::string()
@@ -162,7 +167,75 @@ Result<fdds::Topic*> Domain::topic(const std::string& name, const Codec& codec) 
   fdds::Topic* topic = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
   if (topic == nullptr) return Status::error("cannot create DDS topic " + name + " of type " + type.get_type_name());
   topics_[name] = topic;
+  if (codec.form == Codec::Form::kSerialized) {
+    std::lock_guard schema_lock(schema_mu_);
+    schemas_[name] = {type.get_type_name(), cdr::schema_fingerprint(codec.type), 0};
+  }
   return topic;
+}
+
+namespace {
+
+constexpr std::string_view kSchemaKey = "saccade-schema=";
+
+std::string hex(uint64_t value) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+}  // namespace
+
+std::vector<uint8_t> schema_user_data(const Codec& codec) {
+  if (codec.form != Codec::Form::kSerialized) return {};
+  const std::string text = std::string(kSchemaKey) + hex(cdr::schema_fingerprint(codec.type));
+  return {text.begin(), text.end()};
+}
+
+uint64_t schema_in_user_data(const std::vector<uint8_t>& user_data) {
+  const std::string text(user_data.begin(), user_data.end());
+  const std::size_t at = text.find(kSchemaKey);
+  if (at == std::string::npos) return 0;
+  const std::string digits = text.substr(at + kSchemaKey.size(), 16);
+  if (digits.size() != 16 || digits.find_first_not_of("0123456789abcdef") != std::string::npos) return 0;
+  return std::stoull(digits, nullptr, 16);
+}
+
+uint64_t Domain::peers_of_another_schema(const std::string& name) {
+  std::lock_guard lock(schema_mu_);
+  auto it = schemas_.find(name);
+  return it == schemas_.end() ? 0 : it->second.others;
+}
+
+void Domain::check_schema(const std::string& topic, const std::string& type, const std::vector<uint8_t>& user_data,
+                          const char* role) {
+  const uint64_t theirs = schema_in_user_data(user_data);
+  if (theirs == 0) return;  // a peer that does not say: nothing to compare
+  std::lock_guard lock(schema_mu_);
+  auto it = schemas_.find(topic);
+  if (it == schemas_.end() || it->second.type != type || it->second.fingerprint == 0 ||
+      it->second.fingerprint == theirs)
+    return;
+  ++it->second.others;
+  log().error(
+      "DDS topic {}: a peer {} {} of another schema (its fingerprint {}, this build's {}): the two sides may "
+      "misread, or be unable to read, each other's samples (a reader counts those it cannot read as unreadable). "
+      "Run one saccade version on both; `saccade idl` prints this build's types",
+      topic, role, type, hex(theirs), hex(it->second.fingerprint));
+}
+
+void Domain::SchemaListener::on_publisher_discovery(fdds::DomainParticipant*,
+                                                    eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) {
+  if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
+  domain->check_schema(info.info.topicName().to_string(), info.info.typeName().to_string(),
+                       info.info.m_qos.m_userData.data_vec(), "writes");
+}
+
+void Domain::SchemaListener::on_subscriber_discovery(fdds::DomainParticipant*,
+                                                     eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) {
+  if (info.status != eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERED_READER) return;
+  domain->check_schema(info.info.topicName().to_string(), info.info.typeName().to_string(),
+                       info.info.m_qos.m_userData.data_vec(), "reads");
 }
 
 }  // namespace saccade::dds

@@ -5,8 +5,10 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
@@ -46,6 +48,15 @@ eprosima::fastdds::dds::DataWriterQos writer_qos(const eprosima::fastdds::dds::P
 eprosima::fastdds::dds::DataReaderQos reader_qos(const eprosima::fastdds::dds::Subscriber& subscriber,
                                                  const EdgeSettings& s);
 
+// What a saccade endpoint of a serialised type tells its peers at discovery
+// (its user data): "saccade-schema=" and the 16 hex digits of its type's
+// cdr::schema_fingerprint. Empty for the other forms (a plain or ring type
+// stays on one host; a ROS 2 type is ROS 2's).
+std::vector<uint8_t> schema_user_data(const Codec& codec);
+// The fingerprint in an endpoint's user data; 0 when it carries none (a DDS
+// program of another maker, a saccade of before 2026-11-26).
+uint64_t schema_in_user_data(const std::vector<uint8_t>& user_data);
+
 class Domain {
  public:
   // The process's participant for `domain_id`, created at first use, or why
@@ -68,9 +79,33 @@ class Domain {
   eprosima::fastdds::dds::DomainParticipant* participant() const { return participant_; }
   // DDS security is on (SACCADE_DDS_SECURITY).
   bool secure() const { return secure_; }
+  // Peers' endpoints on topic `name` whose schema fingerprint differs from
+  // this build's for the topic's type (each logged as an error when
+  // discovered: one side's samples are unreadable to the other).
+  uint64_t peers_of_another_schema(const std::string& name);
 
  private:
   Domain() = default;
+  // Compares each discovered endpoint's schema with this build's.
+  struct SchemaListener final : eprosima::fastdds::dds::DomainParticipantListener {
+    Domain* domain = nullptr;
+    void on_publisher_discovery(eprosima::fastdds::dds::DomainParticipant*,
+                                eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override;
+    void on_subscriber_discovery(eprosima::fastdds::dds::DomainParticipant*,
+                                 eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) override;
+  };
+  void check_schema(const std::string& topic, const std::string& type, const std::vector<uint8_t>& user_data,
+                    const char* role);
+  SchemaListener listener_;
+  struct TopicSchema {
+    std::string type;  // the DDS type name
+    uint64_t fingerprint = 0;
+    uint64_t others = 0;  // peers' endpoints of another fingerprint
+  };
+  // By topic name. A mutex of its own: discovery calls in on Fast DDS'
+  // threads, which may hold its locks, while topic() holds mu_ across Fast DDS calls.
+  std::mutex schema_mu_;
+  std::map<std::string, TopicSchema> schemas_;
   std::mutex mu_;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;

@@ -25,7 +25,7 @@ TEST(Subpixel, AValleyIsFoundLikeAPeakUpsideDown) {
 
 TEST(Subpixel, FlatOrWrongWayUpSamplesGiveTheMiddle) {
   EXPECT_EQ(peak_vertex(1.0, 1.0, 1.0), 0.0);
-  EXPECT_EQ(peak_vertex(0.0, -1.0, 0.5), 0.0);  // a valley has no peak
+  EXPECT_EQ(peak_vertex(0.0, -1.0, 0.5), 0.0);   // a valley has no peak
   EXPECT_EQ(valley_vertex(0.0, 1.0, 0.5), 0.0);  // a peak has no valley
 }
 

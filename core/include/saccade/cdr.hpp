@@ -59,4 +59,14 @@ const std::string& idl();
 // The IDL name of message type `type`: "saccade_idl::Region".
 std::string idl_type_name(std::string_view type);
 
+// The IDL of message type `type` alone, as idl() writes it (the building
+// blocks it uses, the retina it carries, its struct); empty for a type
+// visit_message does not know.
+std::string idl_of(std::string_view type);
+
+// A fingerprint of idl_of(type) (64-bit FNV-1a): builds that write `type` in
+// the same CDR layout, with the same enum values, have the same one. 0 for a
+// type visit_message does not know.
+uint64_t schema_fingerprint(std::string_view type);
+
 }  // namespace saccade::cdr
