@@ -117,8 +117,8 @@ TEST(SchemaFingerprint, APeerOfAnotherSchemaIsNamedAndOnesThatAgreeOrSayNothingA
   ASSERT_TRUE(other.ok());
   const std::vector<uint8_t> this_builds = dds::schema_user_data(*codec);
   const std::string same(this_builds.begin(), this_builds.end());
-  ASSERT_NE(other.writer(same), nullptr);                       // this build's
-  ASSERT_NE(other.writer(""), nullptr);                         // a DDS program that does not say
+  ASSERT_NE(other.writer(same), nullptr);                               // this build's
+  ASSERT_NE(other.writer(""), nullptr);                                 // a DDS program that does not say
   ASSERT_NE(other.writer("saccade-schema=0123456789abcdef"), nullptr);  // another build's
   const auto matched = [&] {
     fdds::SubscriptionMatchedStatus status;
