@@ -680,8 +680,17 @@ std::string idl_of(std::string_view type) { return idl_of_as(type, MessageTypes{
 uint64_t schema_fingerprint(std::string_view type) {
   const std::string text = idl_of(type);
   if (text.empty()) return 0;
+  // The declarations alone: a comment's wording is not the layout. (The
+  // enum values' names live in comments: their numbers are octets, and a
+  // renamed value reads the same.)
   uint64_t hash = 14695981039346656037ull;
-  for (const char c : text) hash = (hash ^ static_cast<uint8_t>(c)) * 1099511628211ull;
+  bool comment = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (!comment && text.compare(i, 2, "//") == 0) comment = true;
+    if (text[i] == '\n') comment = false;
+    if (comment) continue;
+    hash = (hash ^ static_cast<uint8_t>(text[i])) * 1099511628211ull;
+  }
   return hash;
 }
 

@@ -183,7 +183,8 @@ class Publish final : public Node {
     if (Status s = end_.open(ctx, c); !s.ok()) return s;
     fdds::Topic* topic = end_.topic;
     fdds::DataWriterQos qos = sd::writer_qos(*end_.domain->publisher(), end_.edge);
-    qos.user_data().data_vec(sd::schema_user_data(*end_.codec));  // peers of another build say so (domain.hpp)
+    // Peers of another build say so (domain.hpp); a profile's own user data stays on other forms.
+    if (auto said = sd::schema_user_data(*end_.codec); !said.empty()) qos.user_data().data_vec(said);
     reliable_ = c.edge.reliable;
     listener_.owner = this;
     written_ = &ctx.counter("written");
@@ -335,7 +336,7 @@ class Subscribe final : public Node {
                  end_.node, end_.codec->form == sd::Codec::Form::kPlain ? "loaned samples" : "DDS alone");
     fdds::Topic* topic = end_.topic;
     fdds::DataReaderQos qos = sd::reader_qos(*end_.domain->subscriber(), end_.edge);
-    qos.user_data().data_vec(sd::schema_user_data(*end_.codec));
+    if (auto said = sd::schema_user_data(*end_.codec); !said.empty()) qos.user_data().data_vec(said);
     listener_.owner = this;
     listener_.events.lost = &ctx.counter("lost");
     listener_.events.deadlines_missed = &ctx.counter("deadlines_missed");

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <sstream>
 #include <filesystem>
 #include <utility>
 
@@ -151,8 +152,13 @@ Result<std::shared_ptr<Domain>> Domain::get(int domain_id) {
 
 Domain::~Domain() {
   if (participant_ == nullptr) return;
+  // A participant Fast DDS refuses to delete (an entity still busy) lives on:
+  // its discovery threads must not call into this Domain then.
+  participant_->set_listener(nullptr);
   participant_->delete_contained_entities();
-  fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  if (fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_) != ReturnCode_t::RETCODE_OK)
+    log().warn(
+        "the DDS participant could not be deleted (an entity of it still in use): it is left to the process's end");
 }
 
 Result<fdds::Topic*> Domain::topic(const std::string& name, const Codec& codec) {
@@ -168,8 +174,11 @@ Result<fdds::Topic*> Domain::topic(const std::string& name, const Codec& codec) 
   if (topic == nullptr) return Status::error("cannot create DDS topic " + name + " of type " + type.get_type_name());
   topics_[name] = topic;
   if (codec.form == Codec::Form::kSerialized) {
+    // Peers discovered before this process made the topic are compared now.
     std::lock_guard schema_lock(schema_mu_);
     schemas_[name] = {type.get_type_name(), cdr::schema_fingerprint(codec.type), 0};
+    for (auto& [guid, peer] : peers_)
+      if (peer.topic == name) report_if_other(peer);
   }
   return topic;
 }
@@ -207,35 +216,52 @@ uint64_t Domain::peers_of_another_schema(const std::string& name) {
   return it == schemas_.end() ? 0 : it->second.others;
 }
 
-void Domain::check_schema(const std::string& topic, const std::string& type, const std::vector<uint8_t>& user_data,
-                          const char* role) {
-  const uint64_t theirs = schema_in_user_data(user_data);
-  if (theirs == 0) return;  // a peer that does not say: nothing to compare
+void Domain::discovered(const std::string& guid, PeerEndpoint peer) {
+  if (peer.fingerprint == 0) return;  // a peer that does not say: nothing to compare
   std::lock_guard lock(schema_mu_);
-  auto it = schemas_.find(topic);
-  if (it == schemas_.end() || it->second.type != type || it->second.fingerprint == 0 ||
-      it->second.fingerprint == theirs)
+  auto [it, fresh] = peers_.try_emplace(guid, std::move(peer));
+  if (fresh) report_if_other(it->second);  // (an endpoint back after a lease ran out is not named again)
+}
+
+void Domain::report_if_other(PeerEndpoint& peer) {
+  auto it = schemas_.find(peer.topic);
+  if (peer.reported || it == schemas_.end() || it->second.type != peer.type || it->second.fingerprint == 0 ||
+      it->second.fingerprint == peer.fingerprint)
     return;
+  peer.reported = true;
   ++it->second.others;
   log().error(
       "DDS topic {}: a peer {} {} of another schema (its fingerprint {}, this build's {}): the two sides may "
       "misread, or be unable to read, each other's samples (a reader counts those it cannot read as unreadable). "
       "Run one saccade version on both; `saccade idl` prints this build's types",
-      topic, role, type, hex(theirs), hex(it->second.fingerprint));
+      peer.topic, peer.role, peer.type, hex(peer.fingerprint), hex(it->second.fingerprint));
 }
+
+namespace {
+
+template <class Guid>
+std::string guid_text(const Guid& guid) {
+  std::ostringstream out;
+  out << guid;
+  return out.str();
+}
+
+}  // namespace
 
 void Domain::SchemaListener::on_publisher_discovery(fdds::DomainParticipant*,
                                                     eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) {
   if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
-  domain->check_schema(info.info.topicName().to_string(), info.info.typeName().to_string(),
-                       info.info.m_qos.m_userData.data_vec(), "writes");
+  domain->discovered(guid_text(info.info.guid()),
+                     {info.info.topicName().to_string(), info.info.typeName().to_string(),
+                      schema_in_user_data(info.info.m_qos.m_userData.data_vec()), "writes"});
 }
 
 void Domain::SchemaListener::on_subscriber_discovery(fdds::DomainParticipant*,
                                                      eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) {
   if (info.status != eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERED_READER) return;
-  domain->check_schema(info.info.topicName().to_string(), info.info.typeName().to_string(),
-                       info.info.m_qos.m_userData.data_vec(), "reads");
+  domain->discovered(guid_text(info.info.guid()),
+                     {info.info.topicName().to_string(), info.info.typeName().to_string(),
+                      schema_in_user_data(info.info.m_qos.m_userData.data_vec()), "reads"});
 }
 
 }  // namespace saccade::dds

@@ -79,9 +79,10 @@ class Domain {
   eprosima::fastdds::dds::DomainParticipant* participant() const { return participant_; }
   // DDS security is on (SACCADE_DDS_SECURITY).
   bool secure() const { return secure_; }
-  // Peers' endpoints on topic `name` whose schema fingerprint differs from
-  // this build's for the topic's type (each logged as an error when
-  // discovered: one side's samples are unreadable to the other).
+  // Peers' endpoints (readers and writers) on topic `name` seen since the
+  // participant began whose schema fingerprint differs from this build's for
+  // the topic's type: each logged once as an error, whether it was
+  // discovered before or after this process made the topic.
   uint64_t peers_of_another_schema(const std::string& name);
 
  private:
@@ -94,14 +95,21 @@ class Domain {
     void on_subscriber_discovery(eprosima::fastdds::dds::DomainParticipant*,
                                  eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) override;
   };
-  void check_schema(const std::string& topic, const std::string& type, const std::vector<uint8_t>& user_data,
-                    const char* role);
+  struct PeerEndpoint {
+    std::string topic, type;  // the DDS type name
+    uint64_t fingerprint = 0;
+    const char* role = "";  // "writes" or "reads"
+    bool reported = false;
+  };
+  void discovered(const std::string& guid, PeerEndpoint peer);
+  void report_if_other(PeerEndpoint& peer);  // under schema_mu_
   SchemaListener listener_;
   struct TopicSchema {
     std::string type;  // the DDS type name
     uint64_t fingerprint = 0;
     uint64_t others = 0;  // peers' endpoints of another fingerprint
   };
+  std::map<std::string, PeerEndpoint> peers_;  // by GUID: those that said a fingerprint
   // By topic name. A mutex of its own: discovery calls in on Fast DDS'
   // threads, which may hold its locks, while topic() holds mu_ across Fast DDS calls.
   std::mutex schema_mu_;

@@ -704,9 +704,7 @@ inline void pick_pixel(const PickArgs& a, int y, int x) {
   }
   if (!(best >= a.min_score) || !(best > -2.0f)) return;
   float d_out = static_cast<float>(best_d);
-  const float denom = before - 2.0f * best + after;
-  if (a.subpixel && before > -2.0f && after > -2.0f && denom < 0.0f)
-    d_out += std::clamp(0.5f * (before - after) / denom, -0.5f, 0.5f);
+  if (a.subpixel && before > -2.0f && after > -2.0f) d_out += peak_vertex(before, best, after);
   a.disparity[y * a.step + x] = d_out;
   a.score[y * a.step + x] = best;
 }

@@ -5,11 +5,14 @@
 
 #include <unistd.h>
 
+#include <map>
+#include <mutex>
 #include <string>
 #include <vector>
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
@@ -19,6 +22,7 @@
 #include "domain.hpp"
 #include "saccade/cdr.hpp"
 #include "saccade/schema.hpp"
+#include "saccade/testing.hpp"
 #include "support.hpp"
 #include "wire.hpp"
 
@@ -64,62 +68,84 @@ TEST(SchemaFingerprint, TheUserDataSaysItAndOnlyWellFormedOnesAreRead) {
 }
 
 // A participant of "another build": our type's name and layout, whatever
-// fingerprint it is told to say.
-class OtherBuild {
+// fingerprint it is told to say; it notes the fingerprints the writers it
+// discovers say, by topic.
+class OtherBuild final : public fdds::DomainParticipantListener {
  public:
-  OtherBuild(int domain, const std::string& topic, const dds::Codec& codec) {
-    participant_ =
-        fdds::DomainParticipantFactory::get_instance()->create_participant(domain, fdds::PARTICIPANT_QOS_DEFAULT);
+  OtherBuild(int domain, const dds::Codec& codec) : codec_(codec) {
+    participant_ = fdds::DomainParticipantFactory::get_instance()->create_participant(
+        domain, fdds::PARTICIPANT_QOS_DEFAULT, this, fdds::StatusMask::none());
+    if (participant_ == nullptr) return;
     fdds::TypeSupport type(codec.make_type().release());
     type.register_type(participant_);
-    topic_ = participant_->create_topic(topic, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
     publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
     subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
   }
-  ~OtherBuild() {
+  ~OtherBuild() override {
+    if (participant_ == nullptr) return;
+    participant_->set_listener(nullptr);
     participant_->delete_contained_entities();
     fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
   }
-  bool ok() const { return topic_ != nullptr && publisher_ != nullptr && subscriber_ != nullptr; }
-  fdds::DataWriter* writer(const std::string& user_data) {
+  bool ok() const { return publisher_ != nullptr && subscriber_ != nullptr; }
+  fdds::DataWriter* writer(const std::string& topic, const std::string& user_data) {
     fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT;
     qos.user_data().data_vec(bytes(user_data));
-    return publisher_->create_datawriter(topic_, qos);
+    return publisher_->create_datawriter(topic_of(topic), qos);
   }
-  fdds::DataReader* reader(const std::string& user_data) {
+  fdds::DataReader* reader(const std::string& topic, const std::string& user_data) {
     fdds::DataReaderQos qos = fdds::DATAREADER_QOS_DEFAULT;
     qos.user_data().data_vec(bytes(user_data));
-    return subscriber_->create_datareader(topic_, qos);
+    return subscriber_->create_datareader(topic_of(topic), qos);
+  }
+  // The fingerprint a writer of `topic` it discovered said (0: none, or none discovered).
+  uint64_t writers_fingerprint(const std::string& topic) {
+    std::lock_guard lock(mu_);
+    auto it = writers_.find(topic);
+    return it == writers_.end() ? 0 : it->second;
+  }
+  void on_publisher_discovery(fdds::DomainParticipant*, eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
+    std::lock_guard lock(mu_);
+    writers_[info.info.topicName().to_string()] = dds::schema_in_user_data(info.info.m_qos.m_userData.data_vec());
   }
 
  private:
+  fdds::Topic* topic_of(const std::string& name) {
+    if (auto it = topics_.find(name); it != topics_.end()) return it->second;
+    fdds::TypeSupport type(codec_.make_type().release());
+    return topics_[name] = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+  }
+  const dds::Codec& codec_;
   fdds::DomainParticipant* participant_ = nullptr;
-  fdds::Topic* topic_ = nullptr;
   fdds::Publisher* publisher_ = nullptr;
   fdds::Subscriber* subscriber_ = nullptr;
+  std::map<std::string, fdds::Topic*> topics_;
+  std::mutex mu_;
+  std::map<std::string, uint64_t> writers_;
 };
 
 TEST(SchemaFingerprint, APeerOfAnotherSchemaIsNamedAndOnesThatAgreeOrSayNothingAreNot) {
-  const int domain_id = 100 + static_cast<int>(getpid() % 100);  // apart from tests running beside this one
-  const std::string topic = "test_schema_" + std::to_string(getpid());
+  const int domain_id = test::private_domain();
+  const std::string topic = "test_schema_" + std::to_string(getpid()), early = topic + "_early";
   const dds::Codec* codec = dds::find_codec("Region");
   ASSERT_NE(codec, nullptr);
   auto domain = dds::Domain::get(domain_id);
   ASSERT_TRUE(domain.ok()) << domain.error();
+  OtherBuild other(domain_id, *codec);
+  ASSERT_TRUE(other.ok());
+  // A writer of another build discovered before this process makes its topic.
+  ASSERT_NE(other.writer(early, "saccade-schema=00000000000000ee"), nullptr);
+
   auto ours = (*domain)->topic(topic, *codec);
   ASSERT_TRUE(ours.ok()) << ours.error();
   fdds::DataReaderQos qos = fdds::DATAREADER_QOS_DEFAULT;
-  qos.user_data().data_vec(dds::schema_user_data(*codec));
   fdds::DataReader* reader = (*domain)->subscriber()->create_datareader(*ours, qos);
   ASSERT_NE(reader, nullptr);
-
-  OtherBuild other(domain_id, topic, *codec);
-  ASSERT_TRUE(other.ok());
   const std::vector<uint8_t> this_builds = dds::schema_user_data(*codec);
   const std::string same(this_builds.begin(), this_builds.end());
-  ASSERT_NE(other.writer(same), nullptr);                               // this build's
-  ASSERT_NE(other.writer(""), nullptr);                                 // a DDS program that does not say
-  ASSERT_NE(other.writer("saccade-schema=0123456789abcdef"), nullptr);  // another build's
+  ASSERT_NE(other.writer(topic, same), nullptr);                               // this build's
+  ASSERT_NE(other.writer(topic, ""), nullptr);                                 // a DDS program that does not say
+  ASSERT_NE(other.writer(topic, "saccade-schema=0123456789abcdef"), nullptr);  // another build's
   const auto matched = [&] {
     fdds::SubscriptionMatchedStatus status;
     reader->get_subscription_matched_status(status);
@@ -131,10 +157,34 @@ TEST(SchemaFingerprint, APeerOfAnotherSchemaIsNamedAndOnesThatAgreeOrSayNothingA
   EXPECT_EQ((*domain)->peers_of_another_schema(topic), 1u) << "only the writer of another fingerprint";
 
   // A reader of another build is named too: this build's samples are unreadable to it.
-  ASSERT_NE(other.reader("saccade-schema=fedcba9876543210"), nullptr);
+  ASSERT_NE(other.reader(topic, "saccade-schema=fedcba9876543210"), nullptr);
   EXPECT_TRUE(test::wait_for([&] { return (*domain)->peers_of_another_schema(topic) >= 2; }, 20));
   EXPECT_EQ((*domain)->peers_of_another_schema("some_other_topic"), 0u);
+
+  // The early writer, discovered long since, is named once its topic is made here.
+  EXPECT_EQ((*domain)->peers_of_another_schema(early), 0u);
+  ASSERT_TRUE((*domain)->topic(early, *codec).ok());
+  EXPECT_EQ((*domain)->peers_of_another_schema(early), 1u);
   (*domain)->subscriber()->delete_datareader(reader);
+}
+
+// The bridges themselves say their fingerprint (what the test above gave its
+// own reader by hand): a dds.publish node's writer, as another participant discovers it.
+TEST(SchemaFingerprint, APublishNodesWriterSaysItsTypesFingerprint) {
+  const int domain_id = test::private_domain();
+  const std::string topic = "test_schema_node_" + std::to_string(getpid());
+  const dds::Codec* codec = dds::find_codec("Region");
+  ASSERT_NE(codec, nullptr);
+  OtherBuild other(domain_id, *codec);
+  ASSERT_TRUE(other.ok());
+  ASSERT_NE(other.reader(topic, ""), nullptr);
+  auto node =
+      testing::NodeHarness::create("<node plugin=\"dds.publish\"><param name=\"topic\" value=\"" + topic +
+                                   "\"/><param name=\"type\" value=\"Region\"/><param name=\"domain\" value=\"" +
+                                   std::to_string(domain_id) + "\"/></node>");
+  ASSERT_TRUE(node.ok()) << node.error();
+  EXPECT_TRUE(test::wait_for([&] { return other.writers_fingerprint(topic) != 0; }, 20));
+  EXPECT_EQ(other.writers_fingerprint(topic), cdr::schema_fingerprint("Region"));
 }
 
 }  // namespace

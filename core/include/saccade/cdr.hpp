@@ -64,9 +64,9 @@ std::string idl_type_name(std::string_view type);
 // visit_message does not know.
 std::string idl_of(std::string_view type);
 
-// A fingerprint of idl_of(type) (64-bit FNV-1a): builds that write `type` in
-// the same CDR layout, with the same enum values, have the same one. 0 for a
-// type visit_message does not know.
+// A fingerprint of idl_of(type)'s declarations, its comments left out
+// (64-bit FNV-1a): builds that write `type` in the same CDR layout have the
+// same one. 0 for a type visit_message does not know.
 uint64_t schema_fingerprint(std::string_view type);
 
 }  // namespace saccade::cdr
