@@ -2,8 +2,8 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <sstream>
 #include <filesystem>
+#include <sstream>
 #include <utility>
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
@@ -216,10 +216,15 @@ uint64_t Domain::peers_of_another_schema(const std::string& name) {
   return it == schemas_.end() ? 0 : it->second.others;
 }
 
-void Domain::discovered(const std::string& guid, PeerEndpoint peer) {
-  if (peer.fingerprint == 0) return;  // a peer that does not say: nothing to compare
+template <class Proxy>
+void Domain::discovered(const Proxy& proxy, const char* role) {
+  const uint64_t fingerprint = schema_in_user_data(proxy.m_qos.m_userData.data_vec());
+  if (fingerprint == 0) return;  // a peer that does not say: nothing to compare
+  std::ostringstream guid;
+  guid << proxy.guid();
   std::lock_guard lock(schema_mu_);
-  auto [it, fresh] = peers_.try_emplace(guid, std::move(peer));
+  auto [it, fresh] = peers_.try_emplace(
+      guid.str(), PeerEndpoint{proxy.topicName().to_string(), proxy.typeName().to_string(), fingerprint, role});
   if (fresh) report_if_other(it->second);  // (an endpoint back after a lease ran out is not named again)
 }
 
@@ -237,31 +242,16 @@ void Domain::report_if_other(PeerEndpoint& peer) {
       peer.topic, peer.role, peer.type, hex(peer.fingerprint), hex(it->second.fingerprint));
 }
 
-namespace {
-
-template <class Guid>
-std::string guid_text(const Guid& guid) {
-  std::ostringstream out;
-  out << guid;
-  return out.str();
-}
-
-}  // namespace
-
 void Domain::SchemaListener::on_publisher_discovery(fdds::DomainParticipant*,
                                                     eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) {
-  if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
-  domain->discovered(guid_text(info.info.guid()),
-                     {info.info.topicName().to_string(), info.info.typeName().to_string(),
-                      schema_in_user_data(info.info.m_qos.m_userData.data_vec()), "writes"});
+  if (info.status == eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER)
+    domain->discovered(info.info, "writes");
 }
 
 void Domain::SchemaListener::on_subscriber_discovery(fdds::DomainParticipant*,
                                                      eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) {
-  if (info.status != eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERED_READER) return;
-  domain->discovered(guid_text(info.info.guid()),
-                     {info.info.topicName().to_string(), info.info.typeName().to_string(),
-                      schema_in_user_data(info.info.m_qos.m_userData.data_vec()), "reads"});
+  if (info.status == eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERED_READER)
+    domain->discovered(info.info, "reads");
 }
 
 }  // namespace saccade::dds

@@ -101,7 +101,9 @@ class Domain {
     const char* role = "";  // "writes" or "reads"
     bool reported = false;
   };
-  void discovered(const std::string& guid, PeerEndpoint peer);
+  // A discovered writer's or reader's proxy data (Fast DDS' WriterProxyData or ReaderProxyData).
+  template <class Proxy>
+  void discovered(const Proxy& proxy, const char* role);
   void report_if_other(PeerEndpoint& peer);  // under schema_mu_
   SchemaListener listener_;
   struct TopicSchema {
