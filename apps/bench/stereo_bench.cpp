@@ -45,10 +45,12 @@
 #include "retina.hpp"
 #include "retina_stereo.hpp"
 #include "stereo_params.hpp"
+#include "stereo_truth.hpp"
 
 namespace {
 
 using namespace saccade;
+using bench::hidden_from_right_camera;
 using Clock = std::chrono::steady_clock;
 bool verbose = false;     // per fixation, on stderr
 bool error_maps = false;  // with verbose: each fovea's errors pixel by pixel
@@ -63,26 +65,6 @@ struct Pair {
   cv::Mat hidden;       // CV_8U, 255 where the right camera cannot see the left pixel (from the truth)
   int num_disparities = 16;
 };
-
-// The left pixels the right camera cannot see: a surface right of them on
-// the row lands left of them in the right image (x' - d' < x - d for some
-// x' > x, by at least a pixel), so it is nearer and in front of them. Their
-// truth is the hidden surface's; no matcher can find it, and the stereo
-// benchmarks' own (Middlebury's "nonocc") score them apart.
-cv::Mat hidden_from_right(const cv::Mat& truth) {
-  cv::Mat hidden(truth.size(), CV_8U, cv::Scalar(0));
-  for (int y = 0; y < truth.rows; ++y) {
-    const float* t = truth.ptr<float>(y);
-    uint8_t* out = hidden.ptr<uint8_t>(y);
-    float leftmost = std::numeric_limits<float>::infinity();  // right-image place of the row so far, from the right
-    for (int x = truth.cols - 1; x >= 0; --x) {
-      if (t[x] < 0) continue;
-      if (x - t[x] >= leftmost + 1.0f) out[x] = 255;
-      leftmost = std::min(leftmost, x - t[x]);
-    }
-  }
-  return hidden;
-}
 
 // ---------------------------------------------------------------- rendering
 
@@ -506,7 +488,7 @@ std::vector<Pair> select_pairs(const std::string& data, const std::vector<std::s
   if (wanted("aloe_third")) pairs.push_back(aloe(data, 3));
   for (Pair& p : rendered_pairs(data))
     if (wanted(p.name)) pairs.push_back(std::move(p));
-  for (Pair& p : pairs) p.hidden = hidden_from_right(p.truth);
+  for (Pair& p : pairs) p.hidden = hidden_from_right_camera(p.truth);
   return pairs;
 }
 
