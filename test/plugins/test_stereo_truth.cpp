@@ -64,10 +64,9 @@ TEST(HiddenFromRightCamera, ASurfaceStretchedInTheRightViewLeavesNoGaps) {
   // pixels land 1.9 px apart in the right image, from x' = 10 on, over the
   // background of x = 20..49, every one of which it hides. Past x = 83 it
   // is farther than the background and lands right of it: seen.
-  EXPECT_EQ(hidden_columns(row_of([](int x) {
-              return x < 50 ? background(x) : 40.0f - 0.9f * static_cast<float>(x - 50);
-            })),
-            range(20, 49));
+  EXPECT_EQ(
+      hidden_columns(row_of([](int x) { return x < 50 ? background(x) : 40.0f - 0.9f * static_cast<float>(x - 50); })),
+      range(20, 49));
 }
 
 TEST(HiddenFromRightCamera, UnknownPixelsAreNeitherHiddenNorHide) {
