@@ -637,6 +637,20 @@ struct BoxTracker::Impl {
   double chroma_deviation = 0;
   int chroma_frames = 0;
   int untracked_frames = 0;  // since the target was last tracked
+  // Consecutive frames whose peak was under the usual one but sure otherwise
+  // (over tracking_psr, unrivalled, of the target's colour), and their sum.
+  int lower_frames = 0;
+  double lower_psr_sum = 0;
+  // After warmup_frames such frames, the usual peak is the target's old
+  // look's (it came back larger, it turned for good): it is made anew from
+  // them, and the frame is tracked (and learnt from).
+  bool settled_lower(const BoxTrackerConfig& c, double psr) {
+    lower_psr_sum += psr;
+    if (++lower_frames < c.warmup_frames) return false;
+    psr_mean = lower_psr_sum / lower_frames;
+    lower_frames = 0, lower_psr_sum = 0;
+    return true;
+  }
   // The colour is checked once it is known, and until the target has been
   // away so long that it may come back in another light.
   bool color_checked(const BoxTrackerConfig& c) const {
@@ -786,7 +800,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   const bool contested = peak.rival > config_.rival_ratio;
   // A sure peak of another colour: the features (gray, gradients) barely
   // see colour, and a look-alike of another one peaks as surely as the target.
-  bool doubted = contested || psr < std::max(config_.tracking_psr, warm ? config_.relative_psr * m.psr_mean : 0.0);
+  bool doubted = contested || psr < config_.tracking_psr;
   cv::Vec2d color;
   double color_distance = 0;
   if (!doubted) {
@@ -794,6 +808,13 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     color_distance = cv::norm(color - m.chroma_mean);
     doubted = warm && !m.color_matches(config_, color_distance);
   }
+  // Under the tracked frames' usual peak (an occluder's edge, a look-alike
+  // passing over it) is not sure either, unless it has stayed there, sure
+  // otherwise, long enough to be the target's new usual peak.
+  if (!doubted && warm && psr < config_.relative_psr * m.psr_mean)
+    doubted = !m.settled_lower(config_, psr);
+  else
+    m.lower_frames = 0, m.lower_psr_sum = 0;
   if (doubted) {
     // Where the peak is, but not sure enough to learn from it or to trust
     // its motion (an occluder's edge, a distractor passing).
