@@ -616,6 +616,25 @@ struct BoxTracker::Impl {
     return correlate(patch_spectra);
   }
 
+  // The target may turn in the image: when the peak weakens, or every few
+  // frames, the patch is also sampled turned by +-angle_step from the
+  // target's angle, and the best peak wins (the current angle by a margin,
+  // or noise would make it wobble). The filter then keeps seeing the target
+  // as it learnt it. `at` becomes the winning look's placement.
+  Peak look_turning(const cv::Mat& frame, Placement& at) {
+    Peak peak = look_at(frame, at);
+    const bool weaker = peak.psr < config.turn_psr * psr_mean;
+    if (config.angle_step <= 0 || !(weaker || ++frames_since_turn_search >= config.turn_search_every)) return peak;
+    frames_since_turn_search = 0;
+    const Placement straight = at;
+    for (const double turn : {-config.angle_step, config.angle_step}) {
+      const Placement turned{straight.center, straight.step, straight.angle + turn * CV_PI / 180};
+      const Peak other = look_at(frame, turned);
+      if (other.value > peak.value * 1.01) peak = other, at = turned;
+    }
+    return peak;
+  }
+
   BoxTrackerConfig config;
   cv::Mat window;
   RealFft2d fft;
@@ -760,22 +779,8 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
 
 void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   Impl& m = *impl_;
-  // The target may turn in the image: when the peak weakens, or every few
-  // frames, the patch is also sampled turned by +-angle_step from the
-  // target's angle, and the best peak wins (the current angle by a margin,
-  // or noise would make it wobble). The filter then keeps seeing the target
-  // as it learnt it.
   Placement at{predicted, m.step, m.angle};
-  Peak peak = m.look_at(frame, at);
-  const bool weaker = peak.psr < config_.turn_psr * m.psr_mean;
-  if (config_.angle_step > 0 && (weaker || ++m.frames_since_turn_search >= config_.turn_search_every)) {
-    m.frames_since_turn_search = 0;
-    for (const double turn : {-config_.angle_step, config_.angle_step}) {
-      const Placement turned{predicted, m.step, m.angle + turn * CV_PI / 180};
-      const Peak other = m.look_at(frame, turned);
-      if (other.value > peak.value * 1.01) peak = other, at = turned;
-    }
-  }
+  const Peak peak = m.look_turning(frame, at);
   const double psr = peak.psr;
   last_.confidence = psr;
   if (psr < config_.lost_psr) {
