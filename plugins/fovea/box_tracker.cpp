@@ -657,7 +657,8 @@ struct BoxTracker::Impl {
   int chroma_frames = 0;
   int untracked_frames = 0;  // since the target was last tracked
   // Consecutive frames whose peak was under the usual one but sure otherwise
-  // (over tracking_psr, unrivalled, of the target's colour), and their sum.
+  // (over tracking_psr, unrivalled, of the target's colour while that is
+  // checked), and their sum. Any other frame, or a re-detection, ends them.
   int lower_frames = 0;
   double lower_psr_sum = 0;
   // After warmup_frames such frames, the usual peak is the target's old
@@ -667,9 +668,10 @@ struct BoxTracker::Impl {
     lower_psr_sum += psr;
     if (++lower_frames < c.warmup_frames) return false;
     psr_mean = lower_psr_sum / lower_frames;
-    lower_frames = 0, lower_psr_sum = 0;
+    forget_lower();
     return true;
   }
+  void forget_lower() { lower_frames = 0, lower_psr_sum = 0; }
   // The colour is checked once it is known, and until the target has been
   // away so long that it may come back in another light.
   bool color_checked(const BoxTrackerConfig& c) const {
@@ -787,6 +789,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     // Too weak to trust even the position: coast on the prediction.
     m.velocity *= 0.8;
     m.center = predicted;
+    m.forget_lower();
     ++m.unsure_frames;
     last_.state = ++m.low_frames >= config_.lost_frames || m.unsure_frames >= config_.unsure_frames
                       ? TrackState::kLost
@@ -819,7 +822,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   if (!doubted && warm && psr < config_.relative_psr * m.psr_mean)
     doubted = !m.settled_lower(config_, psr);
   else
-    m.lower_frames = 0, m.lower_psr_sum = 0;
+    m.forget_lower();
   if (doubted) {
     // Where the peak is, but not sure enough to learn from it or to trust
     // its motion (an occluder's edge, a distractor passing).
@@ -942,6 +945,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   m.step = where.step;
   m.velocity = {};
   m.low_frames = m.unsure_frames = m.candidate_frames = 0;
+  m.forget_lower();  // what is found may be another object
   last_.state = TrackState::kTracking;
 }
 

@@ -43,6 +43,8 @@ struct BoxTrackerConfig {
   double min_target = 8;        // smallest target side accepted, source pixels
   double tracking_psr = 6.0;    // peak-to-sidelobe ratio at or above which the target is tracked ...
   double relative_psr = 0.5;    // ... and at or above this share of its mean over tracked frames
+                                // (or under it, sure otherwise, on warmup_frames frames in a row:
+                                // the target changed, and the mean is made anew from them)
   int warmup_frames = 10;       // tracked frames that make that mean before it is used
   double rival_ratio = 0.7;     // a second peak above this share of the first: not sure (1: never)
   double min_chroma_change = 0.02;  // a tracked target's colour (chromaticity) may move this far ...

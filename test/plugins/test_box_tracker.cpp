@@ -194,9 +194,10 @@ TEST(BoxTracker, AHiddenTargetThatReappearsLargerIsFoundAtItsNewSize) {
 // With `flicker`, the target's colour on every other frame is cast far
 // beyond the colour check's tolerance (blue up, red down). With `claimed`,
 // the changed target is shown `then` more frames once found, and the frames
-// the tracker claimed it on (within 8 px) are counted there.
+// the tracker claimed it on (within 8 px) are counted there; with
+// `hidden_every` N, every Nth of those frames hides it behind the occluder.
 int frames_to_find_a_changed_target(double redetect_near, double grow, double turn_deg, double gain,
-                                    bool flicker = false, int then = 0, int* claimed = nullptr) {
+                                    bool flicker = false, int then = 0, int* claimed = nullptr, int hidden_every = 0) {
   const Scene scene;
   BoxTrackerConfig config;
   config.redetect_near = redetect_near;
@@ -225,7 +226,9 @@ int frames_to_find_a_changed_target(double redetect_near, double grow, double tu
       std::printf("near %.0f: after %d %s %.1f\n", redetect_near, k, to_string(e.state), e.confidence);
     if (e.state == TrackState::kTracking && cv::norm(center(e.box) - after) < 8) {
       for (int j = 0; j < then && claimed; ++j) {
-        const TrackEstimate f = tracker.update(changed.render({60, 60}, after, 0.3 * grow, gain));
+        const bool hidden = hidden_every > 0 && j % hidden_every == hidden_every - 1;
+        const TrackEstimate f =
+            tracker.update(changed.render({60, 60}, after, 0.3 * grow, gain, hidden ? occluder : cv::Rect()));
         if (std::getenv("SACCADE_TEST_VERBOSE"))
           std::printf("  then %d %s %.1f\n", j, to_string(f.state), f.confidence);
         *claimed += f.state == TrackState::kTracking && cv::norm(center(f.box) - after) < 8;
@@ -261,6 +264,18 @@ TEST(BoxTracker, AChangedTargetFoundAgainIsTrackedAgain) {
   std::printf("found after %d frames, then claimed on %d of 60\n", found, claimed);
   ASSERT_GE(found, 0) << "never found again";
   EXPECT_GE(claimed, 45);
+}
+
+// The frames that make the usual peak anew must follow one another: the
+// changed target seen between frames where it is hidden (an occluder passing
+// back and forth) is not taken for the target's new look by adding up its runs.
+TEST(BoxTracker, AChangedLookSeenBetweenHiddenFramesIsNotLearnt) {
+  int claimed = 0;
+  // After it is found: nine frames in view, one hidden, nine in view, ...
+  const int found = frames_to_find_a_changed_target(2.0, 1.4, 20.0, 0.8, false, 28, &claimed, 10);
+  std::printf("found after %d frames, then claimed on %d of 28, hidden on every tenth\n", found, claimed);
+  ASSERT_GE(found, 0) << "never found again";
+  EXPECT_EQ(claimed, 0) << "never ten frames in view in a row, yet the changed look was taken";
 }
 
 // Found near where it was hidden and of its colour, the changed target is
