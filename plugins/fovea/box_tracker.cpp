@@ -672,6 +672,15 @@ struct BoxTracker::Impl {
     return true;
   }
   void forget_lower() { lower_frames = 0, lower_psr_sum = 0; }
+  // A re-detection confirmed at `found`, seen at patch step `at_step`.
+  void found_at(cv::Point2d found, double at_step) {
+    center = sure_center = found;
+    size *= at_step / step;  // found at another size
+    step = at_step;
+    velocity = {};
+    low_frames = unsure_frames = candidate_frames = 0;
+    forget_lower();  // what is found may be another object
+  }
   // The colour is checked once it is known, and until the target has been
   // away so long that it may come back in another light.
   bool color_checked(const BoxTrackerConfig& c) const {
@@ -940,12 +949,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   m.candidate_step = where.step;
   m.candidate_frames = consistent ? m.candidate_frames + 1 : 1;
   if (m.candidate_frames < config_.redetect_frames) return;
-  m.center = m.sure_center = found;
-  m.size *= where.step / m.step;  // found at another size
-  m.step = where.step;
-  m.velocity = {};
-  m.low_frames = m.unsure_frames = m.candidate_frames = 0;
-  m.forget_lower();  // what is found may be another object
+  m.found_at(found, where.step);
   last_.state = TrackState::kTracking;
 }
 
