@@ -882,6 +882,9 @@ void RetinaStereo::match_level(const LevelImages& images, const LevelPlan& plan,
 }
 
 void RetinaStereo::fill_level(const LevelPlan& plan, double step, LevelDisparity& level) {
+  if (plan.innermost && config_.fovea_speckle_size > 0)
+    level.density = drop_speckles(level.disparity, level.score, config_.fovea_speckle_size,
+                                  config_.fovea_speckle_range * step, speckles_);
   level.filled_density = level.density;
   if (config_.fill_gaps > 0) level.filled_density = fill_gaps(level.disparity, level.score, config_.fill_gaps, step);
   if (config_.fill_occlusions)
@@ -1167,6 +1170,43 @@ void set_run(float* d, float* c, int first, int end, float value) {
 }
 
 }  // namespace
+
+double drop_speckles(cv::Mat& disparity, cv::Mat& score, int min_size, double max_step, SpeckleScratch& scratch) {
+  CV_Assert(disparity.type() == CV_32F && disparity.isContinuous() && score.size() == disparity.size() &&
+            score.type() == CV_32F && score.isContinuous());
+  const int cols = disparity.cols, count = static_cast<int>(disparity.total());
+  float* d = disparity.ptr<float>();
+  float* c = score.ptr<float>();
+  std::vector<int>& region = scratch.region;
+  std::vector<int>& members = scratch.members;
+  region.assign(static_cast<std::size_t>(count), -1);
+  members.reserve(static_cast<std::size_t>(count));
+  int kept = 0;
+  for (int start = 0; start < count; ++start) {
+    if (d[start] < 0 || region[static_cast<std::size_t>(start)] >= 0) continue;
+    // The region grown from `start`: members[0..] doubles as the queue.
+    members.clear();
+    members.push_back(start);
+    region[static_cast<std::size_t>(start)] = start;
+    for (std::size_t next = 0; next < members.size(); ++next) {
+      const int i = members[next], x = i % cols;
+      const auto join = [&](int j) {
+        if (d[j] >= 0 && region[static_cast<std::size_t>(j)] < 0 && std::fabs(d[j] - d[i]) <= max_step)
+          region[static_cast<std::size_t>(j)] = start, members.push_back(j);
+      };
+      if (x > 0) join(i - 1);
+      if (x + 1 < cols) join(i + 1);
+      if (i >= cols) join(i - cols);
+      if (i + cols < count) join(i + cols);
+    }
+    if (static_cast<int>(members.size()) >= min_size) {
+      kept += static_cast<int>(members.size());
+      continue;
+    }
+    for (const int i : members) d[i] = -1.0f, c[i] = -1.0f;
+  }
+  return count > 0 ? static_cast<double>(kept) / count : 0.0;
+}
 
 double fill_gaps(cv::Mat& disparity, cv::Mat& score, int max_gap, double tolerance) {
   return fill_runs(disparity, score, [&](float* d, float* c, int a, int b) {

@@ -100,6 +100,13 @@ void bind_stereo_params(ParamBinder<StereoNodeConfig>& b) {
              "semi-global: fovea pixels whose aggregated minimum lies at an end of their search range are not "
              "matched (the truth may lie beyond it; fewer wrong disparities, lower density)",
              &C::stereo, &S::fovea_range_check)
+      .field("fovea_speckle_size", {0, 100000},
+             "fovea: matched regions (neighbours within fovea_speckle_range) smaller than this many pixels are "
+             "dropped, as StereoSGBM's speckle filter drops them (fewer wrong disparities, lower density; 0: off)",
+             &C::stereo, &S::fovea_speckle_size)
+      .field("fovea_speckle_range", {0, 1000},
+             "fovea_speckle_size: level pixels of disparity by which neighbours of one region may differ", &C::stereo,
+             &S::fovea_speckle_range)
       .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)", &C::stereo,
              &S::pad);
   bind_fills_and_depth(b);
