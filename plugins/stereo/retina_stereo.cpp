@@ -1171,28 +1171,29 @@ void set_run(float* d, float* c, int first, int end, float value) {
 
 }  // namespace
 
+// (cv::filterSpeckles takes 8-bit and 16-bit maps only, not our float disparities.)
 double drop_speckles(cv::Mat& disparity, cv::Mat& score, int min_size, double max_step, SpeckleScratch& scratch) {
   CV_Assert(disparity.type() == CV_32F && disparity.isContinuous() && score.size() == disparity.size() &&
             score.type() == CV_32F && score.isContinuous());
   const int cols = disparity.cols, count = static_cast<int>(disparity.total());
   float* d = disparity.ptr<float>();
   float* c = score.ptr<float>();
-  std::vector<int>& region = scratch.region;
+  std::vector<uint8_t>& seen = scratch.seen;
   std::vector<int>& members = scratch.members;
-  region.assign(static_cast<std::size_t>(count), -1);
+  seen.assign(static_cast<std::size_t>(count), 0);
   members.reserve(static_cast<std::size_t>(count));
   int kept = 0;
   for (int start = 0; start < count; ++start) {
-    if (d[start] < 0 || region[static_cast<std::size_t>(start)] >= 0) continue;
-    // The region grown from `start`: members[0..] doubles as the queue.
+    if (d[start] < 0 || seen[static_cast<std::size_t>(start)]) continue;
+    // The region grown from `start`, breadth first (members is the queue).
     members.clear();
     members.push_back(start);
-    region[static_cast<std::size_t>(start)] = start;
+    seen[static_cast<std::size_t>(start)] = 1;
     for (std::size_t next = 0; next < members.size(); ++next) {
       const int i = members[next], x = i % cols;
       const auto join = [&](int j) {
-        if (d[j] >= 0 && region[static_cast<std::size_t>(j)] < 0 && std::fabs(d[j] - d[i]) <= max_step)
-          region[static_cast<std::size_t>(j)] = start, members.push_back(j);
+        if (d[j] >= 0 && !seen[static_cast<std::size_t>(j)] && std::fabs(d[j] - d[i]) <= max_step)
+          seen[static_cast<std::size_t>(j)] = 1, members.push_back(j);
       };
       if (x > 0) join(i - 1);
       if (x + 1 < cols) join(i + 1);

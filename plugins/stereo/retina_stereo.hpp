@@ -89,11 +89,12 @@ struct RetinaStereoConfig {
   // wrong disparities at a lower density (docs/accuracy.md). Off by default.
   bool fovea_range_check = false;
   // The fovea's matched regions (4-neighbours within fovea_speckle_range level
-  // pixels of each other) smaller than this many pixels are dropped, as
-  // StereoSGBM's speckle filter drops them (its speckleWindowSize and
-  // speckleRange): a wrong match rarely spreads as far as a surface does.
-  // Before the fills. Fewer wrong disparities at a lower density
-  // (docs/accuracy.md). 0: off, the default.
+  // pixels of each other) smaller than this many pixels are dropped, like
+  // StereoSGBM's speckle filter (speckleWindowSize, speckleRange; it drops
+  // regions of at most that many): a wrong match rarely spreads as far as a
+  // surface does. Before the fills. Fewer wrong disparities at a lower
+  // density (docs/accuracy.md). 0: off, the default; more than the fovea's
+  // pixels (768 for 32x24) drops it all.
   int fovea_speckle_size = 0;
   double fovea_speckle_range = 1.0;
   // Keep, per level, the images actually compared (for comparisons with other
@@ -190,7 +191,7 @@ double fill_occlusions(cv::Mat& disparity, cv::Mat& score, double step, int slac
 
 // Buffers drop_speckles reuses between calls.
 struct SpeckleScratch {
-  std::vector<int> region;  // per pixel: the region it was found in, -1 not yet
+  std::vector<uint8_t> seen;  // per pixel: already in a region
   std::vector<int> members;
 };
 

@@ -102,9 +102,10 @@ void bind_stereo_params(ParamBinder<StereoNodeConfig>& b) {
              &C::stereo, &S::fovea_range_check)
       .field("fovea_speckle_size", {0, 100000},
              "fovea: matched regions (neighbours within fovea_speckle_range) smaller than this many pixels are "
-             "dropped, as StereoSGBM's speckle filter drops them (fewer wrong disparities, lower density; 0: off)",
+             "dropped, like StereoSGBM's speckle filter (fewer wrong disparities, lower density; the fovea has "
+             "768 pixels at 32x24; 0: off)",
              &C::stereo, &S::fovea_speckle_size)
-      .field("fovea_speckle_range", {0, 1000},
+      .field("fovea_speckle_range", {0.1, 1000},
              "fovea_speckle_size: level pixels of disparity by which neighbours of one region may differ", &C::stereo,
              &S::fovea_speckle_range)
       .field("pad", {0, 64}, "level pixels sampled around each level from the frames (0: the levels alone)", &C::stereo,

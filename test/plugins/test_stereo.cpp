@@ -770,7 +770,9 @@ TEST(DropSpeckles, DropsRegionsSmallerThanTheSizeAndKeepsSurfaces) {
   // A slanted surface (disparity rising 0.5 a column: one region at a range
   // of 1) with an island of three pixels at 40 in it, a pair of pixels at 60
   // touching only diagonally (two regions of one), and below it a run of
-  // three pixels from 30 stepping by 1.5: three regions at a range of 1, one at 2.
+  // three pixels from 30 stepping by 1.5 (three regions at a range of 1, one
+  // at 2), and a pixel at the row's end equal to the next row's first (13.5
+  // beside 10: not its neighbour).
   cv::Mat d(5, 8, CV_32F), c(5, 8, CV_32F, cv::Scalar(0.9));
   for (int y = 0; y < 4; ++y)
     for (int x = 0; x < 8; ++x) d.at<float>(y, x) = 10 + 0.5f * static_cast<float>(x);
@@ -778,6 +780,7 @@ TEST(DropSpeckles, DropsRegionsSmallerThanTheSizeAndKeepsSurfaces) {
   d.at<float>(0, 5) = d.at<float>(1, 6) = 60;
   for (int x = 0; x < 8; ++x) d.at<float>(4, x) = x < 3 ? 30 + 1.5f * static_cast<float>(x) : -1;
   c.row(4).colRange(3, 8).setTo(-1);
+  d.at<float>(2, 0) = 13.5f;  // (the end of row 1 is 13.5)
   SpeckleScratch scratch;
   cv::Mat d1 = d.clone(), c1 = c.clone();
   const double density = drop_speckles(d1, c1, 4, 1.0, scratch);
@@ -787,9 +790,11 @@ TEST(DropSpeckles, DropsRegionsSmallerThanTheSizeAndKeepsSurfaces) {
   EXPECT_FLOAT_EQ(d1.at<float>(4, 0), -1.0f) << "steps of 1.5 part the run at a range of 1";
   EXPECT_FLOAT_EQ(d1.at<float>(3, 7), 13.5f) << "the slanted surface is kept";
   EXPECT_FLOAT_EQ(c1.at<float>(3, 7), 0.9f);
-  EXPECT_DOUBLE_EQ(density, 27.0 / 40.0);  // the surface's 32 pixels less the island's 3 and the pair's 2
+  EXPECT_FLOAT_EQ(d1.at<float>(2, 0), -1.0f) << "a row's first pixel is not the previous row's last's neighbour";
+  // The surface's 32 pixels less the island's 3, the pair's 2 and the odd one at a row's start.
+  EXPECT_DOUBLE_EQ(density, 26.0 / 40.0);
   cv::Mat d2 = d.clone(), c2 = c.clone();
-  drop_speckles(d2, c2, 3, 2.0, scratch);  // (the scratch reused at another size of region)
+  drop_speckles(d2, c2, 3, 2.0, scratch);  // (the scratch reused)
   EXPECT_FLOAT_EQ(d2.at<float>(4, 0), 30.0f) << "one region at a range of 2";
   EXPECT_FLOAT_EQ(d2.at<float>(1, 2), 40.0f) << "three pixels are not under a size of 3";
   EXPECT_FLOAT_EQ(d2.at<float>(1, 6), -1.0f);
@@ -804,10 +809,21 @@ TEST(StereoNode, TheSpeckleFilterIsAParameterAndChecksItsValues) {
   auto maps = h->last<FeatureMaps>("maps");
   ASSERT_NE(maps, nullptr);
   EXPECT_NEAR(maps->find("disparity")->back().at<float>(12, 20), 12.0, 0.25) << "one surface: kept";
-  const auto bad =
-      testing::NodeHarness::create(R"(<node plugin="stereo"><param name="fovea_speckle_size" value="-1"/></node>)");
-  EXPECT_FALSE(bad.ok());
-  EXPECT_THAT(bad.error(), ::testing::HasSubstr("fovea_speckle_size"));
+  // A size over the fovea's 768 pixels drops it all (nothing is left for the fills to fill from).
+  auto all = stereo_node_on(p, R"(<node plugin="stereo"><param name="max_disparity" value="64"/>)"
+                               R"(<param name="fovea_speckle_size" value="769"/></node>)");
+  ASSERT_NE(all, nullptr);
+  auto dropped = all->last<FeatureMaps>("maps");
+  ASSERT_NE(dropped, nullptr);
+  double largest = 0;
+  cv::minMaxLoc(dropped->find("disparity")->back(), nullptr, &largest);
+  EXPECT_LT(largest, 0.0) << "the whole fovea dropped";
+  for (const auto& [name, value] : {std::pair{"fovea_speckle_size", "-1"}, std::pair{"fovea_speckle_range", "0"}}) {
+    const auto bad = testing::NodeHarness::create(std::string(R"(<node plugin="stereo"><param name=")") + name +
+                                                  R"(" value=")" + value + R"("/></node>)");
+    EXPECT_FALSE(bad.ok()) << name << " " << value;
+    EXPECT_THAT(bad.error(), ::testing::HasSubstr(name));
+  }
 }
 
 TEST(StereoCalibration, ReadsFocalAndBaselineFromQOrP2OrM1AndT) {
