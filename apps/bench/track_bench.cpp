@@ -155,18 +155,6 @@ struct Options {
   int runs = 1;       // runs per sequence, the first box moved a little in all but the first
 };
 
-// Run r's first box: the truth's, moved and resized by up to a pixel and a
-// half in a fixed pattern (run 0: the truth's), as VOT restarts a tracker
-// from a perturbed box: a tracker whose outcome hangs on a fraction of a
-// pixel shows it as a spread over the runs.
-cv::Rect2d first_box(const cv::Rect2d& truth, int run) {
-  if (run == 0) return truth;
-  static constexpr double kShifts[][3] = {{0.3, -0.2, 0.15},  {-0.6, 0.4, -0.3}, {0.9, 0.6, 0.45},
-                                          {-1.2, -0.8, -0.6}, {1.5, -1.0, 0.75}, {-0.4, 1.2, 0.2}};
-  const auto& d = kShifts[static_cast<std::size_t>(run - 1) % std::size(kShifts)];
-  return {truth.x + d[0], truth.y + d[1], truth.width + d[2], truth.height - d[2]};
-}
-
 std::vector<std::string> split_list(const std::string& list) {
   std::vector<std::string> items;
   std::stringstream in(list);
@@ -219,7 +207,7 @@ Status write_trace(const std::string& folder, const Sequence& sequence, int run,
 // cannot be read or a trace that cannot be written.
 saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const std::vector<std::string>& names,
                                               const std::string& trace, int run) {
-  const cv::Rect2d box = first_box(sequence.truth.front(), run);
+  const cv::Rect2d box = perturbed_first_box(sequence.truth.front(), run);
   SequenceResults out{run == 0 ? sequence.name : sequence.name + ", run " + std::to_string(run),
                       sequence.name,
                       sequence.size(),

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <iterator>
 #include <fstream>
 #include <limits>
 #include <memory>
@@ -695,6 +696,14 @@ std::vector<SyntheticScript> standard_scripts() {
 }
 
 // ---------------------------------------------------------------- scoring
+
+cv::Rect2d perturbed_first_box(const cv::Rect2d& truth, int run) {
+  if (run == 0) return truth;
+  static constexpr double kShifts[][3] = {{0.3, -0.2, 0.15},  {-0.6, 0.4, -0.3}, {0.9, 0.6, 0.45},
+                                          {-1.2, -0.8, -0.6}, {1.5, -1.0, 0.75}, {-0.4, 1.2, 0.2}};
+  const auto& d = kShifts[static_cast<std::size_t>(run - 1) % std::size(kShifts)];
+  return {truth.x + d[0], truth.y + d[1], truth.width + d[2], truth.height - d[2]};
+}
 
 double iou(const cv::Rect2d& a, const cv::Rect2d& b) {
   const double overlap = (a & b).area();

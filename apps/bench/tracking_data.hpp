@@ -158,6 +158,12 @@ double center_error(const cv::Rect2d& a, const cv::Rect2d& b);
 Result<TrackScore> score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
                                const std::vector<TrackedFrame>& track);
 
+// Run r's first box: the truth's, moved and resized by up to a pixel and a
+// half in a fixed pattern (run 0: the truth's), as VOT restarts a tracker
+// from a perturbed box: a tracker whose outcome hangs on a fraction of a
+// pixel shows it as a spread over the runs.
+cv::Rect2d perturbed_first_box(const cv::Rect2d& truth, int run);
+
 // FNV-1a over a frame's pixels: cheap evidence that two renders are equal.
 uint64_t frame_hash(const cv::Mat& frame);
 
