@@ -5,7 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <filesystem>
+#include <cstdio>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -19,20 +20,17 @@ namespace {
 using namespace saccade::bench;
 using namespace saccade::fovea;
 
-std::string data_dir() { return std::filesystem::path(test::sample_path("baboon.jpg")).parent_path().string(); }
-
 Sequence generated(const std::string& name) {
   const std::vector<SyntheticScript> scripts = standard_scripts();
   const auto script = std::find_if(scripts.begin(), scripts.end(), [&](const auto& s) { return s.name == name; });
   if (script == scripts.end()) throw std::runtime_error("no generated sequence " + name);
-  Result<Sequence> sequence = generate_sequence(*script, data_dir());
+  Result<Sequence> sequence = generate_sequence(*script, test::sample_dir());
   if (!sequence.ok()) throw std::runtime_error(sequence.error());
   return std::move(sequence).value();
 }
 
 TrackScore track(const Sequence& s, int run) {
   std::vector<TrackedFrame> frames(static_cast<std::size_t>(s.size()));
-  std::vector<cv::Mat> images;
   BoxTracker tracker;
   const Result<cv::Mat> first = s.frame(0);
   EXPECT_TRUE(first.ok());

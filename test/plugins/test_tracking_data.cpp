@@ -28,8 +28,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string data_dir() { return fs::path(test::sample_path("baboon.jpg")).parent_path().string(); }
-
 // A fresh folder under the system's temporary folder, removed afterwards.
 class TempDir {
  public:
@@ -163,7 +161,7 @@ TEST(TruthRow, GivesTheBoxAndVisibilityOrNamesTheFault) {
 
 TEST(Generator, HasEnoughLongSequencesWithInvisibleFrames) {
   const std::vector<SyntheticScript> scripts = standard_scripts();
-  const std::vector<Sequence> all = value_of(generate_sequences(data_dir()));
+  const std::vector<Sequence> all = value_of(generate_sequences(test::sample_dir()));
   ASSERT_EQ(all.size(), scripts.size());
   int small = 0, large = 0;
   std::set<std::string> names;
@@ -187,8 +185,8 @@ TEST(Generator, HasEnoughLongSequencesWithInvisibleFrames) {
 }
 
 TEST(Generator, IsDeterministic) {
-  const std::vector<Sequence> a = value_of(generate_sequences(data_dir()));
-  const std::vector<Sequence> b = value_of(generate_sequences(data_dir()));
+  const std::vector<Sequence> a = value_of(generate_sequences(test::sample_dir()));
+  const std::vector<Sequence> b = value_of(generate_sequences(test::sample_dir()));
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t k = 0; k < a.size(); ++k) {
     ASSERT_EQ(a[k].truth.size(), b[k].truth.size());
@@ -221,10 +219,12 @@ TEST(Generator, NamesAMissingImageABadCropAndAnInvalidScript) {
   EXPECT_EQ(generate_sequence(script, "/nonexistent").error(), "cannot read image /nonexistent/" + script.background);
   EXPECT_EQ(target_appearance(script, "/nonexistent").error(), "cannot read image /nonexistent/" + script.target_image);
   script.target_crop = cv::Rect(0, 0, 100000, 10);
-  EXPECT_EQ(generate_sequence(script, data_dir()).error(), script.target_image + ": crop rectangle outside the image");
-  EXPECT_EQ(target_appearance(script, data_dir()).error(), script.target_image + ": crop rectangle outside the image");
+  EXPECT_EQ(generate_sequence(script, test::sample_dir()).error(),
+            script.target_image + ": crop rectangle outside the image");
+  EXPECT_EQ(target_appearance(script, test::sample_dir()).error(),
+            script.target_image + ": crop rectangle outside the image");
   script.frames = 0;
-  EXPECT_EQ(generate_sequence(script, data_dir()).error(), script.name + ": invalid script");
+  EXPECT_EQ(generate_sequence(script, test::sample_dir()).error(), script.name + ": invalid script");
 }
 
 // Where the target's picture, scaled to the truth box, matches the frame best
@@ -246,8 +246,8 @@ TEST(Generator, TruthBoxesFrameTheRenderedTarget) {
   constexpr int kMargin = 8;
   for (const SyntheticScript& script : standard_scripts()) {
     if (script.name != "scale" && script.name != "distractor") continue;  // neither occluded nor rotated
-    const Sequence s = value_of(generate_sequence(script, data_dir()));
-    const cv::Mat target = value_of(target_appearance(script, data_dir()));
+    const Sequence s = value_of(generate_sequence(script, test::sample_dir()));
+    const cv::Mat target = value_of(target_appearance(script, test::sample_dir()));
     const cv::Rect frame_rect(0, 0, s.frame_size.width, s.frame_size.height);
     int checked = 0;
     for (int i = 0; i < s.size(); i += 10) {
@@ -268,7 +268,7 @@ TEST(Generator, TruthBoxesFrameTheRenderedTarget) {
 }
 
 TEST(Generator, TheTargetLeavesTheViewAndComesBack) {
-  const Sequence s = value_of(generate_sequence(standard_scripts().at(6), data_dir()));
+  const Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
   ASSERT_EQ(s.name, "out_of_view");
   const cv::Rect2d frame_rect(0, 0, s.frame_size.width, s.frame_size.height);
   int reappearances = 0;
