@@ -34,6 +34,7 @@
 
 #if SACCADE_TRACK_BENCH_FOVEA
 #include "box_tracker.hpp"
+#include "fovea_params.hpp"
 #include "retina.hpp"
 #endif
 
@@ -102,11 +103,13 @@ class OpenCvTracker final : public Tracker {
 };
 
 #if SACCADE_TRACK_BENCH_FOVEA
+using BoxConfig = saccade::fovea::BoxTrackerConfig;
+
 // The fovea tracker as the robot runs it: every frame the retina is sampled
 // where the tracker last saw the target, then the tracker updates.
 class FoveaTracker final : public Tracker {
  public:
-  FoveaTracker() : tracker_(saccade::fovea::BoxTrackerConfig{}), retina_(saccade::retina::RetinaConfig{}) {}
+  explicit FoveaTracker(const BoxConfig& config) : tracker_(config), retina_(saccade::retina::RetinaConfig{}) {}
   Status init(const cv::Mat& frame, cv::Rect2d box) override {
     fovea_ = (box.tl() + box.br()) * 0.5;
     return tracker_.init(frame, box);
@@ -127,11 +130,16 @@ class FoveaTracker final : public Tracker {
   std::vector<saccade::LevelGeometry> geometry_;
   cv::Point2d fovea_;
 };
+#else
+struct BoxConfig {};
 #endif
 
-std::unique_ptr<Tracker> make_tracker(const std::string& name) {
+// `box`: the fovea tracker's configuration (the defaults, or as --set changed them).
+std::unique_ptr<Tracker> make_tracker(const std::string& name, const BoxConfig& box) {
 #if SACCADE_TRACK_BENCH_FOVEA
-  if (name == "fovea") return std::make_unique<FoveaTracker>();
+  if (name == "fovea") return std::make_unique<FoveaTracker>(box);
+#else
+  (void)box;
 #endif
   if (name == "csrt") return std::make_unique<OpenCvTracker>(cv::TrackerCSRT::create());
   if (name == "kcf") return std::make_unique<OpenCvTracker>(cv::TrackerKCF::create());
@@ -151,8 +159,10 @@ struct Options {
   std::string markdown;
   std::string sequences;  // names to keep, all when empty
   int frames = 0;
-  std::string trace;  // a folder for per-frame CSV files, one per sequence and tracker
-  int runs = 1;       // runs per sequence, the first box moved a little in all but the first
+  std::string trace;              // a folder for per-frame CSV files, one per sequence and tracker
+  int runs = 1;                   // runs per sequence, the first box moved a little in all but the first
+  std::vector<std::string> sets;  // the fovea node's box_* parameters, key=value
+  BoxConfig box;                  // the fovea tracker's configuration, as they set it
 };
 
 std::vector<std::string> split_list(const std::string& list) {
@@ -206,7 +216,8 @@ Status write_trace(const std::string& folder, const Sequence& sequence, int run,
 // that refuses the first box is reported as failed; an error is a frame that
 // cannot be read or a trace that cannot be written.
 saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const std::vector<std::string>& names,
-                                              const std::string& trace, int run) {
+                                              const Options& options, int run) {
+  const std::string& trace = options.trace;
   const cv::Rect2d box = perturbed_first_box(sequence.truth.front(), run);
   SequenceResults out{run == 0 ? sequence.name : sequence.name + ", run " + std::to_string(run),
                       sequence.name,
@@ -220,7 +231,7 @@ saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const st
   std::vector<std::vector<TrackedFrame>> tracks;
   for (const std::string& name : names) {
     out.results.push_back({name, {}, {}});
-    trackers.push_back(make_tracker(name));
+    trackers.push_back(make_tracker(name, options.box));
     if (!sequence.visible.front())
       out.results.back().status = Status::error("the target is not visible in frame 1");
     else
@@ -442,10 +453,41 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
   return sequences;
 }
 
+// The fovea node's parameters --set names, checked as in a graph, into
+// options.box; false (the reason printed) on one that is not.
+bool apply_sets(Options& options) {
+  if (options.sets.empty()) return true;
+#if SACCADE_TRACK_BENCH_FOVEA
+  std::vector<std::pair<std::string, std::string>> settings;
+  for (const std::string& s : options.sets) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos) {
+      std::cerr << "saccade_track_bench: --set " << s << ": not key=value\n";
+      return false;
+    }
+    settings.emplace_back(s.substr(0, eq), s.substr(eq + 1));
+  }
+  const saccade::Result<saccade::fovea::ControllerConfig> configured =
+      saccade::configure(&saccade::fovea::bind_fovea_params, settings);
+  if (!configured.ok()) {
+    std::cerr << "saccade_track_bench: --set: " << configured.error() << "\n";
+    return false;
+  }
+  options.box = configured->box;
+  std::cerr << "the fovea tracker with";
+  for (const std::string& s : options.sets) std::cerr << " " << s;
+  std::cerr << "\n";
+  return true;
+#else
+  std::cerr << "saccade_track_bench: --set: built without the fovea tracker\n";
+  return false;
+#endif
+}
+
 int run(const Options& options) {
   const std::vector<std::string> trackers = split_list(options.trackers);
   for (const std::string& name : trackers)
-    if (!make_tracker(name)) {
+    if (!make_tracker(name, options.box)) {
       std::cerr << "unknown tracker '" << name << "' (known: " << (SACCADE_TRACK_BENCH_FOVEA ? "fovea, " : "")
                 << "csrt, kcf, mil)\n";
       return 2;
@@ -465,7 +507,7 @@ int run(const Options& options) {
     for (int run = 0; run < options.runs; ++run) {
       std::cerr << "running " << sequence.name << " (" << sequence.size() << " frames)"
                 << (options.runs > 1 ? ", run " + std::to_string(run) : "") << "\n";
-      saccade::Result<SequenceResults> result = run_sequence(sequence, trackers, options.trace, run);
+      saccade::Result<SequenceResults> result = run_sequence(sequence, trackers, options, run);
       if (!result.ok()) {
         std::cerr << "error: " << result.error() << "\n";
         return 1;
@@ -503,7 +545,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100));
   app.add_option("--trace", options.trace,
                  "write each tracker's frames to FOLDER/<sequence>_<tracker>.csv (truth, box, state, confidence, IoU)");
+  app.add_option("--set", options.sets,
+                 "key=value: the fovea tracker with the fovea node's box_* parameter changed so (repeatable; "
+                 "docs/plugins.md)");
   CLI11_PARSE(app, argc, argv);
+  if (!apply_sets(options)) return 2;
   // One thread for everything: the times compare the algorithms, not how
   // well each spreads over cores.
   cv::setNumThreads(1);

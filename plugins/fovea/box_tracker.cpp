@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "color_histogram.hpp"
 #include "real_fft.hpp"
 #include "saccade/simd.hpp"
 #include "saccade/subpixel.hpp"
@@ -195,16 +196,20 @@ void sample_area(const cv::Mat& frame, cv::Point2d center, double step_x, double
   }
 }
 
+// The central half of a box centred at `center`, within the frame.
+cv::Rect central_half(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
+  return cv::Rect(
+             cv::Point(static_cast<int>(center.x - size.width / 4), static_cast<int>(center.y - size.height / 4)),
+             cv::Size(std::max(1, static_cast<int>(size.width / 2)), std::max(1, static_cast<int>(size.height / 2)))) &
+         cv::Rect(0, 0, frame.cols, frame.rows);
+}
+
 // The chromaticity (r, g: each channel's share of R + G + B) of the mean
 // colour inside the central half of `box`: the same under brighter or dimmer
 // light, changed by a tint. (1/3, 1/3) for a gray frame.
 cv::Vec2d chroma(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
   if (frame.channels() < 3) return {1.0 / 3, 1.0 / 3};
-  const cv::Rect inner =
-      cv::Rect(
-          cv::Point(static_cast<int>(center.x - size.width / 4), static_cast<int>(center.y - size.height / 4)),
-          cv::Size(std::max(1, static_cast<int>(size.width / 2)), std::max(1, static_cast<int>(size.height / 2)))) &
-      cv::Rect(0, 0, frame.cols, frame.rows);
+  const cv::Rect inner = central_half(frame, center, size);
   if (inner.empty()) return {1.0 / 3, 1.0 / 3};
   const cv::Scalar bgr = cv::mean(frame(inner));
   const double sum = bgr[0] + bgr[1] + bgr[2] + 1e-9;
@@ -700,25 +705,51 @@ struct BoxTracker::Impl {
   // 20-25 frames after it reappeared in three runs of six, 13-14 now). (At
   // proposals of every size, a spot of background of the target's colour was
   // taken while it was hidden.)
-  bool of_its_colour(const cv::Mat& frame, const Placement& p, cv::Point2d found) const {
+  bool of_its_colour(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
     if (!color_checked(config)) return false;
     const cv::Size2d box = size * (p.step / step);
     double distance = cv::norm(chroma(frame, found, box) - chroma_mean);
     if (p.proposed && p.step > step)
       distance = std::min(distance, cv::norm(chroma(frame, p.center, box) - chroma_mean));
-    return color_matches(config, distance);
+    return color_matches(config, distance) && has_its_colors(frame, p, found);
   }
-  // A tracked frame's colour, `distance` from the mean. Away so long that it
-  // may be back in another light, the target's colour is learnt afresh.
-  void learn_color(const BoxTrackerConfig& c, cv::Vec2d color, double distance) {
+  // A look `p` that found the target at `found`: are enough of its colours
+  // the target's (min_shared_colors, while its colour is checked)? Asked of
+  // every re-detection, also a sure one: the mean colour of a target partly
+  // hidden moves as far as a tinted look-alike's, and so it is not asked of
+  // a sure peak; the histogram tells them apart (docs/tracking.md). Measured
+  // like the mean colour.
+  bool has_its_colors(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
+    if (config.min_shared_colors <= 0 || color_shares.empty() || !color_checked(config)) return true;
+    const cv::Size2d box = size * (p.step / step);
+    chroma_histogram(frame, central_half(frame, found, box), candidate_shares);
+    double shared = shared_colors(candidate_shares, color_shares);
+    if (p.proposed && p.step > step) {
+      chroma_histogram(frame, central_half(frame, p.center, box), candidate_shares);
+      shared = std::max(shared, shared_colors(candidate_shares, color_shares));
+    }
+    return shared >= config.min_shared_colors;
+  }
+  // A tracked frame's colour (`color`, `distance` from the mean; its
+  // histogram measured at `at`). Away so long that it may be back in
+  // another light, the target's colour is learnt afresh.
+  void learn_color(const BoxTrackerConfig& c, const cv::Mat& frame, cv::Point2d at, cv::Vec2d color, double distance) {
     if (untracked_frames >= c.color_patience) chroma_frames = 0;
     untracked_frames = 0;
+    const bool fresh = chroma_frames++ == 0;
     // (Measured against the old mean, a fresh start's distance is no deviation.)
-    if (chroma_frames++ == 0) chroma_mean = color, chroma_deviation = 0, distance = 0;
+    if (fresh) chroma_mean = color, chroma_deviation = 0, distance = 0;
     chroma_deviation = 0.95 * chroma_deviation + 0.05 * distance;
     chroma_mean = 0.95 * chroma_mean + 0.05 * color;
+    if (c.min_shared_colors <= 0) return;
+    chroma_histogram(frame, central_half(frame, at, size), candidate_shares);
+    if (fresh) color_shares = candidate_shares;
+    for (std::size_t i = 0; i < color_shares.size(); ++i)
+      color_shares[i] = 0.95f * color_shares[i] + 0.05f * candidate_shares[i];
   }
-  cv::Mat appearance;  // CV_32F, the target at the coarse step
+  std::vector<float> color_shares;      // the tracked frames' chromaticity histogram (min_shared_colors only)
+  std::vector<float> candidate_shares;  // scratch: a frame's or a re-detection's
+  cv::Mat appearance;                   // CV_32F, the target at the coarse step
   std::vector<float> coarse_sample;
   cv::Mat coarse_f, resized, match;
   CorrelationScratch correlation;
@@ -860,7 +891,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     look_elsewhere(frame);
     return;
   }
-  m.learn_color(config_, color, color_distance);
+  m.learn_color(config_, frame, measured, color, color_distance);
   m.unsure_frames = m.candidate_frames = 0;  // (and a count the unsure frames' re-detection began)
   m.angle = at.angle;
   m.velocity = config_.velocity_gain * (measured - m.center) + (1 - config_.velocity_gain) * m.velocity;
@@ -948,7 +979,8 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
     const bool over_bar = peak.psr >= bar(found);
     const bool held = i == 0 && has_candidate && m.candidate_coloured && cv::norm(found - m.candidate) < near;
     bool coloured = false;
-    if (!over_bar && !(near_its_place(found, peak) && (held || (coloured = m.of_its_colour(frame, p, found)))))
+    if (over_bar ? !(held || m.has_its_colors(frame, p, found))
+                 : !(near_its_place(found, peak) && (held || (coloured = m.of_its_colour(frame, p, found)))))
       continue;
     candidate_held = i == 0 && has_candidate;
     if (candidate_held || peak.psr > best.psr) best = peak, where = p, best_coloured = coloured;

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "controller.hpp"
+#include "fovea_params.hpp"
 #include "saccade/log.hpp"
 #include "saccade/plugin.hpp"
 
@@ -72,74 +73,6 @@ class FoveaNode final : public Node {
                                           "state, target, score, attention shifts, gaze requests; carries the retina"};
   static constexpr Out<GazeRequest> kGaze{"gaze", "emitted when the tracked fovea reaches the border margin"};
 
-  static void bind(ParamBinder<ControllerConfig>& b) {
-    using C = ControllerConfig;
-    using T = TrackerConfig;
-    using S = SaliencyConfig;
-    using B = BoxTrackerConfig;
-    b.field("mode", {{"track", FoveaMode::kTrack}, {"attend", FoveaMode::kAttend}},
-            "track: lock on one target and follow it; attend: visit salient places in turn", &C::mode)
-        .field("dwell", {1, 100000}, "attend: frames on one place before attention moves on", &C::dwell_frames)
-        .field("coast", {0, 1000}, "lost: frames following the predicted path before searching", &C::coast_frames)
-        .field("lost_frames", {1, 1000000}, "lost: frames before the target is given up (not with a template)",
-               &C::lost_frames)
-        .field("verify_attempts", {1, 1000}, "failed looks near one place before it is inhibited", &C::verify_attempts)
-        .field("template_size", "tracking template, pixels", &C::tracker, &T::template_size)
-        .field("search_size", "window around the fovea searched by the tracker (0x0: the fovea level)", &C::tracker,
-               &T::search_size)
-        .field("min_score", {-1, 1}, "tracking: a template match (NCC) below this is lost", &C::tracker, &T::min_score)
-        .field("update_rate", {0, 1}, "tracking: template <- (1-a) template + a match", &C::tracker, &T::update_rate)
-        .field("ior_radius", {1, 100000}, "inhibition of return: radius, source pixels", &C::ior_radius)
-        .field("ior_frames", {1, 1000000}, "inhibition of return: frames until a place is free again", &C::ior_frames)
-        .field("min_saliency", {0, 10}, "places less salient than this are not worth a look", &C::min_saliency)
-        .field("lock_on", {{"moving", true}, {"salient", false}},
-               "track with the motion input: lock on (and look for a lost target) only where something moves",
-               &C::lock_on_motion)
-        .field("level_boost", {0, 1},
-               "saliency normalisation: 0 over all levels together, 1 each level alone (outer levels count more)",
-               &C::saliency, &S::level_boost)
-        .field("contrast_weight", {0, 100}, "saliency: centre-surround contrast across levels", &C::saliency,
-               &S::contrast_weight)
-        .field("edge_weight", {0, 100}, "saliency: gradient magnitude", &C::saliency, &S::edge_weight)
-        .field("motion_weight", {0, 100}, "saliency: |dI| (with the motion input)", &C::saliency, &S::motion_weight)
-        .field("color_weight", {0, 100}, "saliency: similarity to 'color' (BGR retina)", &C::saliency, &S::color_weight)
-        .field("color_tolerance", {1, 500}, "colour distance where similarity falls to exp(-1/2)", &C::saliency,
-               &S::color_tolerance)
-        .field("track_label",
-               "attend: when a 'target' with this label (a classifier's) names the tracked place, stop "
-               "visiting and keep tracking it",
-               &C::track_label)
-        .field("predict", "place the fovea where the target will be (constant velocity)", &C::predict)
-        .field("margin", {0, 10000}, "gaze request when the fovea's edge is this close to the frame's, pixels",
-               &C::border_margin)
-        .field("gaze_repeat", {1, 1000000}, "frames before an unanswered gaze request is repeated", &C::gaze_repeat)
-        .field("focal", {0, 1e6}, "focal length in pixels for gaze directions (0: from hfov)", &C::focal_px)
-        .field("hfov", {1, 179}, "horizontal field of view, degrees (when focal is 0)", &C::hfov_deg)
-        .field("box_learning_rate", {0, 1}, "box tracking: model <- (1-a) model + a frame, on confident frames",
-               &C::box, &B::learning_rate)
-        .field("box_tracking_psr", {0, 1000}, "box tracking: peak-to-sidelobe ratio from which the target is tracked",
-               &C::box, &B::tracking_psr)
-        .field("box_lost_psr", {0, 1000}, "box tracking: below this peak-to-sidelobe ratio the peak is not trusted",
-               &C::box, &B::lost_psr)
-        .field("box_lost_frames", {1, 100000}, "box tracking: untrusted frames in a row before the target is lost",
-               &C::box, &B::lost_frames)
-        .field("box_redetect_psr", {0, 1000},
-               "box tracking: peak-to-sidelobe ratio a re-detection must reach (twice, at one place)", &C::box,
-               &B::redetect_psr)
-        .field("box_redetect_near", {0, 1000},
-               "box tracking: within this many times the target's larger side of where it was last tracked, "
-               "and of its colour, a re-detection need only reach box_redetect_near_psr (0: nowhere)",
-               &C::box, &B::redetect_near)
-        .field("box_redetect_near_psr", {0, 1000},
-               "box tracking: peak-to-sidelobe ratio a re-detection near where the target was last tracked, "
-               "of its colour, must reach (twice, at one place)",
-               &C::box, &B::redetect_near_psr)
-        .field("box_color_change", {0, 1},
-               "box tracking: how far the target's chromaticity may move before a sure peak is doubted (as well "
-               "as four times its usual deviation; 1: colour never doubts)",
-               &C::box, &B::min_chroma_change);
-  }
-
   static Contract contract() {
     return Contract(
                "The moving fovea: bottom-up attention (saliency from centre-surround contrast across levels, "
@@ -147,7 +80,7 @@ class FoveaNode final : public Node {
                "prediction, and gaze requests when the fovea reaches the frame's border. Feed 'fovea' back to "
                "the retina's fovea input through a delayed edge.")
         .ports(kRetina, kMotion, kTarget, kHead, kFovea, kState, kGaze)
-        .params(&bind)
+        .params(&bind_fovea_params)
         .param_string("template", "", "image file of the target to look for (top-down); empty: lock on saliency")
         .param_string("init", "",
                       "the target as a box x,y,w,h in source pixels (optionally x,y,w,h,frame: on that frame id), "
@@ -156,7 +89,7 @@ class FoveaNode final : public Node {
   }
 
   Status open(OpenContext& ctx) override {
-    ControllerConfig c = ctx.config(&bind);
+    ControllerConfig c = ctx.config(&bind_fovea_params);
     Result<std::optional<cv::Vec3d>> color = parse_color(ctx.params().get_string("color"));
     if (!color.ok()) return color.status();
     c.saliency.color = *color;

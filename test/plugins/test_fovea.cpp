@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "controller.hpp"
+#include "fovea_params.hpp"
 #include "retina.hpp"
 #include "support.hpp"
 
@@ -467,6 +468,20 @@ TEST(FoveaPlugin, BadBoxesAndTemplatesAreErrorsAtOpenNamingTheValue) {
   EXPECT_TRUE(s.is_error());
   EXPECT_THAT(s.message(), ::testing::HasSubstr("900,10,40,30"));
   EXPECT_THAT(s.message(), ::testing::HasSubstr("640x480"));
+}
+
+// The node's parameters, bound once for the node and the benchmark's --set:
+// the box tracker's colour histogram check is off unless asked for, and a
+// share outside 0..1 is refused by name.
+TEST(FoveaParams, TheSharedColoursCheckIsOffByDefaultAndItsShareIsChecked) {
+  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
+  ASSERT_TRUE(defaults.ok()) << defaults.error();
+  EXPECT_EQ(defaults->box.min_shared_colors, 0.0);
+  const Result<ControllerConfig> asked = configure(&bind_fovea_params, {{"box_min_shared_colors", "0.45"}});
+  ASSERT_TRUE(asked.ok()) << asked.error();
+  EXPECT_DOUBLE_EQ(asked->box.min_shared_colors, 0.45);
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_min_shared_colors", "1.5"}}).error(),
+              ::testing::HasSubstr("box_min_shared_colors"));
 }
 
 }  // namespace

@@ -1,0 +1,67 @@
+// The chromaticity histogram the box tracker can ask of a re-detection
+// (box_min_shared_colors): real image patches (opencv-doc), one of them partly
+// covered, one tinted as the benchmark's look-alikes are.
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "color_histogram.hpp"
+#include "support.hpp"
+
+namespace saccade {
+namespace {
+
+using namespace saccade::fovea;
+
+cv::Mat read(const std::string& name) { return test::read_sample(name, cv::IMREAD_COLOR); }
+
+double total(const std::vector<float>& shares) { return std::accumulate(shares.begin(), shares.end(), 0.0); }
+
+TEST(ChromaHistogram, OneColourFillsOneBinAndNearlyBlackPixelsAreLeftOut) {
+  cv::Mat frame(20, 30, CV_8UC3, cv::Scalar(40, 80, 160));  // B, G, R: r = 4/7, g = 2/7
+  frame(cv::Rect(0, 0, 30, 10)).setTo(cv::Scalar(5, 5, 5));  // R + G + B under kDarkestChroma
+  std::vector<float> shares;
+  chroma_histogram(frame, cv::Rect(-5, -5, 100, 100), shares);  // clipped to the frame
+  ASSERT_EQ(shares.size(), static_cast<std::size_t>(kChromaBins * kChromaBins));
+  const int r = 160 * kChromaBins / 280, g = 80 * kChromaBins / 280;
+  EXPECT_FLOAT_EQ(shares[static_cast<std::size_t>(r * kChromaBins + g)], 1.0f);
+  EXPECT_NEAR(total(shares), 1.0, 1e-6);
+  EXPECT_DOUBLE_EQ(shared_colors(shares, shares), 1.0);
+}
+
+TEST(ChromaHistogram, AGrayFrameOrAnEmptyAreaHasNoColours) {
+  std::vector<float> shares;
+  chroma_histogram(cv::Mat(20, 20, CV_8UC1, cv::Scalar(100)), cv::Rect(0, 0, 20, 20), shares);
+  EXPECT_EQ(total(shares), 0.0);
+  chroma_histogram(cv::Mat(20, 20, CV_8UC3, cv::Scalar(40, 80, 160)), cv::Rect(30, 30, 5, 5), shares);
+  EXPECT_EQ(total(shares), 0.0);
+  EXPECT_EQ(shared_colors(shares, shares), 0.0);
+}
+
+// What the mean colour cannot tell apart: a third of the target covered by
+// something else shares two thirds of its colours and more; the target
+// tinted as the benchmark's look-alike is (0.85 of its brightness, blue up
+// 14, green down 6, red up 8) shares few.
+TEST(SharedColors, APartlyHiddenTargetSharesItsColoursATintedLookAlikeFew) {
+  const cv::Mat target = read("baboon.jpg")(cv::Rect(180, 40, 150, 120)).clone();
+  std::vector<float> learnt, seen;
+  chroma_histogram(target, cv::Rect(0, 0, target.cols, target.rows), learnt);
+  cv::Mat covered = target.clone();
+  read("fruits.jpg")(cv::Rect(0, 300, 50, 120)).copyTo(covered(cv::Rect(0, 0, 50, 120)));
+  chroma_histogram(covered, cv::Rect(0, 0, covered.cols, covered.rows), seen);
+  const double partly_hidden = shared_colors(seen, learnt);
+  cv::Mat tinted;
+  target.convertTo(tinted, CV_8UC3, 0.85, 0);
+  cv::add(tinted, cv::Scalar(14, -6, 8), tinted);
+  chroma_histogram(tinted, cv::Rect(0, 0, tinted.cols, tinted.rows), seen);
+  const double look_alike = shared_colors(seen, learnt);
+  std::printf("shared colours: a third covered %.3f, tinted %.3f\n", partly_hidden, look_alike);
+  EXPECT_GE(partly_hidden, 0.6);
+  EXPECT_LT(look_alike, 0.45);
+  EXPECT_DOUBLE_EQ(shared_colors(seen, learnt), shared_colors(learnt, seen));
+}
+
+}  // namespace
+}  // namespace saccade
