@@ -45,8 +45,8 @@ void bind_fovea_params(ParamBinder<ControllerConfig>& b) {
       .field("gaze_repeat", {1, 1000000}, "frames before an unanswered gaze request is repeated", &C::gaze_repeat)
       .field("focal", {0, 1e6}, "focal length in pixels for gaze directions (0: from hfov)", &C::focal_px)
       .field("hfov", {1, 179}, "horizontal field of view, degrees (when focal is 0)", &C::hfov_deg)
-      .field("box_learning_rate", {0, 1}, "box tracking: model <- (1-a) model + a frame, on confident frames",
-             &C::box, &B::learning_rate)
+      .field("box_learning_rate", {0, 1}, "box tracking: model <- (1-a) model + a frame, on confident frames", &C::box,
+             &B::learning_rate)
       .field("box_tracking_psr", {0, 1000}, "box tracking: peak-to-sidelobe ratio from which the target is tracked",
              &C::box, &B::tracking_psr)
       .field("box_lost_psr", {0, 1000}, "box tracking: below this peak-to-sidelobe ratio the peak is not trusted",

@@ -20,7 +20,7 @@ cv::Mat read(const std::string& name) { return test::read_sample(name, cv::IMREA
 double total(const std::vector<float>& shares) { return std::accumulate(shares.begin(), shares.end(), 0.0); }
 
 TEST(ChromaHistogram, OneColourFillsOneBinAndNearlyBlackPixelsAreLeftOut) {
-  cv::Mat frame(20, 30, CV_8UC3, cv::Scalar(40, 80, 160));  // B, G, R: r = 4/7, g = 2/7
+  cv::Mat frame(20, 30, CV_8UC3, cv::Scalar(40, 80, 160));   // B, G, R: r = 4/7, g = 2/7
   frame(cv::Rect(0, 0, 30, 10)).setTo(cv::Scalar(5, 5, 5));  // R + G + B under kDarkestChroma
   std::vector<float> shares;
   chroma_histogram(frame, cv::Rect(-5, -5, 100, 100), shares);  // clipped to the frame
