@@ -467,17 +467,10 @@ struct Matchers {
 // checked as in a graph); false (with the reason printed) on one that is not.
 bool parse_sets(const std::vector<std::string>& sets, Matchers& m) {
   m.custom_set = !sets.empty();
-  std::vector<std::pair<std::string, std::string>> settings;
-  for (const std::string& s : sets) {
-    const auto eq = s.find('=');
-    if (eq == std::string::npos) {
-      std::fprintf(stderr, "saccade_stereo_bench: --set %s: not key=value\n", s.c_str());
-      return false;
-    }
-    settings.emplace_back(s.substr(0, eq), s.substr(eq + 1));
-    m.custom_name += (m.custom_name.empty() ? "" : ", ") + s;
-  }
-  const Result<stereo::StereoNodeConfig> configured = configure(&stereo::bind_stereo_params, settings);
+  for (const std::string& s : sets) m.custom_name += (m.custom_name.empty() ? "" : ", ") + s;
+  const auto settings = split_settings(sets);
+  const Result<stereo::StereoNodeConfig> configured =
+      settings.ok() ? configure(&stereo::bind_stereo_params, *settings) : settings.status();
   const Status checked = configured.ok() ? stereo::check_stereo_params(*configured) : configured.status();
   if (!checked.ok()) {
     std::fprintf(stderr, "saccade_stereo_bench: --set: %s\n", checked.message().c_str());

@@ -458,17 +458,9 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
 bool apply_sets(Options& options) {
   if (options.sets.empty()) return true;
 #if SACCADE_TRACK_BENCH_FOVEA
-  std::vector<std::pair<std::string, std::string>> settings;
-  for (const std::string& s : options.sets) {
-    const auto eq = s.find('=');
-    if (eq == std::string::npos) {
-      std::cerr << "saccade_track_bench: --set " << s << ": not key=value\n";
-      return false;
-    }
-    settings.emplace_back(s.substr(0, eq), s.substr(eq + 1));
-  }
+  const auto settings = saccade::split_settings(options.sets);
   const saccade::Result<saccade::fovea::ControllerConfig> configured =
-      saccade::configure(&saccade::fovea::bind_fovea_params, settings);
+      settings.ok() ? saccade::configure(&saccade::fovea::bind_fovea_params, *settings) : settings.status();
   if (!configured.ok()) {
     std::cerr << "saccade_track_bench: --set: " << configured.error() << "\n";
     return false;

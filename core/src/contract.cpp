@@ -73,6 +73,16 @@ Status read_params(const Contract& contract, const std::vector<std::pair<std::st
   return {};
 }
 
+Result<std::vector<std::pair<std::string, std::string>>> split_settings(const std::vector<std::string>& texts) {
+  std::vector<std::pair<std::string, std::string>> settings;
+  for (const std::string& text : texts) {
+    const auto eq = text.find('=');
+    if (eq == std::string::npos) return Status::error("'" + text + "': expected name=value");
+    settings.emplace_back(text.substr(0, eq), text.substr(eq + 1));
+  }
+  return settings;
+}
+
 Status parse_param(const ParamSpec& spec, std::string_view text, ParamValue& out) {
   switch (spec.type) {
     case ParamType::kInt: {

@@ -170,6 +170,21 @@ TEST(ParamBinder, ConfigureNamesTheSettingThatDoesNotFit) {
   EXPECT_THAT(configure(&bind_sample, {{"window", "5"}, {"window", "7"}}).error(), ::testing::HasSubstr("given twice"));
 }
 
+// A tool's --set texts: split at the first '=' (a value may hold more), one
+// without any refused by name.
+TEST(ParamBinder, SplitSettingsReadsNameEqualsValueTexts) {
+  const auto settings = split_settings({"window=7", "label=a=b", "label2="});
+  ASSERT_TRUE(settings.ok()) << settings.error();
+  ASSERT_EQ(settings->size(), 3u);
+  EXPECT_EQ((*settings)[0], (std::pair<std::string, std::string>{"window", "7"}));
+  EXPECT_EQ((*settings)[1], (std::pair<std::string, std::string>{"label", "a=b"}));
+  EXPECT_EQ((*settings)[2], (std::pair<std::string, std::string>{"label2", ""}));
+  const Result<Sample> s = configure(&bind_sample, *split_settings({"window=7"}));
+  ASSERT_TRUE(s.ok()) << s.error();
+  EXPECT_EQ(s->window, 7);
+  EXPECT_THAT(split_settings({"window=7", "window7"}).error(), ::testing::HasSubstr("'window7'"));
+}
+
 struct Broken {
   int window = 50;              // outside the range the node declares
   Shape shape = Shape::kRound;  // none of the named choices

@@ -101,6 +101,10 @@ class Params;
 Status read_params(const Contract& contract, const std::vector<std::pair<std::string, std::string>>& settings,
                    Params& params);
 
+// "name=value" texts (a tool's --set arguments) as (name, value) settings for
+// read_params / configure; an error names the text without '='.
+Result<std::vector<std::pair<std::string, std::string>>> split_settings(const std::vector<std::string>& texts);
+
 // "a, b,,c" -> {"a", "b", "c"}: a parameter that names several things (topics,
 // joints), items trimmed, empty ones dropped.
 std::vector<std::string> comma_list(std::string_view text);
