@@ -696,36 +696,44 @@ struct BoxTracker::Impl {
   bool color_matches(const BoxTrackerConfig& c, double distance) const {
     return !color_checked(c) || distance <= std::max(c.min_chroma_change, c.chroma_deviations * chroma_deviation);
   }
-  // A look `p` found the target at `found`: is it of the target's colour
-  // (while that is checked)? Where the filter peaks or, at a place the
-  // whole-frame search proposed larger than the target (it came nearer while
-  // hidden), where that search centred it: the filter knows the target
-  // smaller and peaks on a part of it (`mixed`: 9-13 px above the orange's
-  // centre, whose colour there was 0.08 from the learnt one; re-acquired
-  // 20-25 frames after it reappeared in three runs of six, 13-14 now). (At
-  // proposals of every size, a spot of background of the target's colour was
-  // taken while it was hidden.)
+  // Where the colour of a look `p` that found the target at `found` is
+  // measured (the box's central half, the box at the look's size): where the
+  // filter peaks and, at a place the whole-frame search proposed larger than
+  // the target (it came nearer while hidden), where that search centred it:
+  // the filter knows the target smaller and peaks on a part of it (`mixed`:
+  // 9-13 px above the orange's centre, whose colour there was 0.08 from the
+  // learnt one; re-acquired 20-25 frames after it reappeared in three runs of
+  // six, 13-14 now). (At proposals of every size, a spot of background of the
+  // target's colour was taken while it was hidden.) The nearer of the two
+  // colours counts.
+  struct ColorPlaces {
+    std::array<cv::Point2d, 2> at;
+    int count;
+    cv::Size2d box;
+  };
+  ColorPlaces color_places(const Placement& p, cv::Point2d found) const {
+    return {{found, p.center}, p.proposed && p.step > step ? 2 : 1, size * (p.step / step)};
+  }
+  // Is a look of the target's colour (while that is checked)?
   bool of_its_colour(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
     if (!color_checked(config)) return false;
-    const cv::Size2d box = size * (p.step / step);
-    double distance = cv::norm(chroma(frame, found, box) - chroma_mean);
-    if (p.proposed && p.step > step)
-      distance = std::min(distance, cv::norm(chroma(frame, p.center, box) - chroma_mean));
+    const ColorPlaces places = color_places(p, found);
+    double distance = INFINITY;
+    for (int k = 0; k < places.count; ++k)
+      distance = std::min(distance, cv::norm(chroma(frame, places.at[k], places.box) - chroma_mean));
     return color_matches(config, distance) && has_its_colors(frame, p, found);
   }
-  // A look `p` that found the target at `found`: are enough of its colours
-  // the target's (min_shared_colors, while its colour is checked)? Asked of
-  // every re-detection, also a sure one: the mean colour of a target partly
-  // hidden moves as far as a tinted look-alike's, and so it is not asked of
-  // a sure peak; the histogram tells them apart (docs/tracking.md). Measured
-  // like the mean colour.
+  // Are enough of a look's colours the target's (min_shared_colors, while
+  // its colour is checked)? Asked of every re-detection, also a sure one: the
+  // mean colour of a target partly hidden moves as far as a tinted
+  // look-alike's, and so it is not asked of a sure peak; the histogram tells
+  // them apart (docs/tracking.md).
   bool has_its_colors(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
     if (config.min_shared_colors <= 0 || color_shares.empty() || !color_checked(config)) return true;
-    const cv::Size2d box = size * (p.step / step);
-    chroma_histogram(frame, central_half(frame, found, box), candidate_shares);
-    double shared = shared_colors(candidate_shares, color_shares);
-    if (p.proposed && p.step > step) {
-      chroma_histogram(frame, central_half(frame, p.center, box), candidate_shares);
+    const ColorPlaces places = color_places(p, found);
+    double shared = 0;
+    for (int k = 0; k < places.count; ++k) {
+      chroma_histogram(frame, central_half(frame, places.at[k], places.box), candidate_shares);
       shared = std::max(shared, shared_colors(candidate_shares, color_shares));
     }
     return shared >= config.min_shared_colors;
