@@ -5,7 +5,7 @@
 // tracker: the retina sampled at its last box's centre plus its update), with
 // OpenCV on one thread for all.
 //
-//   saccade_track_bench [--data DIR] [--otb DIR]... [--vot DIR]... [--no-generated]
+//   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--no-generated]
 //                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--sequences a,b] [--markdown FILE]
 #ifndef SACCADE_TRACK_BENCH_FOVEA
 #define SACCADE_TRACK_BENCH_FOVEA 1
@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -423,13 +424,40 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
 
 // --- Main.
 
-// Appends the sequence in each of `dirs`, read by `read` (read_otb or read_vot).
-Status read_folders(const std::vector<std::string>& dirs, saccade::Result<Sequence> (*read)(const std::string&),
-                    std::vector<Sequence>& sequences) {
+// Appends the sequence in each VOT folder of `dirs`.
+Status read_vot_folders(const std::vector<std::string>& dirs, std::vector<Sequence>& sequences) {
   for (const std::string& dir : dirs) {
-    saccade::Result<Sequence> sequence = read(dir);
+    saccade::Result<Sequence> sequence = read_vot(dir);
     if (!sequence.ok()) return sequence.status();
     sequences.push_back(std::move(sequence).value());
+  }
+  return {};
+}
+
+// Appends every target of each OTB folder of `specs`, "DIR" or "DIR:FIRST"
+// (the image number the truth starts at: OTB's David is "David:300").
+Status read_otb_folders(const std::vector<std::string>& specs, std::vector<Sequence>& sequences) {
+  for (const std::string& spec : specs) {
+    std::string dir = spec;
+    int first_image = 0;
+    const std::size_t colon = spec.rfind(':');
+    std::error_code ec;
+    if (colon != std::string::npos && colon + 1 < spec.size() && !std::filesystem::is_directory(spec, ec) &&
+        spec.find_first_not_of("0123456789", colon + 1) == std::string::npos) {
+      dir = spec.substr(0, colon);
+      first_image = std::atoi(spec.c_str() + colon + 1);
+      if (first_image < 1) return Status::error("--otb " + spec + ": expected DIR or DIR:FIRST, FIRST from 1");
+    }
+    saccade::Result<std::vector<Sequence>> targets = read_otb_targets(dir, first_image);
+    if (!targets.ok()) return targets.status();
+    for (Sequence& target : *targets) {
+      if (!target.note.empty())
+        std::fprintf(stderr,
+                     "note: %s: %s; if the truth starts at a later image, give it as --otb DIR:FIRST (OTB's David: "
+                     "David:300)\n",
+                     target.name.c_str(), target.note.c_str());
+      sequences.push_back(std::move(target));
+    }
   }
   return {};
 }
@@ -443,8 +471,8 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
     if (!generated.ok()) return generated.status();
     sequences = std::move(generated).value();
   }
-  if (Status read = read_folders(options.otb, &read_otb, sequences); !read.ok()) return read;
-  if (Status read = read_folders(options.vot, &read_vot, sequences); !read.ok()) return read;
+  if (Status read = read_otb_folders(options.otb, sequences); !read.ok()) return read;
+  if (Status read = read_vot_folders(options.vot, sequences); !read.ok()) return read;
   const std::vector<std::string> keep = split_list(options.sequences);
   if (!keep.empty())
     std::erase_if(sequences,
@@ -524,7 +552,9 @@ int main(int argc, char** argv) {
   Options options;
   CLI::App app{"Tracking benchmark: the fovea box tracker against OpenCV's CSRT, KCF and MIL"};
   app.add_option("--data", options.data, "OpenCV's sample data folder (the generated sequences' images)");
-  app.add_option("--otb", options.otb, "an OTB sequence folder (img/, groundtruth_rect.txt); repeatable");
+  app.add_option("--otb", options.otb,
+                 "an OTB sequence folder (img/, groundtruth_rect.txt or .1.txt, .2.txt ... for several targets), "
+                 "as DIR:FIRST when the truth starts at image FIRST (OTB's David:300); repeatable");
   app.add_option("--vot", options.vot, "a VOT sequence folder (groundtruth.txt, frames or color/); repeatable");
   app.add_flag("--no-generated", options.no_generated, "leave out the generated sequences");
   app.add_option("--trackers", options.trackers, "comma-separated trackers to run")->capture_default_str();

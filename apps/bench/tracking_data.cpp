@@ -145,16 +145,114 @@ std::string folder_name(const std::string& dir) {
 
 }  // namespace
 
-Result<Sequence> read_otb(const std::string& dir) {
+namespace {
+
+// An OTB image folder's frames: every .jpg or .png whose name is a number,
+// in the order of the numbers, which must follow each other without a gap.
+struct NumberedImages {
+  std::vector<std::string> paths;
+  std::vector<long> numbers;
+  int digits = 4;  // of the names, for naming a missing one
+  std::string extension = ".jpg";
+};
+
+Result<NumberedImages> list_numbered_images(const fs::path& folder) {
+  if (Status s = require_folder(folder); !s.ok()) return s;
+  std::vector<std::pair<long, fs::path>> found;
+  std::error_code ec;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+    const std::string extension = entry.path().extension().string(), stem = entry.path().stem().string();
+    if ((extension != ".jpg" && extension != ".png") || stem.empty() ||
+        !std::all_of(stem.begin(), stem.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      continue;
+    found.emplace_back(std::strtol(stem.c_str(), nullptr, 10), entry.path());
+  }
+  if (ec) return Status::error(folder.string() + ": cannot list (" + ec.message() + ")");
+  if (found.empty()) return Status::error(folder.string() + ": no numbered .jpg or .png images");
+  std::sort(found.begin(), found.end());
+  NumberedImages images;
+  images.digits = static_cast<int>(found.front().second.stem().string().size());
+  images.extension = found.front().second.extension().string();
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    if (i > 0 && found[i].first != found[i - 1].first + 1)
+      return Status::error(found[i - 1].second.string() + ": the next image is " + found[i].second.filename().string() +
+                           " (the images must be numbered without gaps)");
+    images.numbers.push_back(found[i].first);
+    images.paths.push_back(found[i].second.string());
+  }
+  return images;
+}
+
+// The images the truth's `rows` belong to: from number `first_image` on (0:
+// the first image); and how many the folder holds.
+struct OtbFrames {
+  std::vector<std::string> paths;
+  std::size_t in_folder = 0;
+};
+
+Result<OtbFrames> otb_frames(const fs::path& folder, int first_image, std::size_t rows, const fs::path& truth_file) {
+  Result<NumberedImages> listed = list_numbered_images(folder);
+  if (!listed.ok()) return listed.status();
+  const NumberedImages& images = *listed;
+  auto name = [&](long number) {
+    char text[48];
+    std::snprintf(text, sizeof text, "%0*ld%s", images.digits, number, images.extension.c_str());
+    return (folder / text).string();
+  };
+  const long first = first_image > 0 ? first_image : images.numbers.front();
+  if (first < images.numbers.front() || first > images.numbers.back())
+    return Status::error(name(first) + ": missing (the truth starts there; " + folder.filename().string() + "/ holds " +
+                         fs::path(images.paths.front()).filename().string() + " to " +
+                         fs::path(images.paths.back()).filename().string() + ")");
+  const std::size_t start = static_cast<std::size_t>(first - images.numbers.front());
+  if (images.paths.size() - start < rows)
+    return Status::error(name(images.numbers.back() + 1) + ": missing (" + truth_file.filename().string() + " has " +
+                         std::to_string(rows) + " rows from image " + std::to_string(first) + ")");
+  return OtbFrames{{images.paths.begin() + static_cast<std::ptrdiff_t>(start),
+                    images.paths.begin() + static_cast<std::ptrdiff_t>(start + rows)},
+                   images.paths.size()};
+}
+
+}  // namespace
+
+Result<Sequence> read_otb(const std::string& dir, int first_image, const std::string& truth_name) {
   if (Status s = require_folder(dir); !s.ok()) return s;
   Sequence sequence;
   sequence.name = folder_name(dir);
-  const fs::path truth_file = fs::path(dir) / "groundtruth_rect.txt";
+  const fs::path truth_file = fs::path(dir) / truth_name;
   if (Status s = read_truth_file(truth_file, sequence); !s.ok()) return s;
-  auto frames = numbered_frames(fs::path(dir) / "img", 4, ".jpg", sequence.truth.size(), truth_file);
+  auto frames = otb_frames(fs::path(dir) / "img", first_image, sequence.truth.size(), truth_file);
   if (!frames.ok()) return frames.status();
-  if (Status s = attach_frames(sequence, std::move(frames).value()); !s.ok()) return s;
+  const std::vector<std::string>& paths = frames->paths;
+  if (first_image <= 0 && frames->in_folder > paths.size())
+    sequence.note = truth_file.filename().string() + " has " + std::to_string(paths.size()) + " rows for " +
+                    std::to_string(frames->in_folder) + " images: taken as " +
+                    fs::path(paths.front()).filename().string() + " to " + fs::path(paths.back()).filename().string() +
+                    "'s";
+  if (Status s = attach_frames(sequence, std::move(frames->paths)); !s.ok()) return s;
   return sequence;
+}
+
+Result<std::vector<Sequence>> read_otb_targets(const std::string& dir, int first_image) {
+  if (Status s = require_folder(dir); !s.ok()) return s;
+  std::error_code ec;
+  std::vector<Sequence> targets;
+  if (fs::exists(fs::path(dir) / "groundtruth_rect.txt", ec)) {
+    Result<Sequence> one = read_otb(dir, first_image);
+    if (!one.ok()) return one.status();
+    targets.push_back(std::move(one).value());
+    return targets;
+  }
+  for (int n = 1; fs::exists(fs::path(dir) / ("groundtruth_rect." + std::to_string(n) + ".txt"), ec); ++n) {
+    Result<Sequence> target = read_otb(dir, first_image, "groundtruth_rect." + std::to_string(n) + ".txt");
+    if (!target.ok()) return target.status();
+    target->name += "." + std::to_string(n);  // as OTB names them: Jogging.1, Jogging.2
+    targets.push_back(std::move(target).value());
+  }
+  if (targets.empty())
+    return Status::error("cannot open " + (fs::path(dir) / "groundtruth_rect.txt").string() +
+                         " (nor groundtruth_rect.1.txt, as a folder with several targets has)");
+  return targets;
 }
 
 Result<Sequence> read_vot(const std::string& dir) {

@@ -31,6 +31,7 @@ struct Sequence {
   // error names a frame file that can no longer be read, or an index outside
   // the sequence.
   std::function<Result<cv::Mat>(int)> frame;
+  std::string note;  // what a reader assumed in pairing the truth with the images, for the user to check; or empty
   int size() const { return static_cast<int>(truth.size()); }
 };
 
@@ -42,9 +43,21 @@ void truncate(Sequence& sequence, int frames);
 
 // OTB layout: DIR/img/0001.jpg ... and DIR/groundtruth_rect.txt, one x,y,w,h
 // row per frame (separated by commas, tabs or spaces; CRLF allowed). Rows of
-// NaN or with a zero width or height mark frames without the target. Only
-// sequences whose ground truth starts at image 0001 are supported.
-Result<Sequence> read_otb(const std::string& dir);
+// NaN or with a zero width or height mark frames without the target.
+// The images are taken in the order of their numbers, whatever their digits
+// and first number (OTB's Board has five digits, its BlurCar1 starts at
+// 0247), and must follow each other without a gap. The rows belong to the
+// images from number `first_image` on (0: from the first image), fewer rows
+// than images leaving the rest out (OTB's Football1, Freeman3, Freeman4 and
+// Diving from the first; its David from 300: Sequence::note then says which
+// images were taken). `truth_name` is the ground truth's file in DIR.
+Result<Sequence> read_otb(const std::string& dir, int first_image = 0,
+                          const std::string& truth_name = "groundtruth_rect.txt");
+
+// Every target of an OTB folder: groundtruth_rect.txt's, or else one
+// sequence per groundtruth_rect.N.txt (N from 1), named as OTB names them
+// (Jogging.1, Jogging.2).
+Result<std::vector<Sequence>> read_otb_targets(const std::string& dir, int first_image = 0);
 
 // VOT layout: DIR/00000001.jpg ... (or DIR/color/00000001.jpg ...) and
 // DIR/groundtruth.txt, one row per frame of 4 numbers (x,y,w,h) or 8 (the

@@ -49,9 +49,10 @@ void write_file(const fs::path& path, const std::string& text) {
   out << text;
 }
 
-void write_frames(const fs::path& folder, int count, int digits) {
+// Images `first`..`first + count - 1`, image i's blue channel 10 i.
+void write_frames(const fs::path& folder, int count, int digits, int first = 1) {
   fs::create_directories(folder);
-  for (int i = 1; i <= count; ++i) {
+  for (int i = first; i < first + count; ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "%0*d.jpg", digits, i);
     cv::Mat frame(48, 64, CV_8UC3, cv::Scalar(10 * i, 20, 30));
@@ -111,6 +112,77 @@ TEST(OtbReader, NamesTheFileAndLineOfAMalformedRow) {
   EXPECT_THAT(error, ::testing::HasSubstr("groundtruth_rect.txt:3: 'x3' is not a number"));
   error = read_otb((dir.path() / "nowhere").string()).error();
   EXPECT_THAT(error, ::testing::HasSubstr("nowhere: not a folder"));
+}
+
+// The image a sequence's frame came from (write_frames' blue channel).
+int image_number(const Sequence& s, int frame) {
+  const cv::Mat image = value_of(s.frame(frame));
+  return image.empty() ? -1 : static_cast<int>(std::lround(image.at<cv::Vec3b>(10, 10)[0] / 10.0));
+}
+
+TEST(OtbReader, TakesTheImagesInTheOrderOfTheirNumbersWhateverTheirDigitsAndFirst) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 3, 5, 20);  // 00020.jpg ... as OTB's Board (five digits), BlurCar1 (from 0247)
+  write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3,4\n1,2,3,4\n");
+  const Sequence s = value_of(read_otb(dir.path().string()));
+  ASSERT_EQ(s.size(), 3);
+  EXPECT_EQ(image_number(s, 0), 20);
+  EXPECT_EQ(image_number(s, 2), 22);
+}
+
+TEST(OtbReader, FewerRowsThanImagesBelongToTheImagesFromTheFirstOneGiven) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 5, 4);
+  write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n1,2,3,4\n");
+  Sequence s = value_of(read_otb(dir.path().string()));  // as OTB's Football1: from the first
+  ASSERT_EQ(s.size(), 2);
+  EXPECT_EQ(image_number(s, 0), 1);
+  EXPECT_EQ(image_number(s, 1), 2);
+  EXPECT_THAT(s.note,
+              ::testing::HasSubstr("groundtruth_rect.txt has 2 rows for 5 images: taken as 0001.jpg to 0002.jpg's"));
+  s = value_of(read_otb(dir.path().string(), 4));  // as OTB's David: from 300
+  EXPECT_EQ(s.note, "");
+  ASSERT_EQ(s.size(), 2);
+  EXPECT_EQ(image_number(s, 0), 4);
+  EXPECT_EQ(image_number(s, 1), 5);
+  EXPECT_THAT(read_otb(dir.path().string(), 5).error(),
+              ::testing::HasSubstr("img/0006.jpg: missing (groundtruth_rect.txt has 2 rows from image 5)"));
+  EXPECT_THAT(read_otb(dir.path().string(), 9).error(),
+              ::testing::HasSubstr("img/0009.jpg: missing (the truth starts there; img/ holds 0001.jpg to 0005.jpg)"));
+}
+
+TEST(OtbReader, NamesAGapInTheImages) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 2, 4);
+  write_frames(dir.path() / "img", 1, 4, 4);
+  write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n");
+  EXPECT_THAT(
+      read_otb(dir.path().string()).error(),
+      ::testing::HasSubstr("img/0002.jpg: the next image is 0004.jpg (the images must be numbered without gaps)"));
+  fs::remove_all(dir.path() / "img");
+  fs::create_directories(dir.path() / "img");
+  EXPECT_THAT(read_otb(dir.path().string()).error(), ::testing::HasSubstr("img: no numbered .jpg or .png images"));
+}
+
+TEST(OtbReader, ReadsEveryTargetOfAFolderWithSeveral) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 3, 4);
+  write_file(dir.path() / "groundtruth_rect.1.txt", "1,2,3,4\n1,2,3,4\n1,2,3,4\n");
+  write_file(dir.path() / "groundtruth_rect.2.txt", "5,6,7,8\n5,6,7,8\n");
+  const std::vector<Sequence> targets = value_of(read_otb_targets(dir.path().string()));
+  ASSERT_EQ(targets.size(), 2u);
+  const std::string name = dir.path().filename().string();
+  EXPECT_EQ(targets[0].name, name + ".1");
+  EXPECT_EQ(targets[0].size(), 3);
+  EXPECT_EQ(targets[1].name, name + ".2");
+  ASSERT_EQ(targets[1].size(), 2);
+  expect_box(targets[1].truth[0], 5, 6, 7, 8);
+  write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n");  // one target: that file alone
+  ASSERT_EQ(value_of(read_otb_targets(dir.path().string())).size(), 1u);
+  for (const char* file : {"groundtruth_rect.txt", "groundtruth_rect.1.txt", "groundtruth_rect.2.txt"})
+    fs::remove(dir.path() / file);
+  EXPECT_THAT(read_otb_targets(dir.path().string()).error(),
+              ::testing::HasSubstr("groundtruth_rect.txt (nor groundtruth_rect.1.txt"));
 }
 
 TEST(VotReader, PolygonsBecomeTheirBoundingBoxesAndNanRowsInvisible) {
