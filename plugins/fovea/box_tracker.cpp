@@ -4,10 +4,13 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <limits>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
 #include "color_histogram.hpp"
+#include "frame_samples.hpp"
 #include "real_fft.hpp"
 #include "saccade/simd.hpp"
 #include "saccade/subpixel.hpp"
@@ -112,88 +115,11 @@ void sample_gray(const cv::Mat& frame, cv::Point2d center, double step_x, double
   const double mx = (n.width - 1) / 2.0, my = (n.height - 1) / 2.0;
   const cv::Matx23d m(c * sx, -s * sy, center.x - (c * sx * mx - s * sy * my), s * sx, c * sy,
                       center.y - (s * sx * mx + c * sy * my));
-  cv::warpAffine(frame, fine, m, n, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
-  if (fine.channels() != 1) {
-    cv::cvtColor(fine, fine_gray, fine.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-    std::swap(fine, fine_gray);
-  }
+  warp_to_gray(frame, m, n, fine_gray, fine);
   if (halve)
-    cv::pyrDown(fine, out, size);
+    cv::pyrDown(fine_gray, out, size);
   else
-    fine.copyTo(out);
-}
-
-// Where a quarter point of a cell falls between two source pixels along one
-// axis: the first pixel and the weight of the second.
-struct Tap {
-  int first;
-  float weight;
-};
-
-// The taps of the quarter points (-1/4 and +1/4 of a step either side of
-// each cell's centre) of `count` cells centred on `center` + (i - middle)
-// `step` along an axis of `length` pixels (clamped inside it, as the
-// frame's border is replicated).
-void quarter_taps(double center, double step, int count, int length, Tap* out) {
-  const double middle = (count - 1) / 2.0;
-  for (int i = 0; i < count; ++i) {
-    const double at = center + (i - middle) * step;
-    for (int q = 0; q < 2; ++q) {
-      const double s = std::clamp(at + (q == 0 ? -0.25 : 0.25) * step, 0.0, length - 1.001);
-      const int first = static_cast<int>(s);
-      out[2 * i + q] = {first, static_cast<float>(s - first)};
-    }
-  }
-}
-
-// The mean gray of each cell from four bilinear samples at its quarter
-// points: a retina level's pixel, for any step and any sub-pixel position,
-// read straight from the frame. Taps are per column and per row (the grid is
-// separable), so each sample costs its four pixels' reads and nothing else.
-template <int Channels>
-void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Size size, float* out) {
-  auto gray = [](const uchar* p) {
-    if constexpr (Channels == 1)
-      return static_cast<float>(p[0]);
-    else
-      return 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2];
-  };
-  for (int j = 0; j < size.height; ++j) {
-    const Tap* ty = rows + 2 * j;
-    for (int i = 0; i < size.width; ++i) {
-      const Tap* tx = cols + 2 * i;
-      float total = 0;
-      for (int qy = 0; qy < 2; ++qy) {
-        const uchar* r0 = frame.ptr<uchar>(ty[qy].first);
-        const uchar* r1 = frame.ptr<uchar>(ty[qy].first + 1);
-        const float ay = ty[qy].weight;
-        for (int qx = 0; qx < 2; ++qx) {
-          const int x = tx[qx].first * Channels;
-          const float ax = tx[qx].weight;
-          const float top = (1 - ax) * gray(r0 + x) + ax * gray(r0 + x + Channels);
-          const float bottom = (1 - ax) * gray(r1 + x) + ax * gray(r1 + x + Channels);
-          total += (1 - ay) * top + ay * bottom;
-        }
-      }
-      out[j * size.width + i] = total * 0.25f;
-    }
-  }
-}
-
-// A size.width x size.height gray sample centred on `centre`, one cell mean
-// per pixel (row by row into `out`).
-void sample_area(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size, float* out) {
-  thread_local std::vector<Tap> taps;  // grows to the largest sample, then allocates no more
-  taps.resize(2 * static_cast<std::size_t>(size.width + size.height));
-  Tap* cols = taps.data();
-  Tap* rows = taps.data() + 2 * size.width;
-  quarter_taps(center.x, step_x, size.width, frame.cols, cols);
-  quarter_taps(center.y, step_y, size.height, frame.rows, rows);
-  switch (frame.channels()) {
-    case 1: return sample_cells<1>(frame, cols, rows, size, out);
-    case 3: return sample_cells<3>(frame, cols, rows, size, out);
-    default: return sample_cells<4>(frame, cols, rows, size, out);
-  }
+    fine_gray.copyTo(out);
 }
 
 // The central half of a box centred at `center`, within the frame.
@@ -312,8 +238,8 @@ class ScaleFilter {
     const int pixels = side_ * side_;
     for (int k = 0; k < count_; ++k) {
       const double f = factors_[static_cast<std::size_t>(k)];
-      sample_area(frame, center, size.width * f / side_, size.height * f / side_, cv::Size(side_, side_),
-                  sample_.data());
+      sample_cell_means(frame, center, size.width * f / side_, size.height * f / side_, cv::Size(side_, side_),
+                        sample_.data());
       double sum = 0, sq = 0;
       for (float v : sample_) sum += v, sq += static_cast<double>(v) * v;
       const double mean = sum / pixels;
@@ -564,7 +490,7 @@ struct BoxTracker::Impl {
     const cv::Size t(std::max(3, static_cast<int>(std::lround(size.width / s))),
                      std::max(3, static_cast<int>(std::lround(size.height / s))));
     coarse_sample.resize(static_cast<std::size_t>(t.area()));
-    sample_area(frame, center, s, s, t, coarse_sample.data());
+    sample_cell_means(frame, center, s, s, t, coarse_sample.data());
     const cv::Mat fresh(t, CV_32F, coarse_sample.data());
     if (appearance.size() != t || rate >= 1)
       fresh.copyTo(appearance);
@@ -583,8 +509,8 @@ struct BoxTracker::Impl {
     // Cell means straight from the frame (OpenCV's INTER_AREA takes over a
     // millisecond for a VGA frame at a step that is not a whole number).
     coarse_f.create(coarse_size, CV_32F);
-    sample_area(frame, {frame.cols / 2.0, frame.rows / 2.0}, static_cast<double>(frame.cols) / coarse_size.width,
-                static_cast<double>(frame.rows) / coarse_size.height, coarse_size, coarse_f.ptr<float>());
+    sample_cell_means(frame, {frame.cols / 2.0, frame.rows / 2.0}, static_cast<double>(frame.cols) / coarse_size.width,
+                      static_cast<double>(frame.rows) / coarse_size.height, coarse_size, coarse_f.ptr<float>());
     // The target may have grown or shrunk while it was away (come closer,
     // gone further): its look is matched at three sizes, and each place is
     // proposed at its size. The sizes reach 1.25x, 1.56x and 1.95x either

@@ -1,0 +1,331 @@
+#include "frame_samples.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
+namespace saccade::fovea {
+
+namespace {
+
+// OpenCV's fixed point (imgwarp.cpp): the map's products in 1/1024 pixel, an
+// output pixel's source position in 1/32 pixel (5 bits between pixels), the
+// bilinear weights (32 - f) and f along each axis, whose products sum to
+// 1024. (OpenCV keeps them times 32 as 15-bit numbers; the rounded results
+// are the same.) Its BGR to gray is the 15-bit one.
+constexpr int kMapScale = 1024, kSubpixelBits = 5, kSubpixels = 1 << kSubpixelBits;
+constexpr int kGrayB = 3735, kGrayG = 19235, kGrayR = 9798, kGrayShift = 15;
+
+// An output pixel from its source position X, Y (in 1/32 pixel), the frame's
+// border replicated.
+uchar warp_pixel(const cv::Mat& frame, int x_fixed, int y_fixed) {
+  const int sx = x_fixed >> kSubpixelBits, sy = y_fixed >> kSubpixelBits;
+  const int fx = x_fixed & (kSubpixels - 1), fy = y_fixed & (kSubpixels - 1);
+  const int x0 = std::clamp(sx, 0, frame.cols - 1), x1 = std::clamp(sx + 1, 0, frame.cols - 1);
+  const uchar* r0 = frame.ptr<uchar>(std::clamp(sy, 0, frame.rows - 1));
+  const uchar* r1 = frame.ptr<uchar>(std::clamp(sy + 1, 0, frame.rows - 1));
+  const int w00 = (kSubpixels - fy) * (kSubpixels - fx), w01 = (kSubpixels - fy) * fx;
+  const int w10 = fy * (kSubpixels - fx), w11 = fy * fx;
+  int c[3];
+  for (int k = 0; k < 3; ++k)
+    c[k] = (r0[3 * x0 + k] * w00 + r0[3 * x1 + k] * w01 + r1[3 * x0 + k] * w10 + r1[3 * x1 + k] * w11 + 512) >> 10;
+  return static_cast<uchar>((c[0] * kGrayB + c[1] * kGrayG + c[2] * kGrayR + (1 << (kGrayShift - 1))) >> kGrayShift);
+}
+
+#if defined(__x86_64__)
+
+// One channel of eight pixels from its taps' 16-bit pairs (the low byte of
+// each), weighed and rounded as OpenCV does.
+__attribute__((target("avx2"), always_inline)) inline __m256i weighted_channel(__m256i left, __m256i right,
+                                                                               __m256i w_left, __m256i w_right,
+                                                                               __m256i low_bytes, __m256i half) {
+  const __m256i sum = _mm256_add_epi32(_mm256_madd_epi16(_mm256_and_si256(left, low_bytes), w_left),
+                                       _mm256_madd_epi16(_mm256_and_si256(right, low_bytes), w_right));
+  return _mm256_srai_epi32(_mm256_add_epi32(sum, half), 10);
+}
+
+// One output row, eight pixels a step: `x_step`, `y_step` are the map's
+// per-column moves (1/1024 pixel), `x_start`, `y_start` the row's start with
+// OpenCV's rounding half added. Reads stay below `frame.datalimit`: a group
+// whose reads would not is done pixel by pixel.
+__attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const int* x_step, const int* y_step,
+                                                   int x_start, int y_start, int width, uchar* out) {
+  const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi32(1), last_sub = _mm256_set1_epi32(kSubpixels - 1);
+  const __m256i subpixels = _mm256_set1_epi32(kSubpixels);
+  const __m256i last_x = _mm256_set1_epi32(frame.cols - 1), last_y = _mm256_set1_epi32(frame.rows - 1);
+  const __m256i row_bytes = _mm256_set1_epi32(static_cast<int>(frame.step[0]));
+  const __m256i low_bytes = _mm256_set1_epi32(0x00FF00FF), half = _mm256_set1_epi32(512);
+  const __m256i gray_bg = _mm256_set1_epi32(kGrayB | (kGrayG << 16)), gray_r = _mm256_set1_epi32(kGrayR);
+  const __m256i gray_half = _mm256_set1_epi32(1 << (kGrayShift - 1));
+  // The last offset a 4-byte read may start at.
+  const __m256i last_read = _mm256_set1_epi32(static_cast<int>(frame.datalimit - frame.data) - 4);
+  const int* base = reinterpret_cast<const int*>(frame.data);
+  int x = 0;
+  for (; x + 8 <= width; x += 8) {
+    const __m256i fixed_x = _mm256_srai_epi32(
+        _mm256_add_epi32(_mm256_set1_epi32(x_start), _mm256_loadu_si256(reinterpret_cast<const __m256i*>(x_step + x))),
+        10 - kSubpixelBits);
+    const __m256i fixed_y = _mm256_srai_epi32(
+        _mm256_add_epi32(_mm256_set1_epi32(y_start), _mm256_loadu_si256(reinterpret_cast<const __m256i*>(y_step + x))),
+        10 - kSubpixelBits);
+    const __m256i sx = _mm256_srai_epi32(fixed_x, kSubpixelBits), sy = _mm256_srai_epi32(fixed_y, kSubpixelBits);
+    const __m256i fx = _mm256_and_si256(fixed_x, last_sub), fy = _mm256_and_si256(fixed_y, last_sub);
+    const __m256i x0 = _mm256_min_epi32(_mm256_max_epi32(sx, zero), last_x);
+    const __m256i x1 = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(sx, one), zero), last_x);
+    const __m256i y0 = _mm256_min_epi32(_mm256_max_epi32(sy, zero), last_y);
+    const __m256i y1 = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(sy, one), zero), last_y);
+    const __m256i top = _mm256_mullo_epi32(y0, row_bytes), bottom = _mm256_mullo_epi32(y1, row_bytes);
+    const __m256i left = _mm256_add_epi32(_mm256_add_epi32(x0, x0), x0);
+    const __m256i right = _mm256_add_epi32(_mm256_add_epi32(x1, x1), x1);
+    const __m256i at11 = _mm256_add_epi32(bottom, right);
+    if (_mm256_movemask_epi8(_mm256_cmpgt_epi32(at11, last_read))) {
+      for (int k = 0; k < 8; ++k)
+        out[x + k] = warp_pixel(frame, (x_start + x_step[x + k]) >> (10 - kSubpixelBits),
+                                (y_start + y_step[x + k]) >> (10 - kSubpixelBits));
+      continue;
+    }
+    // Each tap's B, G, R (and a byte beyond, unused) as one 32-bit lane.
+    const __m256i p00 = _mm256_i32gather_epi32(base, _mm256_add_epi32(top, left), 1);
+    const __m256i p01 = _mm256_i32gather_epi32(base, _mm256_add_epi32(top, right), 1);
+    const __m256i p10 = _mm256_i32gather_epi32(base, _mm256_add_epi32(bottom, left), 1);
+    const __m256i p11 = _mm256_i32gather_epi32(base, at11, 1);
+    // Weights as 16-bit pairs: (w00, w10) for the left taps, (w01, w11) for the right ones.
+    const __m256i fy_pair = _mm256_or_si256(_mm256_sub_epi32(subpixels, fy), _mm256_slli_epi32(fy, 16));
+    const __m256i rest_x = _mm256_sub_epi32(subpixels, fx);
+    const __m256i w_left = _mm256_mullo_epi16(fy_pair, _mm256_or_si256(rest_x, _mm256_slli_epi32(rest_x, 16)));
+    const __m256i w_right = _mm256_mullo_epi16(fy_pair, _mm256_or_si256(fx, _mm256_slli_epi32(fx, 16)));
+    // Left taps as (B00 G00, B10 G10) and (R00 -, R10 -) 16-bit pairs; right taps likewise.
+    const __m256i left_bg = _mm256_blend_epi16(p00, _mm256_slli_epi32(p10, 16), 0xAA);
+    const __m256i left_r = _mm256_blend_epi16(_mm256_srli_epi32(p00, 16), p10, 0xAA);
+    const __m256i right_bg = _mm256_blend_epi16(p01, _mm256_slli_epi32(p11, 16), 0xAA);
+    const __m256i right_r = _mm256_blend_epi16(_mm256_srli_epi32(p01, 16), p11, 0xAA);
+    const __m256i b = weighted_channel(left_bg, right_bg, w_left, w_right, low_bytes, half);
+    const __m256i g = weighted_channel(_mm256_srli_epi32(left_bg, 8), _mm256_srli_epi32(right_bg, 8), w_left, w_right,
+                                       low_bytes, half);
+    const __m256i r = weighted_channel(left_r, right_r, w_left, w_right, low_bytes, half);
+    const __m256i gray = _mm256_srai_epi32(
+        _mm256_add_epi32(_mm256_add_epi32(_mm256_madd_epi16(_mm256_or_si256(b, _mm256_slli_epi32(g, 16)), gray_bg),
+                                          _mm256_madd_epi16(r, gray_r)),
+                         gray_half),
+        kGrayShift);
+    const __m256i bytes = _mm256_packus_epi16(_mm256_packus_epi32(gray, gray), zero);
+    const int first = _mm256_extract_epi32(bytes, 0), second = _mm256_extract_epi32(bytes, 4);
+    std::memcpy(out + x, &first, 4);
+    std::memcpy(out + x + 4, &second, 4);
+  }
+  for (; x < width; ++x)
+    out[x] =
+        warp_pixel(frame, (x_start + x_step[x]) >> (10 - kSubpixelBits), (y_start + y_step[x]) >> (10 - kSubpixelBits));
+}
+
+#else
+
+void warp_row_avx2(const cv::Mat&, const int*, const int*, int, int, int, uchar*) {}
+
+#endif
+
+bool avx2_here() {
+#if defined(__x86_64__)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  return avx2;
+#else
+  return false;
+#endif
+}
+
+// Where a quarter point of a cell falls between two source pixels along one
+// axis: the first pixel and the weight of the second.
+struct Tap {
+  int first;
+  float weight;
+};
+
+// The taps of the quarter points (-1/4 and +1/4 of a step either side of
+// each cell's centre) of `count` cells centred on `center` + (i - middle)
+// `step` along an axis of `length` pixels (clamped inside it, as the
+// frame's border is replicated).
+void quarter_taps(double center, double step, int count, int length, Tap* out) {
+  const double middle = (count - 1) / 2.0;
+  for (int i = 0; i < count; ++i) {
+    const double at = center + (i - middle) * step;
+    for (int q = 0; q < 2; ++q) {
+      const double s = std::clamp(at + (q == 0 ? -0.25 : 0.25) * step, 0.0, length - 1.001);
+      const int first = static_cast<int>(s);
+      out[2 * i + q] = {first, static_cast<float>(s - first)};
+    }
+  }
+}
+
+// The gray of a pixel of an 8-bit frame of `Channels` channels (BGR order).
+template <int Channels>
+float pixel_gray(const uchar* p) {
+  if constexpr (Channels == 1)
+    return static_cast<float>(p[0]);
+  else
+    return 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2];
+}
+
+// Cell i of row j: the mean of four bilinear samples at its quarter points.
+template <int Channels>
+float cell_mean(const cv::Mat& frame, const Tap* tx, const Tap* ty) {
+  float total = 0;
+  for (int qy = 0; qy < 2; ++qy) {
+    const uchar* r0 = frame.ptr<uchar>(ty[qy].first);
+    const uchar* r1 = frame.ptr<uchar>(ty[qy].first + 1);
+    const float ay = ty[qy].weight;
+    for (int qx = 0; qx < 2; ++qx) {
+      const int x = tx[qx].first * Channels;
+      const float ax = tx[qx].weight;
+      const float top = (1 - ax) * pixel_gray<Channels>(r0 + x) + ax * pixel_gray<Channels>(r0 + x + Channels);
+      const float bottom = (1 - ax) * pixel_gray<Channels>(r1 + x) + ax * pixel_gray<Channels>(r1 + x + Channels);
+      total += (1 - ay) * top + ay * bottom;
+    }
+  }
+  return total * 0.25f;
+}
+
+#if defined(__x86_64__)
+// The gray of eight pixels whose first bytes `bytes` holds, a pixel a lane;
+// the same products and sums, in the same order, as pixel_gray.
+template <int Channels>
+__attribute__((target("avx2"), always_inline)) inline __m256 lanes_gray(__m256i bytes) {
+  const __m256i low = _mm256_set1_epi32(0xFF);
+  if constexpr (Channels == 1) {
+    return _mm256_cvtepi32_ps(_mm256_and_si256(bytes, low));
+  } else {
+    const __m256 b = _mm256_cvtepi32_ps(_mm256_and_si256(bytes, low));
+    const __m256 g = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(bytes, 8), low));
+    const __m256 r = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(bytes, 16), low));
+    return _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(0.114f), b), _mm256_mul_ps(_mm256_set1_ps(0.587f), g)),
+        _mm256_mul_ps(_mm256_set1_ps(0.299f), r));
+  }
+}
+
+// A row of cells, eight a step, each lane computed as cell_mean computes one
+// (bit for bit: the same float operations in the same order, no fused ones).
+// `offset[q]` and `weight[q]` hold each cell's quarter tap q along the row
+// (byte offset, weight). A group whose four-byte reads would pass the
+// frame's data is done cell by cell.
+template <int Channels>
+__attribute__((target("avx2"))) void cell_row_avx2(const cv::Mat& frame, const Tap* cols, const int* const offset[2],
+                                                   const float* const weight[2], const Tap* ty, int width, float* out) {
+  const std::ptrdiff_t last_read = frame.datalimit - frame.data - 4;
+  const std::ptrdiff_t bottom_row = (ty[1].first + 1) * static_cast<std::ptrdiff_t>(frame.step[0]);
+  const __m256 one = _mm256_set1_ps(1.0f);
+  int i = 0;  // the cells before i are done
+  while (i < width) {
+    // The last group ends at the row's end, overlapping the one before (its
+    // cells come out the same twice).
+    const int at = std::min(i, width - 8);
+    if (bottom_row + offset[1][at + 7] + Channels > last_read) break;  // the rest cell by cell
+    __m256 total = _mm256_setzero_ps();
+    for (int qy = 0; qy < 2; ++qy) {
+      const int* r0 = reinterpret_cast<const int*>(frame.ptr<uchar>(ty[qy].first));
+      const int* r1 = reinterpret_cast<const int*>(frame.ptr<uchar>(ty[qy].first + 1));
+      const __m256 ay = _mm256_set1_ps(ty[qy].weight);
+      for (int qx = 0; qx < 2; ++qx) {
+        const __m256i x = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(offset[qx] + at));
+        const __m256i next = _mm256_add_epi32(x, _mm256_set1_epi32(Channels));
+        const __m256 ax = _mm256_loadu_ps(weight[qx] + at), rest_x = _mm256_sub_ps(one, ax);
+        const __m256 top = _mm256_add_ps(_mm256_mul_ps(rest_x, lanes_gray<Channels>(_mm256_i32gather_epi32(r0, x, 1))),
+                                         _mm256_mul_ps(ax, lanes_gray<Channels>(_mm256_i32gather_epi32(r0, next, 1))));
+        const __m256 bottom =
+            _mm256_add_ps(_mm256_mul_ps(rest_x, lanes_gray<Channels>(_mm256_i32gather_epi32(r1, x, 1))),
+                          _mm256_mul_ps(ax, lanes_gray<Channels>(_mm256_i32gather_epi32(r1, next, 1))));
+        total =
+            _mm256_add_ps(total, _mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(one, ay), top), _mm256_mul_ps(ay, bottom)));
+      }
+    }
+    _mm256_storeu_ps(out + at, _mm256_mul_ps(total, _mm256_set1_ps(0.25f)));
+    i = at + 8;
+  }
+  for (; i < width; ++i) out[i] = cell_mean<Channels>(frame, cols + 2 * i, ty);
+}
+#endif
+
+// The mean gray of each cell from four bilinear samples at its quarter
+// points: a retina level's pixel, for any step and any sub-pixel position,
+// read straight from the frame. Taps are per column and per row (the grid is
+// separable), so each sample costs its four pixels' reads and nothing else;
+// with AVX2, eight cells at a time, bit for bit the same.
+template <int Channels>
+void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Size size, float* out, bool vectorised) {
+#if defined(__x86_64__)
+  if (size.width >= 8 && frame.datalimit - frame.data < std::numeric_limits<int>::max() / 2 && vectorised &&
+      avx2_here()) {
+    thread_local std::vector<int> offsets;  // grow to the widest sample, then allocate no more
+    thread_local std::vector<float> weights;
+    offsets.resize(2 * static_cast<std::size_t>(size.width));
+    weights.resize(2 * static_cast<std::size_t>(size.width));
+    const int* offset[2] = {offsets.data(), offsets.data() + size.width};
+    const float* weight[2] = {weights.data(), weights.data() + size.width};
+    for (int i = 0; i < size.width; ++i)
+      for (int q = 0; q < 2; ++q) {
+        offsets[static_cast<std::size_t>(q * size.width + i)] = cols[2 * i + q].first * Channels;
+        weights[static_cast<std::size_t>(q * size.width + i)] = cols[2 * i + q].weight;
+      }
+    for (int j = 0; j < size.height; ++j)
+      cell_row_avx2<Channels>(frame, cols, offset, weight, rows + 2 * j, size.width, out + j * size.width);
+    return;
+  }
+#endif
+  for (int j = 0; j < size.height; ++j)
+    for (int i = 0; i < size.width; ++i)
+      out[j * size.width + i] = cell_mean<Channels>(frame, cols + 2 * i, rows + 2 * j);
+}
+
+}  // namespace
+
+bool frame_samples_vectorised() { return avx2_here(); }
+
+void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size size, cv::Mat& out, cv::Mat& scratch) {
+  const bool small_enough = frame.datalimit - frame.data < std::numeric_limits<int>::max() / 2;
+  if (frame.type() != CV_8UC3 || !small_enough || !avx2_here()) {
+    cv::warpAffine(frame, scratch, inverse_map, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+    if (scratch.channels() == 1)
+      scratch.copyTo(out);
+    else
+      cv::cvtColor(scratch, out, scratch.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+    return;
+  }
+  out.create(size, CV_8U);
+  thread_local std::vector<int> steps;  // grows to the widest output, then allocates no more
+  steps.resize(2 * static_cast<std::size_t>(size.width));
+  int* x_step = steps.data();
+  int* y_step = steps.data() + size.width;
+  const cv::Matx23d& m = inverse_map;
+  for (int x = 0; x < size.width; ++x) {
+    x_step[x] = cv::saturate_cast<int>(m(0, 0) * x * kMapScale);
+    y_step[x] = cv::saturate_cast<int>(m(1, 0) * x * kMapScale);
+  }
+  constexpr int kHalf = kMapScale / kSubpixels / 2;
+  for (int y = 0; y < size.height; ++y)
+    warp_row_avx2(frame, x_step, y_step, cv::saturate_cast<int>((m(0, 1) * y + m(0, 2)) * kMapScale) + kHalf,
+                  cv::saturate_cast<int>((m(1, 1) * y + m(1, 2)) * kMapScale) + kHalf, size.width, out.ptr<uchar>(y));
+}
+
+void sample_cell_means(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size,
+                       float* out, bool vectorised) {
+  thread_local std::vector<Tap> taps;  // grows to the largest sample, then allocates no more
+  taps.resize(2 * static_cast<std::size_t>(size.width + size.height));
+  Tap* cols = taps.data();
+  Tap* rows = taps.data() + 2 * size.width;
+  quarter_taps(center.x, step_x, size.width, frame.cols, cols);
+  quarter_taps(center.y, step_y, size.height, frame.rows, rows);
+  switch (frame.channels()) {
+    case 1: return sample_cells<1>(frame, cols, rows, size, out, vectorised);
+    case 3: return sample_cells<3>(frame, cols, rows, size, out, vectorised);
+    default: return sample_cells<4>(frame, cols, rows, size, out, vectorised);
+  }
+}
+
+}  // namespace saccade::fovea

@@ -1,0 +1,34 @@
+#pragma once
+// The box tracker's reads of the frame, the largest part of its time: a
+// look's patch (warped along an affine map, then gray) and cell means (the
+// scale filter's samples, the whole-frame search's coarse view). With AVX2
+// both take eight pixels at a time, bit for bit what the plain code and
+// OpenCV give, so the tracker's every figure stays the same (docs/tracking.md,
+// Time). Allocation-free in steady state.
+#include <opencv2/core.hpp>
+
+namespace saccade::fovea {
+
+// A look's patch: bit for bit what
+//   cv::warpAffine(frame, fine, inverse_map, size, INTER_LINEAR | WARP_INVERSE_MAP, BORDER_REPLICATE);
+//   cv::cvtColor(fine, out, COLOR_BGR2GRAY);
+// give (OpenCV's 5-bit fixed-point bilinear and 15-bit gray), in one pass for
+// an 8-bit BGR frame on a CPU with AVX2; otherwise those two calls, with the
+// colour patch in `scratch`. `frame` 8-bit with 1, 3 or 4 channels;
+// `inverse_map` takes an output pixel to the frame's.
+void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size size, cv::Mat& out, cv::Mat& scratch);
+
+// A size.width x size.height gray sample centred on `center` (source pixels),
+// `step_x` x `step_y` source pixels a cell, one cell mean per pixel, row by
+// row into `out`: the mean of four bilinear samples at the cell's quarter
+// points, a retina level's pixel for any step and sub-pixel position, read
+// straight from an 8-bit frame of 1, 3 or 4 channels (the frame's border
+// replicated). `vectorised` false asks for the plain loop, which the
+// vectorised one matches bit for bit (tests compare them).
+void sample_cell_means(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size,
+                       float* out, bool vectorised = true);
+
+// Whether this CPU takes the eight-pixel paths (AVX2).
+bool frame_samples_vectorised();
+
+}  // namespace saccade::fovea

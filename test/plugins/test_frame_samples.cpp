@@ -1,0 +1,133 @@
+// The box tracker's reads of the frame (frame_samples.hpp): its one-pass
+// look (warp_to_gray) bit for bit what OpenCV's warpAffine and cvtColor give,
+// and its vectorised cell means bit for bit the plain loop's, on a real
+// photograph and on noise, for maps turned and not, magnifying and shrinking,
+// reaching past every edge of the frame, from whole frames and from a region
+// of one, at widths that are and are not multiples of the eight pixels a step.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "support.hpp"
+#include "frame_samples.hpp"
+
+static const bool kOpenCvSingleThread = (cv::setNumThreads(1), true);
+
+namespace saccade {
+namespace {
+
+using namespace saccade::fovea;
+
+cv::Mat opencv_look(const cv::Mat& frame, const cv::Matx23d& map, cv::Size size) {
+  cv::Mat colour, gray;
+  cv::warpAffine(frame, colour, map, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+  if (colour.channels() == 1) return colour;
+  cv::cvtColor(colour, gray, colour.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+  return gray;
+}
+
+// A map that samples `size` pixels centred on `center` at `step` source
+// pixels a pixel, turned by `angle` (radians), as the tracker's looks do.
+cv::Matx23d look_map(cv::Point2d center, double step, double angle, cv::Size size) {
+  const double c = std::cos(angle) * step, s = std::sin(angle) * step;
+  const double mx = (size.width - 1) / 2.0, my = (size.height - 1) / 2.0;
+  return {c, -s, center.x - (c * mx - s * my), s, c, center.y - (s * mx + c * my)};
+}
+
+// Pixels that differ from OpenCV's over `looks` random looks at `frame`.
+int differing_pixels(const cv::Mat& frame, int looks, uint64_t seed) {
+  cv::RNG random(seed);
+  cv::Mat mine, scratch;
+  int differing = 0;
+  for (int i = 0; i < looks; ++i) {
+    const cv::Size size(random.uniform(1, 140), random.uniform(1, 140));
+    const cv::Point2d center(random.uniform(-0.3, 1.3) * frame.cols, random.uniform(-0.3, 1.3) * frame.rows);
+    const double step = std::exp(random.uniform(std::log(0.3), std::log(5.0)));
+    const double angle = i % 3 == 0 ? 0.0 : random.uniform(-0.8, 0.8);
+    const cv::Matx23d map = look_map(center, step, angle, size);
+    warp_to_gray(frame, map, size, mine, scratch);
+    const cv::Mat theirs = opencv_look(frame, map, size);
+    EXPECT_EQ(mine.size(), theirs.size());
+    EXPECT_EQ(mine.type(), CV_8UC1);
+    if (mine.size() == theirs.size()) differing += cv::countNonZero(mine != theirs);
+  }
+  return differing;
+}
+
+TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnARealPhotograph) {
+  if (!frame_samples_vectorised()) GTEST_SKIP() << "no AVX2 on this CPU: OpenCV's own two calls run";
+  const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_COLOR);
+  ASSERT_EQ(photo.type(), CV_8UC3);
+  EXPECT_EQ(differing_pixels(photo, 400, 1), 0);
+  // A region of it: rows longer than its pixels, the parent's data beyond it.
+  EXPECT_EQ(differing_pixels(photo(cv::Rect(37, 51, 201, 157)), 400, 2), 0);
+  // The bottom-right corner, where a four-byte read would pass the data's end.
+  EXPECT_EQ(differing_pixels(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 3), 0);
+}
+
+// (Gray and BGRA frames take OpenCV's calls; their output is still one gray patch of the size asked.)
+TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnNoiseAndOtherFrameTypes) {
+  cv::Mat noise(123, 157, CV_8UC3);
+  cv::randu(noise, 0, 256);
+  EXPECT_EQ(differing_pixels(noise, 400, 4), 0);
+  cv::Mat gray, bgra;
+  cv::cvtColor(noise, gray, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(noise, bgra, cv::COLOR_BGR2BGRA);
+  EXPECT_EQ(differing_pixels(gray, 100, 5), 0);
+  EXPECT_EQ(differing_pixels(bgra, 100, 6), 0);
+  EXPECT_EQ(differing_pixels(cv::Mat(1, 1, CV_8UC3, cv::Scalar(9, 99, 199)), 50, 7), 0);
+}
+
+// Cells whose vectorised mean differs from the plain loop's over `samples`
+// random samples of `frame`.
+int differing_cells(const cv::Mat& frame, int samples, uint64_t seed) {
+  cv::RNG random(seed);
+  std::vector<float> vectorised, plain;
+  int differing = 0;
+  for (int i = 0; i < samples; ++i) {
+    const cv::Size size(random.uniform(1, 70), random.uniform(1, 50));
+    const cv::Point2d center(random.uniform(-0.3, 1.3) * frame.cols, random.uniform(-0.3, 1.3) * frame.rows);
+    const double step_x = std::exp(random.uniform(std::log(0.5), std::log(20.0)));
+    const double step_y = i % 2 == 0 ? step_x : std::exp(random.uniform(std::log(0.5), std::log(20.0)));
+    vectorised.assign(static_cast<std::size_t>(size.area()), -1.0f);
+    plain.assign(static_cast<std::size_t>(size.area()), -2.0f);
+    sample_cell_means(frame, center, step_x, step_y, size, vectorised.data());
+    sample_cell_means(frame, center, step_x, step_y, size, plain.data(), /*vectorised=*/false);
+    for (std::size_t k = 0; k < plain.size(); ++k)
+      differing += std::memcmp(&plain[k], &vectorised[k], sizeof(float)) != 0;
+  }
+  return differing;
+}
+
+TEST(SampleCellMeans, VectorisedIsThePlainLoopBitForBit) {
+  if (!frame_samples_vectorised()) GTEST_SKIP() << "no AVX2 on this CPU: the plain loop alone runs";
+  const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_COLOR);
+  EXPECT_EQ(differing_cells(photo, 400, 11), 0);
+  EXPECT_EQ(differing_cells(photo(cv::Rect(37, 51, 201, 157)), 400, 12), 0);
+  EXPECT_EQ(differing_cells(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 13), 0);
+  cv::Mat gray, bgra;
+  cv::cvtColor(photo, gray, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(photo, bgra, cv::COLOR_BGR2BGRA);
+  EXPECT_EQ(differing_cells(gray, 200, 14), 0);
+  EXPECT_EQ(differing_cells(bgra, 200, 15), 0);
+}
+
+TEST(SampleCellMeans, IsTheMeanOfItsCell) {
+  // A horizontal ramp: a cell's mean is the ramp at its centre, whatever its step.
+  cv::Mat ramp(60, 200, CV_8UC3);
+  for (int x = 0; x < ramp.cols; ++x) ramp.col(x).setTo(cv::Scalar::all(x));
+  std::vector<float> cells(12 * 3);
+  for (const bool vectorised : {true, false}) {
+    sample_cell_means(ramp, {100.0, 30.0}, 4.0, 4.0, cv::Size(12, 3), cells.data(), vectorised);
+    for (int i = 0; i < 12; ++i) EXPECT_NEAR(cells[static_cast<std::size_t>(24 + i)], 100 + (i - 5.5) * 4, 1e-3) << i;
+  }
+}
+
+}  // namespace
+}  // namespace saccade
