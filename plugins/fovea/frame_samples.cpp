@@ -219,14 +219,17 @@ template <int Channels>
 __attribute__((target("avx2"))) void cell_row_avx2(const cv::Mat& frame, const Tap* cols, const int* const offset[2],
                                                    const float* const weight[2], const Tap* ty, int width, float* out) {
   const std::ptrdiff_t last_read = frame.datalimit - frame.data - 4;
-  const std::ptrdiff_t bottom_row = (ty[1].first + 1) * static_cast<std::ptrdiff_t>(frame.step[0]);
+  // (The lowest row and the farthest tap are found, not assumed: a negative step turns them round.)
+  const std::ptrdiff_t bottom_row =
+      (std::max(ty[0].first, ty[1].first) + 1) * static_cast<std::ptrdiff_t>(frame.step[0]);
   const __m256 one = _mm256_set1_ps(1.0f);
   int i = 0;  // the cells before i are done
   while (i < width) {
     // The last group ends at the row's end, overlapping the one before (its
     // cells come out the same twice).
     const int at = std::min(i, width - 8);
-    if (bottom_row + offset[1][at + 7] + Channels > last_read) break;  // the rest cell by cell
+    const int farthest = std::max({offset[0][at], offset[1][at], offset[0][at + 7], offset[1][at + 7]});
+    if (bottom_row + farthest + Channels > last_read) break;  // the rest cell by cell
     __m256 total = _mm256_setzero_ps();
     for (int qy = 0; qy < 2; ++qy) {
       const int* r0 = reinterpret_cast<const int*>(frame.ptr<uchar>(ty[qy].first));

@@ -93,8 +93,10 @@ int differing_cells(const cv::Mat& frame, int samples, uint64_t seed) {
   for (int i = 0; i < samples; ++i) {
     const cv::Size size(random.uniform(1, 70), random.uniform(1, 50));
     const cv::Point2d center(random.uniform(-0.3, 1.3) * frame.cols, random.uniform(-0.3, 1.3) * frame.rows);
-    const double step_x = std::exp(random.uniform(std::log(0.5), std::log(20.0)));
-    const double step_y = i % 2 == 0 ? step_x : std::exp(random.uniform(std::log(0.5), std::log(20.0)));
+    double step_x = std::exp(random.uniform(std::log(0.5), std::log(20.0)));
+    double step_y = i % 2 == 0 ? step_x : std::exp(random.uniform(std::log(0.5), std::log(20.0)));
+    if (i % 5 == 1) step_x = -step_x;  // a mirrored sample reads its taps the other way round
+    if (i % 7 == 1) step_y = -step_y;
     vectorised.assign(static_cast<std::size_t>(size.area()), -1.0f);
     plain.assign(static_cast<std::size_t>(size.area()), -2.0f);
     sample_cell_means(frame, center, step_x, step_y, size, vectorised.data());
