@@ -555,7 +555,9 @@ int main(int argc, char** argv) {
   app.add_option("--otb", options.otb,
                  "an OTB sequence folder (img/, groundtruth_rect.txt or .1.txt, .2.txt ... for several targets), "
                  "as DIR:FIRST when the truth starts at image FIRST (OTB's David:300); repeatable");
-  app.add_option("--vot", options.vot, "a VOT sequence folder (groundtruth.txt, frames or color/); repeatable");
+  app.add_option("--vot", options.vot,
+                 "a VOT sequence folder (groundtruth.txt; frames beside it, in color/ or, as LaSOT, in img/; GOT-10k "
+                 "too); repeatable");
   app.add_flag("--no-generated", options.no_generated, "leave out the generated sequences");
   app.add_option("--trackers", options.trackers, "comma-separated trackers to run")->capture_default_str();
   app.add_option("--sequences", options.sequences, "comma-separated sequence names to keep (default all)");

@@ -99,24 +99,6 @@ Status read_truth_file(const fs::path& path, Sequence& sequence) {
   return {};
 }
 
-// Frame paths numbered from 1 with `digits` digits; every frame the truth
-// names must exist.
-Result<std::vector<std::string>> numbered_frames(const fs::path& folder, int digits, const std::string& extension,
-                                                 std::size_t count, const fs::path& truth_file) {
-  std::vector<std::string> paths;
-  for (std::size_t i = 1; i <= count; ++i) {
-    char name[32];
-    std::snprintf(name, sizeof name, "%0*zu%s", digits, i, extension.c_str());
-    const fs::path path = folder / name;
-    std::error_code ec;
-    if (!fs::exists(path, ec))
-      return Status::error(path.string() + ": missing (" + truth_file.filename().string() + " has " +
-                           std::to_string(count) + " rows)");
-    paths.push_back(path.string());
-  }
-  return paths;
-}
-
 // The frames are read when asked for; the first now, for the frame size.
 Status attach_frames(Sequence& sequence, std::vector<std::string> paths) {
   const Result<cv::Mat> first = read_image(paths.front());
@@ -147,7 +129,7 @@ std::string folder_name(const std::string& dir) {
 
 namespace {
 
-// An OTB image folder's frames: every .jpg or .png whose name is a number,
+// A sequence's image folder: every .jpg or .png whose name is a number,
 // in the order of the numbers, which must follow each other without a gap.
 struct NumberedImages {
   std::vector<std::string> paths;
@@ -185,12 +167,13 @@ Result<NumberedImages> list_numbered_images(const fs::path& folder) {
 
 // The images the truth's `rows` belong to: from number `first_image` on (0:
 // the first image); and how many the folder holds.
-struct OtbFrames {
+struct TruthFrames {
   std::vector<std::string> paths;
   std::size_t in_folder = 0;
 };
 
-Result<OtbFrames> otb_frames(const fs::path& folder, int first_image, std::size_t rows, const fs::path& truth_file) {
+Result<TruthFrames> truth_frames(const fs::path& folder, int first_image, std::size_t rows,
+                                 const fs::path& truth_file) {
   Result<NumberedImages> listed = list_numbered_images(folder);
   if (!listed.ok()) return listed.status();
   const NumberedImages& images = *listed;
@@ -208,9 +191,23 @@ Result<OtbFrames> otb_frames(const fs::path& folder, int first_image, std::size_
   if (images.paths.size() - start < rows)
     return Status::error(name(images.numbers.back() + 1) + ": missing (" + truth_file.filename().string() + " has " +
                          std::to_string(rows) + " rows from image " + std::to_string(first) + ")");
-  return OtbFrames{{images.paths.begin() + static_cast<std::ptrdiff_t>(start),
-                    images.paths.begin() + static_cast<std::ptrdiff_t>(start + rows)},
-                   images.paths.size()};
+  return TruthFrames{{images.paths.begin() + static_cast<std::ptrdiff_t>(start),
+                      images.paths.begin() + static_cast<std::ptrdiff_t>(start + rows)},
+                     images.paths.size()};
+}
+
+// The truth's rows paired with the folder's images from number `first_image`
+// on (0: the first), and a note where images were left over at the end.
+Status pair_frames(const fs::path& folder, int first_image, const fs::path& truth_file, Sequence& sequence) {
+  Result<TruthFrames> frames = truth_frames(folder, first_image, sequence.truth.size(), truth_file);
+  if (!frames.ok()) return frames.status();
+  const std::vector<std::string>& paths = frames->paths;
+  if (first_image <= 0 && frames->in_folder > paths.size())
+    sequence.note = truth_file.filename().string() + " has " + std::to_string(paths.size()) + " rows for " +
+                    std::to_string(frames->in_folder) + " images: taken as " +
+                    fs::path(paths.front()).filename().string() + " to " + fs::path(paths.back()).filename().string() +
+                    "'s";
+  return attach_frames(sequence, std::move(frames->paths));
 }
 
 }  // namespace
@@ -221,15 +218,7 @@ Result<Sequence> read_otb(const std::string& dir, int first_image, const std::st
   sequence.name = folder_name(dir);
   const fs::path truth_file = fs::path(dir) / truth_name;
   if (Status s = read_truth_file(truth_file, sequence); !s.ok()) return s;
-  auto frames = otb_frames(fs::path(dir) / "img", first_image, sequence.truth.size(), truth_file);
-  if (!frames.ok()) return frames.status();
-  const std::vector<std::string>& paths = frames->paths;
-  if (first_image <= 0 && frames->in_folder > paths.size())
-    sequence.note = truth_file.filename().string() + " has " + std::to_string(paths.size()) + " rows for " +
-                    std::to_string(frames->in_folder) + " images: taken as " +
-                    fs::path(paths.front()).filename().string() + " to " + fs::path(paths.back()).filename().string() +
-                    "'s";
-  if (Status s = attach_frames(sequence, std::move(frames->paths)); !s.ok()) return s;
+  if (Status s = pair_frames(fs::path(dir) / "img", first_image, truth_file, sequence); !s.ok()) return s;
   return sequence;
 }
 
@@ -261,14 +250,16 @@ Result<Sequence> read_vot(const std::string& dir) {
   sequence.name = folder_name(dir);
   const fs::path truth_file = fs::path(dir) / "groundtruth.txt";
   if (Status s = read_truth_file(truth_file, sequence); !s.ok()) return s;
-  // VOT 2020 and later keep the frames in color/; older editions next to the truth.
+  // VOT 2020 and later keep the frames in color/, LaSOT in img/; older VOT
+  // editions and GOT-10k next to the truth.
   std::error_code ec;
-  fs::path folder = fs::path(dir) / "color";
-  if (!fs::is_directory(folder, ec)) folder = dir;
-  const std::string extension = fs::exists(folder / "00000001.png", ec) ? ".png" : ".jpg";
-  auto frames = numbered_frames(folder, 8, extension, sequence.truth.size(), truth_file);
-  if (!frames.ok()) return frames.status();
-  if (Status s = attach_frames(sequence, std::move(frames).value()); !s.ok()) return s;
+  fs::path folder = dir;
+  for (const char* sub : {"color", "img"})
+    if (fs::is_directory(fs::path(dir) / sub, ec)) {
+      folder = fs::path(dir) / sub;
+      break;
+    }
+  if (Status s = pair_frames(folder, 0, truth_file, sequence); !s.ok()) return s;
   return sequence;
 }
 

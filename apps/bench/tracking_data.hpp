@@ -59,10 +59,12 @@ Result<Sequence> read_otb(const std::string& dir, int first_image = 0,
 // (Jogging.1, Jogging.2).
 Result<std::vector<Sequence>> read_otb_targets(const std::string& dir, int first_image = 0);
 
-// VOT layout: DIR/00000001.jpg ... (or DIR/color/00000001.jpg ...) and
+// VOT layout: DIR/00000001.jpg ... (or DIR/color/00000001.jpg ..., or as
+// LaSOT DIR/img/00000001.jpg ...; GOT-10k's folders read too) and
 // DIR/groundtruth.txt, one row per frame of 4 numbers (x,y,w,h) or 8 (the
 // polygon x1,y1,...,x4,y4, scored as its axis-aligned bounding box); NaN rows
-// mark frames without the target.
+// or empty boxes mark frames without the target. The images as read_otb
+// takes them, the rows from the first image on.
 Result<Sequence> read_vot(const std::string& dir);
 
 // One ground-truth row: its box, and whether the target is in the frame

@@ -217,6 +217,19 @@ TEST(VotReader, ReadsFramesBesideTheTruthAndNamesBadRows) {
   EXPECT_THAT(read_vot(dir.path().string()).error(), ::testing::HasSubstr("cannot open "));
 }
 
+TEST(VotReader, ReadsLasotsImgFolderAndNamesAMissingFrame) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 3, 8);  // LaSOT: img/00000001.jpg ...; an absent target is 0,0,0,0
+  write_file(dir.path() / "groundtruth.txt", "1,2,3,4\n0,0,0,0\n5,6,7,8\n");
+  const Sequence s = value_of(read_vot(dir.path().string()));
+  ASSERT_EQ(s.size(), 3);
+  EXPECT_EQ(s.visible, (std::vector<bool>{true, false, true}));
+  EXPECT_EQ(image_number(s, 2), 3);
+  write_file(dir.path() / "groundtruth.txt", "1,2,3,4\n1,2,3,4\n1,2,3,4\n1,2,3,4\n");
+  EXPECT_THAT(read_vot(dir.path().string()).error(),
+              ::testing::HasSubstr("img/00000004.jpg: missing (groundtruth.txt has 4 rows from image 1)"));
+}
+
 TEST(TruthRow, GivesTheBoxAndVisibilityOrNamesTheFault) {
   const Result<TruthRow> row = parse_truth_row("1,2,3,4", "f:1");
   ASSERT_TRUE(row.ok()) << row.error();
