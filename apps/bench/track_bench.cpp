@@ -435,21 +435,13 @@ Status read_vot_folders(const std::vector<std::string>& dirs, std::vector<Sequen
 }
 
 // Appends every target of each OTB folder of `specs`, "DIR" or "DIR:FIRST"
-// (the image number the truth starts at: OTB's David is "David:300").
+// (parse_otb_folder).
 Status read_otb_folders(const std::vector<std::string>& specs, std::vector<Sequence>& sequences) {
   for (const std::string& spec : specs) {
-    std::string dir = spec;
-    int first_image = 0;
-    const std::size_t colon = spec.rfind(':');
-    std::error_code ec;
-    if (colon != std::string::npos && colon + 1 < spec.size() && !std::filesystem::is_directory(spec, ec) &&
-        spec.find_first_not_of("0123456789", colon + 1) == std::string::npos) {
-      dir = spec.substr(0, colon);
-      first_image = std::atoi(spec.c_str() + colon + 1);
-      if (first_image < 1) return Status::error("--otb " + spec + ": expected DIR or DIR:FIRST, FIRST from 1");
-    }
-    saccade::Result<std::vector<Sequence>> targets = read_otb_targets(dir, first_image);
-    if (!targets.ok()) return targets.status();
+    saccade::Result<OtbFolder> folder = parse_otb_folder(spec);
+    if (!folder.ok()) return Status::error("--otb " + folder.error());
+    saccade::Result<std::vector<Sequence>> targets = read_otb_targets(folder->dir, folder->first_image);
+    if (!targets.ok()) return Status::error("--otb " + spec + ": " + targets.error());
     for (Sequence& target : *targets) {
       if (!target.note.empty())
         std::fprintf(stderr,

@@ -1,6 +1,7 @@
 #include "tracking_data.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -156,6 +157,9 @@ Result<NumberedImages> list_numbered_images(const fs::path& folder) {
   images.digits = static_cast<int>(found.front().second.stem().string().size());
   images.extension = found.front().second.extension().string();
   for (std::size_t i = 0; i < found.size(); ++i) {
+    if (i > 0 && found[i].first == found[i - 1].first)
+      return Status::error(found[i - 1].second.string() + " and " + found[i].second.filename().string() +
+                           ": two images of one number");
     if (i > 0 && found[i].first != found[i - 1].first + 1)
       return Status::error(found[i - 1].second.string() + ": the next image is " + found[i].second.filename().string() +
                            " (the images must be numbered without gaps)");
@@ -220,6 +224,21 @@ Result<Sequence> read_otb(const std::string& dir, int first_image, const std::st
   if (Status s = read_truth_file(truth_file, sequence); !s.ok()) return s;
   if (Status s = pair_frames(fs::path(dir) / "img", first_image, truth_file, sequence); !s.ok()) return s;
   return sequence;
+}
+
+Result<OtbFolder> parse_otb_folder(const std::string& spec) {
+  const std::size_t colon = spec.rfind(':');
+  std::error_code ec;
+  if (colon == std::string::npos || colon + 1 == spec.size() || fs::is_directory(spec, ec) ||
+      spec.find_first_not_of("0123456789", colon + 1) != std::string::npos)
+    return OtbFolder{spec, 0};
+  int first = 0;
+  const char* digits = spec.data() + colon + 1;
+  const std::from_chars_result read = std::from_chars(digits, spec.data() + spec.size(), first);
+  if (read.ec != std::errc() || first < 1)
+    return Status::error(spec + ": expected DIR or DIR:FIRST, FIRST an image number from 1 to " +
+                         std::to_string(std::numeric_limits<int>::max()));
+  return OtbFolder{spec.substr(0, colon), first};
 }
 
 Result<std::vector<Sequence>> read_otb_targets(const std::string& dir, int first_image) {

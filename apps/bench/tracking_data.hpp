@@ -54,6 +54,15 @@ void truncate(Sequence& sequence, int frames);
 Result<Sequence> read_otb(const std::string& dir, int first_image = 0,
                           const std::string& truth_name = "groundtruth_rect.txt");
 
+// An OTB folder as the tracking benchmark's --otb names it: "DIR", or
+// "DIR:FIRST" with FIRST the image number its truth starts at (OTB's David is
+// "David:300"); a folder whose own name ends in ':' and digits is taken whole.
+struct OtbFolder {
+  std::string dir;
+  int first_image = 0;  // 0: the first image
+};
+Result<OtbFolder> parse_otb_folder(const std::string& spec);
+
 // Every target of an OTB folder: groundtruth_rect.txt's, or else one
 // sequence per groundtruth_rect.N.txt (N from 1), named as OTB names them
 // (Jogging.1, Jogging.2).

@@ -759,7 +759,9 @@ Status BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
 }
 
 TrackEstimate BoxTracker::update(const cv::Mat& frame) {
-  if (!initialized_ || frame.empty()) return last_;
+  // (A frame under 2x2 has no pixel pairs to interpolate between, one not 8-bit
+  // no pixels the reads know: nothing to look at.)
+  if (!initialized_ || frame.rows < 2 || frame.cols < 2 || frame.depth() != CV_8U) return last_;
   Impl& m = *impl_;
   const cv::Point2d predicted = m.center + m.velocity + camera_shift_;
   camera_shift_ = {};

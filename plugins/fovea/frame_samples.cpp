@@ -26,7 +26,7 @@ constexpr int kGrayB = 3735, kGrayG = 19235, kGrayR = 9798, kGrayShift = 15;
 
 // An output pixel from its source position X, Y (in 1/32 pixel), the frame's
 // border replicated.
-uchar warp_pixel(const cv::Mat& frame, int x_fixed, int y_fixed) {
+[[maybe_unused]] uchar warp_pixel(const cv::Mat& frame, int x_fixed, int y_fixed) {
   const int sx = x_fixed >> kSubpixelBits, sy = y_fixed >> kSubpixelBits;
   const int fx = x_fixed & (kSubpixels - 1), fy = y_fixed & (kSubpixels - 1);
   const int x0 = std::clamp(sx, 0, frame.cols - 1), x1 = std::clamp(sx + 1, 0, frame.cols - 1);
@@ -261,7 +261,8 @@ __attribute__((target("avx2"))) void cell_row_avx2(const cv::Mat& frame, const T
 // separable), so each sample costs its four pixels' reads and nothing else;
 // with AVX2, eight cells at a time, bit for bit the same.
 template <int Channels>
-void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Size size, float* out, bool vectorised) {
+void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Size size, float* out,
+                  [[maybe_unused]] bool vectorised) {
 #if defined(__x86_64__)
   if (size.width >= 8 && frame.datalimit - frame.data < std::numeric_limits<int>::max() / 2 && vectorised &&
       avx2_here()) {
@@ -286,13 +287,39 @@ void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Si
       out[j * size.width + i] = cell_mean<Channels>(frame, cols + 2 * i, rows + 2 * j);
 }
 
+// Whether the one pass gives what OpenCV's calls give for this frame and map:
+// OpenCV 4.6 to 4.10's arithmetic (4.11 rewrote warpAffine), source
+// positions that fit its 16-bit pixel coordinates and the pass's 32-bit
+// fixed point, byte offsets that fit 32 bits.
+bool one_pass_for(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size) {
+  if (!warp_to_gray_in_one_pass() || frame.type() != CV_8UC3) return false;
+  constexpr int kLargest = 32767;  // OpenCV's pixel coordinates are 16-bit
+  if (frame.cols > kLargest || frame.rows > kLargest ||
+      frame.datalimit - frame.data >= std::numeric_limits<int>::max() / 2)
+    return false;
+  for (const cv::Point2d corner : {cv::Point2d(0, 0), cv::Point2d(size.width, 0), cv::Point2d(0, size.height),
+                                   cv::Point2d(size.width, size.height)}) {
+    const double x = m(0, 0) * corner.x + m(0, 1) * corner.y + m(0, 2);
+    const double y = m(1, 0) * corner.x + m(1, 1) * corner.y + m(1, 2);
+    if (!(std::abs(x) < kLargest && std::abs(y) < kLargest)) return false;  // (also NaN)
+  }
+  return true;
+}
+
 }  // namespace
 
 bool frame_samples_vectorised() { return avx2_here(); }
 
+bool warp_to_gray_in_one_pass() {
+#if CV_VERSION_MAJOR == 4 && CV_VERSION_MINOR >= 6 && CV_VERSION_MINOR <= 10
+  return avx2_here();
+#else
+  return false;
+#endif
+}
+
 void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size size, cv::Mat& out, cv::Mat& scratch) {
-  const bool small_enough = frame.datalimit - frame.data < std::numeric_limits<int>::max() / 2;
-  if (frame.type() != CV_8UC3 || !small_enough || !avx2_here()) {
+  if (!one_pass_for(frame, inverse_map, size)) {
     cv::warpAffine(frame, scratch, inverse_map, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
     if (scratch.channels() == 1)
       scratch.copyTo(out);

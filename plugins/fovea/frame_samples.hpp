@@ -13,8 +13,9 @@ namespace saccade::fovea {
 //   cv::warpAffine(frame, fine, inverse_map, size, INTER_LINEAR | WARP_INVERSE_MAP, BORDER_REPLICATE);
 //   cv::cvtColor(fine, out, COLOR_BGR2GRAY);
 // give (OpenCV's 5-bit fixed-point bilinear and 15-bit gray), in one pass for
-// an 8-bit BGR frame on a CPU with AVX2; otherwise those two calls, with the
-// colour patch in `scratch`. `frame` 8-bit with 1, 3 or 4 channels;
+// an 8-bit BGR frame on a CPU with AVX2 (and a map whose source positions
+// stay within 32767 pixels); otherwise those two calls, with the colour patch
+// in `scratch`. `frame` 8-bit with 1, 3 or 4 channels;
 // `inverse_map` takes an output pixel to the frame's.
 void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size size, cv::Mat& out, cv::Mat& scratch);
 
@@ -28,7 +29,11 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
 void sample_cell_means(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size,
                        float* out, bool vectorised = true);
 
-// Whether this CPU takes the eight-pixel paths (AVX2).
+// Whether this CPU takes the eight-cell path of sample_cell_means (AVX2).
 bool frame_samples_vectorised();
+
+// Whether warp_to_gray takes its one pass for an 8-bit BGR frame (AVX2, and
+// the OpenCV whose arithmetic it repeats: 4.6 to 4.10).
+bool warp_to_gray_in_one_pass();
 
 }  // namespace saccade::fovea

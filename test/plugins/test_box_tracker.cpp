@@ -405,6 +405,14 @@ TEST(BoxTracker, RefusesBoxesItCannotFollowAndSaysWhy) {
   const TrackEstimate e = t.update(scene.render({60, 60}, c + cv::Point2d(3, 2)));
   EXPECT_EQ(e.state, TrackState::kTracking);
   EXPECT_LT(cv::norm(center(e.box) - (c + cv::Point2d(3, 2))), 2.0);
+  // Frames with nothing to look at (under 2x2, not 8-bit, none) change nothing.
+  for (const cv::Mat& nothing : {cv::Mat(1, 1, CV_8UC3, cv::Scalar::all(7)), cv::Mat(1, 320, CV_8UC3),
+                                 cv::Mat(240, 1, CV_8UC1), cv::Mat(240, 320, CV_16UC3), cv::Mat()}) {
+    const TrackEstimate same = t.update(nothing);
+    EXPECT_EQ(same.state, e.state);
+    EXPECT_EQ(same.box, e.box);
+  }
+  EXPECT_EQ(t.update(scene.render({60, 60}, c + cv::Point2d(4, 2))).state, TrackState::kTracking);
 }
 
 }  // namespace

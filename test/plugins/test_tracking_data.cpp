@@ -185,6 +185,34 @@ TEST(OtbReader, ReadsEveryTargetOfAFolderWithSeveral) {
               ::testing::HasSubstr("groundtruth_rect.txt (nor groundtruth_rect.1.txt"));
 }
 
+TEST(OtbReader, NamesTwoImagesOfOneNumber) {
+  TempDir dir;
+  write_frames(dir.path() / "img", 2, 4);
+  write_frames(dir.path() / "img", 1, 5, 2);  // 00002.jpg beside 0002.jpg
+  write_file(dir.path() / "groundtruth_rect.txt", "1,2,3,4\n");
+  EXPECT_THAT(read_otb(dir.path().string()).error(), ::testing::HasSubstr(": two images of one number"));
+}
+
+TEST(OtbFolderSpec, ReadsDirOrDirAndTheFirstImage) {
+  TempDir dir;
+  const std::string d = dir.path().string();
+  OtbFolder f = value_of(parse_otb_folder(d));
+  EXPECT_EQ(f.dir, d);
+  EXPECT_EQ(f.first_image, 0);
+  f = value_of(parse_otb_folder(d + ":300"));
+  EXPECT_EQ(f.dir, d);
+  EXPECT_EQ(f.first_image, 300);
+  fs::create_directories(dir.path() / "run_12:30");  // a folder's own name ending in ':' and digits
+  f = value_of(parse_otb_folder((dir.path() / "run_12:30").string()));
+  EXPECT_EQ(f.dir, (dir.path() / "run_12:30").string());
+  EXPECT_EQ(f.first_image, 0);
+  f = value_of(parse_otb_folder((dir.path() / "run_12:30").string() + ":7"));
+  EXPECT_EQ(f.first_image, 7);
+  EXPECT_EQ(value_of(parse_otb_folder(d + ":x")).dir, d + ":x");  // not a number: a folder name
+  EXPECT_THAT(parse_otb_folder(d + ":0").error(), ::testing::HasSubstr(":0: expected DIR or DIR:FIRST"));
+  EXPECT_THAT(parse_otb_folder(d + ":99999999999").error(), ::testing::HasSubstr("FIRST an image number from 1"));
+}
+
 TEST(VotReader, PolygonsBecomeTheirBoundingBoxesAndNanRowsInvisible) {
   TempDir dir;
   write_frames(dir.path() / "color", 3, 8);
