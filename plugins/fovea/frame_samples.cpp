@@ -345,6 +345,13 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
 
 void sample_cell_means(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size,
                        float* out, bool vectorised) {
+  if (frame.rows < 2 || frame.cols < 2) {  // no pixel pairs to interpolate between: the frame's first pixel's gray
+    const float gray = frame.empty()           ? 0.0f
+                       : frame.channels() == 1 ? pixel_gray<1>(frame.data)
+                                               : pixel_gray<3>(frame.data);
+    std::fill(out, out + size.area(), gray);
+    return;
+  }
   thread_local std::vector<Tap> taps;  // grows to the largest sample, then allocates no more
   taps.resize(2 * static_cast<std::size_t>(size.width + size.height));
   Tap* cols = taps.data();

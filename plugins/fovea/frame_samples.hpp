@@ -24,8 +24,9 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
 // row into `out`: the mean of four bilinear samples at the cell's quarter
 // points, a retina level's pixel for any step and sub-pixel position, read
 // straight from an 8-bit frame of 1, 3 or 4 channels (the frame's border
-// replicated). `vectorised` false asks for the plain loop, which the
-// vectorised one matches bit for bit (tests compare them).
+// replicated; a frame under 2x2 gives its first pixel's gray everywhere).
+// `vectorised` false asks for the plain loop, which the vectorised one
+// matches bit for bit (tests compare them).
 void sample_cell_means(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size,
                        float* out, bool vectorised = true);
 

@@ -115,6 +115,14 @@ TEST(SampleCellMeans, VectorisedIsThePlainLoopBitForBit) {
   EXPECT_EQ(differing_cells(bgra, 200, 15), 0);
 }
 
+TEST(SampleCellMeans, AFrameUnderTwoByTwoGivesItsPixelsGray) {
+  std::vector<float> cells(6, -1.0f);
+  sample_cell_means(cv::Mat(1, 1, CV_8UC3, cv::Scalar(10, 20, 30)), {0.0, 0.0}, 1.0, 1.0, cv::Size(3, 2), cells.data());
+  for (const float v : cells) EXPECT_FLOAT_EQ(v, 0.114f * 10 + 0.587f * 20 + 0.299f * 30);
+  sample_cell_means(cv::Mat(1, 40, CV_8UC1, cv::Scalar(77)), {20.0, 0.0}, 2.0, 2.0, cv::Size(3, 2), cells.data());
+  for (const float v : cells) EXPECT_FLOAT_EQ(v, 77.0f);
+}
+
 TEST(SampleCellMeans, IsTheMeanOfItsCell) {
   // A horizontal ramp: a cell's mean is the ramp at its centre, whatever its step.
   cv::Mat ramp(60, 200, CV_8UC3);
