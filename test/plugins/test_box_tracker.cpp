@@ -8,11 +8,16 @@
 
 #include <cmath>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "box_tracker.hpp"
 #include "support.hpp"
+
+// OpenCV's own parallel loops (the scenes' warps and forEach) run on TBB,
+// whose synchronisation ThreadSanitizer cannot see; these tests do not need them.
+static const bool kOpenCvSingleThread = (cv::setNumThreads(1), true);
 
 namespace saccade {
 namespace {
