@@ -126,10 +126,6 @@ std::string folder_name(const std::string& dir) {
   return path.filename().string();
 }
 
-}  // namespace
-
-namespace {
-
 // A sequence's image folder: every .jpg or .png whose name is a number,
 // in the order of the numbers, which must follow each other without a gap.
 struct NumberedImages {

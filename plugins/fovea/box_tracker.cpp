@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 #include <complex>
-#include <limits>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>

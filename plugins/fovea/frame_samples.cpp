@@ -1,7 +1,6 @@
 #include "frame_samples.hpp"
 
 #include <algorithm>
-#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -131,6 +130,12 @@ __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const i
 void warp_row_avx2(const cv::Mat&, const int*, const int*, int, int, int, uchar*) {}
 
 #endif
+
+// Whether every byte offset into the frame's data fits the 32-bit lanes the
+// eight-pixel paths compute them in (with room to add a row or two).
+bool offsets_fit_lanes(const cv::Mat& frame) {
+  return frame.datalimit - frame.data < std::numeric_limits<int>::max() / 2;
+}
 
 bool avx2_here() {
 #if defined(__x86_64__)
@@ -264,8 +269,7 @@ template <int Channels>
 void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Size size, float* out,
                   [[maybe_unused]] bool vectorised) {
 #if defined(__x86_64__)
-  if (size.width >= 8 && frame.datalimit - frame.data < std::numeric_limits<int>::max() / 2 && vectorised &&
-      avx2_here()) {
+  if (size.width >= 8 && offsets_fit_lanes(frame) && vectorised && avx2_here()) {
     thread_local std::vector<int> offsets;  // grow to the widest sample, then allocate no more
     thread_local std::vector<float> weights;
     offsets.resize(2 * static_cast<std::size_t>(size.width));
@@ -294,9 +298,7 @@ void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Si
 bool one_pass_for(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size) {
   if (!warp_to_gray_in_one_pass() || frame.type() != CV_8UC3) return false;
   constexpr int kLargest = 32767;  // OpenCV's pixel coordinates are 16-bit
-  if (frame.cols > kLargest || frame.rows > kLargest ||
-      frame.datalimit - frame.data >= std::numeric_limits<int>::max() / 2)
-    return false;
+  if (frame.cols > kLargest || frame.rows > kLargest || !offsets_fit_lanes(frame)) return false;
   for (const cv::Point2d corner : {cv::Point2d(0, 0), cv::Point2d(size.width, 0), cv::Point2d(0, size.height),
                                    cv::Point2d(size.width, size.height)}) {
     const double x = m(0, 0) * corner.x + m(0, 1) * corner.y + m(0, 2);
