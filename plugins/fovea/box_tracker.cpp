@@ -497,6 +497,22 @@ struct BoxTracker::Impl {
       cv::addWeighted(appearance, 1 - rate, fresh, rate, 0, appearance);
   }
 
+  // A re-detection at `found` (peak `psr`, look `p`) elsewhere than where the
+  // unsure tracker sits, while its peak there (`sits_psr`) is still trusted:
+  // the target is more likely partly hidden there than gone, and a look-alike
+  // elsewhere (another pedestrian in dark clothes) peaks about as high. Taken
+  // only if clearly better: its peak by the margin, or its colour nearer the
+  // target's by the colour tolerance (the tracker sits on a look-alike of
+  // another tint); after redetect_margin_frames unsure frames, as any other.
+  bool beats_where_it_sits(const cv::Mat& frame, const Placement& p, cv::Point2d found, double psr, double sits_psr,
+                           double sits_color_distance, double near) const {
+    if (sits_psr <= 0 || unsure_frames > config.redetect_margin_frames || cv::norm(found - center) < near) return true;
+    if (psr >= config.redetect_margin * sits_psr) return true;
+    if (!color_checked(config)) return false;
+    const double distance = cv::norm(chroma(frame, found, size * (p.step / step)) - chroma_mean);
+    return distance + config.min_chroma_change <= sits_color_distance;
+  }
+
   // Where the lost target may be: the best matches (normalised correlation)
   // of its coarse look over the whole frame seen at the coarse step, at
   // least a target apart.
@@ -703,6 +719,13 @@ struct BoxTracker::Impl {
   std::vector<HalfSpectrum> patch_spectra;
 };
 
+// Where the unsure tracker sits: its peak (0: none trusted) and that place's
+// colour distance from the target's.
+struct BoxTracker::UnsurePlace {
+  double psr = 0;
+  double color_distance = 0;
+};
+
 BoxTracker::BoxTracker(BoxTrackerConfig config) : config_(config), impl_(std::make_shared<Impl>(config)) {}
 
 namespace {
@@ -766,7 +789,7 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   camera_shift_ = {};
   ++m.untracked_frames;  // follow() zeroes it on a tracked frame
   if (last_.state == TrackState::kLost)
-    redetect(frame, predicted);
+    redetect(frame, predicted, /*unsure=*/false, {});
   else
     follow(frame, predicted);
   last_.box = cv::Rect2d(m.center.x - m.size.width / 2, m.center.y - m.size.height / 2, m.size.width, m.size.height);
@@ -788,7 +811,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     last_.state = ++m.low_frames >= config_.lost_frames || m.unsure_frames >= config_.unsure_frames
                       ? TrackState::kLost
                       : TrackState::kUncertain;
-    look_elsewhere(frame);
+    look_elsewhere(frame, {});
     return;
   }
   m.low_frames = 0;
@@ -805,7 +828,8 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   bool doubted = contested || psr < config_.tracking_psr;
   cv::Vec2d color;
   double color_distance = 0;
-  if (!doubted) {
+  const bool color_measured = !doubted;
+  if (color_measured) {
     color = chroma(frame, measured, m.size);
     color_distance = cv::norm(color - m.chroma_mean);
     doubted = warm && !m.color_matches(config_, color_distance);
@@ -823,7 +847,11 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     m.velocity *= 0.8;
     m.center = measured;
     last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
-    look_elsewhere(frame);
+    // Where it sits is still most likely the target, partly hidden or
+    // changing: what re-detection finds elsewhere is weighed against it.
+    if (!color_measured && m.color_checked(config_))
+      color_distance = cv::norm(chroma(frame, measured, m.size) - m.chroma_mean);
+    look_elsewhere(frame, {psr, color_distance});
     return;
   }
   m.learn_color(config_, frame, measured, color, color_distance);
@@ -849,18 +877,18 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   m.scale_filter.learn(frame, m.center, m.size, config_.learning_rate, scale != 1.0);
 }
 
-void BoxTracker::look_elsewhere(const cv::Mat& frame) {
+void BoxTracker::look_elsewhere(const cv::Mat& frame, const UnsurePlace& sits) {
   // Unsure for a few frames: the target may have jumped (a fast turn of the
   // camera, a cut) rather than be hidden. The whole-frame search runs beside
   // the local one, and a confirmed re-detection ends the doubt at once.
   if (impl_->unsure_frames < config_.redetect_after) return;
   const double confidence = last_.confidence;
   const TrackState state = last_.state;
-  redetect(frame, impl_->center, /*unsure=*/true);
+  redetect(frame, impl_->center, /*unsure=*/true, sits);
   if (last_.state != TrackState::kTracking) last_.confidence = confidence, last_.state = state;
 }
 
-void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsure) {
+void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsure, const UnsurePlace& sits) {
   Impl& m = *impl_;
   // One place: as near as a moving target can be on the next frame, the
   // search's reach around the candidate (a quarter patch) or half the target.
@@ -911,6 +939,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
     if (peak.psr > strongest.psr) strongest = peak;
     if (candidate_held) continue;
     const cv::Point2d found = p.to_frame(peak.offset);
+    if (unsure && !m.beats_where_it_sits(frame, p, found, peak.psr, sits.psr, sits.color_distance, near)) continue;
     const bool over_bar = peak.psr >= bar(found);
     const bool held = i == 0 && has_candidate && m.candidate_coloured && cv::norm(found - m.candidate) < near;
     bool coloured = false;

@@ -62,6 +62,11 @@ struct BoxTrackerConfig {
   int redetect_frames = 2;          // ... on this many consecutive frames, at a consistent place
   double redetect_near = 2.0;       // within this many times its larger side of where it was last tracked ...
   double redetect_near_psr = 7.0;   // ... and of its colour, a re-detection need only reach this
+  double redetect_margin = 1.5;     // unsure, with a trusted peak where it sits: a re-detection elsewhere
+                                    // must reach this many times that peak, or be nearer the target's
+                                    // colour by min_chroma_change (a look-alike while the target is partly
+                                    // hidden; 0: not asked) ...
+  int redetect_margin_frames = 10;  // ... for this many unsure frames (then the target is more likely gone)
   int proposals = 2;                // lost: places per size the whole-frame search proposes to the filter
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
@@ -91,8 +96,9 @@ class BoxTracker {
  private:
   struct Impl;
   void follow(const cv::Mat& frame, cv::Point2d predicted);
-  void redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsure = false);
-  void look_elsewhere(const cv::Mat& frame);
+  struct UnsurePlace;
+  void redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsure, const UnsurePlace& sits);
+  void look_elsewhere(const cv::Mat& frame, const UnsurePlace& sits);
   BoxTrackerConfig config_;
   bool initialized_ = false;
   TrackEstimate last_;

@@ -64,6 +64,14 @@ void bind_fovea_params(ParamBinder<ControllerConfig>& b) {
              "box tracking: peak-to-sidelobe ratio a re-detection near where the target was last tracked, "
              "of its colour, must reach (twice, at one place)",
              &C::box, &B::redetect_near_psr)
+      .field("box_redetect_margin", {0, 1000},
+             "box tracking: while the target is unsure but its peak is still trusted where it sits, a "
+             "re-detection elsewhere must reach this many times that peak or be nearer the target's colour "
+             "(0: not asked)",
+             &C::box, &B::redetect_margin)
+      .field("box_redetect_margin_frames", {0, 100000},
+             "box tracking: unsure frames during which box_redetect_margin is asked", &C::box,
+             &B::redetect_margin_frames)
       .field("box_color_change", {0, 1},
              "box tracking: how far the target's chromaticity may move before a sure peak is doubted (as well "
              "as four times its usual deviation; 1: colour never doubts)",
