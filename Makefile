@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test faults bench bench-dds bench-track bench-stereo bench-verge bench-latency bench-view fuzz docs asan tsan clean configure install
+.PHONY: deps build demo test faults bench bench-dds bench-track bench-track-people bench-stereo bench-verge bench-latency bench-view fuzz docs asan tsan clean configure install
 
 deps:
 	@bash scripts/install-deps.sh
@@ -47,6 +47,19 @@ bench-dds: build
 bench-track: build
 	@mkdir -p out
 	$(BUILD)/bin/saccade_track_bench --data /usr/share/doc/opencv-doc/examples/data --markdown out/bench-track.md $(TRACK_ARGS)
+
+# The trackers on 22 pedestrians of opencv-doc's vtest.avi (boxes from OpenCV's HOG people
+# detector), 150 frames each, without truth: witness measures (docs/tracking.md).
+VTEST := /usr/share/doc/opencv-doc/examples/data/vtest.avi
+PEOPLE := 0:249,202,36,116 60:504,195,32,104 60:467,194,35,111 60:614,227,38,123 180:591,206,34,108 \
+  180:503,212,34,108 240:629,122,85,272 240:448,246,36,115 240:666,268,38,120 300:309,168,42,136 \
+  360:430,234,34,109 360:701,231,35,112 420:292,189,34,111 480:465,232,35,111 480:577,241,35,111 \
+  480:607,269,38,123 540:434,160,36,114 540:607,170,33,106 540:640,274,38,122 600:564,191,36,114 \
+  600:671,197,34,111 600:636,299,36,116
+bench-track-people: build
+	@mkdir -p out
+	$(BUILD)/bin/saccade_track_bench --no-generated --trackers fovea,csrt --markdown out/bench-track-people.md \
+	  $(foreach p,$(PEOPLE),--video $(VTEST):$(p):150) $(TRACK_ARGS)
 
 # The retina stereo matcher against OpenCV's StereoBM and StereoSGBM, one thread, on
 # Aloe and rendered scenes with exact disparity (add STEREO_ARGS="--variants" for more).

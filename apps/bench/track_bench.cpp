@@ -5,7 +5,8 @@
 // tracker: the retina sampled at its last box's centre plus its update), with
 // OpenCV on one thread for all.
 //
-//   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--no-generated]
+//   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--video FILE:FIRST:x,y,w,h[:COUNT]]...
+//                       [--no-generated]
 //                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--sequences a,b] [--markdown FILE]
 #ifndef SACCADE_TRACK_BENCH_FOVEA
 #define SACCADE_TRACK_BENCH_FOVEA 1
@@ -154,7 +155,7 @@ std::unique_ptr<Tracker> make_tracker(const std::string& name, const BoxConfig& 
 
 struct Options {
   std::string data = SACCADE_SAMPLE_DATA;
-  std::vector<std::string> otb, vot;
+  std::vector<std::string> otb, vot, videos;
   bool no_generated = false;
   std::string trackers = SACCADE_TRACK_BENCH_FOVEA ? "fovea,csrt,kcf,mil" : "csrt,kcf,mil";
   std::string markdown;
@@ -180,6 +181,8 @@ struct TrackerResult {
   std::string tracker;
   Status status;  // why it did not run; ok when it did
   TrackScore score;
+  WitnessScore witness;           // a sequence without truth
+  std::vector<double> agreement;  // ... and with each tracker, in the order run (-1: itself or failed)
 };
 
 struct SequenceResults {
@@ -187,6 +190,7 @@ struct SequenceResults {
   std::string sequence;  // the sequence's own name (name adds the run)
   int frames = 0, invisible = 0;
   cv::Size size;
+  bool truth_known = true;
   std::vector<TrackerResult> results;
 };
 
@@ -204,10 +208,19 @@ Status write_trace(const std::string& folder, const Sequence& sequence, int run,
   for (std::size_t i = 0; i < track.size(); ++i) {
     const cv::Rect2d& t = sequence.truth[i];
     const TrackedFrame& f = track[i];
-    out << i << ',' << (sequence.visible[i] ? 1 : 0) << ',' << t.x << ',' << t.y << ',' << t.width << ',' << t.height
-        << ',' << f.box.x << ',' << f.box.y << ',' << f.box.width << ',' << f.box.height << ',' << (f.tracking ? 1 : 0)
-        << ',' << f.state << ',' << f.confidence << ',' << iou(t, f.box) << ',' << center_error(t, f.box) << ',' << f.ms
-        << '\n';
+    out << i << ',';
+    // Without truth, only frame 0's box is known: the rest left empty.
+    if (sequence.truth_known || i == 0)
+      out << (sequence.visible[i] ? 1 : 0) << ',' << t.x << ',' << t.y << ',' << t.width << ',' << t.height << ',';
+    else
+      out << ",,,,,";
+    out << f.box.x << ',' << f.box.y << ',' << f.box.width << ',' << f.box.height << ',' << (f.tracking ? 1 : 0) << ','
+        << f.state << ',' << f.confidence << ',';
+    if (sequence.truth_known || i == 0)
+      out << iou(t, f.box) << ',' << center_error(t, f.box);
+    else
+      out << ',';
+    out << ',' << f.ms << '\n';
   }
   if (!out) return Status::error("cannot write " + path);
   return {};
@@ -225,13 +238,14 @@ saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const st
                       sequence.size(),
                       static_cast<int>(std::count(sequence.visible.begin(), sequence.visible.end(), false)),
                       sequence.frame_size,
+                      sequence.truth_known,
                       {}};
   const saccade::Result<cv::Mat> first = sequence.frame(0);
   if (!first.ok()) return first.status();
   std::vector<std::unique_ptr<Tracker>> trackers;
   std::vector<std::vector<TrackedFrame>> tracks;
   for (const std::string& name : names) {
-    out.results.push_back({name, {}, {}});
+    out.results.push_back({name, {}, {}, {}, {}});
     trackers.push_back(make_tracker(name, options.box));
     if (!sequence.visible.front())
       out.results.back().status = Status::error("the target is not visible in frame 1");
@@ -261,9 +275,16 @@ saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const st
   }
   for (std::size_t k = 0; k < trackers.size(); ++k) {
     if (!out.results[k].status.ok()) continue;
-    const saccade::Result<TrackScore> score = score_track(sequence.truth, sequence.visible, tracks[k]);
-    if (!score.ok()) return score.status();
-    out.results[k].score = *score;
+    if (sequence.truth_known) {
+      const saccade::Result<TrackScore> score = score_track(sequence.truth, sequence.visible, tracks[k]);
+      if (!score.ok()) return score.status();
+      out.results[k].score = *score;
+    } else {
+      out.results[k].witness = witness_score(tracks[k]);
+      for (std::size_t other = 0; other < trackers.size(); ++other)
+        out.results[k].agreement.push_back(
+            other == k || !out.results[other].status.ok() ? -1.0 : agreement(tracks[k], tracks[other]));
+    }
     if (trace.empty()) continue;
     if (Status written = write_trace(trace, sequence, run, names[k], tracks[k]); !written.ok()) return written;
   }
@@ -323,12 +344,41 @@ std::vector<std::string> score_row(const TrackerResult& r) {
           fixed(s.ms_per_frame, 2)};
 }
 
+// Without truth: what each track shows of itself and how far the trackers agree.
+std::vector<std::string> witness_header(const std::vector<TrackerResult>& results) {
+  std::vector<std::string> header{"tracker", "claimed tracking", "jumps"};
+  for (const TrackerResult& r : results) header.push_back("within 20 px of " + r.tracker);
+  header.push_back("ms/frame");
+  return header;
+}
+
+std::vector<std::string> witness_row(const TrackerResult& r, std::size_t trackers) {
+  std::vector<std::string> row{r.tracker};
+  if (!r.status.ok()) {
+    row.push_back("failed: " + r.status.message());
+    row.resize(trackers + 4);
+    return row;
+  }
+  row.push_back(fixed(r.witness.claimed, 2));
+  row.push_back(std::to_string(r.witness.jumps));
+  for (const double a : r.agreement) row.push_back(a >= 0 ? fixed(a, 2) : "-");
+  row.push_back(fixed(r.witness.ms_per_frame, 2));
+  return row;
+}
+
 std::string sequence_section(const SequenceResults& sequence) {
-  std::vector<std::vector<std::string>> rows{kHeader};
+  const std::string size = std::to_string(sequence.size.width) + "x" + std::to_string(sequence.size.height);
+  std::vector<std::vector<std::string>> rows;
+  if (!sequence.truth_known) {
+    rows.push_back(witness_header(sequence.results));
+    for (const TrackerResult& r : sequence.results) rows.push_back(witness_row(r, sequence.results.size()));
+    return "## " + sequence.name + " (" + std::to_string(sequence.frames) + " frames, " + size +
+           ", no truth: witness measures)\n\n" + table(rows) + "\n";
+  }
+  rows.push_back(kHeader);
   for (const TrackerResult& r : sequence.results) rows.push_back(score_row(r));
-  return "## " + sequence.name + " (" + std::to_string(sequence.frames) + " frames, " +
-         std::to_string(sequence.size.width) + "x" + std::to_string(sequence.size.height) + ", target invisible in " +
-         std::to_string(sequence.invisible) + ")\n\n" + table(rows) + "\n";
+  return "## " + sequence.name + " (" + std::to_string(sequence.frames) + " frames, " + size +
+         ", target invisible in " + std::to_string(sequence.invisible) + ")\n\n" + table(rows) + "\n";
 }
 
 // Mean of a measure over the sequences that have it.
@@ -344,7 +394,7 @@ std::vector<std::string> average_row(const std::string& tracker, const std::vect
   int misses = 0, reappearances = 0, failed = 0;
   for (const SequenceResults& sequence : all)
     for (const TrackerResult& r : sequence.results) {
-      if (r.tracker != tracker) continue;
+      if (r.tracker != tracker || !sequence.truth_known) continue;
       if (!r.status.ok()) {
         ++failed;
         continue;
@@ -381,7 +431,7 @@ std::string spread_section(const std::vector<SequenceResults>& all, const std::v
       Mean honest;
       std::string reacquisition;
       for (const SequenceResults& sequence : all) {
-        if (sequence.sequence != name) continue;
+        if (sequence.sequence != name || !sequence.truth_known) continue;
         for (const TrackerResult& r : sequence.results) {
           if (r.tracker != tracker || !r.status.ok()) continue;
           precision.push_back(r.score.precision20), auc.push_back(r.score.success_auc);
@@ -404,6 +454,38 @@ std::string spread_section(const std::vector<SequenceResults>& all, const std::v
          table(rows) + "\n";
 }
 
+// Over the sequences without truth, per tracker: the claimed share's mean,
+// the jumps (and the sequences with one), the mean agreement with each other.
+std::string witness_summary(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers) {
+  std::vector<std::vector<std::string>> rows{{"tracker", "claimed tracking", "jumps (sequences with one)"}};
+  for (const std::string& t : trackers) rows.front().push_back("within 20 px of " + t);
+  int videos = 0;
+  for (const std::string& tracker : trackers) {
+    Mean claimed;
+    std::vector<Mean> agree(trackers.size());
+    int jumps = 0, jumping = 0;
+    videos = 0;
+    for (const SequenceResults& sequence : all) {
+      if (sequence.truth_known) continue;
+      ++videos;
+      for (const TrackerResult& r : sequence.results) {
+        if (r.tracker != tracker || !r.status.ok()) continue;
+        claimed.add(r.witness.claimed);
+        jumps += r.witness.jumps, jumping += r.witness.jumps > 0;
+        for (std::size_t k = 0; k < r.agreement.size() && k < agree.size(); ++k)
+          if (r.agreement[k] >= 0) agree[k].add(r.agreement[k]);
+      }
+    }
+    std::vector<std::string> row{tracker, claimed.cell(2),
+                                 std::to_string(jumps) + " (" + std::to_string(jumping) + ")"};
+    for (const Mean& a : agree) row.push_back(a.cell(2));
+    rows.push_back(row);
+  }
+  if (videos == 0) return "";
+  return "## Without truth, over " + std::to_string(videos) + (videos == 1 ? " video run" : " video runs") + "\n\n" +
+         table(rows) + "\n";
+}
+
 std::string report(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers, int runs) {
   std::string out =
       "# Tracking benchmark\n\n"
@@ -412,13 +494,19 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
       "tracking; honest lost: share of the frames without the target where it did not claim tracking; "
       "max re-acquisition: frames after a reappearance until it claims tracking with IoU >= 0.3; "
       "ms/frame: its update alone (fovea: retina + update), one thread, each tracker in its own pass over the "
-      "sequence.\n\n";
+      "sequence. A video without truth (--video) has witness measures instead: the share of frames claimed, "
+      "jumps (the box's centre moving more than 0.75 of its larger side in one frame: a switch to another "
+      "object), and the share of frames each tracker's box centre is within 20 px of each other's.\n\n";
   for (const SequenceResults& sequence : all) out += sequence_section(sequence);
-  if (runs > 1) out += spread_section(all, trackers, runs);
+  const auto scored = static_cast<std::size_t>(
+      std::count_if(all.begin(), all.end(), [](const SequenceResults& s) { return s.truth_known; }));
+  if (runs > 1 && scored > 0) out += spread_section(all, trackers, runs);
+  out += witness_summary(all, trackers);
+  if (scored == 0) return out;
   std::vector<std::vector<std::string>> rows{kHeader};
   for (const std::string& tracker : trackers) rows.push_back(average_row(tracker, all));
   rows.front()[5] = "frames lost (per sequence)";
-  out += "## Average over " + std::to_string(all.size()) + (runs > 1 ? " runs" : " sequences") + "\n\n" + table(rows);
+  out += "## Average over " + std::to_string(scored) + (runs > 1 ? " runs" : " sequences") + "\n\n" + table(rows);
   return out;
 }
 
@@ -465,6 +553,13 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
   }
   if (Status read = read_otb_folders(options.otb, sequences); !read.ok()) return read;
   if (Status read = read_vot_folders(options.vot, sequences); !read.ok()) return read;
+  for (const std::string& spec : options.videos) {
+    const saccade::Result<VideoTarget> target = parse_video_target(spec);
+    if (!target.ok()) return target.status();
+    saccade::Result<Sequence> video = read_video(*target);
+    if (!video.ok()) return Status::error("--video " + spec + ": " + video.error());
+    sequences.push_back(std::move(video).value());
+  }
   const std::vector<std::string> keep = split_list(options.sequences);
   if (!keep.empty())
     std::erase_if(sequences,
@@ -550,6 +645,10 @@ int main(int argc, char** argv) {
   app.add_option("--vot", options.vot,
                  "a VOT sequence folder (groundtruth.txt; frames beside it, in color/ or, as LaSOT, in img/; GOT-10k "
                  "too); repeatable");
+  app.add_option("--video", options.videos,
+                 "FILE:FIRST:x,y,w,h[:COUNT]: a video without truth, the box in frame FIRST (0-based), followed for "
+                 "COUNT frames (to the end when left out) and scored by witness measures (claimed share, jumps, "
+                 "agreement between the trackers); repeatable");
   app.add_flag("--no-generated", options.no_generated, "leave out the generated sequences");
   app.add_option("--trackers", options.trackers, "comma-separated trackers to run")->capture_default_str();
   app.add_option("--sequences", options.sequences, "comma-separated sequence names to keep (default all)");

@@ -17,6 +17,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 namespace saccade::bench {
 namespace {
@@ -33,6 +34,14 @@ Result<cv::Mat> read_image(const std::string& path) {
   }
   if (image.empty()) return Status::error("cannot read image " + path);
   return image;
+}
+
+bool open_video(cv::VideoCapture& video, const std::string& path) {
+  try {
+    return video.open(path) && video.isOpened();
+  } catch (const cv::Exception&) {  // a backend that cannot parse the name throws
+    return false;
+  }
 }
 
 // Sequence::frame's error for an index outside the sequence.
@@ -257,6 +266,82 @@ Result<std::vector<Sequence>> read_otb_targets(const std::string& dir, int first
     return Status::error("cannot open " + (fs::path(dir) / "groundtruth_rect.txt").string() +
                          " (nor groundtruth_rect.1.txt, as a folder with several targets has)");
   return targets;
+}
+
+Result<VideoTarget> parse_video_target(const std::string& spec) {
+  const Status bad = Status::error("--video " + spec + ": expected FILE:FIRST:x,y,w,h or FILE:FIRST:x,y,w,h:COUNT");
+  // Taken apart from the right: the path may hold ':' itself.
+  std::size_t end = spec.size();
+  const auto take = [&spec, &end](std::string& part) {
+    if (end == 0) return false;
+    const std::size_t colon = spec.rfind(':', end - 1);
+    if (colon == std::string::npos || colon == 0) return false;
+    part = spec.substr(colon + 1, end - colon - 1);
+    end = colon;
+    return true;
+  };
+  std::string first, box, count;
+  if (!take(box)) return bad;
+  if (box.find(',') == std::string::npos) count = std::exchange(box, {});
+  if ((box.empty() && !take(box)) || !take(first) || box.find(',') == std::string::npos) return bad;
+  const auto whole = [](const std::string& text, int& value) {
+    const std::from_chars_result read = std::from_chars(text.data(), text.data() + text.size(), value);
+    return !text.empty() && read.ec == std::errc() && read.ptr == text.data() + text.size() && value >= 0;
+  };
+  VideoTarget target;
+  target.path = spec.substr(0, end);
+  if (!whole(first, target.first_frame)) return bad;
+  if (!count.empty() && (!whole(count, target.frames) || target.frames < 2))
+    return Status::error("--video " + spec + ": COUNT must be a whole number of frames, 2 or more");
+  Result<TruthRow> row = parse_truth_row(box, "--video " + spec);
+  if (!row.ok()) return row.status();
+  if (!row->visible) return Status::error("--video " + spec + ": the box must have a width and a height");
+  target.box = row->box;
+  return target;
+}
+
+Result<Sequence> read_video(const VideoTarget& target) {
+  auto video = std::make_shared<cv::VideoCapture>();
+  if (!open_video(*video, target.path)) return Status::error("cannot open video " + target.path);
+  // The frames are read through once: a video's own frame count is a guess
+  // for some containers, and a seek is exact for none.
+  cv::Mat frame;
+  int read = 0;
+  const int wanted = target.frames > 0 ? target.first_frame + target.frames : std::numeric_limits<int>::max();
+  cv::Size size;
+  while (read < wanted && video->read(frame)) {
+    if (read == target.first_frame) size = frame.size();
+    ++read;
+  }
+  if (read <= target.first_frame)
+    return Status::error("video " + target.path + " has " + std::to_string(read) + " frames, no frame " +
+                         std::to_string(target.first_frame));
+  Sequence sequence;
+  const cv::Rect2d& b = target.box;
+  sequence.name = fs::path(target.path).stem().string() + "@" + std::to_string(target.first_frame) + "+" +
+                  std::to_string(std::lround(b.x)) + "+" + std::to_string(std::lround(b.y));
+  sequence.frame_size = size;
+  const auto count = static_cast<std::size_t>(read - target.first_frame);
+  sequence.truth.assign(count, b);
+  sequence.visible.assign(count, true);
+  sequence.truth_known = false;
+  video->release();
+  // Read in order, as the benchmark asks: one open video and the index of
+  // the next frame it gives.
+  auto next = std::make_shared<int>(0);
+  sequence.frame = [video, next, path = target.path, first = target.first_frame, count](int i) -> Result<cv::Mat> {
+    if (i < 0 || static_cast<std::size_t>(i) >= count) return no_such_frame(i, count);
+    const int index = first + i;
+    if (!video->isOpened() || *next > index) {
+      if (!open_video(*video, path)) return Status::error("cannot open video " + path + " again");
+      *next = 0;
+    }
+    cv::Mat image;
+    for (; *next <= index; ++*next)
+      if (!video->read(image)) return Status::error("video " + path + ": cannot read frame " + std::to_string(*next));
+    return image;
+  };
+  return sequence;
 }
 
 Result<Sequence> read_vot(const std::string& dir) {
@@ -894,6 +979,32 @@ uint64_t frame_hash(const cv::Mat& frame) {
     for (std::size_t x = 0; x < frame.cols * frame.elemSize(); ++x) hash = (hash ^ row[x]) * 1099511628211ull;
   }
   return hash;
+}
+
+WitnessScore witness_score(const std::vector<TrackedFrame>& track) {
+  WitnessScore score;
+  if (track.size() < 2) return score;
+  int claimed = 0;
+  double ms = 0;
+  for (std::size_t i = 1; i < track.size(); ++i) {
+    const cv::Rect2d& before = track[i - 1].box;
+    const cv::Rect2d& now = track[i].box;
+    const cv::Point2d moved = (now.tl() + now.br()) * 0.5 - (before.tl() + before.br()) * 0.5;
+    if (cv::norm(moved) > 0.75 * std::max(now.width, now.height)) ++score.jumps;
+    claimed += track[i].tracking;
+    ms += track[i].ms;
+  }
+  score.frames = static_cast<int>(track.size()) - 1;
+  score.claimed = static_cast<double>(claimed) / score.frames;
+  score.ms_per_frame = ms / score.frames;
+  return score;
+}
+
+double agreement(const std::vector<TrackedFrame>& a, const std::vector<TrackedFrame>& b, double within) {
+  if (a.size() != b.size() || a.size() < 2) return 0;
+  int near = 0;
+  for (std::size_t i = 1; i < a.size(); ++i) near += center_error(a[i].box, b[i].box) <= within;
+  return static_cast<double>(near) / static_cast<double>(a.size() - 1);
 }
 
 }  // namespace saccade::bench

@@ -32,6 +32,7 @@ struct Sequence {
   // the sequence.
   std::function<Result<cv::Mat>(int)> frame;
   std::string note;  // what a reader assumed in pairing the truth with the images, for the user to check; or empty
+  bool truth_known = true;  // false: only frame 0's box is known (a video without truth: witness measures)
   int size() const { return static_cast<int>(truth.size()); }
 };
 
@@ -62,6 +63,24 @@ struct OtbFolder {
   int first_image = 0;  // 0: the first image
 };
 Result<OtbFolder> parse_otb_folder(const std::string& spec);
+
+// A video and the box to follow in it, without truth, as the tracking
+// benchmark's --video names it: "FILE:FIRST:x,y,w,h" or
+// "FILE:FIRST:x,y,w,h:COUNT" (FIRST the box's frame, 0-based; COUNT the
+// frames to follow, to the video's end when left out); the path may hold ':'.
+struct VideoTarget {
+  std::string path;
+  int first_frame = 0;
+  cv::Rect2d box;
+  int frames = 0;  // 0: to the video's end
+};
+Result<VideoTarget> parse_video_target(const std::string& spec);
+
+// The video's frames from first_frame on (frame 0 the box's), read in order
+// (a frame asked for before the last one read opens the video again), named
+// "<file stem>@<first>+<x>+<y>", truth_known false. An error names the video
+// that cannot be opened or has no frame first_frame.
+Result<Sequence> read_video(const VideoTarget& target);
 
 // Every target of an OTB folder: groundtruth_rect.txt's, or else one
 // sequence per groundtruth_rect.N.txt (N from 1), named as OTB names them
@@ -181,6 +200,24 @@ double center_error(const cv::Rect2d& a, const cv::Rect2d& b);
 // three differ in length.
 Result<TrackScore> score_track(const std::vector<cv::Rect2d>& truth, const std::vector<bool>& visible,
                                const std::vector<TrackedFrame>& track);
+
+// Without truth, what a track shows of itself (a video followed from a
+// given box): the share of frames after frame 0 where the tracker claimed
+// tracking, and its jumps: frames where the box's centre moved more than 0.75
+// of the box's larger side since the frame before, which no walking person or
+// driven car does in one frame and a switch to another object does.
+struct WitnessScore {
+  int frames = 0;
+  double claimed = 0;
+  int jumps = 0;
+  double ms_per_frame = 0;
+};
+WitnessScore witness_score(const std::vector<TrackedFrame>& track);
+
+// The share of frames after frame 0 where the two tracks' box centres lie
+// within `within` pixels (tracks of one sequence; 0 when they differ in
+// length or have no such frame).
+double agreement(const std::vector<TrackedFrame>& a, const std::vector<TrackedFrame>& b, double within = 20);
 
 // Run r's first box: the truth's, moved and resized by up to a pixel and a
 // half in a fixed pattern (run 0: the truth's), as VOT restarts a tracker

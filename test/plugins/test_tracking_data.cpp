@@ -15,6 +15,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "support.hpp"
 #include "tracking_data.hpp"
@@ -211,6 +212,72 @@ TEST(OtbFolderSpec, ReadsDirOrDirAndTheFirstImage) {
   EXPECT_EQ(value_of(parse_otb_folder(d + ":x")).dir, d + ":x");  // not a number: a folder name
   EXPECT_THAT(parse_otb_folder(d + ":0").error(), ::testing::HasSubstr(":0: expected DIR or DIR:FIRST"));
   EXPECT_THAT(parse_otb_folder(d + ":99999999999").error(), ::testing::HasSubstr("FIRST an image number from 1"));
+}
+
+TEST(VideoTarget, ReadsFileFirstBoxAndCountOrNamesTheFault) {
+  VideoTarget t = value_of(parse_video_target("/data/vtest.avi:60:504,195,32,104"));
+  EXPECT_EQ(t.path, "/data/vtest.avi");
+  EXPECT_EQ(t.first_frame, 60);
+  EXPECT_EQ(t.box, cv::Rect2d(504, 195, 32, 104));
+  EXPECT_EQ(t.frames, 0);
+  t = value_of(parse_video_target("clip:1.avi:0:1.5,2,30,40:150"));  // a ':' in the path
+  EXPECT_EQ(t.path, "clip:1.avi");
+  EXPECT_EQ(t.first_frame, 0);
+  EXPECT_EQ(t.box, cv::Rect2d(1.5, 2, 30, 40));
+  EXPECT_EQ(t.frames, 150);
+  for (const char* bad : {"vtest.avi", "vtest.avi:60", "vtest.avi:504,195,32,104", ":60:504,195,32,104",
+                          "vtest.avi:-1:504,195,32,104", "vtest.avi:x:504,195,32,104"})
+    EXPECT_THAT(parse_video_target(bad).error(), ::testing::HasSubstr("expected FILE:FIRST:x,y,w,h")) << bad;
+  EXPECT_THAT(parse_video_target("v.avi:0:1,2,30,40:1").error(), ::testing::HasSubstr("COUNT must be"));
+  EXPECT_THAT(parse_video_target("v.avi:0:1,2,30").error(), ::testing::HasSubstr("v.avi:0:1,2,30: expected 4 numbers"));
+  EXPECT_THAT(parse_video_target("v.avi:0:1,2,0,40").error(), ::testing::HasSubstr("a width and a height"));
+}
+
+// opencv-doc's vtest.avi (795 frames, 768x576), followed from frame 60.
+TEST(VideoReader, GivesTheFramesFromTheFirstOnInAnyOrderAndNamesWhatIsMissing) {
+  const std::string path = test::sample_path("vtest.avi");
+  const Sequence s = value_of(read_video({path, 60, {504, 195, 32, 104}, 5}));
+  EXPECT_EQ(s.name, "vtest@60+504+195");
+  EXPECT_EQ(s.size(), 5);
+  EXPECT_EQ(s.frame_size, cv::Size(768, 576));
+  EXPECT_FALSE(s.truth_known);
+  EXPECT_EQ(s.truth.front(), cv::Rect2d(504, 195, 32, 104));
+  cv::VideoCapture direct(path);
+  std::vector<cv::Mat> expected;
+  for (int i = 0; i <= 64; ++i) {
+    cv::Mat frame;
+    ASSERT_TRUE(direct.read(frame));
+    if (i >= 60) expected.push_back(frame);
+  }
+  for (int i : {0, 3, 4, 1, 2}) {  // backwards opens the video again
+    const cv::Mat frame = value_of(s.frame(i));
+    EXPECT_EQ(cv::norm(frame, expected[static_cast<std::size_t>(i)], cv::NORM_INF), 0) << "frame " << i;
+  }
+  EXPECT_THAT(s.frame(5).error(), ::testing::HasSubstr("no frame 5"));
+  EXPECT_EQ(value_of(read_video({path, 790, {504, 195, 32, 104}, 0})).size(), 5) << "to the video's end";
+  EXPECT_THAT(read_video({path, 795, {504, 195, 32, 104}, 0}).error(),
+              ::testing::HasSubstr("has 795 frames, no frame 795"));
+  EXPECT_THAT(read_video({"/no/such.avi", 0, {1, 1, 10, 10}, 0}).error(),
+              ::testing::HasSubstr("cannot open video /no/such.avi"));
+}
+
+TEST(WitnessScore, CountsClaimedFramesJumpsAndAgreement) {
+  std::vector<TrackedFrame> a(5), b(5);
+  for (int i = 0; i < 5; ++i) {
+    a[static_cast<std::size_t>(i)] = {cv::Rect2d(100 + 2 * i, 100, 20, 40), true, 1.0};
+    b[static_cast<std::size_t>(i)] = a[static_cast<std::size_t>(i)];
+  }
+  a[3] = {cv::Rect2d(130, 100, 20, 40), false, 1.0};  // 26 px from frame 2's: under 0.75 x 40, no jump
+  b[3] = {cv::Rect2d(140, 131, 20, 40), true, 1.0};   // 48 px: a jump, and 45 px back on frame 4: another
+  const WitnessScore wa = witness_score(a), wb = witness_score(b);
+  EXPECT_EQ(wa.frames, 4);
+  EXPECT_DOUBLE_EQ(wa.claimed, 0.75);
+  EXPECT_EQ(wa.jumps, 0);
+  EXPECT_EQ(wb.jumps, 2);
+  EXPECT_DOUBLE_EQ(wb.ms_per_frame, 1.0);
+  EXPECT_DOUBLE_EQ(agreement(a, b), 0.75);  // frame 3: 33 px apart
+  EXPECT_DOUBLE_EQ(agreement(a, b, 40), 1.0);
+  EXPECT_EQ(agreement(a, std::vector<TrackedFrame>(4)), 0) << "tracks of different sequences";
 }
 
 TEST(VotReader, PolygonsBecomeTheirBoundingBoxesAndNanRowsInvisible) {
