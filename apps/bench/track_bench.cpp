@@ -354,8 +354,8 @@ std::vector<std::string> witness_header(const std::vector<TrackerResult>& result
 
 std::vector<std::string> witness_row(const TrackerResult& r, std::size_t trackers) {
   std::vector<std::string> row{r.tracker};
-  if (!r.status.ok()) {
-    row.push_back("failed: " + r.status.message());
+  if (!r.status.ok() || r.witness.frames == 0) {
+    row.push_back(r.status.ok() ? "no frame after the first" : "failed: " + r.status.message());
     row.resize(trackers + 4);
     return row;
   }
@@ -495,8 +495,8 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
       "max re-acquisition: frames after a reappearance until it claims tracking with IoU >= 0.3; "
       "ms/frame: its update alone (fovea: retina + update), one thread, each tracker in its own pass over the "
       "sequence. A video without truth (--video) has witness measures instead: the share of frames claimed, "
-      "jumps (the box's centre moving more than 0.75 of its larger side in one frame: a switch to another "
-      "object), and the share of frames each tracker's box centre is within 20 px of each other's.\n\n";
+      "jumps (the box's centre moving more than 0.75 of its larger side in one frame: most often a switch to "
+      "another object), and the share of frames each tracker's box centre is within 20 px of each other's.\n\n";
   for (const SequenceResults& sequence : all) out += sequence_section(sequence);
   const auto scored = static_cast<std::size_t>(
       std::count_if(all.begin(), all.end(), [](const SequenceResults& s) { return s.truth_known; }));
@@ -558,6 +558,7 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
     if (!target.ok()) return target.status();
     saccade::Result<Sequence> video = read_video(*target);
     if (!video.ok()) return Status::error("--video " + spec + ": " + video.error());
+    if (!video->note.empty()) std::fprintf(stderr, "note: %s: %s\n", video->name.c_str(), video->note.c_str());
     sequences.push_back(std::move(video).value());
   }
   const std::vector<std::string> keep = split_list(options.sequences);

@@ -282,8 +282,11 @@ Result<VideoTarget> parse_video_target(const std::string& spec) {
   };
   std::string first, box, count;
   if (!take(box)) return bad;
-  if (box.find(',') == std::string::npos) count = std::exchange(box, {});
-  if ((box.empty() && !take(box)) || !take(first) || box.find(',') == std::string::npos) return bad;
+  if (box.find(',') == std::string::npos) {
+    count = std::exchange(box, {});
+    if (count.empty() || !take(box)) return bad;
+  }
+  if (!take(first) || box.find(',') == std::string::npos) return bad;
   const auto whole = [](const std::string& text, int& value) {
     const std::from_chars_result read = std::from_chars(text.data(), text.data() + text.size(), value);
     return !text.empty() && read.ec == std::errc() && read.ptr == text.data() + text.size() && value >= 0;
@@ -291,12 +294,17 @@ Result<VideoTarget> parse_video_target(const std::string& spec) {
   VideoTarget target;
   target.path = spec.substr(0, end);
   if (!whole(first, target.first_frame)) return bad;
-  if (!count.empty() && (!whole(count, target.frames) || target.frames < 2))
+  if (!count.empty() && (!whole(count, target.frames) || target.frames < 2 ||
+                         target.frames > std::numeric_limits<int>::max() - target.first_frame))
     return Status::error("--video " + spec + ": COUNT must be a whole number of frames, 2 or more");
+  if (std::count(box.begin(), box.end(), ',') != 3) return bad;
   Result<TruthRow> row = parse_truth_row(box, "--video " + spec);
   if (!row.ok()) return row.status();
-  if (!row->visible) return Status::error("--video " + spec + ": the box must have a width and a height");
-  target.box = row->box;
+  const cv::Rect2d& b = row->box;
+  if (!row->visible || !std::isfinite(b.x) || !std::isfinite(b.y) || !std::isfinite(b.width) ||
+      !std::isfinite(b.height))
+    return Status::error("--video " + spec + ": the box must be finite, with a width and a height");
+  target.box = b;
   return target;
 }
 
@@ -307,27 +315,38 @@ Result<Sequence> read_video(const VideoTarget& target) {
   // for some containers, and a seek is exact for none.
   cv::Mat frame;
   int read = 0;
-  const int wanted = target.frames > 0 ? target.first_frame + target.frames : std::numeric_limits<int>::max();
+  const int wanted = target.frames > 0 ? static_cast<int>(std::min<int64_t>(int64_t{target.first_frame} + target.frames,
+                                                                            std::numeric_limits<int>::max()))
+                                       : std::numeric_limits<int>::max();
   cv::Size size;
   while (read < wanted && video->read(frame)) {
     if (read == target.first_frame) size = frame.size();
     ++read;
   }
-  if (read <= target.first_frame)
-    return Status::error("video " + target.path + " has " + std::to_string(read) + " frames, no frame " +
-                         std::to_string(target.first_frame));
-  Sequence sequence;
+  if (read <= target.first_frame + 1)
+    return Status::error("video " + target.path + " has " + std::to_string(read) + " frames: none after frame " +
+                         std::to_string(target.first_frame) + " to follow the box into");
   const cv::Rect2d& b = target.box;
-  sequence.name = fs::path(target.path).stem().string() + "@" + std::to_string(target.first_frame) + "+" +
-                  std::to_string(std::lround(b.x)) + "+" + std::to_string(std::lround(b.y));
+  if ((b & cv::Rect2d(0, 0, size.width, size.height)).area() <= 0)
+    return Status::error("video " + target.path + ": the box " + std::to_string(b.x) + "," + std::to_string(b.y) + "," +
+                         std::to_string(b.width) + "," + std::to_string(b.height) + " lies outside its " +
+                         std::to_string(size.width) + "x" + std::to_string(size.height) + " frames");
+  Sequence sequence;
+  // Every number of the spec but the count: two targets differ in the name.
+  sequence.name = fs::path(target.path).stem().string() + "@" + std::to_string(target.first_frame);
+  for (const double v : {b.x, b.y, b.width, b.height}) sequence.name += "+" + std::to_string(std::lround(v));
   sequence.frame_size = size;
   const auto count = static_cast<std::size_t>(read - target.first_frame);
+  if (target.frames > 0 && static_cast<int>(count) < target.frames)
+    sequence.note = "the video ends " + std::to_string(count) + " frames after frame " +
+                    std::to_string(target.first_frame) + ", not " + std::to_string(target.frames);
   sequence.truth.assign(count, b);
   sequence.visible.assign(count, true);
   sequence.truth_known = false;
   video->release();
   // Read in order, as the benchmark asks: one open video and the index of
-  // the next frame it gives.
+  // the next frame it gives (a frame at or before the last one read opens
+  // the video again: each tracker and run reads from the start).
   auto next = std::make_shared<int>(0);
   sequence.frame = [video, next, path = target.path, first = target.first_frame, count](int i) -> Result<cv::Mat> {
     if (i < 0 || static_cast<std::size_t>(i) >= count) return no_such_frame(i, count);

@@ -77,9 +77,10 @@ struct VideoTarget {
 Result<VideoTarget> parse_video_target(const std::string& spec);
 
 // The video's frames from first_frame on (frame 0 the box's), read in order
-// (a frame asked for before the last one read opens the video again), named
-// "<file stem>@<first>+<x>+<y>", truth_known false. An error names the video
-// that cannot be opened or has no frame first_frame.
+// (a frame asked for at or before the last one read opens the video again),
+// named "<file stem>@<first>+<x>+<y>+<w>+<h>", truth_known false; a note when
+// the video ends before `frames`. An error names the video that cannot be
+// opened, has no frame after first_frame, or whose frames the box misses.
 Result<Sequence> read_video(const VideoTarget& target);
 
 // Every target of an OTB folder: groundtruth_rect.txt's, or else one
@@ -205,7 +206,9 @@ Result<TrackScore> score_track(const std::vector<cv::Rect2d>& truth, const std::
 // given box): the share of frames after frame 0 where the tracker claimed
 // tracking, and its jumps: frames where the box's centre moved more than 0.75
 // of the box's larger side since the frame before, which no walking person or
-// driven car does in one frame and a switch to another object does.
+// driven car does in one frame; most often a switch to another object (and a
+// switch back is a second jump), though a right re-detection after a long
+// absence counts too.
 struct WitnessScore {
   int frames = 0;
   double claimed = 0;

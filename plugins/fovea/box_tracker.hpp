@@ -63,9 +63,9 @@ struct BoxTrackerConfig {
   double redetect_near = 2.0;       // within this many times its larger side of where it was last tracked ...
   double redetect_near_psr = 7.0;   // ... and of its colour, a re-detection need only reach this
   double redetect_margin = 1.5;     // unsure, with a trusted peak where it sits: a re-detection elsewhere
-                                    // must reach this many times that peak, or be nearer the target's
-                                    // colour by min_chroma_change (a look-alike while the target is partly
-                                    // hidden; 0: not asked) ...
+                                    // must reach this many times that peak (0: not asked), or be nearer
+                                    // the target's colour by min_chroma_change (a look-alike while the
+                                    // target is partly hidden) ...
   int redetect_margin_frames = 10;  // ... for this many unsure frames (then the target is more likely gone)
   int proposals = 2;                // lost: places per size the whole-frame search proposes to the filter
   double velocity_gain = 0.5;       // weight of the newest velocity measurement

@@ -382,10 +382,11 @@ TEST(BoxTracker, ALookAlikeOfAnotherTintIsNotReacquiredWhenItsColoursAreAsked) {
 // much again. Returns the frames the tracker claimed the look-alike on; in
 // `held`, the covered frames its box stayed on the target; in `back`, whether
 // the target, uncovered, was tracked again where it is.
-int twin_claims(double redetect_margin, int& held, bool& back) {
+int twin_claims(double redetect_margin, int margin_frames, int& held, bool& back) {
   Scene scene;
   BoxTrackerConfig config;
   config.redetect_margin = redetect_margin;
+  config.redetect_margin_frames = margin_frames;
   BoxTracker tracker(config);
   const cv::Point2d at(100, 120), twin_at(230, 110);
   held = 0, back = false;
@@ -425,13 +426,19 @@ int twin_claims(double redetect_margin, int& held, bool& back) {
 // a look-alike elsewhere whose peak is only somewhat higher is not taken for it
 // (without the margin it is: vtest.avi's pedestrians, docs/tracking.md).
 TEST(BoxTracker, ALookAlikeIsNotTakenForAPartlyHiddenTargetThatIsStillThere) {
-  int held = 0, held_without = 0;
-  bool back = false, back_without = false;
-  const int claimed = twin_claims(BoxTrackerConfig{}.redetect_margin, held, back);
-  const int claimed_without = twin_claims(0.0, held_without, back_without);
-  std::printf("look-alike claimed on %d of 25 covered frames (%d without the margin); box on the target %d (%d)\n",
-              claimed, claimed_without, held, held_without);
+  int held = 0, held_without = 0, held_never = 0;
+  bool back = false, back_without = false, back_never = false;
+  const BoxTrackerConfig defaults;
+  const int claimed = twin_claims(defaults.redetect_margin, defaults.redetect_margin_frames, held, back);
+  const int claimed_without = twin_claims(0.0, defaults.redetect_margin_frames, held_without, back_without);
+  // Asked during no unsure frame, the margin is not asked at all.
+  const int claimed_never = twin_claims(defaults.redetect_margin, 0, held_never, back_never);
+  std::printf(
+      "look-alike claimed on %d of 25 covered frames (%d without the margin, %d asked for no frame); box on "
+      "the target %d (%d, %d)\n",
+      claimed, claimed_without, claimed_never, held, held_without, held_never);
   EXPECT_GT(claimed_without, 0) << "the scene no longer needs the margin";
+  EXPECT_EQ(claimed_never, claimed_without);
   EXPECT_EQ(claimed, 0);
   EXPECT_EQ(held, 25);
   EXPECT_TRUE(back) << "the target, uncovered, is tracked again";

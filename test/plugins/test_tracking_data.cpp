@@ -229,7 +229,11 @@ TEST(VideoTarget, ReadsFileFirstBoxAndCountOrNamesTheFault) {
                           "vtest.avi:-1:504,195,32,104", "vtest.avi:x:504,195,32,104"})
     EXPECT_THAT(parse_video_target(bad).error(), ::testing::HasSubstr("expected FILE:FIRST:x,y,w,h")) << bad;
   EXPECT_THAT(parse_video_target("v.avi:0:1,2,30,40:1").error(), ::testing::HasSubstr("COUNT must be"));
-  EXPECT_THAT(parse_video_target("v.avi:0:1,2,30").error(), ::testing::HasSubstr("v.avi:0:1,2,30: expected 4 numbers"));
+  EXPECT_THAT(parse_video_target("v.avi:2000000000:1,2,30,40:2000000000").error(),
+              ::testing::HasSubstr("COUNT must be"));
+  for (const char* bad : {"v.avi:0:1,2,30", "v.avi:0:1,2,30,40:", "v.avi:0:1,2,3,4,5,6,7,8"})
+    EXPECT_THAT(parse_video_target(bad).error(), ::testing::HasSubstr("expected FILE:FIRST:x,y,w,h")) << bad;
+  EXPECT_THAT(parse_video_target("v.avi:0:1,2,inf,40").error(), ::testing::HasSubstr("must be finite"));
   EXPECT_THAT(parse_video_target("v.avi:0:1,2,0,40").error(), ::testing::HasSubstr("a width and a height"));
 }
 
@@ -237,7 +241,8 @@ TEST(VideoTarget, ReadsFileFirstBoxAndCountOrNamesTheFault) {
 TEST(VideoReader, GivesTheFramesFromTheFirstOnInAnyOrderAndNamesWhatIsMissing) {
   const std::string path = test::sample_path("vtest.avi");
   const Sequence s = value_of(read_video({path, 60, {504, 195, 32, 104}, 5}));
-  EXPECT_EQ(s.name, "vtest@60+504+195");
+  EXPECT_EQ(s.name, "vtest@60+504+195+32+104");
+  EXPECT_TRUE(s.note.empty());
   EXPECT_EQ(s.size(), 5);
   EXPECT_EQ(s.frame_size, cv::Size(768, 576));
   EXPECT_FALSE(s.truth_known);
@@ -255,8 +260,13 @@ TEST(VideoReader, GivesTheFramesFromTheFirstOnInAnyOrderAndNamesWhatIsMissing) {
   }
   EXPECT_THAT(s.frame(5).error(), ::testing::HasSubstr("no frame 5"));
   EXPECT_EQ(value_of(read_video({path, 790, {504, 195, 32, 104}, 0})).size(), 5) << "to the video's end";
-  EXPECT_THAT(read_video({path, 795, {504, 195, 32, 104}, 0}).error(),
-              ::testing::HasSubstr("has 795 frames, no frame 795"));
+  const Sequence cut = value_of(read_video({path, 790, {504, 195, 32, 104}, 150}));
+  EXPECT_EQ(cut.size(), 5);
+  EXPECT_THAT(cut.note, ::testing::HasSubstr("the video ends 5 frames after frame 790, not 150"));
+  EXPECT_THAT(read_video({path, 794, {504, 195, 32, 104}, 0}).error(),
+              ::testing::HasSubstr("has 795 frames: none after frame 794"));
+  EXPECT_THAT(read_video({path, 0, {800, 195, 32, 104}, 0}).error(),
+              ::testing::HasSubstr("lies outside its 768x576 frames"));
   EXPECT_THAT(read_video({"/no/such.avi", 0, {1, 1, 10, 10}, 0}).error(),
               ::testing::HasSubstr("cannot open video /no/such.avi"));
 }
