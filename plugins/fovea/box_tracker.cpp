@@ -669,13 +669,19 @@ struct BoxTracker::Impl {
   // mean colour of a target partly hidden moves as far as a tinted
   // look-alike's, and so it is not asked of a sure peak; the histogram tells
   // them apart (docs/tracking.md).
+  // A gray frame, or a target (or a place) too dark for any colour, has an
+  // empty histogram: no evidence either way, and the look is not refused.
   bool has_its_colors(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
-    if (config.min_shared_colors <= 0 || color_shares.empty() || !color_checked(config)) return true;
+    const auto empty = [](const std::vector<float>& shares) {
+      return std::all_of(shares.begin(), shares.end(), [](float share) { return share == 0.f; });
+    };
+    if (config.min_shared_colors <= 0 || frame.channels() < 3 || empty(color_shares) || !color_checked(config))
+      return true;
     const ColorPlaces places = color_places(p, found);
     double shared = 0;
     for (int k = 0; k < places.count; ++k) {
       chroma_histogram(frame, central_half(frame, places.at[k], places.box), candidate_shares);
-      shared = std::max(shared, shared_colors(candidate_shares, color_shares));
+      shared = std::max(shared, empty(candidate_shares) ? 1.0 : shared_colors(candidate_shares, color_shares));
     }
     return shared >= config.min_shared_colors;
   }

@@ -50,10 +50,10 @@ struct BoxTrackerConfig {
   double min_chroma_change = 0.02;  // a tracked target's colour (chromaticity) may move this far ...
   double chroma_deviations = 4;     // ... or this many times its usual frame-to-frame deviation
   int color_patience = 60;          // frames away after which a target may come back another colour
-  double min_shared_colors = 0;     // while its colour is checked, a re-detection (also a sure one) must
+  double min_shared_colors = 0.25;  // while its colour is checked, a re-detection (also a sure one) must
                                     // share this much of the target's chromaticity histogram: a look-alike
                                     // of another tint is refused, a target partly hidden is not (0: not
-                                    // asked; 0.45 in docs/tracking.md)
+                                    // asked; docs/tracking.md)
   double lost_psr = 5.0;            // below this the peak is not trusted at all
   int lost_frames = 5;              // consecutive frames below lost_psr before the target is lost
   int unsure_frames = 30;           // consecutive frames not tracked before the target is lost

@@ -1,9 +1,30 @@
 #include "color_histogram.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 
 namespace saccade::fovea {
+namespace {
+
+// floor(n / sum) for n < 2^15 and sum <= 765 as (n * reciprocal[sum]) >> 25,
+// exactly (the reciprocal's rounding error times n stays under 2^25): the
+// histogram's two divisions per pixel were most of its cost.
+constexpr int kReciprocalShift = 25;
+struct Reciprocals {
+  std::array<uint32_t, 766> of{};
+  constexpr Reciprocals() {
+    for (uint32_t s = 1; s < of.size(); ++s) of[s] = ((uint32_t{1} << kReciprocalShift) + s - 1) / s;
+  }
+};
+constexpr Reciprocals kReciprocals;
+
+int divided(int n, int sum) {
+  return static_cast<int>((static_cast<uint64_t>(n) * kReciprocals.of[static_cast<std::size_t>(sum)]) >>
+                          kReciprocalShift);
+}
+
+}  // namespace
 
 void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& shares) {
   shares.assign(static_cast<std::size_t>(kChromaBins * kChromaBins), 0.f);
@@ -16,8 +37,8 @@ void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& s
     for (int x = 0; x < inside.width; ++x, pixel += channels) {
       const int sum = pixel[0] + pixel[1] + pixel[2];
       if (sum < kDarkestChroma) continue;
-      const int r = std::min(kChromaBins - 1, pixel[2] * kChromaBins / sum);
-      const int g = std::min(kChromaBins - 1, pixel[1] * kChromaBins / sum);
+      const int r = std::min(kChromaBins - 1, divided(pixel[2] * kChromaBins, sum));
+      const int g = std::min(kChromaBins - 1, divided(pixel[1] * kChromaBins, sum));
       shares[static_cast<std::size_t>(r * kChromaBins + g)] += 1.f;
       ++counted;
     }

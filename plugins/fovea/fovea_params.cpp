@@ -79,7 +79,7 @@ void bind_fovea_params(ParamBinder<ControllerConfig>& b) {
       .field("box_min_shared_colors", {0, 1},
              "box tracking: while the target's colour is checked, a re-detection, also a sure one, must share "
              "at least this much of the target's chromaticity histogram: a look-alike of another tint is "
-             "refused, a target partly hidden is not (0: not asked; 0.45 measured in docs/tracking.md)",
+             "refused, a target partly hidden is not (0: not asked; docs/tracking.md)",
              &C::box, &B::min_shared_colors);
 }
 

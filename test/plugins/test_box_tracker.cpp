@@ -162,6 +162,31 @@ TEST(BoxTracker, AHiddenTargetIsLostAndFoundAgainWhenItReappears) {
   EXPECT_LE(found_after, 15);
 }
 
+// Gray video has no colours: the colour histogram's check (on by default)
+// must not refuse every re-detection there.
+TEST(BoxTracker, AHiddenTargetInGrayVideoIsFoundAgainToo) {
+  const Scene scene;
+  BoxTracker tracker;
+  ASSERT_GT(tracker.config().min_shared_colors, 0.0);
+  const auto gray = [](const cv::Mat& frame) {
+    cv::Mat out;
+    cv::cvtColor(frame, out, cv::COLOR_BGR2GRAY);
+    return out;
+  };
+  const cv::Point2d before(100, 120), after(230, 90);
+  ASSERT_TRUE(tracker.init(gray(scene.render({60, 60}, before)), scene.box(before)).ok());
+  for (int k = 1; k <= 20; ++k) tracker.update(gray(scene.render({60, 60}, before)));
+  for (int k = 0; k < 40; ++k)
+    tracker.update(gray(scene.render({60, 60}, before, 0.3, 1.0, cv::Rect(50, 70, 110, 100))));
+  int found_after = -1;
+  for (int k = 0; k < 40 && found_after < 0; ++k) {
+    const TrackEstimate e = tracker.update(gray(scene.render({60, 60}, after)));
+    if (e.state == TrackState::kTracking && cv::norm(center(e.box) - after) < 6) found_after = k;
+  }
+  EXPECT_GE(found_after, 0) << "never found again";
+  EXPECT_LE(found_after, 15);
+}
+
 // A target that came closer while hidden: it reappears elsewhere 1.9x as
 // large, beyond the sizes the whole-frame search tried before (up to 1.25x,
 // which never found it), and is found again at about its new size.

@@ -3,6 +3,7 @@
 // covered, one tinted as the benchmark's look-alikes are.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <numeric>
 
 #include <opencv2/imgcodecs.hpp>
@@ -29,6 +30,31 @@ TEST(ChromaHistogram, OneColourFillsOneBinAndNearlyBlackPixelsAreLeftOut) {
   EXPECT_FLOAT_EQ(shares[static_cast<std::size_t>(r * kChromaBins + g)], 1.0f);
   EXPECT_NEAR(total(shares), 1.0, 1e-6);
   EXPECT_DOUBLE_EQ(shared_colors(shares, shares), 1.0);
+}
+
+// Each pixel's bins are floor(channel * kChromaBins / (R + G + B)), as a plain
+// integer division gives them, over a million random colours of every sum.
+TEST(ChromaHistogram, BinsEveryColourAsIntegerDivisionDoes) {
+  cv::Mat frame(1024, 1024, CV_8UC3);
+  cv::RNG rng(7);
+  rng.fill(frame, cv::RNG::UNIFORM, 0, 256);
+  frame(cv::Rect(0, 0, 1024, 64)) /= 8;  // dark colours too, near kDarkestChroma
+  std::vector<float> shares;
+  chroma_histogram(frame, cv::Rect(0, 0, frame.cols, frame.rows), shares);
+  std::vector<double> counts(static_cast<std::size_t>(kChromaBins * kChromaBins), 0.0);
+  double counted = 0;
+  for (int y = 0; y < frame.rows; ++y)
+    for (int x = 0; x < frame.cols; ++x) {
+      const cv::Vec3b p = frame.at<cv::Vec3b>(y, x);
+      const int sum = p[0] + p[1] + p[2];
+      if (sum < kDarkestChroma) continue;
+      const int r = std::min(kChromaBins - 1, p[2] * kChromaBins / sum);
+      const int g = std::min(kChromaBins - 1, p[1] * kChromaBins / sum);
+      counts[static_cast<std::size_t>(r * kChromaBins + g)] += 1;
+      ++counted;
+    }
+  for (std::size_t i = 0; i < counts.size(); ++i)
+    EXPECT_FLOAT_EQ(shares[i], static_cast<float>(counts[i]) / static_cast<float>(counted)) << "bin " << i;
 }
 
 TEST(ChromaHistogram, AGrayFrameOrAnEmptyAreaHasNoColours) {

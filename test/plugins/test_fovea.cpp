@@ -471,12 +471,16 @@ TEST(FoveaPlugin, BadBoxesAndTemplatesAreErrorsAtOpenNamingTheValue) {
 }
 
 // The node's parameters, bound once for the node and the benchmark's --set:
-// the box tracker's colour histogram check is off unless asked for, and a
-// share outside 0..1 is refused by name.
-TEST(FoveaParams, TheSharedColoursCheckIsOffByDefaultAndItsShareIsChecked) {
+// the box tracker's colour histogram check asks a quarter of the colours by
+// default (docs/tracking.md), 0 turns it off, and a share outside 0..1 is
+// refused by name.
+TEST(FoveaParams, TheSharedColoursCheckAsksAQuarterByDefaultAndItsShareIsChecked) {
   const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
   ASSERT_TRUE(defaults.ok()) << defaults.error();
-  EXPECT_EQ(defaults->box.min_shared_colors, 0.0);
+  EXPECT_EQ(defaults->box.min_shared_colors, 0.25);
+  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_min_shared_colors", "0"}});
+  ASSERT_TRUE(off.ok()) << off.error();
+  EXPECT_EQ(off->box.min_shared_colors, 0.0);
   const Result<ControllerConfig> asked = configure(&bind_fovea_params, {{"box_min_shared_colors", "0.45"}});
   ASSERT_TRUE(asked.ok()) << asked.error();
   EXPECT_DOUBLE_EQ(asked->box.min_shared_colors, 0.45);
