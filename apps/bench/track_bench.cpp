@@ -210,13 +210,14 @@ Status write_trace(const std::string& folder, const Sequence& sequence, int run,
     const TrackedFrame& f = track[i];
     out << i << ',';
     // Without truth, only frame 0's box is known: the rest left empty.
-    if (sequence.truth_known || i == 0)
+    const bool known = sequence.truth_known || i == 0;
+    if (known)
       out << (sequence.visible[i] ? 1 : 0) << ',' << t.x << ',' << t.y << ',' << t.width << ',' << t.height << ',';
     else
       out << ",,,,,";
     out << f.box.x << ',' << f.box.y << ',' << f.box.width << ',' << f.box.height << ',' << (f.tracking ? 1 : 0) << ','
         << f.state << ',' << f.confidence << ',';
-    if (sequence.truth_known || i == 0)
+    if (known)
       out << iou(t, f.box) << ',' << center_error(t, f.box);
     else
       out << ',';
@@ -459,15 +460,14 @@ std::string spread_section(const std::vector<SequenceResults>& all, const std::v
 std::string witness_summary(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers) {
   std::vector<std::vector<std::string>> rows{{"tracker", "claimed tracking", "jumps (sequences with one)"}};
   for (const std::string& t : trackers) rows.front().push_back("within 20 px of " + t);
-  int videos = 0;
+  const auto videos = std::count_if(all.begin(), all.end(), [](const SequenceResults& s) { return !s.truth_known; });
+  if (videos == 0) return "";
   for (const std::string& tracker : trackers) {
     Mean claimed;
     std::vector<Mean> agree(trackers.size());
     int jumps = 0, jumping = 0;
-    videos = 0;
     for (const SequenceResults& sequence : all) {
       if (sequence.truth_known) continue;
-      ++videos;
       for (const TrackerResult& r : sequence.results) {
         if (r.tracker != tracker || !r.status.ok()) continue;
         claimed.add(r.witness.claimed);
@@ -481,7 +481,6 @@ std::string witness_summary(const std::vector<SequenceResults>& all, const std::
     for (const Mean& a : agree) row.push_back(a.cell(2));
     rows.push_back(row);
   }
-  if (videos == 0) return "";
   return "## Without truth, over " + std::to_string(videos) + (videos == 1 ? " video run" : " video runs") + "\n\n" +
          table(rows) + "\n";
 }

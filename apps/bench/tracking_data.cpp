@@ -1006,10 +1006,8 @@ WitnessScore witness_score(const std::vector<TrackedFrame>& track) {
   int claimed = 0;
   double ms = 0;
   for (std::size_t i = 1; i < track.size(); ++i) {
-    const cv::Rect2d& before = track[i - 1].box;
     const cv::Rect2d& now = track[i].box;
-    const cv::Point2d moved = (now.tl() + now.br()) * 0.5 - (before.tl() + before.br()) * 0.5;
-    if (cv::norm(moved) > 0.75 * std::max(now.width, now.height)) ++score.jumps;
+    if (center_error(track[i - 1].box, now) > 0.75 * std::max(now.width, now.height)) ++score.jumps;
     claimed += track[i].tracking;
     ms += track[i].ms;
   }

@@ -817,7 +817,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     last_.state = ++m.low_frames >= config_.lost_frames || m.unsure_frames >= config_.unsure_frames
                       ? TrackState::kLost
                       : TrackState::kUncertain;
-    look_elsewhere(frame, {});
+    look_elsewhere(frame, 0.0);
     return;
   }
   m.low_frames = 0;
@@ -834,8 +834,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   bool doubted = contested || psr < config_.tracking_psr;
   cv::Vec2d color;
   double color_distance = 0;
-  const bool color_measured = !doubted;
-  if (color_measured) {
+  if (!doubted) {
     color = chroma(frame, measured, m.size);
     color_distance = cv::norm(color - m.chroma_mean);
     doubted = warm && !m.color_matches(config_, color_distance);
@@ -855,9 +854,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
     // Where it sits is still most likely the target, partly hidden or
     // changing: what re-detection finds elsewhere is weighed against it.
-    if (!color_measured && m.color_checked(config_))
-      color_distance = cv::norm(chroma(frame, measured, m.size) - m.chroma_mean);
-    look_elsewhere(frame, {psr, color_distance});
+    look_elsewhere(frame, psr);
     return;
   }
   m.learn_color(config_, frame, measured, color, color_distance);
@@ -883,14 +880,18 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   m.scale_filter.learn(frame, m.center, m.size, config_.learning_rate, scale != 1.0);
 }
 
-void BoxTracker::look_elsewhere(const cv::Mat& frame, const UnsurePlace& sits) {
+void BoxTracker::look_elsewhere(const cv::Mat& frame, double sits_psr) {
   // Unsure for a few frames: the target may have jumped (a fast turn of the
   // camera, a cut) rather than be hidden. The whole-frame search runs beside
   // the local one, and a confirmed re-detection ends the doubt at once.
-  if (impl_->unsure_frames < config_.redetect_after) return;
+  Impl& m = *impl_;
+  if (m.unsure_frames < config_.redetect_after) return;
+  UnsurePlace sits{sits_psr, 0};
+  if (sits_psr > 0 && m.color_checked(config_))
+    sits.color_distance = cv::norm(chroma(frame, m.center, m.size) - m.chroma_mean);
   const double confidence = last_.confidence;
   const TrackState state = last_.state;
-  redetect(frame, impl_->center, /*unsure=*/true, sits);
+  redetect(frame, m.center, /*unsure=*/true, sits);
   if (last_.state != TrackState::kTracking) last_.confidence = confidence, last_.state = state;
 }
 

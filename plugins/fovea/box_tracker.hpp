@@ -98,7 +98,8 @@ class BoxTracker {
   void follow(const cv::Mat& frame, cv::Point2d predicted);
   struct UnsurePlace;
   void redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsure, const UnsurePlace& sits);
-  void look_elsewhere(const cv::Mat& frame, const UnsurePlace& sits);
+  // `sits_psr`: the peak where the unsure tracker sits, 0 when not trusted.
+  void look_elsewhere(const cv::Mat& frame, double sits_psr);
   BoxTrackerConfig config_;
   bool initialized_ = false;
   TrackEstimate last_;
