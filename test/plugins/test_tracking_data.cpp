@@ -268,7 +268,7 @@ TEST(VideoReader, GivesTheFramesFromTheFirstOnInAnyOrderAndNamesWhatIsMissing) {
   EXPECT_THAT(read_video({path, 0, {800, 195, 32, 104}, 0}).error(),
               ::testing::HasSubstr("lies outside its 768x576 frames"));
   EXPECT_THAT(read_video({"/no/such.avi", 0, {1, 1, 10, 10}, 0}).error(),
-              ::testing::HasSubstr("cannot open video /no/such.avi"));
+              ::testing::HasSubstr("cannot open video /no/such.avi: no such file"));
 }
 
 TEST(WitnessScore, CountsClaimedFramesJumpsAndAgreement) {
