@@ -312,8 +312,9 @@ Result<Sequence> read_video(const VideoTarget& target) {
   // A missing file is named before OpenCV is asked: asked, it tries every
   // backend, cameras' too (whose USB probing leaks under AddressSanitizer).
   std::error_code error;
+  if (!fs::exists(target.path, error)) return Status::error("cannot open video " + target.path + ": no such file");
   if (!fs::is_regular_file(target.path, error))
-    return Status::error("cannot open video " + target.path + ": no such file");
+    return Status::error("cannot open video " + target.path + ": not a file");
   auto video = std::make_shared<cv::VideoCapture>();
   if (!open_video(*video, target.path)) return Status::error("cannot open video " + target.path);
   // The frames are read through once: a video's own frame count is a guess

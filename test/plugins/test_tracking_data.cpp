@@ -269,6 +269,7 @@ TEST(VideoReader, GivesTheFramesFromTheFirstOnInAnyOrderAndNamesWhatIsMissing) {
               ::testing::HasSubstr("lies outside its 768x576 frames"));
   EXPECT_THAT(read_video({"/no/such.avi", 0, {1, 1, 10, 10}, 0}).error(),
               ::testing::HasSubstr("cannot open video /no/such.avi: no such file"));
+  EXPECT_THAT(read_video({"/", 0, {1, 1, 10, 10}, 0}).error(), ::testing::HasSubstr("cannot open video /: not a file"));
 }
 
 TEST(WitnessScore, CountsClaimedFramesJumpsAndAgreement) {
