@@ -214,6 +214,8 @@ class FaultsTwoPc : public ::testing::Test {
                                   "info",
                                   "run",
                                   graph_,
+                                  "--stats",  // at exit: what each node took in and sent
+                                  "0",
                                   "--process",
                                   process,
                                   "--domain",
@@ -317,7 +319,15 @@ void FaultsTwoPc::kill_and_restart(bool vision) {
     int64_t t_frame = -1;
     test::wait_for([&] { return (t_frame = frames.first_after(t_spawn)) > 0; }, 30);
     const int64_t t_joined = when_logged(vision ? "robot_0.log" : log, gaze_joined(), vision ? round + 2 : 1, 30);
-    ASSERT_GT(t_frame, 0) << "no frame after the restart\n" << log_of(log);
+    if (t_frame <= 0) {  // stopped, each process logs what its nodes took in and sent (--stats)
+      for (pid_t p : {pid, vision ? robot : head, motors}) kill(p, SIGTERM);
+      for (pid_t p : {pid, vision ? robot : head, motors}) test::wait_child(p, 10);
+    }
+    ASSERT_GT(t_frame, 0) << "no frame after the restart\n"
+                          << log << ":\n"
+                          << log_of(log) << "\nrobot_0.log:\n"
+                          << log_of("robot_0.log") << "\nmotors.log:\n"
+                          << log_of("motors.log");
     ASSERT_GT(t_joined, 0) << "the robot side never matched the vision side's requests";
     const double resumed = since(t_spawn, std::max(t_frame, t_joined));
     // Held: the joints stay where they were while the other side is gone
