@@ -123,6 +123,8 @@ Result<std::shared_ptr<Domain>> Domain::get(int domain_id) {
     auto& discovery = qos.wire_protocol().builtin.discovery_config;
     discovery.leaseDuration = eprosima::fastrtps::Duration_t(3, 0);
     discovery.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(1, 0);
+    // Never a killed process's shared-memory ports (see free_participant_id).
+    qos.wire_protocol().participant_id = free_participant_id(domain_id);
   }
   qos.name("saccade");
   const char* env_security = std::getenv("SACCADE_DDS_SECURITY");

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -61,6 +62,7 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
   static const std::regex data_sharing_pool("fast_datasharing_[0-9a-f_.]+");
   static const std::regex frame_ring("saccade_ring_[0-9]+_[0-9a-f]{16}");
   static const std::regex mailbox("saccade_mail_[0-9a-f]{16}");
+  static const std::regex port("fastrtps_port[0-9]+");
   std::error_code ec;
   std::set<std::string> mapped;
   bool mapped_known = false;
@@ -70,15 +72,33 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
     const bool segment = std::regex_match(name, participant_segment);
     const bool pool = !segment && (std::regex_match(name, data_sharing_pool) || std::regex_match(name, frame_ring) ||
                                    std::regex_match(name, mailbox));
-    if (!segment && !pool) continue;
+    const bool shm_port = !segment && !pool && std::regex_match(name, port);
+    if (!segment && !pool && !shm_port) continue;
     struct stat st {};
     // Only this user's files, and none so young that its owner may still be setting it up.
+    // (Never a port under a second old: a process's port is unmapped for a
+    // moment after it is made, and no test needs one removed at once.)
+    const double min_age = shm_port ? std::max(min_age_s, 1.0) : min_age_s;
     if (::stat(entry.path().c_str(), &st) != 0 || st.st_uid != ::geteuid() ||
-        static_cast<double>(now - st.st_ctime) < min_age_s)
+        static_cast<double>(now - st.st_ctime) < min_age)
       continue;
     bool stale = false;
+    const auto unmapped = [&] {
+      if (!mapped_known) {
+        mapped = mapped_shm_files();
+        mapped_known = true;
+      }
+      return mapped.count(name) == 0;
+    };
     if (segment) {
       stale = owner_is_gone(entry.path().string() + "_el");
+    } else if (shm_port) {
+      // Its listeners and writers map a port, a live writer perhaps still
+      // after its listener died. (A port outlives its last user when a
+      // process that used it was killed: its count of users stays up.) A
+      // unicast port's listener also holds "<port>_el" while it lives.
+      const std::string lock = entry.path().string() + "_el";
+      stale = unmapped() && (!fs::exists(lock, ec) || owner_is_gone(lock));
     } else if (std::regex_match(name, frame_ring)) {
       stale = !frame_ring_has_writer(entry.path().string());
     } else if (std::regex_match(name, mailbox)) {
@@ -87,20 +107,37 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
       // A data-sharing pool is mapped by its writer for the writer's lifetime
       // (and by its readers): seen in /proc only for processes of this pid
       // namespace, so processes that share /dev/shm must share that too.
-      if (!mapped_known) {
-        mapped = mapped_shm_files();
-        mapped_known = true;
-      }
-      stale = mapped.count(name) == 0;
+      stale = unmapped();
     }
     if (!stale) continue;
     const auto bytes = static_cast<uint64_t>(st.st_size);
     if (!fs::remove(entry.path(), ec)) continue;
-    if (segment) fs::remove(entry.path().string() + "_el", ec);
+    if (segment || shm_port) fs::remove(entry.path().string() + "_el", ec);
     result.removed.push_back(name);
     result.bytes += bytes;
   }
   return result;
+}
+
+std::pair<int, int> unicast_ports(int domain_id, int participant_id) {
+  // Fast DDS' defaults (RTPS' well-known ports): PB 7400, DG 250, PG 2, d1 10, d3 11.
+  const int base = 7400 + 250 * domain_id + 2 * participant_id;
+  return {base + 10, base + 11};
+}
+
+int free_participant_id(int domain_id, const std::string& shm_dir) {
+  // Ids whose ports stay within the domain's 250 and under 65536.
+  for (int id = 0; id < 120; ++id) {
+    const auto [meta, user] = unicast_ports(domain_id, id);
+    if (user > 65535) break;
+    std::error_code ec;
+    const auto held = [&](int number) {
+      return fs::exists(shm_dir + "/fastrtps_port" + std::to_string(number), ec) ||
+             fs::exists(shm_dir + "/fastrtps_port" + std::to_string(number) + "_el", ec);
+    };
+    if (!held(meta) && !held(user)) return id;
+  }
+  return -1;  // every id's ports held: Fast DDS chooses
 }
 
 }  // namespace saccade::dds
