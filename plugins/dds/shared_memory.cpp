@@ -22,6 +22,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kShm = "/dev/shm";
+// Fast DDS' shared-memory port files: "fastrtps_port<number>" (its default domain name, "fastrtps").
+constexpr const char* kPortFile = "fastrtps_port";
 
 // Every file of /dev/shm some process has mapped now (the processes this user may inspect).
 std::set<std::string> mapped_shm_files() {
@@ -62,7 +64,7 @@ StaleSharedMemory remove_stale_shared_memory(double min_age_s) {
   static const std::regex data_sharing_pool("fast_datasharing_[0-9a-f_.]+");
   static const std::regex frame_ring("saccade_ring_[0-9]+_[0-9a-f]{16}");
   static const std::regex mailbox("saccade_mail_[0-9a-f]{16}");
-  static const std::regex port("fastrtps_port[0-9]+");
+  static const std::regex port(std::string(kPortFile) + "[0-9]+");
   std::error_code ec;
   std::set<std::string> mapped;
   bool mapped_known = false;
@@ -132,8 +134,8 @@ int free_participant_id(int domain_id, const std::string& shm_dir) {
     if (user > 65535) break;
     std::error_code ec;
     const auto held = [&](int number) {
-      return fs::exists(shm_dir + "/fastrtps_port" + std::to_string(number), ec) ||
-             fs::exists(shm_dir + "/fastrtps_port" + std::to_string(number) + "_el", ec);
+      const std::string file = shm_dir + "/" + kPortFile + std::to_string(number);
+      return fs::exists(file, ec) || fs::exists(file + "_el", ec);
     };
     if (!held(meta) && !held(user)) return id;
   }

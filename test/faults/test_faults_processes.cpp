@@ -320,13 +320,15 @@ void FaultsTwoPc::kill_and_restart(bool vision) {
     test::wait_for([&] { return (t_frame = frames.first_after(t_spawn)) > 0; }, 30);
     const int64_t t_joined = when_logged(vision ? "robot_0.log" : log, gaze_joined(), vision ? round + 2 : 1, 30);
     if (t_frame <= 0) {  // stopped, each process logs what its nodes took in and sent (--stats)
-      for (pid_t p : {pid, vision ? robot : head, motors}) kill(p, SIGTERM);
-      for (pid_t p : {pid, vision ? robot : head, motors}) test::wait_child(p, 10);
+      for (pid_t p : {head, robot, motors}) kill(p, SIGTERM);
+      for (pid_t p : {head, robot, motors}) test::wait_child(p, 10);
     }
+    const std::string survivor = vision ? "robot_0.log" : "head_0.log";
     ASSERT_GT(t_frame, 0) << "no frame after the restart\n"
                           << log << ":\n"
-                          << log_of(log) << "\nrobot_0.log:\n"
-                          << log_of("robot_0.log") << "\nmotors.log:\n"
+                          << log_of(log) << "\n"
+                          << survivor << ":\n"
+                          << log_of(survivor) << "\nmotors.log:\n"
                           << log_of("motors.log");
     ASSERT_GT(t_joined, 0) << "the robot side never matched the vision side's requests";
     const double resumed = since(t_spawn, std::max(t_frame, t_joined));
