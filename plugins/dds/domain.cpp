@@ -8,6 +8,7 @@
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/dds/log/Log.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 
@@ -20,6 +21,26 @@ namespace saccade::dds {
 namespace fdds = eprosima::fastdds::dds;
 
 namespace {
+
+// Fast DDS' own errors go to saccade's log (stderr, timed, with the other
+// messages) rather than to stdout; its warnings too at --log-level debug, for
+// whoever looks into discovery or shared memory ("Port 7412 ... NOT Healthy").
+class FastDdsLog : public fdds::LogConsumer {
+ public:
+  void Consume(const fdds::Log::Entry& entry) override {
+    const char* category = entry.context.category != nullptr ? entry.context.category : "";
+    if (entry.kind == fdds::Log::Kind::Error)
+      log().error("Fast DDS {}: {}", category, entry.message);
+    else
+      log().debug("Fast DDS {}: {}", category, entry.message);
+  }
+};
+
+void route_fast_dds_log() {
+  fdds::Log::ClearConsumers();
+  fdds::Log::RegisterConsumer(std::make_unique<FastDdsLog>());
+  fdds::Log::SetVerbosity(log().should_log(spdlog::level::debug) ? fdds::Log::Kind::Warning : fdds::Log::Kind::Error);
+}
 
 template <class Qos>
 void apply_edge_settings(Qos& qos, const EdgeSettings& s) {
@@ -90,9 +111,11 @@ Result<std::shared_ptr<Domain>> Domain::get(int domain_id) {
   std::lock_guard lock(mu);
   if (auto existing = domains[domain_id].lock()) return existing;
 
-  // Once per process: what crashed processes left would otherwise fill /dev/shm (16 MB a participant).
-  static bool cleaned = false;
-  if (!std::exchange(cleaned, true)) {
+  // Once per process: Fast DDS' log, and what crashed processes left, which
+  // would otherwise fill /dev/shm (16 MB a participant).
+  static bool first = true;
+  if (std::exchange(first, false)) {
+    route_fast_dds_log();
     StaleSharedMemory stale = remove_stale_shared_memory();
     if (!stale.removed.empty())
       log().info("removed {} shared-memory files ({:.1f} MB) that DDS processes which died left in /dev/shm",

@@ -12,7 +12,12 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <set>
 #include <thread>
+
+#include <fastdds/dds/log/Log.hpp>
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
@@ -85,6 +90,19 @@ class Participant {
   fdds::Topic* targets_ = nullptr;
 };
 
+// The shared-memory ports a process maps ("(deleted)": one whose file another
+// process removed and made again, which its listener no longer hears), for a
+// failure to show.
+std::string mapped_ports(pid_t pid) {
+  std::ifstream maps("/proc/" + std::to_string(pid) + "/maps");
+  std::set<std::string> ports;
+  for (std::string line; std::getline(maps, line);)
+    if (auto at = line.find("/dev/shm/fastrtps_port"); at != std::string::npos) ports.insert(line.substr(at + 9));
+  std::string out;
+  for (const auto& port : ports) out += "  " + port + "\n";
+  return out;
+}
+
 int make_security(const fs::path& dir, const std::string& names) {
   const std::string command = "bash " SACCADE_SOURCE_DIR "/scripts/make-security.sh " + dir.string() + " " + names +
                               " > " + (dir.string() + ".log") + " 2>&1";
@@ -104,6 +122,8 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
   // for good. (CTest runs this test alone too.)
   const int domain = test::private_domain();
   const std::string domain_text = std::to_string(domain);
+  // This process's participants' Fast DDS warnings, in the output a failure shows.
+  fdds::Log::SetVerbosity(fdds::Log::Kind::Warning);
 
   Participant plain("", prefix, domain), foreign((root / "foreign" / "head_pc").string(), prefix, domain),
       authorised((root / "keys" / "head_pc").string(), prefix, domain);
@@ -117,17 +137,20 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
   fdds::DataWriter* writer = authorised.target_writer();
   ASSERT_TRUE(plain_reader && foreign_reader && plain_writer && foreign_writer && writer);
 
-  const fs::path stats = root / "robot.json";
-  pid_t robot = test::spawn_saccade({"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_robot.xml",
+  // Both processes' output, with Fast DDS' warnings, is shown if the test fails.
+  const fs::path stats = root / "robot.json", robot_log = root / "robot.log", head_log = root / "head.log";
+  pid_t robot = test::spawn_saccade({"--log-level", "debug", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_robot.xml",
                                      "--security", (root / "keys" / "robot_pc").string(), "--set",
                                      "images.topic=" + prefix + "images", "--set",
                                      "targets.topic=" + prefix + "targets", "--set", "images.domain=" + domain_text,
-                                     "--set", "targets.domain=" + domain_text, "--stats-json", stats.string()});
+                                     "--set", "targets.domain=" + domain_text, "--stats-json", stats.string()},
+                                    robot_log.string());
   const fs::path head_stats = root / "head.json";
-  pid_t head = test::spawn_saccade({"--log-level", "warn", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_images.xml",
+  pid_t head = test::spawn_saccade({"--log-level", "debug", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_images.xml",
                                     "--security", (root / "keys" / "head_pc").string(), "--set",
                                     "publish.topic=" + prefix + "images", "--set", "publish.domain=" + domain_text,
-                                    "--stats-json", head_stats.string()});
+                                    "--stats-json", head_stats.string()},
+                                   head_log.string());
   ASSERT_GT(robot, 0);
   ASSERT_GT(head, 0);
 
@@ -150,6 +173,8 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   EXPECT_EQ(matched.current_count, 1) << "the robot's secured reader matches the authorised writer";
+  const std::string ports = "shared-memory ports the robot maps:\n" + mapped_ports(robot) +
+                            "the head's:\n" + mapped_ports(head);
   saccade_idl::JointTargets targets;
   targets.position() = {0.1, 0.2, 0.3, 0.4, 0.5};
   for (int i = 0; i < 5; ++i) {
@@ -187,6 +212,11 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
     w->get_publication_matched_status(s);
     EXPECT_EQ(s.total_count, 0) << "an intruder's writer matched the robot's reader";
   }
+  if (HasFailure())
+    std::cout << "domain " << domain << "\n"
+              << ports << "robot's output:\n"
+              << test::read_text(robot_log.string()) << "head's output:\n"
+              << test::read_text(head_log.string());
   fs::remove_all(root);
   fs::remove(root.string() + ".log");
 }
