@@ -28,12 +28,15 @@ struct TransportSettings {
   // UDP socket buffers; the kernel caps them at net.core.rmem_max / wmem_max.
   uint32_t udp_buffer_bytes = 4u << 20;
   // How long a process opening a shared-memory port waits for the port's
-  // listeners to show they are alive. A process killed while listening leaves
-  // its listener in the port (the discovery port every participant shares);
-  // each new participant then waits the whole timeout before it rebuilds the
-  // port. Fast DDS' 1000 ms made a restarted process meet its peer 1-3 s late
-  // (one wait per port); live listeners answer every third of it.
-  uint32_t shm_health_check_ms = 250;
+  // listeners to show they are alive before it takes the port for dead,
+  // removes its file and makes a new one. A live listener whose thread is
+  // starved that long (a loaded host, a VM's stolen time) is then deaf to
+  // everyone who opens the port afterwards, for good, so a match or a
+  // security handshake that needs the port never completes. 250 ms did that to live ports under
+  // 300 ms stalls; Fast DDS' 1000 ms did not. (A killed listener is found
+  // at once by its released lock, and a restarted process takes ports no
+  // one used, so this wait never slows a restart.)
+  uint32_t shm_health_check_ms = 1000;
 };
 
 // The QoS of one edge's topic, from the bridges' parameters (or a benchmark).
