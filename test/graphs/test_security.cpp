@@ -139,18 +139,18 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
 
   // Both processes' output, with Fast DDS' warnings, is shown if the test fails.
   const fs::path stats = root / "robot.json", robot_log = root / "robot.log", head_log = root / "head.log";
-  pid_t robot = test::spawn_saccade({"--log-level", "debug", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_robot.xml",
-                                     "--security", (root / "keys" / "robot_pc").string(), "--set",
-                                     "images.topic=" + prefix + "images", "--set",
-                                     "targets.topic=" + prefix + "targets", "--set", "images.domain=" + domain_text,
-                                     "--set", "targets.domain=" + domain_text, "--stats-json", stats.string()},
-                                    robot_log.string());
+  pid_t robot = test::spawn_saccade(
+      {"--log-level", "debug", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_robot.xml", "--security",
+       (root / "keys" / "robot_pc").string(), "--set", "images.topic=" + prefix + "images", "--set",
+       "targets.topic=" + prefix + "targets", "--set", "images.domain=" + domain_text, "--set",
+       "targets.domain=" + domain_text, "--stats-json", stats.string()},
+      robot_log.string());
   const fs::path head_stats = root / "head.json";
-  pid_t head = test::spawn_saccade({"--log-level", "debug", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_images.xml",
-                                    "--security", (root / "keys" / "head_pc").string(), "--set",
-                                    "publish.topic=" + prefix + "images", "--set", "publish.domain=" + domain_text,
-                                    "--stats-json", head_stats.string()},
-                                   head_log.string());
+  pid_t head = test::spawn_saccade(
+      {"--log-level", "debug", "run", SACCADE_SOURCE_DIR "/test/graphs/secure_images.xml", "--security",
+       (root / "keys" / "head_pc").string(), "--set", "publish.topic=" + prefix + "images", "--set",
+       "publish.domain=" + domain_text, "--stats-json", head_stats.string()},
+      head_log.string());
   ASSERT_GT(robot, 0);
   ASSERT_GT(head, 0);
 
@@ -173,8 +173,8 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   EXPECT_EQ(matched.current_count, 1) << "the robot's secured reader matches the authorised writer";
-  const std::string ports = "shared-memory ports the robot maps:\n" + mapped_ports(robot) +
-                            "the head's:\n" + mapped_ports(head);
+  const std::string ports =
+      "shared-memory ports the robot maps:\n" + mapped_ports(robot) + "the head's:\n" + mapped_ports(head);
   saccade_idl::JointTargets targets;
   targets.position() = {0.1, 0.2, 0.3, 0.4, 0.5};
   for (int i = 0; i < 5; ++i) {
