@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <set>
 #include <thread>
@@ -103,6 +104,18 @@ std::string mapped_ports(pid_t pid) {
   return out;
 }
 
+// Runs `f` when it goes out of scope.
+class Finally {
+ public:
+  explicit Finally(std::function<void()> f) : f_(std::move(f)) {}
+  ~Finally() { f_(); }
+  Finally(const Finally&) = delete;
+  Finally& operator=(const Finally&) = delete;
+
+ private:
+  std::function<void()> f_;
+};
+
 int make_security(const fs::path& dir, const std::string& names) {
   const std::string command = "bash " SACCADE_SOURCE_DIR "/scripts/make-security.sh " + dir.string() + " " + names +
                               " > " + (dir.string() + ".log") + " 2>&1";
@@ -153,6 +166,17 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
       head_log.string());
   ASSERT_GT(robot, 0);
   ASSERT_GT(head, 0);
+  // Whatever fails below (an ASSERT returns at once), both processes' output is shown.
+  std::string ports;
+  const Finally show_and_clean_up([&] {
+    if (HasFailure())
+      std::cout << "domain " << domain << "\n"
+                << ports << "robot's output:\n"
+                << test::read_text(robot_log.string()) << "head's output:\n"
+                << test::read_text(head_log.string());
+    fs::remove_all(root);
+    fs::remove(root.string() + ".log");
+  });
 
   // The intruders keep offering joint targets the whole time.
   std::atomic<bool> done{false};
@@ -173,8 +197,7 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   EXPECT_EQ(matched.current_count, 1) << "the robot's secured reader matches the authorised writer";
-  const std::string ports =
-      "shared-memory ports the robot maps:\n" + mapped_ports(robot) + "the head's:\n" + mapped_ports(head);
+  ports = "shared-memory ports the robot maps:\n" + mapped_ports(robot) + "the head's:\n" + mapped_ports(head);
   saccade_idl::JointTargets targets;
   targets.position() = {0.1, 0.2, 0.3, 0.4, 0.5};
   for (int i = 0; i < 5; ++i) {
@@ -212,13 +235,6 @@ TEST(DdsSecurity, OnlyParticipantsWithTheRobotsCertificatesReadImagesOrPublishJo
     w->get_publication_matched_status(s);
     EXPECT_EQ(s.total_count, 0) << "an intruder's writer matched the robot's reader";
   }
-  if (HasFailure())
-    std::cout << "domain " << domain << "\n"
-              << ports << "robot's output:\n"
-              << test::read_text(robot_log.string()) << "head's output:\n"
-              << test::read_text(head_log.string());
-  fs::remove_all(root);
-  fs::remove(root.string() + ".log");
 }
 
 TEST(DdsSecurity, AMissingFileOfTheFolderIsNamed) {
