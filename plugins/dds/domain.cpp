@@ -279,4 +279,38 @@ void Domain::SchemaListener::on_subscriber_discovery(fdds::DomainParticipant*,
     domain->discovered(info.info, "reads");
 }
 
+namespace {
+
+std::string guid_text(const eprosima::fastrtps::rtps::GUID_t& guid) {
+  std::ostringstream text;
+  text << guid;
+  return text.str();
+}
+
+}  // namespace
+
+void Domain::SchemaListener::on_participant_discovery(fdds::DomainParticipant*,
+                                                      eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
+  using Info = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
+  const char* what = info.status == Info::DISCOVERED_PARTICIPANT    ? "discovered"
+                     : info.status == Info::CHANGED_QOS_PARTICIPANT ? "changed its QoS"
+                     : info.status == Info::REMOVED_PARTICIPANT     ? "left"
+                     : info.status == Info::DROPPED_PARTICIPANT     ? "dropped (its lease expired)"
+                                                                    : "ignored";
+  log().debug("DDS participant {} ({}) {}", guid_text(info.info.m_guid), info.info.m_participantName.to_string(), what);
+}
+
+#if HAVE_SECURITY
+void Domain::SchemaListener::onParticipantAuthentication(
+    fdds::DomainParticipant*, eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) {
+  if (info.status == eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::AUTHORIZED_PARTICIPANT)
+    log().debug("DDS participant {} authenticated", guid_text(info.guid));
+  else
+    log().warn(
+        "DDS participant {} failed authentication (not of this certificate authority, or its permissions "
+        "refuse it): nothing is exchanged with it",
+        guid_text(info.guid));
+}
+#endif
+
 }  // namespace saccade::dds

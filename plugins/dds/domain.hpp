@@ -97,6 +97,15 @@ class Domain {
                                 eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override;
     void on_subscriber_discovery(eprosima::fastdds::dds::DomainParticipant*,
                                  eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) override;
+    // Peers coming and going at debug level; with DDS Security, each peer's
+    // authentication (a refused one a warning: an intruder, or a peer of
+    // another certificate authority).
+    void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant*,
+                                  eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
+#if HAVE_SECURITY
+    void onParticipantAuthentication(eprosima::fastdds::dds::DomainParticipant*,
+                                     eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) override;
+#endif
   };
   struct PeerEndpoint {
     std::string topic, type;  // the DDS type name
