@@ -22,6 +22,12 @@ namespace fdds = eprosima::fastdds::dds;
 
 namespace {
 
+std::string guid_text(const eprosima::fastrtps::rtps::GUID_t& guid) {
+  std::ostringstream text;
+  text << guid;
+  return text.str();
+}
+
 // Fast DDS' own errors go to saccade's log (stderr, timed, with the other
 // messages) rather than to stdout; its warnings too at --log-level debug, for
 // whoever looks into discovery or shared memory ("Port 7412 ... NOT Healthy").
@@ -245,11 +251,10 @@ template <class Proxy>
 void Domain::discovered(const Proxy& proxy, const char* role) {
   const uint64_t fingerprint = schema_in_user_data(proxy.m_qos.m_userData.data_vec());
   if (fingerprint == 0) return;  // a peer that does not say: nothing to compare
-  std::ostringstream guid;
-  guid << proxy.guid();
   std::lock_guard lock(schema_mu_);
-  auto [it, fresh] = peers_.try_emplace(
-      guid.str(), PeerEndpoint{proxy.topicName().to_string(), proxy.typeName().to_string(), fingerprint, role});
+  auto [it, fresh] =
+      peers_.try_emplace(guid_text(proxy.guid()),
+                         PeerEndpoint{proxy.topicName().to_string(), proxy.typeName().to_string(), fingerprint, role});
   if (fresh) report_if_other(it->second);  // (an endpoint back after a lease ran out is not named again)
 }
 
@@ -278,16 +283,6 @@ void Domain::SchemaListener::on_subscriber_discovery(fdds::DomainParticipant*,
   if (info.status == eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERED_READER)
     domain->discovered(info.info, "reads");
 }
-
-namespace {
-
-std::string guid_text(const eprosima::fastrtps::rtps::GUID_t& guid) {
-  std::ostringstream text;
-  text << guid;
-  return text.str();
-}
-
-}  // namespace
 
 void Domain::SchemaListener::on_participant_discovery(fdds::DomainParticipant*,
                                                       eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {

@@ -32,10 +32,10 @@ struct TransportSettings {
   // removes its file and makes a new one. A live listener whose thread is
   // starved that long (a loaded host, a VM's stolen time) is then deaf to
   // everyone who opens the port afterwards, for good, so a match or a
-  // security handshake that needs the port never completes. 250 ms did that to live ports under
-  // 300 ms stalls; Fast DDS' 1000 ms did not. (A killed listener is found
-  // at once by its released lock, and a restarted process takes ports no
-  // one used, so this wait never slows a restart.)
+  // security handshake that needs the port never completes. 250 ms did that
+  // to live ports under 300 ms stalls; Fast DDS' 1000 ms did not. (A killed
+  // listener is found at once by its released lock, and a restarted process
+  // takes ports no one used, so this wait never slows a restart.)
   uint32_t shm_health_check_ms = 1000;
 };
 

@@ -96,9 +96,10 @@ class Participant {
 // failure to show.
 std::string mapped_ports(pid_t pid) {
   std::ifstream maps("/proc/" + std::to_string(pid) + "/maps");
+  const std::string shm = "/dev/shm/";
   std::set<std::string> ports;
   for (std::string line; std::getline(maps, line);)
-    if (auto at = line.find("/dev/shm/fastrtps_port"); at != std::string::npos) ports.insert(line.substr(at + 9));
+    if (auto at = line.find(shm + "fastrtps_port"); at != std::string::npos) ports.insert(line.substr(at + shm.size()));
   std::string out;
   for (const auto& port : ports) out += "  " + port + "\n";
   return out;
