@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: deps build demo test faults bench bench-dds bench-track bench-track-people bench-stereo bench-verge bench-latency bench-view fuzz docs asan tsan clean configure install
+.PHONY: deps build demo test faults bench bench-dds bench-track bench-track-people bench-track-faces bench-stereo bench-verge bench-latency bench-view fuzz docs asan tsan clean configure install
 
 deps:
 	@bash scripts/install-deps.sh
@@ -60,6 +60,16 @@ bench-track-people: build
 	@mkdir -p out
 	$(BUILD)/bin/saccade_track_bench --no-generated --trackers fovea,csrt --markdown out/bench-track-people.md \
 	  $(foreach p,$(PEOPLE),--video $(VTEST):$(p):150) $(TRACK_ARGS)
+
+# The trackers on the four shots of opencv-doc's Megamind.avi (an animated film's faces), each
+# from the box OpenCV's Haar face detector gives on its first frame, to the next cut: without
+# truth, witness measures (docs/tracking.md).
+MEGAMIND := /usr/share/doc/opencv-doc/examples/data/Megamind.avi
+FACES := 2:210,165,155,155:96 98:389,112,170,170:56 156:203,149,186,186:44 200:215,62,349,349:70
+bench-track-faces: build
+	@mkdir -p out
+	$(BUILD)/bin/saccade_track_bench --no-generated --trackers fovea,csrt,kcf,mil --markdown out/bench-track-faces.md \
+	  $(foreach f,$(FACES),--video $(MEGAMIND):$(f)) $(TRACK_ARGS)
 
 # The retina stereo matcher against OpenCV's StereoBM and StereoSGBM, one thread, on
 # Aloe and rendered scenes with exact disparity (add STEREO_ARGS="--variants" for more).
