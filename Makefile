@@ -72,7 +72,8 @@ bench-track-faces: build
 	  $(foreach f,$(FACES),--video $(MEGAMIND):$(f)) $(TRACK_ARGS)
 
 # The retina stereo matcher against OpenCV's StereoBM and StereoSGBM, one thread, on
-# Aloe and rendered scenes with exact disparity (add STEREO_ARGS="--variants" for more).
+# Aloe, rendered scenes with exact disparity and opencv-doc's chessboard pairs from a real rig
+# (add STEREO_ARGS="--variants" for more).
 bench-stereo: build
 	@mkdir -p out
 	$(BUILD)/bin/saccade_stereo_bench --data /usr/share/doc/opencv-doc/examples/data --markdown out/bench-stereo.md $(STEREO_ARGS)

@@ -10,6 +10,12 @@
 // they would; a little sensor noise, seeded). Each pair is looked at on a grid
 // of 3 x 3 fixations (the fovea centred at a quarter, a half and three
 // quarters of the width and height).
+// And real cameras: opencv-doc's 13 chessboard pairs (left01..right14,
+// 640x480), calibrated as `saccade calibrate` does and rectified with that
+// calibration; the truth is the disparities of the board's 54 corners found
+// in both images, interpolated across each square (extrapolated over the
+// outer ones; elsewhere unknown), and the fixations lie on the board (its middle and four points
+// half way to its corners). The 13 pairs are scored as one set.
 //
 // Scores (counts summed over the fixations): density = pixels given a
 // disparity / pixels with a known truth; bad-1 and bad-2 = given pixels wrong
@@ -42,6 +48,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "camera_calibration.hpp"
+#include "head_rectification.hpp"
 #include "retina.hpp"
 #include "retina_stereo.hpp"
 #include "stereo_params.hpp"
@@ -64,6 +72,8 @@ struct Pair {
   cv::Mat truth;        // CV_32F
   cv::Mat hidden;       // CV_8U, 255 where the right camera cannot see the left pixel (from the truth)
   int num_disparities = 16;
+  std::vector<cv::Point2d> fixations;  // where the fovea looks (empty: the 3 x 3 grid)
+  std::string set;                     // pairs of one set are scored together, under the set's name
 };
 
 // ---------------------------------------------------------------- rendering
@@ -231,6 +241,115 @@ Pair aloe(const std::string& data, int divisor) {
   return p;
 }
 
+// The chessboard pairs of opencv-doc (a real stereo rig), rectified with the
+// calibration `saccade calibrate` makes of them; the truth is the corners'
+// disparities across the board's squares. An error names what failed.
+std::vector<Pair> chessboard_pairs(const std::string& data) {
+  kinematics::CalibrationOptions options;
+  options.board.size = cv::Size(9, 6);
+  options.board.square = 1.0;
+  std::vector<kinematics::ImagePair> files;
+  for (int i = 1; i <= 14; ++i) {
+    if (i == 10) continue;  // opencv-doc has no left10/right10
+    const std::string n = cv::format("%02d.jpg", i);
+    files.push_back({data + "/left" + n, data + "/right" + n, {}, {}});
+  }
+  const kinematics::CalibrationResult calibrated = kinematics::calibrate_head(files, options);
+  const Result<retina::PairRectification> rectified =
+      calibrated.status.ok()
+          ? retina::rectify_pair(calibrated.calibration, kinematics::HeadGeometry{}, kinematics::HeadJoints{})
+          : Result<retina::PairRectification>(calibrated.status);
+  if (!rectified.ok()) {
+    std::fprintf(stderr, "saccade_stereo_bench: the chessboard pairs under %s: %s\n", data.c_str(),
+                 rectified.error().c_str());
+    std::exit(2);
+  }
+  const cv::Size size = calibrated.calibration.image_size;
+  const auto maps = [&](const Rectification& r, cv::Mat& x, cv::Mat& y) {
+    cv::initUndistortRectifyMap(cv::Matx33d(r.camera.val), r.distortion, cv::Matx33d(r.rotation.val),
+                                cv::Matx33d(r.rectified.val), size, CV_32FC1, x, y);
+  };
+  cv::Mat lx, ly, rx, ry;
+  maps(rectified->left, lx, ly);
+  maps(rectified->right, rx, ry);
+  const auto corners = [&](const cv::Mat& gray, const Rectification& r) {
+    const kinematics::BoardView view = kinematics::find_board(gray, options.board);
+    std::vector<cv::Point2f> out;
+    if (view.found())
+      cv::undistortPoints(view.points, out, cv::Matx33d(r.camera.val), r.distortion, cv::Matx33d(r.rotation.val),
+                          cv::Matx33d(r.rectified.val));
+    return out;
+  };
+  std::vector<Pair> pairs;
+  for (const kinematics::ImagePair& f : files) {
+    const cv::Mat l = cv::imread(f.left, cv::IMREAD_GRAYSCALE), r = cv::imread(f.right, cv::IMREAD_GRAYSCALE);
+    const std::vector<cv::Point2f> lc = corners(l, rectified->left), rc = corners(r, rectified->right);
+    if (lc.size() != 54 || rc.size() != 54) {
+      std::fprintf(stderr, "saccade_stereo_bench: %s: the board is not found in both images\n", f.left.c_str());
+      std::exit(2);
+    }
+    Pair p;
+    cv::remap(l, p.left, lx, ly, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+    cv::remap(r, p.right, rx, ry, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+    // The corners' disparities, and where each lies on the board (corner i at column i % 9, row i / 9).
+    std::vector<double> corner_disparity(54);
+    std::vector<cv::Point2f> board_coords;
+    double row_error = 0;
+    for (int i = 0; i < 54; ++i) {
+      corner_disparity[static_cast<std::size_t>(i)] = lc[i].x - rc[i].x;
+      row_error = std::max(row_error, static_cast<double>(std::abs(lc[i].y - rc[i].y)));
+      board_coords.emplace_back(static_cast<float>(i % 9), static_cast<float>(i / 9));
+    }
+    if (verbose)
+      std::fprintf(stderr, "  %s: corners' rows within %.2f px after rectification\n", f.left.c_str(), row_error);
+    // The board's squares: its inner corners' grid extended by one square each way.
+    const cv::Matx33d h(cv::findHomography(board_coords, lc));
+    const cv::Matx33d to_board = h.inv();
+    const auto on_board = [&](double u, double v) {
+      const cv::Vec3d q = h * cv::Vec3d(u, v, 1);
+      return cv::Point2d(q[0] / q[2], q[1] / q[2]);
+    };
+    // The truth at a left pixel: the corners' disparities interpolated across
+    // the board's square under it (extrapolated over the outer squares), so a
+    // board that is not quite flat is followed too.
+    const auto disparity_at = [&](double x, double y) {
+      const cv::Vec3d q = to_board * cv::Vec3d(x, y, 1);
+      const double u = q[0] / q[2], v = q[1] / q[2];
+      const int i = std::clamp(static_cast<int>(std::floor(u)), 0, 7),
+                j = std::clamp(static_cast<int>(std::floor(v)), 0, 4);
+      const double fu = u - i, fv = v - j;
+      const auto d = [&](int ii, int jj) { return corner_disparity[static_cast<std::size_t>(jj * 9 + ii)]; };
+      return (1 - fv) * ((1 - fu) * d(i, j) + fu * d(i + 1, j)) + fv * ((1 - fu) * d(i, j + 1) + fu * d(i + 1, j + 1));
+    };
+    std::vector<cv::Point> outline;
+    for (const cv::Point2d c : {on_board(-1, -1), on_board(9, -1), on_board(9, 6), on_board(-1, 6)})
+      outline.emplace_back(static_cast<int>(std::lround(c.x)), static_cast<int>(std::lround(c.y)));
+    cv::Mat board = cv::Mat::zeros(size, CV_8U);
+    cv::fillConvexPoly(board, outline, cv::Scalar(255));
+    p.truth.create(size, CV_32F);
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x)
+        p.truth.at<float>(y, x) = board.at<uint8_t>(y, x) ? static_cast<float>(disparity_at(x, y)) : -1.0f;
+    double largest = 0;
+    cv::minMaxLoc(p.truth, nullptr, &largest);
+    p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+    for (const cv::Point2d c :
+         {on_board(4, 2.5), on_board(2, 1.25), on_board(6, 1.25), on_board(2, 3.75), on_board(6, 3.75)})
+      p.fixations.push_back(c);
+    p.name = "chessboard_" + std::string(f.left.end() - 6, f.left.end() - 4);
+    p.set = "chessboards";
+    char what[200];
+    std::snprintf(
+        what, sizeof what,
+        "opencv-doc's 13 chessboard pairs (a real stereo rig, 640x480), rectified with their calibration "
+        "(RMS %.2f px); truth: the corners' disparities across the board's squares, 5 fixations on each board",
+        calibrated.calibration.rms);
+    p.what = what;
+    pairs.push_back(std::move(p));
+  }
+  return pairs;
+}
+
 // ---------------------------------------------------------------- scoring
 
 struct Score {
@@ -361,7 +480,7 @@ MatcherResult ours(const std::string& name, const stereo::RetinaStereoConfig& co
   std::shared_ptr<Retina> left, right;
   std::vector<double> ms;
   r.fixations_right = 0;
-  for (const cv::Point2d& f : fixations(p.left.size())) {
+  for (const cv::Point2d& f : p.fixations.empty() ? fixations(p.left.size()) : p.fixations) {
     for (int i = 0; i < reps; ++i) {
       const auto t0 = Clock::now();
       left = make_retina(left_sampler, left_frame, f, left);
@@ -490,6 +609,8 @@ std::vector<Pair> select_pairs(const std::string& data, const std::vector<std::s
   if (wanted("aloe_third")) pairs.push_back(aloe(data, 3));
   for (Pair& p : rendered_pairs(data))
     if (wanted(p.name)) pairs.push_back(std::move(p));
+  if (wanted("chessboards"))
+    for (Pair& p : chessboard_pairs(data)) pairs.push_back(std::move(p));
   for (Pair& p : pairs) p.hidden = hidden_from_right_camera(p.truth);
   return pairs;
 }
@@ -548,6 +669,26 @@ void write_results_table(std::ostringstream& md, const Pair& p, const std::vecto
        << fmt("%.3f", r.fovea_hidden.bad2_rate()) << " |\n";
 }
 
+// One set's pairs scored together: counts summed, times averaged over the pairs.
+void merge(std::vector<MatcherResult>& into, const std::vector<MatcherResult>& results, int pairs_before) {
+  if (into.empty()) {
+    into = results;
+    return;
+  }
+  for (std::size_t i = 0; i < into.size() && i < results.size(); ++i) {
+    MatcherResult& a = into[i];
+    const MatcherResult& b = results[i];
+    for (auto [x, y] : {std::pair{&a.fovea, &b.fovea}, std::pair{&a.whole, &b.whole},
+                        std::pair{&a.fovea_seen, &b.fovea_seen}, std::pair{&a.fovea_hidden, &b.fovea_hidden}}) {
+      x->known += y->known, x->given += y->given, x->bad1 += y->bad1, x->bad2 += y->bad2;
+    }
+    a.ms = (a.ms * pairs_before + b.ms) / (pairs_before + 1);
+    if (a.fixations_right >= 0) a.fixations_right += b.fixations_right;
+    a.fixations += b.fixations, a.confirmed += b.confirmed, a.confirmed_right += b.confirmed_right;
+    if (a.note.rfind("numDisparities", 0) == 0) a.note = "numDisparities from each pair's truth";
+  }
+}
+
 struct Floor {
   std::string pair;
   MatcherResult ours, sgbm;
@@ -589,7 +730,7 @@ int main(int argc, char** argv) {
   app.add_option("--set", sets,
                  "key=value: also run our matcher with the defaults changed so (repeatable; "
                  "the stereo node's parameter names)");
-  app.add_option("--pair", only, "only these pairs (aloe, aloe_third, planes_640, planes_450)");
+  app.add_option("--pair", only, "only these pairs (aloe, aloe_third, planes_640, planes_450, chessboards)");
   app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
   app.add_flag("--error-maps", error_maps,
                "with --verbose, each fovea's pixels: o within 2 px of the truth, + nearer, - farther, . none, "
@@ -608,11 +749,25 @@ int main(int argc, char** argv) {
      << retina_config.size.height << "; fixations: 3 x 3 grid; one thread; times are medians of " << matchers.reps
      << " runs per fixation (ours) and " << matchers.cv_reps << " per pair (OpenCV).\n";
   std::vector<Floor> floors;
-  for (const Pair& p : pairs) {
+  std::vector<MatcherResult> set_results;
+  int set_pairs = 0;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const Pair& p = pairs[i];
     std::fprintf(stderr, "%s: %s\n", p.name.c_str(), p.what.c_str());
-    const std::vector<MatcherResult> results = run_matchers(p, retina_config, matchers);
-    floors.push_back({p.name, results.front(), results.back()});
-    write_results_table(md, p, results);
+    std::vector<MatcherResult> results = run_matchers(p, retina_config, matchers);
+    if (!p.set.empty()) {
+      merge(set_results, results, set_pairs++);
+      if (i + 1 < pairs.size() && pairs[i + 1].set == p.set) continue;
+      results = std::move(set_results);
+      set_results.clear();
+      set_pairs = 0;
+    }
+    const std::string name = p.set.empty() ? p.name : p.set;
+    floors.push_back({name, results.front(), results.back()});
+    Pair named;
+    named.name = name;
+    named.what = p.what;
+    write_results_table(md, named, results);
     // Each pair's table as soon as it is measured: a full run takes minutes.
     std::fputs(md.str().c_str(), stdout);
     std::fflush(stdout);

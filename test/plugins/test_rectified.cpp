@@ -24,6 +24,7 @@
 namespace saccade::retina {
 namespace {
 
+namespace fs = std::filesystem;
 using kinematics::HeadGeometry;
 using kinematics::HeadJoints;
 
@@ -461,6 +462,142 @@ TEST(RectifiedBadInput, AJointThatIsNotANumberAndAStereoCalibrationForOtherImage
   EXPECT_THAT(s.message(), ::testing::HasSubstr("640x480"));
   EXPECT_THAT(s.message(), ::testing::HasSubstr("320x240"));
   std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace saccade::retina
+
+namespace saccade::retina {
+namespace {
+
+// A real stereo rig: opencv-doc's 13 chessboard pairs (left01..right14, 640x480),
+// calibrated as `saccade calibrate` does, each pair sampled on the rectified
+// grid and matched with the stereo's defaults. The board's corners, found in
+// both images and taken to the rectified images, give the truth: they lie on
+// one row in both (the rectification), and their disparities on one plane
+// (the board), which gives the disparity under every fovea pixel. The left
+// fovea sits on the board's middle; the right one on the same rectified point,
+// as parallel cameras would look: the matcher finds the disparity itself.
+struct BoardTruth {
+  double row_error = 0;  // largest |y_left - y_right| over the corners, rectified pixels
+  double row_error_sum = 0;
+  cv::Vec3d plane;         // disparity = a x + b y + c over the left rectified image
+  double plane_error = 0;  // largest distance of a corner's disparity from the plane
+  cv::Point2d middle;      // the board's middle corner, left rectified
+  double at(cv::Point2d p) const { return plane[0] * p.x + plane[1] * p.y + plane[2]; }
+};
+
+BoardTruth board_truth(const kinematics::BoardView& left, const kinematics::BoardView& right,
+                       const PairRectification& pair) {
+  const RectifiedMap left_map(pair.left), right_map(pair.right);
+  BoardTruth t;
+  const int n = static_cast<int>(left.points.size());
+  cv::Mat a(n, 3, CV_64F), b(n, 1, CV_64F);
+  std::vector<cv::Point2d> at(static_cast<std::size_t>(n));
+  std::vector<double> disparity(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    // OpenCV's corners have pixel centres on whole numbers; the retina's lie half a pixel on.
+    const cv::Point2d l = left_map.to_rectified(cv::Point2d(left.points[i]) + cv::Point2d(0.5, 0.5));
+    const cv::Point2d r = right_map.to_rectified(cv::Point2d(right.points[i]) + cv::Point2d(0.5, 0.5));
+    t.row_error = std::max(t.row_error, std::abs(l.y - r.y));
+    t.row_error_sum += std::abs(l.y - r.y);
+    at[static_cast<std::size_t>(i)] = l;
+    disparity[static_cast<std::size_t>(i)] = l.x - r.x;
+    a.at<double>(i, 0) = l.x, a.at<double>(i, 1) = l.y, a.at<double>(i, 2) = 1, b.at<double>(i) = l.x - r.x;
+  }
+  cv::Mat plane;
+  cv::solve(a, b, plane, cv::DECOMP_SVD);
+  t.plane = {plane.at<double>(0), plane.at<double>(1), plane.at<double>(2)};
+  for (int i = 0; i < n; ++i)
+    t.plane_error = std::max(t.plane_error,
+                             std::abs(t.at(at[static_cast<std::size_t>(i)]) - disparity[static_cast<std::size_t>(i)]));
+  t.middle = at[static_cast<std::size_t>(n / 2)];
+  return t;
+}
+
+TEST(RealStereoRig, RectifiedRetinasMatchTheChessboardPairsDisparity) {
+  kinematics::CalibrationOptions options;
+  options.board.size = cv::Size(9, 6);
+  options.board.square = 1.0;
+  std::vector<kinematics::ImagePair> pairs;
+  for (int i = 1; i <= 14; ++i) {
+    if (i == 10) continue;  // opencv-doc has no left10/right10
+    const std::string n = cv::format("%02d.jpg", i);
+    pairs.push_back({test::sample_path("left" + n), test::sample_path("right" + n), {}, {}});
+  }
+  const kinematics::CalibrationResult calibrated = kinematics::calibrate_head(pairs, options);
+  ASSERT_TRUE(calibrated.status.ok()) << calibrated.status.message();
+  const Result<PairRectification> rectified =
+      rectify_pair(calibrated.calibration, kinematics::HeadGeometry{}, kinematics::HeadJoints{});
+  ASSERT_TRUE(rectified.ok()) << rectified.error();
+  const PairRectification& pair = *rectified;
+  int fixations_within_1px = 0, given = 0, right = 0, known = 0, corners = 0;
+  double row_error_sum = 0;
+  for (const kinematics::ImagePair& files : pairs) {
+    const cv::Mat left_image = cv::imread(files.left, cv::IMREAD_GRAYSCALE);
+    const cv::Mat right_image = cv::imread(files.right, cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(left_image.empty() || right_image.empty()) << files.left;
+    const kinematics::BoardView left_board = kinematics::find_board(left_image, options.board);
+    const kinematics::BoardView right_board = kinematics::find_board(right_image, options.board);
+    ASSERT_TRUE(left_board.found() && right_board.found()) << files.left;
+    ASSERT_EQ(left_board.points.size(), right_board.points.size());
+    const BoardTruth truth = board_truth(left_board, right_board, pair);
+    // Rectified, a corner lies on one row in both images (to the calibration's accuracy).
+    EXPECT_LT(truth.row_error, 4.0) << files.left;
+    row_error_sum += truth.row_error_sum, corners += static_cast<int>(left_board.points.size());
+
+    cv::Point2d left_fovea, right_fovea;
+    ASSERT_TRUE(RectifiedMap(pair.left).to_source(truth.middle, left_fovea));
+    ASSERT_TRUE(RectifiedMap(pair.right).to_source(truth.middle, right_fovea));
+    const Retina left = rectified_retina(left_image, 0, pair.left, left_fovea);
+    const Retina right_retina = rectified_retina(right_image, 1, pair.right, right_fovea);
+    stereo::RetinaStereo matcher{stereo::RetinaStereoConfig{}};
+    std::vector<stereo::LevelDisparity> levels;
+    const Status matched = matcher.run(left, right_retina, levels);
+    ASSERT_TRUE(matched.ok()) << matched.message();
+    const double fixation = matcher.fixation().disparity;
+    const LevelGeometry& fovea = left.geometry.back();
+    const cv::Point2d centre(fovea.region.x + fovea.region.width / 2.0, fovea.region.y + fovea.region.height / 2.0);
+    const double expected = truth.at(centre);
+    fixations_within_1px += std::abs(fixation - expected) <= 1.0;
+    // The fovea's pixels on the board (all of them: it sits on the middle corner).
+    const cv::Mat& d = levels.back().disparity;
+    int pair_given = 0, pair_right = 0;
+    for (int y = 0; y < d.rows; ++y)
+      for (int x = 0; x < d.cols; ++x) {
+        const cv::Point2d at(fovea.region.x + (x + 0.5) * fovea.step_x, fovea.region.y + (y + 0.5) * fovea.step_y);
+        const float v = d.at<float>(y, x);
+        ++known;
+        if (v < 0) continue;
+        ++pair_given;
+        pair_right += std::abs(v - truth.at(at)) <= 2.0;
+      }
+    given += pair_given, right += pair_right;
+    if (std::getenv("SACCADE_TEST_VERBOSE")) {
+      std::printf("  per level");
+      for (double v : matcher.fixation().per_level) std::printf(" %.1f", v);
+      std::printf("\n");
+    }
+    std::printf(
+        "%s: rows within %.2f px, plane within %.2f px; fixation %.2f, truth %.2f (%s); fovea %d of %d given, "
+        "%d within 2 px\n",
+        fs::path(files.left).filename().c_str(), truth.row_error, truth.plane_error, fixation, expected,
+        matcher.fixation().confirmed ? "confirmed" : "unconfirmed", pair_given, d.rows * d.cols, pair_right);
+  }
+  const double density = static_cast<double>(given) / known,
+               bad2 = 1.0 - static_cast<double>(right) / std::max(given, 1);
+  std::printf(
+      "corners' rows within %.3f px on average; fixations within 1 px: %d of %zu; fovea density %.3f, bad-2 "
+      "%.3f\n",
+      row_error_sum / corners, fixations_within_1px, pairs.size(), density, bad2);
+  EXPECT_LT(row_error_sum / corners, 0.5) << "the rectification's rows";
+  // Measured: 12 of 13 (left04's board is matched two squares off: the
+  // coarse levels see the wall behind it, and a chessboard repeats), density
+  // 0.870, bad-2 0.211 (0.081 without left04); OpenCV's SGBM on the same
+  // rectified pairs: make bench-stereo STEREO_ARGS="--pair chessboards".
+  EXPECT_GE(fixations_within_1px, 11);
+  EXPECT_GE(density, 0.8);
+  EXPECT_LE(bad2, 0.25);
 }
 
 }  // namespace
