@@ -241,20 +241,26 @@ Pair aloe(const std::string& data, int divisor) {
   return p;
 }
 
-// The chessboard pairs of opencv-doc (a real stereo rig), rectified with the
-// calibration `saccade calibrate` makes of them; the truth is the corners'
-// disparities across the board's squares. An error names what failed.
-std::vector<Pair> chessboard_pairs(const std::string& data) {
+// opencv-doc's chessboard pairs (a real stereo rig), calibrated as `saccade
+// calibrate` does, and the maps that rectify them.
+struct ChessboardRig {
   kinematics::CalibrationOptions options;
-  options.board.size = cv::Size(9, 6);
-  options.board.square = 1.0;
   std::vector<kinematics::ImagePair> files;
+  double rms = 0;
+  retina::PairRectification rectification;
+  cv::Mat left_x, left_y, right_x, right_y;  // cv::remap's maps
+};
+
+ChessboardRig chessboard_rig(const std::string& data) {
+  ChessboardRig rig;
+  rig.options.board.size = cv::Size(9, 6);
+  rig.options.board.square = 1.0;
   for (int i = 1; i <= 14; ++i) {
     if (i == 10) continue;  // opencv-doc has no left10/right10
     const std::string n = cv::format("%02d.jpg", i);
-    files.push_back({data + "/left" + n, data + "/right" + n, {}, {}});
+    rig.files.push_back({data + "/left" + n, data + "/right" + n, {}, {}});
   }
-  const kinematics::CalibrationResult calibrated = kinematics::calibrate_head(files, options);
+  const kinematics::CalibrationResult calibrated = kinematics::calibrate_head(rig.files, rig.options);
   const Result<retina::PairRectification> rectified =
       calibrated.status.ok()
           ? retina::rectify_pair(calibrated.calibration, kinematics::HeadGeometry{}, kinematics::HeadJoints{})
@@ -264,78 +270,96 @@ std::vector<Pair> chessboard_pairs(const std::string& data) {
                  rectified.error().c_str());
     std::exit(2);
   }
+  rig.rms = calibrated.calibration.rms;
+  rig.rectification = *rectified;
   const cv::Size size = calibrated.calibration.image_size;
   const auto maps = [&](const Rectification& r, cv::Mat& x, cv::Mat& y) {
     cv::initUndistortRectifyMap(cv::Matx33d(r.camera.val), r.distortion, cv::Matx33d(r.rotation.val),
                                 cv::Matx33d(r.rectified.val), size, CV_32FC1, x, y);
   };
-  cv::Mat lx, ly, rx, ry;
-  maps(rectified->left, lx, ly);
-  maps(rectified->right, rx, ry);
-  const auto corners = [&](const cv::Mat& gray, const Rectification& r) {
-    const kinematics::BoardView view = kinematics::find_board(gray, options.board);
-    std::vector<cv::Point2f> out;
-    if (view.found())
-      cv::undistortPoints(view.points, out, cv::Matx33d(r.camera.val), r.distortion, cv::Matx33d(r.rotation.val),
-                          cv::Matx33d(r.rectified.val));
-    return out;
+  maps(rig.rectification.left, rig.left_x, rig.left_y);
+  maps(rig.rectification.right, rig.right_x, rig.right_y);
+  return rig;
+}
+
+// The board's inner corners in the rectified image (none where it is not found).
+std::vector<cv::Point2f> rectified_corners(const cv::Mat& gray, const kinematics::BoardSpec& board,
+                                           const Rectification& r) {
+  const kinematics::BoardView view = kinematics::find_board(gray, board);
+  std::vector<cv::Point2f> out;
+  if (view.found())
+    cv::undistortPoints(view.points, out, cv::Matx33d(r.camera.val), r.distortion, cv::Matx33d(r.rotation.val),
+                        cv::Matx33d(r.rectified.val));
+  return out;
+}
+
+// The pair's truth from the board's 9x6 corners in both rectified images
+// (corner i at the board's column i % 9, row i / 9): their disparities
+// interpolated across the square under each left pixel (extrapolated over
+// the outer squares, so a board that is not quite flat is followed too),
+// over the board's squares only; and five fixations on the board.
+void board_truth(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right, cv::Size size,
+                 const std::string& name, Pair& p) {
+  std::vector<double> corner_disparity(54);
+  std::vector<cv::Point2f> board_coords;
+  double row_error = 0;
+  for (int i = 0; i < 54; ++i) {
+    corner_disparity[static_cast<std::size_t>(i)] = left[i].x - right[i].x;
+    row_error = std::max(row_error, static_cast<double>(std::abs(left[i].y - right[i].y)));
+    board_coords.emplace_back(static_cast<float>(i % 9), static_cast<float>(i / 9));
+  }
+  if (verbose)
+    std::fprintf(stderr, "  %s: corners' rows within %.2f px after rectification\n", name.c_str(), row_error);
+  const cv::Matx33d h(cv::findHomography(board_coords, left));
+  const cv::Matx33d to_board = h.inv();
+  const auto on_board = [&](double u, double v) {
+    const cv::Vec3d q = h * cv::Vec3d(u, v, 1);
+    return cv::Point2d(q[0] / q[2], q[1] / q[2]);
   };
+  const auto disparity_at = [&](double x, double y) {
+    const cv::Vec3d q = to_board * cv::Vec3d(x, y, 1);
+    const double u = q[0] / q[2], v = q[1] / q[2];
+    const int i = std::clamp(static_cast<int>(std::floor(u)), 0, 7),
+              j = std::clamp(static_cast<int>(std::floor(v)), 0, 4);
+    const double fu = u - i, fv = v - j;
+    const auto d = [&](int ii, int jj) { return corner_disparity[static_cast<std::size_t>(jj * 9 + ii)]; };
+    return (1 - fv) * ((1 - fu) * d(i, j) + fu * d(i + 1, j)) + fv * ((1 - fu) * d(i, j + 1) + fu * d(i + 1, j + 1));
+  };
+  // The board's squares: its inner corners' grid extended by one square each way.
+  std::vector<cv::Point> outline;
+  for (const cv::Point2d c : {on_board(-1, -1), on_board(9, -1), on_board(9, 6), on_board(-1, 6)})
+    outline.emplace_back(static_cast<int>(std::lround(c.x)), static_cast<int>(std::lround(c.y)));
+  cv::Mat board = cv::Mat::zeros(size, CV_8U);
+  cv::fillConvexPoly(board, outline, cv::Scalar(255));
+  p.truth.create(size, CV_32F);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)
+      p.truth.at<float>(y, x) = board.at<uint8_t>(y, x) ? static_cast<float>(disparity_at(x, y)) : -1.0f;
+  double largest = 0;
+  cv::minMaxLoc(p.truth, nullptr, &largest);
+  p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+  for (const cv::Point2d c :
+       {on_board(4, 2.5), on_board(2, 1.25), on_board(6, 1.25), on_board(2, 3.75), on_board(6, 3.75)})
+    p.fixations.push_back(c);
+}
+
+// The chessboard pairs, rectified with their calibration, as one set; an
+// error names what failed.
+std::vector<Pair> chessboard_pairs(const std::string& data) {
+  const ChessboardRig rig = chessboard_rig(data);
   std::vector<Pair> pairs;
-  for (const kinematics::ImagePair& f : files) {
+  for (const kinematics::ImagePair& f : rig.files) {
     const cv::Mat l = cv::imread(f.left, cv::IMREAD_GRAYSCALE), r = cv::imread(f.right, cv::IMREAD_GRAYSCALE);
-    const std::vector<cv::Point2f> lc = corners(l, rectified->left), rc = corners(r, rectified->right);
+    const std::vector<cv::Point2f> lc = rectified_corners(l, rig.options.board, rig.rectification.left);
+    const std::vector<cv::Point2f> rc = rectified_corners(r, rig.options.board, rig.rectification.right);
     if (lc.size() != 54 || rc.size() != 54) {
       std::fprintf(stderr, "saccade_stereo_bench: %s: the board is not found in both images\n", f.left.c_str());
       std::exit(2);
     }
     Pair p;
-    cv::remap(l, p.left, lx, ly, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
-    cv::remap(r, p.right, rx, ry, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
-    // The corners' disparities, and where each lies on the board (corner i at column i % 9, row i / 9).
-    std::vector<double> corner_disparity(54);
-    std::vector<cv::Point2f> board_coords;
-    double row_error = 0;
-    for (int i = 0; i < 54; ++i) {
-      corner_disparity[static_cast<std::size_t>(i)] = lc[i].x - rc[i].x;
-      row_error = std::max(row_error, static_cast<double>(std::abs(lc[i].y - rc[i].y)));
-      board_coords.emplace_back(static_cast<float>(i % 9), static_cast<float>(i / 9));
-    }
-    if (verbose)
-      std::fprintf(stderr, "  %s: corners' rows within %.2f px after rectification\n", f.left.c_str(), row_error);
-    // The board's squares: its inner corners' grid extended by one square each way.
-    const cv::Matx33d h(cv::findHomography(board_coords, lc));
-    const cv::Matx33d to_board = h.inv();
-    const auto on_board = [&](double u, double v) {
-      const cv::Vec3d q = h * cv::Vec3d(u, v, 1);
-      return cv::Point2d(q[0] / q[2], q[1] / q[2]);
-    };
-    // The truth at a left pixel: the corners' disparities interpolated across
-    // the board's square under it (extrapolated over the outer squares), so a
-    // board that is not quite flat is followed too.
-    const auto disparity_at = [&](double x, double y) {
-      const cv::Vec3d q = to_board * cv::Vec3d(x, y, 1);
-      const double u = q[0] / q[2], v = q[1] / q[2];
-      const int i = std::clamp(static_cast<int>(std::floor(u)), 0, 7),
-                j = std::clamp(static_cast<int>(std::floor(v)), 0, 4);
-      const double fu = u - i, fv = v - j;
-      const auto d = [&](int ii, int jj) { return corner_disparity[static_cast<std::size_t>(jj * 9 + ii)]; };
-      return (1 - fv) * ((1 - fu) * d(i, j) + fu * d(i + 1, j)) + fv * ((1 - fu) * d(i, j + 1) + fu * d(i + 1, j + 1));
-    };
-    std::vector<cv::Point> outline;
-    for (const cv::Point2d c : {on_board(-1, -1), on_board(9, -1), on_board(9, 6), on_board(-1, 6)})
-      outline.emplace_back(static_cast<int>(std::lround(c.x)), static_cast<int>(std::lround(c.y)));
-    cv::Mat board = cv::Mat::zeros(size, CV_8U);
-    cv::fillConvexPoly(board, outline, cv::Scalar(255));
-    p.truth.create(size, CV_32F);
-    for (int y = 0; y < size.height; ++y)
-      for (int x = 0; x < size.width; ++x)
-        p.truth.at<float>(y, x) = board.at<uint8_t>(y, x) ? static_cast<float>(disparity_at(x, y)) : -1.0f;
-    double largest = 0;
-    cv::minMaxLoc(p.truth, nullptr, &largest);
-    p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
-    for (const cv::Point2d c :
-         {on_board(4, 2.5), on_board(2, 1.25), on_board(6, 1.25), on_board(2, 3.75), on_board(6, 3.75)})
-      p.fixations.push_back(c);
+    cv::remap(l, p.left, rig.left_x, rig.left_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+    cv::remap(r, p.right, rig.right_x, rig.right_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+    board_truth(lc, rc, l.size(), f.left, p);
     p.name = "chessboard_" + std::string(f.left.end() - 6, f.left.end() - 4);
     p.set = "chessboards";
     char what[200];
@@ -343,7 +367,7 @@ std::vector<Pair> chessboard_pairs(const std::string& data) {
         what, sizeof what,
         "opencv-doc's 13 chessboard pairs (a real stereo rig, 640x480), rectified with their calibration "
         "(RMS %.2f px); truth: the corners' disparities across the board's squares, 5 fixations on each board",
-        calibrated.calibration.rms);
+        rig.rms);
     p.what = what;
     pairs.push_back(std::move(p));
   }
