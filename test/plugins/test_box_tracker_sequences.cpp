@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/objdetect.hpp>
 
@@ -108,6 +109,13 @@ std::optional<cv::Rect2d> detected_face(cv::CascadeClassifier& detector, const c
 }
 
 TEST(BoxTrackerOnRealVideo, FollowsEachShotsFaceWhereOpenCvsFaceDetectorFindsIt) {
+  // The detector on the calling thread: the same boxes whatever the machine's
+  // cores (OpenCV's parallel loop collects them in the order its threads end).
+  struct SingleThreaded {
+    int threads = cv::getNumThreads();
+    SingleThreaded() { cv::setNumThreads(1); }
+    ~SingleThreaded() { cv::setNumThreads(threads); }
+  } const single_threaded;
   cv::CascadeClassifier detector;
   ASSERT_TRUE(detector.load(face_cascade_path()));
   const std::string video = test::sample_path("Megamind.avi");
