@@ -293,53 +293,21 @@ std::vector<cv::Point2f> rectified_corners(const cv::Mat& gray, const kinematics
   return out;
 }
 
-// The pair's truth from the board's 9x6 corners in both rectified images
-// (corner i at the board's column i % 9, row i / 9): their disparities
-// interpolated across the square under each left pixel (extrapolated over
-// the outer squares, so a board that is not quite flat is followed too),
-// over the board's squares only; and five fixations on the board.
+// The pair's truth from the board's corners in both rectified images
+// (bench::BoardDisparity: over the board's squares only), and five fixations
+// on the board: its middle and half way to each of its corners.
 void board_truth(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right, cv::Size size,
                  const std::string& name, Pair& p) {
-  std::vector<double> corner_disparity(54);
-  std::vector<cv::Point2f> board_coords;
-  double row_error = 0;
-  for (int i = 0; i < 54; ++i) {
-    corner_disparity[static_cast<std::size_t>(i)] = left[i].x - right[i].x;
-    row_error = std::max(row_error, static_cast<double>(std::abs(left[i].y - right[i].y)));
-    board_coords.emplace_back(static_cast<float>(i % 9), static_cast<float>(i / 9));
-  }
+  const bench::BoardDisparity board(left, right, cv::Size(9, 6));
   if (verbose)
-    std::fprintf(stderr, "  %s: corners' rows within %.2f px after rectification\n", name.c_str(), row_error);
-  const cv::Matx33d h(cv::findHomography(board_coords, left));
-  const cv::Matx33d to_board = h.inv();
-  const auto on_board = [&](double u, double v) {
-    const cv::Vec3d q = h * cv::Vec3d(u, v, 1);
-    return cv::Point2d(q[0] / q[2], q[1] / q[2]);
-  };
-  const auto disparity_at = [&](double x, double y) {
-    const cv::Vec3d q = to_board * cv::Vec3d(x, y, 1);
-    const double u = q[0] / q[2], v = q[1] / q[2];
-    const int i = std::clamp(static_cast<int>(std::floor(u)), 0, 7),
-              j = std::clamp(static_cast<int>(std::floor(v)), 0, 4);
-    const double fu = u - i, fv = v - j;
-    const auto d = [&](int ii, int jj) { return corner_disparity[static_cast<std::size_t>(jj * 9 + ii)]; };
-    return (1 - fv) * ((1 - fu) * d(i, j) + fu * d(i + 1, j)) + fv * ((1 - fu) * d(i, j + 1) + fu * d(i + 1, j + 1));
-  };
-  // The board's squares: its inner corners' grid extended by one square each way.
-  std::vector<cv::Point> outline;
-  for (const cv::Point2d c : {on_board(-1, -1), on_board(9, -1), on_board(9, 6), on_board(-1, 6)})
-    outline.emplace_back(static_cast<int>(std::lround(c.x)), static_cast<int>(std::lround(c.y)));
-  cv::Mat board = cv::Mat::zeros(size, CV_8U);
-  cv::fillConvexPoly(board, outline, cv::Scalar(255));
-  p.truth.create(size, CV_32F);
-  for (int y = 0; y < size.height; ++y)
-    for (int x = 0; x < size.width; ++x)
-      p.truth.at<float>(y, x) = board.at<uint8_t>(y, x) ? static_cast<float>(disparity_at(x, y)) : -1.0f;
+    std::fprintf(stderr, "  %s: corners' rows within %.2f px after rectification\n", name.c_str(),
+                 board.row_error_max());
+  p.truth = board.truth(size);
   double largest = 0;
   cv::minMaxLoc(p.truth, nullptr, &largest);
   p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
-  for (const cv::Point2d c :
-       {on_board(4, 2.5), on_board(2, 1.25), on_board(6, 1.25), on_board(2, 3.75), on_board(6, 3.75)})
+  for (const cv::Point2d c : {board.on_board(4, 2.5), board.on_board(2, 1.25), board.on_board(6, 1.25),
+                              board.on_board(2, 3.75), board.on_board(6, 3.75)})
     p.fixations.push_back(c);
 }
 

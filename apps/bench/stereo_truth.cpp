@@ -5,6 +5,9 @@
 #include <limits>
 #include <vector>
 
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
 namespace saccade::bench {
 namespace {
 
@@ -70,6 +73,54 @@ cv::Mat hidden_from_right_camera(const cv::Mat& truth) {
     }
   }
   return hidden;
+}
+
+BoardDisparity::BoardDisparity(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right,
+                               cv::Size corners)
+    : corners_(corners) {
+  const auto n = static_cast<std::size_t>(corners.area());
+  CV_Assert(corners.width >= 2 && corners.height >= 2 && left.size() == n && right.size() == n);
+  std::vector<cv::Point2f> board;
+  for (std::size_t i = 0; i < n; ++i) {
+    disparity_.push_back(left[i].x - right[i].x);
+    const double row = std::abs(left[i].y - right[i].y);
+    row_error_max_ = std::max(row_error_max_, row);
+    row_error_mean_ += row / static_cast<double>(n);
+    board.emplace_back(static_cast<float>(i % static_cast<std::size_t>(corners.width)),
+                       static_cast<float>(i / static_cast<std::size_t>(corners.width)));
+  }
+  to_image_ = cv::Matx33d(cv::findHomography(board, left));
+  to_board_ = to_image_.inv();
+}
+
+double BoardDisparity::at(cv::Point2d p) const {
+  const cv::Vec3d q = to_board_ * cv::Vec3d(p.x, p.y, 1);
+  const double u = q[0] / q[2], v = q[1] / q[2];
+  const int i = std::clamp(static_cast<int>(std::floor(u)), 0, corners_.width - 2);
+  const int j = std::clamp(static_cast<int>(std::floor(v)), 0, corners_.height - 2);
+  const double fu = u - i, fv = v - j;
+  const auto d = [&](int col, int row) { return disparity_[static_cast<std::size_t>(row * corners_.width + col)]; };
+  return (1 - fv) * ((1 - fu) * d(i, j) + fu * d(i + 1, j)) + fv * ((1 - fu) * d(i, j + 1) + fu * d(i + 1, j + 1));
+}
+
+cv::Point2d BoardDisparity::on_board(double u, double v) const {
+  const cv::Vec3d q = to_image_ * cv::Vec3d(u, v, 1);
+  return {q[0] / q[2], q[1] / q[2]};
+}
+
+cv::Mat BoardDisparity::truth(cv::Size size) const {
+  const double last_u = corners_.width, last_v = corners_.height;
+  std::vector<cv::Point> outline;
+  for (const cv::Point2d c : {on_board(-1, -1), on_board(last_u, -1), on_board(last_u, last_v), on_board(-1, last_v)})
+    outline.emplace_back(static_cast<int>(std::lround(c.x)), static_cast<int>(std::lround(c.y)));
+  cv::Mat board = cv::Mat::zeros(size, CV_8U);
+  cv::fillConvexPoly(board, outline, cv::Scalar(255));
+  cv::Mat out(size, CV_32F);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)
+      out.at<float>(y, x) =
+          board.at<uint8_t>(y, x) ? static_cast<float>(at({static_cast<double>(x), static_cast<double>(y)})) : -1.0f;
+  return out;
 }
 
 }  // namespace saccade::bench

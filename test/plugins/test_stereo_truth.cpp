@@ -1,5 +1,6 @@
 // The ground-truth mask the stereo benchmark and the accuracy tests score
-// "seen" and "hidden" pixels by, on rows whose answer is known by hand.
+// "seen" and "hidden" pixels by, on rows whose answer is known by hand; and
+// the chessboard's disparity from its corners.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -76,6 +77,34 @@ TEST(HiddenFromRightCamera, UnknownPixelsAreNeitherHiddenNorHide) {
   EXPECT_EQ(hidden_columns(row_of([](int x) { return x < 50 ? background(x) : (x < 55 ? -1.0f : 20.0f); })),
             range(45, 49))
       << "the nearer plane from x = 55 lands from x' = 35 on";
+}
+
+// A 4x3-corner board whose squares are 20 px wide in the left image from
+// (100, 50), on a slanted plane: disparity 30 + 0.1 x - 0.05 y, so the right
+// corners lie that far left, and 0.5 px lower.
+TEST(BoardDisparity, InterpolatesTheCornersDisparitiesOverTheBoardsSquaresOnly) {
+  const auto plane = [](double x, double y) { return 30 + 0.1 * x - 0.05 * y; };
+  std::vector<cv::Point2f> left, right;
+  for (int row = 0; row < 3; ++row)
+    for (int col = 0; col < 4; ++col) {
+      const cv::Point2f l(100.0f + 20.0f * static_cast<float>(col), 50.0f + 20.0f * static_cast<float>(row));
+      left.push_back(l);
+      right.emplace_back(l.x - static_cast<float>(plane(l.x, l.y)), l.y + 0.5f);
+    }
+  const BoardDisparity board(left, right, cv::Size(4, 3));
+  EXPECT_NEAR(board.row_error_max(), 0.5, 1e-5);
+  EXPECT_NEAR(board.row_error_mean(), 0.5, 1e-5);
+  const cv::Point2d middle = board.on_board(1.5, 1);
+  EXPECT_NEAR(middle.x, 130, 1e-6);
+  EXPECT_NEAR(middle.y, 70, 1e-6);
+  // Inside the corners, across a square, and over the outer squares (extrapolated): the plane.
+  for (const cv::Point2d p : {cv::Point2d(100, 50), cv::Point2d(133, 61), cv::Point2d(85, 42), cv::Point2d(175, 105)})
+    EXPECT_NEAR(board.at(p), plane(p.x, p.y), 1e-3) << p;
+  const cv::Mat truth = board.truth(cv::Size(240, 160));
+  EXPECT_NEAR(truth.at<float>(61, 133), plane(133, 61), 1e-3);
+  EXPECT_NEAR(truth.at<float>(35, 85), plane(85, 35), 1e-3) << "the outer squares reach 20 px beyond the corners";
+  EXPECT_EQ(truth.at<float>(25, 133), -1.0f) << "above the board";
+  EXPECT_EQ(truth.at<float>(70, 190), -1.0f) << "right of it";
 }
 
 }  // namespace
