@@ -10,12 +10,13 @@
 // they would; a little sensor noise, seeded). Each pair is looked at on a grid
 // of 3 x 3 fixations (the fovea centred at a quarter, a half and three
 // quarters of the width and height).
-// And real cameras: opencv-doc's 13 chessboard pairs (left01..right14,
+// And real cameras: opencv-doc's 13 chessboard pairs (its stereo_calib.xml,
 // 640x480), calibrated as `saccade calibrate` does and rectified with that
 // calibration; the truth is the disparities of the board's 54 corners found
 // in both images, interpolated across each square (extrapolated over the
-// outer ones; elsewhere unknown), and the fixations lie on the board (its middle and four points
-// half way to its corners). The 13 pairs are scored as one set.
+// outer ones; elsewhere unknown), and the fixations lie on the board (its
+// middle and four points half way to its corners). The 13 pairs are scored
+// as one set.
 //
 // Scores (counts summed over the fixations): density = pixels given a
 // disparity / pixels with a known truth; bad-1 and bad-2 = given pixels wrong
@@ -241,11 +242,12 @@ Pair aloe(const std::string& data, int divisor) {
   return p;
 }
 
-// opencv-doc's chessboard pairs (a real stereo rig), calibrated as `saccade
+// opencv-doc's chessboard pairs (a real stereo rig, listed in its
+// stereo_calib.xml; the gray images read once), calibrated as `saccade
 // calibrate` does, and the maps that rectify them.
 struct ChessboardRig {
   kinematics::CalibrationOptions options;
-  std::vector<kinematics::ImagePair> files;
+  std::vector<kinematics::ImagePair> pairs;
   double rms = 0;
   retina::PairRectification rectification;
   cv::Mat left_x, left_y, right_x, right_y;  // cv::remap's maps
@@ -255,14 +257,17 @@ ChessboardRig chessboard_rig(const std::string& data) {
   ChessboardRig rig;
   rig.options.board.size = cv::Size(9, 6);
   rig.options.board.square = 1.0;
-  for (int i = 1; i <= 14; ++i) {
-    if (i == 10) continue;  // opencv-doc has no left10/right10
-    const std::string n = cv::format("%02d.jpg", i);
-    rig.files.push_back({data + "/left" + n, data + "/right" + n, {}, {}});
+  Result<std::vector<kinematics::ImagePair>> listed = kinematics::read_image_list(data + "/stereo_calib.xml");
+  if (listed.ok()) rig.pairs = std::move(listed).value();
+  for (kinematics::ImagePair& pair : rig.pairs) {
+    pair.left_image = cv::imread(pair.left, cv::IMREAD_GRAYSCALE);
+    pair.right_image = cv::imread(pair.right, cv::IMREAD_GRAYSCALE);
   }
-  const kinematics::CalibrationResult calibrated = kinematics::calibrate_head(rig.files, rig.options);
+  const kinematics::CalibrationResult calibrated =
+      listed.ok() ? kinematics::calibrate_head(rig.pairs, rig.options) : kinematics::CalibrationResult{};
   const Result<retina::PairRectification> rectified =
-      calibrated.status.ok()
+      !listed.ok() ? Result<retina::PairRectification>(listed.status())
+      : calibrated.status.ok()
           ? retina::rectify_pair(calibrated.calibration, kinematics::HeadGeometry{}, kinematics::HeadJoints{})
           : Result<retina::PairRectification>(calibrated.status);
   if (!rectified.ok()) {
@@ -316,8 +321,8 @@ void board_truth(const std::vector<cv::Point2f>& left, const std::vector<cv::Poi
 std::vector<Pair> chessboard_pairs(const std::string& data) {
   const ChessboardRig rig = chessboard_rig(data);
   std::vector<Pair> pairs;
-  for (const kinematics::ImagePair& f : rig.files) {
-    const cv::Mat l = cv::imread(f.left, cv::IMREAD_GRAYSCALE), r = cv::imread(f.right, cv::IMREAD_GRAYSCALE);
+  for (const kinematics::ImagePair& f : rig.pairs) {
+    const cv::Mat &l = f.left_image, &r = f.right_image;
     const std::vector<cv::Point2f> lc = rectified_corners(l, rig.options.board, rig.rectification.left);
     const std::vector<cv::Point2f> rc = rectified_corners(r, rig.options.board, rig.rectification.right);
     if (lc.size() != 54 || rc.size() != 54) {
@@ -634,8 +639,9 @@ std::vector<MatcherResult> run_matchers(const Pair& p, const retina::RetinaConfi
   return results;
 }
 
-void write_results_table(std::ostringstream& md, const Pair& p, const std::vector<MatcherResult>& results) {
-  md << "\n### " << p.name << ": " << p.what << "\n\n"
+void write_results_table(std::ostringstream& md, const std::string& name, const std::string& what,
+                         const std::vector<MatcherResult>& results) {
+  md << "\n### " << name << ": " << what << "\n\n"
      << "| matcher | fovea density | fovea bad-1 | fovea bad-2 | image density | image bad-1 | image bad-2 | ms per "
         "pair "
         "| fixation within 2 px: all; confirmed | notes |\n|---|---|---|---|---|---|---|---|---|---|\n";
@@ -756,10 +762,7 @@ int main(int argc, char** argv) {
     }
     const std::string name = p.set.empty() ? p.name : p.set;
     floors.push_back({name, results.front(), results.back()});
-    Pair named;
-    named.name = name;
-    named.what = p.what;
-    write_results_table(md, named, results);
+    write_results_table(md, name, p.what, results);
     // Each pair's table as soon as it is measured: a full run takes minutes.
     std::fputs(md.str().c_str(), stdout);
     std::fflush(stdout);

@@ -498,11 +498,16 @@ TEST(RealStereoRig, RectifiedRetinasMatchTheChessboardPairsDisparity) {
   kinematics::CalibrationOptions options;
   options.board.size = cv::Size(9, 6);
   options.board.square = 1.0;
-  std::vector<kinematics::ImagePair> pairs;
-  for (int i = 1; i <= 14; ++i) {
-    if (i == 10) continue;  // opencv-doc has no left10/right10
-    const std::string n = cv::format("%02d.jpg", i);
-    pairs.push_back({test::sample_path("left" + n), test::sample_path("right" + n), {}, {}});
+  // The sample's list of the pairs; their gray images read once, for the calibration and the matcher.
+  Result<std::vector<kinematics::ImagePair>> listed =
+      kinematics::read_image_list(test::sample_path("stereo_calib.xml"));
+  ASSERT_TRUE(listed.ok()) << listed.error();
+  std::vector<kinematics::ImagePair> pairs = std::move(listed).value();
+  ASSERT_EQ(pairs.size(), 13u);
+  for (kinematics::ImagePair& p : pairs) {
+    p.left_image = cv::imread(p.left, cv::IMREAD_GRAYSCALE);
+    p.right_image = cv::imread(p.right, cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(p.left_image.empty() || p.right_image.empty()) << p.left;
   }
   const kinematics::CalibrationResult calibrated = kinematics::calibrate_head(pairs, options);
   ASSERT_TRUE(calibrated.status.ok()) << calibrated.status.message();
@@ -513,9 +518,7 @@ TEST(RealStereoRig, RectifiedRetinasMatchTheChessboardPairsDisparity) {
   int fixations_within_1px = 0, given = 0, right = 0, known = 0, corners = 0;
   double row_error_sum = 0;
   for (const kinematics::ImagePair& files : pairs) {
-    const cv::Mat left_image = cv::imread(files.left, cv::IMREAD_GRAYSCALE);
-    const cv::Mat right_image = cv::imread(files.right, cv::IMREAD_GRAYSCALE);
-    ASSERT_FALSE(left_image.empty() || right_image.empty()) << files.left;
+    const cv::Mat &left_image = files.left_image, &right_image = files.right_image;
     const kinematics::BoardView left_board = kinematics::find_board(left_image, options.board);
     const kinematics::BoardView right_board = kinematics::find_board(right_image, options.board);
     ASSERT_TRUE(left_board.found() && right_board.found()) << files.left;
@@ -542,7 +545,7 @@ TEST(RealStereoRig, RectifiedRetinasMatchTheChessboardPairsDisparity) {
     const cv::Point2d centre(fovea.region.x + fovea.region.width / 2.0, fovea.region.y + fovea.region.height / 2.0);
     const double expected = truth.at(centre - cv::Point2d(0.5, 0.5));
     fixations_within_1px += std::abs(fixation - expected) <= 1.0;
-    // The fovea's pixels on the board (all of them: it sits on the middle corner).
+    // The fovea's pixels on the board (all of them: it sits on the board's middle).
     const cv::Mat& d = levels.back().disparity;
     int pair_given = 0, pair_right = 0;
     for (int y = 0; y < d.rows; ++y)
