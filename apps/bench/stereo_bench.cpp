@@ -728,7 +728,9 @@ int main(int argc, char** argv) {
   app.add_option("--set", sets,
                  "key=value: also run our matcher with the defaults changed so (repeatable; "
                  "the stereo node's parameter names)");
-  app.add_option("--pair", only, "only these pairs (aloe, aloe_third, planes_640, planes_450, chessboards)");
+  app.add_option("--pair", only, "only these pairs (repeatable, or comma-separated)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"aloe", "aloe_third", "planes_640", "planes_450", "chessboards"}));
   app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
   app.add_flag("--error-maps", error_maps,
                "with --verbose, each fovea's pixels: o within 2 px of the truth, + nearer, - farther, . none, "
