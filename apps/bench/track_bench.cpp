@@ -561,6 +561,12 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
     sequences.push_back(std::move(video).value());
   }
   const std::vector<std::string> keep = split_list(options.sequences);
+  for (const std::string& name : keep)
+    if (std::none_of(sequences.begin(), sequences.end(), [&](const Sequence& s) { return s.name == name; })) {
+      std::string known;
+      for (const Sequence& s : sequences) known += (known.empty() ? "" : ", ") + s.name;
+      return Status::error("--sequences: no sequence '" + name + "' (known: " + known + ")");
+    }
   if (!keep.empty())
     std::erase_if(sequences,
                   [&](const Sequence& s) { return std::find(keep.begin(), keep.end(), s.name) == keep.end(); });
