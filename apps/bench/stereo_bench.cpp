@@ -737,6 +737,9 @@ int main(int argc, char** argv) {
                "? no truth; the truth beside");
   app.add_flag("--variants", matchers.all_variants,
                "also run the plain matcher and docs/accuracy.md's densest and precise configurations");
+  // A value given twice is the last one: make's STEREO_ARGS can change what a target gives.
+  for (const char* single : {"--data", "--markdown", "--reps", "--cv-reps"})
+    app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(1);
   if (!parse_sets(sets, matchers)) return 2;

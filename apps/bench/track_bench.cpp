@@ -669,6 +669,9 @@ int main(int argc, char** argv) {
   app.add_option("--set", options.sets,
                  "key=value: the fovea tracker with the fovea node's box_* parameter changed so (repeatable; "
                  "docs/plugins.md)");
+  // A value given twice is the last one: make's TRACK_ARGS can change what a target gives.
+  for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--markdown", "--runs", "--trace"})
+    app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   if (!apply_sets(options)) return 2;
   // One thread for everything: the times compare the algorithms, not how
