@@ -416,6 +416,15 @@ cv::Rect centred(cv::Size size, cv::Point2d at) {
   return {static_cast<int>(at.x) - size.width / 2, static_cast<int>(at.y) - size.height / 2, size.width, size.height};
 }
 
+// The tracker's estimate on covered frame k (printed with SACCADE_TEST_VERBOSE).
+TrackEstimate covered_update(BoxTracker& tracker, const cv::Mat& frame, int k) {
+  const TrackEstimate e = tracker.update(frame);
+  if (std::getenv("SACCADE_TEST_VERBOSE"))
+    std::printf("covered %d %s %.1f %.1f,%.1f\n", k, to_string(e.state), e.confidence, center(e.box).x,
+                center(e.box).y);
+  return e;
+}
+
 // The target, a third of it covered, stays in view where it is while a
 // look-alike of its colour (the target a little dimmer and blurred) shows
 // elsewhere, its peak higher than the covered target's but not by half as
@@ -441,10 +450,7 @@ int twin_claims(double redetect_margin, int margin_frames, int& held, bool& back
   for (int k = 0; k < 25; ++k) {
     cv::Mat frame = scene.render({60, 60}, at, 0.3, 1.0, cover);
     twin.copyTo(frame(twin_box));
-    const TrackEstimate e = tracker.update(frame);
-    if (std::getenv("SACCADE_TEST_VERBOSE"))
-      std::printf("covered %d %s %.1f %.1f,%.1f\n", k, to_string(e.state), e.confidence, center(e.box).x,
-                  center(e.box).y);
+    const TrackEstimate e = covered_update(tracker, frame, k);
     claimed += e.state == TrackState::kTracking && cv::norm(center(e.box) - twin_at) < 10;
     held += cv::norm(center(e.box) - at) < 8;
   }
@@ -514,10 +520,7 @@ int split_twin_claims(double min_shared_colors) {
     cv::Mat frame = scene.render({60, 60}, at, 0.3, 1.0, cover);
     cv::add(frame(cover), cv::Scalar(-50, -50, 160), frame(cover));
     twin.copyTo(frame(twin_box));
-    const TrackEstimate e = tracker.update(frame);
-    if (std::getenv("SACCADE_TEST_VERBOSE"))
-      std::printf("covered %d %s %.1f %.1f,%.1f\n", k, to_string(e.state), e.confidence, center(e.box).x,
-                  center(e.box).y);
+    const TrackEstimate e = covered_update(tracker, frame, k);
     claimed += e.state == TrackState::kTracking && cv::norm(center(e.box) - twin_at) < 10;
   }
   return claimed;
