@@ -626,6 +626,27 @@ struct BoxTracker::Impl {
     return true;
   }
   void forget_lower() { lower_frames = 0, lower_psr_sum = 0; }
+  // Each of `looks`' peaks into look_peaks, the strongest into `strongest`.
+  const std::vector<Peak>& look_at_all(const cv::Mat& frame, Peak& strongest) {
+    look_peaks.clear();
+    for (const Placement& p : looks) {
+      look_peaks.push_back(look_at(frame, p));
+      if (look_peaks.back().psr > strongest.psr) strongest = look_peaks.back();
+    }
+    return look_peaks;
+  }
+  // Where the unsure tracker sits (its peak `sits_psr`, 0: not trusted), the
+  // target may show better at another size (it came nearer): the best peak
+  // the looks found there is what a find elsewhere must beat (vtest.avi: a
+  // pedestrian at 7.4 where he sat, 10.9 there at 1.25x his size, and another
+  // man 100 px away at 11.4 was taken for him).
+  double best_where_it_sits(double sits_psr, double near) const {
+    if (sits_psr <= 0) return sits_psr;
+    for (std::size_t i = 0; i < looks.size(); ++i)
+      if (cv::norm(looks[i].to_frame(look_peaks[i].offset) - center) < near)
+        sits_psr = std::max(sits_psr, look_peaks[i].psr);
+    return sits_psr;
+  }
   // A re-detection confirmed at `found`, seen at patch step `at_step`.
   void found_at(cv::Point2d found, double at_step) {
     center = sure_center = found;
@@ -722,6 +743,7 @@ struct BoxTracker::Impl {
   cv::Point2d candidate{-1, -1};  // lost: a re-detection waiting for confirmation, and its step
   double candidate_step = 1;
   std::vector<Placement> looks;
+  std::vector<Peak> look_peaks;  // each look's peak, in looks' order
   int candidate_frames = 0;
   bool candidate_coloured = false;      // let in under the bar: near where the target was, of its colour
   cv::Point2d sure_center;              // where the target was last tracked
@@ -948,20 +970,20 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   const bool has_candidate = m.candidate_frames > 0;
   Peak best, strongest;
   Placement where;
+  const std::vector<Peak>& peaks = m.look_at_all(frame, strongest);
+  const double sits_psr = unsure ? m.best_where_it_sits(sits.psr, near) : sits.psr;
   // The last frame's candidate (the first look), found again, goes on: a
   // stronger peak elsewhere would start the count anew. One the lower bar let
   // in, its colour checked, is confirmed at its place without the colour: a
   // colour at the tolerance's edge flickers (the light, white balance), and a
   // recheck restarted the count (`mixed`: 24 frames, not 14).
   bool candidate_held = false, best_coloured = false;
-  for (std::size_t i = 0; i < looks.size(); ++i) {
+  for (std::size_t i = 0; i < looks.size() && !candidate_held; ++i) {
     const Placement& p = looks[i];
-    const Peak peak = m.look_at(frame, p);
-    if (peak.psr > strongest.psr) strongest = peak;
-    if (candidate_held) continue;
+    const Peak& peak = peaks[i];
     const cv::Point2d found = p.to_frame(peak.offset);
     if (unsure &&
-        !m.beats_where_it_sits(frame, p, found, peak.psr, sits.psr, sits.color_distance, sits.shared_colors, near))
+        !m.beats_where_it_sits(frame, p, found, peak.psr, sits_psr, sits.color_distance, sits.shared_colors, near))
       continue;
     const bool over_bar = peak.psr >= bar(found);
     const bool held = i == 0 && has_candidate && m.candidate_coloured && cv::norm(found - m.candidate) < near;
