@@ -301,9 +301,9 @@ std::vector<cv::Point2f> rectified_corners(const cv::Mat& gray, const kinematics
 // The pair's truth from the board's corners in both rectified images
 // (bench::BoardDisparity: over the board's squares only), and five fixations
 // on the board: its middle and half way to each of its corners.
-void board_truth(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right, cv::Size size,
-                 const std::string& name, Pair& p) {
-  const bench::BoardDisparity board(left, right, cv::Size(9, 6));
+void board_truth(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right, cv::Size corners,
+                 cv::Size size, const std::string& name, Pair& p) {
+  const bench::BoardDisparity board(left, right, corners);
   if (verbose)
     std::fprintf(stderr, "  %s: corners' rows within %.2f px after rectification\n", name.c_str(),
                  board.row_error_max());
@@ -311,8 +311,9 @@ void board_truth(const std::vector<cv::Point2f>& left, const std::vector<cv::Poi
   double largest = 0;
   cv::minMaxLoc(p.truth, nullptr, &largest);
   p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
-  for (const cv::Point2d c : {board.on_board(4, 2.5), board.on_board(2, 1.25), board.on_board(6, 1.25),
-                              board.on_board(2, 3.75), board.on_board(6, 3.75)})
+  const double u = (corners.width - 1) / 4.0, v = (corners.height - 1) / 4.0;
+  for (const cv::Point2d c : {board.on_board(2 * u, 2 * v), board.on_board(u, v), board.on_board(3 * u, v),
+                              board.on_board(u, 3 * v), board.on_board(3 * u, 3 * v)})
     p.fixations.push_back(c);
 }
 
@@ -325,14 +326,15 @@ std::vector<Pair> chessboard_pairs(const std::string& data) {
     const cv::Mat &l = f.left_image, &r = f.right_image;
     const std::vector<cv::Point2f> lc = rectified_corners(l, rig.options.board, rig.rectification.left);
     const std::vector<cv::Point2f> rc = rectified_corners(r, rig.options.board, rig.rectification.right);
-    if (lc.size() != 54 || rc.size() != 54) {
+    const auto corner_count = static_cast<std::size_t>(rig.options.board.size.area());
+    if (lc.size() != corner_count || rc.size() != corner_count) {
       std::fprintf(stderr, "saccade_stereo_bench: %s: the board is not found in both images\n", f.left.c_str());
       std::exit(2);
     }
     Pair p;
     cv::remap(l, p.left, rig.left_x, rig.left_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
     cv::remap(r, p.right, rig.right_x, rig.right_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
-    board_truth(lc, rc, l.size(), f.left, p);
+    board_truth(lc, rc, rig.options.board.size, l.size(), f.left, p);
     p.name = "chessboard_" + std::string(f.left.end() - 6, f.left.end() - 4);
     p.set = "chessboards";
     char what[200];
