@@ -509,13 +509,16 @@ struct BoxTracker::Impl {
   // pedestrian of vtest.avi, doubted: his mean 0.061 from the learnt one,
   // another pedestrian's 0.034, taken for him; their shares of his histogram
   // 0.62 and 0.55); after redetect_margin_frames unsure frames, as any other.
+  // (`sits_shared` is measured here the first time it is needed: negative
+  // until then.)
   bool beats_where_it_sits(const cv::Mat& frame, const Placement& p, cv::Point2d found, double psr, double sits_psr,
-                           double sits_color_distance, double sits_shared, double near) {
+                           double sits_color_distance, double& sits_shared, double near) {
     if (sits_psr <= 0 || unsure_frames > config.redetect_margin_frames || cv::norm(found - center) < near) return true;
     if (psr >= config.redetect_margin * sits_psr) return true;
     if (!color_checked(config)) return false;
     const double distance = cv::norm(chroma(frame, found, size * (p.step / step)) - chroma_mean);
     if (!(distance + config.min_chroma_change <= sits_color_distance)) return false;
+    if (sits_shared < 0) sits_shared = shared_colors_at(frame, {center, step, angle}, center);
     return shared_colors_at(frame, p, found) >= sits_shared;
   }
 
@@ -763,7 +766,6 @@ struct BoxTracker::Impl {
 struct BoxTracker::UnsurePlace {
   double psr = 0;
   double color_distance = 0;
-  double shared_colors = 1;
 };
 
 BoxTracker::BoxTracker(BoxTrackerConfig config) : config_(config), impl_(std::make_shared<Impl>(config)) {}
@@ -921,10 +923,8 @@ void BoxTracker::look_elsewhere(const cv::Mat& frame, double sits_psr) {
   Impl& m = *impl_;
   if (m.unsure_frames < config_.redetect_after) return;
   UnsurePlace sits{sits_psr, 0};
-  if (sits_psr > 0 && m.color_checked(config_)) {
+  if (sits_psr > 0 && m.color_checked(config_))
     sits.color_distance = cv::norm(chroma(frame, m.center, m.size) - m.chroma_mean);
-    sits.shared_colors = m.shared_colors_at(frame, {m.center, m.step, m.angle}, m.center);
-  }
   const double confidence = last_.confidence;
   const TrackState state = last_.state;
   redetect(frame, m.center, /*unsure=*/true, sits);
@@ -972,6 +972,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   Placement where;
   const std::vector<Peak>& peaks = m.look_at_all(frame, strongest);
   const double sits_psr = unsure ? m.best_where_it_sits(sits.psr, near) : sits.psr;
+  double sits_shared = -1;  // its share of the target's colours, measured if asked
   // The last frame's candidate (the first look), found again, goes on: a
   // stronger peak elsewhere would start the count anew. One the lower bar let
   // in, its colour checked, is confirmed at its place without the colour: a
@@ -982,8 +983,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
     const Placement& p = looks[i];
     const Peak& peak = peaks[i];
     const cv::Point2d found = p.to_frame(peak.offset);
-    if (unsure &&
-        !m.beats_where_it_sits(frame, p, found, peak.psr, sits_psr, sits.color_distance, sits.shared_colors, near))
+    if (unsure && !m.beats_where_it_sits(frame, p, found, peak.psr, sits_psr, sits.color_distance, sits_shared, near))
       continue;
     const bool over_bar = peak.psr >= bar(found);
     const bool held = i == 0 && has_candidate && m.candidate_coloured && cv::norm(found - m.candidate) < near;
