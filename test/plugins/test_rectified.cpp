@@ -482,7 +482,7 @@ namespace {
 // the same rectified point, as parallel cameras would look: the matcher
 // finds the disparity itself.
 bench::BoardDisparity board_disparity(const kinematics::BoardView& left, const kinematics::BoardView& right,
-                                      const PairRectification& pair) {
+                                      cv::Size corners, const PairRectification& pair) {
   // The retina's pixel centres lie half a pixel on from OpenCV's.
   const auto rectified = [](const std::vector<cv::Point2f>& points, const Rectification& r) {
     const RectifiedMap map(r);
@@ -491,7 +491,7 @@ bench::BoardDisparity board_disparity(const kinematics::BoardView& left, const k
       out.emplace_back(cv::Point2f(map.to_rectified(cv::Point2d(p) + cv::Point2d(0.5, 0.5)) - cv::Point2d(0.5, 0.5)));
     return out;
   };
-  return bench::BoardDisparity(rectified(left.points, pair.left), rectified(right.points, pair.right), cv::Size(9, 6));
+  return bench::BoardDisparity(rectified(left.points, pair.left), rectified(right.points, pair.right), corners);
 }
 
 TEST(RealStereoRig, RectifiedRetinasMatchTheChessboardPairsDisparity) {
@@ -523,7 +523,7 @@ TEST(RealStereoRig, RectifiedRetinasMatchTheChessboardPairsDisparity) {
     const kinematics::BoardView right_board = kinematics::find_board(right_image, options.board);
     ASSERT_TRUE(left_board.found() && right_board.found()) << files.left;
     ASSERT_EQ(left_board.points.size(), right_board.points.size());
-    const bench::BoardDisparity truth = board_disparity(left_board, right_board, pair);
+    const bench::BoardDisparity truth = board_disparity(left_board, right_board, options.board.size, pair);
     // Rectified, a corner lies on one row in both images (to the calibration's accuracy).
     EXPECT_LT(truth.row_error_max(), 4.0) << files.left;
     row_error_sum += truth.row_error_mean() * static_cast<double>(left_board.points.size());
