@@ -17,6 +17,9 @@
 // outer ones; elsewhere unknown), and the fixations lie on the board (its
 // middle and four points half way to its corners). The 13 pairs are scored
 // as one set.
+// And any pair given as files (--middlebury: a Middlebury scene's folder in
+// any year's layout; --stereo-pair: a left and right image and the left
+// truth, KITTI's or a user's own), scored on the 3 x 3 grid as the others.
 //
 // Scores (counts summed over the fixations): density = pixels given a
 // disparity / pixels with a known truth; bad-1 and bad-2 = given pixels wrong
@@ -53,6 +56,7 @@
 #include "head_rectification.hpp"
 #include "retina.hpp"
 #include "retina_stereo.hpp"
+#include "stereo_files.hpp"
 #include "stereo_params.hpp"
 #include "stereo_truth.hpp"
 
@@ -206,6 +210,20 @@ std::vector<Pair> rendered_pairs(const std::string& data) {
   return pairs;
 }
 
+// The range OpenCV's matchers are given (a multiple of 16 over the truth's
+// largest disparity) and the pair's description, from its truth; that largest
+// disparity.
+double describe_truth(Pair& p, const std::string& label) {
+  double largest = 0;
+  cv::minMaxLoc(p.truth, nullptr, &largest);
+  p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+  char what[160];
+  std::snprintf(what, sizeof what, ", %dx%d, truth up to %.0f px (%.1f%% unknown)", p.left.cols, p.left.rows, largest,
+                100.0 * cv::countNonZero(p.truth < 0) / static_cast<double>(p.truth.total()));
+  p.what = label + what;
+  return largest;
+}
+
 // Aloe, at `divisor` times smaller (area-averaged images, the truth divided;
 // 0 = unknown becomes -1, and a pixel whose block has an unknown is unknown).
 Pair aloe(const std::string& data, int divisor) {
@@ -230,15 +248,29 @@ Pair aloe(const std::string& data, int divisor) {
     p.truth /= divisor;
   }
   p.truth.setTo(-1, p.truth < 0);
-  double largest = 0;
-  cv::minMaxLoc(p.truth, nullptr, &largest);
-  p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
   p.name = divisor == 1 ? "aloe" : "aloe_third";
-  char what[128];
-  std::snprintf(what, sizeof what, "Middlebury Aloe%s, %dx%d, truth up to %.0f px (%.1f%% unknown)",
-                divisor == 1 ? "" : " at a third", p.left.cols, p.left.rows, largest,
-                100.0 * cv::countNonZero(p.truth < 0) / static_cast<double>(p.truth.total()));
-  p.what = what;
+  describe_truth(p, divisor == 1 ? "Middlebury Aloe" : "Middlebury Aloe at a third");
+  return p;
+}
+
+// A pair read from files (--middlebury, --stereo-pair); a file that cannot be
+// read as the pair it should be is an error naming it.
+Pair pair_from_files(const bench::StereoPairFiles& files) {
+  Result<bench::StereoPairImages> read = bench::read_stereo_pair(files);
+  if (!read.ok()) {
+    std::fprintf(stderr, "saccade_stereo_bench: %s\n", read.error().c_str());
+    std::exit(2);
+  }
+  Pair p;
+  p.left = read->left, p.right = read->right, p.truth = read->truth;
+  p.name = files.name;
+  const double largest = describe_truth(p, files.left);
+  if (!files.note.empty()) std::fprintf(stderr, "note: %s: %s\n", files.name.c_str(), files.note.c_str());
+  if (const stereo::RetinaStereoConfig defaults; largest > defaults.max_disparity)
+    std::fprintf(stderr,
+                 "note: %s: its truth reaches beyond the defaults' max_disparity %d, which the floor's row "
+                 "keeps; --set max_disparity=%d adds a row with the range\n",
+                 files.name.c_str(), static_cast<int>(defaults.max_disparity), p.num_disparities);
   return p;
 }
 
@@ -598,11 +630,38 @@ bool parse_sets(const std::vector<std::string>& sets, Matchers& m) {
   return true;
 }
 
-// The pairs --pair names (all of them without it), in the tables' order.
-std::vector<Pair> select_pairs(const std::string& data, const std::vector<std::string>& only) {
+// Where the pairs come from: the built-in ones --pair names (all of them
+// without it, none with --no-builtin), then those read from files.
+struct PairSources {
+  std::vector<std::string> only, middlebury, files;
+  bool builtin = true;
+  std::string export_dir;  // --export: the pairs are written there instead of scored
+};
+
+// The files --middlebury and --stereo-pair name; an error names the one at fault.
+std::vector<bench::StereoPairFiles> given_pairs(const PairSources& from) {
+  std::vector<Result<bench::StereoPairFiles>> found;
+  for (const std::string& spec : from.middlebury) found.push_back(bench::find_middlebury_pair(spec));
+  for (const std::string& spec : from.files) found.push_back(bench::parse_stereo_pair(spec));
+  std::vector<bench::StereoPairFiles> out;
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    if (!found[i].ok()) {
+      std::fprintf(stderr, "saccade_stereo_bench: %s %s\n",
+                   i < from.middlebury.size() ? "--middlebury" : "--stereo-pair", found[i].error().c_str());
+      std::exit(2);
+    }
+    out.push_back(*found[i]);
+  }
+  return out;
+}
+
+// The pairs, in the tables' order.
+std::vector<Pair> select_pairs(const std::string& data, const PairSources& from) {
+  const std::vector<bench::StereoPairFiles> given = given_pairs(from);  // its errors before the built-ins' work
   std::vector<Pair> pairs;
+  const std::vector<std::string>& only = from.only;
   const auto wanted = [&](const std::string& name) {
-    return only.empty() || std::find(only.begin(), only.end(), name) != only.end();
+    return from.builtin && (only.empty() || std::find(only.begin(), only.end(), name) != only.end());
   };
   if (wanted("aloe")) pairs.push_back(aloe(data, 1));
   if (wanted("aloe_third")) pairs.push_back(aloe(data, 3));
@@ -610,8 +669,22 @@ std::vector<Pair> select_pairs(const std::string& data, const std::vector<std::s
     if (wanted(p.name)) pairs.push_back(std::move(p));
   if (wanted("chessboards"))
     for (Pair& p : chessboard_pairs(data)) pairs.push_back(std::move(p));
+  for (const bench::StereoPairFiles& files : given) pairs.push_back(pair_from_files(files));
   for (Pair& p : pairs) p.hidden = hidden_from_right_camera(p.truth);
   return pairs;
+}
+
+// --export: each pair in Middlebury's 2014 layout under DIR/<its name>.
+int export_pairs(const std::vector<Pair>& pairs, const std::string& dir) {
+  for (const Pair& p : pairs) {
+    const std::string to = dir + "/" + p.name;
+    if (const Status written = bench::write_middlebury_pair(to, {p.left, p.right, p.truth}); !written.ok()) {
+      std::fprintf(stderr, "saccade_stereo_bench: --export %s\n", written.message().c_str());
+      return 1;
+    }
+    std::printf("%s: %s\n", to.c_str(), p.what.c_str());
+  }
+  return 0;
 }
 
 // Every matcher on one pair: ours with the defaults first (its foveas are where
@@ -716,37 +789,9 @@ std::string floor_table(const std::vector<Floor>& floors) {
   return summary.str();
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"Stereo benchmark: the retina matcher against OpenCV's StereoBM and StereoSGBM, one thread"};
-  std::string data = SACCADE_SAMPLE_DATA, markdown;
-  Matchers matchers;
-  std::vector<std::string> sets, only;
-  app.add_option("--data", data, "opencv-doc's examples/data folder");
-  app.add_option("--markdown", markdown, "write the tables to this file");
-  app.add_option("--reps", matchers.reps, "runs of our matcher per fixation (the time is their median)");
-  app.add_option("--cv-reps", matchers.cv_reps, "runs of BM and SGBM per pair (the time is their median)");
-  app.add_option("--set", sets,
-                 "key=value: also run our matcher with the defaults changed so (repeatable; "
-                 "the stereo node's parameter names)");
-  app.add_option("--pair", only, "only these pairs (repeatable, or comma-separated)")
-      ->delimiter(',')
-      ->check(CLI::IsMember({"aloe", "aloe_third", "planes_640", "planes_450", "chessboards"}));
-  app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
-  app.add_flag("--error-maps", error_maps,
-               "with --verbose, each fovea's pixels: o within 2 px of the truth, + nearer, - farther, . none, "
-               "? no truth; the truth beside");
-  app.add_flag("--variants", matchers.all_variants,
-               "also run the plain matcher and docs/accuracy.md's densest and precise configurations");
-  // A value given twice is the last one: make's STEREO_ARGS can change what a target gives.
-  for (const char* single : {"--data", "--markdown", "--reps", "--cv-reps"})
-    app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
-  CLI11_PARSE(app, argc, argv);
-  cv::setNumThreads(1);
-  if (!parse_sets(sets, matchers)) return 2;
-  const std::vector<Pair> pairs = select_pairs(data, only);
-
+// Every pair scored, each table printed as soon as it is measured (a full run
+// takes minutes), then the floor's; the whole report.
+std::string score_pairs(const std::vector<Pair>& pairs, const Matchers& matchers) {
   const retina::RetinaConfig retina_config;  // the retina's defaults: 5 levels of 32x24
   std::string report;
   std::ostringstream md;
@@ -778,7 +823,59 @@ int main(int argc, char** argv) {
   }
   const std::string summary = floor_table(floors);
   std::fputs(summary.c_str(), stdout);
-  report += summary;
+  return report + summary;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Stereo benchmark: the retina matcher against OpenCV's StereoBM and StereoSGBM, one thread"};
+  std::string data = SACCADE_SAMPLE_DATA, markdown;
+  Matchers matchers;
+  std::vector<std::string> sets;
+  PairSources sources;
+  app.add_option("--data", data, "opencv-doc's examples/data folder");
+  app.add_option("--markdown", markdown, "write the tables to this file");
+  app.add_option("--reps", matchers.reps, "runs of our matcher per fixation (the time is their median)");
+  app.add_option("--cv-reps", matchers.cv_reps, "runs of BM and SGBM per pair (the time is their median)");
+  app.add_option("--set", sets,
+                 "key=value: also run our matcher with the defaults changed so (repeatable; "
+                 "the stereo node's parameter names)");
+  app.add_option("--pair", sources.only, "only these built-in pairs (repeatable, or comma-separated)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"aloe", "aloe_third", "planes_640", "planes_450", "chessboards"}));
+  app.add_option("--middlebury", sources.middlebury,
+                 "DIR[:SCALE]: also a Middlebury scene's folder (the 2014/2021, 2005/2006 or 2001/2003 layout; "
+                 "SCALE: the truth's value of one pixel of disparity, needed for 2001/2003; repeatable)");
+  app.add_option("--stereo-pair", sources.files,
+                 "LEFT,RIGHT,TRUTH[,SCALE]: also a rectified pair and its left truth (PFM, or an 8- or 16-bit image "
+                 "with its SCALE, 0 unknown: KITTI's is 256; repeatable)");
+  bool no_builtin = false;
+  app.add_flag("--no-builtin", no_builtin, "only the pairs --middlebury and --stereo-pair give");
+  app.add_option("--export", sources.export_dir,
+                 "DIR: write the pairs in Middlebury's 2014 layout (DIR/<pair>/im0.png, im1.png, disp0.pfm, "
+                 "calib.txt) instead of scoring them");
+  app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
+  app.add_flag("--error-maps", error_maps,
+               "with --verbose, each fovea's pixels: o within 2 px of the truth, + nearer, - farther, . none, "
+               "? no truth; the truth beside");
+  app.add_flag("--variants", matchers.all_variants,
+               "also run the plain matcher and docs/accuracy.md's densest and precise configurations");
+  // A value given twice is the last one: make's STEREO_ARGS can change what a target gives.
+  for (const char* single : {"--data", "--markdown", "--reps", "--cv-reps", "--export"})
+    app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+  CLI11_PARSE(app, argc, argv);
+  sources.builtin = !no_builtin;
+  cv::setNumThreads(1);
+  if (!parse_sets(sets, matchers)) return 2;
+  const std::vector<Pair> pairs = select_pairs(data, sources);
+  if (!sources.export_dir.empty()) return export_pairs(pairs, sources.export_dir);
+  if (pairs.empty()) {
+    std::fprintf(stderr, "saccade_stereo_bench: no pairs: --no-builtin without --middlebury or --stereo-pair\n");
+    return 2;
+  }
+
+  const std::string report = score_pairs(pairs, matchers);
   if (!markdown.empty()) {
     std::ofstream file(markdown);
     file << "# Stereo benchmark (make bench-stereo)\n\nWhat is measured: apps/bench/stereo_bench.cpp.\n" << report;

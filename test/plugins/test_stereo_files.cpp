@@ -1,0 +1,244 @@
+// Stereo pairs with truth read from the public benchmarks' files (the stereo
+// benchmark's --middlebury and --stereo-pair) and written in Middlebury's 2014
+// layout (its --export): each year's layout on files written here, Aloe from
+// opencv-doc among them, and every error naming the file at fault.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "stereo_files.hpp"
+#include "support.hpp"
+
+namespace saccade::bench {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh folder under the system's temporary directory, removed with the test.
+class StereoFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("saccade_stereo_files_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string dir() const { return dir_.string(); }
+
+  // A small textured pair and its truth: 20 px and a pixel more each row
+  // down on the left half, 5.5 on the right, unknown in the first column.
+  static StereoPairImages small_pair() {
+    StereoPairImages p;
+    p.left.create(6, 8, CV_8U);
+    cv::randu(p.left, 0, 256);
+    p.right = p.left.clone();
+    p.truth.create(6, 8, CV_32F);
+    for (int y = 0; y < 6; ++y)
+      for (int x = 0; x < 8; ++x) p.truth.at<float>(y, x) = x == 0 ? -1.0f : x < 4 ? 20.0f + static_cast<float>(y) : 5.5f;
+    return p;
+  }
+
+ private:
+  fs::path dir_;
+};
+
+void expect_same(const cv::Mat& a, const cv::Mat& b) {
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.type(), b.type());
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+}
+
+TEST_F(StereoFiles, ReadsBackAMiddlebury2014FolderItWroteExactly) {
+  const StereoPairImages written = small_pair();
+  ASSERT_TRUE(write_middlebury_pair(path("Scene"), written).ok());
+  std::ifstream calib(path("Scene/calib.txt"));
+  const std::string text((std::istreambuf_iterator<char>(calib)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, "width=8\nheight=6\nndisp=32\n");
+  // As the format says, for other tools to read: little-endian, the bottom row first.
+  std::ifstream pfm(path("Scene/disp0.pfm"), std::ios::binary);
+  std::string kind, size, scale;
+  std::getline(pfm, kind), std::getline(pfm, size), std::getline(pfm, scale);
+  ASSERT_EQ(kind + "|" + size + "|" + scale, "Pf|8 6|-1");
+  float first[2];
+  pfm.read(reinterpret_cast<char*>(first), sizeof first);
+  EXPECT_TRUE(std::isinf(first[0]));
+  EXPECT_EQ(first[1], 25.0f);
+
+  const Result<StereoPairFiles> files = find_middlebury_pair(path("Scene"));
+  ASSERT_TRUE(files.ok()) << files.error();
+  EXPECT_EQ(files->name, "Scene");
+  EXPECT_EQ(files->left, path("Scene/im0.png"));
+  EXPECT_EQ(files->truth, path("Scene/disp0.pfm"));
+  EXPECT_TRUE(files->note.empty());
+  const Result<StereoPairImages> read = read_stereo_pair(*files);
+  ASSERT_TRUE(read.ok()) << read.error();
+  expect_same(read->left, written.left);
+  expect_same(read->right, written.right);
+  expect_same(read->truth, written.truth);  // the unknown column back as -1 (infinity in the file)
+}
+
+// PFM stores its rows bottom first; a scale of -1 says little-endian.
+TEST_F(StereoFiles, ReadsAPfmsRowsBottomFirstAsTheFormatSays) {
+  std::ofstream pfm(path("disp0.pfm"), std::ios::binary);
+  pfm << "Pf\n3 2\n-1\n";
+  const float bottom[3] = {7, 8, std::numeric_limits<float>::infinity()}, top[3] = {1, 2, 3};
+  pfm.write(reinterpret_cast<const char*>(bottom), sizeof bottom);
+  pfm.write(reinterpret_cast<const char*>(top), sizeof top);
+  pfm.close();
+  const cv::Mat image(2, 3, CV_8U, cv::Scalar(100));
+  ASSERT_TRUE(cv::imwrite(path("im0.png"), image) && cv::imwrite(path("im1.png"), image));
+
+  const Result<StereoPairFiles> files = find_middlebury_pair(dir());
+  ASSERT_TRUE(files.ok()) << files.error();
+  const Result<StereoPairImages> read = read_stereo_pair(*files);
+  ASSERT_TRUE(read.ok()) << read.error();
+  EXPECT_FLOAT_EQ(read->truth.at<float>(0, 0), 1);
+  EXPECT_FLOAT_EQ(read->truth.at<float>(0, 2), 3);
+  EXPECT_FLOAT_EQ(read->truth.at<float>(1, 1), 8);
+  EXPECT_FLOAT_EQ(read->truth.at<float>(1, 2), -1);
+}
+
+// opencv-doc's Aloe is Middlebury 2006's full size: its 8-bit truth is the
+// disparity itself. Third size, the same truth is three times the disparity.
+TEST_F(StereoFiles, TakesA2006FoldersScaleFromItsWidthUnlessGiven) {
+  const cv::Mat left = test::read_sample("aloeL.jpg", cv::IMREAD_GRAYSCALE),
+                right = test::read_sample("aloeR.jpg", cv::IMREAD_GRAYSCALE),
+                truth = test::read_sample("aloeGT.png", cv::IMREAD_GRAYSCALE);
+  fs::create_directories(path("Full"));
+  ASSERT_TRUE(cv::imwrite(path("Full/view1.png"), left) && cv::imwrite(path("Full/view5.png"), right) &&
+              cv::imwrite(path("Full/disp1.png"), truth));
+  Result<StereoPairFiles> full = find_middlebury_pair(path("Full"));
+  ASSERT_TRUE(full.ok()) << full.error();
+  EXPECT_EQ(full->scale, 1);
+  EXPECT_NE(full->note.find("scale taken as 1"), std::string::npos) << full->note;
+  Result<StereoPairImages> read = read_stereo_pair(*full);
+  ASSERT_TRUE(read.ok()) << read.error();
+  cv::Mat expected;
+  truth.convertTo(expected, CV_32F);
+  expected.setTo(-1, truth == 0);
+  expect_same(read->truth, expected);
+
+  // A third of the size: 427 px wide, the truth's 8 bits still the full size's disparity.
+  fs::create_directories(path("Third"));
+  cv::Mat small, small_truth;
+  cv::resize(left, small, left.size() / 3, 0, 0, cv::INTER_AREA);
+  cv::resize(truth, small_truth, left.size() / 3, 0, 0, cv::INTER_NEAREST);
+  ASSERT_TRUE(cv::imwrite(path("Third/view1.png"), small) && cv::imwrite(path("Third/view5.png"), small) &&
+              cv::imwrite(path("Third/disp1.png"), small_truth));
+  Result<StereoPairFiles> third = find_middlebury_pair(path("Third"));
+  ASSERT_TRUE(third.ok()) << third.error();
+  EXPECT_EQ(third->scale, 3);
+  read = read_stereo_pair(*third);
+  ASSERT_TRUE(read.ok()) << read.error();
+  const cv::Point p(200, 150);
+  ASSERT_GT(small_truth.at<uint8_t>(p), 0);
+  EXPECT_FLOAT_EQ(read->truth.at<float>(p), small_truth.at<uint8_t>(p) / 3.0f);
+
+  // Given, the scale is the one given, and nothing is assumed.
+  Result<StereoPairFiles> given = find_middlebury_pair(path("Third") + ":2");
+  ASSERT_TRUE(given.ok()) << given.error();
+  EXPECT_EQ(given->scale, 2);
+  EXPECT_TRUE(given->note.empty());
+}
+
+TEST_F(StereoFiles, A2003FolderNeedsItsScale) {
+  const StereoPairImages p = small_pair();
+  cv::Mat truth8;
+  p.truth.convertTo(truth8, CV_8U, 4.0);  // Teddy's and Cones' convention; -1 saturates to 0, unknown
+  ASSERT_TRUE(cv::imwrite(path("im2.png"), p.left) && cv::imwrite(path("im6.png"), p.right) &&
+              cv::imwrite(path("disp2.png"), truth8));
+  const Result<StereoPairFiles> unscaled = find_middlebury_pair(dir());
+  ASSERT_FALSE(unscaled.ok());
+  EXPECT_NE(unscaled.error().find("give it as DIR:SCALE"), std::string::npos) << unscaled.error();
+  EXPECT_NE(unscaled.error().find(dir()), std::string::npos) << unscaled.error();
+
+  const Result<StereoPairFiles> files = find_middlebury_pair(dir() + ":4");
+  ASSERT_TRUE(files.ok()) << files.error();
+  EXPECT_EQ(files->left, path("im2.png"));
+  const Result<StereoPairImages> read = read_stereo_pair(*files);
+  ASSERT_TRUE(read.ok()) << read.error();
+  expect_same(read->truth, p.truth);
+}
+
+// KITTI's truth: 16 bits, 256 a pixel, 0 where its laser saw nothing.
+TEST_F(StereoFiles, ReadsA16BitTruthByTheScaleGiven) {
+  const StereoPairImages p = small_pair();
+  cv::Mat truth16;
+  p.truth.convertTo(truth16, CV_16U, 256.0);
+  ASSERT_TRUE(cv::imwrite(path("left.png"), p.left) && cv::imwrite(path("right.png"), p.right) &&
+              cv::imwrite(path("truth.png"), truth16));
+  const std::string files = path("left.png") + "," + path("right.png") + "," + path("truth.png");
+  const Result<StereoPairFiles> given = parse_stereo_pair(files + ",256");
+  ASSERT_TRUE(given.ok()) << given.error();
+  EXPECT_EQ(given->name, fs::path(dir()).filename().string() + "/left");
+  const Result<StereoPairImages> read = read_stereo_pair(*given);
+  ASSERT_TRUE(read.ok()) << read.error();
+  expect_same(read->truth, p.truth);
+
+  const Result<StereoPairFiles> unscaled = parse_stereo_pair(files);
+  ASSERT_TRUE(unscaled.ok()) << unscaled.error();
+  const Result<StereoPairImages> refused = read_stereo_pair(*unscaled);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().find(path("truth.png") + ": an integer disparity map needs its scale"), std::string::npos)
+      << refused.error();
+}
+
+TEST_F(StereoFiles, BadSpecsAndFoldersAreErrorsNamingThem) {
+  EXPECT_NE(parse_stereo_pair("l.png,r.png").error().find("expected LEFT,RIGHT,TRUTH"), std::string::npos);
+  EXPECT_NE(parse_stereo_pair("l.png,r.png,t.png,x").error().find("the scale 'x' is not a positive number"),
+            std::string::npos);
+  EXPECT_NE(parse_stereo_pair("l.png,,t.png").error().find("an empty file name"), std::string::npos);
+  EXPECT_NE(find_middlebury_pair(path("nowhere")).error().find(path("nowhere") + ": no such folder"),
+            std::string::npos);
+  EXPECT_NE(find_middlebury_pair(dir() + ":-3").error().find("the scale '-3' is not a positive number"),
+            std::string::npos);
+  const Result<StereoPairFiles> empty = find_middlebury_pair(dir());
+  EXPECT_NE(empty.error().find(dir() + ": no Middlebury pair: looked for im0.png"), std::string::npos)
+      << empty.error();
+  const cv::Mat image(6, 8, CV_8U, cv::Scalar(9));
+  ASSERT_TRUE(cv::imwrite(path("im0.png"), image) && cv::imwrite(path("im1.png"), image));
+  const Result<StereoPairFiles> partial = find_middlebury_pair(dir());
+  EXPECT_NE(partial.error().find("a Middlebury 2014, 2021 folder without disp0.pfm or disp0GT.pfm"),
+            std::string::npos)
+      << partial.error();
+}
+
+TEST_F(StereoFiles, FilesThatAreNotThePairTheyShouldBeAreErrorsNamingThem) {
+  const StereoPairImages p = small_pair();
+  ASSERT_TRUE(write_middlebury_pair(dir(), p).ok());
+  StereoPairFiles files{"scene", path("im0.png"), path("im1.png"), path("disp0.pfm"), 0, {}};
+  const auto error_of = [&](const StereoPairFiles& f) { return read_stereo_pair(f).error(); };
+
+  StereoPairFiles missing = files;
+  missing.right = path("none.png");
+  EXPECT_EQ(error_of(missing), path("none.png") + ": cannot be read as an image");
+
+  const cv::Mat wider(6, 9, CV_8U, cv::Scalar(1));
+  ASSERT_TRUE(cv::imwrite(path("wider.png"), wider));
+  StereoPairFiles other_size = files;
+  other_size.right = path("wider.png");
+  EXPECT_EQ(error_of(other_size), path("wider.png") + ": 9x6, but " + path("im0.png") + " is 8x6");
+
+  ASSERT_TRUE(cv::imwrite(path("colour.pfm"), cv::Mat(6, 8, CV_32FC3, cv::Scalar(1, 2, 3))));
+  StereoPairFiles colour = files;
+  colour.truth = path("colour.pfm");
+  EXPECT_EQ(error_of(colour), path("colour.pfm") + ": 3 channels; a disparity map has one");
+
+  ASSERT_TRUE(cv::imwrite(path("unknown.pfm"), cv::Mat(6, 8, CV_32F, cv::Scalar(INFINITY))));
+  StereoPairFiles unknown = files;
+  unknown.truth = path("unknown.pfm");
+  EXPECT_EQ(error_of(unknown), path("unknown.pfm") + ": no pixel of known disparity");
+}
+
+}  // namespace
+}  // namespace saccade::bench
