@@ -6,10 +6,11 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
-#include <limits>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+
+#include "mosaic.hpp"
 
 namespace saccade::bench {
 namespace {
@@ -201,10 +202,9 @@ Status write_middlebury_pair(const std::string& dir, const StereoPairImages& pai
   fs::create_directories(dir, ec);
   if (ec) return Status::error(dir + ": cannot be made (" + ec.message() + ")");
   const fs::path d(dir);
-  cv::Mat truth = pair.truth.clone();
-  truth.setTo(std::numeric_limits<float>::infinity(), truth < 0);
+  // (The snapshot's PFM: unknown as infinity, the bottom row first.)
   if (!cv::imwrite((d / "im0.png").string(), pair.left) || !cv::imwrite((d / "im1.png").string(), pair.right) ||
-      !cv::imwrite((d / "disp0.pfm").string(), truth))
+      !snapshot::write_pfm((d / "disp0.pfm").string(), pair.truth))
     return Status::error(dir + ": cannot write the pair's images");
   double largest = 0;
   cv::minMaxLoc(pair.truth, nullptr, &largest);
