@@ -101,12 +101,10 @@ Result<cv::Mat> read_truth(const StereoPairFiles& files, cv::Size size) {
   const cv::Mat raw = cv::imread(files.truth, cv::IMREAD_UNCHANGED);
   if (raw.empty()) return Status::error(files.truth + ": cannot be read as an image");
   if (raw.channels() != 1)
-    return Status::error(files.truth + ": " + std::to_string(raw.channels()) +
-                         " channels; a disparity map has one");
+    return Status::error(files.truth + ": " + std::to_string(raw.channels()) + " channels; a disparity map has one");
   if (raw.size() != size)
-    return Status::error(files.truth + ": " + std::to_string(raw.cols) + "x" + std::to_string(raw.rows) +
-                         ", but " + files.left + " is " + std::to_string(size.width) + "x" +
-                         std::to_string(size.height));
+    return Status::error(files.truth + ": " + std::to_string(raw.cols) + "x" + std::to_string(raw.rows) + ", but " +
+                         files.left + " is " + std::to_string(size.width) + "x" + std::to_string(size.height));
   const bool is_float = raw.depth() == CV_32F || raw.depth() == CV_64F;
   if (!is_float && files.scale <= 0)
     return Status::error(files.truth +
@@ -159,8 +157,7 @@ Result<StereoPairFiles> find_middlebury_pair(const std::string& spec) {
   StereoPairFiles files;
   std::string years, missing;
   if (!find_layout(dir, files, years, missing)) {
-    if (!missing.empty())
-      return Status::error(dir + ": a Middlebury " + years + " folder without " + missing);
+    if (!missing.empty()) return Status::error(dir + ": a Middlebury " + years + " folder without " + missing);
     return Status::error(dir +
                          ": no Middlebury pair: looked for im0.png, im1.png, disp0.pfm (2014, 2021); view1.png, "
                          "view5.png, disp1.png (2005, 2006); im2, im6 (.ppm or .png), disp2 (.pgm or .png) (2001, "

@@ -44,7 +44,8 @@ class StereoFiles : public ::testing::Test {
     p.right = p.left.clone();
     p.truth.create(6, 8, CV_32F);
     for (int y = 0; y < 6; ++y)
-      for (int x = 0; x < 8; ++x) p.truth.at<float>(y, x) = x == 0 ? -1.0f : x < 4 ? 20.0f + static_cast<float>(y) : 5.5f;
+      for (int x = 0; x < 8; ++x)
+        p.truth.at<float>(y, x) = x == 0 ? -1.0f : x < 4 ? 20.0f + static_cast<float>(y) : 5.5f;
     return p;
   }
 
@@ -203,13 +204,11 @@ TEST_F(StereoFiles, BadSpecsAndFoldersAreErrorsNamingThem) {
   EXPECT_NE(find_middlebury_pair(dir() + ":-3").error().find("the scale '-3' is not a positive number"),
             std::string::npos);
   const Result<StereoPairFiles> empty = find_middlebury_pair(dir());
-  EXPECT_NE(empty.error().find(dir() + ": no Middlebury pair: looked for im0.png"), std::string::npos)
-      << empty.error();
+  EXPECT_NE(empty.error().find(dir() + ": no Middlebury pair: looked for im0.png"), std::string::npos) << empty.error();
   const cv::Mat image(6, 8, CV_8U, cv::Scalar(9));
   ASSERT_TRUE(cv::imwrite(path("im0.png"), image) && cv::imwrite(path("im1.png"), image));
   const Result<StereoPairFiles> partial = find_middlebury_pair(dir());
-  EXPECT_NE(partial.error().find("a Middlebury 2014, 2021 folder without disp0.pfm or disp0GT.pfm"),
-            std::string::npos)
+  EXPECT_NE(partial.error().find("a Middlebury 2014, 2021 folder without disp0.pfm or disp0GT.pfm"), std::string::npos)
       << partial.error();
 }
 
