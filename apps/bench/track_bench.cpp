@@ -8,6 +8,7 @@
 //   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--video FILE:FIRST:x,y,w,h[:COUNT]]...
 //                       [--no-generated]
 //                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--sequences a,b] [--markdown FILE]
+//                       [--export DIR]   (the sequences written as OTB folders, for other tools, instead)
 #ifndef SACCADE_TRACK_BENCH_FOVEA
 #define SACCADE_TRACK_BENCH_FOVEA 1
 #endif
@@ -162,6 +163,7 @@ struct Options {
   std::string sequences;  // names to keep, all when empty
   int frames = 0;
   std::string trace;              // a folder for per-frame CSV files, one per sequence and tracker
+  std::string export_dir;         // --export: the sequences are written there in the OTB layout instead of run
   int runs = 1;                   // runs per sequence, the first box moved a little in all but the first
   std::vector<std::string> sets;  // the fovea node's box_* parameters, key=value
   BoxConfig box;                  // the fovea tracker's configuration, as they set it
@@ -597,6 +599,24 @@ bool apply_sets(Options& options) {
 #endif
 }
 
+// --export: each sequence with truth as an OTB folder DIR/<its name>.
+int export_sequences(const std::vector<Sequence>& sequences, const std::string& dir) {
+  for (const Sequence& sequence : sequences) {
+    if (!sequence.truth_known) {
+      std::cerr << "note: " << sequence.name << " left out: a video's only known box is its first\n";
+      continue;
+    }
+    const std::string to = dir + "/" + sequence.name;
+    if (const Status written = write_otb(sequence, to); !written.ok()) {
+      std::cerr << "error: --export " << written.message() << "\n";
+      return 1;
+    }
+    std::cout << to << ": " << sequence.size() << " frames, " << sequence.frame_size.width << "x"
+              << sequence.frame_size.height << "\n";
+  }
+  return 0;
+}
+
 int run(const Options& options) {
   const std::vector<std::string> trackers = split_list(options.trackers);
   for (const std::string& name : trackers)
@@ -611,6 +631,7 @@ int run(const Options& options) {
     return 1;
   }
   const std::vector<Sequence>& sequences = *loaded;
+  if (!options.export_dir.empty()) return export_sequences(sequences, options.export_dir);
   if (sequences.empty()) {
     std::cerr << "no sequences to run\n";
     return 2;
@@ -669,8 +690,12 @@ int main(int argc, char** argv) {
   app.add_option("--set", options.sets,
                  "key=value: the fovea tracker with the fovea node's box_* parameter changed so (repeatable; "
                  "docs/plugins.md)");
+  app.add_option("--export", options.export_dir,
+                 "FOLDER: write the sequences with truth in the OTB layout (FOLDER/<sequence>/img/0001.png ..., "
+                 "groundtruth_rect.txt; NaN rows where the target is hidden) instead of running them");
   // A value given twice is the last one: make's TRACK_ARGS can change what a target gives.
-  for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--markdown", "--runs", "--trace"})
+  for (const char* single :
+       {"--data", "--trackers", "--sequences", "--frames", "--markdown", "--runs", "--trace", "--export"})
     app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   if (!apply_sets(options)) return 2;

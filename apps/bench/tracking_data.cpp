@@ -268,6 +268,34 @@ Result<std::vector<Sequence>> read_otb_targets(const std::string& dir, int first
   return targets;
 }
 
+Status write_otb(const Sequence& sequence, const std::string& dir) {
+  if (!sequence.truth_known) return Status::error(sequence.name + ": no truth to write (only its first box is known)");
+  std::error_code ec;
+  const fs::path img = fs::path(dir) / "img";
+  fs::create_directories(img, ec);
+  if (ec) return Status::error(img.string() + ": cannot be made (" + ec.message() + ")");
+  const int digits = std::max(4, static_cast<int>(std::to_string(sequence.size()).size()));
+  const fs::path truth_path = fs::path(dir) / "groundtruth_rect.txt";
+  std::ofstream truth(truth_path);
+  for (int i = 0; i < sequence.size(); ++i) {
+    const Result<cv::Mat> frame = sequence.frame(i);
+    if (!frame.ok()) return frame.status();
+    const std::string number = std::to_string(i + 1);
+    const fs::path image = img / (std::string(static_cast<std::size_t>(digits) - number.size(), '0') + number + ".png");
+    if (!cv::imwrite(image.string(), *frame)) return Status::error(image.string() + ": cannot be written");
+    const cv::Rect2d& b = sequence.truth[static_cast<std::size_t>(i)];
+    std::string row;
+    for (const double v : {b.x, b.y, b.width, b.height}) {
+      char text[32] = "NaN";
+      if (sequence.visible[static_cast<std::size_t>(i)]) *std::to_chars(text, text + sizeof text - 1, v).ptr = 0;
+      row += (row.empty() ? "" : ",") + std::string(text);
+    }
+    truth << row << "\n";
+  }
+  if (!truth) return Status::error(truth_path.string() + ": cannot be written");
+  return {};
+}
+
 Result<VideoTarget> parse_video_target(const std::string& spec) {
   const Status bad = Status::error("--video " + spec + ": expected FILE:FIRST:x,y,w,h or FILE:FIRST:x,y,w,h:COUNT");
   // Taken apart from the right: the path may hold ':' itself.

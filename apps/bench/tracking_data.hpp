@@ -88,6 +88,15 @@ Result<Sequence> read_video(const VideoTarget& target);
 // (Jogging.1, Jogging.2).
 Result<std::vector<Sequence>> read_otb_targets(const std::string& dir, int first_image = 0);
 
+// Writes a sequence with truth in the OTB layout into `dir` (made if
+// missing), for other trackers' tools: img/0001.png ... (PNG, lossless, so
+// read_otb gives back every pixel; as many digits as the count needs, at
+// least 4) and groundtruth_rect.txt, one x,y,w,h row per frame, each number
+// as few digits as give it back exactly, NaN,NaN,NaN,NaN where the target is
+// hidden or out of view. An error names the file that could not be written,
+// or the sequence without truth (a video's).
+Status write_otb(const Sequence& sequence, const std::string& dir);
+
 // VOT layout: DIR/00000001.jpg ... (or DIR/color/00000001.jpg ..., or as
 // LaSOT DIR/img/00000001.jpg ...; GOT-10k's folders read too) and
 // DIR/groundtruth.txt, one row per frame of 4 numbers (x,y,w,h) or 8 (the

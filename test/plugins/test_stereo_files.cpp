@@ -3,6 +3,7 @@
 // layout (its --export): each year's layout on files written here, Aloe from
 // opencv-doc among them, and every error naming the file at fault.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
@@ -26,8 +27,8 @@ namespace fs = std::filesystem;
 class StereoFiles : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("saccade_stereo_files_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir_ = fs::temp_directory_path() / ("saccade_stereo_files_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }

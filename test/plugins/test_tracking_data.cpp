@@ -473,6 +473,50 @@ TEST(Generator, TheTargetLeavesTheViewAndComesBack) {
   EXPECT_EQ(reappearances, 2);
 }
 
+// The OTB layout written for other tools (the benchmark's --export): read_otb
+// gives back every frame and box exactly, hidden frames as hidden.
+TEST(OtbWriter, WritesWhatReadOtbGivesBackExactly) {
+  Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
+  ASSERT_EQ(s.name, "out_of_view");
+  truncate(s, 90);  // the camera looks away from frame 75 on
+  const TempDir dir;
+  const std::string folder = (dir.path() / "out_of_view").string();
+  ASSERT_TRUE(write_otb(s, folder).ok());
+  EXPECT_TRUE(fs::is_regular_file(dir.path() / "out_of_view/img/0090.png"));
+  const Sequence back = value_of(read_otb(folder));
+  EXPECT_EQ(back.name, "out_of_view");
+  ASSERT_EQ(back.size(), 90);
+  EXPECT_EQ(back.frame_size, s.frame_size);
+  int hidden = 0;
+  for (int i = 0; i < s.size(); ++i) {
+    EXPECT_EQ(back.visible[i], s.visible[i]) << "frame " << i;
+    if (s.visible[i]) {
+      EXPECT_EQ(back.truth[i], s.truth[i]) << "frame " << i;  // every bit of every number
+    }
+    hidden += !s.visible[i];
+  }
+  EXPECT_GE(hidden, 10);
+  for (const int i : {0, 45, 89}) {
+    const cv::Mat written = value_of(s.frame(i)), read = value_of(back.frame(i));
+    ASSERT_EQ(read.size(), written.size());
+    EXPECT_EQ(cv::norm(read, written, cv::NORM_INF), 0.0) << "frame " << i;
+  }
+}
+
+TEST(OtbWriter, NamesWhatItCannotWrite) {
+  Sequence video;
+  video.name = "vtest@0+1+2+3+4";
+  video.truth_known = false;
+  EXPECT_EQ(write_otb(video, "anywhere").message(), "vtest@0+1+2+3+4: no truth to write (only its first box is known)");
+  const TempDir dir;
+  write_file(dir.path() / "a_file", "not a folder");
+  Sequence one;
+  one.name = "one";
+  const std::string under_a_file = (dir.path() / "a_file" / "one").string();
+  const Status written = write_otb(one, under_a_file);
+  EXPECT_THAT(written.message(), ::testing::StartsWith(under_a_file + "/img: cannot be made"));
+}
+
 // ------------------------------------------------------------------ scoring
 
 TEST(Scoring, HandMadeTrackGivesTheExpectedMeasures) {
