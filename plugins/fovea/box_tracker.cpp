@@ -141,6 +141,28 @@ cv::Vec2d chroma(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
   return {bgr[2] / sum, bgr[1] / sum};
 }
 
+// The scale filter's arithmetic per dimension, each spectrum's real and
+// imaginary parts in planes of their own, for the vectoriser: the same
+// operations in the same order as on std::complex, so bit for bit its results.
+
+// z += w x: one scale's term of the transform across scales.
+SACCADE_AVX2_CLONE void add_scale_term(float* __restrict zr, float* __restrict zi, float wr, float wi,
+                                       const float* __restrict x, int count) {
+  for (int d = 0; d < count; ++d) {
+    zr[d] += wr * x[d];
+    zi[d] += wi * x[d];
+  }
+}
+
+// n <- keep n + g conj(f), `g` the target's spectrum times the rate.
+SACCADE_AVX2_CLONE void learn_scale_term(float* __restrict nr, float* __restrict ni, const float* __restrict fr,
+                                         const float* __restrict fi, float gr, float gi, float keep, int count) {
+  for (int d = 0; d < count; ++d) {
+    nr[d] = keep * nr[d] + (gr * fr[d] - gi * -fi[d]);
+    ni[d] = keep * ni[d] + (gr * -fi[d] + gi * fr[d]);
+  }
+}
+
 // DSST's scale filter: a one-dimensional correlation filter across `count`
 // scales of the target (Danelljan et al., BMVC 2014). Each scale's sample is
 // the target's box times that scale, sampled to a small fixed patch; the
@@ -171,23 +193,34 @@ class ScaleFilter {
         target_[static_cast<std::size_t>(k)] +=
             static_cast<float>(g[static_cast<std::size_t>(s)]) * twiddle_[static_cast<std::size_t>(s * count + k)];
     samples_.resize(n * static_cast<std::size_t>(dims_));
-    spectra_.resize(n * static_cast<std::size_t>(dims_));
+    // Real samples: the spectrum's frequencies above count / 2 mirror those
+    // below, so only those up to it are kept.
+    const auto half = static_cast<std::size_t>((count / 2 + 1) * dims_);
+    spectra_re_.resize(half);
+    spectra_im_.resize(half);
+    numerator_re_.resize(half);
+    numerator_im_.resize(half);
     sample_.resize(static_cast<std::size_t>(side * side));
   }
 
   // The best scale factor for a target of `size` around `centre` (1: unchanged).
   double estimate(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, double lambda) {
-    if (numerator_.empty()) return 1.0;
+    if (!learnt_) return 1.0;
     spectra(frame, center, size);
     // Response = IDFT over scales of sum_d A_d(k) Z_d(k) / (B(k) + lambda).
     std::vector<std::complex<float>>& r = response_;
     r.assign(static_cast<std::size_t>(count_), {});
     for (int k = 0; k <= count_ / 2; ++k) {  // the rest mirrors it: real samples
-      const std::complex<float>* a = &numerator_[static_cast<std::size_t>(k * dims_)];
-      const std::complex<float>* z = &spectra_[static_cast<std::size_t>(k * dims_)];
-      std::complex<float> sum = 0;
-      for (int d = 0; d < dims_; ++d) sum += a[d] * z[d];
-      r[static_cast<std::size_t>(k)] = sum / (denominator_[static_cast<std::size_t>(k)] + static_cast<float>(lambda));
+      const auto at = static_cast<std::size_t>(k * dims_);
+      const float *ar = &numerator_re_[at], *ai = &numerator_im_[at];
+      const float *zr = &spectra_re_[at], *zi = &spectra_im_[at];
+      float sr = 0, si = 0;  // one sum, in order: a vectorised one would round otherwise
+      for (int d = 0; d < dims_; ++d) {
+        sr += ar[d] * zr[d] - ai[d] * zi[d];
+        si += ar[d] * zi[d] + ai[d] * zr[d];
+      }
+      r[static_cast<std::size_t>(k)] =
+          std::complex<float>(sr, si) / (denominator_[static_cast<std::size_t>(k)] + static_cast<float>(lambda));
       if (k > 0) r[static_cast<std::size_t>(count_ - k)] = std::conj(r[static_cast<std::size_t>(k)]);
     }
     int best = 0;
@@ -205,28 +238,24 @@ class ScaleFilter {
   // Learns from the samples estimate() took when `fresh` is false (the
   // scale did not change, so they are this frame's samples at this size).
   void learn(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, double rate, bool fresh) {
-    if (fresh || numerator_.empty()) spectra(frame, center, size);
-    if (numerator_.empty()) {
-      numerator_.assign(spectra_.size(), {});
-      denominator_.assign(static_cast<std::size_t>(count_), 0.0f);
+    if (fresh || !learnt_) spectra(frame, center, size);
+    if (!learnt_) {
+      std::fill(numerator_re_.begin(), numerator_re_.end(), 0.0f);
+      std::fill(numerator_im_.begin(), numerator_im_.end(), 0.0f);
+      denominator_.assign(static_cast<std::size_t>(count_ / 2 + 1), 0.0f);
+      learnt_ = true;
       rate = 1;
     }
     const float a = static_cast<float>(rate), keep = 1 - a;
     for (int k = 0; k <= count_ / 2; ++k) {  // the rest mirrors it: real samples
-      const std::complex<float> g = target_[static_cast<std::size_t>(k)];
-      const std::complex<float>* f = &spectra_[static_cast<std::size_t>(k * dims_)];
-      std::complex<float>* n = &numerator_[static_cast<std::size_t>(k * dims_)];
-      float energy = 0;
-      for (int d = 0; d < dims_; ++d) {
-        n[d] = keep * n[d] + a * g * std::conj(f[d]);
-        energy += std::norm(f[d]);
-      }
+      const std::complex<float> g = a * target_[static_cast<std::size_t>(k)];
+      const auto at = static_cast<std::size_t>(k * dims_);
+      const float *fr = &spectra_re_[at], *fi = &spectra_im_[at];
+      learn_scale_term(&numerator_re_[at], &numerator_im_[at], fr, fi, g.real(), g.imag(), keep, dims_);
+      float energy = 0;  // in order, as estimate()'s sums
+      for (int d = 0; d < dims_; ++d) energy += fr[d] * fr[d] + fi[d] * fi[d];
       float& b = denominator_[static_cast<std::size_t>(k)];
       b = keep * b + a * energy;
-      if (k == 0) continue;
-      std::complex<float>* mirror = &numerator_[static_cast<std::size_t>((count_ - k) * dims_)];
-      for (int d = 0; d < dims_; ++d) mirror[d] = std::conj(n[d]);
-      denominator_[static_cast<std::size_t>(count_ - k)] = b;
     }
   }
 
@@ -258,23 +287,24 @@ class ScaleFilter {
         }
     }
     for (int k = 0; k <= count_ / 2; ++k) {  // the rest mirrors it: real samples
-      std::complex<float>* z = &spectra_[static_cast<std::size_t>(k * dims_)];
-      std::fill(z, z + dims_, std::complex<float>());
+      const auto at = static_cast<std::size_t>(k * dims_);
+      float *zr = &spectra_re_[at], *zi = &spectra_im_[at];
+      std::fill(zr, zr + dims_, 0.0f);
+      std::fill(zi, zi + dims_, 0.0f);
       for (int s = 0; s < count_; ++s) {
         const std::complex<float> w = twiddle_[static_cast<std::size_t>(s * count_ + k)];
-        const float* x = &samples_[static_cast<std::size_t>(s * dims_)];
-        for (int d = 0; d < dims_; ++d) z[d] += w * x[d];
+        add_scale_term(zr, zi, w.real(), w.imag(), &samples_[static_cast<std::size_t>(s * dims_)], dims_);
       }
-      if (k == 0) continue;
-      std::complex<float>* mirror = &spectra_[static_cast<std::size_t>((count_ - k) * dims_)];
-      for (int d = 0; d < dims_; ++d) mirror[d] = std::conj(z[d]);
     }
   }
 
   int count_, side_, dims_;
   std::vector<double> factors_;
+  bool learnt_ = false;
   std::vector<float> window_, sample_, samples_, denominator_;
-  std::vector<std::complex<float>> twiddle_, target_, spectra_, numerator_, response_;
+  // Per frequency up to count / 2 (row), per dimension: the samples' spectra and the model's numerator.
+  std::vector<float> spectra_re_, spectra_im_, numerator_re_, numerator_im_;
+  std::vector<std::complex<float>> twiddle_, target_, response_;
 };
 
 namespace {
