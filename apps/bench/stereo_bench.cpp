@@ -59,6 +59,7 @@
 #include "stereo_files.hpp"
 #include "stereo_params.hpp"
 #include "stereo_truth.hpp"
+#include "unique_names.hpp"
 
 namespace {
 
@@ -145,7 +146,6 @@ Pair render(const std::string& name, const std::string& what, cv::Size size, con
   p.what = what;
   cv::Mat left(size, CV_32F), right(size, CV_32F);
   p.truth.create(size, CV_32F);
-  double largest = 0;
   for (int y = 0; y < size.height; ++y)
     for (int x = 0; x < size.width; ++x) {
       const Plane* best = nullptr;
@@ -154,7 +154,6 @@ Pair render(const std::string& name, const std::string& what, cv::Size size, con
         if (s.covers(x, y) && s.disparity(x, y) > best_d) best = &s, best_d = s.disparity(x, y);
       left.at<float>(y, x) = best->value(x, y);
       p.truth.at<float>(y, x) = static_cast<float>(best_d);
-      largest = std::max(largest, best_d);
       const Plane* seen = nullptr;
       double seen_d = -1e9, seen_x = 0;
       for (const Plane& s : planes) {
@@ -171,7 +170,7 @@ Pair render(const std::string& name, const std::string& what, cv::Size size, con
   }
   left.convertTo(p.left, CV_8U);
   right.convertTo(p.right, CV_8U);
-  p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+  p.num_disparities = bench::disparities_over(p.truth);
   return p;
 }
 
@@ -210,13 +209,12 @@ std::vector<Pair> rendered_pairs(const std::string& data) {
   return pairs;
 }
 
-// The range OpenCV's matchers are given (a multiple of 16 over the truth's
-// largest disparity) and the pair's description, from its truth; that largest
-// disparity.
+// The range OpenCV's matchers are given and the pair's description, from its
+// truth; that truth's largest disparity.
 double describe_truth(Pair& p, const std::string& label) {
   double largest = 0;
   cv::minMaxLoc(p.truth, nullptr, &largest);
-  p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+  p.num_disparities = bench::disparities_over(p.truth);
   char what[160];
   std::snprintf(what, sizeof what, ", %dx%d, truth up to %.0f px (%.1f%% unknown)", p.left.cols, p.left.rows, largest,
                 100.0 * cv::countNonZero(p.truth < 0) / static_cast<double>(p.truth.total()));
@@ -340,9 +338,7 @@ void board_truth(const std::vector<cv::Point2f>& left, const std::vector<cv::Poi
     std::fprintf(stderr, "  %s: corners' rows within %.2f px after rectification\n", name.c_str(),
                  board.row_error_max());
   p.truth = board.truth(size);
-  double largest = 0;
-  cv::minMaxLoc(p.truth, nullptr, &largest);
-  p.num_disparities = (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+  p.num_disparities = bench::disparities_over(p.truth);
   const double u = (corners.width - 1) / 4.0, v = (corners.height - 1) / 4.0;
   for (const cv::Point2d c : {board.on_board(2 * u, 2 * v), board.on_board(u, v), board.on_board(3 * u, v),
                               board.on_board(u, 3 * v), board.on_board(3 * u, 3 * v)})
@@ -657,7 +653,8 @@ std::vector<bench::StereoPairFiles> given_pairs(const PairSources& from) {
 
 // The pairs, in the tables' order.
 std::vector<Pair> select_pairs(const std::string& data, const PairSources& from) {
-  const std::vector<bench::StereoPairFiles> given = given_pairs(from);  // its errors before the built-ins' work
+  // Their names and layouts checked before the built-ins' work; their images read after.
+  const std::vector<bench::StereoPairFiles> given = given_pairs(from);
   std::vector<Pair> pairs;
   const std::vector<std::string>& only = from.only;
   const auto wanted = [&](const std::string& name) {
@@ -670,6 +667,7 @@ std::vector<Pair> select_pairs(const std::string& data, const PairSources& from)
   if (wanted("chessboards"))
     for (Pair& p : chessboard_pairs(data)) pairs.push_back(std::move(p));
   for (const bench::StereoPairFiles& files : given) pairs.push_back(pair_from_files(files));
+  bench::make_names_unique(pairs, [](Pair& p) -> std::string& { return p.name; });
   for (Pair& p : pairs) p.hidden = hidden_from_right_camera(p.truth);
   return pairs;
 }
@@ -869,11 +867,11 @@ int main(int argc, char** argv) {
   cv::setNumThreads(1);
   if (!parse_sets(sets, matchers)) return 2;
   const std::vector<Pair> pairs = select_pairs(data, sources);
-  if (!sources.export_dir.empty()) return export_pairs(pairs, sources.export_dir);
   if (pairs.empty()) {
     std::fprintf(stderr, "saccade_stereo_bench: no pairs: --no-builtin without --middlebury or --stereo-pair\n");
     return 2;
   }
+  if (!sources.export_dir.empty()) return export_pairs(pairs, sources.export_dir);
 
   const std::string report = score_pairs(pairs, matchers);
   if (!markdown.empty()) {

@@ -2,15 +2,18 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <utility>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "mosaic.hpp"
+#include "stereo_truth.hpp"
 
 namespace saccade::bench {
 namespace {
@@ -24,6 +27,12 @@ double positive_number(const std::string& text) {
   errno = 0;
   const double v = std::strtod(text.c_str(), &end);
   return errno == 0 && end == text.c_str() + text.size() && std::isfinite(v) && v > 0 ? v : 0;
+}
+
+std::string number_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
 }
 
 std::vector<std::string> split(const std::string& text, char separator) {
@@ -56,9 +65,10 @@ struct Layout {
   std::initializer_list<const char*> left, right, truth;
 };
 
-// The layout whose three files `dir` holds into `out`; false when none is
-// whole. A layout of which only some files are there is an error naming the
-// missing one (in `missing`).
+// The first layout whose three files `dir` holds, into `out`; false when
+// none is whole, `missing` then naming what the first layout found in part
+// lacks (a folder of one year may hold another's names too: the 2001 sets'
+// nine views are im0..im8).
 bool find_layout(const fs::path& dir, StereoPairFiles& out, std::string& years, std::string& missing) {
   static const Layout kLayouts[] = {
       {"2014, 2021", {"im0.png"}, {"im1.png"}, {"disp0.pfm", "disp0GT.pfm"}},
@@ -68,14 +78,15 @@ bool find_layout(const fs::path& dir, StereoPairFiles& out, std::string& years, 
   for (const Layout& layout : kLayouts) {
     const std::string left = first_file(dir, layout.left), right = first_file(dir, layout.right),
                       truth = first_file(dir, layout.truth);
-    if (left.empty() && right.empty() && truth.empty()) continue;
-    years = layout.years;
-    if (left.empty() || right.empty() || truth.empty()) {
-      missing = listed(left.empty() ? layout.left : right.empty() ? layout.right : layout.truth);
-      return false;
+    if (!left.empty() && !right.empty() && !truth.empty()) {
+      out.left = left, out.right = right, out.truth = truth;
+      years = layout.years;
+      return true;
     }
-    out.left = left, out.right = right, out.truth = truth;
-    return true;
+    if (missing.empty() && !(left.empty() && right.empty() && truth.empty())) {
+      years = layout.years;
+      missing = listed(left.empty() ? layout.left : right.empty() ? layout.right : layout.truth);
+    }
   }
   return false;
 }
@@ -89,8 +100,12 @@ Result<double> scale_from_width(const StereoPairFiles& files) {
 }
 
 Result<cv::Mat> read_image(const std::string& path, const cv::Mat* like, const std::string& like_path) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
   if (image.empty()) return Status::error(path + ": cannot be read as an image");
+  // Gray would keep a 16-bit image's top 8 bits: 12-bit data would come out
+  // nearly black and score badly with no word said.
+  if (image.depth() != CV_8U)
+    return Status::error(path + ": not an 8-bit image; the matchers take 8 bits (convert it, scaled as it should be)");
   if (like != nullptr && image.size() != like->size())
     return Status::error(path + ": " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + ", but " +
                          like_path + " is " + std::to_string(like->cols) + "x" + std::to_string(like->rows));
@@ -98,8 +113,13 @@ Result<cv::Mat> read_image(const std::string& path, const cv::Mat* like, const s
 }
 
 Result<cv::Mat> read_truth(const StereoPairFiles& files, cv::Size size) {
-  const cv::Mat raw = cv::imread(files.truth, cv::IMREAD_UNCHANGED);
-  if (raw.empty()) return Status::error(files.truth + ": cannot be read as an image");
+  // A PFM by the snapshot's reader: OpenCV's divides by the header's scale,
+  // whose size the stereo benchmarks' files do not mean as one.
+  const bool pfm = fs::path(files.truth).extension() == ".pfm";
+  const cv::Mat raw = pfm ? snapshot::read_pfm(files.truth) : cv::imread(files.truth, cv::IMREAD_UNCHANGED);
+  if (raw.empty())
+    return Status::error(files.truth +
+                         (pfm ? ": cannot be read as a one-channel PFM (\"Pf\")" : ": cannot be read as an image"));
   if (raw.channels() != 1)
     return Status::error(files.truth + ": " + std::to_string(raw.channels()) + " channels; a disparity map has one");
   if (raw.size() != size)
@@ -122,6 +142,13 @@ Result<cv::Mat> read_truth(const StereoPairFiles& files, cv::Size size) {
     }
   }
   if (cv::countNonZero(truth >= 0) == 0) return Status::error(files.truth + ": no pixel of known disparity");
+  // A disparity as wide as the image: a wrong scale, or a PFM of the other byte order.
+  double largest = 0;
+  cv::minMaxLoc(truth, nullptr, &largest);
+  if (largest >= size.width)
+    return Status::error(files.truth + ": a disparity of " + number_text(largest) + " px in an image " +
+                         std::to_string(size.width) + " px wide (is its " +
+                         (is_float ? "scale or byte order" : "scale " + number_text(scale)) + " right?)");
   return truth;
 }
 
@@ -163,8 +190,9 @@ Result<StereoPairFiles> find_middlebury_pair(const std::string& spec) {
                          "view5.png, disp1.png (2005, 2006); im2, im6 (.ppm or .png), disp2 (.pgm or .png) (2001, "
                          "2003)");
   }
-  files.name = fs::path(dir).lexically_normal().filename().string();
-  if (files.name.empty()) files.name = fs::path(dir).lexically_normal().parent_path().filename().string();
+  // Named as the folder, also when given as "." or "Teddy/".
+  const fs::path whole = fs::absolute(dir).lexically_normal();
+  files.name = (whole.has_filename() ? whole : whole.parent_path()).filename().string();
   files.scale = scale;
   if (scale > 0 || years == std::string("2014, 2021")) return files;
   if (years == std::string("2001, 2003"))
@@ -174,7 +202,7 @@ Result<StereoPairFiles> find_middlebury_pair(const std::string& spec) {
   Result<double> inferred = scale_from_width(files);
   if (!inferred.ok()) return inferred.status();
   files.scale = *inferred;
-  files.note = "the truth's scale taken as " + std::to_string(static_cast<int>(files.scale)) +
+  files.note = "the truth's scale taken as " + number_text(files.scale) +
                " from the images' width (Middlebury 2005-2006: full size 1, half 2, third 3); give DIR:SCALE if "
                "it is not";
   return files;
@@ -199,15 +227,14 @@ Status write_middlebury_pair(const std::string& dir, const StereoPairImages& pai
   fs::create_directories(dir, ec);
   if (ec) return Status::error(dir + ": cannot be made (" + ec.message() + ")");
   const fs::path d(dir);
+  for (const auto& [name, image] : {std::pair{"im0.png", &pair.left}, std::pair{"im1.png", &pair.right}})
+    if (!cv::imwrite((d / name).string(), *image)) return Status::error((d / name).string() + ": cannot be written");
   // (The snapshot's PFM: unknown as infinity, the bottom row first.)
-  if (!cv::imwrite((d / "im0.png").string(), pair.left) || !cv::imwrite((d / "im1.png").string(), pair.right) ||
-      !snapshot::write_pfm((d / "disp0.pfm").string(), pair.truth))
-    return Status::error(dir + ": cannot write the pair's images");
-  double largest = 0;
-  cv::minMaxLoc(pair.truth, nullptr, &largest);
+  if (!snapshot::write_pfm((d / "disp0.pfm").string(), pair.truth))
+    return Status::error((d / "disp0.pfm").string() + ": cannot be written");
   std::ofstream calib(d / "calib.txt");
-  calib << "width=" << pair.left.cols << "\nheight=" << pair.left.rows
-        << "\nndisp=" << (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16 << "\n";
+  calib << "width=" << pair.left.cols << "\nheight=" << pair.left.rows << "\nndisp=" << disparities_over(pair.truth)
+        << "\n";
   if (!calib) return Status::error((d / "calib.txt").string() + ": cannot be written");
   return {};
 }

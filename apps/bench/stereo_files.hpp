@@ -22,7 +22,8 @@ struct StereoPairFiles {
   std::string note;  // what was assumed in finding the files (an inferred scale), for the user to check; or empty
 };
 
-// "LEFT,RIGHT,TRUTH[,SCALE]" (the benchmark's --stereo-pair). An integer
+// "LEFT,RIGHT,TRUTH[,SCALE]" (the benchmark's --stereo-pair; file names
+// without commas). An integer
 // truth (8- or 16-bit PNG, PGM) needs its SCALE (KITTI: 256; Middlebury 2001
 // Tsukuba 16, Venus 8; 2003 Teddy and Cones 4); a PFM's is 1 unless given.
 // Named after the left image's folder and file ("image_2/000000_10").
@@ -48,13 +49,16 @@ struct StereoPairImages {
 };
 
 // Reads the three files. An error names the file at fault: one that cannot be
-// read, images of another size than the left one, a truth of more than one
-// channel, an integer truth without a scale, a truth with no known pixel.
+// read, an image of more than 8 bits, images of another size than the left
+// one, a truth of more than one channel, an integer truth without a scale, a
+// truth with no known pixel or with one as wide as the image (a wrong scale,
+// a PFM of the other byte order).
 Result<StereoPairImages> read_stereo_pair(const StereoPairFiles& files);
 
 // Writes a pair in Middlebury's 2014 layout into `dir` (made if missing):
 // im0.png, im1.png, disp0.pfm (unknown = infinity) and calib.txt with the
-// width, height and ndisp (the truth's largest disparity, rounded up to 16).
+// width, height and ndisp (the multiple of 16 above the truth's largest
+// disparity, as the benchmark gives OpenCV's matchers).
 // find_middlebury_pair and read_stereo_pair read it back exactly.
 Status write_middlebury_pair(const std::string& dir, const StereoPairImages& pair);
 

@@ -123,4 +123,10 @@ cv::Mat BoardDisparity::truth(cv::Size size) const {
   return out;
 }
 
+int disparities_over(const cv::Mat& truth) {
+  double largest = 0;
+  cv::minMaxLoc(truth, nullptr, &largest);
+  return (static_cast<int>(std::ceil(largest)) / 16 + 1) * 16;
+}
+
 }  // namespace saccade::bench

@@ -21,6 +21,11 @@ namespace saccade::bench {
 // rounding).
 cv::Mat hidden_from_right_camera(const cv::Mat& truth);
 
+// The disparity range OpenCV's matchers are given to cover a truth (CV_32F,
+// < 0 unknown): the multiple of 16 above its largest disparity (their range
+// is numDisparities values from 0, so a truth of 32 px needs 48).
+int disparities_over(const cv::Mat& truth);
+
 // A chessboard seen by a rectified pair, as truth: its inner corners
 // (`corners` columns x rows, row by row, as OpenCV finds them) in the left and
 // right rectified images, in OpenCV's pixel convention (pixel (x, y) centred on

@@ -34,6 +34,7 @@
 
 #include "saccade/status.hpp"
 #include "tracking_data.hpp"
+#include "unique_names.hpp"
 
 #if SACCADE_TRACK_BENCH_FOVEA
 #include "box_tracker.hpp"
@@ -573,6 +574,7 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
     std::erase_if(sequences,
                   [&](const Sequence& s) { return std::find(keep.begin(), keep.end(), s.name) == keep.end(); });
   for (Sequence& s : sequences) truncate(s, options.frames);
+  make_names_unique(sequences, [](Sequence& s) -> std::string& { return s.name; });
   return sequences;
 }
 

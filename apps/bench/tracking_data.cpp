@@ -181,16 +181,19 @@ struct TruthFrames {
   std::size_t in_folder = 0;
 };
 
+// An image's file name in a numbered folder: `number` zero-padded to `digits`.
+std::string numbered_name(long number, int digits, const std::string& extension) {
+  const std::string text = std::to_string(number);
+  return std::string(static_cast<std::size_t>(std::max(0, digits - static_cast<int>(text.size()))), '0') + text +
+         extension;
+}
+
 Result<TruthFrames> truth_frames(const fs::path& folder, int first_image, std::size_t rows,
                                  const fs::path& truth_file) {
   Result<NumberedImages> listed = list_numbered_images(folder);
   if (!listed.ok()) return listed.status();
   const NumberedImages& images = *listed;
-  auto name = [&](long number) {
-    char text[48];
-    std::snprintf(text, sizeof text, "%0*ld%s", images.digits, number, images.extension.c_str());
-    return (folder / text).string();
-  };
+  auto name = [&](long number) { return (folder / numbered_name(number, images.digits, images.extension)).string(); };
   const long first = first_image > 0 ? first_image : images.numbers.front();
   if (first < images.numbers.front() || first > images.numbers.back())
     return Status::error(name(first) + ": missing (the truth starts there; " + folder.filename().string() + "/ holds " +
@@ -272,6 +275,9 @@ Status write_otb(const Sequence& sequence, const std::string& dir) {
   if (!sequence.truth_known) return Status::error(sequence.name + ": no truth to write (only its first box is known)");
   std::error_code ec;
   const fs::path img = fs::path(dir) / "img";
+  // Images left from a longer export would be read as this sequence's.
+  if (fs::exists(img, ec) && !fs::is_empty(img, ec))
+    return Status::error(img.string() + ": already holds files; export into a folder without them");
   fs::create_directories(img, ec);
   if (ec) return Status::error(img.string() + ": cannot be made (" + ec.message() + ")");
   const int digits = std::max(4, static_cast<int>(std::to_string(sequence.size()).size()));
@@ -280,8 +286,7 @@ Status write_otb(const Sequence& sequence, const std::string& dir) {
   for (int i = 0; i < sequence.size(); ++i) {
     const Result<cv::Mat> frame = sequence.frame(i);
     if (!frame.ok()) return frame.status();
-    const std::string number = std::to_string(i + 1);
-    const fs::path image = img / (std::string(static_cast<std::size_t>(digits) - number.size(), '0') + number + ".png");
+    const fs::path image = img / numbered_name(i + 1, digits, ".png");
     if (!cv::imwrite(image.string(), *frame)) return Status::error(image.string() + ": cannot be written");
     const cv::Rect2d& b = sequence.truth[static_cast<std::size_t>(i)];
     std::string row;

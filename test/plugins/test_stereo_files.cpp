@@ -3,55 +3,51 @@
 // layout (its --export): each year's layout on files written here, Aloe from
 // opencv-doc among them, and every error naming the file at fault.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "stereo_files.hpp"
 #include "support.hpp"
+#include "unique_names.hpp"
 
 namespace saccade::bench {
 namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh folder under the system's temporary directory, removed with the test.
+// Each test in a fresh folder, removed with it.
 class StereoFiles : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("saccade_stereo_files_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  std::string dir() const { return dir_.string(); }
+  std::string path(const std::string& name) const { return (dir_.path() / name).string(); }
+  std::string dir() const { return dir_.path().string(); }
 
   // A small textured pair and its truth: 20 px and a pixel more each row
   // down on the left half, 5.5 on the right, unknown in the first column.
   static StereoPairImages small_pair() {
     StereoPairImages p;
-    p.left.create(6, 8, CV_8U);
+    p.left.create(6, 32, CV_8U);
     cv::randu(p.left, 0, 256);
     p.right = p.left.clone();
-    p.truth.create(6, 8, CV_32F);
+    p.truth.create(6, 32, CV_32F);
     for (int y = 0; y < 6; ++y)
-      for (int x = 0; x < 8; ++x)
-        p.truth.at<float>(y, x) = x == 0 ? -1.0f : x < 4 ? 20.0f + static_cast<float>(y) : 5.5f;
+      for (int x = 0; x < 32; ++x)
+        p.truth.at<float>(y, x) = x == 0 ? -1.0f : x < 16 ? 20.0f + static_cast<float>(y) : 5.5f;
     return p;
   }
 
  private:
-  fs::path dir_;
+  const test::TempDir dir_{"saccade_stereo_files"};
 };
 
 void expect_same(const cv::Mat& a, const cv::Mat& b) {
@@ -65,12 +61,12 @@ TEST_F(StereoFiles, ReadsBackAMiddlebury2014FolderItWroteExactly) {
   ASSERT_TRUE(write_middlebury_pair(path("Scene"), written).ok());
   std::ifstream calib(path("Scene/calib.txt"));
   const std::string text((std::istreambuf_iterator<char>(calib)), std::istreambuf_iterator<char>());
-  EXPECT_EQ(text, "width=8\nheight=6\nndisp=32\n");
+  EXPECT_EQ(text, "width=32\nheight=6\nndisp=32\n");
   // As the format says, for other tools to read: little-endian, the bottom row first.
   std::ifstream pfm(path("Scene/disp0.pfm"), std::ios::binary);
   std::string kind, size, scale;
   std::getline(pfm, kind), std::getline(pfm, size), std::getline(pfm, scale);
-  ASSERT_EQ(kind + "|" + size + "|" + scale, "Pf|8 6|-1");
+  ASSERT_EQ(kind + "|" + size + "|" + scale, "Pf|32 6|-1");
   float first[2];
   pfm.read(reinterpret_cast<char*>(first), sizeof first);
   EXPECT_TRUE(std::isinf(first[0]));
@@ -93,20 +89,20 @@ TEST_F(StereoFiles, ReadsBackAMiddlebury2014FolderItWroteExactly) {
 TEST_F(StereoFiles, ReadsAPfmsRowsBottomFirstAsTheFormatSays) {
   std::ofstream pfm(path("disp0.pfm"), std::ios::binary);
   pfm << "Pf\n3 2\n-1\n";
-  const float bottom[3] = {7, 8, std::numeric_limits<float>::infinity()}, top[3] = {1, 2, 3};
+  const float bottom[3] = {0.7f, 0.8f, std::numeric_limits<float>::infinity()}, top[3] = {0.1f, 0.2f, 0.3f};
   pfm.write(reinterpret_cast<const char*>(bottom), sizeof bottom);
   pfm.write(reinterpret_cast<const char*>(top), sizeof top);
   pfm.close();
-  const cv::Mat image(2, 3, CV_8U, cv::Scalar(100));
+  const cv::Mat image(2, 3, CV_8U, cv::Scalar(100));  // (disparities under its width: the truth's sanity check)
   ASSERT_TRUE(cv::imwrite(path("im0.png"), image) && cv::imwrite(path("im1.png"), image));
 
   const Result<StereoPairFiles> files = find_middlebury_pair(dir());
   ASSERT_TRUE(files.ok()) << files.error();
   const Result<StereoPairImages> read = read_stereo_pair(*files);
   ASSERT_TRUE(read.ok()) << read.error();
-  EXPECT_FLOAT_EQ(read->truth.at<float>(0, 0), 1);
-  EXPECT_FLOAT_EQ(read->truth.at<float>(0, 2), 3);
-  EXPECT_FLOAT_EQ(read->truth.at<float>(1, 1), 8);
+  EXPECT_FLOAT_EQ(read->truth.at<float>(0, 0), 0.1f);
+  EXPECT_FLOAT_EQ(read->truth.at<float>(0, 2), 0.3f);
+  EXPECT_FLOAT_EQ(read->truth.at<float>(1, 1), 0.8f);
   EXPECT_FLOAT_EQ(read->truth.at<float>(1, 2), -1);
 }
 
@@ -151,6 +147,73 @@ TEST_F(StereoFiles, TakesA2006FoldersScaleFromItsWidthUnlessGiven) {
   ASSERT_TRUE(given.ok()) << given.error();
   EXPECT_EQ(given->scale, 2);
   EXPECT_TRUE(given->note.empty());
+}
+
+// A positive scale says big-endian; its size is no factor the benchmarks' files mean.
+TEST_F(StereoFiles, ReadsABigEndianPfm) {
+  std::ofstream pfm(path("disp0.pfm"), std::ios::binary);
+  pfm << "Pf\n2 1\n2.0\n";  // (its disparities under the width of 2)
+  for (const float v : {1.25f, std::numeric_limits<float>::infinity()}) {
+    char bytes[4];
+    std::memcpy(bytes, &v, 4);
+    std::reverse(bytes, bytes + 4);
+    pfm.write(bytes, 4);
+  }
+  pfm.close();
+  const cv::Mat image(1, 2, CV_8U, cv::Scalar(100));
+  ASSERT_TRUE(cv::imwrite(path("im0.png"), image) && cv::imwrite(path("im1.png"), image));
+  const Result<StereoPairImages> read = read_stereo_pair(*find_middlebury_pair(dir()));
+  ASSERT_TRUE(read.ok()) << read.error();
+  EXPECT_EQ(read->truth.at<float>(0, 0), 1.25f);
+  EXPECT_EQ(read->truth.at<float>(0, 1), -1.0f);
+}
+
+// 2006's half size (641 px for Aloe): its truth is twice its own disparity.
+TEST_F(StereoFiles, TakesAHalfSizeFoldersScaleAsTwo) {
+  const StereoPairImages p = small_pair();
+  cv::Mat left, truth8;
+  cv::resize(p.left, left, cv::Size(641, 555), 0, 0, cv::INTER_NEAREST);
+  cv::resize(p.truth, truth8, cv::Size(641, 555), 0, 0, cv::INTER_NEAREST);
+  truth8.convertTo(truth8, CV_8U, 2.0);
+  ASSERT_TRUE(cv::imwrite(path("view1.png"), left) && cv::imwrite(path("view5.png"), left) &&
+              cv::imwrite(path("disp1.png"), truth8));
+  const Result<StereoPairFiles> files = find_middlebury_pair(dir());
+  ASSERT_TRUE(files.ok()) << files.error();
+  EXPECT_EQ(files->scale, 2);
+  EXPECT_NE(files->note.find("taken as 2 from the images' width"), std::string::npos) << files->note;
+  const Result<StereoPairImages> read = read_stereo_pair(*files);
+  ASSERT_TRUE(read.ok()) << read.error();
+  EXPECT_FLOAT_EQ(read->truth.at<float>(300, 100), truth8.at<uint8_t>(300, 100) / 2.0f);
+}
+
+// A 2001 scene's nine views are im0..im8: its im0 and im1 are no 2014 pair.
+TEST_F(StereoFiles, AWholeLayoutWinsOverAnotherYearsNamesInPart) {
+  const StereoPairImages p = small_pair();
+  cv::Mat truth8;
+  p.truth.convertTo(truth8, CV_8U, 8.0);
+  for (const char* view : {"im0.png", "im1.png", "im2.png", "im6.png"}) ASSERT_TRUE(cv::imwrite(path(view), p.left));
+  ASSERT_TRUE(cv::imwrite(path("disp2.png"), truth8));
+  const Result<StereoPairFiles> files = find_middlebury_pair(dir() + ":8");
+  ASSERT_TRUE(files.ok()) << files.error();
+  EXPECT_EQ(files->left, path("im2.png"));
+  EXPECT_EQ(files->truth, path("disp2.png"));
+}
+
+TEST_F(StereoFiles, AFolderGivenAsDotOrWithASlashIsNamedAsItIs) {
+  ASSERT_TRUE(write_middlebury_pair(path("Venus"), small_pair()).ok());
+  const std::string cwd = fs::current_path().string();
+  fs::current_path(path("Venus"));
+  const Result<StereoPairFiles> here = find_middlebury_pair(".");
+  fs::current_path(cwd);
+  ASSERT_TRUE(here.ok()) << here.error();
+  EXPECT_EQ(here->name, "Venus");
+  EXPECT_EQ(find_middlebury_pair(path("Venus") + "/")->name, "Venus");
+}
+
+TEST(UniqueNames, ARepeatedNameGetsANumber) {
+  std::vector<std::string> names{"Aloe", "Teddy", "Aloe", "Aloe", "Aloe_2"};
+  make_names_unique(names, [](std::string& n) -> std::string& { return n; });
+  EXPECT_EQ(names, (std::vector<std::string>{"Aloe", "Teddy", "Aloe_2", "Aloe_3", "Aloe_2_2"}));
 }
 
 TEST_F(StereoFiles, A2003FolderNeedsItsScale) {
@@ -206,7 +269,7 @@ TEST_F(StereoFiles, BadSpecsAndFoldersAreErrorsNamingThem) {
             std::string::npos);
   const Result<StereoPairFiles> empty = find_middlebury_pair(dir());
   EXPECT_NE(empty.error().find(dir() + ": no Middlebury pair: looked for im0.png"), std::string::npos) << empty.error();
-  const cv::Mat image(6, 8, CV_8U, cv::Scalar(9));
+  const cv::Mat image(6, 32, CV_8U, cv::Scalar(9));
   ASSERT_TRUE(cv::imwrite(path("im0.png"), image) && cv::imwrite(path("im1.png"), image));
   const Result<StereoPairFiles> partial = find_middlebury_pair(dir());
   EXPECT_NE(partial.error().find("a Middlebury 2014, 2021 folder without disp0.pfm or disp0GT.pfm"), std::string::npos)
@@ -223,18 +286,40 @@ TEST_F(StereoFiles, FilesThatAreNotThePairTheyShouldBeAreErrorsNamingThem) {
   missing.right = path("none.png");
   EXPECT_EQ(error_of(missing), path("none.png") + ": cannot be read as an image");
 
-  const cv::Mat wider(6, 9, CV_8U, cv::Scalar(1));
+  const cv::Mat wider(6, 33, CV_8U, cv::Scalar(1));
   ASSERT_TRUE(cv::imwrite(path("wider.png"), wider));
   StereoPairFiles other_size = files;
   other_size.right = path("wider.png");
-  EXPECT_EQ(error_of(other_size), path("wider.png") + ": 9x6, but " + path("im0.png") + " is 8x6");
+  EXPECT_EQ(error_of(other_size), path("wider.png") + ": 33x6, but " + path("im0.png") + " is 32x6");
 
-  ASSERT_TRUE(cv::imwrite(path("colour.pfm"), cv::Mat(6, 8, CV_32FC3, cv::Scalar(1, 2, 3))));
+  ASSERT_TRUE(cv::imwrite(path("colour.pfm"), cv::Mat(6, 32, CV_32FC3, cv::Scalar(1, 2, 3))));
   StereoPairFiles colour = files;
   colour.truth = path("colour.pfm");
-  EXPECT_EQ(error_of(colour), path("colour.pfm") + ": 3 channels; a disparity map has one");
+  EXPECT_EQ(error_of(colour), path("colour.pfm") + ": cannot be read as a one-channel PFM (\"Pf\")");
 
-  ASSERT_TRUE(cv::imwrite(path("unknown.pfm"), cv::Mat(6, 8, CV_32F, cv::Scalar(INFINITY))));
+  const cv::Mat other_truth(6, 33, CV_32F, cv::Scalar(3));
+  ASSERT_TRUE(cv::imwrite(path("other.pfm"), other_truth));
+  StereoPairFiles truth_size = files;
+  truth_size.truth = path("other.pfm");
+  EXPECT_EQ(error_of(truth_size), path("other.pfm") + ": 33x6, but " + path("im0.png") + " is 32x6");
+
+  const cv::Mat deep(6, 32, CV_16U, cv::Scalar(4000));
+  ASSERT_TRUE(cv::imwrite(path("deep.png"), deep));
+  StereoPairFiles sixteen = files;
+  sixteen.left = path("deep.png");
+  EXPECT_EQ(error_of(sixteen),
+            path("deep.png") + ": not an 8-bit image; the matchers take 8 bits (convert it, scaled as it should be)");
+
+  // KITTI's 16 bits read with a scale of 1: 6400 px in an image 32 px wide.
+  cv::Mat kitti;
+  p.truth.convertTo(kitti, CV_16U, 256.0);
+  ASSERT_TRUE(cv::imwrite(path("kitti.png"), kitti));
+  StereoPairFiles unscaled = files;
+  unscaled.truth = path("kitti.png"), unscaled.scale = 1;
+  EXPECT_EQ(error_of(unscaled),
+            path("kitti.png") + ": a disparity of 6400 px in an image 32 px wide (is its scale 1 right?)");
+
+  ASSERT_TRUE(cv::imwrite(path("unknown.pfm"), cv::Mat(6, 32, CV_32F, cv::Scalar(INFINITY))));
   StereoPairFiles unknown = files;
   unknown.truth = path("unknown.pfm");
   EXPECT_EQ(error_of(unknown), path("unknown.pfm") + ": no pixel of known disparity");

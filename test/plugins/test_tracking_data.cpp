@@ -29,20 +29,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh folder under the system's temporary folder, removed afterwards.
-class TempDir {
- public:
-  TempDir() {
-    path_ = fs::temp_directory_path() / ("saccade_tracking_data_" + std::to_string(::getpid()) + "_" +
-                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+// A fresh folder for the running test, removed afterwards.
+struct TempDir : test::TempDir {
+  TempDir() : test::TempDir("saccade_tracking_data") {}
 };
 
 void write_file(const fs::path& path, const std::string& text) {
@@ -501,6 +490,9 @@ TEST(OtbWriter, WritesWhatReadOtbGivesBackExactly) {
     ASSERT_EQ(read.size(), written.size());
     EXPECT_EQ(cv::norm(read, written, cv::NORM_INF), 0.0) << "frame " << i;
   }
+  // Written again, fewer frames would leave the first export's last ones to be read as this one's.
+  truncate(s, 60);
+  EXPECT_EQ(write_otb(s, folder).message(), folder + "/img: already holds files; export into a folder without them");
 }
 
 TEST(OtbWriter, NamesWhatItCannotWrite) {
