@@ -115,11 +115,13 @@ class FoveaTracker final : public Tracker {
  public:
   explicit FoveaTracker(const BoxConfig& config) : tracker_(config), retina_(saccade::retina::RetinaConfig{}) {}
   Status init(const cv::Mat& frame, cv::Rect2d box) override {
+    // As the retina node refuses them: frames smaller than a level, not 8-bit gray or BGR.
+    if (const Status fits = retina_.check(frame); !fits.ok()) return Status::error("the retina: " + fits.message());
     fovea_ = (box.tl() + box.br()) * 0.5;
     return tracker_.init(frame, box);
   }
   TrackedFrame update(const cv::Mat& frame) override {
-    retina_.sample(frame, fovea_, levels_, geometry_);
+    if (retina_.check(frame).ok()) retina_.sample(frame, fovea_, levels_, geometry_);  // (a frame of another size)
     const saccade::fovea::TrackEstimate e = tracker_.update(frame);
     const cv::Point2d center = (e.box.tl() + e.box.br()) * 0.5;
     if (std::isfinite(center.x) && std::isfinite(center.y)) fovea_ = center;

@@ -814,6 +814,12 @@ std::string describe(cv::Rect2d b) {
   return text;
 }
 
+std::string describe(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
 }  // namespace
 
 Status BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
@@ -821,7 +827,7 @@ Status BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   const cv::Rect2d inside = box & cv::Rect2d(0, 0, frame.cols, frame.rows);
   if (!(box.width >= config_.min_target && box.height >= config_.min_target))
     return Status::error("box " + describe(box) + " is smaller than the smallest target, " +
-                         std::to_string(config_.min_target) + " pixels a side");
+                         describe(config_.min_target) + " pixels a side");
   if (inside.area() < 0.5 * box.area())
     return Status::error("box " + describe(box) + " lies mostly outside the " + std::to_string(frame.cols) + "x" +
                          std::to_string(frame.rows) + " frame");
