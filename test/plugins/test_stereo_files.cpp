@@ -279,50 +279,31 @@ TEST_F(StereoFiles, BadSpecsAndFoldersAreErrorsNamingThem) {
 TEST_F(StereoFiles, FilesThatAreNotThePairTheyShouldBeAreErrorsNamingThem) {
   const StereoPairImages p = small_pair();
   ASSERT_TRUE(write_middlebury_pair(dir(), p).ok());
-  StereoPairFiles files{"scene", path("im0.png"), path("im1.png"), path("disp0.pfm"), 0, {}};
-  const auto error_of = [&](const StereoPairFiles& f) { return read_stereo_pair(f).error(); };
-
-  StereoPairFiles missing = files;
-  missing.right = path("none.png");
-  EXPECT_EQ(error_of(missing), path("none.png") + ": cannot be read as an image");
-
-  const cv::Mat wider(6, 33, CV_8U, cv::Scalar(1));
-  ASSERT_TRUE(cv::imwrite(path("wider.png"), wider));
-  StereoPairFiles other_size = files;
-  other_size.right = path("wider.png");
-  EXPECT_EQ(error_of(other_size), path("wider.png") + ": 33x6, but " + path("im0.png") + " is 32x6");
-
-  ASSERT_TRUE(cv::imwrite(path("colour.pfm"), cv::Mat(6, 32, CV_32FC3, cv::Scalar(1, 2, 3))));
-  StereoPairFiles colour = files;
-  colour.truth = path("colour.pfm");
-  EXPECT_EQ(error_of(colour), path("colour.pfm") + ": cannot be read as a one-channel PFM (\"Pf\")");
-
-  const cv::Mat other_truth(6, 33, CV_32F, cv::Scalar(3));
-  ASSERT_TRUE(cv::imwrite(path("other.pfm"), other_truth));
-  StereoPairFiles truth_size = files;
-  truth_size.truth = path("other.pfm");
-  EXPECT_EQ(error_of(truth_size), path("other.pfm") + ": 33x6, but " + path("im0.png") + " is 32x6");
-
-  const cv::Mat deep(6, 32, CV_16U, cv::Scalar(4000));
-  ASSERT_TRUE(cv::imwrite(path("deep.png"), deep));
-  StereoPairFiles sixteen = files;
-  sixteen.left = path("deep.png");
-  EXPECT_EQ(error_of(sixteen),
+  const StereoPairFiles files{"scene", path("im0.png"), path("im1.png"), path("disp0.pfm"), 1, {}};
+  // The error of the pair with one of its files replaced by `image` (none: not written) saved as `name`.
+  const auto error_with = [&](std::string StereoPairFiles::*file, const std::string& name, const cv::Mat& image) {
+    if (!image.empty()) { EXPECT_TRUE(cv::imwrite(path(name), image)); }
+    StereoPairFiles changed = files;
+    changed.*file = path(name);
+    return read_stereo_pair(changed).error();
+  };
+  const auto right = &StereoPairFiles::right, truth = &StereoPairFiles::truth;
+  EXPECT_EQ(error_with(right, "none.png", {}), path("none.png") + ": cannot be read as an image");
+  EXPECT_EQ(error_with(right, "wider.png", cv::Mat(6, 33, CV_8U, cv::Scalar(1))),
+            path("wider.png") + ": 33x6, but " + path("im0.png") + " is 32x6");
+  EXPECT_EQ(error_with(truth, "colour.pfm", cv::Mat(6, 32, CV_32FC3, cv::Scalar(1, 2, 3))),
+            path("colour.pfm") + ": cannot be read as a one-channel PFM (\"Pf\")");
+  EXPECT_EQ(error_with(truth, "other.pfm", cv::Mat(6, 33, CV_32F, cv::Scalar(3))),
+            path("other.pfm") + ": 33x6, but " + path("im0.png") + " is 32x6");
+  EXPECT_EQ(error_with(&StereoPairFiles::left, "deep.png", cv::Mat(6, 32, CV_16U, cv::Scalar(4000))),
             path("deep.png") + ": not an 8-bit image; the matchers take 8 bits (convert it, scaled as it should be)");
-
   // KITTI's 16 bits read with a scale of 1: 6400 px in an image 32 px wide.
   cv::Mat kitti;
   p.truth.convertTo(kitti, CV_16U, 256.0);
-  ASSERT_TRUE(cv::imwrite(path("kitti.png"), kitti));
-  StereoPairFiles unscaled = files;
-  unscaled.truth = path("kitti.png"), unscaled.scale = 1;
-  EXPECT_EQ(error_of(unscaled),
+  EXPECT_EQ(error_with(truth, "kitti.png", kitti),
             path("kitti.png") + ": a disparity of 6400 px in an image 32 px wide (is its scale 1 right?)");
-
-  ASSERT_TRUE(cv::imwrite(path("unknown.pfm"), cv::Mat(6, 32, CV_32F, cv::Scalar(INFINITY))));
-  StereoPairFiles unknown = files;
-  unknown.truth = path("unknown.pfm");
-  EXPECT_EQ(error_of(unknown), path("unknown.pfm") + ": no pixel of known disparity");
+  EXPECT_EQ(error_with(truth, "unknown.pfm", cv::Mat(6, 32, CV_32F, cv::Scalar(INFINITY))),
+            path("unknown.pfm") + ": no pixel of known disparity");
 }
 
 }  // namespace
