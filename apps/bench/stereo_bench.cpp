@@ -636,24 +636,22 @@ bool parse_sets(const std::vector<std::string>& sets, Matchers& m) {
 // without it, none with --no-builtin), then those read from files.
 struct PairSources {
   std::vector<std::string> only, middlebury, files;
-  bool builtin = true;
+  bool no_builtin = false;
   std::string export_dir;  // --export: the pairs are written there instead of scored
 };
 
 // The files --middlebury and --stereo-pair name; an error names the one at fault.
 std::vector<bench::StereoPairFiles> given_pairs(const PairSources& from) {
-  std::vector<Result<bench::StereoPairFiles>> found;
-  for (const std::string& spec : from.middlebury) found.push_back(bench::find_middlebury_pair(spec));
-  for (const std::string& spec : from.files) found.push_back(bench::parse_stereo_pair(spec));
   std::vector<bench::StereoPairFiles> out;
-  for (std::size_t i = 0; i < found.size(); ++i) {
-    if (!found[i].ok()) {
-      std::fprintf(stderr, "saccade_stereo_bench: %s %s\n",
-                   i < from.middlebury.size() ? "--middlebury" : "--stereo-pair", found[i].error().c_str());
+  const auto take = [&](const char* option, const Result<bench::StereoPairFiles>& found) {
+    if (!found.ok()) {
+      std::fprintf(stderr, "saccade_stereo_bench: %s %s\n", option, found.error().c_str());
       std::exit(2);
     }
-    out.push_back(*found[i]);
-  }
+    out.push_back(*found);
+  };
+  for (const std::string& spec : from.middlebury) take("--middlebury", bench::find_middlebury_pair(spec));
+  for (const std::string& spec : from.files) take("--stereo-pair", bench::parse_stereo_pair(spec));
   return out;
 }
 
@@ -664,7 +662,7 @@ std::vector<Pair> select_pairs(const std::string& data, const PairSources& from)
   std::vector<Pair> pairs;
   const std::vector<std::string>& only = from.only;
   const auto wanted = [&](const std::string& name) {
-    return from.builtin && (only.empty() || std::find(only.begin(), only.end(), name) != only.end());
+    return !from.no_builtin && (only.empty() || std::find(only.begin(), only.end(), name) != only.end());
   };
   if (wanted("aloe")) pairs.push_back(aloe(data, 1));
   if (wanted("aloe_third")) pairs.push_back(aloe(data, 3));
@@ -854,8 +852,7 @@ int main(int argc, char** argv) {
   app.add_option("--stereo-pair", sources.files,
                  "LEFT,RIGHT,TRUTH[,SCALE]: also a rectified pair and its left truth (PFM, or an 8- or 16-bit image "
                  "with its SCALE, 0 unknown: KITTI's is 256; repeatable)");
-  bool no_builtin = false;
-  app.add_flag("--no-builtin", no_builtin, "only the pairs --middlebury and --stereo-pair give");
+  app.add_flag("--no-builtin", sources.no_builtin, "only the pairs --middlebury and --stereo-pair give");
   app.add_option("--export", sources.export_dir,
                  "DIR: write the pairs in Middlebury's 2014 layout (DIR/<pair>/im0.png, im1.png, disp0.pfm, "
                  "calib.txt) instead of scoring them");
@@ -869,7 +866,6 @@ int main(int argc, char** argv) {
   for (const char* single : {"--data", "--markdown", "--reps", "--cv-reps", "--export"})
     app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
-  sources.builtin = !no_builtin;
   cv::setNumThreads(1);
   if (!parse_sets(sets, matchers)) return 2;
   const std::vector<Pair> pairs = select_pairs(data, sources);

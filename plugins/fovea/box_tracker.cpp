@@ -205,7 +205,7 @@ class ScaleFilter {
 
   // The best scale factor for a target of `size` around `centre` (1: unchanged).
   double estimate(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, double lambda) {
-    if (!learnt_) return 1.0;
+    if (denominator_.empty()) return 1.0;  // nothing learnt yet
     spectra(frame, center, size);
     // Response = IDFT over scales of sum_d A_d(k) Z_d(k) / (B(k) + lambda).
     std::vector<std::complex<float>>& r = response_;
@@ -238,12 +238,11 @@ class ScaleFilter {
   // Learns from the samples estimate() took when `fresh` is false (the
   // scale did not change, so they are this frame's samples at this size).
   void learn(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, double rate, bool fresh) {
-    if (fresh || !learnt_) spectra(frame, center, size);
-    if (!learnt_) {
+    if (fresh || denominator_.empty()) spectra(frame, center, size);
+    if (denominator_.empty()) {  // the first frame: the model is the sample
       std::fill(numerator_re_.begin(), numerator_re_.end(), 0.0f);
       std::fill(numerator_im_.begin(), numerator_im_.end(), 0.0f);
       denominator_.assign(static_cast<std::size_t>(count_ / 2 + 1), 0.0f);
-      learnt_ = true;
       rate = 1;
     }
     const float a = static_cast<float>(rate), keep = 1 - a;
@@ -300,8 +299,8 @@ class ScaleFilter {
 
   int count_, side_, dims_;
   std::vector<double> factors_;
-  bool learnt_ = false;
-  std::vector<float> window_, sample_, samples_, denominator_;
+  std::vector<float> window_, sample_, samples_;
+  std::vector<float> denominator_;  // per frequency up to count / 2; empty until the first learn()
   // Per frequency up to count / 2 (row), per dimension: the samples' spectra and the model's numerator.
   std::vector<float> spectra_re_, spectra_im_, numerator_re_, numerator_im_;
   std::vector<std::complex<float>> twiddle_, target_, response_;
