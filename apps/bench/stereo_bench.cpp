@@ -459,6 +459,57 @@ MatcherResult opencv_matcher(const std::string& name, const cv::Ptr<cv::StereoMa
   return r;
 }
 
+// StereoSGBM (the settings of run_matchers) on each fovea's neighbourhood
+// alone: the fovea widened by `margin` pixels on every side, and to its left
+// by the disparities searched, since SGBM leaves its first numDisparities
+// columns empty. With `truths_range` the disparities searched are the truth's
+// over that neighbourhood, 4 px wider each way (a best case: no matcher knows
+// them beforehand), else the pair's. Scored on the foveas only; the time is
+// the median per fovea. It tells how much of SGBM's accuracy on the fovea it
+// owes to the rest of the image, and what seeing only that much costs it.
+MatcherResult sgbm_around_foveas(const Pair& p, const std::vector<cv::Rect>& foveas, int margin, bool truths_range,
+                                 int reps) {
+  MatcherResult r;
+  r.matcher = "OpenCV StereoSGBM, the fovea +-" + std::to_string(margin) + " px, " +
+              (truths_range ? "the truth's range there" : "the pair's range");
+  const cv::Rect image(0, 0, p.left.cols, p.left.rows);
+  std::vector<double> ms;
+  cv::Mat raw;
+  for (const cv::Rect& f : foveas) {
+    const cv::Rect around = cv::Rect(f.x - margin, f.y - margin, f.width + 2 * margin, f.height + 2 * margin) & image;
+    int first = 0, count = p.num_disparities;
+    if (truths_range) {
+      double low = std::numeric_limits<double>::max(), high = 0;
+      for (int y = around.y; y < around.br().y; ++y)
+        for (int x = around.x; x < around.br().x; ++x)
+          if (const float t = p.truth.at<float>(y, x); t >= 0)
+            low = std::min<double>(low, t), high = std::max<double>(high, t);
+      if (low > high) low = high = 0;  // no known truth there
+      first = std::max(0, static_cast<int>(std::floor(low)) - 4);
+      count = std::max(16, (static_cast<int>(std::ceil(high)) + 4 - first + 15) / 16 * 16);
+    }
+    const cv::Rect seen =
+        cv::Rect(around.x - first - count, around.y, around.width + first + count, around.height) & image;
+    auto sgbm = cv::StereoSGBM::create(first, count, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32, cv::StereoSGBM::MODE_SGBM);
+    std::vector<double> fovea_ms;
+    for (int i = 0; i < reps; ++i) {
+      const auto t0 = Clock::now();
+      sgbm->compute(p.left(seen), p.right(seen), raw);
+      fovea_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
+    ms.push_back(median(fovea_ms));
+    for (int y = f.y; y < f.br().y; ++y)
+      for (int x = f.x; x < f.br().x; ++x) {
+        const short d = raw.at<short>(y - seen.y, x - seen.x);
+        r.add_fovea(p, x, y, d < first * 16 ? -1.0 : d / 16.0);
+      }
+  }
+  r.ms = median(ms);
+  r.fixations = static_cast<int>(foveas.size());
+  r.note = "fovea only; per fovea";
+  return r;
+}
+
 std::shared_ptr<Retina> make_retina(retina::RetinaSampler& sampler, const std::shared_ptr<Image>& frame,
                                     cv::Point2d fovea, std::shared_ptr<Retina> r) {
   if (!r) r = std::make_shared<Retina>();
@@ -609,6 +660,7 @@ std::string fmt(const char* f, double v) {
 // Which of our matcher's configurations run, beside the defaults, and how often.
 struct Matchers {
   int reps = 5, cv_reps = 3;
+  std::vector<int> sgbm_margins;  // --sgbm-context: SGBM on the foveas' neighbourhoods alone
   bool all_variants = false;
   bool custom_set = false;  // --set given: `custom` runs too
   stereo::RetinaStereoConfig custom;
@@ -708,6 +760,9 @@ std::vector<MatcherResult> run_matchers(const Pair& p, const retina::RetinaConfi
   bm->setSpeckleWindowSize(100);
   bm->setSpeckleRange(32);
   bm->setDisp12MaxDiff(1);
+  for (int margin : m.sgbm_margins)
+    for (bool truths_range : {false, true})
+      results.push_back(sgbm_around_foveas(p, foveas, margin, truths_range, m.cv_reps));
   results.push_back(opencv_matcher("OpenCV StereoBM (9x9)", bm, p, foveas, m.cv_reps));
   // OpenCV's stereo_match sample's settings, gray images, 5x5 blocks.
   auto sgbm =
@@ -723,9 +778,10 @@ void write_results_table(std::ostringstream& md, const std::string& name, const 
         "pair "
         "| fixation within 2 px: all; confirmed | notes |\n|---|---|---|---|---|---|---|---|---|---|\n";
   for (const MatcherResult& r : results) {
+    const auto whole = [&](const char* f, double v) { return r.whole.known > 0 ? fmt(f, v) : std::string("-"); };
     md << "| " << r.matcher << " | " << fmt("%.3f", r.fovea.density()) << " | " << fmt("%.3f", r.fovea.bad1_rate())
-       << " | " << fmt("%.3f", r.fovea.bad2_rate()) << " | " << fmt("%.3f", r.whole.density()) << " | "
-       << fmt("%.3f", r.whole.bad1_rate()) << " | " << fmt("%.3f", r.whole.bad2_rate()) << " | "
+       << " | " << fmt("%.3f", r.fovea.bad2_rate()) << " | " << whole("%.3f", r.whole.density()) << " | "
+       << whole("%.3f", r.whole.bad1_rate()) << " | " << whole("%.3f", r.whole.bad2_rate()) << " | "
        << fmt(r.ms < 10 ? "%.3f" : "%.1f", r.ms) << " | "
        << (r.fixations_right >= 0 ? std::to_string(r.fixations_right) + "/" + std::to_string(r.fixations) + "; " +
                                         std::to_string(r.confirmed_right) + "/" + std::to_string(r.confirmed)
@@ -856,6 +912,11 @@ int main(int argc, char** argv) {
   app.add_option("--export", sources.export_dir,
                  "DIR: write the pairs in Middlebury's 2014 layout (DIR/<pair>/im0.png, im1.png, disp0.pfm, "
                  "calib.txt) instead of scoring them");
+  app.add_option("--sgbm-context", matchers.sgbm_margins,
+                 "M[,M...]: also StereoSGBM on each fovea widened by M px on every side (and to its left by the "
+                 "disparities searched) alone, with the pair's range and with the truth's range there")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 100000));
   app.add_flag("--verbose", verbose, "each fixation's disparity and the fovea's running score, on stderr");
   app.add_flag("--error-maps", error_maps,
                "with --verbose, each fovea's pixels: o within 2 px of the truth, + nearer, - farther, . none, "
