@@ -6,7 +6,7 @@
 // OpenCV on one thread for all.
 //
 //   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--video FILE:FIRST:x,y,w,h[:COUNT]]...
-//                       [--no-generated]
+//                       [--no-generated] [--holdout]
 //                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--sequences a,b] [--markdown FILE]
 //                       [--export DIR]   (the sequences written as OTB folders, for other tools, instead)
 #ifndef SACCADE_TRACK_BENCH_FOVEA
@@ -161,6 +161,7 @@ struct Options {
   std::string data = SACCADE_SAMPLE_DATA;
   std::vector<std::string> otb, vot, videos;
   bool no_generated = false;
+  bool holdout = false;  // the held-out generated set too
   std::string trackers = SACCADE_TRACK_BENCH_FOVEA ? "fovea,csrt,kcf,mil" : "csrt,kcf,mil";
   std::string markdown;
   std::string sequences;  // names to keep, all when empty
@@ -555,6 +556,11 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
     if (!generated.ok()) return generated.status();
     sequences = std::move(generated).value();
   }
+  if (options.holdout) {
+    saccade::Result<std::vector<Sequence>> held_out = generate_sequences(options.data, holdout_scripts());
+    if (!held_out.ok()) return held_out.status();
+    for (Sequence& s : *held_out) sequences.push_back(std::move(s));
+  }
   if (Status read = read_otb_folders(options.otb, sequences); !read.ok()) return read;
   if (Status read = read_vot_folders(options.vot, sequences); !read.ok()) return read;
   for (const std::string& spec : options.videos) {
@@ -681,6 +687,9 @@ int main(int argc, char** argv) {
                  "COUNT frames (to the end when left out) and scored by witness measures (claimed share, jumps, "
                  "agreement between the trackers); repeatable");
   app.add_flag("--no-generated", options.no_generated, "leave out the generated sequences");
+  app.add_flag("--holdout", options.holdout,
+               "also the held-out generated set: the same scripts with other targets, backgrounds and seeds "
+               "(holdout_<name>)");
   app.add_option("--trackers", options.trackers, "comma-separated trackers to run")->capture_default_str();
   app.add_option("--sequences", options.sequences, "comma-separated sequence names to keep (default all)");
   app.add_option("--frames", options.frames, "at most this many frames per sequence (quick runs)");

@@ -1,6 +1,7 @@
 #include "tracking_data.hpp"
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -843,9 +844,10 @@ Result<cv::Mat> target_appearance(const SyntheticScript& script, const std::stri
   return out;
 }
 
-Result<std::vector<Sequence>> generate_sequences(const std::string& data_dir) {
+Result<std::vector<Sequence>> generate_sequences(const std::string& data_dir,
+                                                 const std::vector<SyntheticScript>& scripts) {
   std::vector<Sequence> sequences;
-  for (const SyntheticScript& script : standard_scripts()) {
+  for (const SyntheticScript& script : scripts) {
     auto sequence = generate_sequence(script, data_dir);
     if (!sequence.ok()) return sequence.status();
     sequences.push_back(std::move(sequence).value());
@@ -865,6 +867,9 @@ const cv::Rect kFish(35, 15, 215, 175);        // HappyFish.jpg
 const cv::Rect kBox(0, 0, 324, 223);           // box.png
 const cv::Rect kFace(204, 58, 62, 64);         // messi5.jpg
 const cv::Rect kSquirrel(140, 100, 210, 250);  // squirrel_cls.jpg
+const cv::Rect kDog(60, 40, 360, 340);         // chicky_512.png
+const cv::Rect kWhale(196, 84, 126, 104);      // rubberwhale1.png
+const cv::Rect kSweet(348, 50, 60, 60);        // smarties.png
 
 SyntheticScript make_script(std::string name, std::string background, std::string target, cv::Rect crop,
                             uint32_t seed) {
@@ -938,6 +943,36 @@ std::vector<SyntheticScript> standard_scripts() {
     s.shake = 5, s.blur = 1.0, s.distractor = true;
     s.occlusions = {{90, 150, 0, 1.8}}, s.excursions = {{200, 60}};
     all.push_back(s);
+  }
+  return all;
+}
+
+std::vector<SyntheticScript> holdout_scripts() {
+  // Each standard script's motions, lights, occluders and look-alike, with
+  // another target over another background and another seed.
+  struct Swap {
+    const char* background;
+    const char* target;
+    cv::Rect crop;
+  };
+  static const std::array<Swap, 10> swaps{{{"aloeL.jpg", "chicky_512.png", kDog},
+                                           {"leuvenB.jpg", "rubberwhale1.png", kWhale},
+                                           {"graf3.png", "squirrel_cls.jpg", kSquirrel},
+                                           {"blox.jpg", "butterfly.jpg", kButterfly},
+                                           {"basketball1.png", "smarties.png", kSweet},
+                                           {"box_in_scene.png", "HappyFish.jpg", kFish},
+                                           {"ela_original.jpg", "orange.jpg", kOrange},
+                                           {"smarties.png", "chicky_512.png", kDog},
+                                           {"aloeL.jpg", "rubberwhale1.png", kWhale},
+                                           {"rubberwhale2.png", "apple.jpg", kApple}}};
+  std::vector<SyntheticScript> all = standard_scripts();
+  for (std::size_t i = 0; i < all.size() && i < swaps.size(); ++i) {
+    SyntheticScript& s = all[i];
+    s.name = "holdout_" + s.name;
+    s.background = swaps[i].background;
+    s.target_image = swaps[i].target;
+    s.target_crop = swaps[i].crop;
+    s.seed += 100;
   }
   return all;
 }

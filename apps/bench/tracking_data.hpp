@@ -161,13 +161,18 @@ struct SyntheticScript {
 // The benchmark's standard set: 8 sequences at 320x240 and 2 at 640x480, 300+
 // frames each, each stressing a different mix.
 std::vector<SyntheticScript> standard_scripts();
+// The same scripts with other targets, backgrounds and seeds (`holdout_<name>`):
+// sequences no setting was tuned on, to tell a tracker that generalises from
+// one fitted to the standard set.
+std::vector<SyntheticScript> holdout_scripts();
 
 // Renders a script from the images in `data_dir`. The same script gives the
 // same frames and truth on every run (seeded, no wall-clock or thread
 // dependence). An error names an image that is missing or a script that
 // cannot be rendered.
 Result<Sequence> generate_sequence(const SyntheticScript& script, const std::string& data_dir);
-Result<std::vector<Sequence>> generate_sequences(const std::string& data_dir);
+Result<std::vector<Sequence>> generate_sequences(const std::string& data_dir,
+                                                 const std::vector<SyntheticScript>& scripts = standard_scripts());
 
 // The target's appearance at scale 1 and no rotation (BGR), as the generator
 // renders it: the script's crop resized to target_side; or the error naming

@@ -364,6 +364,33 @@ TEST(Generator, HasEnoughLongSequencesWithInvisibleFrames) {
   }
 }
 
+// The held-out set: each standard script's motions with another target, over
+// another background, from another seed, so a setting fitted to the standard
+// set shows there. Each target is the picture its crop says (an object, not
+// the photograph's background: its centre differs from its border).
+TEST(Generator, TheHeldOutSetIsTheStandardScriptsWithOtherPictures) {
+  const std::vector<SyntheticScript> standard = standard_scripts(), held_out = holdout_scripts();
+  ASSERT_EQ(held_out.size(), standard.size());
+  const std::vector<Sequence> all = value_of(generate_sequences(test::sample_dir(), held_out));
+  ASSERT_EQ(all.size(), held_out.size());
+  for (std::size_t i = 0; i < held_out.size(); ++i) {
+    const SyntheticScript &h = held_out[i], &s = standard[i];
+    EXPECT_EQ(h.name, "holdout_" + s.name);
+    EXPECT_EQ(all[i].name, h.name);
+    EXPECT_NE(h.seed, s.seed) << h.name;
+    EXPECT_FALSE(h.background == s.background && h.target_image == s.target_image) << h.name;
+    EXPECT_EQ(h.frames, s.frames) << h.name;
+    EXPECT_EQ(h.frame_size, s.frame_size) << h.name;
+    EXPECT_EQ(h.occlusions.size(), s.occlusions.size()) << h.name;
+    EXPECT_EQ(h.excursions.size(), s.excursions.size()) << h.name;
+    EXPECT_EQ(all[i].size(), s.frames) << h.name;
+    const cv::Mat target = value_of(target_appearance(h, test::sample_dir()));
+    cv::Scalar mean, deviation;
+    cv::meanStdDev(target, mean, deviation);
+    EXPECT_GT(deviation[0] + deviation[1] + deviation[2], 20) << h.name << ": a flat target";
+  }
+}
+
 TEST(Generator, IsDeterministic) {
   const std::vector<Sequence> a = value_of(generate_sequences(test::sample_dir()));
   const std::vector<Sequence> b = value_of(generate_sequences(test::sample_dir()));
