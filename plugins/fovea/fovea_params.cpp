@@ -2,11 +2,15 @@
 
 namespace saccade::fovea {
 
+namespace {
+// The box tracker's (BoxTrackerConfig), named box_*.
+void bind_box_params(ParamBinder<ControllerConfig>& b);
+}  // namespace
+
 void bind_fovea_params(ParamBinder<ControllerConfig>& b) {
   using C = ControllerConfig;
   using T = TrackerConfig;
   using S = SaliencyConfig;
-  using B = BoxTrackerConfig;
   b.field("mode", {{"track", FoveaMode::kTrack}, {"attend", FoveaMode::kAttend}},
           "track: lock on one target and follow it; attend: visit salient places in turn", &C::mode)
       .field("dwell", {1, 100000}, "attend: frames on one place before attention moves on", &C::dwell_frames)
@@ -44,9 +48,17 @@ void bind_fovea_params(ParamBinder<ControllerConfig>& b) {
              &C::border_margin)
       .field("gaze_repeat", {1, 1000000}, "frames before an unanswered gaze request is repeated", &C::gaze_repeat)
       .field("focal", {0, 1e6}, "focal length in pixels for gaze directions (0: from hfov)", &C::focal_px)
-      .field("hfov", {1, 179}, "horizontal field of view, degrees (when focal is 0)", &C::hfov_deg)
-      .field("box_learning_rate", {0, 1}, "box tracking: model <- (1-a) model + a frame, on confident frames", &C::box,
-             &B::learning_rate)
+      .field("hfov", {1, 179}, "horizontal field of view, degrees (when focal is 0)", &C::hfov_deg);
+  bind_box_params(b);
+}
+
+namespace {
+
+void bind_box_params(ParamBinder<ControllerConfig>& b) {
+  using C = ControllerConfig;
+  using B = BoxTrackerConfig;
+  b.field("box_learning_rate", {0, 1}, "box tracking: model <- (1-a) model + a frame, on confident frames", &C::box,
+          &B::learning_rate)
       .field("box_tracking_psr", {0, 1000}, "box tracking: peak-to-sidelobe ratio from which the target is tracked",
              &C::box, &B::tracking_psr)
       .field("box_lost_psr", {0, 1000}, "box tracking: below this peak-to-sidelobe ratio the peak is not trusted",
@@ -80,7 +92,14 @@ void bind_fovea_params(ParamBinder<ControllerConfig>& b) {
              "box tracking: while the target's colour is checked, a re-detection, also a sure one, must share "
              "at least this much of the target's chromaticity histogram: a look-alike of another tint is "
              "refused, a target partly hidden is not (0: not asked; docs/tracking.md)",
-             &C::box, &B::min_shared_colors);
+             &C::box, &B::min_shared_colors)
+      .field("box_follow_lost_colors", {0, 1},
+             "box tracking: lost, the local look moves to a peak near where the target was lost that shares this "
+             "much of the target's colours, and looks there at other sizes too (0: it stays where the target was "
+             "lost; docs/tracking.md)",
+             &C::box, &B::follow_lost_colors);
 }
+
+}  // namespace
 
 }  // namespace saccade::fovea
