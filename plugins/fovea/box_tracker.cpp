@@ -47,7 +47,7 @@ struct Placement {
 
 // The sizes, besides the target's, at which a lost target is looked for: they
 // reach 1.25x, 1.56x and 1.95x either way on successive searches (`reach` 0,
-// 1, 2), at the cost of two looks each.
+// 1, 2).
 constexpr std::array<std::array<double, 2>, 3> kOtherSizes{{{1.25, 0.8}, {1.5625, 0.64}, {1.953125, 0.512}}};
 
 // One correlation's outcome, in patch pixels from the patch's centre.
@@ -758,10 +758,6 @@ struct BoxTracker::Impl {
   bool has_its_colors(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
     return shared_colors_at(frame, p, found) >= config.min_shared_colors;
   }
-  // How much of the target's chromaticity histogram a look shares; 1 where
-  // that is not asked. A gray frame, or a target (or a place) too dark for
-  // any colour, has an empty histogram: no evidence either way, and the look
-  // is not refused.
   static bool empty(const std::vector<float>& shares) {
     return std::all_of(shares.begin(), shares.end(), [](float share) { return share == 0.f; });
   }
@@ -770,6 +766,10 @@ struct BoxTracker::Impl {
   bool colors_asked(const cv::Mat& frame) const {
     return config.min_shared_colors > 0 && frame.channels() >= 3 && !empty(color_shares) && color_checked(config);
   }
+  // How much of the target's chromaticity histogram a look shares; 1 where
+  // that is not asked. A gray frame, or a target (or a place) too dark for
+  // any colour, has an empty histogram: no evidence either way, and the look
+  // is not refused.
   double shared_colors_at(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
     if (!colors_asked(frame)) return 1.0;
     const ColorPlaces places = color_places(p, found);
@@ -805,7 +805,7 @@ struct BoxTracker::Impl {
   // nearer, turned or in other light, and the filter's peak on it off the
   // look's centre, under its window, or at the wrong size stays under the bars
   // (make bench-track's holdout_mixed: 3.5-3.8 on the target 40 px from where
-  // it was lost, 1.2-1.5x larger, its colours shared 0.73-0.85, for 40 frames);
+  // it was lost, 1.2-1.6x larger, its colours shared 0.73-0.85, for 40 frames);
   // followed there, it reaches them. Not without colours (gray video, a target
   // away so long that its colour is no longer checked): the look then
   // followed an occluder's or the background's peaks and found a look-alike.
