@@ -433,19 +433,32 @@ std::vector<cv::Point2d> fixations(cv::Size size) {
   return out;
 }
 
+// StereoSGBM as the benchmark runs it (OpenCV's stereo_match sample's
+// settings, gray images, 5x5 blocks), over `count` disparities from `first`.
+cv::Ptr<cv::StereoSGBM> benchmark_sgbm(int first, int count) {
+  return cv::StereoSGBM::create(first, count, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32, cv::StereoSGBM::MODE_SGBM);
+}
+
+// `m` on the pair `left`, `right` `reps` times, its last map in `raw`; the
+// median time, ms.
+double median_compute_ms(const cv::Ptr<cv::StereoMatcher>& m, const cv::Mat& left, const cv::Mat& right, cv::Mat& raw,
+                         int reps) {
+  std::vector<double> ms;
+  for (int i = 0; i < reps; ++i) {
+    const auto t0 = Clock::now();
+    m->compute(left, right, raw);
+    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
+  return median(ms);
+}
+
 // OpenCV's matchers: on the whole pair, CV_16S x 16, invalid below 0.
 MatcherResult opencv_matcher(const std::string& name, const cv::Ptr<cv::StereoMatcher>& m, const Pair& p,
                              const std::vector<cv::Rect>& foveas, int reps) {
   MatcherResult r;
   r.matcher = name;
   cv::Mat raw;
-  std::vector<double> ms;
-  for (int i = 0; i < reps; ++i) {
-    const auto t0 = Clock::now();
-    m->compute(p.left, p.right, raw);
-    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-  }
-  r.ms = median(ms);
+  r.ms = median_compute_ms(m, p.left, p.right, raw, reps);
   cv::Mat d;
   raw.convertTo(d, CV_32F, 1.0 / 16);
   d.setTo(-1, raw < 0);
@@ -459,7 +472,7 @@ MatcherResult opencv_matcher(const std::string& name, const cv::Ptr<cv::StereoMa
   return r;
 }
 
-// StereoSGBM (the settings of run_matchers) on each fovea's neighbourhood
+// StereoSGBM (benchmark_sgbm) on each fovea's neighbourhood
 // alone: the fovea widened by `margin` pixels on every side, and to its left
 // by the disparities searched, since SGBM leaves its first numDisparities
 // columns empty. With `truths_range` the disparities searched are the truth's
@@ -479,25 +492,15 @@ MatcherResult sgbm_around_foveas(const Pair& p, const std::vector<cv::Rect>& fov
     const cv::Rect around = cv::Rect(f.x - margin, f.y - margin, f.width + 2 * margin, f.height + 2 * margin) & image;
     int first = 0, count = p.num_disparities;
     if (truths_range) {
-      double low = std::numeric_limits<double>::max(), high = 0;
-      for (int y = around.y; y < around.br().y; ++y)
-        for (int x = around.x; x < around.br().x; ++x)
-          if (const float t = p.truth.at<float>(y, x); t >= 0)
-            low = std::min<double>(low, t), high = std::max<double>(high, t);
-      if (low > high) low = high = 0;  // no known truth there
+      const cv::Mat known = p.truth(around) >= 0;
+      double low = 0, high = 0;  // (no known truth there: 0)
+      if (cv::countNonZero(known) > 0) cv::minMaxLoc(p.truth(around), &low, &high, nullptr, nullptr, known);
       first = std::max(0, static_cast<int>(std::floor(low)) - 4);
       count = std::max(16, (static_cast<int>(std::ceil(high)) + 4 - first + 15) / 16 * 16);
     }
     const cv::Rect seen =
         cv::Rect(around.x - first - count, around.y, around.width + first + count, around.height) & image;
-    auto sgbm = cv::StereoSGBM::create(first, count, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32, cv::StereoSGBM::MODE_SGBM);
-    std::vector<double> fovea_ms;
-    for (int i = 0; i < reps; ++i) {
-      const auto t0 = Clock::now();
-      sgbm->compute(p.left(seen), p.right(seen), raw);
-      fovea_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-    }
-    ms.push_back(median(fovea_ms));
+    ms.push_back(median_compute_ms(benchmark_sgbm(first, count), p.left(seen), p.right(seen), raw, reps));
     for (int y = f.y; y < f.br().y; ++y)
       for (int x = f.x; x < f.br().x; ++x) {
         const short d = raw.at<short>(y - seen.y, x - seen.x);
@@ -764,10 +767,8 @@ std::vector<MatcherResult> run_matchers(const Pair& p, const retina::RetinaConfi
     for (bool truths_range : {false, true})
       results.push_back(sgbm_around_foveas(p, foveas, margin, truths_range, m.cv_reps));
   results.push_back(opencv_matcher("OpenCV StereoBM (9x9)", bm, p, foveas, m.cv_reps));
-  // OpenCV's stereo_match sample's settings, gray images, 5x5 blocks.
-  auto sgbm =
-      cv::StereoSGBM::create(0, p.num_disparities, 5, 8 * 25, 32 * 25, 1, 63, 10, 100, 32, cv::StereoSGBM::MODE_SGBM);
-  results.push_back(opencv_matcher("OpenCV StereoSGBM (5x5)", sgbm, p, foveas, m.cv_reps));
+  results.push_back(
+      opencv_matcher("OpenCV StereoSGBM (5x5)", benchmark_sgbm(0, p.num_disparities), p, foveas, m.cv_reps));
   return results;
 }
 

@@ -705,6 +705,10 @@ struct BoxTracker::Impl {
         sits_psr = std::max(sits_psr, look_peaks[i].psr);
     return sits_psr;
   }
+  // Within redetect_near times the target's larger side of where it was last tracked?
+  bool near_where_tracked(cv::Point2d found) const {
+    return cv::norm(found - sure_center) < config.redetect_near * std::max(size.width, size.height);
+  }
   // A re-detection confirmed at `found`, seen at patch step `at_step`.
   void found_at(cv::Point2d found, double at_step) {
     lost_look_moved = false;
@@ -813,11 +817,10 @@ struct BoxTracker::Impl {
                           std::size_t first, std::size_t end) {
     lost_look_moved = false;
     if (config.follow_lost_colors <= 0 || !colors_asked(frame)) return;
-    const double reach = config.redetect_near * std::max(size.width, size.height);
     double best = 0;
     for (std::size_t i = first; i < end; ++i) {
       const cv::Point2d found = at[i].to_frame(peaks[i].offset);
-      if (peaks[i].psr <= best || cv::norm(found - sure_center) >= reach ||
+      if (peaks[i].psr <= best || !near_where_tracked(found) ||
           shared_colors_at(frame, at[i], found) < config.follow_lost_colors)
         continue;
       best = peaks[i].psr, lost_look = found, lost_look_moved = true;
@@ -1049,8 +1052,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
   // too weak) and of its colour, a peak need only reach redetect_near_psr.
   // (Of its colour anywhere, a tinted look-alike was taken for it: mixed_640.)
   const auto near_its_place = [&](cv::Point2d found, const Peak& peak) {
-    const double reach = config_.redetect_near * std::max(m.size.width, m.size.height);
-    return peak.psr >= config_.redetect_near_psr && cv::norm(found - m.sure_center) < reach &&
+    return peak.psr >= config_.redetect_near_psr && m.near_where_tracked(found) &&
            !(unsure && cv::norm(found - m.center) < near);
   };
   const bool has_candidate = m.candidate_frames > 0;
