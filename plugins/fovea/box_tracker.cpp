@@ -575,6 +575,7 @@ struct BoxTracker::Impl {
     // and each place is proposed at its size.
     const std::array<double, 2>& others = kOtherSizes[static_cast<std::size_t>(reach)];
     for (const double factor : {1.0, others[0], others[1]}) {
+      if (!size_plausible(step * factor)) continue;
       const cv::Size t(std::max(3, static_cast<int>(std::lround(appearance.cols * factor))),
                        std::max(3, static_cast<int>(std::lround(appearance.rows * factor))));
       if (coarse_size.width < t.width || coarse_size.height < t.height) continue;
@@ -646,6 +647,14 @@ struct BoxTracker::Impl {
   double chroma_deviation = 0;
   int chroma_frames = 0;
   int untracked_frames = 0;  // since the target was last tracked
+  double sure_step = 1;      // the patch's step then
+  // Could the target have grown or shrunk to be seen at patch step `at_step`
+  // since it was last tracked?
+  bool size_plausible(double at_step) const {
+    if (config.max_size_change <= 0) return true;
+    const double reach = std::log1p(config.max_size_change) * std::max(1, untracked_frames);
+    return std::abs(std::log(at_step / sure_step)) <= reach + 1e-9;
+  }
   // Consecutive frames whose peak was under the usual one but sure otherwise
   // (over tracking_psr, unrivalled, of the target's colour while that is
   // checked), and their sum. Any other frame, or a re-detection, ends them.
@@ -681,7 +690,7 @@ struct BoxTracker::Impl {
       propose(frame, config.proposals, sizes, looks);
     else if (follow_colors)
       for (const double factor : kOtherSizes[static_cast<std::size_t>(sizes)])
-        looks.push_back({lost_look, step * factor, angle});
+        if (size_plausible(step * factor)) looks.push_back({lost_look, step * factor, angle});
     return {local, search ? local + 1 : looks.size()};
   }
   // Each of `looks`' peaks into look_peaks, the strongest into `strongest`.
@@ -905,7 +914,7 @@ Status BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   m.size = box.size();
   // A small target is not magnified: the patch then covers more than
   // `padding` times it, which also widens the search around a fast one.
-  m.step = std::max(1.0, config_.padding * std::max(box.width, box.height) / config_.patch);
+  m.step = m.sure_step = std::max(1.0, config_.padding * std::max(box.width, box.height) / config_.patch);
   m.fft.forward(gaussian_response(config_.patch, config_.sigma * std::max(box.width, box.height) / m.step),
                 m.target_spectrum);
   m.sample(frame, {m.center, m.step}, m.patch);
@@ -999,6 +1008,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   const double scale = m.scale_filter.estimate(frame, m.center, m.size, config_.lambda);
   m.size *= scale;
   m.step *= scale;
+  m.sure_step = m.step;
   last_.state = TrackState::kTracking;
   // Clamped: on a clean synthetic background a PSR can reach thousands, and
   // one such frame would make every ordinary one look unsure.

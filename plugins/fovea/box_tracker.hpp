@@ -71,6 +71,8 @@ struct BoxTrackerConfig {
   double follow_lost_colors = 0.5;  // lost: the local look moves to a peak near where the target was lost that
                                     // shares this much of its colours, and looks there at other sizes too
                                     // (0: it stays where the target was lost; docs/tracking.md)
+  double max_size_change = 0.03;    // a re-detection's size may differ from the size the target was last
+                                    // tracked at by this share per frame since (0: any of its sizes)
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 

@@ -97,7 +97,11 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "box tracking: lost, the local look moves to a peak near where the target was lost that shares this "
              "much of the target's colours, and looks there at other sizes too (0: it stays where the target was "
              "lost; docs/tracking.md)",
-             &C::box, &B::follow_lost_colors);
+             &C::box, &B::follow_lost_colors)
+      .field("box_max_size_change", {0, 10},
+             "box tracking: a re-detection's size may differ from the size the target was last tracked at by "
+             "this share per frame since (0: any of the sizes searched; docs/tracking.md)",
+             &C::box, &B::max_size_change);
 }
 
 }  // namespace

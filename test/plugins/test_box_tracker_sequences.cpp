@@ -195,16 +195,29 @@ TEST(BoxTrackerOnRealVideo, FollowsEachShotsFaceWhereOpenCvsFaceDetectorFindsIt)
 // ("a jump": the box's centre moving more than 0.75 of its larger side in one
 // frame, which a walking person cannot): the first at frame 355 while doubted
 // by his colour (another man's mean colour nearer the learnt one, but fewer of
-// his colours); the second at frame 486, unsure where he was at his size while
-// he peaked higher there at 1.25 times it, for a man 100 px away who peaked
-// higher than the first but lower than the second.
+// his colours); the second at frame 486 for a man 100 px away. The second, a
+// man in black, is crossed twice by men in darker jackets and jeans (frames
+// 483-487 and 503-508): where he is was read off the frames by eye at three of
+// them. Taken at 1.25 times his size while the first crossed him (a find that
+// covered both, then followed the man in front: no jump, but the wrong man
+// from frame 486 to 508), he is now kept, since no target grows by a quarter in
+// three frames (box_max_size_change), though doubted on more frames.
 TEST(BoxTrackerOnRealVideo, KeepsAPedestrianWhoStaysInViewOverOthersInDarkClothes) {
   const std::string video = test::sample_path("vtest.avi");
+  struct Seen {
+    int frame;  // of the video
+    cv::Point2d center;
+  };
   struct Walker {
     int first_frame, frames;
     cv::Rect2d box;
+    double min_claimed;
+    std::vector<Seen> seen;
   };
-  for (const Walker& w : {Walker{300, 100, {309, 168, 42, 136}}, Walker{480, 40, {577, 241, 35, 111}}}) {
+  const std::vector<Walker> walkers{
+      {300, 100, {309, 168, 42, 136}, 0.7, {}},
+      {480, 40, {577, 241, 35, 111}, 0.5, {{492, {634, 312}}, {498, {627, 322}}, {510, {630, 321}}}}};
+  for (const Walker& w : walkers) {
     Result<Sequence> read = read_video({video, w.first_frame, w.box, w.frames});
     ASSERT_TRUE(read.ok()) << read.error();
     const Sequence& s = *read;
@@ -219,12 +232,17 @@ TEST(BoxTrackerOnRealVideo, KeepsAPedestrianWhoStaysInViewOverOthersInDarkClothe
       ASSERT_TRUE(frame.ok());
       const TrackEstimate e = tracker.update(*frame);
       track.push_back({e.box, e.state == TrackState::kTracking});
+      for (const Seen& seen : w.seen) {
+        if (seen.frame != w.first_frame + i) continue;
+        EXPECT_LT(cv::norm(cv::Point2d(e.box.x + e.box.width / 2, e.box.y + e.box.height / 2) - seen.center), 15)
+            << "frame " << seen.frame << ": not on the man in black";
+      }
     }
     const WitnessScore score = witness_score(track);
     std::printf("pedestrian at %.0f,%.0f from frame %d: %d jumps, claimed %.2f of %d frames\n", w.box.x, w.box.y,
                 w.first_frame, score.jumps, score.claimed, score.frames);
     EXPECT_EQ(score.jumps, 0) << "frame " << w.first_frame;
-    EXPECT_GE(score.claimed, 0.7) << "frame " << w.first_frame;
+    EXPECT_GE(score.claimed, w.min_claimed) << "frame " << w.first_frame;
   }
 }
 

@@ -488,5 +488,18 @@ TEST(FoveaParams, TheSharedColoursCheckAsksAQuarterByDefaultAndItsShareIsChecked
               ::testing::HasSubstr("box_min_shared_colors"));
 }
 
+// The re-detection's size limit: 3% a frame by default, 0 lifts it, a
+// negative share is refused by name.
+TEST(FoveaParams, TheReDetectionsSizeLimitIsThreePercentAFrameByDefaultAndChecked) {
+  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
+  ASSERT_TRUE(defaults.ok()) << defaults.error();
+  EXPECT_EQ(defaults->box.max_size_change, 0.03);
+  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_max_size_change", "0"}});
+  ASSERT_TRUE(off.ok()) << off.error();
+  EXPECT_EQ(off->box.max_size_change, 0.0);
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_max_size_change", "-0.1"}}).error(),
+              ::testing::HasSubstr("box_max_size_change"));
+}
+
 }  // namespace
 }  // namespace saccade
