@@ -7,7 +7,8 @@
 //
 //   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--video FILE:FIRST:x,y,w,h[:COUNT]]...
 //                       [--no-generated] [--holdout]
-//                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--sequences a,b] [--markdown FILE]
+//                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--every N] [--scale F]
+//                       [--sequences a,b] [--markdown FILE]
 //                       [--export DIR]   (the sequences written as OTB folders, for other tools, instead)
 #ifndef SACCADE_TRACK_BENCH_FOVEA
 #define SACCADE_TRACK_BENCH_FOVEA 1
@@ -166,6 +167,8 @@ struct Options {
   std::string markdown;
   std::string sequences;  // names to keep, all when empty
   int frames = 0;
+  int every = 1;                  // every Nth frame of each sequence
+  double scale = 1.0;             // each sequence's frames resized by this
   std::string trace;              // a folder for per-frame CSV files, one per sequence and tracker
   std::string export_dir;         // --export: the sequences are written there in the OTB layout instead of run
   int runs = 1;                   // runs per sequence, the first box moved a little in all but the first
@@ -581,7 +584,11 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
   if (!keep.empty())
     std::erase_if(sequences,
                   [&](const Sequence& s) { return std::find(keep.begin(), keep.end(), s.name) == keep.end(); });
-  for (Sequence& s : sequences) truncate(s, options.frames);
+  for (Sequence& s : sequences) {
+    if (Status resampled = resample(s, options.every, options.scale); !resampled.ok())
+      return Status::error("--every/--scale: " + resampled.message());
+    truncate(s, options.frames);
+  }
   make_names_unique(sequences, [](Sequence& s) -> std::string& { return s.name; });
   return sequences;
 }
@@ -693,6 +700,12 @@ int main(int argc, char** argv) {
   app.add_option("--trackers", options.trackers, "comma-separated trackers to run")->capture_default_str();
   app.add_option("--sequences", options.sequences, "comma-separated sequence names to keep (default all)");
   app.add_option("--frames", options.frames, "at most this many frames per sequence (quick runs)");
+  app.add_option("--every", options.every,
+                 "N: every Nth frame of each sequence, as a camera of 1/N the frame rate sees it (the target "
+                 "moving N times as far between frames)")
+      ->check(CLI::Range(1, 100));
+  app.add_option("--scale", options.scale, "F: each sequence's frames and truth resized by F (0.1 to 8)")
+      ->check(CLI::Range(0.1, 8.0));
   app.add_option("--markdown", options.markdown, "also write the tables to this Markdown file");
   app.add_option("--runs", options.runs,
                  "runs per sequence: run 0 from the true first box, the others from it moved by up to 1.5 px "
@@ -707,8 +720,8 @@ int main(int argc, char** argv) {
                  "FOLDER: write the sequences with truth in the OTB layout (FOLDER/<sequence>/img/0001.png ..., "
                  "groundtruth_rect.txt; NaN rows where the target is hidden) instead of running them");
   // A value given twice is the last one: make's TRACK_ARGS can change what a target gives.
-  for (const char* single :
-       {"--data", "--trackers", "--sequences", "--frames", "--markdown", "--runs", "--trace", "--export"})
+  for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--every", "--scale", "--markdown",
+                             "--runs", "--trace", "--export"})
     app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   if (!apply_sets(options)) return 2;

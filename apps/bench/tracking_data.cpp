@@ -58,6 +58,44 @@ void truncate(Sequence& sequence, int frames) {
   sequence.visible.resize(static_cast<std::size_t>(frames));
 }
 
+Status resample(Sequence& sequence, int every, double scale) {
+  if (every < 1 || every > 100)
+    return Status::error("every " + std::to_string(every) + ": expected a whole number from 1 to 100");
+  char factor[32];
+  std::snprintf(factor, sizeof factor, "%g", scale);
+  if (!(scale >= 0.1 && scale <= 8))
+    return Status::error("scale " + std::string(factor) + ": expected a factor from 0.1 to 8");
+  if (every == 1 && scale == 1) return {};
+  const cv::Size from = sequence.frame_size;
+  const cv::Size to(static_cast<int>(std::lround(from.width * scale)),
+                    static_cast<int>(std::lround(from.height * scale)));
+  if (to.width < 2 || to.height < 2)
+    return Status::error(sequence.name + ": its " + std::to_string(from.width) + "x" + std::to_string(from.height) +
+                         " frames scaled by " + factor + " are under 2x2");
+  // The truth by the frame's own ratios: its size is rounded to whole pixels.
+  const double sx = static_cast<double>(to.width) / from.width, sy = static_cast<double>(to.height) / from.height;
+  std::vector<cv::Rect2d> truth;
+  std::vector<bool> visible;
+  for (int i = 0; i < sequence.size(); i += every) {
+    const cv::Rect2d& b = sequence.truth[static_cast<std::size_t>(i)];
+    truth.emplace_back(b.x * sx, b.y * sy, b.width * sx, b.height * sy);
+    visible.push_back(sequence.visible[static_cast<std::size_t>(i)]);
+  }
+  sequence.truth = std::move(truth);
+  sequence.visible = std::move(visible);
+  sequence.frame_size = to;
+  sequence.frame = [read = std::move(sequence.frame), every, to, shrink = scale < 1](int i) -> Result<cv::Mat> {
+    Result<cv::Mat> frame = read(i * every);
+    if (!frame.ok() || frame->size() == to) return frame;
+    cv::Mat out;
+    cv::resize(*frame, out, to, 0, 0, shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
+    return out;
+  };
+  if (every != 1) sequence.name += "@every" + std::to_string(every);
+  if (scale != 1) sequence.name += "@scale" + std::string(factor);
+  return {};
+}
+
 // ---------------------------------------------------------------- readers
 
 Result<TruthRow> parse_truth_row(const std::string& row, const std::string& where) {

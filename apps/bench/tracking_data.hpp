@@ -39,6 +39,13 @@ struct Sequence {
 // Keeps the first `frames` frames (all when frames <= 0 or more than there are).
 void truncate(Sequence& sequence, int frames);
 
+// The sequence as a camera of another frame rate or resolution would see it:
+// every `every`th frame (1: each), each resized by `scale` (area averaging
+// when it shrinks, bilinear when it grows), the truth with it; the name gains
+// "@every<N>" and "@scale<F>" for what changed. An error names a value out of
+// range (every 1..100, scale 0.1..8) or a frame smaller than 2x2 once scaled.
+Status resample(Sequence& sequence, int every, double scale);
+
 // --- Readers. Each returns the sequence, or an error naming the file (and
 // line) at fault.
 

@@ -522,6 +522,39 @@ TEST(OtbWriter, WritesWhatReadOtbGivesBackExactly) {
   EXPECT_EQ(write_otb(s, folder).message(), folder + "/img: already holds files; export into a folder without them");
 }
 
+// A camera of a third the frame rate and half the resolution: every third
+// frame, each halved by area averaging, the truth with it; the name says so.
+TEST(Resample, KeepsEveryNthFrameScaledWithItsTruthAndNamesBadValues) {
+  Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
+  truncate(s, 90);
+  const Sequence original = s;
+  ASSERT_TRUE(resample(s, 3, 0.5).ok());
+  EXPECT_EQ(s.name, "out_of_view@every3@scale0.5");
+  ASSERT_EQ(s.size(), 30);
+  EXPECT_EQ(s.frame_size, cv::Size(160, 120));
+  for (int i = 0; i < s.size(); ++i) {
+    const cv::Rect2d& b = original.truth[static_cast<std::size_t>(3 * i)];
+    EXPECT_EQ(s.truth[static_cast<std::size_t>(i)], cv::Rect2d(b.x / 2, b.y / 2, b.width / 2, b.height / 2));
+    EXPECT_EQ(s.visible[static_cast<std::size_t>(i)], original.visible[static_cast<std::size_t>(3 * i)]);
+  }
+  for (const int i : {0, 17, 29}) {
+    cv::Mat expected;
+    cv::resize(value_of(original.frame(3 * i)), expected, cv::Size(160, 120), 0, 0, cv::INTER_AREA);
+    const cv::Mat got = value_of(s.frame(i));
+    ASSERT_EQ(got.size(), expected.size());
+    EXPECT_EQ(cv::norm(got, expected, cv::NORM_INF), 0.0) << "frame " << i;
+  }
+  Sequence same = original;
+  ASSERT_TRUE(resample(same, 1, 1.0).ok());
+  EXPECT_EQ(same.name, "out_of_view");
+  EXPECT_EQ(same.size(), 90);
+  EXPECT_THAT(resample(same, 0, 1.0).message(), ::testing::HasSubstr("every 0"));
+  EXPECT_EQ(resample(same, 1, 20.0).message(), "scale 20: expected a factor from 0.1 to 8");
+  Sequence tiny = original;
+  tiny.frame_size = {12, 9};
+  EXPECT_EQ(resample(tiny, 1, 0.1).message(), "out_of_view: its 12x9 frames scaled by 0.1 are under 2x2");
+}
+
 TEST(OtbWriter, NamesWhatItCannotWrite) {
   Sequence video;
   video.name = "vtest@0+1+2+3+4";
