@@ -84,7 +84,10 @@ Status resample(Sequence& sequence, int every, double scale) {
   sequence.truth = std::move(truth);
   sequence.visible = std::move(visible);
   sequence.frame_size = to;
-  sequence.frame = [read = std::move(sequence.frame), every, to, shrink = scale < 1](int i) -> Result<cv::Mat> {
+  sequence.frame = [read = std::move(sequence.frame), every, to, shrink = scale < 1,
+                    count = sequence.truth.size()](int i) -> Result<cv::Mat> {
+    // (Checked here: the reader's own error would number the frames as it read them.)
+    if (i < 0 || static_cast<std::size_t>(i) >= count) return no_such_frame(i, count);
     Result<cv::Mat> frame = read(i * every);
     if (!frame.ok() || frame->size() == to) return frame;
     cv::Mat out;

@@ -652,7 +652,7 @@ struct BoxTracker::Impl {
   // since it was last tracked?
   bool size_plausible(double at_step) const {
     if (config.max_size_change <= 0) return true;
-    const double reach = std::log1p(config.max_size_change) * std::max(1, untracked_frames);
+    const double reach = std::log1p(config.max_size_change) * untracked_frames;  // >= 1: update() counted this frame
     return std::abs(std::log(at_step / sure_step)) <= reach + 1e-9;
   }
   // Consecutive frames whose peak was under the usual one but sure otherwise
@@ -719,6 +719,8 @@ struct BoxTracker::Impl {
     return cv::norm(found - sure_center) < config.redetect_near * std::max(size.width, size.height);
   }
   // A re-detection confirmed at `found`, seen at patch step `at_step`.
+  // (Not the size the target was last tracked at, sure_step: what is found
+  // may be another object, and the size limit stays measured from the target.)
   void found_at(cv::Point2d found, double at_step) {
     lost_look_moved = false;
     center = sure_center = found;

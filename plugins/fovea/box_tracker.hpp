@@ -72,7 +72,7 @@ struct BoxTrackerConfig {
                                     // shares this much of its colours, and looks there at other sizes too
                                     // (0: it stays where the target was lost; docs/tracking.md)
   double max_size_change = 0.03;    // a re-detection's size may differ from the size the target was last
-                                    // tracked at by this share per frame since (0: any of its sizes)
+                                    // tracked at by this share per frame since (0: any of the sizes searched)
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 

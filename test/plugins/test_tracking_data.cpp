@@ -544,6 +544,7 @@ TEST(Resample, KeepsEveryNthFrameScaledWithItsTruthAndNamesBadValues) {
     ASSERT_EQ(got.size(), expected.size());
     EXPECT_EQ(cv::norm(got, expected, cv::NORM_INF), 0.0) << "frame " << i;
   }
+  EXPECT_EQ(s.frame(30).error(), "no frame 30 (the sequence has 30)");
   Sequence same = original;
   ASSERT_TRUE(resample(same, 1, 1.0).ok());
   EXPECT_EQ(same.name, "out_of_view");
