@@ -40,6 +40,8 @@ struct BoxTrackerConfig {
   int turn_search_every = 4;    // ... and at least every this many frames
   double scale_step = 1.02;     // ratio between the scale filter's neighbouring scales
   int scales = 17;              // scales the scale filter compares (odd)
+  double scale_turn_min = 20;   // degrees: from this turn on, the scale filter sees the target turned as the patch
+                                // does (under it, upright; docs/tracking.md)
   double min_target = 8;        // smallest target side accepted, source pixels
   double tracking_psr = 6.0;    // peak-to-sidelobe ratio at or above which the target is tracked ...
   double relative_psr = 0.5;    // ... and at or above this share of its mean over tracked frames
@@ -67,7 +69,8 @@ struct BoxTrackerConfig {
                                     // the target's colour by min_chroma_change (a look-alike while the
                                     // target is partly hidden) ...
   int redetect_margin_frames = 10;  // ... for this many unsure frames (then the target is more likely gone)
-  int proposals = 2;                // lost: places per size the whole-frame search proposes to the filter
+  int proposals = 2;                // lost: places per size the whole-frame search proposes to the filter by look ...
+  int color_proposals = 1;          // ... and by look and colour together (while its colour is checked; 0: none)
   double follow_lost_colors = 0.5;  // lost: the local look moves to a peak near where the target was lost that
                                     // shares this much of its colours, and looks there at other sizes too
                                     // (0: it stays where the target was lost; docs/tracking.md)

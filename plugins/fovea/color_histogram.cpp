@@ -53,4 +53,44 @@ double shared_colors(const std::vector<float>& a, const std::vector<float>& b) {
   return shared;
 }
 
+void color_likelihood(const cv::Mat& frame, cv::Size cells, const std::vector<float>& target, cv::Mat& out,
+                      std::vector<int>& bins) {
+  out.create(cells, CV_32F);
+  out.setTo(0);
+  if (frame.channels() < 3 || frame.depth() != CV_8U || cells.area() == 0) return;
+  const int channels = frame.channels();
+  const double cell_w = static_cast<double>(frame.cols) / cells.width,
+               cell_h = static_cast<double>(frame.rows) / cells.height;
+  const auto at = [](double v, int size) { return std::clamp(static_cast<int>(v), 0, size - 1); };
+  bins.assign(static_cast<std::size_t>(cells.area()), -1);
+  std::array<int, kChromaBins * kChromaBins> counts{};
+  int counted = 0;
+  for (int cy = 0; cy < cells.height; ++cy) {
+    const std::array<int, 2> ys{at((cy + 0.25) * cell_h, frame.rows), at((cy + 0.75) * cell_h, frame.rows)};
+    for (int cx = 0; cx < cells.width; ++cx) {
+      const std::array<int, 2> xs{at((cx + 0.25) * cell_w, frame.cols), at((cx + 0.75) * cell_w, frame.cols)};
+      int b = 0, g = 0, r = 0;
+      for (const int y : ys)
+        for (const int x : xs) {
+          const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(x) * channels;
+          b += pixel[0], g += pixel[1], r += pixel[2];
+        }
+      const int sum = b + g + r;
+      if (sum < 4 * kDarkestChroma) continue;
+      const int bin = std::min(kChromaBins - 1, r * kChromaBins / sum) * kChromaBins +
+                      std::min(kChromaBins - 1, g * kChromaBins / sum);
+      bins[static_cast<std::size_t>(cy * cells.width + cx)] = bin;
+      ++counts[static_cast<std::size_t>(bin)];
+      ++counted;
+    }
+  }
+  if (counted == 0 || target.size() != counts.size()) return;
+  for (int i = 0; i < cells.area(); ++i) {
+    const int bin = bins[static_cast<std::size_t>(i)];
+    if (bin < 0) continue;
+    const double scene = static_cast<double>(counts[static_cast<std::size_t>(bin)]) / counted;
+    out.ptr<float>()[i] = static_cast<float>(std::min(1.0, target[static_cast<std::size_t>(bin)] / scene));
+  }
+}
+
 }  // namespace saccade::fovea

@@ -22,4 +22,15 @@ void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& s
 // intersection): 1 for the same colours, 0 for none in common.
 double shared_colors(const std::vector<float>& a, const std::vector<float>& b);
 
+// How likely each cell of a `cells` grid laid over an 8-bit BGR(A) frame is
+// to be of the target's colours (`target`, chroma_histogram's shares): the
+// ratio of the target's share of the cell's chromaticity bin to the grid's
+// own share of it, at most 1 (Swain and Ballard's ratio histogram: a colour
+// the target has and the scene rarely does scores high, one all over the
+// scene low). A cell's colour is the mean of the four pixels at its quarter
+// points; a cell too dark for a colour scores 0. CV_32F `out`; all 0 for a
+// gray frame. `bins` is scratch.
+void color_likelihood(const cv::Mat& frame, cv::Size cells, const std::vector<float>& target, cv::Mat& out,
+                      std::vector<int>& bins);
+
 }  // namespace saccade::fovea

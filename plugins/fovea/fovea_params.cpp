@@ -98,6 +98,15 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "much of the target's colours, and looks there at other sizes too (0: it stays where the target was "
              "lost; docs/tracking.md)",
              &C::box, &B::follow_lost_colors)
+      .field("box_color_proposals", {0, 16},
+             "box tracking: lost or unsure, places per size the whole-frame search proposes by the target's look "
+             "and colour together, besides those by its look alone (while its colour is checked; 0: none; "
+             "docs/tracking.md)",
+             &C::box, &B::color_proposals)
+      .field("box_scale_turn_min", {0, 360},
+             "box tracking: degrees the target must have turned before the scale filter sees it turned as the "
+             "patch does (upright under it; docs/tracking.md)",
+             &C::box, &B::scale_turn_min)
       .field("box_max_size_change", {0, 10},
              "box tracking: a re-detection's size may differ from the size the target was last tracked at by "
              "this share per frame since (0: any of the sizes searched; docs/tracking.md)",

@@ -46,20 +46,23 @@ SACCADE_AVX2_CLONE void cross_terms(float* __restrict result, std::ptrdiff_t res
 // numerator rounding past the denominator is clamped to +-1. Without branches
 // so that it vectorises; the same operations per placement.
 SACCADE_AVX2_CLONE void normalise_row(float* __restrict out, const double* __restrict sum, const double* __restrict sq,
-                                      int rw, double n, double t_norm) {
+                                      int rw, double n, double t_norm, double min_window_norm) {
   for (int x = 0; x < rw; ++x) {
     const double s = sum[x];
-    const double norm = std::sqrt(std::max(0.0, sq[x] - s * s / n)) * t_norm;
+    const double window_norm = std::sqrt(std::max(0.0, sq[x] - s * s / n));
+    const double norm = window_norm * t_norm;
     const double num = out[x];
     const double magnitude = std::fabs(num);
     const double clamped = magnitude < norm * 1.125 ? (num > 0 ? 1.0 : -1.0) : 0.0;
-    out[x] = static_cast<float>(magnitude < norm ? num / norm : clamped);
+    const double score = magnitude < norm ? num / norm : clamped;
+    out[x] = static_cast<float>(window_norm >= min_window_norm ? score : 0.0);
   }
 }
 
 }  // namespace
 
-void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch) {
+void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch,
+                           double min_relative_contrast) {
   CV_Assert(window.type() == CV_32F && templ.type() == CV_32F && window.cols >= templ.cols &&
             window.rows >= templ.rows);
   const int tw = templ.cols, th = templ.rows, rw = window.cols - tw + 1, rh = window.rows - th + 1;
@@ -125,7 +128,8 @@ void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat&
       scratch.row_sum[static_cast<std::size_t>(x)] = s;
       scratch.row_sq[static_cast<std::size_t>(x)] = s2;
     }
-    normalise_row(result.ptr<float>(wy - th + 1), scratch.row_sum.data(), scratch.row_sq.data(), rw, n, t_norm);
+    normalise_row(result.ptr<float>(wy - th + 1), scratch.row_sum.data(), scratch.row_sq.data(), rw, n, t_norm,
+                  min_relative_contrast * t_norm);
   }
 }
 

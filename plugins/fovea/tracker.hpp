@@ -26,13 +26,17 @@ struct TrackerConfig {
 // images, computed directly: OpenCV 4.6 takes the DFT path even for a 12x12
 // template in a 40x32 window, which allocates on every call and costs several
 // times more. Same definition, and the same rule for flat windows (their
-// score is 0); a flat template scores 0 everywhere (OpenCV's: 1). `scratch`
-// keeps the buffers between calls.
+// score is 0); a flat template scores 0 everywhere (OpenCV's: 1). A window
+// whose standard deviation is under `min_relative_contrast` times the
+// template's scores 0 too: the normalisation magnifies a nearly flat window's
+// faint shading or noise into any score. `scratch` keeps the buffers between
+// calls.
 struct CorrelationScratch {
   std::vector<float> centered, cross;
   std::vector<double> column_sum, column_sq, row_sum, row_sq;
 };
-void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch);
+void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch,
+                           double min_relative_contrast = 0);
 
 class TemplateTracker {
  public:

@@ -81,27 +81,49 @@ TEST(BoxTrackerOnGeneratedSequences, AChangedTargetBackLargerIsReacquiredWithin1
 // (off the look's centre, at the wrong size), under every bar, until the
 // face was 1.7x the size it was lost at: re-acquired 60 frames after the
 // first sliver of it showed again. Following the face's colours near where
-// it went, and looking there at other sizes, 15-24 frames. (From the first
-// box moved as run 1 moves it, a re-detection while the face was hidden took
-// a part of it at 0.4 of its size, and the box never grows back:
-// docs/tracking.md.)
-TEST(BoxTrackerOnGeneratedSequences, ALostTargetBackNearWhereItWentIsFollowedByItsColours) {
+// it went, and looking there at other sizes, 24 frames; the whole-frame
+// search proposed the round sweets, which share the face's round shape more
+// than the turned face does, and never the face at its size. Proposed by its
+// look and colour together, 8-11 frames from every first box.
+TEST(BoxTrackerOnGeneratedSequences, ALostTargetBackTurnedAmongLookAlikesOfOtherColoursIsFoundByItsColours) {
   const Sequence held_out = generated("holdout_mixed");
-  for (int run : {0, 2, 3, 4, 5}) {
+  for (int run = 0; run < 6; ++run) {
     const TrackScore score = track(held_out, run);
     std::printf("run %d: re-acquired after %d frames, %d of %d reappearances missed, precision %.3f\n", run,
                 score.max_reacquire_delay, score.reacquire_misses, score.reappearances, score.precision20);
     EXPECT_EQ(score.reappearances, 1) << "run " << run;
     EXPECT_EQ(score.reacquire_misses, 0) << "run " << run;
-    EXPECT_LE(score.max_reacquire_delay, 25) << "run " << run;
+    EXPECT_LE(score.max_reacquire_delay, 15) << "run " << run;
     EXPECT_GE(score.precision20, 0.9) << "run " << run;
   }
-  BoxTrackerConfig stays;
-  stays.follow_lost_colors = 0;
-  const TrackScore without = track(held_out, 0, stays);
-  std::printf("the look kept where the face went: re-acquired after %d frames, precision %.3f\n",
-              without.max_reacquire_delay, without.precision20);
-  EXPECT_GT(without.max_reacquire_delay, 40);
+  BoxTrackerConfig by_look;
+  by_look.color_proposals = 0;
+  const TrackScore look_alone = track(held_out, 0, by_look);
+  by_look.follow_lost_colors = 0;
+  const TrackScore stays = track(held_out, 0, by_look);
+  std::printf("proposed by look alone: re-acquired after %d frames; and the look kept where the face went: %d\n",
+              look_alone.max_reacquire_delay, stays.max_reacquire_delay);
+  EXPECT_GT(look_alone.max_reacquire_delay, 20);
+  EXPECT_GT(stays.max_reacquire_delay, 40);
+}
+
+// `rotation` and `holdout_rotation`: a fish turning up to 80 degrees either
+// way, a whale up to 80 (0.8-1.25x their size). The scale filter read the
+// target's scales upright while the patch followed its turn: turned, the box
+// sampled other parts of it at every scale and the estimate wandered (AUC
+// 0.764 and 0.745). Read turned as the patch is, once the turn passes
+// scale_turn_min: 0.900 and 0.876.
+TEST(BoxTrackerOnGeneratedSequences, ATurningTargetsSizeIsMeasuredTurnedWithIt) {
+  BoxTrackerConfig upright;
+  upright.scale_turn_min = 360;
+  for (const char* name : {"rotation", "holdout_rotation"}) {
+    const Sequence turning = generated(name);
+    const TrackScore turned = track(turning, 0), kept_upright = track(turning, 0, upright);
+    std::printf("%s: AUC %.3f, the scale filter upright %.3f\n", name, turned.success_auc, kept_upright.success_auc);
+    EXPECT_GE(turned.success_auc, 0.85) << name;
+    EXPECT_GE(turned.success50, 0.99) << name;
+    EXPECT_LT(kept_upright.success_auc, 0.8) << name;
+  }
 }
 
 // Real video: the four shots of opencv-doc's Megamind.avi (720x528, an

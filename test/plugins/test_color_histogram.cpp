@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <numeric>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "color_histogram.hpp"
 #include "support.hpp"
@@ -87,6 +89,47 @@ TEST(SharedColors, APartlyHiddenTargetSharesItsColoursATintedLookAlikeFew) {
   EXPECT_GE(partly_hidden, 0.6);
   EXPECT_LT(look_alike, 0.45);
   EXPECT_DOUBLE_EQ(shared_colors(seen, learnt), shared_colors(learnt, seen));
+}
+
+// The whole-frame search's colour evidence (box_color_proposals): a patch of
+// the baboon's face (red and blue) pasted into a photograph of fruit; the
+// target's colours are the patch's. Cells over the patch score high, the
+// fruit low (its red apples share some of the face's colours: 0.33 on average).
+TEST(ColorLikelihood, TheTargetsColoursScoreHighWhereTheSceneRarelyHasThem) {
+  cv::Mat scene = read("fruits.jpg").clone();
+  const cv::Mat target = read("baboon.jpg")(cv::Rect(180, 40, 150, 120));
+  const cv::Rect pasted(300, 200, 150, 120);
+  target.copyTo(scene(pasted));
+  std::vector<float> learnt;
+  chroma_histogram(target, cv::Rect(0, 0, target.cols, target.rows), learnt);
+  // Cells of 10x10 pixels.
+  const cv::Size cells(scene.cols / 10, scene.rows / 10);
+  cv::Mat likelihood;
+  std::vector<int> bins;
+  color_likelihood(scene, cells, learnt, likelihood, bins);
+  ASSERT_EQ(likelihood.size(), cells);
+  ASSERT_EQ(likelihood.type(), CV_32F);
+  const cv::Rect inside(pasted.x / 10 + 1, pasted.y / 10 + 1, pasted.width / 10 - 2, pasted.height / 10 - 2);
+  cv::Mat outside_mask(cells, CV_8U, cv::Scalar(255));
+  outside_mask(cv::Rect(pasted.x / 10 - 1, pasted.y / 10 - 1, pasted.width / 10 + 2, pasted.height / 10 + 2)) = 0;
+  const double on_target = cv::mean(likelihood(inside))[0], elsewhere = cv::mean(likelihood, outside_mask)[0];
+  std::printf("colour likelihood: over the patch %.3f, elsewhere %.3f\n", on_target, elsewhere);
+  EXPECT_GE(on_target, 0.8);
+  EXPECT_LE(elsewhere, 0.4);
+  EXPECT_GE(on_target, 2.5 * elsewhere);
+  double lowest = 0, highest = 0;
+  cv::minMaxLoc(likelihood, &lowest, &highest);
+  EXPECT_GE(lowest, 0.0);
+  EXPECT_LE(highest, 1.0);
+
+  // No colour to go by: a gray frame, and a black area's cells.
+  cv::Mat gray;
+  cv::cvtColor(scene, gray, cv::COLOR_BGR2GRAY);
+  color_likelihood(gray, cells, learnt, likelihood, bins);
+  EXPECT_EQ(cv::countNonZero(likelihood), 0);
+  scene(pasted).setTo(cv::Scalar(3, 3, 3));
+  color_likelihood(scene, cells, learnt, likelihood, bins);
+  EXPECT_EQ(cv::countNonZero(likelihood(inside)), 0);
 }
 
 }  // namespace

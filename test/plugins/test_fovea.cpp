@@ -182,6 +182,27 @@ TEST(MatchTemplateNormed, IsOpenCvsNormalisedCorrelationCoefficient) {
   }
 }
 
+// Normalised, a nearly flat window's faint shading matches any template: the
+// box tracker's whole-frame search asks for windows of at least a quarter of
+// its look's contrast (a white wall took one of its places on every search).
+TEST(MatchTemplateNormed, AWindowOfTooLittleContrastScoresZeroWhenAsked) {
+  CorrelationScratch scratch;
+  cv::Mat texture, templ, window(40, 60, CV_32F, cv::Scalar(200)), scores;
+  test::random_image({12, 12}, 9).convertTo(texture, CV_32F);
+  texture.copyTo(templ);
+  texture.copyTo(window(cv::Rect(4, 4, 12, 12)));                // the look itself
+  cv::Mat faint = 200 + (texture - cv::mean(texture)[0]) * 0.1;  // the same shading at a tenth of its contrast
+  faint.copyTo(window(cv::Rect(36, 20, 12, 12)));
+  match_template_normed(window, templ, scores, scratch);
+  EXPECT_GT(scores.at<float>(4, 4), 0.999f);
+  EXPECT_GT(scores.at<float>(20, 36), 0.999f) << "normalised, a faint copy matches as well";
+  match_template_normed(window, templ, scores, scratch, 0.25);
+  EXPECT_GT(scores.at<float>(4, 4), 0.999f);
+  EXPECT_EQ(scores.at<float>(20, 36), 0.0f);
+  match_template_normed(window, templ, scores, scratch, 0.05);
+  EXPECT_GT(scores.at<float>(20, 36), 0.999f) << "a tenth of the contrast passes a floor of a twentieth";
+}
+
 TEST(TemplateTracker, FindsATextureShiftedByWholeAndHalfPixels) {
   cv::Mat base = test::random_image({640, 480}, 3);
   cv::GaussianBlur(base, base, cv::Size(5, 5), 1.2);
@@ -499,6 +520,22 @@ TEST(FoveaParams, TheReDetectionsSizeLimitIsThreePercentAFrameByDefaultAndChecke
   EXPECT_EQ(off->box.max_size_change, 0.0);
   EXPECT_THAT(configure(&bind_fovea_params, {{"box_max_size_change", "-0.1"}}).error(),
               ::testing::HasSubstr("box_max_size_change"));
+}
+
+TEST(FoveaParams, ColourProposalsAndTheTurnedScaleFilterAreOnByDefaultAndChecked) {
+  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
+  ASSERT_TRUE(defaults.ok()) << defaults.error();
+  EXPECT_EQ(defaults->box.color_proposals, 1);
+  EXPECT_EQ(defaults->box.scale_turn_min, 20.0);
+  const Result<ControllerConfig> off =
+      configure(&bind_fovea_params, {{"box_color_proposals", "0"}, {"box_scale_turn_min", "360"}});
+  ASSERT_TRUE(off.ok()) << off.error();
+  EXPECT_EQ(off->box.color_proposals, 0);
+  EXPECT_EQ(off->box.scale_turn_min, 360.0);
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_color_proposals", "-1"}}).error(),
+              ::testing::HasSubstr("box_color_proposals"));
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_scale_turn_min", "400"}}).error(),
+              ::testing::HasSubstr("box_scale_turn_min"));
 }
 
 }  // namespace
