@@ -38,17 +38,18 @@ struct BoxTrackerConfig {
   double angle_step = 5;        // degrees: the target's turn searched either side (0: never) ...
   double turn_psr = 0.8;        // ... when the peak-to-sidelobe ratio falls below this share of its mean ...
   int turn_search_every = 4;    // ... and at least every this many frames
-  double scale_step = 1.02;     // ratio between the scale filter's neighbouring scales
-  int scales = 17;              // scales the scale filter compares (odd)
-  double scale_turn_min = 20;   // degrees: from this turn on, the scale filter sees the target turned as the patch
-                                // does (under it, upright; docs/tracking.md)
-  double min_target = 8;        // smallest target side accepted, source pixels
-  double tracking_psr = 6.0;    // peak-to-sidelobe ratio at or above which the target is tracked ...
-  double relative_psr = 0.5;    // ... and at or above this share of its mean over tracked frames
-                                // (or under it, sure otherwise, on warmup_frames frames in a row:
-                                // the target changed, and the mean is made anew from them)
-  int warmup_frames = 10;       // tracked frames that make that mean before it is used
-  double rival_ratio = 0.7;     // a second peak above this share of the first: not sure (1: never)
+  double scale_step = 1.02;     // ratio between the scale filter's neighbouring scales, at least ...
+  double scale_step_pixels = 1;  // ... enough to change the given box's larger side by this many pixels (0: not asked)
+  int scales = 17;               // scales the scale filter compares (odd)
+  double scale_turn_min = 20;    // degrees: from this turn on, the scale filter sees the target turned as the patch
+                                 // does (under it, upright; docs/tracking.md)
+  double min_target = 8;         // smallest target side accepted, source pixels
+  double tracking_psr = 6.0;     // peak-to-sidelobe ratio at or above which the target is tracked ...
+  double relative_psr = 0.5;     // ... and at or above this share of its mean over tracked frames
+                                 // (or under it, sure otherwise, on warmup_frames frames in a row:
+                                 // the target changed, and the mean is made anew from them)
+  int warmup_frames = 10;        // tracked frames that make that mean before it is used
+  double rival_ratio = 0.7;      // a second peak above this share of the first: not sure (1: never)
   double min_chroma_change = 0.02;  // a tracked target's colour (chromaticity) may move this far ...
   double chroma_deviations = 4;     // ... or this many times its usual frame-to-frame deviation
   int color_patience = 60;          // frames away after which a target may come back another colour

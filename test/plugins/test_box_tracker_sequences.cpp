@@ -126,6 +126,25 @@ TEST(BoxTrackerOnGeneratedSequences, ATurningTargetsSizeIsMeasuredTurnedWithIt) 
   }
 }
 
+// Small targets: `holdout_mixed` and `rotation` at half the size (`make
+// bench-track TRACK_ARGS="--scale 0.5"`: a 30 px face, a 32 px fish). The
+// scale filter's scales 2% apart differ by half a pixel there: it answered 1
+// while the face grew from 21 to 41 px after it was found again (success@0.5
+// 0.659), and while the fish shrank from 37 to 26 (0.957). Steps that move the
+// box's larger side by a pixel (scale_step_pixels): 0.941 and 1.000.
+TEST(BoxTrackerOnGeneratedSequences, ASmallTargetsSizeIsFollowedByStepsOfAPixel) {
+  BoxTrackerConfig two_percent;
+  two_percent.scale_step_pixels = 0;
+  for (const char* name : {"holdout_mixed", "rotation"}) {
+    Sequence small = generated(name);
+    ASSERT_TRUE(resample(small, 1, 0.5).ok());
+    const TrackScore stepped = track(small, 0), fixed = track(small, 0, two_percent);
+    std::printf("%s at half the size: success@0.5 %.3f, steps of 2%% %.3f\n", name, stepped.success50, fixed.success50);
+    EXPECT_GE(stepped.success50, 0.93) << name;
+    EXPECT_LE(fixed.success50, stepped.success50 - 0.03) << name;
+  }
+}
+
 // Real video: the four shots of opencv-doc's Megamind.avi (720x528, an
 // animated film: a woman's face, a man's, hers, his closer; cuts at frames
 // 98, 154 and 200), each followed from the box OpenCV's Haar face detector
