@@ -273,15 +273,17 @@ class ScaleFilter {
     const int pixels = side_ * side_;
     // A turned target's scales are read as an upright one's from one view of
     // the largest scale turned with it, at a quarter of the smallest scale's
-    // cell (at half, its second interpolation blurred the samples enough to
-    // lower `scale`'s AUC 0.93 -> 0.83 where the target barely turns).
+    // cell, and at least half a source pixel (at half a cell, the second
+    // interpolation blurred the samples enough to lower `scale`'s AUC 0.93 ->
+    // 0.83 with the view used at any angle).
     const cv::Mat* source = &frame;
     cv::Point2d middle = center;
     cv::Size2d unit(1, 1);  // source pixels per pixel of the source read
     if (angle != 0) {
       constexpr double kViewCells = 4;  // view pixels per cell of the smallest scale
       const double largest = factors_.front(), smallest = factors_.back();
-      unit = cv::Size2d(size.width * smallest / side_ / kViewCells, size.height * smallest / side_ / kViewCells);
+      unit = cv::Size2d(std::max(0.5, size.width * smallest / side_ / kViewCells),
+                        std::max(0.5, size.height * smallest / side_ / kViewCells));
       const cv::Size n(static_cast<int>(std::ceil(size.width * largest / unit.width)) + 3,
                        static_cast<int>(std::ceil(size.height * largest / unit.height)) + 3);
       const double c = std::cos(angle), s = std::sin(angle);
@@ -289,6 +291,10 @@ class ScaleFilter {
       // View pixel (u, v) reads centre + R(angle) diag(unit) ((u, v) - the view's middle).
       const cv::Matx23d m(c * unit.width, -s * unit.height, center.x - (c * unit.width * mx - s * unit.height * my),
                           s * unit.width, c * unit.height, center.y - (s * unit.width * mx + c * unit.height * my));
+      // Into the top-left of a buffer that only grows: the view's size follows the box's.
+      if (view_buffer_.cols < n.width || view_buffer_.rows < n.height)
+        view_buffer_.create(std::max(n.height, view_buffer_.rows), std::max(n.width, view_buffer_.cols), CV_8U);
+      view_ = view_buffer_(cv::Rect(cv::Point(), n));
       warp_to_gray(frame, m, n, view_, view_scratch_);
       source = &view_;
       middle = {mx, my};
@@ -334,7 +340,7 @@ class ScaleFilter {
   // Per frequency up to count / 2 (row), per dimension: the samples' spectra and the model's numerator.
   std::vector<float> spectra_re_, spectra_im_, numerator_re_, numerator_im_;
   std::vector<std::complex<float>> twiddle_, target_, response_;
-  cv::Mat view_, view_scratch_;  // a turned target's view (spectra)
+  cv::Mat view_buffer_, view_, view_scratch_;  // a turned target's view (spectra), and what holds it
 };
 
 namespace {
@@ -584,13 +590,16 @@ struct BoxTracker::Impl {
 
   // Where the lost target may be: the best matches (normalised correlation)
   // of its coarse look over the whole frame seen at the coarse step, at
-  // least a target apart; then, while its colour is checked, the best by
-  // look and colour together (color_proposals): a target back turned, in
-  // other light or partly hidden matches its look less well than things of
-  // another colour that share its shape (`holdout_mixed`: a dog's face among
-  // round sweets, proposed at its size on none of 12 searches; re-acquired
-  // in 24 frames, 11 with its colour; docs/tracking.md).
-  void propose(const cv::Mat& frame, int count, int reach, std::vector<Placement>& out) {
+  // least a target apart; then, `by_color` and while its colour is checked,
+  // the best by look and colour together (color_proposals): a target back
+  // turned, in other light or partly hidden matches its look less well than
+  // things of another colour that share its shape (`holdout_mixed`: a dog's
+  // face among round sweets, proposed at its size on none of 12 searches;
+  // re-acquired in 24 frames, 11 with its colour). Not while the tracker is
+  // only unsure: the target is then most often partly hidden where it sits,
+  // and others of its colours were found instead (vtest.avi's pedestrians:
+  // 121 -> 143 jumps over 132 runs; 124 asked only while lost; docs/tracking.md).
+  void propose(const cv::Mat& frame, int count, int reach, std::vector<Placement>& out, bool by_color) {
     if (appearance.empty()) return;
     const double s = coarse_step();
     const cv::Size coarse_size(static_cast<int>(frame.cols / s), static_cast<int>(frame.rows / s));
@@ -600,7 +609,7 @@ struct BoxTracker::Impl {
     coarse_f.create(coarse_size, CV_32F);
     sample_cell_means(frame, {frame.cols / 2.0, frame.rows / 2.0}, static_cast<double>(frame.cols) / coarse_size.width,
                       static_cast<double>(frame.rows) / coarse_size.height, coarse_size, coarse_f.ptr<float>());
-    const bool by_color = config.color_proposals > 0 && colors_asked(frame);
+    by_color = by_color && config.color_proposals > 0 && colors_asked(frame);
     if (by_color) {
       color_likelihood(frame, coarse_size, color_shares, likelihood, likelihood_bins);
       cv::integral(likelihood, likelihood_sum, CV_64F);
@@ -652,7 +661,7 @@ struct BoxTracker::Impl {
   // its central half is highest; (-1, -1) if none is positive.
   cv::Point best_by_look_and_color(cv::Size t) const {
     const cv::Size half(std::max(1, t.width / 2), std::max(1, t.height / 2));
-    const int dx = t.width / 4, dy = t.height / 4;
+    const int dx = (t.width - half.width) / 2, dy = (t.height - half.height) / 2;
     cv::Point best(-1, -1);
     double best_score = 0;
     for (int y = 0; y < match.rows; ++y) {
@@ -710,7 +719,9 @@ struct BoxTracker::Impl {
   // with a target that does not turn (a walking pedestrian of vtest.avi:
   // 5 degrees on half his frames, 10-15 on a tenth), and a scale filter
   // following that sway changed pedestrians' paths (docs/tracking.md).
-  double scale_angle() const { return std::abs(angle) * 180 / CV_PI >= config.scale_turn_min - 1e-9 ? angle : 0.0; }
+  double scale_angle() const {
+    return std::abs(std::remainder(angle, 2 * CV_PI)) * 180 / CV_PI >= config.scale_turn_min - 1e-9 ? angle : 0.0;
+  }
   int frames_since_turn_search = 0;
   double psr_mean = 0;  // over the frames the model learnt from
   int tracked_frames = 0;
@@ -761,7 +772,7 @@ struct BoxTracker::Impl {
     const int sizes = (search_tick / 2) % 3;
     const bool search = search_tick++ % 2 == 0;
     if (search)
-      propose(frame, config.proposals, sizes, looks);
+      propose(frame, config.proposals, sizes, looks, /*by_color=*/!unsure);
     else if (follow_colors)
       for (const double factor : kOtherSizes[static_cast<std::size_t>(sizes)])
         if (size_plausible(step * factor)) looks.push_back({lost_look, step * factor, angle});

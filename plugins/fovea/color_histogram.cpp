@@ -89,7 +89,8 @@ void color_likelihood(const cv::Mat& frame, cv::Size cells, const std::vector<fl
     const int bin = bins[static_cast<std::size_t>(i)];
     if (bin < 0) continue;
     const double scene = static_cast<double>(counts[static_cast<std::size_t>(bin)]) / counted;
-    out.ptr<float>()[i] = static_cast<float>(std::min(1.0, target[static_cast<std::size_t>(bin)] / scene));
+    out.ptr<float>(i / cells.width)[i % cells.width] =
+        static_cast<float>(std::min(1.0, target[static_cast<std::size_t>(bin)] / scene));
   }
 }
 

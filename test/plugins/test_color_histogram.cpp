@@ -117,10 +117,6 @@ TEST(ColorLikelihood, TheTargetsColoursScoreHighWhereTheSceneRarelyHasThem) {
   EXPECT_GE(on_target, 0.8);
   EXPECT_LE(elsewhere, 0.4);
   EXPECT_GE(on_target, 2.5 * elsewhere);
-  double lowest = 0, highest = 0;
-  cv::minMaxLoc(likelihood, &lowest, &highest);
-  EXPECT_GE(lowest, 0.0);
-  EXPECT_LE(highest, 1.0);
 
   // No colour to go by: a gray frame, and a black area's cells.
   cv::Mat gray;
