@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -735,6 +736,18 @@ struct BoxTracker::Impl {
   int chroma_frames = 0;
   int untracked_frames = 0;  // since the target was last tracked
   double sure_step = 1;      // the patch's step then
+  // Frames since the last re-detection (none yet: the most an int holds).
+  int frames_since_found = std::numeric_limits<int>::max();
+  // Just re-detected, the target's size is the nearest the search looked at
+  // (1.25x apart), and a box of the wrong size takes in other colours than
+  // the target's and is doubted on every frame: its scale is measured anyway,
+  // not learnt, for a few frames (`holdout_mixed`: a face found again at half
+  // its size kept that size for 100 frames; docs/tracking.md).
+  void rescale(const cv::Mat& frame) {
+    const double scale = scale_filter.estimate(frame, center, size, scale_angle(), config.lambda);
+    size *= scale;
+    step *= scale;
+  }
   // Could the target have grown or shrunk to be seen at patch step `at_step`
   // since it was last tracked?
   bool size_plausible(double at_step) const {
@@ -810,6 +823,7 @@ struct BoxTracker::Impl {
   // may be another object, and the size limit stays measured from the target.)
   void found_at(cv::Point2d found, double at_step) {
     lost_look_moved = false;
+    frames_since_found = 0;
     center = sure_center = found;
     size *= at_step / step;  // found at another size
     step = at_step;
@@ -1038,6 +1052,7 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   const cv::Point2d predicted = m.center + m.velocity + camera_shift_;
   camera_shift_ = {};
   ++m.untracked_frames;  // follow() zeroes it on a tracked frame
+  if (m.frames_since_found < std::numeric_limits<int>::max()) ++m.frames_since_found;
   if (last_.state == TrackState::kLost)
     redetect(frame, predicted, /*unsure=*/false, {});
   else
@@ -1095,6 +1110,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     // its motion (an occluder's edge, a distractor passing).
     m.velocity *= 0.8;
     m.center = measured;
+    if (m.frames_since_found < config_.rescale_frames) m.rescale(frame);
     last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
     // Where it sits is still most likely the target, partly hidden or
     // changing: what re-detection finds elsewhere is weighed against it.

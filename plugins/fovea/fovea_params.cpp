@@ -110,7 +110,12 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
       .field("box_max_size_change", {0, 10},
              "box tracking: a re-detection's size may differ from the size the target was last tracked at by "
              "this share per frame since (0: any of the sizes searched; docs/tracking.md)",
-             &C::box, &B::max_size_change);
+             &C::box, &B::max_size_change)
+      .field("box_rescale_frames", {0, 100000},
+             "box tracking: for this many frames after a re-detection, frames too unsure to learn from still "
+             "measure the target's size (the re-detection's is the search's nearest; 0: tracked frames only; "
+             "docs/tracking.md)",
+             &C::box, &B::rescale_frames);
 }
 
 }  // namespace

@@ -522,6 +522,19 @@ TEST(FoveaParams, TheReDetectionsSizeLimitIsThreePercentAFrameByDefaultAndChecke
               ::testing::HasSubstr("box_max_size_change"));
 }
 
+// After a re-detection, unsure frames measure the size for 10 frames by
+// default; 0 leaves it to tracked frames; a negative count is refused by name.
+TEST(FoveaParams, TheSizeIsMeasuredForTenFramesAfterAReDetectionByDefaultAndChecked) {
+  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
+  ASSERT_TRUE(defaults.ok()) << defaults.error();
+  EXPECT_EQ(defaults->box.rescale_frames, 10);
+  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_rescale_frames", "0"}});
+  ASSERT_TRUE(off.ok()) << off.error();
+  EXPECT_EQ(off->box.rescale_frames, 0);
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_rescale_frames", "-1"}}).error(),
+              ::testing::HasSubstr("box_rescale_frames"));
+}
+
 TEST(FoveaParams, ColourProposalsAndTheTurnedScaleFilterAreOnByDefaultAndChecked) {
   const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
   ASSERT_TRUE(defaults.ok()) << defaults.error();
