@@ -738,15 +738,13 @@ struct BoxTracker::Impl {
   double sure_step = 1;      // the patch's step then
   // Frames since the last re-detection (none yet: the most an int holds).
   int frames_since_found = std::numeric_limits<int>::max();
-  // Just re-detected, the target's size is the nearest the search looked at
-  // (1.25x apart), and a box of the wrong size takes in other colours than
-  // the target's and is doubted on every frame: its scale is measured anyway,
-  // not learnt, for a few frames (`holdout_mixed`: a face found again at half
-  // its size kept that size for 100 frames; docs/tracking.md).
-  void rescale(const cv::Mat& frame) {
+  // The scale filter's factor for the target where it is now, at the angle
+  // the filter sees it at, applied to its size and the patch's step.
+  double measure_size(const cv::Mat& frame) {
     const double scale = scale_filter.estimate(frame, center, size, scale_angle(), config.lambda);
     size *= scale;
     step *= scale;
+    return scale;
   }
   // Could the target have grown or shrunk to be seen at patch step `at_step`
   // since it was last tracked?
@@ -824,7 +822,7 @@ struct BoxTracker::Impl {
   void found_at(cv::Point2d found, double at_step, bool elsewhere) {
     lost_look_moved = false;
     // Found again where the tracker sits, the target is confirmed there, and
-    // the frames that measure its size while doubted (rescale) do not start
+    // the frames that measure its size while doubted (measure_size) do not start
     // over: `mixed_640`'s butterfly, re-found every fourth frame under a box
     // 1.5x its size and off its centre, had the box grown on the frames
     // between (success@0.5 0.765 -> 0.679 from the true first box).
@@ -1115,7 +1113,9 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     // its motion (an occluder's edge, a distractor passing).
     m.velocity *= 0.8;
     m.center = measured;
-    if (m.frames_since_found < config_.rescale_frames) m.rescale(frame);
+    // Just re-detected, its size is the search's nearest, and a box of the
+    // wrong size is doubted for its colour (rescale_frames): measured anyway.
+    if (m.frames_since_found < config_.rescale_frames) m.measure_size(frame);
     last_.state = ++m.unsure_frames >= config_.unsure_frames ? TrackState::kLost : TrackState::kUncertain;
     // Where it sits is still most likely the target, partly hidden or
     // changing: what re-detection finds elsewhere is weighed against it.
@@ -1128,10 +1128,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   m.velocity = config_.velocity_gain * (measured - m.center) + (1 - config_.velocity_gain) * m.velocity;
   m.center = measured;
   m.sure_center = measured;
-  const double scale_angle = m.scale_angle();
-  const double scale = m.scale_filter.estimate(frame, m.center, m.size, scale_angle, config_.lambda);
-  m.size *= scale;
-  m.step *= scale;
+  const double scale = m.measure_size(frame);
   m.sure_step = m.step;
   last_.state = TrackState::kTracking;
   // Clamped: on a clean synthetic background a PSR can reach thousands, and
@@ -1144,7 +1141,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   // rotation success@0.5 1.000 -> 0.916, docs/tracking.md.)
   m.learn(m.patch_spectra, config_.learning_rate, peak.offset);
   m.learn_appearance(frame, config_.learning_rate);
-  m.scale_filter.learn(frame, m.center, m.size, scale_angle, config_.learning_rate, scale != 1.0);
+  m.scale_filter.learn(frame, m.center, m.size, m.scale_angle(), config_.learning_rate, scale != 1.0);
 }
 
 void BoxTracker::look_elsewhere(const cv::Mat& frame, double sits_psr) {

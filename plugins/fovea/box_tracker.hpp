@@ -78,10 +78,10 @@ struct BoxTrackerConfig {
                                     // (0: it stays where the target was lost; docs/tracking.md)
   double max_size_change = 0.03;    // a re-detection's size may differ from the size the target was last
                                     // tracked at by this share per frame since (0: any of the sizes searched)
-  int rescale_frames = 10;          // for this many frames after a re-detection elsewhere than where the
-                                    // tracker sat, unsure frames measure the target's size too (a
-                                    // re-detection's size is the search's nearest, and a box of the wrong size
-                                    // is doubted for its colour; 0: tracked frames only)
+  int rescale_frames = 10;          // for this many frames from a re-detection elsewhere than where the
+                                    // tracker sat (its own frame counted), unsure frames measure the target's
+                                    // size too (a re-detection's size is the search's nearest, and a box of the
+                                    // wrong size is doubted for its colour; 0 and 1: tracked frames only)
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 

@@ -112,9 +112,9 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "this share per frame since (0: any of the sizes searched; docs/tracking.md)",
              &C::box, &B::max_size_change)
       .field("box_rescale_frames", {0, 100000},
-             "box tracking: for this many frames after a re-detection elsewhere than where the tracker sat, frames "
-             "too unsure to learn from still measure the target's size (the re-detection's is the search's "
-             "nearest; 0: tracked frames only; docs/tracking.md)",
+             "box tracking: for this many frames from a re-detection elsewhere than where the tracker sat (its own "
+             "frame counted), frames too unsure to learn from still measure the target's size (the "
+             "re-detection's is the search's nearest; 0 and 1: tracked frames only; docs/tracking.md)",
              &C::box, &B::rescale_frames);
 }
 

@@ -522,8 +522,9 @@ TEST(FoveaParams, TheReDetectionsSizeLimitIsThreePercentAFrameByDefaultAndChecke
               ::testing::HasSubstr("box_max_size_change"));
 }
 
-// After a re-detection, unsure frames measure the size for 10 frames by
-// default; 0 leaves it to tracked frames; a negative count is refused by name.
+// From a re-detection, unsure frames measure the size for 10 frames (its own
+// counted) by default; 0 leaves it to tracked frames; a negative count is
+// refused by name.
 TEST(FoveaParams, TheSizeIsMeasuredForTenFramesAfterAReDetectionByDefaultAndChecked) {
   const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
   ASSERT_TRUE(defaults.ok()) << defaults.error();
