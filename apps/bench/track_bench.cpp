@@ -191,6 +191,7 @@ struct TrackerResult {
   Status status;  // why it did not run; ok when it did
   TrackScore score;
   WitnessScore witness;           // a sequence without truth
+  FrameTimes times;               // what its frames took
   std::vector<double> agreement;  // ... and with each tracker, in the order run (-1: itself or failed)
 };
 
@@ -255,7 +256,7 @@ saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const st
   std::vector<std::unique_ptr<Tracker>> trackers;
   std::vector<std::vector<TrackedFrame>> tracks;
   for (const std::string& name : names) {
-    out.results.push_back({name, {}, {}, {}, {}});
+    out.results.push_back({name, {}, {}, {}, {}, {}});
     trackers.push_back(make_tracker(name, options.box));
     if (!sequence.visible.front())
       out.results.back().status = Status::error("the target is not visible in frame 1");
@@ -285,6 +286,7 @@ saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const st
   }
   for (std::size_t k = 0; k < trackers.size(); ++k) {
     if (!out.results[k].status.ok()) continue;
+    out.results[k].times = frame_times(tracks[k]);
     if (sequence.truth_known) {
       const saccade::Result<TrackScore> score = score_track(sequence.truth, sequence.visible, tracks[k]);
       if (!score.ok()) return score.status();
@@ -494,6 +496,41 @@ std::string witness_summary(const std::vector<SequenceResults>& all, const std::
          table(rows) + "\n";
 }
 
+// Per sequence and tracker, what its frames took: a real-time budget is set
+// by the slow frames (a lost target's searches), not by the mean.
+std::string time_section(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers) {
+  std::vector<std::vector<std::string>> rows{
+      {"sequence", "tracker", "mean", "median", "p99", "max", "not claiming tracking: mean (frames)"}};
+  const auto untracked_cell = [](double mean, int frames) {
+    return frames > 0 ? fixed(mean, 2) + " (" + std::to_string(frames) + ")" : std::string("- (0)");
+  };
+  for (const SequenceResults& sequence : all)
+    for (const TrackerResult& r : sequence.results) {
+      if (!r.status.ok() || r.times.frames == 0) continue;
+      const FrameTimes& t = r.times;
+      rows.push_back({sequence.name, r.tracker, fixed(t.mean, 2), fixed(t.median, 2), fixed(t.p99, 2), fixed(t.max, 2),
+                      untracked_cell(t.untracked_mean, t.untracked_frames)});
+    }
+  if (rows.size() == 1) return "";
+  for (const std::string& tracker : trackers) {
+    Mean mean, median, p99;
+    double slowest = 0, untracked_sum = 0;
+    int untracked = 0;
+    for (const SequenceResults& sequence : all)
+      for (const TrackerResult& r : sequence.results) {
+        if (r.tracker != tracker || !r.status.ok() || r.times.frames == 0) continue;
+        mean.add(r.times.mean), median.add(r.times.median), p99.add(r.times.p99);
+        slowest = std::max(slowest, r.times.max);
+        if (r.times.untracked_frames > 0)
+          untracked_sum += r.times.untracked_mean * r.times.untracked_frames, untracked += r.times.untracked_frames;
+      }
+    if (mean.count == 0) continue;
+    rows.push_back({"all (means; max: the slowest)", tracker, mean.cell(2), median.cell(2), p99.cell(2),
+                    fixed(slowest, 2), untracked_cell(untracked > 0 ? untracked_sum / untracked : 0, untracked)});
+  }
+  return "## Time per frame (ms)\n\n" + table(rows) + "\n";
+}
+
 std::string report(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers, int runs) {
   std::string out =
       "# Tracking benchmark\n\n"
@@ -504,12 +541,15 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
       "ms/frame: its update alone (fovea: retina + update), one thread, each tracker in its own pass over the "
       "sequence. A video without truth (--video) has witness measures instead: the share of frames claimed, "
       "jumps (the box's centre moving more than 0.75 of its larger side in one frame: most often a switch to "
-      "another object), and the share of frames each tracker's box centre is within 20 px of each other's.\n\n";
+      "another object), and the share of frames each tracker's box centre is within 20 px of each other's. "
+      "Time per frame: each tracker's frames' mean, median, 99th percentile (nearest rank) and slowest, and "
+      "the mean over the frames where it did not claim tracking (where a tracker searches).\n\n";
   for (const SequenceResults& sequence : all) out += sequence_section(sequence);
   const auto scored = static_cast<std::size_t>(
       std::count_if(all.begin(), all.end(), [](const SequenceResults& s) { return s.truth_known; }));
   if (runs > 1 && scored > 0) out += spread_section(all, trackers, runs);
   out += witness_summary(all, trackers);
+  out += time_section(all, trackers);
   if (scored == 0) return out;
   std::vector<std::vector<std::string>> rows{kHeader};
   for (const std::string& tracker : trackers) rows.push_back(average_row(tracker, all));

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <numeric>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -1130,6 +1131,30 @@ WitnessScore witness_score(const std::vector<TrackedFrame>& track) {
   score.claimed = static_cast<double>(claimed) / score.frames;
   score.ms_per_frame = ms / score.frames;
   return score;
+}
+
+FrameTimes frame_times(const std::vector<TrackedFrame>& track) {
+  FrameTimes times;
+  if (track.size() < 2) return times;
+  std::vector<double> ms;
+  ms.reserve(track.size() - 1);
+  double untracked = 0;
+  for (std::size_t i = 1; i < track.size(); ++i) {
+    ms.push_back(track[i].ms);
+    if (!track[i].tracking) untracked += track[i].ms, ++times.untracked_frames;
+  }
+  std::sort(ms.begin(), ms.end());
+  const std::size_t n = ms.size();
+  const auto rank = [&](double share) {  // nearest rank: the ceil(share n)-th smallest
+    return ms[static_cast<std::size_t>(std::max(1.0, std::ceil(share * static_cast<double>(n) - 1e-9))) - 1];
+  };
+  times.frames = static_cast<int>(n);
+  times.mean = std::accumulate(ms.begin(), ms.end(), 0.0) / static_cast<double>(n);
+  times.median = n % 2 == 1 ? ms[n / 2] : (ms[n / 2 - 1] + ms[n / 2]) / 2;
+  times.p99 = rank(0.99);
+  times.max = ms.back();
+  if (times.untracked_frames > 0) times.untracked_mean = untracked / times.untracked_frames;
+  return times;
 }
 
 double agreement(const std::vector<TrackedFrame>& a, const std::vector<TrackedFrame>& b, double within) {

@@ -238,6 +238,19 @@ struct WitnessScore {
 };
 WitnessScore witness_score(const std::vector<TrackedFrame>& track);
 
+// What a tracker's frames after frame 0 took (TrackedFrame::ms): the mean,
+// the median and the 99th percentile (nearest rank: the value at or under
+// which 99% of them lie) and the slowest, and the mean over the frames where
+// it did not claim tracking (-1 without any), where a tracker searches: a
+// real-time budget is set by those, not by the mean.
+struct FrameTimes {
+  int frames = 0;
+  double mean = 0, median = 0, p99 = 0, max = 0;
+  int untracked_frames = 0;
+  double untracked_mean = -1;
+};
+FrameTimes frame_times(const std::vector<TrackedFrame>& track);
+
 // The share of frames after frame 0 where the two tracks' box centres lie
 // within `within` pixels (tracks of one sequence; 0 when they differ in
 // length or have no such frame).

@@ -280,6 +280,33 @@ TEST(WitnessScore, CountsClaimedFramesJumpsAndAgreement) {
   EXPECT_EQ(agreement(a, std::vector<TrackedFrame>(4)), 0) << "tracks of different sequences";
 }
 
+TEST(FrameTimes, GivesTheMeanMedianNearestRankP99SlowestAndTheUntrackedFramesMean) {
+  // Frame 0 (the initialisation) is not counted; 200 frames after it take
+  // 1..200 ms, out of order, and the frames of 191 ms and up are not claimed.
+  std::vector<TrackedFrame> track(201);
+  track[0].ms = 1000;
+  for (int i = 1; i <= 200; ++i) {
+    TrackedFrame& f = track[static_cast<std::size_t>(i)];
+    f.ms = (i * 37) % 200 + 1;  // 37 and 200 share no factor: each of 1..200 once
+    f.tracking = f.ms < 191;
+  }
+  const FrameTimes t = frame_times(track);
+  EXPECT_EQ(t.frames, 200);
+  EXPECT_DOUBLE_EQ(t.mean, 100.5);
+  EXPECT_DOUBLE_EQ(t.median, 100.5);
+  EXPECT_DOUBLE_EQ(t.p99, 198);  // the 198th of 200: 99% of the frames at or under it
+  EXPECT_DOUBLE_EQ(t.max, 200);
+  EXPECT_EQ(t.untracked_frames, 10);
+  EXPECT_DOUBLE_EQ(t.untracked_mean, 195.5);
+
+  const FrameTimes few = frame_times({{}, {{}, true, 3.0}, {{}, true, 1.0}, {{}, true, 2.0}});
+  EXPECT_DOUBLE_EQ(few.median, 2.0);
+  EXPECT_DOUBLE_EQ(few.p99, 3.0) << "under 100 frames the 99th percentile is the slowest";
+  EXPECT_EQ(few.untracked_frames, 0);
+  EXPECT_DOUBLE_EQ(few.untracked_mean, -1);
+  EXPECT_EQ(frame_times(std::vector<TrackedFrame>(1)).frames, 0) << "no frame after the first";
+}
+
 TEST(VotReader, PolygonsBecomeTheirBoundingBoxesAndNanRowsInvisible) {
   TempDir dir;
   write_frames(dir.path() / "color", 3, 8);
