@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -19,6 +20,7 @@
 
 #include "bench_util.hpp"
 #include "box_tracker.hpp"
+#include "frame_samples.hpp"
 #include "kernels.hpp"
 #include "real_fft.hpp"
 #include "retina.hpp"
@@ -490,6 +492,24 @@ void BM_Tracker_Fft64_OpenCv(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_Tracker_Fft64_OpenCv);
+
+// A look's patch before it is halved: 128x128 pixels sampled every 1.875
+// source pixels of a 640x480 colour frame (a 120-pixel target's), upright
+// (argument 0) and turned by 5 degrees (argument 5), as the turn search's
+// looks are. SACCADE_AVX512=0 keeps the upright look on the eight-pixel path.
+void BM_Tracker_LookWarp(benchmark::State& state) {
+  cv::Mat frame;
+  cv::cvtColor(frame_of({640, 480}), frame, cv::COLOR_GRAY2BGR);
+  const double angle = static_cast<double>(state.range(0)) * CV_PI / 180, step = 1.875;
+  const double c = std::cos(angle) * step, s = std::sin(angle) * step, middle = 63.5;
+  const cv::Matx23d map(c, -s, 320 - (c - s) * middle, s, c, 240 - (s + c) * middle);
+  cv::Mat out, scratch;
+  for (auto _ : state) {
+    fovea::warp_to_gray(frame, map, {128, 128}, out, scratch);
+    benchmark::DoNotOptimize(out.data);
+  }
+}
+BENCHMARK(BM_Tracker_LookWarp)->Arg(0)->Arg(5)->Unit(benchmark::kMicrosecond);
 
 // A 640x480 colour frame and a 96x72 target on it (scaled Aloe).
 cv::Mat tracker_frame() {

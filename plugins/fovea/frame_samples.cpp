@@ -1,11 +1,14 @@
 #include "frame_samples.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <limits>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
+
+#include "saccade/simd.hpp"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -123,6 +126,140 @@ __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const i
   for (; x < width; ++x)
     out[x] =
         warp_pixel(frame, (x_start + x_step[x]) >> (10 - kSubpixelBits), (y_start + y_step[x]) >> (10 - kSubpixelBits));
+}
+
+// An upright map (no turn) reads the same columns on every row: the left and
+// right taps of each eight output pixels lie in one window of 128 bytes of a
+// source row, and a byte permutation made once per warp picks their B, G, R
+// out of it (AVX-512 VBMI), where the eight-pixel path gathers each tap.
+// Sixteen pixels a step: their taps in one window (steps up to 2.6 source
+// pixels) or in two, one per eight.
+struct UprightGroup {
+  std::array<int, 2> window;       // each half's window's first byte in a row
+  bool split;                      // the halves' windows differ
+  alignas(64) uint8_t left[64];    // lane i's bytes 0-2: its left tap's B, G, R in its half's window
+  alignas(64) uint8_t right[64];   // ... its right tap's
+  alignas(64) int32_t rest_x[16];  // 32 - its horizontal weight
+};
+
+// The groups of an upright map's output columns, or false where eight
+// pixels' taps span more than a window (a step over 5.7 source pixels) or
+// the width is not a multiple of sixteen.
+bool upright_groups(const cv::Mat& frame, const int* x_step, int x_start, int width, std::vector<UprightGroup>& out) {
+  if (width % 16 != 0) return false;
+  out.resize(static_cast<std::size_t>(width / 16));
+  std::array<int, 16> x0, x1;
+  for (int g = 0; g < width / 16; ++g) {
+    UprightGroup& group = out[static_cast<std::size_t>(g)];
+    for (int i = 0; i < 16; ++i) {
+      const int fixed = (x_start + x_step[16 * g + i]) >> (10 - kSubpixelBits);
+      const int sx = fixed >> kSubpixelBits;
+      x0[static_cast<std::size_t>(i)] = std::clamp(sx, 0, frame.cols - 1);
+      x1[static_cast<std::size_t>(i)] = std::clamp(sx + 1, 0, frame.cols - 1);
+      group.rest_x[i] = kSubpixels - (fixed & (kSubpixels - 1));
+    }
+    // (Columns only move right along an upright map's row: its first and last taps bound a group.)
+    group.split = 3 * (x1[15] - x0[0]) + 3 > 128;
+    group.window = {3 * x0[0], 3 * x0[group.split ? 8 : 0]};
+    for (int i = 0; i < 16; ++i) {
+      const int from = group.window[i < 8 ? 0 : 1];
+      const int left = 3 * x0[static_cast<std::size_t>(i)] - from, right = 3 * x1[static_cast<std::size_t>(i)] - from;
+      if (left < 0 || right + 3 > 128) return false;
+      for (int k = 0; k < 3; ++k) {
+        group.left[4 * i + k] = static_cast<uint8_t>(left + k);
+        group.right[4 * i + k] = static_cast<uint8_t>(right + k);
+      }
+      group.left[4 * i + 3] = group.right[4 * i + 3] = 0;
+    }
+  }
+  return true;
+}
+
+#define SACCADE_AVX512_VBMI __attribute__((target("avx512f,avx512bw,avx512vbmi")))
+
+// The 128 bytes from `at`, those past the frame's data read as zeros.
+SACCADE_AVX512_VBMI __attribute__((always_inline)) inline void window_of(const cv::Mat& frame, const uchar* at,
+                                                                         __m512i& first, __m512i& second) {
+  const std::ptrdiff_t readable = frame.datalimit - at;
+  if (readable >= 128) {
+    first = _mm512_loadu_si512(at), second = _mm512_loadu_si512(at + 64);
+    return;
+  }
+  const auto mask = [](std::ptrdiff_t n) {
+    return n >= 64 ? ~__mmask64{0} : n <= 0 ? __mmask64{0} : (__mmask64{1} << n) - 1;
+  };
+  first = _mm512_maskz_loadu_epi8(mask(readable), at);
+  second = _mm512_maskz_loadu_epi8(mask(readable - 64), at + 64);
+}
+
+// A row's left and right taps of a group, each as B, G, R in a 32-bit lane.
+SACCADE_AVX512_VBMI __attribute__((always_inline)) inline void taps_of(const cv::Mat& frame, const uchar* row,
+                                                                       const UprightGroup& group, __m512i left_index,
+                                                                       __m512i right_index, __m512i& left,
+                                                                       __m512i& right) {
+  __m512i a0, a1;
+  window_of(frame, row + group.window[0], a0, a1);
+  left = _mm512_permutex2var_epi8(a0, left_index, a1);
+  right = _mm512_permutex2var_epi8(a0, right_index, a1);
+  if (!group.split) return;
+  __m512i b0, b1;
+  window_of(frame, row + group.window[1], b0, b1);
+  constexpr __mmask16 kSecondHalf = 0xFF00;
+  left = _mm512_mask_blend_epi32(kSecondHalf, left, _mm512_permutex2var_epi8(b0, left_index, b1));
+  right = _mm512_mask_blend_epi32(kSecondHalf, right, _mm512_permutex2var_epi8(b0, right_index, b1));
+}
+
+// weighted_channel, sixteen pixels wide.
+SACCADE_AVX512_VBMI __attribute__((always_inline)) inline __m512i weighted_channel16(__m512i left, __m512i right,
+                                                                                     __m512i w_left, __m512i w_right) {
+  const __m512i low_bytes = _mm512_set1_epi32(0x00FF00FF);
+  const __m512i sum = _mm512_add_epi32(_mm512_madd_epi16(_mm512_and_si512(left, low_bytes), w_left),
+                                       _mm512_madd_epi16(_mm512_and_si512(right, low_bytes), w_right));
+  return _mm512_srai_epi32(_mm512_add_epi32(sum, _mm512_set1_epi32(512)), 10);
+}
+
+// One output row of an upright map from source rows `top` and `bottom` at
+// vertical weight `fy`: warp_row_avx2's arithmetic, sixteen pixels a step.
+SACCADE_AVX512_VBMI void upright_row_avx512(const cv::Mat& frame, const std::vector<UprightGroup>& groups,
+                                            const uchar* top, const uchar* bottom, int fy, uchar* out) {
+  const __m512i gray_bg = _mm512_set1_epi32(kGrayB | (kGrayG << 16)), gray_r = _mm512_set1_epi32(kGrayR);
+  const __m512i gray_half = _mm512_set1_epi32(1 << (kGrayShift - 1)), subpixels = _mm512_set1_epi32(kSubpixels);
+  const __m512i fy_pair = _mm512_set1_epi32((kSubpixels - fy) | (fy << 16));
+  constexpr __mmask32 kHigh = 0xAAAAAAAA;  // each lane's high 16-bit word
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    const UprightGroup& group = groups[g];
+    const __m512i left_index = _mm512_load_si512(group.left), right_index = _mm512_load_si512(group.right);
+    // Each tap's B, G, R (and a byte unused) as one 32-bit lane, as warp_row_avx2's gathers give them.
+    __m512i p00, p01, p10, p11;
+    taps_of(frame, top, group, left_index, right_index, p00, p01);
+    taps_of(frame, bottom, group, left_index, right_index, p10, p11);
+    const __m512i rest_x = _mm512_load_si512(group.rest_x), fx = _mm512_sub_epi32(subpixels, rest_x);
+    const __m512i w_left = _mm512_mullo_epi16(fy_pair, _mm512_or_si512(rest_x, _mm512_slli_epi32(rest_x, 16)));
+    const __m512i w_right = _mm512_mullo_epi16(fy_pair, _mm512_or_si512(fx, _mm512_slli_epi32(fx, 16)));
+    const __m512i left_bg = _mm512_mask_blend_epi16(kHigh, p00, _mm512_slli_epi32(p10, 16));
+    const __m512i left_r = _mm512_mask_blend_epi16(kHigh, _mm512_srli_epi32(p00, 16), p10);
+    const __m512i right_bg = _mm512_mask_blend_epi16(kHigh, p01, _mm512_slli_epi32(p11, 16));
+    const __m512i right_r = _mm512_mask_blend_epi16(kHigh, _mm512_srli_epi32(p01, 16), p11);
+    const __m512i blue = weighted_channel16(left_bg, right_bg, w_left, w_right);
+    const __m512i green =
+        weighted_channel16(_mm512_srli_epi32(left_bg, 8), _mm512_srli_epi32(right_bg, 8), w_left, w_right);
+    const __m512i red = weighted_channel16(left_r, right_r, w_left, w_right);
+    const __m512i gray = _mm512_srai_epi32(
+        _mm512_add_epi32(
+            _mm512_add_epi32(_mm512_madd_epi16(_mm512_or_si512(blue, _mm512_slli_epi32(green, 16)), gray_bg),
+                             _mm512_madd_epi16(red, gray_r)),
+            gray_half),
+        kGrayShift);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 16 * g), _mm512_cvtepi32_epi8(gray));
+  }
+}
+
+bool avx512_vbmi_here() {
+  static const bool yes = [] {
+    __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
+    return __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vbmi");
+  }();
+  return yes && avx512_wanted();
 }
 
 #else
@@ -312,6 +449,14 @@ bool one_pass_for(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size) {
 
 bool frame_samples_vectorised() { return avx2_here(); }
 
+bool warp_to_gray_upright_vectorised() {
+#if defined(__x86_64__)
+  return warp_to_gray_in_one_pass() && avx512_vbmi_here();
+#else
+  return false;
+#endif
+}
+
 bool warp_to_gray_in_one_pass() {
 #if CV_VERSION_MAJOR == 4 && CV_VERSION_MINOR >= 6 && CV_VERSION_MINOR <= 10
   return avx2_here();
@@ -340,6 +485,20 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
     y_step[x] = cv::saturate_cast<int>(m(1, 0) * x * kMapScale);
   }
   constexpr int kHalf = kMapScale / kSubpixels / 2;
+#if defined(__x86_64__)
+  thread_local std::vector<UprightGroup> groups;  // grows to the widest output, then allocates no more
+  if (m(0, 1) == 0 && m(1, 0) == 0 && avx512_vbmi_here() &&
+      upright_groups(frame, x_step, cv::saturate_cast<int>(m(0, 2) * kMapScale) + kHalf, size.width, groups)) {
+    for (int y = 0; y < size.height; ++y) {
+      const int fixed = (cv::saturate_cast<int>((m(1, 1) * y + m(1, 2)) * kMapScale) + kHalf) >> (10 - kSubpixelBits);
+      const int sy = fixed >> kSubpixelBits;
+      upright_row_avx512(frame, groups, frame.ptr<uchar>(std::clamp(sy, 0, frame.rows - 1)),
+                         frame.ptr<uchar>(std::clamp(sy + 1, 0, frame.rows - 1)), fixed & (kSubpixels - 1),
+                         out.ptr<uchar>(y));
+    }
+    return;
+  }
+#endif
   for (int y = 0; y < size.height; ++y)
     warp_row_avx2(frame, x_step, y_step, cv::saturate_cast<int>((m(0, 1) * y + m(0, 2)) * kMapScale) + kHalf,
                   cv::saturate_cast<int>((m(1, 1) * y + m(1, 2)) * kMapScale) + kHalf, size.width, out.ptr<uchar>(y));

@@ -464,16 +464,6 @@ bool cpu_has_avx512() {
   return yes;
 }
 
-// SACCADE_AVX512=0 in the environment keeps the matcher on its AVX2 code (to
-// compare, or where AVX-512 lowers the clock).
-bool avx512_wanted() {
-  static const bool yes = [] {
-    const char* value = std::getenv("SACCADE_AVX512");
-    return value == nullptr || std::string_view(value) != "0";
-  }();
-  return yes;
-}
-
 // Whether the AVX-512 code runs: the CPU has it, the environment does not
 // say no, and tests have not turned it off.
 bool use_avx512() { return cpu_has_avx512() && avx512_wanted() && avx512_allowed.load(std::memory_order_relaxed); }

@@ -10,9 +10,21 @@
 #endif
 
 #include <cstddef>
+#include <cstdlib>
 #include <cstring>
+#include <string_view>
 
 namespace saccade {
+
+// SACCADE_AVX512=0 in the environment keeps every AVX-512 path on its AVX2
+// code (to compare, or where AVX-512 lowers the clock).
+inline bool avx512_wanted() {
+  static const bool yes = [] {
+    const char* value = std::getenv("SACCADE_AVX512");
+    return value == nullptr || std::string_view(value) != "0";
+  }();
+  return yes;
+}
 
 // Sliding dot products with the placements as vector lanes: out[j], j < 8K, is
 // the sum over rows y < rows and columns x < cols, in that order, of
