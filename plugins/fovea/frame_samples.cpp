@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -218,14 +219,40 @@ SACCADE_AVX512_VBMI __attribute__((always_inline)) inline __m512i weighted_chann
   return _mm512_srai_epi32(_mm512_add_epi32(sum, _mm512_set1_epi32(512)), 10);
 }
 
+// Sixteen output pixels from their four taps (each B, G, R in a 32-bit lane:
+// top-left, top-right, bottom-left, bottom-right), their horizontal weights
+// (32 - fx, fx) and their vertical ones as (32 - fy, fy) 16-bit pairs:
+// warp_row_avx2's arithmetic, sixteen lanes wide.
+SACCADE_AVX512_VBMI __attribute__((always_inline)) inline __m512i gray_of_taps(__m512i p00, __m512i p01, __m512i p10,
+                                                                               __m512i p11, __m512i rest_x, __m512i fx,
+                                                                               __m512i fy_pair) {
+  const __m512i gray_bg = _mm512_set1_epi32(kGrayB | (kGrayG << 16)), gray_r = _mm512_set1_epi32(kGrayR);
+  const __m512i gray_half = _mm512_set1_epi32(1 << (kGrayShift - 1));
+  constexpr __mmask32 kHigh = 0xAAAAAAAA;  // each lane's high 16-bit word
+  const __m512i w_left = _mm512_mullo_epi16(fy_pair, _mm512_or_si512(rest_x, _mm512_slli_epi32(rest_x, 16)));
+  const __m512i w_right = _mm512_mullo_epi16(fy_pair, _mm512_or_si512(fx, _mm512_slli_epi32(fx, 16)));
+  const __m512i left_bg = _mm512_mask_blend_epi16(kHigh, p00, _mm512_slli_epi32(p10, 16));
+  const __m512i left_r = _mm512_mask_blend_epi16(kHigh, _mm512_srli_epi32(p00, 16), p10);
+  const __m512i right_bg = _mm512_mask_blend_epi16(kHigh, p01, _mm512_slli_epi32(p11, 16));
+  const __m512i right_r = _mm512_mask_blend_epi16(kHigh, _mm512_srli_epi32(p01, 16), p11);
+  const __m512i blue = weighted_channel16(left_bg, right_bg, w_left, w_right);
+  const __m512i green =
+      weighted_channel16(_mm512_srli_epi32(left_bg, 8), _mm512_srli_epi32(right_bg, 8), w_left, w_right);
+  const __m512i red = weighted_channel16(left_r, right_r, w_left, w_right);
+  const __m512i gray = _mm512_srai_epi32(
+      _mm512_add_epi32(_mm512_add_epi32(_mm512_madd_epi16(_mm512_or_si512(blue, _mm512_slli_epi32(green, 16)), gray_bg),
+                                        _mm512_madd_epi16(red, gray_r)),
+                       gray_half),
+      kGrayShift);
+  return gray;
+}
+
 // One output row of an upright map from source rows `top` and `bottom` at
 // vertical weight `fy`: warp_row_avx2's arithmetic, sixteen pixels a step.
 SACCADE_AVX512_VBMI void upright_row_avx512(const cv::Mat& frame, const std::vector<UprightGroup>& groups,
                                             const uchar* top, const uchar* bottom, int fy, uchar* out) {
-  const __m512i gray_bg = _mm512_set1_epi32(kGrayB | (kGrayG << 16)), gray_r = _mm512_set1_epi32(kGrayR);
-  const __m512i gray_half = _mm512_set1_epi32(1 << (kGrayShift - 1)), subpixels = _mm512_set1_epi32(kSubpixels);
+  const __m512i subpixels = _mm512_set1_epi32(kSubpixels);
   const __m512i fy_pair = _mm512_set1_epi32((kSubpixels - fy) | (fy << 16));
-  constexpr __mmask32 kHigh = 0xAAAAAAAA;  // each lane's high 16-bit word
   for (std::size_t g = 0; g < groups.size(); ++g) {
     const UprightGroup& group = groups[g];
     const __m512i left_index = _mm512_load_si512(group.left), right_index = _mm512_load_si512(group.right);
@@ -233,25 +260,68 @@ SACCADE_AVX512_VBMI void upright_row_avx512(const cv::Mat& frame, const std::vec
     __m512i p00, p01, p10, p11;
     taps_of(frame, top, group, left_index, right_index, p00, p01);
     taps_of(frame, bottom, group, left_index, right_index, p10, p11);
-    const __m512i rest_x = _mm512_load_si512(group.rest_x), fx = _mm512_sub_epi32(subpixels, rest_x);
-    const __m512i w_left = _mm512_mullo_epi16(fy_pair, _mm512_or_si512(rest_x, _mm512_slli_epi32(rest_x, 16)));
-    const __m512i w_right = _mm512_mullo_epi16(fy_pair, _mm512_or_si512(fx, _mm512_slli_epi32(fx, 16)));
-    const __m512i left_bg = _mm512_mask_blend_epi16(kHigh, p00, _mm512_slli_epi32(p10, 16));
-    const __m512i left_r = _mm512_mask_blend_epi16(kHigh, _mm512_srli_epi32(p00, 16), p10);
-    const __m512i right_bg = _mm512_mask_blend_epi16(kHigh, p01, _mm512_slli_epi32(p11, 16));
-    const __m512i right_r = _mm512_mask_blend_epi16(kHigh, _mm512_srli_epi32(p01, 16), p11);
-    const __m512i blue = weighted_channel16(left_bg, right_bg, w_left, w_right);
-    const __m512i green =
-        weighted_channel16(_mm512_srli_epi32(left_bg, 8), _mm512_srli_epi32(right_bg, 8), w_left, w_right);
-    const __m512i red = weighted_channel16(left_r, right_r, w_left, w_right);
-    const __m512i gray = _mm512_srai_epi32(
-        _mm512_add_epi32(
-            _mm512_add_epi32(_mm512_madd_epi16(_mm512_or_si512(blue, _mm512_slli_epi32(green, 16)), gray_bg),
-                             _mm512_madd_epi16(red, gray_r)),
-            gray_half),
-        kGrayShift);
+    const __m512i rest_x = _mm512_load_si512(group.rest_x);
+    const __m512i gray = gray_of_taps(p00, p01, p10, p11, rest_x, _mm512_sub_epi32(subpixels, rest_x), fy_pair);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 16 * g), _mm512_cvtepi32_epi8(gray));
   }
+}
+
+// A turned map's row: each sixteen pixels' taps lie in a few source rows (at 5
+// degrees and 1.9 source pixels a pixel, four) and in one 128-byte window of
+// each. Per row in that range the window's bytes are permuted into place and
+// kept for the lanes whose taps are on that row. Sixteen pixels whose taps
+// span more rows (a larger turn) or a wider window (a step over 2.6 source
+// pixels), and the last width % 16, are left to the eight-pixel gathers.
+constexpr int kTurnedRows = 6;
+SACCADE_AVX512_VBMI void turned_row_avx512(const cv::Mat& frame, const int* x_step, const int* y_step, int x_start,
+                                           int y_start, int width, uchar* out) {
+  const __m512i zero = _mm512_setzero_si512(), one = _mm512_set1_epi32(1), last_sub = _mm512_set1_epi32(kSubpixels - 1);
+  const __m512i subpixels = _mm512_set1_epi32(kSubpixels);
+  const __m512i last_x = _mm512_set1_epi32(frame.cols - 1), last_y = _mm512_set1_epi32(frame.rows - 1);
+  // A lane's window offset n as the byte indices n, n + 1, n + 2 (its B, G, R) and 0.
+  const __m512i spread = _mm512_set1_epi32(0x010101), next_bytes = _mm512_set1_epi32(0x020100);
+  int x = 0;
+  for (; x + 16 <= width; x += 16) {
+    const __m512i fixed_x = _mm512_srai_epi32(
+        _mm512_add_epi32(_mm512_set1_epi32(x_start), _mm512_loadu_si512(x_step + x)), 10 - kSubpixelBits);
+    const __m512i fixed_y = _mm512_srai_epi32(
+        _mm512_add_epi32(_mm512_set1_epi32(y_start), _mm512_loadu_si512(y_step + x)), 10 - kSubpixelBits);
+    const __m512i sx = _mm512_srai_epi32(fixed_x, kSubpixelBits), sy = _mm512_srai_epi32(fixed_y, kSubpixelBits);
+    const __m512i x0 = _mm512_min_epi32(_mm512_max_epi32(sx, zero), last_x);
+    const __m512i x1 = _mm512_min_epi32(_mm512_max_epi32(_mm512_add_epi32(sx, one), zero), last_x);
+    const __m512i y0 = _mm512_min_epi32(_mm512_max_epi32(sy, zero), last_y);
+    const __m512i y1 = _mm512_min_epi32(_mm512_max_epi32(_mm512_add_epi32(sy, one), zero), last_y);
+    const int first_x = _mm512_reduce_min_epi32(x0), first_y = _mm512_reduce_min_epi32(y0);
+    if (3 * (_mm512_reduce_max_epi32(x1) - first_x) + 3 > 128 ||
+        _mm512_reduce_max_epi32(y1) - first_y + 1 > kTurnedRows) {
+      warp_row_avx2(frame, x_step + x, y_step + x, x_start, y_start, 16, out + x);
+      continue;
+    }
+    const __m512i first = _mm512_set1_epi32(3 * first_x);
+    const __m512i left_index = _mm512_add_epi32(
+        _mm512_mullo_epi32(_mm512_sub_epi32(_mm512_add_epi32(_mm512_add_epi32(x0, x0), x0), first), spread),
+        next_bytes);
+    const __m512i right_index = _mm512_add_epi32(
+        _mm512_mullo_epi32(_mm512_sub_epi32(_mm512_add_epi32(_mm512_add_epi32(x1, x1), x1), first), spread),
+        next_bytes);
+    __m512i p00 = zero, p01 = zero, p10 = zero, p11 = zero;
+    const int last_row = _mm512_reduce_max_epi32(y1);
+    for (int row = first_y; row <= last_row; ++row) {
+      __m512i a0, a1;
+      window_of(frame, frame.ptr<uchar>(row) + 3 * first_x, a0, a1);
+      const __m512i left = _mm512_permutex2var_epi8(a0, left_index, a1);
+      const __m512i right = _mm512_permutex2var_epi8(a0, right_index, a1);
+      const __m512i here = _mm512_set1_epi32(row);
+      const __mmask16 top = _mm512_cmpeq_epi32_mask(y0, here), bottom = _mm512_cmpeq_epi32_mask(y1, here);
+      p00 = _mm512_mask_mov_epi32(p00, top, left), p01 = _mm512_mask_mov_epi32(p01, top, right);
+      p10 = _mm512_mask_mov_epi32(p10, bottom, left), p11 = _mm512_mask_mov_epi32(p11, bottom, right);
+    }
+    const __m512i fx = _mm512_and_si512(fixed_x, last_sub), fy = _mm512_and_si512(fixed_y, last_sub);
+    const __m512i fy_pair = _mm512_or_si512(_mm512_sub_epi32(subpixels, fy), _mm512_slli_epi32(fy, 16));
+    const __m512i gray = gray_of_taps(p00, p01, p10, p11, _mm512_sub_epi32(subpixels, fx), fx, fy_pair);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + x), _mm512_cvtepi32_epi8(gray));
+  }
+  if (x < width) warp_row_avx2(frame, x_step + x, y_step + x, x_start, y_start, width - x, out + x);
 }
 
 bool avx512_vbmi_here() {
@@ -449,7 +519,7 @@ bool one_pass_for(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size) {
 
 bool frame_samples_vectorised() { return avx2_here(); }
 
-bool warp_to_gray_upright_vectorised() {
+bool warp_to_gray_sixteen_pixels_a_step() {
 #if defined(__x86_64__)
   return warp_to_gray_in_one_pass() && avx512_vbmi_here();
 #else
@@ -496,6 +566,16 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
                          frame.ptr<uchar>(std::clamp(sy + 1, 0, frame.rows - 1)), fixed & (kSubpixels - 1),
                          out.ptr<uchar>(y));
     }
+    return;
+  }
+  // (Where most sixteen pixels' taps would not fit turned_row_avx512's rows or
+  // window, trying each group first costs more than it saves: gathers.)
+  const bool turned_fits = std::abs(m(1, 0)) * 15 <= kTurnedRows - 2 && std::abs(m(0, 0)) * 15 <= 40;
+  if (turned_fits && avx512_vbmi_here()) {
+    for (int y = 0; y < size.height; ++y)
+      turned_row_avx512(frame, x_step, y_step, cv::saturate_cast<int>((m(0, 1) * y + m(0, 2)) * kMapScale) + kHalf,
+                        cv::saturate_cast<int>((m(1, 1) * y + m(1, 2)) * kMapScale) + kHalf, size.width,
+                        out.ptr<uchar>(y));
     return;
   }
 #endif

@@ -16,12 +16,14 @@ namespace saccade::fovea {
 // an 8-bit BGR frame on a CPU with AVX2 (and a map whose source positions
 // stay within 32767 pixels); otherwise those two calls, with the colour patch
 // in `scratch`. `frame` 8-bit with 1, 3 or 4 channels;
-// `inverse_map` takes an output pixel to the frame's. An upright map (no turn,
-// a width a multiple of sixteen, a step up to 5.7 source pixels) reads every
-// row's taps from the same columns: with AVX-512 VBMI its taps are picked out
-// of 128-byte windows of the source rows by byte permutations made once per
-// call, sixteen pixels a step, the same arithmetic (about five times faster
-// than gathering each tap).
+// `inverse_map` takes an output pixel to the frame's. With AVX-512 VBMI the
+// taps of sixteen output pixels at a time are picked out of 128-byte windows
+// of the source rows by byte permutations instead of gathered one by one, the
+// same arithmetic: an upright map (no turn; a width a multiple of sixteen, a
+// step up to 5.7 source pixels) reads every row's taps from the same columns,
+// its permutations made once per call (about five times faster); a map turned
+// a little (a step up to 2.6, up to six source rows under sixteen pixels: the
+// turn search's 5 degrees) makes them per row (about 1.6 times faster).
 void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size size, cv::Mat& out, cv::Mat& scratch);
 
 // A size.width x size.height gray sample centred on `center` (source pixels),
@@ -42,8 +44,8 @@ bool frame_samples_vectorised();
 // the OpenCV whose arithmetic it repeats: 4.6 to 4.10).
 bool warp_to_gray_in_one_pass();
 
-// Whether warp_to_gray takes its upright maps sixteen pixels a step (the CPU
-// has AVX-512 VBMI, and SACCADE_AVX512 is not 0).
-bool warp_to_gray_upright_vectorised();
+// Whether warp_to_gray takes upright and slightly turned maps sixteen pixels a
+// step (the CPU has AVX-512 VBMI, and SACCADE_AVX512 is not 0).
+bool warp_to_gray_sixteen_pixels_a_step();
 
 }  // namespace saccade::fovea

@@ -80,19 +80,22 @@ TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnNoiseAndTheSmallestFrame) {
   EXPECT_EQ(differing_pixels(cv::Mat(1, 1, CV_8UC3, cv::Scalar(9, 99, 199)), 50, 7), 0);
 }
 
-// Upright looks (no turn) at widths of sixteen pixels and their multiples,
-// from magnified to a step of 6.5 source pixels (the sixteen-pixel path takes
-// steps up to 5.7, from one window of a row up to 2.6 and from two above),
-// anywhere on and past the frame: the pixels that differ from OpenCV's.
-int differing_upright_pixels(const cv::Mat& frame, int looks, uint64_t seed) {
+// Looks upright and turned a little (up to 12 degrees either way, as the turn
+// search's are), at widths of sixteen pixels and their multiples and a few
+// pixels more, from magnified to a step of 6.5 source pixels (the
+// sixteen-pixel paths: upright up to 5.7 from one or two windows of a row,
+// turned up to 2.6 over up to six rows), anywhere on and past the frame:
+// the pixels that differ from OpenCV's.
+int differing_sixteen_pixel_looks(const cv::Mat& frame, int looks, uint64_t seed) {
   cv::RNG random(seed);
   cv::Mat mine, scratch;
   int differing = 0;
   for (int i = 0; i < looks; ++i) {
-    const cv::Size size(16 * random.uniform(1, 10), random.uniform(1, 140));
+    const cv::Size size(16 * random.uniform(1, 10) + (i % 4 == 3 ? random.uniform(1, 16) : 0), random.uniform(1, 140));
     const cv::Point2d center(random.uniform(-0.3, 1.3) * frame.cols, random.uniform(-0.3, 1.3) * frame.rows);
-    const double step = random.uniform(0.3, 6.5);
-    const cv::Matx23d map = look_map(center, step, 0.0, size);
+    const double step = i % 2 == 0 ? random.uniform(0.3, 6.5) : random.uniform(0.3, 3.0);
+    const double angle = i % 2 == 0 ? 0.0 : random.uniform(-12.0, 12.0) * CV_PI / 180;
+    const cv::Matx23d map = look_map(center, step, angle, size);
     warp_to_gray(frame, map, size, mine, scratch);
     const cv::Mat theirs = opencv_look(frame, map, size);
     EXPECT_EQ(mine.size(), theirs.size());
@@ -101,20 +104,20 @@ int differing_upright_pixels(const cv::Mat& frame, int looks, uint64_t seed) {
   return differing;
 }
 
-TEST(WarpToGray, UprightLooksAreOpenCvsBitForBitSixteenPixelsAStep) {
+TEST(WarpToGray, LooksTakenSixteenPixelsAStepAreOpenCvsBitForBit) {
   if (!warp_to_gray_in_one_pass()) GTEST_SKIP() << "no AVX2 here, or another OpenCV: its own two calls run";
-  if (!warp_to_gray_upright_vectorised())
+  if (!warp_to_gray_sixteen_pixels_a_step())
     std::printf("no AVX-512 VBMI here (or SACCADE_AVX512=0): the eight-pixel path is checked instead\n");
   const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_COLOR);
   ASSERT_EQ(photo.type(), CV_8UC3);
-  EXPECT_EQ(differing_upright_pixels(photo, 400, 11), 0);
-  EXPECT_EQ(differing_upright_pixels(photo(cv::Rect(37, 51, 201, 157)), 400, 12), 0);
+  EXPECT_EQ(differing_sixteen_pixel_looks(photo, 600, 11), 0);
+  EXPECT_EQ(differing_sixteen_pixel_looks(photo(cv::Rect(37, 51, 201, 157)), 600, 12), 0);
   // The bottom-right corner: a window of 128 bytes from its last pixels passes the data's end.
-  EXPECT_EQ(differing_upright_pixels(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 13), 0);
+  EXPECT_EQ(differing_sixteen_pixel_looks(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 13), 0);
   cv::Mat noise(123, 157, CV_8UC3);
   cv::randu(noise, 0, 256);
-  EXPECT_EQ(differing_upright_pixels(noise, 400, 14), 0);
-  EXPECT_EQ(differing_upright_pixels(cv::Mat(1, 1, CV_8UC3, cv::Scalar(9, 99, 199)), 50, 15), 0);
+  EXPECT_EQ(differing_sixteen_pixel_looks(noise, 600, 14), 0);
+  EXPECT_EQ(differing_sixteen_pixel_looks(cv::Mat(1, 1, CV_8UC3, cv::Scalar(9, 99, 199)), 50, 15), 0);
 }
 
 // Cells whose vectorised mean differs from the plain loop's over `samples`
