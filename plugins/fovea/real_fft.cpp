@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <atomic>
 #include <cstring>
 
 #include "saccade/simd.hpp"
@@ -41,31 +42,39 @@ __attribute__((always_inline)) inline void transpose8(const float* in, std::ptrd
   }
 }
 
-// In-place radix-2 FFTs (exp(-2 pi i ...)) of eight sequences, the lanes, of
-// n complex elements each: element e's lanes at re[8e .. 8e+7] and
-// im[8e .. 8e+7], given in bit-reversed order.
-__attribute__((always_inline)) inline void lanes_fft(float* __restrict re, float* __restrict im, int n, const float* cs,
-                                                     const float* sn) {
-  Lanes ar, ai, br, bi;
+// In-place radix-2 FFTs (exp(-2 pi i ...)) of W sequences, the lanes (V: W
+// floats), of n complex elements each: element e's lanes at re[W e .. W e +
+// W - 1] and im[W e .. W e + W - 1], given in bit-reversed order.
+template <class V, int W>
+__attribute__((always_inline)) inline void lanes_fft_of(float* __restrict re, float* __restrict im, int n,
+                                                        const float* cs, const float* sn) {
+  const auto load_v = [](V& v, const float* p) { std::memcpy(&v, p, sizeof v); };
+  const auto store_v = [](float* p, const V& v) { std::memcpy(p, &v, sizeof v); };
+  V ar, ai, br, bi;
   for (int e = 0; e < n; e += 2) {  // the first stage's twiddle is 1
-    load(ar, re + 8 * e), load(ai, im + 8 * e), load(br, re + 8 * e + 8), load(bi, im + 8 * e + 8);
-    store(re + 8 * e, ar + br);
-    store(im + 8 * e, ai + bi);
-    store(re + 8 * e + 8, ar - br);
-    store(im + 8 * e + 8, ai - bi);
+    load_v(ar, re + W * e), load_v(ai, im + W * e), load_v(br, re + W * e + W), load_v(bi, im + W * e + W);
+    store_v(re + W * e, ar + br);
+    store_v(im + W * e, ai + bi);
+    store_v(re + W * e + W, ar - br);
+    store_v(im + W * e + W, ai - bi);
   }
   for (int half = 2, stride = n / 4; half < n; half *= 2, stride /= 2)
     for (int start = 0; start < n; start += 2 * half)
       for (int k = 0; k < half; ++k) {
         const float wr = cs[k * stride], wi = sn[k * stride];
         const int i = start + k, j = i + half;
-        load(ar, re + 8 * i), load(ai, im + 8 * i), load(br, re + 8 * j), load(bi, im + 8 * j);
-        const Lanes tr = wr * br - wi * bi, ti = wr * bi + wi * br;
-        store(re + 8 * i, ar + tr);
-        store(im + 8 * i, ai + ti);
-        store(re + 8 * j, ar - tr);
-        store(im + 8 * j, ai - ti);
+        load_v(ar, re + W * i), load_v(ai, im + W * i), load_v(br, re + W * j), load_v(bi, im + W * j);
+        const V tr = wr * br - wi * bi, ti = wr * bi + wi * br;
+        store_v(re + W * i, ar + tr);
+        store_v(im + W * i, ai + ti);
+        store_v(re + W * j, ar - tr);
+        store_v(im + W * j, ai - ti);
       }
+}
+
+__attribute__((always_inline)) inline void lanes_fft(float* __restrict re, float* __restrict im, int n, const float* cs,
+                                                     const float* sn) {
+  lanes_fft_of<Lanes, 8>(re, im, n, cs, sn);
 }
 
 constexpr int kIdentity[8] = {0, 1, 2, 3, 4, 5, 6, 7};
@@ -78,6 +87,24 @@ struct Plan {
   const float *cs, *sn;
   float *re, *im, *mid_re, *mid_im;
 };
+
+// The forward transform's second pass for W rows ky from y0 (V: W floats):
+// 8x8 blocks of the first pass's output transposed into the lanes (column x
+// to element reverse(x)), transformed along x, the result stored transposed.
+template <class V, int W>
+__attribute__((always_inline)) inline void rows_along_x(const Plan& p, int y0, float* out_re, float* out_im) {
+  const int n = p.n;
+  for (int x0 = 0; x0 < n; x0 += 8)
+    for (int half = 0; half < W; half += 8) {
+      transpose8(p.mid_re + (y0 + half) * n + x0, n, p.re + half, p.reverse + x0, W);
+      transpose8(p.mid_im + (y0 + half) * n + x0, n, p.im + half, p.reverse + x0, W);
+    }
+  lanes_fft_of<V, W>(p.re, p.im, n, p.cs, p.sn);
+  for (int kx = 0; kx < n; ++kx) {
+    std::memcpy(out_re + kx * p.stride + y0, p.re + W * kx, sizeof(V));
+    std::memcpy(out_im + kx * p.stride + y0, p.im + W * kx, sizeof(V));
+  }
+}
 
 // RealFft2d::forward's fast path: `pixels` (n x n, rows `step` floats apart)
 // to the transposed half spectrum's planes.
@@ -124,20 +151,76 @@ SACCADE_AVX2_CLONE void forward_lanes(const Plan& p, const float* pixels, std::p
       store(mi + 8, 0.5f * (wr - zr));
     }
   }
-  // Along x, eight rows ky a transform: 8x8 blocks transposed into the
-  // lanes (column x to element reverse(x)), the result stored transposed.
-  for (int y0 = 0; y0 < rows; y0 += 8) {
-    for (int x0 = 0; x0 < n; x0 += 8) {
-      transpose8(p.mid_re + y0 * n + x0, n, re, reverse + x0, 8);
-      transpose8(p.mid_im + y0 * n + x0, n, im, reverse + x0, 8);
+  // Along x, eight rows ky a transform.
+  for (int y0 = 0; y0 < rows; y0 += 8) rows_along_x<Lanes, 8>(p, y0, out_re, out_im);
+}
+
+#if defined(__x86_64__)
+// The forward pass sixteen lanes a step (AVX-512): the same arithmetic per
+// lane, and the same two columns paired in a complex transform (x and x + 8),
+// so the spectrum is bit for bit forward_lanes'. (Without contraction: a
+// fused multiply-add rounds once where the eight-lane code rounds twice.)
+#define SACCADE_AVX512F_EXACT __attribute__((target("avx512f"), optimize("fp-contract=off")))
+typedef float Lanes16 __attribute__((vector_size(64)));
+
+SACCADE_AVX512F_EXACT __attribute__((always_inline)) inline void load16(Lanes16& v, const float* p) {
+  std::memcpy(&v, p, sizeof v);
+}
+
+// forward_lanes for n >= 32, sixteen lanes a transform: along y, columns x0 ..
+// x0+7 and x0+16 .. x0+23 as the real parts, each paired with the column 8
+// further as its imaginary part; along x, sixteen rows ky a transform (the
+// last rows of the padded half spectrum eight, as forward_lanes does them).
+SACCADE_AVX512F_EXACT void forward_lanes16(const Plan& p, const float* pixels, std::ptrdiff_t step, float* out_re,
+                                           float* out_im) {
+  const int n = p.n, rows = n / 2 + 1;
+  float* re = p.re;
+  float* im = p.im;
+  for (int x0 = 0; x0 < n; x0 += 32) {
+    for (int e = 0; e < n; ++e) {
+      const float* row = pixels + p.reverse[e] * step + x0;
+      std::memcpy(re + 16 * e, row, 8 * sizeof(float));
+      std::memcpy(re + 16 * e + 8, row + 16, 8 * sizeof(float));
+      std::memcpy(im + 16 * e, row + 8, 8 * sizeof(float));
+      std::memcpy(im + 16 * e + 8, row + 24, 8 * sizeof(float));
     }
-    lanes_fft(re, im, n, p.cs, p.sn);
-    for (int kx = 0; kx < n; ++kx) {
-      std::memcpy(out_re + kx * stride + y0, re + 8 * kx, sizeof(Lanes));
-      std::memcpy(out_im + kx * stride + y0, im + 8 * kx, sizeof(Lanes));
+    lanes_fft_of<Lanes16, 16>(re, im, n, p.cs, p.sn);
+    for (int ky = 0; ky < p.stride; ++ky) {
+      float* mr = p.mid_re + ky * n + x0;
+      float* mi = p.mid_im + ky * n + x0;
+      if (ky >= rows) {
+        std::fill(mr, mr + 32, 0.0f);
+        std::fill(mi, mi + 32, 0.0f);
+        continue;
+      }
+      const int m = (n - ky) % n;
+      Lanes16 zr, zi, wr, wi;
+      load16(zr, re + 16 * ky), load16(zi, im + 16 * ky), load16(wr, re + 16 * m), load16(wi, im + 16 * m);
+      const Lanes16 a_re = 0.5f * (zr + wr), a_im = 0.5f * (zi - wi), b_re = 0.5f * (zi + wi), b_im = 0.5f * (wr - zr);
+      // Lanes 0-7: columns x0 .. x0+7 (a) and x0+8 .. x0+15 (b); lanes 8-15: 16 further.
+      std::memcpy(mr, &a_re, 8 * sizeof(float)), std::memcpy(mr + 16, reinterpret_cast<const float*>(&a_re) + 8, 32);
+      std::memcpy(mi, &a_im, 8 * sizeof(float)), std::memcpy(mi + 16, reinterpret_cast<const float*>(&a_im) + 8, 32);
+      std::memcpy(mr + 8, &b_re, 8 * sizeof(float)),
+          std::memcpy(mr + 24, reinterpret_cast<const float*>(&b_re) + 8, 32);
+      std::memcpy(mi + 8, &b_im, 8 * sizeof(float)),
+          std::memcpy(mi + 24, reinterpret_cast<const float*>(&b_im) + 8, 32);
     }
   }
+  int y0 = 0;
+  for (; y0 + 16 <= p.stride; y0 += 16) rows_along_x<Lanes16, 16>(p, y0, out_re, out_im);
+  for (; y0 < rows; y0 += 8) rows_along_x<Lanes, 8>(p, y0, out_re, out_im);
 }
+
+bool sixteen_lanes_here() {
+  static const bool yes = [] {
+    __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
+    return __builtin_cpu_supports("avx512f") != 0;
+  }();
+  return yes && avx512_wanted();
+}
+#endif
+
+std::atomic<bool> sixteen_lanes_allowed{true};
 
 // RealFft2d::inverse's fast path: the transposed half spectrum's planes to
 // `pixels` (n x n, rows `step` floats apart), scaled by 1 / n^2.
@@ -192,6 +275,15 @@ SACCADE_AVX2_CLONE void inverse_lanes(const Plan& p, const float* in_re, const f
 
 }  // namespace
 
+bool allow_sixteen_lanes(bool allowed) {
+  sixteen_lanes_allowed.store(allowed, std::memory_order_relaxed);
+#if defined(__x86_64__)
+  return sixteen_lanes_here();
+#else
+  return false;
+#endif
+}
+
 RealFft2d::RealFft2d(int n) : n_(std::max(1, n)), stride_((n_ / 2 + 1 + 7) / 8 * 8) {
   if (n_ < 8 || (n_ & (n_ - 1)) != 0) return;  // cv::dft's
   int bits = 0;
@@ -208,7 +300,7 @@ RealFft2d::RealFft2d(int n) : n_(std::max(1, n)), stride_((n_ / 2 + 1 + 7) / 8 *
     cos_[static_cast<std::size_t>(k)] = static_cast<float>(std::cos(2 * CV_PI * k / n_));
     sin_[static_cast<std::size_t>(k)] = static_cast<float>(-std::sin(2 * CV_PI * k / n_));
   }
-  lane_re_.resize(8 * static_cast<std::size_t>(n_));
+  lane_re_.resize(16 * static_cast<std::size_t>(n_));  // sixteen lanes with AVX-512, eight otherwise
   lane_im_.resize(lane_re_.size());
   mid_re_.resize(plane());
   mid_im_.resize(plane());
@@ -231,9 +323,22 @@ void RealFft2d::forward(const cv::Mat& image, HalfSpectrum& out) {
       }
     return;
   }
-  forward_lanes(Plan{n_, stride_, reverse_.data(), cos_.data(), sin_.data(), lane_re_.data(), lane_im_.data(),
-                     mid_re_.data(), mid_im_.data()},
-                image.ptr<float>(), static_cast<std::ptrdiff_t>(image.step1()), out.re.data(), out.im.data());
+  const Plan plan{n_,
+                  stride_,
+                  reverse_.data(),
+                  cos_.data(),
+                  sin_.data(),
+                  lane_re_.data(),
+                  lane_im_.data(),
+                  mid_re_.data(),
+                  mid_im_.data()};
+#if defined(__x86_64__)
+  if (n >= 32 && sixteen_lanes_here() && sixteen_lanes_allowed.load(std::memory_order_relaxed)) {
+    forward_lanes16(plan, image.ptr<float>(), static_cast<std::ptrdiff_t>(image.step1()), out.re.data(), out.im.data());
+    return;
+  }
+#endif
+  forward_lanes(plan, image.ptr<float>(), static_cast<std::ptrdiff_t>(image.step1()), out.re.data(), out.im.data());
 }
 
 void RealFft2d::inverse(const HalfSpectrum& in, cv::Mat& out) {

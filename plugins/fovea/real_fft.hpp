@@ -6,7 +6,8 @@
 // channels forward, the response back). OpenCV's cv::dft and cv::idft take
 // 26 us for a 64x64 image and back here; this, eight columns or rows at a
 // time as vector lanes and two real columns per complex transform, 7 us
-// (saccade_bench BM_Tracker_Fft64_*).
+// (saccade_bench BM_Tracker_Fft64_*). With AVX-512 the forward transform of
+// 32 pixels and more takes sixteen lanes a step, bit for bit the same.
 #include <cstddef>
 #include <vector>
 
@@ -21,6 +22,13 @@ namespace saccade::fovea {
 struct HalfSpectrum {
   std::vector<float> re, im;
 };
+
+// Whether RealFft2d::forward may take sixteen lanes a step where the CPU has
+// AVX-512 (it does by default, unless SACCADE_AVX512=0 is in the
+// environment); off, eight, which gives the same spectrum to the bit (tests
+// compare them). Returns whether the sixteen-lane code can run here. Not for
+// use while another thread transforms.
+bool allow_sixteen_lanes(bool allowed);
 
 class RealFft2d {
  public:
@@ -42,7 +50,7 @@ class RealFft2d {
   int n_, stride_;
   std::vector<int> reverse_;              // bit reversal of the element indices (fast path)
   std::vector<float> cos_, sin_;          // exp(-2 pi i k / n), k < n/2
-  std::vector<float> lane_re_, lane_im_;  // n elements of 8 lanes
+  std::vector<float> lane_re_, lane_im_;  // n elements of 16 lanes (8 without AVX-512)
   std::vector<float> mid_re_, mid_im_;    // stride rows (ky) x n columns (x), between the passes
   cv::Mat full_;                          // the other sizes' cv::dft buffer
 };

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <complex>
+#include <cstring>
 
 #include <opencv2/core.hpp>
 
@@ -92,6 +93,32 @@ TEST_P(RealFft, InverseGivesTheImageBack) {
 
 // Powers of two from 8 are transformed by the vector lanes; 12, 48 and 5 by cv::dft.
 INSTANTIATE_TEST_SUITE_P(Sizes, RealFft, ::testing::Values(8, 16, 32, 64, 128, 256, 5, 12, 48));
+
+TEST(RealFft, SixteenLanesGiveTheEightLanesSpectrumBitForBit) {
+  const bool here = allow_sixteen_lanes(true);
+  if (!here) GTEST_SKIP() << "no AVX-512 here (the CPU, or SACCADE_AVX512=0): only the eight-lane code runs";
+  for (const int n : {32, 64, 128, 256}) {
+    for (int seed = 1; seed <= 3; ++seed) {
+      const cv::Mat image = random_image(n, 100 * n + seed);
+      RealFft2d fft(n);
+      HalfSpectrum sixteen, eight;
+      allow_sixteen_lanes(true);
+      fft.forward(image, sixteen);
+      allow_sixteen_lanes(false);
+      fft.forward(image, eight);
+      ASSERT_EQ(sixteen.re.size(), eight.re.size());
+      EXPECT_EQ(std::memcmp(sixteen.re.data(), eight.re.data(), eight.re.size() * sizeof(float)), 0) << n;
+      EXPECT_EQ(std::memcmp(sixteen.im.data(), eight.im.data(), eight.im.size() * sizeof(float)), 0) << n;
+      // Not merely equal to each other: the same spectrum OpenCV's transform gives.
+      cv::Mat full;
+      cv::dft(image, full, cv::DFT_COMPLEX_OUTPUT);
+      const cv::Vec2f dc = full.at<cv::Vec2f>(0, 0), some = full.at<cv::Vec2f>(3, 5);
+      EXPECT_NEAR(at(sixteen, fft, 0, 0).real(), dc[0], 1e-2 * n);
+      EXPECT_NEAR(at(sixteen, fft, 3, 5).imag(), some[1], 1e-2 * n);
+    }
+  }
+  allow_sixteen_lanes(true);
+}
 
 TEST(RealFft, ARowOrColumnOfTheImageIsNotMistakenForAnother) {
   // One bright pixel: its spectrum's phase says where it is; a transposed or
