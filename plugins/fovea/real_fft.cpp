@@ -160,10 +160,9 @@ SACCADE_AVX2_CLONE void forward_lanes(const Plan& p, const float* pixels, std::p
 // lane, and the same two columns paired in a complex transform (x and x + 8),
 // so the spectrum is bit for bit forward_lanes'. (Without contraction: a
 // fused multiply-add rounds once where the eight-lane code rounds twice.)
-#define SACCADE_AVX512F_EXACT __attribute__((target("avx512f"), optimize("fp-contract=off")))
 typedef float Lanes16 __attribute__((vector_size(64)));
 
-SACCADE_AVX512F_EXACT __attribute__((always_inline)) inline void load16(Lanes16& v, const float* p) {
+SACCADE_AVX512_EXACT __attribute__((always_inline)) inline void load16(Lanes16& v, const float* p) {
   std::memcpy(&v, p, sizeof v);
 }
 
@@ -171,8 +170,8 @@ SACCADE_AVX512F_EXACT __attribute__((always_inline)) inline void load16(Lanes16&
 // x0+7 and x0+16 .. x0+23 as the real parts, each paired with the column 8
 // further as its imaginary part; along x, sixteen rows ky a transform (the
 // last rows of the padded half spectrum eight, as forward_lanes does them).
-SACCADE_AVX512F_EXACT void forward_lanes16(const Plan& p, const float* pixels, std::ptrdiff_t step, float* out_re,
-                                           float* out_im) {
+SACCADE_AVX512_EXACT void forward_lanes16(const Plan& p, const float* pixels, std::ptrdiff_t step, float* out_re,
+                                          float* out_im) {
   const int n = p.n, rows = n / 2 + 1;
   float* re = p.re;
   float* im = p.im;
@@ -211,13 +210,6 @@ SACCADE_AVX512F_EXACT void forward_lanes16(const Plan& p, const float* pixels, s
   for (; y0 < rows; y0 += 8) rows_along_x<Lanes, 8>(p, y0, out_re, out_im);
 }
 
-bool sixteen_lanes_here() {
-  static const bool yes = [] {
-    __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
-    return __builtin_cpu_supports("avx512f") != 0;
-  }();
-  return yes && avx512_wanted();
-}
 #endif
 
 std::atomic<bool> sixteen_lanes_allowed{true};
@@ -278,7 +270,7 @@ SACCADE_AVX2_CLONE void inverse_lanes(const Plan& p, const float* in_re, const f
 bool allow_sixteen_lanes(bool allowed) {
   sixteen_lanes_allowed.store(allowed, std::memory_order_relaxed);
 #if defined(__x86_64__)
-  return sixteen_lanes_here();
+  return avx512f_usable();
 #else
   return false;
 #endif
@@ -333,7 +325,7 @@ void RealFft2d::forward(const cv::Mat& image, HalfSpectrum& out) {
                   mid_re_.data(),
                   mid_im_.data()};
 #if defined(__x86_64__)
-  if (n >= 32 && sixteen_lanes_here() && sixteen_lanes_allowed.load(std::memory_order_relaxed)) {
+  if (n >= 32 && avx512f_usable() && sixteen_lanes_allowed.load(std::memory_order_relaxed)) {
     forward_lanes16(plan, image.ptr<float>(), static_cast<std::ptrdiff_t>(image.step1()), out.re.data(), out.im.data());
     return;
   }

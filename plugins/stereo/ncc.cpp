@@ -3,9 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
-#include <string_view>
 #include <vector>
 
 #if defined(__x86_64__)
@@ -456,17 +454,9 @@ __attribute__((target("avx512f"), always_inline)) inline __m512i lane_offsets() 
   return _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
 }
 
-bool cpu_has_avx512() {
-  static const bool yes = [] {
-    __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
-    return __builtin_cpu_supports("avx512f") != 0;
-  }();
-  return yes;
-}
-
 // Whether the AVX-512 code runs: the CPU has it, the environment does not
 // say no, and tests have not turned it off.
-bool use_avx512() { return cpu_has_avx512() && avx512_wanted() && avx512_allowed.load(std::memory_order_relaxed); }
+bool use_avx512() { return avx512f_usable() && avx512_allowed.load(std::memory_order_relaxed); }
 
 // sweep_plane_impl<R, true> sixteen pixels wide in AVX-512 (intrinsics: GCC's
 // vector extension turns sixteen-lane selects into per-lane branches), for
@@ -1056,7 +1046,7 @@ void ncc_match(const cv::Mat& left, const cv::Mat& right, Direction direction, i
 bool allow_avx512(bool allowed) {
 #if defined(__x86_64__)
   avx512_allowed.store(allowed, std::memory_order_relaxed);
-  return cpu_has_avx512() && avx512_wanted();
+  return avx512f_usable();
 #else
   (void)allowed;
   return false;

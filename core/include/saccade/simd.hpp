@@ -26,6 +26,26 @@ inline bool avx512_wanted() {
   return yes;
 }
 
+// Whether AVX-512 (F) code may run: the CPU has it and SACCADE_AVX512 is not 0.
+inline bool avx512f_usable() {
+#if defined(__x86_64__)
+  static const bool cpu = [] {
+    __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
+    return __builtin_cpu_supports("avx512f") != 0;
+  }();
+  return cpu && avx512_wanted();
+#else
+  return false;
+#endif
+}
+
+// A function compiled for AVX-512 that rounds as its AVX2 and baseline
+// versions do: without fusing a multiply and an add into one rounding (which
+// AVX-512 has and AVX2 alone has not), so its results are theirs to the bit.
+#if defined(__x86_64__)
+#define SACCADE_AVX512_EXACT __attribute__((target("avx512f"), optimize("fp-contract=off")))
+#endif
+
 // Sliding dot products with the placements as vector lanes: out[j], j < 8K, is
 // the sum over rows y < rows and columns x < cols, in that order, of
 // weight(y, x) * data[y * data_step + x + j]. K vectors of eight placements
