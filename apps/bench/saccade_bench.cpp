@@ -496,7 +496,7 @@ BENCHMARK(BM_Tracker_Fft64_OpenCv);
 // A look's patch before it is halved: 128x128 pixels sampled every 1.875
 // source pixels of a 640x480 colour frame (a 120-pixel target's), upright
 // (argument 0) and turned by 5 degrees (argument 5), as the turn search's
-// looks are. SACCADE_AVX512=0 keeps the upright look on the eight-pixel path.
+// looks are. SACCADE_AVX512=0 keeps both on the eight-pixel gathers.
 void BM_Tracker_LookWarp(benchmark::State& state) {
   cv::Mat frame;
   cv::cvtColor(frame_of({640, 480}), frame, cv::COLOR_GRAY2BGR);

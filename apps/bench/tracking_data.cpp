@@ -9,10 +9,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <numeric>
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <numeric>
 #include <random>
 #include <sstream>
 #include <utility>
@@ -1069,10 +1069,9 @@ Result<TrackScore> score_track(const std::vector<cv::Rect2d>& truth, const std::
     return Status::error("score_track: truth, visibility and track differ in length");
   TrackScore score;
   std::vector<double> overlaps;
-  double error_sum = 0, ms_sum = 0;
+  double error_sum = 0;
   int precise = 0, invisible = 0, honest = 0;
   for (std::size_t i = 1; i < truth.size(); ++i) {
-    ms_sum += track[i].ms;
     if (!track[i].tracking) ++score.frames_lost;
     if (!visible[i]) {
       ++invisible;
@@ -1084,8 +1083,7 @@ Result<TrackScore> score_track(const std::vector<cv::Rect2d>& truth, const std::
     if (error <= 20) ++precise;
     overlaps.push_back(iou(track[i].box, truth[i]));
   }
-  const std::size_t tracked = truth.size() > 1 ? truth.size() - 1 : 0;
-  if (tracked > 0) score.ms_per_frame = ms_sum / static_cast<double>(tracked);
+  score.ms_per_frame = frame_times(track).mean;
   if (invisible > 0) score.honest_lost = honest / double(invisible);
   score.scored_frames = static_cast<int>(overlaps.size());
   if (!overlaps.empty()) {
@@ -1120,16 +1118,14 @@ WitnessScore witness_score(const std::vector<TrackedFrame>& track) {
   WitnessScore score;
   if (track.size() < 2) return score;
   int claimed = 0;
-  double ms = 0;
   for (std::size_t i = 1; i < track.size(); ++i) {
     const cv::Rect2d& now = track[i].box;
     if (center_error(track[i - 1].box, now) > 0.75 * std::max(now.width, now.height)) ++score.jumps;
     claimed += track[i].tracking;
-    ms += track[i].ms;
   }
   score.frames = static_cast<int>(track.size()) - 1;
   score.claimed = static_cast<double>(claimed) / score.frames;
-  score.ms_per_frame = ms / score.frames;
+  score.ms_per_frame = frame_times(track).mean;
   return score;
 }
 
@@ -1143,13 +1139,13 @@ FrameTimes frame_times(const std::vector<TrackedFrame>& track) {
     ms.push_back(track[i].ms);
     if (!track[i].tracking) untracked += track[i].ms, ++times.untracked_frames;
   }
-  std::sort(ms.begin(), ms.end());
   const std::size_t n = ms.size();
+  times.mean = std::accumulate(ms.begin(), ms.end(), 0.0) / static_cast<double>(n);  // in frame order
+  std::sort(ms.begin(), ms.end());
   const auto rank = [&](double share) {  // nearest rank: the ceil(share n)-th smallest
     return ms[static_cast<std::size_t>(std::max(1.0, std::ceil(share * static_cast<double>(n) - 1e-9))) - 1];
   };
   times.frames = static_cast<int>(n);
-  times.mean = std::accumulate(ms.begin(), ms.end(), 0.0) / static_cast<double>(n);
   times.median = n % 2 == 1 ? ms[n / 2] : (ms[n / 2 - 1] + ms[n / 2]) / 2;
   times.p99 = rank(0.99);
   times.max = ms.back();

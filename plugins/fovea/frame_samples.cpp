@@ -324,14 +324,6 @@ SACCADE_AVX512_VBMI void turned_row_avx512(const cv::Mat& frame, const int* x_st
   if (x < width) warp_row_avx2(frame, x_step + x, y_step + x, x_start, y_start, width - x, out + x);
 }
 
-bool avx512_vbmi_here() {
-  static const bool yes = [] {
-    __builtin_cpu_init();  // in case this runs before libgcc's constructor did (a plugin's static initialiser)
-    return __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vbmi");
-  }();
-  return yes && avx512_wanted();
-}
-
 #else
 
 void warp_row_avx2(const cv::Mat&, const int*, const int*, int, int, int, uchar*) {}
@@ -521,7 +513,7 @@ bool frame_samples_vectorised() { return avx2_here(); }
 
 bool warp_to_gray_sixteen_pixels_a_step() {
 #if defined(__x86_64__)
-  return warp_to_gray_in_one_pass() && avx512_vbmi_here();
+  return warp_to_gray_in_one_pass() && avx512vbmi_usable();
 #else
   return false;
 #endif
@@ -554,13 +546,18 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
     x_step[x] = cv::saturate_cast<int>(m(0, 0) * x * kMapScale);
     y_step[x] = cv::saturate_cast<int>(m(1, 0) * x * kMapScale);
   }
-  constexpr int kHalf = kMapScale / kSubpixels / 2;
+  // Output row y's first source position along axis 0 (x) or 1 (y), in 1/1024 pixel.
+  const auto row_start = [&m](int axis, int y) {
+    constexpr int kHalf = kMapScale / kSubpixels / 2;
+    return cv::saturate_cast<int>((m(axis, 1) * y + m(axis, 2)) * kMapScale) + kHalf;
+  };
+  auto* row = warp_row_avx2;
 #if defined(__x86_64__)
   thread_local std::vector<UprightGroup> groups;  // grows to the widest output, then allocates no more
-  if (m(0, 1) == 0 && m(1, 0) == 0 && avx512_vbmi_here() &&
-      upright_groups(frame, x_step, cv::saturate_cast<int>(m(0, 2) * kMapScale) + kHalf, size.width, groups)) {
+  if (m(0, 1) == 0 && m(1, 0) == 0 && avx512vbmi_usable() &&
+      upright_groups(frame, x_step, row_start(0, 0), size.width, groups)) {
     for (int y = 0; y < size.height; ++y) {
-      const int fixed = (cv::saturate_cast<int>((m(1, 1) * y + m(1, 2)) * kMapScale) + kHalf) >> (10 - kSubpixelBits);
+      const int fixed = row_start(1, y) >> (10 - kSubpixelBits);
       const int sy = fixed >> kSubpixelBits;
       upright_row_avx512(frame, groups, frame.ptr<uchar>(std::clamp(sy, 0, frame.rows - 1)),
                          frame.ptr<uchar>(std::clamp(sy + 1, 0, frame.rows - 1)), fixed & (kSubpixels - 1),
@@ -571,17 +568,10 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
   // (Where most sixteen pixels' taps would not fit turned_row_avx512's rows or
   // window, trying each group first costs more than it saves: gathers.)
   const bool turned_fits = std::abs(m(1, 0)) * 15 <= kTurnedRows - 2 && std::abs(m(0, 0)) * 15 <= 40;
-  if (turned_fits && avx512_vbmi_here()) {
-    for (int y = 0; y < size.height; ++y)
-      turned_row_avx512(frame, x_step, y_step, cv::saturate_cast<int>((m(0, 1) * y + m(0, 2)) * kMapScale) + kHalf,
-                        cv::saturate_cast<int>((m(1, 1) * y + m(1, 2)) * kMapScale) + kHalf, size.width,
-                        out.ptr<uchar>(y));
-    return;
-  }
+  if (turned_fits && avx512vbmi_usable()) row = turned_row_avx512;
 #endif
   for (int y = 0; y < size.height; ++y)
-    warp_row_avx2(frame, x_step, y_step, cv::saturate_cast<int>((m(0, 1) * y + m(0, 2)) * kMapScale) + kHalf,
-                  cv::saturate_cast<int>((m(1, 1) * y + m(1, 2)) * kMapScale) + kHalf, size.width, out.ptr<uchar>(y));
+    row(frame, x_step, y_step, row_start(0, y), row_start(1, y), size.width, out.ptr<uchar>(y));
 }
 
 void sample_cell_means(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size,

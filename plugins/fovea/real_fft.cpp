@@ -1,8 +1,8 @@
 #include "real_fft.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <atomic>
+#include <cmath>
 #include <cstring>
 
 #include "saccade/simd.hpp"
@@ -13,10 +13,17 @@ namespace {
 
 typedef float Lanes __attribute__((vector_size(32)));
 
-// (By reference, not by value: a function passing a 32-byte vector by value
-// has another ABI with AVX than without, which GCC warns of.)
-__attribute__((always_inline)) inline void load(Lanes& v, const float* p) { std::memcpy(&v, p, sizeof v); }
-__attribute__((always_inline)) inline void store(float* p, const Lanes& v) { std::memcpy(p, &v, sizeof v); }
+// A vector of lanes (Lanes, Lanes16) from and to floats. (By reference, not by
+// value: a function passing a 32-byte vector by value has another ABI with AVX
+// than without, which GCC warns of.)
+template <class V>
+__attribute__((always_inline)) inline void load(V& v, const float* p) {
+  std::memcpy(&v, p, sizeof v);
+}
+template <class V>
+__attribute__((always_inline)) inline void store(float* p, const V& v) {
+  std::memcpy(p, &v, sizeof v);
+}
 
 // The 8x8 block at `in` (rows `in_step` apart) transposed: its column c
 // becomes row out_rows[c] of `out` (rows `out_step` apart).
@@ -48,27 +55,25 @@ __attribute__((always_inline)) inline void transpose8(const float* in, std::ptrd
 template <class V, int W>
 __attribute__((always_inline)) inline void lanes_fft_of(float* __restrict re, float* __restrict im, int n,
                                                         const float* cs, const float* sn) {
-  const auto load_v = [](V& v, const float* p) { std::memcpy(&v, p, sizeof v); };
-  const auto store_v = [](float* p, const V& v) { std::memcpy(p, &v, sizeof v); };
   V ar, ai, br, bi;
   for (int e = 0; e < n; e += 2) {  // the first stage's twiddle is 1
-    load_v(ar, re + W * e), load_v(ai, im + W * e), load_v(br, re + W * e + W), load_v(bi, im + W * e + W);
-    store_v(re + W * e, ar + br);
-    store_v(im + W * e, ai + bi);
-    store_v(re + W * e + W, ar - br);
-    store_v(im + W * e + W, ai - bi);
+    load(ar, re + W * e), load(ai, im + W * e), load(br, re + W * e + W), load(bi, im + W * e + W);
+    store(re + W * e, ar + br);
+    store(im + W * e, ai + bi);
+    store(re + W * e + W, ar - br);
+    store(im + W * e + W, ai - bi);
   }
   for (int half = 2, stride = n / 4; half < n; half *= 2, stride /= 2)
     for (int start = 0; start < n; start += 2 * half)
       for (int k = 0; k < half; ++k) {
         const float wr = cs[k * stride], wi = sn[k * stride];
         const int i = start + k, j = i + half;
-        load_v(ar, re + W * i), load_v(ai, im + W * i), load_v(br, re + W * j), load_v(bi, im + W * j);
+        load(ar, re + W * i), load(ai, im + W * i), load(br, re + W * j), load(bi, im + W * j);
         const V tr = wr * br - wi * bi, ti = wr * bi + wi * br;
-        store_v(re + W * i, ar + tr);
-        store_v(im + W * i, ai + ti);
-        store_v(re + W * j, ar - tr);
-        store_v(im + W * j, ai - ti);
+        store(re + W * i, ar + tr);
+        store(im + W * i, ai + ti);
+        store(re + W * j, ar - tr);
+        store(im + W * j, ai - ti);
       }
 }
 
@@ -162,8 +167,18 @@ SACCADE_AVX2_CLONE void forward_lanes(const Plan& p, const float* pixels, std::p
 // fused multiply-add rounds once where the eight-lane code rounds twice.)
 typedef float Lanes16 __attribute__((vector_size(64)));
 
-SACCADE_AVX512_EXACT __attribute__((always_inline)) inline void load16(Lanes16& v, const float* p) {
-  std::memcpy(&v, p, sizeof v);
+// Lanes 0-7 of `v` from `first`, lanes 8-15 from `second`; and back.
+SACCADE_AVX512_EXACT __attribute__((always_inline)) inline void load_halves(Lanes16& v, const float* first,
+                                                                            const float* second) {
+  float* lanes = reinterpret_cast<float*>(&v);
+  std::memcpy(lanes, first, 8 * sizeof(float));
+  std::memcpy(lanes + 8, second, 8 * sizeof(float));
+}
+SACCADE_AVX512_EXACT __attribute__((always_inline)) inline void store_halves(float* first, float* second,
+                                                                             const Lanes16& v) {
+  const float* lanes = reinterpret_cast<const float*>(&v);
+  std::memcpy(first, lanes, 8 * sizeof(float));
+  std::memcpy(second, lanes + 8, 8 * sizeof(float));
 }
 
 // forward_lanes for n >= 32, sixteen lanes a transform: along y, columns x0 ..
@@ -178,10 +193,11 @@ SACCADE_AVX512_EXACT void forward_lanes16(const Plan& p, const float* pixels, st
   for (int x0 = 0; x0 < n; x0 += 32) {
     for (int e = 0; e < n; ++e) {
       const float* row = pixels + p.reverse[e] * step + x0;
-      std::memcpy(re + 16 * e, row, 8 * sizeof(float));
-      std::memcpy(re + 16 * e + 8, row + 16, 8 * sizeof(float));
-      std::memcpy(im + 16 * e, row + 8, 8 * sizeof(float));
-      std::memcpy(im + 16 * e + 8, row + 24, 8 * sizeof(float));
+      Lanes16 real, imaginary;
+      load_halves(real, row, row + 16);
+      load_halves(imaginary, row + 8, row + 24);
+      store(re + 16 * e, real);
+      store(im + 16 * e, imaginary);
     }
     lanes_fft_of<Lanes16, 16>(re, im, n, p.cs, p.sn);
     for (int ky = 0; ky < p.stride; ++ky) {
@@ -194,15 +210,12 @@ SACCADE_AVX512_EXACT void forward_lanes16(const Plan& p, const float* pixels, st
       }
       const int m = (n - ky) % n;
       Lanes16 zr, zi, wr, wi;
-      load16(zr, re + 16 * ky), load16(zi, im + 16 * ky), load16(wr, re + 16 * m), load16(wi, im + 16 * m);
-      const Lanes16 a_re = 0.5f * (zr + wr), a_im = 0.5f * (zi - wi), b_re = 0.5f * (zi + wi), b_im = 0.5f * (wr - zr);
+      load(zr, re + 16 * ky), load(zi, im + 16 * ky), load(wr, re + 16 * m), load(wi, im + 16 * m);
       // Lanes 0-7: columns x0 .. x0+7 (a) and x0+8 .. x0+15 (b); lanes 8-15: 16 further.
-      std::memcpy(mr, &a_re, 8 * sizeof(float)), std::memcpy(mr + 16, reinterpret_cast<const float*>(&a_re) + 8, 32);
-      std::memcpy(mi, &a_im, 8 * sizeof(float)), std::memcpy(mi + 16, reinterpret_cast<const float*>(&a_im) + 8, 32);
-      std::memcpy(mr + 8, &b_re, 8 * sizeof(float)),
-          std::memcpy(mr + 24, reinterpret_cast<const float*>(&b_re) + 8, 32);
-      std::memcpy(mi + 8, &b_im, 8 * sizeof(float)),
-          std::memcpy(mi + 24, reinterpret_cast<const float*>(&b_im) + 8, 32);
+      store_halves(mr, mr + 16, 0.5f * (zr + wr));
+      store_halves(mi, mi + 16, 0.5f * (zi - wi));
+      store_halves(mr + 8, mr + 24, 0.5f * (zi + wi));
+      store_halves(mi + 8, mi + 24, 0.5f * (wr - zr));
     }
   }
   int y0 = 0;

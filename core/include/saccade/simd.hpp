@@ -39,6 +39,20 @@ inline bool avx512f_usable() {
 #endif
 }
 
+// Whether AVX-512 code that permutes bytes (BW and VBMI) may run: the CPU
+// has them and SACCADE_AVX512 is not 0.
+inline bool avx512vbmi_usable() {
+#if defined(__x86_64__)
+  static const bool cpu = [] {
+    __builtin_cpu_init();  // as above
+    return __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vbmi");
+  }();
+  return cpu && avx512_wanted();
+#else
+  return false;
+#endif
+}
+
 // A function compiled for AVX-512 that rounds as its AVX2 and baseline
 // versions do: without fusing a multiply and an add into one rounding (which
 // AVX-512 has and AVX2 alone has not), so its results are theirs to the bit.
