@@ -167,10 +167,9 @@ SACCADE_AVX2_CLONE void forward_lanes(const Plan& p, const float* pixels, std::p
 // fused multiply-add rounds once where the eight-lane code rounds twice.)
 typedef float Lanes16 __attribute__((vector_size(64)));
 
-// Lanes 0-7 of `v` from `first`, lanes 8-15 from `second`; and back.
-SACCADE_AVX512_EXACT __attribute__((always_inline)) inline void load_halves(Lanes16& v, const float* first,
+// Sixteen lanes at `lanes`: 0-7 from `first`, 8-15 from `second`; and back.
+SACCADE_AVX512_EXACT __attribute__((always_inline)) inline void load_halves(float* lanes, const float* first,
                                                                             const float* second) {
-  float* lanes = reinterpret_cast<float*>(&v);
   std::memcpy(lanes, first, 8 * sizeof(float));
   std::memcpy(lanes + 8, second, 8 * sizeof(float));
 }
@@ -193,11 +192,8 @@ SACCADE_AVX512_EXACT void forward_lanes16(const Plan& p, const float* pixels, st
   for (int x0 = 0; x0 < n; x0 += 32) {
     for (int e = 0; e < n; ++e) {
       const float* row = pixels + p.reverse[e] * step + x0;
-      Lanes16 real, imaginary;
-      load_halves(real, row, row + 16);
-      load_halves(imaginary, row + 8, row + 24);
-      store(re + 16 * e, real);
-      store(im + 16 * e, imaginary);
+      load_halves(re + 16 * e, row, row + 16);
+      load_halves(im + 16 * e, row + 8, row + 24);
     }
     lanes_fft_of<Lanes16, 16>(re, im, n, p.cs, p.sn);
     for (int ky = 0; ky < p.stride; ++ky) {
