@@ -6,7 +6,7 @@
 // OpenCV on one thread for all.
 //
 //   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--video FILE:FIRST:x,y,w,h[:COUNT]]...
-//                       [--no-generated] [--holdout]
+//                       [--no-generated] [--holdout] [--fresh K,...]
 //                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--every N] [--scale F]
 //                       [--sequences a,b] [--markdown FILE]
 //                       [--export DIR]   (the sequences written as OTB folders, for other tools, instead)
@@ -162,7 +162,8 @@ struct Options {
   std::string data = SACCADE_SAMPLE_DATA;
   std::vector<std::string> otb, vot, videos;
   bool no_generated = false;
-  bool holdout = false;  // the held-out generated set too
+  bool holdout = false;    // the held-out generated set too
+  std::vector<int> fresh;  // fresh generated sets (fresh_scripts)
   std::string trackers = SACCADE_TRACK_BENCH_FOVEA ? "fovea,csrt,kcf,mil" : "csrt,kcf,mil";
   std::string markdown;
   std::string sequences;  // names to keep, all when empty
@@ -604,6 +605,11 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
     if (!held_out.ok()) return held_out.status();
     for (Sequence& s : *held_out) sequences.push_back(std::move(s));
   }
+  for (const int set : options.fresh) {
+    saccade::Result<std::vector<Sequence>> fresh = generate_sequences(options.data, fresh_scripts(set));
+    if (!fresh.ok()) return fresh.status();
+    for (Sequence& s : *fresh) sequences.push_back(std::move(s));
+  }
   if (Status read = read_otb_folders(options.otb, sequences); !read.ok()) return read;
   if (Status read = read_vot_folders(options.vot, sequences); !read.ok()) return read;
   for (const std::string& spec : options.videos) {
@@ -737,6 +743,11 @@ int main(int argc, char** argv) {
   app.add_flag("--holdout", options.holdout,
                "also the held-out generated set: the same scripts with other targets, backgrounds and seeds "
                "(holdout_<name>)");
+  app.add_option("--fresh", options.fresh,
+                 "K[,K...]: also fresh generated sets, as many as wanted: the same scripts with a target and a "
+                 "background drawn by K from opencv-doc's pictures (fresh<K>_<name>; nothing was tuned on them)")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 1000000));
   app.add_option("--trackers", options.trackers, "comma-separated trackers to run")->capture_default_str();
   app.add_option("--sequences", options.sequences, "comma-separated sequence names to keep (default all)");
   app.add_option("--frames", options.frames, "at most this many frames per sequence (quick runs)");

@@ -1019,6 +1019,47 @@ std::vector<SyntheticScript> holdout_scripts() {
   return all;
 }
 
+std::vector<SyntheticScript> fresh_scripts(int set) {
+  // The targets, and photographs to put them over (opencv-doc's; the
+  // occluder's baboon is none of them).
+  struct Picture {
+    const char* file;
+    cv::Rect crop;
+  };
+  static const std::array<Picture, 10> targets{{{"orange.jpg", kOrange},
+                                                {"apple.jpg", kApple},
+                                                {"butterfly.jpg", kButterfly},
+                                                {"HappyFish.jpg", kFish},
+                                                {"box.png", kBox},
+                                                {"messi5.jpg", kFace},
+                                                {"squirrel_cls.jpg", kSquirrel},
+                                                {"chicky_512.png", kDog},
+                                                {"rubberwhale1.png", kWhale},
+                                                {"smarties.png", kSweet}}};
+  static const std::array<const char*, 24> backgrounds{
+      {"building.jpg",     "aero1.jpg",       "aero3.jpg",        "home.jpg",         "board.jpg",
+       "graf1.png",        "graf3.png",       "stuff.jpg",        "starry_night.jpg", "fruits.jpg",
+       "leuvenA.jpg",      "leuvenB.jpg",     "aloeL.jpg",        "ela_original.jpg", "smarties.png",
+       "rubberwhale2.png", "cards.png",       "pca_test1.jpg",    "left.jpg",         "licenseplate_motion.jpg",
+       "blox.jpg",         "basketball1.png", "box_in_scene.png", "text_motion.jpg"}};
+  // mt19937's numbers are the same everywhere (std::shuffle's use of them is not).
+  std::mt19937 random(0x5eed0000u + static_cast<uint32_t>(set));
+  const auto pick = [&](std::size_t n) { return static_cast<std::size_t>(random() % n); };
+  std::vector<SyntheticScript> all = standard_scripts();
+  for (SyntheticScript& s : all) {
+    const Picture& target = targets[pick(targets.size())];
+    std::string background;
+    do background = backgrounds[pick(backgrounds.size())];
+    while (background == target.file);
+    s.name = "fresh" + std::to_string(set) + "_" + s.name;
+    s.background = background;
+    s.target_image = target.file;
+    s.target_crop = target.crop;
+    s.seed += 1000u * static_cast<uint32_t>(set);
+  }
+  return all;
+}
+
 // ---------------------------------------------------------------- scoring
 
 cv::Rect2d perturbed_first_box(const cv::Rect2d& truth, int run) {

@@ -172,6 +172,12 @@ std::vector<SyntheticScript> standard_scripts();
 // sequences no setting was tuned on, to tell a tracker that generalises from
 // one fitted to the standard set.
 std::vector<SyntheticScript> holdout_scripts();
+// Fresh sets, as many as wanted (`fresh<set>_<name>`, set >= 1): each standard
+// script's motions with a target and a background drawn by the set's number
+// from opencv-doc's pictures, and another seed. Nothing was ever tuned on
+// them: a tracker's figures there are what it does on sequences it has not
+// seen.
+std::vector<SyntheticScript> fresh_scripts(int set);
 
 // Renders a script from the images in `data_dir`. The same script gives the
 // same frames and truth on every run (seeded, no wall-clock or thread

@@ -418,6 +418,42 @@ TEST(Generator, TheHeldOutSetIsTheStandardScriptsWithOtherPictures) {
   }
 }
 
+// Fresh sets: each standard script's motions with a target and a background
+// drawn by the set's number, the same on every call, another draw for another
+// number, never a target over its own photograph; every picture renders.
+TEST(Generator, FreshSetsDrawOtherPicturesForEachNumber) {
+  const std::vector<SyntheticScript> standard = standard_scripts();
+  std::set<std::string> pairs_seen;
+  for (int set = 1; set <= 6; ++set) {
+    const std::vector<SyntheticScript> fresh = fresh_scripts(set), again = fresh_scripts(set);
+    ASSERT_EQ(fresh.size(), standard.size());
+    for (std::size_t i = 0; i < fresh.size(); ++i) {
+      const SyntheticScript &f = fresh[i], &s = standard[i];
+      EXPECT_EQ(f.name, "fresh" + std::to_string(set) + "_" + s.name);
+      EXPECT_EQ(f.background, again[i].background);
+      EXPECT_EQ(f.target_image, again[i].target_image);
+      EXPECT_EQ(f.seed, again[i].seed);
+      EXPECT_NE(f.seed, s.seed) << f.name;
+      EXPECT_NE(f.background, f.target_image) << f.name;
+      EXPECT_EQ(f.frames, s.frames) << f.name;
+      EXPECT_EQ(f.frame_size, s.frame_size) << f.name;
+      EXPECT_EQ(f.occlusions.size(), s.occlusions.size()) << f.name;
+      EXPECT_EQ(f.distractor, s.distractor) << f.name;
+      pairs_seen.insert(f.background + " " + f.target_image);
+    }
+  }
+  // 60 scripts: the draws vary (a fixed pairing would give 10).
+  EXPECT_GT(pairs_seen.size(), 40u);
+  EXPECT_NE(fresh_scripts(1)[0].seed, fresh_scripts(2)[0].seed);
+  // Every picture the sets draw from is there and renders (a few frames of each).
+  for (int set = 1; set <= 3; ++set) {
+    std::vector<SyntheticScript> fresh = fresh_scripts(set);
+    for (SyntheticScript& s : fresh) s.frames = 3;
+    const std::vector<Sequence> all = value_of(generate_sequences(test::sample_dir(), fresh));
+    EXPECT_EQ(all.size(), fresh.size());
+  }
+}
+
 TEST(Generator, IsDeterministic) {
   const std::vector<Sequence> a = value_of(generate_sequences(test::sample_dir()));
   const std::vector<Sequence> b = value_of(generate_sequences(test::sample_dir()));
