@@ -7,7 +7,7 @@
 //
 //   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--video FILE:FIRST:x,y,w,h[:COUNT]]...
 //                       [--no-generated] [--holdout] [--fresh K,...]
-//                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--every N] [--scale F]
+//                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--every N] [--scale F] [--gray]
 //                       [--sequences a,b] [--markdown FILE]
 //                       [--export DIR]   (the sequences written as OTB folders, for other tools, instead)
 #ifndef SACCADE_TRACK_BENCH_FOVEA
@@ -170,6 +170,7 @@ struct Options {
   int frames = 0;
   int every = 1;                  // every Nth frame of each sequence
   double scale = 1.0;             // each sequence's frames resized by this
+  bool gray = false;              // each sequence as a monochrome camera sees it
   std::string trace;              // a folder for per-frame CSV files, one per sequence and tracker
   std::string export_dir;         // --export: the sequences are written there in the OTB layout instead of run
   int runs = 1;                   // runs per sequence, the first box moved a little in all but the first
@@ -633,6 +634,7 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
   for (Sequence& s : sequences) {
     if (Status resampled = resample(s, options.every, options.scale); !resampled.ok())
       return Status::error("--every/--scale: " + resampled.message());
+    if (options.gray) make_gray(s);
     truncate(s, options.frames);
   }
   make_names_unique(sequences, [](Sequence& s) -> std::string& { return s.name; });
@@ -757,6 +759,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100));
   app.add_option("--scale", options.scale, "F: each sequence's frames and truth resized by F (0.1 to 8)")
       ->check(CLI::Range(0.1, 8.0));
+  app.add_flag("--gray", options.gray,
+               "each sequence as a monochrome camera sees it: its frames' gray in all three channels (name@gray)");
   app.add_option("--markdown", options.markdown, "also write the tables to this Markdown file");
   app.add_option("--runs", options.runs,
                  "runs per sequence: run 0 from the true first box, the others from it moved by up to 1.5 px "

@@ -100,6 +100,18 @@ Status resample(Sequence& sequence, int every, double scale) {
   return {};
 }
 
+void make_gray(Sequence& sequence) {
+  sequence.frame = [read = std::move(sequence.frame)](int i) -> Result<cv::Mat> {
+    Result<cv::Mat> frame = read(i);
+    if (!frame.ok() || frame->channels() == 1) return frame;
+    cv::Mat gray, out;
+    cv::cvtColor(*frame, gray, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(gray, out, cv::COLOR_GRAY2BGR);
+    return out;
+  };
+  sequence.name += "@gray";
+}
+
 // ---------------------------------------------------------------- readers
 
 Result<TruthRow> parse_truth_row(const std::string& row, const std::string& where) {

@@ -46,6 +46,11 @@ void truncate(Sequence& sequence, int frames);
 // range (every 1..100, scale 0.1..8) or a frame smaller than 2x2 once scaled.
 Status resample(Sequence& sequence, int every, double scale);
 
+// The sequence as a monochrome camera sees it: each frame's gray (OpenCV's
+// weights), in all three channels, as a gray image file reads (OTB's gray
+// sequences do); the name gains "@gray".
+void make_gray(Sequence& sequence);
+
 // --- Readers. Each returns the sequence, or an error naming the file (and
 // line) at fault.
 

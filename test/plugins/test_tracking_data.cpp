@@ -619,6 +619,27 @@ TEST(Resample, KeepsEveryNthFrameScaledWithItsTruthAndNamesBadValues) {
   EXPECT_EQ(resample(tiny, 1, 0.1).message(), "out_of_view: its 12x9 frames scaled by 0.1 are under 2x2");
 }
 
+// A monochrome camera's view: each frame's gray in all three channels, the
+// truth and the frames' count unchanged, the name marked.
+TEST(MakeGray, GivesEachFramesGrayInAllThreeChannels) {
+  Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
+  truncate(s, 20);
+  const Sequence original = s;
+  make_gray(s);
+  EXPECT_EQ(s.name, "out_of_view@gray");
+  EXPECT_EQ(s.truth, original.truth);
+  EXPECT_EQ(s.visible, original.visible);
+  for (const int i : {0, 19}) {
+    const cv::Mat colour = value_of(original.frame(i)), got = value_of(s.frame(i));
+    ASSERT_EQ(got.type(), CV_8UC3);
+    cv::Mat gray;
+    cv::cvtColor(colour, gray, cv::COLOR_BGR2GRAY);
+    std::vector<cv::Mat> channels;
+    cv::split(got, channels);
+    for (const cv::Mat& c : channels) EXPECT_EQ(cv::norm(c, gray, cv::NORM_INF), 0.0) << "frame " << i;
+  }
+}
+
 TEST(OtbWriter, NamesWhatItCannotWrite) {
   Sequence video;
   video.name = "vtest@0+1+2+3+4";
