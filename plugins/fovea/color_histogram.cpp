@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cstdlib>
 
 namespace saccade::fovea {
 namespace {
@@ -45,6 +46,25 @@ void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& s
   }
   if (counted == 0) return;
   for (float& share : shares) share /= static_cast<float>(counted);
+}
+
+double colourful_share(const cv::Mat& frame, cv::Rect area, double tolerance) {
+  if (frame.channels() < 3 || frame.depth() != CV_8U) return 0;
+  const cv::Rect inside = area & cv::Rect(0, 0, frame.cols, frame.rows);
+  const int channels = frame.channels();
+  int counted = 0, colourful = 0;
+  for (int y = inside.y; y < inside.y + inside.height; ++y) {
+    const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(inside.x) * channels;
+    for (int x = 0; x < inside.width; ++x, pixel += channels) {
+      const int sum = pixel[0] + pixel[1] + pixel[2];
+      if (sum < kDarkestChroma) continue;
+      ++counted;
+      // |channel / sum - 1/3| > tolerance, in integers: |3 channel - sum| > 3 tolerance sum.
+      const double limit = 3 * tolerance * sum;
+      if (std::abs(3 * pixel[2] - sum) > limit || std::abs(3 * pixel[1] - sum) > limit) ++colourful;
+    }
+  }
+  return counted == 0 ? 0.0 : static_cast<double>(colourful) / counted;
 }
 
 double shared_colors(const std::vector<float>& a, const std::vector<float>& b) {

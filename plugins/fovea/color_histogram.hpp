@@ -18,6 +18,14 @@ inline constexpr int kDarkestChroma = 30;  // R + G + B under which a pixel is l
 // without a pixel bright enough. Allocates nothing once `shares` has its size.
 void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& shares);
 
+// The share of `area`'s pixels (clipped to the frame; those under
+// kDarkestChroma left out) of an 8-bit BGR(A) frame whose chromaticity lies
+// more than `tolerance` from gray's (1/3, 1/3) in r or g: how much colour
+// there is to tell things apart by. 0 for a gray frame, also one whose three
+// channels are equal (a monochrome camera's frames read as colour), or an
+// area without a pixel bright enough.
+double colourful_share(const cv::Mat& frame, cv::Rect area, double tolerance);
+
 // The share of one histogram's colours the other has too (histogram
 // intersection): 1 for the same colours, 0 for none in common.
 double shared_colors(const std::vector<float>& a, const std::vector<float>& b);

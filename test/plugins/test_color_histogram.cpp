@@ -68,6 +68,28 @@ TEST(ChromaHistogram, AGrayFrameOrAnEmptyAreaHasNoColours) {
   EXPECT_EQ(shared_colors(shares, shares), 0.0);
 }
 
+// How much colour a target has to be told apart by: none in a monochrome
+// camera's frames (one channel, or three equal ones), nor in pixels too dark
+// for a chromaticity; a photograph's fruit nearly all, a pixel a little off
+// gray counted only beyond the tolerance.
+TEST(ColourfulShare, IsNoneInGrayFramesAndTheShareOfPixelsOffGrayInColour) {
+  const cv::Mat photo = read("orange.jpg");
+  const cv::Rect fruit(150, 150, 200, 200);
+  EXPECT_GT(colourful_share(photo, fruit, 0.02), 0.9);
+  cv::Mat gray, gray3;
+  cv::cvtColor(photo, gray, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(gray, gray3, cv::COLOR_GRAY2BGR);
+  EXPECT_EQ(colourful_share(gray, fruit, 0.02), 0.0);
+  EXPECT_EQ(colourful_share(gray3, fruit, 0.02), 0.0);
+  cv::Mat frame(10, 10, CV_8UC3, cv::Scalar(100, 100, 100));
+  frame(cv::Rect(0, 0, 10, 3)).setTo(cv::Scalar(100, 100, 112));  // r = 112/312: 0.026 off gray
+  frame(cv::Rect(0, 3, 10, 2)).setTo(cv::Scalar(100, 100, 104));  // r = 104/304: 0.009 off
+  frame(cv::Rect(0, 5, 10, 2)).setTo(cv::Scalar(3, 3, 20));       // vivid but too dark: left out
+  EXPECT_DOUBLE_EQ(colourful_share(frame, cv::Rect(0, 0, 10, 10), 0.02), 30.0 / 80.0);
+  EXPECT_DOUBLE_EQ(colourful_share(frame, cv::Rect(0, 0, 10, 10), 0.005), 50.0 / 80.0);
+  EXPECT_EQ(colourful_share(frame, cv::Rect(20, 20, 5, 5), 0.02), 0.0);  // outside the frame
+}
+
 // What the mean colour cannot tell apart: a third of the target covered by
 // something else shares two thirds of its colours and more; the target
 // tinted as the benchmark's look-alike is (0.85 of its brightness, blue up
