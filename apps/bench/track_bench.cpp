@@ -7,7 +7,7 @@
 //
 //   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--video FILE:FIRST:x,y,w,h[:COUNT]]...
 //                       [--no-generated] [--holdout] [--fresh K,...]
-//                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--every N] [--scale F] [--gray]
+//                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--every N] [--scale F] [--gray] [--jpeg Q]
 //                       [--sequences a,b] [--markdown FILE]
 //                       [--export DIR]   (the sequences written as OTB folders, for other tools, instead)
 #ifndef SACCADE_TRACK_BENCH_FOVEA
@@ -171,6 +171,7 @@ struct Options {
   int every = 1;                  // every Nth frame of each sequence
   double scale = 1.0;             // each sequence's frames resized by this
   bool gray = false;              // each sequence as a monochrome camera sees it
+  int jpeg = 0;                   // each frame through a JPEG of this quality (0: not)
   std::string trace;              // a folder for per-frame CSV files, one per sequence and tracker
   std::string export_dir;         // --export: the sequences are written there in the OTB layout instead of run
   int runs = 1;                   // runs per sequence, the first box moved a little in all but the first
@@ -635,6 +636,9 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
     if (Status resampled = resample(s, options.every, options.scale); !resampled.ok())
       return Status::error("--every/--scale: " + resampled.message());
     if (options.gray) make_gray(s);
+    if (options.jpeg > 0)
+      if (Status compressed = make_jpeg(s, options.jpeg); !compressed.ok())
+        return Status::error("--jpeg: " + compressed.message());
     truncate(s, options.frames);
   }
   make_names_unique(sequences, [](Sequence& s) -> std::string& { return s.name; });
@@ -761,6 +765,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.1, 8.0));
   app.add_flag("--gray", options.gray,
                "each sequence as a monochrome camera sees it: its frames' gray in all three channels (name@gray)");
+  app.add_option("--jpeg", options.jpeg,
+                 "Q: each frame through a JPEG of quality Q (1-100), as a recorded video's or a network camera's "
+                 "(name@jpegQ)")
+      ->check(CLI::Range(1, 100));
   app.add_option("--markdown", options.markdown, "also write the tables to this Markdown file");
   app.add_option("--runs", options.runs,
                  "runs per sequence: run 0 from the true first box, the others from it moved by up to 1.5 px "
@@ -775,8 +783,8 @@ int main(int argc, char** argv) {
                  "FOLDER: write the sequences with truth in the OTB layout (FOLDER/<sequence>/img/0001.png ..., "
                  "groundtruth_rect.txt; NaN rows where the target is hidden) instead of running them");
   // A value given twice is the last one: make's TRACK_ARGS can change what a target gives.
-  for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--every", "--scale", "--markdown",
-                             "--runs", "--trace", "--export"})
+  for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--every", "--scale", "--jpeg",
+                             "--markdown", "--runs", "--trace", "--export"})
     app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   if (!apply_sets(options)) return 2;

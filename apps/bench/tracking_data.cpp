@@ -112,6 +112,21 @@ void make_gray(Sequence& sequence) {
   sequence.name += "@gray";
 }
 
+Status make_jpeg(Sequence& sequence, int quality) {
+  if (quality < 1 || quality > 100)
+    return Status::error("jpeg quality " + std::to_string(quality) + ": expected a whole number from 1 to 100");
+  sequence.frame = [read = std::move(sequence.frame), quality](int i) -> Result<cv::Mat> {
+    Result<cv::Mat> frame = read(i);
+    if (!frame.ok()) return frame;
+    std::vector<uchar> bytes;
+    if (!cv::imencode(".jpg", *frame, bytes, {cv::IMWRITE_JPEG_QUALITY, quality}))
+      return Status::error("frame " + std::to_string(i) + ": the JPEG encoder refused it");
+    return cv::imdecode(bytes, cv::IMREAD_COLOR);
+  };
+  sequence.name += "@jpeg" + std::to_string(quality);
+  return {};
+}
+
 // ---------------------------------------------------------------- readers
 
 Result<TruthRow> parse_truth_row(const std::string& row, const std::string& where) {

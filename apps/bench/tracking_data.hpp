@@ -51,6 +51,12 @@ Status resample(Sequence& sequence, int every, double scale);
 // sequences do); the name gains "@gray".
 void make_gray(Sequence& sequence);
 
+// The sequence as a camera that compresses its frames sees it: each frame
+// encoded as a JPEG of `quality` (1-100, OpenCV's encoder, 4:2:0 chroma) and
+// decoded, as the frames of a recorded video or a network camera are; the name
+// gains "@jpeg<quality>". An error names a quality out of range.
+Status make_jpeg(Sequence& sequence, int quality);
+
 // --- Readers. Each returns the sequence, or an error naming the file (and
 // line) at fault.
 

@@ -619,6 +619,27 @@ TEST(Resample, KeepsEveryNthFrameScaledWithItsTruthAndNamesBadValues) {
   EXPECT_EQ(resample(tiny, 1, 0.1).message(), "out_of_view: its 12x9 frames scaled by 0.1 are under 2x2");
 }
 
+// A compressing camera's view: each frame through OpenCV's JPEG encoder at the
+// quality asked, the truth unchanged, the name marked; a quality out of range
+// refused with the value.
+TEST(MakeJpeg, GivesEachFrameThroughAJpegOfTheQualityAsked) {
+  Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
+  truncate(s, 20);
+  const Sequence original = s;
+  ASSERT_TRUE(make_jpeg(s, 30).ok());
+  EXPECT_EQ(s.name, "out_of_view@jpeg30");
+  EXPECT_EQ(s.truth, original.truth);
+  const cv::Mat colour = value_of(original.frame(7)), got = value_of(s.frame(7));
+  std::vector<uchar> bytes;
+  ASSERT_TRUE(cv::imencode(".jpg", colour, bytes, {cv::IMWRITE_JPEG_QUALITY, 30}));
+  EXPECT_EQ(cv::norm(got, cv::imdecode(bytes, cv::IMREAD_COLOR), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(got, colour, cv::NORM_INF), 0.0) << "not compressed";
+  Sequence bad = original;
+  EXPECT_EQ(make_jpeg(bad, 0).message(), "jpeg quality 0: expected a whole number from 1 to 100");
+  EXPECT_EQ(make_jpeg(bad, 101).message(), "jpeg quality 101: expected a whole number from 1 to 100");
+  EXPECT_EQ(bad.name, "out_of_view");
+}
+
 // A monochrome camera's view: each frame's gray in all three channels, the
 // truth and the frames' count unchanged, the name marked.
 TEST(MakeGray, GivesEachFramesGrayInAllThreeChannels) {
