@@ -920,10 +920,11 @@ struct BoxTracker::Impl {
     if (fresh) chroma_mean = color, chroma_deviation = 0, distance = 0;
     chroma_deviation = 0.95 * chroma_deviation + 0.05 * distance;
     chroma_mean = 0.95 * chroma_mean + 0.05 * color;
-    const double share = colourful_share(frame, central_half(frame, at, size), c.min_chroma_change);
+    const cv::Rect inner = central_half(frame, at, size);
+    const double share = colourful_share(frame, inner, c.min_chroma_change);
     colourful = fresh ? share : 0.95 * colourful + 0.05 * share;
     if (c.min_shared_colors <= 0) return;
-    chroma_histogram(frame, central_half(frame, at, size), candidate_shares);
+    chroma_histogram(frame, inner, candidate_shares);
     if (fresh) color_shares = candidate_shares;
     for (std::size_t i = 0; i < color_shares.size(); ++i)
       color_shares[i] = 0.95f * color_shares[i] + 0.05f * candidate_shares[i];
