@@ -340,12 +340,17 @@ TEST(TwoPcRun, TwoProcessesOverDdsGiveExactlyWhatOneProcessGives) {
   ASSERT_TRUE(status.ok()) << status.message();
   Records split = take_records();
   // One host: the retinas, maps and motions travel serialised through their
-  // writers' mailboxes (those that fit a slot), in order, once each.
+  // writers' mailboxes (those that fit a slot), in order, once each. How
+  // many depends on the load: a writer more than the mailbox's 16 slots
+  // ahead of its reader leaves the overwritten posts to DDS (which has them
+  // too), and the child here writes 40 frames as fast as it can. CI on two
+  // busy cores saw 31 of 120 mailed. So: the mailbox was in use, and
+  // whatever came by which path, everything arrived, in order, once.
   uint64_t mailed = 0;
   for (const NodeStats* s : executor.stats())
     for (const auto& c : s->counters)
       if (c->name == "mailbox_frames") mailed += c->value.load();
-  EXPECT_GE(mailed, static_cast<uint64_t>(frames)) << "at least the retinas came through the mailbox";
+  EXPECT_GT(mailed, 0u) << "nothing came through the same-host mailbox";
 
   ASSERT_EQ(split.retinas.size(), single.retinas.size());
   ASSERT_EQ(split.maps.size(), single.maps.size());
