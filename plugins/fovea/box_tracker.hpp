@@ -57,6 +57,10 @@ struct BoxTrackerConfig {
                                     // share this much of the target's chromaticity histogram: a look-alike
                                     // of another tint is refused, a target partly hidden is not (0: not
                                     // asked; docs/tracking.md)
+  double min_shared_tones = 0.6;    // a re-detection (also a sure one) must share this much of the
+                                    // target's histogram of gray relative to its mean gray: a monochrome
+                                    // camera's only check of a find, and a second one in colour (0: not
+                                    // asked; docs/tracking.md)
   double lost_psr = 5.0;            // below this the peak is not trusted at all
   int lost_frames = 5;              // consecutive frames below lost_psr before the target is lost
   int unsure_frames = 30;           // consecutive frames not tracked before the target is lost

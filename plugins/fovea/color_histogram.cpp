@@ -67,6 +67,33 @@ double colourful_share(const cv::Mat& frame, cv::Rect area, double tolerance) {
   return counted == 0 ? 0.0 : static_cast<double>(colourful) / counted;
 }
 
+void tone_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& shares) {
+  shares.assign(static_cast<std::size_t>(kToneBins), 0.f);
+  if (frame.depth() != CV_8U || frame.channels() == 2) return;
+  const cv::Rect inside = area & cv::Rect(0, 0, frame.cols, frame.rows);
+  if (inside.area() == 0) return;
+  const int channels = frame.channels();
+  // cv::cvtColor's gray (its fixed-point weights and rounding, bit for
+  // bit), counted per value; the bins are then a table of 256.
+  std::array<int, 256> counts{};
+  for (int y = inside.y; y < inside.y + inside.height; ++y) {
+    const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(inside.x) * channels;
+    for (int x = 0; x < inside.width; ++x, pixel += channels)
+      ++counts[channels == 1 ? pixel[0] : (1868 * pixel[0] + 9617 * pixel[1] + 4899 * pixel[2] + 8192) >> 14];
+  }
+  int64_t sum = 0;
+  for (int v = 0; v < 256; ++v) sum += int64_t{v} * counts[static_cast<std::size_t>(v)];
+  const int64_t count = inside.area();
+  if (sum < int64_t{kDarkestTone} * count) return;
+  // bin = v / (mean * kToneTop) * kToneBins = v * count * kToneBins * 2 / (sum * 5).
+  static_assert(kToneTop == 2.5);
+  for (int v = 0; v < 256; ++v) {
+    const int64_t bin = std::min<int64_t>(kToneBins - 1, v * count * kToneBins * 2 / (sum * 5));
+    shares[static_cast<std::size_t>(bin)] += static_cast<float>(counts[static_cast<std::size_t>(v)]);
+  }
+  for (float& share : shares) share /= static_cast<float>(count);
+}
+
 double shared_colors(const std::vector<float>& a, const std::vector<float>& b) {
   double shared = 0;
   for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) shared += std::min(a[i], b[i]);

@@ -26,6 +26,18 @@ void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& s
 // area without a pixel bright enough.
 double colourful_share(const cv::Mat& frame, cv::Rect area, double tolerance);
 
+inline constexpr int kToneBins = 32;     // bins over a pixel's gray as a share of the area's mean gray, 0 to ...
+inline constexpr double kToneTop = 2.5;  // ... this many times the mean (brighter pixels in the last bin)
+inline constexpr int kDarkestTone = 8;   // a mean gray under which an area has no tones to tell apart
+
+// The histogram of `area`'s pixels' gray (clipped to the frame) as a
+// share of the area's mean gray, of an 8-bit gray, BGR or BGRA frame: the
+// gray counterpart of chroma_histogram, the same under a brighter or dimmer
+// light, for a target without colours or a monochrome camera. Shares
+// summing to 1 into `shares` (kToneBins); all 0 for an area darker than
+// kDarkestTone. Allocates nothing once `shares` has its size.
+void tone_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& shares);
+
 // The share of one histogram's colours the other has too (histogram
 // intersection): 1 for the same colours, 0 for none in common.
 double shared_colors(const std::vector<float>& a, const std::vector<float>& b);

@@ -93,6 +93,11 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "at least this much of the target's chromaticity histogram: a look-alike of another tint is "
              "refused, a target partly hidden is not (0: not asked; docs/tracking.md)",
              &C::box, &B::min_shared_colors)
+      .field("box_min_shared_tones", {0, 1},
+             "box tracking: a re-detection, also a sure one, must share at least this much of the target's "
+             "histogram of gray relative to its mean gray (its tones): background or a look-alike of other "
+             "contrast is refused, in a monochrome camera's frames too (0: not asked; docs/tracking.md)",
+             &C::box, &B::min_shared_tones)
       .field("box_follow_lost_colors", {0, 1},
              "box tracking: lost, the local look moves to a peak near where the target was lost that shares this "
              "much of the target's colours, and looks there at other sizes too (0: it stays where the target was "

@@ -118,15 +118,24 @@ TEST(BoxTrackerOnGeneratedSequences, ALostTargetBackTurnedAmongLookAlikesOfOther
 // face's and every frame was doubted; the scale filter, which measures the
 // size on tracked frames only, kept the box at that size for 100 frames
 // (success@0.5 0.617 and 0.583). Measured, not learnt, on unsure frames too
-// for rescale_frames after a re-detection: 0.910 and 0.872.
+// for rescale_frames after a re-detection: 0.910 and 0.872. (Since a
+// re-detection is asked for the target's tones too, box_min_shared_tones,
+// the wrong finds that came first on these two runs are refused, and the
+// face is found at frame 189 and kept at its size either way: 0.890 and
+// 0.876. Without the tones the runs take the path above, where the resizing
+// is shown.)
 TEST(BoxTrackerOnGeneratedSequences, ATargetFoundAgainAtTheWrongSizeIsResizedWhileStillDoubted) {
   const Sequence held_out = generated("holdout_mixed");
-  BoxTrackerConfig tracked_only;
+  BoxTrackerConfig without_tones;
+  without_tones.min_shared_tones = 0;
+  BoxTrackerConfig tracked_only = without_tones;
   tracked_only.rescale_frames = 0;
   for (const int run : {2, 4}) {
-    const TrackScore resized = track(held_out, run), kept = track(held_out, run, tracked_only);
-    std::printf("run %d: success@0.5 %.3f, the size measured on tracked frames only %.3f\n", run, resized.success50,
-                kept.success50);
+    const TrackScore defaults = track(held_out, run), resized = track(held_out, run, without_tones),
+                     kept = track(held_out, run, tracked_only);
+    std::printf("run %d: success@0.5 %.3f; without the tones %.3f, and the size measured on tracked frames only %.3f\n",
+                run, defaults.success50, resized.success50, kept.success50);
+    EXPECT_GE(defaults.success50, 0.85) << "run " << run;
     EXPECT_GE(resized.success50, 0.85) << "run " << run;
     EXPECT_LT(kept.success50, 0.7) << "run " << run;
   }
@@ -195,6 +204,30 @@ TEST(BoxTrackerOnGeneratedSequences, AMonochromeCamerasTargetIsFoundAgainOnlyOve
   EXPECT_GE(score.honest_lost, 0.9);
   EXPECT_EQ(score.reacquire_misses, 0);
   EXPECT_LE(score.max_reacquire_delay, 15);
+}
+
+// `fast_640` in gray: while the target is away, the whole-frame search finds
+// background that the filter half matches, over the re-detection's bar
+// (PSR 10-12) and of the target's size; a monochrome camera has no colour to
+// refuse it by. Its tones (gray relative to the mean: box_min_shared_tones)
+// are a flat patch's or another contrast's, and refused, the tracker waits
+// for the target. Without them (the tracker until the eighth session of
+// 2026-11-29), precision 0.629 and honest lost 0.82.
+TEST(BoxTrackerOnGeneratedSequences, AMonochromeCamerasFindOfOtherTonesIsNotTakenForTheTarget) {
+  Sequence gray = generated("fast_640");
+  make_gray(gray);
+  BoxTrackerConfig without_tones;
+  without_tones.min_shared_tones = 0;
+  const TrackScore with = track(gray, 0), without = track(gray, 0, without_tones);
+  std::printf(
+      "fast_640 in gray: precision %.3f, honest lost %.2f, %d of %d reappearances missed (without tones: %.3f, "
+      "%.2f, %d)\n",
+      with.precision20, with.honest_lost, with.reacquire_misses, with.reappearances, without.precision20,
+      without.honest_lost, without.reacquire_misses);
+  EXPECT_GE(with.precision20, 0.85);
+  EXPECT_GE(with.honest_lost, 0.95);
+  EXPECT_EQ(with.reacquire_misses, 0);
+  EXPECT_LT(without.precision20, 0.75) << "the tones are what refuse the background here";
 }
 
 // Real video: the four shots of opencv-doc's Megamind.avi (720x528, an
@@ -338,6 +371,43 @@ TEST(BoxTrackerOnRealVideo, KeepsAPedestrianWhoStaysInViewOverOthersInDarkClothe
     EXPECT_EQ(score.jumps, 0) << "frame " << w.first_frame;
     EXPECT_GE(score.claimed, w.min_claimed) << "frame " << w.first_frame;
   }
+}
+
+// The man in black of vtest.avi's frame 480 (above) over 150 frames, from the
+// six first boxes `make bench-track-people --runs 6` starts him from: crossed
+// by men in darker jackets and jeans, he was left for one of them from two of
+// the boxes (three jumps) while re-detections were asked only for his
+// colours; asked for his tones too (box_min_shared_tones), he is kept from
+// every box.
+TEST(BoxTrackerOnRealVideo, KeepsTheManInBlackFromEveryFirstBoxOverOthersOfOtherTones) {
+  const cv::Rect2d box(577, 241, 35, 111);
+  Result<Sequence> read = read_video({test::sample_path("vtest.avi"), 480, box, 150});
+  ASSERT_TRUE(read.ok()) << read.error();
+  const Sequence& s = *read;
+  auto jumps = [&](int run, const BoxTrackerConfig& config) {
+    BoxTracker tracker(config);
+    const cv::Rect2d first = perturbed_first_box(box, run);
+    const Result<cv::Mat> frame0 = s.frame(0);
+    EXPECT_TRUE(frame0.ok() && tracker.init(*frame0, first).ok());
+    std::vector<TrackedFrame> track{{first}};
+    for (int i = 1; i < s.size(); ++i) {
+      const Result<cv::Mat> frame = s.frame(i);
+      EXPECT_TRUE(frame.ok());
+      const TrackEstimate e = tracker.update(*frame);
+      track.push_back({e.box, e.state == TrackState::kTracking});
+    }
+    return witness_score(track).jumps;
+  };
+  BoxTrackerConfig without_tones;
+  without_tones.min_shared_tones = 0;
+  int jumps_without = 0;
+  for (int run = 0; run < 6; ++run) {
+    const int with = jumps(run, {}), without = jumps(run, without_tones);
+    std::printf("first box %d: %d jumps (without tones %d)\n", run, with, without);
+    EXPECT_EQ(with, 0) << "first box " << run;
+    jumps_without += without;
+  }
+  EXPECT_GT(jumps_without, 0) << "the tones are what keep him here";
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
-// The chromaticity histogram the box tracker can ask of a re-detection
-// (box_min_shared_colors): real image patches (opencv-doc), one of them partly
-// covered, one tinted as the benchmark's look-alikes are.
+// The chromaticity and tone histograms the box tracker asks of a
+// re-detection (box_min_shared_colors, box_min_shared_tones): real image
+// patches (opencv-doc), one of them partly covered, one tinted as the
+// benchmark's look-alikes are, one in dimmer light.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -111,6 +112,77 @@ TEST(SharedColors, APartlyHiddenTargetSharesItsColoursATintedLookAlikeFew) {
   EXPECT_GE(partly_hidden, 0.6);
   EXPECT_LT(look_alike, 0.45);
   EXPECT_DOUBLE_EQ(shared_colors(seen, learnt), shared_colors(learnt, seen));
+}
+
+// The tone histogram (box_min_shared_tones): each pixel's gray as a share of
+// the area's mean, binned over 0 to kToneTop times it.
+TEST(ToneHistogram, BinsEachGrayByItsShareOfTheMeanAndLeavesOutDarkAreas) {
+  cv::Mat frame(10, 20, CV_8UC1, cv::Scalar(50));
+  frame(cv::Rect(10, 0, 10, 10)).setTo(150);  // mean 100: half at 0.5 of it, half at 1.5
+  std::vector<float> shares;
+  tone_histogram(frame, cv::Rect(-5, -5, 100, 100), shares);  // clipped to the frame
+  ASSERT_EQ(shares.size(), static_cast<std::size_t>(kToneBins));
+  const auto bin = [](double of_mean) { return static_cast<std::size_t>(of_mean / kToneTop * kToneBins); };
+  EXPECT_FLOAT_EQ(shares[bin(0.5)], 0.5f);
+  EXPECT_FLOAT_EQ(shares[bin(1.5)], 0.5f);
+  EXPECT_NEAR(total(shares), 1.0, 1e-6);
+
+  frame.setTo(kDarkestTone - 1);
+  tone_histogram(frame, cv::Rect(0, 0, 20, 10), shares);
+  EXPECT_EQ(total(shares), 0.0) << "too dark for tones";
+  tone_histogram(frame, cv::Rect(30, 30, 5, 5), shares);
+  EXPECT_EQ(total(shares), 0.0) << "outside the frame";
+}
+
+// A monochrome camera's frames, read as one channel or as three equal ones,
+// give one histogram; a colour frame's is that of its gray (cv::cvtColor's).
+TEST(ToneHistogram, IsTheGraysWhateverTheChannels) {
+  const cv::Mat photo = read("baboon.jpg");
+  const cv::Rect face(180, 40, 150, 120);
+  cv::Mat gray, gray3;
+  cv::cvtColor(photo, gray, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(gray, gray3, cv::COLOR_GRAY2BGR);
+  std::vector<float> of_colour, of_gray, of_gray3;
+  tone_histogram(photo, face, of_colour);
+  tone_histogram(gray, face, of_gray);
+  tone_histogram(gray3, face, of_gray3);
+  EXPECT_EQ(of_gray, of_gray3);
+  EXPECT_EQ(of_colour, of_gray);
+}
+
+// What the tones tell apart where there is no colour: a textured target seen
+// in dimmer light shares nearly all of them (relative to the mean, the light
+// cancels), a third of it covered by other texture most; flat background and
+// a patch of other contrast few.
+TEST(SharedTones, AreTheSameInOtherLightAndFewForFlatBackgroundOrOtherContrast) {
+  cv::Mat gray;
+  cv::cvtColor(read("baboon.jpg"), gray, cv::COLOR_BGR2GRAY);
+  const cv::Mat target = gray(cv::Rect(180, 40, 150, 120)).clone();
+  const cv::Rect whole(0, 0, target.cols, target.rows);
+  std::vector<float> learnt, seen;
+  tone_histogram(target, whole, learnt);
+  const auto shared_with = [&](const cv::Mat& look) {
+    tone_histogram(look, cv::Rect(0, 0, look.cols, look.rows), seen);
+    return shared_colors(seen, learnt);
+  };
+  cv::Mat dimmer;
+  target.convertTo(dimmer, CV_8U, 0.6, 0);
+  cv::Mat covered = target.clone();
+  cv::Mat fruit;
+  cv::cvtColor(read("fruits.jpg"), fruit, cv::COLOR_BGR2GRAY);
+  fruit(cv::Rect(0, 300, 50, 120)).copyTo(covered(cv::Rect(0, 0, 50, 120)));
+  cv::Mat flat;
+  cv::GaussianBlur(target, flat, cv::Size(0, 0), 30);
+  cv::Mat harsher;
+  target.convertTo(harsher, CV_8U, 2.0, -cv::mean(target)[0]);  // the same mean, twice the contrast
+  const double in_other_light = shared_with(dimmer), partly_hidden = shared_with(covered),
+               flat_background = shared_with(flat), other_contrast = shared_with(harsher);
+  std::printf("shared tones: dimmer %.3f, a third covered %.3f, blurred flat %.3f, twice the contrast %.3f\n",
+              in_other_light, partly_hidden, flat_background, other_contrast);
+  EXPECT_GE(in_other_light, 0.9);
+  EXPECT_GE(partly_hidden, 0.7);
+  EXPECT_LT(flat_background, 0.6);
+  EXPECT_LT(other_contrast, 0.6);
 }
 
 // The whole-frame search's colour evidence (box_color_proposals): a patch of
