@@ -911,6 +911,12 @@ struct BoxTracker::Impl {
   bool colors_asked(const cv::Mat& frame) const {
     return config.min_shared_colors > 0 && frame.channels() >= 3 && !empty(color_shares) && color_checked(config);
   }
+  // Is the target known to have no colours to check, but tones (a gray
+  // target, a monochrome camera's frames)?
+  bool without_colours() const {
+    return config.min_shared_tones > 0 && chroma_frames >= config.warmup_frames && colourful < kMinColourful &&
+           !empty(tone_shares);
+  }
   // How much of the target's chromaticity histogram a look shares; 1 where
   // that is not asked. A gray frame, or a target (or a place) too dark for
   // any colour, has an empty histogram: no evidence either way, and the look
@@ -969,18 +975,23 @@ struct BoxTracker::Impl {
   // look's centre, under its window, or at the wrong size stays under the bars
   // (make bench-track's holdout_mixed: 3.5-3.8 on the target 40 px from where
   // it was lost, 1.2-1.6x larger, its colours shared 0.73-0.85, for 40 frames);
-  // followed there, it reaches them. Not without colours (gray video, a target
-  // away so long that its colour is no longer checked): the look then
-  // followed an occluder's or the background's peaks and found a look-alike.
+  // followed there, it reaches them. A target without colours (a monochrome
+  // camera's) is followed by its tones instead, as much of them as a
+  // re-detection must share (`holdout_mixed` in gray: re-acquired in 12
+  // frames instead of 41); not a target away so long that its colour is no
+  // longer checked: the look then followed an occluder's or the background's
+  // peaks and found a look-alike.
   void follow_lost_colors(const cv::Mat& frame, const std::vector<Placement>& at, const std::vector<Peak>& peaks,
                           std::size_t first, std::size_t end) {
     lost_look_moved = false;
-    if (config.follow_lost_colors <= 0 || !colors_asked(frame)) return;
+    const bool by_tones = !colors_asked(frame) && without_colours();
+    if (config.follow_lost_colors <= 0 || (!colors_asked(frame) && !by_tones)) return;
     double best = 0;
     for (std::size_t i = first; i < end; ++i) {
       const cv::Point2d found = at[i].to_frame(peaks[i].offset);
       if (peaks[i].psr <= best || !near_where_tracked(found) ||
-          shared_colors_at(frame, at[i], found) < config.follow_lost_colors)
+          (by_tones ? shared_tones_at(frame, at[i], found) < config.min_shared_tones
+                    : shared_colors_at(frame, at[i], found) < config.follow_lost_colors))
         continue;
       best = peaks[i].psr, lost_look = found, lost_look_moved = true;
     }

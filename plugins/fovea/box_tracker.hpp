@@ -78,7 +78,8 @@ struct BoxTrackerConfig {
   int color_proposals = 1;          // ... and by look and colour together (while lost, not while only unsure,
                                     // and while its colour is checked; 0: none)
   double follow_lost_colors = 0.5;  // lost: the local look moves to a peak near where the target was lost that
-                                    // shares this much of its colours, and looks there at other sizes too
+                                    // shares this much of its colours (a target without colours:
+                                    // min_shared_tones of its tones), and looks there at other sizes too
                                     // (0: it stays where the target was lost; docs/tracking.md)
   double max_size_change = 0.03;    // a re-detection's size may differ from the size the target was last
                                     // tracked at by this share per frame since (0: any of the sizes searched)

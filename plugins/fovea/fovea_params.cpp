@@ -100,8 +100,8 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              &C::box, &B::min_shared_tones)
       .field("box_follow_lost_colors", {0, 1},
              "box tracking: lost, the local look moves to a peak near where the target was lost that shares this "
-             "much of the target's colours, and looks there at other sizes too (0: it stays where the target was "
-             "lost; docs/tracking.md)",
+             "much of the target's colours (a target without colours: box_min_shared_tones of its tones), and looks "
+             "there at other sizes too (0: it stays where the target was lost; docs/tracking.md)",
              &C::box, &B::follow_lost_colors)
       .field("box_color_proposals", {0, 16},
              "box tracking: lost (not while only unsure), places per size the whole-frame search proposes by the "

@@ -230,6 +230,27 @@ TEST(BoxTrackerOnGeneratedSequences, AMonochromeCamerasFindOfOtherTonesIsNotTake
   EXPECT_LT(without.precision20, 0.75) << "the tones are what refuse the background here";
 }
 
+// `holdout_mixed` in gray: the dog's face comes back from behind an occluder
+// near where it went, larger and turned, peaking under the re-detection's
+// bar. In colour the lost look follows the face's colours there
+// (box_follow_lost_colors); a monochrome camera's face, without colours, is
+// followed by its tones (as much of them as a re-detection must share) and
+// re-acquired in 12 frames; with the look kept where it went, in 41.
+TEST(BoxTrackerOnGeneratedSequences, AMonochromeCamerasLostTargetIsFollowedByItsTones) {
+  Sequence gray = generated("holdout_mixed");
+  make_gray(gray);
+  BoxTrackerConfig look_stays;
+  look_stays.follow_lost_colors = 0;
+  const TrackScore followed = track(gray, 0), stays = track(gray, 0, look_stays);
+  std::printf(
+      "holdout_mixed in gray: re-acquired after %d frames, precision %.3f (the look kept where it went: %d, %.3f)\n",
+      followed.max_reacquire_delay, followed.precision20, stays.max_reacquire_delay, stays.precision20);
+  EXPECT_EQ(followed.reacquire_misses, 0);
+  EXPECT_LE(followed.max_reacquire_delay, 15);
+  EXPECT_GE(followed.precision20, 0.9);
+  EXPECT_GT(stays.max_reacquire_delay, 30) << "following the tones is what finds it here";
+}
+
 // Real video: the four shots of opencv-doc's Megamind.avi (720x528, an
 // animated film: a woman's face, a man's, hers, his closer; cuts at frames
 // 98, 154 and 200), each followed from the box OpenCV's Haar face detector
