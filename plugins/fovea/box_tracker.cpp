@@ -880,10 +880,11 @@ struct BoxTracker::Impl {
     return color_matches(config, distance) && has_its_colors(frame, p, found);
   }
   // Are enough of a look's colours the target's (min_shared_colors, while
-  // its colour is checked)? Asked of every re-detection, also a sure one: the
-  // mean colour of a target partly hidden moves as far as a tinted
-  // look-alike's, and so it is not asked of a sure peak; the histogram tells
-  // them apart (docs/tracking.md).
+  // its colour is checked), and of its tones (min_shared_tones, always)?
+  // Asked of every re-detection, also a sure one: the mean colour of a
+  // target partly hidden moves as far as a tinted look-alike's, and so it is
+  // not asked of a sure peak; the histograms tell them apart
+  // (docs/tracking.md).
   bool has_its_colors(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
     return shared_colors_at(frame, p, found) >= config.min_shared_colors &&
            shared_tones_at(frame, p, found) >= config.min_shared_tones;
@@ -897,7 +898,7 @@ struct BoxTracker::Impl {
   // by (`--gray`: `fast_640`'s background taken while the target was away,
   // precision 0.629 -> 0.911), and in colour it is a second check beside
   // the chromaticity, which people in dark clothes pass for each other
-  // (vtest.avi's pedestrians: 122 -> 93 jumps over 132 runs;
+  // (vtest.avi's pedestrians: 122 -> 95 jumps over 132 runs;
   // docs/tracking.md). An area too dark for tones is no evidence either way.
   double shared_tones_at(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
     if (config.min_shared_tones <= 0 || empty(tone_shares) || tracked_frames < config.warmup_frames) return 1.0;
@@ -952,10 +953,12 @@ struct BoxTracker::Impl {
     const double share = colourful_share(frame, inner, c.min_chroma_change);
     colourful = fresh ? share : 0.95 * colourful + 0.05 * share;
     // The tones are never learnt afresh: relative to the mean, they do not
-    // change with the light.
+    // change with a brighter or dimmer light. A frame too dark for tones
+    // teaches nothing (blended in, its empty histogram would wear the learnt
+    // one down under the bar).
     if (c.min_shared_tones > 0) {
       tone_histogram(frame, inner, candidate_shares);
-      learn_shares(tone_shares, candidate_shares, false);
+      if (!empty(candidate_shares)) learn_shares(tone_shares, candidate_shares, false);
     }
     if (c.min_shared_colors <= 0) return;
     chroma_histogram(frame, inner, candidate_shares);

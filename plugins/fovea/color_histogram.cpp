@@ -73,13 +73,14 @@ void tone_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& sha
   const cv::Rect inside = area & cv::Rect(0, 0, frame.cols, frame.rows);
   if (inside.area() == 0) return;
   const int channels = frame.channels();
-  // cv::cvtColor's gray (its fixed-point weights and rounding, bit for
-  // bit), counted per value; the bins are then a table of 256.
+  // cv::cvtColor's gray (OpenCV 4's 15-bit fixed-point weights and
+  // rounding, bit for bit), counted per value; the bins are then a table
+  // of 256.
   std::array<int, 256> counts{};
   for (int y = inside.y; y < inside.y + inside.height; ++y) {
     const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(inside.x) * channels;
     for (int x = 0; x < inside.width; ++x, pixel += channels)
-      ++counts[channels == 1 ? pixel[0] : (1868 * pixel[0] + 9617 * pixel[1] + 4899 * pixel[2] + 8192) >> 14];
+      ++counts[channels == 1 ? pixel[0] : (3735 * pixel[0] + 19235 * pixel[1] + 9798 * pixel[2] + 16384) >> 15];
   }
   int64_t sum = 0;
   for (int v = 0; v < 256; ++v) sum += int64_t{v} * counts[static_cast<std::size_t>(v)];

@@ -400,15 +400,18 @@ TEST(BoxTrackerOnRealVideo, KeepsAPedestrianWhoStaysInViewOverOthersInDarkClothe
   }
 }
 
-// The man in black of vtest.avi's frame 480 (above) over 150 frames, from the
-// six first boxes `make bench-track-people --runs 6` starts him from: crossed
-// by men in darker jackets and jeans, he was left for one of them from two of
-// the boxes (three jumps) while re-detections were asked only for his
-// colours; asked for his tones too (box_min_shared_tones), he is kept from
-// every box.
-TEST(BoxTrackerOnRealVideo, KeepsTheManInBlackFromEveryFirstBoxOverOthersOfOtherTones) {
-  const cv::Rect2d box(577, 241, 35, 111);
-  Result<Sequence> read = read_video({test::sample_path("vtest.avi"), 480, box, 150});
+// vtest.avi's pedestrian at 671,197 in frame 600 (make bench-track-people's
+// boxes) walks out of the view's right edge within 20 frames; the
+// whole-frame search then finds others in dark clothes. While re-detections
+// were asked only for his colours, the box went from one to another two or
+// three times from each of the six first boxes `--runs 6` starts him from
+// (13 jumps in all; from the true box at frames 20, 30 and 34); asked for his
+// tones too (box_min_shared_tones), once from each (frame 32). (Over the 132
+// runs the jumps went 122 -> 95; single people's counts move either way
+// with a pixel of the first box: this one's did not.)
+TEST(BoxTrackerOnRealVideo, APedestrianIsLeftForOthersOfOtherTonesLessOftenFromEveryFirstBox) {
+  const cv::Rect2d box(671, 197, 34, 111);
+  Result<Sequence> read = read_video({test::sample_path("vtest.avi"), 600, box, 150});
   ASSERT_TRUE(read.ok()) << read.error();
   const Sequence& s = *read;
   auto jumps = [&](int run, const BoxTrackerConfig& config) {
@@ -427,14 +430,14 @@ TEST(BoxTrackerOnRealVideo, KeepsTheManInBlackFromEveryFirstBoxOverOthersOfOther
   };
   BoxTrackerConfig without_tones;
   without_tones.min_shared_tones = 0;
-  int jumps_without = 0;
+  int all_with = 0, all_without = 0;
   for (int run = 0; run < 6; ++run) {
     const int with = jumps(run, {}), without = jumps(run, without_tones);
     std::printf("first box %d: %d jumps (without tones %d)\n", run, with, without);
-    EXPECT_EQ(with, 0) << "first box " << run;
-    jumps_without += without;
+    EXPECT_LE(with, 1) << "first box " << run;
+    all_with += with, all_without += without;
   }
-  EXPECT_GT(jumps_without, 0) << "the tones are what keep him here";
+  EXPECT_GE(all_without, 2 * all_with) << "the tones are what keep him here";
 }
 
 }  // namespace

@@ -127,6 +127,15 @@ TEST(ToneHistogram, BinsEachGrayByItsShareOfTheMeanAndLeavesOutDarkAreas) {
   EXPECT_FLOAT_EQ(shares[bin(1.5)], 0.5f);
   EXPECT_NEAR(total(shares), 1.0, 1e-6);
 
+  // Brighter than kToneTop times the mean: the last bin.
+  frame.setTo(10);
+  frame.at<uint8_t>(0, 0) = 255;  // mean 11.2: 22.8 times it
+  tone_histogram(frame, cv::Rect(0, 0, 20, 10), shares);
+  EXPECT_FLOAT_EQ(shares[kToneBins - 1], 1.f / 200);
+
+  frame.setTo(kDarkestTone);
+  tone_histogram(frame, cv::Rect(0, 0, 20, 10), shares);
+  EXPECT_FLOAT_EQ(shares[bin(1.0)], 1.f) << "as dark as an area with tones can be";
   frame.setTo(kDarkestTone - 1);
   tone_histogram(frame, cv::Rect(0, 0, 20, 10), shares);
   EXPECT_EQ(total(shares), 0.0) << "too dark for tones";
@@ -135,19 +144,28 @@ TEST(ToneHistogram, BinsEachGrayByItsShareOfTheMeanAndLeavesOutDarkAreas) {
 }
 
 // A monochrome camera's frames, read as one channel or as three equal ones,
-// give one histogram; a colour frame's is that of its gray (cv::cvtColor's).
+// give one histogram; a colour frame's (BGR or BGRA) is that of its gray,
+// cv::cvtColor's to the last level: over a photograph and over random
+// colours, where other rounded weights move some pixels a level and some of
+// those across a bin.
 TEST(ToneHistogram, IsTheGraysWhateverTheChannels) {
-  const cv::Mat photo = read("baboon.jpg");
-  const cv::Rect face(180, 40, 150, 120);
-  cv::Mat gray, gray3;
-  cv::cvtColor(photo, gray, cv::COLOR_BGR2GRAY);
-  cv::cvtColor(gray, gray3, cv::COLOR_GRAY2BGR);
-  std::vector<float> of_colour, of_gray, of_gray3;
-  tone_histogram(photo, face, of_colour);
-  tone_histogram(gray, face, of_gray);
-  tone_histogram(gray3, face, of_gray3);
-  EXPECT_EQ(of_gray, of_gray3);
-  EXPECT_EQ(of_colour, of_gray);
+  cv::Mat random(512, 512, CV_8UC3);
+  cv::randu(random, 0, 256);
+  for (const cv::Mat& colour : {read("baboon.jpg"), random}) {
+    const cv::Rect area(0, 0, colour.cols, colour.rows);
+    cv::Mat gray, gray3, bgra;
+    cv::cvtColor(colour, gray, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(gray, gray3, cv::COLOR_GRAY2BGR);
+    cv::cvtColor(colour, bgra, cv::COLOR_BGR2BGRA);
+    std::vector<float> of_colour, of_bgra, of_gray, of_gray3;
+    tone_histogram(colour, area, of_colour);
+    tone_histogram(bgra, area, of_bgra);
+    tone_histogram(gray, area, of_gray);
+    tone_histogram(gray3, area, of_gray3);
+    EXPECT_EQ(of_gray, of_gray3);
+    EXPECT_EQ(of_colour, of_gray);
+    EXPECT_EQ(of_bgra, of_gray);
+  }
 }
 
 // What the tones tell apart where there is no colour: a textured target seen
@@ -174,7 +192,7 @@ TEST(SharedTones, AreTheSameInOtherLightAndFewForFlatBackgroundOrOtherContrast) 
   cv::Mat flat;
   cv::GaussianBlur(target, flat, cv::Size(0, 0), 30);
   cv::Mat harsher;
-  target.convertTo(harsher, CV_8U, 2.0, -cv::mean(target)[0]);  // the same mean, twice the contrast
+  target.convertTo(harsher, CV_8U, 2.0, -cv::mean(target)[0]);  // twice the contrast (clipped at 0 and 255)
   const double in_other_light = shared_with(dimmer), partly_hidden = shared_with(covered),
                flat_background = shared_with(flat), other_contrast = shared_with(harsher);
   std::printf("shared tones: dimmer %.3f, a third covered %.3f, blurred flat %.3f, twice the contrast %.3f\n",
