@@ -39,6 +39,7 @@
 
 #if SACCADE_TRACK_BENCH_FOVEA
 #include "box_tracker.hpp"
+#include "color_histogram.hpp"
 #include "fovea_params.hpp"
 #include "retina.hpp"
 #endif
@@ -173,6 +174,7 @@ struct Options {
   bool gray = false;              // each sequence as a monochrome camera sees it
   int jpeg = 0;                   // each frame through a JPEG of this quality (0: not)
   std::string trace;              // a folder for per-frame CSV files, one per sequence and tracker
+  std::string jumps;              // a CSV file with a line per jump of every tracker (--jumps)
   std::string export_dir;         // --export: the sequences are written there in the OTB layout instead of run
   int runs = 1;                   // runs per sequence, the first box moved a little in all but the first
   std::vector<std::string> sets;  // the fovea node's box_* parameters, key=value
@@ -240,6 +242,79 @@ Status write_trace(const std::string& folder, const Sequence& sequence, int run,
   return {};
 }
 
+// The header of --jumps' file; an error names it.
+Status start_jumps(const std::string& path) {
+  std::ofstream out(path);
+  out << "sequence,run,tracker,frame,from_x,from_y,to_x,to_y,w,h,state,confidence,visible,iou,right,"
+         "tones_shared,colours_shared\n";
+  if (!out) return Status::error("cannot write " + path);
+  return {};
+}
+
+#if SACCADE_TRACK_BENCH_FOVEA
+// How much of the first box's tones and colours (its central half's
+// histograms, the box tracker's measures: plugins/fovea/color_histogram.hpp)
+// the box at a jump has; colours -1 where the target has none (under 5% of
+// its pixels off gray, as the tracker asks: a gray frame's are all one bin).
+struct Shares {
+  double tones = -1, colours = -1;
+};
+Shares shares_of(const cv::Mat& first, cv::Rect2d first_box, const cv::Mat& frame, cv::Rect2d box) {
+  auto central_half = [](cv::Rect2d b) {
+    return cv::Rect(cv::Rect2d(b.x + b.width / 4, b.y + b.height / 4, b.width / 2, b.height / 2));
+  };
+  std::vector<float> learnt, seen;
+  Shares shares;
+  saccade::fovea::tone_histogram(first, central_half(first_box), learnt);
+  saccade::fovea::tone_histogram(frame, central_half(box), seen);
+  shares.tones = saccade::fovea::shared_colors(learnt, seen);
+  if (saccade::fovea::colourful_share(first, central_half(first_box), 0.02) < 0.05) return shares;
+  saccade::fovea::chroma_histogram(first, central_half(first_box), learnt);
+  saccade::fovea::chroma_histogram(frame, central_half(box), seen);
+  shares.colours = saccade::fovea::shared_colors(learnt, seen);
+  return shares;
+}
+#endif
+
+// A line per jump of a tracker's track (jump_frames): where the box went
+// from and to, what the tracker said, whether it was right (the truth
+// visible there and IoU >= 0.3; empty without truth) and how much of the
+// first box's tones and colours the box it jumped to has: what tells a right
+// re-detection from a wrong one, measured before it is built into a tracker.
+Status write_jumps(const std::string& path, const Sequence& sequence, int run, const std::string& tracker,
+                   const std::vector<TrackedFrame>& track) {
+  const std::vector<int> jumps = jump_frames(track);
+  if (jumps.empty()) return {};
+  const saccade::Result<cv::Mat> first = sequence.frame(0);
+  if (!first.ok()) return first.status();
+  std::ofstream out(path, std::ios::app);
+  for (const int i : jumps) {
+    const std::size_t at = static_cast<std::size_t>(i);
+    const cv::Rect2d &from = track[at - 1].box, &to = track[at].box;
+    out << sequence.name << ',' << run << ',' << tracker << ',' << i << ',' << from.x + from.width / 2 << ','
+        << from.y + from.height / 2 << ',' << to.x + to.width / 2 << ',' << to.y + to.height / 2 << ',' << to.width
+        << ',' << to.height << ',' << track[at].state << ',' << track[at].confidence << ',';
+    if (sequence.truth_known) {
+      const double overlap = sequence.visible[at] ? iou(sequence.truth[at], to) : 0.0;
+      out << (sequence.visible[at] ? 1 : 0) << ',' << overlap << ',' << (overlap >= 0.3 ? 1 : 0) << ',';
+    } else {
+      out << ",,,";
+    }
+#if SACCADE_TRACK_BENCH_FOVEA
+    const saccade::Result<cv::Mat> frame = sequence.frame(i);
+    if (!frame.ok()) return frame.status();
+    const Shares shares = shares_of(*first, track.front().box, *frame, to);
+    out << shares.tones << ',';
+    if (shares.colours >= 0) out << shares.colours;
+#else
+    out << ',';
+#endif
+    out << '\n';
+  }
+  if (!out) return Status::error("cannot write " + path);
+  return {};
+}
+
 // Runs each tracker over the sequence from the same first box. A tracker
 // that refuses the first box is reported as failed; an error is a frame that
 // cannot be read or a trace that cannot be written.
@@ -300,6 +375,9 @@ saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const st
         out.results[k].agreement.push_back(
             other == k || !out.results[other].status.ok() ? -1.0 : agreement(tracks[k], tracks[other]));
     }
+    if (!options.jumps.empty())
+      if (Status written = write_jumps(options.jumps, sequence, run, names[k], tracks[k]); !written.ok())
+        return written;
     if (trace.empty()) continue;
     if (Status written = write_trace(trace, sequence, run, names[k], tracks[k]); !written.ok()) return written;
   }
@@ -705,6 +783,11 @@ int run(const Options& options) {
     std::cerr << "no sequences to run\n";
     return 2;
   }
+  if (!options.jumps.empty())
+    if (Status started = start_jumps(options.jumps); !started.ok()) {
+      std::cerr << "error: " << started.message() << "\n";
+      return 1;
+    }
   std::vector<SequenceResults> results;
   for (const Sequence& sequence : sequences)
     for (int run = 0; run < options.runs; ++run) {
@@ -776,6 +859,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100));
   app.add_option("--trace", options.trace,
                  "write each tracker's frames to FOLDER/<sequence>_<tracker>.csv (truth, box, state, confidence, IoU)");
+  app.add_option("--jumps", options.jumps,
+                 "FILE: a CSV line per jump of every tracker (the box's centre moving more than 0.75 of its larger "
+                 "side in a frame): from where to where, its state and confidence, whether it was right (with "
+                 "truth), and how much of the first box's tones and colours the box it jumped to has");
   app.add_option("--set", options.sets,
                  "key=value: the fovea tracker with the fovea node's box_* parameter changed so (repeatable; "
                  "docs/plugins.md)");
@@ -784,7 +871,7 @@ int main(int argc, char** argv) {
                  "groundtruth_rect.txt; NaN rows where the target is hidden) instead of running them");
   // A value given twice is the last one: make's TRACK_ARGS can change what a target gives.
   for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--every", "--scale", "--jpeg",
-                             "--markdown", "--runs", "--trace", "--export"})
+                             "--markdown", "--runs", "--trace", "--jumps", "--export"})
     app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   if (!apply_sets(options)) return 2;

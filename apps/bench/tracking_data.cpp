@@ -1182,15 +1182,22 @@ uint64_t frame_hash(const cv::Mat& frame) {
   return hash;
 }
 
+std::vector<int> jump_frames(const std::vector<TrackedFrame>& track) {
+  std::vector<int> jumps;
+  for (std::size_t i = 1; i < track.size(); ++i) {
+    const cv::Rect2d& now = track[i].box;
+    if (center_error(track[i - 1].box, now) > 0.75 * std::max(now.width, now.height))
+      jumps.push_back(static_cast<int>(i));
+  }
+  return jumps;
+}
+
 WitnessScore witness_score(const std::vector<TrackedFrame>& track) {
   WitnessScore score;
   if (track.size() < 2) return score;
   int claimed = 0;
-  for (std::size_t i = 1; i < track.size(); ++i) {
-    const cv::Rect2d& now = track[i].box;
-    if (center_error(track[i - 1].box, now) > 0.75 * std::max(now.width, now.height)) ++score.jumps;
-    claimed += track[i].tracking;
-  }
+  for (std::size_t i = 1; i < track.size(); ++i) claimed += track[i].tracking;
+  score.jumps = static_cast<int>(jump_frames(track).size());
   score.frames = static_cast<int>(track.size()) - 1;
   score.claimed = static_cast<double>(claimed) / score.frames;
   score.ms_per_frame = frame_times(track).mean;

@@ -255,6 +255,9 @@ struct WitnessScore {
 };
 WitnessScore witness_score(const std::vector<TrackedFrame>& track);
 
+// The frames (after frame 0) where the track jumps, as WitnessScore counts them.
+std::vector<int> jump_frames(const std::vector<TrackedFrame>& track);
+
 // What a tracker's frames after frame 0 took (TrackedFrame::ms): the mean,
 // the median and the 99th percentile (nearest rank: the value at or under
 // which 99% of them lie) and the slowest, and the mean over the frames where
