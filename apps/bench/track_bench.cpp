@@ -252,26 +252,28 @@ Status start_jumps(const std::string& path) {
 }
 
 #if SACCADE_TRACK_BENCH_FOVEA
-// How much of the first box's tones and colours (its central half's
-// histograms, the box tracker's measures: plugins/fovea/color_histogram.hpp)
-// the box at a jump has; colours -1 where the target has none (under 5% of
-// its pixels off gray, as the tracker asks: a gray frame's are all one bin).
+// How much of the first box's tones and colours the box at a jump has,
+// measured as the box tracker measures them (plugins/fovea/color_histogram.hpp,
+// its colour tolerance `box`'s); colours -1 where the target has none (a
+// gray frame's are all one bin).
 struct Shares {
   double tones = -1, colours = -1;
 };
-Shares shares_of(const cv::Mat& first, cv::Rect2d first_box, const cv::Mat& frame, cv::Rect2d box) {
-  auto central_half = [](cv::Rect2d b) {
-    return cv::Rect(cv::Rect2d(b.x + b.width / 4, b.y + b.height / 4, b.width / 2, b.height / 2));
+Shares shares_of(const cv::Mat& first, cv::Rect2d first_box, const cv::Mat& frame, cv::Rect2d box,
+                 const BoxConfig& config) {
+  namespace fv = saccade::fovea;
+  const auto inner = [](const cv::Mat& image, cv::Rect2d b) {
+    return fv::central_half(image, (b.tl() + b.br()) * 0.5, b.size());
   };
   std::vector<float> learnt, seen;
   Shares shares;
-  saccade::fovea::tone_histogram(first, central_half(first_box), learnt);
-  saccade::fovea::tone_histogram(frame, central_half(box), seen);
-  shares.tones = saccade::fovea::shared_colors(learnt, seen);
-  if (saccade::fovea::colourful_share(first, central_half(first_box), 0.02) < 0.05) return shares;
-  saccade::fovea::chroma_histogram(first, central_half(first_box), learnt);
-  saccade::fovea::chroma_histogram(frame, central_half(box), seen);
-  shares.colours = saccade::fovea::shared_colors(learnt, seen);
+  fv::tone_histogram(first, inner(first, first_box), learnt);
+  fv::tone_histogram(frame, inner(frame, box), seen);
+  shares.tones = fv::shared_colors(learnt, seen);
+  if (fv::colourful_share(first, inner(first, first_box), config.min_chroma_change) < fv::kMinColourful) return shares;
+  fv::chroma_histogram(first, inner(first, first_box), learnt);
+  fv::chroma_histogram(frame, inner(frame, box), seen);
+  shares.colours = fv::shared_colors(learnt, seen);
   return shares;
 }
 #endif
@@ -282,7 +284,7 @@ Shares shares_of(const cv::Mat& first, cv::Rect2d first_box, const cv::Mat& fram
 // first box's tones and colours the box it jumped to has: what tells a right
 // re-detection from a wrong one, measured before it is built into a tracker.
 Status write_jumps(const std::string& path, const Sequence& sequence, int run, const std::string& tracker,
-                   const std::vector<TrackedFrame>& track) {
+                   const std::vector<TrackedFrame>& track, [[maybe_unused]] const BoxConfig& config) {
   const std::vector<int> jumps = jump_frames(track);
   if (jumps.empty()) return {};
   const saccade::Result<cv::Mat> first = sequence.frame(0);
@@ -303,7 +305,7 @@ Status write_jumps(const std::string& path, const Sequence& sequence, int run, c
 #if SACCADE_TRACK_BENCH_FOVEA
     const saccade::Result<cv::Mat> frame = sequence.frame(i);
     if (!frame.ok()) return frame.status();
-    const Shares shares = shares_of(*first, track.front().box, *frame, to);
+    const Shares shares = shares_of(*first, track.front().box, *frame, to, config);
     out << shares.tones << ',';
     if (shares.colours >= 0) out << shares.colours;
 #else
@@ -376,7 +378,7 @@ saccade::Result<SequenceResults> run_sequence(const Sequence& sequence, const st
             other == k || !out.results[other].status.ok() ? -1.0 : agreement(tracks[k], tracks[other]));
     }
     if (!options.jumps.empty())
-      if (Status written = write_jumps(options.jumps, sequence, run, names[k], tracks[k]); !written.ok())
+      if (Status written = write_jumps(options.jumps, sequence, run, names[k], tracks[k], options.box); !written.ok())
         return written;
     if (trace.empty()) continue;
     if (Status written = write_trace(trace, sequence, run, names[k], tracks[k]); !written.ok()) return written;

@@ -52,10 +52,6 @@ struct Placement {
 // 1, 2).
 constexpr std::array<std::array<double, 2>, 3> kOtherSizes{{{1.25, 0.8}, {1.5625, 0.64}, {1.953125, 0.512}}};
 
-// The share of a target's pixels that must lie off gray (by the colour
-// tolerance) for its colour to be evidence.
-constexpr double kMinColourful = 0.05;
-
 // One correlation's outcome, in patch pixels from the patch's centre.
 struct Peak {
   cv::Point2d offset;
@@ -131,14 +127,6 @@ void sample_gray(const cv::Mat& frame, cv::Point2d center, double step_x, double
     cv::pyrDown(fine_gray, out, size);
   else
     fine_gray.copyTo(out);
-}
-
-// The central half of a box centred at `center`, within the frame.
-cv::Rect central_half(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
-  return cv::Rect(
-             cv::Point(static_cast<int>(center.x - size.width / 4), static_cast<int>(center.y - size.height / 4)),
-             cv::Size(std::max(1, static_cast<int>(size.width / 2)), std::max(1, static_cast<int>(size.height / 2)))) &
-         cv::Rect(0, 0, frame.cols, frame.rows);
 }
 
 // The chromaticity (r, g: each channel's share of R + G + B) of the mean
@@ -987,8 +975,8 @@ struct BoxTracker::Impl {
   void follow_lost_colors(const cv::Mat& frame, const std::vector<Placement>& at, const std::vector<Peak>& peaks,
                           std::size_t first, std::size_t end) {
     lost_look_moved = false;
-    const bool by_tones = !colors_asked(frame) && without_colours();
-    if (config.follow_lost_colors <= 0 || (!colors_asked(frame) && !by_tones)) return;
+    const bool by_colours = colors_asked(frame), by_tones = !by_colours && without_colours();
+    if (config.follow_lost_colors <= 0 || !(by_colours || by_tones)) return;
     double best = 0;
     for (std::size_t i = first; i < end; ++i) {
       const cv::Point2d found = at[i].to_frame(peaks[i].offset);

@@ -12,6 +12,15 @@ namespace saccade::fovea {
 inline constexpr int kChromaBins = 32;     // bins over r and over g (each channel's share of R + G + B)
 inline constexpr int kDarkestChroma = 30;  // R + G + B under which a pixel is left out: its chromaticity is noise
 
+// The share of a target's pixels that must lie off gray (by the colour
+// tolerance: colourful_share) for its colour to be evidence.
+inline constexpr double kMinColourful = 0.05;
+
+// Where a target's colours and tones are measured: the central half of its
+// box (centred at `center`, of `size`), within the frame; the rest of a box
+// is most often background.
+cv::Rect central_half(const cv::Mat& frame, cv::Point2d center, cv::Size2d size);
+
 // The chromaticity histogram of `area`'s pixels (clipped to the frame) of an
 // 8-bit BGR or BGRA frame, as shares summing to 1, into `shares`
 // (kChromaBins x kChromaBins, r-major). All 0 for a gray frame or an area
