@@ -27,13 +27,6 @@ int divided(int n, int sum) {
 
 }  // namespace
 
-cv::Rect central_half(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
-  return cv::Rect(
-             cv::Point(static_cast<int>(center.x - size.width / 4), static_cast<int>(center.y - size.height / 4)),
-             cv::Size(std::max(1, static_cast<int>(size.width / 2)), std::max(1, static_cast<int>(size.height / 2)))) &
-         cv::Rect(0, 0, frame.cols, frame.rows);
-}
-
 void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& shares) {
   shares.assign(static_cast<std::size_t>(kChromaBins * kChromaBins), 0.f);
   if (frame.channels() < 3 || frame.depth() != CV_8U) return;

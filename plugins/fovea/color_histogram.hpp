@@ -3,6 +3,7 @@
 // hidden (part of its colours, exactly) from a look-alike of another tint (all
 // of its colours shifted), where the mean colour moves as far for both
 // (docs/tracking.md).
+#include <algorithm>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -19,7 +20,12 @@ inline constexpr double kMinColourful = 0.05;
 // Where a target's colours and tones are measured: the central half of its
 // box (centred at `center`, of `size`), within the frame; the rest of a box
 // is most often background.
-cv::Rect central_half(const cv::Mat& frame, cv::Point2d center, cv::Size2d size);
+inline cv::Rect central_half(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
+  return cv::Rect(
+             cv::Point(static_cast<int>(center.x - size.width / 4), static_cast<int>(center.y - size.height / 4)),
+             cv::Size(std::max(1, static_cast<int>(size.width / 2)), std::max(1, static_cast<int>(size.height / 2)))) &
+         cv::Rect(0, 0, frame.cols, frame.rows);
+}
 
 // The chromaticity histogram of `area`'s pixels (clipped to the frame) of an
 // 8-bit BGR or BGRA frame, as shares summing to 1, into `shares`
