@@ -15,7 +15,9 @@
 // over the whole frame seen at a coarse step, as a retina's outer level sees
 // it, and the best places are checked by the filter until a confident peak
 // holds at one place on consecutive frames (less confident near where the
-// target was last tracked, if of its colour).
+// target was last tracked, if of its colour). A target that left the frame is
+// looked for only as far in from the border it crossed as the camera's turn
+// back and its own motion could bring it.
 #include <memory>
 #include <string>
 #include <vector>
@@ -87,6 +89,10 @@ struct BoxTrackerConfig {
                                     // tracker sat (its own frame counted), unsure frames measure the target's
                                     // size too (a re-detection's size is the search's nearest, and a box of the
                                     // wrong size is doubted for its colour; 0 and 1: tracked frames only)
+  double reentry_speed = 0.05;      // a target whose centre left the frame comes back across that border: a
+                                    // re-detection must lie within its size of it, plus how far the camera
+                                    // turned back since, plus this many times its size per frame since (0: not
+                                    // asked; docs/tracking.md)
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 

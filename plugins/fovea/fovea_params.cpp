@@ -120,7 +120,12 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "box tracking: for this many frames from a re-detection elsewhere than where the tracker sat (its own "
              "frame counted), frames too unsure to learn from still measure the target's size (the "
              "re-detection's is the search's nearest; 0 and 1: tracked frames only; docs/tracking.md)",
-             &C::box, &B::rescale_frames);
+             &C::box, &B::rescale_frames)
+      .field("box_reentry_speed", {0, 100},
+             "box tracking: a target whose centre left the frame comes back across that border: a re-detection "
+             "must lie within the target's size of it, plus how far the camera turned back since, plus this many "
+             "times the target's size per frame since (0: not asked; docs/tracking.md)",
+             &C::box, &B::reentry_speed);
 }
 
 }  // namespace

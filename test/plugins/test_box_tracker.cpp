@@ -591,6 +591,70 @@ TEST(BoxTracker, TheCamerasOwnMoveIsNotTakenForTheTargets) {
   EXPECT_GT(cv::norm(center(b.box) - (c + shift)), 10.0) << "70 px is beyond what one frame's search covers";
 }
 
+// Frames from the target leaving the view until it is tracked again, when
+// the head turns the camera away from it by 6 px a frame and, once it has
+// been out of view for 5 frames, back 150 px in one frame, that turn `told`
+// (camera_moved) or not.
+int frames_until_found_after_a_head_turn(bool told, const BoxTrackerConfig& config) {
+  const Scene scene;
+  const cv::Point2d world(400, 120);  // the target, where the camera at x = 0 sees it
+  const auto at = [&](double camera_x) { return world - cv::Point2d(camera_x, 0); };
+  BoxTracker tracker(config);
+  double camera_x = 150;
+  EXPECT_TRUE(tracker.init(scene.render({camera_x, 60}, at(camera_x)), scene.box(at(camera_x))).ok());
+  int left = -1;
+  for (int k = 1; k < 80; ++k) {
+    const double before = camera_x;
+    if (k <= 20) camera_x -= 6;
+    if (k == 26) camera_x += 150;
+    if (told && camera_x != before) tracker.camera_moved({before - camera_x, 0});
+    const TrackEstimate e = tracker.update(scene.render({camera_x, 60}, at(camera_x)));
+    if (left < 0 && at(camera_x).x > 320) left = k;
+    if (k >= 26 && e.state == TrackState::kTracking && cv::norm(center(e.box) - at(camera_x)) < 5) return k - left;
+  }
+  return -1;
+}
+
+// A target that left the view is looked for only as far in as the camera has
+// turned back towards it since (box_reentry_speed): here 100 px in, where its
+// own motion could not have brought it. The turn counts whether the head tells
+// it or the phase correlation of the coarse views measures it (told, it
+// counts once), and the target is found as soon as without the limit: two
+// frames after the turn.
+TEST(BoxTracker, ATargetTheHeadTurnsBackToIsFoundWhereTheTurnBroughtIt) {
+  BoxTrackerConfig anywhere;
+  anywhere.reentry_speed = 0;
+  const int told = frames_until_found_after_a_head_turn(true, {});
+  const int untold = frames_until_found_after_a_head_turn(false, {});
+  const int unlimited = frames_until_found_after_a_head_turn(true, anywhere);
+  std::printf("found %d frames after it left (the turn untold: %d; looked for anywhere: %d)\n", told, untold,
+              unlimited);
+  EXPECT_GT(told, 0);
+  EXPECT_EQ(told, unlimited);
+  EXPECT_EQ(untold, unlimited);
+}
+
+// A cut: the target leaves the view across its right edge, and 10 frames
+// later the view is another (another part of the background), the target in
+// its middle. Nothing relates that view to the one the target left, so the
+// border it left by says nothing of where it is.
+TEST(BoxTracker, AfterACutTheTargetIsLookedForAnywhere) {
+  const Scene scene;
+  BoxTracker tracker;
+  cv::Point2d camera(150, 60), target(250, 120);
+  ASSERT_TRUE(tracker.init(scene.render(camera, target), scene.box(target)).ok());
+  int found = -1;
+  for (int k = 1; k < 80 && found < 0; ++k) {
+    if (k <= 20) camera.x -= 6, target.x += 6;             // out across the right edge from frame 13
+    if (k == 30) camera = {20, 200}, target = {160, 120};  // the cut
+    const TrackEstimate e = tracker.update(scene.render(camera, target));
+    if (k >= 30 && e.state == TrackState::kTracking && cv::norm(center(e.box) - target) < 5) found = k - 30;
+  }
+  std::printf("found %d frames after the cut\n", found);
+  EXPECT_GE(found, 0);
+  EXPECT_LE(found, 5);
+}
+
 TEST(BoxTracker, RefusesBoxesItCannotFollowAndSaysWhy) {
   const Scene scene;
   const cv::Mat frame = scene.render({60, 60}, {160, 120});

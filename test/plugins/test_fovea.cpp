@@ -536,6 +536,21 @@ TEST(FoveaParams, TheSizeIsMeasuredForTenFramesAfterAReDetectionByDefaultAndChec
               ::testing::HasSubstr("box_rescale_frames"));
 }
 
+// A target that left the view is looked for within its size of the border
+// it left by, plus how far the camera turned back, plus 0.05 of its size a
+// frame (box_reentry_speed); 0 looks anywhere; a negative speed is refused
+// by name.
+TEST(FoveaParams, AReentryIsLookedForNearTheBorderTheTargetLeftByByDefaultAndChecked) {
+  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
+  ASSERT_TRUE(defaults.ok()) << defaults.error();
+  EXPECT_EQ(defaults->box.reentry_speed, 0.05);
+  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_reentry_speed", "0"}});
+  ASSERT_TRUE(off.ok()) << off.error();
+  EXPECT_EQ(off->box.reentry_speed, 0.0);
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_reentry_speed", "-0.1"}}).error(),
+              ::testing::HasSubstr("box_reentry_speed"));
+}
+
 TEST(FoveaParams, ColourProposalsAndTheTurnedScaleFilterAreOnByDefaultAndChecked) {
   const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
   ASSERT_TRUE(defaults.ok()) << defaults.error();
