@@ -1011,6 +1011,13 @@ struct BoxTracker::Impl {
       best = peaks[i].psr, lost_look = found, lost_look_moved = true;
     }
   }
+  // The camera moved the image by `shift` (a head turn): every place kept
+  // in the frame's pixels moves with it, also while the target is hidden or
+  // lost (where it was last tracked, where its colours were seen, a
+  // re-detection waiting for confirmation), not only the next prediction.
+  void camera_moved(cv::Point2d shift) {
+    center += shift, sure_center += shift, lost_look += shift, candidate += shift;
+  }
   // A target whose centre left the frame (a pedestrian walking out of view,
   // the camera turning away) can only come back across the border it left
   // by, as far in as the camera has turned back towards it since and its
@@ -1210,10 +1217,11 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   Impl& m = *impl_;
   const cv::Point2d shift = camera_shift_;
   camera_shift_ = {};
-  const cv::Point2d predicted = m.center + m.velocity + shift;
   ++m.untracked_frames;  // follow() zeroes it on a tracked frame
   if (m.frames_since_found < std::numeric_limits<int>::max()) ++m.frames_since_found;
   m.watch_exit(frame, shift, last_.state == TrackState::kTracking);
+  m.camera_moved(shift);
+  const cv::Point2d predicted = m.center + m.velocity;
   if (last_.state == TrackState::kLost)
     redetect(frame, predicted, /*unsure=*/false, {});
   else

@@ -222,17 +222,28 @@ TEST(BoxTracker, AHiddenTargetThatReappearsLargerIsFoundAtItsNewSize) {
 // the changed target is shown `then` more frames once found, and the frames
 // the tracker claimed it on (within 8 px) are counted there; with
 // `hidden_every` N, every Nth of those frames hides it behind the occluder.
+// With `head_turn`, the head turns the camera by that many pixels halfway
+// through the hidden frames (the scene, occluder and target move the other
+// way in the frame), and the tracker is told (camera_moved).
 int frames_to_find_a_changed_target(double redetect_near, double grow, double turn_deg, double gain,
-                                    bool flicker = false, int then = 0, int* claimed = nullptr, int hidden_every = 0) {
+                                    bool flicker = false, int then = 0, int* claimed = nullptr, int hidden_every = 0,
+                                    cv::Point2d head_turn = {}) {
   const Scene scene;
   BoxTrackerConfig config;
   config.redetect_near = redetect_near;
   BoxTracker tracker(config);
-  const cv::Point2d before(140, 120), after(150, 126);
-  const cv::Rect occluder(70, 60, 140, 120);
-  if (!tracker.init(scene.render({60, 60}, before), scene.box(before)).ok()) return -2;
-  for (int k = 1; k <= 20; ++k) tracker.update(scene.render({60, 60}, before));
-  for (int k = 0; k < 20; ++k) tracker.update(scene.render({60, 60}, before, 0.3, 1.0, occluder));
+  cv::Point2d camera(60, 60), before(140, 120), after(150, 126);
+  cv::Rect occluder(70, 60, 140, 120);
+  if (!tracker.init(scene.render(camera, before), scene.box(before)).ok()) return -2;
+  for (int k = 1; k <= 20; ++k) tracker.update(scene.render(camera, before));
+  for (int k = 0; k < 20; ++k) {
+    if (k == 10 && head_turn != cv::Point2d()) {
+      camera += head_turn, before -= head_turn, after -= head_turn;
+      occluder -= cv::Point(cv::Point2d(head_turn));
+      tracker.camera_moved(-head_turn);
+    }
+    tracker.update(scene.render(camera, before, 0.3, 1.0, occluder));
+  }
   Scene changed;
   cv::Mat turned;
   const cv::Point2f middle(changed.target.cols / 2.0f, changed.target.rows / 2.0f);
@@ -247,14 +258,14 @@ int frames_to_find_a_changed_target(double redetect_near, double grow, double tu
   });
   for (int k = 0; k < 40; ++k) {
     const Scene& shown = flicker && k % 2 == 1 ? cast : changed;
-    const TrackEstimate e = tracker.update(shown.render({60, 60}, after, 0.3 * grow, gain));
+    const TrackEstimate e = tracker.update(shown.render(camera, after, 0.3 * grow, gain));
     if (std::getenv("SACCADE_TEST_VERBOSE"))
       std::printf("near %.0f: after %d %s %.1f\n", redetect_near, k, to_string(e.state), e.confidence);
     if (e.state == TrackState::kTracking && cv::norm(center(e.box) - after) < 8) {
       for (int j = 0; j < then && claimed; ++j) {
         const bool hidden = hidden_every > 0 && j % hidden_every == hidden_every - 1;
         const TrackEstimate f =
-            tracker.update(changed.render({60, 60}, after, 0.3 * grow, gain, hidden ? occluder : cv::Rect()));
+            tracker.update(changed.render(camera, after, 0.3 * grow, gain, hidden ? occluder : cv::Rect()));
         if (std::getenv("SACCADE_TEST_VERBOSE"))
           std::printf("  then %d %s %.1f\n", j, to_string(f.state), f.confidence);
         *claimed += f.state == TrackState::kTracking && cv::norm(center(f.box) - after) < 8;
@@ -276,6 +287,22 @@ TEST(BoxTracker, AChangedTargetBackNearWhereItWasHiddenIsFoundSooner) {
     EXPECT_LE(near, 15);
     EXPECT_TRUE(anywhere < 0 || anywhere > near) << "the scene no longer needs the lower bar";
   }
+}
+
+// The same while the head turns 120 px while the target is hidden: where it
+// was last tracked moves with the image, so the lower bar near that place
+// still applies where the target comes back. (Until the ninth session of
+// 2026-11-29 only the next frame's prediction moved: a hidden or lost
+// target's places stayed where the image had been, 120 px off, and the
+// changed target was not found in 40 frames.)
+TEST(BoxTracker, AChangedTargetBackNearWhereItWasHiddenIsFoundSoonerAlsoAfterAHeadTurn) {
+  const cv::Point2d turn(120, 0);
+  const int near = frames_to_find_a_changed_target(2.0, 1.3, 22.0, 0.8, false, 0, nullptr, 0, turn);
+  const int anywhere = frames_to_find_a_changed_target(0.0, 1.3, 22.0, 0.8, false, 0, nullptr, 0, turn);
+  std::printf("after a head turn: found after %d frames, %d with one bar everywhere (-1: never)\n", near, anywhere);
+  EXPECT_GE(near, 0) << "never found again";
+  EXPECT_LE(near, 15);
+  EXPECT_TRUE(anywhere < 0 || anywhere > near) << "the scene no longer needs the lower bar";
 }
 
 // The changed target, found again, is the target from then on: its peaks
@@ -620,18 +647,21 @@ int frames_until_found_after_a_head_turn(bool told, const BoxTrackerConfig& conf
 // own motion could not have brought it. The turn counts whether the head tells
 // it or the phase correlation of the coarse views measures it (told, it
 // counts once), and the target is found as soon as without the limit: two
-// frames after the turn.
+// frames after the turn, or one when told (the lost target's place moves
+// with the turn, and the local look with it).
 TEST(BoxTracker, ATargetTheHeadTurnsBackToIsFoundWhereTheTurnBroughtIt) {
   BoxTrackerConfig anywhere;
   anywhere.reentry_speed = 0;
   const int told = frames_until_found_after_a_head_turn(true, {});
   const int untold = frames_until_found_after_a_head_turn(false, {});
-  const int unlimited = frames_until_found_after_a_head_turn(true, anywhere);
-  std::printf("found %d frames after it left (the turn untold: %d; looked for anywhere: %d)\n", told, untold,
-              unlimited);
+  const int told_anywhere = frames_until_found_after_a_head_turn(true, anywhere);
+  const int untold_anywhere = frames_until_found_after_a_head_turn(false, anywhere);
+  std::printf("found %d frames after it left, %d with the turn untold (looked for anywhere: %d, %d)\n", told, untold,
+              told_anywhere, untold_anywhere);
   EXPECT_GT(told, 0);
-  EXPECT_EQ(told, unlimited);
-  EXPECT_EQ(untold, unlimited);
+  EXPECT_GT(untold, 0);
+  EXPECT_EQ(told, told_anywhere);
+  EXPECT_EQ(untold, untold_anywhere);
 }
 
 // A cut: the target leaves the view across its right edge, and 10 frames
