@@ -591,12 +591,18 @@ struct BoxTracker::Impl {
   // from the learnt one while most of its colours are still there (a
   // pedestrian of vtest.avi, doubted: his mean 0.061 from the learnt one,
   // another pedestrian's 0.034, taken for him; their shares of his histogram
-  // 0.62 and 0.55); after redetect_margin_frames unsure frames, as any other.
+  // 0.62 and 0.55); after redetect_margin_frames unsure frames, as any other,
+  // unless the peak where it sits still reaches redetect_psr: as high as a
+  // find must, the target is doubted there, not gone (vtest.avi's man at
+  // 292,189 in frame 420, his peak down from 25-36 to 10-15 in a crowd and his
+  // colour flickering about its tolerance: unsure for 16 frames while CSRT
+  // agreed where he was, then another man taken; docs/tracking.md).
   // (`sits_shared` is measured here the first time it is needed: negative
   // until then.)
   bool beats_where_it_sits(const cv::Mat& frame, const Placement& p, cv::Point2d found, double psr, double sits_psr,
                            double sits_color_distance, double& sits_shared, double near) {
-    if (sits_psr <= 0 || unsure_frames > config.redetect_margin_frames || cv::norm(found - center) < near) return true;
+    const bool margin_over = unsure_frames > config.redetect_margin_frames && sits_psr < config.redetect_psr;
+    if (sits_psr <= 0 || margin_over || cv::norm(found - center) < near) return true;
     if (psr >= config.redetect_margin * sits_psr) return true;
     if (!color_checked(config)) return false;
     const double distance = cv::norm(chroma(frame, found, size * (p.step / step)) - chroma_mean);

@@ -75,7 +75,8 @@ struct BoxTrackerConfig {
                                     // must reach this many times that peak (0: not asked), or be nearer
                                     // the target's colour by min_chroma_change (a look-alike while the
                                     // target is partly hidden) ...
-  int redetect_margin_frames = 10;  // ... for this many unsure frames (then the target is more likely gone)
+  int redetect_margin_frames = 10;  // ... for this many unsure frames (then the target is more likely gone),
+                                    // or longer while that peak still reaches redetect_psr
   int proposals = 2;                // lost: places per size the whole-frame search proposes to the filter by look ...
   int color_proposals = 1;          // ... and by look and colour together (while lost, not while only unsure,
                                     // and while its colour is checked; 0: none)

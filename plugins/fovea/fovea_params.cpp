@@ -82,8 +82,9 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "(0: not asked)",
              &C::box, &B::redetect_margin)
       .field("box_redetect_margin_frames", {0, 100000},
-             "box tracking: unsure frames during which box_redetect_margin is asked", &C::box,
-             &B::redetect_margin_frames)
+             "box tracking: unsure frames during which box_redetect_margin is asked (longer while the peak "
+             "where the target sits still reaches box_redetect_psr)",
+             &C::box, &B::redetect_margin_frames)
       .field("box_color_change", {0, 1},
              "box tracking: how far the target's chromaticity may move before a sure peak is doubted (as well "
              "as four times its usual deviation; 1: colour never doubts)",

@@ -500,14 +500,16 @@ TEST(BoxTracker, ALookAlikeIsNotTakenForAPartlyHiddenTargetThatIsStillThere) {
   const BoxTrackerConfig defaults;
   const int claimed = twin_claims(defaults.redetect_margin, defaults.redetect_margin_frames, held, back);
   const int claimed_without = twin_claims(0.0, defaults.redetect_margin_frames, held_without, back_without);
-  // Asked during no unsure frame, the margin is not asked at all.
+  // Asked during no unsure frame, the margin is still asked while the covered
+  // target's peak reaches the re-detection bar (box_redetect_psr): it does
+  // here, and the look-alike is refused as with the margin's frames.
   const int claimed_never = twin_claims(defaults.redetect_margin, 0, held_never, back_never);
   std::printf(
-      "look-alike claimed on %d of 25 covered frames (%d without the margin, %d asked for no frame); box on "
-      "the target %d (%d, %d)\n",
+      "look-alike claimed on %d of 25 covered frames (%d without the margin, %d asked for no unsure frame); box "
+      "on the target %d (%d, %d)\n",
       claimed, claimed_without, claimed_never, held, held_without, held_never);
   EXPECT_GT(claimed_without, 0) << "the scene no longer needs the margin";
-  EXPECT_EQ(claimed_never, claimed_without);
+  EXPECT_EQ(claimed_never, 0);
   EXPECT_EQ(claimed, 0);
   EXPECT_EQ(held, 25);
   EXPECT_TRUE(back) << "the target, uncovered, is tracked again";
