@@ -922,20 +922,27 @@ struct BoxTracker::Impl {
     if (config.min_shared_tones <= 0 || empty(tone_shares) || tracked_frames < config.warmup_frames) return 1.0;
     return shared_at(frame, p, found, tone_histogram, tone_shares);
   }
-  // A frame under the usual peak counts towards the target's new usual peak
-  // only if it is sure otherwise; in colour that includes its colour (follow()
-  // doubts a peak of another colour), and a target without colours (a
-  // monochrome camera's) must share its tones there as a re-detection must:
-  // nothing else told an occluder or the background the tracker slid onto,
-  // peaking lower for ten frames, from the target's new look, and it was
-  // learnt (`--gray`: `mixed_640@gray` precision 0.425 -> 0.836, honest lost
-  // 0.78 -> 1.00; docs/tracking.md). Asked of every tracked frame instead,
-  // the tones lost OTB Car4 in plain view. A frame that does not counts as
-  // none of them.
-  bool has_its_tones_if_without_colours(const cv::Mat& frame, const Placement& at, cv::Point2d measured) {
-    if (!without_colours() || shared_tones_at(frame, at, measured) >= config.min_shared_tones) return true;
-    forget_lower();
-    return false;
+  // Under the tracked frames' usual peak (an occluder's edge, a look-alike
+  // passing over it) a frame sure otherwise is not sure either, unless it has
+  // stayed there long enough to be the target's new usual peak. Sure
+  // otherwise includes, in colour, the target's colour (follow() doubts a
+  // peak of another colour); a target without colours (a monochrome
+  // camera's) must share its tones there as a re-detection must, or the
+  // count starts again: nothing else told an occluder or the background the
+  // tracker slid onto, peaking lower for ten frames, from the target's new
+  // look, and it was learnt (`--gray`: `mixed_640@gray` precision 0.425 ->
+  // 0.836, honest lost 0.78 -> 1.00; docs/tracking.md). Asked of every
+  // tracked frame instead, the tones lost OTB Car4 in plain view.
+  bool doubted_for_a_lower_peak(const cv::Mat& frame, const Placement& at, cv::Point2d measured, double psr) {
+    if (tracked_frames < config.warmup_frames || psr >= config.relative_psr * psr_mean) {
+      forget_lower();
+      return false;
+    }
+    if (without_colours() && shared_tones_at(frame, at, measured) < config.min_shared_tones) {
+      forget_lower();
+      return true;
+    }
+    return !settled_lower(config, psr);
   }
   static bool empty(const std::vector<float>& shares) {
     return std::all_of(shares.begin(), shares.end(), [](float share) { return share == 0.f; });
@@ -1288,13 +1295,10 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
     color_distance = cv::norm(color - m.chroma_mean);
     doubted = warm && !m.color_matches(config_, color_distance);
   }
-  // Under the tracked frames' usual peak (an occluder's edge, a look-alike
-  // passing over it) is not sure either, unless it has stayed there, sure
-  // otherwise, long enough to be the target's new usual peak.
-  if (!doubted && warm && psr < config_.relative_psr * m.psr_mean)
-    doubted = !(m.has_its_tones_if_without_colours(frame, at, measured) && m.settled_lower(config_, psr));
-  else
+  if (doubted)
     m.forget_lower();
+  else
+    doubted = m.doubted_for_a_lower_peak(frame, at, measured, psr);
   if (doubted) {
     // Where the peak is, but not sure enough to learn from it or to trust
     // its motion (an occluder's edge, a distractor passing).

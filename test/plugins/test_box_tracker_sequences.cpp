@@ -57,19 +57,25 @@ Sequence generated_gray(const std::string& name) {
   return gray;
 }
 
-TrackScore track(const Sequence& s, int run, const BoxTrackerConfig& config = {}) {
-  std::vector<TrackedFrame> frames(static_cast<std::size_t>(s.size()));
+// A sequence's target followed from `box` moved as `run`'s first box
+// (perturbed_first_box): one entry per frame, the first box first.
+std::vector<TrackedFrame> follow_from(const Sequence& s, cv::Rect2d box, int run, const BoxTrackerConfig& config) {
   BoxTracker tracker(config);
-  const Result<cv::Mat> first = s.frame(0);
-  EXPECT_TRUE(first.ok());
-  EXPECT_TRUE(tracker.init(*first, perturbed_first_box(s.truth.front(), run)).ok());
+  const cv::Rect2d first = perturbed_first_box(box, run);
+  const Result<cv::Mat> frame0 = s.frame(0);
+  EXPECT_TRUE(frame0.ok() && tracker.init(*frame0, first).ok());
+  std::vector<TrackedFrame> track{{first}};
   for (int i = 1; i < s.size(); ++i) {
     const Result<cv::Mat> frame = s.frame(i);
     EXPECT_TRUE(frame.ok());
     const TrackEstimate e = tracker.update(*frame);
-    frames[static_cast<std::size_t>(i)] = {e.box, e.state == TrackState::kTracking};
+    track.push_back({e.box, e.state == TrackState::kTracking});
   }
-  Result<TrackScore> score = score_track(s.truth, s.visible, frames);
+  return track;
+}
+
+TrackScore track(const Sequence& s, int run, const BoxTrackerConfig& config = {}) {
+  Result<TrackScore> score = score_track(s.truth, s.visible, follow_from(s, s.truth.front(), run, config));
   EXPECT_TRUE(score.ok());
   return score.ok() ? *score : TrackScore{};
 }
@@ -434,22 +440,12 @@ TEST(BoxTrackerOnRealVideo, KeepsAPedestrianWhoStaysInViewOverOthersInDarkClothe
     Result<Sequence> read = read_video({video, w.first_frame, w.box, w.frames});
     ASSERT_TRUE(read.ok()) << read.error();
     const Sequence& s = *read;
-    BoxTracker tracker;
-    const Result<cv::Mat> first = s.frame(0);
-    ASSERT_TRUE(first.ok());
-    ASSERT_TRUE(tracker.init(*first, w.box).ok());
     // Scored as make bench-track-people scores it (witness_score: its jumps and claimed share).
-    std::vector<TrackedFrame> track{{w.box}};
-    for (int i = 1; i < s.size(); ++i) {
-      const Result<cv::Mat> frame = s.frame(i);
-      ASSERT_TRUE(frame.ok());
-      const TrackEstimate e = tracker.update(*frame);
-      track.push_back({e.box, e.state == TrackState::kTracking});
-      for (const Seen& seen : w.seen) {
-        if (seen.frame != w.first_frame + i) continue;
-        EXPECT_LT(cv::norm(cv::Point2d(e.box.x + e.box.width / 2, e.box.y + e.box.height / 2) - seen.center), 15)
-            << "frame " << seen.frame << ": not on the man in black";
-      }
+    const std::vector<TrackedFrame> track = follow_from(s, w.box, 0, {});
+    for (const Seen& seen : w.seen) {
+      const cv::Rect2d& b = track.at(static_cast<std::size_t>(seen.frame - w.first_frame)).box;
+      EXPECT_LT(cv::norm(cv::Point2d(b.x + b.width / 2, b.y + b.height / 2) - seen.center), 15)
+          << "frame " << seen.frame << ": not on the pedestrian";
     }
     const WitnessScore score = witness_score(track);
     std::printf("pedestrian at %.0f,%.0f from frame %d: %d jumps, claimed %.2f of %d frames\n", w.box.x, w.box.y,
@@ -457,23 +453,6 @@ TEST(BoxTrackerOnRealVideo, KeepsAPedestrianWhoStaysInViewOverOthersInDarkClothe
     EXPECT_EQ(score.jumps, 0) << "frame " << w.first_frame;
     EXPECT_GE(score.claimed, w.min_claimed) << "frame " << w.first_frame;
   }
-}
-
-// A video's target followed from `run`'s first box (perturbed_first_box):
-// one entry per frame, the first box first.
-std::vector<TrackedFrame> follow_from(const Sequence& s, cv::Rect2d box, int run, const BoxTrackerConfig& config) {
-  BoxTracker tracker(config);
-  const cv::Rect2d first = perturbed_first_box(box, run);
-  const Result<cv::Mat> frame0 = s.frame(0);
-  EXPECT_TRUE(frame0.ok() && tracker.init(*frame0, first).ok());
-  std::vector<TrackedFrame> track{{first}};
-  for (int i = 1; i < s.size(); ++i) {
-    const Result<cv::Mat> frame = s.frame(i);
-    EXPECT_TRUE(frame.ok());
-    const TrackEstimate e = tracker.update(*frame);
-    track.push_back({e.box, e.state == TrackState::kTracking});
-  }
-  return track;
 }
 
 // vtest.avi's pedestrian at 671,197 in frame 600 (make bench-track-people's
