@@ -15,6 +15,7 @@ FoveaController::FoveaController(ControllerConfig config)
     : config_(std::move(config)),
       saliency_(config_.saliency),
       tracker_(config_.tracker),
+      box_tracker_(config_.box),
       ior_(config_.ior_radius, config_.ior_frames) {}
 
 bool FoveaController::set_template(const cv::Mat& image) {

@@ -249,6 +249,27 @@ struct Loop {
   }
 };
 
+// The fovea node's box_* parameters are the box tracker's: with
+// box_unsure_frames and box_lost_frames 1 the target is lost on the first
+// frame it is gone, with the defaults (30, 5) it is only uncertain then. (Until the tenth session of
+// 2026-11-29 the controller's box tracker was made with the defaults, and
+// every box_* parameter of a graph was checked and then ignored.)
+TEST(FoveaController, ItsBoxTrackerTakesTheNodesBoxParameters) {
+  auto first_frame_without_the_target = [](ControllerConfig c) {
+    Loop loop(c);
+    cv::Mat frame = plain_background();
+    draw_target(frame, {320, 240});
+    EXPECT_TRUE(loop.controller.track_box(frame, {312, 232, 16, 16}).ok());
+    loop.step(frame, 0);
+    loop.step(frame, 1);
+    return loop.step(plain_background(), 2).state;
+  };
+  ControllerConfig quick;
+  quick.box.unsure_frames = quick.box.lost_frames = 1;
+  EXPECT_EQ(first_frame_without_the_target(quick), FoveaState::State::kLost);
+  EXPECT_EQ(first_frame_without_the_target({}), FoveaState::State::kUncertain);
+}
+
 TEST(FoveaController, LocksOnTheSalientTargetAndFollowsItWithPrediction) {
   Loop loop;
   cv::Point2d p(300, 250);
