@@ -15,9 +15,12 @@
 // over the whole frame seen at a coarse step, as a retina's outer level sees
 // it, and the best places are checked by the filter until a confident peak
 // holds at one place on consecutive frames (less confident near where the
-// target was last tracked, if of its colour). A target that left the frame is
-// looked for only as far in from the border it crossed as the camera's turn
-// back and its own motion could bring it.
+// target was last tracked, if of its colour). A find elsewhere is taken only
+// as far from where the target was last tracked as the image's move since
+// (the camera's, measured over the whole frame: view_motion.hpp) and its own
+// motion could take it, unless it peaks nearly as high as the target usually
+// does; a target that left the frame, only as far in from the border it
+// crossed.
 #include <memory>
 #include <string>
 #include <vector>
@@ -94,6 +97,11 @@ struct BoxTrackerConfig {
                                     // re-detection must lie within its size of it, plus how far the camera
                                     // turned back since, plus this many times its size per frame since (0: not
                                     // asked; docs/tracking.md)
+  double reach_speed = 0.1;         // not tracked, a find elsewhere than where the tracker sits must lie within the
+                                    // target's size of where it was last tracked (moved with the camera's measured
+                                    // and told moves), plus this many times its size per frame since, unless it peaks
+                                    // nearly as high as the target's tracked frames usually do (0: not asked;
+                                    // docs/tracking.md)
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 

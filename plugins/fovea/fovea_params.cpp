@@ -126,7 +126,13 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "box tracking: a target whose centre left the frame comes back across that border: a re-detection "
              "must lie within the target's size of it, plus how far the camera turned back since, plus this many "
              "times the target's size per frame since (0: not asked; docs/tracking.md)",
-             &C::box, &B::reentry_speed);
+             &C::box, &B::reentry_speed)
+      .field("box_reach_speed", {0, 100},
+             "box tracking: while the target is not tracked, a re-detection elsewhere than where the tracker sits "
+             "must lie within the target's size of where it was last tracked (moved as the camera's measured and "
+             "told moves moved the image), plus this many times its size per frame since, unless it peaks nearly "
+             "as high as the target's tracked frames usually do (0: not asked; docs/tracking.md)",
+             &C::box, &B::reach_speed);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "box_tracker.hpp"
+#include "view_motion.hpp"
 #include "support.hpp"
 
 // OpenCV's own parallel loops (the scenes' warps and forEach) run on TBB,
@@ -458,11 +459,8 @@ TrackEstimate covered_update(BoxTracker& tracker, const cv::Mat& frame, int k) {
 // much again. Returns the frames the tracker claimed the look-alike on; in
 // `held`, the covered frames its box stayed on the target; in `back`, whether
 // the target, uncovered, was tracked again where it is.
-int twin_claims(double redetect_margin, int margin_frames, int& held, bool& back) {
+int twin_claims(BoxTrackerConfig config, int& held, bool& back) {
   Scene scene;
-  BoxTrackerConfig config;
-  config.redetect_margin = redetect_margin;
-  config.redetect_margin_frames = margin_frames;
   BoxTracker tracker(config);
   const cv::Point2d at(100, 120), twin_at(230, 110);
   held = 0, back = false;
@@ -497,19 +495,48 @@ int twin_claims(double redetect_margin, int margin_frames, int& held, bool& back
 TEST(BoxTracker, ALookAlikeIsNotTakenForAPartlyHiddenTargetThatIsStillThere) {
   int held = 0, held_without = 0, held_never = 0;
   bool back = false, back_without = false, back_never = false;
-  const BoxTrackerConfig defaults;
-  const int claimed = twin_claims(defaults.redetect_margin, defaults.redetect_margin_frames, held, back);
-  const int claimed_without = twin_claims(0.0, defaults.redetect_margin_frames, held_without, back_without);
+  // (The look-alike here is within box_reach_speed's reach, which is not
+  // what this test is about.)
+  BoxTrackerConfig defaults;
+  defaults.reach_speed = 0;
+  BoxTrackerConfig without = defaults, never = defaults;
+  without.redetect_margin = 0;
   // Asked during no unsure frame, the margin is still asked while the covered
   // target's peak reaches the re-detection bar (box_redetect_psr): it does
   // here, and the look-alike is refused as with the margin's frames.
-  const int claimed_never = twin_claims(defaults.redetect_margin, 0, held_never, back_never);
+  never.redetect_margin_frames = 0;
+  const int claimed = twin_claims(defaults, held, back);
+  const int claimed_without = twin_claims(without, held_without, back_without);
+  const int claimed_never = twin_claims(never, held_never, back_never);
   std::printf(
       "look-alike claimed on %d of 25 covered frames (%d without the margin, %d asked for no unsure frame); box "
       "on the target %d (%d, %d)\n",
       claimed, claimed_without, claimed_never, held, held_without, held_never);
   EXPECT_GT(claimed_without, 0) << "the scene no longer needs the margin";
   EXPECT_EQ(claimed_never, 0);
+  EXPECT_EQ(claimed, 0);
+  EXPECT_EQ(held, 25);
+  EXPECT_TRUE(back) << "the target, uncovered, is tracked again";
+}
+
+// box_reach_speed: the same partly hidden target and its look-alike 130 px
+// away, the margin not asked. A target not tracked for a few frames can only
+// have gone as far as the camera's move and its own could take it (here the
+// camera is still, and its own reach grows by a tenth of its size a frame):
+// the look-alike, nearly three of its widths away, is out of that reach for
+// the 25 covered frames.
+TEST(BoxTracker, ALookAlikeFartherThanThePartlyHiddenTargetCouldHaveGoneIsNotTakenForIt) {
+  int held = 0, held_anywhere = 0;
+  bool back = false, back_anywhere = false;
+  BoxTrackerConfig within_reach;
+  within_reach.redetect_margin = 0;
+  BoxTrackerConfig anywhere = within_reach;
+  anywhere.reach_speed = 0;
+  const int claimed = twin_claims(within_reach, held, back);
+  const int claimed_anywhere = twin_claims(anywhere, held_anywhere, back_anywhere);
+  std::printf("look-alike claimed on %d of 25 covered frames (%d taken anywhere); box on the target %d (%d)\n", claimed,
+              claimed_anywhere, held, held_anywhere);
+  EXPECT_GT(claimed_anywhere, 0) << "the scene no longer needs the reach";
   EXPECT_EQ(claimed, 0);
   EXPECT_EQ(held, 25);
   EXPECT_TRUE(back) << "the target, uncovered, is tracked again";
@@ -574,6 +601,7 @@ int frames_until_a_smaller_twin_is_taken(double max_size_change, int frames) {
   const Scene scene;
   BoxTrackerConfig config;
   config.max_size_change = max_size_change;
+  config.reach_speed = 0;  // (the twin is out of its reach too, which is not what this test is about)
   BoxTracker tracker(config);
   const cv::Point2d at(100, 120), twin_at(230, 100);
   if (!tracker.init(scene.render({60, 60}, at), scene.box(at)).ok()) return -2;
@@ -647,8 +675,8 @@ int frames_until_found_after_a_head_turn(bool told, const BoxTrackerConfig& conf
 // A target that left the view is looked for only as far in as the camera has
 // turned back towards it since (box_reentry_speed): here 100 px in, where its
 // own motion could not have brought it. The turn counts whether the head tells
-// it or the phase correlation of the coarse views measures it (told, it
-// counts once), and the target is found as soon as without the limit: two
+// it or the image's measured move shows it (view_motion.hpp; told, it counts
+// once), and the target is found as soon as without the limit: two
 // frames after the turn, or one when told (the lost target's place moves
 // with the turn, and the local look with it).
 TEST(BoxTracker, ATargetTheHeadTurnsBackToIsFoundWhereTheTurnBroughtIt) {
@@ -685,6 +713,69 @@ TEST(BoxTracker, AfterACutTheTargetIsLookedForAnywhere) {
   std::printf("found %d frames after the cut\n", found);
   EXPECT_GE(found, 0);
   EXPECT_LE(found, 5);
+}
+
+// The image's move while the target is not tracked (view_motion.hpp): a pan
+// of 3 px a frame across and 2 down, 45 frames (135 px across, over 40% of
+// the view: measured against newer keyframes as it goes), every frame's move
+// measured within a pixel; a still camera with a sensor's noise, within half a
+// pixel over 60 frames (nothing adds up).
+TEST(ViewMotion, FollowsALongPanAndAStillCamerasNoiseDoesNotAddUp) {
+  const Scene scene;
+  ViewMotion motion;
+  double worst = 0;
+  for (int k = 0; k <= 45; ++k) {
+    motion.measure(scene.render({20.0 + 3 * k, 20.0 + 2 * k}, {-100, -100}));
+    ASSERT_TRUE(motion.measuring()) << "frame " << k << ", peak " << motion.peak();
+    worst = std::max(worst, cv::norm(motion.shift() - cv::Point2d(-3.0 * k, -2.0 * k)));
+  }
+  std::printf("pan: worst error %.2f px, the last move measured (%.1f, %.1f)\n", worst, motion.shift().x,
+              motion.shift().y);
+  EXPECT_LT(worst, 1.0);
+  motion.reset();
+  EXPECT_FALSE(motion.started());
+  cv::RNG noise(7);
+  double drift = 0;
+  for (int k = 0; k < 60; ++k) {
+    cv::Mat frame = scene.render({100, 100}, {-100, -100});
+    cv::Mat grain(frame.size(), CV_16SC3);
+    noise.fill(grain, cv::RNG::NORMAL, 0, 4);
+    frame.convertTo(frame, CV_16SC3);
+    frame += grain;
+    frame.convertTo(frame, CV_8UC3);
+    motion.measure(frame);
+    drift = std::max(drift, cv::norm(motion.shift()));
+  }
+  std::printf("still: largest move measured %.2f px\n", drift);
+  EXPECT_LT(drift, 0.5);
+}
+
+// A view that no longer correlates with the last (a cut to another part of
+// the scene) ends the measurement: nothing can be said of where things went
+// until a reset; a frame of another size too.
+TEST(ViewMotion, ACutOrAnotherSizeEndsTheMeasurementUntilAReset) {
+  const Scene scene;
+  ViewMotion motion;
+  motion.measure(scene.render({20, 20}, {-100, -100}));
+  motion.measure(scene.render({26, 20}, {-100, -100}));
+  ASSERT_TRUE(motion.measuring());
+  EXPECT_NEAR(motion.shift().x, -6, 1);
+  motion.measure(scene.render({180, 230}, {-100, -100}));
+  std::printf("peak after the cut %.2f\n", motion.peak());
+  EXPECT_TRUE(motion.lost());
+  EXPECT_FALSE(motion.measuring());
+  EXPECT_EQ(motion.shift(), cv::Point2d());
+  motion.measure(scene.render({180, 230}, {-100, -100}));
+  EXPECT_TRUE(motion.lost()) << "until a reset";
+  motion.reset();
+  motion.measure(scene.render({180, 230}, {-100, -100}));
+  motion.measure(scene.render({180, 225}, {-100, -100}));
+  EXPECT_TRUE(motion.measuring());
+  EXPECT_NEAR(motion.shift().y, 5, 1);
+  cv::Mat small;
+  cv::resize(scene.render({180, 225}, {-100, -100}), small, {160, 120});
+  motion.measure(small);
+  EXPECT_TRUE(motion.lost());
 }
 
 TEST(BoxTracker, RefusesBoxesItCannotFollowAndSaysWhy) {

@@ -572,6 +572,20 @@ TEST(FoveaParams, AReentryIsLookedForNearTheBorderTheTargetLeftByByDefaultAndChe
               ::testing::HasSubstr("box_reentry_speed"));
 }
 
+// A target not tracked is looked for elsewhere only within its size of where
+// it was last tracked, moved with the image, plus 0.1 of its size a frame
+// (box_reach_speed); 0 looks anywhere; a negative speed is refused by name.
+TEST(FoveaParams, TheReachIsATenthOfTheTargetsSizeAFrameByDefaultAndChecked) {
+  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
+  ASSERT_TRUE(defaults.ok()) << defaults.error();
+  EXPECT_EQ(defaults->box.reach_speed, 0.1);
+  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_reach_speed", "0"}});
+  ASSERT_TRUE(off.ok()) << off.error();
+  EXPECT_EQ(off->box.reach_speed, 0.0);
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_reach_speed", "-0.1"}}).error(),
+              ::testing::HasSubstr("box_reach_speed"));
+}
+
 TEST(FoveaParams, ColourProposalsAndTheTurnedScaleFilterAreOnByDefaultAndChecked) {
   const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
   ASSERT_TRUE(defaults.ok()) << defaults.error();
