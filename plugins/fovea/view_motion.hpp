@@ -19,10 +19,12 @@ namespace saccade::fovea {
 class ViewMotion {
  public:
   static constexpr int kCells = 64;  // the coarse view's longer side, cells
-  // A correlation peak under this is no measurement: a cut to another part
-  // of the same photograph peaked at 0.09 and a 150 px head turn (the views
-  // barely overlapping) at 0.19; fresh sets 1-4's hand-held cameras' views
-  // at 0.29-1, vtest.avi's still camera's at 0.39-1 (docs/tracking.md).
+  // A correlation peak under this is no measurement. Cuts between fresh
+  // sets 1-4's sequences peak at 0.07-0.15 (median 0.09), a cut to another
+  // part of the same photograph at 0.10; those sets' hand-held cameras' frames
+  // against their keyframes at 0.11-0.98 (median 0.38, 0.4% under this),
+  // vtest.avi's still camera's at 0.32-0.95 (docs/tracking.md; test
+  // ViewMotionOnRealPictures.ACutPeaksUnderTheBarAndAMovingCamerasFramesOverIt).
   static constexpr double kMinPeak = 0.15;
 
   // Forgets the reference: the next frame measured becomes it.
