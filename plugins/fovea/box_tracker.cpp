@@ -1027,26 +1027,42 @@ struct BoxTracker::Impl {
   // Where a target no longer tracked can be by now: its image moves with the
   // camera and by itself. The camera's moves are told (camera_moved: a
   // head's turns) or seen: the image's move from the first frame the target
-  // was not tracked on is measured on every frame until it is tracked again
-  // (view_motion, over a coarse view of the whole frame), which takes in a
-  // hand-held camera's turns and the told ones alike.
+  // was not tracked on is measured (view_motion, over a coarse view of the
+  // whole frame) until it is tracked again, which takes in a hand-held
+  // camera's turns and the told ones alike. It is measured on the frames
+  // that ask for it (a find elsewhere weighed, the target leaving the view)
+  // and at least every ViewMotion::kMaxGap frames (a long pan followed).
   ViewMotion view_motion;
   cv::Point2d told;              // the camera's told moves since the target was last tracked ...
   cv::Point2d told_before_view;  // ... of which before view_motion's reference frame
   bool view_changed = false;     // since, the view became another (a cut): the target may be anywhere until tracked
+  const cv::Mat* unmeasured = nullptr;  // this frame, while not yet measured
+  int frames_unmeasured = 0;            // frames since the last measurement
+  void measure_view() {
+    if (unmeasured == nullptr) return;
+    view_motion.measure(*unmeasured);
+    unmeasured = nullptr;
+    frames_unmeasured = 0;
+    if (view_motion.lost() && !view_changed) view_changed = true, exit_axis = -1;
+  }
   // The image's move since the target was last tracked (told only until measured).
-  cv::Point2d image_moved() const { return view_motion.measuring() ? told_before_view + view_motion.shift() : told; }
-  // Before a frame, the last one not tracked: its move measured.
+  cv::Point2d image_moved() {
+    measure_view();
+    return view_motion.measuring() ? told_before_view + view_motion.shift() : told;
+  }
+  // Before a frame, the last one not tracked: its move to be measured.
   void follow_view(const cv::Mat& frame, bool tracked) {
     if (tracked || !view_motion.started()) return;
-    view_motion.measure(frame);
-    if (view_motion.lost() && !view_changed) view_changed = true, exit_axis = -1;
+    unmeasured = &frame;
+    if (++frames_unmeasured >= ViewMotion::kMaxGap) measure_view();
   }
   // After a frame: tracked, the measurement starts over from the next frame
   // not tracked; not tracked, the first such frame is the reference.
   void after_frame(const cv::Mat& frame, bool tracked) {
+    unmeasured = nullptr;
     if (tracked) {
       view_motion.reset();
+      frames_unmeasured = 0;
       told = told_before_view = exit_moved = {};
     } else if (!view_motion.started()) {
       view_motion.measure(frame);
@@ -1063,7 +1079,7 @@ struct BoxTracker::Impl {
   // tracked, moved with the image, plus reach_speed of its size per frame
   // since, unless it peaks nearly as high as the target's tracked frames
   // usually do (a move the view's measurement missed).
-  bool within_reach(cv::Point2d found, double psr) const {
+  bool within_reach(cv::Point2d found, double psr) {
     if (config.reach_speed <= 0 || view_changed || psr >= kReachUsualShare * psr_mean) return true;
     const cv::Point2d expected = sure_center + image_moved() - told;  // (sure_center moved with the told moves)
     const double grow = 1 + config.reach_speed * untracked_frames;
@@ -1099,15 +1115,16 @@ struct BoxTracker::Impl {
       if (tracked) exit_axis = -1;
       return;
     }
+    exit_moved = image_moved();
+    if (!tracked && view_changed) return;  // (found so by that measurement)
     exit_axis = over_x >= over_y ? 0 : 1;
     const double at = exit_axis == 0 ? center.x : center.y;
     exit_sign = at < 0 ? 1 : -1;
     exit_border = at < 0 ? 0.0 : (exit_axis == 0 ? frame.cols : frame.rows);
-    exit_moved = image_moved();
     frames_out = 0;
   }
   // Could a target that left the view be back at `found`?
-  bool may_be_back_at(cv::Point2d found) const {
+  bool may_be_back_at(cv::Point2d found) {
     if (exit_axis < 0 || config.reentry_speed <= 0) return true;
     const double side = exit_axis == 0 ? size.width : size.height;
     const cv::Point2d moved = image_moved() - exit_moved;
@@ -1381,6 +1398,9 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
     const Placement& p = looks[i];
     const Peak& peak = peaks[i];
     const cv::Point2d found = p.to_frame(peak.offset);
+    // (Under both bars, nothing more to ask; first, as the limits below
+    // measure the view's move.)
+    if (peak.psr < std::min(bar(found), config_.redetect_near_psr)) continue;
     if (!m.may_be_back_at(found) || (cv::norm(found - m.center) >= near && !m.within_reach(found, peak.psr)) ||
         (unsure && !m.beats_where_it_sits(frame, p, found, peak.psr, sits_psr, sits.color_distance, sits_shared, near)))
       continue;

@@ -26,6 +26,12 @@ class ViewMotion {
   // vtest.avi's still camera's at 0.32-0.95 (docs/tracking.md; test
   // ViewMotionOnRealPictures.ACutPeaksUnderTheBarAndAMovingCamerasFramesOverIt).
   static constexpr double kMinPeak = 0.15;
+  // Frames may go unmeasured between measurements (measure() need not see
+  // every frame), at most this many in a row: a pan of up to two cells a
+  // frame then moves under a keyframe's eighth of the view between two
+  // measurements, well within what a measurement sees (test
+  // ViewMotion.FollowsAPanMeasuredOnlyEveryFewFrames).
+  static constexpr int kMaxGap = 4;
 
   // Forgets the reference: the next frame measured becomes it.
   void reset();

@@ -750,6 +750,30 @@ TEST(ViewMotion, FollowsALongPanAndAStillCamerasNoiseDoesNotAddUp) {
   EXPECT_LT(drift, 0.5);
 }
 
+// The tracker measures the view only on the frames that ask (a find
+// elsewhere weighed) and at least every kMaxGap frames: a pan of 6 px a
+// frame across and 4 down (over a cell of the 320x240 view's 5 px a frame),
+// 28 frames, measured on every kMaxGap-th frame only, is followed within a
+// pixel and a half (every frame measured: within one).
+TEST(ViewMotion, FollowsAPanMeasuredOnlyEveryFewFrames) {
+  const Scene scene;
+  const auto worst_error = [&](int every) {
+    ViewMotion motion;
+    double worst = 0;
+    for (int k = 0; k <= 28; k += every) {
+      motion.measure(scene.render({20.0 + 6 * k, 20.0 + 4 * k}, {-100, -100}));
+      EXPECT_TRUE(motion.measuring()) << "frame " << k << ", peak " << motion.peak();
+      worst = std::max(worst, cv::norm(motion.shift() - cv::Point2d(-6.0 * k, -4.0 * k)));
+    }
+    return worst;
+  };
+  const double every_frame = worst_error(1), every_few = worst_error(ViewMotion::kMaxGap);
+  std::printf("pan of 168 x 112 px: worst error %.2f px measured every frame, %.2f every %d frames\n", every_frame,
+              every_few, ViewMotion::kMaxGap);
+  EXPECT_LT(every_frame, 1.0);
+  EXPECT_LT(every_few, 1.5);
+}
+
 // A view that no longer correlates with the last (a cut to another part of
 // the scene) ends the measurement: nothing can be said of where things went
 // until a reset; a frame of another size too.
