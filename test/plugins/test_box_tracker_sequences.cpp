@@ -99,6 +99,24 @@ TEST(BoxTrackerOnGeneratedSequences, AChangedTargetBackLargerIsReacquiredWithin1
   }
 }
 
+// `fresh6_occlusion` from the third and fifth of `--runs 6`'s first boxes:
+// while an occluder passes over the target the unsure tracker drifts onto
+// the background beside it, whose peaks (7.4-7.6) stay under the target's
+// usual ones but sure otherwise. Ten such frames made them the new usual
+// peak, and the background was claimed to the end (precision 0.26 and
+// 0.27); peaks under the re-detection bar no longer do, and the target is
+// found again when it comes out.
+TEST(BoxTrackerOnGeneratedSequences, PeaksTooLowToReDetectTheTargetDoNotBecomeItsUsualOnes) {
+  const Sequence occlusion = fresh(6, "fresh6_occlusion");
+  for (const int run : {2, 4}) {
+    const TrackScore score = track(occlusion, run);
+    std::printf("run %d: precision %.3f, success@0.5 %.3f, honest lost %.2f\n", run, score.precision20, score.success50,
+                score.honest_lost);
+    EXPECT_GE(score.precision20, 0.8) << "run " << run;
+    EXPECT_EQ(score.reacquire_misses, 0) << "run " << run;
+  }
+}
+
 // `fresh4_fast_640` from the second of `--runs 6`'s first boxes: the camera
 // looks away and the target leaves the view across the left edge; the camera
 // turns back fast (up to 50 px a frame) and brings it 200 px and more into the
@@ -169,7 +187,10 @@ TEST(BoxTrackerOnGeneratedSequences, ALostTargetBackTurnedAmongLookAlikesOfOther
 // the wrong finds that came first on these two runs are refused, and the
 // face is found at frame 189 and kept at its size either way: 0.890 and
 // 0.876. Without the tones the runs take the path above, where the resizing
-// is shown.)
+// is shown. Since a usual peak is made anew only from peaks that reach the
+// re-detection bar, run 2 with the size measured on tracked frames only
+// reaches 0.834 too, and only run 4's 0.583 still shows what the resizing
+// is for.)
 TEST(BoxTrackerOnGeneratedSequences, ATargetFoundAgainAtTheWrongSizeIsResizedWhileStillDoubted) {
   const Sequence held_out = generated("holdout_mixed");
   // (Both without box_reentry_speed, which keeps him from being taken for
@@ -188,7 +209,7 @@ TEST(BoxTrackerOnGeneratedSequences, ATargetFoundAgainAtTheWrongSizeIsResizedWhi
                 run, defaults.success50, resized.success50, kept.success50);
     EXPECT_GE(defaults.success50, 0.85) << "run " << run;
     EXPECT_GE(resized.success50, 0.85) << "run " << run;
-    EXPECT_LT(kept.success50, 0.7) << "run " << run;
+    if (run == 4) { EXPECT_LT(kept.success50, 0.7); }
   }
 }
 
