@@ -30,7 +30,8 @@ class ViewMotion {
   // every frame), at most this many in a row: a pan of up to two cells a
   // frame then moves under a keyframe's eighth of the view between two
   // measurements, well within what a measurement sees (test
-  // ViewMotion.FollowsAPanMeasuredOnlyEveryFewFrames).
+  // ViewMotion.FollowsAPanMeasuredOnlyEveryFewFrames). A faster one may no
+  // longer correlate, and is then lost as a cut is.
   static constexpr int kMaxGap = 4;
 
   // Forgets the reference: the next frame measured becomes it.
@@ -40,7 +41,7 @@ class ViewMotion {
   void measure(const cv::Mat& frame);
   // A reference taken (since reset()).
   bool started() const { return has_reference_; }
-  // A reference taken and every frame since measured against it.
+  // A reference taken and every frame measured since correlated with its keyframe.
   bool measuring() const { return has_reference_ && !lost_; }
   // The frame no longer correlated with its keyframe (or changed size).
   bool lost() const { return lost_; }

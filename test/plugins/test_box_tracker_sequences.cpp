@@ -122,8 +122,8 @@ TEST(BoxTrackerOnGeneratedSequences, PeaksTooLowToReDetectTheTargetDoNotBecomeIt
 // turns back fast (up to 50 px a frame) and brings it 200 px and more into the
 // view before it is found. A target that left the view is looked for only
 // as far in as the camera has turned back towards it (box_reentry_speed); the
-// camera's turn, measured on every frame the target is not tracked
-// (view_motion.hpp), lets it be found as soon as without that limit. (Unmeasured, 25 frames instead of 9.)
+// camera's turn, measured while the target is not tracked (view_motion.hpp),
+// lets it be found as soon as without that limit. (Unmeasured, 25 frames instead of 9.)
 TEST(BoxTrackerOnGeneratedSequences, ATargetTheCameraTurnsBackToIsFoundWhereTheTurnBroughtIt) {
   const Sequence s = fresh(4, "fresh4_fast_640");
   BoxTrackerConfig anywhere;
