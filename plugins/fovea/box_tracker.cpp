@@ -1125,8 +1125,9 @@ struct BoxTracker::Impl {
       if (tracked) exit_axis = -1;
       return;
     }
-    exit_moved = image_moved();
+    const cv::Point2d moved = image_moved();
     if (!tracked && view_changed) return;  // (found so by that measurement)
+    exit_moved = moved;
     exit_axis = over_x >= over_y ? 0 : 1;
     const double at = exit_axis == 0 ? center.x : center.y;
     exit_sign = at < 0 ? 1 : -1;
@@ -1408,13 +1409,14 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
     const Placement& p = looks[i];
     const Peak& peak = peaks[i];
     const cv::Point2d found = p.to_frame(peak.offset);
+    const double found_bar = bar(found);
     // (Under both bars, nothing more to ask; first, as the limits below
     // measure the view's move.)
-    if (peak.psr < std::min(bar(found), config_.redetect_near_psr)) continue;
+    if (peak.psr < std::min(found_bar, config_.redetect_near_psr)) continue;
     if (!m.may_be_back_at(found) || (cv::norm(found - m.center) >= near && !m.within_reach(found, peak.psr)) ||
         (unsure && !m.beats_where_it_sits(frame, p, found, peak.psr, sits_psr, sits.color_distance, sits_shared, near)))
       continue;
-    const bool over_bar = peak.psr >= bar(found);
+    const bool over_bar = peak.psr >= found_bar;
     const bool held = i == 0 && has_candidate && m.candidate_coloured && cv::norm(found - m.candidate) < near;
     bool coloured = false;
     if (over_bar ? !(held || m.has_its_colors(frame, p, found))
