@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -512,49 +513,43 @@ TEST(FoveaPlugin, BadBoxesAndTemplatesAreErrorsAtOpenNamingTheValue) {
   EXPECT_THAT(s.message(), ::testing::HasSubstr("640x480"));
 }
 
+// A box tracker parameter bound on the node (once for the node and the
+// benchmark's --set): `expected` by default, "0" turns it off, and
+// `refused` is an error naming it.
+template <class T>
+void expect_default_off_and_refused(const std::string& name, T BoxTrackerConfig::*member, T expected,
+                                    const std::string& refused) {
+  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
+  ASSERT_TRUE(defaults.ok()) << defaults.error();
+  EXPECT_EQ(defaults->box.*member, expected) << name;
+  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{name, "0"}});
+  ASSERT_TRUE(off.ok()) << off.error();
+  EXPECT_EQ(off->box.*member, T{0}) << name;
+  EXPECT_THAT(configure(&bind_fovea_params, {{name, refused}}).error(), ::testing::HasSubstr(name));
+}
+
 // The node's parameters, bound once for the node and the benchmark's --set:
 // the box tracker's colour histogram check asks a quarter of the colours by
 // default (docs/tracking.md), 0 turns it off, and a share outside 0..1 is
 // refused by name.
 TEST(FoveaParams, TheSharedColoursCheckAsksAQuarterByDefaultAndItsShareIsChecked) {
-  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
-  ASSERT_TRUE(defaults.ok()) << defaults.error();
-  EXPECT_EQ(defaults->box.min_shared_colors, 0.25);
-  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_min_shared_colors", "0"}});
-  ASSERT_TRUE(off.ok()) << off.error();
-  EXPECT_EQ(off->box.min_shared_colors, 0.0);
+  expect_default_off_and_refused("box_min_shared_colors", &BoxTrackerConfig::min_shared_colors, 0.25, "1.5");
   const Result<ControllerConfig> asked = configure(&bind_fovea_params, {{"box_min_shared_colors", "0.45"}});
   ASSERT_TRUE(asked.ok()) << asked.error();
   EXPECT_DOUBLE_EQ(asked->box.min_shared_colors, 0.45);
-  EXPECT_THAT(configure(&bind_fovea_params, {{"box_min_shared_colors", "1.5"}}).error(),
-              ::testing::HasSubstr("box_min_shared_colors"));
 }
 
 // The re-detection's size limit: 3% a frame by default, 0 lifts it, a
 // negative share is refused by name.
 TEST(FoveaParams, TheReDetectionsSizeLimitIsThreePercentAFrameByDefaultAndChecked) {
-  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
-  ASSERT_TRUE(defaults.ok()) << defaults.error();
-  EXPECT_EQ(defaults->box.max_size_change, 0.03);
-  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_max_size_change", "0"}});
-  ASSERT_TRUE(off.ok()) << off.error();
-  EXPECT_EQ(off->box.max_size_change, 0.0);
-  EXPECT_THAT(configure(&bind_fovea_params, {{"box_max_size_change", "-0.1"}}).error(),
-              ::testing::HasSubstr("box_max_size_change"));
+  expect_default_off_and_refused("box_max_size_change", &BoxTrackerConfig::max_size_change, 0.03, "-0.1");
 }
 
 // From a re-detection, unsure frames measure the size for 10 frames (its own
 // counted) by default; 0 leaves it to tracked frames; a negative count is
 // refused by name.
 TEST(FoveaParams, TheSizeIsMeasuredForTenFramesAfterAReDetectionByDefaultAndChecked) {
-  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
-  ASSERT_TRUE(defaults.ok()) << defaults.error();
-  EXPECT_EQ(defaults->box.rescale_frames, 10);
-  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_rescale_frames", "0"}});
-  ASSERT_TRUE(off.ok()) << off.error();
-  EXPECT_EQ(off->box.rescale_frames, 0);
-  EXPECT_THAT(configure(&bind_fovea_params, {{"box_rescale_frames", "-1"}}).error(),
-              ::testing::HasSubstr("box_rescale_frames"));
+  expect_default_off_and_refused("box_rescale_frames", &BoxTrackerConfig::rescale_frames, 10, "-1");
 }
 
 // A target that left the view is looked for within its size of the border
@@ -562,28 +557,14 @@ TEST(FoveaParams, TheSizeIsMeasuredForTenFramesAfterAReDetectionByDefaultAndChec
 // frame (box_reentry_speed); 0 looks anywhere; a negative speed is refused
 // by name.
 TEST(FoveaParams, AReentryIsLookedForNearTheBorderTheTargetLeftByByDefaultAndChecked) {
-  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
-  ASSERT_TRUE(defaults.ok()) << defaults.error();
-  EXPECT_EQ(defaults->box.reentry_speed, 0.05);
-  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_reentry_speed", "0"}});
-  ASSERT_TRUE(off.ok()) << off.error();
-  EXPECT_EQ(off->box.reentry_speed, 0.0);
-  EXPECT_THAT(configure(&bind_fovea_params, {{"box_reentry_speed", "-0.1"}}).error(),
-              ::testing::HasSubstr("box_reentry_speed"));
+  expect_default_off_and_refused("box_reentry_speed", &BoxTrackerConfig::reentry_speed, 0.05, "-0.1");
 }
 
 // A target not tracked is looked for elsewhere only within its size of where
 // it was last tracked, moved with the image, plus 0.1 of its size a frame
 // (box_reach_speed); 0 looks anywhere; a negative speed is refused by name.
 TEST(FoveaParams, TheReachIsATenthOfTheTargetsSizeAFrameByDefaultAndChecked) {
-  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
-  ASSERT_TRUE(defaults.ok()) << defaults.error();
-  EXPECT_EQ(defaults->box.reach_speed, 0.1);
-  const Result<ControllerConfig> off = configure(&bind_fovea_params, {{"box_reach_speed", "0"}});
-  ASSERT_TRUE(off.ok()) << off.error();
-  EXPECT_EQ(off->box.reach_speed, 0.0);
-  EXPECT_THAT(configure(&bind_fovea_params, {{"box_reach_speed", "-0.1"}}).error(),
-              ::testing::HasSubstr("box_reach_speed"));
+  expect_default_off_and_refused("box_reach_speed", &BoxTrackerConfig::reach_speed, 0.1, "-0.1");
 }
 
 TEST(FoveaParams, ColourProposalsAndTheTurnedScaleFilterAreOnByDefaultAndChecked) {
