@@ -427,6 +427,7 @@ Result<Sequence> read_video(const VideoTarget& target) {
   const int wanted = target.frames > 0 ? static_cast<int>(std::min<int64_t>(int64_t{target.first_frame} + target.frames,
                                                                             std::numeric_limits<int>::max()))
                                        : std::numeric_limits<int>::max();
+  const auto announced = static_cast<int64_t>(video->get(cv::CAP_PROP_FRAME_COUNT));
   cv::Size size;
   while (read < wanted && video->read(frame)) {
     if (read == target.first_frame) size = frame.size();
@@ -449,6 +450,11 @@ Result<Sequence> read_video(const VideoTarget& target) {
   if (target.frames > 0 && static_cast<int>(count) < target.frames)
     sequence.note = "the video ends " + std::to_string(count) + " frames after frame " +
                     std::to_string(target.first_frame) + ", not " + std::to_string(target.frames);
+  // (As capture.video: a header's count off by a few is usual, more is a
+  // video cut short or not decodable past a frame.)
+  if (read < wanted && announced - read > std::max<int64_t>(2, announced / 100))
+    sequence.note += std::string(sequence.note.empty() ? "" : "; ") + "only " + std::to_string(read) + " of the " +
+                     std::to_string(announced) + " frames its header announces could be read";
   sequence.truth.assign(count, b);
   sequence.visible.assign(count, true);
   sequence.truth_known = false;

@@ -1,5 +1,7 @@
 // Capture nodes: video file, image sequence, one image repeated, camera, a
 // time-matched stereo pair, and a synthetic scene with exact ground truth.
+#include <atomic>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -140,11 +142,14 @@ class SingleCapture : public Node {
     // How many frames the stream will have, for a progress line's ETA (saccade run).
     if (!config.loop && reader_->length() > 0)
       ctx.counter("frames_total").store(static_cast<uint64_t>(reader_->length()));
+    frames_unread_ = &ctx.counter("frames_unread");
     return {};
   }
   Status process(ProcessContext& ctx) override {
     auto image = ctx.make(Derived::kImage);
-    if (Status s = delivery_.read(*reader_, *image, ctx.frame_allocator(Derived::kImage)); !s.ok()) return s;
+    const Status read = delivery_.read(*reader_, *image, ctx.frame_allocator(Derived::kImage));
+    frames_unread_->store(static_cast<uint64_t>(reader_->frames_unread()), std::memory_order_relaxed);
+    if (!read.ok()) return read;
     image->frame_id = frame_++;
     if (!delivery_.pace(ctx, *reader_, image->timestamp_ns)) return Status::end_of_stream();
     image->origin_ns = steady_now_ns();  // released now: latency starts here, not before the pacing sleep
@@ -155,6 +160,7 @@ class SingleCapture : public Node {
  private:
   Delivery delivery_;
   std::unique_ptr<FrameReader> reader_;
+  std::atomic<uint64_t>* frames_unread_ = nullptr;  // the reader's frames_unread(), in the node's stats
   int64_t frame_ = 0;
 };
 
@@ -165,7 +171,11 @@ class Video final : public SingleCapture<Video> {
   using Config = DeliveryConfig;
   static void bind(ParamBinder<Config>& b) { bind_delivery(b); }
   static Contract contract() {
-    return Contract("Frames of a video file (any format OpenCV's FFmpeg backend reads).")
+    return Contract(
+               "Frames of a video file (any format OpenCV's FFmpeg backend reads). A video that ends before the "
+               "frame count its header announces (cut short, or not decodable past a frame) ends there with a "
+               "warning naming the file and both counts; the frames it could not give are the counter "
+               "frames_unread in the node's stats.")
         .ports(kImage)
         .required_string("path", "video file")
         .params(&bind);
@@ -258,7 +268,8 @@ class Stereo final : public Node {
   static Contract contract() {
     return Contract(
                "Two sources read in lockstep as a stereo pair: both images of a pair carry the same timestamp "
-               "and frame id.")
+               "and frame id. Frames a video announces and cannot give (as capture.video) are said and counted, "
+               "both sides' together, in frames_unread.")
         .ports(kLeft, kRight)
         .required_string("left_path", "left video, image, pattern (%d) or camera")
         .required_string("right_path", "right video, image, pattern (%d) or camera")
@@ -278,13 +289,19 @@ class Stereo final : public Node {
     if (!right.ok()) return right.status();
     left_reader_ = std::move(left).value();
     right_reader_ = std::move(right).value();
+    frames_unread_ = &ctx.counter("frames_unread");
     return {};
   }
   Status process(ProcessContext& ctx) override {
     auto l = ctx.make(kLeft);
     auto r = ctx.make(kRight);
-    if (Status s = left_.read(*left_reader_, *l, ctx.frame_allocator(kLeft)); !s.ok()) return s;
-    if (Status s = right_.read(*right_reader_, *r, ctx.frame_allocator(kRight)); !s.ok()) return s;
+    const Status read = left_.read(*left_reader_, *l, ctx.frame_allocator(kLeft));
+    const Status read_right = read.ok() ? right_.read(*right_reader_, *r, ctx.frame_allocator(kRight)) : Status();
+    // Both sides' announced frames that could not be read.
+    frames_unread_->store(static_cast<uint64_t>(left_reader_->frames_unread() + right_reader_->frames_unread()),
+                          std::memory_order_relaxed);
+    if (!read.ok()) return read;
+    if (!read_right.ok()) return read_right;
     l->camera_id = 0;
     r->camera_id = 1;
     l->frame_id = r->frame_id = frame_++;
@@ -299,6 +316,7 @@ class Stereo final : public Node {
  private:
   Delivery left_, right_;
   std::unique_ptr<FrameReader> left_reader_, right_reader_;
+  std::atomic<uint64_t>* frames_unread_ = nullptr;
   int64_t frame_ = 0;
 };
 

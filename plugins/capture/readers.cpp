@@ -13,6 +13,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "saccade/log.hpp"
+
 namespace saccade::capture {
 
 namespace fs = std::filesystem;
@@ -93,11 +95,16 @@ class VideoReader final : public FrameReader {
       return Status::error(path + ": OpenCV cannot open it as a video");
     fps_ = cap_.get(cv::CAP_PROP_FPS);
     length_ = std::max<int64_t>(0, static_cast<int64_t>(cap_.get(cv::CAP_PROP_FRAME_COUNT)));
+    path_ = path;
     return {};
   }
   int64_t length() const override { return length_; }
+  int64_t frames_unread() const override { return unread_; }
   Status read(cv::Mat& out, int64_t& media_ns) override {
-    if (!cap_.read(out) || out.empty()) return Status::end_of_stream();
+    if (!cap_.read(out) || out.empty()) {
+      note_early_end();
+      return Status::end_of_stream();
+    }
     media_ns = frame_time_ns(index_++, fps_);
     return {};
   }
@@ -108,10 +115,27 @@ class VideoReader final : public FrameReader {
   double fps() const override { return fps_; }
 
  private:
+  // The end came before the header's count, by more than a header's usual
+  // error (a few frames): the file is cut short, or OpenCV's FFmpeg cannot
+  // decode past this frame (opencv-doc's tree.avi: 68 of 444, and seeking past
+  // it fails too). Said once, and counted, rather than passed off as the end.
+  void note_early_end() {
+    const int64_t missing = length_ - index_;
+    if (missing <= std::max<int64_t>(2, length_ / 100) || missing <= unread_) return;
+    if (unread_ == 0)
+      log().warn(
+          "{}: the video ended after {} of the {} frames its header announces: frame {} could not be read "
+          "(cut short, or not decodable here); the other {} are skipped",
+          path_, index_, length_, index_, missing);
+    unread_ = missing;
+  }
+
   cv::VideoCapture cap_;
+  std::string path_;
   int64_t length_ = 0;
   double fps_ = 0;
   int64_t index_ = 0;
+  int64_t unread_ = 0;
 };
 
 }  // namespace

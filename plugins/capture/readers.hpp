@@ -28,6 +28,10 @@ class FrameReader {
   // Frames from the first to the end, as far as the source tells (a video's
   // header may be off by a few); 0 when unknown or endless.
   virtual int64_t length() const { return 0; }
+  // Frames the source announced and could not give: a video cut short, or one
+  // its decoder cannot read past some frame (the most on any pass); 0 while
+  // every announced frame came.
+  virtual int64_t frames_unread() const { return 0; }
 };
 
 // What a path names: a printf pattern ("left%02d.jpg") is a sequence, a still

@@ -3,10 +3,13 @@
 #include <fstream>
 #include <filesystem>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <opencv2/imgcodecs.hpp>
+#include <spdlog/sinks/ringbuffer_sink.h>
 
 #include "readers.hpp"
+#include "saccade/log.hpp"
 #include "support.hpp"
 
 namespace saccade {
@@ -37,6 +40,37 @@ TEST(CaptureVideo, ReadsEveryFrameOfVtestWithMediaTimestamps) {
   EXPECT_EQ(last->frame_id, 794);
   EXPECT_EQ(last->timestamp_ns, 79'400'000'000) << "10 fps: frame k at k * 100 ms";
   EXPECT_GT(first->origin_ns, 0);
+  EXPECT_EQ(h->counter("frames_unread"), 0u) << "every frame its header announces came";
+}
+
+// A video whose frames end before its header's count (a recording cut off
+// while written, a copy that stopped) ends there, as a video does, but says
+// so and counts what it could not give: its frames are not silently dropped.
+TEST(CaptureVideo, AVideoCutShortSaysSoAndCountsTheFramesItCouldNotGive) {
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("saccade_cut_short_" + std::to_string(getpid()) + ".avi");
+  constexpr int kWritten = 60;
+  ASSERT_TRUE(test::write_cut_short_video(path.string(), kWritten));
+
+  auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
+  log().sinks().push_back(ring);
+  auto h = harness(R"(<node plugin="capture.video"><param name="path" value=")" + path.string() +
+                   R"("/><param name="rate" value="fast"/></node>)");
+  int frames = 0;
+  Status s;
+  while ((s = h->process()).ok()) ++frames;
+  log().sinks().pop_back();
+  EXPECT_TRUE(s.is_end_of_stream()) << s.message();
+  EXPECT_GT(frames, 0);
+  EXPECT_LT(frames, kWritten - 2);
+  EXPECT_EQ(h->counter("frames_unread"), static_cast<uint64_t>(kWritten - frames));
+  int said = 0;
+  for (const std::string& line : ring->last_formatted())
+    if (line.find(path.string() + ": the video ended after " + std::to_string(frames) + " of the 60 frames") !=
+        std::string::npos)
+      ++said;
+  EXPECT_EQ(said, 1) << "said once, naming the file and both counts";
+  std::filesystem::remove(path);
 }
 
 TEST(CaptureVideo, FramesAreMadeWithTheAllocatorAConsumerOffers) {

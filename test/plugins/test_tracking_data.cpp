@@ -261,6 +261,20 @@ TEST(VideoReader, GivesTheFramesFromTheFirstOnInAnyOrderAndNamesWhatIsMissing) {
   EXPECT_THAT(read_video({"/", 0, {1, 1, 10, 10}, 0}).error(), ::testing::HasSubstr("cannot open video /: not a file"));
 }
 
+// A video that holds fewer frames than its header announces is followed to
+// its last frame, and the table's note says how many were missing.
+TEST(VideoReader, NotesAVideoCutShortOfWhatItsHeaderAnnounces) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("saccade_cut_short_bench_" + std::to_string(getpid()) + ".avi"))
+          .string();
+  ASSERT_TRUE(test::write_cut_short_video(path, 60));
+  const Sequence s = value_of(read_video({path, 0, {20, 10, 16, 16}, 0}));
+  EXPECT_GT(s.size(), 1);
+  EXPECT_LT(s.size(), 58);
+  EXPECT_THAT(s.note, ::testing::HasSubstr("only " + std::to_string(s.size()) + " of the 60 frames its header"));
+  std::filesystem::remove(path);
+}
+
 TEST(WitnessScore, CountsClaimedFramesJumpsAndAgreement) {
   std::vector<TrackedFrame> a(5), b(5);
   for (int i = 0; i < 5; ++i) {
