@@ -5,6 +5,7 @@ namespace saccade::fovea {
 namespace {
 // The box tracker's (BoxTrackerConfig), named box_*.
 void bind_box_params(ParamBinder<ControllerConfig>& b);
+void bind_box_limit_params(ParamBinder<ControllerConfig>& b);
 }  // namespace
 
 void bind_fovea_params(ParamBinder<ControllerConfig>& b) {
@@ -112,11 +113,18 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
       .field("box_scale_turn_min", {0, 360},
              "box tracking: degrees the target must have turned before the scale filter sees it turned as the "
              "patch does (upright under it; docs/tracking.md)",
-             &C::box, &B::scale_turn_min)
-      .field("box_max_size_change", {0, 10},
-             "box tracking: a re-detection's size may differ from the size the target was last tracked at by "
-             "this share per frame since (0: any of the sizes searched; docs/tracking.md)",
-             &C::box, &B::max_size_change)
+             &C::box, &B::scale_turn_min);
+  bind_box_limit_params(b);
+}
+
+// Where and at what size a target not tracked may be found again.
+void bind_box_limit_params(ParamBinder<ControllerConfig>& b) {
+  using C = ControllerConfig;
+  using B = BoxTrackerConfig;
+  b.field("box_max_size_change", {0, 10},
+          "box tracking: a re-detection's size may differ from the size the target was last tracked at by "
+          "this share per frame since (0: any of the sizes searched; docs/tracking.md)",
+          &C::box, &B::max_size_change)
       .field("box_rescale_frames", {0, 100000},
              "box tracking: for this many frames from a re-detection elsewhere than where the tracker sat (its own "
              "frame counted), frames too unsure to learn from still measure the target's size (the "
@@ -132,7 +140,13 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "must lie within the target's size of where it was last tracked (moved as the camera's measured and "
              "told moves moved the image), plus this many times its size per frame since, unless it peaks nearly "
              "as high as the target's tracked frames usually do (0: not asked; docs/tracking.md)",
-             &C::box, &B::reach_speed);
+             &C::box, &B::reach_speed)
+      .field("box_resize_ratio", {0, 100},
+             "box tracking: while the target is unsure, a look near where the tracker sits at another size whose "
+             "peak is this many times the one at the target's size (and reaches the re-detection's bar, of the "
+             "target's colours and tones) gives the target that size: it came nearer or went further (0: never; "
+             "docs/tracking.md)",
+             &C::box, &B::resize_ratio);
 }
 
 }  // namespace
