@@ -197,7 +197,10 @@ class Images final : public SingleCapture<Images> {
     bind_delivery(b);
   }
   static Contract contract() {
-    return Contract("An image sequence named by a printf pattern, read until the first missing number.")
+    return Contract(
+               "An image sequence named by a printf pattern, read until the first missing number. Images numbered "
+               "after a missing one are said in a warning naming the missing file, and counted in the node's "
+               "frames_unread.")
         .ports(kImage)
         .required_string("pattern", "file pattern, e.g. ${SACCADE_SAMPLE_DATA}/left%02d.jpg")
         .params(&bind);

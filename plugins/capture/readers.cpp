@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <filesystem>
 
 #include <opencv2/imgcodecs.hpp>
@@ -186,6 +187,31 @@ std::string NumberedPattern::name(int i) const {
   return prefix_ + digits + suffix_;
 }
 
+std::vector<int> NumberedPattern::numbers_present() const {
+  std::vector<int> numbers;
+  if (suffix_.find('/') != std::string::npos) return numbers;
+  const std::size_t slash = prefix_.rfind('/');
+  const std::string dir = slash == std::string::npos ? "." : prefix_.substr(0, slash + 1);
+  const std::string lead = slash == std::string::npos ? prefix_ : prefix_.substr(slash + 1);
+  std::error_code error;
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir, error)) {
+    const std::string file = entry.path().filename().string();
+    if (file.size() <= lead.size() + suffix_.size() || file.compare(0, lead.size(), lead) != 0 ||
+        file.compare(file.size() - suffix_.size(), suffix_.size(), suffix_) != 0)
+      continue;
+    const std::string digits = file.substr(lead.size(), file.size() - lead.size() - suffix_.size());
+    char* end = nullptr;
+    const long n = std::strtol(digits.c_str(), &end, 10);
+    // The pattern's own spelling of that number, or not one of its files.
+    if (end == digits.c_str() || *end != '\0' || n < 0 || n > std::numeric_limits<int>::max() ||
+        name(static_cast<int>(n)) != prefix_ + digits + suffix_)
+      continue;
+    numbers.push_back(static_cast<int>(n));
+  }
+  std::sort(numbers.begin(), numbers.end());
+  return numbers;
+}
+
 namespace {
 
 class SequenceReader final : public FrameReader {
@@ -198,11 +224,21 @@ class SequenceReader final : public FrameReader {
     fps_ = fps;
     if (!fs::exists(name(first)))
       return Status::error(pattern + ": the first image of the sequence, " + name(first) + ", does not exist");
+    text_ = pattern;
+    present_ = pattern_.numbers_present();
+    present_.erase(present_.begin(), std::lower_bound(present_.begin(), present_.end(), first));
     return {};
   }
+  // Every image from the first on that the pattern names (the sequence ends
+  // at the first missing number).
+  int64_t length() const override { return static_cast<int64_t>(present_.size()); }
+  int64_t frames_unread() const override { return unread_; }
   Status read(cv::Mat& out, int64_t& media_ns) override {
     std::string file = name(next_);
-    if (!fs::exists(file)) return Status::end_of_stream();
+    if (!fs::exists(file)) {
+      note_gap();
+      return Status::end_of_stream();
+    }
     if (Status s = require_regular_file(file); !s.ok()) return s;
     if (Status s = require_decodable_size(file); !s.ok()) return s;
     out = cv::imread(file, cv::IMREAD_UNCHANGED);
@@ -218,10 +254,25 @@ class SequenceReader final : public FrameReader {
   double fps() const override { return fps_; }
 
  private:
+  // A number missing with images numbered after it: the sequence ends at
+  // the gap, as it always has, but says so once and counts what it skips
+  // (a copy that lost a file, a recording that dropped one).
+  void note_gap() {
+    const auto after = static_cast<int64_t>(present_.end() - std::upper_bound(present_.begin(), present_.end(), next_));
+    if (after <= unread_) return;
+    if (unread_ == 0)
+      log().warn("{}: {} is missing: the sequence ends there, and the {} images numbered after it are skipped", text_,
+                 name(next_), after);
+    unread_ = after;
+  }
+
   std::string name(int i) const { return pattern_.name(i); }
   NumberedPattern pattern_;
+  std::string text_;
+  std::vector<int> present_;  // the pattern's numbers from the first on, in order
   int first_ = 0, next_ = 0;
   double fps_ = 0;
+  int64_t unread_ = 0;
 };
 
 // Decodes once; every read hands out the same pixels without copying them.

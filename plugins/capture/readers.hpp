@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
@@ -51,6 +52,9 @@ class NumberedPattern {
   // The pattern, or the error naming it when it is not one %d.
   static Result<NumberedPattern> parse(const std::string& pattern);
   std::string name(int i) const;
+  // The numbers of the files in the pattern's folder that it names, in
+  // order (none when the number is in a folder's name, not the file's).
+  std::vector<int> numbers_present() const;
 
  private:
   std::string prefix_, suffix_;

@@ -1,5 +1,6 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <fstream>
 #include <filesystem>
 #include <sys/stat.h>
@@ -21,6 +22,31 @@ std::unique_ptr<testing::NodeHarness> harness(const std::string& xml) {
   auto h = testing::NodeHarness::create(xml);
   if (!h.ok()) throw std::runtime_error(h.error());
   return std::move(h).value();
+}
+
+// A capture node run to its end, with what it logged meanwhile.
+struct RunToEnd {
+  std::unique_ptr<testing::NodeHarness> node;
+  int frames = 0;
+  Status end;
+  std::vector<std::string> logged;
+  // Lines logged that contain every one of `parts`.
+  int lines_with(std::initializer_list<std::string> parts) const {
+    return static_cast<int>(std::count_if(logged.begin(), logged.end(), [&](const std::string& line) {
+      return std::all_of(parts.begin(), parts.end(),
+                         [&](const std::string& part) { return line.find(part) != std::string::npos; });
+    }));
+  }
+};
+RunToEnd run_to_end(const std::string& xml) {
+  auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
+  log().sinks().push_back(ring);
+  RunToEnd run;
+  run.node = harness(xml);
+  while ((run.end = run.node->process()).ok()) ++run.frames;
+  log().sinks().pop_back();
+  run.logged = ring->last_formatted();
+  return run;
 }
 
 TEST(CaptureVideo, ReadsEveryFrameOfVtestWithMediaTimestamps) {
@@ -52,24 +78,16 @@ TEST(CaptureVideo, AVideoCutShortSaysSoAndCountsTheFramesItCouldNotGive) {
   constexpr int kWritten = 60;
   ASSERT_TRUE(test::write_cut_short_video(path.string(), kWritten));
 
-  auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
-  log().sinks().push_back(ring);
-  auto h = harness(R"(<node plugin="capture.video"><param name="path" value=")" + path.string() +
-                   R"("/><param name="rate" value="fast"/></node>)");
-  int frames = 0;
-  Status s;
-  while ((s = h->process()).ok()) ++frames;
-  log().sinks().pop_back();
-  EXPECT_TRUE(s.is_end_of_stream()) << s.message();
-  EXPECT_GT(frames, 0);
-  EXPECT_LT(frames, kWritten - 2);
-  EXPECT_EQ(h->counter("frames_unread"), static_cast<uint64_t>(kWritten - frames));
-  int said = 0;
-  for (const std::string& line : ring->last_formatted())
-    if (line.find(path.string() + ": the video ended after " + std::to_string(frames) + " of the 60 frames") !=
-        std::string::npos)
-      ++said;
-  EXPECT_EQ(said, 1) << "said once, naming the file and both counts";
+  const RunToEnd run = run_to_end(R"(<node plugin="capture.video"><param name="path" value=")" + path.string() +
+                                  R"("/><param name="rate" value="fast"/></node>)");
+  EXPECT_TRUE(run.end.is_end_of_stream()) << run.end.message();
+  EXPECT_GT(run.frames, 0);
+  EXPECT_LT(run.frames, kWritten - 2);
+  EXPECT_EQ(run.node->counter("frames_unread"), static_cast<uint64_t>(kWritten - run.frames));
+  EXPECT_EQ(
+      run.lines_with({path.string() + ": the video ended after " + std::to_string(run.frames) + " of the 60 frames"}),
+      1)
+      << "said once, naming the file and both counts";
   std::filesystem::remove(path);
 }
 
@@ -311,6 +329,40 @@ TEST(NumberedPattern, TakesOneNumberAndRefusesEveryOtherConversion) {
   EXPECT_THAT(reader.error(), ::testing::HasSubstr("expected one %d"));
 }
 
+// A missing number ends the sequence; images numbered after it are not
+// passed over in silence: said once, naming the missing file, and counted.
+TEST(CaptureImages, AGapEndsTheSequenceAndTheImagesAfterItAreSaidAndCounted) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("saccade_sequence_gap_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  for (const int i : {1, 2, 3, 4, 5, 7, 8, 9})
+    cv::imwrite((dir / ("img_" + std::to_string(i) + ".png")).string(), cv::Mat(8, 8, CV_8UC1, cv::Scalar(i)));
+  std::ofstream(dir / "img_x.png") << "not one of its numbers";
+  std::ofstream(dir / "other_10.png") << "not its name";
+
+  const RunToEnd run = run_to_end(R"(<node plugin="capture.images"><param name="pattern" value=")" +
+                                  (dir / "img_%d.png").string() + R"("/><param name="rate" value="fast"/></node>)");
+  EXPECT_TRUE(run.end.is_end_of_stream()) << run.end.message();
+  EXPECT_EQ(run.frames, 5);
+  EXPECT_EQ(run.node->counter("frames_total"), 8u) << "every image the pattern names";
+  EXPECT_EQ(run.node->counter("frames_unread"), 3u);
+  EXPECT_EQ(
+      run.lines_with({(dir / "img_6.png").string() + " is missing", "the 3 images numbered after it are skipped"}), 1);
+  std::filesystem::remove_all(dir);
+}
+
+// opencv-doc's chessboard images: left01..left09 and left11..left14, the
+// example pattern of capture.images' documentation.
+TEST(CaptureImages, OpencvDocsLeftChessboardsEndAtTheMissingTenthAndCountTheFourAfter) {
+  const RunToEnd run = run_to_end(R"(<node plugin="capture.images"><param name="pattern" value=")" +
+                                  test::sample_dir() + R"(/left%02d.jpg"/><param name="rate" value="fast"/></node>)");
+  EXPECT_EQ(run.frames, 9);
+  EXPECT_EQ(run.node->counter("frames_total"), 13u);
+  EXPECT_EQ(run.node->counter("frames_unread"), 4u);
+  EXPECT_EQ(run.lines_with({"left10.jpg is missing", "the 4 images numbered after it are skipped"}), 1);
+}
+
 // A reader tells the end of its frames apart from an error.
 TEST(FrameReader, EndOfStreamIsNotAnError) {
   const std::string dir = (std::filesystem::temp_directory_path() / "saccade_frame_reader_end").string();
@@ -325,6 +377,7 @@ TEST(FrameReader, EndOfStreamIsNotAnError) {
   EXPECT_EQ(frame.at<uint8_t>(0, 0), 7);
   const Status end = (*reader)->read(frame, media_ns);
   EXPECT_TRUE(end.is_end_of_stream()) << end.message();
+  EXPECT_EQ((*reader)->frames_unread(), 0) << "nothing numbered after the end";
   std::ofstream(dir + "/img_2.png") << "not a png";
   const Status broken = (*reader)->read(frame, media_ns);
   EXPECT_TRUE(broken.is_error());
