@@ -194,16 +194,17 @@ std::vector<int> NumberedPattern::numbers_present() const {
   const std::string dir = slash == std::string::npos ? "." : prefix_.substr(0, slash + 1);
   const std::string lead = slash == std::string::npos ? prefix_ : prefix_.substr(slash + 1);
   std::error_code error;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir, error)) {
-    const std::string file = entry.path().filename().string();
+  // (Incremented with the error code: a folder that changes while read ends the list, it does not throw.)
+  for (fs::directory_iterator entry(dir, error), end; !error && entry != end; entry.increment(error)) {
+    const std::string file = entry->path().filename().string();
     if (file.size() <= lead.size() + suffix_.size() || file.compare(0, lead.size(), lead) != 0 ||
         file.compare(file.size() - suffix_.size(), suffix_.size(), suffix_) != 0)
       continue;
     const std::string digits = file.substr(lead.size(), file.size() - lead.size() - suffix_.size());
-    char* end = nullptr;
-    const long n = std::strtol(digits.c_str(), &end, 10);
+    char* stop = nullptr;
+    const long n = std::strtol(digits.c_str(), &stop, 10);
     // The pattern's own spelling of that number, or not one of its files.
-    if (end == digits.c_str() || *end != '\0' || n < 0 || n > std::numeric_limits<int>::max() ||
+    if (stop == digits.c_str() || *stop != '\0' || n < 0 || n > std::numeric_limits<int>::max() ||
         name(static_cast<int>(n)) != prefix_ + digits + suffix_)
       continue;
     numbers.push_back(static_cast<int>(n));
