@@ -102,10 +102,10 @@ struct BoxTrackerConfig {
                                     // and told moves), plus this many times its size per frame since, unless it peaks
                                     // nearly as high as the target's tracked frames usually do (0: not asked;
                                     // docs/tracking.md)
-  double resize_ratio = 1.25;       // unsure, a look near where the tracker sits at another size whose peak is this
+  double resize_ratio = 1.25;       // unsure, a look near where the tracker sits at a larger size whose peak is this
                                     // many times the one at the target's size (and reaches redetect_psr, of its
-                                    // colours and tones, a size it could have changed to) gives the target that
-                                    // size and place: it came nearer or went further (0: never; docs/tracking.md)
+                                    // colours and tones, a size it could have grown to) gives the target that
+                                    // size and place: it came nearer (0: never; docs/tracking.md)
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 

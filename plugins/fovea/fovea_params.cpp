@@ -142,10 +142,9 @@ void bind_box_limit_params(ParamBinder<ControllerConfig>& b) {
              "as high as the target's tracked frames usually do (0: not asked; docs/tracking.md)",
              &C::box, &B::reach_speed)
       .field("box_resize_ratio", {0, 100},
-             "box tracking: while the target is unsure, a look near where the tracker sits at another size whose "
+             "box tracking: while the target is unsure, a look near where the tracker sits at a larger size whose "
              "peak is this many times the one at the target's size (and reaches the re-detection's bar, of the "
-             "target's colours and tones) gives the target that size: it came nearer or went further (0: never; "
-             "docs/tracking.md)",
+             "target's colours and tones) gives the target that size: it came nearer (0: never; docs/tracking.md)",
              &C::box, &B::resize_ratio);
 }
 

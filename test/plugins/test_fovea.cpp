@@ -567,9 +567,9 @@ TEST(FoveaParams, TheReachIsATenthOfTheTargetsSizeAFrameByDefaultAndChecked) {
   expect_default_off_and_refused("box_reach_speed", &BoxTrackerConfig::reach_speed, 0.1, "-0.1");
 }
 
-// Unsure, a look where the tracker sits at another size a quarter higher
-// than at the target's gives it that size (box_resize_ratio); 0 never; a
-// negative ratio is refused by name.
+// Unsure, a look where the tracker sits at a larger size that peaks a
+// quarter higher than at the target's gives it that size (box_resize_ratio);
+// 0 never; a negative ratio is refused by name.
 TEST(FoveaParams, AnUnsureTargetTakesASizeThatPeaksAQuarterHigherByDefaultAndChecked) {
   expect_default_off_and_refused("box_resize_ratio", &BoxTrackerConfig::resize_ratio, 1.25, "-1");
 }
