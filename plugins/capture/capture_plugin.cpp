@@ -173,9 +173,9 @@ class Video final : public SingleCapture<Video> {
   static Contract contract() {
     return Contract(
                "Frames of a video file (any format OpenCV's FFmpeg backend reads). A video that ends before the "
-               "frame count its header announces (cut short, or not decodable past a frame) ends there with a "
-               "warning naming the file and both counts; the frames it could not give are the counter "
-               "frames_unread in the node's stats.")
+               "frame count its header announces by more than a header's usual error (2 frames or 1%; cut short, "
+               "or not decodable past a frame) ends there with a warning naming the file and both counts; the "
+               "frames it could not give are the counter frames_unread in the node's stats.")
         .ports(kImage)
         .required_string("path", "video file")
         .params(&bind);
@@ -271,8 +271,9 @@ class Stereo final : public Node {
   static Contract contract() {
     return Contract(
                "Two sources read in lockstep as a stereo pair: both images of a pair carry the same timestamp "
-               "and frame id. Frames a video announces and cannot give (as capture.video) are said and counted, "
-               "both sides' together, in frames_unread.")
+               "and frame id. Frames a source announces and cannot give (a video cut short, as capture.video; "
+               "images after a gap in a sequence, as capture.images) are said and counted, both sides' together, "
+               "in frames_unread.")
         .ports(kLeft, kRight)
         .required_string("left_path", "left video, image, pattern (%d) or camera")
         .required_string("right_path", "right video, image, pattern (%d) or camera")

@@ -126,7 +126,7 @@ class VideoReader final : public FrameReader {
     if (unread_ == 0)
       log().warn(
           "{}: the video ended after {} of the {} frames its header announces: frame {} could not be read "
-          "(cut short, or not decodable here); the other {} are skipped",
+          "(cut short, or not decodable here), and the {} frames from it on are skipped",
           path_, index_, length_, index_, missing);
     unread_ = missing;
   }
@@ -228,11 +228,13 @@ class SequenceReader final : public FrameReader {
     text_ = pattern;
     present_ = pattern_.numbers_present();
     present_.erase(present_.begin(), std::lower_bound(present_.begin(), present_.end(), first));
+    while (run_ < static_cast<int64_t>(present_.size()) && present_[static_cast<std::size_t>(run_)] == first + run_)
+      ++run_;
     return {};
   }
-  // Every image from the first on that the pattern names (the sequence ends
-  // at the first missing number).
-  int64_t length() const override { return static_cast<int64_t>(present_.size()); }
+  // The images from the first to the first missing number, where the
+  // sequence ends (those after it: frames_unread, once the end is reached).
+  int64_t length() const override { return run_; }
   int64_t frames_unread() const override { return unread_; }
   Status read(cv::Mat& out, int64_t& media_ns) override {
     std::string file = name(next_);
@@ -271,6 +273,7 @@ class SequenceReader final : public FrameReader {
   NumberedPattern pattern_;
   std::string text_;
   std::vector<int> present_;  // the pattern's numbers from the first on, in order
+  int64_t run_ = 0;           // how many of them follow the first without a gap
   int first_ = 0, next_ = 0;
   double fps_ = 0;
   int64_t unread_ = 0;

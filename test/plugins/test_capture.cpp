@@ -41,10 +41,13 @@ struct RunToEnd {
 RunToEnd run_to_end(const std::string& xml) {
   auto ring = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
   log().sinks().push_back(ring);
+  // (Taken off the library's logger however the run ends, a throw included.)
+  struct Unhook {
+    ~Unhook() { log().sinks().pop_back(); }
+  } unhook;
   RunToEnd run;
   run.node = harness(xml);
   while ((run.end = run.node->process()).ok()) ++run.frames;
-  log().sinks().pop_back();
   run.logged = ring->last_formatted();
   return run;
 }
@@ -345,7 +348,7 @@ TEST(CaptureImages, AGapEndsTheSequenceAndTheImagesAfterItAreSaidAndCounted) {
                                   (dir / "img_%d.png").string() + R"("/><param name="rate" value="fast"/></node>)");
   EXPECT_TRUE(run.end.is_end_of_stream()) << run.end.message();
   EXPECT_EQ(run.frames, 5);
-  EXPECT_EQ(run.node->counter("frames_total"), 8u) << "every image the pattern names";
+  EXPECT_EQ(run.node->counter("frames_total"), 5u) << "up to the gap, where it ends";
   EXPECT_EQ(run.node->counter("frames_unread"), 3u);
   EXPECT_EQ(
       run.lines_with({(dir / "img_6.png").string() + " is missing", "the 3 images numbered after it are skipped"}), 1);
@@ -358,7 +361,7 @@ TEST(CaptureImages, OpencvDocsLeftChessboardsEndAtTheMissingTenthAndCountTheFour
   const RunToEnd run = run_to_end(R"(<node plugin="capture.images"><param name="pattern" value=")" +
                                   test::sample_dir() + R"(/left%02d.jpg"/><param name="rate" value="fast"/></node>)");
   EXPECT_EQ(run.frames, 9);
-  EXPECT_EQ(run.node->counter("frames_total"), 13u);
+  EXPECT_EQ(run.node->counter("frames_total"), 9u);
   EXPECT_EQ(run.node->counter("frames_unread"), 4u);
   EXPECT_EQ(run.lines_with({"left10.jpg is missing", "the 4 images numbered after it are skipped"}), 1);
 }
