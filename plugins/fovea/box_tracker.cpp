@@ -840,7 +840,8 @@ struct BoxTracker::Impl {
   void follow_size_where_it_sits(const cv::Mat& frame, double sits_psr, double near) {
     if (config.resize_ratio <= 0 || sits_psr <= 0) return;
     std::size_t pick = looks.size();
-    double bar = std::max(config.redetect_psr, config.resize_ratio * sits_psr);
+    // (A ratio under 1 counts as 1: a larger look that peaks lower is no sign the target grew.)
+    double bar = std::max(config.redetect_psr, std::max(1.0, config.resize_ratio) * sits_psr);
     for (std::size_t i = 0; i < looks.size(); ++i) {
       const Placement& p = looks[i];
       const cv::Point2d found = p.to_frame(look_peaks[i].offset);

@@ -105,7 +105,8 @@ struct BoxTrackerConfig {
   double resize_ratio = 1.25;       // unsure, a look near where the tracker sits at a larger size whose peak is this
                                     // many times the one at the target's size (and reaches redetect_psr, of its
                                     // colours and tones, a size it could have grown to) gives the target that
-                                    // size and place: it came nearer (0: never; docs/tracking.md)
+                                    // size and place: it came nearer (0: never; under 1 counts as 1;
+                                    // docs/tracking.md)
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
 };
 

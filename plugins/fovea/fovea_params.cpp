@@ -144,7 +144,8 @@ void bind_box_limit_params(ParamBinder<ControllerConfig>& b) {
       .field("box_resize_ratio", {0, 100},
              "box tracking: while the target is unsure, a look near where the tracker sits at a larger size whose "
              "peak is this many times the one at the target's size (and reaches the re-detection's bar, of the "
-             "target's colours and tones) gives the target that size: it came nearer (0: never; docs/tracking.md)",
+             "target's colours and tones) gives the target that size: it came nearer (0: never; a ratio under 1 "
+             "counts as 1; docs/tracking.md)",
              &C::box, &B::resize_ratio);
 }
 
