@@ -21,6 +21,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "readers.hpp"
+
 namespace saccade::bench {
 namespace {
 
@@ -452,7 +454,7 @@ Result<Sequence> read_video(const VideoTarget& target) {
                     std::to_string(target.first_frame) + ", not " + std::to_string(target.frames);
   // (As capture.video: a header's count off by a few is usual, more is a
   // video cut short or not decodable past a frame.)
-  if (read < wanted && announced - read > std::max<int64_t>(2, announced / 100))
+  if (read < wanted && capture::frames_short_of(announced, read) > 0)
     sequence.note += std::string(sequence.note.empty() ? "" : "; ") + "only " + std::to_string(read) + " of the " +
                      std::to_string(announced) + " frames its header announces could be read";
   sequence.truth.assign(count, b);

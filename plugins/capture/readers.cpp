@@ -121,8 +121,8 @@ class VideoReader final : public FrameReader {
   // decode past this frame (opencv-doc's tree.avi: 68 of 444, and seeking past
   // it fails too). Said once, and counted, rather than passed off as the end.
   void note_early_end() {
-    const int64_t missing = length_ - index_;
-    if (missing <= std::max<int64_t>(2, length_ / 100) || missing <= unread_) return;
+    const int64_t missing = frames_short_of(length_, index_);
+    if (missing <= unread_) return;
     if (unread_ == 0)
       log().warn(
           "{}: the video ended after {} of the {} frames its header announces: frame {} could not be read "
@@ -179,6 +179,11 @@ Result<NumberedPattern> NumberedPattern::parse(const std::string& pattern) {
   if (!numbered)
     return Status::error("pattern '" + pattern + "': expected one %d for the frame number (such as img_%04d.png)");
   return out;
+}
+
+int64_t frames_short_of(int64_t announced, int64_t read) {
+  const int64_t missing = announced - read;
+  return missing > std::max<int64_t>(2, announced / 100) ? missing : 0;
 }
 
 std::string NumberedPattern::name(int i) const {

@@ -35,6 +35,10 @@ class FrameReader {
   virtual int64_t frames_unread() const { return 0; }
 };
 
+// How many of the `announced` frames a source that gave `read` failed to
+// give, beyond a header's usual error (2 frames or 1%): 0 within it.
+int64_t frames_short_of(int64_t announced, int64_t read);
+
 // What a path names: a printf pattern ("left%02d.jpg") is a sequence, a still
 // image extension one image, a bare number or /dev/video* a camera, else a video.
 enum class SourceKind { kVideo, kSequence, kImage, kCamera };
