@@ -648,10 +648,12 @@ TEST(BoxTracker, TheCamerasOwnMoveIsNotTakenForTheTargets) {
   EXPECT_GT(cv::norm(center(b.box) - (c + shift)), 10.0) << "70 px is beyond what one frame's search covers";
 }
 
-// Frames from the target leaving the view until it is tracked again, when
+// Frames from the head's turn back until the target is tracked again, when
 // the head turns the camera away from it by 6 px a frame and, once it has
-// been out of view for 5 frames, back 150 px in one frame, that turn `told`
-// (camera_moved) or not.
+// been out of view for 5 frames, back 150 px in one frame (frame 26), that
+// turn `told` (camera_moved) or not; -1 if the target never left the view or
+// is not found again.
+constexpr int kTurnBackFrame = 26;
 int frames_until_found_after_a_head_turn(bool told, const BoxTrackerConfig& config) {
   const Scene scene;
   const cv::Point2d world(400, 120);  // the target, where the camera at x = 0 sees it
@@ -663,11 +665,12 @@ int frames_until_found_after_a_head_turn(bool told, const BoxTrackerConfig& conf
   for (int k = 1; k < 80; ++k) {
     const double before = camera_x;
     if (k <= 20) camera_x -= 6;
-    if (k == 26) camera_x += 150;
+    if (k == kTurnBackFrame) camera_x += 150;
     if (told && camera_x != before) tracker.camera_moved({before - camera_x, 0});
     const TrackEstimate e = tracker.update(scene.render({camera_x, 60}, at(camera_x)));
     if (left < 0 && at(camera_x).x > 320) left = k;
-    if (k >= 26 && e.state == TrackState::kTracking && cv::norm(center(e.box) - at(camera_x)) < 5) return k - left;
+    if (k >= kTurnBackFrame && e.state == TrackState::kTracking && cv::norm(center(e.box) - at(camera_x)) < 5)
+      return left > 0 ? k - kTurnBackFrame : -1;
   }
   return -1;
 }
@@ -686,10 +689,12 @@ TEST(BoxTracker, ATargetTheHeadTurnsBackToIsFoundWhereTheTurnBroughtIt) {
   const int untold = frames_until_found_after_a_head_turn(false, {});
   const int told_anywhere = frames_until_found_after_a_head_turn(true, anywhere);
   const int untold_anywhere = frames_until_found_after_a_head_turn(false, anywhere);
-  std::printf("found %d frames after it left, %d with the turn untold (looked for anywhere: %d, %d)\n", told, untold,
+  std::printf("found %d frames after the turn, %d with the turn untold (looked for anywhere: %d, %d)\n", told, untold,
               told_anywhere, untold_anywhere);
-  EXPECT_GT(told, 0);
-  EXPECT_GT(untold, 0);
+  EXPECT_GE(told, 0) << "the target never left the view, or was not found again";
+  EXPECT_LE(told, 1) << "told, the lost target's place moves with the turn";
+  EXPECT_LE(untold, 2) << "untold, the image's measured move brings the limit along";
+  EXPECT_LT(told, untold) << "the head's word saves the frame the image's move is measured on";
   EXPECT_EQ(told, told_anywhere);
   EXPECT_EQ(untold, untold_anywhere);
 }

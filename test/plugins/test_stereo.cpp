@@ -575,10 +575,12 @@ TEST(StereoNode, TheRightToLeftMapLiesOnTheLeftLevelsGeometry) {
     for (int x = 0; x < outer.cols; ++x)
       if (outer.at<float>(y, x) >= 0) {
         ++given;
-        near_truth += std::abs(outer.at<float>(y, x) - 12.0f) <= 20.0f;
+        // (Half a level pixel: a map shifted by the fixation's 12 px would
+        // lie at 0 or 24.)
+        near_truth += std::abs(outer.at<float>(y, x) - 12.0f) <= 10.0f;
       }
   EXPECT_GT(given, 100);
-  EXPECT_GE(near_truth, given * 9 / 10) << "level 0, step 20: within a level pixel";
+  EXPECT_GE(near_truth, given * 8 / 10) << "level 0, step 20: within half a level pixel (measured 0.89)";
 }
 
 TEST(StereoNode, AMaxDisparityBeyondTheFrameIsSearchedToTheFramesWidth) {
@@ -856,6 +858,7 @@ TEST(StereoCalibration, ReadsFocalAndBaselineFromQOrP2OrM1AndT) {
   });
   c = read_calibration(mt);
   ASSERT_TRUE(c.ok()) << c.error();
+  EXPECT_NEAR(c->focal_px, 600, 1e-9);
   EXPECT_NEAR(c->baseline_m, 0.09, 1e-12);
   // OpenCV's own intrinsics.yml (M1, D1, M2, D2, no extrinsics): a clear error.
   const std::string only_intrinsics = test::sample_path("intrinsics.yml");
