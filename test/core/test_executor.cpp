@@ -270,7 +270,10 @@ TEST_F(Executor, NodeErrorStopsTheGraphAndNamesTheNode) {
   Status s = g->run();
   ASSERT_TRUE(s.is_error());
   EXPECT_THAT(s.message(), ::testing::HasSubstr("node 'bad' (util.fail, line 1): injected failure at call 5"));
-  EXPECT_LT(g->stats("n").processed.load(), 100u);
+  // Stopped there: 'bad' passes on only what came before the failing call
+  // (calls 0-4), and the source is not run to its end.
+  EXPECT_LE(g->stats("n").processed.load(), 5u);
+  EXPECT_LT(g->stats("src").emitted.load(), 50u);
 }
 
 TEST_F(Executor, ThrownExceptionsAreCaughtInsideThePlugin) {
@@ -371,16 +374,23 @@ TEST_F(Executor, InlineConsumersTimeIsNotChargedToTheProducer) {
       threads(1));
   ASSERT_TRUE(g->run().ok());
   EXPECT_EQ(g->stats("sink").processed.load(), 20u);
-  EXPECT_GE(g->stats("p").process_time.percentile(0.5), 3'000'000);
-  EXPECT_LT(g->stats("src").process_time.percentile(0.5), 1'500'000) << "the 3 ms of the inline consumer is its own";
+  const int64_t consumer = g->stats("p").process_time.percentile(0.5);
+  EXPECT_GE(consumer, 3'000'000);
+  // Relative, so that a slow host does not decide it: charged to the
+  // producer, its median would be at least the consumer's.
+  EXPECT_LT(g->stats("src").process_time.percentile(0.5), consumer / 2) << "the inline consumer's time is its own";
 }
 
 TEST_F(Executor, PacingSleepIsNotProcessingTime) {
   auto g = open_graph("<graph>" + counter("src", 10, "<param name=\"rate_hz\" value=\"100\"/>") +
                       "<node name=\"n\" plugin=\"util.null\"/><edge from=\"src.image\" to=\"n.in\"/></graph>");
   ASSERT_TRUE(g->run().ok());
-  EXPECT_LT(g->stats("src").process_time.percentile(0.5), 2'000'000) << "frames 10 ms apart; the wait is not work";
-  EXPECT_GT(g->executor->elapsed_s(), 0.08);
+  // Frames 10 ms apart: the run takes at least 9 gaps, of which the
+  // source's processing time holds none (relative, so that a slow host does
+  // not decide it).
+  const double elapsed_ns = g->executor->elapsed_s() * 1e9;
+  EXPECT_GT(elapsed_ns, 0.08e9);
+  EXPECT_LT(g->stats("src").process_time.percentile(0.5), elapsed_ns / 9 / 4) << "the wait is not work";
 }
 
 TEST_F(Executor, StatsCountProcessingAndLatency) {

@@ -274,6 +274,10 @@ TEST(Cannelloni, RejectsMalformedPacketsWithTheReason) {
   uint8_t seq = 0;
   const Status decoded = cannelloni::decode(fd64.data(), fd64.size(), seq, frames);
   EXPECT_TRUE(decoded.ok()) << decoded.message();
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_TRUE(frames[0].fd);
+  EXPECT_EQ(frames[0].length, 64);
+  EXPECT_EQ(frames[0].data[63], 0x55);
 }
 
 TEST(UdpTunnel, CarriesFramesBothWaysPacksACycleAndCountsLoss) {

@@ -254,8 +254,25 @@ TEST(View, SpeaksTheFoxgloveProtocol) {
   EXPECT_EQ(state["type"], "FoveaState");
   EXPECT_TRUE(state.contains("target"));
 
-  // Unsubscribed: no more frames of it, while the others go on.
+  // Unsubscribed: no more frames of it, while the others go on. Of the next
+  // 60 frames the first 20 may still hold pictures sent before the server
+  // read the request; none after them does.
   client.send_text(json{{"op", "unsubscribe"}, {"subscriptionIds", {7, 8, 10}}}.dump());
+  int data = 0, on_state = 0, late_pictures = 0;
+  std::string message;
+  for (int reads = 0; data < 60 && reads < 1000; ++reads) {
+    if (client.read(message) || message.size() < 13 || message[0] != 1) continue;
+    uint32_t id = 0;
+    std::memcpy(&id, message.data() + 1, 4);
+    ++data;
+    if (id == 9)
+      ++on_state;
+    else if (data > 20)
+      ++late_pictures;
+  }
+  EXPECT_EQ(data, 60);
+  EXPECT_GE(on_state, 40) << "the fovea's state goes on";
+  EXPECT_EQ(late_pictures, 0) << "frames of the unsubscribed channels";
   EXPECT_TRUE(eventually([&] { return run.server->counters().clients == 1; }));
   EXPECT_EQ(run.server->counters().malformed, 0u);
 }
