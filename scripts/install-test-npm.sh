@@ -4,7 +4,8 @@
 # a package.json and package-lock.json, `npm ci` into BUILD_DIR/npm/<folder>.
 # Idempotent: a folder whose lock file is unchanged since its last install is
 # skipped. Without node and npm it says so and installs nothing (the tests that
-# need them then skip, or fail under CI).
+# need them then fail, naming what is missing; scripts/install-deps.sh
+# installs node and npm).
 #   scripts/install-test-npm.sh [BUILD_DIR]   (default build/release)
 set -euo pipefail
 cd "$(dirname "$0")/.."
