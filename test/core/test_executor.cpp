@@ -250,6 +250,10 @@ TEST_F(Executor, DeterministicModeIsBitIdenticalRunToRun) {
   }
   ASSERT_EQ(runs[0].size(), 30u);
   ASSERT_EQ(runs[1].size(), 30u);
+  for (std::size_t f = 0; f < 30; ++f) {
+    ASSERT_FALSE(runs[0][f]->maps.empty()) << "frame " << f;
+    ASSERT_EQ(runs[0][f]->maps.size(), runs[1][f]->maps.size()) << "frame " << f;
+  }
   for (std::size_t f = 0; f < 30; ++f)
     for (std::size_t i = 0; i < runs[0][f]->maps.size(); ++i)
       for (std::size_t l = 0; l < runs[0][f]->maps[i].size(); ++l) {

@@ -961,6 +961,7 @@ TEST(CanNodes, AGazeRequestIsTracedFromItsCameraFrameToTheJointCommand) {
   for (int tick = 0; tick < 30; ++tick) step(tick);
   auto joints = driver->last<JointState>("state");
   ASSERT_NE(joints, nullptr);
+  ASSERT_EQ(joints->health.size(), configs.size());
   for (JointState::Health h : joints->health) ASSERT_EQ(h, JointState::Health::kReady) << joints->detail;
   ASSERT_EQ(driver->timing("gaze_capture_to_command").count(), 0u);
   driver->set("targets", std::const_pointer_cast<JointTargets>(answering));

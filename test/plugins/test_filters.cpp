@@ -179,6 +179,8 @@ TEST(FilterBankNode, FlatRetinaStaysFlat) {
   ASSERT_NE(maps, nullptr);
   EXPECT_EQ(maps->names.size(), static_cast<std::size_t>(kFeatureCount));
   EXPECT_EQ(maps->retina.get(), r.get());
+  for (const char* name : {"gauss", "sobel_x", "sobel_y", "grad_mag", "laplacian", "log", "ggrad_mag", "grad_mask"})
+    ASSERT_EQ(maps->find(name)->size(), 5u) << name << ": a map per level";
   for (const auto& level : *maps->find("gauss"))
     EXPECT_EQ(cv::norm(level, cv::Mat(24, 32, CV_32F, cv::Scalar(90)), cv::NORM_INF), 0);
   for (const char* name : {"sobel_x", "sobel_y", "grad_mag", "laplacian", "log", "ggrad_mag"})

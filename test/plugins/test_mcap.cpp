@@ -204,6 +204,7 @@ TEST_P(McapRoundTrip, EveryMessageTypeSurvivesAFile) {
   EXPECT_EQ(reader.statistics()->schema_count, 13u) << "one schema per type, described once";
   EXPECT_GT(reader.statistics()->chunk_count, 3u);
   EXPECT_EQ(reader.statistics()->message_start_time, 1'000'000'000u);
+  EXPECT_EQ(reader.statistics()->channel_message_counts.size(), 13u);
   for (const auto& [id, count] : reader.statistics()->channel_message_counts) EXPECT_EQ(count, 20u) << id;
   // The summary's definitions are the types' encodings.
   const mcap::Channel* image = reader.find_channel("/test/Image");

@@ -131,6 +131,7 @@ TEST(MotionNode, FirstFrameReportsNothing) {
   Chain c;
   auto m = c.step(vtest_frame(0), std::nullopt, 0);
   EXPECT_TRUE(m->first);
+  ASSERT_EQ(m->energy.size(), 5u) << "a figure per level of the default retina";
   for (double e : m->energy) EXPECT_EQ(e, 0.0);
 }
 
@@ -140,10 +141,13 @@ TEST(MotionNode, APureFoveaShiftIsNotMotion) {
   c.step(frame, cv::Point2d(300, 250), 0);
   auto m = c.step(frame, cv::Point2d(420, 330), 1);  // the scene is still; only the fovea moved
   ASSERT_FALSE(m->first);
+  ASSERT_EQ(m->energy.size(), 5u);
+  ASSERT_EQ(m->moving.size(), 5u);
   for (std::size_t k = 0; k < m->energy.size(); ++k) {
     EXPECT_EQ(m->energy[k], 0.0) << "level " << k;
     EXPECT_EQ(m->moving[k], 0.0) << "level " << k;
   }
+  ASSERT_EQ(c.maps()->find("mask")->size(), 5u);
   for (const auto& level : *c.maps()->find("mask")) EXPECT_EQ(cv::countNonZero(level), 0);
 }
 
