@@ -946,6 +946,12 @@ void expect_channel_round_trip() {
   append_json(a, in);
   append_json(b, **out);
   EXPECT_EQ(a, b) << M::kTypeName;
+  // JSON gives a matrix by its shape: the message encoded again is the same
+  // bytes, its pixels too.
+  std::vector<uint8_t> again;
+  ASSERT_TRUE(is_ok(encoder->encode(**out, again)));
+  EXPECT_TRUE(again == bytes) << M::kTypeName << ": encoded again, " << again.size() << " bytes against "
+                              << bytes.size();
   // Truncated bytes are an error, not a crash.
   Result<MessagePtr> truncated = decoder->decode(bytes.data(), bytes.size() / 2);
   EXPECT_FALSE(truncated.ok());
