@@ -489,10 +489,12 @@ TEST(BoxTrackerOnRealVideo, KeepsAPedestrianWhoStaysInViewOverOthersInDarkClothe
     std::vector<Seen> seen;
   };
   const std::vector<Walker> walkers{
-      {300, 100, {309, 168, 42, 136}, 0.7, {}},
+      // (He walks left, turns at frame 321 and walks right, men in dark
+      // clothes within 50 px of him: where he is, by eye, at three frames.)
+      {300, 100, {309, 168, 42, 136}, 0.7, {{320, {269, 222}}, {340, {349, 239}}, {350, {396, 257}}}},
       // (Claimed on 21 of his 39 frames, 0.54: doubted while he is crossed.)
       {480, 40, {577, 241, 35, 111}, 0.5, {{492, {634, 312}}, {498, {627, 322}}, {510, {630, 321}}}},
-      // (Claimed on 47 of his 88 frames, 0.53: doubted in the crowd.)
+      // (Claimed on 0.62 of his 88 frames: doubted in the crowd.)
       {420, 89, {292, 189, 34, 111}, 0.5, {{484, {500, 290}}, {496, {566, 323}}, {508, {639, 360}}}}};
   for (const Walker& w : walkers) {
     Result<Sequence> read = read_video({video, w.first_frame, w.box, w.frames});
@@ -502,8 +504,9 @@ TEST(BoxTrackerOnRealVideo, KeepsAPedestrianWhoStaysInViewOverOthersInDarkClothe
     const std::vector<TrackedFrame> track = follow_from(s, w.box, 0, {});
     for (const Seen& seen : w.seen) {
       const cv::Rect2d& b = track.at(static_cast<std::size_t>(seen.frame - w.first_frame)).box;
-      EXPECT_LT(cv::norm(cv::Point2d(b.x + b.width / 2, b.y + b.height / 2) - seen.center), 15)
-          << "frame " << seen.frame << ": not on the pedestrian";
+      const double off = cv::norm(cv::Point2d(b.x + b.width / 2, b.y + b.height / 2) - seen.center);
+      std::printf("frame %d: the box's centre %.1f px from where he is\n", seen.frame, off);
+      EXPECT_LT(off, 15) << "frame " << seen.frame << ": not on the pedestrian";
     }
     const WitnessScore score = witness_score(track);
     std::printf("pedestrian at %.0f,%.0f from frame %d: %d jumps, claimed %.2f of %d frames\n", w.box.x, w.box.y,
