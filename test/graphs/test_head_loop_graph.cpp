@@ -100,6 +100,7 @@ TEST(DrivesProgram, TheSimulatedDrivesRunAsTheirOwnProcessBehindAUdpTunnel) {
   for (const auto& s : states) ready_cycles += s->all_ready();
   EXPECT_TRUE(states.back()->all_ready()) << states.back()->detail;
   EXPECT_GE(ready_cycles, 250) << "at least a second of the run with every drive enabled";
+  ASSERT_EQ(states.back()->position.size(), 5u) << "the head's five joints";
   for (double p : states.back()->position) EXPECT_NEAR(p, 0.0, 1e-3);
 }
 

@@ -135,6 +135,8 @@ TEST(RetinaSampling, WorksOnRoiViews) {
   s.sample(view, {200, 100}, a, g);
   RetinaSampler s2(c);
   s2.sample(view.clone(), {200, 100}, b, g);
+  ASSERT_EQ(a.size(), 5u);
+  ASSERT_EQ(b.size(), a.size());
   for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(cv::norm(a[k], b[k], cv::NORM_INF), 0);
 }
 
@@ -147,6 +149,8 @@ TEST(RetinaSampling, FivePointIsCloseToTheAreaMeanOnARealFrame) {
   std::vector<LevelGeometry> g;
   a.sample(frame, {640, 555}, la, g);
   b.sample(frame, {640, 555}, lb, g);
+  ASSERT_EQ(la.size(), 5u);
+  ASSERT_EQ(lb.size(), la.size());
   for (std::size_t k = 0; k < la.size(); ++k) {
     double mean_diff = cv::norm(la[k], lb[k], cv::NORM_L1) / static_cast<double>(la[k].total());
     EXPECT_LT(mean_diff, 20.0) << "level " << k;
