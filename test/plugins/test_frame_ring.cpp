@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <thread>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -407,11 +408,16 @@ void reader_races_the_writer(ReaderWait how) {
   ASSERT_EQ(read(to_parent[0], &ready, 1), 1) << "the child follows the ring";
   close(to_parent[0]);
   close(to_parent[1]);
-  // The first wake: the child is asleep (or about to be) on post 1.
-  usleep(20000);
+  // The first wake: a sleeping child is asleep on post 1 before post 2 comes
+  // (a spinning one never sleeps), and that post wakes it.
+  if (how == ReaderWait::kSleep)
+    for (int i = 0; i < 10000 && ring->sleeping_readers() == 0; ++i) usleep(1000);
+  else
+    usleep(20000);
   for (uint64_t n = 2; n <= kPosts; ++n) {
     const Numbered s = numbered(n);
-    ring->post(&s, sizeof s);
+    const bool woke = ring->post(&s, sizeof s);
+    if (n == 2 && how == ReaderWait::kSleep) { EXPECT_TRUE(woke) << "the reader asleep on the doorbell was not woken"; }
   }
   int status = 0;
   ASSERT_EQ(waitpid(child, &status, 0), child);
@@ -439,7 +445,15 @@ TEST(FrameRing, ASpinningReaderWaitsOutItsTimeoutWhenNothingIsPosted) {
   EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(20));
   const Numbered s = numbered(1);
   ring->post(&s, sizeof s);
-  EXPECT_TRUE(reader.wait_mail(0, 60'000'000'000)) << "a post already there: at once";
+  // A post already there: at once, not after the minute's timeout (which
+  // also returns true while the ring is there).
+  auto waited = std::async(std::launch::async, [&] { return reader.wait_mail(0, 60'000'000'000); });
+  ASSERT_EQ(waited.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  EXPECT_TRUE(waited.get());
+  Numbered got{};
+  uint64_t post = 0;
+  ASSERT_TRUE(reader.mail(0, &got, sizeof got, post));
+  EXPECT_EQ(post, 1u);
 }
 
 void letting_go_sends_readers_back(ReaderWait how) {
@@ -449,13 +463,15 @@ void letting_go_sends_readers_back(ReaderWait how) {
   reader.set_wait(how);
   const Status followed = reader.follow(at);
   ASSERT_TRUE(followed.ok()) << followed.message();
-  std::thread sleeper([&] {
-    // Woken at once by the writer's end, not after a minute.
-    EXPECT_FALSE(reader.wait_mail(0, 60'000'000'000));
-  });
-  usleep(20000);
+  auto woken = std::async(std::launch::async, [&] { return reader.wait_mail(0, 60'000'000'000); });
+  if (how == ReaderWait::kSleep)
+    for (int i = 0; i < 10000 && ring->sleeping_readers() == 0; ++i) usleep(1000);
+  else
+    usleep(20000);
   ring.reset();
-  sleeper.join();
+  // Woken by the writer's end, not by the minute's timeout.
+  ASSERT_EQ(woken.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  EXPECT_FALSE(woken.get());
   EXPECT_FALSE(reader.following());
   EXPECT_FALSE(reader.wait_mail(0, 60'000'000'000)) << "nothing to follow";
 }

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <thread>
 #include <vector>
 
@@ -42,9 +43,10 @@ std::unique_ptr<Mailbox> make_mailbox(std::size_t slot_bytes, uint32_t slots) {
   return std::move(box).value_or(nullptr);
 }
 
-void post(Mailbox& box, uint64_t n) {
+// Whether the post woke a reader asleep on the mailbox.
+bool post(Mailbox& box, uint64_t n) {
   const std::vector<uint8_t> m = message_of(n);
-  box.post(m.data(), m.size());
+  return box.post(m.data(), m.size());
 }
 
 }  // namespace
@@ -117,13 +119,15 @@ void closing_sends_readers_back(ReaderWait how) {
   const saccade::Status followed = reader.follow(box->id());
   ASSERT_TRUE(followed.ok()) << followed.message();
   post(*box, 1);
-  std::thread sleeper([&] {
-    // Woken at once by the writer's end, not after a minute.
-    EXPECT_FALSE(reader.wait(1, 60'000'000'000));
-  });
-  usleep(20000);
+  auto woken = std::async(std::launch::async, [&] { return reader.wait(1, 60'000'000'000); });
+  if (how == ReaderWait::kSleep)
+    for (int i = 0; i < 10000 && box->sleeping_readers() == 0; ++i) usleep(1000);
+  else
+    usleep(20000);
   box.reset();
-  sleeper.join();
+  // Woken by the writer's end, not by the minute's timeout.
+  ASSERT_EQ(woken.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  EXPECT_FALSE(woken.get());
   EXPECT_FALSE(reader.open());
   EXPECT_FALSE(shm_exists(name)) << "the writer unlinks its name";
   std::vector<uint8_t> got;
@@ -186,8 +190,16 @@ void reader_reads_every_post(ReaderWait how) {
   ASSERT_EQ(read(to_parent[0], &ready, 1), 1) << "the child follows the mailbox";
   close(to_parent[0]);
   close(to_parent[1]);
-  usleep(20000);  // the child is asleep (or about to be) on post 1
-  for (uint64_t n = 1; n <= kPosts; ++n) post(*box, n);
+  // A sleeping child is asleep on post 1 before it comes (a spinning one
+  // never sleeps), and that post wakes it.
+  if (how == ReaderWait::kSleep)
+    for (int i = 0; i < 10000 && box->sleeping_readers() == 0; ++i) usleep(1000);
+  else
+    usleep(20000);
+  for (uint64_t n = 1; n <= kPosts; ++n) {
+    const bool woke = post(*box, n);
+    if (n == 1 && how == ReaderWait::kSleep) { EXPECT_TRUE(woke) << "the reader asleep on the mailbox was not woken"; }
+  }
   int status = 0;
   ASSERT_EQ(waitpid(child, &status, 0), child);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
