@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <map>
 
 #include "fault_support.hpp"
@@ -108,12 +109,15 @@ double in_view(const LoopRun& run, double from, double to) {
   return frames > 0 ? static_cast<double>(visible) / frames : 0.0;
 }
 
-// How far any joint but `except` moved in [from, to) s, degrees.
+// How far any joint but `except` moved in [from, to) s, degrees; NaN, which
+// no bound passes, when no shaft position fell in the window.
 double drift_deg(const LoopRun& run, double from, double to, int except = -1) {
   std::vector<double> lo(5, 1e9), hi(5, -1e9);
+  int samples = 0;
   for (const auto& j : run.shafts) {
     const double at = seconds(j->timestamp_ns);
     if (at < from || at >= to) continue;
+    ++samples;
     for (std::size_t k = 0; k < 5 && k < j->position.size(); ++k) {
       lo[k] = std::min(lo[k], j->position[k]);
       hi[k] = std::max(hi[k], j->position[k]);
@@ -123,7 +127,7 @@ double drift_deg(const LoopRun& run, double from, double to, int except = -1) {
   for (int k = 0; k < 5; ++k)
     if (k != except && hi[static_cast<std::size_t>(k)] >= lo[static_cast<std::size_t>(k)])
       most = std::max(most, (hi[static_cast<std::size_t>(k)] - lo[static_cast<std::size_t>(k)]) / kDeg);
-  return most;
+  return samples > 0 ? most : std::numeric_limits<double>::quiet_NaN();
 }
 
 std::string write_key() {

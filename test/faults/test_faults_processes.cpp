@@ -302,9 +302,12 @@ void FaultsTwoPc::kill_and_restart(bool vision) {
     const std::string log = (vision ? "head_" : "robot_") + std::to_string(round + 1) + ".log";
     sleep_s(std::max(0.0, kLifetime - since(born, steady_now_ns())));
     killed_files.push_back(shm_files_of(pid));
+    ASSERT_FALSE(killed_files.back().empty()) << "it mapped no shared memory of its own: the cleanup is not tested";
     const int64_t t_kill = steady_now_ns();
     ASSERT_EQ(kill(pid, SIGKILL), 0);
     EXPECT_EQ(test::wait_child(pid, 10), -1) << "killed";
+    EXPECT_FALSE(still_there(killed_files.back()).empty())
+        << "a killed process's files stay until they are found stale";
     sleep_s(kOutage);
     const int64_t last_frame = frames.last_before(t_kill + 50'000'000);
     const int64_t t_spawn = steady_now_ns();
