@@ -850,9 +850,13 @@ struct BoxTracker::Impl {
       pick = i, bar = look_peaks[i].psr;
     }
     if (pick == looks.size()) return;
-    center = looks[pick].to_frame(look_peaks[pick].offset);
-    size *= looks[pick].step / step;
-    step = looks[pick].step;
+    place_at(looks[pick].to_frame(look_peaks[pick].offset), looks[pick].step);
+  }
+  // The box at `found`, at the size a look of patch step `at_step` sees the target at.
+  void place_at(cv::Point2d found, double at_step) {
+    center = found;
+    size *= at_step / step;
+    step = at_step;
   }
   // Within redetect_near times the target's larger side of where it was last tracked?
   bool near_where_tracked(cv::Point2d found) const {
@@ -869,9 +873,8 @@ struct BoxTracker::Impl {
     // 1.5x its size and off its centre, had the box grown on the frames
     // between (success@0.5 0.765 -> 0.679 from the true first box).
     if (elsewhere) frames_since_found = 0;
-    center = sure_center = found;
-    size *= at_step / step;  // found at another size
-    step = at_step;
+    place_at(found, at_step);  // found at another size
+    sure_center = found;
     velocity = {};
     low_frames = unsure_frames = candidate_frames = 0;
     forget_lower();  // what is found may be another object
