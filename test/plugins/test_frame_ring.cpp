@@ -410,10 +410,11 @@ void reader_races_the_writer(ReaderWait how) {
   close(to_parent[1]);
   // The first wake: a sleeping child is asleep on post 1 before post 2 comes
   // (a spinning one never sleeps), and that post wakes it.
-  if (how == ReaderWait::kSleep)
-    for (int i = 0; i < 10000 && ring->sleeping_readers() == 0; ++i) usleep(1000);
-  else
-    usleep(20000);
+  if (how == ReaderWait::kSleep) {
+    EXPECT_TRUE(test::a_reader_sleeps_on(*ring));
+  } else {
+    usleep(20000);  // a spinning reader never sleeps: a moment to start spinning
+  }
   for (uint64_t n = 2; n <= kPosts; ++n) {
     const Numbered s = numbered(n);
     const bool woke = ring->post(&s, sizeof s);
@@ -464,10 +465,11 @@ void letting_go_sends_readers_back(ReaderWait how) {
   const Status followed = reader.follow(at);
   ASSERT_TRUE(followed.ok()) << followed.message();
   auto woken = std::async(std::launch::async, [&] { return reader.wait_mail(0, 60'000'000'000); });
-  if (how == ReaderWait::kSleep)
-    for (int i = 0; i < 10000 && ring->sleeping_readers() == 0; ++i) usleep(1000);
-  else
-    usleep(20000);
+  if (how == ReaderWait::kSleep) {
+    EXPECT_TRUE(test::a_reader_sleeps_on(*ring));
+  } else {
+    usleep(20000);  // a spinning reader never sleeps: a moment to start spinning
+  }
   ring.reset();
   // Woken by the writer's end, not by the minute's timeout.
   ASSERT_EQ(woken.wait_for(std::chrono::seconds(30)), std::future_status::ready);
@@ -541,7 +543,7 @@ TEST(FrameRing, AWriterThatWokeASleepingReaderCanWaitUntilItHasTakenThePost) {
     ASSERT_TRUE(reader.wait_mail(1, 10'000'000'000));
     EXPECT_TRUE(reader.mail(1, &mine, sizeof mine, number));
   });
-  for (int i = 0; i < 10000 && ring->sleeping_readers() == 0; ++i) usleep(1000);
+  EXPECT_TRUE(test::a_reader_sleeps_on(*ring));
   const Numbered second = numbered(2);
   EXPECT_TRUE(ring->post(&second, sizeof second));
   EXPECT_TRUE(ring->wait_until_taken(2, 10'000'000'000));

@@ -120,10 +120,11 @@ void closing_sends_readers_back(ReaderWait how) {
   ASSERT_TRUE(followed.ok()) << followed.message();
   post(*box, 1);
   auto woken = std::async(std::launch::async, [&] { return reader.wait(1, 60'000'000'000); });
-  if (how == ReaderWait::kSleep)
-    for (int i = 0; i < 10000 && box->sleeping_readers() == 0; ++i) usleep(1000);
-  else
-    usleep(20000);
+  if (how == ReaderWait::kSleep) {
+    EXPECT_TRUE(saccade::test::a_reader_sleeps_on(*box));
+  } else {
+    usleep(20000);  // a spinning reader never sleeps: a moment to start spinning
+  }
   box.reset();
   // Woken by the writer's end, not by the minute's timeout.
   ASSERT_EQ(woken.wait_for(std::chrono::seconds(30)), std::future_status::ready);
@@ -192,10 +193,11 @@ void reader_reads_every_post(ReaderWait how) {
   close(to_parent[1]);
   // A sleeping child is asleep on post 1 before it comes (a spinning one
   // never sleeps), and that post wakes it.
-  if (how == ReaderWait::kSleep)
-    for (int i = 0; i < 10000 && box->sleeping_readers() == 0; ++i) usleep(1000);
-  else
-    usleep(20000);
+  if (how == ReaderWait::kSleep) {
+    EXPECT_TRUE(saccade::test::a_reader_sleeps_on(*box));
+  } else {
+    usleep(20000);  // a spinning reader never sleeps: a moment to start spinning
+  }
   for (uint64_t n = 1; n <= kPosts; ++n) {
     const bool woke = post(*box, n);
     if (n == 1 && how == ReaderWait::kSleep) { EXPECT_TRUE(woke) << "the reader asleep on the mailbox was not woken"; }
@@ -254,7 +256,7 @@ TEST(Mailbox, AWriterThatWokeASleepingReaderCanWaitUntilItHasReadThePost) {
     ASSERT_TRUE(reader.wait(1, 10'000'000'000));
     EXPECT_EQ(reader.read(2, mine), Read::kMessage);
   });
-  for (int i = 0; i < 10000 && box->sleeping_readers() == 0; ++i) usleep(1000);
+  EXPECT_TRUE(saccade::test::a_reader_sleeps_on(*box));
   const std::vector<uint8_t> second = message_of(2);
   EXPECT_TRUE(box->post(second.data(), second.size()));
   EXPECT_TRUE(box->wait_until_taken(2, 10'000'000'000));
