@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstring>
+#include <optional>
 #include <thread>
 #include <utility>
 
@@ -111,14 +112,19 @@ struct Client {
       if (read(s)) return json::parse(s);
     throw std::runtime_error("no text message");
   }
+  // The subscription a binary message is a messageData frame of; nothing for another message.
+  static std::optional<uint32_t> data_subscription(const std::string& s) {
+    if (s.size() < 13 || s[0] != 1) return std::nullopt;
+    uint32_t id = 0;
+    std::memcpy(&id, s.data() + 1, 4);
+    return id;
+  }
   // The next messageData frame of subscription `sub`: its payload.
   std::string next_data(uint32_t sub) {
     std::string s;
     for (int i = 0; i < 1000; ++i) {
-      if (read(s) || s.size() < 13 || s[0] != 1) continue;
-      uint32_t id = 0;
-      std::memcpy(&id, s.data() + 1, 4);
-      if (id == sub) return s.substr(13);
+      if (read(s)) continue;
+      if (data_subscription(s) == sub) return s.substr(13);
     }
     throw std::runtime_error("no message on subscription " + std::to_string(sub));
   }
@@ -261,11 +267,11 @@ TEST(View, SpeaksTheFoxgloveProtocol) {
   int data = 0, on_state = 0, late_pictures = 0;
   std::string message;
   for (int reads = 0; data < 60 && reads < 1000; ++reads) {
-    if (client.read(message) || message.size() < 13 || message[0] != 1) continue;
-    uint32_t id = 0;
-    std::memcpy(&id, message.data() + 1, 4);
+    if (client.read(message)) continue;
+    const std::optional<uint32_t> id = Client::data_subscription(message);
+    if (!id) continue;
     ++data;
-    if (id == 9)
+    if (*id == 9)
       ++on_state;
     else if (data > 20)
       ++late_pictures;
