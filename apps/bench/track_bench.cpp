@@ -164,6 +164,7 @@ struct Options {
   std::vector<std::string> otb, vot, videos;
   bool no_generated = false;
   bool holdout = false;    // the held-out generated set too
+  bool round = false;      // generated targets cut round (SyntheticScript::round)
   std::vector<int> fresh;  // fresh generated sets (fresh_scripts)
   std::string trackers = SACCADE_TRACK_BENCH_FOVEA ? "fovea,csrt,kcf,mil" : "csrt,kcf,mil";
   std::string markdown;
@@ -677,18 +678,21 @@ Status read_otb_folders(const std::vector<std::string>& specs, std::vector<Seque
 // the options say; or the error naming the image, file or folder at fault.
 saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
   std::vector<Sequence> sequences;
+  const auto shaped = [&](std::vector<SyntheticScript> scripts) {
+    return options.round ? with_round_targets(std::move(scripts)) : scripts;
+  };
   if (!options.no_generated) {
-    saccade::Result<std::vector<Sequence>> generated = generate_sequences(options.data);
+    saccade::Result<std::vector<Sequence>> generated = generate_sequences(options.data, shaped(standard_scripts()));
     if (!generated.ok()) return generated.status();
     sequences = std::move(generated).value();
   }
   if (options.holdout) {
-    saccade::Result<std::vector<Sequence>> held_out = generate_sequences(options.data, holdout_scripts());
+    saccade::Result<std::vector<Sequence>> held_out = generate_sequences(options.data, shaped(holdout_scripts()));
     if (!held_out.ok()) return held_out.status();
     for (Sequence& s : *held_out) sequences.push_back(std::move(s));
   }
   for (const int set : options.fresh) {
-    saccade::Result<std::vector<Sequence>> fresh = generate_sequences(options.data, fresh_scripts(set));
+    saccade::Result<std::vector<Sequence>> fresh = generate_sequences(options.data, shaped(fresh_scripts(set)));
     if (!fresh.ok()) return fresh.status();
     for (Sequence& s : *fresh) sequences.push_back(std::move(s));
   }
@@ -848,6 +852,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100));
   app.add_option("--scale", options.scale, "F: each sequence's frames and truth resized by F (0.1 to 8)")
       ->check(CLI::Range(0.1, 8.0));
+  app.add_flag("--round", options.round,
+               "the generated targets cut as the ellipse inscribed in their box, its corners showing the moving "
+               "scene behind, as around a real ball or face (name@round)");
   app.add_flag("--gray", options.gray,
                "each sequence as a monochrome camera sees it: its frames' gray in all three channels (name@gray)");
   app.add_option("--jpeg", options.jpeg,

@@ -583,6 +583,7 @@ struct FramePlan {
 struct Sprite {
   cv::Size2d base;              // frame pixels at scale 1
   std::vector<cv::Mat> levels;  // largest first
+  std::vector<cv::Mat> alpha;   // each level's coverage (CV_32F, 0..1), or none: the whole rectangle is drawn
 };
 
 struct Scene {
@@ -607,7 +608,19 @@ Result<cv::Mat> crop_of(const std::string& path, const cv::Rect& rect, const std
   return (*image)(rect).clone();
 }
 
-Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, double min_scale) {
+// The ellipse inscribed in a `size` rectangle, as coverage: 1 inside, 0
+// outside, its edge anti-aliased (drawn 4x finer, then area-averaged).
+cv::Mat inscribed_ellipse(cv::Size size) {
+  constexpr int kFine = 4;
+  cv::Mat fine = cv::Mat::zeros(size * kFine, CV_8U), coverage;
+  cv::ellipse(fine, cv::RotatedRect(cv::Point2f(fine.cols / 2.0f, fine.rows / 2.0f), cv::Size2f(fine.size()), 0),
+              cv::Scalar(255), cv::FILLED);
+  cv::resize(fine, coverage, size, 0, 0, cv::INTER_AREA);
+  coverage.convertTo(coverage, CV_32F, 1.0 / 255);
+  return coverage;
+}
+
+Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, double min_scale, bool round) {
   Sprite sprite;
   sprite.base = base;
   const double k = std::max(1.0, max_scale);
@@ -622,6 +635,8 @@ Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, doub
     cv::resize(level, level, cv::Size((level.cols + 1) / 2, (level.rows + 1) / 2), 0, 0, cv::INTER_AREA);
     sprite.levels.push_back(level);
   }
+  if (round)
+    for (const cv::Mat& l : sprite.levels) sprite.alpha.push_back(inscribed_ellipse(l.size()));
   return sprite;
 }
 
@@ -814,8 +829,8 @@ Result<std::shared_ptr<Scene>> build_scene(const SyntheticScript& s, const std::
   scene->background = fit_background(*background, s.frame_size, scene->plans);
   const Result<cv::Mat> target = crop_of(data_dir + "/" + s.target_image, s.target_crop, s.target_image);
   if (!target.ok()) return target.status();
-  scene->target = make_sprite(*target, base, s.scale_max, s.scale_min);
-  if (s.distractor) scene->distractor = make_sprite(look_alike(*target), base, s.scale_max, s.scale_min);
+  scene->target = make_sprite(*target, base, s.scale_max, s.scale_min, s.round);
+  if (s.distractor) scene->distractor = make_sprite(look_alike(*target), base, s.scale_max, s.scale_min, s.round);
   auto occluders = make_occluders(s, data_dir, random, scene->plans);
   if (!occluders.ok()) return occluders.status();
   scene->occluders = std::move(occluders).value();
@@ -843,8 +858,21 @@ void draw_sprite(cv::Mat& frame, const Sprite& sprite, cv::Point2d center, doubl
   const cv::Matx23d m(c * fx, -s * fy, tx - (c * fx * ix - s * fy * iy), s * fx, c * fy,
                       ty - (s * fx * ix + c * fy * iy));
   cv::Mat dst = frame(roi);
-  // Transparent border: only pixels the sprite covers are written.
-  cv::warpAffine(image, dst, m, roi.size(), cv::INTER_LINEAR, cv::BORDER_TRANSPARENT);
+  if (sprite.alpha.empty()) {
+    // Transparent border: only pixels the sprite covers are written.
+    cv::warpAffine(image, dst, m, roi.size(), cv::INTER_LINEAR, cv::BORDER_TRANSPARENT);
+    return;
+  }
+  // Round: blended over the frame by the warped coverage.
+  cv::Mat drawn, coverage, drawn_f, dst_f;
+  cv::warpAffine(image, drawn, m, roi.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+  cv::warpAffine(sprite.alpha[k], coverage, m, roi.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+  cv::Mat coverage3;
+  cv::merge(std::vector<cv::Mat>(3, coverage), coverage3);
+  drawn.convertTo(drawn_f, CV_32FC3);
+  dst.convertTo(dst_f, CV_32FC3);
+  dst_f += coverage3.mul(drawn_f - dst_f);
+  dst_f.convertTo(dst, CV_8UC3);
 }
 
 void motion_blur(cv::Mat& frame, cv::Point2d smear) {
@@ -1241,6 +1269,14 @@ double agreement(const std::vector<TrackedFrame>& a, const std::vector<TrackedFr
   int near = 0;
   for (std::size_t i = 1; i < a.size(); ++i) near += center_error(a[i].box, b[i].box) <= within;
   return static_cast<double>(near) / static_cast<double>(a.size() - 1);
+}
+
+std::vector<SyntheticScript> with_round_targets(std::vector<SyntheticScript> scripts) {
+  for (SyntheticScript& s : scripts) {
+    s.round = true;
+    s.name += "@round";
+  }
+  return scripts;
 }
 
 }  // namespace saccade::bench

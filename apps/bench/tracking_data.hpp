@@ -174,7 +174,13 @@ struct SyntheticScript {
   bool distractor = false;  // a dimmer, tinted copy of the target circling it (passing behind it)
   std::vector<Excursion> excursions;
   double noise = 2.0;  // sensor noise, grey levels (standard deviation)
+  bool round = false;  // the target (and its look-alike) cut as the ellipse inscribed in target_crop, not the
+                       // whole rectangle: the box's corners show what is behind it, which moves as the target
+                       // does, as around a real ball or face (the truth is the same box)
 };
+
+// The scripts with round targets (SyntheticScript::round), each name gaining "@round".
+std::vector<SyntheticScript> with_round_targets(std::vector<SyntheticScript> scripts);
 
 // The benchmark's standard set: 8 sequences at 320x240 and 2 at 640x480, 300+
 // frames each, each stressing a different mix.

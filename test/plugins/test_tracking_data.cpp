@@ -551,6 +551,49 @@ TEST(Generator, TruthBoxesFrameTheRenderedTarget) {
   }
 }
 
+// A round target is the rectangular one inside the ellipse inscribed in its
+// box, and the scene behind it in the box's corners.
+TEST(Generator, ARoundTargetShowsTheSceneInItsBoxsCorners) {
+  const std::vector<SyntheticScript> rectangles = standard_scripts();
+  const std::vector<SyntheticScript> rounds = with_round_targets(rectangles);
+  ASSERT_EQ(rounds.size(), rectangles.size());
+  for (std::size_t k = 0; k < rounds.size(); ++k) {
+    EXPECT_EQ(rounds[k].name, rectangles[k].name + "@round");
+    EXPECT_TRUE(rounds[k].round);
+    EXPECT_FALSE(rectangles[k].round);
+  }
+  const auto scale = std::find_if(rectangles.begin(), rectangles.end(), [](auto& s) { return s.name == "scale"; });
+  ASSERT_NE(scale, rectangles.end());  // neither occluded nor rotated
+  SyntheticScript round = *scale;
+  round.round = true;
+  const Sequence rectangle_frames = value_of(generate_sequence(*scale, test::sample_dir()));
+  const Sequence round_frames = value_of(generate_sequence(round, test::sample_dir()));
+  ASSERT_EQ(round_frames.truth, rectangle_frames.truth);
+  int checked = 0;
+  for (int i = 0; i < round_frames.size(); i += 25) {
+    const cv::Mat a = value_of(rectangle_frames.frame(i)), b = value_of(round_frames.frame(i));
+    const cv::Rect2d& t = round_frames.truth[i];
+    if ((t & cv::Rect2d(0, 0, a.cols, a.rows)) != t) continue;
+    double inside = 0, corners = 0;
+    int inside_count = 0, corner_count = 0;
+    for (int y = cvCeil(t.y); y < cvFloor(t.y + t.height); ++y)
+      for (int x = cvCeil(t.x); x < cvFloor(t.x + t.width); ++x) {
+        const double u = (x + 0.5 - (t.x + t.width / 2)) / (t.width / 2),
+                     v = (y + 0.5 - (t.y + t.height / 2)) / (t.height / 2), r = std::hypot(u, v);
+        const double difference =
+            cv::norm(cv::Vec3d(a.at<cv::Vec3b>(y, x)) - cv::Vec3d(b.at<cv::Vec3b>(y, x)), cv::NORM_L1);
+        if (r < 0.8) inside += difference, ++inside_count;
+        if (r > 1.2) corners += difference, ++corner_count;
+      }
+    ASSERT_GT(inside_count, 0);
+    ASSERT_GT(corner_count, 0);
+    EXPECT_LT(inside / inside_count, 1.0) << "frame " << i;    // the same picture
+    EXPECT_GT(corners / corner_count, 20.0) << "frame " << i;  // the scene, not the picture's corners
+    ++checked;
+  }
+  EXPECT_GE(checked, 8);
+}
+
 TEST(Generator, TheTargetLeavesTheViewAndComesBack) {
   const Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
   ASSERT_EQ(s.name, "out_of_view");
