@@ -884,6 +884,12 @@ int main(int argc, char** argv) {
     app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   if (!apply_sets(options)) return 2;
+  if (options.round && options.no_generated && !options.holdout && options.fresh.empty()) {
+    std::fprintf(stderr,
+                 "--round cuts the generated targets round, and no generated sequence is chosen "
+                 "(--no-generated without --holdout or --fresh)\n");
+    return 2;
+  }
   // One thread for everything: the times compare the algorithms, not how
   // well each spreads over cores.
   cv::setNumThreads(1);
