@@ -615,6 +615,74 @@ std::string time_section(const std::vector<SequenceResults>& all, const std::vec
   return "## Time per frame (ms)\n\n" + table(rows) + "\n";
 }
 
+// The tracking floors (docs/tracking.md), the fovea tracker's figures against
+// CSRT's on the same run of each sequence with truth: precision@20 at least
+// CSRT's - 0.02 and success@0.5 at least CSRT's - 0.05; honest lost at least
+// 0.9 and every reappearance re-acquired within 15 frames; a frame in at most
+// 1/20 of CSRT's time, and at most 0.5 ms from 640x480 on; the success AUC
+// averaged over all at least CSRT's. Empty unless both ran.
+struct FloorCheck {
+  std::vector<std::string> row;
+  bool met = true;
+};
+
+FloorCheck check_floors(const SequenceResults& sequence, const TrackScore& ours, const TrackScore& csrt) {
+  FloorCheck check;
+  std::string missed;
+  const auto miss = [&](const std::string& what) {
+    missed += (missed.empty() ? "" : ", ") + what;
+    check.met = false;
+  };
+  if (ours.precision20 < csrt.precision20 - 0.02) miss("precision");
+  if (ours.success50 < csrt.success50 - 0.05) miss("success@0.5");
+  if (ours.honest_lost >= 0 && ours.honest_lost < 0.9) miss("honest lost");
+  if (ours.reappearances > 0 && (ours.reacquire_misses > 0 || ours.max_reacquire_delay > 15)) miss("re-acquisition");
+  const bool vga = sequence.size.area() >= 640 * 480;
+  if (ours.ms_per_frame > csrt.ms_per_frame / 20 || (vga && ours.ms_per_frame > 0.5)) miss("time");
+  const double ratio = ours.ms_per_frame > 0 ? csrt.ms_per_frame / ours.ms_per_frame : 0;
+  check.row = {sequence.name,
+               fixed(ours.precision20, 3) + " / " + fixed(csrt.precision20, 3),
+               fixed(ours.success50, 3) + " / " + fixed(csrt.success50, 3),
+               ours.honest_lost >= 0 ? fixed(ours.honest_lost, 2) : "-",
+               reacquisition_cell(ours),
+               fixed(ours.ms_per_frame, 2) + " (1/" + fixed(ratio, 0) + ")",
+               check.met ? "yes" : "no: " + missed};
+  return check;
+}
+
+std::string floors_section(const std::vector<SequenceResults>& all) {
+  std::vector<std::vector<std::string>> rows{{"sequence", "precision@20 (fovea / CSRT)", "success@0.5 (fovea / CSRT)",
+                                              "honest lost", "re-acquisition (frames)", "fovea ms (of CSRT's)", "met"}};
+  Mean ours_auc, csrt_auc;
+  int met = 0;
+  for (const SequenceResults& sequence : all) {
+    if (!sequence.truth_known) continue;
+    const TrackerResult *ours = nullptr, *csrt = nullptr;
+    for (const TrackerResult& r : sequence.results) {
+      if (r.tracker == "fovea") ours = &r;
+      if (r.tracker == "csrt") csrt = &r;
+    }
+    if (ours == nullptr || csrt == nullptr || !csrt->status.ok()) continue;
+    if (!ours->status.ok()) {
+      rows.push_back({sequence.name, "", "", "", "", "", "no: failed: " + ours->status.message()});
+      continue;
+    }
+    const FloorCheck check = check_floors(sequence, ours->score, csrt->score);
+    rows.push_back(check.row);
+    met += check.met;
+    ours_auc.add(ours->score.success_auc), csrt_auc.add(csrt->score.success_auc);
+  }
+  if (rows.size() == 1) return "";
+  const bool auc_met = ours_auc.count > 0 && ours_auc.sum >= csrt_auc.sum;
+  return "## The floors: fovea against CSRT\n\n"
+         "Each sequence's: precision@20 at least CSRT's - 0.02, success@0.5 at least CSRT's - 0.05, honest lost "
+         "at least 0.9, every reappearance re-acquired within 15 frames, a frame in at most 1/20 of CSRT's time "
+         "(and at most 0.5 ms from 640x480 on); over all, the success AUC's mean at least CSRT's.\n\n" +
+         table(rows) + "\n" + std::to_string(met) + " of " + std::to_string(rows.size() - 1) +
+         " meet every floor; success AUC averaged " + ours_auc.cell(3) + " against CSRT's " + csrt_auc.cell(3) + " (" +
+         (auc_met ? "met" : "not met") + ").\n\n";
+}
+
 std::string report(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers, int runs) {
   std::string out =
       "# Tracking benchmark\n\n"
@@ -634,6 +702,7 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
   if (runs > 1 && scored > 0) out += spread_section(all, trackers, runs);
   out += witness_summary(all, trackers);
   out += time_section(all, trackers);
+  out += floors_section(all);
   if (scored == 0) return out;
   std::vector<std::vector<std::string>> rows{kHeader};
   for (const std::string& tracker : trackers) rows.push_back(average_row(tracker, all));
