@@ -640,12 +640,15 @@ FloorCheck check_floors(const SequenceResults& sequence, const TrackScore& ours,
   const bool vga = sequence.size.area() >= 640 * 480;
   if (ours.ms_per_frame > csrt.ms_per_frame / 20 || (vga && ours.ms_per_frame > 0.5)) miss("time");
   const double ratio = ours.ms_per_frame > 0 ? csrt.ms_per_frame / ours.ms_per_frame : 0;
+  const std::string share = csrt.ms_per_frame <= 0 ? "-"
+                            : ratio >= 1.5         ? "1/" + fixed(ratio, 0)
+                                                   : fixed(ours.ms_per_frame / csrt.ms_per_frame, 2) + " times";
   check.row = {sequence.name,
                fixed(ours.precision20, 3) + " / " + fixed(csrt.precision20, 3),
                fixed(ours.success50, 3) + " / " + fixed(csrt.success50, 3),
                ours.honest_lost >= 0 ? fixed(ours.honest_lost, 2) : "-",
                reacquisition_cell(ours),
-               fixed(ours.ms_per_frame, 2) + " (1/" + fixed(ratio, 0) + ")",
+               fixed(ours.ms_per_frame, 2) + " (" + share + ")",
                check.met ? "yes" : "no: " + missed};
   return check;
 }
