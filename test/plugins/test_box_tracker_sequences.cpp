@@ -30,9 +30,8 @@ namespace {
 using namespace saccade::bench;
 using namespace saccade::fovea;
 
-Sequence generated(const std::string& name) {
-  std::vector<SyntheticScript> scripts = standard_scripts();
-  for (SyntheticScript& held_out : holdout_scripts()) scripts.push_back(std::move(held_out));
+// Sequence `name` of `scripts`, rendered.
+Sequence rendered(const std::vector<SyntheticScript>& scripts, const std::string& name) {
   const auto script = std::find_if(scripts.begin(), scripts.end(), [&](const auto& s) { return s.name == name; });
   if (script == scripts.end()) throw std::runtime_error("no generated sequence " + name);
   Result<Sequence> sequence = generate_sequence(*script, test::sample_dir());
@@ -40,26 +39,21 @@ Sequence generated(const std::string& name) {
   return std::move(sequence).value();
 }
 
-// Sequence `name` of fresh set `set` (the benchmark's --fresh).
-Sequence fresh(int set, const std::string& name) {
-  for (const SyntheticScript& script : fresh_scripts(set)) {
-    if (script.name != name) continue;
-    Result<Sequence> sequence = generate_sequence(script, test::sample_dir());
-    if (!sequence.ok()) throw std::runtime_error(sequence.error());
-    return std::move(sequence).value();
-  }
-  throw std::runtime_error("no fresh sequence " + name);
+// The benchmark's standard and held-out scripts.
+std::vector<SyntheticScript> standard_and_held_out() {
+  std::vector<SyntheticScript> scripts = standard_scripts();
+  for (SyntheticScript& held_out : holdout_scripts()) scripts.push_back(std::move(held_out));
+  return scripts;
 }
+
+Sequence generated(const std::string& name) { return rendered(standard_and_held_out(), name); }
+
+// Sequence `name` of fresh set `set` (the benchmark's --fresh).
+Sequence fresh(int set, const std::string& name) { return rendered(fresh_scripts(set), name); }
 
 // With its target cut round (the benchmark's --round).
 Sequence generated_round(const std::string& name) {
-  std::vector<SyntheticScript> scripts = with_round_targets(standard_scripts());
-  for (SyntheticScript& held_out : with_round_targets(holdout_scripts())) scripts.push_back(std::move(held_out));
-  const auto script = std::find_if(scripts.begin(), scripts.end(), [&](const auto& s) { return s.name == name; });
-  if (script == scripts.end()) throw std::runtime_error("no generated sequence " + name);
-  Result<Sequence> sequence = generate_sequence(*script, test::sample_dir());
-  if (!sequence.ok()) throw std::runtime_error(sequence.error());
-  return std::move(sequence).value();
+  return rendered(with_round_targets(standard_and_held_out()), name);
 }
 
 // As a monochrome camera sees it (the benchmark's --gray).
