@@ -410,11 +410,7 @@ void reader_races_the_writer(ReaderWait how) {
   close(to_parent[1]);
   // The first wake: a sleeping child is asleep on post 1 before post 2 comes
   // (a spinning one never sleeps), and that post wakes it.
-  if (how == ReaderWait::kSleep) {
-    EXPECT_TRUE(test::a_reader_sleeps_on(*ring));
-  } else {
-    usleep(20000);  // a spinning reader never sleeps: a moment to start spinning
-  }
+  EXPECT_TRUE(test::a_reader_waits_on(*ring, how == ReaderWait::kSleep));
   for (uint64_t n = 2; n <= kPosts; ++n) {
     const Numbered s = numbered(n);
     const bool woke = ring->post(&s, sizeof s);
@@ -465,11 +461,7 @@ void letting_go_sends_readers_back(ReaderWait how) {
   const Status followed = reader.follow(at);
   ASSERT_TRUE(followed.ok()) << followed.message();
   auto woken = std::async(std::launch::async, [&] { return reader.wait_mail(0, 60'000'000'000); });
-  if (how == ReaderWait::kSleep) {
-    EXPECT_TRUE(test::a_reader_sleeps_on(*ring));
-  } else {
-    usleep(20000);  // a spinning reader never sleeps: a moment to start spinning
-  }
+  EXPECT_TRUE(test::a_reader_waits_on(*ring, how == ReaderWait::kSleep));
   ring.reset();
   // Woken by the writer's end, not by the minute's timeout.
   ASSERT_EQ(woken.wait_for(std::chrono::seconds(30)), std::future_status::ready);

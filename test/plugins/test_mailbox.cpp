@@ -120,11 +120,7 @@ void closing_sends_readers_back(ReaderWait how) {
   ASSERT_TRUE(followed.ok()) << followed.message();
   post(*box, 1);
   auto woken = std::async(std::launch::async, [&] { return reader.wait(1, 60'000'000'000); });
-  if (how == ReaderWait::kSleep) {
-    EXPECT_TRUE(saccade::test::a_reader_sleeps_on(*box));
-  } else {
-    usleep(20000);  // a spinning reader never sleeps: a moment to start spinning
-  }
+  EXPECT_TRUE(saccade::test::a_reader_waits_on(*box, how == ReaderWait::kSleep));
   box.reset();
   // Woken by the writer's end, not by the minute's timeout.
   ASSERT_EQ(woken.wait_for(std::chrono::seconds(30)), std::future_status::ready);
@@ -193,11 +189,7 @@ void reader_reads_every_post(ReaderWait how) {
   close(to_parent[1]);
   // A sleeping child is asleep on post 1 before it comes (a spinning one
   // never sleeps), and that post wakes it.
-  if (how == ReaderWait::kSleep) {
-    EXPECT_TRUE(saccade::test::a_reader_sleeps_on(*box));
-  } else {
-    usleep(20000);  // a spinning reader never sleeps: a moment to start spinning
-  }
+  EXPECT_TRUE(saccade::test::a_reader_waits_on(*box, how == ReaderWait::kSleep));
   for (uint64_t n = 1; n <= kPosts; ++n) {
     const bool woke = post(*box, n);
     if (n == 1 && how == ReaderWait::kSleep) { EXPECT_TRUE(woke) << "the reader asleep on the mailbox was not woken"; }
