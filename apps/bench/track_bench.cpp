@@ -165,6 +165,7 @@ struct Options {
   bool no_generated = false;
   bool holdout = false;    // the held-out generated set too
   bool round = false;      // generated targets cut round (SyntheticScript::round)
+  double turn = 0;         // generated targets turning back and forth by this many degrees (SyntheticScript::turn_deg)
   std::vector<int> fresh;  // fresh generated sets (fresh_scripts)
   std::string trackers = SACCADE_TRACK_BENCH_FOVEA ? "fovea,csrt,kcf,mil" : "csrt,kcf,mil";
   std::string markdown;
@@ -751,7 +752,8 @@ Status read_otb_folders(const std::vector<std::string>& specs, std::vector<Seque
 saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
   std::vector<Sequence> sequences;
   const auto shaped = [&](std::vector<SyntheticScript> scripts) {
-    return options.round ? with_round_targets(std::move(scripts)) : scripts;
+    if (options.round) scripts = with_round_targets(std::move(scripts));
+    return options.turn > 0 ? with_turning_targets(std::move(scripts), options.turn) : scripts;
   };
   if (!options.no_generated) {
     saccade::Result<std::vector<Sequence>> generated = generate_sequences(options.data, shaped(standard_scripts()));
@@ -927,6 +929,11 @@ int main(int argc, char** argv) {
   app.add_flag("--round", options.round,
                "the generated targets cut as the ellipse inscribed in their box, its corners showing the moving "
                "scene behind, as around a real ball or face (name@round)");
+  app.add_option("--turn", options.turn,
+                 "A: the generated targets turning about their vertical axis, back and forth by up to A degrees "
+                 "(1-180) over about 150 frames: each picture wrapped round a cylinder, its back half the mirror "
+                 "image, so the box's contents change as a head's or a ball's do when it turns (name@turnA)")
+      ->check(CLI::Range(1.0, 180.0));
   app.add_flag("--gray", options.gray,
                "each sequence as a monochrome camera sees it: its frames' gray in all three channels (name@gray)");
   app.add_option("--jpeg", options.jpeg,
@@ -951,15 +958,14 @@ int main(int argc, char** argv) {
                  "FOLDER: write the sequences with truth in the OTB layout (FOLDER/<sequence>/img/0001.png ..., "
                  "groundtruth_rect.txt; NaN rows where the target is hidden) instead of running them");
   // A value given twice is the last one: make's TRACK_ARGS can change what a target gives.
-  for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--every", "--scale", "--jpeg",
-                             "--markdown", "--runs", "--trace", "--jumps", "--export"})
+  for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--every", "--scale", "--turn",
+                             "--jpeg", "--markdown", "--runs", "--trace", "--jumps", "--export"})
     app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   if (!apply_sets(options)) return 2;
-  if (options.round && options.no_generated && !options.holdout && options.fresh.empty()) {
-    std::fprintf(stderr,
-                 "--round cuts the generated targets round, and no generated sequence is chosen "
-                 "(--no-generated without --holdout or --fresh)\n");
+  if ((options.round || options.turn > 0) && options.no_generated && !options.holdout && options.fresh.empty()) {
+    std::fprintf(stderr, "%s, and no generated sequence is chosen (--no-generated without --holdout or --fresh)\n",
+                 options.round ? "--round cuts the generated targets round" : "--turn turns the generated targets");
     return 2;
   }
   // One thread for everything: the times compare the algorithms, not how

@@ -576,6 +576,7 @@ struct FramePlan {
   cv::Rect occluder;   // frame pixels
   bool distractor = false;
   cv::Point2d distractor_center;
+  double turn_period = 150;  // frames of a turn back and forth
 };
 
 // An image drawn at many scales: a pyramid, so that drawing shrinks by at
@@ -584,6 +585,9 @@ struct Sprite {
   cv::Size2d base;              // frame pixels at scale 1
   std::vector<cv::Mat> levels;  // largest first
   std::vector<cv::Mat> alpha;   // each level's coverage (CV_32F, 0..1), or none: the whole rectangle is drawn
+  // Turning targets: each level's picture beside its mirror image (one turn
+  // round the cylinder), which `levels` show a half of as the target turns.
+  std::vector<cv::Mat> wrapped;
 };
 
 struct Scene {
@@ -620,7 +624,8 @@ cv::Mat inscribed_ellipse(cv::Size size) {
   return coverage;
 }
 
-Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, double min_scale, bool round) {
+Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, double min_scale, bool round,
+                   bool turning) {
   Sprite sprite;
   sprite.base = base;
   const double k = std::max(1.0, max_scale);
@@ -637,7 +642,33 @@ Sprite make_sprite(const cv::Mat& image, cv::Size2d base, double max_scale, doub
   }
   if (round)
     for (const cv::Mat& l : sprite.levels) sprite.alpha.push_back(inscribed_ellipse(l.size()));
+  if (turning)
+    for (const cv::Mat& l : sprite.levels) {
+      cv::Mat mirrored, both;
+      cv::flip(l, mirrored, 1);
+      cv::hconcat(l, mirrored, both);
+      sprite.wrapped.push_back(both);
+    }
   return sprite;
+}
+
+// What a turning sprite's level shows `turned` radians into its turn: the
+// wrapped picture seen on a cylinder, column u (-1..1 across) at the angle
+// asin(u) + turned, the front half (-pi/2..pi/2) the picture itself.
+void turned_level(const cv::Mat& wrapped, double turned, cv::Mat& out, cv::Mat& map_x, cv::Mat& map_y) {
+  const int w = wrapped.cols / 2, h = wrapped.rows;
+  map_x.create(h, w, CV_32F);
+  map_y.create(h, w, CV_32F);
+  for (int x = 0; x < w; ++x) {
+    const double u = std::clamp((x + 0.5) / (w / 2.0) - 1, -1.0, 1.0);
+    double column = (std::asin(u) + turned) / kPi * w + w / 2.0 - 0.5;
+    column -= 2.0 * w * std::floor((column + 0.5) / (2.0 * w));
+    for (int y = 0; y < h; ++y) {
+      map_x.at<float>(y, x) = static_cast<float>(column);
+      map_y.at<float>(y, x) = static_cast<float>(y);
+    }
+  }
+  cv::remap(wrapped, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_WRAP);
 }
 
 // The axis-aligned box around the target rotated by `angle_deg`.
@@ -656,7 +687,7 @@ cv::Rect2d truth_box(cv::Point2d center, cv::Size2d size) {
 struct Motion {
   Wobble shake, pan, wander;
   std::vector<cv::Point2d> excursion_direction;
-  double rotation_period = 150, scale_period = 200, distractor_period = 90;
+  double rotation_period = 150, scale_period = 200, distractor_period = 90, turn_period = 150;
 };
 
 Motion plan_motion(const SyntheticScript& s, Random& random) {
@@ -675,6 +706,8 @@ Motion plan_motion(const SyntheticScript& s, Random& random) {
   m.rotation_period = s.frames / 2.0 * random.uniform(0.8, 1.2);
   m.scale_period = s.frames / 1.5 * random.uniform(0.9, 1.1);
   m.distractor_period = 90 * random.uniform(0.8, 1.2);
+  // From a generator of its own: everything else stays as without the turn.
+  if (s.turn_deg > 0) m.turn_period = 150 * Random(s.seed + 7919).uniform(0.8, 1.2);
   return m;
 }
 
@@ -731,6 +764,7 @@ std::vector<FramePlan> plan_frames(const SyntheticScript& s, const cv::Size2d& b
     p.center = middle + m.wander.at(t) - shake - away;
     p.scale = scale_at(s, m, t);
     p.angle_deg = s.rotation_deg * std::sin(2 * kPi * t / m.rotation_period);
+    p.turn_period = m.turn_period;
     p.smear = t > 0 ? -s.blur * (p.view - previous_view) : cv::Point2d();
     // A camera's exposure is short even while it turns fast: at most a 20th of the frame's width.
     const double smear_length = std::hypot(p.smear.x, p.smear.y), longest = s.frame_size.width / 20.0;
@@ -829,8 +863,9 @@ Result<std::shared_ptr<Scene>> build_scene(const SyntheticScript& s, const std::
   scene->background = fit_background(*background, s.frame_size, scene->plans);
   const Result<cv::Mat> target = crop_of(data_dir + "/" + s.target_image, s.target_crop, s.target_image);
   if (!target.ok()) return target.status();
-  scene->target = make_sprite(*target, base, s.scale_max, s.scale_min, s.round);
-  if (s.distractor) scene->distractor = make_sprite(look_alike(*target), base, s.scale_max, s.scale_min, s.round);
+  scene->target = make_sprite(*target, base, s.scale_max, s.scale_min, s.round, s.turn_deg > 0);
+  if (s.distractor)
+    scene->distractor = make_sprite(look_alike(*target), base, s.scale_max, s.scale_min, s.round, s.turn_deg > 0);
   auto occluders = make_occluders(s, data_dir, random, scene->plans);
   if (!occluders.ok()) return occluders.status();
   scene->occluders = std::move(occluders).value();
@@ -841,11 +876,14 @@ Result<std::shared_ptr<Scene>> build_scene(const SyntheticScript& s, const std::
 
 // Draws the sprite centred on `centre` (edge coordinates) at `scale` and
 // `angle_deg`: exactly over truth_box(centre, base * scale) when unrotated.
-void draw_sprite(cv::Mat& frame, const Sprite& sprite, cv::Point2d center, double scale, double angle_deg) {
+void draw_sprite(cv::Mat& frame, const Sprite& sprite, cv::Point2d center, double scale, double angle_deg,
+                 double turned) {
   const cv::Size2d size(sprite.base.width * scale, sprite.base.height * scale);
   std::size_t k = 0;
   while (k + 1 < sprite.levels.size() && sprite.levels[k + 1].cols >= size.width) ++k;
-  const cv::Mat& image = sprite.levels[k];
+  cv::Mat turned_image, map_x, map_y;
+  if (!sprite.wrapped.empty()) turned_level(sprite.wrapped[k], turned, turned_image, map_x, map_y);
+  const cv::Mat& image = sprite.wrapped.empty() ? sprite.levels[k] : turned_image;
   const double fx = size.width / image.cols, fy = size.height / image.rows;
   const double a = angle_deg * kPi / 180, c = std::cos(a), s = std::sin(a);
   const cv::Rect roi = cv::Rect(rotated_bounds(center, size, angle_deg) + cv::Size2d(2, 2) - cv::Point2d(1, 1)) &
@@ -897,8 +935,10 @@ cv::Mat render_frame(const Scene& scene, int i) {
   cv::Mat frame;
   const cv::Matx23d view(1, 0, -p.view.x, 0, 1, -p.view.y);
   cv::warpAffine(scene.background, frame, view, s.frame_size, cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  if (p.distractor) draw_sprite(frame, scene.distractor, p.distractor_center, p.scale, p.angle_deg);
-  draw_sprite(frame, scene.target, p.center, p.scale, p.angle_deg);
+  // The look-alike turns the other way.
+  const double turned = s.turn_deg * kPi / 180 * std::sin(2 * kPi * i / p.turn_period);
+  if (p.distractor) draw_sprite(frame, scene.distractor, p.distractor_center, p.scale, p.angle_deg, -turned);
+  draw_sprite(frame, scene.target, p.center, p.scale, p.angle_deg, turned);
   if (p.occlusion >= 0) {
     const cv::Rect inside = p.occluder & cv::Rect(0, 0, frame.cols, frame.rows);
     const cv::Mat& patch = scene.occluders[static_cast<std::size_t>(p.occlusion)];
@@ -1275,6 +1315,14 @@ std::vector<SyntheticScript> with_round_targets(std::vector<SyntheticScript> scr
   for (SyntheticScript& s : scripts) {
     s.round = true;
     s.name += "@round";
+  }
+  return scripts;
+}
+
+std::vector<SyntheticScript> with_turning_targets(std::vector<SyntheticScript> scripts, double degrees) {
+  for (SyntheticScript& s : scripts) {
+    s.turn_deg = degrees;
+    s.name += "@turn" + std::to_string(static_cast<int>(std::lround(degrees)));
   }
   return scripts;
 }

@@ -177,10 +177,19 @@ struct SyntheticScript {
   bool round = false;  // the target (and its look-alike) cut as the ellipse inscribed in target_crop, not the
                        // whole rectangle: the box's corners show what is behind it, which moves as the target
                        // does, as around a real ball or face (the truth is the same box)
+  // The target turning about its vertical axis, back and forth by up to this
+  // many degrees (0: it does not): its picture wrapped round a cylinder, the
+  // front half the picture and the back half its mirror image, so what the box
+  // shows changes as it turns, the middle moving fastest, as on a head or a
+  // ball turning (the truth is the same box).
+  double turn_deg = 0;
 };
 
 // The scripts with round targets (SyntheticScript::round), each name gaining "@round".
 std::vector<SyntheticScript> with_round_targets(std::vector<SyntheticScript> scripts);
+// The scripts with turning targets (SyntheticScript::turn_deg), each name
+// gaining "@turn<degrees>".
+std::vector<SyntheticScript> with_turning_targets(std::vector<SyntheticScript> scripts, double degrees);
 
 // The benchmark's standard set: 8 sequences at 320x240 and 2 at 640x480, 300+
 // frames each, each stressing a different mix.

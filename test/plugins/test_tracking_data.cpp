@@ -594,6 +594,54 @@ TEST(Generator, ARoundTargetShowsTheSceneInItsBoxsCorners) {
   EXPECT_GE(checked, 8);
 }
 
+// A turning target shows another part of its picture as it turns, inside the
+// same box: the scene and the truth are those of the script without the turn.
+TEST(Generator, ATurningTargetChangesWhatItsBoxShowsAndNothingElse) {
+  const std::vector<SyntheticScript> still = standard_scripts();
+  const std::vector<SyntheticScript> turning = with_turning_targets(still, 60);
+  ASSERT_EQ(turning.size(), still.size());
+  for (std::size_t k = 0; k < turning.size(); ++k) {
+    EXPECT_EQ(turning[k].name, still[k].name + "@turn60");
+    EXPECT_EQ(turning[k].turn_deg, 60);
+    EXPECT_EQ(still[k].turn_deg, 0);
+  }
+  const auto scale = std::find_if(still.begin(), still.end(), [](auto& s) { return s.name == "scale"; });
+  ASSERT_NE(scale, still.end());  // neither occluded nor rotated
+  SyntheticScript turned = *scale;
+  turned.turn_deg = 60;
+  const Sequence still_frames = value_of(generate_sequence(*scale, test::sample_dir()));
+  const Sequence turned_frames = value_of(generate_sequence(turned, test::sample_dir()));
+  ASSERT_EQ(turned_frames.truth, still_frames.truth);
+  double largest_inside = 0;
+  int checked = 0;
+  for (int i = 0; i < turned_frames.size(); i += 15) {
+    const cv::Mat a = value_of(still_frames.frame(i)), b = value_of(turned_frames.frame(i));
+    const cv::Rect2d& t = turned_frames.truth[i];
+    if ((t & cv::Rect2d(0, 0, a.cols, a.rows)) != t) continue;
+    // Outside the box (a pixel of interpolation aside) the frames are the same.
+    cv::Mat outside(a.size(), CV_8U, cv::Scalar(255));
+    outside(cv::Rect(cvFloor(t.x) - 1, cvFloor(t.y) - 1, cvCeil(t.width) + 3, cvCeil(t.height) + 3) &
+            cv::Rect(0, 0, a.cols, a.rows))
+        .setTo(0);
+    cv::Mat difference;
+    cv::absdiff(a, b, difference);
+    EXPECT_EQ(cv::norm(difference, cv::NORM_INF, outside), 0) << "frame " << i;
+    const cv::Rect inner(cvCeil(t.x) + 2, cvCeil(t.y) + 2, cvFloor(t.width) - 4, cvFloor(t.height) - 4);
+    largest_inside = std::max(largest_inside, cv::mean(difference(inner))[0]);
+    ++checked;
+  }
+  EXPECT_GE(checked, 10);
+  EXPECT_GT(largest_inside, 20.0);  // another part of the picture, not the same one moved a little
+  // Unturned, the box's middle is the picture's middle (magnified by pi / 2,
+  // as the front of a cylinder is seen).
+  const cv::Mat a = value_of(still_frames.frame(0)), b = value_of(turned_frames.frame(0));
+  const cv::Rect2d& t = turned_frames.truth[0];
+  const cv::Rect middle(cvRound(t.x + t.width / 2) - 1, cvCeil(t.y) + 2, 2, cvFloor(t.height) - 4);
+  cv::Mat difference;
+  cv::absdiff(a(middle), b(middle), difference);
+  EXPECT_LT(cv::mean(difference)[0], largest_inside / 4) << largest_inside;
+}
+
 TEST(Generator, TheTargetLeavesTheViewAndComesBack) {
   const Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
   ASSERT_EQ(s.name, "out_of_view");
