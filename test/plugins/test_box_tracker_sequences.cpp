@@ -296,6 +296,21 @@ TEST(BoxTrackerOnGeneratedSequences, ASmallTargetsSizeIsFollowedByStepsOfAPixel)
   }
 }
 
+// A sequence followed with precision@20 and success@0.5 of at least
+// `floor`, and, where the target is hidden, the floors' honesty and
+// re-acquisition within 15 frames.
+void expect_followed(const char* name, const TrackScore& score, double floor) {
+  std::printf("%s: precision@20 %.3f, success@0.5 %.3f, honest lost %.2f, re-acquired within %d frames\n", name,
+              score.precision20, score.success50, score.honest_lost, score.max_reacquire_delay);
+  EXPECT_GE(score.precision20, floor) << name;
+  EXPECT_GE(score.success50, floor) << name;
+  if (score.reappearances > 0) {
+    EXPECT_GE(score.honest_lost, 0.9) << name;
+    EXPECT_EQ(score.reacquire_misses, 0) << name;
+    EXPECT_LE(score.max_reacquire_delay, 15) << name;
+  }
+}
+
 // Round targets (`--round` in the benchmark): a ball or a face fills its box
 // only so far, and the box's corners show the scene behind it, which moves
 // as the target does. Growing, turning, hidden by an occluder and out of
@@ -303,16 +318,7 @@ TEST(BoxTrackerOnGeneratedSequences, ASmallTargetsSizeIsFollowedByStepsOfAPixel)
 // precision 1.000, 1.000, 0.918, 0.972; re-acquired in 12 and 3 frames).
 TEST(BoxTrackerOnGeneratedSequences, ARoundTargetIsFollowedWithTheSceneMovingInItsBoxsCorners) {
   for (const char* name : {"scale@round", "rotation@round", "occlusion@round", "holdout_out_of_view@round"}) {
-    const TrackScore score = track(generated_round(name), 0);
-    std::printf("%s: precision@20 %.3f, success@0.5 %.3f, honest lost %.2f, re-acquired within %d frames\n", name,
-                score.precision20, score.success50, score.honest_lost, score.max_reacquire_delay);
-    EXPECT_GE(score.precision20, 0.88) << name;
-    EXPECT_GE(score.success50, 0.88) << name;
-    if (score.reappearances > 0) {
-      EXPECT_GE(score.honest_lost, 0.9) << name;
-      EXPECT_EQ(score.reacquire_misses, 0) << name;
-      EXPECT_LE(score.max_reacquire_delay, 15) << name;
-    }
+    expect_followed(name, track(generated_round(name), 0), 0.88);
   }
 }
 
@@ -323,16 +329,7 @@ TEST(BoxTrackerOnGeneratedSequences, ARoundTargetIsFollowedWithTheSceneMovingInI
 // precision 1.000, 1.000, 1.000, 0.976; re-acquired in 3 frames).
 TEST(BoxTrackerOnGeneratedSequences, ATurningTargetIsFollowedAsItsLookChanges) {
   for (const char* name : {"shake_blur@turn30", "distractor@turn30", "holdout_rotation@turn30", "out_of_view@turn30"}) {
-    const TrackScore score = track(generated_turning(name, 30), 0);
-    std::printf("%s: precision@20 %.3f, success@0.5 %.3f, honest lost %.2f, re-acquired within %d frames\n", name,
-                score.precision20, score.success50, score.honest_lost, score.max_reacquire_delay);
-    EXPECT_GE(score.precision20, 0.9) << name;
-    EXPECT_GE(score.success50, 0.9) << name;
-    if (score.reappearances > 0) {
-      EXPECT_GE(score.honest_lost, 0.9) << name;
-      EXPECT_EQ(score.reacquire_misses, 0) << name;
-      EXPECT_LE(score.max_reacquire_delay, 15) << name;
-    }
+    expect_followed(name, track(generated_turning(name, 30), 0), 0.9);
   }
 }
 
