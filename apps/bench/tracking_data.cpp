@@ -576,7 +576,6 @@ struct FramePlan {
   cv::Rect occluder;   // frame pixels
   bool distractor = false;
   cv::Point2d distractor_center;
-  double turn_period = 150;  // frames of a turn back and forth
 };
 
 // An image drawn at many scales: a pyramid, so that drawing shrinks by at
@@ -596,6 +595,7 @@ struct Scene {
   Sprite target, distractor;
   std::vector<cv::Mat> occluders;  // one patch per Occlusion, at its size in the frame
   std::vector<FramePlan> plans;
+  double turn_period = 150;  // frames of a turn back and forth (SyntheticScript::turn_deg)
 };
 
 cv::Size2d target_base_size(const SyntheticScript& script) {
@@ -764,7 +764,6 @@ std::vector<FramePlan> plan_frames(const SyntheticScript& s, const cv::Size2d& b
     p.center = middle + m.wander.at(t) - shake - away;
     p.scale = scale_at(s, m, t);
     p.angle_deg = s.rotation_deg * std::sin(2 * kPi * t / m.rotation_period);
-    p.turn_period = m.turn_period;
     p.smear = t > 0 ? -s.blur * (p.view - previous_view) : cv::Point2d();
     // A camera's exposure is short even while it turns fast: at most a 20th of the frame's width.
     const double smear_length = std::hypot(p.smear.x, p.smear.y), longest = s.frame_size.width / 20.0;
@@ -858,6 +857,7 @@ Result<std::shared_ptr<Scene>> build_scene(const SyntheticScript& s, const std::
   const Motion motion = plan_motion(s, random);
   const cv::Size2d base = target_base_size(s);
   scene->plans = plan_frames(s, base, motion);
+  scene->turn_period = motion.turn_period;
   const Result<cv::Mat> background = read_image(data_dir + "/" + s.background);
   if (!background.ok()) return background.status();
   scene->background = fit_background(*background, s.frame_size, scene->plans);
@@ -936,7 +936,7 @@ cv::Mat render_frame(const Scene& scene, int i) {
   const cv::Matx23d view(1, 0, -p.view.x, 0, 1, -p.view.y);
   cv::warpAffine(scene.background, frame, view, s.frame_size, cv::INTER_LINEAR, cv::BORDER_REFLECT);
   // The look-alike turns the other way.
-  const double turned = s.turn_deg * kPi / 180 * std::sin(2 * kPi * i / p.turn_period);
+  const double turned = s.turn_deg * kPi / 180 * std::sin(2 * kPi * i / scene.turn_period);
   if (p.distractor) draw_sprite(frame, scene.distractor, p.distractor_center, p.scale, p.angle_deg, -turned);
   draw_sprite(frame, scene.target, p.center, p.scale, p.angle_deg, turned);
   if (p.occlusion >= 0) {
