@@ -595,7 +595,7 @@ struct Scene {
   Sprite target, distractor;
   std::vector<cv::Mat> occluders;  // one patch per Occlusion, at its size in the frame
   std::vector<FramePlan> plans;
-  double turn_period = 150;  // frames of a turn back and forth (SyntheticScript::turn_deg)
+  double turn_period = 0;  // frames of a turn back and forth (SyntheticScript::turn_deg)
 };
 
 cv::Size2d target_base_size(const SyntheticScript& script) {
@@ -687,7 +687,7 @@ cv::Rect2d truth_box(cv::Point2d center, cv::Size2d size) {
 struct Motion {
   Wobble shake, pan, wander;
   std::vector<cv::Point2d> excursion_direction;
-  double rotation_period = 150, scale_period = 200, distractor_period = 90, turn_period = 150;
+  double rotation_period = 150, scale_period = 200, distractor_period = 90;
 };
 
 Motion plan_motion(const SyntheticScript& s, Random& random) {
@@ -706,8 +706,6 @@ Motion plan_motion(const SyntheticScript& s, Random& random) {
   m.rotation_period = s.frames / 2.0 * random.uniform(0.8, 1.2);
   m.scale_period = s.frames / 1.5 * random.uniform(0.9, 1.1);
   m.distractor_period = 90 * random.uniform(0.8, 1.2);
-  // From a generator of its own: everything else stays as without the turn.
-  if (s.turn_deg > 0) m.turn_period = 150 * Random(s.seed + 7919).uniform(0.8, 1.2);
   return m;
 }
 
@@ -857,7 +855,8 @@ Result<std::shared_ptr<Scene>> build_scene(const SyntheticScript& s, const std::
   const Motion motion = plan_motion(s, random);
   const cv::Size2d base = target_base_size(s);
   scene->plans = plan_frames(s, base, motion);
-  scene->turn_period = motion.turn_period;
+  // From a generator of its own: everything else stays as without the turn.
+  scene->turn_period = 150 * Random(s.seed + 7919).uniform(0.8, 1.2);
   const Result<cv::Mat> background = read_image(data_dir + "/" + s.background);
   if (!background.ok()) return background.status();
   scene->background = fit_background(*background, s.frame_size, scene->plans);
