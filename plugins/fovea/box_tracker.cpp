@@ -13,6 +13,7 @@
 #include "color_histogram.hpp"
 #include "frame_samples.hpp"
 #include "real_fft.hpp"
+#include "saccade/reuse.hpp"
 #include "saccade/simd.hpp"
 #include "saccade/subpixel.hpp"
 #include "tracker.hpp"
@@ -115,6 +116,8 @@ double peak_to_sidelobe(const cv::Mat& response, cv::Point peak, double* rival) 
 // Steps above 1.5 are sampled at twice the resolution and halved, so that a
 // pixel is a mean over its cell (as a retina level's), not one source pixel.
 // Only the sample is converted to gray: the cost does not grow with the frame.
+// `fine` and `fine_gray` keep the buffers between calls (reuse.hpp: looks at
+// and under the halving step alternate between two sizes).
 void sample_gray(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size, cv::Mat& out,
                  cv::Mat& fine, cv::Mat& fine_gray, double angle = 0) {
   const bool halve = std::max(step_x, step_y) > 1.5;
@@ -125,11 +128,11 @@ void sample_gray(const cv::Mat& frame, cv::Point2d center, double step_x, double
   const double mx = (n.width - 1) / 2.0, my = (n.height - 1) / 2.0;
   const cv::Matx23d m(c * sx, -s * sy, center.x - (c * sx * mx - s * sy * my), s * sx, c * sy,
                       center.y - (s * sx * mx + c * sy * my));
-  warp_to_gray(frame, m, n, fine_gray, fine);
-  if (halve)
-    cv::pyrDown(fine_gray, out, size);
-  else
-    fine_gray.copyTo(out);
+  cv::Mat scratch = reuse(fine, n, frame.type());
+  if (!halve) return warp_to_gray(frame, m, n, out, scratch);
+  cv::Mat twice = reuse(fine_gray, n, CV_8U);
+  warp_to_gray(frame, m, n, twice, scratch);
+  pyr_down(twice, out);
 }
 
 // The chromaticity (r, g: each channel's share of R + G + B) of the mean
@@ -288,11 +291,10 @@ class ScaleFilter {
       // View pixel (u, v) reads centre + R(angle) diag(unit) ((u, v) - the view's middle).
       const cv::Matx23d m(c * unit.width, -s * unit.height, center.x - (c * unit.width * mx - s * unit.height * my),
                           s * unit.width, c * unit.height, center.y - (s * unit.width * mx + c * unit.height * my));
-      // Into the top-left of a buffer that only grows: the view's size follows the box's.
-      if (view_buffer_.cols < n.width || view_buffer_.rows < n.height)
-        view_buffer_.create(std::max(n.height, view_buffer_.rows), std::max(n.width, view_buffer_.cols), CV_8U);
-      view = view_buffer_(cv::Rect(cv::Point(), n));
-      warp_to_gray(frame, m, n, view, view_scratch_);
+      // In buffers that only grow: the view's size follows the box's.
+      view = reuse(view_buffer_, n, CV_8U);
+      cv::Mat scratch = reuse(view_scratch_, n, frame.type());
+      warp_to_gray(frame, m, n, view, scratch);
       source = &view;
       middle = {mx, my};
     }
@@ -627,6 +629,9 @@ struct BoxTracker::Impl {
       const cv::Size t(std::max(3, static_cast<int>(std::lround(appearance.cols * factor))),
                        std::max(3, static_cast<int>(std::lround(appearance.rows * factor))));
       if (coarse_size.width < t.width || coarse_size.height < t.height) continue;
+      // (Each size's look and scores in buffers that only grow: the sizes change from call to call.)
+      resized = reuse(resized_storage, t, CV_32F);
+      match = reuse(match_storage, coarse_size - t + cv::Size(1, 1), CV_32F);
       if (factor == 1.0)
         appearance.copyTo(resized);
       else
@@ -1185,7 +1190,7 @@ struct BoxTracker::Impl {
   std::vector<float> candidate_shares;  // scratch: a frame's or a re-detection's
   cv::Mat appearance;                   // CV_32F, the target at the coarse step
   std::vector<float> coarse_sample;
-  cv::Mat coarse_f, resized, match;
+  cv::Mat coarse_f, resized, match, resized_storage, match_storage;
   cv::Mat likelihood, likelihood_sum;  // the coarse view's colour likelihood (CV_32F) and its integral
   std::vector<int> likelihood_bins;
   CorrelationScratch correlation;

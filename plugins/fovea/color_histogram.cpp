@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <cstdlib>
 
+#include "saccade/fill.hpp"
+
 namespace saccade::fovea {
 namespace {
 
@@ -104,7 +106,7 @@ double shared_colors(const std::vector<float>& a, const std::vector<float>& b) {
 void color_likelihood(const cv::Mat& frame, cv::Size cells, const std::vector<float>& target, cv::Mat& out,
                       std::vector<int>& bins) {
   out.create(cells, CV_32F);
-  out.setTo(0);
+  fill(out, 0);
   if (frame.channels() < 3 || frame.depth() != CV_8U || cells.area() == 0) return;
   const int channels = frame.channels();
   const double cell_w = static_cast<double>(frame.cols) / cells.width,

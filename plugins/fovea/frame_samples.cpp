@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -572,6 +573,33 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
 #endif
   for (int y = 0; y < size.height; ++y)
     row(frame, x_step, y_step, row_start(0, y), row_start(1, y), size.width, out.ptr<uchar>(y));
+}
+
+void pyr_down(const cv::Mat& src, cv::Mat& dst) {
+  CV_Assert(src.type() == CV_8UC1 && src.cols >= 4 && src.rows >= 4 && src.cols % 2 == 0 && src.rows % 2 == 0);
+  const int w = src.cols / 2, h = src.rows / 2, last_y = src.rows - 1;
+  dst.create(h, w, CV_8U);
+  // Per output row, five source rows weighed 1 4 6 4 1 (sums up to 16 x 255:
+  // 16 bits), then along that row the same, to 256 and rounded. OpenCV
+  // filters along x first; the sums are integers, so the order changes
+  // nothing, and this way the wide pass (every source column) is the one
+  // that vectorises.
+  thread_local std::vector<uint16_t> column;  // grows to the widest source, then allocates no more
+  column.resize(static_cast<std::size_t>(src.cols) + 4);
+  uint16_t* v = column.data() + 2;  // v[-2], v[-1], v[cols], v[cols + 1]: the row's reflected border
+  const auto reflect = [](int i, int last) { return i < 0 ? -i : i > last ? 2 * last - i : i; };
+  for (int y = 0; y < h; ++y) {
+    const uchar* r[5];
+    for (int k = 0; k < 5; ++k) r[k] = src.ptr<uchar>(reflect(2 * y + k - 2, last_y));
+    for (int x = 0; x < src.cols; ++x)
+      v[x] = static_cast<uint16_t>(r[0][x] + 4 * r[1][x] + 6 * r[2][x] + 4 * r[3][x] + r[4][x]);
+    v[-2] = v[2], v[-1] = v[1], v[src.cols] = v[src.cols - 2], v[src.cols + 1] = v[src.cols - 3];
+    uchar* d = dst.ptr<uchar>(y);
+    for (int x = 0; x < w; ++x) {
+      const uint16_t* c = v + 2 * x;
+      d[x] = static_cast<uchar>((c[-2] + 4 * c[-1] + 6 * c[0] + 4 * c[1] + c[2] + 128) >> 8);
+    }
+  }
 }
 
 void sample_cell_means(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size,

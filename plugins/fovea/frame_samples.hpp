@@ -37,6 +37,13 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
 void sample_cell_means(const cv::Mat& frame, cv::Point2d center, double step_x, double step_y, cv::Size size,
                        float* out, bool vectorised = true);
 
+// cv::pyrDown(src, dst, src.size() / 2) for an 8-bit single-channel `src` of
+// even width and height (at least 4x4): the same 5x5 binomial weights, the
+// border reflected without repeating its pixel (BORDER_REFLECT_101) and the
+// same rounding, so bit for bit the same. OpenCV's allocates a buffer on every
+// call; this one only when `src` is wider or taller than any before.
+void pyr_down(const cv::Mat& src, cv::Mat& dst);
+
 // Whether this CPU takes the eight-cell path of sample_cell_means (AVX2).
 bool frame_samples_vectorised();
 

@@ -5,6 +5,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "saccade/fill.hpp"
+
 namespace saccade::fovea {
 
 InhibitionOfReturn::InhibitionOfReturn(double radius, int frames) : radius_(radius), frames_(std::max(1, frames)) {}
@@ -253,7 +255,7 @@ cv::Point2d Saliency::blob_center(int level, cv::Point2d seed, double fraction, 
     }
   const float threshold = static_cast<float>(fraction) * m.at<float>(start);
   if (!(threshold > 0)) return seed;
-  visited_.setTo(0);
+  fill(visited_, 0);
   stack_.clear();
   stack_.push_back(start);
   visited_.at<uint8_t>(start) = 1;

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "frame_samples.hpp"
+#include "saccade/fill.hpp"
 
 namespace saccade::fovea {
 
@@ -58,7 +59,7 @@ void ViewMotion::view(const cv::Mat& frame, HalfSpectrum& spectrum) {
   sample_cell_means(frame, {frame.cols / 2.0, frame.rows / 2.0}, cell_.x, cell_.y, grid_, cells_.ptr<float>());
   if (window_.size() != grid_) cv::createHanningWindow(window_, grid_, CV_32F);
   canvas_.create(kCells, kCells, CV_32F);
-  canvas_.setTo(0);
+  fill(canvas_, 0);
   cv::multiply(cells_, window_, canvas_(cv::Rect(cv::Point(), grid_)));
   fft_.forward(canvas_, spectrum);
 }

@@ -3,7 +3,8 @@
 // and its vectorised cell means bit for bit the plain loop's, on a real
 // photograph and on noise, for maps turned and not, magnifying and shrinking,
 // reaching past every edge of the frame, from whole frames and from a region
-// of one, at widths that are and are not multiples of the eight pixels a step.
+// of one, at widths that are and are not multiples of the eight pixels a step;
+// and its halving of a look's patch bit for bit OpenCV's pyrDown.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -141,6 +142,22 @@ int differing_cells(const cv::Mat& frame, int samples, uint64_t seed) {
       differing += std::memcmp(&plain[k], &vectorised[k], sizeof(float)) != 0;
   }
   return differing;
+}
+
+TEST(PyrDown, IsOpenCvsBitForBitOnARealPhotographNoiseAndTheSmallestSource) {
+  cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_GRAYSCALE);
+  std::vector<cv::Mat> sources{photo(cv::Rect(0, 0, 128, 128)), photo(cv::Rect(37, 51, 202, 158)),
+                               photo(cv::Rect(photo.cols - 4, photo.rows - 4, 4, 4))};
+  for (const cv::Size size : {cv::Size(4, 4), cv::Size(6, 8), cv::Size(64, 40), cv::Size(130, 66)})
+    sources.push_back(test::random_image(size, size.area()));
+  cv::Mat ours;
+  for (const cv::Mat& source : sources) {
+    cv::Mat theirs;
+    cv::pyrDown(source, theirs, source.size() / 2);
+    pyr_down(source, ours);
+    ASSERT_EQ(ours.size(), theirs.size());
+    EXPECT_EQ(cv::norm(ours, theirs, cv::NORM_INF), 0.0) << source.cols << "x" << source.rows;
+  }
 }
 
 TEST(SampleCellMeans, VectorisedIsThePlainLoopBitForBit) {
