@@ -511,8 +511,10 @@ void BM_Tracker_LookWarp(benchmark::State& state) {
 }
 BENCHMARK(BM_Tracker_LookWarp)->Arg(0)->Arg(5)->Unit(benchmark::kMicrosecond);
 
-// A 640x480 colour frame and a 96x72 target on it (scaled Aloe).
-cv::Mat tracker_frame() {
+// A 640x480 colour frame and a 96x72 target on it (scaled Aloe); or the
+// monochrome camera's frame (its looks warped without the gray conversion).
+cv::Mat tracker_frame(bool monochrome = false) {
+  if (monochrome) return frame_of({640, 480});
   cv::Mat frame;
   cv::cvtColor(frame_of({640, 480}), frame, cv::COLOR_GRAY2BGR);
   return frame;
@@ -521,19 +523,22 @@ const cv::Rect2d kTrackerTarget(272, 204, 96, 72);
 
 // A tracked frame: the filter's look (and every fourth frame two turned
 // ones), the scale filter, learning. The target stands still.
-void BM_Tracker_TrackedFrame640(benchmark::State& state) {
-  const cv::Mat frame = tracker_frame();
+void tracked_frames(benchmark::State& state, bool monochrome) {
+  const cv::Mat frame = tracker_frame(monochrome);
   fovea::BoxTracker tracker;
   if (!tracker.init(frame, kTrackerTarget).ok()) state.SkipWithError("init");
   for (auto _ : state)
     if (tracker.update(frame).state != fovea::TrackState::kTracking) state.SkipWithError("not tracked");
 }
+void BM_Tracker_TrackedFrame640(benchmark::State& state) { tracked_frames(state, false); }
 BENCHMARK(BM_Tracker_TrackedFrame640)->Unit(benchmark::kMicrosecond);
+void BM_Tracker_TrackedFrame640Monochrome(benchmark::State& state) { tracked_frames(state, true); }
+BENCHMARK(BM_Tracker_TrackedFrame640Monochrome)->Unit(benchmark::kMicrosecond);
 
 // A frame while the target is lost: the looks at the last place and at the
 // whole-frame search's proposals (every other frame), on a frame without it.
-void BM_Tracker_LostFrame640(benchmark::State& state) {
-  const cv::Mat frame = tracker_frame();
+void lost_frames(benchmark::State& state, bool monochrome) {
+  const cv::Mat frame = tracker_frame(monochrome);
   // A frame without it: the first upside down, on which a small target's look
   // finds look-alikes to follow, so noise for those.
   cv::Mat other(frame.size(), frame.type());
@@ -557,7 +562,10 @@ void BM_Tracker_LostFrame640(benchmark::State& state) {
 }
 // The whole-frame search sees the frame at the step that makes the target 8
 // pixels wide: a small target's is the largest.
+void BM_Tracker_LostFrame640(benchmark::State& state) { lost_frames(state, false); }
 BENCHMARK(BM_Tracker_LostFrame640)->Arg(96)->Arg(32)->Unit(benchmark::kMicrosecond);
+void BM_Tracker_LostFrame640Monochrome(benchmark::State& state) { lost_frames(state, true); }
+BENCHMARK(BM_Tracker_LostFrame640Monochrome)->Arg(96)->Arg(32)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -29,7 +29,9 @@ constexpr int kMapScale = 1024, kSubpixelBits = 5, kSubpixels = 1 << kSubpixelBi
 constexpr int kGrayB = 3735, kGrayG = 19235, kGrayR = 9798, kGrayShift = 15;
 
 // An output pixel from its source position X, Y (in 1/32 pixel), the frame's
-// border replicated.
+// border replicated: of an 8-bit BGR frame (`Channels` 3) its gray, of a
+// monochrome one (1) its value.
+template <int Channels = 3>
 [[maybe_unused]] uchar warp_pixel(const cv::Mat& frame, int x_fixed, int y_fixed) {
   const int sx = x_fixed >> kSubpixelBits, sy = y_fixed >> kSubpixelBits;
   const int fx = x_fixed & (kSubpixels - 1), fy = y_fixed & (kSubpixels - 1);
@@ -39,8 +41,11 @@ constexpr int kGrayB = 3735, kGrayG = 19235, kGrayR = 9798, kGrayShift = 15;
   const int w00 = (kSubpixels - fy) * (kSubpixels - fx), w01 = (kSubpixels - fy) * fx;
   const int w10 = fy * (kSubpixels - fx), w11 = fy * fx;
   int c[3];
-  for (int k = 0; k < 3; ++k)
-    c[k] = (r0[3 * x0 + k] * w00 + r0[3 * x1 + k] * w01 + r1[3 * x0 + k] * w10 + r1[3 * x1 + k] * w11 + 512) >> 10;
+  for (int k = 0; k < Channels; ++k)
+    c[k] = (r0[Channels * x0 + k] * w00 + r0[Channels * x1 + k] * w01 + r1[Channels * x0 + k] * w10 +
+            r1[Channels * x1 + k] * w11 + 512) >>
+           10;
+  if constexpr (Channels == 1) return static_cast<uchar>(c[0]);
   return static_cast<uchar>((c[0] * kGrayB + c[1] * kGrayG + c[2] * kGrayR + (1 << (kGrayShift - 1))) >> kGrayShift);
 }
 
@@ -59,7 +64,9 @@ __attribute__((target("avx2"), always_inline)) inline __m256i weighted_channel(_
 // One output row, eight pixels a step: `x_step`, `y_step` are the map's
 // per-column moves (1/1024 pixel), `x_start`, `y_start` the row's start with
 // OpenCV's rounding half added. Reads stay below `frame.datalimit`: a group
-// whose reads would not is done pixel by pixel.
+// whose reads would not is done pixel by pixel. `Channels`: 3, a BGR frame's
+// gray; 1, a monochrome frame's values.
+template <int Channels = 3>
 __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const int* x_step, const int* y_step,
                                                    int x_start, int y_start, int width, uchar* out) {
   const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi32(1), last_sub = _mm256_set1_epi32(kSubpixels - 1);
@@ -87,16 +94,17 @@ __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const i
     const __m256i y0 = _mm256_min_epi32(_mm256_max_epi32(sy, zero), last_y);
     const __m256i y1 = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(sy, one), zero), last_y);
     const __m256i top = _mm256_mullo_epi32(y0, row_bytes), bottom = _mm256_mullo_epi32(y1, row_bytes);
-    const __m256i left = _mm256_add_epi32(_mm256_add_epi32(x0, x0), x0);
-    const __m256i right = _mm256_add_epi32(_mm256_add_epi32(x1, x1), x1);
+    const __m256i left = Channels == 1 ? x0 : _mm256_add_epi32(_mm256_add_epi32(x0, x0), x0);
+    const __m256i right = Channels == 1 ? x1 : _mm256_add_epi32(_mm256_add_epi32(x1, x1), x1);
     const __m256i at11 = _mm256_add_epi32(bottom, right);
     if (_mm256_movemask_epi8(_mm256_cmpgt_epi32(at11, last_read))) {
       for (int k = 0; k < 8; ++k)
-        out[x + k] = warp_pixel(frame, (x_start + x_step[x + k]) >> (10 - kSubpixelBits),
-                                (y_start + y_step[x + k]) >> (10 - kSubpixelBits));
+        out[x + k] = warp_pixel<Channels>(frame, (x_start + x_step[x + k]) >> (10 - kSubpixelBits),
+                                          (y_start + y_step[x + k]) >> (10 - kSubpixelBits));
       continue;
     }
-    // Each tap's B, G, R (and a byte beyond, unused) as one 32-bit lane.
+    // Each tap's B, G, R (and a byte beyond, unused) as one 32-bit lane; of a
+    // monochrome frame, its value and three bytes beyond.
     const __m256i p00 = _mm256_i32gather_epi32(base, _mm256_add_epi32(top, left), 1);
     const __m256i p01 = _mm256_i32gather_epi32(base, _mm256_add_epi32(top, right), 1);
     const __m256i p10 = _mm256_i32gather_epi32(base, _mm256_add_epi32(bottom, left), 1);
@@ -112,6 +120,13 @@ __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const i
     const __m256i right_bg = _mm256_blend_epi16(p01, _mm256_slli_epi32(p11, 16), 0xAA);
     const __m256i right_r = _mm256_blend_epi16(_mm256_srli_epi32(p01, 16), p11, 0xAA);
     const __m256i b = weighted_channel(left_bg, right_bg, w_left, w_right, low_bytes, half);
+    if constexpr (Channels == 1) {
+      const __m256i bytes = _mm256_packus_epi16(_mm256_packus_epi32(b, b), zero);
+      const int first = _mm256_extract_epi32(bytes, 0), second = _mm256_extract_epi32(bytes, 4);
+      std::memcpy(out + x, &first, 4);
+      std::memcpy(out + x + 4, &second, 4);
+      continue;
+    }
     const __m256i g = weighted_channel(_mm256_srli_epi32(left_bg, 8), _mm256_srli_epi32(right_bg, 8), w_left, w_right,
                                        low_bytes, half);
     const __m256i r = weighted_channel(left_r, right_r, w_left, w_right, low_bytes, half);
@@ -126,8 +141,8 @@ __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const i
     std::memcpy(out + x + 4, &second, 4);
   }
   for (; x < width; ++x)
-    out[x] =
-        warp_pixel(frame, (x_start + x_step[x]) >> (10 - kSubpixelBits), (y_start + y_step[x]) >> (10 - kSubpixelBits));
+    out[x] = warp_pixel<Channels>(frame, (x_start + x_step[x]) >> (10 - kSubpixelBits),
+                                  (y_start + y_step[x]) >> (10 - kSubpixelBits));
 }
 
 // An upright map (no turn) reads the same columns on every row: the left and
@@ -327,6 +342,7 @@ SACCADE_AVX512_VBMI void turned_row_avx512(const cv::Mat& frame, const int* x_st
 
 #else
 
+template <int Channels = 3>
 void warp_row_avx2(const cv::Mat&, const int*, const int*, int, int, int, uchar*) {}
 
 #endif
@@ -496,7 +512,7 @@ void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Si
 // positions that fit its 16-bit pixel coordinates and the pass's 32-bit
 // fixed point, byte offsets that fit 32 bits.
 bool one_pass_for(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size) {
-  if (!warp_to_gray_in_one_pass() || frame.type() != CV_8UC3) return false;
+  if (!warp_to_gray_in_one_pass() || (frame.type() != CV_8UC3 && frame.type() != CV_8UC1)) return false;
   constexpr int kLargest = 32767;  // OpenCV's pixel coordinates are 16-bit
   if (frame.cols > kLargest || frame.rows > kLargest || !offsets_fit_lanes(frame)) return false;
   for (const cv::Point2d corner : {cv::Point2d(0, 0), cv::Point2d(size.width, 0), cv::Point2d(0, size.height),
@@ -552,7 +568,12 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
     constexpr int kHalf = kMapScale / kSubpixels / 2;
     return cv::saturate_cast<int>((m(axis, 1) * y + m(axis, 2)) * kMapScale) + kHalf;
   };
-  auto* row = warp_row_avx2;
+  if (frame.channels() == 1) {
+    for (int y = 0; y < size.height; ++y)
+      warp_row_avx2<1>(frame, x_step, y_step, row_start(0, y), row_start(1, y), size.width, out.ptr<uchar>(y));
+    return;
+  }
+  auto* row = warp_row_avx2<3>;
 #if defined(__x86_64__)
   thread_local std::vector<UprightGroup> groups;  // grows to the widest output, then allocates no more
   if (m(0, 1) == 0 && m(1, 0) == 0 && avx512vbmi_usable() &&

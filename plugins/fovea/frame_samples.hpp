@@ -12,10 +12,12 @@ namespace saccade::fovea {
 // A look's patch: bit for bit what
 //   cv::warpAffine(frame, fine, inverse_map, size, INTER_LINEAR | WARP_INVERSE_MAP, BORDER_REPLICATE);
 //   cv::cvtColor(fine, out, COLOR_BGR2GRAY);
-// give (OpenCV's 5-bit fixed-point bilinear and 15-bit gray), in one pass for
-// an 8-bit BGR frame on a CPU with AVX2 (and a map whose source positions
-// stay within 32767 pixels); otherwise those two calls, with the colour patch
-// in `scratch`. `frame` 8-bit with 1, 3 or 4 channels;
+// give (OpenCV's 5-bit fixed-point bilinear and 15-bit gray; for a
+// monochrome frame the warp alone), in one pass for an 8-bit BGR or
+// monochrome frame on a CPU with AVX2 (and a map whose source positions stay
+// within 32767 pixels), allocating nothing; otherwise those calls, with the
+// warped patch in `scratch` (OpenCV's warpAffine allocates its own buffers on
+// every call). `frame` 8-bit with 1, 3 or 4 channels;
 // `inverse_map` takes an output pixel to the frame's. With AVX-512 VBMI the
 // taps of sixteen output pixels at a time are picked out of 128-byte windows
 // of the source rows by byte permutations instead of gathered one by one, the

@@ -73,6 +73,19 @@ TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnARealPhotograph) {
   EXPECT_EQ(differing_pixels(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 3), 0);
 }
 
+TEST(WarpToGray, IsOpenCvsWarpBitForBitOnAMonochromeFrame) {
+  if (!warp_to_gray_in_one_pass()) GTEST_SKIP() << "no AVX2 here, or another OpenCV: its own call runs";
+  const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(photo.type(), CV_8UC1);
+  EXPECT_EQ(differing_pixels(photo, 400, 21), 0);
+  EXPECT_EQ(differing_pixels(photo(cv::Rect(37, 51, 201, 157)), 400, 22), 0);
+  EXPECT_EQ(differing_pixels(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 23), 0);
+  cv::Mat noise(123, 157, CV_8UC1);
+  cv::randu(noise, 0, 256);
+  EXPECT_EQ(differing_pixels(noise, 400, 24), 0);
+  EXPECT_EQ(differing_pixels(cv::Mat(1, 1, CV_8UC1, cv::Scalar(99)), 50, 25), 0);
+}
+
 TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnNoiseAndTheSmallestFrame) {
   if (!warp_to_gray_in_one_pass()) GTEST_SKIP() << "no AVX2 here, or another OpenCV: its own two calls run";
   cv::Mat noise(123, 157, CV_8UC3);
