@@ -55,6 +55,11 @@ int64_t VirtualBus::now() const {
 
 int64_t VirtualBus::now_locked() const { return sim_time_ns_ >= 0 ? sim_time_ns_ : steady_ns(); }
 
+void VirtualBus::enqueue(PortState& p, const Frame& f) {
+  if (p.queue.full()) p.queue.set_capacity(2 * p.queue.capacity());
+  p.queue.push_back({f.timestamp_ns, f});
+}
+
 bool VirtualBus::deliver(int from, const Frame& f) {
   {
     std::lock_guard lock(mu_);
@@ -78,7 +83,7 @@ bool VirtualBus::deliver(int from, const Frame& f) {
         ++p.counters.filtered;
         continue;
       }
-      p.queue.push_back({stamped.timestamp_ns, stamped});
+      enqueue(p, stamped);
     }
   }
   arrived_.notify_all();
@@ -122,7 +127,7 @@ void VirtualBus::set_port_state(int port, BusState s) {
     }
     e.timestamp_ns = now_locked();
     if (s == BusState::kBusOff) p.queue.clear();  // a bus-off controller loses what it had not read
-    if (p.filters.passes(e)) p.queue.push_back({e.timestamp_ns, e});
+    if (p.filters.passes(e)) enqueue(p, e);
   }
   arrived_.notify_all();
 }

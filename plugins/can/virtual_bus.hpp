@@ -6,12 +6,13 @@
 // them on that clock, and puts a port error-passive or bus-off. Thread-safe.
 #include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <mutex>
 #include <random>
 #include <string>
 #include <vector>
+
+#include <boost/circular_buffer.hpp>
 
 #include "bus.hpp"
 
@@ -46,7 +47,9 @@ class VirtualBus : public std::enable_shared_from_this<VirtualBus> {
     Frame frame;
   };
   struct PortState {
-    std::deque<Queued> queue;
+    // A ring that only grows (a deque allocates a block and frees one as
+    // frames stream through): the bus carries frames without allocating.
+    boost::circular_buffer<Queued> queue{64};
     FilterSet filters;
     BusState state = BusState::kErrorActive;
     BusCounters counters;
@@ -54,6 +57,7 @@ class VirtualBus : public std::enable_shared_from_this<VirtualBus> {
   };
   VirtualBus() = default;
   int64_t now_locked() const;
+  static void enqueue(PortState& p, const Frame& f);
   bool deliver(int from, const Frame& f);
   bool take(int port, Frame& out, int64_t timeout_ns);
   void set_port_state(int port, BusState s);

@@ -4,6 +4,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "saccade/reuse.hpp"
+
 namespace saccade::capture {
 
 SimHead::SimHead(cv::Mat scene, SimHeadConfig config) : scene_(std::move(scene)), config_(config) {
@@ -67,7 +69,10 @@ TargetView SimHead::render(int camera, const kinematics::HeadJoints& q, double t
   const cv::Rect inside = box & cv::Rect(0, 0, size.width, size.height);
   view.visible = view.center.x >= 0 && view.center.y >= 0 && view.center.x < size.width && view.center.y < size.height;
   if (inside.area() <= 0 || size_px < 2) return view;
-  cv::Mat patch, mask(size_px, size_px, CV_8UC1, cv::Scalar(0));
+  // (In buffers that only grow: the target's size changes with its distance.)
+  cv::Mat patch = reuse(patch_, {size_px, size_px}, target_texture_.type());
+  cv::Mat mask = reuse(mask_, {size_px, size_px}, CV_8UC1);
+  mask = cv::Scalar(0);
   cv::resize(target_texture_, patch, {size_px, size_px}, 0, 0, cv::INTER_AREA);
   cv::circle(mask, {size_px / 2, size_px / 2}, size_px / 2, cv::Scalar(255), cv::FILLED);
   const cv::Rect from(inside.x - box.x, inside.y - box.y, inside.width, inside.height);

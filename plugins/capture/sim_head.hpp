@@ -52,7 +52,7 @@ class SimHead {
  private:
   cv::Mat scene_, target_texture_;
   SimHeadConfig config_;
-  cv::Mat map_x_, map_y_;
+  cv::Mat map_x_, map_y_, patch_, mask_;
 };
 
 }  // namespace saccade::capture

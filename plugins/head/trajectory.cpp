@@ -34,7 +34,12 @@ JointState Quintic::at(double t) const {
 }
 
 Trajectory::Trajectory(std::vector<JointLimit> limits)
-    : limits_(std::move(limits)), joints_(limits_.size()), second_(limits_.size()) {}
+    : limits_(std::move(limits)),
+      joints_(limits_.size()),
+      second_(limits_.size()),
+      goal_(limits_.size()),
+      stop_(limits_.size()),
+      rest_(limits_.size()) {}
 
 namespace {
 
@@ -62,7 +67,7 @@ double Trajectory::plan(const std::vector<JointState>& now, const std::vector<do
   clamped_.clear();
   split_ = -1;
   const std::size_t n = limits_.size();
-  std::vector<double> goal(n);
+  std::vector<double>& goal = goal_;
   for (std::size_t j = 0; j < n; ++j) {
     goal[j] = std::clamp(target.at(j), limits_[j].min, limits_[j].max);
     if (goal[j] != target[j] && clamped_.empty())
@@ -111,7 +116,7 @@ double Trajectory::plan(const std::vector<JointState>& now, const std::vector<do
   }
   // No single quintic fits (a fast joint asked to turn back): first come to
   // rest where the motion naturally stops, then move from rest, which fits.
-  std::vector<double> stop(n);
+  std::vector<double>& stop = stop_;
   double brake = 0;
   for (int k = -10; k <= 40 && brake == 0; ++k) {
     const double candidate = std::max(floor, 0.05) * std::pow(1.15, k);
@@ -120,7 +125,7 @@ double Trajectory::plan(const std::vector<JointState>& now, const std::vector<do
     if (fits(stop, candidate)) brake = candidate;
   }
   if (brake == 0) brake = std::max(floor, 0.05) * std::pow(1.15, 40);  // at() keeps the positions inside
-  std::vector<JointState> rest(n);
+  std::vector<JointState>& rest = rest_;
   double second = 0;
   for (std::size_t j = 0; j < n; ++j) {
     joints_[j] = Quintic(now[j], stop[j], brake);

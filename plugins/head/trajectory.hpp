@@ -56,6 +56,9 @@ class Trajectory {
   double split_ = -1;
   double duration_ = 0;
   std::string clamped_;
+  // plan()'s scratch, one per joint: a plan allocates nothing.
+  std::vector<double> goal_, stop_;
+  std::vector<JointState> rest_;
 };
 
 }  // namespace saccade::head

@@ -22,6 +22,31 @@ Eigen::Isometry3d trans(double x, double y, double z) {
   return m;
 }
 
+// `t` followed by one row's transform, `theta` and `alpha` with their joints
+// added (multiplied in this order: a product of transforms rounds by its order).
+void follow_row(Eigen::Isometry3d& t, Convention convention, const DhRow& r, double theta, double alpha) {
+  if (convention == Convention::kStandard)
+    t = t * rot_z(theta) * trans(0, 0, r.d) * trans(r.a, 0, 0) * rot_x(alpha);
+  else
+    t = t * rot_x(alpha) * trans(r.a, 0, 0) * rot_z(theta) * trans(0, 0, r.d);
+}
+
+// paper_camera_chain(kStandard, l1, l2, l3, side).forward({neck, vergence,
+// tilt}), the same operations in the same order (so the same pose to the
+// last bit) without building the chain, which allocates: the gaze controller
+// and the kinematics node ask for the cameras' poses on every cycle.
+Eigen::Isometry3d paper_camera(double l1, double l2, double l3, int side, double neck, double vergence, double tilt) {
+  const double s = side < 0 ? -1.0 : 1.0;
+  const DhRow rows[] = {
+      {0, 0, 0, 0, {}, {}}, {s * l1, 0, 0, 0, {}, {}}, {0, 0, l2, 0, {}, {}}, {s * l3, 0, 0, 0, {}, {}}};
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  follow_row(t, Convention::kStandard, rows[0], rows[0].theta + neck + vergence, rows[0].alpha);
+  follow_row(t, Convention::kStandard, rows[1], rows[1].theta, rows[1].alpha);
+  follow_row(t, Convention::kStandard, rows[2], rows[2].theta, rows[2].alpha + tilt);
+  follow_row(t, Convention::kStandard, rows[3], rows[3].theta, rows[3].alpha);
+  return t;
+}
+
 }  // namespace
 
 Status DhChain::check(std::size_t joint_count) const {
@@ -40,10 +65,7 @@ Eigen::Isometry3d DhChain::forward(const std::vector<double>& q) const {
     double theta = r.theta, alpha = r.alpha;
     for (int j : r.theta_joints) theta += q.at(static_cast<std::size_t>(j));
     for (int j : r.alpha_joints) alpha += q.at(static_cast<std::size_t>(j));
-    if (convention_ == Convention::kStandard)
-      t = t * rot_z(theta) * trans(0, 0, r.d) * trans(r.a, 0, 0) * rot_x(alpha);
-    else
-      t = t * rot_x(alpha) * trans(r.a, 0, 0) * rot_z(theta) * trans(0, 0, r.d);
+    follow_row(t, convention_, r, theta, alpha);
   }
   return t;
 }
@@ -123,13 +145,11 @@ Result<Pointing> point_at(const Eigen::Vector3d& target, double l1, double l2, d
 }
 
 Eigen::Isometry3d left_camera(const HeadGeometry& g, const HeadJoints& q) {
-  return paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, -1)
-      .forward({q.neck, q.vergence_left, q.tilt_left});
+  return paper_camera(g.l1, g.l2, g.l3, -1, q.neck, q.vergence_left, q.tilt_left);
 }
 
 Eigen::Isometry3d right_camera(const HeadGeometry& g, const HeadJoints& q) {
-  return paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, 1)
-      .forward({q.neck, q.vergence_right, q.tilt_right});
+  return paper_camera(g.l1, g.l2, g.l3, 1, q.neck, q.vergence_right, q.tilt_right);
 }
 
 Result<HeadJoints> gaze_each(const Eigen::Vector3d& left_target, const Eigen::Vector3d& right_target,

@@ -198,8 +198,7 @@ void RetinaSampler::prepare(const cv::Mat& frame, cv::Point corner) {
       corner == prepared_corner_)
     return;
   cv::Point2d center(corner.x + config_.size.width / 2.0, corner.y + config_.size.height / 2.0);
-  std::vector<LevelGeometry> geometry = retina_geometry(config_, frame.size(), center);
-  geometry_.assign(geometry.begin(), geometry.end());
+  retina_geometry(config_, frame.size(), center, geometry_);  // (into the member: a moving fovea allocates nothing)
   const int cn = frame.channels();
   for (std::size_t k = 0; k < geometry_.size(); ++k) {
     const LevelGeometry& g = geometry_[k];

@@ -14,6 +14,8 @@
 #include "box_tracker.hpp"
 #include "frame_samples.hpp"
 
+#include "saccade/graph.hpp"
+#include "saccade/testing.hpp"
 #include "support.hpp"
 
 // OpenCV's own thread pool allocates per parallel job, as many as the timing
@@ -177,7 +179,8 @@ TEST(SteadyState, TheBoxTrackerAllocatesNothingWhileTrackingLosingAndFindingItsT
 }
 
 // The same through the graph's nodes: the retina and the fovea node following
-// the box, its state, fovea and gaze requests out every frame.
+// the box, its state, fovea and gaze requests out every frame, the retina's
+// fovea moved to where the fovea node puts it.
 TEST(SteadyState, HarnessedFoveaFollowingABoxReusesEverything) {
   cv::Mat background;
   cv::GaussianBlur(test::random_image({640, 480}, 11, CV_8UC3), background, {0, 0}, 3);
@@ -203,6 +206,8 @@ TEST(SteadyState, HarnessedFoveaFollowingABoxReusesEverything) {
     fovea->set("retina", retina->outputs("retina").back());
     ASSERT_TRUE(fovea->process().ok());
     fovea->set("retina", nullptr);
+    // The fovea moves with the target, as graphs/tracking.xml's edge back to the retina moves it.
+    retina->set("fovea", fovea->outputs("fovea").back());
   };
   for (int i = 0; i < 20; ++i) step();
   uint64_t before = g_allocations.load();
@@ -211,6 +216,41 @@ TEST(SteadyState, HarnessedFoveaFollowingABoxReusesEverything) {
   auto state = fovea->last<FoveaState>("state");
   ASSERT_TRUE(state);
   EXPECT_EQ(state->state, FoveaState::State::kTracking);
+}
+
+// The whole active vision loop, graphs/head_loop.xml in simulated time: the
+// simulated head's cameras, the retina, the moving fovea, the gaze controller,
+// the CANopen master, the virtual bus and the simulated drives, for `seconds`
+// (its snapshots not written: encoding a picture to a file allocates).
+uint64_t head_loop_allocations(int seconds) {
+  Diagnostics diag;
+  GraphDecl decl = load_graph_file(SACCADE_SOURCE_DIR "/graphs/head_loop.xml", diag);
+  const std::string s = std::to_string(seconds);
+  apply_overrides(
+      decl, {"driver.realtime=false", "drives.realtime=false", "driver.duration=" + s, "drives.duration=" + s}, diag);
+  for (auto& n : decl.nodes)
+    if (n.name == "snapshot") n.plugin = "util.null", n.params.clear();
+  auto graph = resolve_graph(decl, testing::default_registry(), diag);
+  EXPECT_FALSE(diag.has_errors()) << diag.format();
+  if (!graph) return 0;
+  ExecutorOptions options;
+  options.deterministic = true;
+  const uint64_t before = g_allocations.load();
+  Executor executor(*graph, testing::default_registry(), options);
+  EXPECT_TRUE(executor.open().ok());
+  EXPECT_TRUE(executor.run().ok());
+  return g_allocations.load() - before;
+}
+
+TEST(SteadyState, TheActiveVisionLoopAllocatesOnlyInItsSimulatedCameras) {
+  head_loop_allocations(2);  // the registry's and the plugins' one-time set-up
+  const uint64_t shorter = head_loop_allocations(8), longer = head_loop_allocations(12);
+  // What the 4 s more (1000 control cycles, 100 frames of each camera) may
+  // make: the simulated cameras' OpenCV calls allocate inside, twice in each
+  // render's cv::remap and once in the target's cv::resize (600), and the
+  // target's buffers grow a few times as it comes nearer. Nothing else: an
+  // allocation on every control cycle would add 1000, one on every frame 100.
+  EXPECT_LE(longer - shorter, 650u) << "4 s more of the loop made " << (longer - shorter) << " more heap allocations";
 }
 
 }  // namespace

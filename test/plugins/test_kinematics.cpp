@@ -87,6 +87,25 @@ TEST(PaperChain, TheOtherCameraIsTheMirrorImage) {
   EXPECT_THAT(paper_camera_chain(Convention::kStandard).check(2).message(), ::testing::HasSubstr("joint 2 of 2"));
 }
 
+// The cameras' poses the gaze controller and the kinematics node ask for on
+// every cycle are the paper chain's, to the last bit, without building it.
+TEST(PaperChain, TheCamerasPosesAreTheChainsForwardBitForBit) {
+  std::mt19937 random(7);
+  const auto uniform = [&](double from, double to) { return std::uniform_real_distribution<double>(from, to)(random); };
+  for (int i = 0; i < 200; ++i) {
+    const HeadGeometry g{uniform(0.01, 0.3), uniform(0.01, 0.3), uniform(0.0, 0.2)};
+    HeadJoints q;
+    for (double* joint : {&q.neck, &q.vergence_left, &q.tilt_left, &q.vergence_right, &q.tilt_right})
+      *joint = uniform(-1.5, 1.5);
+    const Eigen::Isometry3d left =
+        paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, -1).forward({q.neck, q.vergence_left, q.tilt_left});
+    const Eigen::Isometry3d right = paper_camera_chain(Convention::kStandard, g.l1, g.l2, g.l3, 1)
+                                        .forward({q.neck, q.vergence_right, q.tilt_right});
+    EXPECT_TRUE(left_camera(g, q).matrix() == left.matrix()) << i;
+    EXPECT_TRUE(right_camera(g, q).matrix() == right.matrix()) << i;
+  }
+}
+
 // Both readings of the paper's table: the modified one, whose tilt also turns
 // the L2 offset, has its own tilt formula.
 TEST(PointAt, PutsTheTargetOnTheOpticalAxisInFrontInBothReadings) {
