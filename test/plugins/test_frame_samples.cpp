@@ -73,19 +73,6 @@ TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnARealPhotograph) {
   EXPECT_EQ(differing_pixels(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 3), 0);
 }
 
-TEST(WarpToGray, IsOpenCvsWarpBitForBitOnAMonochromeFrame) {
-  if (!warp_to_gray_in_one_pass()) GTEST_SKIP() << "no AVX2 here, or another OpenCV: its own call runs";
-  const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_GRAYSCALE);
-  ASSERT_EQ(photo.type(), CV_8UC1);
-  EXPECT_EQ(differing_pixels(photo, 400, 21), 0);
-  EXPECT_EQ(differing_pixels(photo(cv::Rect(37, 51, 201, 157)), 400, 22), 0);
-  EXPECT_EQ(differing_pixels(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 23), 0);
-  cv::Mat noise(123, 157, CV_8UC1);
-  cv::randu(noise, 0, 256);
-  EXPECT_EQ(differing_pixels(noise, 400, 24), 0);
-  EXPECT_EQ(differing_pixels(cv::Mat(1, 1, CV_8UC1, cv::Scalar(99)), 50, 25), 0);
-}
-
 TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnNoiseAndTheSmallestFrame) {
   if (!warp_to_gray_in_one_pass()) GTEST_SKIP() << "no AVX2 here, or another OpenCV: its own two calls run";
   cv::Mat noise(123, 157, CV_8UC3);
@@ -118,20 +105,35 @@ int differing_sixteen_pixel_looks(const cv::Mat& frame, int looks, uint64_t seed
   return differing;
 }
 
+// `differing` (the pixels of its looks that differ from OpenCV's) is 0 on a
+// photograph, a region of it (rows longer than its pixels, the parent's data
+// beyond them), its bottom-right corner (where a read from its last pixels
+// would pass the data's end), noise and a 1x1 frame, all of `photo`'s type.
+void expect_same_as_opencv(int (*differing)(const cv::Mat&, int, uint64_t), const cv::Mat& photo, int looks,
+                           uint64_t seed) {
+  EXPECT_EQ(differing(photo, looks, seed), 0) << "the photograph";
+  EXPECT_EQ(differing(photo(cv::Rect(37, 51, 201, 157)), looks, seed + 1), 0) << "a region of it";
+  EXPECT_EQ(differing(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, seed + 2), 0) << "its corner";
+  cv::Mat noise(123, 157, photo.type());
+  cv::randu(noise, 0, 256);
+  EXPECT_EQ(differing(noise, looks, seed + 3), 0) << "noise";
+  EXPECT_EQ(differing(cv::Mat(1, 1, photo.type(), cv::Scalar(9, 99, 199)), 50, seed + 4), 0) << "a 1x1 frame";
+}
+
 TEST(WarpToGray, LooksTakenSixteenPixelsAStepAreOpenCvsBitForBit) {
   if (!warp_to_gray_in_one_pass()) GTEST_SKIP() << "no AVX2 here, or another OpenCV: its own two calls run";
   if (!warp_to_gray_sixteen_pixels_a_step())
     std::printf("no AVX-512 VBMI here (or SACCADE_AVX512=0): the eight-pixel path is checked instead\n");
   const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_COLOR);
   ASSERT_EQ(photo.type(), CV_8UC3);
-  EXPECT_EQ(differing_sixteen_pixel_looks(photo, 600, 11), 0);
-  EXPECT_EQ(differing_sixteen_pixel_looks(photo(cv::Rect(37, 51, 201, 157)), 600, 12), 0);
-  // The bottom-right corner: a window of 128 bytes from its last pixels passes the data's end.
-  EXPECT_EQ(differing_sixteen_pixel_looks(photo(cv::Rect(photo.cols - 9, photo.rows - 7, 9, 7)), 200, 13), 0);
-  cv::Mat noise(123, 157, CV_8UC3);
-  cv::randu(noise, 0, 256);
-  EXPECT_EQ(differing_sixteen_pixel_looks(noise, 600, 14), 0);
-  EXPECT_EQ(differing_sixteen_pixel_looks(cv::Mat(1, 1, CV_8UC3, cv::Scalar(9, 99, 199)), 50, 15), 0);
+  expect_same_as_opencv(differing_sixteen_pixel_looks, photo, 600, 11);
+}
+
+TEST(WarpToGray, IsOpenCvsWarpBitForBitOnAMonochromeFrame) {
+  if (!warp_to_gray_in_one_pass()) GTEST_SKIP() << "no AVX2 here, or another OpenCV: its own call runs";
+  const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(photo.type(), CV_8UC1);
+  expect_same_as_opencv(differing_pixels, photo, 400, 21);
 }
 
 // Cells whose vectorised mean differs from the plain loop's over `samples`
