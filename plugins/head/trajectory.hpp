@@ -56,7 +56,8 @@ class Trajectory {
   double split_ = -1;
   double duration_ = 0;
   std::string clamped_;
-  // plan()'s scratch, one per joint: a plan allocates nothing.
+  // plan()'s scratch, one per joint: a plan allocates nothing (but the message
+  // saying why a target had to be clamped).
   std::vector<double> goal_, stop_;
   std::vector<JointState> rest_;
 };
