@@ -108,7 +108,7 @@ Status GazeController::look_at_stereo(double u, double v, double disparity, doub
   const Eigen::Vector3d ray_l = l.linear() * Eigen::Vector3d((u - cx) / focal, (v - cy) / focal, 1.0);
   const Eigen::Vector3d ray_r = r.linear() * Eigen::Vector3d((u - disparity - cx) / focal, (v - cy) / focal, 1.0);
   const kinematics::Fixation f = kinematics::fixation_point(l.translation(), ray_l, r.translation(), ray_r);
-  if (!f.valid) return reject("stereo pixel pair: " + f.why);
+  if (!f.valid) return reject(std::string("stereo pixel pair: ") + f.why);
   return aim(f.point);
 }
 

@@ -120,7 +120,7 @@ struct Fixation {
   bool valid = false;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   double residual = 0;
-  std::string why;
+  const char* why = "";  // a literal: every frame of parallel cameras is invalid, and says why without allocating
 };
 Fixation fixation_point(const Eigen::Vector3d& c1, const Eigen::Vector3d& d1, const Eigen::Vector3d& c2,
                         const Eigen::Vector3d& d2);

@@ -218,6 +218,31 @@ TEST(SteadyState, HarnessedFoveaFollowingABoxReusesEverything) {
   EXPECT_EQ(state->state, FoveaState::State::kTracking);
 }
 
+// The kinematics node on a head's joint state every frame: the cameras' poses
+// and the fixation point, as the rectified retina and the stereo ask for them;
+// the cameras verging (a fixation) and diverging (none, and why) in turn.
+TEST(SteadyState, HarnessedKinematicsReusesEverything) {
+  auto kinematics = testing::NodeHarness::create(R"(<node plugin="kinematics"/>)").value_or(nullptr);
+  ASSERT_TRUE(kinematics);
+  auto state = std::make_shared<JointState>();
+  state->position.assign(5, 0.0);
+  int k = 0, fixated = 0;
+  auto step = [&] {
+    const double t = k++ / 25.0, vergence = 0.1 * std::sin(3 * t);
+    state->position = {0.3 * std::sin(t), vergence, 0.1 * std::cos(t), -vergence, 0.1 * std::cos(t)};
+    kinematics->clear_outputs();
+    kinematics->set("state", state);
+    ASSERT_TRUE(kinematics->process().ok());
+    fixated += kinematics->last<HeadPose>("pose")->fixation_valid;
+  };
+  for (int i = 0; i < 3; ++i) step();
+  const uint64_t before = g_allocations.load();
+  for (int i = 0; i < 100; ++i) step();
+  EXPECT_EQ(g_allocations.load() - before, 0u);
+  EXPECT_GT(fixated, 10);
+  EXPECT_LT(fixated, 93);
+}
+
 // The whole active vision loop, graphs/head_loop.xml in simulated time: the
 // simulated head's cameras, the retina, the moving fovea, the gaze controller,
 // the CANopen master, the virtual bus and the simulated drives, for `seconds`
