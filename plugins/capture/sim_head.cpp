@@ -4,6 +4,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "saccade/fill.hpp"
 #include "saccade/reuse.hpp"
 
 namespace saccade::capture {
@@ -72,7 +73,7 @@ TargetView SimHead::render(int camera, const kinematics::HeadJoints& q, double t
   // (In buffers that only grow: the target's size changes with its distance.)
   cv::Mat patch = reuse(patch_, {size_px, size_px}, target_texture_.type());
   cv::Mat mask = reuse(mask_, {size_px, size_px}, CV_8UC1);
-  mask = cv::Scalar(0);
+  fill(mask, 0);
   cv::resize(target_texture_, patch, {size_px, size_px}, 0, 0, cv::INTER_AREA);
   cv::circle(mask, {size_px / 2, size_px / 2}, size_px / 2, cv::Scalar(255), cv::FILLED);
   const cv::Rect from(inside.x - box.x, inside.y - box.y, inside.width, inside.height);

@@ -1,6 +1,8 @@
 #include "kinematics.hpp"
 
+#include <array>
 #include <cmath>
+#include <iterator>
 
 namespace saccade::kinematics {
 
@@ -31,14 +33,19 @@ void follow_row(Eigen::Isometry3d& t, Convention convention, const DhRow& r, dou
     t = t * rot_x(alpha) * trans(r.a, 0, 0) * rot_z(theta) * trans(0, 0, r.d);
 }
 
+// The paper's table for one camera (paper_camera_chain), its joints left out:
+// row 0's theta takes the neck and the vergence, row 2's alpha the tilt.
+std::array<DhRow, 4> paper_rows(double l1, double l2, double l3, int side) {
+  const double s = side < 0 ? -1.0 : 1.0;
+  return {{{0, 0, 0, 0, {}, {}}, {s * l1, 0, 0, 0, {}, {}}, {0, 0, l2, 0, {}, {}}, {s * l3, 0, 0, 0, {}, {}}}};
+}
+
 // paper_camera_chain(kStandard, l1, l2, l3, side).forward({neck, vergence,
 // tilt}), the same operations in the same order (so the same pose to the
 // last bit) without building the chain, which allocates: the gaze controller
 // and the kinematics node ask for the cameras' poses on every cycle.
 Eigen::Isometry3d paper_camera(double l1, double l2, double l3, int side, double neck, double vergence, double tilt) {
-  const double s = side < 0 ? -1.0 : 1.0;
-  const DhRow rows[] = {
-      {0, 0, 0, 0, {}, {}}, {s * l1, 0, 0, 0, {}, {}}, {0, 0, l2, 0, {}, {}}, {s * l3, 0, 0, 0, {}, {}}};
+  const std::array<DhRow, 4> rows = paper_rows(l1, l2, l3, side);
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   follow_row(t, Convention::kStandard, rows[0], rows[0].theta + neck + vergence, rows[0].alpha);
   follow_row(t, Convention::kStandard, rows[1], rows[1].theta, rows[1].alpha);
@@ -71,14 +78,10 @@ Eigen::Isometry3d DhChain::forward(const std::vector<double>& q) const {
 }
 
 DhChain paper_camera_chain(Convention convention, double l1, double l2, double l3, int side) {
-  const double s = side < 0 ? -1.0 : 1.0;
-  std::vector<DhRow> rows = {
-      {0, 0, 0, 0, {0, 1}, {}},
-      {s * l1, 0, 0, 0, {}, {}},
-      {0, 0, l2, 0, {}, {2}},
-      {s * l3, 0, 0, 0, {}, {}},
-  };
-  return DhChain(std::move(rows), convention);
+  std::array<DhRow, 4> rows = paper_rows(l1, l2, l3, side);
+  rows[0].theta_joints = {0, 1};
+  rows[2].alpha_joints = {2};
+  return DhChain({std::make_move_iterator(rows.begin()), std::make_move_iterator(rows.end())}, convention);
 }
 
 DhChain offset_camera_chain(Convention convention, double l1, double l2, double l3, int side) {

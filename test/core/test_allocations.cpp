@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <new>
+#include <utility>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -128,16 +129,22 @@ TEST(SteadyState, HarnessedMotionAndStereoReuseEverything) {
   EXPECT_EQ(g_allocations.load() - before, 0u);
 }
 
+// A smooth 640x480 colour background and a sharper 60x50 textured target
+// for the box tracker to follow.
+std::pair<cv::Mat, cv::Mat> textured_scene() {
+  std::pair<cv::Mat, cv::Mat> scene;
+  cv::GaussianBlur(test::random_image({640, 480}, 11, CV_8UC3), scene.first, {0, 0}, 3);
+  cv::GaussianBlur(test::random_image({60, 50}, 12, CV_8UC3), scene.second, {0, 0}, 1);
+  return scene;
+}
+
 // The fovea's box tracker on a 640x480 scene (colour, or a monochrome
 // camera's): a textured target followed, hidden (lost: the whole-frame search
 // runs, by look and, in colour, by colour), found again, twice over. The
 // first round sizes every buffer; the second allocates nothing, on any of its
 // tracked, unsure or lost frames. Returns the second round's allocations.
 uint64_t box_tracker_second_round_allocations(bool monochrome) {
-  cv::Mat background;
-  cv::GaussianBlur(test::random_image({640, 480}, 11, CV_8UC3), background, {0, 0}, 3);
-  cv::Mat target;
-  cv::GaussianBlur(test::random_image({60, 50}, 12, CV_8UC3), target, {0, 0}, 1);
+  auto [background, target] = textured_scene();
   target.forEach<cv::Vec3b>([](cv::Vec3b& p, const int*) { p[2] = cv::saturate_cast<uint8_t>(p[2] + 90); });
   if (monochrome) {
     cv::cvtColor(background, background, cv::COLOR_BGR2GRAY);
@@ -182,10 +189,7 @@ TEST(SteadyState, TheBoxTrackerAllocatesNothingWhileTrackingLosingAndFindingItsT
 // the box, its state, fovea and gaze requests out every frame, the retina's
 // fovea moved to where the fovea node puts it.
 TEST(SteadyState, HarnessedFoveaFollowingABoxReusesEverything) {
-  cv::Mat background;
-  cv::GaussianBlur(test::random_image({640, 480}, 11, CV_8UC3), background, {0, 0}, 3);
-  cv::Mat target;
-  cv::GaussianBlur(test::random_image({60, 50}, 12, CV_8UC3), target, {0, 0}, 1);
+  const auto [background, target] = textured_scene();
   const auto place = [](int k) {
     return cv::Point(200 + static_cast<int>(80 * std::sin(k / 30.0)), 180 + static_cast<int>(40 * std::sin(k / 45.0)));
   };
