@@ -511,6 +511,22 @@ void BM_Tracker_LookWarp(benchmark::State& state) {
 }
 BENCHMARK(BM_Tracker_LookWarp)->Arg(0)->Arg(5)->Unit(benchmark::kMicrosecond);
 
+// The whole-frame search's coarse view of a 640x480 frame for a 32x24
+// target (192x144 cell means, 3.33 source pixels a cell), of a colour frame
+// (argument 3) or a monochrome one (1). SACCADE_AVX512=0 keeps both on the
+// eight-cell gathers.
+void BM_Tracker_CoarseView640(benchmark::State& state) {
+  cv::Mat frame = frame_of({640, 480});
+  if (state.range(0) == 3) cv::cvtColor(frame, frame, cv::COLOR_GRAY2BGR);
+  const cv::Size size(192, 144);
+  std::vector<float> cells(static_cast<std::size_t>(size.area()));
+  for (auto _ : state) {
+    fovea::sample_cell_means(frame, {320, 240}, 640.0 / size.width, 480.0 / size.height, size, cells.data());
+    benchmark::DoNotOptimize(cells.data());
+  }
+}
+BENCHMARK(BM_Tracker_CoarseView640)->Arg(3)->Arg(1)->Unit(benchmark::kMicrosecond);
+
 // A 640x480 colour frame and a 96x72 target on it (scaled Aloe); or the
 // monochrome camera's frame (its looks warped without the gray conversion).
 cv::Mat tracker_frame(bool monochrome = false) {

@@ -148,20 +148,22 @@ __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const i
 // An upright map (no turn) reads the same columns on every row: the left and
 // right taps of each eight output pixels lie in one window of 128 bytes of a
 // source row, and a byte permutation made once per warp picks their B, G, R
-// out of it (AVX-512 VBMI), where the eight-pixel path gathers each tap.
-// Sixteen pixels a step: their taps in one window (steps up to 2.6 source
-// pixels) or in two, one per eight.
+// (of a monochrome frame, their value) out of it (AVX-512 VBMI), where the
+// eight-pixel path gathers each tap. Sixteen pixels a step: their taps in one
+// window (a BGR frame's at steps up to 2.6 source pixels, a monochrome one's
+// up to 8.4) or in two, one per eight.
 struct UprightGroup {
   std::array<int, 2> window;       // each half's window's first byte in a row
   bool split;                      // the halves' windows differ
-  alignas(64) uint8_t left[64];    // lane i's bytes 0-2: its left tap's B, G, R in its half's window
+  alignas(64) uint8_t left[64];    // lane i's first bytes: its left tap's B, G, R (or value) in its half's window
   alignas(64) uint8_t right[64];   // ... its right tap's
   alignas(64) int32_t rest_x[16];  // 32 - its horizontal weight
 };
 
 // The groups of an upright map's output columns, or false where eight
-// pixels' taps span more than a window (a step over 5.7 source pixels) or
-// the width is not a multiple of sixteen.
+// pixels' taps span more than a window (a step over 5.7 source pixels of a
+// BGR frame, 18 of a monochrome one) or the width is not a multiple of sixteen.
+template <int Channels>
 bool upright_groups(const cv::Mat& frame, const int* x_step, int x_start, int width, std::vector<UprightGroup>& out) {
   if (width % 16 != 0) return false;
   out.resize(static_cast<std::size_t>(width / 16));
@@ -176,17 +178,17 @@ bool upright_groups(const cv::Mat& frame, const int* x_step, int x_start, int wi
       group.rest_x[i] = kSubpixels - (fixed & (kSubpixels - 1));
     }
     // (Columns only move right along an upright map's row: its first and last taps bound a group.)
-    group.split = 3 * (x1[15] - x0[0]) + 3 > 128;
-    group.window = {3 * x0[0], 3 * x0[group.split ? 8 : 0]};
+    group.split = Channels * (x1[15] - x0[0]) + Channels > 128;
+    group.window = {Channels * x0[0], Channels * x0[group.split ? 8 : 0]};
     for (int i = 0; i < 16; ++i) {
       const int from = group.window[i < 8 ? 0 : 1];
-      const int left = 3 * x0[static_cast<std::size_t>(i)] - from, right = 3 * x1[static_cast<std::size_t>(i)] - from;
-      if (left < 0 || right + 3 > 128) return false;
-      for (int k = 0; k < 3; ++k) {
-        group.left[4 * i + k] = static_cast<uint8_t>(left + k);
-        group.right[4 * i + k] = static_cast<uint8_t>(right + k);
+      const int left = Channels * x0[static_cast<std::size_t>(i)] - from;
+      const int right = Channels * x1[static_cast<std::size_t>(i)] - from;
+      if (left < 0 || right + Channels > 128) return false;
+      for (int k = 0; k < 4; ++k) {  // (the bytes past a tap's channels are never weighed)
+        group.left[4 * i + k] = static_cast<uint8_t>(k < Channels ? left + k : 0);
+        group.right[4 * i + k] = static_cast<uint8_t>(k < Channels ? right + k : 0);
       }
-      group.left[4 * i + 3] = group.right[4 * i + 3] = 0;
     }
   }
   return true;
@@ -235,10 +237,12 @@ SACCADE_AVX512_VBMI __attribute__((always_inline)) inline __m512i weighted_chann
   return _mm512_srai_epi32(_mm512_add_epi32(sum, _mm512_set1_epi32(512)), 10);
 }
 
-// Sixteen output pixels from their four taps (each B, G, R in a 32-bit lane:
-// top-left, top-right, bottom-left, bottom-right), their horizontal weights
-// (32 - fx, fx) and their vertical ones as (32 - fy, fy) 16-bit pairs:
-// warp_row_avx2's arithmetic, sixteen lanes wide.
+// Sixteen output pixels from their four taps (each B, G, R, or a monochrome
+// frame's value, in a 32-bit lane: top-left, top-right, bottom-left,
+// bottom-right), their horizontal weights (32 - fx, fx) and their vertical
+// ones as (32 - fy, fy) 16-bit pairs: warp_row_avx2's arithmetic, sixteen
+// lanes wide.
+template <int Channels>
 SACCADE_AVX512_VBMI __attribute__((always_inline)) inline __m512i gray_of_taps(__m512i p00, __m512i p01, __m512i p10,
                                                                                __m512i p11, __m512i rest_x, __m512i fx,
                                                                                __m512i fy_pair) {
@@ -252,6 +256,7 @@ SACCADE_AVX512_VBMI __attribute__((always_inline)) inline __m512i gray_of_taps(_
   const __m512i right_bg = _mm512_mask_blend_epi16(kHigh, p01, _mm512_slli_epi32(p11, 16));
   const __m512i right_r = _mm512_mask_blend_epi16(kHigh, _mm512_srli_epi32(p01, 16), p11);
   const __m512i blue = weighted_channel16(left_bg, right_bg, w_left, w_right);
+  if constexpr (Channels == 1) return blue;
   const __m512i green =
       weighted_channel16(_mm512_srli_epi32(left_bg, 8), _mm512_srli_epi32(right_bg, 8), w_left, w_right);
   const __m512i red = weighted_channel16(left_r, right_r, w_left, w_right);
@@ -265,6 +270,7 @@ SACCADE_AVX512_VBMI __attribute__((always_inline)) inline __m512i gray_of_taps(_
 
 // One output row of an upright map from source rows `top` and `bottom` at
 // vertical weight `fy`: warp_row_avx2's arithmetic, sixteen pixels a step.
+template <int Channels>
 SACCADE_AVX512_VBMI void upright_row_avx512(const cv::Mat& frame, const std::vector<UprightGroup>& groups,
                                             const uchar* top, const uchar* bottom, int fy, uchar* out) {
   const __m512i subpixels = _mm512_set1_epi32(kSubpixels);
@@ -277,7 +283,8 @@ SACCADE_AVX512_VBMI void upright_row_avx512(const cv::Mat& frame, const std::vec
     taps_of(frame, top, group, left_index, right_index, p00, p01);
     taps_of(frame, bottom, group, left_index, right_index, p10, p11);
     const __m512i rest_x = _mm512_load_si512(group.rest_x);
-    const __m512i gray = gray_of_taps(p00, p01, p10, p11, rest_x, _mm512_sub_epi32(subpixels, rest_x), fy_pair);
+    const __m512i gray =
+        gray_of_taps<Channels>(p00, p01, p10, p11, rest_x, _mm512_sub_epi32(subpixels, rest_x), fy_pair);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 16 * g), _mm512_cvtepi32_epi8(gray));
   }
 }
@@ -289,13 +296,15 @@ SACCADE_AVX512_VBMI void upright_row_avx512(const cv::Mat& frame, const std::vec
 // span more rows (a larger turn) or a wider window (a step over 2.6 source
 // pixels), and the last width % 16, are left to the eight-pixel gathers.
 constexpr int kTurnedRows = 6;
+template <int Channels>
 SACCADE_AVX512_VBMI void turned_row_avx512(const cv::Mat& frame, const int* x_step, const int* y_step, int x_start,
                                            int y_start, int width, uchar* out) {
   const __m512i zero = _mm512_setzero_si512(), one = _mm512_set1_epi32(1), last_sub = _mm512_set1_epi32(kSubpixels - 1);
   const __m512i subpixels = _mm512_set1_epi32(kSubpixels);
   const __m512i last_x = _mm512_set1_epi32(frame.cols - 1), last_y = _mm512_set1_epi32(frame.rows - 1);
-  // A lane's window offset n as the byte indices n, n + 1, n + 2 (its B, G, R) and 0.
-  const __m512i spread = _mm512_set1_epi32(0x010101), next_bytes = _mm512_set1_epi32(0x020100);
+  // A lane's window offset n as the byte indices n, n + 1, n + 2 (its B, G, R) and 0; of a monochrome frame, n.
+  const __m512i spread = _mm512_set1_epi32(Channels == 1 ? 1 : 0x010101);
+  const __m512i next_bytes = _mm512_set1_epi32(Channels == 1 ? 0 : 0x020100);
   int x = 0;
   for (; x + 16 <= width; x += 16) {
     const __m512i fixed_x = _mm512_srai_epi32(
@@ -308,23 +317,21 @@ SACCADE_AVX512_VBMI void turned_row_avx512(const cv::Mat& frame, const int* x_st
     const __m512i y0 = _mm512_min_epi32(_mm512_max_epi32(sy, zero), last_y);
     const __m512i y1 = _mm512_min_epi32(_mm512_max_epi32(_mm512_add_epi32(sy, one), zero), last_y);
     const int first_x = _mm512_reduce_min_epi32(x0), first_y = _mm512_reduce_min_epi32(y0);
-    if (3 * (_mm512_reduce_max_epi32(x1) - first_x) + 3 > 128 ||
+    if (Channels * (_mm512_reduce_max_epi32(x1) - first_x) + Channels > 128 ||
         _mm512_reduce_max_epi32(y1) - first_y + 1 > kTurnedRows) {
-      warp_row_avx2(frame, x_step + x, y_step + x, x_start, y_start, 16, out + x);
+      warp_row_avx2<Channels>(frame, x_step + x, y_step + x, x_start, y_start, 16, out + x);
       continue;
     }
-    const __m512i first = _mm512_set1_epi32(3 * first_x);
+    const __m512i first = _mm512_set1_epi32(Channels * first_x), channels = _mm512_set1_epi32(Channels);
     const __m512i left_index = _mm512_add_epi32(
-        _mm512_mullo_epi32(_mm512_sub_epi32(_mm512_add_epi32(_mm512_add_epi32(x0, x0), x0), first), spread),
-        next_bytes);
+        _mm512_mullo_epi32(_mm512_sub_epi32(_mm512_mullo_epi32(x0, channels), first), spread), next_bytes);
     const __m512i right_index = _mm512_add_epi32(
-        _mm512_mullo_epi32(_mm512_sub_epi32(_mm512_add_epi32(_mm512_add_epi32(x1, x1), x1), first), spread),
-        next_bytes);
+        _mm512_mullo_epi32(_mm512_sub_epi32(_mm512_mullo_epi32(x1, channels), first), spread), next_bytes);
     __m512i p00 = zero, p01 = zero, p10 = zero, p11 = zero;
     const int last_row = _mm512_reduce_max_epi32(y1);
     for (int row = first_y; row <= last_row; ++row) {
       __m512i a0, a1;
-      window_of(frame, frame.ptr<uchar>(row) + 3 * first_x, a0, a1);
+      window_of(frame, frame.ptr<uchar>(row) + Channels * first_x, a0, a1);
       const __m512i left = _mm512_permutex2var_epi8(a0, left_index, a1);
       const __m512i right = _mm512_permutex2var_epi8(a0, right_index, a1);
       const __m512i here = _mm512_set1_epi32(row);
@@ -334,10 +341,10 @@ SACCADE_AVX512_VBMI void turned_row_avx512(const cv::Mat& frame, const int* x_st
     }
     const __m512i fx = _mm512_and_si512(fixed_x, last_sub), fy = _mm512_and_si512(fixed_y, last_sub);
     const __m512i fy_pair = _mm512_or_si512(_mm512_sub_epi32(subpixels, fy), _mm512_slli_epi32(fy, 16));
-    const __m512i gray = gray_of_taps(p00, p01, p10, p11, _mm512_sub_epi32(subpixels, fx), fx, fy_pair);
+    const __m512i gray = gray_of_taps<Channels>(p00, p01, p10, p11, _mm512_sub_epi32(subpixels, fx), fx, fy_pair);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + x), _mm512_cvtepi32_epi8(gray));
   }
-  if (x < width) warp_row_avx2(frame, x_step + x, y_step + x, x_start, y_start, width - x, out + x);
+  if (x < width) warp_row_avx2<Channels>(frame, x_step + x, y_step + x, x_start, y_start, width - x, out + x);
 }
 
 #else
@@ -476,6 +483,140 @@ __attribute__((target("avx2"))) void cell_row_avx2(const cv::Mat& frame, const T
 }
 #endif
 
+#if defined(__x86_64__)
+// Sixteen cells a step without gathers (AVX-512 VBMI): a sample's grid is
+// separable, so every row's taps lie in the same columns, and each sixteen
+// cells' taps in one, two or four windows of 128 bytes of a source row (one
+// per sixteen, eight or four cells: a BGR frame's at steps up to 2.5, 5.3 and
+// 11.6 source pixels, a monochrome one's up to 8, 16 and 36). A byte
+// permutation made once per sample picks their pixels out of each window,
+// where the eight-cell path gathers each pixel. (Eight windows, of two cells
+// each, cost more than the gathers.)
+constexpr int kMostWindows = 4;
+struct CellGroup {
+  int first;                             // the group's first cell (the last group ends at the row's end, overlapping)
+  int windows;                           // 1, 2, 4 or 8, each for as many successive lanes
+  std::array<int, kMostWindows> window;  // each window's first byte in a row
+  alignas(64) uint8_t index[2][2][64];   // [quarter tap][its pixel, the next] lane i's first bytes: B, G, R (or value)
+  alignas(64) float weight[2][16];       // [quarter tap] lane i's weight of the next pixel
+};
+
+// The groups of a row of `width` cells whose quarter taps are `cols`, or
+// false where `width` is under sixteen or two cells' taps span more than a window.
+template <int Channels>
+bool cell_groups(const Tap* cols, int width, std::vector<CellGroup>& out) {
+  if (width < 16) return false;
+  out.resize(static_cast<std::size_t>((width + 15) / 16));
+  constexpr int kRead = Channels < 3 ? Channels : 3;  // the bytes of a pixel its gray is made of
+  for (std::size_t g = 0; g < out.size(); ++g) {
+    CellGroup& group = out[g];
+    group.first = std::min(16 * static_cast<int>(g), width - 16);
+    const Tap* taps = cols + 2 * group.first;
+    // The fewest windows that hold their lanes' bytes (found, not assumed: a
+    // negative step reads its taps from right to left).
+    for (group.windows = 1;; group.windows *= 2) {
+      if (group.windows > kMostWindows) return false;
+      const int lanes = 16 / group.windows;
+      bool fits = true;
+      for (int w = 0; w < group.windows; ++w) {
+        int lowest = std::numeric_limits<int>::max(), highest = -1;
+        for (int i = w * lanes; i < (w + 1) * lanes; ++i)
+          for (int q = 0; q < 2; ++q) {
+            lowest = std::min(lowest, Channels * taps[2 * i + q].first);
+            highest = std::max(highest, Channels * (taps[2 * i + q].first + 1) + kRead - 1);
+          }
+        fits = fits && highest - lowest < 128;
+        group.window[static_cast<std::size_t>(w)] = lowest;
+      }
+      if (fits) break;
+    }
+    for (int i = 0; i < 16; ++i)
+      for (int q = 0; q < 2; ++q) {
+        group.weight[q][i] = taps[2 * i + q].weight;
+        const int from = group.window[static_cast<std::size_t>(i / (16 / group.windows))];
+        for (int next = 0; next < 2; ++next)
+          for (int k = 0; k < 4; ++k)  // (the bytes past a pixel's B, G, R are never read)
+            group.index[q][next][4 * i + k] =
+                static_cast<uint8_t>(k < kRead ? Channels * (taps[2 * i + q].first + next) + k - from : 0);
+      }
+  }
+  return true;
+}
+
+// lanes_gray, sixteen lanes wide.
+template <int Channels>
+SACCADE_AVX512_VBMI __attribute__((always_inline)) inline __m512 lanes_gray16(__m512i bytes) {
+  const __m512i low = _mm512_set1_epi32(0xFF);
+  if constexpr (Channels == 1) {
+    return _mm512_cvtepi32_ps(_mm512_and_si512(bytes, low));
+  } else {
+    const __m512 b = _mm512_cvtepi32_ps(_mm512_and_si512(bytes, low));
+    const __m512 g = _mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(bytes, 8), low));
+    const __m512 r = _mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(bytes, 16), low));
+    return _mm512_add_ps(
+        _mm512_add_ps(_mm512_mul_ps(_mm512_set1_ps(0.114f), b), _mm512_mul_ps(_mm512_set1_ps(0.587f), g)),
+        _mm512_mul_ps(_mm512_set1_ps(0.299f), r));
+  }
+}
+
+// A group's two quarter taps along source row `row`: each the gray of its
+// pixel and the next, weighed as cell_mean weighs them.
+template <int Channels, int Windows>
+SACCADE_AVX512_VBMI __attribute__((always_inline)) inline void across_row(const cv::Mat& frame, const uchar* row,
+                                                                          const CellGroup& group, __m512 across[2]) {
+  __m512i pixel[2][2];
+  constexpr int lanes = 16 / Windows;
+  for (int w = 0; w < Windows; ++w) {
+    __m512i a0, a1;
+    window_of(frame, row + group.window[static_cast<std::size_t>(w)], a0, a1);
+    const auto mine = static_cast<__mmask16>(((1u << lanes) - 1) << (w * lanes));
+    for (int q = 0; q < 2; ++q)
+      for (int next = 0; next < 2; ++next) {
+        const __m512i taken = _mm512_permutex2var_epi8(a0, _mm512_load_si512(group.index[q][next]), a1);
+        pixel[q][next] = w == 0 ? taken : _mm512_mask_blend_epi32(mine, pixel[q][next], taken);
+      }
+  }
+  const __m512 one = _mm512_set1_ps(1.0f);
+  for (int q = 0; q < 2; ++q) {
+    const __m512 ax = _mm512_load_ps(group.weight[q]);
+    across[q] = _mm512_add_ps(_mm512_mul_ps(_mm512_sub_ps(one, ax), lanes_gray16<Channels>(pixel[q][0])),
+                              _mm512_mul_ps(ax, lanes_gray16<Channels>(pixel[q][1])));
+  }
+}
+
+// A row of cells, sixteen a step: cell_row_avx2's arithmetic (and so
+// cell_mean's, bit for bit), its reads permuted out of rows.
+template <int Channels, int Windows>
+SACCADE_AVX512_VBMI __attribute__((always_inline)) inline void cell_group_avx512(const cv::Mat& frame,
+                                                                                 const CellGroup& group, const Tap* ty,
+                                                                                 float* out) {
+  const __m512 one = _mm512_set1_ps(1.0f);
+  __m512 total = _mm512_setzero_ps(), top[2], bottom[2];
+  for (int qy = 0; qy < 2; ++qy) {
+    // (Where the lower quarter point's first row is the upper one's second, as at most steps, it is read once.)
+    if (qy == 1 && ty[1].first == ty[0].first + 1)
+      top[0] = bottom[0], top[1] = bottom[1];
+    else
+      across_row<Channels, Windows>(frame, frame.ptr<uchar>(ty[qy].first), group, top);
+    across_row<Channels, Windows>(frame, frame.ptr<uchar>(ty[qy].first + 1), group, bottom);
+    const __m512 ay = _mm512_set1_ps(ty[qy].weight), rest_y = _mm512_sub_ps(one, ay);
+    for (int qx = 0; qx < 2; ++qx)
+      total = _mm512_add_ps(total, _mm512_add_ps(_mm512_mul_ps(rest_y, top[qx]), _mm512_mul_ps(ay, bottom[qx])));
+  }
+  _mm512_storeu_ps(out + group.first, _mm512_mul_ps(total, _mm512_set1_ps(0.25f)));
+}
+
+template <int Channels>
+SACCADE_AVX512_VBMI void cell_row_avx512(const cv::Mat& frame, const std::vector<CellGroup>& groups, const Tap* ty,
+                                         float* out) {
+  for (const CellGroup& group : groups) switch (group.windows) {
+      case 1: cell_group_avx512<Channels, 1>(frame, group, ty, out); break;
+      case 2: cell_group_avx512<Channels, 2>(frame, group, ty, out); break;
+      default: cell_group_avx512<Channels, 4>(frame, group, ty, out); break;
+    }
+}
+#endif
+
 // The mean gray of each cell from four bilinear samples at its quarter
 // points: a retina level's pixel, for any step and any sub-pixel position,
 // read straight from the frame. Taps are per column and per row (the grid is
@@ -485,6 +626,11 @@ template <int Channels>
 void sample_cells(const cv::Mat& frame, const Tap* cols, const Tap* rows, cv::Size size, float* out,
                   [[maybe_unused]] bool vectorised) {
 #if defined(__x86_64__)
+  thread_local std::vector<CellGroup> groups;  // grows to the widest sample, then allocates no more
+  if (vectorised && avx512vbmi_usable() && cell_groups<Channels>(cols, size.width, groups)) {
+    for (int j = 0; j < size.height; ++j) cell_row_avx512<Channels>(frame, groups, rows + 2 * j, out + j * size.width);
+    return;
+  }
   if (size.width >= 8 && offsets_fit_lanes(frame) && vectorised && avx2_here()) {
     thread_local std::vector<int> offsets;  // grow to the widest sample, then allocate no more
     thread_local std::vector<float> weights;
@@ -522,6 +668,35 @@ bool one_pass_for(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size) {
     if (!(std::abs(x) < kLargest && std::abs(y) < kLargest)) return false;  // (also NaN)
   }
   return true;
+}
+
+// warp_to_gray's rows of an 8-bit frame of `Channels` channels (1 or 3):
+// sixteen pixels a step where AVX-512 VBMI is usable and the map upright, or
+// turned a little; else eight.
+template <int Channels, class RowStart>
+void warp_rows(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size, const int* x_step, const int* y_step,
+               const RowStart& row_start, cv::Mat& out) {
+  auto* row = warp_row_avx2<Channels>;
+#if defined(__x86_64__)
+  thread_local std::vector<UprightGroup> groups;  // grows to the widest output, then allocates no more
+  if (m(0, 1) == 0 && m(1, 0) == 0 && avx512vbmi_usable() &&
+      upright_groups<Channels>(frame, x_step, row_start(0, 0), size.width, groups)) {
+    for (int y = 0; y < size.height; ++y) {
+      const int fixed = row_start(1, y) >> (10 - kSubpixelBits);
+      const int sy = fixed >> kSubpixelBits;
+      upright_row_avx512<Channels>(frame, groups, frame.ptr<uchar>(std::clamp(sy, 0, frame.rows - 1)),
+                                   frame.ptr<uchar>(std::clamp(sy + 1, 0, frame.rows - 1)), fixed & (kSubpixels - 1),
+                                   out.ptr<uchar>(y));
+    }
+    return;
+  }
+  // (Where most sixteen pixels' taps would not fit turned_row_avx512's rows or
+  // window, trying each group first costs more than it saves: gathers.)
+  const bool turned_fits = std::abs(m(1, 0)) * 15 <= kTurnedRows - 2 && std::abs(m(0, 0)) * 15 * Channels <= 120;
+  if (turned_fits && avx512vbmi_usable()) row = turned_row_avx512<Channels>;
+#endif
+  for (int y = 0; y < size.height; ++y)
+    row(frame, x_step, y_step, row_start(0, y), row_start(1, y), size.width, out.ptr<uchar>(y));
 }
 
 }  // namespace
@@ -568,32 +743,10 @@ void warp_to_gray(const cv::Mat& frame, const cv::Matx23d& inverse_map, cv::Size
     constexpr int kHalf = kMapScale / kSubpixels / 2;
     return cv::saturate_cast<int>((m(axis, 1) * y + m(axis, 2)) * kMapScale) + kHalf;
   };
-  if (frame.channels() == 1) {
-    for (int y = 0; y < size.height; ++y)
-      warp_row_avx2<1>(frame, x_step, y_step, row_start(0, y), row_start(1, y), size.width, out.ptr<uchar>(y));
-    return;
-  }
-  auto* row = warp_row_avx2<3>;
-#if defined(__x86_64__)
-  thread_local std::vector<UprightGroup> groups;  // grows to the widest output, then allocates no more
-  if (m(0, 1) == 0 && m(1, 0) == 0 && avx512vbmi_usable() &&
-      upright_groups(frame, x_step, row_start(0, 0), size.width, groups)) {
-    for (int y = 0; y < size.height; ++y) {
-      const int fixed = row_start(1, y) >> (10 - kSubpixelBits);
-      const int sy = fixed >> kSubpixelBits;
-      upright_row_avx512(frame, groups, frame.ptr<uchar>(std::clamp(sy, 0, frame.rows - 1)),
-                         frame.ptr<uchar>(std::clamp(sy + 1, 0, frame.rows - 1)), fixed & (kSubpixels - 1),
-                         out.ptr<uchar>(y));
-    }
-    return;
-  }
-  // (Where most sixteen pixels' taps would not fit turned_row_avx512's rows or
-  // window, trying each group first costs more than it saves: gathers.)
-  const bool turned_fits = std::abs(m(1, 0)) * 15 <= kTurnedRows - 2 && std::abs(m(0, 0)) * 15 <= 40;
-  if (turned_fits && avx512vbmi_usable()) row = turned_row_avx512;
-#endif
-  for (int y = 0; y < size.height; ++y)
-    row(frame, x_step, y_step, row_start(0, y), row_start(1, y), size.width, out.ptr<uchar>(y));
+  if (frame.channels() == 1)
+    warp_rows<1>(frame, m, size, x_step, y_step, row_start, out);
+  else
+    warp_rows<3>(frame, m, size, x_step, y_step, row_start, out);
 }
 
 void pyr_down(const cv::Mat& src, cv::Mat& dst) {

@@ -83,10 +83,11 @@ TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnNoiseAndTheSmallestFrame) {
 
 // Looks upright and turned a little (up to 12 degrees either way, as the turn
 // search's are), at widths of sixteen pixels and their multiples and a few
-// pixels more, from magnified to a step of 6.5 source pixels (the
-// sixteen-pixel paths: upright up to 5.7 from one or two windows of a row,
-// turned up to 2.6 over up to six rows), anywhere on and past the frame:
-// the pixels that differ from OpenCV's.
+// pixels more, from magnified to a step of 6.5 source pixels of a BGR frame
+// (the sixteen-pixel paths: upright up to 5.7 from one or two windows of a
+// row, turned up to 2.6 over up to six rows) and of 19 of a monochrome one
+// (its windows hold three times the pixels: upright up to 18, turned up to
+// 8), anywhere on and past the frame: the pixels that differ from OpenCV's.
 int differing_sixteen_pixel_looks(const cv::Mat& frame, int looks, uint64_t seed) {
   cv::RNG random(seed);
   cv::Mat mine, scratch;
@@ -94,7 +95,8 @@ int differing_sixteen_pixel_looks(const cv::Mat& frame, int looks, uint64_t seed
   for (int i = 0; i < looks; ++i) {
     const cv::Size size(16 * random.uniform(1, 10) + (i % 4 == 3 ? random.uniform(1, 16) : 0), random.uniform(1, 140));
     const cv::Point2d center(random.uniform(-0.3, 1.3) * frame.cols, random.uniform(-0.3, 1.3) * frame.rows);
-    const double step = i % 2 == 0 ? random.uniform(0.3, 6.5) : random.uniform(0.3, 3.0);
+    const double reach = frame.channels() == 1 ? 3.0 : 1.0;
+    const double step = i % 2 == 0 ? random.uniform(0.3, 6.5 * reach) : random.uniform(0.3, 3.0 * reach);
     const double angle = i % 2 == 0 ? 0.0 : random.uniform(-12.0, 12.0) * CV_PI / 180;
     const cv::Matx23d map = look_map(center, step, angle, size);
     warp_to_gray(frame, map, size, mine, scratch);
@@ -134,16 +136,23 @@ TEST(WarpToGray, IsOpenCvsWarpBitForBitOnAMonochromeFrame) {
   const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_GRAYSCALE);
   ASSERT_EQ(photo.type(), CV_8UC1);
   expect_same_as_opencv(differing_pixels, photo, 400, 21);
+  if (!warp_to_gray_sixteen_pixels_a_step())
+    std::printf("no AVX-512 VBMI here (or SACCADE_AVX512=0): the eight-pixel path is checked instead\n");
+  expect_same_as_opencv(differing_sixteen_pixel_looks, photo, 600, 31);
 }
 
 // Cells whose vectorised mean differs from the plain loop's over `samples`
-// random samples of `frame`.
+// random samples of `frame`: sixteen cells a step where AVX-512 VBMI is
+// usable and a group's taps fit its windows (steps up to 5.2 source pixels
+// of a BGR frame, 16 of a monochrome one), else eight, at steps from 0.5 to
+// 20, mirrored or not.
 int differing_cells(const cv::Mat& frame, int samples, uint64_t seed) {
   cv::RNG random(seed);
   std::vector<float> vectorised, plain;
   int differing = 0;
   for (int i = 0; i < samples; ++i) {
-    const cv::Size size(random.uniform(1, 70), random.uniform(1, 50));
+    // (A third as wide as a coarse view of a frame: many sixteen-cell groups in a row.)
+    const cv::Size size(i % 3 == 0 ? random.uniform(16, 240) : random.uniform(1, 70), random.uniform(1, 50));
     const cv::Point2d center(random.uniform(-0.3, 1.3) * frame.cols, random.uniform(-0.3, 1.3) * frame.rows);
     double step_x = std::exp(random.uniform(std::log(0.5), std::log(20.0)));
     double step_y = i % 2 == 0 ? step_x : std::exp(random.uniform(std::log(0.5), std::log(20.0)));
@@ -177,6 +186,8 @@ TEST(PyrDown, IsOpenCvsBitForBitOnARealPhotographNoiseAndTheSmallestSource) {
 
 TEST(SampleCellMeans, VectorisedIsThePlainLoopBitForBit) {
   if (!frame_samples_vectorised()) GTEST_SKIP() << "no AVX2 on this CPU: the plain loop alone runs";
+  if (!warp_to_gray_sixteen_pixels_a_step())
+    std::printf("no AVX-512 VBMI here (or SACCADE_AVX512=0): the eight-cell path is checked alone\n");
   const cv::Mat photo = test::read_sample("baboon.jpg", cv::IMREAD_COLOR);
   EXPECT_EQ(differing_cells(photo, 400, 11), 0);
   EXPECT_EQ(differing_cells(photo(cv::Rect(37, 51, 201, 157)), 400, 12), 0);
