@@ -1,6 +1,7 @@
 #include "tracker.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
@@ -59,6 +60,58 @@ SACCADE_AVX2_CLONE void normalise_row(float* __restrict out, const double* __res
   }
 }
 
+constexpr int kSlidRows = 4;  // the result rows whose placements' sums are slid along together
+
+// The column sums of W and W^2 over the template's rows moved down a row:
+// `add` the row entering, `sub` the row leaving (none while the first rows
+// fill the template's height).
+SACCADE_AVX2_CLONE void slide_columns(double* __restrict sum, double* __restrict sq, const float* __restrict add,
+                                      const float* __restrict sub, int cols) {
+  for (int x = 0; x < cols; ++x) {
+    sum[x] += add[x];
+    sq[x] += static_cast<double>(add[x]) * add[x];
+  }
+  if (sub == nullptr) return;
+  for (int x = 0; x < cols; ++x) {
+    sum[x] -= sub[x];
+    sq[x] -= static_cast<double>(sub[x]) * sub[x];
+  }
+}
+
+// The sums of W and W^2 of each placement of `rows` (1 to kSlidRows) result
+// rows, from their column sums (`column_sum`, `column_sq`: a row of `cols`
+// each): along a row each from the one before, in order; the rows' chains
+// side by side (a missing row's lanes repeat the last one's and are not kept).
+void slide_rows(const double* column_sum, const double* column_sq, std::size_t cols, int rows, int tw, int rw,
+                double* row_sum, double* row_sq) {
+  std::array<const double*, kSlidRows> cs, cq;
+  std::array<double, kSlidRows> s{}, s2{};
+  for (int k = 0; k < kSlidRows; ++k) {
+    const std::size_t from = static_cast<std::size_t>(std::min(k, rows - 1)) * cols;
+    cs[static_cast<std::size_t>(k)] = column_sum + from;
+    cq[static_cast<std::size_t>(k)] = column_sq + from;
+  }
+  for (std::size_t k = 0; k < kSlidRows; ++k)
+    for (int x = 0; x < tw; ++x) {
+      s[k] += cs[k][x];
+      s2[k] += cq[k][x];
+    }
+  const auto keep = [&](int x) {
+    for (std::size_t k = 0; k < static_cast<std::size_t>(rows); ++k) {
+      row_sum[k * static_cast<std::size_t>(rw) + static_cast<std::size_t>(x)] = s[k];
+      row_sq[k * static_cast<std::size_t>(rw) + static_cast<std::size_t>(x)] = s2[k];
+    }
+  };
+  keep(0);
+  for (int x = 1; x < rw; ++x) {
+    for (std::size_t k = 0; k < kSlidRows; ++k) {
+      s[k] += cs[k][x + tw - 1] - cs[k][x - 1];
+      s2[k] += cq[k][x + tw - 1] - cq[k][x - 1];
+    }
+    keep(x);
+  }
+}
+
 }  // namespace
 
 void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch,
@@ -92,44 +145,31 @@ void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat&
               static_cast<std::ptrdiff_t>(templ.step1()), tw, th, static_cast<float>(t_mean));
   for (int y = 0; y < rh; ++y)
     std::copy_n(scratch.cross.data() + static_cast<std::size_t>(y) * rw8, rw, result.ptr<float>(y));
-  // Each placement's sums of W and W^2 from column sums over the template's rows.
-  scratch.column_sum.assign(static_cast<std::size_t>(window.cols), 0.0);
-  scratch.column_sq.assign(static_cast<std::size_t>(window.cols), 0.0);
+  // Each placement's sums of W and W^2 from column sums over the template's
+  // rows: each row's sums slide along it in order (each from the one before),
+  // a chain whose every addition waits on the one before, so the chains of
+  // kSlidRows rows run side by side; then their normalisation, which vectorises.
+  const auto cols = static_cast<std::size_t>(window.cols);
+  scratch.column_sum.assign(cols, 0.0);
+  scratch.column_sq.assign(cols, 0.0);
+  scratch.block_sum.resize(kSlidRows * cols);
+  scratch.block_sq.resize(kSlidRows * cols);
+  scratch.row_sum.resize(kSlidRows * static_cast<std::size_t>(rw));
+  scratch.row_sq.resize(kSlidRows * static_cast<std::size_t>(rw));
   for (int wy = 0; wy < window.rows; ++wy) {
-    const float* add = window.ptr<float>(wy);
-    for (int x = 0; x < window.cols; ++x) {
-      scratch.column_sum[static_cast<std::size_t>(x)] += add[x];
-      scratch.column_sq[static_cast<std::size_t>(x)] += static_cast<double>(add[x]) * add[x];
-    }
-    if (wy >= th) {
-      const float* sub = window.ptr<float>(wy - th);
-      for (int x = 0; x < window.cols; ++x) {
-        scratch.column_sum[static_cast<std::size_t>(x)] -= sub[x];
-        scratch.column_sq[static_cast<std::size_t>(x)] -= static_cast<double>(sub[x]) * sub[x];
-      }
-    }
+    slide_columns(scratch.column_sum.data(), scratch.column_sq.data(), window.ptr<float>(wy),
+                  wy >= th ? window.ptr<float>(wy - th) : nullptr, window.cols);
     if (wy < th - 1) continue;
-    // The row's placements' sums slid along it (in order: each from the one
-    // before), then their normalisation, which vectorises, in a second pass.
-    double s = 0, s2 = 0;
-    for (int x = 0; x < tw; ++x) {
-      s += scratch.column_sum[static_cast<std::size_t>(x)];
-      s2 += scratch.column_sq[static_cast<std::size_t>(x)];
-    }
-    scratch.row_sum.resize(static_cast<std::size_t>(rw));
-    scratch.row_sq.resize(static_cast<std::size_t>(rw));
-    for (int x = 0; x < rw; ++x) {
-      if (x > 0) {
-        s += scratch.column_sum[static_cast<std::size_t>(x + tw - 1)] -
-             scratch.column_sum[static_cast<std::size_t>(x - 1)];
-        s2 += scratch.column_sq[static_cast<std::size_t>(x + tw - 1)] -
-              scratch.column_sq[static_cast<std::size_t>(x - 1)];
-      }
-      scratch.row_sum[static_cast<std::size_t>(x)] = s;
-      scratch.row_sq[static_cast<std::size_t>(x)] = s2;
-    }
-    normalise_row(result.ptr<float>(wy - th + 1), scratch.row_sum.data(), scratch.row_sq.data(), rw, n, t_norm,
-                  min_relative_contrast * t_norm);
+    const int row = wy - th + 1, lane = row % kSlidRows;
+    std::copy_n(scratch.column_sum.data(), cols, scratch.block_sum.data() + static_cast<std::size_t>(lane) * cols);
+    std::copy_n(scratch.column_sq.data(), cols, scratch.block_sq.data() + static_cast<std::size_t>(lane) * cols);
+    if (lane < kSlidRows - 1 && row < rh - 1) continue;
+    slide_rows(scratch.block_sum.data(), scratch.block_sq.data(), cols, lane + 1, tw, rw, scratch.row_sum.data(),
+               scratch.row_sq.data());
+    for (int k = 0; k <= lane; ++k)
+      normalise_row(result.ptr<float>(row - lane + k), scratch.row_sum.data() + static_cast<std::size_t>(k * rw),
+                    scratch.row_sq.data() + static_cast<std::size_t>(k * rw), rw, n, t_norm,
+                    min_relative_contrast * t_norm);
   }
 }
 

@@ -33,7 +33,7 @@ struct TrackerConfig {
 // calls.
 struct CorrelationScratch {
   std::vector<float> centered, cross;
-  std::vector<double> column_sum, column_sq, row_sum, row_sq;
+  std::vector<double> column_sum, column_sq, block_sum, block_sq, row_sum, row_sq;
 };
 void match_template_normed(const cv::Mat& window, const cv::Mat& templ, cv::Mat& result, CorrelationScratch& scratch,
                            double min_relative_contrast = 0);

@@ -183,6 +183,23 @@ TEST(MatchTemplateNormed, IsOpenCvsNormalisedCorrelationCoefficient) {
   }
 }
 
+// The placements' sums are slid along four result rows at a time: results of
+// one to nine rows (a block part-filled, whole, and one over), from one
+// scratch reused across the sizes, are OpenCV's too.
+TEST(MatchTemplateNormed, IsOpenCvsForResultsOfAnyNumberOfRows) {
+  CorrelationScratch scratch;
+  cv::Mat templ, ours, theirs;
+  test::random_image({7, 5}, 3).convertTo(templ, CV_32F);
+  for (int rows = 1; rows <= 9; ++rows) {
+    cv::Mat window;
+    test::random_image({30, templ.rows + rows - 1}, 70 + rows).convertTo(window, CV_32F);
+    match_template_normed(window, templ, ours, scratch);
+    cv::matchTemplate(window, templ, theirs, cv::TM_CCOEFF_NORMED);
+    ASSERT_EQ(ours.size(), theirs.size()) << rows << " rows";
+    EXPECT_LT(cv::norm(ours, theirs, cv::NORM_INF), 1e-4) << rows << " rows";
+  }
+}
+
 // Normalised, a nearly flat window's faint shading matches any template: the
 // box tracker's whole-frame search asks for windows of at least a quarter of
 // its look's contrast (a white wall took one of its places on every search).
