@@ -113,7 +113,7 @@ class ClassifierNode final : public Node {
       target->center = cv::Point2d(r.x + r.width / 2.0, r.y + r.height / 2.0);
       target->size = cv::Size2d(r.size());
       target->score = result->score;
-      target->label = std::string(result->label());
+      target->label.assign(result->label());  // (into a reused message's buffer)
       target->camera_id = retina->camera_id;
       ctx.emit(kTarget, std::move(target));
     }

@@ -9,6 +9,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "saccade/simd.hpp"
+
 namespace saccade::classifier {
 
 namespace {
@@ -199,8 +201,13 @@ Status FeatureExtractor::extract(const Retina& retina, cv::Mat& row) {
         continue;
       }
       const cv::Mat& map = f == "gray" ? *gray : maps_[static_cast<std::size_t>(filters::feature_index(f))];
-      cv::resize(map, reduced_, recipe_.size, 0, 0, cv::INTER_AREA);
-      reduced_.convertTo(reduced_, CV_32F);
+      // (A buffer per type: one changing type at every call would be made anew each time.)
+      if (map.type() == CV_32F) {
+        cv::resize(map, reduced_, recipe_.size, 0, 0, cv::INTER_AREA);
+      } else {
+        cv::resize(map, resized_, recipe_.size, 0, 0, cv::INTER_AREA);
+        resized_.convertTo(reduced_, CV_32F);
+      }
       for (int y = 0; y < reduced_.rows; ++y)
         std::copy_n(reduced_.ptr<float>(y), reduced_.cols, out + y * reduced_.cols);
       out += area;
@@ -209,8 +216,12 @@ Status FeatureExtractor::extract(const Retina& retina, cv::Mat& row) {
   // Zero mean, unit deviation: the same object under other lighting gives the same vector.
   cv::Scalar mean, stddev;
   cv::meanStdDev(row, mean, stddev);
-  row -= mean[0];
-  if (stddev[0] > 1e-6) row /= stddev[0];
+  // (The arithmetic of row -= mean; row /= stddev, the mean as a float, without
+  // the temporaries their expressions and cv::add's scalar allocate.)
+  const float shift = static_cast<float>(-mean[0]);
+  float* values = row.ptr<float>(0);
+  for (int i = 0; i < row.cols; ++i) values[i] += shift;
+  if (stddev[0] > 1e-6) row.convertTo(row, CV_32F, 1.0 / stddev[0]);
   return {};
 }
 
@@ -233,12 +244,74 @@ void retina_of_view(const cv::Mat& image, retina::RetinaSampler& sampler, Retina
   sampler.sample(frame, center, out);
 }
 
+namespace {
+
+// sums[j] += value * row[j], j < n: a layer's sums take one value of the
+// layer before at a time (its row of weights contiguous).
+SACCADE_AVX2_CLONE void add_weighted(double* __restrict sums, const double* __restrict row, double value, int n) {
+  for (int j = 0; j < n; ++j) sums[j] += value * row[j];
+}
+
+}  // namespace
+
+Result<ForwardPass> ForwardPass::of(const cv::ml::ANN_MLP& net) {
+  // The activation's parameters are written, not offered by a getter.
+  cv::FileStorage written(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+  written << "net"
+          << "{";
+  net.write(written);
+  written << "}";
+  const cv::FileStorage read(written.releaseAndGetString(), cv::FileStorage::READ | cv::FileStorage::MEMORY);
+  const cv::FileNode node = read["net"];
+  const std::string activation = static_cast<std::string>(node["activation_function"]);
+  if (activation != "SIGMOID_SYM")
+    return Status::error("the network's activation is '" + activation + "'; its forward pass knows SIGMOID_SYM");
+  ForwardPass pass;
+  pass.alpha_ = static_cast<double>(node["f_param1"]);
+  pass.beta_ = static_cast<double>(node["f_param2"]);
+  const cv::Mat sizes = net.getLayerSizes();
+  const int count = static_cast<int>(sizes.total());
+  if (count < 2) return Status::error("the network has no layers");
+  pass.inputs_ = sizes.at<int>(0);
+  pass.outputs_ = sizes.at<int>(count - 1);
+  pass.input_scale_ = net.getWeights(0).clone();
+  pass.output_scale_ = net.getWeights(count).clone();
+  int widest = pass.inputs_;
+  for (int i = 1; i < count; ++i) {
+    pass.layers_.push_back(net.getWeights(i).clone());
+    const cv::Mat& w = pass.layers_.back();
+    if (w.type() != CV_64F || w.rows != sizes.at<int>(i - 1) + 1 || w.cols != sizes.at<int>(i))
+      return Status::error("the network's layer " + std::to_string(i) + " is not trained");
+    widest = std::max(widest, w.cols);
+  }
+  pass.values_.resize(static_cast<std::size_t>(widest));
+  pass.sums_.resize(static_cast<std::size_t>(widest));
+  return pass;
+}
+
+void ForwardPass::run(const float* in, float* out) {
+  const double* scale = input_scale_.ptr<double>();
+  for (int j = 0; j < inputs_; ++j) values_[static_cast<std::size_t>(j)] = in[j] * scale[2 * j] + scale[2 * j + 1];
+  for (const cv::Mat& w : layers_) {
+    const int n = w.rows - 1, m = w.cols;
+    std::fill_n(sums_.begin(), m, 0.0);
+    for (int i = 0; i < n; ++i) add_weighted(sums_.data(), w.ptr<double>(i), values_[static_cast<std::size_t>(i)], m);
+    const double* bias = w.ptr<double>(n);
+    for (int j = 0; j < m; ++j) {
+      const double e = std::exp((sums_[static_cast<std::size_t>(j)] + bias[j]) * -alpha_);
+      values_[static_cast<std::size_t>(j)] = std::isinf(e) ? -beta_ : beta_ * (1.0 - e) / (1.0 + e);
+    }
+  }
+  scale = output_scale_.ptr<double>();
+  for (int j = 0; j < outputs_; ++j)
+    out[j] = static_cast<float>(values_[static_cast<std::size_t>(j)] * scale[2 * j] + scale[2 * j + 1]);
+}
+
 void Model::scores(const cv::Mat& row, std::vector<float>& out) const {
-  cv::Mat response;
-  net->predict(row, response);
-  out.resize(static_cast<std::size_t>(response.cols));
-  for (int i = 0; i < response.cols; ++i)
-    out[static_cast<std::size_t>(i)] = std::clamp((response.at<float>(0, i) + 1.0f) / 2.0f, 0.0f, 1.0f);
+  CV_Assert(row.type() == CV_32F && row.isContinuous() && static_cast<int>(row.total()) == forward.inputs());
+  out.resize(static_cast<std::size_t>(forward.outputs()));
+  forward.run(row.ptr<float>(), out.data());
+  for (float& score : out) score = std::clamp((score + 1.0f) / 2.0f, 0.0f, 1.0f);
 }
 
 Status Model::save(const std::string& path) const {
@@ -278,6 +351,9 @@ Result<std::unique_ptr<Model>> Model::load(const std::string& path) {
       return Status::error("model file '" + path + "': the network's layers do not fit its recipe (" +
                            model->recipe.describe() + ") and " + std::to_string(classes.size()) + " classes");
     model->classes = std::make_shared<const std::vector<std::string>>(std::move(classes));
+    auto forward = ForwardPass::of(*model->net);
+    if (!forward.ok()) return Status::error("model file '" + path + "': " + forward.error());
+    model->forward = std::move(forward).value();
     return model;
   } catch (const cv::Exception& e) { return Status::error("cannot read model file '" + path + "': " + e.what()); }
 }
@@ -320,6 +396,7 @@ Model train(const cv::Mat& x, const std::vector<int>& y, std::vector<std::string
   auto data = cv::ml::TrainData::create(shuffled_x, cv::ml::ROW_SAMPLE, shuffled_t);
   for (int epoch = 1; epoch <= config.epochs; ++epoch) {
     model.net->train(data, epoch == 1 ? 0 : cv::ml::ANN_MLP::UPDATE_WEIGHTS);
+    model.forward = ForwardPass::of(*model.net).value();  // (train() makes the one activation it knows)
     if (progress) {
       EpochReport r;
       r.epoch = epoch;
@@ -335,14 +412,13 @@ namespace {
 
 // The best class of every row of x.
 std::vector<int> best_classes(const Model& model, const cv::Mat& x) {
+  CV_Assert(x.type() == CV_32F && x.cols == model.forward.inputs());
   std::vector<int> out(static_cast<std::size_t>(x.rows));
-  if (x.rows == 0) return out;
-  cv::Mat response;
-  model.net->predict(x, response);
+  std::vector<float> response(static_cast<std::size_t>(model.forward.outputs()));
   for (int i = 0; i < x.rows; ++i) {
-    cv::Point best;
-    cv::minMaxLoc(response.row(i), nullptr, nullptr, nullptr, &best);
-    out[static_cast<std::size_t>(i)] = best.x;
+    model.forward.run(x.ptr<float>(i), response.data());
+    out[static_cast<std::size_t>(i)] =
+        static_cast<int>(std::max_element(response.begin(), response.end()) - response.begin());
   }
   return out;
 }

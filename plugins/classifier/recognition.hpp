@@ -68,7 +68,7 @@ class FeatureExtractor {
   FeatureRecipe recipe_;
   filters::FilterBank bank_;
   std::array<cv::Mat, filters::kFeatureCount> maps_;
-  cv::Mat reduced_, gray_;
+  cv::Mat resized_, reduced_, gray_;
   std::vector<float> histogram_;
 };
 
@@ -92,10 +92,37 @@ struct EpochReport {
   double train_accuracy = 0, validation_accuracy = 0;
 };
 
+// A network's forward pass as OpenCV's ANN_MLP::predict computes it (the
+// inputs' and outputs' scaling, each layer's weights and bias, the symmetric
+// sigmoid), one row at a time into buffers kept between rows: predict
+// allocates on every call, which a classifier running on every frame cannot
+// afford. Its outputs are predict's to float precision (its own order of the
+// layers' sums; test ForwardPass.*).
+class ForwardPass {
+ public:
+  // The pass of a trained network; or the error naming what it cannot compute
+  // (an activation other than the symmetric sigmoid, which train() uses).
+  static Result<ForwardPass> of(const cv::ml::ANN_MLP& net);
+  int inputs() const { return inputs_; }
+  int outputs() const { return outputs_; }
+  // `in`: inputs() values; `out`: outputs() values.
+  void run(const float* in, float* out);
+
+ private:
+  std::vector<cv::Mat> layers_;         // each (inputs + 1) x outputs, CV_64F: the weights, the bias in the last row
+  cv::Mat input_scale_, output_scale_;  // 1 x 2n CV_64F: each value's factor and offset
+  double alpha_ = 0, beta_ = 0;         // the sigmoid beta (1 - e^(-alpha x)) / (1 + e^(-alpha x))
+  int inputs_ = 0, outputs_ = 0;
+  std::vector<double> values_, sums_;  // a layer's values and the next one's sums
+};
+
 struct Model {
-  cv::Ptr<cv::ml::ANN_MLP> net;
+  cv::Ptr<cv::ml::ANN_MLP> net;  // trained, and read and written, by OpenCV
   FeatureRecipe recipe;
   std::shared_ptr<const std::vector<std::string>> classes;
+  // The network's evaluation (kept in step with `net` by train() and load();
+  // its buffers make scores() usable by one thread at a time).
+  mutable ForwardPass forward;
 
   // Scores per class in 0..1.
   void scores(const cv::Mat& row, std::vector<float>& out) const;

@@ -13,7 +13,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "box_tracker.hpp"
+#include "classifier_fixtures.hpp"
 #include "frame_samples.hpp"
+#include "recognition.hpp"
 
 #include "saccade/graph.hpp"
 #include "saccade/testing.hpp"
@@ -220,6 +222,35 @@ TEST(SteadyState, HarnessedFoveaFollowingABoxReusesEverything) {
   auto state = fovea->last<FoveaState>("state");
   ASSERT_TRUE(state);
   EXPECT_EQ(state->state, FoveaState::State::kTracking);
+}
+
+// The classifier on the fovea of every frame (the stripes of either class in
+// turn, so its outcome and the target it offers change): its features, its
+// network's scores, its messages.
+TEST(SteadyState, HarnessedClassifierReusesEverything) {
+  using classifier::test_fixtures::stripes;
+  auto node = testing::NodeHarness::create("<node plugin=\"classifier\"><param name=\"model\" value=\"" +
+                                           classifier::test_fixtures::stripes_model() + "\"/></node>")
+                  .value_or(nullptr);
+  ASSERT_TRUE(node);
+  retina::RetinaSampler sampler({});
+  std::array<std::shared_ptr<Retina>, 2> retinas{std::make_shared<Retina>(), std::make_shared<Retina>()};
+  cv::Mat frame;
+  for (int c = 0; c < 2; ++c) classifier::retina_of_view(stripes(c == 0, 7 + c), sampler, *retinas[c], frame);
+  int k = 0;
+  auto step = [&] {
+    node->clear_outputs();
+    node->set("retina", retinas[static_cast<std::size_t>(k++ % 2)]);
+    ASSERT_TRUE(node->process().ok());
+    node->set("retina", nullptr);
+  };
+  for (int i = 0; i < 10; ++i) step();
+  uint64_t before = g_allocations.load();
+  for (int i = 0; i < 100; ++i) step();
+  EXPECT_EQ(g_allocations.load() - before, 0u);
+  auto result = node->last<Classification>("result");
+  ASSERT_TRUE(result);
+  EXPECT_EQ(result->outcome, Classification::Outcome::kClassified);
 }
 
 // The kinematics node on a head's joint state every frame: the cameras' poses

@@ -14,6 +14,7 @@
 #include <opencv2/ml.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "classifier_fixtures.hpp"
 #include "recognition.hpp"
 #include "support.hpp"
 
@@ -21,33 +22,9 @@ namespace saccade::classifier {
 namespace {
 
 namespace fs = std::filesystem;
-
-// Stripes of a given orientation with random phase and contrast: two classes a
-// small network separates.
-cv::Mat stripes(bool vertical, int seed) {
-  cv::RNG rng(static_cast<uint64_t>(seed));
-  cv::Mat m(40, 40, CV_8U);
-  const int period = 6 + rng.uniform(0, 4), phase = rng.uniform(0, period);
-  const int lo = rng.uniform(20, 90), hi = rng.uniform(150, 240);
-  for (int y = 0; y < m.rows; ++y)
-    for (int x = 0; x < m.cols; ++x) m.at<uint8_t>(y, x) = (((vertical ? x : y) + phase) / (period / 2)) % 2 ? hi : lo;
-  return m;
-}
-
-struct Tiny {
-  cv::Mat x, val_x;
-  std::vector<int> y, val_y;
-  FeatureRecipe recipe;
-  Tiny() {
-    std::vector<cv::Mat> images, val_images;
-    for (int i = 0; i < 40; ++i) {
-      (i < 30 ? images : val_images).push_back(stripes(i % 2 == 0, i));
-      (i < 30 ? y : val_y).push_back(i % 2);
-    }
-    EXPECT_EQ(features_of_views(images, recipe, x).message(), "");
-    EXPECT_EQ(features_of_views(val_images, recipe, val_x).message(), "");
-  }
-};
+using test_fixtures::stripes;
+using test_fixtures::stripes_model;
+using test_fixtures::Tiny;
 
 TEST(Training, ConvergesOnATinySeparableSetAndReportsEveryEpoch) {
   Tiny t;
@@ -116,6 +93,45 @@ TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
   EXPECT_THAT(no_recipe.error(), ::testing::HasSubstr("recipe"));
 }
 
+// The classifier's own forward pass (allocation-free) against OpenCV's
+// predict, on a trained network of one and of two hidden layers, for the
+// training rows and for rows of noise far outside them.
+TEST(ForwardPass, IsOpenCvsPredictToFloatPrecision) {
+  Tiny t;
+  for (const std::vector<int>& hidden : {std::vector<int>{16}, std::vector<int>{24, 8}}) {
+    TrainConfig config;
+    config.hidden = hidden;
+    config.epochs = 5;
+    Model model = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+    cv::Mat rows(60, t.x.cols, CV_32F);
+    cv::randn(rows, 0.0, 3.0);
+    cv::vconcat(t.x, rows, rows);
+    cv::Mat theirs;
+    model.net->predict(rows, theirs);
+    std::vector<float> ours(static_cast<std::size_t>(model.forward.outputs()));
+    double worst = 0;
+    for (int i = 0; i < rows.rows; ++i) {
+      model.forward.run(rows.ptr<float>(i), ours.data());
+      for (int j = 0; j < theirs.cols; ++j)
+        worst = std::max(worst, std::abs(double(ours[static_cast<std::size_t>(j)]) - theirs.at<float>(i, j)));
+    }
+    EXPECT_LT(worst, 1e-5) << hidden.size() << " hidden layers";
+    EXPECT_GT(cv::norm(theirs, cv::NORM_INF), 0.5) << "the outputs are not all near 0";
+  }
+}
+
+TEST(ForwardPass, RefusesAnActivationItDoesNotKnow) {
+  Tiny t;
+  auto net = cv::ml::ANN_MLP::create();
+  net->setLayerSizes(std::vector<int>{t.x.cols, 4, 2});
+  net->setActivationFunction(cv::ml::ANN_MLP::GAUSSIAN);
+  cv::Mat targets(t.x.rows, 2, CV_32F, cv::Scalar(0.0f));
+  net->train(cv::ml::TrainData::create(t.x, cv::ml::ROW_SAMPLE, targets));
+  auto pass = ForwardPass::of(*net);
+  ASSERT_FALSE(pass.ok());
+  EXPECT_THAT(pass.error(), ::testing::HasSubstr("GAUSSIAN"));
+}
+
 TEST(Decision, ThresholdsGiveThePapersThreeOutcomes) {
   Thresholds t;  // classified >= 0.7 and 0.2 ahead; probable >= 0.4
   int best = -1;
@@ -158,24 +174,6 @@ TEST(FeatureRecipe, ChecksItselfAndTheRetina) {
   const std::string e = extractor.extract(retina, row).message();
   EXPECT_THAT(e, ::testing::HasSubstr("5 levels of 32x24"));
   EXPECT_THAT(e, ::testing::HasSubstr("3 levels"));
-}
-
-// A model file for the plugin tests.
-std::string stripes_model() {
-  static const std::string path = [] {
-    Tiny t;
-    TrainConfig config;
-    config.hidden = {16};
-    config.epochs = 15;
-    Model model = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
-    const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier";
-    fs::create_directories(dir);
-    // CTest runs each test in its own process, in parallel: one file each.
-    const std::string p = (dir / ("plugin_" + std::to_string(::getpid()) + ".yml.gz")).string();
-    EXPECT_TRUE(model.save(p).ok());
-    return p;
-  }();
-  return path;
 }
 
 TEST(ClassifierPlugin, ClassifiesTheFoveaAndOffersItAsATarget) {
