@@ -440,10 +440,11 @@ void Writer::close_chunk() {
   index.length = offset_ - index.offset;
   // One MessageIndex per channel that has messages in the chunk.
   const uint64_t indexes_start = offset_;
+  index.first_offset = index_offsets_.size();
   for (std::size_t c = 0; c < channels_.size(); ++c) {
     auto& entries = channels_[c].index;
     if (entries.empty()) continue;
-    index.index_offsets.emplace_back(static_cast<uint16_t>(c + 1), offset_);
+    index_offsets_.emplace_back(static_cast<uint16_t>(c + 1), offset_);
     scratch_.push_back(kMessageIndex);
     put_le<uint64_t>(scratch_, 2 + 4 + 16 * entries.size());
     put_le<uint16_t>(scratch_, static_cast<uint16_t>(c + 1));
@@ -455,8 +456,9 @@ void Writer::close_chunk() {
     flush_scratch();
     entries.clear();
   }
+  index.offsets = index_offsets_.size() - index.first_offset;
   index.index_length = offset_ - indexes_start;
-  chunk_indexes_.push_back(std::move(index));
+  chunk_indexes_.push_back(index);
   chunk_.clear();
   chunk_messages_ = 0;
 }
@@ -486,10 +488,10 @@ void Writer::append_chunk_indexes(std::vector<uint8_t>& out) const {
     put_le<uint64_t>(out, c.end_time);
     put_le<uint64_t>(out, c.offset);
     put_le<uint64_t>(out, c.length);
-    put_le<uint32_t>(out, static_cast<uint32_t>(c.index_offsets.size() * 10));
-    for (const auto& [channel, offset] : c.index_offsets) {
-      put_le<uint16_t>(out, channel);
-      put_le<uint64_t>(out, offset);
+    put_le<uint32_t>(out, static_cast<uint32_t>(c.offsets * 10));
+    for (std::size_t k = c.first_offset; k < c.first_offset + c.offsets; ++k) {
+      put_le<uint16_t>(out, index_offsets_[k].first);
+      put_le<uint64_t>(out, index_offsets_[k].second);
     }
     put_le<uint64_t>(out, c.index_length);
     put_string(out, c.compression);

@@ -70,9 +70,9 @@ class Writer {
  private:
   struct ChunkIndex {
     uint64_t start_time, end_time, offset, length;
-    std::vector<std::pair<uint16_t, uint64_t>> index_offsets;
+    std::size_t first_offset, offsets;  // its message indexes' entries in index_offsets_
     uint64_t index_length;
-    std::string compression;
+    std::string_view compression;  // a literal: "", "zstd" or "lz4"
     uint64_t compressed_size, uncompressed_size;
   };
   struct ChannelState {
@@ -107,7 +107,10 @@ class Writer {
   std::vector<ChannelState> channels_;  // id - 1
   std::vector<uint8_t> chunk_, compressed_, scratch_;
   uint64_t chunk_start_ = 0, chunk_end_ = 0, chunk_messages_ = 0;
+  // The summary's index, growing with the file (by doubling: one vector for
+  // every chunk's message indexes, not one each).
   std::vector<ChunkIndex> chunk_indexes_;
+  std::vector<std::pair<uint16_t, uint64_t>> index_offsets_;  // (channel, its message index's offset)
   uint64_t message_count_ = 0, start_time_ = 0, end_time_ = 0;
   void* zstd_ = nullptr;  // ZSTD_CCtx, kept between chunks
 };

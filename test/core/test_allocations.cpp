@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <new>
 #include <utility>
 
@@ -251,6 +252,50 @@ TEST(SteadyState, HarnessedClassifierReusesEverything) {
   auto result = node->last<Classification>("result");
   ASSERT_TRUE(result);
   EXPECT_EQ(result->outcome, Classification::Outcome::kClassified);
+}
+
+// The recorders on every frame: a JSON line per fovea state (util.jsonl) and
+// an MCAP message per fovea state and per 640x480 image (mcap.record, its
+// chunks of 1 MiB compressed as by default: one every three images), the
+// messages' fields changing each frame. What the file's summary keeps of each
+// chunk grows with the file, by doubling: 8 allocations over 400 frames (the
+// test allows 16), where one a chunk would be over 130 (before 2026-11-30: 200).
+TEST(SteadyState, HarnessedRecordersReuseEverything) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "saccade_allocations_recorders";
+  std::filesystem::create_directories(dir);
+  const auto node = [&](const std::string& plugin, const std::string& file) {
+    return testing::NodeHarness::create("<node plugin=\"" + plugin + "\"><param name=\"path\" value=\"" +
+                                        (dir / file).string() + "\"/></node>")
+        .value_or(nullptr);
+  };
+  auto jsonl = node("util.jsonl", "states.jsonl"), states = node("mcap.record", "run.mcap");
+  auto images = node("mcap.record", "run.mcap");
+  ASSERT_TRUE(jsonl && states && images);
+  auto state = std::make_shared<FoveaState>();
+  auto image = std::make_shared<Image>();
+  image->mat = test::random_image({640, 480}, 5);
+  int k = 0;
+  auto step = [&] {
+    state->frame_id = image->frame_id = k;
+    state->timestamp_ns = image->timestamp_ns = 1'000'000'000 + 33'000'000LL * k;
+    state->target = {100.0 + k % 50, 80.5, 32, 24};
+    state->confidence = 0.01 * (k % 100);
+    image->mat.at<uint8_t>(k % 480, k % 640) = static_cast<uint8_t>(k);
+    ++k;
+    for (auto* h : {jsonl.get(), states.get()}) {
+      h->set("in", state);
+      ASSERT_TRUE(h->process().ok());
+    }
+    images->set("in", image);
+    ASSERT_TRUE(images->process().ok());
+  };
+  for (int i = 0; i < 20; ++i) step();
+  uint64_t before = g_allocations.load();
+  for (int i = 0; i < 400; ++i) step();
+  EXPECT_LE(g_allocations.load() - before, 16u);
+  for (auto* h : {jsonl.get(), states.get(), images.get()}) EXPECT_EQ(h->counter("write_errors"), 0u);
+  jsonl.reset(), states.reset(), images.reset();
+  std::filesystem::remove_all(dir);
 }
 
 // The kinematics node on a head's joint state every frame: the cameras' poses
