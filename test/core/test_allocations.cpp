@@ -259,7 +259,7 @@ TEST(SteadyState, HarnessedClassifierReusesEverything) {
 // chunks of 1 MiB compressed as by default: one every three images), the
 // messages' fields changing each frame. What the file's summary keeps of each
 // chunk grows with the file, by doubling: 8 allocations over 400 frames (the
-// test allows 16), where one a chunk would be over 130 (before 2026-11-30: 200).
+// test allows 16), where one a chunk would be over 130 (before 2026-11-30: 204).
 TEST(SteadyState, HarnessedRecordersReuseEverything) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "saccade_allocations_recorders";
   std::filesystem::create_directories(dir);
