@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <new>
 #include <utility>
 
@@ -65,6 +66,15 @@ uint64_t allocations_for(int frames, bool deterministic) {
   return g_allocations.load() - before;
 }
 
+// The heap allocations of `frames` calls of `step`, after `warm_up` calls
+// that size every buffer.
+uint64_t allocations_of(int warm_up, int frames, const std::function<void()>& step) {
+  for (int i = 0; i < warm_up; ++i) step();
+  const uint64_t before = g_allocations.load();
+  for (int i = 0; i < frames; ++i) step();
+  return g_allocations.load() - before;
+}
+
 TEST(SteadyState, RunningMoreFramesAllocatesNothingMore) {
   // Warm the registry and the plugins' one-time set-up first.
   allocations_for(5, true);
@@ -91,10 +101,7 @@ TEST(SteadyState, HarnessedRetinaAndFiltersReuseEverything) {
     ASSERT_TRUE(filters->process().ok());
     filters->set("retina", nullptr);
   };
-  for (int i = 0; i < 3; ++i) step();
-  uint64_t before = g_allocations.load();
-  for (int i = 0; i < 100; ++i) step();
-  EXPECT_EQ(g_allocations.load() - before, 0u);
+  EXPECT_EQ(allocations_of(3, 100, step), 0u);
 }
 
 TEST(SteadyState, HarnessedMotionAndStereoReuseEverything) {
@@ -126,10 +133,7 @@ TEST(SteadyState, HarnessedMotionAndStereoReuseEverything) {
     stereo->set("left", nullptr);
     stereo->set("right", nullptr);
   };
-  for (int i = 0; i < 3; ++i) step();
-  uint64_t before = g_allocations.load();
-  for (int i = 0; i < 20; ++i) step();
-  EXPECT_EQ(g_allocations.load() - before, 0u);
+  EXPECT_EQ(allocations_of(3, 20, step), 0u);
 }
 
 // A smooth 640x480 colour background and a sharper 60x50 textured target
@@ -216,10 +220,7 @@ TEST(SteadyState, HarnessedFoveaFollowingABoxReusesEverything) {
     // The fovea moves with the target, as graphs/tracking.xml's edge back to the retina moves it.
     retina->set("fovea", fovea->outputs("fovea").back());
   };
-  for (int i = 0; i < 20; ++i) step();
-  uint64_t before = g_allocations.load();
-  for (int i = 0; i < 100; ++i) step();
-  EXPECT_EQ(g_allocations.load() - before, 0u);
+  EXPECT_EQ(allocations_of(20, 100, step), 0u);
   auto state = fovea->last<FoveaState>("state");
   ASSERT_TRUE(state);
   EXPECT_EQ(state->state, FoveaState::State::kTracking);
@@ -245,10 +246,7 @@ TEST(SteadyState, HarnessedClassifierReusesEverything) {
     ASSERT_TRUE(node->process().ok());
     node->set("retina", nullptr);
   };
-  for (int i = 0; i < 10; ++i) step();
-  uint64_t before = g_allocations.load();
-  for (int i = 0; i < 100; ++i) step();
-  EXPECT_EQ(g_allocations.load() - before, 0u);
+  EXPECT_EQ(allocations_of(10, 100, step), 0u);
   auto result = node->last<Classification>("result");
   ASSERT_TRUE(result);
   EXPECT_EQ(result->outcome, Classification::Outcome::kClassified);
@@ -289,10 +287,7 @@ TEST(SteadyState, HarnessedRecordersReuseEverything) {
     images->set("in", image);
     ASSERT_TRUE(images->process().ok());
   };
-  for (int i = 0; i < 20; ++i) step();
-  uint64_t before = g_allocations.load();
-  for (int i = 0; i < 400; ++i) step();
-  EXPECT_LE(g_allocations.load() - before, 16u);
+  EXPECT_LE(allocations_of(20, 400, step), 16u);
   for (auto* h : {jsonl.get(), states.get(), images.get()}) EXPECT_EQ(h->counter("write_errors"), 0u);
   jsonl.reset(), states.reset(), images.reset();
   std::filesystem::remove_all(dir);
@@ -315,10 +310,7 @@ TEST(SteadyState, HarnessedKinematicsReusesEverything) {
     ASSERT_TRUE(kinematics->process().ok());
     fixated += kinematics->last<HeadPose>("pose")->fixation_valid;
   };
-  for (int i = 0; i < 3; ++i) step();
-  const uint64_t before = g_allocations.load();
-  for (int i = 0; i < 100; ++i) step();
-  EXPECT_EQ(g_allocations.load() - before, 0u);
+  EXPECT_EQ(allocations_of(3, 100, step), 0u);
   EXPECT_GT(fixated, 10);
   EXPECT_LT(fixated, 93);
 }
