@@ -254,39 +254,48 @@ SACCADE_AVX2_CLONE void add_weighted(double* __restrict sums, const double* __re
 
 }  // namespace
 
-Result<ForwardPass> ForwardPass::of(const cv::ml::ANN_MLP& net) {
-  // The activation's parameters are written, not offered by a getter.
-  cv::FileStorage written(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
-  written << "net"
-          << "{";
-  net.write(written);
-  written << "}";
-  const cv::FileStorage read(written.releaseAndGetString(), cv::FileStorage::READ | cv::FileStorage::MEMORY);
-  const cv::FileNode node = read["net"];
+Result<ForwardPass> ForwardPass::of(const cv::ml::ANN_MLP& net, const cv::FileNode& written) {
+  cv::FileStorage made;
+  cv::FileNode node = written;
+  if (node.empty()) {
+    cv::FileStorage out(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+    out << "net"
+        << "{";
+    net.write(out);
+    out << "}";
+    made.open(out.releaseAndGetString(), cv::FileStorage::READ | cv::FileStorage::MEMORY);
+    node = made["net"];
+  }
   const std::string activation = static_cast<std::string>(node["activation_function"]);
   if (activation != "SIGMOID_SYM")
     return Status::error("the network's activation is '" + activation + "'; its forward pass knows SIGMOID_SYM");
   ForwardPass pass;
   pass.alpha_ = static_cast<double>(node["f_param1"]);
   pass.beta_ = static_cast<double>(node["f_param2"]);
+  if (Status taken = pass.take_weights(net); !taken.ok()) return taken;
+  return pass;
+}
+
+Status ForwardPass::take_weights(const cv::ml::ANN_MLP& net) {
   const cv::Mat sizes = net.getLayerSizes();
   const int count = static_cast<int>(sizes.total());
   if (count < 2) return Status::error("the network has no layers");
-  pass.inputs_ = sizes.at<int>(0);
-  pass.outputs_ = sizes.at<int>(count - 1);
-  pass.input_scale_ = net.getWeights(0).clone();
-  pass.output_scale_ = net.getWeights(count).clone();
-  int widest = pass.inputs_;
+  inputs_ = sizes.at<int>(0);
+  outputs_ = sizes.at<int>(count - 1);
+  net.getWeights(0).copyTo(input_scale_);
+  net.getWeights(count).copyTo(output_scale_);
+  layers_.resize(static_cast<std::size_t>(count - 1));
+  int widest = inputs_;
   for (int i = 1; i < count; ++i) {
-    pass.layers_.push_back(net.getWeights(i).clone());
-    const cv::Mat& w = pass.layers_.back();
+    cv::Mat& w = layers_[static_cast<std::size_t>(i - 1)];
+    net.getWeights(i).copyTo(w);
     if (w.type() != CV_64F || w.rows != sizes.at<int>(i - 1) + 1 || w.cols != sizes.at<int>(i))
       return Status::error("the network's layer " + std::to_string(i) + " is not trained");
     widest = std::max(widest, w.cols);
   }
-  pass.values_.resize(static_cast<std::size_t>(widest));
-  pass.sums_.resize(static_cast<std::size_t>(widest));
-  return pass;
+  values_.resize(static_cast<std::size_t>(widest));
+  sums_.resize(static_cast<std::size_t>(widest));
+  return {};
 }
 
 void ForwardPass::run(const float* in, float* out) {
@@ -351,7 +360,7 @@ Result<std::unique_ptr<Model>> Model::load(const std::string& path) {
       return Status::error("model file '" + path + "': the network's layers do not fit its recipe (" +
                            model->recipe.describe() + ") and " + std::to_string(classes.size()) + " classes");
     model->classes = std::make_shared<const std::vector<std::string>>(std::move(classes));
-    auto forward = ForwardPass::of(*model->net);
+    auto forward = ForwardPass::of(*model->net, net);
     if (!forward.ok()) return Status::error("model file '" + path + "': " + forward.error());
     model->forward = std::move(forward).value();
     return model;
@@ -396,7 +405,14 @@ Model train(const cv::Mat& x, const std::vector<int>& y, std::vector<std::string
   auto data = cv::ml::TrainData::create(shuffled_x, cv::ml::ROW_SAMPLE, shuffled_t);
   for (int epoch = 1; epoch <= config.epochs; ++epoch) {
     model.net->train(data, epoch == 1 ? 0 : cv::ml::ANN_MLP::UPDATE_WEIGHTS);
-    model.forward = ForwardPass::of(*model.net).value();  // (train() makes the one activation it knows)
+    // (The activation, which train() makes the one the pass knows, is read
+    // once; each later epoch only changes the weights.)
+    if (epoch == 1) {
+      model.forward = ForwardPass::of(*model.net).value();
+    } else {
+      const Status taken = model.forward.take_weights(*model.net);
+      CV_Assert(taken.ok());
+    }
     if (progress) {
       EpochReport r;
       r.epoch = epoch;
@@ -412,8 +428,9 @@ namespace {
 
 // The best class of every row of x.
 std::vector<int> best_classes(const Model& model, const cv::Mat& x) {
-  CV_Assert(x.type() == CV_32F && x.cols == model.forward.inputs());
   std::vector<int> out(static_cast<std::size_t>(x.rows));
+  if (x.rows == 0) return out;
+  CV_Assert(x.type() == CV_32F && x.cols == model.forward.inputs());
   std::vector<float> response(static_cast<std::size_t>(model.forward.outputs()));
   for (int i = 0; i < x.rows; ++i) {
     model.forward.run(x.ptr<float>(i), response.data());

@@ -102,7 +102,13 @@ class ForwardPass {
  public:
   // The pass of a trained network; or the error naming what it cannot compute
   // (an activation other than the symmetric sigmoid, which train() uses).
-  static Result<ForwardPass> of(const cv::ml::ANN_MLP& net);
+  // `written`: the network's serialisation (ANN_MLP::write's node, as a model
+  // file holds it), the only place its activation's parameters are given;
+  // when empty, one is made (writing every weight: tens of milliseconds).
+  static Result<ForwardPass> of(const cv::ml::ANN_MLP& net, const cv::FileNode& written = {});
+  // The weights of `net` again (more training, the same layers and
+  // activation); or the error saying what does not fit.
+  Status take_weights(const cv::ml::ANN_MLP& net);
   int inputs() const { return inputs_; }
   int outputs() const { return outputs_; }
   // `in`: inputs() values; `out`: outputs() values.
