@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <unistd.h>
@@ -41,17 +42,20 @@ struct Tiny {
     EXPECT_EQ(features_of_views(images, recipe, x).message(), "");
     EXPECT_EQ(features_of_views(val_images, recipe, val_x).message(), "");
   }
+  // A network trained on the training rows for `epochs`, the other settings the defaults.
+  Model trained(int epochs, std::vector<int> hidden = {16}) const {
+    TrainConfig config;
+    config.hidden = std::move(hidden);
+    config.epochs = epochs;
+    return train(x, y, {"vertical", "horizontal"}, recipe, config, {}, {}, {});
+  }
 };
 
 // A model file for the plugin tests, trained once per process.
 inline std::string stripes_model() {
   static const std::string path = [] {
     namespace fs = std::filesystem;
-    Tiny t;
-    TrainConfig config;
-    config.hidden = {16};
-    config.epochs = 15;
-    Model model = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+    const Model model = Tiny().trained(15);
     const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier";
     fs::create_directories(dir);
     // CTest runs each test in its own process, in parallel: one file each.

@@ -59,10 +59,7 @@ TEST(Training, ConvergesOnATinySeparableSetAndReportsEveryEpoch) {
 
 TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
   Tiny t;
-  TrainConfig config;
-  config.hidden = {16};
-  config.epochs = 5;
-  Model model = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+  Model model = t.trained(5);
   const fs::path dir = fs::path(SACCADE_BINARY_DIR) / "test_out" / "classifier";
   fs::create_directories(dir);
   const std::string path = (dir / ("stripes_" + std::to_string(::getpid()) + ".yml.gz")).string();
@@ -99,10 +96,7 @@ TEST(ModelFile, ReloadsWithIdenticalScoresAndItsRecipe) {
 TEST(ForwardPass, IsOpenCvsPredictToFloatPrecision) {
   Tiny t;
   for (const std::vector<int>& hidden : {std::vector<int>{16}, std::vector<int>{24, 8}}) {
-    TrainConfig config;
-    config.hidden = hidden;
-    config.epochs = 5;
-    Model model = train(t.x, t.y, {"vertical", "horizontal"}, t.recipe, config, {}, {}, {});
+    Model model = t.trained(5, hidden);
     cv::Mat rows(60, t.x.cols, CV_32F);
     cv::randn(rows, 0.0, 3.0);
     cv::vconcat(t.x, rows, rows);
