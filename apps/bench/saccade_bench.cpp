@@ -494,12 +494,14 @@ void BM_Tracker_Fft64_OpenCv(benchmark::State& state) {
 BENCHMARK(BM_Tracker_Fft64_OpenCv);
 
 // A look's patch before it is halved: 128x128 pixels sampled every 1.875
-// source pixels of a 640x480 colour frame (a 120-pixel target's), upright
-// (argument 0) and turned by 5 degrees (argument 5), as the turn search's
-// looks are. SACCADE_AVX512=0 keeps both on the eight-pixel gathers.
+// source pixels of a 640x480 frame (a 120-pixel target's), upright
+// (first argument 0), turned by 5 degrees, as the turn search's looks are,
+// or by 20, as a target turned in the image's plane is followed; from a
+// colour frame (second argument 3) or a monochrome one (1).
+// SACCADE_AVX512=0 keeps every look on the eight-pixel gathers.
 void BM_Tracker_LookWarp(benchmark::State& state) {
-  cv::Mat frame;
-  cv::cvtColor(frame_of({640, 480}), frame, cv::COLOR_GRAY2BGR);
+  cv::Mat frame = frame_of({640, 480});
+  if (state.range(1) == 3) cv::cvtColor(frame, frame, cv::COLOR_GRAY2BGR);
   const double angle = static_cast<double>(state.range(0)) * CV_PI / 180, step = 1.875;
   const double c = std::cos(angle) * step, s = std::sin(angle) * step, middle = 63.5;
   const cv::Matx23d map(c, -s, 320 - (c - s) * middle, s, c, 240 - (s + c) * middle);
@@ -509,7 +511,7 @@ void BM_Tracker_LookWarp(benchmark::State& state) {
     benchmark::DoNotOptimize(out.data);
   }
 }
-BENCHMARK(BM_Tracker_LookWarp)->Arg(0)->Arg(5)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Tracker_LookWarp)->ArgsProduct({{0, 5, 20}, {3, 1}})->Unit(benchmark::kMicrosecond);
 
 // The whole-frame search's coarse view of a 640x480 frame for a 32x24
 // target (192x144 cell means, 3.33 source pixels a cell), of a colour frame

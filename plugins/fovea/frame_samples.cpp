@@ -289,22 +289,29 @@ SACCADE_AVX512_VBMI void upright_row_avx512(const cv::Mat& frame, const std::vec
   }
 }
 
-// A turned map's row: each sixteen pixels' taps lie in a few source rows (at 5
-// degrees and 1.9 source pixels a pixel, four) and in one 128-byte window of
-// each. Per row in that range the window's bytes are permuted into place and
-// kept for the lanes whose taps are on that row. Sixteen pixels whose taps
-// span more rows (a larger turn) or a wider window (a step over 2.6 source
-// pixels), and the last width % 16, are left to the eight-pixel gathers.
-constexpr int kTurnedRows = 6;
+// A turned map's row (or an upright one's beyond upright_groups' windows),
+// sixteen pixels a step: each of a pixel's two source rows read once for
+// its left and right taps together (a BGR frame's six bytes in eight, a
+// monochrome frame's two in four), gathered, then permuted apart:
+// warp_row_avx2's taps, gray_of_taps's arithmetic. Half the gathered
+// elements of warp_row_avx2's four taps; a window of each source row the
+// pixels cross, permuted as upright_row_avx512 does, was measured no faster
+// over the rows a turn spans (docs/performance.md).
 template <int Channels>
-SACCADE_AVX512_VBMI void turned_row_avx512(const cv::Mat& frame, const int* x_step, const int* y_step, int x_start,
-                                           int y_start, int width, uchar* out) {
+SACCADE_AVX512_VBMI void gathered_row_avx512(const cv::Mat& frame, const int* x_step, const int* y_step, int x_start,
+                                             int y_start, int width, uchar* out) {
   const __m512i zero = _mm512_setzero_si512(), one = _mm512_set1_epi32(1), last_sub = _mm512_set1_epi32(kSubpixels - 1);
   const __m512i subpixels = _mm512_set1_epi32(kSubpixels);
   const __m512i last_x = _mm512_set1_epi32(frame.cols - 1), last_y = _mm512_set1_epi32(frame.rows - 1);
-  // A lane's window offset n as the byte indices n, n + 1, n + 2 (its B, G, R) and 0; of a monochrome frame, n.
-  const __m512i spread = _mm512_set1_epi32(Channels == 1 ? 1 : 0x010101);
-  const __m512i next_bytes = _mm512_set1_epi32(Channels == 1 ? 0 : 0x020100);
+  const __m512i row_bytes = _mm512_set1_epi32(static_cast<int>(frame.step[0]));
+  constexpr int kRead = Channels == 1 ? 4 : 8;
+  const __m512i last_read = _mm512_set1_epi32(static_cast<int>(frame.datalimit - frame.data) - kRead);
+  // Lane i's B, G, R in the two reads' 128 bytes (lanes 0-7 the first read's eight qwords).
+  const __m512i left_bytes = _mm512_add_epi32(
+      _mm512_mullo_epi32(_mm512_setr_epi32(0, 8, 16, 24, 32, 40, 48, 56, 64, 72, 80, 88, 96, 104, 112, 120),
+                         _mm512_set1_epi32(0x010101)),
+      _mm512_set1_epi32(0x020100));
+  const __m512i next_pixel = _mm512_set1_epi32(Channels == 1 ? 8 : 0x030303);
   int x = 0;
   for (; x + 16 <= width; x += 16) {
     const __m512i fixed_x = _mm512_srai_epi32(
@@ -316,28 +323,31 @@ SACCADE_AVX512_VBMI void turned_row_avx512(const cv::Mat& frame, const int* x_st
     const __m512i x1 = _mm512_min_epi32(_mm512_max_epi32(_mm512_add_epi32(sx, one), zero), last_x);
     const __m512i y0 = _mm512_min_epi32(_mm512_max_epi32(sy, zero), last_y);
     const __m512i y1 = _mm512_min_epi32(_mm512_max_epi32(_mm512_add_epi32(sy, one), zero), last_y);
-    const int first_x = _mm512_reduce_min_epi32(x0), first_y = _mm512_reduce_min_epi32(y0);
-    if (Channels * (_mm512_reduce_max_epi32(x1) - first_x) + Channels > 128 ||
-        _mm512_reduce_max_epi32(y1) - first_y + 1 > kTurnedRows) {
+    const __m512i left = Channels == 1 ? x0 : _mm512_add_epi32(_mm512_add_epi32(x0, x0), x0);
+    const __m512i top = _mm512_add_epi32(_mm512_mullo_epi32(y0, row_bytes), left);
+    const __m512i bottom = _mm512_add_epi32(_mm512_mullo_epi32(y1, row_bytes), left);
+    if (_mm512_cmpgt_epi32_mask(bottom, last_read)) {
       warp_row_avx2<Channels>(frame, x_step + x, y_step + x, x_start, y_start, 16, out + x);
       continue;
     }
-    const __m512i first = _mm512_set1_epi32(Channels * first_x), channels = _mm512_set1_epi32(Channels);
-    const __m512i left_index = _mm512_add_epi32(
-        _mm512_mullo_epi32(_mm512_sub_epi32(_mm512_mullo_epi32(x0, channels), first), spread), next_bytes);
-    const __m512i right_index = _mm512_add_epi32(
-        _mm512_mullo_epi32(_mm512_sub_epi32(_mm512_mullo_epi32(x1, channels), first), spread), next_bytes);
-    __m512i p00 = zero, p01 = zero, p10 = zero, p11 = zero;
-    const int last_row = _mm512_reduce_max_epi32(y1);
-    for (int row = first_y; row <= last_row; ++row) {
-      __m512i a0, a1;
-      window_of(frame, frame.ptr<uchar>(row) + Channels * first_x, a0, a1);
-      const __m512i left = _mm512_permutex2var_epi8(a0, left_index, a1);
-      const __m512i right = _mm512_permutex2var_epi8(a0, right_index, a1);
-      const __m512i here = _mm512_set1_epi32(row);
-      const __mmask16 top = _mm512_cmpeq_epi32_mask(y0, here), bottom = _mm512_cmpeq_epi32_mask(y1, here);
-      p00 = _mm512_mask_mov_epi32(p00, top, left), p01 = _mm512_mask_mov_epi32(p01, top, right);
-      p10 = _mm512_mask_mov_epi32(p10, bottom, left), p11 = _mm512_mask_mov_epi32(p11, bottom, right);
+    // (At the frame's left and right edges the right tap is the left one.)
+    const __mmask16 apart = _mm512_cmpneq_epi32_mask(x1, x0);
+    __m512i p00, p01, p10, p11;
+    if constexpr (Channels == 1) {
+      const int* base = reinterpret_cast<const int*>(frame.data);
+      p00 = _mm512_i32gather_epi32(top, base, 1);
+      p10 = _mm512_i32gather_epi32(bottom, base, 1);
+      p01 = _mm512_mask_srli_epi32(p00, apart, p00, 8);
+      p11 = _mm512_mask_srli_epi32(p10, apart, p10, 8);
+    } else {
+      const auto* base = reinterpret_cast<const long long*>(frame.data);
+      const __m512i right_bytes = _mm512_mask_add_epi32(left_bytes, apart, left_bytes, next_pixel);
+      const __m512i t0 = _mm512_i32gather_epi64(_mm512_castsi512_si256(top), base, 1);
+      const __m512i t1 = _mm512_i32gather_epi64(_mm512_extracti64x4_epi64(top, 1), base, 1);
+      const __m512i b0 = _mm512_i32gather_epi64(_mm512_castsi512_si256(bottom), base, 1);
+      const __m512i b1 = _mm512_i32gather_epi64(_mm512_extracti64x4_epi64(bottom, 1), base, 1);
+      p00 = _mm512_permutex2var_epi8(t0, left_bytes, t1), p01 = _mm512_permutex2var_epi8(t0, right_bytes, t1);
+      p10 = _mm512_permutex2var_epi8(b0, left_bytes, b1), p11 = _mm512_permutex2var_epi8(b0, right_bytes, b1);
     }
     const __m512i fx = _mm512_and_si512(fixed_x, last_sub), fy = _mm512_and_si512(fixed_y, last_sub);
     const __m512i fy_pair = _mm512_or_si512(_mm512_sub_epi32(subpixels, fy), _mm512_slli_epi32(fy, 16));
@@ -671,8 +681,9 @@ bool one_pass_for(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size) {
 }
 
 // warp_to_gray's rows of an 8-bit frame of `Channels` channels (1 or 3):
-// sixteen pixels a step where AVX-512 VBMI is usable and the map upright, or
-// turned a little; else eight.
+// sixteen pixels a step where AVX-512 VBMI is usable (from windows of the
+// source rows where the map is upright and they hold its taps, else
+// gathered), else eight.
 template <int Channels, class RowStart>
 void warp_rows(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size, const int* x_step, const int* y_step,
                const RowStart& row_start, cv::Mat& out) {
@@ -690,10 +701,7 @@ void warp_rows(const cv::Mat& frame, const cv::Matx23d& m, cv::Size size, const 
     }
     return;
   }
-  // (Where most sixteen pixels' taps would not fit turned_row_avx512's rows or
-  // window, trying each group first costs more than it saves: gathers.)
-  const bool turned_fits = std::abs(m(1, 0)) * 15 <= kTurnedRows - 2 && std::abs(m(0, 0)) * 15 * Channels <= 120;
-  if (turned_fits && avx512vbmi_usable()) row = turned_row_avx512<Channels>;
+  if (avx512vbmi_usable()) row = gathered_row_avx512<Channels>;
 #endif
   for (int y = 0; y < size.height; ++y)
     row(frame, x_step, y_step, row_start(0, y), row_start(1, y), size.width, out.ptr<uchar>(y));

@@ -81,13 +81,14 @@ TEST(WarpToGray, IsOpenCvsWarpThenGrayBitForBitOnNoiseAndTheSmallestFrame) {
   EXPECT_EQ(differing_pixels(cv::Mat(1, 1, CV_8UC3, cv::Scalar(9, 99, 199)), 50, 7), 0);
 }
 
-// Looks upright and turned a little (up to 12 degrees either way, as the turn
-// search's are), at widths of sixteen pixels and their multiples and a few
+// Looks upright and turned (up to 12 degrees either way, as the turn
+// search's are, or up to 50, as a target turned in the image's plane is
+// followed), at widths of sixteen pixels and their multiples and a few
 // pixels more, from magnified to a step of 6.5 source pixels of a BGR frame
 // (the sixteen-pixel paths: upright up to 5.7 from one or two windows of a
-// row, turned up to 2.6 over up to six rows) and of 19 of a monochrome one
-// (its windows hold three times the pixels: upright up to 18, turned up to
-// 8), anywhere on and past the frame: the pixels that differ from OpenCV's.
+// row, beyond that and turned gathered) and of 19 of a monochrome one (its
+// windows hold three times the pixels: upright up to 18), anywhere on and
+// past the frame: the pixels that differ from OpenCV's.
 int differing_sixteen_pixel_looks(const cv::Mat& frame, int looks, uint64_t seed) {
   cv::RNG random(seed);
   cv::Mat mine, scratch;
@@ -97,7 +98,8 @@ int differing_sixteen_pixel_looks(const cv::Mat& frame, int looks, uint64_t seed
     const cv::Point2d center(random.uniform(-0.3, 1.3) * frame.cols, random.uniform(-0.3, 1.3) * frame.rows);
     const double reach = frame.channels() == 1 ? 3.0 : 1.0;
     const double step = i % 2 == 0 ? random.uniform(0.3, 6.5 * reach) : random.uniform(0.3, 3.0 * reach);
-    const double angle = i % 2 == 0 ? 0.0 : random.uniform(-12.0, 12.0) * CV_PI / 180;
+    const double turn = i % 4 == 1 ? 12.0 : 50.0;
+    const double angle = i % 2 == 0 ? 0.0 : random.uniform(-turn, turn) * CV_PI / 180;
     const cv::Matx23d map = look_map(center, step, angle, size);
     warp_to_gray(frame, map, size, mine, scratch);
     const cv::Mat theirs = opencv_look(frame, map, size);
