@@ -61,6 +61,34 @@ __attribute__((target("avx2"), always_inline)) inline __m256i weighted_channel(_
   return _mm256_srai_epi32(_mm256_add_epi32(sum, half), 10);
 }
 
+// Eight pixels' bytes and their right neighbours' from one read a pixel,
+// gathered: a BGR frame's six bytes in eight (two gathers of four, then
+// each pixel's B, G, R shuffled out as a 32-bit lane, the fourth byte zero;
+// a BGRA frame's likewise), a monochrome frame's two in four (its value in
+// a lane's low byte).
+// `offsets`: the pixels' byte offsets from `data`.
+template <int Channels>
+__attribute__((target("avx2"), always_inline)) inline void gather_pairs(const uchar* data, __m256i offsets,
+                                                                        __m256i& pixel, __m256i& next) {
+  if constexpr (Channels == 1) {
+    pixel = _mm256_i32gather_epi32(reinterpret_cast<const int*>(data), offsets, 1);
+    next = _mm256_srli_epi32(pixel, 8);
+  } else {
+    const auto* base = reinterpret_cast<const long long*>(data);
+    // Lanes 0, 1, 4, 5 read by one gather, 2, 3, 6, 7 by the other, so that
+    // unpacking their 64-bit halves puts the eight back in order.
+    const __m256i ordered = _mm256_permutevar8x32_epi32(offsets, _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7));
+    // Per 128 bits (two pixels' reads): their B, G, R, then their neighbours'.
+    constexpr char n = Channels;  // where a read's neighbour starts
+    const __m256i split = _mm256_setr_epi8(0, 1, 2, -1, 8, 9, 10, -1, n, n + 1, n + 2, -1, 8 + n, 9 + n, 10 + n, -1, 0,
+                                           1, 2, -1, 8, 9, 10, -1, n, n + 1, n + 2, -1, 8 + n, 9 + n, 10 + n, -1);
+    const __m256i a = _mm256_shuffle_epi8(_mm256_i32gather_epi64(base, _mm256_castsi256_si128(ordered), 1), split);
+    const __m256i b = _mm256_shuffle_epi8(_mm256_i32gather_epi64(base, _mm256_extracti128_si256(ordered, 1), 1), split);
+    pixel = _mm256_unpacklo_epi64(a, b);
+    next = _mm256_unpackhi_epi64(a, b);
+  }
+}
+
 // One output row, eight pixels a step: `x_step`, `y_step` are the map's
 // per-column moves (1/1024 pixel), `x_start`, `y_start` the row's start with
 // OpenCV's rounding half added. Reads stay below `frame.datalimit`: a group
@@ -76,9 +104,8 @@ __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const i
   const __m256i low_bytes = _mm256_set1_epi32(0x00FF00FF), half = _mm256_set1_epi32(512);
   const __m256i gray_bg = _mm256_set1_epi32(kGrayB | (kGrayG << 16)), gray_r = _mm256_set1_epi32(kGrayR);
   const __m256i gray_half = _mm256_set1_epi32(1 << (kGrayShift - 1));
-  // The last offset a 4-byte read may start at.
-  const __m256i last_read = _mm256_set1_epi32(static_cast<int>(frame.datalimit - frame.data) - 4);
-  const int* base = reinterpret_cast<const int*>(frame.data);
+  // The last offset a pair of taps' read may start at.
+  const __m256i last_read = _mm256_set1_epi32(static_cast<int>(frame.datalimit - frame.data) - (Channels == 1 ? 4 : 8));
   int x = 0;
   for (; x + 8 <= width; x += 8) {
     const __m256i fixed_x = _mm256_srai_epi32(
@@ -93,22 +120,24 @@ __attribute__((target("avx2"))) void warp_row_avx2(const cv::Mat& frame, const i
     const __m256i x1 = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(sx, one), zero), last_x);
     const __m256i y0 = _mm256_min_epi32(_mm256_max_epi32(sy, zero), last_y);
     const __m256i y1 = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(sy, one), zero), last_y);
-    const __m256i top = _mm256_mullo_epi32(y0, row_bytes), bottom = _mm256_mullo_epi32(y1, row_bytes);
     const __m256i left = Channels == 1 ? x0 : _mm256_add_epi32(_mm256_add_epi32(x0, x0), x0);
-    const __m256i right = Channels == 1 ? x1 : _mm256_add_epi32(_mm256_add_epi32(x1, x1), x1);
-    const __m256i at11 = _mm256_add_epi32(bottom, right);
-    if (_mm256_movemask_epi8(_mm256_cmpgt_epi32(at11, last_read))) {
+    const __m256i top = _mm256_add_epi32(_mm256_mullo_epi32(y0, row_bytes), left);
+    const __m256i bottom = _mm256_add_epi32(_mm256_mullo_epi32(y1, row_bytes), left);
+    if (_mm256_movemask_epi8(_mm256_cmpgt_epi32(bottom, last_read))) {
       for (int k = 0; k < 8; ++k)
         out[x + k] = warp_pixel<Channels>(frame, (x_start + x_step[x + k]) >> (10 - kSubpixelBits),
                                           (y_start + y_step[x + k]) >> (10 - kSubpixelBits));
       continue;
     }
-    // Each tap's B, G, R (and a byte beyond, unused) as one 32-bit lane; of a
-    // monochrome frame, its value and three bytes beyond.
-    const __m256i p00 = _mm256_i32gather_epi32(base, _mm256_add_epi32(top, left), 1);
-    const __m256i p01 = _mm256_i32gather_epi32(base, _mm256_add_epi32(top, right), 1);
-    const __m256i p10 = _mm256_i32gather_epi32(base, _mm256_add_epi32(bottom, left), 1);
-    const __m256i p11 = _mm256_i32gather_epi32(base, at11, 1);
+    // Each tap's B, G, R (and a zero byte) as one 32-bit lane; of a
+    // monochrome frame, its value and bytes beyond, unused.
+    // (At the frame's left and right edges the right tap is the left one.)
+    const __m256i same = _mm256_cmpeq_epi32(x0, x1);
+    __m256i p00, p01, p10, p11;
+    gather_pairs<Channels>(frame.data, top, p00, p01);
+    gather_pairs<Channels>(frame.data, bottom, p10, p11);
+    p01 = _mm256_blendv_epi8(p01, p00, same);
+    p11 = _mm256_blendv_epi8(p11, p10, same);
     // Weights as 16-bit pairs: (w00, w10) for the left taps, (w01, w11) for the right ones.
     const __m256i fy_pair = _mm256_or_si256(_mm256_sub_epi32(subpixels, fy), _mm256_slli_epi32(fy, 16));
     const __m256i rest_x = _mm256_sub_epi32(subpixels, fx);
@@ -451,7 +480,7 @@ __attribute__((target("avx2"), always_inline)) inline __m256 lanes_gray(__m256i 
 // A row of cells, eight a step, each lane computed as cell_mean computes one
 // (bit for bit: the same float operations in the same order, no fused ones).
 // `offset[q]` and `weight[q]` hold each cell's quarter tap q along the row
-// (byte offset, weight). A group whose four-byte reads would pass the
+// (byte offset, weight). A group whose reads (a pixel and the next one) would pass the
 // frame's data is done cell by cell.
 template <int Channels>
 __attribute__((target("avx2"))) void cell_row_avx2(const cv::Mat& frame, const Tap* cols, const int* const offset[2],
@@ -470,18 +499,19 @@ __attribute__((target("avx2"))) void cell_row_avx2(const cv::Mat& frame, const T
     if (bottom_row + farthest + Channels > last_read) break;  // the rest cell by cell
     __m256 total = _mm256_setzero_ps();
     for (int qy = 0; qy < 2; ++qy) {
-      const int* r0 = reinterpret_cast<const int*>(frame.ptr<uchar>(ty[qy].first));
-      const int* r1 = reinterpret_cast<const int*>(frame.ptr<uchar>(ty[qy].first + 1));
+      const uchar* r0 = frame.ptr<uchar>(ty[qy].first);
+      const uchar* r1 = frame.ptr<uchar>(ty[qy].first + 1);
       const __m256 ay = _mm256_set1_ps(ty[qy].weight);
       for (int qx = 0; qx < 2; ++qx) {
         const __m256i x = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(offset[qx] + at));
-        const __m256i next = _mm256_add_epi32(x, _mm256_set1_epi32(Channels));
         const __m256 ax = _mm256_loadu_ps(weight[qx] + at), rest_x = _mm256_sub_ps(one, ax);
-        const __m256 top = _mm256_add_ps(_mm256_mul_ps(rest_x, lanes_gray<Channels>(_mm256_i32gather_epi32(r0, x, 1))),
-                                         _mm256_mul_ps(ax, lanes_gray<Channels>(_mm256_i32gather_epi32(r0, next, 1))));
-        const __m256 bottom =
-            _mm256_add_ps(_mm256_mul_ps(rest_x, lanes_gray<Channels>(_mm256_i32gather_epi32(r1, x, 1))),
-                          _mm256_mul_ps(ax, lanes_gray<Channels>(_mm256_i32gather_epi32(r1, next, 1))));
+        __m256i p00, p01, p10, p11;
+        gather_pairs<Channels>(r0, x, p00, p01);
+        gather_pairs<Channels>(r1, x, p10, p11);
+        const __m256 top = _mm256_add_ps(_mm256_mul_ps(rest_x, lanes_gray<Channels>(p00)),
+                                         _mm256_mul_ps(ax, lanes_gray<Channels>(p01)));
+        const __m256 bottom = _mm256_add_ps(_mm256_mul_ps(rest_x, lanes_gray<Channels>(p10)),
+                                            _mm256_mul_ps(ax, lanes_gray<Channels>(p11)));
         total =
             _mm256_add_ps(total, _mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(one, ay), top), _mm256_mul_ps(ay, bottom)));
       }
