@@ -335,12 +335,13 @@ SACCADE_AVX512_VBMI void gathered_row_avx512(const cv::Mat& frame, const int* x_
   const __m512i row_bytes = _mm512_set1_epi32(static_cast<int>(frame.step[0]));
   constexpr int kRead = Channels == 1 ? 4 : 8;
   const __m512i last_read = _mm512_set1_epi32(static_cast<int>(frame.datalimit - frame.data) - kRead);
-  // Lane i's B, G, R in the two reads' 128 bytes (lanes 0-7 the first read's eight qwords).
+  // (A BGR frame's) lane i's B, G, R in the two reads' 128 bytes (lanes 0-7
+  // the first read's eight qwords), and how far on its right tap's lie.
   const __m512i left_bytes = _mm512_add_epi32(
       _mm512_mullo_epi32(_mm512_setr_epi32(0, 8, 16, 24, 32, 40, 48, 56, 64, 72, 80, 88, 96, 104, 112, 120),
                          _mm512_set1_epi32(0x010101)),
       _mm512_set1_epi32(0x020100));
-  const __m512i next_pixel = _mm512_set1_epi32(Channels == 1 ? 8 : 0x030303);
+  const __m512i next_pixel = _mm512_set1_epi32(0x030303);
   int x = 0;
   for (; x + 16 <= width; x += 16) {
     const __m512i fixed_x = _mm512_srai_epi32(
