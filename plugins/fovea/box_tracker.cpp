@@ -604,7 +604,9 @@ struct BoxTracker::Impl {
   // re-acquired in 24 frames, 11 with its colour). Not while the tracker is
   // only unsure: the target is then most often partly hidden where it sits,
   // and others of its colours were found instead (vtest.avi's pedestrians:
-  // 121 -> 143 jumps over 132 runs; 124 asked only while lost; docs/tracking.md).
+  // 121 -> 143 jumps over 132 runs; 124 asked only while lost; docs/tracking.md);
+  // but while it sits on a look-alike (look_elsewhere(): a sure peak of another
+  // colour), which takes one of the places by look.
   void propose(const cv::Mat& frame, int count, int reach, std::vector<Placement>& out, bool by_color) {
     if (appearance.empty()) return;
     const double s = coarse_step();
@@ -793,7 +795,8 @@ struct BoxTracker::Impl {
   // locally meanwhile), on the others, lost and following the target's
   // colours, the local look at that search's other sizes. Returns the local
   // looks' range.
-  std::pair<std::size_t, std::size_t> gather_looks(const cv::Mat& frame, cv::Point2d predicted, bool unsure) {
+  std::pair<std::size_t, std::size_t> gather_looks(const cv::Mat& frame, cv::Point2d predicted, bool unsure,
+                                                   bool by_color) {
     looks.clear();
     if (candidate_frames > 0) looks.push_back({candidate, candidate_step, angle});
     const std::size_t local = looks.size();
@@ -802,7 +805,7 @@ struct BoxTracker::Impl {
     const int sizes = (search_tick / 2) % 3;
     const bool search = search_tick++ % 2 == 0;
     if (search)
-      propose(frame, config.proposals, sizes, looks, /*by_color=*/!unsure);
+      propose(frame, config.proposals, sizes, looks, by_color);
     else if (follow_colors)
       for (const double factor : kOtherSizes[static_cast<std::size_t>(sizes)])
         if (size_plausible(step * factor)) looks.push_back({lost_look, step * factor, angle});
@@ -856,6 +859,36 @@ struct BoxTracker::Impl {
     }
     if (pick == looks.size()) return;
     place_at(looks[pick].to_frame(look_peaks[pick].offset), looks[pick].step);
+  }
+  // A re-detection is seen at the nearest of the few sizes its look was
+  // taken at (the whole-frame search's, 0.51-1.95 times the target's), and
+  // the scale filter, whose 17 scales span 0.85-1.17, does not make up the
+  // rest: a box found at the wrong size kept it (`holdout_mixed_640`: the
+  // butterfly back from behind an occluder found at 0.64 of its size by a
+  // proposal by colour, and 60 frames at that size). A find elsewhere is
+  // looked at the other sizes too, and one whose peak is resize_ratio times
+  // as high (and reaches redetect_psr, of the target's colours and tones, at
+  // a size it could have grown to) gives the size, as follow_size_where_it_sits()
+  // does for a target seen larger where it sits. Smaller, not below the
+  // size the target was last tracked at: a smaller look peaks higher on the
+  // part of a target an occluder still half hides, and the box stayed that
+  // small (follow_size_where_it_sits()). (Taking a smaller size at as high a
+  // peak between the find's and the target's last, a target back larger was
+  // found at its old size: `fresh7_mixed_640` success@0.5 0.441 -> 0.363.)
+  void resize_found(const cv::Mat& frame, cv::Point2d& found, double& at_step, double psr, double near) {
+    if (config.resize_ratio <= 0) return;
+    const Placement from{found, at_step, angle};
+    const double smallest = std::min(at_step, sure_step) * (1 - kSameSize);
+    double bar = std::max(config.redetect_psr, std::max(1.0, config.resize_ratio) * psr);
+    for (const std::array<double, 2>& factors : kOtherSizes)
+      for (const double factor : {factors[0], 1 / factors[0]}) {
+        const Placement p{from.center, from.step * factor, angle};
+        if (!size_plausible(p.step) || p.step < smallest) continue;
+        const Peak peak = look_at(frame, p);
+        const cv::Point2d at = p.to_frame(peak.offset);
+        if (peak.psr < bar || cv::norm(at - from.center) >= near || !has_its_colors(frame, p, at)) continue;
+        found = at, at_step = p.step, bar = peak.psr;
+      }
   }
   // The box at `found`, at the size a look of patch step `at_step` sees the target at.
   void place_at(cv::Point2d found, double at_step) {
@@ -1212,11 +1245,13 @@ struct BoxTracker::Impl {
   std::vector<HalfSpectrum> patch_spectra;
 };
 
-// Where the unsure tracker sits: its peak (0: none trusted) and that place's
-// colour distance from the target's.
+// Where the unsure tracker sits: its peak (0: none trusted), that place's
+// colour distance from the target's, and whether it is a look-alike: a peak
+// as sure as a re-detection's, of a colour follow() doubts.
 struct BoxTracker::UnsurePlace {
   double psr = 0;
   double color_distance = 0;
+  bool look_alike = false;
 };
 
 BoxTracker::BoxTracker(BoxTrackerConfig config)
@@ -1396,9 +1431,11 @@ void BoxTracker::look_elsewhere(const cv::Mat& frame, double sits_psr) {
   // the local one, and a confirmed re-detection ends the doubt at once.
   Impl& m = *impl_;
   if (m.unsure_frames < config_.redetect_after) return;
-  UnsurePlace sits{sits_psr, 0};
-  if (sits_psr > 0 && m.color_checked(config_))
+  UnsurePlace sits{sits_psr, 0, false};
+  if (sits_psr > 0 && m.color_checked(config_)) {
     sits.color_distance = cv::norm(chroma(frame, m.center, m.size) - m.chroma_mean);
+    sits.look_alike = sits_psr >= config_.redetect_psr && !m.color_matches(config_, sits.color_distance);
+  }
   const double confidence = last_.confidence;
   const TrackState state = last_.state;
   redetect(frame, m.center, /*unsure=*/true, sits);
@@ -1419,7 +1456,7 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
     return unsure && cv::norm(found - m.center) < near ? std::max(config_.redetect_psr, tracked_bar)
                                                        : config_.redetect_psr;
   };
-  const auto [local, local_end] = m.gather_looks(frame, predicted, unsure);
+  const auto [local, local_end] = m.gather_looks(frame, predicted, unsure, /*by_color=*/!unsure || sits.look_alike);
   const std::vector<Placement>& looks = m.looks;
   // A target hidden by something passing, or gone out of view, most often
   // comes back near where it was last tracked, and its colour does not lie
@@ -1471,14 +1508,17 @@ void BoxTracker::redetect(const cv::Mat& frame, cv::Point2d predicted, bool unsu
     if (unsure) m.follow_size_where_it_sits(frame, sits.psr, near);
     return;
   }
-  const cv::Point2d found = where.to_frame(best.offset);
+  cv::Point2d found = where.to_frame(best.offset);
+  double found_step = where.step;
+  const bool elsewhere = cv::norm(found - m.center) >= near;
+  if (elsewhere) m.resize_found(frame, found, found_step, best.psr, near);
   const bool consistent = m.candidate_frames > 0 && cv::norm(found - m.candidate) < near;
   m.candidate = found;
   m.candidate_coloured = best_coloured;
-  m.candidate_step = where.step;
+  m.candidate_step = found_step;
   m.candidate_frames = consistent ? m.candidate_frames + 1 : 1;
   if (m.candidate_frames < config_.redetect_frames) return;
-  m.found_at(found, where.step, /*elsewhere=*/cv::norm(found - m.center) >= near);
+  m.found_at(found, found_step, elsewhere);
   last_.state = TrackState::kTracking;
 }
 

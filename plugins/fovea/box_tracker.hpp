@@ -81,8 +81,8 @@ struct BoxTrackerConfig {
   int redetect_margin_frames = 10;  // ... for this many unsure frames (then the target is more likely gone),
                                     // or longer while that peak still reaches redetect_psr
   int proposals = 2;                // lost: places per size the whole-frame search proposes to the filter by look ...
-  int color_proposals = 1;          // ... and by look and colour together (while lost, not while only unsure,
-                                    // and while its colour is checked; 0: none)
+  int color_proposals = 1;          // ... and by look and colour together (while lost, or unsure on a sure peak
+                                    // of another colour: a look-alike; while its colour is checked; 0: none)
   double follow_lost_colors = 0.5;  // lost: the local look moves to a peak near where the target was lost that
                                     // shares this much of its colours (a target without colours:
                                     // min_shared_tones of its tones), and looks there at other sizes too

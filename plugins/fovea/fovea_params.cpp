@@ -106,9 +106,9 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "there at other sizes too (0: it stays where the target was lost; docs/tracking.md)",
              &C::box, &B::follow_lost_colors)
       .field("box_color_proposals", {0, 16},
-             "box tracking: lost (not while only unsure), places per size the whole-frame search proposes by the "
-             "target's look and colour together, besides those by its look alone (while its colour is checked; "
-             "0: none; docs/tracking.md)",
+             "box tracking: lost, or unsure on a sure peak of another colour (a look-alike), places per size the "
+             "whole-frame search proposes by the target's look and colour together, besides those by its look alone "
+             "(while its colour is checked; 0: none; docs/tracking.md)",
              &C::box, &B::color_proposals)
       .field("box_scale_turn_min", {0, 360},
              "box tracking: degrees the target must have turned before the scale filter sees it turned as the "

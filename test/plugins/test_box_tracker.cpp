@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 #include <opencv2/core/utility.hpp>
@@ -210,6 +211,50 @@ TEST(BoxTracker, AHiddenTargetThatReappearsLargerIsFoundAtItsNewSize) {
   ASSERT_GE(found_after, 0) << "never found again";
   EXPECT_LE(found_after, 15);
   EXPECT_NEAR(e.box.width / scene.box(after, large).width, 1.0, 0.2) << "found at about its new size";
+}
+
+// The target, tracked at one size, leaves the view and comes back elsewhere
+// `grow` times as large. Returns its box's width over its true width on the
+// frame it is found again (0: not within 40 frames).
+double size_found_after_growing(double grow, double resize_ratio) {
+  const Scene scene;
+  BoxTrackerConfig config;
+  config.resize_ratio = resize_ratio;
+  BoxTracker tracker(config);
+  const cv::Point2d before(100, 120), after(200, 130);
+  const double small = 0.25, large = small * grow;
+  if (!tracker.init(scene.render({60, 60}, before, small), scene.box(before, small)).ok()) return -1;
+  for (int k = 1; k <= 20; ++k) tracker.update(scene.render({60, 60}, before, small));
+  for (int k = 0; k < 30; ++k) tracker.update(scene.render({60, 60}, {-200, -200}, small));  // out of view
+  for (int k = 0; k < 40; ++k) {
+    const TrackEstimate e = tracker.update(scene.render({60, 60}, after, large));
+    if (std::getenv("SACCADE_TEST_VERBOSE"))
+      std::printf("grow %.2f ratio %.2f: %d %s %.1f width %.1f\n", grow, resize_ratio, k, to_string(e.state),
+                  e.confidence, e.box.width);
+    if (e.state == TrackState::kTracking && cv::norm(center(e.box) - after) < 10)
+      return e.box.width / scene.box(after, large).width;
+  }
+  return 0;
+}
+
+// The whole-frame search proposes a returning target at one of a few sizes
+// (0.51-1.95 times its last), and the filter, which knows it smaller, peaks
+// on part of it at a size too small; the scale filter's 17 scales span
+// 0.85-1.17 and do not make up the rest. Confirmed elsewhere, the place is
+// looked at larger too, and the size whose peak is resize_ratio times higher
+// is taken: the box is then about the target's size on the frame it is found.
+TEST(BoxTracker, ATargetFoundAgainLargerGetsItsSizeFromLargerLooksAtThePlace) {
+  // (Back 1.5-1.6 times as large it is found by the 1.95 times larger
+  // proposal, at 1.24-1.33 of its width, with or without: a larger box is
+  // not made smaller, see follow_size_where_it_sits.)
+  for (const double grow : {1.3, 1.4}) {
+    const double grown = size_found_after_growing(grow, BoxTrackerConfig{}.resize_ratio);
+    const double not_grown = size_found_after_growing(grow, 0);
+    std::printf("back %.1f times as large: found at %.2f of its width (%.2f without the larger looks)\n", grow, grown,
+                not_grown);
+    EXPECT_LT(not_grown, 0.85) << grow << ": the scene no longer needs the larger looks";
+    EXPECT_NEAR(grown, 1.0, 0.12) << grow;
+  }
 }
 
 // A target hidden by something passing comes back near where it was, but
@@ -591,6 +636,66 @@ TEST(BoxTracker, ALookAlikeOfNearerMeanColourButFewerOfTheTargetsColoursIsNotTak
   std::printf("look-alike claimed on %d of 25 covered frames (%d with the colours not asked)\n", asked, not_asked);
   EXPECT_GT(not_asked, 0) << "the scene no longer needs the colours";
   EXPECT_EQ(asked, 0);
+}
+
+// The tracker sits on a look-alike of another tint (the benchmark's, as
+// look_alike_claims() makes it) where the target was, and two copies of the
+// target with its colour channels swapped stand in the view: four things of
+// the target's look, which the whole-frame search's two places a size by look
+// alone need not include the target among. Then the target shows beside
+// them, partly covered. Returns the frames until it is tracked (-1: not within 30), and in
+// `claimed` the frames the look-alike was claimed on before.
+int frames_to_find_the_target_beside_a_look_alike(int& claimed) {
+  Scene scene;
+  BoxTracker tracker;
+  const cv::Point2d at(110, 120), target_at(190, 150);
+  const std::array<cv::Point2d, 2> decoys_at{{{250, 60}, {60, 190}}};
+  if (!tracker.init(scene.render({60, 60}, at), scene.box(at)).ok()) return -2;
+  for (int k = 1; k <= 20; ++k) tracker.update(scene.render({60, 60}, at));
+  cv::Mat look_alike, target;
+  scene.target.convertTo(look_alike, CV_8UC3, 0.85, 0);
+  cv::add(look_alike, cv::Scalar(20, -10, 10), look_alike);
+  cv::resize(look_alike, look_alike, {}, 0.3, 0.3, cv::INTER_AREA);
+  cv::resize(scene.target, target, {}, 0.3, 0.3, cv::INTER_AREA);
+  std::array<cv::Mat, 2> decoys;
+  cv::cvtColor(target, decoys[0], cv::COLOR_BGR2RGB);
+  cv::mixChannels(std::vector<cv::Mat>{target}, std::vector<cv::Mat>{decoys[1] = target.clone()}, {0, 1, 1, 2, 2, 0});
+  const auto frame_with = [&](bool target_shown) {
+    cv::Mat frame = scene.render({60, 60}, {-200, -200});  // (the target out of view)
+    look_alike.copyTo(frame(centred(look_alike.size(), at)));
+    for (std::size_t i = 0; i < decoys.size(); ++i) decoys[i].copyTo(frame(centred(decoys[i].size(), decoys_at[i])));
+    if (!target_shown) return frame;
+    const cv::Rect box = centred(target.size(), target_at);
+    target.copyTo(frame(box));
+    // A quarter of it still covered on the left: its look then matches
+    // less well than the look-alike's and the copies' whole ones.
+    scene.background(cv::Rect(0, 300, box.width / 4, box.height)).copyTo(frame(box).colRange(0, box.width / 4));
+    return frame;
+  };
+  claimed = 0;
+  for (int k = 0; k < 15; ++k) claimed += tracker.update(frame_with(false)).state == TrackState::kTracking;
+  for (int k = 0; k < 30; ++k) {
+    const TrackEstimate e = tracker.update(frame_with(true));
+    if (std::getenv("SACCADE_TEST_VERBOSE"))
+      std::printf("target shown %d: %s %.1f at %.0f,%.0f\n", k, to_string(e.state), e.confidence, center(e.box).x,
+                  center(e.box).y);
+    if (e.state == TrackState::kTracking && cv::norm(center(e.box) - target_at) < 8) return k;
+  }
+  return -1;
+}
+
+// Unsure on a peak as sure as a re-detection's but of another colour, the
+// tracker sits on a look-alike: the whole-frame search then also proposes the
+// best place by look and colour together, as it does for a lost target, and
+// the target is found there (by look alone it is not: the look-alike and the
+// swapped copies take the places).
+TEST(BoxTracker, ATargetBackBesideTheLookAlikeTheTrackerSitsOnIsFoundByItsColour) {
+  int claimed = -1;
+  const int found = frames_to_find_the_target_beside_a_look_alike(claimed);
+  std::printf("look-alike claimed on %d of 15 frames; the target found after %d\n", claimed, found);
+  EXPECT_LE(claimed, 2);
+  EXPECT_GE(found, 0) << "never found";
+  EXPECT_LE(found, 10);
 }
 
 // The target hidden, another of its kind shows elsewhere at 0.64 of its size
