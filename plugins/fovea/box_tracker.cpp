@@ -1247,7 +1247,8 @@ struct BoxTracker::Impl {
 
 // Where the unsure tracker sits: its peak (0: none trusted), that place's
 // colour distance from the target's, and whether it is a look-alike: a peak
-// as sure as a re-detection's, of a colour follow() doubts.
+// as sure as a re-detection's whose colour is off the target's by more than
+// follow() lets a tracked frame's be.
 struct BoxTracker::UnsurePlace {
   double psr = 0;
   double color_distance = 0;
