@@ -848,8 +848,7 @@ struct BoxTracker::Impl {
   void follow_size_where_it_sits(const cv::Mat& frame, double sits_psr, double near) {
     if (config.resize_ratio <= 0 || sits_psr <= 0) return;
     std::size_t pick = looks.size();
-    // (A ratio under 1 counts as 1: a larger look that peaks lower is no sign the target grew.)
-    double bar = std::max(config.redetect_psr, std::max(1.0, config.resize_ratio) * sits_psr);
+    double bar = resize_bar(sits_psr);
     for (std::size_t i = 0; i < looks.size(); ++i) {
       const Placement& p = looks[i];
       const cv::Point2d found = p.to_frame(look_peaks[i].offset);
@@ -859,6 +858,12 @@ struct BoxTracker::Impl {
     }
     if (pick == looks.size()) return;
     place_at(looks[pick].to_frame(look_peaks[pick].offset), looks[pick].step);
+  }
+  // The peak a look at another size must reach to give the target that size,
+  // against `psr` at the size it has: resize_ratio times it, and redetect_psr.
+  // (A ratio under 1 counts as 1: a larger look that peaks lower is no sign the target grew.)
+  double resize_bar(double psr) const {
+    return std::max(config.redetect_psr, std::max(1.0, config.resize_ratio) * psr);
   }
   // A re-detection is seen at the nearest of the few sizes its look was
   // taken at (the whole-frame search's, 0.51-1.95 times the target's), and
@@ -879,7 +884,7 @@ struct BoxTracker::Impl {
     if (config.resize_ratio <= 0) return;
     const Placement from{found, at_step, angle};
     const double smallest = std::min(at_step, sure_step) * (1 - kSameSize);
-    double bar = std::max(config.redetect_psr, std::max(1.0, config.resize_ratio) * psr);
+    double bar = resize_bar(psr);
     for (const std::array<double, 2>& factors : kOtherSizes)
       for (const double factor : {factors[0], 1 / factors[0]}) {
         const Placement p{from.center, from.step * factor, angle};

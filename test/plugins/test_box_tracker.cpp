@@ -417,12 +417,20 @@ TEST(BoxTracker, ALookAlikeOfAnotherColorIsNotClaimed) {
   EXPECT_GE(tracked_again, 0) << "a target that changed colour for good is followed again";
 }
 
-// The target, hidden, is not in view; a look-alike of another tint (the
-// benchmark's: 0.85 of its brightness, blue up 20, green down 10, red up 10)
-// shows elsewhere for 30 frames; then the target itself comes back there, a
-// quarter of it covered. Returns the frames the look-alike was claimed on, and
-// in `found` the frames the target then took to be re-acquired (-1: not
-// within 30).
+// `target` as the benchmark's look-alike is tinted: 0.85 of its brightness,
+// blue up 20, green down 10, red up 10.
+cv::Mat tinted_look_alike(const cv::Mat& target) {
+  cv::Mat tinted;
+  target.convertTo(tinted, CV_8UC3, 0.85, 0);
+  cv::add(tinted, cv::Scalar(20, -10, 10), tinted);
+  return tinted;
+}
+
+// The target, hidden, is not in view; a look-alike of another tint
+// (tinted_look_alike()) shows elsewhere for 30 frames; then the target
+// itself comes back there, a quarter of it covered. Returns the frames the
+// look-alike was claimed on, and in `found` the frames the target then took
+// to be re-acquired (-1: not within 30).
 int look_alike_claims(double min_shared_colors, int& found) {
   Scene scene;
   BoxTrackerConfig config;
@@ -434,9 +442,7 @@ int look_alike_claims(double min_shared_colors, int& found) {
   for (int k = 1; k <= 20; ++k) tracker.update(scene.render({60, 60}, before));
   for (int k = 0; k < 10; ++k) tracker.update(scene.render({60, 60}, before, 0.3, 1.0, occluder));
   Scene look_alike = scene;
-  look_alike.target = cv::Mat();  // (a copy shares the target's pixels)
-  scene.target.convertTo(look_alike.target, CV_8UC3, 0.85, 0);
-  cv::add(look_alike.target, cv::Scalar(20, -10, 10), look_alike.target);
+  look_alike.target = tinted_look_alike(scene.target);  // (a new image: a copy shares the target's pixels)
   int claimed = 0;
   for (int k = 0; k < 30; ++k) {
     const TrackEstimate e = tracker.update(look_alike.render({60, 60}, after));
@@ -639,13 +645,13 @@ TEST(BoxTracker, ALookAlikeOfNearerMeanColourButFewerOfTheTargetsColoursIsNotTak
   EXPECT_EQ(asked, 0);
 }
 
-// The tracker sits on a look-alike of another tint (the benchmark's, as
-// look_alike_claims() makes it) where the target was, and two copies of the
-// target with its colour channels swapped stand in the view: four things of
-// the target's look, which the whole-frame search's two places a size by look
-// alone need not include the target among. Then the target shows beside
-// them, partly covered. Returns the frames until it is tracked (-1: not within 30), and in
-// `claimed` the frames the look-alike was claimed on before.
+// The tracker sits on a look-alike of another tint (tinted_look_alike())
+// where the target was, and two copies of the target with its colour
+// channels swapped stand in the view: four things of the target's look,
+// which the whole-frame search's two places a size by look alone need not
+// include the target among. Then the target shows beside them, partly
+// covered. Returns the frames until it is tracked (-1: not within 30), and
+// in `claimed` the frames the look-alike was claimed on before.
 int frames_to_find_the_target_beside_a_look_alike(int& claimed) {
   Scene scene;
   BoxTracker tracker;
@@ -654,9 +660,7 @@ int frames_to_find_the_target_beside_a_look_alike(int& claimed) {
   if (!tracker.init(scene.render({60, 60}, at), scene.box(at)).ok()) return -2;
   for (int k = 1; k <= 20; ++k) tracker.update(scene.render({60, 60}, at));
   cv::Mat look_alike, target;
-  scene.target.convertTo(look_alike, CV_8UC3, 0.85, 0);
-  cv::add(look_alike, cv::Scalar(20, -10, 10), look_alike);
-  cv::resize(look_alike, look_alike, {}, 0.3, 0.3, cv::INTER_AREA);
+  cv::resize(tinted_look_alike(scene.target), look_alike, {}, 0.3, 0.3, cv::INTER_AREA);
   cv::resize(scene.target, target, {}, 0.3, 0.3, cv::INTER_AREA);
   std::array<cv::Mat, 2> decoys;
   cv::cvtColor(target, decoys[0], cv::COLOR_BGR2RGB);
