@@ -8,6 +8,7 @@
 //   saccade_track_bench [--data DIR] [--otb DIR[:FIRST]]... [--vot DIR]... [--video FILE:FIRST:x,y,w,h[:COUNT]]...
 //                       [--no-generated] [--holdout] [--fresh K,...]
 //                       [--trackers fovea,csrt,kcf,mil] [--frames N] [--every N] [--scale F] [--gray] [--jpeg Q]
+//                       [--white-balance A]
 //                       [--sequences a,b] [--markdown FILE]
 //                       [--export DIR]   (the sequences written as OTB folders, for other tools, instead)
 #ifndef SACCADE_TRACK_BENCH_FOVEA
@@ -175,6 +176,7 @@ struct Options {
   double scale = 1.0;             // each sequence's frames resized by this
   bool gray = false;              // each sequence as a monochrome camera sees it
   int jpeg = 0;                   // each frame through a JPEG of this quality (0: not)
+  double white_balance = 0;       // each frame's red and blue swung by this much (0: not)
   std::string trace;              // a folder for per-frame CSV files, one per sequence and tracker
   std::string jumps;              // a CSV file with a line per jump of every tracker (--jumps)
   std::string export_dir;         // --export: the sequences are written there in the OTB layout instead of run
@@ -797,6 +799,9 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
     if (options.jpeg > 0)
       if (Status compressed = make_jpeg(s, options.jpeg); !compressed.ok())
         return Status::error("--jpeg: " + compressed.message());
+    if (options.white_balance > 0)
+      if (Status balanced = make_white_balance(s, options.white_balance); !balanced.ok())
+        return Status::error("--white-balance: " + balanced.message());
     truncate(s, options.frames);
   }
   make_names_unique(sequences, [](Sequence& s) -> std::string& { return s.name; });
@@ -892,6 +897,28 @@ int run(const Options& options) {
   return 0;
 }
 
+// The options that show every sequence as another camera would: its frame
+// rate, resolution, colours, compression and white balance.
+void add_camera_options(CLI::App& app, Options& options) {
+  app.add_option("--every", options.every,
+                 "N: every Nth frame of each sequence, as a camera of 1/N the frame rate sees it (the target "
+                 "moving N times as far between frames)")
+      ->check(CLI::Range(1, 100));
+  app.add_option("--scale", options.scale, "F: each sequence's frames and truth resized by F (0.1 to 8)")
+      ->check(CLI::Range(0.1, 8.0));
+  app.add_flag("--gray", options.gray,
+               "each sequence as a monochrome camera sees it: its frames' gray in all three channels (name@gray)");
+  app.add_option("--jpeg", options.jpeg,
+                 "Q: each frame through a JPEG of quality Q (1-100), as a recorded video's or a network camera's "
+                 "(name@jpegQ)")
+      ->check(CLI::Range(1, 100));
+  app.add_option("--white-balance", options.white_balance,
+                 "A: each frame as a camera whose white balance drifts sees it: red times 1 + A sin(2 pi i / 150), "
+                 "blue times 1 - A sin(...), A from 0.01 to 0.5, as an automatic white balance warms and cools the "
+                 "image (name@wbA)")
+      ->check(CLI::Range(0.01, 0.5));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -920,12 +947,6 @@ int main(int argc, char** argv) {
   app.add_option("--trackers", options.trackers, "comma-separated trackers to run")->capture_default_str();
   app.add_option("--sequences", options.sequences, "comma-separated sequence names to keep (default all)");
   app.add_option("--frames", options.frames, "at most this many frames per sequence (quick runs)");
-  app.add_option("--every", options.every,
-                 "N: every Nth frame of each sequence, as a camera of 1/N the frame rate sees it (the target "
-                 "moving N times as far between frames)")
-      ->check(CLI::Range(1, 100));
-  app.add_option("--scale", options.scale, "F: each sequence's frames and truth resized by F (0.1 to 8)")
-      ->check(CLI::Range(0.1, 8.0));
   app.add_flag("--round", options.round,
                "the generated targets cut as the ellipse inscribed in their box, its corners showing the moving "
                "scene behind, as around a real ball or face (name@round)");
@@ -934,12 +955,7 @@ int main(int argc, char** argv) {
                  "(1-180) over about 150 frames: each picture wrapped round a cylinder, its back half the mirror "
                  "image, so the box's contents change as a head's or a ball's do when it turns (name@turnA)")
       ->check(CLI::Range(1.0, 180.0));
-  app.add_flag("--gray", options.gray,
-               "each sequence as a monochrome camera sees it: its frames' gray in all three channels (name@gray)");
-  app.add_option("--jpeg", options.jpeg,
-                 "Q: each frame through a JPEG of quality Q (1-100), as a recorded video's or a network camera's "
-                 "(name@jpegQ)")
-      ->check(CLI::Range(1, 100));
+  add_camera_options(app, options);
   app.add_option("--markdown", options.markdown, "also write the tables to this Markdown file");
   app.add_option("--runs", options.runs,
                  "runs per sequence: run 0 from the true first box, the others from it moved by up to 1.5 px "
@@ -959,7 +975,7 @@ int main(int argc, char** argv) {
                  "groundtruth_rect.txt; NaN rows where the target is hidden) instead of running them");
   // A value given twice is the last one: make's TRACK_ARGS can change what a target gives.
   for (const char* single : {"--data", "--trackers", "--sequences", "--frames", "--every", "--scale", "--turn",
-                             "--jpeg", "--markdown", "--runs", "--trace", "--jumps", "--export"})
+                             "--jpeg", "--white-balance", "--markdown", "--runs", "--trace", "--jumps", "--export"})
     app.get_option(single)->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   CLI11_PARSE(app, argc, argv);
   if (!apply_sets(options)) return 2;

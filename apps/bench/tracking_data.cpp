@@ -129,6 +129,23 @@ Status make_jpeg(Sequence& sequence, int quality) {
   return {};
 }
 
+Status make_white_balance(Sequence& sequence, double amount) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", amount);
+  if (!(amount >= 0.01 && amount <= 0.5))
+    return Status::error("white balance " + std::string(text) + ": expected an amount from 0.01 to 0.5");
+  sequence.frame = [read = std::move(sequence.frame), amount](int i) -> Result<cv::Mat> {
+    Result<cv::Mat> frame = read(i);
+    if (!frame.ok() || frame->channels() != 3) return frame;
+    const double swing = amount * std::sin(2 * kPi * i / kWhiteBalancePeriod);
+    cv::Mat out;
+    cv::multiply(*frame, cv::Scalar(1 - swing, 1, 1 + swing), out);
+    return out;
+  };
+  sequence.name += "@wb" + std::string(text);
+  return {};
+}
+
 // ---------------------------------------------------------------- readers
 
 Result<TruthRow> parse_truth_row(const std::string& row, const std::string& where) {

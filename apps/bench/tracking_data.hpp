@@ -57,6 +57,15 @@ void make_gray(Sequence& sequence);
 // gains "@jpeg<quality>". An error names a quality out of range.
 Status make_jpeg(Sequence& sequence, int quality);
 
+// The sequence as a camera whose white balance drifts sees it: frame i's red
+// channel times 1 + amount sin(2 pi i / kWhiteBalancePeriod) and its blue
+// times 1 - that sine's amount, green unchanged (saturated to 0..255), as an
+// automatic white balance warms and cools the whole image when the view or
+// the light changes; the first frame is unchanged, the truth too. The name
+// gains "@wb<amount>". An error names an amount outside 0.01..0.5.
+inline constexpr double kWhiteBalancePeriod = 150;
+Status make_white_balance(Sequence& sequence, double amount);
+
 // --- Readers. Each returns the sequence, or an error naming the file (and
 // line) at fault.
 

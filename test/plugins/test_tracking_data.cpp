@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -724,13 +725,20 @@ TEST(Resample, KeepsEveryNthFrameScaledWithItsTruthAndNamesBadValues) {
   EXPECT_EQ(resample(tiny, 1, 0.1).message(), "out_of_view: its 12x9 frames scaled by 0.1 are under 2x2");
 }
 
+// The generated `out_of_view` sequence's first `count` frames: what the
+// views of other cameras below are made from.
+Sequence out_of_view_frames(int count) {
+  Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
+  truncate(s, count);
+  return s;
+}
+
 // A compressing camera's view: each frame through OpenCV's JPEG encoder at the
 // quality asked, the truth unchanged, the name marked; a quality out of range
 // refused with the value.
 TEST(MakeJpeg, GivesEachFrameThroughAJpegOfTheQualityAsked) {
-  Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
-  truncate(s, 20);
-  const Sequence original = s;
+  const Sequence original = out_of_view_frames(20);
+  Sequence s = original;
   ASSERT_TRUE(make_jpeg(s, 30).ok());
   EXPECT_EQ(s.name, "out_of_view@jpeg30");
   EXPECT_EQ(s.truth, original.truth);
@@ -745,12 +753,35 @@ TEST(MakeJpeg, GivesEachFrameThroughAJpegOfTheQualityAsked) {
   EXPECT_EQ(bad.name, "out_of_view");
 }
 
+// A drifting white balance: red and blue swung by the amount asked in
+// opposite ways over kWhiteBalancePeriod frames, green and the truth
+// unchanged, the first frame as it was; an amount out of range refused.
+TEST(MakeWhiteBalance, SwingsRedAndBlueOppositeWaysAndLeavesTheTruth) {
+  const Sequence original = out_of_view_frames(60);
+  for (const double out_of_range : {0.0, 0.6}) {
+    Sequence bad = original;
+    char expected[80];
+    std::snprintf(expected, sizeof expected, "white balance %g: expected an amount from 0.01 to 0.5", out_of_range);
+    EXPECT_EQ(make_white_balance(bad, out_of_range).message(), expected);
+    EXPECT_EQ(bad.name, "out_of_view");
+  }
+  Sequence s = original;
+  ASSERT_TRUE(make_white_balance(s, 0.2).ok());
+  EXPECT_EQ(s.name, "out_of_view@wb0.2");
+  EXPECT_EQ(s.truth, original.truth);
+  EXPECT_EQ(cv::norm(value_of(s.frame(0)), value_of(original.frame(0)), cv::NORM_INF), 0.0);
+  const int quarter = static_cast<int>(kWhiteBalancePeriod / 4);  // the swing's peak: red 1.2, blue 0.8
+  const cv::Scalar before = cv::mean(value_of(original.frame(quarter))), after = cv::mean(value_of(s.frame(quarter)));
+  EXPECT_NEAR(after[2] / before[2], 1.2, 0.02);
+  EXPECT_NEAR(after[1] / before[1], 1.0, 1e-9);
+  EXPECT_NEAR(after[0] / before[0], 0.8, 0.02);
+}
+
 // A monochrome camera's view: each frame's gray in all three channels, the
 // truth and the frames' count unchanged, the name marked.
 TEST(MakeGray, GivesEachFramesGrayInAllThreeChannels) {
-  Sequence s = value_of(generate_sequence(standard_scripts().at(6), test::sample_dir()));
-  truncate(s, 20);
-  const Sequence original = s;
+  const Sequence original = out_of_view_frames(20);
+  Sequence s = original;
   make_gray(s);
   EXPECT_EQ(s.name, "out_of_view@gray");
   EXPECT_EQ(s.truth, original.truth);
