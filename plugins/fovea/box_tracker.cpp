@@ -136,15 +136,17 @@ void sample_gray(const cv::Mat& frame, cv::Point2d center, double step_x, double
 }
 
 // The chromaticity (r, g: each channel's share of R + G + B) of the mean
-// colour inside the central half of `box`: the same under brighter or dimmer
-// light, changed by a tint. (1/3, 1/3) for a gray frame.
-cv::Vec2d chroma(const cv::Mat& frame, cv::Point2d center, cv::Size2d size) {
+// colour inside the central half of `box`, its channels multiplied by
+// `gains`: the same under brighter or dimmer light, changed by a tint.
+// (1/3, 1/3) for a gray frame.
+cv::Vec2d chroma(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, const ChannelGains& gains) {
   if (frame.channels() < 3) return {1.0 / 3, 1.0 / 3};
   const cv::Rect inner = central_half(frame, center, size);
   if (inner.empty()) return {1.0 / 3, 1.0 / 3};
-  const cv::Scalar bgr = cv::mean(frame(inner));
-  const double sum = bgr[0] + bgr[1] + bgr[2] + 1e-9;
-  return {bgr[2] / sum, bgr[1] / sum};
+  const cv::Scalar mean = cv::mean(frame(inner));
+  const double b = mean[0] * gains.q8[0], g = mean[1] * gains.q8[1], r = mean[2] * gains.q8[2];
+  const double sum = b + g + r + 1e-9;
+  return {r / sum, g / sum};
 }
 
 // The scale filter's arithmetic per dimension, each spectrum's real and
@@ -588,7 +590,7 @@ struct BoxTracker::Impl {
     if (sits_psr <= 0 || margin_over || cv::norm(found - center) < near) return true;
     if (psr >= config.redetect_margin * sits_psr) return true;
     if (!color_checked(config)) return false;
-    const double distance = cv::norm(chroma(frame, found, size * (p.step / step)) - chroma_mean);
+    const double distance = cv::norm(chroma(frame, found, size * (p.step / step), gains) - chroma_mean);
     if (!(distance + config.min_chroma_change <= sits_color_distance)) return false;
     if (sits_shared < 0) sits_shared = shared_colors_at(frame, {center, step, angle}, center);
     return shared_colors_at(frame, p, found) >= sits_shared;
@@ -619,7 +621,7 @@ struct BoxTracker::Impl {
                       static_cast<double>(frame.rows) / coarse_size.height, coarse_size, coarse_f.ptr<float>());
     by_color = by_color && config.color_proposals > 0 && colors_asked(frame);
     if (by_color) {
-      color_likelihood(frame, coarse_size, color_shares, likelihood, likelihood_bins);
+      color_likelihood(frame, coarse_size, color_shares, likelihood, likelihood_bins, gains);
       cv::integral(likelihood, likelihood_sum, CV_64F);
     }
     // The target may have grown or shrunk while it was away (come closer,
@@ -739,6 +741,11 @@ struct BoxTracker::Impl {
   int search_tick = 0;
   int low_frames = 0;     // consecutive frames below lost_psr
   int unsure_frames = 0;  // consecutive frames not confident enough to learn from
+  // The camera's white balance since the target was given, undone
+  // (WhiteBalanceDrift; neutral unless balance_colors): every colour the
+  // tracker measures or learns is read through it.
+  ChannelGains gains;
+  WhiteBalanceDrift white_balance;
   cv::Vec2d chroma_mean;  // of the tracked frames' target
   double chroma_deviation = 0;
   double colourful = 0;  // the share of the target's pixels off gray (colourful_share), over tracked frames
@@ -959,7 +966,7 @@ struct BoxTracker::Impl {
     const ColorPlaces places = color_places(p, found);
     double distance = INFINITY;
     for (int k = 0; k < places.count; ++k)
-      distance = std::min(distance, cv::norm(chroma(frame, places.at[k], places.box) - chroma_mean));
+      distance = std::min(distance, cv::norm(chroma(frame, places.at[k], places.box, gains) - chroma_mean));
     return color_matches(config, distance) && has_its_colors(frame, p, found);
   }
   // Are enough of a look's colours the target's (min_shared_colors, while
@@ -1028,12 +1035,15 @@ struct BoxTracker::Impl {
   // any colour, has an empty histogram: no evidence either way, and the look
   // is not refused.
   double shared_colors_at(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
-    return colors_asked(frame) ? shared_at(frame, p, found, chroma_histogram, color_shares) : 1.0;
+    const auto histogram = [this](const cv::Mat& f, cv::Rect area, std::vector<float>& shares) {
+      chroma_histogram(f, area, shares, gains);
+    };
+    return colors_asked(frame) ? shared_at(frame, p, found, histogram, color_shares) : 1.0;
   }
   // How much of a `learnt` histogram (`histogram`'s) a look shares, at the
   // better of its colour places; a place with an empty one shares all.
-  using Histogram = void (*)(const cv::Mat&, cv::Rect, std::vector<float>&);
-  double shared_at(const cv::Mat& frame, const Placement& p, cv::Point2d found, Histogram histogram,
+  template <typename Histogram>
+  double shared_at(const cv::Mat& frame, const Placement& p, cv::Point2d found, const Histogram& histogram,
                    const std::vector<float>& learnt) {
     const ColorPlaces places = color_places(p, found);
     double shared = 0;
@@ -1055,7 +1065,7 @@ struct BoxTracker::Impl {
     chroma_deviation = 0.95 * chroma_deviation + 0.05 * distance;
     chroma_mean = 0.95 * chroma_mean + 0.05 * color;
     const cv::Rect inner = central_half(frame, at, size);
-    const double share = colourful_share(frame, inner, c.min_chroma_change);
+    const double share = colourful_share(frame, inner, c.min_chroma_change, gains);
     colourful = fresh ? share : 0.95 * colourful + 0.05 * share;
     // The tones are never learnt afresh: relative to the mean, they do not
     // change with a brighter or dimmer light. A frame too dark for tones
@@ -1066,7 +1076,7 @@ struct BoxTracker::Impl {
       if (!empty(candidate_shares)) learn_shares(tone_shares, candidate_shares, false);
     }
     if (c.min_shared_colors <= 0) return;
-    chroma_histogram(frame, inner, candidate_shares);
+    chroma_histogram(frame, inner, candidate_shares, gains);
     learn_shares(color_shares, candidate_shares, fresh);
   }
   // A histogram learnt over tracked frames, as the mean colour is.
@@ -1325,6 +1335,7 @@ Status BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   m.learn(m.patch_spectra, 1.0);
   m.learn_appearance(frame, 1.0);
   m.scale_filter.learn(frame, m.center, m.size, 0.0, 1.0, true);
+  if (config_.balance_colors) m.white_balance.update(frame);  // the colours' reference frame
   camera_shift_ = {};
   initialized_ = true;
   last_ = {box, 0, TrackState::kTracking};
@@ -1341,6 +1352,10 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   ++m.untracked_frames;  // follow() zeroes it on a tracked frame
   if (m.frames_since_found < std::numeric_limits<int>::max()) ++m.frames_since_found;
   const bool was_tracked = last_.state == TrackState::kTracking;
+  if (config_.balance_colors) {
+    m.white_balance.update(frame);
+    m.gains = m.white_balance.gains();
+  }
   m.camera_moved(shift);
   m.follow_view(frame, was_tracked);
   m.watch_exit(frame, was_tracked);
@@ -1387,7 +1402,7 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   cv::Vec2d color;
   double color_distance = 0;
   if (!doubted) {
-    color = chroma(frame, measured, m.size);
+    color = chroma(frame, measured, m.size, m.gains);
     color_distance = cv::norm(color - m.chroma_mean);
     doubted = warm && !m.color_matches(config_, color_distance);
   }
@@ -1439,7 +1454,7 @@ void BoxTracker::look_elsewhere(const cv::Mat& frame, double sits_psr) {
   if (m.unsure_frames < config_.redetect_after) return;
   UnsurePlace sits{sits_psr, 0, false};
   if (sits_psr > 0 && m.color_checked(config_)) {
-    sits.color_distance = cv::norm(chroma(frame, m.center, m.size) - m.chroma_mean);
+    sits.color_distance = cv::norm(chroma(frame, m.center, m.size, m.gains) - m.chroma_mean);
     sits.look_alike = sits_psr >= config_.redetect_psr && !m.color_matches(config_, sits.color_distance);
   }
   const double confidence = last_.confidence;

@@ -108,6 +108,10 @@ struct BoxTrackerConfig {
                                     // size and place: it came nearer (0: never; under 1 counts as 1;
                                     // docs/tracking.md)
   double velocity_gain = 0.5;       // weight of the newest velocity measurement
+  bool balance_colors = true;       // colours read through the camera's white balance changes since the target
+                                    // was given, undone (WhiteBalanceDrift): a white balance drifting, or the
+                                    // light's colour changing, then moves no colour the tracker learnt
+                                    // (docs/tracking.md)
 };
 
 struct TrackEstimate {

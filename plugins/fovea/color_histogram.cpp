@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 
@@ -10,12 +11,14 @@
 namespace saccade::fovea {
 namespace {
 
-// floor(n / sum) for n < 2^15 and sum <= 765 as (n * reciprocal[sum]) >> 25,
-// exactly (the reciprocal's rounding error times n stays under 2^25): the
-// histogram's two divisions per pixel were most of its cost.
+// floor(n / sum) for n < 2^14 and sum <= 1530 (three channels of up to 510,
+// balanced by gains up to 2) as (n * reciprocal[sum]) >> 25, exactly (the
+// reciprocal's rounding error times n stays under 2^25 / 2048, under 1 /
+// sum): the histogram's two divisions per pixel were most of its cost.
 constexpr int kReciprocalShift = 25;
+constexpr int kMostBalancedSum = 3 * 510;
 struct Reciprocals {
-  std::array<uint32_t, 766> of{};
+  std::array<uint32_t, kMostBalancedSum + 1> of{};
   constexpr Reciprocals() {
     for (uint32_t s = 1; s < of.size(); ++s) of[s] = ((uint32_t{1} << kReciprocalShift) + s - 1) / s;
   }
@@ -27,9 +30,76 @@ int divided(int n, int sum) {
                           kReciprocalShift);
 }
 
+// A channel's value times its gain (ChannelGains::q8), rounded.
+int balanced(int value, int q8) { return (value * q8 + 128) >> 8; }
+
 }  // namespace
 
-void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& shares) {
+void WhiteBalanceDrift::update(const cv::Mat& frame) {
+  if (frame.channels() < 3 || frame.depth() != CV_8U || frame.cols < kCellsX || frame.rows < kCellsY) return;
+  if (frame.size() != size_) started_ = false, size_ = frame.size();
+  const std::size_t cells = static_cast<std::size_t>(kCellsX * kCellsY);
+  now_red_.assign(cells, NAN);
+  now_blue_.assign(cells, NAN);
+  const int channels = frame.channels();
+  const double cell_w = static_cast<double>(frame.cols) / kCellsX, cell_h = static_cast<double>(frame.rows) / kCellsY;
+  std::array<int, 2 * kCellsX> columns;  // each cell's two sample columns, as byte offsets into a row
+  for (int k = 0; k < 2 * kCellsX; ++k)
+    columns[static_cast<std::size_t>(k)] = static_cast<int>((k / 2 + (k % 2 ? 0.75 : 0.25)) * cell_w) * channels;
+  for (int cy = 0; cy < kCellsY; ++cy) {
+    const uint8_t* top = frame.ptr<uint8_t>(static_cast<int>((cy + 0.25) * cell_h));
+    const uint8_t* bottom = frame.ptr<uint8_t>(static_cast<int>((cy + 0.75) * cell_h));
+    for (int cx = 0; cx < kCellsX; ++cx) {
+      int b = 0, g = 0, r = 0;
+      for (const uint8_t* row : {top, bottom})
+        for (int k = 2 * cx; k < 2 * cx + 2; ++k) {
+          const uint8_t* pixel = row + columns[static_cast<std::size_t>(k)];
+          b += pixel[0], g += pixel[1], r += pixel[2];
+        }
+      // A dark or clipped cell's ratios are noise or stuck at the clip.
+      if (std::min({b, g, r}) < 4 * 16 || std::max({b, g, r}) > 4 * 250) continue;
+      const std::size_t i = static_cast<std::size_t>(cy * kCellsX + cx);
+      const float green = 1.0f / static_cast<float>(g);
+      now_red_[i] = static_cast<float>(r) * green;
+      now_blue_[i] = static_cast<float>(b) * green;
+    }
+  }
+  if (started_) {
+    // The median change per channel (as a factor: the median of the factors
+    // is the factor of the median log), over cells measured on both frames;
+    // a frame where fewer than a third of the cells changed within 5% of
+    // their median is not measured.
+    const auto median_change = [&](const std::vector<float>& last, const std::vector<float>& now, double& change) {
+      changes_.clear();
+      for (std::size_t i = 0; i < cells; ++i)
+        if (!std::isnan(last[i]) && !std::isnan(now[i])) changes_.push_back(now[i] / last[i]);
+      if (changes_.size() < cells / 4) return false;
+      const auto middle = changes_.begin() + static_cast<std::ptrdiff_t>(changes_.size() / 2);
+      std::nth_element(changes_.begin(), middle, changes_.end());
+      const float factor = *middle;
+      const auto agreeing = std::count_if(changes_.begin(), changes_.end(),
+                                          [factor](float c) { return c > factor * 0.95f && c < factor * 1.05f; });
+      change = std::log(static_cast<double>(factor));
+      return static_cast<std::size_t>(agreeing) * 3 >= changes_.size();
+    };
+    double red = 0, blue = 0;
+    if (!(median_change(last_red_, now_red_, red) && median_change(last_blue_, now_blue_, blue))) red = blue = 0;
+    log_red_ = (1 - kLeak) * log_red_ + red, log_blue_ = (1 - kLeak) * log_blue_ + blue;
+  }
+  started_ = true;
+  std::swap(last_red_, now_red_);
+  std::swap(last_blue_, now_blue_);
+}
+
+ChannelGains WhiteBalanceDrift::gains() const {
+  ChannelGains gains;
+  // Undo the moves: red times e^-log_red_, blue times e^-log_blue_, green as it is.
+  gains.q8[2] = static_cast<int>(std::clamp(std::lround(256 * std::exp(-log_red_)), 128L, 512L));
+  gains.q8[0] = static_cast<int>(std::clamp(std::lround(256 * std::exp(-log_blue_)), 128L, 512L));
+  return gains;
+}
+
+void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& shares, const ChannelGains& gains) {
   shares.assign(static_cast<std::size_t>(kChromaBins * kChromaBins), 0.f);
   if (frame.channels() < 3 || frame.depth() != CV_8U) return;
   const cv::Rect inside = area & cv::Rect(0, 0, frame.cols, frame.rows);
@@ -38,10 +108,12 @@ void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& s
   for (int y = inside.y; y < inside.y + inside.height; ++y) {
     const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(inside.x) * channels;
     for (int x = 0; x < inside.width; ++x, pixel += channels) {
-      const int sum = pixel[0] + pixel[1] + pixel[2];
+      const int b = balanced(pixel[0], gains.q8[0]), gr = balanced(pixel[1], gains.q8[1]),
+                red = balanced(pixel[2], gains.q8[2]);
+      const int sum = b + gr + red;
       if (sum < kDarkestChroma) continue;
-      const int r = std::min(kChromaBins - 1, divided(pixel[2] * kChromaBins, sum));
-      const int g = std::min(kChromaBins - 1, divided(pixel[1] * kChromaBins, sum));
+      const int r = std::min(kChromaBins - 1, divided(red * kChromaBins, sum));
+      const int g = std::min(kChromaBins - 1, divided(gr * kChromaBins, sum));
       shares[static_cast<std::size_t>(r * kChromaBins + g)] += 1.f;
       ++counted;
     }
@@ -50,7 +122,7 @@ void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& s
   for (float& share : shares) share /= static_cast<float>(counted);
 }
 
-double colourful_share(const cv::Mat& frame, cv::Rect area, double tolerance) {
+double colourful_share(const cv::Mat& frame, cv::Rect area, double tolerance, const ChannelGains& gains) {
   if (frame.channels() < 3 || frame.depth() != CV_8U) return 0;
   const cv::Rect inside = area & cv::Rect(0, 0, frame.cols, frame.rows);
   const int channels = frame.channels();
@@ -58,12 +130,13 @@ double colourful_share(const cv::Mat& frame, cv::Rect area, double tolerance) {
   for (int y = inside.y; y < inside.y + inside.height; ++y) {
     const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(inside.x) * channels;
     for (int x = 0; x < inside.width; ++x, pixel += channels) {
-      const int sum = pixel[0] + pixel[1] + pixel[2];
+      const int gr = balanced(pixel[1], gains.q8[1]), red = balanced(pixel[2], gains.q8[2]);
+      const int sum = balanced(pixel[0], gains.q8[0]) + gr + red;
       if (sum < kDarkestChroma) continue;
       ++counted;
       // |channel / sum - 1/3| > tolerance, in integers: |3 channel - sum| > 3 tolerance sum.
       const double limit = 3 * tolerance * sum;
-      if (std::abs(3 * pixel[2] - sum) > limit || std::abs(3 * pixel[1] - sum) > limit) ++colourful;
+      if (std::abs(3 * red - sum) > limit || std::abs(3 * gr - sum) > limit) ++colourful;
     }
   }
   return counted == 0 ? 0.0 : static_cast<double>(colourful) / counted;
@@ -104,7 +177,7 @@ double shared_colors(const std::vector<float>& a, const std::vector<float>& b) {
 }
 
 void color_likelihood(const cv::Mat& frame, cv::Size cells, const std::vector<float>& target, cv::Mat& out,
-                      std::vector<int>& bins) {
+                      std::vector<int>& bins, const ChannelGains& gains) {
   out.create(cells, CV_32F);
   fill(out, 0);
   if (frame.channels() < 3 || frame.depth() != CV_8U || cells.area() == 0) return;
@@ -125,6 +198,7 @@ void color_likelihood(const cv::Mat& frame, cv::Size cells, const std::vector<fl
           const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(x) * channels;
           b += pixel[0], g += pixel[1], r += pixel[2];
         }
+      b = balanced(b, gains.q8[0]), g = balanced(g, gains.q8[1]), r = balanced(r, gains.q8[2]);
       const int sum = b + g + r;
       if (sum < 4 * kDarkestChroma) continue;
       const int bin = std::min(kChromaBins - 1, r * kChromaBins / sum) * kChromaBins +

@@ -110,6 +110,12 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "whole-frame search proposes by the target's look and colour together, besides those by its look alone "
              "(while its colour is checked; 0: none; docs/tracking.md)",
              &C::box, &B::color_proposals)
+      .field("box_balance_colors",
+             "box tracking: follow the camera's white balance from frame to frame (how every surface's red and "
+             "blue change against green) and read every colour with those changes undone: a white balance "
+             "drifting, or the light's colour changing, then moves no colour the tracker learnt (false: the "
+             "frames' colours as they come; docs/tracking.md)",
+             &C::box, &B::balance_colors)
       .field("box_scale_turn_min", {0, 360},
              "box tracking: degrees the target must have turned before the scale filter sees it turned as the "
              "patch does (upright under it; docs/tracking.md)",

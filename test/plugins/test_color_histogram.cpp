@@ -240,5 +240,80 @@ TEST(ColorLikelihood, TheTargetsColoursScoreHighWhereTheSceneRarelyHasThem) {
   EXPECT_EQ(cv::countNonZero(likelihood(inside)), 0);
 }
 
+// A camera's white balance multiplies every pixel's channels by the same
+// gains. WhiteBalanceDrift follows them from frame to frame, and the
+// histograms read through its gains give the colours the first frame had: a
+// target's colours after the white balance warmed by 20% over ten frames
+// share nearly all of what was learnt, where read as they come they share far
+// less.
+TEST(WhiteBalanceDrift, FollowsACamerasGainsAndTheColoursReadThroughThemAreTheFirstFramesOnes) {
+  const cv::Mat scene = read("baboon.jpg");
+  const cv::Rect target(180, 40, 150, 120);
+  WhiteBalanceDrift drift;
+  drift.update(scene);
+  EXPECT_TRUE(drift.gains().neutral());
+  cv::Mat warmer;
+  for (int i = 1; i <= 10; ++i) {
+    const double warm = 1 + 0.02 * i;  // B, G, R
+    cv::multiply(scene, cv::Scalar(2 - warm, 1.0, warm), warmer);
+    drift.update(warmer);
+  }
+  const ChannelGains gains = drift.gains();
+  std::printf("gains after a white balance 20%% warmer: blue %.3f, red %.3f\n", gains.q8[0] / 256.0,
+              gains.q8[2] / 256.0);
+  EXPECT_NEAR(gains.q8[2] / 256.0, 1 / 1.2, 0.05);
+  EXPECT_NEAR(gains.q8[0] / 256.0, 1 / 0.8, 0.07);
+  EXPECT_EQ(gains.q8[1], 256);
+  std::vector<float> learnt, seen_raw, seen_balanced;
+  chroma_histogram(scene, target, learnt);
+  chroma_histogram(warmer, target, seen_raw);
+  chroma_histogram(warmer, target, seen_balanced, gains);
+  const double raw = shared_colors(seen_raw, learnt), balanced = shared_colors(seen_balanced, learnt);
+  std::printf("a target's colours: %.3f as they come, %.3f balanced\n", raw, balanced);
+  EXPECT_GE(balanced, 0.85);
+  EXPECT_LT(raw, 0.7);
+}
+
+// What moves in the view is not taken for the camera's gains: a pan across a
+// photograph of strong colours (4 px a frame for 60 frames, a fixed white
+// balance) leaves the gains within a few percent of neutral; a cut to another
+// picture is not measured; a gray frame has nothing to measure.
+TEST(WhiteBalanceDrift, TakesNeitherAPanNorACutForTheCamerasGains) {
+  const cv::Mat picture = read("fruits.jpg");
+  WhiteBalanceDrift drift;
+  double farthest = 0;
+  for (int i = 0; i < 60; ++i) {
+    drift.update(picture(cv::Rect(4 * i, 20, 240, 180)));
+    const ChannelGains g = drift.gains();
+    farthest = std::max({farthest, std::abs(g.q8[0] / 256.0 - 1), std::abs(g.q8[2] / 256.0 - 1)});
+  }
+  std::printf("a pan: the gains at most %.3f from neutral\n", farthest);
+  EXPECT_LT(farthest, 0.05);
+  const ChannelGains before = drift.gains();
+  drift.update(read("baboon.jpg")(cv::Rect(0, 0, 240, 180)));
+  EXPECT_EQ(drift.gains().q8, before.q8) << "a cut taken for a white balance";
+  WhiteBalanceDrift gray;
+  gray.update(cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 90, 90)));
+  gray.update(cv::Mat(48, 64, CV_8UC1, cv::Scalar(120)));
+  gray.update(cv::Mat(48, 64, CV_8UC3, cv::Scalar(60, 60, 60)));
+  EXPECT_TRUE(gray.gains().neutral());
+}
+
+// Neutral gains leave every reading bit for bit as it was; the strongest
+// (a channel doubled) stay within the histogram's sums.
+TEST(ChannelGains, NeutralOnesLeaveTheReadingsAsTheyWere) {
+  const cv::Mat scene = read("fruits.jpg");
+  const cv::Rect area(100, 100, 200, 150);
+  std::vector<float> plain, neutral;
+  chroma_histogram(scene, area, plain);
+  chroma_histogram(scene, area, neutral, ChannelGains{});
+  EXPECT_EQ(plain, neutral);
+  EXPECT_EQ(colourful_share(scene, area, 0.02), colourful_share(scene, area, 0.02, ChannelGains{}));
+  ChannelGains strongest;
+  strongest.q8 = {512, 512, 128};
+  chroma_histogram(cv::Mat(48, 64, CV_8UC3, cv::Scalar(255, 255, 255)), cv::Rect(0, 0, 64, 48), plain, strongest);
+  EXPECT_NEAR(total(plain), 1.0, 1e-6);
+}
+
 }  // namespace
 }  // namespace saccade
