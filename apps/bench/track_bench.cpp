@@ -795,13 +795,15 @@ saccade::Result<std::vector<Sequence>> load_sequences(const Options& options) {
   for (Sequence& s : sequences) {
     if (Status resampled = resample(s, options.every, options.scale); !resampled.ok())
       return Status::error("--every/--scale: " + resampled.message());
+    // In a camera's order: the white balance, then the gray a monochrome
+    // output keeps, then the compression.
+    if (options.white_balance > 0)
+      if (Status balanced = make_white_balance(s, options.white_balance); !balanced.ok())
+        return Status::error("--white-balance: " + balanced.message());
     if (options.gray) make_gray(s);
     if (options.jpeg > 0)
       if (Status compressed = make_jpeg(s, options.jpeg); !compressed.ok())
         return Status::error("--jpeg: " + compressed.message());
-    if (options.white_balance > 0)
-      if (Status balanced = make_white_balance(s, options.white_balance); !balanced.ok())
-        return Status::error("--white-balance: " + balanced.message());
     truncate(s, options.frames);
   }
   make_names_unique(sequences, [](Sequence& s) -> std::string& { return s.name; });

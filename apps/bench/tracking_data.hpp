@@ -61,8 +61,9 @@ Status make_jpeg(Sequence& sequence, int quality);
 // channel times 1 + amount sin(2 pi i / kWhiteBalancePeriod) and its blue
 // times 1 - that sine's amount, green unchanged (saturated to 0..255), as an
 // automatic white balance warms and cools the whole image when the view or
-// the light changes; the first frame is unchanged, the truth too. The name
-// gains "@wb<amount>". An error names an amount outside 0.01..0.5.
+// the light changes; the first frame is unchanged, the truth too (and a
+// frame of other than three channels: a monochrome camera has no white
+// balance). The name gains "@wb<amount>". An error names an amount outside 0.01..0.5.
 inline constexpr double kWhiteBalancePeriod = 150;
 Status make_white_balance(Sequence& sequence, double amount);
 

@@ -144,7 +144,8 @@ cv::Vec2d chroma(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, cons
   const cv::Rect inner = central_half(frame, center, size);
   if (inner.empty()) return {1.0 / 3, 1.0 / 3};
   const cv::Scalar mean = cv::mean(frame(inner));
-  const double b = mean[0] * gains.q8[0], g = mean[1] * gains.q8[1], r = mean[2] * gains.q8[2];
+  const double b = mean[0] * (gains.q8[0] / 256.0), g = mean[1] * (gains.q8[1] / 256.0),
+               r = mean[2] * (gains.q8[2] / 256.0);
   const double sum = b + g + r + 1e-9;
   return {r / sum, g / sum};
 }

@@ -30,8 +30,9 @@ int divided(int n, int sum) {
                           kReciprocalShift);
 }
 
-// A channel's value times its gain (ChannelGains::q8), rounded.
-int balanced(int value, int q8) { return (value * q8 + 128) >> 8; }
+// A channel's value times its gain (ChannelGains::q8, held to 128..512 so
+// that three balanced channels stay within the reciprocals' 1530), rounded.
+int balanced(int value, int q8) { return (value * std::clamp(q8, 128, 512) + 128) >> 8; }
 
 }  // namespace
 
@@ -84,7 +85,10 @@ void WhiteBalanceDrift::update(const cv::Mat& frame) {
     };
     double red = 0, blue = 0;
     if (!(median_change(last_red_, now_red_, red) && median_change(last_blue_, now_blue_, blue))) red = blue = 0;
-    log_red_ = (1 - kLeak) * log_red_ + red, log_blue_ = (1 - kLeak) * log_blue_ + blue;
+    // (Held within the gains' range: beyond it the sum would only grow unread.)
+    const double most = std::log(2.0);
+    log_red_ = std::clamp((1 - kLeak) * log_red_ + red, -most, most);
+    log_blue_ = std::clamp((1 - kLeak) * log_blue_ + blue, -most, most);
   }
   started_ = true;
   std::swap(last_red_, now_red_);

@@ -28,7 +28,8 @@ inline cv::Rect central_half(const cv::Mat& frame, cv::Point2d center, cv::Size2
          cv::Rect(0, 0, frame.cols, frame.rows);
 }
 
-// Per-channel multipliers (B, G, R, each a multiple of 1/256 from 0.5 to 2)
+// Per-channel multipliers (B, G, R, each a multiple of 1/256 from 0.5 to 2;
+// the readings hold them to that range)
 // that every colour reading below applies to a pixel's channels first: a
 // camera's white balance (or the light's colour) multiplies every pixel's
 // channels by the same gains, which move every chromaticity and so every
@@ -53,9 +54,11 @@ struct ChannelGains {
 // tracking.md); forgotten, a lasting change is undone for tens of frames, as
 // long as the tracker's own colour learning needs to catch up with it.
 // gains() are the multipliers that undo the sum, so a colour read through
-// them is about the colour the same surface had on the first frame. A frame on
-// which too few cells agree (a cut, a flash) is not measured. Allocation-free
-// once its buffers have their size.
+// them is about the colour the same surface had on the first frame. A frame
+// is not measured (a cut, a flash) where under a quarter of the cells can be
+// compared with the last frame's (dark or clipped), or under a third of those
+// changed within 5% of the median, in red or in blue. Allocation-free once its
+// buffers have their size.
 class WhiteBalanceDrift {
  public:
   static constexpr int kCellsX = 32, kCellsY = 24;

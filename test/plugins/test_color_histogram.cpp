@@ -291,7 +291,9 @@ TEST(WhiteBalanceDrift, TakesNeitherAPanNorACutForTheCamerasGains) {
   EXPECT_LT(farthest, 0.05);
   const ChannelGains before = drift.gains();
   drift.update(read("baboon.jpg")(cv::Rect(0, 0, 240, 180)));
-  EXPECT_EQ(drift.gains().q8, before.q8) << "a cut taken for a white balance";
+  for (std::size_t c = 0; c < 3; ++c)  // (an unmeasured frame still forgets 3% of the sum)
+    EXPECT_NEAR(drift.gains().q8[c], before.q8[c], 1 + 0.04 * std::abs(before.q8[c] - 256))
+        << "a cut taken for a white balance";
   WhiteBalanceDrift gray;
   gray.update(cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 90, 90)));
   gray.update(cv::Mat(48, 64, CV_8UC1, cv::Scalar(120)));
@@ -299,20 +301,27 @@ TEST(WhiteBalanceDrift, TakesNeitherAPanNorACutForTheCamerasGains) {
   EXPECT_TRUE(gray.gains().neutral());
 }
 
-// Neutral gains leave every reading bit for bit as it was; the strongest
-// (a channel doubled) stay within the histogram's sums.
-TEST(ChannelGains, NeutralOnesLeaveTheReadingsAsTheyWere) {
-  const cv::Mat scene = read("fruits.jpg");
-  const cv::Rect area(100, 100, 200, 150);
-  std::vector<float> plain, neutral;
-  chroma_histogram(scene, area, plain);
-  chroma_histogram(scene, area, neutral, ChannelGains{});
-  EXPECT_EQ(plain, neutral);
-  EXPECT_EQ(colourful_share(scene, area, 0.02), colourful_share(scene, area, 0.02, ChannelGains{}));
-  ChannelGains strongest;
-  strongest.q8 = {512, 512, 128};
-  chroma_histogram(cv::Mat(48, 64, CV_8UC3, cv::Scalar(255, 255, 255)), cv::Rect(0, 0, 64, 48), plain, strongest);
-  EXPECT_NEAR(total(plain), 1.0, 1e-6);
+// Gains that double all three channels change no chromaticity: read
+// through them, every reading is the plain one bit for bit, up to sums of
+// 1530 (three channels of 255 doubled), the reciprocal table's last entry;
+// gains beyond the range are held to it.
+TEST(ChannelGains, TheStrongestEqualOnesChangeNoReadingAndLargerOnesAreHeld) {
+  cv::Mat frame(256, 256, CV_8UC3);
+  cv::RNG rng(11);
+  rng.fill(frame, cv::RNG::UNIFORM, 20, 256);  // (no pixel the darkness threshold counts doubled and not plain)
+  frame(cv::Rect(0, 0, 256, 16)).setTo(cv::Scalar(255, 255, 255));
+  const cv::Rect all(0, 0, frame.cols, frame.rows);
+  ChannelGains doubled;
+  doubled.q8 = {512, 512, 512};
+  std::vector<float> plain, balanced;
+  chroma_histogram(frame, all, plain);
+  chroma_histogram(frame, all, balanced, doubled);
+  EXPECT_EQ(plain, balanced);
+  EXPECT_EQ(colourful_share(frame, all, 0.02), colourful_share(frame, all, 0.02, doubled));
+  ChannelGains beyond;
+  beyond.q8 = {4096, 4096, 4096};
+  chroma_histogram(frame, all, balanced, beyond);
+  EXPECT_EQ(plain, balanced);
 }
 
 }  // namespace
