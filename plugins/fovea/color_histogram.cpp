@@ -30,9 +30,40 @@ int divided(int n, int sum) {
                           kReciprocalShift);
 }
 
-// A channel's value times its gain (ChannelGains::q8, held to 128..512 so
-// that three balanced channels stay within the reciprocals' 1530), rounded.
-int balanced(int value, int q8) { return (value * std::clamp(q8, 128, 512) + 128) >> 8; }
+// The gains (ChannelGains::q8) held to 128..512, so that three balanced
+// channels stay within the reciprocals' 1530.
+std::array<int, 3> held(const ChannelGains& gains) {
+  return {std::clamp(gains.q8[0], 128, 512), std::clamp(gains.q8[1], 128, 512), std::clamp(gains.q8[2], 128, 512)};
+}
+
+// A channel's value times its held gain, rounded.
+int balanced(int value, int q8) { return (value * q8 + 128) >> 8; }
+
+// Calls visit(cell index, b, g, r) with each cell's channel sums over the
+// four pixels at its quarter points, for a `cells` grid laid over an 8-bit
+// frame of three or four channels: a cell's colour, as the readings of the
+// whole frame take it.
+template <typename Visit>
+void for_each_cell_colour(const cv::Mat& frame, cv::Size cells, Visit visit) {
+  const int channels = frame.channels();
+  const double cell_w = static_cast<double>(frame.cols) / cells.width,
+               cell_h = static_cast<double>(frame.rows) / cells.height;
+  const auto at = [](double v, int size) { return std::clamp(static_cast<int>(v), 0, size - 1); };
+  for (int cy = 0; cy < cells.height; ++cy) {
+    const std::array<const uint8_t*, 2> rows{frame.ptr<uint8_t>(at((cy + 0.25) * cell_h, frame.rows)),
+                                             frame.ptr<uint8_t>(at((cy + 0.75) * cell_h, frame.rows))};
+    for (int cx = 0; cx < cells.width; ++cx) {
+      const std::array<int, 2> xs{at((cx + 0.25) * cell_w, frame.cols), at((cx + 0.75) * cell_w, frame.cols)};
+      int b = 0, g = 0, r = 0;
+      for (const uint8_t* row : rows)
+        for (const int x : xs) {
+          const uint8_t* pixel = row + static_cast<std::ptrdiff_t>(x) * channels;
+          b += pixel[0], g += pixel[1], r += pixel[2];
+        }
+      visit(cy * cells.width + cx, b, g, r);
+    }
+  }
+}
 
 }  // namespace
 
@@ -42,29 +73,13 @@ void WhiteBalanceDrift::update(const cv::Mat& frame) {
   const std::size_t cells = static_cast<std::size_t>(kCellsX * kCellsY);
   now_red_.assign(cells, NAN);
   now_blue_.assign(cells, NAN);
-  const int channels = frame.channels();
-  const double cell_w = static_cast<double>(frame.cols) / kCellsX, cell_h = static_cast<double>(frame.rows) / kCellsY;
-  std::array<int, 2 * kCellsX> columns;  // each cell's two sample columns, as byte offsets into a row
-  for (int k = 0; k < 2 * kCellsX; ++k)
-    columns[static_cast<std::size_t>(k)] = static_cast<int>((k / 2 + (k % 2 ? 0.75 : 0.25)) * cell_w) * channels;
-  for (int cy = 0; cy < kCellsY; ++cy) {
-    const uint8_t* top = frame.ptr<uint8_t>(static_cast<int>((cy + 0.25) * cell_h));
-    const uint8_t* bottom = frame.ptr<uint8_t>(static_cast<int>((cy + 0.75) * cell_h));
-    for (int cx = 0; cx < kCellsX; ++cx) {
-      int b = 0, g = 0, r = 0;
-      for (const uint8_t* row : {top, bottom})
-        for (int k = 2 * cx; k < 2 * cx + 2; ++k) {
-          const uint8_t* pixel = row + columns[static_cast<std::size_t>(k)];
-          b += pixel[0], g += pixel[1], r += pixel[2];
-        }
-      // A dark or clipped cell's ratios are noise or stuck at the clip.
-      if (std::min({b, g, r}) < 4 * 16 || std::max({b, g, r}) > 4 * 250) continue;
-      const std::size_t i = static_cast<std::size_t>(cy * kCellsX + cx);
-      const float green = 1.0f / static_cast<float>(g);
-      now_red_[i] = static_cast<float>(r) * green;
-      now_blue_[i] = static_cast<float>(b) * green;
-    }
-  }
+  for_each_cell_colour(frame, {kCellsX, kCellsY}, [this](int i, int b, int g, int r) {
+    // A dark or clipped cell's ratios are noise or stuck at the clip.
+    if (std::min({b, g, r}) < 4 * 16 || std::max({b, g, r}) > 4 * 250) return;
+    const float green = 1.0f / static_cast<float>(g);
+    now_red_[static_cast<std::size_t>(i)] = static_cast<float>(r) * green;
+    now_blue_[static_cast<std::size_t>(i)] = static_cast<float>(b) * green;
+  });
   if (started_) {
     // The median change per channel (as a factor: the median of the factors
     // is the factor of the median log), over cells measured on both frames;
@@ -108,12 +123,12 @@ void chroma_histogram(const cv::Mat& frame, cv::Rect area, std::vector<float>& s
   if (frame.channels() < 3 || frame.depth() != CV_8U) return;
   const cv::Rect inside = area & cv::Rect(0, 0, frame.cols, frame.rows);
   const int channels = frame.channels();
+  const std::array<int, 3> q8 = held(gains);
   int counted = 0;
   for (int y = inside.y; y < inside.y + inside.height; ++y) {
     const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(inside.x) * channels;
     for (int x = 0; x < inside.width; ++x, pixel += channels) {
-      const int b = balanced(pixel[0], gains.q8[0]), gr = balanced(pixel[1], gains.q8[1]),
-                red = balanced(pixel[2], gains.q8[2]);
+      const int b = balanced(pixel[0], q8[0]), gr = balanced(pixel[1], q8[1]), red = balanced(pixel[2], q8[2]);
       const int sum = b + gr + red;
       if (sum < kDarkestChroma) continue;
       const int r = std::min(kChromaBins - 1, divided(red * kChromaBins, sum));
@@ -130,12 +145,13 @@ double colourful_share(const cv::Mat& frame, cv::Rect area, double tolerance, co
   if (frame.channels() < 3 || frame.depth() != CV_8U) return 0;
   const cv::Rect inside = area & cv::Rect(0, 0, frame.cols, frame.rows);
   const int channels = frame.channels();
+  const std::array<int, 3> q8 = held(gains);
   int counted = 0, colourful = 0;
   for (int y = inside.y; y < inside.y + inside.height; ++y) {
     const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(inside.x) * channels;
     for (int x = 0; x < inside.width; ++x, pixel += channels) {
-      const int gr = balanced(pixel[1], gains.q8[1]), red = balanced(pixel[2], gains.q8[2]);
-      const int sum = balanced(pixel[0], gains.q8[0]) + gr + red;
+      const int gr = balanced(pixel[1], q8[1]), red = balanced(pixel[2], q8[2]);
+      const int sum = balanced(pixel[0], q8[0]) + gr + red;
       if (sum < kDarkestChroma) continue;
       ++counted;
       // |channel / sum - 1/3| > tolerance, in integers: |3 channel - sum| > 3 tolerance sum.
@@ -185,33 +201,20 @@ void color_likelihood(const cv::Mat& frame, cv::Size cells, const std::vector<fl
   out.create(cells, CV_32F);
   fill(out, 0);
   if (frame.channels() < 3 || frame.depth() != CV_8U || cells.area() == 0) return;
-  const int channels = frame.channels();
-  const double cell_w = static_cast<double>(frame.cols) / cells.width,
-               cell_h = static_cast<double>(frame.rows) / cells.height;
-  const auto at = [](double v, int size) { return std::clamp(static_cast<int>(v), 0, size - 1); };
+  const std::array<int, 3> q8 = held(gains);
   bins.assign(static_cast<std::size_t>(cells.area()), -1);
   std::array<int, kChromaBins * kChromaBins> counts{};
   int counted = 0;
-  for (int cy = 0; cy < cells.height; ++cy) {
-    const std::array<int, 2> ys{at((cy + 0.25) * cell_h, frame.rows), at((cy + 0.75) * cell_h, frame.rows)};
-    for (int cx = 0; cx < cells.width; ++cx) {
-      const std::array<int, 2> xs{at((cx + 0.25) * cell_w, frame.cols), at((cx + 0.75) * cell_w, frame.cols)};
-      int b = 0, g = 0, r = 0;
-      for (const int y : ys)
-        for (const int x : xs) {
-          const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(x) * channels;
-          b += pixel[0], g += pixel[1], r += pixel[2];
-        }
-      b = balanced(b, gains.q8[0]), g = balanced(g, gains.q8[1]), r = balanced(r, gains.q8[2]);
-      const int sum = b + g + r;
-      if (sum < 4 * kDarkestChroma) continue;
-      const int bin = std::min(kChromaBins - 1, r * kChromaBins / sum) * kChromaBins +
-                      std::min(kChromaBins - 1, g * kChromaBins / sum);
-      bins[static_cast<std::size_t>(cy * cells.width + cx)] = bin;
-      ++counts[static_cast<std::size_t>(bin)];
-      ++counted;
-    }
-  }
+  for_each_cell_colour(frame, cells, [&](int i, int b, int g, int r) {
+    b = balanced(b, q8[0]), g = balanced(g, q8[1]), r = balanced(r, q8[2]);
+    const int sum = b + g + r;
+    if (sum < 4 * kDarkestChroma) return;
+    const int bin = std::min(kChromaBins - 1, r * kChromaBins / sum) * kChromaBins +
+                    std::min(kChromaBins - 1, g * kChromaBins / sum);
+    bins[static_cast<std::size_t>(i)] = bin;
+    ++counts[static_cast<std::size_t>(bin)];
+    ++counted;
+  });
   if (counted == 0 || target.size() != counts.size()) return;
   for (int i = 0; i < cells.area(); ++i) {
     const int bin = bins[static_cast<std::size_t>(i)];

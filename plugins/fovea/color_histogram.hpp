@@ -29,9 +29,8 @@ inline cv::Rect central_half(const cv::Mat& frame, cv::Point2d center, cv::Size2
 }
 
 // Per-channel multipliers (B, G, R, each a multiple of 1/256 from 0.5 to 2;
-// the readings hold them to that range)
-// that every colour reading below applies to a pixel's channels first: a
-// camera's white balance (or the light's colour) multiplies every pixel's
+// the readings hold them to that range) that every colour reading below
+// applies to a pixel's channels first: a camera's white balance (or the light's colour) multiplies every pixel's
 // channels by the same gains, which move every chromaticity and so every
 // colour the tracker learnt; read through their inverse (WhiteBalanceDrift),
 // the colours are the ones learnt.
@@ -43,7 +42,8 @@ struct ChannelGains {
 // The camera's white balance followed from frame to frame: how far the
 // red and blue gains have moved, relative to green, measured on what did not
 // change between consecutive frames. Each frame is reduced to a grid of
-// cells (four pixels each, as color_likelihood's); per cell, the change of
+// cells (the four pixels at each cell's quarter points, as color_likelihood
+// reads them); per cell, the change of
 // its red-to-green and blue-to-green ratios since the last frame; the median
 // change over the cells is the camera's (a cell whose content moved or
 // changed changes its ratios its own way, a gain change every cell's the
