@@ -1354,7 +1354,13 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   if (m.frames_since_found < std::numeric_limits<int>::max()) ++m.frames_since_found;
   const bool was_tracked = last_.state == TrackState::kTracking;
   if (config_.balance_colors) {
-    m.white_balance.update(frame);
+    // Lost, the target's colours were learnt before it went, however long
+    // ago: the balance holds the whole change since (uncertain frames still
+    // forget: the box sits on the target, and a view drifting across a
+    // scene's colours, as `rotation`'s does, is measured as a drift that
+    // only forgetting bounds; held there too, rotation@wb0.2 fell from 0.950
+    // to 0.331, docs/tracking-log.md).
+    m.white_balance.update(frame, /*forget=*/last_.state != TrackState::kLost);
     m.gains = m.white_balance.gains();
   }
   m.camera_moved(shift);

@@ -67,7 +67,7 @@ void for_each_cell_colour(const cv::Mat& frame, cv::Size cells, Visit visit) {
 
 }  // namespace
 
-void WhiteBalanceDrift::update(const cv::Mat& frame) {
+void WhiteBalanceDrift::update(const cv::Mat& frame, bool forget) {
   if (frame.channels() < 3 || frame.depth() != CV_8U || frame.cols < kCellsX || frame.rows < kCellsY) return;
   if (frame.size() != size_) started_ = false, size_ = frame.size();
   const std::size_t cells = static_cast<std::size_t>(kCellsX * kCellsY);
@@ -102,8 +102,9 @@ void WhiteBalanceDrift::update(const cv::Mat& frame) {
     if (!(median_change(last_red_, now_red_, red) && median_change(last_blue_, now_blue_, blue))) red = blue = 0;
     // (Held within the gains' range: beyond it the sum would only grow unread.)
     const double most = std::log(2.0);
-    log_red_ = std::clamp((1 - kLeak) * log_red_ + red, -most, most);
-    log_blue_ = std::clamp((1 - kLeak) * log_blue_ + blue, -most, most);
+    const double kept = forget ? 1 - kLeak : 1.0;
+    log_red_ = std::clamp(kept * log_red_ + red, -most, most);
+    log_blue_ = std::clamp(kept * log_blue_ + blue, -most, most);
   }
   started_ = true;
   std::swap(last_red_, now_red_);

@@ -52,7 +52,10 @@ struct ChannelGains {
 // for good those biases reached 17% over 300 frames of the tracking
 // benchmark's `rotation` with no white balance change at all (docs/
 // tracking.md); forgotten, a lasting change is undone for tens of frames, as
-// long as the tracker's own colour learning needs to catch up with it.
+// long as the tracker's own colour learning needs to catch up with it. A
+// frame told not to `forget` adds its change and forgets nothing: the box
+// tracker's while its target is lost, when nothing learns and the colours
+// learnt before it went must be read through the whole change since.
 // gains() are the multipliers that undo the sum, so a colour read through
 // them is about the colour the same surface had on the first frame. A frame
 // is not measured (a cut, a flash) where under a quarter of the cells can be
@@ -63,7 +66,7 @@ class WhiteBalanceDrift {
  public:
   static constexpr int kCellsX = 32, kCellsY = 24;
   static constexpr double kLeak = 0.03;
-  void update(const cv::Mat& frame);
+  void update(const cv::Mat& frame, bool forget = true);
   ChannelGains gains() const;
 
  private:

@@ -301,6 +301,24 @@ TEST(WhiteBalanceDrift, TakesNeitherAPanNorACutForTheCamerasGains) {
   EXPECT_TRUE(gray.gains().neutral());
 }
 
+// Told not to forget (the box tracker's frames while its target is lost), the
+// sum keeps a change however long: 20% warmer, then 60 frames of the same
+// view, the gains still undo it; forgetting, they are back within a few
+// percent of neutral.
+TEST(WhiteBalanceDrift, HoldsAChangeWhileToldNotToForget) {
+  const cv::Mat scene = read("baboon.jpg");
+  cv::Mat warmer;
+  cv::multiply(scene, cv::Scalar(0.8, 1.0, 1.2), warmer);
+  WhiteBalanceDrift held, forgetting;
+  for (WhiteBalanceDrift* drift : {&held, &forgetting}) drift->update(scene), drift->update(warmer);
+  for (int i = 0; i < 60; ++i) held.update(warmer, /*forget=*/false), forgetting.update(warmer);
+  std::printf("red gain after 60 frames: %.3f held, %.3f forgetting\n", held.gains().q8[2] / 256.0,
+              forgetting.gains().q8[2] / 256.0);
+  EXPECT_NEAR(held.gains().q8[2] / 256.0, 1 / 1.2, 0.03);
+  EXPECT_NEAR(held.gains().q8[0] / 256.0, 1 / 0.8, 0.05);
+  EXPECT_NEAR(forgetting.gains().q8[2] / 256.0, 1.0, 0.04);
+}
+
 // Gains that double all three channels change no chromaticity: read
 // through them, every reading is the plain one bit for bit, up to sums of
 // 1530 (three channels of 255 doubled), the reciprocal table's last entry;
