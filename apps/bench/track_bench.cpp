@@ -416,9 +416,10 @@ std::string table(const std::vector<std::vector<std::string>>& rows) {
   return out;
 }
 
-const std::vector<std::string> kHeader = {
-    "tracker",     "centre error (px)",           "precision@20", "success AUC", "success@0.5", "frames lost",
-    "honest lost", "max re-acquisition (frames)", "ms/frame"};
+const std::vector<std::string> kHeader = {"tracker",     "centre error (px)",  "precision@20",
+                                          "success AUC", "success@0.5",        "frames lost",
+                                          "honest lost", "claimed off target", "max re-acquisition (frames)",
+                                          "ms/frame"};
 
 std::string reacquisition_cell(const TrackScore& s) {
   if (s.reappearances == 0) return "-";
@@ -430,7 +431,7 @@ std::string reacquisition_cell(const TrackScore& s) {
 }
 
 std::vector<std::string> score_row(const TrackerResult& r) {
-  if (!r.status.ok()) return {r.tracker, "failed: " + r.status.message(), "", "", "", "", "", "", ""};
+  if (!r.status.ok()) return {r.tracker, "failed: " + r.status.message(), "", "", "", "", "", "", "", ""};
   const TrackScore& s = r.score;
   return {r.tracker,
           fixed(s.mean_center_error, 1),
@@ -439,6 +440,7 @@ std::vector<std::string> score_row(const TrackerResult& r) {
           fixed(s.success50, 3),
           std::to_string(s.frames_lost),
           s.honest_lost >= 0 ? fixed(s.honest_lost, 2) : "-",
+          std::to_string(s.claimed_off_target),
           reacquisition_cell(s),
           fixed(s.ms_per_frame, 2)};
 }
@@ -489,7 +491,7 @@ struct Mean {
 };
 
 std::vector<std::string> average_row(const std::string& tracker, const std::vector<SequenceResults>& all) {
-  Mean error, precision, auc, success, lost, honest, reacquire, ms;
+  Mean error, precision, auc, success, lost, honest, off_target, reacquire, ms;
   int misses = 0, reappearances = 0, failed = 0;
   for (const SequenceResults& sequence : all)
     for (const TrackerResult& r : sequence.results) {
@@ -502,6 +504,7 @@ std::vector<std::string> average_row(const std::string& tracker, const std::vect
       error.add(s.mean_center_error), precision.add(s.precision20), auc.add(s.success_auc);
       success.add(s.success50), lost.add(s.frames_lost), ms.add(s.ms_per_frame);
       if (s.honest_lost >= 0) honest.add(s.honest_lost);
+      off_target.add(s.claimed_off_target);
       if (s.max_reacquire_delay >= 0) reacquire.add(s.max_reacquire_delay);
       misses += s.reacquire_misses, reappearances += s.reappearances;
     }
@@ -510,24 +513,24 @@ std::vector<std::string> average_row(const std::string& tracker, const std::vect
     reacquire_cell +=
         (reacquire_cell.empty() ? "never " : ", never ") + std::to_string(misses) + "/" + std::to_string(reappearances);
   const std::string name = failed > 0 ? tracker + " (failed on " + std::to_string(failed) + ")" : tracker;
-  return {name,         error.cell(1),  precision.cell(3), auc.cell(3), success.cell(3),
-          lost.cell(1), honest.cell(2), reacquire_cell,    ms.cell(2)};
+  return {name,         error.cell(1),  precision.cell(3),  auc.cell(3),    success.cell(3),
+          lost.cell(1), honest.cell(2), off_target.cell(1), reacquire_cell, ms.cell(2)};
 }
 
 // With several runs per sequence: per sequence and tracker, the spread of
 // its measures over the runs.
 std::string spread_section(const std::vector<SequenceResults>& all, const std::vector<std::string>& trackers,
                            int runs) {
-  std::vector<std::vector<std::string>> rows{{"sequence", "tracker", "precision@20 mean [min, max]",
-                                              "success AUC mean [min, max]", "success@0.5 mean [min, max]",
-                                              "honest lost (mean)", "max re-acquisition per run"}};
+  std::vector<std::vector<std::string>> rows{
+      {"sequence", "tracker", "precision@20 mean [min, max]", "success AUC mean [min, max]",
+       "success@0.5 mean [min, max]", "honest lost (mean)", "claimed off target (mean)", "max re-acquisition per run"}};
   std::vector<std::string> names;
   for (const SequenceResults& r : all)
     if (std::find(names.begin(), names.end(), r.sequence) == names.end()) names.push_back(r.sequence);
   for (const std::string& name : names)
     for (const std::string& tracker : trackers) {
       std::vector<double> precision, auc, success;
-      Mean honest;
+      Mean honest, off_target;
       std::string reacquisition;
       for (const SequenceResults& sequence : all) {
         if (sequence.sequence != name || !sequence.truth_known) continue;
@@ -536,6 +539,7 @@ std::string spread_section(const std::vector<SequenceResults>& all, const std::v
           precision.push_back(r.score.precision20), auc.push_back(r.score.success_auc);
           success.push_back(r.score.success50);
           if (r.score.honest_lost >= 0) honest.add(r.score.honest_lost);
+          off_target.add(r.score.claimed_off_target);
           reacquisition += (reacquisition.empty() ? "" : " / ") + reacquisition_cell(r.score);
         }
       }
@@ -546,7 +550,8 @@ std::string spread_section(const std::vector<SequenceResults>& all, const std::v
         return fixed(sum / static_cast<double>(v.size()), 3) + " [" + fixed(*std::min_element(v.begin(), v.end()), 3) +
                ", " + fixed(*std::max_element(v.begin(), v.end()), 3) + "]";
       };
-      rows.push_back({name, tracker, spread(precision), spread(auc), spread(success), honest.cell(2), reacquisition});
+      rows.push_back({name, tracker, spread(precision), spread(auc), spread(success), honest.cell(2),
+                      off_target.cell(1), reacquisition});
     }
   return "## Spread over " + std::to_string(runs) +
          " runs per sequence (run 0 from the true first box, the others from it moved by up to 1.5 px)\n\n" +
@@ -695,6 +700,8 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
       "Centre error, precision and success over the frames after the first where the target is visible; "
       "success AUC over IoU thresholds 0, 0.05, ..., 1 (OTB); frames lost: the tracker did not claim "
       "tracking; honest lost: share of the frames without the target where it did not claim tracking; "
+      "claimed off target: frames with the target in view where it claimed tracking with a box that does not "
+      "touch the target (IoU 0, VOT's failure: a false lock; per sequence, the average row's its mean); "
       "max re-acquisition: frames after a reappearance until it claims tracking with IoU >= 0.3; "
       "ms/frame: its update alone (fovea: retina + update), one thread, each tracker in its own pass over the "
       "sequence. A video without truth (--video) has witness measures instead: the share of frames claimed, "
@@ -713,6 +720,7 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
   std::vector<std::vector<std::string>> rows{kHeader};
   for (const std::string& tracker : trackers) rows.push_back(average_row(tracker, all));
   rows.front()[5] = "frames lost (per sequence)";
+  rows.front()[7] = "claimed off target (per sequence)";
   out += "## Average over " + std::to_string(scored) + (runs > 1 ? " runs" : " sequences") + "\n\n" + table(rows);
   return out;
 }

@@ -1242,6 +1242,7 @@ Result<TrackScore> score_track(const std::vector<cv::Rect2d>& truth, const std::
     error_sum += error;
     if (error <= 20) ++precise;
     overlaps.push_back(iou(track[i].box, truth[i]));
+    if (track[i].tracking && overlaps.back() <= 0) ++score.claimed_off_target;
   }
   score.ms_per_frame = frame_times(track).mean;
   if (invisible > 0) score.honest_lost = honest / double(invisible);

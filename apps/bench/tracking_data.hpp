@@ -251,6 +251,10 @@ struct TrackScore {
   double success50 = 0;          // share with IoU > 0.5
   int frames_lost = 0;           // frames after frame 0 where the tracker did not claim tracking
   double honest_lost = -1;       // share of invisible frames where it did not claim tracking; -1 without any
+  // Visible frames after frame 0 where it claimed tracking with a box that
+  // does not touch the target (IoU 0, VOT's failure): a false lock, which
+  // honest_lost does not see, as the target is in view.
+  int claimed_off_target = 0;
   int reappearances = 0;         // invisible -> visible transitions
   int max_reacquire_delay = -1;  // frames from a reappearance until tracking with IoU >= 0.3; -1 without any
   int reacquire_misses = 0;      // reappearances not re-acquired while the target stayed visible

@@ -10,7 +10,7 @@ rm -rf "$out"
 mkdir -p "$out"
 "$bench" --data "$data" --sequences out_of_view --frames 160 --export "$out/sequences"
 # The trackers' rows without the time (the last column).
-rows() { grep '^| fovea\|^| kcf' | awk -F'|' '{ $10 = ""; print }'; }
+rows() { grep '^| fovea\|^| kcf' | awk -F'|' '{ $(NF - 1) = ""; print }'; }
 "$bench" --data "$data" --sequences out_of_view --frames 160 --trackers fovea,kcf | rows > "$out/generated.txt"
 "$bench" --data "$data" --no-generated --otb "$out/sequences/out_of_view" --trackers fovea,kcf | rows > "$out/read.txt"
 rows_read=$(wc -l < "$out/generated.txt")

@@ -834,6 +834,7 @@ TEST(Scoring, HandMadeTrackGivesTheExpectedMeasures) {
   EXPECT_NEAR(s.success_auc, (7 * 3 + 7 * 2 + 6 * 1) / (4.0 * 21), 1e-12);
   EXPECT_EQ(s.frames_lost, 2);
   EXPECT_DOUBLE_EQ(s.honest_lost, 0.0);
+  EXPECT_EQ(s.claimed_off_target, 0);  // frame 5 misses the target but does not claim it; frame 3 is invisible
   EXPECT_EQ(s.reappearances, 1);
   EXPECT_EQ(s.max_reacquire_delay, -1);  // frames 4 and 5 do not claim tracking
   EXPECT_EQ(s.reacquire_misses, 1);
@@ -872,6 +873,24 @@ TEST(Scoring, ReacquisitionDelayAndHonesty) {
   EXPECT_DOUBLE_EQ(s.honest_lost, 3.0 / 4);
   EXPECT_EQ(s.frames_lost, 4);
   EXPECT_EQ(s.scored_frames, 7);
+  EXPECT_EQ(s.claimed_off_target, 1);  // frame 5: claimed, on `far`
+}
+
+TEST(Scoring, AClaimedBoxThatMissesTheTargetInViewIsAFalseLock) {
+  const cv::Rect2d t(10, 10, 20, 20);
+  const std::vector<bool> visible{true, true, true, true, true, false};
+  const std::vector<cv::Rect2d> truth(visible.size(), t);
+  const std::vector<TrackedFrame> track{
+      {t, true, 0},
+      {t + cv::Point2d(19, 0), true, 0},   // overlaps by a column: not off the target
+      {t + cv::Point2d(20, 0), true, 0},   // touches its edge only: IoU 0, claimed
+      {t + cv::Point2d(0, 60), true, 0},   // far off, claimed
+      {t + cv::Point2d(0, 60), false, 0},  // far off, not claimed
+      {t + cv::Point2d(0, 60), true, 0},   // the target out of view: honest_lost's, not this
+  };
+  const TrackScore s = value_of(score_track(truth, visible, track));
+  EXPECT_EQ(s.claimed_off_target, 2);
+  EXPECT_DOUBLE_EQ(s.honest_lost, 0.0);
 }
 
 TEST(Scoring, IouAndCenterError) {
