@@ -350,13 +350,17 @@ TEST(BoxTrackerOnGeneratedSequences, ASmallTargetsSizeIsFollowedByStepsOfAPixel)
 }
 
 // A sequence followed with precision@20 and success@0.5 of at least
-// `floor`, and, where the target is hidden, the floors' honesty and
-// re-acquisition within 15 frames.
+// `floor`, hardly ever claimed with the box off the target in view (a false
+// lock: none in the benchmark on these sequences), and, where the target is
+// hidden, the floors' honesty and re-acquisition within 15 frames.
 void expect_followed(const char* name, const TrackScore& score, double floor) {
-  std::printf("%s: precision@20 %.3f, success@0.5 %.3f, honest lost %.2f, re-acquired within %d frames\n", name,
-              score.precision20, score.success50, score.honest_lost, score.max_reacquire_delay);
+  std::printf(
+      "%s: precision@20 %.3f, success@0.5 %.3f, claimed off the target %d, honest lost %.2f, re-acquired "
+      "within %d frames\n",
+      name, score.precision20, score.success50, score.claimed_off_target, score.honest_lost, score.max_reacquire_delay);
   EXPECT_GE(score.precision20, floor) << name;
   EXPECT_GE(score.success50, floor) << name;
+  EXPECT_LE(score.claimed_off_target, 3) << name;
   if (score.reappearances > 0) {
     EXPECT_GE(score.honest_lost, 0.9) << name;
     EXPECT_EQ(score.reacquire_misses, 0) << name;
