@@ -701,7 +701,7 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
       "success AUC over IoU thresholds 0, 0.05, ..., 1 (OTB); frames lost: the tracker did not claim "
       "tracking; honest lost: share of the frames without the target where it did not claim tracking; "
       "claimed off target: frames with the target in view where it claimed tracking with a box that does not "
-      "touch the target (IoU 0, VOT's failure: a false lock; per sequence, the average row's its mean); "
+      "touch the target (IoU 0, VOT's failure: a false lock; per sequence, and in the average row its mean); "
       "max re-acquisition: frames after a reappearance until it claims tracking with IoU >= 0.3; "
       "ms/frame: its update alone (fovea: retina + update), one thread, each tracker in its own pass over the "
       "sequence. A video without truth (--video) has witness measures instead: the share of frames claimed, "
