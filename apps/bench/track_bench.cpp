@@ -719,8 +719,9 @@ std::string report(const std::vector<SequenceResults>& all, const std::vector<st
   if (scored == 0) return out;
   std::vector<std::vector<std::string>> rows{kHeader};
   for (const std::string& tracker : trackers) rows.push_back(average_row(tracker, all));
-  rows.front()[5] = "frames lost (per sequence)";
-  rows.front()[7] = "claimed off target (per sequence)";
+  // The counts are per sequence there: their average says so.
+  for (std::string& heading : rows.front())
+    if (heading == "frames lost" || heading == "claimed off target") heading += " (per sequence)";
   out += "## Average over " + std::to_string(scored) + (runs > 1 ? " runs" : " sequences") + "\n\n" + table(rows);
   return out;
 }
