@@ -714,7 +714,25 @@ struct BoxTracker::Impl {
       const Peak other = look_at(frame, turned);
       if (other.value > peak.value * 1.01) peak = other, at = turned;
     }
+    follow_turn(at.angle - straight.angle);
     return peak;
+  }
+  // A target found turned the same way as the last time, at most
+  // turn_search_every turn searches before, is most likely still turning: the next
+  // frame searches again, and so on while it turns, so the angle keeps up
+  // with a turn of up to angle_step a frame, not angle_step every
+  // turn_search_every frames. Not after every turn found: a target that
+  // does not turn also wins a turned look now and then, by as much, and
+  // searched again after each win its angle wandered off (docs/tracking.md,
+  // Turning).
+  void follow_turn(double turned) {
+    if (searches_since_turn_found < std::numeric_limits<int>::max()) ++searches_since_turn_found;
+    if (turned == 0) return;
+    const int way = turned > 0 ? 1 : -1;
+    if (config.follow_turns && way == last_turn_way && searches_since_turn_found <= config.turn_search_every)
+      frames_since_turn_search = config.turn_search_every;
+    last_turn_way = way;
+    searches_since_turn_found = 0;
   }
 
   BoxTrackerConfig config;
@@ -737,6 +755,8 @@ struct BoxTracker::Impl {
     return std::abs(std::remainder(angle, 2 * CV_PI)) * 180 / CV_PI >= config.scale_turn_min - 1e-9 ? angle : 0.0;
   }
   int frames_since_turn_search = 0;
+  int last_turn_way = 0;  // the last turn found: 1 or -1 (none yet: 0)
+  int searches_since_turn_found = std::numeric_limits<int>::max();
   double psr_mean = 0;  // over the frames the model learnt from
   int tracked_frames = 0;
   int search_tick = 0;
