@@ -339,7 +339,7 @@ TEST(BoxTrackerOnGeneratedSequences, ATurningTargetsSizeIsMeasuredTurnedWithIt) 
 // angle fell behind, the scale filter read the butterfly at that angle, its
 // answer became the window's shape across scales, and the box kept its size
 // while the butterfly shrank to 0.74 of it and was left for the background. A turn
-// found is now searched for again on the next frame.
+// found the same way as the last one is now searched for again on the next frame.
 TEST(BoxTrackerOnGeneratedSequences, AFastTurningTargetsAngleKeepsUpWithIt) {
   const Sequence turning = fresh(3, "fresh3_rotation");
   BoxTrackerConfig every_fourth_frame;
