@@ -210,12 +210,13 @@ class ScaleFilter {
     numerator_re_.resize(half);
     numerator_im_.resize(half);
     sample_.resize(static_cast<std::size_t>(side * side));
+    values_.resize(n);
   }
 
   // The best scale factor for a target of `size` around `centre`, turned by
   // `angle` (radians) in the frame (1: unchanged).
   double estimate(const cv::Mat& frame, cv::Point2d center, cv::Size2d size, double angle, double lambda) {
-    if (denominator_.empty()) return 1.0;  // nothing learnt yet
+    if (denominator_.empty()) return flatness_ = 1, 1.0;  // nothing learnt yet
     spectra(frame, center, size, angle);
     // Response = IDFT over scales of sum_d A_d(k) Z_d(k) / (B(k) + lambda).
     std::vector<std::complex<float>>& r = response_;
@@ -240,10 +241,19 @@ class ScaleFilter {
       for (int k = 0; k < count_; ++k)
         value +=
             (r[static_cast<std::size_t>(k)] * std::conj(twiddle_[static_cast<std::size_t>(s * count_ + k)])).real();
+      values_[static_cast<std::size_t>(s)] = value;
       if (value > best_value) best_value = value, best = s;
     }
+    const auto below = static_cast<std::size_t>(std::max(best - 2, 0));
+    const auto above = static_cast<std::size_t>(std::min(best + 2, count_ - 1));
+    flatness_ = best_value > 0 ? (values_[below] + values_[above]) / (2 * best_value) : 1.0;
     return factors_[static_cast<std::size_t>(best)];
   }
+  // The last estimate()'s response two scales either side of its top, as a
+  // share of the top: near 1, no scale fits the target better than the
+  // others (the filter learnt it at another size, or it has turned); where
+  // the size is followed, 9 frames in 10 are under 0.67 (docs/tracking-log.md).
+  double flatness() const { return flatness_; }
 
   // Learns from the samples estimate() took when `fresh` is false (the
   // scale did not change, so they are this frame's samples at this size).
@@ -338,6 +348,8 @@ class ScaleFilter {
   int count_, side_, dims_;
   std::vector<double> factors_;
   std::vector<float> window_, sample_, samples_;
+  std::vector<float> values_;       // the last estimate()'s response per scale
+  double flatness_ = 1;             // flatness() of that response
   std::vector<float> denominator_;  // per frequency up to count / 2; empty until the first learn()
   // Per frequency up to count / 2 (row), per dimension: the samples' spectra and the model's numerator.
   std::vector<float> spectra_re_, spectra_im_, numerator_re_, numerator_im_;
@@ -782,6 +794,35 @@ struct BoxTracker::Impl {
     size *= scale;
     step *= scale;
     return scale;
+  }
+  // Just found again elsewhere, the target is seen at the size of the look
+  // that found it, the nearest of a few (resize_found), and the scale filter,
+  // which learnt it at the size it had before it went, may fit none of its
+  // scales to it: its response is flat and it answers its middle scale, and
+  // the box then keeps the look's size (`fresh6_mixed`: found again at 0.76
+  // of the target's size and held at 0.65-0.75 of it while tracked). On
+  // such a tracked frame, for look_size_frames after the re-detection, the
+  // position's filter, which learns faster, looks at look_size_step times
+  // the size and 1 / that, and a peak 1% higher (reaching tracking_psr) gives
+  // the target that size and place. Only then: on every flat frame, it
+  // claimed more frames off the target (docs/tracking-log.md). Returns whether
+  // the size changed. (It overwrites patch_spectra: after learning.)
+  bool look_for_size(const cv::Mat& frame, double scale, const Peak& peak) {
+    if (frames_since_found >= config.look_size_frames || scale != 1.0) return false;
+    if (scale_filter.flatness() < config.flat_scale) return false;
+    Placement best{center, step, angle};
+    double bar = peak.value * 1.01;
+    for (const double factor : {config.look_size_step, 1 / config.look_size_step}) {
+      const Placement p{center, step * factor, angle};
+      const Peak other = look_at(frame, p);
+      if (other.psr < config.tracking_psr || other.value <= bar) continue;
+      best = {p.to_frame(other.offset), p.step, angle}, bar = other.value;
+    }
+    if (best.step == step) return false;
+    place_at(best.center, best.step);
+    sure_center = center;
+    sure_step = step;
+    return true;
   }
   // Could the target have grown or shrunk to be seen at patch step `at_step`
   // since it was last tracked?
@@ -1470,7 +1511,8 @@ void BoxTracker::follow(const cv::Mat& frame, cv::Point2d predicted) {
   // rotation success@0.5 1.000 -> 0.916, docs/tracking.md.)
   m.learn(m.patch_spectra, config_.learning_rate, peak.offset);
   m.learn_appearance(frame, config_.learning_rate);
-  m.scale_filter.learn(frame, m.center, m.size, m.scale_angle(), config_.learning_rate, scale != 1.0);
+  const bool resized = m.look_for_size(frame, scale, peak);
+  m.scale_filter.learn(frame, m.center, m.size, m.scale_angle(), config_.learning_rate, scale != 1.0 || resized);
 }
 
 void BoxTracker::look_elsewhere(const cv::Mat& frame, double sits_psr) {

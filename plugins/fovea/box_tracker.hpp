@@ -95,6 +95,14 @@ struct BoxTrackerConfig {
                                     // tracker sat (its own frame counted), unsure frames measure the target's
                                     // size too (a re-detection's size is the search's nearest, and a box of the
                                     // wrong size is doubted for its colour; 0 and 1: tracked frames only)
+  int look_size_frames = 30;        // for this many frames from a re-detection elsewhere than where the tracker
+                                    // sat, a tracked frame on which the scale filter finds no size better than
+                                    // the others looks with the position's filter at other sizes, and a peak
+                                    // higher there (reaching tracking_psr) gives the target that size (0: never;
+                                    // docs/tracking.md)
+  double flat_scale = 0.75;         // ... "no size better": the scale filter answers its middle scale and its
+                                    // response two scales either side is this share of its top or more
+  double look_size_step = 1.1;      // ... "other sizes": this many times the target's and 1 / that
   double reentry_speed = 0.05;      // a target whose centre left the frame comes back across that border: a
                                     // re-detection must lie within its size of it, plus how far the camera
                                     // turned back since, plus this many times its size per frame since (0: not

@@ -136,6 +136,19 @@ void bind_box_limit_params(ParamBinder<ControllerConfig>& b) {
              "frame counted), frames too unsure to learn from still measure the target's size (the "
              "re-detection's is the search's nearest; 0 and 1: tracked frames only; docs/tracking.md)",
              &C::box, &B::rescale_frames)
+      .field("box_look_size_frames", {0, 100000},
+             "box tracking: for this many frames from a re-detection elsewhere than where the tracker sat, a "
+             "tracked frame on which the scale filter finds no size better than the others (box_flat_scale) looks "
+             "with the position's filter at box_look_size_step times the target's size and 1 / that, and a peak "
+             "higher there gives the target that size (0: never; docs/tracking.md)",
+             &C::box, &B::look_size_frames)
+      .field("box_flat_scale", {0, 1},
+             "box tracking: the scale filter's answer counts as flat when it is its middle scale and its response "
+             "two scales either side is this share of its top or more (box_look_size_frames)",
+             &C::box, &B::flat_scale)
+      .field("box_look_size_step", {1, 4},
+             "box tracking: the sizes box_look_size_frames looks at, times and divided by the target's", &C::box,
+             &B::look_size_step)
       .field("box_reentry_speed", {0, 100},
              "box tracking: a target whose centre left the frame comes back across that border: a re-detection "
              "must lie within the target's size of it, plus how far the camera turned back since, plus this many "

@@ -591,6 +591,22 @@ TEST(FoveaParams, AnUnsureTargetTakesASizeThatPeaksAQuarterHigherByDefaultAndChe
   expect_default_off_and_refused("box_resize_ratio", &BoxTrackerConfig::resize_ratio, 1.25, "-1");
 }
 
+// For 30 frames from a re-detection, a tracked frame whose scale filter
+// finds no size better than the others looks at 1.1 times the target's size
+// and 1 / 1.1 (box_look_size_frames); 0 never; a negative count, a flatness
+// over 1 and a step under 1 are refused by name.
+TEST(FoveaParams, AFlatScaleAfterAReDetectionLooksAtOtherSizesFor30FramesByDefaultAndChecked) {
+  expect_default_off_and_refused("box_look_size_frames", &BoxTrackerConfig::look_size_frames, 30, "-1");
+  const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
+  ASSERT_TRUE(defaults.ok()) << defaults.error();
+  EXPECT_DOUBLE_EQ(defaults->box.flat_scale, 0.75);
+  EXPECT_DOUBLE_EQ(defaults->box.look_size_step, 1.1);
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_flat_scale", "1.5"}}).error(),
+              ::testing::HasSubstr("box_flat_scale"));
+  EXPECT_THAT(configure(&bind_fovea_params, {{"box_look_size_step", "0.5"}}).error(),
+              ::testing::HasSubstr("box_look_size_step"));
+}
+
 TEST(FoveaParams, ColourProposalsAndTheTurnedScaleFilterAreOnByDefaultAndChecked) {
   const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
   ASSERT_TRUE(defaults.ok()) << defaults.error();
