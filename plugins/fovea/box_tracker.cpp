@@ -787,6 +787,8 @@ struct BoxTracker::Impl {
   double sure_step = 1;      // the patch's step then
   // Frames since the last re-detection (none yet: the most an int holds).
   int frames_since_found = std::numeric_limits<int>::max();
+  // Frames since look_for_size last gave the target a size (none yet: the most an int holds).
+  int frames_since_looked = std::numeric_limits<int>::max();
   // The scale filter's factor for the target where it is now, at the angle
   // the filter sees it at, applied to its size and the patch's step.
   double measure_size(const cv::Mat& frame) {
@@ -801,14 +803,18 @@ struct BoxTracker::Impl {
   // scales to it: its response is flat and it answers its middle scale, and
   // the box then keeps the look's size (`fresh6_mixed`: found again at 0.76
   // of the target's size and held at 0.65-0.75 of it while tracked). On
-  // such a tracked frame, for look_size_frames after the re-detection, the
-  // position's filter, which learns faster, looks at look_size_step times
-  // the size and 1 / that, and a peak 1% higher (reaching tracking_psr) gives
-  // the target that size and place. Only then: on every flat frame, it
-  // claimed more frames off the target (docs/tracking-log.md). Returns whether
-  // the size changed. (It overwrites patch_spectra: after learning.)
+  // such a tracked frame, for look_size_frames after the re-detection and
+  // after each size this gives (a target that came back growing may go on
+  // growing faster than the scale filter, learnt at the old size, follows:
+  // `mixed_640`), the position's filter, which learns faster, looks at
+  // look_size_step times the size and 1 / that, and a peak 1% higher
+  // (reaching tracking_psr) gives the target that size and place. Only then:
+  // on every flat frame, it claimed more frames off the target
+  // (docs/tracking-log.md). Returns whether the size changed. (It overwrites
+  // patch_spectra: after learning.)
   bool look_for_size(const cv::Mat& frame, double scale, const Peak& peak) {
-    if (frames_since_found >= config.look_size_frames || scale != 1.0) return false;
+    const bool recent = frames_since_found < config.look_size_frames || frames_since_looked < config.look_size_frames;
+    if (!recent || scale != 1.0) return false;
     if (scale_filter.flatness() < config.flat_scale) return false;
     Placement best{center, step, angle};
     double bar = peak.value * 1.01;
@@ -822,6 +828,7 @@ struct BoxTracker::Impl {
     place_at(best.center, best.step);
     sure_center = center;
     sure_step = step;
+    frames_since_looked = 0;
     return true;
   }
   // Could the target have grown or shrunk to be seen at patch step `at_step`
@@ -1413,6 +1420,7 @@ TrackEstimate BoxTracker::update(const cv::Mat& frame) {
   camera_shift_ = {};
   ++m.untracked_frames;  // follow() zeroes it on a tracked frame
   if (m.frames_since_found < std::numeric_limits<int>::max()) ++m.frames_since_found;
+  if (m.frames_since_looked < std::numeric_limits<int>::max()) ++m.frames_since_looked;
   const bool was_tracked = last_.state == TrackState::kTracking;
   if (config_.balance_colors) {
     // Lost, the target's colours were learnt before it went, however long

@@ -96,10 +96,10 @@ struct BoxTrackerConfig {
                                     // size too (a re-detection's size is the search's nearest, and a box of the
                                     // wrong size is doubted for its colour; 0 and 1: tracked frames only)
   int look_size_frames = 30;        // for this many frames from a re-detection elsewhere than where the tracker
-                                    // sat, a tracked frame on which the scale filter finds no size better than
-                                    // the others looks with the position's filter at other sizes, and a peak
-                                    // higher there (reaching tracking_psr) gives the target that size (0: never;
-                                    // docs/tracking.md)
+                                    // sat, and from each size this gives, a tracked frame on which the scale
+                                    // filter finds no size better than the others looks with the position's
+                                    // filter at other sizes, and a peak higher there (reaching tracking_psr)
+                                    // gives the target that size (0: never; docs/tracking.md)
   double flat_scale = 0.75;         // ... "no size better": the scale filter answers its middle scale and its
                                     // response two scales either side is this share of its top or more
   double look_size_step = 1.1;      // ... "other sizes": this many times the target's and 1 / that

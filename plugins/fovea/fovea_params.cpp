@@ -137,7 +137,8 @@ void bind_box_limit_params(ParamBinder<ControllerConfig>& b) {
              "re-detection's is the search's nearest; 0 and 1: tracked frames only; docs/tracking.md)",
              &C::box, &B::rescale_frames)
       .field("box_look_size_frames", {0, 100000},
-             "box tracking: for this many frames from a re-detection elsewhere than where the tracker sat, a "
+             "box tracking: for this many frames from a re-detection elsewhere than where the tracker sat, and "
+             "from each size this gives, a "
              "tracked frame on which the scale filter finds no size better than the others (box_flat_scale) looks "
              "with the position's filter at box_look_size_step times the target's size and 1 / that, and a peak "
              "higher there gives the target that size (0: never; docs/tracking.md)",

@@ -393,8 +393,8 @@ TEST(BoxTrackerOnGeneratedSequences, AFastTurningTargetsAngleKeepsUpWithIt) {
 // lost for frames 27-46, where its colour had stood at the tolerance's edge:
 // 0.950 with either step; the face shows the steps' worth, 0.969 against
 // 0.686.) Since the size is looked for after a re-detection (box_look_size_frames,
-// 2026-12-03), that look also finds the face's size with steps of 2%
-// (0.969): the steps are weighed with it off.
+// 2026-12-03), that look also found the face's size with steps of 2% (0.969
+// in its first form): the steps are weighed with it off.
 TEST(BoxTrackerOnGeneratedSequences, ASmallTargetsSizeIsFollowedByStepsOfAPixel) {
   BoxTrackerConfig unlooked;
   unlooked.look_size_frames = 0;
