@@ -138,10 +138,9 @@ void bind_box_limit_params(ParamBinder<ControllerConfig>& b) {
              &C::box, &B::rescale_frames)
       .field("box_look_size_frames", {0, 100000},
              "box tracking: for this many frames from a re-detection elsewhere than where the tracker sat, and "
-             "from each size this gives, a "
-             "tracked frame on which the scale filter finds no size better than the others (box_flat_scale) looks "
-             "with the position's filter at box_look_size_step times the target's size and 1 / that, and a peak "
-             "higher there gives the target that size (0: never; docs/tracking.md)",
+             "from each size this gives, a tracked frame on which the scale filter finds no size better than the "
+             "others (box_flat_scale) looks with the position's filter at box_look_size_step times the target's "
+             "size and 1 / that, and a peak higher there gives the target that size (0: never; docs/tracking.md)",
              &C::box, &B::look_size_frames)
       .field("box_flat_scale", {0, 1},
              "box tracking: the scale filter's answer counts as flat when it is its middle scale and its response "
