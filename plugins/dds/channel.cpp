@@ -179,6 +179,10 @@ const ChannelEncoding* channel_encoding(std::string_view type, bool ros2) {
   return nullptr;
 }
 
+const ChannelEncoding* written_encoding(std::string_view type) {
+  return channel_encoding(type, type == Image::kTypeName);
+}
+
 std::vector<std::string_view> channel_types() {
   std::vector<std::string_view> out;
   for (const auto& e : idl_encodings()) out.push_back(e.type);

@@ -1,10 +1,13 @@
 #pragma once
 // One message type as a log channel or a live view carries it (MCAP files,
 // the Foxglove WebSocket protocol): its schema (name, encoding, text) and its
-// messages as CDR bytes. Images and joint states travel as ROS 2's
-// sensor_msgs (so Foxglove, rosbag2 and PlotJuggler show them as they are);
-// every other type as saccade's own IDL type (idl/saccade.idl, the schema
-// text itself), the same bytes a DDS edge sends.
+// messages as CDR bytes. Images are written as ROS 2's sensor_msgs/Image (so
+// Foxglove, rosbag2 and PlotJuggler show them as they are; it keeps every
+// field saccade's Image has); every other type, joint states included, as
+// saccade's own IDL type (idl/saccade.idl, the schema text itself), the same
+// bytes a DDS edge sends. ROS 2's sensor_msgs/JointState is read too (older
+// recordings, rosbag2), but not written: it has no health, feedback times,
+// error codes or cycle, and a replayed head needs them to hold where it held.
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -28,7 +31,12 @@ struct ChannelEncoding {
 // The encoding of `type`: ROS 2's for Image and JointState when `ros2` (a
 // joint state's joints are then named joint_0, joint_1, ...), else
 // saccade's IDL type. nullptr for a type with no wire form.
-const ChannelEncoding* channel_encoding(std::string_view type, bool ros2 = true);
+const ChannelEncoding* channel_encoding(std::string_view type, bool ros2);
+
+// The encoding saccade writes `type` in (logs, the live view): ROS 2's for
+// Image, saccade's IDL type for every other type. nullptr for a type with no
+// wire form.
+const ChannelEncoding* written_encoding(std::string_view type);
 
 // The types that have an encoding.
 std::vector<std::string_view> channel_types();

@@ -47,7 +47,7 @@ Status MessageFile::write(Topic* topic, const Message& message) {
   for (auto& t : topic->channels)
     if (t.type == type) typed = &t;
   if (typed == nullptr) {
-    const dds::ChannelEncoding* e = dds::channel_encoding(type);
+    const dds::ChannelEncoding* e = dds::written_encoding(type);
     if (e == nullptr)
       return Status::error("topic " + topic->name + ": " + std::string(type) + " has no channel encoding");
     uint16_t schema = 0;

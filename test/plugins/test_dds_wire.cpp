@@ -973,11 +973,12 @@ TEST(Channel, EveryDescribedFieldOfEveryTypeSurvivesItsChannel) {
   expect_channel_round_trip<Classification>();
   expect_channel_round_trip<CanFrames>();
   EXPECT_EQ(dds::channel_types().size(), described_message_types().size());
-  EXPECT_EQ(dds::channel_encoding("NoSuchType"), nullptr);
+  EXPECT_EQ(dds::channel_encoding("NoSuchType", true), nullptr);
+  EXPECT_EQ(dds::written_encoding("NoSuchType"), nullptr);
 }
 
 TEST(Channel, ImagesAndJointStatesTravelAsRos2Messages) {
-  const dds::ChannelEncoding* e = dds::channel_encoding("Image");
+  const dds::ChannelEncoding* e = dds::channel_encoding("Image", true);
   ASSERT_NE(e, nullptr);
   EXPECT_EQ(e->schema_name, "sensor_msgs/msg/Image");
   EXPECT_EQ(e->schema_encoding, "ros2msg");
@@ -1002,7 +1003,7 @@ TEST(Channel, ImagesAndJointStatesTravelAsRos2Messages) {
   EXPECT_EQ(out->timestamp_ns, in.timestamp_ns);
   EXPECT_EQ(dds::make_encoder(*e)->encode(Region{}, bytes).message(), "a Region on a channel of Image");
 
-  const dds::ChannelEncoding* j = dds::channel_encoding("JointState");
+  const dds::ChannelEncoding* j = dds::channel_encoding("JointState", true);
   EXPECT_EQ(j->schema_name, "sensor_msgs/msg/JointState");
   JointState state;
   state.position = {0.1, -0.2, 0.3, 0.0, 0.5};
@@ -1069,6 +1070,38 @@ TEST(DdsRos2, AnImageWithoutColumnsOrRowsIsAnEmptyImage) {
   wire.step(4);
   EXPECT_TRUE(is_ok(dds::from_ros2(wire, out)));
   EXPECT_TRUE(out.mat.empty());
+}
+
+// What logs and the live view write: images as ROS 2's (they lose nothing),
+// joint states as saccade's own type, whose health, feedback times, error
+// codes and cycle sensor_msgs/JointState has no field for.
+TEST(Channel, JointStatesAreWrittenWithEveryField) {
+  EXPECT_EQ(dds::written_encoding("Image")->schema_name, "sensor_msgs/msg/Image");
+  const dds::ChannelEncoding* j = dds::written_encoding("JointState");
+  ASSERT_NE(j, nullptr);
+  EXPECT_EQ(j->schema_encoding, "omgidl");
+  JointState state;
+  state.timestamp_ns = 4000000;
+  state.position = {0.1, -0.2, 0.3, 0.0, 0.5};
+  state.velocity = {1, 2, 3, 4, 5};
+  state.health = {JointState::Health::kSilent, JointState::Health::kReady, JointState::Health::kFault,
+                  JointState::Health::kStarting, JointState::Health::kReady};
+  state.updated_ns = {-46000000, 4000000, 4000000, 0, 4000000};
+  state.error_code = {0, 0, 0x8611, 0, 0};
+  state.cycle = 7;
+  state.detail = "neck (node 1): no position for 50 ms";
+  std::vector<uint8_t> bytes;
+  ASSERT_TRUE(is_ok(dds::make_encoder(*j)->encode(state, bytes)));
+  const Result<MessagePtr> decoded = dds::make_decoder(*j)->decode(bytes.data(), bytes.size());
+  ASSERT_TRUE(is_ok(decoded.status()));
+  auto back = std::dynamic_pointer_cast<const JointState>(*decoded);
+  ASSERT_NE(back, nullptr);
+  EXPECT_EQ(back->position, state.position);
+  EXPECT_EQ(back->health, state.health);
+  EXPECT_EQ(back->updated_ns, state.updated_ns);
+  EXPECT_EQ(back->error_code, state.error_code);
+  EXPECT_EQ(back->cycle, state.cycle);
+  EXPECT_EQ(back->detail, state.detail);
 }
 
 }  // namespace

@@ -124,17 +124,12 @@ void expect_same_pixels(const Message& a, const Message& b, const std::string& w
 }
 
 // What saccade keeps of a message through its channel: every described field
-// for IDL types; for ROS 2's Image and JointState what those messages have.
+// for IDL types (joint states included); for ROS 2's Image what it has.
 void expect_same_message(const Message& in, const Message& out) {
   ASSERT_EQ(in.type_name(), out.type_name());
   EXPECT_EQ(in.timestamp_ns, out.timestamp_ns) << in.type_name();
   EXPECT_EQ(in.frame_id, out.frame_id) << in.type_name();
   expect_same_pixels(in, out, std::string(in.type_name()));
-  if (auto* j = dynamic_cast<const JointState*>(&in)) {
-    EXPECT_EQ(j->position, dynamic_cast<const JointState&>(out).position);
-    EXPECT_EQ(j->velocity, dynamic_cast<const JointState&>(out).velocity);
-    return;
-  }
   if (auto* i = dynamic_cast<const Image*>(&in)) {
     EXPECT_EQ(i->camera_id, dynamic_cast<const Image&>(out).camera_id);
     return;
@@ -524,6 +519,42 @@ TEST(McapErrors, ATypeRecordedWithOtherFieldsIsRefusedNamingWhereTheyDiffer) {
   }
 }
 
+// Joint states written as ROS 2's sensor_msgs/JointState (by rosbag2, or by
+// saccade before it wrote its own type) still play: positions and velocities,
+// every joint taken as ready, its feedback as of the message.
+TEST(McapRead, Ros2JointStatesStillPlayWithWhatTheyHave) {
+  const std::string path = out_path("ros2_joint_states.mcap");
+  const dds::ChannelEncoding* ros2 = dds::channel_encoding("JointState", true);
+  ASSERT_NE(ros2, nullptr);
+  ASSERT_EQ(ros2->schema_name, "sensor_msgs/msg/JointState");
+  JointState state;
+  state.timestamp_ns = 2'500'000'000;
+  state.position = {0.1, -0.2, 0.3, 0.0, 0.5};
+  state.velocity = {1, 2, 3, 4, 5};
+  state.health.assign(5, JointState::Health::kSilent);
+  {
+    mcap::Writer w;
+    ASSERT_EQ(w.open(path).message(), "");
+    const uint16_t s = w.add_schema(ros2->schema_name, ros2->schema_encoding, ros2->schema.data(), ros2->schema.size());
+    const uint16_t c = w.add_channel(s, "/driver/state", "cdr");
+    std::vector<uint8_t> bytes;
+    ASSERT_EQ(dds::make_encoder(*ros2)->encode(state, bytes).message(), "");
+    const auto t = static_cast<uint64_t>(state.timestamp_ns);
+    ASSERT_EQ(w.write(c, 3, t, t, bytes.data(), bytes.size()).message(), "");
+    ASSERT_EQ(w.close().message(), "");
+  }
+  mcap::TopicReader reader;
+  ASSERT_EQ(reader.open(path, "/driver/state", false).message(), "");
+  const ReadBack back = read_back(reader);
+  ASSERT_EQ(back.messages.size(), 1u);
+  const auto& j = dynamic_cast<const JointState&>(*back.messages[0]);
+  EXPECT_EQ(j.position, state.position);
+  EXPECT_EQ(j.velocity, state.velocity);
+  EXPECT_EQ(j.timestamp_ns, state.timestamp_ns);
+  EXPECT_EQ(j.health, std::vector<JointState::Health>(5, JointState::Health::kReady)) << "sensor_msgs has no health";
+  EXPECT_EQ(j.updated_ns, std::vector<int64_t>(5, state.timestamp_ns));
+}
+
 // ---------------------------------------------------------------- nodes and graphs
 
 TEST(McapNodes, RecordNodesShareAFileAndReplayPlaysItBackInOrder) {
@@ -855,6 +886,37 @@ std::vector<std::shared_ptr<const JointTargets>> replay_head(const std::string& 
   EXPECT_TRUE(executor.run().ok());
   EXPECT_EQ(recorder->finish().message(), "");
   return read_targets(path);
+}
+
+// A drive going silent, as the driver reported it, holds the replayed head
+// at the same cycle: the recording keeps the joints' health (a recording in
+// sensor_msgs/JointState, which has none, replayed as if every drive ran).
+TEST(McapHeadLoop, ARecordedSilentDriveHoldsTheReplayedHeadAtTheSameCycle) {
+  const std::string path = out_path("silent_drive.mcap");
+  {
+    mcap::MessageFile file;
+    ASSERT_EQ(file.open(path, {}).message(), "");
+    mcap::MessageFile::Topic* topic = file.topic("/driver/state");
+    for (int k = 0; k < 20; ++k) {
+      JointState state;
+      state.timestamp_ns = k * 4'000'000;
+      state.frame_id = k;
+      state.position.assign(5, 0.0);
+      state.velocity.assign(5, 0.0);
+      state.health.assign(5, JointState::Health::kReady);
+      state.updated_ns.assign(5, state.timestamp_ns);
+      state.error_code.assign(5, 0);
+      if (k >= 12) state.health[0] = JointState::Health::kSilent;
+      ASSERT_EQ(file.write(topic, state).message(), "");
+    }
+    ASSERT_EQ(file.close().message(), "");
+  }
+  const auto targets = replay_head(path, false, "silent_drive_targets.mcap");
+  ASSERT_EQ(targets.size(), 20u);
+  for (std::size_t k = 0; k < targets.size(); ++k) {
+    EXPECT_EQ(targets[k]->hold, k >= 12) << k;
+    EXPECT_EQ(targets[k]->fault, k >= 12 ? "neck: drive silent" : "") << k;
+  }
 }
 
 TEST(McapHeadLoop, ALiveHeadLoopRecordingReplaysWithTheSameJointTargets) {
