@@ -1,13 +1,12 @@
 #pragma once
 // One message type as a log channel or a live view carries it (MCAP files,
 // the Foxglove WebSocket protocol): its schema (name, encoding, text) and its
-// messages as CDR bytes. Images are written as ROS 2's sensor_msgs/Image (so
-// Foxglove, rosbag2 and PlotJuggler show them as they are; it keeps every
-// field saccade's Image has); every other type, joint states included, as
-// saccade's own IDL type (idl/saccade.idl, the schema text itself), the same
-// bytes a DDS edge sends. ROS 2's sensor_msgs/JointState is read too (older
-// recordings, rosbag2), but not written: it has no health, feedback times,
-// error codes or cycle, and a replayed head needs them to hold where it held.
+// messages as CDR bytes: ROS 2's sensor_msgs for images and joint states (so
+// Foxglove, rosbag2 and PlotJuggler show them as they are), saccade's own IDL
+// type (idl/saccade.idl, the schema text itself) for every type, the same
+// bytes a DDS edge sends. sensor_msgs/JointState has no health, feedback
+// times, error codes or cycle, so a log keeps joint states in the IDL form
+// too (written_encoding): a replayed head needs them to hold where it held.
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -33,9 +32,9 @@ struct ChannelEncoding {
 // saccade's IDL type. nullptr for a type with no wire form.
 const ChannelEncoding* channel_encoding(std::string_view type, bool ros2);
 
-// The encoding saccade writes `type` in (logs, the live view): ROS 2's for
-// Image, saccade's IDL type for every other type. nullptr for a type with no
-// wire form.
+// The encoding a log keeps `type` in: ROS 2's for Image, saccade's IDL type
+// for every other type (a log adds a ROS 2 channel for joint states: MCAP's
+// recording.hpp). nullptr for a type with no wire form.
 const ChannelEncoding* written_encoding(std::string_view type);
 
 // The types that have an encoding.

@@ -14,6 +14,7 @@ struct MessageFile::Topic {
   std::map<std::string, std::string> metadata;
   struct Typed {
     std::string_view type;  // Message::type_name()
+    bool ros2 = false;      // the "<topic>/ros2" channel of a type saccade writes in its IDL form
     uint16_t channel = 0;
     std::unique_ptr<dds::MessageEncoder> encoder;
   };
@@ -39,38 +40,56 @@ MessageFile::Topic* MessageFile::topic(const std::string& name, const std::map<s
   return topics_.back().get();
 }
 
+// A type written in saccade's IDL form that ROS 2 also has a message for
+// (JointState) gets a second channel, "<topic>/ros2", in ROS 2's form, so
+// rosbag2, PlotJuggler and Foxglove's joint handling read it; the first
+// channel keeps every field for replay.
+constexpr std::string_view kRos2Suffix = "/ros2";
+
+Result<std::size_t> MessageFile::channel_for(Topic* topic, std::string_view type, bool ros2) {
+  for (std::size_t k = 0; k < topic->channels.size(); ++k)
+    if (topic->channels[k].type == type && topic->channels[k].ros2 == ros2) return k;
+  const dds::ChannelEncoding* e = ros2 ? dds::channel_encoding(type, true) : dds::written_encoding(type);
+  if (e == nullptr)
+    return Status::error("topic " + topic->name + ": " + std::string(type) + " has no channel encoding");
+  uint16_t schema = 0;
+  for (const auto& [name, id] : schemas_)
+    if (name == e->schema_name) schema = id;
+  if (schema == 0) {
+    schema = writer_.add_schema(e->schema_name, e->schema_encoding, e->schema.data(), e->schema.size());
+    schemas_.emplace_back(e->schema_name, schema);
+  }
+  auto metadata = topic->metadata;
+  metadata["saccade_type"] = std::string(type);
+  if (ros2) metadata["ros2_form_of"] = topic->name;
+  Topic::Typed t;
+  t.type = e->type;
+  t.ros2 = ros2;
+  t.channel = writer_.add_channel(schema, ros2 ? topic->name + std::string(kRos2Suffix) : topic->name,
+                                  e->message_encoding, metadata);
+  t.encoder = dds::make_encoder(*e);
+  topic->channels.push_back(std::move(t));
+  return topic->channels.size() - 1;
+}
+
+Status MessageFile::write_on(Topic* topic, const Message& message, bool ros2) {
+  const Result<std::size_t> index = channel_for(topic, message.type_name(), ros2);
+  if (!index.ok()) return index.status();
+  Topic::Typed& typed = topic->channels[*index];
+  if (Status encoded = typed.encoder->encode(message, topic->bytes); !encoded.ok())
+    return Status::error("topic " + topic->name + ": " + encoded.message());
+  return writer_.write(typed.channel, static_cast<uint32_t>(message.frame_id),
+                       static_cast<uint64_t>(message.timestamp_ns), static_cast<uint64_t>(message.timestamp_ns),
+                       topic->bytes.data(), topic->bytes.size());
+}
+
 Status MessageFile::write(Topic* topic, const Message& message) {
   std::lock_guard lock(mutex_);
   if (!writer_.is_open()) return Status::error("'" + path_ + "' is closed");
-  const std::string_view type = message.type_name();
-  Topic::Typed* typed = nullptr;
-  for (auto& t : topic->channels)
-    if (t.type == type) typed = &t;
-  if (typed == nullptr) {
-    const dds::ChannelEncoding* e = dds::written_encoding(type);
-    if (e == nullptr)
-      return Status::error("topic " + topic->name + ": " + std::string(type) + " has no channel encoding");
-    uint16_t schema = 0;
-    for (const auto& [name, id] : schemas_)
-      if (name == e->schema_name) schema = id;
-    if (schema == 0) {
-      schema = writer_.add_schema(e->schema_name, e->schema_encoding, e->schema.data(), e->schema.size());
-      schemas_.emplace_back(e->schema_name, schema);
-    }
-    auto metadata = topic->metadata;
-    metadata["saccade_type"] = std::string(type);
-    Topic::Typed t;
-    t.type = e->type;
-    t.channel = writer_.add_channel(schema, topic->name, e->message_encoding, metadata);
-    t.encoder = dds::make_encoder(*e);
-    topic->channels.push_back(std::move(t));
-    typed = &topic->channels.back();
-  }
-  if (Status encoded = typed->encoder->encode(message, topic->bytes); !encoded.ok())
-    return Status::error("topic " + topic->name + ": " + encoded.message());
-  return writer_.write(typed->channel, static_cast<uint32_t>(message.frame_id),
-                       static_cast<uint64_t>(message.timestamp_ns), static_cast<uint64_t>(message.timestamp_ns),
-                       topic->bytes.data(), topic->bytes.size());
+  if (Status written = write_on(topic, message, false); !written.ok()) return written;
+  const dds::ChannelEncoding* ros2 = dds::channel_encoding(message.type_name(), true);
+  if (ros2 == nullptr || ros2 == dds::written_encoding(message.type_name())) return {};
+  return write_on(topic, message, true);
 }
 
 Status MessageFile::close() {
@@ -346,10 +365,14 @@ Status TopicReader::open(const std::string& path, const std::vector<std::string>
   topics_.clear();
   if (Status opened = reader_.open(path, salvage); !opened.ok()) return opened;
   if (topics.empty()) {
-    if (reader_.channels().size() != 1)
-      return Status::error(path + ": which topic? the file has " + (reader_.channels().empty() ? "none" : "several") +
+    // The file's only topic; a joint state topic's ROS 2 form beside it is not another.
+    std::vector<const Channel*> own;
+    for (const auto& [id, channel] : reader_.channels())
+      if (!channel.metadata.contains("ros2_form_of")) own.push_back(&channel);
+    if (own.size() != 1)
+      return Status::error(path + ": which topic? the file has " + (own.empty() ? "none" : "several") +
                            "; its topics: " + list_topics(reader_));
-    if (Status added = add_topic(path, reader_.channels().begin()->second); !added.ok()) return added;
+    if (Status added = add_topic(path, *own.front()); !added.ok()) return added;
   }
   for (const std::string& name : topics) {
     const Channel* channel = reader_.find_channel(name);

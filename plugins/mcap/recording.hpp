@@ -3,9 +3,10 @@
 // write messages to (the mcap.record nodes of a graph share one per path), a
 // recorder that taps every connected output of a running graph
 // (`saccade run --record`), and the reading of one recorded topic back into
-// messages (mcap.replay). Each channel carries one message type with the
-// encoding saccade's live view uses too (plugins/dds/channel.hpp): images and
-// joint states as ROS 2's sensor_msgs, every other type as its IDL type.
+// messages (mcap.replay). Each channel carries one message type in the
+// encoding saccade writes it in (plugins/dds/channel.hpp): images as ROS 2's
+// sensor_msgs/Image, every other type as its IDL type; joint states also on
+// "<topic>/ros2" as sensor_msgs/JointState, for ROS 2's tools.
 // No plugin registry here: the saccade command links this library.
 #include <atomic>
 #include <condition_variable>
@@ -65,6 +66,11 @@ class MessageFile {
   WriterOptions options_;
   std::vector<std::unique_ptr<Topic>> topics_;
   std::vector<std::pair<std::string, uint16_t>> schemas_;  // schema name -> id
+
+  // The index in `topic`'s channels of the one for `type` (its ROS 2 form's
+  // when `ros2`), made at its first message; `mutex_` is held.
+  Result<std::size_t> channel_for(Topic* topic, std::string_view type, bool ros2);
+  Status write_on(Topic* topic, const Message& message, bool ros2);
 };
 
 // What attach_recorder records and how.

@@ -599,7 +599,7 @@ json Server::input_ports(const ResolvedNode& n, json& targets) {
 // (JPEG) or its JSON; their topics.
 json Server::output_channels(const std::string& node, const PortSpec& out, json& advertised) {
   json topics = json::array();
-  const dds::ChannelEncoding* cdr = dds::written_encoding(out.type);
+  const dds::ChannelEncoding* cdr = dds::channel_encoding(out.type, true);
   const bool described = !json_schema(out.type).empty();
   if (!cdr && !described) return topics;
   auto source = std::make_unique<Source>();

@@ -6,8 +6,8 @@
 // head's joints; a box dragged on a frame goes to the fovea's `target`).
 //
 // Every output of a known message type is a channel, "/<node>/<port>":
-//  - the message as CDR (ROS 2's sensor_msgs/Image for images, saccade's IDL
-//    type for the rest: plugins/dds/channel.hpp);
+//  - the message as CDR (ROS 2's sensor_msgs for images and joint states,
+//    saccade's IDL type for the rest: plugins/dds/channel.hpp);
 //  - images, retinas and feature maps also as "/<node>/<port>/jpeg"
 //    (sensor_msgs/msg/CompressedImage: the frame, the retina's levels or the
 //    maps side by side);

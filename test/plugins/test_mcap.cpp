@@ -194,12 +194,13 @@ TEST_P(McapRoundTrip, EveryMessageTypeSurvivesAFile) {
   EXPECT_TRUE(reader.has_summary());
   EXPECT_EQ(reader.header_library(), "saccade");
   ASSERT_NE(reader.statistics(), nullptr);
-  EXPECT_EQ(reader.statistics()->message_count, messages.size());
-  EXPECT_EQ(reader.statistics()->channel_count, 13u);
-  EXPECT_EQ(reader.statistics()->schema_count, 13u) << "one schema per type, described once";
+  // 13 types, joint states also in ROS 2's form on /test/JointState/ros2.
+  EXPECT_EQ(reader.statistics()->message_count, messages.size() + 20);
+  EXPECT_EQ(reader.statistics()->channel_count, 14u);
+  EXPECT_EQ(reader.statistics()->schema_count, 14u) << "one schema per encoding, described once";
   EXPECT_GT(reader.statistics()->chunk_count, 3u);
   EXPECT_EQ(reader.statistics()->message_start_time, 1'000'000'000u);
-  EXPECT_EQ(reader.statistics()->channel_message_counts.size(), 13u);
+  EXPECT_EQ(reader.statistics()->channel_message_counts.size(), 14u);
   for (const auto& [id, count] : reader.statistics()->channel_message_counts) EXPECT_EQ(count, 20u) << id;
   // The summary's definitions are the types' encodings.
   const mcap::Channel* image = reader.find_channel("/test/Image");
@@ -211,7 +212,10 @@ TEST_P(McapRoundTrip, EveryMessageTypeSurvivesAFile) {
 
   // Every message back, in order, equal to what was written.
   auto topics = read_topics(path);
-  ASSERT_EQ(topics.size(), 13u);
+  ASSERT_EQ(topics.size(), 14u);
+  ASSERT_EQ(topics["/test/JointState/ros2"].size(), 20u);
+  EXPECT_EQ(dynamic_cast<const JointState&>(*topics["/test/JointState/ros2"][3]).position,
+            dynamic_cast<const JointState&>(*topics["/test/JointState"][3]).position);
   std::map<std::string, std::size_t> at;
   for (const auto& m : messages) {
     const auto& list = topics[topic_of(*m)];
@@ -233,7 +237,7 @@ TEST_P(McapRoundTrip, EveryMessageTypeSurvivesAFile) {
     ++indexed;
   }
   EXPECT_EQ(read.error(), "");
-  EXPECT_EQ(linear, messages.size());
+  EXPECT_EQ(linear, messages.size() + 20);  // and the joint states' ROS 2 form
   EXPECT_EQ(indexed, 20u);
 }
 
@@ -255,7 +259,7 @@ TEST(Mcap, AnUnchunkedFileIsReadByItsLinearScan) {
   auto topics = read_topics(path);
   std::size_t n = 0;
   for (const auto& [t, list] : topics) n += list.size();
-  EXPECT_EQ(n, messages.size());
+  EXPECT_EQ(n, messages.size() + 3);  // and the joint states' ROS 2 form
 }
 
 TEST(Mcap, Crc32IsZlibs) {
@@ -517,6 +521,56 @@ TEST(McapErrors, ATypeRecordedWithOtherFieldsIsRefusedNamingWhereTheyDiffer) {
     EXPECT_THAT(error, ::testing::HasSubstr("another version of saccade_idl::StereoFixation"));
     EXPECT_THAT(error, ::testing::HasSubstr("the file has 'double depth', this build 'boolean confirmed'"));
   }
+}
+
+// A joint state topic is recorded whole (saccade's JointState: health,
+// feedback times, error codes, cycle, what a replayed head needs) and, on
+// "<topic>/ros2", as sensor_msgs/JointState for ROS 2's tools; replay without
+// a topic named still finds the one topic.
+TEST(McapRead, JointStatesAreRecordedWholeAndInRos2sFormBeside) {
+  const std::string path = out_path("joint_states.mcap");
+  JointState state;
+  state.timestamp_ns = 1'000'000;
+  state.position = {0.1, -0.2, 0.3, 0.0, 0.5};
+  state.velocity = {1, 2, 3, 4, 5};
+  state.health = {JointState::Health::kSilent, JointState::Health::kReady, JointState::Health::kFault,
+                  JointState::Health::kStarting, JointState::Health::kReady};
+  state.updated_ns = {-49'000'000, 1'000'000, 1'000'000, 0, 1'000'000};
+  state.error_code = {0, 0, 0x8611, 0, 0};
+  state.cycle = 9;
+  state.detail = "neck (node 1): no position for 50 ms";
+  {
+    mcap::MessageFile file;
+    ASSERT_EQ(file.open(path, {}).message(), "");
+    ASSERT_EQ(file.write(file.topic("/driver/state"), state).message(), "");
+    ASSERT_EQ(file.close().message(), "");
+  }
+  mcap::Reader reader;
+  ASSERT_EQ(reader.open(path).message(), "");
+  const auto* whole = reader.find_channel("/driver/state");
+  const auto* ros2 = reader.find_channel("/driver/state/ros2");
+  ASSERT_NE(whole, nullptr);
+  ASSERT_NE(ros2, nullptr);
+  EXPECT_EQ(reader.schema_of(*whole)->name, "saccade_idl::JointState");
+  EXPECT_EQ(reader.schema_of(*ros2)->name, "sensor_msgs/msg/JointState");
+
+  for (const std::string topic : {"/driver/state", ""}) {
+    mcap::TopicReader played;
+    ASSERT_EQ(played.open(path, topic, false).message(), "") << topic;
+    const ReadBack back = read_back(played);
+    ASSERT_EQ(back.messages.size(), 1u);
+    const auto& j = dynamic_cast<const JointState&>(*back.messages[0]);
+    EXPECT_EQ(j.health, state.health);
+    EXPECT_EQ(j.updated_ns, state.updated_ns);
+    EXPECT_EQ(j.error_code, state.error_code);
+    EXPECT_EQ(j.cycle, state.cycle);
+    EXPECT_EQ(j.detail, state.detail);
+  }
+  mcap::TopicReader played;
+  ASSERT_EQ(played.open(path, "/driver/state/ros2", false).message(), "");
+  const ReadBack back = read_back(played);
+  ASSERT_EQ(back.messages.size(), 1u);
+  EXPECT_EQ(dynamic_cast<const JointState&>(*back.messages[0]).position, state.position);
 }
 
 // Joint states written as ROS 2's sensor_msgs/JointState (by rosbag2, or by
@@ -1050,22 +1104,25 @@ TEST(McapReference, TheTypeScriptReaderReadsEveryTypeInEveryCompression) {
     ASSERT_TRUE(json->is_object());
     const auto& j = *json;
     EXPECT_EQ(j["library"], "saccade");
-    EXPECT_EQ(j["schemas"].size(), 13u);
-    EXPECT_EQ(j["channels"].size(), 13u);
-    EXPECT_EQ(j["statistics"]["messageCount"], 130);
+    // 13 types, joint states also in ROS 2's form.
+    EXPECT_EQ(j["schemas"].size(), 14u);
+    EXPECT_EQ(j["channels"].size(), 14u);
+    EXPECT_EQ(j["statistics"]["messageCount"], 140);
     EXPECT_GT(j["chunks"].get<int>(), 1);
     EXPECT_EQ(j["compression"][0], c == Compression::kNone ? "" : mcap::to_string(c));
-    EXPECT_EQ(j["stream"]["messages"], 130) << "the stream reader validated every CRC";
+    EXPECT_EQ(j["stream"]["messages"], 140) << "the stream reader validated every CRC";
     EXPECT_TRUE(j["stream"]["dataEnd"].get<bool>());
     EXPECT_TRUE(j["stream"]["footer"].get<bool>());
     for (const auto& [topic, count] : j["counts"].items()) EXPECT_EQ(count, 10) << topic;
-    EXPECT_EQ(j["counts"].size(), 13u);
-    bool image = false;
+    EXPECT_EQ(j["counts"].size(), 14u);
+    bool image = false, joints = false;
     for (const auto& s : j["schemas"]) {
       if (s["name"] == "sensor_msgs/msg/Image") image = s["encoding"] == "ros2msg";
+      if (s["name"] == "sensor_msgs/msg/JointState") joints = s["encoding"] == "ros2msg";
       if (s["name"] == "saccade_idl::Retina") { EXPECT_EQ(s["encoding"], "omgidl"); }
     }
     EXPECT_TRUE(image);
+    EXPECT_TRUE(joints);
     EXPECT_EQ(j["firstLogTime"]["/test/Image"], "1000000000");
   }
 }

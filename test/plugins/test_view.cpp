@@ -227,7 +227,7 @@ TEST(View, SpeaksTheFoxgloveProtocol) {
                        .dump());
   // The raw frame decodes as the channel's encoding says.
   const std::string raw = client.next_data(7);
-  auto decoder = dds::make_decoder(*dds::written_encoding("Image"));
+  auto decoder = dds::make_decoder(*dds::channel_encoding("Image", true));
   auto decoded = decoder->decode(reinterpret_cast<const uint8_t*>(raw.data()), raw.size());
   ASSERT_TRUE(decoded.ok()) << decoded.error();
   const auto& image = static_cast<const Image&>(**decoded);
