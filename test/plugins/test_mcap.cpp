@@ -523,6 +523,18 @@ TEST(McapErrors, ATypeRecordedWithOtherFieldsIsRefusedNamingWhereTheyDiffer) {
   }
 }
 
+// The one joint state `topic` of `path` holds (empty: the file's one topic);
+// a default one, and a failure, when it does not hold exactly one.
+JointState only_joint_state(const std::string& path, const std::string& topic) {
+  mcap::TopicReader reader;
+  EXPECT_EQ(reader.open(path, topic, false).message(), "") << topic;
+  const ReadBack back = read_back(reader);
+  EXPECT_EQ(back.messages.size(), 1u) << topic;
+  const auto* j = back.messages.size() == 1 ? dynamic_cast<const JointState*>(back.messages[0].get()) : nullptr;
+  EXPECT_NE(j, nullptr) << topic;
+  return j != nullptr ? *j : JointState{};
+}
+
 // A joint state topic is recorded whole (saccade's JointState: health,
 // feedback times, error codes, cycle, what a replayed head needs) and, on
 // "<topic>/ros2", as sensor_msgs/JointState for ROS 2's tools; replay without
@@ -555,22 +567,14 @@ TEST(McapRead, JointStatesAreRecordedWholeAndInRos2sFormBeside) {
   EXPECT_EQ(reader.schema_of(*ros2)->name, "sensor_msgs/msg/JointState");
 
   for (const std::string topic : {"/driver/state", ""}) {
-    mcap::TopicReader played;
-    ASSERT_EQ(played.open(path, topic, false).message(), "") << topic;
-    const ReadBack back = read_back(played);
-    ASSERT_EQ(back.messages.size(), 1u);
-    const auto& j = dynamic_cast<const JointState&>(*back.messages[0]);
-    EXPECT_EQ(j.health, state.health);
+    const JointState j = only_joint_state(path, topic);
+    EXPECT_EQ(j.health, state.health) << topic;
     EXPECT_EQ(j.updated_ns, state.updated_ns);
     EXPECT_EQ(j.error_code, state.error_code);
     EXPECT_EQ(j.cycle, state.cycle);
     EXPECT_EQ(j.detail, state.detail);
   }
-  mcap::TopicReader played;
-  ASSERT_EQ(played.open(path, "/driver/state/ros2", false).message(), "");
-  const ReadBack back = read_back(played);
-  ASSERT_EQ(back.messages.size(), 1u);
-  EXPECT_EQ(dynamic_cast<const JointState&>(*back.messages[0]).position, state.position);
+  EXPECT_EQ(only_joint_state(path, "/driver/state/ros2").position, state.position);
 }
 
 // Joint states written as ROS 2's sensor_msgs/JointState (by rosbag2, or by
@@ -597,11 +601,7 @@ TEST(McapRead, Ros2JointStatesStillPlayWithWhatTheyHave) {
     ASSERT_EQ(w.write(c, 3, t, t, bytes.data(), bytes.size()).message(), "");
     ASSERT_EQ(w.close().message(), "");
   }
-  mcap::TopicReader reader;
-  ASSERT_EQ(reader.open(path, "/driver/state", false).message(), "");
-  const ReadBack back = read_back(reader);
-  ASSERT_EQ(back.messages.size(), 1u);
-  const auto& j = dynamic_cast<const JointState&>(*back.messages[0]);
+  const JointState j = only_joint_state(path, "/driver/state");
   EXPECT_EQ(j.position, state.position);
   EXPECT_EQ(j.velocity, state.velocity);
   EXPECT_EQ(j.timestamp_ns, state.timestamp_ns);
