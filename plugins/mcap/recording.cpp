@@ -13,8 +13,9 @@ struct MessageFile::Topic {
   std::string name;
   std::map<std::string, std::string> metadata;
   struct Typed {
-    std::string_view type;  // Message::type_name()
-    bool ros2 = false;      // the "<topic>/ros2" channel of a type saccade writes in its IDL form
+    std::string_view type;     // Message::type_name()
+    bool ros2 = false;         // the "<topic>/ros2" channel of a type saccade writes in its IDL form
+    bool ros2_beside = false;  // its messages also go on such a channel
     uint16_t channel = 0;
     std::unique_ptr<dds::MessageEncoder> encoder;
   };
@@ -45,6 +46,7 @@ MessageFile::Topic* MessageFile::topic(const std::string& name, const std::map<s
 // rosbag2, PlotJuggler and Foxglove's joint handling read it; the first
 // channel keeps every field for replay.
 constexpr std::string_view kRos2Suffix = "/ros2";
+constexpr const char* kRos2FormOf = "ros2_form_of";  // that channel's metadata: the topic it is the form of
 
 Result<std::size_t> MessageFile::channel_for(Topic* topic, std::string_view type, bool ros2) {
   for (std::size_t k = 0; k < topic->channels.size(); ++k)
@@ -61,10 +63,11 @@ Result<std::size_t> MessageFile::channel_for(Topic* topic, std::string_view type
   }
   auto metadata = topic->metadata;
   metadata["saccade_type"] = std::string(type);
-  if (ros2) metadata["ros2_form_of"] = topic->name;
+  if (ros2) metadata[kRos2FormOf] = topic->name;
   Topic::Typed t;
   t.type = e->type;
   t.ros2 = ros2;
+  t.ros2_beside = !ros2 && dds::channel_encoding(type, true) != e;
   t.channel = writer_.add_channel(schema, ros2 ? topic->name + std::string(kRos2Suffix) : topic->name,
                                   e->message_encoding, metadata);
   t.encoder = dds::make_encoder(*e);
@@ -72,24 +75,21 @@ Result<std::size_t> MessageFile::channel_for(Topic* topic, std::string_view type
   return topic->channels.size() - 1;
 }
 
-Status MessageFile::write_on(Topic* topic, const Message& message, bool ros2) {
-  const Result<std::size_t> index = channel_for(topic, message.type_name(), ros2);
-  if (!index.ok()) return index.status();
-  Topic::Typed& typed = topic->channels[*index];
-  if (Status encoded = typed.encoder->encode(message, topic->bytes); !encoded.ok())
-    return Status::error("topic " + topic->name + ": " + encoded.message());
-  return writer_.write(typed.channel, static_cast<uint32_t>(message.frame_id),
-                       static_cast<uint64_t>(message.timestamp_ns), static_cast<uint64_t>(message.timestamp_ns),
-                       topic->bytes.data(), topic->bytes.size());
-}
-
 Status MessageFile::write(Topic* topic, const Message& message) {
   std::lock_guard lock(mutex_);
   if (!writer_.is_open()) return Status::error("'" + path_ + "' is closed");
-  if (Status written = write_on(topic, message, false); !written.ok()) return written;
-  const dds::ChannelEncoding* ros2 = dds::channel_encoding(message.type_name(), true);
-  if (ros2 == nullptr || ros2 == dds::written_encoding(message.type_name())) return {};
-  return write_on(topic, message, true);
+  // On its own channel, then on its ROS 2 form's when one goes beside it.
+  for (bool ros2 = false;; ros2 = true) {
+    const Result<std::size_t> index = channel_for(topic, message.type_name(), ros2);
+    if (!index.ok()) return index.status();
+    const Topic::Typed& typed = topic->channels[*index];
+    if (Status encoded = typed.encoder->encode(message, topic->bytes); !encoded.ok())
+      return Status::error("topic " + topic->name + ": " + encoded.message());
+    const Status written = writer_.write(
+        typed.channel, static_cast<uint32_t>(message.frame_id), static_cast<uint64_t>(message.timestamp_ns),
+        static_cast<uint64_t>(message.timestamp_ns), topic->bytes.data(), topic->bytes.size());
+    if (!written.ok() || !typed.ros2_beside) return written;
+  }
 }
 
 Status MessageFile::close() {
@@ -368,7 +368,7 @@ Status TopicReader::open(const std::string& path, const std::vector<std::string>
     // The file's only topic; a joint state topic's ROS 2 form beside it is not another.
     std::vector<const Channel*> own;
     for (const auto& [id, channel] : reader_.channels())
-      if (!channel.metadata.contains("ros2_form_of")) own.push_back(&channel);
+      if (!channel.metadata.contains(kRos2FormOf)) own.push_back(&channel);
     if (own.size() != 1)
       return Status::error(path + ": which topic? the file has " + (own.empty() ? "none" : "several") +
                            "; its topics: " + list_topics(reader_));

@@ -70,7 +70,6 @@ class MessageFile {
   // The index in `topic`'s channels of the one for `type` (its ROS 2 form's
   // when `ros2`), made at its first message; `mutex_` is held.
   Result<std::size_t> channel_for(Topic* topic, std::string_view type, bool ros2);
-  Status write_on(Topic* topic, const Message& message, bool ros2);
 };
 
 // What attach_recorder records and how.

@@ -1072,36 +1072,17 @@ TEST(DdsRos2, AnImageWithoutColumnsOrRowsIsAnEmptyImage) {
   EXPECT_TRUE(out.mat.empty());
 }
 
-// What logs and the live view write: images as ROS 2's (they lose nothing),
-// joint states as saccade's own type, whose health, feedback times, error
-// codes and cycle sensor_msgs/JointState has no field for.
+// What logs write: images as ROS 2's (they lose nothing), joint states as
+// saccade's own type, whose health, feedback times, error codes and cycle
+// sensor_msgs/JointState has no field for: its IDL form, every field of which
+// EveryDescribedFieldOfEveryTypeSurvivesItsChannel round-trips.
 TEST(Channel, JointStatesAreWrittenWithEveryField) {
+  EXPECT_EQ(dds::written_encoding("Image"), dds::channel_encoding("Image", true));
   EXPECT_EQ(dds::written_encoding("Image")->schema_name, "sensor_msgs/msg/Image");
   const dds::ChannelEncoding* j = dds::written_encoding("JointState");
   ASSERT_NE(j, nullptr);
+  EXPECT_EQ(j, dds::channel_encoding("JointState", false));
   EXPECT_EQ(j->schema_encoding, "omgidl");
-  JointState state;
-  state.timestamp_ns = 4000000;
-  state.position = {0.1, -0.2, 0.3, 0.0, 0.5};
-  state.velocity = {1, 2, 3, 4, 5};
-  state.health = {JointState::Health::kSilent, JointState::Health::kReady, JointState::Health::kFault,
-                  JointState::Health::kStarting, JointState::Health::kReady};
-  state.updated_ns = {-46000000, 4000000, 4000000, 0, 4000000};
-  state.error_code = {0, 0, 0x8611, 0, 0};
-  state.cycle = 7;
-  state.detail = "neck (node 1): no position for 50 ms";
-  std::vector<uint8_t> bytes;
-  ASSERT_TRUE(is_ok(dds::make_encoder(*j)->encode(state, bytes)));
-  const Result<MessagePtr> decoded = dds::make_decoder(*j)->decode(bytes.data(), bytes.size());
-  ASSERT_TRUE(is_ok(decoded.status()));
-  auto back = std::dynamic_pointer_cast<const JointState>(*decoded);
-  ASSERT_NE(back, nullptr);
-  EXPECT_EQ(back->position, state.position);
-  EXPECT_EQ(back->health, state.health);
-  EXPECT_EQ(back->updated_ns, state.updated_ns);
-  EXPECT_EQ(back->error_code, state.error_code);
-  EXPECT_EQ(back->cycle, state.cycle);
-  EXPECT_EQ(back->detail, state.detail);
 }
 
 }  // namespace
