@@ -1029,8 +1029,14 @@ struct BoxTracker::Impl {
   ColorPlaces color_places(const Placement& p, cv::Point2d found) const {
     return {{found, p.center}, p.proposed && p.step > step ? 2 : 1, size * (p.step / step)};
   }
-  // Is a look of the target's colour (while that is checked)?
+  // Is a look of the target's colour (while that is checked), enough to let
+  // a find under the bar in near where the target was last tracked?
   bool of_its_colour(const cv::Mat& frame, const Placement& p, cv::Point2d found) {
+    // A target without colours (a monochrome camera's) has its tones to
+    // tell it by, a weaker witness: most of them (near_shared_tones), until
+    // it may have come back in other light, as its colour would lapse.
+    if (without_colours() && untracked_frames < config.color_patience)
+      return config.near_shared_tones > 0 && shared_tones_at(frame, p, found) >= config.near_shared_tones;
     if (!color_checked(config)) return false;
     const ColorPlaces places = color_places(p, found);
     double distance = INFINITY;

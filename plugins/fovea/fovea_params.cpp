@@ -77,6 +77,11 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
              "box tracking: peak-to-sidelobe ratio a re-detection near where the target was last tracked, "
              "of its colour, must reach (twice, at one place)",
              &C::box, &B::redetect_near_psr)
+      .field("box_near_shared_tones", {0, 1},
+             "box tracking: a target without colours (a monochrome camera's) found near where it was last tracked "
+             "under box_redetect_psr, at box_redetect_near_psr or more, must share at least this much of its tones, as "
+             "a target with colours must be of its colour (0: it must reach box_redetect_psr; docs/tracking.md)",
+             &C::box, &B::near_shared_tones)
       .field("box_redetect_margin", {0, 1000},
              "box tracking: while the target is unsure but its peak is still trusted where it sits, a "
              "re-detection elsewhere must reach this many times that peak or be nearer the target's colour "

@@ -526,6 +526,26 @@ TEST(BoxTrackerOnGeneratedSequences, AMonochromeCamerasTargetsNewLookMustShareIt
   EXPECT_GE(score.honest_lost, 0.9);
 }
 
+// `mixed` in gray: the orange comes back from behind the occluder near where
+// it went, changed, its filter peaking under the full bar (in colour, 7-8
+// for 15 frames). A find of its colour is let in there at the lower bar; a
+// monochrome camera's orange has no colour, and waited for the full bar, 20
+// frames. Sharing nine tenths of its tones (box_near_shared_tones) lets it in.
+TEST(BoxTrackerOnGeneratedSequences, AMonochromeCamerasTargetBackNearWhereItWentIsLetInByItsTones) {
+  const Sequence gray = generated_gray("mixed");
+  BoxTrackerConfig full_bar;
+  full_bar.near_shared_tones = 0;
+  const TrackScore toned = track(gray, 0), waited = track(gray, 0, full_bar);
+  std::printf("mixed in gray: re-acquired after %d frames, precision %.3f, honest lost %.2f (the full bar: %d, %.3f)\n",
+              toned.max_reacquire_delay, toned.precision20, toned.honest_lost, waited.max_reacquire_delay,
+              waited.precision20);
+  EXPECT_EQ(toned.reacquire_misses, 0);
+  EXPECT_LE(toned.max_reacquire_delay, 15);
+  EXPECT_GE(toned.honest_lost, 0.95);
+  EXPECT_GE(toned.precision20, 0.94);
+  EXPECT_GT(waited.max_reacquire_delay, 15) << "the tones are what let it in early here";
+}
+
 // `holdout_mixed` in gray: the dog's face comes back from behind an occluder
 // near where it went, larger and turned, peaking under the re-detection's
 // bar. In colour the lost look follows the face's colours there

@@ -607,6 +607,13 @@ TEST(FoveaParams, AFlatScaleAfterAReDetectionLooksAtOtherSizesFor30FramesByDefau
               ::testing::HasSubstr("box_look_size_step"));
 }
 
+// A target without colours found near where it went, under the full bar,
+// must share nine tenths of its tones (box_near_shared_tones); 0 asks the
+// full bar of it; a share over 1 is refused by name.
+TEST(FoveaParams, AColourlessTargetNearWhereItWentSharesNineTenthsOfItsTonesByDefaultAndChecked) {
+  expect_default_off_and_refused("box_near_shared_tones", &BoxTrackerConfig::near_shared_tones, 0.9, "1.5");
+}
+
 TEST(FoveaParams, ColourProposalsAndTheTurnedScaleFilterAreOnByDefaultAndChecked) {
   const Result<ControllerConfig> defaults = configure(&bind_fovea_params, {});
   ASSERT_TRUE(defaults.ok()) << defaults.error();
