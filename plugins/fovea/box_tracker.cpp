@@ -1006,8 +1006,11 @@ struct BoxTracker::Impl {
   // (`--gray` in the tracking benchmark: honest lost 0.21-0.96 on the
   // generated sequences with hidden frames, docs/tracking.md).
   bool color_checked(const BoxTrackerConfig& c) const {
-    return chroma_frames >= c.warmup_frames && untracked_frames < c.color_patience && colourful >= kMinColourful;
+    return chroma_frames >= c.warmup_frames && !back_in_other_light() && colourful >= kMinColourful;
   }
+  // Away long enough (color_patience frames) that the target may come back
+  // in another light: its learnt colours and tones no longer tell it.
+  bool back_in_other_light() const { return untracked_frames >= config.color_patience; }
   bool color_matches(const BoxTrackerConfig& c, double distance) const {
     return !color_checked(c) || distance <= std::max(c.min_chroma_change, c.chroma_deviations * chroma_deviation);
   }
@@ -1035,7 +1038,7 @@ struct BoxTracker::Impl {
     // A target without colours (a monochrome camera's) has its tones to
     // tell it by, a weaker witness: most of them (near_shared_tones), until
     // it may have come back in other light, as its colour would lapse.
-    if (without_colours() && untracked_frames < config.color_patience)
+    if (without_colours() && !back_in_other_light())
       return config.near_shared_tones > 0 && shared_tones_at(frame, p, found) >= config.near_shared_tones;
     if (!color_checked(config)) return false;
     const ColorPlaces places = color_places(p, found);
@@ -1132,7 +1135,7 @@ struct BoxTracker::Impl {
   // histogram measured at `at`). Away so long that it may be back in
   // another light, the target's colour is learnt afresh.
   void learn_color(const BoxTrackerConfig& c, const cv::Mat& frame, cv::Point2d at, cv::Vec2d color, double distance) {
-    if (untracked_frames >= c.color_patience) chroma_frames = 0;
+    if (back_in_other_light()) chroma_frames = 0;
     untracked_frames = 0;
     const bool fresh = chroma_frames++ == 0;
     // (Measured against the old mean, a fresh start's distance is no deviation.)
