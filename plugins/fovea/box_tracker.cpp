@@ -781,7 +781,8 @@ struct BoxTracker::Impl {
   WhiteBalanceDrift white_balance;
   cv::Vec2d chroma_mean;  // of the tracked frames' target
   double chroma_deviation = 0;
-  double colourful = 0;  // the share of the target's pixels off gray (colourful_share), over tracked frames
+  double colourful = 0;            // the share of the target's pixels off gray (colourful_share), over tracked frames
+  bool monochrome_camera = false;  // its frames have no colour at all (monochrome(), of the first frame)
   int chroma_frames = 0;
   int untracked_frames = 0;  // since the target was last tracked
   double sure_step = 1;      // the patch's step then
@@ -851,11 +852,12 @@ struct BoxTracker::Impl {
   // drifted onto, and made the new usual peak, the tracker claimed them for
   // the rest of the sequence (fresh sets' `occlusion`, `mixed`: over the
   // tracking benchmark's 546 runs, 7 of the 15 re-bases off the target were
-  // under it, none of the 68 on it; docs/tracking.md).
-  bool settled_lower(const BoxTrackerConfig& c, double psr) {
+  // under it, none of the 68 on it; docs/tracking.md). Nor unless
+  // `may_settle` (doubted_for_a_lower_peak()).
+  bool settled_lower(const BoxTrackerConfig& c, double psr, bool may_settle) {
     lower_psr_sum += psr;
     if (++lower_frames < c.warmup_frames) return false;
-    if (lower_psr_sum / lower_frames < c.redetect_psr) {
+    if (!may_settle || lower_psr_sum / lower_frames < c.redetect_psr) {
       forget_lower();
       return false;
     }
@@ -1082,17 +1084,30 @@ struct BoxTracker::Impl {
   // tracker slid onto, peaking lower for ten frames, from the target's new
   // look, and it was learnt (`--gray`: `mixed_640@gray` precision 0.425 ->
   // 0.836, honest lost 0.78 -> 1.00; docs/tracking.md). Asked of every
-  // tracked frame instead, the tones lost OTB Car4 in plain view.
+  // tracked frame instead, the tones lost OTB Car4 in plain view. In a
+  // monochrome camera's frames, the frame that would make the lower peak the
+  // usual one asks most of them (near_shared_tones), as a find near where
+  // the target went must: settling is a lower bar too, and an occluder the
+  // unsure tracker slid onto, or the background where a target left the
+  // view, shared six tenths and was claimed for up to 124 frames (`--gray
+  // --runs 6`: false-lock frames 1,423 -> 600). Tones tell the two apart
+  // poorly: 20 of the 26 wrong settles were refused, and 71 of the 101 right
+  // ones, whose target then stays unsure until it is found again. Not in a
+  // colour camera's: its few colourless targets (faces) were re-acquired
+  // later with it (`fresh4_occlusion` 13 -> 17 frames) and gained little
+  // (docs/tracking-log.md, fifth session of 2026-12-03).
   bool doubted_for_a_lower_peak(const cv::Mat& frame, const Placement& at, cv::Point2d measured, double psr) {
     if (tracked_frames < config.warmup_frames || psr >= config.relative_psr * psr_mean) {
       forget_lower();
       return false;
     }
-    if (without_colours() && shared_tones_at(frame, at, measured) < config.min_shared_tones) {
+    if (!without_colours()) return !settled_lower(config, psr, /*may_settle=*/true);
+    const double tones = shared_tones_at(frame, at, measured);
+    if (tones < config.min_shared_tones) {
       forget_lower();
       return true;
     }
-    return !settled_lower(config, psr);
+    return !settled_lower(config, psr, /*may_settle=*/!monochrome_camera || tones >= config.near_shared_tones);
   }
   static bool empty(const std::vector<float>& shares) {
     return std::all_of(shares.begin(), shares.end(), [](float share) { return share == 0.f; });
@@ -1359,6 +1374,21 @@ const cv::Mat& to_gray(const cv::Mat& frame, cv::Mat& scratch) {
   return scratch;
 }
 
+// Does the camera see no colour (a monochrome camera's frames: one channel, or
+// three equal ones, as a gray image file reads)? Asked of a grid of pixels
+// of the first frame: a colour camera's noise makes some of them unequal.
+bool monochrome(const cv::Mat& frame) {
+  if (frame.channels() < 3) return true;
+  constexpr int kGrid = 8;
+  for (int j = 0; j < kGrid; ++j)
+    for (int i = 0; i < kGrid; ++i) {
+      const int x = (2 * i + 1) * frame.cols / (2 * kGrid), y = (2 * j + 1) * frame.rows / (2 * kGrid);
+      const uint8_t* pixel = frame.ptr<uint8_t>(y) + static_cast<std::ptrdiff_t>(x) * frame.channels();
+      if (pixel[0] != pixel[1] || pixel[1] != pixel[2]) return false;
+    }
+  return true;
+}
+
 std::string describe(cv::Rect2d b) {
   char text[96];
   std::snprintf(text, sizeof text, "%g,%g,%g,%g", b.x, b.y, b.width, b.height);
@@ -1403,6 +1433,7 @@ Status BoxTracker::init(const cv::Mat& frame, cv::Rect2d box) {
   m = Impl(config_, scale_step_for(config_, box));
   m.center = m.sure_center = {box.x + box.width / 2, box.y + box.height / 2};
   m.size = box.size();
+  m.monochrome_camera = monochrome(frame);
   // A small target is not magnified: the patch then covers more than
   // `padding` times it, which also widens the search around a fast one.
   m.step = m.sure_step = std::max(1.0, config_.padding * std::max(box.width, box.height) / config_.patch);

@@ -76,7 +76,9 @@ struct BoxTrackerConfig {
   int redetect_frames = 2;          // ... on this many consecutive frames, at a consistent place
   double redetect_near = 2.0;       // within this many times its larger side of where it was last tracked ...
   double redetect_near_psr = 7.0;   // ... and of its colour, a re-detection need only reach this
-  double near_shared_tones = 0.9;   // (a target without colours: sharing this much of its tones; 0: never)
+  double near_shared_tones = 0.9;   // (a target without colours: sharing this much of its tones, 0: never;
+                                    // in a monochrome camera's frames also asked before a lower peak
+                                    // becomes its usual one, 0: not asked)
   double redetect_margin = 1.5;     // unsure, with a trusted peak where it sits: a re-detection elsewhere
                                     // must reach this many times that peak (0: not asked), or be nearer
                                     // the target's colour by min_chroma_change (a look-alike while the

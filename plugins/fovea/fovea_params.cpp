@@ -80,7 +80,9 @@ void bind_box_params(ParamBinder<ControllerConfig>& b) {
       .field("box_near_shared_tones", {0, 1},
              "box tracking: a target without colours (a monochrome camera's) found near where it was last tracked "
              "under box_redetect_psr, at box_redetect_near_psr or more, must share at least this much of its tones, as "
-             "a target with colours must be of its colour (0: it must reach box_redetect_psr; docs/tracking.md)",
+             "a target with colours must be of its colour (0: it must reach box_redetect_psr); and in a monochrome "
+             "camera's frames a lower peak it has held becomes its usual one only on a frame sharing this much (0: "
+             "not asked; docs/tracking.md)",
              &C::box, &B::near_shared_tones)
       .field("box_redetect_margin", {0, 1000},
              "box tracking: while the target is unsure but its peak is still trusted where it sits, a "
