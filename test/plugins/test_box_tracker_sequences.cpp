@@ -548,10 +548,11 @@ TEST(BoxTrackerOnGeneratedSequences, AMonochromeCamerasTargetBackNearWhereItWent
 
 // `fresh4_occlusion` in gray: as the occluder slides over the face, the
 // tracker, unsure, slides with it, and the occluder peaks lower than the face
-// did but steadily, for long enough to become the usual peak. In colour the
-// occluder is of another colour and is never tracked; a monochrome camera's
-// face has only its tones, and the occluder shared the six tenths every frame
-// under the usual peak must: it was claimed as the face for 23 frames while
+// did but steadily, for long enough to become the usual peak. (In colour it
+// is not taken, though the face, colourless, has no colour to check: the
+// tracker's path there differs.) A monochrome camera's face has only its
+// tones, and the occluder shared the six tenths every frame under the usual
+// peak must: it was claimed as the face for 23 frames while
 // the face was hidden and then beside it. Settling there now also asks most
 // of its tones (box_near_shared_tones), as a find near where it went does;
 // only in a monochrome camera's frames: in colour the face, as colourless,
